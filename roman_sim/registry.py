@@ -1,0 +1,72 @@
+"""A small typed registry for closed choices (aligners, presets, segmenters, ...).
+
+Unknown names raise ``ConfigError`` listing the valid ones. Names of the form
+``package.module:Attr`` are imported, so users can plug their own implementations.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Iterator
+from typing import Generic, TypeVar
+
+from roman_sim.errors import ConfigError
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    """Maps names to factories; ``get`` resolves built-in names and ``module:Attr`` paths."""
+
+    def __init__(self, kind: str) -> None:
+        self.kind = kind
+        self._items: dict[str, T] = {}
+
+    def register(self, name: str, item: T | None = None) -> Callable[[T], T] | T:
+        """Register ``item`` under ``name``; usable as a decorator."""
+        if item is not None:
+            self._items[name] = item
+            return item
+
+        def deco(obj: T) -> T:
+            self._items[name] = obj
+            return obj
+
+        return deco
+
+    def names(self) -> list[str]:
+        """Registered names, sorted."""
+        return sorted(self._items)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._items
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names())
+
+    def get(self, name: str) -> T:
+        """The item called ``name`` (or imported from ``package.module:Attr``)."""
+        if name in self._items:
+            return self._items[name]
+        if ":" in name:
+            return import_object(name, self.kind)  # type: ignore[return-value]
+        raise ConfigError(
+            f"unknown {self.kind} {name!r} (valid: {', '.join(self.names())}, or package.module:Name)"
+        )
+
+
+def import_object(path: str, kind: str = "object") -> object:
+    """Import ``package.module:Attr``; failures raise ``ConfigError``."""
+    mod_name, _, attr = path.partition(":")
+    if not mod_name or not attr:
+        raise ConfigError(f"{kind} {path!r}: expected package.module:Name")
+    try:
+        module = importlib.import_module(mod_name)
+    except ImportError as err:
+        raise ConfigError(f"{kind} {path!r}: cannot import {mod_name!r}: {err}") from None
+    obj: object = module
+    for part in attr.split("."):
+        if not hasattr(obj, part):
+            raise ConfigError(f"{kind} {path!r}: {mod_name!r} has no attribute {attr!r}")
+        obj = getattr(obj, part)
+    return obj
