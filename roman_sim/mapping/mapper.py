@@ -1,0 +1,99 @@
+"""``Mapper``: one robot's front end (segment, observe, track) and the ``SegmentMap`` it makes."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.errors import MappingError
+from roman_sim.mapping.observation import observe
+from roman_sim.mapping.segment import Segment
+from roman_sim.mapping.segmenter import Segmenter
+from roman_sim.mapping.semantics import SemanticEncoder
+from roman_sim.mapping.tracker import MappingConfig, Tracker
+from roman_sim.sim.frame import Frame
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class SegmentMap:
+    """Finished segments of one robot plus its trajectories.
+
+    Attributes:
+        robot: robot name.
+        segments: finished segments (odometry frame), sorted by id.
+        times: (N,) frame times (s).
+        T_odom_body: (N, 4, 4) odometry poses (what the robot believes).
+        T_world_body: (N, 4, 4) true poses (evaluation only).
+    """
+
+    robot: str
+    segments: list[Segment]
+    times: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    T_odom_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4, 4)))
+    T_world_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4, 4)))
+
+    def __len__(self) -> int:
+        return len(self.segments)
+
+    @property
+    def trajectory_length_m(self) -> float:
+        """Length of the true trajectory (m)."""
+        if len(self.T_world_body) < 2:
+            return 0.0
+        return float(np.linalg.norm(np.diff(self.T_world_body[:, :3, 3], axis=0), axis=1).sum())
+
+
+class Mapper:
+    """Builds a ``SegmentMap`` frame by frame.
+
+    Args:
+        cfg: front-end parameters.
+        segmenter: any ``Segmenter`` (e.g. ``build_segmenter("fastsam", seed)``).
+        encoder: any ``SemanticEncoder``, or None for no descriptors.
+        seed: kept for reproducibility of user components (the built-ins are seeded).
+    """
+
+    def __init__(self, cfg: MappingConfig, segmenter: Segmenter,
+                 encoder: SemanticEncoder | None = None, seed: int = 0) -> None:
+        self.cfg = cfg
+        self.segmenter = segmenter
+        self.encoder = encoder
+        self.seed = seed
+        self.tracker = Tracker(cfg)
+        self.robot: str | None = None
+        self._t: list[float] = []
+        self._odom: list[NDArray[np.float64]] = []
+        self._world: list[NDArray[np.float64]] = []
+        self._done = False
+
+    def process(self, frame: Frame) -> int:
+        """Fuse one frame; returns the number of observations it produced."""
+        if self._done:
+            raise MappingError("mapper: process() called after finish()")
+        if self.robot is None:
+            self.robot = frame.robot
+        elif frame.robot != self.robot:
+            raise MappingError(f"mapper: frame of robot {frame.robot!r} given to the map of {self.robot!r}")
+        if self._t and frame.t < self._t[-1]:
+            raise MappingError(f"mapper: frame {frame.index} time {frame.t} goes back in time")
+        masks = self.segmenter.segment(frame)
+        obs = observe(frame, masks, self.cfg, self.encoder)
+        self._t.append(float(frame.t))
+        self._odom.append(np.asarray(frame.T_odom_body, dtype=np.float64))
+        self._world.append(np.asarray(frame.T_world_body, dtype=np.float64))
+        self.tracker.update(obs, float(frame.t), self._odom[-1][:3, 3])
+        return len(obs)
+
+    def finish(self) -> SegmentMap:
+        """Finalise every segment and return the map (the mapper is then closed)."""
+        self._done = True
+        segs = self.tracker.flush()
+        log.info("robot %s: %d frames, %d segments", self.robot, len(self._t), len(segs))
+        stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))  # noqa: E731
+        return SegmentMap(self.robot or "", segs, np.asarray(self._t, dtype=np.float64),
+                          stack(self._odom), stack(self._world))
