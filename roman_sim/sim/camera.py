@@ -1,0 +1,138 @@
+"""Pinhole camera model: configuration, intrinsics, mount, projection and back-projection.
+
+Pixel convention (OpenCV): pixel ``(u, v)`` = (column, row) has its centre at integer
+coordinates, so the image spans ``[-0.5, W - 0.5] x [-0.5, H - 0.5]`` and a centred
+principal point is ``((W - 1) / 2, (H - 1) / 2)``. The camera optical frame is RDF
+(x right, y down, z forward); depth is the z coordinate (along the optical axis).
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pydantic import Field
+
+from roman_sim.config import StrictModel
+from roman_sim.errors import ConfigError
+from roman_sim.geometry import R_FLU_RDF, make_T, rot_y
+from roman_sim.sim.frame import Intrinsics
+
+log = logging.getLogger(__name__)
+
+
+class DepthNoiseConfig(StrictModel):
+    """Depth sensor noise (RealSense-like stereo depth).
+
+    ``std = std_at_ref * (z / ref_range_m)^2``; readings are quantised to ``quantum_m``;
+    pixels whose 3x3 neighbourhood spans more than ``edge_jump_m`` are invalidated
+    (mixed pixels at depth edges); readings beyond the camera's ``max_depth_m`` are invalid.
+    """
+
+    enabled: bool = True
+    std_at_ref_m: float = Field(0.08, ge=0.0, le=1.0)
+    ref_range_m: float = Field(4.0, gt=0.0, le=100.0)
+    quantum_m: float = Field(0.001, ge=0.0, le=0.1)
+    edge_jump_m: float = Field(0.3, gt=0.0, le=100.0)
+
+
+class CameraConfig(StrictModel):
+    """Camera intrinsics and its mount on the robot body (FLU).
+
+    Defaults follow an Intel RealSense D455 depth stream: 640 x 480, 87 deg horizontal
+    field of view (square pixels, so about 68 deg vertical at 4:3).
+    """
+
+    width: int = Field(640, ge=8, le=4096)
+    height: int = Field(480, ge=8, le=4096)
+    hfov_deg: float = Field(87.0, gt=1.0, lt=179.0)
+    mount_height_m: float = Field(0.4, ge=0.0, le=5.0)
+    mount_forward_m: float = Field(0.2, ge=-2.0, le=2.0)
+    mount_pitch_deg: float = Field(0.0, ge=-60.0, le=60.0)
+    max_depth_m: float = Field(7.5, gt=0.1, le=200.0)
+    far_m: float = Field(100.0, gt=1.0, le=10000.0)
+    near_m: float = Field(0.05, gt=0.0, le=1.0)
+    depth_noise: DepthNoiseConfig = Field(default_factory=DepthNoiseConfig)
+
+    def intrinsics(self) -> Intrinsics:
+        """Pinhole intrinsics with square pixels and a centred principal point."""
+        fx = (self.width / 2.0) / np.tan(np.radians(self.hfov_deg) / 2.0)
+        intr = Intrinsics(self.width, self.height, fx, fx, (self.width - 1) / 2.0, (self.height - 1) / 2.0)
+        return check_intrinsics(intr)
+
+    def T_body_cam(self) -> NDArray[np.float64]:
+        """4x4 pose of the camera optical frame (RDF) in the body frame (FLU).
+
+        A positive ``mount_pitch_deg`` tilts the camera down (rotation about body +y).
+        """
+        R = rot_y(np.radians(self.mount_pitch_deg)) @ R_FLU_RDF
+        return make_T(R, [self.mount_forward_m, 0.0, self.mount_height_m])
+
+
+def check_intrinsics(intr: Intrinsics) -> Intrinsics:
+    """Return ``intr`` if valid, else raise ``ConfigError`` naming the bad field."""
+    if intr.width < 1 or intr.height < 1:
+        raise ConfigError(f"intrinsics: width and height must be >= 1, got {intr.width}x{intr.height}")
+    for name in ("fx", "fy"):
+        v = float(getattr(intr, name))
+        if not np.isfinite(v) or v <= 0:
+            raise ConfigError(f"intrinsics.{name}: must be a finite positive focal length, got {v}")
+    for name, lim in (("cx", intr.width), ("cy", intr.height)):
+        v = float(getattr(intr, name))
+        if not np.isfinite(v) or not -0.5 <= v <= lim - 0.5:
+            raise ConfigError(f"intrinsics.{name}: must lie inside the image [-0.5, {lim - 0.5}], got {v}")
+    return intr
+
+
+def project(K: ArrayLike, pts_cam: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Project camera-frame (RDF) points to pixels.
+
+    Args:
+        K: 3x3 camera matrix.
+        pts_cam: (N, 3) points in the camera frame.
+
+    Returns:
+        (N, 2) pixel coordinates (u, v) and an (N,) mask of points in front (z > 0).
+        Pixels of points behind the camera are NaN.
+    """
+    K = np.asarray(K, dtype=np.float64)
+    if K.shape != (3, 3):
+        raise ConfigError(f"project: K must be 3x3, got shape {K.shape}")
+    p = np.asarray(pts_cam, dtype=np.float64).reshape(-1, 3)
+    front = p[:, 2] > 0
+    uv = np.full((len(p), 2), np.nan)
+    z = p[front, 2]
+    uv[front, 0] = K[0, 0] * p[front, 0] / z + K[0, 1] * p[front, 1] / z + K[0, 2]
+    uv[front, 1] = K[1, 1] * p[front, 1] / z + K[1, 2]
+    return uv, front
+
+
+def backproject(
+    depth: ArrayLike, intrinsics: Intrinsics, mask: ArrayLike | None = None
+) -> NDArray[np.float64]:
+    """Back-project valid depth pixels (depth > 0, and inside ``mask``) to camera points.
+
+    Args:
+        depth: (H, W) depth along the optical axis (0 = invalid).
+        intrinsics: camera intrinsics matching the image size.
+        mask: optional (H, W) boolean mask of pixels to use.
+
+    Returns: (N, 3) points in the camera (RDF) frame, in row-major pixel order.
+    """
+    d = np.asarray(depth)
+    if d.shape != (intrinsics.height, intrinsics.width):
+        raise ConfigError(
+            f"backproject: depth shape {d.shape} does not match intrinsics {intrinsics.height}x{intrinsics.width}"
+        )
+    valid = np.isfinite(d) & (d > 0)
+    if mask is not None:
+        m = np.asarray(mask, dtype=bool)
+        if m.shape != d.shape:
+            raise ConfigError(f"backproject: mask shape {m.shape} does not match depth shape {d.shape}")
+        valid &= m
+    v, u = np.nonzero(valid)
+    z = d[v, u].astype(np.float64)
+    x = (u - intrinsics.cx) * z / intrinsics.fx
+    y = (v - intrinsics.cy) * z / intrinsics.fy
+    return np.column_stack([x, y, z])

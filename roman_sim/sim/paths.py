@@ -1,0 +1,298 @@
+"""Robot paths: waypoint polylines routed around objects, smoothed and resampled.
+
+``make_path`` turns a ``PathConfig`` into a ``Path2D``: a dense (K, 2) curve resampled at
+constant arc length with headings. Kinds: ``loop`` (ellipse), ``out_and_back`` (straight
+out, U-turn, back), ``lawnmower`` (boustrophedon), ``road`` (follow a world road),
+``waypoints`` (user polyline), and the relations ``reverse_of`` / ``cross`` that derive a
+path from another robot's path. Straight legs that would come closer than the clearance
+to an object are replaced by a grid-planned detour; every final path is validated.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field
+
+from roman_sim.config import StrictModel
+from roman_sim.errors import SimError
+from roman_sim.registry import Registry
+from roman_sim.sim.planner import GridPlanner, Obstacles
+from roman_sim.world.truth import WorldTruth
+
+log = logging.getLogger(__name__)
+
+PathKind = Literal["loop", "out_and_back", "lawnmower", "road", "waypoints", "reverse_of", "cross"]
+
+
+class PathConfig(StrictModel):
+    """How to build one robot's path (fields unused by a kind are ignored).
+
+    Generated shapes are placed at ``center`` (random inside the world when None).
+    """
+
+    kind: PathKind = "loop"
+    center: tuple[float, float] | None = None
+    radius_m: float = Field(8.0, gt=0.5, le=1000.0)
+    aspect: float = Field(0.7, gt=0.1, le=1.0)
+    length_m: float = Field(20.0, gt=1.0, le=10000.0)
+    heading_deg: float | None = None
+    width_m: float = Field(16.0, gt=1.0, le=1000.0)
+    height_m: float = Field(12.0, gt=1.0, le=1000.0)
+    spacing_m: float = Field(4.0, gt=0.5, le=100.0)
+    road_index: int = Field(0, ge=0)
+    waypoints: list[tuple[float, float]] = Field(default_factory=list)
+    of: str | None = None
+    heading_offset_deg: float = Field(90.0, ge=-180.0, le=180.0)
+    at_fraction: float = Field(0.5, ge=0.0, le=1.0)
+    clearance_m: float = Field(0.6, ge=0.0, le=10.0)
+    edge_margin_m: float = Field(1.0, ge=0.0, le=100.0)
+    resample_m: float = Field(0.05, gt=0.001, le=1.0)
+    smooth_iterations: int = Field(3, ge=0, le=6)
+
+
+@dataclass(frozen=True)
+class Path2D:
+    """A dense planar path: points (K, 2) at constant arc-length spacing, headings (K,) rad."""
+
+    xy: NDArray[np.float64]
+    heading: NDArray[np.float64]
+    s: NDArray[np.float64]
+
+    @property
+    def length(self) -> float:
+        """Total arc length (m)."""
+        return float(self.s[-1])
+
+    def at(self, s: float) -> tuple[float, float, float]:
+        """(x, y, heading) at arc length ``s`` (clamped to the path)."""
+        s = float(np.clip(s, 0.0, self.length))
+        i = int(np.clip(np.searchsorted(self.s, s) - 1, 0, len(self.s) - 2))
+        a = (s - self.s[i]) / max(self.s[i + 1] - self.s[i], 1e-12)
+        x, y = self.xy[i] + a * (self.xy[i + 1] - self.xy[i])
+        return float(x), float(y), float(self.heading[i])
+
+
+def path_from_points(pts: NDArray[np.float64], step_m: float) -> Path2D:
+    """Resample a polyline (N, 2) at constant arc length ``step_m``; headings from tangents."""
+    pts = np.asarray(pts, dtype=np.float64).reshape(-1, 2)
+    keep = np.concatenate([[True], np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9])
+    pts = pts[keep]
+    if len(pts) < 2:
+        raise SimError("path: needs at least two distinct points")
+    cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    n = max(2, int(np.ceil(cum[-1] / step_m)) + 1)
+    s = np.linspace(0.0, cum[-1], n)
+    xy = np.column_stack([np.interp(s, cum, pts[:, 0]), np.interp(s, cum, pts[:, 1])])
+    d = np.gradient(xy, axis=0)
+    return Path2D(xy=xy, heading=np.arctan2(d[:, 1], d[:, 0]), s=s)
+
+
+def reversed_path(path: Path2D) -> Path2D:
+    """The same curve driven in the opposite direction."""
+    return path_from_points(path.xy[::-1], float(path.s[1] - path.s[0]) if len(path.s) > 1 else 0.05)
+
+
+def crossing_path(path: Path2D, heading_offset_deg: float, at_fraction: float, length_m: float = 20.0) -> Path2D:
+    """A straight path through ``path.at(at_fraction * length)`` at heading + offset."""
+    x, y, h = path.at(at_fraction * path.length)
+    hh = h + np.radians(heading_offset_deg)
+    u = np.array([np.cos(hh), np.sin(hh)])
+    c = np.array([x, y])
+    return path_from_points(np.vstack([c - u * length_m / 2, c + u * length_m / 2]), 0.05)
+
+
+def chaikin(pts: NDArray[np.float64], iterations: int) -> NDArray[np.float64]:
+    """Chaikin corner cutting (end points kept): a smooth curve inside the polyline's hull."""
+    for _ in range(iterations):
+        if len(pts) < 3:
+            break
+        a, b = pts[:-1], pts[1:]
+        q, r = 0.75 * a + 0.25 * b, 0.25 * a + 0.75 * b
+        pts = np.vstack([pts[:1], np.column_stack([q, r]).reshape(-1, 2)[1:-1], pts[-1:]])
+    return pts
+
+
+def _centre(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator, half: float) -> NDArray[np.float64]:
+    if cfg.center is not None:
+        return np.asarray(cfg.center, dtype=np.float64)
+    ter = truth.terrain
+    lim = np.array([ter.size_x / 2, ter.size_y / 2]) - cfg.edge_margin_m - half
+    return rng.uniform(-np.maximum(lim, 0.0), np.maximum(lim, 0.0))
+
+
+def _heading(cfg: PathConfig, rng: np.random.Generator) -> float:
+    return np.radians(cfg.heading_deg) if cfg.heading_deg is not None else float(rng.uniform(-np.pi, np.pi))
+
+
+WaypointGen = Callable[[PathConfig, WorldTruth, np.random.Generator], NDArray[np.float64]]
+WAYPOINTS: Registry[WaypointGen] = Registry("path kind")
+
+
+@WAYPOINTS.register("loop")
+def _loop(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> NDArray[np.float64]:
+    c, h = _centre(cfg, truth, rng, cfg.radius_m), _heading(cfg, rng)
+    a = np.linspace(0.0, 2 * np.pi, 25)
+    local = np.column_stack([cfg.radius_m * np.cos(a), cfg.aspect * cfg.radius_m * np.sin(a)])
+    R = np.array([[np.cos(h), -np.sin(h)], [np.sin(h), np.cos(h)]])
+    return c + local @ R.T
+
+
+@WAYPOINTS.register("out_and_back")
+def _out_and_back(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> NDArray[np.float64]:
+    c, h = _centre(cfg, truth, rng, cfg.length_m / 2), _heading(cfg, rng)
+    u, n = np.array([np.cos(h), np.sin(h)]), np.array([-np.sin(h), np.cos(h)])
+    start, end = c - u * cfg.length_m / 2, c + u * cfg.length_m / 2
+    turn = 1.0  # U-turn radius (m)
+    a = np.linspace(-np.pi / 2, np.pi / 2, 9)
+    arc = end + turn * n + np.outer(np.cos(a), u) * turn + np.outer(np.sin(a), n) * turn
+    return np.vstack([start, arc, start + 2 * turn * n])
+
+
+@WAYPOINTS.register("lawnmower")
+def _lawnmower(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> NDArray[np.float64]:
+    c = _centre(cfg, truth, rng, max(cfg.width_m, cfg.height_m) / 2)
+    h = np.radians(cfg.heading_deg or 0.0)
+    rows = np.arange(-cfg.height_m / 2, cfg.height_m / 2 + 1e-9, cfg.spacing_m)
+    pts = []
+    for i, y in enumerate(rows):
+        xs = (-cfg.width_m / 2, cfg.width_m / 2)[:: 1 if i % 2 == 0 else -1]
+        pts += [(xs[0], y), (xs[1], y)]
+    R = np.array([[np.cos(h), -np.sin(h)], [np.sin(h), np.cos(h)]])
+    return c + np.asarray(pts) @ R.T
+
+
+@WAYPOINTS.register("road")
+def _road(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> NDArray[np.float64]:
+    if cfg.road_index >= len(truth.roads):
+        raise SimError(f"path.road_index {cfg.road_index}: the world has {len(truth.roads)} road(s)")
+    return np.asarray(truth.roads[cfg.road_index], dtype=np.float64)[:, :2]
+
+
+@WAYPOINTS.register("waypoints")
+def _waypoints(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> NDArray[np.float64]:
+    if len(cfg.waypoints) < 2:
+        raise SimError("path.waypoints: needs at least two (x, y) waypoints")
+    return np.asarray(cfg.waypoints, dtype=np.float64)
+
+
+def _inside(truth: WorldTruth, pts: NDArray[np.float64], margin: float) -> NDArray[np.bool_]:
+    ter = truth.terrain
+    return (np.abs(pts[:, 0]) <= ter.size_x / 2 - margin + 1e-9) & (np.abs(pts[:, 1]) <= ter.size_y / 2 - margin + 1e-9)
+
+
+def validate_path(path: Path2D, truth: WorldTruth, cfg: PathConfig, name: str, obstacles: Obstacles | None = None) -> Path2D:
+    """Return ``path`` if it stays inside the world and clear of objects, else raise ``SimError``."""
+    out = ~_inside(truth, path.xy, cfg.edge_margin_m)
+    if out.any():
+        x, y = path.xy[np.argmax(out)]
+        raise SimError(f"robot {name!r}: path leaves the world at ({x:.2f}, {y:.2f}) (edge margin {cfg.edge_margin_m} m)")
+    clear = (obstacles or Obstacles(truth)).clearance(path.xy)
+    if np.any(clear < cfg.clearance_m - 1e-6):
+        i = int(np.argmin(clear))
+        x, y = path.xy[i]
+        raise SimError(
+            f"robot {name!r}: path passes {max(clear[i], 0.0):.2f} m from an object at ({x:.2f}, {y:.2f}), "
+            f"closer than its clearance {cfg.clearance_m} m"
+        )
+    return path
+
+
+def _shortcut(pts: NDArray[np.float64], obs: Obstacles, clearance: float) -> NDArray[np.float64]:
+    out, i = [pts[0]], 0
+    while i < len(pts) - 1:
+        j = len(pts) - 1
+        while j > i + 1 and not obs.segment_free(pts[i], pts[j], clearance):
+            j -= 1
+        out.append(pts[j])
+        i = j
+    return np.asarray(out)
+
+
+def route(waypoints: NDArray[np.float64], truth: WorldTruth, cfg: PathConfig, name: str, obs: Obstacles) -> NDArray[np.float64]:
+    """Polyline through ``waypoints`` with detours around objects (grid planner when needed)."""
+    out = ~_inside(truth, waypoints, cfg.edge_margin_m)
+    if out.any():
+        x, y = waypoints[np.argmax(out)]
+        raise SimError(f"robot {name!r}: path waypoint ({x:.2f}, {y:.2f}) lies outside the world")
+    need = cfg.clearance_m + 0.2  # slack so smoothing keeps the clearance
+    planner: GridPlanner | None = None
+    pts = waypoints.copy()
+    blocked = obs.clearance(pts) < need
+    legs_blocked = [not obs.segment_free(a, b, need) for a, b in zip(pts[:-1], pts[1:])]
+    if blocked.any() or any(legs_blocked):
+        planner = GridPlanner(obs, need, cfg.edge_margin_m)
+    for i in np.flatnonzero(blocked):
+        snapped = planner.nearest_free(pts[i], 3.0) if planner else None
+        if snapped is None:
+            raise SimError(f"robot {name!r}: waypoint ({pts[i, 0]:.2f}, {pts[i, 1]:.2f}) is blocked by objects")
+        pts[i] = snapped
+    poly = [pts[:1]]
+    for a, b in zip(pts[:-1], pts[1:]):
+        if planner is None or obs.segment_free(a, b, need):
+            poly.append(b[None])
+            continue
+        leg = planner.plan(a, b)
+        if leg is None:
+            raise SimError(f"robot {name!r}: no free route from ({a[0]:.1f}, {a[1]:.1f}) to ({b[0]:.1f}, {b[1]:.1f})")
+        poly.append(_shortcut(leg, obs, need)[1:])
+    return np.vstack(poly)
+
+
+def make_path(
+    cfg: PathConfig,
+    truth: WorldTruth,
+    rng: np.random.Generator,
+    name: str = "robot",
+    paths_by_name: Mapping[str, Path2D] | None = None,
+) -> Path2D:
+    """Build, route, smooth, resample and validate a path.
+
+    Args:
+        cfg: path configuration.
+        truth: the world (terrain size, objects, roads).
+        rng: seeded generator for random placement.
+        name: robot name, used in error messages.
+        paths_by_name: other robots' paths, for ``reverse_of`` and ``cross``.
+
+    Raises: SimError when no valid path exists (leaves the world, blocked, unknown ``of``).
+    """
+    obs = Obstacles(truth)
+    if cfg.kind in ("reverse_of", "cross"):
+        other = (paths_by_name or {}).get(cfg.of or "")
+        if other is None:
+            known = ", ".join(sorted(paths_by_name or {})) or "none"
+            raise SimError(f"robot {name!r}: path.of={cfg.of!r} is not an earlier robot (known: {known})")
+        if cfg.kind == "reverse_of":
+            return validate_path(reversed_path(other), truth, cfg, name, obs)
+        line = crossing_path(other, cfg.heading_offset_deg, cfg.at_fraction, cfg.length_m).xy
+        waypoints = _clip_line(line[[0, -1]], truth, cfg.edge_margin_m)
+    else:
+        waypoints = WAYPOINTS.get(cfg.kind)(cfg, truth, rng)
+    poly = route(waypoints, truth, cfg, name, obs)
+    last_err: SimError | None = None
+    for it in range(cfg.smooth_iterations, -1, -1):
+        try:
+            return validate_path(path_from_points(chaikin(poly, it), cfg.resample_m), truth, cfg, name, obs)
+        except SimError as err:
+            last_err = err
+    assert last_err is not None
+    raise last_err
+
+
+def _clip_line(ends: NDArray[np.float64], truth: WorldTruth, margin: float) -> NDArray[np.float64]:
+    """Shorten the segment ``ends`` (2, 2) symmetrically-free so both ends lie in the world."""
+    a, b = ends
+    half = np.array([truth.terrain.size_x / 2, truth.terrain.size_y / 2]) - margin
+    ts = np.linspace(0.0, 1.0, 201)
+    pts = a + ts[:, None] * (b - a)
+    ok = np.all(np.abs(pts) <= half, axis=1)
+    if ok.sum() < 2:
+        raise SimError("cross path: the crossing line does not fit inside the world")
+    idx = np.flatnonzero(ok)
+    return pts[[idx[0], idx[-1]]]

@@ -1,0 +1,164 @@
+"""Headless RGB, metric depth and instance-id rendering of a world with MuJoCo.
+
+The world is static, so the MuJoCo scene is built once (``mjv_updateScene``); each frame
+only overwrites the OpenGL camera (pose and an off-centre frustum matching the pinhole
+intrinsics) and renders. Depth and instance ids come from one segmentation pass (the
+depth buffer and the id colours are read together); RGB is a second pass when asked for.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.errors import SimError
+from roman_sim.sim.camera import CameraConfig
+from roman_sim.sim.frame import Intrinsics
+
+log = logging.getLogger(__name__)
+
+RenderOutput = tuple[NDArray[np.uint8] | None, NDArray[np.float32], NDArray[np.int32]]
+
+
+class SensorRenderer:
+    """Renders one camera of one world; ``render(T_world_cam)`` -> (rgb, depth, object_ids).
+
+    Args:
+        world: anything with ``.model`` (compiled ``mujoco.MjModel``) and ``.truth``
+            (``WorldTruth``, for the geom -> object id table).
+        camera_cfg: camera configuration (intrinsics, near/far planes).
+        rgb: whether ``render`` also returns an RGB image (costs one more pass).
+    """
+
+    def __init__(self, world: Any, camera_cfg: CameraConfig, rgb: bool = True) -> None:
+        self.cfg = camera_cfg
+        self.intrinsics: Intrinsics = camera_cfg.intrinsics()
+        self.rgb = rgb
+        model: mujoco.MjModel = world.model
+        w, h = self.intrinsics.width, self.intrinsics.height
+        if w > model.vis.global_.offwidth or h > model.vis.global_.offheight:
+            raise SimError(
+                f"camera {w}x{h} exceeds the world's offscreen buffer "
+                f"{model.vis.global_.offwidth}x{model.vis.global_.offheight}"
+            )
+        self._model = model
+        self._near, self._far = float(camera_cfg.near_m), float(camera_cfg.far_m)
+        self._gl = mujoco.GLContext(w, h)
+        self._gl.make_current()
+        self._ctx: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._ctx)
+        self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
+        self._rect = mujoco.MjrRect(0, 0, w, h)
+        self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom + 100))
+        self._build_scene()
+        self._seg_lut = self._segid_to_object(world.truth.geom_to_object(model.ngeom))
+        self._rgb_buf = np.empty((h, w, 3), dtype=np.uint8)
+        self._depth_buf = np.empty((h, w), dtype=np.float32)
+
+    def _build_scene(self) -> None:
+        data = mujoco.MjData(self._model)
+        mujoco.mj_forward(self._model, data)
+        opt = mujoco.MjvOption()
+        cam = mujoco.MjvCamera()
+        mujoco.mjv_defaultFreeCamera(self._model, cam)
+        mujoco.mjv_updateScene(self._model, data, opt, None, cam, mujoco.mjtCatBit.mjCAT_ALL, self._scene)
+
+    def _segid_to_object(self, geom_lut: NDArray[np.int32]) -> NDArray[np.int32]:
+        """Table from id colour (segid + 1; 0 = nothing drawn) to object id (-1 background)."""
+        n = self._scene.ngeom
+        lut = np.full(n + 2, -1, dtype=np.int32)
+        for i in range(n):
+            g = self._scene.geoms[i]
+            if g.objtype == mujoco.mjtObj.mjOBJ_GEOM and 0 <= g.objid < len(geom_lut) and g.segid >= 0:
+                lut[g.segid + 1] = geom_lut[g.objid]
+        return lut
+
+    def _set_camera(self, T_world_cam: NDArray[np.float64]) -> None:
+        """Point both scene cameras along the RDF optical frame with the pinhole frustum."""
+        T = np.asarray(T_world_cam, dtype=np.float64)
+        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+            raise SimError(f"render: T_world_cam must be a finite 4x4 pose, got shape {T.shape}")
+        k, n = self.intrinsics, self._near
+        left = (-0.5 - k.cx) * n / k.fx
+        right = (k.width - 0.5 - k.cx) * n / k.fx
+        top = (k.cy + 0.5) * n / k.fy
+        bottom = -(k.height - 0.5 - k.cy) * n / k.fy
+        for cam in (self._scene.camera[0], self._scene.camera[1]):
+            cam.pos[:] = T[:3, 3]
+            cam.forward[:] = T[:3, 2]
+            cam.up[:] = -T[:3, 1]
+            cam.frustum_near = n
+            cam.frustum_far = self._far
+            cam.frustum_center = (left + right) / 2
+            cam.frustum_width = (right - left) / 2
+            cam.frustum_bottom = bottom
+            cam.frustum_top = top
+            cam.orthographic = 0
+
+    def render(self, T_world_cam: NDArray[np.float64]) -> RenderOutput:
+        """Render from a camera (RDF optical frame) pose.
+
+        Returns:
+            rgb (H, W, 3) uint8 or None, noise-free depth (H, W) float32 in metres along
+            the optical axis (0 where nothing is hit within the far plane), and object ids
+            (H, W) int32 (-1 for terrain and sky).
+        """
+        if self._ctx is None:
+            raise SimError("render: renderer is closed")
+        self._gl.make_current()
+        self._set_camera(T_world_cam)
+        depth, ids = self._render_depth_ids()
+        rgb = None
+        if self.rgb:
+            mujoco.mjr_render(self._rect, self._scene, self._ctx)
+            mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
+            rgb = np.flipud(self._rgb_buf).copy()
+        return rgb, depth, ids
+
+    def _render_depth_ids(self) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
+        flags = self._scene.flags
+        saved = flags.copy()
+        flags[mujoco.mjtRndFlag.mjRND_SEGMENT] = True
+        flags[mujoco.mjtRndFlag.mjRND_IDCOLOR] = True
+        try:
+            mujoco.mjr_render(self._rect, self._scene, self._ctx)
+            mujoco.mjr_readPixels(self._rgb_buf, self._depth_buf, self._rect, self._ctx)
+        finally:
+            np.copyto(flags, saved)
+        seg = self._rgb_buf.astype(np.int64)
+        seg = seg[..., 0] + (seg[..., 1] << 8) + (seg[..., 2] << 16)
+        seg = np.clip(seg, 0, len(self._seg_lut) - 1)
+        ids = np.flipud(self._seg_lut[seg]).copy()
+        depth = np.flipud(self._linear_depth(self._depth_buf)).copy()
+        return depth, ids
+
+    def _linear_depth(self, zbuf: NDArray[np.float32]) -> NDArray[np.float32]:
+        """Reversed-Z depth buffer (1 near, 0 far) -> metric depth; far/sky -> 0."""
+        n, f = np.float32(self._near), np.float32(self._far)
+        c = -(f + n) / (f - n)
+        d = -(np.float32(2) * f * n) / (f - n)
+        c, d = np.float32(-0.5) * c - np.float32(0.5), np.float32(-0.5) * d
+        z = zbuf.astype(np.float64)
+        with np.errstate(divide="ignore"):
+            depth = d / (z + c)
+        depth = np.where((z > 0) & (depth < f * 0.999), depth, 0.0)
+        return depth.astype(np.float32)
+
+    def close(self) -> None:
+        """Free the OpenGL resources (idempotent)."""
+        if self._ctx is not None:
+            self._gl.make_current()
+            self._ctx.free()
+            self._ctx = None
+            self._gl.free()
+
+    def __enter__(self) -> "SensorRenderer":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
