@@ -1,0 +1,74 @@
+"""Plots are produced as real PNGs, also when metrics are undefined."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from roman_sim.errors import EvaluationError
+from roman_sim.evaluation.metrics import score_pair, summary
+from roman_sim.evaluation.pairs import pair_truth
+from roman_sim.evaluation.plots import (
+    draw_examples, pick_examples, plot_alignment, plot_heading_recall, write_metric_plots,
+)
+from roman_sim.geometry import make_T, rot_z
+
+PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def _is_png(path) -> bool:
+    data = path.read_bytes()
+    return data.startswith(PNG) and len(data) > 2000
+
+
+@pytest.fixture
+def metrics(make_score):
+    scores = []
+    for method, shift in (("roman", 0), ("ransac", 3)):
+        for i, h in enumerate([10.0, 70.0, 150.0, 170.0]):
+            scores.append(make_score(str(i), True, 8 - shift - i, i < 2, method=method, heading=h,
+                                     ambiguity=0.2 * i))
+        scores.append(make_score("9", False, 6, False, method=method))
+    return summary(scores)
+
+
+def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
+    paths = write_metric_plots(metrics, tmp_path / "plots")
+    assert [p.name for p in paths] == ["precision_recall.png", "recall_heading.png",
+                                       "recall_heading_fine.png", "recall_ambiguity.png"]
+    assert all(_is_png(p) for p in paths)
+    again = plot_heading_recall(metrics, tmp_path / "again.png")
+    assert again.read_bytes() == paths[1].read_bytes()
+
+
+def test_plots_with_undefined_metrics(make_score, tmp_path):
+    m = summary([make_score("0", False, 3, False)])
+    assert all(_is_png(p) for p in write_metric_plots(m, tmp_path))
+    assert all(_is_png(p) for p in write_metric_plots(summary([]), tmp_path / "empty"))
+    with pytest.raises(EvaluationError, match="methods"):
+        write_metric_plots({"n_pairs": 3}, tmp_path)
+
+
+def test_alignment_drawings(make_submap, result_for, tmp_path):
+    a = make_submap("a", 0, 0.0, 0.0, 0.0, object_ids=(1, 2, 3, 4), with_points=True)
+    b = make_submap("b", 0, 2.0, 1.0, 30.0, object_ids=(1, 2, 3, 4), with_points=True)
+    truth = pair_truth(a, b)
+    good = result_for(truth.T_a_b_true, 4)
+    wrong = result_for(truth.T_a_b_true @ make_T(rot_z(1.0), [3.0, 0, 0]), 3)
+    wrong.associations[:] = [[0, 1], [1, 2], [2, 3]]
+    scores = [score_pair(truth, good), score_pair(truth, wrong)]
+    ok, bad = pick_examples(scores)
+    assert ok is scores[0] and bad is scores[1]
+    # wrong's result is looked up under the same key: give it its own method name
+    scores[1] = score_pair(truth, type(wrong)(**{**wrong.__dict__, "method": "w"}))
+    results = {(a.name, b.name, "m"): good, (a.name, b.name, "w"): wrong}
+    paths = draw_examples(scores, {a.name: a, b.name: b}, results, tmp_path)
+    assert [p.name for p in paths] == ["alignment_correct.png", "alignment_wrong.png"]
+    assert all(_is_png(p) for p in paths)
+    with pytest.raises(EvaluationError, match="no estimate"):
+        plot_alignment(a, b, result_for(None, 0), tmp_path / "x.png")
+    bad_idx = result_for(np.eye(4), 9)
+    with pytest.raises(EvaluationError, match="outside"):
+        plot_alignment(a, b, bad_idx, tmp_path / "x.png")
+    with pytest.raises(EvaluationError, match="example pair"):
+        draw_examples(scores, {}, results, tmp_path)
