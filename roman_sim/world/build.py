@@ -1,0 +1,143 @@
+"""Generate a world: terrain, roads, placed objects -> ``mujoco.MjSpec`` -> ``MjModel`` + truth."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+import trimesh
+
+from roman_sim.errors import WorldError
+from roman_sim.geometry import make_T, rot_z
+from roman_sim.seeding import child_rng
+from roman_sim.world.catalog import Asset, family_assets
+from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
+from roman_sim.world.mjcf import new_spec, add_object_geoms, add_terrain
+from roman_sim.world.roads import make_roads
+from roman_sim.world.spec import FamilySpec, WorldSpec
+from roman_sim.world.terrain import footprint_min_height, make_terrain
+from roman_sim.world.truth import ObjectTruth, WorldTruth
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class World:
+    """A generated world: its spec and seed, the compiled model, the truth and the meshes."""
+
+    spec: WorldSpec
+    seed: int
+    model: mujoco.MjModel
+    truth: WorldTruth
+    meshes: dict[str, trimesh.Trimesh]  # mesh asset name -> mesh in its local frame
+    mjspec: mujoco.MjSpec | None = field(default=None, repr=False)
+
+    def object_mesh_world(self, obj_id: int) -> trimesh.Trimesh:
+        """The full mesh of object ``obj_id`` in the world frame."""
+        if not 0 <= obj_id < len(self.truth.objects):
+            raise WorldError(f"obj_id {obj_id} out of range (0..{len(self.truth.objects) - 1})")
+        obj = self.truth.objects[obj_id]
+        mesh = trimesh.util.concatenate([self.meshes[n] for n in obj.mesh_names])
+        return mesh.apply_transform(obj.T_world_obj)
+
+
+@dataclass(frozen=True)
+class _Placed:
+    asset: Asset
+    x: float
+    y: float
+    yaw: float
+
+
+def effective_densities(spec: WorldSpec) -> list[float]:
+    """Per-family densities after ``class_diversity`` moves objects into the densest family."""
+    cd = spec.knobs()[0]
+    dens = np.array([f.density for f in spec.families], dtype=np.float64)
+    out = cd * dens
+    out[int(np.argmax(dens))] += (1.0 - cd) * dens.sum()
+    return out.tolist()
+
+
+def _place_family(spec: WorldSpec, seed: int, fam: FamilySpec, n: int, assets: list[Asset], placer: Placer, roads: list) -> list[_Placed]:
+    rng = child_rng(seed, "world", "layout", fam.name)
+    reg = spec.knobs()[2]
+    ctx = LayoutContext(spec.extent_m, roads, spec.roads.width_m, spec.layout, reg, max(a.radius for a in assets))
+    pts, yaws = LAYOUTS.get(spec.family_layout(fam).value)(rng, n, ctx)
+    choice = rng.integers(0, len(assets), len(pts))
+    radii = np.array([assets[c].radius for c in choice])
+    ok = placer.feasible(pts, radii)
+    out: list[_Placed] = []
+    for i in np.flatnonzero(ok):
+        if len(out) >= n:
+            break
+        if placer.try_add(pts[i], radii[i]):
+            out.append(_Placed(assets[choice[i]], float(pts[i, 0]), float(pts[i, 1]), float(yaws[i])))
+    if len(out) < n:
+        log.debug("family %s: placed %d of %d", fam.name, len(out), n)
+    return out
+
+
+def _place_all(spec: WorldSpec, seed: int, roads: list) -> list[_Placed]:
+    sv = spec.knobs()[1]
+    area_ha = spec.extent_m[0] * spec.extent_m[1] / 1e4
+    todo = []
+    for fam, dens in zip(spec.families, effective_densities(spec)):
+        n = int(round(dens * area_ha))
+        if n > 0:
+            assets = family_assets(seed, fam, sv)
+            todo.append((max(a.radius for a in assets), fam, n, assets))
+    todo.sort(key=lambda t: (-t[0], t[1].name))  # large footprints first: they are hardest to fit
+    placer = Placer(spec.extent_m, roads, spec.roads.width_m, spec.layout.min_gap_m, spec.max_objects)
+    placed: list[_Placed] = []
+    for _, fam, n, assets in todo:
+        placed += _place_family(spec, seed, fam, n, assets, placer, roads)
+    return placed
+
+
+def _object_truth(i: int, p: _Placed, z: float) -> ObjectTruth:
+    T = make_T(rot_z(p.yaw), [p.x, p.y, z])
+    obb_T = T @ p.asset.obb_T_local
+    return ObjectTruth(
+        id=i,
+        family=p.asset.family,
+        T_world_obj=T,
+        extents=np.sort(p.asset.obb_extents)[::-1].copy(),
+        volume=float(np.prod(p.asset.obb_extents)),
+        centroid=(T[:3, :3] @ p.asset.centroid_local + T[:3, 3]),
+        geom_ids=[],
+        mesh_names=[p.asset.mesh_name(part) for part in p.asset.parts],
+        obb_T_world=obb_T,
+        obb_extents=p.asset.obb_extents.copy(),
+        radius=p.asset.radius,
+    )
+
+
+def generate(spec: WorldSpec, seed: int) -> World:
+    """Generate the world of ``spec`` with ``seed`` (same inputs -> same model and truth)."""
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise WorldError(f"seed must be a non-negative integer, got {seed!r}")
+    seed = int(seed)
+    terrain, base_z, elevation = make_terrain(spec.terrain, spec.extent_m, child_rng(seed, "world", "terrain"))
+    roads = make_roads(spec.roads, spec.extent_m)
+    placed = _place_all(spec, seed, roads)
+    objects = [
+        _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius))
+        for i, p in enumerate(placed)
+    ]
+    mjs = new_spec(spec, terrain, base_z, elevation)
+    meshes: dict[str, trimesh.Trimesh] = {}
+    colour_rng = child_rng(seed, "world", "colour")
+    for obj, p in zip(objects, placed):
+        add_object_geoms(mjs, obj, p.asset, meshes, colour_rng)
+    try:
+        model = mjs.compile()
+    except Exception as err:  # MuJoCo raises plain ValueError on compile failures
+        raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
+    for obj in objects:
+        obj.geom_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))]
+    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs())}
+    truth = WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
+    log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(objects), model.ngeom)
+    return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)
