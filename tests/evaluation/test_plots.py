@@ -72,3 +72,24 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
         plot_alignment(a, b, bad_idx, tmp_path / "x.png")
     with pytest.raises(EvaluationError, match="example pair"):
         draw_examples(scores, {}, results, tmp_path)
+
+
+def test_map_view_renders_points_and_boxes(make_submap, tmp_path):
+    from roman_sim.evaluation.mapview import render_map, write_map_view
+
+    pts = [make_submap("a", i, 4.0 * i, 0.0, 40.0 * i, object_ids=(1, 2, 3), with_points=True) for i in range(2)]
+    boxes = [make_submap("b", 0, 2.0, 5.0, 180.0, object_ids=(4, 5))]
+    img = render_map(pts + boxes, width=96, height=72)
+    assert img.shape == (72, 96, 3) and img.dtype == np.uint8
+    bg = img[0, 0]
+    drawn = np.any(np.abs(img.astype(int) - bg) > 20, axis=2)
+    assert drawn.sum() > 50  # ground slab and segments, not a blank frame
+    assert len(np.unique(img[drawn], axis=0)) > 3  # several segment colours
+    p = write_map_view(tmp_path / "map.png", [s.public() for s in boxes], frame="odom", width=64, height=48)
+    assert _is_png(p) or p.read_bytes().startswith(PNG)
+    with pytest.raises(EvaluationError, match="odom"):
+        render_map([boxes[0].public()], frame="world")
+    with pytest.raises(EvaluationError, match="valid"):
+        render_map(boxes, frame="map")  # type: ignore[arg-type]
+    with pytest.raises(EvaluationError, match="no segments"):
+        render_map([make_submap("c", 0, 0.0, 0.0, object_ids=())])
