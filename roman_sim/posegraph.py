@@ -25,8 +25,11 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
+from roman_sim.align.base import AlignResult
 from roman_sim.config import StrictModel
+from roman_sim.errors import EvaluationError
 from roman_sim.geometry import inv_T
+from roman_sim.mapping.types import Submap
 from roman_sim.posegraph_build import GraphParts, build_graph
 
 log = logging.getLogger(__name__)
@@ -220,3 +223,28 @@ def _apply_corrections(T_odom: F64, kf_idx: NDArray[np.int64], T_odom_kf: F64, T
     corrections = T_est_kf @ np.stack([inv_T(T) for T in T_odom_kf])
     owner = np.searchsorted(kf_idx, np.arange(len(T_odom)), side="right") - 1
     return corrections[np.clip(owner, 0, len(kf_idx) - 1)] @ T_odom
+
+
+def submap_nodes_from(submaps: list[Submap]) -> dict[str, list[tuple[float, F64]]]:
+    """``submap_nodes`` for ``build_and_solve`` from submaps (list position = ``Submap.index``).
+
+    Raises:
+        EvaluationError: a robot's submap indices are not 0..M-1.
+    """
+    nodes: dict[str, dict[int, tuple[float, F64]]] = {}
+    for s in submaps:
+        nodes.setdefault(s.robot, {})[int(s.index)] = (float(s.t), np.asarray(s.T_odom_submap, dtype=np.float64))
+    out = {}
+    for robot, by_index in nodes.items():
+        if sorted(by_index) != list(range(len(by_index))):
+            raise EvaluationError(f"submaps of {robot!r}: indices must be 0..{len(by_index) - 1}")
+        out[robot] = [by_index[i] for i in range(len(by_index))]
+    return out
+
+
+def closure_from_alignment(a: Submap, b: Submap, result: AlignResult) -> LoopClosure | None:
+    """The loop closure an alignment of submaps ``a`` and ``b`` proposes (None without a transform)."""
+    if result.T_a_b is None:
+        return None
+    return LoopClosure(a.robot, int(a.index), b.robot, int(b.index), np.asarray(result.T_a_b, dtype=np.float64),
+                       n_associations=result.n_associations, source=result.method)

@@ -117,12 +117,24 @@ def _candidates(cfg: SyntheticGraphConfig, T_ws: dict[str, F64]) -> list[tuple[s
 
 
 def _false_T(T_true: F64, rng: np.random.Generator) -> F64:
-    """A plausible transform at least 5 m or 30 deg away from the truth."""
+    """A plausible transform (within 12 m, any yaw) at least 10 m or 60 deg from the truth.
+
+    Closer errors would be explained by the reference loop-closure noise (2 m / 10 deg).
+    """
     while True:
-        T = pose_4dof(*rng.uniform(-8.0, 8.0, 2), 0.0, rng.uniform(-np.pi, np.pi))
+        T = pose_4dof(*rng.uniform(-12.0, 12.0, 2), 0.0, rng.uniform(-np.pi, np.pi))
         rot, trans = pose_error(T, T_true)
-        if trans > 5.0 or rot > np.deg2rad(30.0):
+        if trans > 10.0 or rot > np.deg2rad(60.0):
             return T
+
+
+def _distinct_submaps(T_ws: dict[str, F64], robots: list[str], rng: np.random.Generator):
+    """Two different submaps, robots and indices drawn uniformly."""
+    while True:
+        ra, rb = (str(r) for r in rng.choice(robots, size=2))
+        ia, ib = int(rng.integers(len(T_ws[ra]))), int(rng.integers(len(T_ws[rb])))
+        if (ra, ia) != (rb, ib):
+            return (ra, ia), (rb, ib)
 
 
 def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64], rng: np.random.Generator):
@@ -138,10 +150,9 @@ def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64], rng: np.random.Ge
         is_true.append(True)
     robots = list(T_ws)
     for _ in range(n_false):
-        ra, rb = rng.choice(robots, size=2)
-        ia, ib = int(rng.integers(len(T_ws[ra]))), int(rng.integers(len(T_ws[rb])))
+        (ra, ia), (rb, ib) = _distinct_submaps(T_ws, robots, rng)
         T = _false_T(inv_T(T_ws[ra][ia]) @ T_ws[rb][ib], rng)
-        closures.append(LoopClosure(str(ra), ia, str(rb), ib, T, int(rng.integers(4, 11)), source="synthetic-false"))
+        closures.append(LoopClosure(ra, ia, rb, ib, T, int(rng.integers(4, 11)), source="synthetic-false"))
         is_true.append(False)
     order = rng.permutation(len(closures))
     return [closures[i] for i in order], [is_true[i] for i in order]

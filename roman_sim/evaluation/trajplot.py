@@ -1,0 +1,139 @@
+"""Top-down trajectory plot with loop-closure lines (matplotlib Agg, written atomically).
+
+Truth is drawn solid, the estimate dashed and odometry dotted, one colour per robot;
+loop closures are lines between the two submap centres: intra-robot blue, inter-robot
+green, wrong ones (``correct is False``) red dashed whatever their kind.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from numpy.typing import ArrayLike, NDArray
+
+from roman_sim.atomic import write_bytes
+from roman_sim.errors import EvaluationError
+
+log = logging.getLogger(__name__)
+
+F64 = NDArray[np.float64]
+#: (xyz_a, xyz_b, kind "intra" | "inter", correct True | False | None)
+ClosureLine = tuple[ArrayLike, ArrayLike, str, bool | None]
+
+CLOSURE_COLOURS = {"intra": "tab:blue", "inter": "tab:green"}
+#: tab10 entries for robots: blue, green and red are left to the closure lines.
+ROBOT_PALETTE = (1, 4, 5, 6, 7, 8, 9)
+WRONG_STYLE = {"color": "tab:red", "linestyle": "--", "linewidth": 1.4, "alpha": 1.0}
+LAYERS = {  # name -> line style of that trajectory layer
+    "truth": {"linestyle": "-", "linewidth": 1.6, "alpha": 0.9},
+    "estimate": {"linestyle": "--", "linewidth": 1.3, "alpha": 0.9},
+    "odometry": {"linestyle": ":", "linewidth": 1.2, "alpha": 0.8},
+}
+
+
+def _positions(value: Any, name: str) -> F64:
+    """(N, 3) positions from ``(t, T (N,4,4))``, ``T (N,4,4)`` or ``xyz (N,3)``."""
+    if isinstance(value, tuple) and len(value) == 2:
+        value = value[1]
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 3 and arr.shape[1:] == (4, 4):
+        return arr[:, :3, 3]
+    if arr.ndim == 2 and arr.shape[1] == 3:
+        return arr
+    raise EvaluationError(f"trajectory plot: {name} must be (t, T (N,4,4)), T (N,4,4) or xyz (N,3); got {arr.shape}")
+
+
+def _robot_colours(robots: Sequence[str]) -> dict[str, Any]:
+    from matplotlib import colormaps
+
+    cmap = colormaps["tab10"]
+    palette = [cmap(i) for i in ROBOT_PALETTE]
+    return {r: palette[i % len(palette)] for i, r in enumerate(robots)}
+
+
+def _draw_closures(ax: Any, closures: Sequence[ClosureLine]) -> set[str]:
+    """Draw closure lines; returns the legend entries used."""
+    used = set()
+    for i, (xyz_a, xyz_b, kind, correct) in enumerate(closures):
+        if kind not in CLOSURE_COLOURS:
+            raise EvaluationError(f"closure {i}: kind {kind!r} unknown (valid: {', '.join(CLOSURE_COLOURS)})")
+        a = np.asarray(xyz_a, dtype=np.float64).reshape(-1)
+        b = np.asarray(xyz_b, dtype=np.float64).reshape(-1)
+        if a.shape[0] < 2 or b.shape[0] < 2:
+            raise EvaluationError(f"closure {i}: end points need at least x and y")
+        style = WRONG_STYLE if correct is False else {"color": CLOSURE_COLOURS[kind], "linewidth": 0.8, "alpha": 0.7}
+        ax.plot([a[0], b[0]], [a[1], b[1]], zorder=1, **style)
+        used.add("wrong" if correct is False else kind)
+    return used
+
+
+def _legend(ax: Any, robots: dict[str, Any], layers: list[str], closure_kinds: set[str]) -> None:
+    handles = [Line2D([], [], color=c, linewidth=2, label=r) for r, c in robots.items()]
+    handles += [Line2D([], [], color="0.3", label=name, **{k: v for k, v in LAYERS[name].items() if k != "alpha"})
+                for name in layers]
+    names = {"intra": "intra-robot closure", "inter": "inter-robot closure"}
+    handles += [Line2D([], [], color=c, label=names[k]) for k, c in CLOSURE_COLOURS.items() if k in closure_kinds]
+    if "wrong" in closure_kinds:
+        handles.append(Line2D([], [], label="wrong closure", **WRONG_STYLE))
+    ax.legend(handles=handles, loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=7, framealpha=0.8)
+
+
+def plot_trajectories(
+    path_png: str | Path,
+    truth: Mapping[str, Any],
+    est: Mapping[str, Any] | None = None,
+    odom: Mapping[str, Any] | None = None,
+    closures: Sequence[ClosureLine] = (),
+    title: str = "",
+    dpi: int = 120,
+) -> Path:
+    """Draw robots' trajectories top-down (x right, y up, metres) with loop-closure lines.
+
+    Args:
+        path_png: output file (written atomically).
+        truth, est, odom: robot -> ``(t, T (N,4,4))`` (or ``T`` or ``xyz (N,3)``), all in
+            the same frame (e.g. the world, or after alignment); ``est``/``odom`` optional.
+        closures: ``(xyz_a, xyz_b, kind, correct)`` per closure line.
+        title: figure title.
+        dpi: resolution.
+
+    Returns: the written path.
+    """
+    robots = list(dict.fromkeys([*truth, *(est or {}), *(odom or {})]))
+    if not robots:
+        raise EvaluationError("trajectory plot: no trajectories to draw")
+    colours = _robot_colours(robots)
+    fig = Figure(figsize=(8.0, 6.0))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot(1, 1, 1)
+    layers = []
+    for name, data in (("truth", truth), ("estimate", est), ("odometry", odom)):
+        if not data:
+            continue
+        layers.append(name)
+        for robot, value in data.items():
+            xyz = _positions(value, f"{name}[{robot}]")
+            ax.plot(xyz[:, 0], xyz[:, 1], color=colours[robot], zorder=2, **LAYERS[name])
+            if name == "truth" and len(xyz):
+                ax.plot(xyz[0, 0], xyz[0, 1], marker="o", color=colours[robot], zorder=3)
+    kinds = _draw_closures(ax, closures)
+    _legend(ax, colours, layers, kinds)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+    ax.grid(True, linewidth=0.3)
+    if title:
+        ax.set_title(title)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    write_bytes(path_png, buf.getvalue())
+    log.info("wrote %s", path_png)
+    return Path(path_png)
