@@ -1,0 +1,161 @@
+"""Versioned storage of ``SegmentMap`` and submap lists, and packet-size figures.
+
+File format (both kinds): one ``.npz`` archive (``allow_pickle=False``) whose ``header``
+entry is UTF-8 JSON (as uint8) with ``format`` (``roman_sim.segment_map`` or
+``roman_sim.submaps``), ``version`` (``FORMAT_VERSION``) and per-item scalars; the numeric
+arrays sit beside it:
+
+- segment map: ``times`` (N,), ``T_odom_body``/``T_world_body`` (N,4,4), ``points`` (all
+  segment points stacked) with ``offsets`` (n+1,), ``descriptor_sum`` (n,D) float64,
+  ``has_descriptor`` (n,); the header lists id, times, sightings, status, truth counts.
+- submaps: ``s<k>_<field>`` for every array field of submap k (descriptor dtype kept),
+  optional ``s<k>_points`` + ``s<k>_offsets`` and ``s<k>_truth_*``.
+
+Round trips are exact. Unknown formats, versions and corrupt files raise ``StorageError``.
+A packet (``packet_bytes``) is what a robot sends: public fields only, float32 geometry,
+float16 descriptors, compressed.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+from collections import Counter
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roman_sim.atomic import write_npz
+from roman_sim.errors import StorageError
+from roman_sim.mapping.mapper import SegmentMap
+from roman_sim.mapping.segment import Segment, Status
+from roman_sim.mapping.types import Submap, SubmapTruth
+
+FORMAT_VERSION = 1
+_SUBMAP_ARRAYS = ("T_odom_submap", "segment_ids", "centers", "volumes", "shape", "descriptors", "extents")
+
+
+def _header(obj: dict[str, Any]) -> np.ndarray:
+    return np.frombuffer(json.dumps(obj, sort_keys=True).encode("utf-8"), dtype=np.uint8)
+
+
+def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    path = Path(path)
+    if not path.is_file():
+        raise StorageError(f"{path}: file not found")
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            arrays = {k: z[k] for k in z.files}
+        header = json.loads(arrays.pop("header").tobytes().decode("utf-8"))
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, UnicodeDecodeError, EOFError) as err:
+        raise StorageError(f"{path}: not a readable roman_sim file ({type(err).__name__})") from None
+    if not isinstance(header, dict) or header.get("format") != fmt:
+        raise StorageError(f"{path}: expected format {fmt!r}, found {header.get('format') if isinstance(header, dict) else None!r}")
+    if header.get("version") != FORMAT_VERSION:
+        raise StorageError(f"{path}: format version {header.get('version')!r} not supported (this reader: {FORMAT_VERSION})")
+    return header, arrays
+
+
+def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
+    """Write ``smap`` atomically (see the module docstring for the layout)."""
+    segs = smap.segments
+    dim = next((len(s.descriptor_sum) for s in segs if s.descriptor_sum is not None), 0)
+    dsum = np.zeros((len(segs), dim))
+    for k, s in enumerate(segs):
+        if s.descriptor_sum is not None:
+            dsum[k] = s.descriptor_sum
+    meta = [{"id": s.id, "first_seen": s.first_seen, "last_seen": s.last_seen,
+             "num_sightings": s.num_sightings, "status": s.status.value,
+             "truth_counts": sorted([int(k), int(v)] for k, v in s.truth_counts.items())} for s in segs]
+    header = {"format": "roman_sim.segment_map", "version": FORMAT_VERSION, "robot": smap.robot, "segments": meta}
+    write_npz(path, header=_header(header), times=smap.times, T_odom_body=smap.T_odom_body,
+              T_world_body=smap.T_world_body,
+              points=np.concatenate([s.points for s in segs]) if segs else np.zeros((0, 3)),
+              offsets=np.cumsum([0] + [len(s.points) for s in segs]),
+              descriptor_sum=dsum, has_descriptor=np.array([s.descriptor_sum is not None for s in segs], dtype=bool))
+
+
+def load_segment_map(path: str | Path) -> SegmentMap:
+    """Read a file written by ``save_segment_map``."""
+    header, a = _open(path, "roman_sim.segment_map")
+    try:
+        segs = []
+        for k, m in enumerate(header["segments"]):
+            pts = a["points"][a["offsets"][k]:a["offsets"][k + 1]]
+            segs.append(Segment(
+                id=int(m["id"]), points=pts, first_seen=float(m["first_seen"]), last_seen=float(m["last_seen"]),
+                num_sightings=int(m["num_sightings"]),
+                descriptor_sum=a["descriptor_sum"][k].copy() if a["has_descriptor"][k] else None,
+                truth_counts=Counter({int(i): int(c) for i, c in m["truth_counts"]}),
+                status=Status(m["status"])))
+        return SegmentMap(str(header["robot"]), segs, a["times"], a["T_odom_body"], a["T_world_body"])
+    except (KeyError, IndexError, TypeError, ValueError) as err:
+        raise StorageError(f"{path}: inconsistent segment map ({type(err).__name__}: {err})") from None
+
+
+def _submap_arrays(k: int, s: Submap) -> dict[str, np.ndarray]:
+    out = {f"s{k}_{f}": np.asarray(getattr(s, f)) for f in _SUBMAP_ARRAYS}
+    if s.points is not None:
+        out[f"s{k}_points"] = np.concatenate(s.points) if s.points else np.zeros((0, 3))
+        out[f"s{k}_offsets"] = np.cumsum([0] + [len(p) for p in s.points])
+    if s.truth is not None:
+        out[f"s{k}_truth_T_world_submap"] = s.truth.T_world_submap
+        out[f"s{k}_truth_object_ids"] = s.truth.object_ids
+        out[f"s{k}_truth_purity"] = s.truth.purity
+    return out
+
+
+def save_submaps(path: str | Path, submaps: list[Submap]) -> None:
+    """Write a list of submaps atomically (truth is kept when present)."""
+    arrays: dict[str, np.ndarray] = {}
+    meta = []
+    for k, s in enumerate(submaps):
+        arrays.update(_submap_arrays(k, s))
+        meta.append({"robot": s.robot, "index": s.index, "t": s.t,
+                     "points": s.points is not None, "truth": s.truth is not None})
+    header = {"format": "roman_sim.submaps", "version": FORMAT_VERSION, "submaps": meta}
+    write_npz(path, header=_header(header), **arrays)
+
+
+def load_submaps(path: str | Path) -> list[Submap]:
+    """Read a file written by ``save_submaps``."""
+    header, a = _open(path, "roman_sim.submaps")
+    try:
+        out = []
+        for k, m in enumerate(header["submaps"]):
+            fields = {f: a[f"s{k}_{f}"] for f in _SUBMAP_ARRAYS}
+            points = None
+            if m["points"]:
+                pts, off = a[f"s{k}_points"], a[f"s{k}_offsets"]
+                points = [pts[off[i]:off[i + 1]] for i in range(len(off) - 1)]
+            truth = SubmapTruth(*(a[f"s{k}_truth_{f}"] for f in ("T_world_submap", "object_ids", "purity"))) \
+                if m["truth"] else None
+            out.append(Submap(robot=str(m["robot"]), index=int(m["index"]), t=float(m["t"]),
+                              points=points, truth=truth, **fields))
+        return out
+    except (KeyError, IndexError, TypeError, ValueError) as err:
+        raise StorageError(f"{path}: inconsistent submap file ({type(err).__name__}: {err})") from None
+
+
+def packet_bytes(submap: Submap) -> int:
+    """Bytes of the compressed packet a robot would send for ``submap`` (public fields only)."""
+    s = submap.public()
+    buf = io.BytesIO()
+    np.savez_compressed(
+        buf, T_odom_submap=s.T_odom_submap, t=np.float64(s.t), index=np.int32(s.index),
+        segment_ids=s.segment_ids.astype(np.int32), centers=s.centers.astype(np.float32),
+        volumes=s.volumes.astype(np.float32), shape=s.shape.astype(np.float32),
+        extents=s.extents.astype(np.float32), descriptors=np.asarray(s.descriptors).astype(np.float16))
+    return len(buf.getvalue())
+
+
+def mb_per_km(total_bytes: int | float, length_m: float) -> float:
+    """Megabytes (1e6 bytes) per kilometre of trajectory; NaN for a zero-length trajectory."""
+    return float(total_bytes) / 1e6 / (length_m / 1000.0) if length_m > 0 else float("nan")
+
+
+def submaps_mb_per_km(submaps: list[Submap], length_m: float) -> float:
+    """Packet megabytes per kilometre for a robot's submaps over ``length_m`` of trajectory."""
+    return mb_per_km(sum(packet_bytes(s) for s in submaps), length_m)

@@ -1,0 +1,132 @@
+"""Simulated segmenter: area filter, erosion, presets and each error model."""
+
+import numpy as np
+import pytest
+from scipy import ndimage
+
+from roman_sim.errors import ConfigError, MappingError
+from roman_sim.geometry import make_T
+from roman_sim.mapping.segmenter import SEGMENTERS, Mask, Segmenter, SegmenterConfig, build_segmenter, ellipse_kernel
+from roman_sim.sim.frame import Frame
+
+from mapping_synth import INTR, T_BODY_CAM
+
+
+def _frame(ids, depth=None, index=0):
+    depth = np.full(ids.shape, 3.0, np.float32) if depth is None else depth
+    return Frame("a", index, 0.0, None, depth, ids.astype(np.int32), np.eye(4), np.eye(4), T_BODY_CAM, INTR)
+
+
+def _ids_boxes():
+    ids = np.full((120, 160), -1)
+    ids[10:50, 10:60] = 0      # 2000 px: inside [19200/900, 19200/9] = [21.3, 2133]
+    ids[70:74, 100:104] = 1    # 16 px: below the area filter
+    ids[60:110, 20:60] = 2     # 2000 px, not touching 0
+    return ids
+
+
+def test_perfect_preset_is_eroded_truth_after_area_filter():
+    masks = build_segmenter("perfect").segment(_frame(_ids_boxes()))
+    assert [m.object_ids for m in masks] == [(0,), (2,)]
+    truth = ndimage.binary_erosion(_ids_boxes() == 0, structure=ellipse_kernel(3), border_value=0)
+    np.testing.assert_array_equal(masks[0].pixels, truth)
+    assert masks[0].area == (40 - 6) * (50 - 6)
+
+
+def test_area_filter_drops_huge_masks():
+    ids = np.full((120, 160), -1)
+    ids[:, :100] = 0  # 12000 px > A/9
+    assert build_segmenter("perfect").segment(_frame(ids)) == []
+
+
+def test_presets_and_protocol():
+    assert {"perfect", "fastsam"} <= set(SEGMENTERS.names())
+    assert isinstance(build_segmenter("fastsam", 1), Segmenter)
+    with pytest.raises(ConfigError, match="valid: fastsam, perfect"):
+        build_segmenter("sam9")
+    with pytest.raises(MappingError):
+        build_segmenter(SegmenterConfig(min_area_div=3.0, max_area_div=5.0))
+
+
+def test_bad_shapes_raise():
+    f = _frame(_ids_boxes())
+    f.depth = np.zeros((10, 10), np.float32)
+    with pytest.raises(MappingError, match="object_ids"):
+        build_segmenter("perfect").segment(f)
+
+
+def test_same_seed_same_masks_and_seed_matters():
+    f = _frame(_ids_boxes(), index=3)
+    a = build_segmenter("fastsam", 5).segment(f)
+    b = build_segmenter("fastsam", 5).segment(f)
+    assert len(a) == len(b) and all(np.array_equal(x.pixels, y.pixels) for x, y in zip(a, b))
+    outs = {tuple(m.area for m in build_segmenter("fastsam", s).segment(f)) for s in range(6)}
+    assert len(outs) > 1
+
+
+def _only(**kw):
+    base = SEGMENTERS.get("perfect").model_dump()
+    base.update(kw)
+    return build_segmenter(SegmenterConfig(**base), seed=0)
+
+
+def test_missed_detections_likelier_for_small_and_far():
+    ids = np.full((120, 160), -1)
+    ids[10:50, 10:50] = 0     # large, near
+    ids[90:100, 100:110] = 1  # small (100 px), near
+    ids[10:50, 90:130] = 2    # large, far
+    depth = np.full(ids.shape, 2.0, np.float32)
+    depth[ids == 2] = 7.4
+    seg = _only(miss_prob=0.02, miss_small_prob=0.6, miss_far_prob=0.6, erosion_px=0)
+    seen = np.zeros(3)
+    for i in range(150):
+        for m in seg.segment(_frame(ids, depth, index=i)):
+            seen[m.object_ids[0]] += 1
+    assert seen[0] > 130 and seen[1] < 110 and seen[2] < 110
+
+
+def test_oversegmentation_splits_large_objects():
+    ids = np.full((120, 160), -1)
+    ids[10:50, 10:60] = 0
+    masks = _only(oversegment_prob=1.0, erosion_px=0).segment(_frame(ids))
+    assert len(masks) == 2 and all(m.object_ids == (0,) for m in masks)
+    assert masks[0].area + masks[1].area == 40 * 50
+    assert not np.any(masks[0].pixels & masks[1].pixels)
+
+
+def test_undersegmentation_merges_touching_objects_only():
+    ids = np.full((120, 160), -1)
+    ids[10:40, 10:40] = 0
+    ids[10:40, 40:70] = 1      # touches 0 at the same depth
+    ids[70:100, 100:130] = 2   # apart
+    masks = _only(undersegment_prob=1.0, erosion_px=0).segment(_frame(ids))
+    assert sorted(m.object_ids for m in masks) == [(0, 1), (2,)]
+    depth = np.full(ids.shape, 3.0, np.float32)
+    depth[ids == 1] = 6.0  # a depth step: not touching in 3D
+    masks = _only(undersegment_prob=1.0, erosion_px=0).segment(_frame(ids, depth))
+    assert len(masks) == 3
+
+
+def test_spurious_masks_lie_on_terrain():
+    ids = _ids_boxes()
+    masks = _only(spurious_rate=5.0, erosion_px=0).segment(_frame(ids))
+    spurious = [m for m in masks if m.object_ids == ()]
+    assert spurious
+    assert all(np.all(ids[m.pixels] == -1) for m in spurious)
+
+
+def test_noisy_boundaries_change_only_the_border():
+    ids = np.full((120, 160), -1)
+    ids[20:60, 20:60] = 0
+    m = _only(boundary_noise_px=2, erosion_px=0).segment(_frame(ids))[0]
+    truth = ids == 0
+    diff = m.pixels ^ truth
+    assert diff.any()
+    band = ndimage.binary_dilation(truth, iterations=2) & ~ndimage.binary_erosion(truth, iterations=2)
+    assert not np.any(diff & ~band)
+
+
+def test_mask_bbox():
+    p = np.zeros((10, 10), bool)
+    p[2:4, 5:9] = True
+    assert Mask(p).bbox == (2, 4, 5, 9) and Mask(p).area == 8
