@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
+from scipy.spatial import cKDTree
 
 from roman_sim.config import StrictModel
 from roman_sim.geometry import gravity_aligned, inv_T, make_T, pose_4dof, pose_error, rot_z, rpy_to_R
@@ -104,15 +105,13 @@ def _submap_index(cfg: SyntheticGraphConfig, n: int) -> NDArray[np.int64]:
 
 def _candidates(cfg: SyntheticGraphConfig, T_ws: dict[str, F64]) -> list[tuple[str, int, str, int]]:
     """Relevant submap pairs: other robot, or same robot but not neighbours in sequence."""
-    items = [(r, i, T[:3, 3]) for r, Ts in T_ws.items() for i, T in enumerate(Ts)]
+    items = [(r, i) for r, Ts in T_ws.items() for i in range(len(Ts))]
+    xyz = np.concatenate([Ts[:, :3, 3] for Ts in T_ws.values()])
     out = []
-    for u in range(len(items)):
-        for v in range(u + 1, len(items)):
-            (ra, ia, pa), (rb, ib, pb) = items[u], items[v]
-            if ra == rb and abs(ia - ib) < 3:
-                continue
-            if np.linalg.norm(pa - pb) <= cfg.relevant_dist_m:
-                out.append((ra, ia, rb, ib))
+    for u, v in sorted(cKDTree(xyz).query_pairs(cfg.relevant_dist_m)):
+        (ra, ia), (rb, ib) = items[u], items[v]
+        if ra != rb or abs(ia - ib) >= 3:
+            out.append((ra, ia, rb, ib))
     return out
 
 
