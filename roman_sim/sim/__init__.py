@@ -1,0 +1,16 @@
+"""Virtual ground robots: camera, rendering, paths, kinematics, odometry drift, env, recordings.
+
+Importing this package is cheap: it only registers the gymnasium environment
+``roman_sim/GroundRobot-v0`` (string entry point); renderers load on first use.
+"""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+ENV_ID = "roman_sim/GroundRobot-v0"
+
+if ENV_ID not in gym.registry:
+    gym.register(id=ENV_ID, entry_point="roman_sim.sim.env:GroundRobotEnv")
+
+__all__ = ["ENV_ID"]

@@ -1,0 +1,164 @@
+"""``GroundRobotEnv``: a gymnasium environment of one ground robot with an RGB-D camera.
+
+Observation (``Dict``): ``rgb`` (H, W, 3) uint8, ``depth`` (H, W) float32 metres (noisy,
+0 invalid), ``object_ids`` (H, W) int32 (-1 background), ``odom_pose`` (4, 4) float64
+drifted ``T_odom_body``. Action (``Box``): (forward speed m/s, yaw rate rad/s) within
+``[0, max_speed] x [-max_yaw_rate, max_yaw_rate]``. Reward 0. The episode terminates when
+the robot leaves the world or touches an object footprint, and is truncated after
+``max_steps``. ``info`` carries the true ``T_world_body`` and the time, so a scripted
+``PathFollower`` (or any user policy) can drive the same kinematics as ``simulate_robot``.
+"""
+
+from __future__ import annotations
+
+import logging
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from roman_sim.seeding import child_rng
+from roman_sim.sim.camera import CameraConfig
+from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrate_unicycle
+from roman_sim.sim.noise import apply_depth_noise
+from roman_sim.sim.odometry import DriftConfig, DriftModel, resolve_drift
+from roman_sim.sim.planner import Obstacles
+
+log = logging.getLogger(__name__)
+
+ObsDict = dict[str, np.ndarray]
+
+
+def _load_world(world: Any, preset: str, world_seed: int) -> Any:
+    if world is not None:
+        return world
+    from roman_sim.world import generate, load_world_spec
+
+    return generate(load_world_spec(preset), world_seed)
+
+
+class GroundRobotEnv(gym.Env):
+    """One Jackal-like robot in a roman_sim world.
+
+    Args:
+        world: a generated world (``.model``, ``.truth``); generated from ``preset`` when None.
+        preset: world preset used when ``world`` is None.
+        world_seed: seed of that world.
+        camera: camera configuration (or a dict of its fields).
+        drift: drift preset name or ``DriftConfig``.
+        rate_hz: control and sensor rate.
+        max_speed_mps, max_yaw_rate: action limits.
+        body_height_m: body origin above the terrain.
+        clearance_m: a start pose keeps this distance from objects.
+        max_steps: truncation horizon.
+        start: optional fixed start (x, y, heading rad); random free pose when None.
+        render_rgb: also render RGB (else the ``rgb`` observation is all zeros).
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 6}
+
+    def __init__(
+        self,
+        world: Any = None,
+        preset: str = "tiny",
+        world_seed: int = 0,
+        camera: CameraConfig | dict[str, Any] | None = None,
+        drift: str | DriftConfig = "typical",
+        rate_hz: float = 6.0,
+        max_speed_mps: float = 2.0,
+        max_yaw_rate: float = 1.5,
+        body_height_m: float = 0.1,
+        clearance_m: float = 0.6,
+        max_steps: int = 500,
+        start: tuple[float, float, float] | None = None,
+        render_rgb: bool = True,
+        render_mode: str | None = None,
+    ) -> None:
+        from roman_sim.sim.render import SensorRenderer
+
+        self.world = _load_world(world, preset, world_seed)
+        self.camera = camera if isinstance(camera, CameraConfig) else CameraConfig(**(camera or {}))
+        self.drift_cfg = resolve_drift(drift)
+        self.dt = 1.0 / rate_hz
+        self.body_height_m, self.clearance_m = body_height_m, clearance_m
+        self.max_steps, self.start = max_steps, start
+        self.render_mode = render_mode
+        self._obstacles = Obstacles(self.world.truth)
+        self._renderer = SensorRenderer(self.world, self.camera, rgb=render_rgb)
+        self._T_body_cam = self.camera.T_body_cam()
+        h, w = self.camera.height, self.camera.width
+        self.action_space = spaces.Box(
+            np.array([0.0, -max_yaw_rate], dtype=np.float32), np.array([max_speed_mps, max_yaw_rate], dtype=np.float32)
+        )
+        n_obj = max(len(self.world.truth.objects), 1)
+        self.observation_space = spaces.Dict({
+            "rgb": spaces.Box(0, 255, (h, w, 3), np.uint8),
+            "depth": spaces.Box(0.0, np.float32(self.camera.far_m * 2), (h, w), np.float32),
+            "object_ids": spaces.Box(-1, n_obj - 1, (h, w), np.int32),
+            "odom_pose": spaces.Box(-np.inf, np.inf, (4, 4), np.float64),
+        })
+        self._state = PlanarState(0.0, 0.0, 0.0)
+        self._steps = 0
+        self._last_rgb: np.ndarray | None = None
+
+    def _random_start(self, rng: np.random.Generator) -> PlanarState:
+        ter = self.world.truth.terrain
+        margin = 2.0 * self.clearance_m + 1.0
+        for _ in range(1000):
+            x, y = rng.uniform(-ter.size_x / 2 + margin, ter.size_x / 2 - margin), rng.uniform(
+                -ter.size_y / 2 + margin, ter.size_y / 2 - margin)
+            if self._obstacles.clearance(np.array([[x, y]]))[0] >= self.clearance_m:
+                return PlanarState(float(x), float(y), float(rng.uniform(-np.pi, np.pi)))
+        return PlanarState(0.0, 0.0, 0.0)
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[ObsDict, dict[str, Any]]:
+        """Start a new episode; the same ``seed`` gives the same episode."""
+        super().reset(seed=seed)
+        base = int(self.np_random.integers(0, 2**31 - 1))
+        self._state = PlanarState(*self.start) if self.start is not None else self._random_start(child_rng(base, "env", "start"))
+        self._drift = DriftModel(self.drift_cfg, child_rng(base, "env", "drift"))
+        self._noise_rng = child_rng(base, "env", "depth_noise")
+        self._steps = 0
+        return self._observe()
+
+    def _observe(self) -> tuple[ObsDict, dict[str, Any]]:
+        T_wb = body_pose_on_terrain(self.world.truth.terrain, self._state, self.body_height_m)
+        T_ob = self._drift.step(T_wb)
+        rgb, depth, ids = self._renderer.render(T_wb @ self._T_body_cam)
+        depth = apply_depth_noise(depth, self.camera.depth_noise, self.camera.max_depth_m, self._noise_rng)
+        if rgb is None:
+            rgb = np.zeros((self.camera.height, self.camera.width, 3), dtype=np.uint8)
+        self._last_rgb = rgb
+        obs = {"rgb": rgb, "depth": depth, "object_ids": ids, "odom_pose": T_ob}
+        info = {"T_world_body": T_wb, "t": self._steps * self.dt, "T_body_cam": self._T_body_cam}
+        return obs, info
+
+    def step(self, action: np.ndarray) -> tuple[ObsDict, float, bool, bool, dict[str, Any]]:
+        """Apply (forward speed, yaw rate) for one sensor period (clipped to the limits)."""
+        a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), self.action_space.low, self.action_space.high)
+        substeps = 10
+        for _ in range(substeps):
+            self._state = integrate_unicycle(self._state, float(a[0]), float(a[1]), self.dt / substeps)
+        self._steps += 1
+        ter = self.world.truth.terrain
+        xy = np.array([[self._state.x, self._state.y]])
+        left = not ter.contains(self._state.x, self._state.y)
+        hit = bool(self._obstacles.clearance(xy)[0] < 0.0)
+        if left:
+            self._state = PlanarState(
+                float(np.clip(self._state.x, -ter.size_x / 2, ter.size_x / 2)),
+                float(np.clip(self._state.y, -ter.size_y / 2, ter.size_y / 2)), self._state.heading)
+        obs, info = self._observe()
+        info.update(left_world=left, collision=hit)
+        return obs, 0.0, bool(left or hit), self._steps >= self.max_steps, info
+
+    def render(self) -> np.ndarray | None:
+        """The last RGB observation (``rgb_array`` mode)."""
+        return self._last_rgb
+
+    def close(self) -> None:
+        """Free the renderer."""
+        if getattr(self, "_renderer", None) is not None:
+            self._renderer.close()
+            self._renderer = None

@@ -1,0 +1,214 @@
+"""Recordings: a robot run stored compactly so mapping can be re-run without rendering.
+
+Layout of a recording folder::
+
+    meta.json         format version, robot, intrinsics, T_body_cam, frame count, chunks
+    traj_true.tum     true body trajectory (TUM, evo-readable)
+    traj_odom.tum     drifted odometry trajectory (TUM)
+    chunk_00000.npz   up to ``chunk_size`` frames: t, index, T_world_body, T_odom_body,
+                      depth_mm (uint16 millimetres, 0 invalid), object_ids (int16 or int32),
+                      rgb (uint8, when rendered)
+
+The folder is written under a temporary name next to ``out_dir`` and renamed at the end,
+so an interrupted run never leaves a half-written recording. Depth is stored at 1 mm
+resolution (readings above 65.535 m are stored as invalid). Chunks are zip files with
+fixed timestamps, so the same frames give the same bytes.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import logging
+import os
+import shutil
+import tempfile
+import zipfile
+from collections.abc import Iterable, Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roman_sim.atomic import write_json
+from roman_sim.errors import RecordingError
+from roman_sim.sim.frame import Frame, Intrinsics
+from roman_sim.tum import write_tum
+
+log = logging.getLogger(__name__)
+
+FORMAT = "roman_sim.recording"
+FORMAT_VERSION = 1
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
+
+
+def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    """Compressed npz with fixed member timestamps (deterministic bytes)."""
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        for name, arr in arrays.items():
+            buf = io.BytesIO()
+            np.lib.format.write_array(buf, np.ascontiguousarray(arr), allow_pickle=False)
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=_ZIP_TIME)
+            info.compress_type = zipfile.ZIP_DEFLATED
+            zf.writestr(info, buf.getvalue())
+
+
+def _pack(frames: list[Frame]) -> dict[str, np.ndarray]:
+    depth = np.stack([f.depth for f in frames]).astype(np.float64)
+    depth_mm = np.where((depth > 0) & (depth <= 65.535), np.rint(depth * 1000.0), 0).astype(np.uint16)
+    ids = np.stack([f.object_ids for f in frames])
+    id_type = np.int16 if ids.size == 0 or (ids.max() < 32767 and ids.min() >= -1) else np.int32
+    out = {
+        "t": np.array([f.t for f in frames], dtype=np.float64),
+        "index": np.array([f.index for f in frames], dtype=np.int64),
+        "T_world_body": np.stack([f.T_world_body for f in frames]).astype(np.float64),
+        "T_odom_body": np.stack([f.T_odom_body for f in frames]).astype(np.float64),
+        "depth_mm": depth_mm,
+        "object_ids": ids.astype(id_type),
+    }
+    if frames[0].rgb is not None:
+        out["rgb"] = np.stack([f.rgb for f in frames]).astype(np.uint8)
+    return out
+
+
+def _check_consistent(first: Frame, f: Frame) -> None:
+    if f.robot != first.robot or f.intrinsics != first.intrinsics or (f.rgb is None) != (first.rgb is None):
+        raise RecordingError(f"frame {f.index}: robot, intrinsics or rgb presence differ from the first frame")
+    if not np.allclose(f.T_body_cam, first.T_body_cam):
+        raise RecordingError(f"frame {f.index}: T_body_cam differs from the first frame")
+
+
+def _meta(first: Frame, n: int, chunks: list[str], extra: dict[str, Any] | None) -> dict[str, Any]:
+    k = first.intrinsics
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "robot": first.robot,
+        "frame_count": n,
+        "chunks": chunks,
+        "has_rgb": first.rgb is not None,
+        "intrinsics": {"width": k.width, "height": k.height, "fx": float(k.fx), "fy": float(k.fy),
+                       "cx": float(k.cx), "cy": float(k.cy)},
+        "T_body_cam": np.asarray(first.T_body_cam, dtype=np.float64).tolist(),
+        "extra": extra or {},
+    }
+
+
+def write_recording(
+    frames: Iterable[Frame], out_dir: str | Path, chunk_size: int = 50, overwrite: bool = False,
+    extra: dict[str, Any] | None = None,
+) -> Path:
+    """Store ``frames`` (one robot) in ``out_dir``; returns the folder path.
+
+    Args:
+        frames: the frames, in order (e.g. ``simulate_robot(...)``; consumed lazily).
+        out_dir: destination folder; must not exist unless ``overwrite``.
+        chunk_size: frames per npz chunk.
+        overwrite: replace an existing recording.
+        extra: JSON-friendly metadata stored under ``meta.json["extra"]``.
+
+    Raises: RecordingError for an existing destination, no frames or inconsistent frames.
+    """
+    out = Path(out_dir)
+    if chunk_size < 1:
+        raise RecordingError(f"chunk_size must be >= 1, got {chunk_size}")
+    if out.exists() and not overwrite:
+        raise RecordingError(f"{out}: already exists (pass overwrite=True to replace it)")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    try:
+        _write_into(frames, tmp, chunk_size, extra)
+        if out.exists():
+            shutil.rmtree(out)
+        os.replace(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    log.info("recording written to %s", out)
+    return out
+
+
+def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, extra: dict[str, Any] | None) -> None:
+    first: Frame | None = None
+    buf: list[Frame] = []
+    chunks: list[str] = []
+    t, T_true, T_odom = [], [], []
+
+    def flush() -> None:
+        name = f"chunk_{len(chunks):05d}.npz"
+        _write_npz(tmp / name, _pack(buf))
+        chunks.append(name)
+        buf.clear()
+
+    for f in frames:
+        first = first or f
+        _check_consistent(first, f)
+        buf.append(f)
+        t.append(f.t)
+        T_true.append(f.T_world_body)
+        T_odom.append(f.T_odom_body)
+        if len(buf) == chunk_size:
+            flush()
+    if first is None:
+        raise RecordingError("recording: no frames to write")
+    if buf:
+        flush()
+    write_tum(tmp / "traj_true.tum", t, T_true)
+    write_tum(tmp / "traj_odom.tum", t, T_odom)
+    write_json(tmp / "meta.json", _meta(first, len(t), chunks, extra))
+
+
+def recording_info(rec_dir: str | Path) -> dict[str, Any]:
+    """The recording's ``meta.json``, checked (format, version, chunk files present)."""
+    d = Path(rec_dir)
+    meta_path = d / "meta.json"
+    if not meta_path.is_file():
+        raise RecordingError(f"{d}: not a recording (meta.json missing)")
+    try:
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as err:
+        raise RecordingError(f"{meta_path}: corrupt meta.json ({err})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise RecordingError(f"{meta_path}: not a roman_sim recording")
+    if meta.get("format_version") != FORMAT_VERSION:
+        raise RecordingError(
+            f"{meta_path}: format version {meta.get('format_version')!r} is not supported (expected {FORMAT_VERSION})"
+        )
+    missing = [c for c in meta.get("chunks", []) if not (d / c).is_file()]
+    if missing:
+        raise RecordingError(f"{d}: missing chunk file(s): {', '.join(missing)}")
+    return meta
+
+
+def _load_chunk(path: Path) -> dict[str, np.ndarray]:
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            return {k: z[k] for k in z.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as err:
+        raise RecordingError(f"{path}: corrupt chunk ({type(err).__name__}: {err})") from None
+
+
+def read_recording(rec_dir: str | Path) -> Iterator[Frame]:
+    """Frames of a recording, in order (depth back in metres as float32, ids as int32)."""
+    d = Path(rec_dir)
+    meta = recording_info(d)
+    try:
+        intr = Intrinsics(**meta["intrinsics"])
+        T_bc = np.asarray(meta["T_body_cam"], dtype=np.float64).reshape(4, 4)
+        robot = str(meta["robot"])
+    except (KeyError, TypeError, ValueError) as err:
+        raise RecordingError(f"{d / 'meta.json'}: incomplete metadata ({err})") from None
+    for name in meta["chunks"]:
+        c = _load_chunk(d / name)
+        try:
+            for i in range(len(c["t"])):
+                yield Frame(
+                    robot, int(c["index"][i]), float(c["t"][i]),
+                    c["rgb"][i] if "rgb" in c else None,
+                    (c["depth_mm"][i].astype(np.float32) / np.float32(1000.0)),
+                    c["object_ids"][i].astype(np.int32),
+                    c["T_world_body"][i], c["T_odom_body"][i], T_bc.copy(), intr,
+                )
+        except (KeyError, IndexError) as err:
+            raise RecordingError(f"{d / name}: corrupt chunk (missing or short array: {err})") from None
+
