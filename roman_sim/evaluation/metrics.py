@@ -227,9 +227,9 @@ def summary(scores: list[PairScore], cfg: EvalConfig | None = None) -> dict[str,
         "methods": {m: _method_summary(by_method[m], cfg) for m in methods},
         "notes": [],
     }
-    first = by_method[methods[0]] if methods else []
-    out["n_pairs"] = len(first)
-    out["n_relevant"] = sum(1 for s in first if s.truth.relevant)
+    pairs = {(s.truth.a, s.truth.b): s.truth.relevant for s in scores}
+    out["n_pairs"] = len(pairs)
+    out["n_relevant"] = sum(pairs.values())
     if not scores:
         out["notes"].append("no pairs were evaluated: no metric could be computed")
     elif out["n_relevant"] == 0:
@@ -237,6 +237,8 @@ def summary(scores: list[PairScore], cfg: EvalConfig | None = None) -> dict[str,
                             f"{cfg.relevant_dist_m:g} m): recall, F1 and AUC could not be computed")
     for m in methods:
         s = out["methods"][m]
+        if out["n_relevant"] and not s["n_relevant"]:
+            out["notes"].append(f"{m}: evaluated on no relevant pair: its recall could not be computed")
         if s["n_relevant"] and s["best_f1"] == 0.0:
             out["notes"].append(f"{m}: no correct alignment of any relevant pair")
     return out

@@ -125,3 +125,13 @@ def test_mixed_methods_and_config_errors(make_score):
     with pytest.raises(ConfigError, match="unknown key"):
         validate_model(EvalConfig, {"rot_tol": 3})
     assert fine_edges([0, 60, 120, 180], 30) == [0, 30, 60, 90, 120, 150, 180]
+
+
+def test_summary_counts_distinct_pairs_across_methods(make_score):
+    scores = [make_score("0", True, 5, True, method="x"), make_score("0", True, 5, True, method="y"),
+              make_score("1", False, 5, False, method="y")]
+    out = summary(scores)
+    assert (out["n_pairs"], out["n_relevant"]) == (2, 1)
+    only_irrelevant = summary([make_score("0", True, 5, True, method="x"),
+                               make_score("1", False, 5, False, method="y")])
+    assert any(n.startswith("y: evaluated on no relevant pair") for n in only_irrelevant["notes"])
