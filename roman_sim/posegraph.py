@@ -170,9 +170,15 @@ def _initial_values(parts: GraphParts) -> gtsam.Values:
 def _optimize(parts: GraphParts, initial: gtsam.Values, cfg: PoseGraphConfig) -> tuple[gtsam.Values, F64]:
     """GNC over the closures (odometry and priors are known inliers); LM when no closure."""
     n = parts.graph.size()
-    if not parts.closure_factor:
-        values = gtsam.LevenbergMarquardtOptimizer(parts.graph, initial).optimize()
-        return values, np.ones(n)
+    try:
+        if not parts.closure_factor:
+            return gtsam.LevenbergMarquardtOptimizer(parts.graph, initial).optimize(), np.ones(n)
+        return _gnc(parts, initial, cfg)
+    except RuntimeError as err:  # gtsam reports an ill-posed graph this way
+        raise EvaluationError(f"pose graph could not be solved: {err}") from None
+
+
+def _gnc(parts: GraphParts, initial: gtsam.Values, cfg: PoseGraphConfig) -> tuple[gtsam.Values, F64]:
     params = gtsam.GncLMParams(gtsam.LevenbergMarquardtParams())
     params.setLossType(_LOSSES[cfg.gnc_loss])
     params.maxIterations = cfg.max_iterations

@@ -142,6 +142,10 @@ def _edges(closures: list["LoopClosure"], anchors: dict, chains: dict, thresh: i
         T_a_b = np.asarray(lc.T_a_b, dtype=np.float64)
         if T_a_b.shape != (4, 4) or not np.all(np.isfinite(T_a_b)):
             raise EvaluationError(f"closure {ci}: T_a_b must be a finite 4x4 matrix")
+        for name in ("sigma_m", "sigma_deg"):
+            value = getattr(lc, name)
+            if value is not None and not (np.isfinite(value) and value > 0):
+                raise EvaluationError(f"closure {ci}: {name} must be a positive number or None, got {value}")
         if lc.n_associations < thresh:
             continue
         pos_a, T_na_sa = anchors[(lc.robot_a, lc.submap_a)]
@@ -190,7 +194,8 @@ def build_graph(
     edges = _edges(closures, anchors, chains, cfg.lc_association_thresh)
     for e in edges:
         lc = closures[e.closure]
-        noise = _sigmas(lc.sigma_m or cfg.lc_sigma_m, lc.sigma_deg or cfg.lc_sigma_deg)
+        noise = _sigmas(cfg.lc_sigma_m if lc.sigma_m is None else lc.sigma_m,
+                        cfg.lc_sigma_deg if lc.sigma_deg is None else lc.sigma_deg)
         parts.closure_factor[e.closure] = graph.size()
         graph.add(gtsam.BetweenFactorPose3(chains[e.robot_a].keys[e.pos_a], chains[e.robot_b].keys[e.pos_b],
                                            gtsam.Pose3(e.Z), noise))

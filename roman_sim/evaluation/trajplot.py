@@ -59,6 +59,21 @@ def _robot_colours(robots: Sequence[str]) -> dict[str, Any]:
     return {r: palette[i % len(palette)] for i, r in enumerate(robots)}
 
 
+def _draw_layers(ax: Any, colours: dict[str, Any], data: dict[str, Mapping[str, Any] | None]) -> list[str]:
+    """Draw each given layer's trajectories (truth starts marked); returns the layers drawn."""
+    layers = []
+    for name, trajectories in data.items():
+        if not trajectories:
+            continue
+        layers.append(name)
+        for robot, value in trajectories.items():
+            xyz = _positions(value, f"{name}[{robot}]")
+            ax.plot(xyz[:, 0], xyz[:, 1], color=colours[robot], zorder=2, **LAYERS[name])
+            if name == "truth" and len(xyz):
+                ax.plot(xyz[0, 0], xyz[0, 1], marker="o", color=colours[robot], zorder=3)
+    return layers
+
+
 def _draw_closures(ax: Any, closures: Sequence[ClosureLine]) -> set[str]:
     """Draw closure lines; returns the legend entries used."""
     used = set()
@@ -114,16 +129,7 @@ def plot_trajectories(
     fig = Figure(figsize=(8.0, 6.0))
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
-    layers = []
-    for name, data in (("truth", truth), ("estimate", est), ("odometry", odom)):
-        if not data:
-            continue
-        layers.append(name)
-        for robot, value in data.items():
-            xyz = _positions(value, f"{name}[{robot}]")
-            ax.plot(xyz[:, 0], xyz[:, 1], color=colours[robot], zorder=2, **LAYERS[name])
-            if name == "truth" and len(xyz):
-                ax.plot(xyz[0, 0], xyz[0, 1], marker="o", color=colours[robot], zorder=3)
+    layers = _draw_layers(ax, colours, {"truth": truth, "estimate": est, "odometry": odom})
     kinds = _draw_closures(ax, closures)
     _legend(ax, colours, layers, kinds)
     ax.set_aspect("equal", adjustable="datalim")

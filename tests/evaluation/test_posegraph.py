@@ -110,6 +110,8 @@ def test_bad_inputs_raise_clear_errors(drifting):
         build_and_solve(drifting.odom, drifting.submap_nodes, [replace(c, submap_b=999)])
     with pytest.raises(EvaluationError, match="finite 4x4"):
         build_and_solve(drifting.odom, drifting.submap_nodes, [replace(c, T_a_b=np.eye(3))])
+    with pytest.raises(EvaluationError, match="sigma_m must be a positive"):
+        build_and_solve(drifting.odom, drifting.submap_nodes, [replace(c, sigma_m=-1.0)])
     t, T = drifting.odom["robot0"]
     with pytest.raises(EvaluationError, match="strictly increasing"):
         build_and_solve({"robot0": (t[::-1], T)}, {}, [])
@@ -142,3 +144,14 @@ def test_submap_helpers():
     assert (lc.robot_a, lc.submap_a, lc.robot_b, lc.submap_b, lc.n_associations, lc.source) == ("a", 0, "b", 0, 5, "roman")
     assert lc.inter
     assert closure_from_alignment(subs[1], subs[2], AlignResult.failure("roman", "too few")) is None
+
+
+def test_synthetic_scenario_is_deterministic():
+    cfg = SyntheticGraphConfig(n_robots=2, length_m=60, n_closures=6, outlier_fraction=0.5)
+    a, b = synthetic_scenario(9, cfg), synthetic_scenario(9, cfg)
+    for robot in a.odom:
+        np.testing.assert_array_equal(a.odom[robot][1], b.odom[robot][1])
+    assert [c.T_a_b.tobytes() for c in a.closures] == [c.T_a_b.tobytes() for c in b.closures]
+    assert a.closure_true == b.closure_true and sum(a.closure_true) == 3
+    other = synthetic_scenario(10, cfg)
+    assert not np.array_equal(other.odom["robot0"][1], a.odom["robot0"][1])
