@@ -1,0 +1,203 @@
+"""Parameter x seed sweeps over a scenario, on a local process pool or a Dask cluster.
+
+A sweep file names a base scenario, a grid of dotted overrides and a list of seeds. Every
+combination becomes one run folder ``<out>/<run_id>/`` produced by the same pipeline as
+``roman-sim run``. Sweeps are resumable: a run whose ``metrics.json`` exists and whose
+resolved configuration is unchanged is not run again. The collected figures go to
+``<out>/sweep.csv`` (one row per run and method), written atomically.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import itertools
+import json
+import logging
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import Field
+
+from roman_sim.atomic import write_text
+from roman_sim.config import StrictModel, apply_overrides, read_yaml, validate_model
+from roman_sim.errors import ConfigError, RomanSimError
+
+log = logging.getLogger(__name__)
+
+
+class ExecutorConfig(StrictModel):
+    """Where the runs execute."""
+
+    kind: Literal["serial", "local", "dask"] = "serial"
+    workers: int = Field(1, ge=1, le=256, description="processes (local) or Dask workers")
+    scheduler_address: str | None = Field(
+        None, description="connect to an existing Dask scheduler (tcp://host:8786) instead of a local cluster"
+    )
+
+
+class SweepConfig(StrictModel):
+    """A sweep: base scenario, grid of overrides, seeds, executor."""
+
+    name: str = Field(..., min_length=1)
+    description: str = ""
+    scenario: str = Field(..., description="scenario name or YAML path (relative to the sweep file)")
+    grid: dict[str, list[Any]] = Field(default_factory=dict)
+    seeds: list[int] = Field(default_factory=lambda: [0], min_length=1)
+    executor: ExecutorConfig = ExecutorConfig()
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run of a sweep."""
+
+    run_id: str
+    overrides: tuple[str, ...]
+    seed: int
+    params: dict[str, Any]
+
+
+def expand(cfg: SweepConfig) -> list[RunSpec]:
+    """Every grid combination x seed, in a stable order."""
+    keys = sorted(cfg.grid)
+    for k in keys:
+        if not cfg.grid[k]:
+            raise ConfigError(f"grid.{k}: needs at least one value")
+    runs = []
+    for values in itertools.product(*(cfg.grid[k] for k in keys)):
+        params = dict(zip(keys, values))
+        ovr = tuple(f"{k}={json.dumps(v)}" for k, v in params.items())
+        tag = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8] if params else "base"
+        for seed in cfg.seeds:
+            runs.append(RunSpec(run_id=f"{tag}-s{seed}", overrides=ovr, seed=seed, params=params))
+    return runs
+
+
+def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
+    """Load a sweep YAML; returns the config and the resolved base scenario path."""
+    from roman_sim.scenario import resolve_scenario_path
+
+    path = Path(path)
+    cfg = validate_model(SweepConfig, read_yaml(path), source=str(path))
+    return cfg, resolve_scenario_path(cfg.scenario, relative_to=path.parent)
+
+
+def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir: str) -> dict[str, Any]:
+    """Run one sweep job (top-level so that process pools and Dask can pickle it)."""
+    from roman_sim.experiment import run_scenario_file
+
+    try:
+        result = run_scenario_file(scenario_path, list(overrides) + [f"seed={seed}"], Path(run_dir))
+        return {"ok": True, "metrics": result.metrics_summary()}
+    except RomanSimError as err:
+        return {"ok": False, "error": str(err)}
+
+
+def _is_done(run_dir: Path) -> bool:
+    return (run_dir / "metrics.json").is_file()
+
+
+def run_sweep(
+    cfg: SweepConfig,
+    scenario_path: Path,
+    out_dir: Path,
+    progress: Callable[[int, int], None] | None = None,
+) -> Path:
+    """Run (or resume) every job of the sweep; returns the path of ``sweep.csv``."""
+    runs = expand(cfg)
+    todo = [r for r in runs if not _is_done(out_dir / r.run_id)]
+    log.info("sweep %s: %d runs, %d to do", cfg.name, len(runs), len(todo))
+    args = [(str(scenario_path), r.overrides, r.seed, str(out_dir / r.run_id)) for r in todo]
+    outcomes: dict[str, dict[str, Any]] = {}
+    done = len(runs) - len(todo)
+    if progress:
+        progress(done, len(runs))
+    for run, outcome in zip(todo, _execute(cfg.executor, args)):
+        outcomes[run.run_id] = outcome
+        done += 1
+        if progress:
+            progress(done, len(runs))
+    failures = {k: v["error"] for k, v in outcomes.items() if not v["ok"]}
+    for k, v in failures.items():
+        log.warning("run %s failed: %s", k, v)
+    return write_sweep_table(runs, out_dir, failures)
+
+
+def _execute(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[dict[str, Any]]:
+    """Yield outcomes in the order of ``args``."""
+    if ex.kind == "serial" or not args:
+        for a in args:
+            yield _run_one(*a)
+    elif ex.kind == "local":
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=ex.workers) as pool:
+            yield from pool.map(_run_one, *zip(*args))
+    else:
+        yield from _execute_dask(ex, args)
+
+
+def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[dict[str, Any]]:
+    from dask.distributed import Client, LocalCluster
+
+    if ex.scheduler_address:
+        try:
+            client = Client(ex.scheduler_address, timeout="10s")
+        except OSError as err:
+            raise ConfigError(f"executor.scheduler_address: cannot connect to {ex.scheduler_address}: {err}") from None
+        cluster = None
+    else:
+        cluster = LocalCluster(n_workers=ex.workers, threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    try:
+        futures = [client.submit(_run_one, *a, pure=False) for a in args]
+        for fut in futures:
+            yield fut.result()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, str] | None = None) -> Path:
+    """Collect each run's ``metrics.json`` into ``sweep.csv`` (one row per run and method)."""
+    failures = failures or {}
+    rows: list[dict[str, Any]] = []
+    for r in runs:
+        base = {"run_id": r.run_id, "seed": r.seed, **r.params}
+        mpath = out_dir / r.run_id / "metrics.json"
+        if not mpath.is_file():
+            rows.append({**base, "status": "failed" if r.run_id in failures else "missing",
+                         "error": failures.get(r.run_id, "")})
+            continue
+        try:
+            metrics = json.loads(mpath.read_text())
+        except (OSError, json.JSONDecodeError) as err:
+            rows.append({**base, "status": "corrupt", "error": str(err)})
+            continue
+        for method, m in sorted(metrics.get("methods", {}).items()):
+            rows.append({**base, "status": "ok", "method": method, **_flatten(m.get("overall", m))})
+    cols: list[str] = []
+    for row in rows:
+        cols.extend(k for k in row if k not in cols)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=cols, restval="")
+    w.writeheader()
+    w.writerows(rows)
+    path = out_dir / "sweep.csv"
+    write_text(path, buf.getvalue())
+    return path
+
+
+def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        key = f"{prefix}{k}"
+        if isinstance(v, dict):
+            out.update(_flatten(v, key + "."))
+        elif not isinstance(v, list):
+            out[key] = v
+    return out
