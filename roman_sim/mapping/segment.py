@@ -76,6 +76,22 @@ def largest_cluster(points: NDArray[np.float64], eps: float) -> NDArray[np.float
     return pts[labels == int(np.argmax(counts))]
 
 
+def boxes_touch(a: "Segment", b: "Segment", margin: float) -> bool:
+    """Whether the axis-aligned bounds of two segments come within ``margin``."""
+    (alo, ahi), (blo, bhi) = a.bounds, b.bounds
+    return bool(np.all(alo - margin <= bhi) and np.all(blo - margin <= ahi))
+
+
+def contained_fraction(points: NDArray[np.float64], other: "Segment", dist: float) -> float:
+    """Fraction of ``points`` within ``dist`` of ``other``'s points (KD-tree cached)."""
+    if len(points) == 0 or len(other.points) == 0:
+        return 0.0
+    if "tree" not in other._cache:
+        other._cache["tree"] = cKDTree(other.points)
+    d, _ = other._cache["tree"].query(points, distance_upper_bound=dist)
+    return float(np.mean(np.isfinite(d)))
+
+
 @dataclass
 class Segment:
     """A tracked object hypothesis (points in the odometry frame).
@@ -152,6 +168,14 @@ class Segment:
     def center(self) -> NDArray[np.float64]:
         """Mean point (odometry frame)."""
         return self.points.mean(axis=0) if len(self.points) else np.full(3, np.nan)
+
+    @property
+    def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Axis-aligned (min, max) corners of the points (odometry frame)."""
+        if "bounds" not in self._cache:
+            self._cache["bounds"] = (self.points.min(axis=0), self.points.max(axis=0)) if len(self.points) \
+                else (np.full(3, np.inf), np.full(3, -np.inf))
+        return self._cache["bounds"]
 
     def _obb(self) -> tuple[NDArray[np.float64], float]:
         if "obb" not in self._cache:

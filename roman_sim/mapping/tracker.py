@@ -5,6 +5,13 @@ associated to nursery/active segments by 3D voxel IoU (0.2 m) with Hungarian ass
 (IoU < ``min_iou`` not allowed); unmatched observations start nursery segments. Nursery
 segments become active after ``min_sightings``; unseen segments go inactive (largest
 cluster kept) and later finished. Overlapping segments merge, keeping the older id.
+
+Deviation from the reference: besides 3D IoU > ``merge_iou``, two segments also merge
+when more than ``merge_contained`` of the smaller one's points lie within
+``merge_contained_dist_m`` of the larger one's points.
+Partial views of an object leaving the image have a low IoU with the full segment and
+would otherwise stay as duplicates; set ``merge_contained`` above 1 for the reference
+behaviour.
 """
 
 from __future__ import annotations
@@ -19,7 +26,7 @@ from pydantic import Field
 from scipy.optimize import linear_sum_assignment
 
 from roman_sim.config import StrictModel
-from roman_sim.mapping.segment import Segment, Status
+from roman_sim.mapping.segment import Segment, Status, boxes_touch, contained_fraction
 from roman_sim.mapping.voxels import iou, iou_matrix, voxel_set
 
 log = logging.getLogger(__name__)
@@ -34,6 +41,8 @@ class MappingConfig(StrictModel):
     iou_voxel: float = Field(0.2, gt=0, le=2)
     min_iou: float = Field(0.25, ge=0, le=1)
     merge_iou: float = Field(0.25, ge=0, le=1)
+    merge_contained: float = Field(0.6, ge=0, le=1.01)
+    merge_contained_dist_m: float = Field(0.1, ge=0, le=2)
     min_sightings: int = Field(2, ge=1, le=100)
     nursery_time_s: float = Field(0.4, ge=0)
     active_time_s: float = Field(0.4, ge=0)
@@ -125,13 +134,22 @@ class Tracker:
             for other in list(self.live):
                 if other is seg or other not in self.live:
                     continue
-                if iou(seg.voxels(v), other.voxels(v)) > self.cfg.merge_iou:
+                if self._should_merge(seg, other):
                     keep, drop = (seg, other) if seg.id < other.id else (other, seg)
                     keep.absorb(drop, self.cfg.voxel)
                     keep.status = _merged_status(keep, drop, self.cfg.min_sightings)
                     self.live.remove(drop)
                     log.debug("merged segment %d into %d", drop.id, keep.id)
                     seg = keep
+
+    def _should_merge(self, a: Segment, b: Segment) -> bool:
+        c = self.cfg
+        if iou(a.voxels(c.iou_voxel), b.voxels(c.iou_voxel)) > c.merge_iou:
+            return True
+        if c.merge_contained > 1 or not boxes_touch(a, b, c.merge_contained_dist_m):
+            return False
+        small, big = (a, b) if len(a.points) <= len(b.points) else (b, a)
+        return contained_fraction(small.points, big, c.merge_contained_dist_m) > c.merge_contained
 
     def _lifecycle(self, t: float, position: NDArray[np.float64]) -> None:
         c = self.cfg
