@@ -105,9 +105,13 @@ def _camera_pose(points: NDArray[np.float64], elevation_deg: float, fov: float) 
 
 def render_map(
     submaps: list[Submap], frame: MapFrame = "world", width: int = 640, height: int = 480,
-    elevation_deg: float = 60.0, max_points_per_segment: int = 400,
+    elevation_deg: float = 60.0, max_points_per_segment: int = 100,
 ) -> NDArray[np.uint8]:
     """Render the segments of ``submaps`` to an (height, width, 3) RGB image.
+
+    Each segment is thinned to at most ``max_points_per_segment`` points: software
+    rendering time grows with the point count (about 5 s for 160k points at 640x480 on
+    two shared cores, see ``benchmarks/bench_evaluation.py``).
 
     Raises:
         EvaluationError: unknown frame, nothing to draw, or offscreen rendering failed.
