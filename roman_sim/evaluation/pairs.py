@@ -19,7 +19,7 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from itertools import combinations
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +27,9 @@ from numpy.typing import NDArray
 from roman_sim.errors import EvaluationError
 from roman_sim.geometry import inv_T, yaw_of
 from roman_sim.mapping.types import Submap
+
+if TYPE_CHECKING:
+    from roman_sim.world.truth import WorldTruth
 
 log = logging.getLogger(__name__)
 
@@ -72,6 +75,15 @@ class PairTruth:
     ambiguity: float
     relevant: bool
     kind: PairKind
+
+
+def world_ambiguity_fn(truth: "WorldTruth", radius_m: float = 15.0) -> AmbiguityFn:
+    """``ambiguity_fn`` backed by the world's ground-truth place ambiguity (imported lazily)."""
+    try:
+        from roman_sim.world.ambiguity import place_ambiguity
+    except ImportError as err:
+        raise EvaluationError(f"place ambiguity is not available: {err}") from None
+    return lambda center_xy: float(place_ambiguity(truth, center_xy, radius_m=radius_m))
 
 
 def _true_pose(s: Submap) -> NDArray[np.float64]:

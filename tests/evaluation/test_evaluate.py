@@ -61,3 +61,16 @@ def test_evaluate_rejects_bad_aligner_sets(make_submap):
         evaluate(subs, [])
     with pytest.raises(EvaluationError, match="unique"):
         evaluate(subs, [NeverAligner(), NeverAligner()])
+
+
+def test_roman_aligner_on_a_synthetic_pair_is_scored_correct():
+    from roman_sim.align.aligners import RomanAligner
+    from roman_sim.align.synthetic import make_submap_pair
+
+    a, b, _ = make_submap_pair(0, n_inliers=12, n_outliers_a=5, n_outliers_b=5, descriptor_dim=32)
+    ev = evaluate([a, b], [RomanAligner(), NeverAligner()], pairs=[(a, b)])
+    roman = next(s for s in ev.scores if s.method == "roman")
+    assert roman.truth.relevant and roman.truth.kind == "inter"
+    assert roman.correct and roman.n_assoc >= 10
+    assert ev.metrics["methods"]["roman"]["max_recall"] == 1.0
+    assert ev.metrics["methods"]["never"]["max_recall"] == 0.0
