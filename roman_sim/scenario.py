@@ -1,0 +1,152 @@
+"""The scenario model: one YAML file describes a whole run, stage by stage.
+
+Every stage's section is that stage's own configuration model (unknown keys are errors),
+so the resolved scenario written into each results folder documents the run completely.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field, field_validator, model_validator
+
+from roman_sim.config import StrictModel, apply_overrides, read_yaml, validate_model
+from roman_sim.errors import ConfigError
+from roman_sim.evaluation.metrics import EvalConfig
+from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
+from roman_sim.mapping.semantics import SemanticConfig
+from roman_sim.mapping.submap import SubmapConfig
+from roman_sim.mapping.tracker import MappingConfig
+from roman_sim.posegraph import PoseGraphConfig
+from roman_sim.sim.robot import RobotConfig
+
+log = logging.getLogger(__name__)
+
+#: Folder of the bundled scenarios (repository root ``scenarios/``, or installed copy).
+SCENARIO_DIRS = [Path(__file__).resolve().parent / "scenarios", Path(__file__).resolve().parents[1] / "scenarios"]
+
+
+class WorldRef(StrictModel):
+    """Which world: a preset (or YAML path) plus overrides of its ``WorldSpec`` fields."""
+
+    preset: str = "offroad"
+    overrides: dict[str, Any] = Field(default_factory=dict)
+
+    def spec(self) -> Any:
+        """The resolved ``WorldSpec`` (overrides validated like the preset itself)."""
+        from roman_sim.world import WorldSpec, load_world_spec
+
+        base = load_world_spec(self.preset)
+        if not self.overrides:
+            return base
+        data = base.model_dump(mode="json")
+        data = apply_overrides(data, [f"{k}={_yaml_scalar(v)}" for k, v in self.overrides.items()])
+        return validate_model(WorldSpec, data, source=f"world.overrides ({self.preset})")
+
+
+def _yaml_scalar(v: Any) -> str:
+    import json
+
+    return json.dumps(v)
+
+
+class AlignerEntry(StrictModel):
+    """One aligner to evaluate: a registered method or ``package.module:Class``."""
+
+    method: str = Field(..., min_length=1)
+    label: str | None = Field(None, description="name in tables (default: the method)")
+    params: dict[str, Any] = Field(default_factory=dict)
+
+    @property
+    def name(self) -> str:
+        return self.label or self.method
+
+
+class FrontEnd(StrictModel):
+    """Segmenter and semantic encoder: built-in simulations or ``package.module:Class``."""
+
+    segmenter: str | SegmenterConfig = "fastsam"
+    encoder: str = "simulated"
+    semantics: SemanticConfig = Field(default_factory=SemanticConfig)
+
+    @field_validator("segmenter")
+    @classmethod
+    def _known_segmenter(cls, v: str | SegmenterConfig) -> str | SegmenterConfig:
+        if isinstance(v, str) and ":" not in v and v not in SEGMENTERS:
+            raise ValueError(f"unknown segmenter {v!r} (valid: {', '.join(SEGMENTERS.names())}, or package.module:Class)")
+        return v
+
+
+class Scenario(StrictModel):
+    """A complete run: world, robots, front end, submaps, aligners, pose graph, evaluation."""
+
+    name: str = Field(..., min_length=1, pattern=r"^[A-Za-z0-9_.-]+$")
+    description: str = ""
+    seed: int = Field(0, ge=0)
+    world: WorldRef = Field(default_factory=WorldRef)
+    robots: list[RobotConfig] = Field(..., min_length=1)
+    frontend: FrontEnd = Field(default_factory=FrontEnd)
+    mapping: MappingConfig = Field(default_factory=MappingConfig)
+    submaps: SubmapConfig = Field(default_factory=SubmapConfig)
+    aligners: list[AlignerEntry] = Field(default_factory=lambda: [AlignerEntry(method="roman")], min_length=1)
+    posegraph_method: str | None = Field(
+        "roman", description="aligner whose loop closures feed the pose graph (None: no pose graph)"
+    )
+    posegraph: PoseGraphConfig = Field(default_factory=PoseGraphConfig)
+    evaluation: EvalConfig = Field(default_factory=EvalConfig)
+    record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
+
+    @field_validator("aligners", mode="before")
+    @classmethod
+    def _names_to_entries(cls, v: Any) -> Any:
+        if isinstance(v, list):
+            return [{"method": x} if isinstance(x, str) else x for x in v]
+        return v
+
+    @model_validator(mode="after")
+    def _cross_checks(self) -> "Scenario":
+        names = [r.name for r in self.robots]
+        if len(set(names)) != len(names):
+            raise ValueError(f"robots: names must be unique, got {', '.join(names)}")
+        labels = [a.name for a in self.aligners]
+        if len(set(labels)) != len(labels):
+            raise ValueError(f"aligners: labels must be unique, got {', '.join(labels)} (set 'label')")
+        if self.posegraph_method is not None and self.posegraph_method not in labels:
+            raise ValueError(f"posegraph_method: {self.posegraph_method!r} is not among aligners ({', '.join(labels)})")
+        return self
+
+
+def bundled_scenarios() -> dict[str, Path]:
+    """Scenario name -> YAML path of the scenarios shipped with the project."""
+    out: dict[str, Path] = {}
+    for d in SCENARIO_DIRS:
+        if d.is_dir():
+            for p in sorted(d.glob("*.yaml")):
+                out.setdefault(p.stem, p)
+    return out
+
+
+def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = None) -> Path:
+    """A scenario YAML path from a bundled name or a (relative) path."""
+    p = Path(name_or_path)
+    candidates = [p] + ([relative_to / p] if relative_to is not None and not p.is_absolute() else [])
+    for c in candidates:
+        if c.is_file():
+            return c
+    bundled = bundled_scenarios()
+    if str(name_or_path) in bundled:
+        return bundled[str(name_or_path)]
+    raise ConfigError(f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})")
+
+
+def load_scenario(name_or_path: str | Path, overrides: list[str] | None = None) -> Scenario:
+    """Load a scenario by name or path, apply ``key=value`` overrides and validate it."""
+    path = resolve_scenario_path(name_or_path)
+    data = read_yaml(path)
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: expected a mapping at the top level")
+    if overrides:
+        data = apply_overrides(data, overrides)
+    return validate_model(Scenario, data, source=str(path))
