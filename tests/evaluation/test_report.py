@@ -70,3 +70,26 @@ def test_ate_rows_accept_result_objects():
             return {"rmse_m": 0.5, "n": 3}
 
     assert ate_rows({"roman": {"all": Res()}}) == [{"trajectory": "roman", "all": "0.500"}]
+
+
+def test_report_from_run_folder_states_missing_stages(metrics, tmp_path):
+    import json
+
+    from roman_sim.errors import StorageError
+    from roman_sim.evaluation.evaluate import report_from_run
+    from roman_sim.evaluation.results import write_metrics_json
+
+    run = tmp_path / "smoke" / "run-1"
+    with pytest.raises(StorageError):
+        report_from_run(run)
+    write_metrics_json(run / "metrics.json", metrics)
+    (run / "ate.json").write_text(json.dumps({"odometry": {"all": 2.0}, "notes": ["robot r2 never connected"]}))
+    (run / "map_stats.json").write_text("{not json")
+    text = report_from_run(run).read_text()
+    assert text.startswith("# Evaluation report: smoke")
+    assert "| odometry | 2.000 |" in text and "robot r2 never connected" in text
+    assert "map size not available (map_stats.json unreadable or corrupt" in text
+    assert (run / "plots" / "precision_recall.png").is_file()
+    (run / "metrics.json").write_text("[]")
+    with pytest.raises(StorageError, match="schema"):
+        report_from_run(run)
