@@ -39,6 +39,11 @@ def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec) -> None:
     )
 
 
+def _sky(mjs: mujoco.MjSpec) -> None:
+    mjs.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+                    width=64, height=64, rgb1=[0.55, 0.7, 0.9], rgb2=[0.9, 0.93, 0.97])
+
+
 def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: float) -> None:
     """Add the textured hfield geom (geom 0) that reproduces ``terrain`` exactly."""
     rows, cols = terrain.shape
@@ -61,6 +66,7 @@ def new_spec(spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float)
     mjs.modelname = spec.name
     mjs.compiler.degree = False
     _visuals(mjs, spec)
+    _sky(mjs)
     add_terrain(mjs, terrain, base_z, elevation)
     return mjs
 

@@ -1,0 +1,86 @@
+"""World previews: a top-down map with families coloured and one rendered RGB view."""
+
+from __future__ import annotations
+
+import io
+import logging
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import mujoco  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.collections import PatchCollection  # noqa: E402
+from matplotlib.patches import Circle  # noqa: E402
+from numpy.typing import NDArray  # noqa: E402
+
+from roman_sim.atomic import write_bytes  # noqa: E402
+from roman_sim.errors import WorldError  # noqa: E402
+from roman_sim.world.build import World  # noqa: E402
+from roman_sim.world.truth import WorldTruth  # noqa: E402
+
+log = logging.getLogger(__name__)
+
+
+def topdown_png(truth: WorldTruth, title: str = "") -> bytes:
+    """PNG bytes of a top-down map: terrain shading, roads, object footprints by family."""
+    t = truth.terrain
+    fig, ax = plt.subplots(figsize=(8, 8 * t.size_y / t.size_x + 0.5), dpi=100)
+    ext = (-t.size_x / 2, t.size_x / 2, -t.size_y / 2, t.size_y / 2)
+    ax.imshow(t.heights, origin="lower", extent=ext, cmap="Greys", alpha=0.5)
+    for road in truth.roads:
+        ax.plot(road[:, 0], road[:, 1], color="sienna", lw=2, alpha=0.7)
+    cmap = plt.get_cmap("tab20")
+    for k, fam in enumerate(truth.families()):
+        objs = [o for o in truth.objects if o.family == fam]
+        circles = [Circle(tuple(o.T_world_obj[:2, 3]), o.radius) for o in objs]
+        ax.add_collection(PatchCollection(circles, facecolor=cmap(k % 20), edgecolor="k", lw=0.3, alpha=0.85))
+        ax.plot([], [], "o", color=cmap(k % 20), label=f"{fam} ({len(objs)})")
+    ax.set(xlim=ext[:2], ylim=ext[2:], xlabel="x [m]", ylabel="y [m]", aspect="equal", title=title)
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return buf.getvalue()
+
+
+def render_view(world: World, width: int = 640, height: int = 480, azimuth_deg: float = 45.0,
+                elevation_deg: float = -25.0, distance_frac: float = 0.45) -> NDArray[np.uint8]:
+    """(H, W, 3) RGB image from a free camera looking at the world centre."""
+    model = world.model
+    if width > model.vis.global_.offwidth or height > model.vis.global_.offheight:
+        raise WorldError(f"preview size {width}x{height} exceeds the offscreen buffer "
+                         f"{model.vis.global_.offwidth}x{model.vis.global_.offheight}")
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    cam = mujoco.MjvCamera()
+    cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+    t = world.truth.terrain
+    cam.lookat[:] = [0.0, 0.0, float(t.height_at(0.0, 0.0))]
+    cam.distance = distance_frac * max(t.size_x, t.size_y)
+    cam.azimuth, cam.elevation = azimuth_deg, elevation_deg
+    with mujoco.Renderer(model, height, width) as renderer:
+        renderer.update_scene(data, camera=cam)
+        return renderer.render().copy()
+
+
+def _png(rgb: NDArray[np.uint8]) -> bytes:
+    buf = io.BytesIO()
+    plt.imsave(buf, rgb, format="png")
+    return buf.getvalue()
+
+
+def write_preview(world: World, out: str | Path, width: int = 640, height: int = 480) -> list[Path]:
+    """Write ``topdown.png`` and ``view.png`` into folder ``out``, or ``X.png`` and ``X_view.png``."""
+    out = Path(out)
+    if out.suffix.lower() == ".png":
+        top, view = out, out.with_name(out.stem + "_view.png")
+    else:
+        top, view = out / "topdown.png", out / "view.png"
+    title = f"{world.spec.name} (seed {world.seed}, {len(world.truth.objects)} objects)"
+    write_bytes(top, topdown_png(world.truth, title))
+    write_bytes(view, _png(render_view(world, width, height)))
+    log.info("preview written to %s and %s", top, view)
+    return [top, view]
