@@ -41,12 +41,14 @@ class CameraConfig(StrictModel):
     """Camera intrinsics and its mount on the robot body (FLU).
 
     Defaults follow an Intel RealSense D455 depth stream: 640 x 480, 87 deg horizontal
-    field of view (square pixels, so about 68 deg vertical at 4:3).
+    field of view. ``vfov_deg`` None means square pixels (about 71 deg vertical at 4:3);
+    set it (e.g. 58, the D455's) for non-square pixels (fy != fx).
     """
 
     width: int = Field(640, ge=8, le=4096)
     height: int = Field(480, ge=8, le=4096)
     hfov_deg: float = Field(87.0, gt=1.0, lt=179.0)
+    vfov_deg: float | None = Field(None, gt=1.0, lt=179.0)
     mount_height_m: float = Field(0.4, ge=0.0, le=5.0)
     mount_forward_m: float = Field(0.2, ge=-2.0, le=2.0)
     mount_pitch_deg: float = Field(0.0, ge=-60.0, le=60.0)
@@ -56,9 +58,10 @@ class CameraConfig(StrictModel):
     depth_noise: DepthNoiseConfig = Field(default_factory=DepthNoiseConfig)
 
     def intrinsics(self) -> Intrinsics:
-        """Pinhole intrinsics with square pixels and a centred principal point."""
+        """Pinhole intrinsics with a centred principal point."""
         fx = (self.width / 2.0) / np.tan(np.radians(self.hfov_deg) / 2.0)
-        intr = Intrinsics(self.width, self.height, fx, fx, (self.width - 1) / 2.0, (self.height - 1) / 2.0)
+        fy = fx if self.vfov_deg is None else (self.height / 2.0) / np.tan(np.radians(self.vfov_deg) / 2.0)
+        intr = Intrinsics(self.width, self.height, float(fx), float(fy), (self.width - 1) / 2.0, (self.height - 1) / 2.0)
         return check_intrinsics(intr)
 
     def T_body_cam(self) -> NDArray[np.float64]:

@@ -7,6 +7,7 @@ and export bugs: the two depth images must agree.
 
 from __future__ import annotations
 
+import functools
 import logging
 from typing import Any
 
@@ -67,9 +68,17 @@ def pyrender_depth(
     du, dv = MSAA_SAMPLE_OFFSET_PX
     cam = pyrender.IntrinsicsCamera(k.fx, k.fy, k.cx + 0.5 + du, k.cy + 0.5 + dv, znear=near_m, zfar=far_m)
     scene.add(cam, pose=np.asarray(T_world_cam, dtype=np.float64) @ _T_RDF_GL)
-    renderer = pyrender.OffscreenRenderer(k.width, k.height)
-    try:
-        depth = renderer.render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
-    finally:
-        renderer.delete()
+    depth = _offscreen(k.width, k.height).render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
     return np.asarray(depth, dtype=np.float32)
+
+
+@functools.lru_cache(maxsize=4)
+def _offscreen(width: int, height: int) -> Any:
+    """One pyrender offscreen renderer per image size, kept for the process lifetime.
+
+    pyrender's ``delete()`` terminates the EGL display, which MuJoCo's contexts share, so
+    the renderer is reused instead of being deleted after each call.
+    """
+    import pyrender
+
+    return pyrender.OffscreenRenderer(width, height)

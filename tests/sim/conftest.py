@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import mujoco
 import numpy as np
 import pytest
@@ -46,3 +47,11 @@ def build_plane_box_world() -> FixtureWorld:
 @pytest.fixture(scope="session")
 def plane_box_world() -> FixtureWorld:
     return build_plane_box_world()
+
+
+@pytest.fixture(scope="session")
+def tiny_world():
+    """The ``tiny`` preset world (seed 0)."""
+    from roman_sim.world import generate, load_world_spec
+
+    return generate(load_world_spec("tiny"), 0)
