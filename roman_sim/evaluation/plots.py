@@ -68,7 +68,7 @@ def plot_pr(metrics: dict[str, Any], path: str | Path) -> Path:
         ax.text(0.5, 0.5, "no relevant pairs: recall undefined", ha="center", transform=ax.transAxes)
     ax.grid(alpha=0.3)
     if _methods(metrics):
-        ax.legend(loc="lower left", fontsize=8)
+        ax.legend(loc="best", fontsize=8)
     return save_png(fig, path)
 
 
