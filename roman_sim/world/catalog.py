@@ -39,19 +39,56 @@ class Asset:
         return trimesh.util.concatenate([p.mesh for p in self.parts])
 
 
-def _make_asset(key: str, family: str, parts: list[Part]) -> Asset:
+@dataclass(frozen=True)
+class _Shape:
+    """Scale-1 shape truth of one variant (all of it scales linearly)."""
+
+    radius: float
+    obb_T: NDArray[np.float64]
+    obb_extents: NDArray[np.float64]
+    centroid: NDArray[np.float64]
+
+
+def _shape(parts: list[Part]) -> _Shape:
+    """Gravity-aligned oriented box (2D box in xy, z range), radius and volume centroid."""
     mesh = trimesh.util.concatenate([p.mesh for p in parts])
     v = mesh.vertices
-    T_obb, ext = trimesh.bounds.oriented_bounds(mesh)
-    centroid = mesh.center_mass if mesh.is_volume else v.mean(axis=0)
+    T2, ext2 = trimesh.bounds.oriented_bounds_2D(v[:, :2])
+    T_inv = np.linalg.inv(T2)  # box frame -> object frame (2D)
+    obb_T = np.eye(4)
+    obb_T[:2, :2], obb_T[:2, 3] = T_inv[:2, :2], T_inv[:2, 2]
+    zlo, zhi = v[:, 2].min(), v[:, 2].max()
+    obb_T[2, 3] = (zlo + zhi) / 2
+    vol, com = _volume_centroid(mesh)
+    return _Shape(
+        radius=float(np.hypot(v[:, 0], v[:, 1]).max()),
+        obb_T=obb_T,
+        obb_extents=np.array([ext2[0], ext2[1], zhi - zlo], dtype=np.float64),
+        centroid=com if vol > 0 else v.mean(axis=0),
+    )
+
+
+def _volume_centroid(mesh: trimesh.Trimesh) -> tuple[float, NDArray[np.float64]]:
+    """Signed volume and centroid from the triangles (closed parts add up; overlaps count twice)."""
+    tri = mesh.triangles
+    cross = np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2]))
+    vol = cross.sum() / 6.0
+    if vol <= 1e-12:
+        return 0.0, np.zeros(3)
+    return float(vol), (cross[:, None] * tri.sum(axis=1)).sum(axis=0) / (24.0 * vol)
+
+
+def _scaled(key: str, family: str, parts: list[Part], shape: _Shape, s: float) -> Asset:
+    obb_T = shape.obb_T.copy()
+    obb_T[:3, 3] *= s
     return Asset(
         key=key,
         family=family,
-        parts=tuple(parts),
-        radius=float(np.hypot(v[:, 0], v[:, 1]).max()),
-        obb_T_local=np.linalg.inv(T_obb),
-        obb_extents=np.asarray(ext, dtype=np.float64),
-        centroid_local=np.asarray(centroid, dtype=np.float64),
+        parts=tuple(Part(p.name, trimesh.Trimesh(p.mesh.vertices * s, p.mesh.faces, process=False), p.rgba) for p in parts),
+        radius=shape.radius * s,
+        obb_T_local=obb_T,
+        obb_extents=shape.obb_extents * s,
+        centroid_local=shape.centroid * s,
     )
 
 
@@ -75,7 +112,7 @@ def family_assets(seed: int, fam: FamilySpec, size_variation: float) -> list[Ass
     for v in range(n_variants(fam, size_variation)):
         rng = child_rng(seed, "world", "asset", fam.name, v)
         base = FAMILIES.get(fam.name)(rng)
+        shape = _shape(base)
         for b, s in enumerate(scale_levels(fam, size_variation)):
-            parts = [Part(p.name, p.mesh.copy().apply_scale(float(s)), p.rgba) for p in base]
-            assets.append(_make_asset(f"{fam.name}_v{v}_s{b}", fam.name, parts))
+            assets.append(_scaled(f"{fam.name}_v{v}_s{b}", fam.name, base, shape, float(s)))
     return assets
