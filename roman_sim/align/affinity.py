@@ -9,6 +9,10 @@
 - ``build_affinity``: all association pairs vectorised on object-level distance matrices,
   gated early, fused with s_o into a scipy CSR matrix with unit diagonal.
 
+Fusion: the geometric gate decides the edges (s_a = 0 is never an edge, whatever the
+fusion); without any object score, M = s_a as in standard CLIPPER. An association whose
+s_o is 0 (cosine <= cos_min) is not a putative association at all.
+
 Gravity-uncertainty widening: following REFERENCE.md literally, ``d_xy`` and ``d_z`` are
 the mean (over the two submaps) lateral length and absolute vertical difference of the
 pair; sigma and epsilon of each part are widened additively.
@@ -222,6 +226,23 @@ def _widening_bounds(ca: NDArray, cb: NDArray, p: AffinityParams) -> tuple[float
     return float(span_xy * (1 - np.cos(th))) + 1e-6, float(span_z * np.sin(th)) + 1e-6
 
 
+def csr_from_entries(rows: NDArray, cols: NDArray, vals: NDArray, n: int) -> sp.csr_matrix:
+    """(n, n) CSR from unique (row, col) entries by a stable counting sort on rows.
+
+    Avoids scipy's COO conversion, which sorts every row's column indices; the matrix is
+    only used for mat-vecs and row look-ups, so column order within a row is left as is.
+    Rows are sorted as 16-bit keys when possible (NumPy then uses an O(n) radix sort).
+    """
+    key = rows.astype(np.uint16) if n <= np.iinfo(np.uint16).max else rows
+    order = np.argsort(key, kind="stable")
+    indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(rows, minlength=n), out=indptr[1:])
+    index_dtype = np.int32 if n < np.iinfo(np.int32).max else np.int64
+    return sp.csr_matrix(
+        (vals[order].astype(np.float64), cols[order].astype(index_dtype), indptr.astype(index_dtype)), shape=(n, n)
+    )
+
+
 def build_affinity(
     centers_a: NDArray, centers_b: NDArray, assoc: NDArray[np.int64],
     s_o: NDArray[np.float64] | None, params: AffinityParams,
@@ -243,9 +264,8 @@ def build_affinity(
     good = w > params.min_affinity
     r, c, w = rows[good], cols[good], w[good]
     diag = np.arange(P)
-    M = sp.csr_matrix(
-        (np.concatenate([w, w, np.ones(P)]), (np.concatenate([r, c, diag]), np.concatenate([c, r, diag]))),
-        shape=(P, P),
+    M = csr_from_entries(
+        np.concatenate([r, c, diag]), np.concatenate([c, r, diag]), np.concatenate([w, w, np.ones(P)]), P
     )
     log.debug("affinity: %d associations, %d edges", P, len(w))
     return M

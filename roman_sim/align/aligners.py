@@ -135,7 +135,8 @@ class RomanAligner:
 
 
 def _variant(name: str, model: type[RomanParams], doc: str) -> type[RomanAligner]:
-    cls = type(f"{name.title().replace('_', '')}Aligner", (RomanAligner,), {"name": name, "params_model": model, "__doc__": doc})
+    attrs = {"name": name, "params_model": model, "__doc__": doc}
+    cls = type(f"{name.title().replace('_', '')}Aligner", (RomanAligner,), attrs)
     ALIGNERS.register(name, cls)
     return cls
 

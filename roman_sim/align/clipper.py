@@ -61,16 +61,16 @@ class ClipperSolution:
 
 
 def _prepare(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
-    """Square, finite, non-negative CSR copy of ``M`` without its diagonal, sorted indices."""
-    A = sp.csr_matrix(M, dtype=np.float64)
+    """Square, finite, non-negative CSR of ``M`` without its diagonal (entries assumed unique)."""
+    A = M if sp.issparse(M) and M.format == "csr" and M.dtype == np.float64 else sp.csr_matrix(M, dtype=np.float64)
     if A.shape[0] != A.shape[1]:
         raise AlignmentError(f"affinity matrix must be square, got shape {A.shape}")
-    A.sum_duplicates()
     if A.nnz and (not np.all(np.isfinite(A.data)) or A.data.min() < 0):
         raise AlignmentError("affinity matrix entries must be finite and >= 0")
-    row = np.repeat(np.arange(A.shape[0]), np.diff(A.indptr))
+    row = np.repeat(np.arange(A.shape[0], dtype=A.indices.dtype), np.diff(A.indptr))
     keep = (A.indices != row) & (A.data > 0)
-    indptr = np.concatenate([[0], np.cumsum(np.bincount(row[keep], minlength=A.shape[0]))])
+    indptr = np.zeros(A.shape[0] + 1, dtype=A.indptr.dtype)
+    np.cumsum(np.bincount(row[keep], minlength=A.shape[0]), out=indptr[1:])
     return sp.csr_matrix((A.data[keep], A.indices[keep], indptr), shape=A.shape)
 
 
@@ -84,7 +84,9 @@ def _penalty_step(A: sp.csr_matrix, B: sp.csr_matrix, u: NDArray[np.float64], ep
     return float(np.mean(np.abs(mu / cbar_u[idx])))
 
 
-def _ascend(G: sp.csr_matrix, d: float, u: NDArray[np.float64], p: ClipperParams) -> tuple[NDArray[np.float64], float, int]:
+def _ascend(
+    G: sp.csr_matrix, d: float, u: NDArray[np.float64], p: ClipperParams
+) -> tuple[NDArray[np.float64], float, int]:
     """Inner projected gradient ascent at penalty ``d``; ``G = M0 + d C0``."""
 
     def grad(v: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -176,16 +178,12 @@ def round_solution(A: sp.csr_matrix, u: NDArray[np.float64], F: float, eps: floa
 
 
 def _row_weights(A: sp.csr_matrix, i: int, chosen: list[int]) -> NDArray[np.float64] | None:
-    """Weights from node ``i`` to every chosen node, or None if one is not a neighbour."""
+    """Weights from node ``i`` to the chosen nodes, or None if one is not a neighbour."""
     lo, hi = A.indptr[i], A.indptr[i + 1]
-    cols, vals = A.indices[lo:hi], A.data[lo:hi]
-    if not chosen:
-        return np.zeros(0)
-    pos = np.searchsorted(cols, chosen)
-    pos = np.minimum(pos, max(len(cols) - 1, 0))
-    if len(cols) == 0 or not np.all(cols[pos] == np.asarray(chosen)):
+    hit = np.isin(A.indices[lo:hi], chosen)
+    if int(hit.sum()) != len(chosen):
         return None
-    return vals[pos]
+    return A.data[lo:hi][hit]
 
 
 def _extend(A: sp.csr_matrix, order: NDArray[np.int64], chosen: list[int]) -> NDArray[np.int64]:

@@ -101,7 +101,8 @@ class KissMatcherAligner:
         sol = matcher.prune_and_solve(src, dst)
         info = {"n_putative": int(ia.size), "n_rotation_inliers": int(matcher.get_num_rotation_inliers())}
         if not sol.valid:
-            return AlignResult.failure(self.name, "kiss_matcher found no valid solution", time.perf_counter() - t0, **info)
+            why = "kiss_matcher found no valid solution"
+            return AlignResult.failure(self.name, why, time.perf_counter() - t0, **info)
         T = make_T(np.asarray(sol.rotation), np.asarray(sol.translation).reshape(3))
         assoc = one_to_one(np.asarray(a.centers), transform_points(T, b.centers), self.params.max_corr_dist_m)
         reason = None

@@ -47,7 +47,9 @@ class RansacOutcome:
     reason: str | None = None
 
 
-def _sample(rng: np.random.Generator, na: int, nb: int, k: int, Da: NDArray, Db: NDArray, ratio: float) -> tuple[NDArray, NDArray]:
+def _sample(
+    rng: np.random.Generator, na: int, nb: int, k: int, Da: NDArray, Db: NDArray, ratio: float
+) -> tuple[NDArray, NDArray]:
     """Draw ``k`` triples; return (ia, ib) (m, 3) of those passing distinctness and edge checks."""
     ia, ib = rng.integers(0, na, (k, 3)), rng.integers(0, nb, (k, 3))
     ok = np.ones(k, dtype=bool)

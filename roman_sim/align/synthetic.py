@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.errors import ConfigError
 from roman_sim.geometry import inv_T, rot_z, transform_points
 from roman_sim.mapping.types import Submap, SubmapTruth
 from roman_sim.seeding import child_rng
@@ -111,8 +112,15 @@ def make_submap_pair(
         radius_m: objects are spread over a disc of this radius (heights 0-5 m).
 
     Returns: (submap_a, submap_b, true associations (n_inliers, 2) of (a_idx, b_idx)).
+
+    Raises:
+        ConfigError: negative counts or noise, descriptor_dim < 1, n_families < 2, or a
+            ``T_a_b`` that is not a finite 4x4 matrix.
     """
+    _check_args(n_inliers, n_outliers_a, n_outliers_b, noise_m, descriptor_dim, n_families, radius_m)
     T = np.asarray(T_a_b if T_a_b is not None else _default_T(), dtype=np.float64)
+    if T.shape != (4, 4) or not np.all(np.isfinite(T)):
+        raise ConfigError(f"T_a_b: expected a finite 4x4 matrix, got shape {T.shape}")
     sc = _Scene(seed, descriptor_dim, n_families)
     rng = sc.rng
     if repeated_layout:
@@ -129,7 +137,8 @@ def make_submap_pair(
         ext_d, desc_d = sc.instances((fam + 1 + rng.integers(0, n_families - 1, n_inliers)) % n_families)
         parts_a.append((shared + np.array([radius_m, 0.0, 0.0]), ext_d, desc_d))
     ca, ea, da = _stack_views(sc, parts_a, noise_m)
-    cb, eb, db = _stack_views(sc, [(transform_points(inv_T(T), shared), ext_s, desc_s), (out_b, ext_b, desc_b)], noise_m)
+    parts_b = [(transform_points(inv_T(T), shared), ext_s, desc_s), (out_b, ext_b, desc_b)]
+    cb, eb, db = _stack_views(sc, parts_b, noise_m)
     ids_a = np.concatenate([np.arange(n_inliers), 1000 + np.arange(len(ca) - n_inliers)])
     ids_b = np.concatenate([np.arange(n_inliers), 100000 + np.arange(n_outliers_b)])
     pa, pb = rng.permutation(len(ca)), rng.permutation(len(cb))
@@ -140,7 +149,21 @@ def make_submap_pair(
     return a, b, truth[np.argsort(truth[:, 0])]
 
 
-def _stack_views(sc: _Scene, parts: list[tuple[NDArray, NDArray, NDArray]], noise_m: float) -> tuple[NDArray, NDArray, NDArray]:
+def _check_args(n_in: int, n_oa: int, n_ob: int, noise: float, dim: int, fams: int, radius: float) -> None:
+    checks = {
+        "n_inliers": n_in >= 0, "n_outliers_a": n_oa >= 0, "n_outliers_b": n_ob >= 0, "noise_m": noise >= 0,
+        "descriptor_dim": dim >= 1, "n_families": fams >= 2, "radius_m": radius > 0,
+    }
+    for name, ok in checks.items():
+        if not ok:
+            raise ConfigError(f"make_submap_pair: {name} out of range (counts and noise >= 0, "
+                              "descriptor_dim >= 1, n_families >= 2, radius_m > 0)")
+
+
+def _stack_views(
+    sc: _Scene, parts: list[tuple[NDArray, NDArray, NDArray]], noise_m: float
+) -> tuple[NDArray, NDArray, NDArray]:
+    """Observed centres (with noise), extents and descriptors of all parts, stacked."""
     cs, es, ds = [], [], []
     for c, e, d in parts:
         e2, d2 = sc.observe(e, d)

@@ -86,7 +86,10 @@ def test_same_input_same_output() -> None:
     np.testing.assert_array_equal(a.u, b.u)
 
 
-@pytest.mark.parametrize("M", [np.ones((2, 3)), np.array([[1.0, -0.5], [-0.5, 1.0]]), np.array([[1.0, np.nan], [np.nan, 1.0]])])
+BAD = [np.ones((2, 3)), np.array([[1.0, -0.5], [-0.5, 1.0]]), np.array([[1.0, np.nan], [np.nan, 1.0]])]
+
+
+@pytest.mark.parametrize("M", BAD)
 def test_bad_matrices_raise_alignment_error(M: np.ndarray) -> None:
     with pytest.raises(AlignmentError):
         solve_clipper(M)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from roman_sim.align.ransac import RansacParams, ransac_align
 from roman_sim.align.synthetic import make_submap_pair
+from roman_sim.errors import ConfigError
 from roman_sim.geometry import pose_4dof, pose_error, transform_points
 
 
@@ -60,3 +62,13 @@ def test_ransac_without_consistent_triples_reports_no_hypothesis() -> None:
     cb = np.array([[0.0, 0, 0], [7, 0, 0], [0, 20, 0]])
     out = ransac_align(ca, cb, RansacParams(iterations=1000))
     assert out.T_a_b is None and "edge check" in out.reason
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"n_inliers": -1}, {"noise_m": -0.1}, {"descriptor_dim": 0}, {"n_families": 1}, {"T_a_b": np.eye(3)}],
+)
+def test_synthetic_pair_rejects_bad_arguments(kwargs: dict) -> None:
+    args = {"seed": 0, "n_inliers": 5, "n_outliers_a": 1, "n_outliers_b": 1} | kwargs
+    with pytest.raises(ConfigError):
+        make_submap_pair(**args)
