@@ -96,7 +96,7 @@ class GroundRobotEnv(gym.Env):
             "rgb": spaces.Box(0, 255, (h, w, 3), np.uint8),
             "depth": spaces.Box(0.0, np.float32(self.camera.far_m * 2), (h, w), np.float32),
             "object_ids": spaces.Box(-1, n_obj - 1, (h, w), np.int32),
-            "odom_pose": spaces.Box(-np.inf, np.inf, (4, 4), np.float64),
+            "odom_pose": spaces.Box(-1e6, 1e6, (4, 4), np.float64),
         })
         self._state = PlanarState(0.0, 0.0, 0.0)
         self._steps = 0
@@ -131,7 +131,7 @@ class GroundRobotEnv(gym.Env):
             rgb = np.zeros((self.camera.height, self.camera.width, 3), dtype=np.uint8)
         self._last_rgb = rgb
         obs = {"rgb": rgb, "depth": depth, "object_ids": ids, "odom_pose": T_ob}
-        info = {"T_world_body": T_wb, "t": self._steps * self.dt, "T_body_cam": self._T_body_cam}
+        info = {"T_world_body": T_wb, "t": self._steps * self.dt, "T_body_cam": self._T_body_cam.copy()}
         return obs, info
 
     def step(self, action: np.ndarray) -> tuple[ObsDict, float, bool, bool, dict[str, Any]]:

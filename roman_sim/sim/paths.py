@@ -22,7 +22,7 @@ from pydantic import Field
 from roman_sim.config import StrictModel
 from roman_sim.errors import SimError
 from roman_sim.registry import Registry
-from roman_sim.sim.planner import GridPlanner, Obstacles
+from roman_sim.sim.planner import Obstacles, inside_world, route
 from roman_sim.world.truth import WorldTruth
 
 log = logging.getLogger(__name__)
@@ -181,14 +181,9 @@ def _waypoints(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> 
     return np.asarray(cfg.waypoints, dtype=np.float64)
 
 
-def _inside(truth: WorldTruth, pts: NDArray[np.float64], margin: float) -> NDArray[np.bool_]:
-    ter = truth.terrain
-    return (np.abs(pts[:, 0]) <= ter.size_x / 2 - margin + 1e-9) & (np.abs(pts[:, 1]) <= ter.size_y / 2 - margin + 1e-9)
-
-
 def validate_path(path: Path2D, truth: WorldTruth, cfg: PathConfig, name: str, obstacles: Obstacles | None = None) -> Path2D:
     """Return ``path`` if it stays inside the world and clear of objects, else raise ``SimError``."""
-    out = ~_inside(truth, path.xy, cfg.edge_margin_m)
+    out = ~inside_world(truth, path.xy, cfg.edge_margin_m)
     if out.any():
         x, y = path.xy[np.argmax(out)]
         raise SimError(f"robot {name!r}: path leaves the world at ({x:.2f}, {y:.2f}) (edge margin {cfg.edge_margin_m} m)")
@@ -201,47 +196,6 @@ def validate_path(path: Path2D, truth: WorldTruth, cfg: PathConfig, name: str, o
             f"closer than its clearance {cfg.clearance_m} m"
         )
     return path
-
-
-def _shortcut(pts: NDArray[np.float64], obs: Obstacles, clearance: float) -> NDArray[np.float64]:
-    out, i = [pts[0]], 0
-    while i < len(pts) - 1:
-        j = len(pts) - 1
-        while j > i + 1 and not obs.segment_free(pts[i], pts[j], clearance):
-            j -= 1
-        out.append(pts[j])
-        i = j
-    return np.asarray(out)
-
-
-def route(waypoints: NDArray[np.float64], truth: WorldTruth, cfg: PathConfig, name: str, obs: Obstacles) -> NDArray[np.float64]:
-    """Polyline through ``waypoints`` with detours around objects (grid planner when needed)."""
-    out = ~_inside(truth, waypoints, cfg.edge_margin_m)
-    if out.any():
-        x, y = waypoints[np.argmax(out)]
-        raise SimError(f"robot {name!r}: path waypoint ({x:.2f}, {y:.2f}) lies outside the world")
-    need = cfg.clearance_m + 0.2  # slack so smoothing keeps the clearance
-    planner: GridPlanner | None = None
-    pts = waypoints.copy()
-    blocked = obs.clearance(pts) < need
-    legs_blocked = [not obs.segment_free(a, b, need) for a, b in zip(pts[:-1], pts[1:])]
-    if blocked.any() or any(legs_blocked):
-        planner = GridPlanner(obs, need, cfg.edge_margin_m)
-    for i in np.flatnonzero(blocked):
-        snapped = planner.nearest_free(pts[i], 3.0) if planner else None
-        if snapped is None:
-            raise SimError(f"robot {name!r}: waypoint ({pts[i, 0]:.2f}, {pts[i, 1]:.2f}) is blocked by objects")
-        pts[i] = snapped
-    poly = [pts[:1]]
-    for a, b in zip(pts[:-1], pts[1:]):
-        if planner is None or obs.segment_free(a, b, need):
-            poly.append(b[None])
-            continue
-        leg = planner.plan(a, b)
-        if leg is None:
-            raise SimError(f"robot {name!r}: no free route from ({a[0]:.1f}, {a[1]:.1f}) to ({b[0]:.1f}, {b[1]:.1f})")
-        poly.append(_shortcut(leg, obs, need)[1:])
-    return np.vstack(poly)
 
 
 def make_path(
@@ -272,17 +226,33 @@ def make_path(
             return validate_path(reversed_path(other), truth, cfg, name, obs)
         line = crossing_path(other, cfg.heading_offset_deg, cfg.at_fraction, cfg.length_m).xy
         waypoints = _clip_line(line[[0, -1]], truth, cfg.edge_margin_m)
-    else:
-        waypoints = WAYPOINTS.get(cfg.kind)(cfg, truth, rng)
-    poly = route(waypoints, truth, cfg, name, obs)
-    last_err: SimError | None = None
+        return _smooth_valid(route(waypoints, truth, cfg.clearance_m, cfg.edge_margin_m, name, obs), truth, cfg, name, obs)
+    gen = WAYPOINTS.get(cfg.kind)
+    # Randomly placed shapes are re-drawn a few times if a placement cannot be routed.
+    attempts = _RANDOM_ATTEMPTS if cfg.center is None and cfg.kind in _RANDOM_KINDS else 1
+    for k in range(attempts):
+        try:
+            return _smooth_valid(route(gen(cfg, truth, rng), truth, cfg.clearance_m, cfg.edge_margin_m, name, obs), truth, cfg, name, obs)
+        except SimError as err:
+            if k == attempts - 1:
+                raise
+            log.debug("robot %s: placement %d rejected (%s)", name, k, err)
+    raise AssertionError("unreachable")
+
+
+_RANDOM_KINDS = ("loop", "out_and_back", "lawnmower")
+_RANDOM_ATTEMPTS = 20
+
+
+def _smooth_valid(poly: NDArray[np.float64], truth: WorldTruth, cfg: PathConfig, name: str, obs: Obstacles) -> Path2D:
+    """Smooth as much as the clearance allows (fewer Chaikin iterations if needed)."""
     for it in range(cfg.smooth_iterations, -1, -1):
         try:
             return validate_path(path_from_points(chaikin(poly, it), cfg.resample_m), truth, cfg, name, obs)
-        except SimError as err:
-            last_err = err
-    assert last_err is not None
-    raise last_err
+        except SimError:
+            if it == 0:
+                raise
+    raise AssertionError("unreachable")
 
 
 def _clip_line(ends: NDArray[np.float64], truth: WorldTruth, margin: float) -> NDArray[np.float64]:

@@ -14,6 +14,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
+from roman_sim.errors import SimError
+from roman_sim.world.query import footprints
 from roman_sim.world.truth import WorldTruth
 
 log = logging.getLogger(__name__)
@@ -22,15 +24,16 @@ _K_NEAREST = 16
 
 
 class Obstacles:
-    """Object footprints of a world as discs, with a KD-tree for clearance queries."""
+    """Object footprints of a world as discs, with a KD-tree for clearance queries.
+
+    Unlike ``roman_sim.world.query.clearance`` (exact, one query per point) this keeps the
+    tree and answers many points at once from the 16 nearest footprint centres, which is
+    what path checks and planning grids need.
+    """
 
     def __init__(self, truth: WorldTruth) -> None:
         self.truth = truth
-        if truth.objects:
-            self.xy = np.array([o.T_world_obj[:2, 3] for o in truth.objects], dtype=np.float64)
-            self.r = np.array([o.radius for o in truth.objects], dtype=np.float64)
-        else:
-            self.xy, self.r = np.zeros((0, 2)), np.zeros(0)
+        self.xy, self.r = footprints(truth)
         self.tree = cKDTree(self.xy) if len(self.xy) else None
 
     def clearance(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -117,3 +120,52 @@ class GridPlanner:
         while chain[-1] != s:
             chain.append(int(pred[chain[-1]]))
         return np.vstack([a, self.centres[chain[::-1]][1:-1], b])
+
+
+def inside_world(truth: WorldTruth, pts: NDArray[np.float64], margin: float) -> NDArray[np.bool_]:
+    """(N,) whether points (N, 2) lie inside the terrain with ``margin`` to spare."""
+    ter = truth.terrain
+    return (np.abs(pts[:, 0]) <= ter.size_x / 2 - margin + 1e-9) & (np.abs(pts[:, 1]) <= ter.size_y / 2 - margin + 1e-9)
+
+
+def _shortcut(pts: NDArray[np.float64], obs: Obstacles, clearance: float) -> NDArray[np.float64]:
+    out, i = [pts[0]], 0
+    while i < len(pts) - 1:
+        j = len(pts) - 1
+        while j > i + 1 and not obs.segment_free(pts[i], pts[j], clearance):
+            j -= 1
+        out.append(pts[j])
+        i = j
+    return np.asarray(out)
+
+
+def route(
+    waypoints: NDArray[np.float64], truth: WorldTruth, clearance_m: float, edge_margin_m: float, name: str, obs: Obstacles
+) -> NDArray[np.float64]:
+    """Polyline through ``waypoints`` with detours around objects (grid planner when needed)."""
+    out = ~inside_world(truth, waypoints, edge_margin_m)
+    if out.any():
+        x, y = waypoints[np.argmax(out)]
+        raise SimError(f"robot {name!r}: path waypoint ({x:.2f}, {y:.2f}) lies outside the world")
+    need = clearance_m + 0.2  # slack so smoothing keeps the clearance
+    planner: GridPlanner | None = None
+    pts = waypoints.copy()
+    blocked = obs.clearance(pts) < need
+    legs_blocked = [not obs.segment_free(a, b, need) for a, b in zip(pts[:-1], pts[1:])]
+    if blocked.any() or any(legs_blocked):
+        planner = GridPlanner(obs, need, edge_margin_m)
+    for i in np.flatnonzero(blocked):
+        snapped = planner.nearest_free(pts[i], 3.0) if planner else None
+        if snapped is None:
+            raise SimError(f"robot {name!r}: waypoint ({pts[i, 0]:.2f}, {pts[i, 1]:.2f}) is blocked by objects")
+        pts[i] = snapped
+    poly = [pts[:1]]
+    for a, b in zip(pts[:-1], pts[1:]):
+        if planner is None or obs.segment_free(a, b, need):
+            poly.append(b[None])
+            continue
+        leg = planner.plan(a, b)
+        if leg is None:
+            raise SimError(f"robot {name!r}: no free route from ({a[0]:.1f}, {a[1]:.1f}) to ({b[0]:.1f}, {b[1]:.1f})")
+        poly.append(_shortcut(leg, obs, need)[1:])
+    return np.vstack(poly)
