@@ -165,3 +165,35 @@ def test_kiss_matcher_missing_extra_is_a_config_error(monkeypatch: pytest.Monkey
     monkeypatch.setattr(peers.importlib.util, "find_spec", lambda name: None)
     with pytest.raises(ConfigError, match="peers"):
         build_aligner("kiss_matcher")
+
+
+@pytest.mark.parametrize(
+    "params",
+    [{"dof": 4}, {"weighted": True}, {"fusion": "arithmetic"}, {"fusion": "product"}, {"gravity_uncertainty_deg": 5.0}],
+)
+def test_roman_options_still_recover_the_transform(params: dict) -> None:
+    T = pose_4dof(-3.0, 1.0, 0.4, np.deg2rad(-150.0))
+    a, b, truth = make_submap_pair(9, 12, 12, 12, T_a_b=T, noise_m=0.05, descriptor_dim=64)
+    r = build_aligner("roman", params).align(a, b)
+    assert _correct(r, T)
+    assert set(map(tuple, r.associations)) <= set(map(tuple, truth))
+    if params.get("dof") == 4:
+        np.testing.assert_allclose(r.T_a_b[2, :3], [0.0, 0.0, 1.0], atol=1e-12)
+
+
+def test_same_input_same_result() -> None:
+    a, b, _ = make_submap_pair(4, 12, 12, 12, descriptor_dim=64)
+    r1, r2 = build_aligner("clipper").align(a, b), build_aligner("clipper").align(a, b)
+    np.testing.assert_array_equal(r1.T_a_b, r2.T_a_b)
+    np.testing.assert_array_equal(r1.associations, r2.associations)
+    np.testing.assert_array_equal(r1.scores, r2.scores)
+
+
+def test_tilted_result_is_rejected_by_the_pruned_baseline() -> None:
+    from roman_sim.geometry import make_T, rpy_to_R
+
+    T = make_T(rpy_to_R(np.deg2rad(10.0), 0.0, 0.5), [1.0, 2.0, 0.0])
+    a, b, _ = make_submap_pair(6, 12, 4, 4, T_a_b=T, noise_m=0.02, descriptor_dim=64)
+    assert _correct(build_aligner("clipper").align(a, b), T)  # 6-DoF, 90 deg limit
+    r = build_aligner("clipper_prune").align(a, b)
+    assert not r.ok and "roll/pitch" in r.reason and r.n_associations >= 3
