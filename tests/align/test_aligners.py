@@ -197,3 +197,20 @@ def test_tilted_result_is_rejected_by_the_pruned_baseline() -> None:
     assert _correct(build_aligner("clipper").align(a, b), T)  # 6-DoF, 90 deg limit
     r = build_aligner("clipper_prune").align(a, b)
     assert not r.ok and "roll/pitch" in r.reason and r.n_associations >= 3
+
+
+def test_users_can_register_their_own_method(monkeypatch: pytest.MonkeyPatch) -> None:
+    class Identity:
+        name = "identity"
+
+        def __init__(self, scale: float = 1.0) -> None:
+            self.scale = scale
+
+        def align(self, a, b) -> AlignResult:
+            return AlignResult(self.name, np.eye(4), np.zeros((0, 2), np.int64), np.zeros(0), 0.0)
+
+    monkeypatch.setitem(ALIGNERS._items, "identity", Identity)
+    al = build_aligner("identity", {"scale": 2.0})
+    assert al.scale == 2.0 and al.align(None, None).ok
+    with pytest.raises(ConfigError, match="bad parameters"):
+        build_aligner("identity", {"nope": 1})
