@@ -61,7 +61,10 @@ class AlignerEntry(StrictModel):
 
     @property
     def name(self) -> str:
-        return self.label or self.method
+        """Label in tables: ``label``, else the method (the class name for ``module:Class``)."""
+        if self.label:
+            return self.label
+        return self.method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in self.method else self.method
 
 
 class FrontEnd(StrictModel):

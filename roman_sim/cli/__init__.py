@@ -7,26 +7,28 @@ Any ``RomanSimError`` becomes one line on stderr and exit code 1; a traceback me
 from __future__ import annotations
 
 import logging
-import sys
 from typing import Any
 
+import click
 import typer
+from typer.core import TyperGroup
 
 from roman_sim.errors import RomanSimError
 
 
-class _App(typer.Typer):
-    """Typer app that turns ``RomanSimError`` into one clear line and exit code 1."""
+class _Group(TyperGroup):
+    """Command group that turns ``RomanSimError`` into one clear line and exit code 1."""
 
-    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+    def invoke(self, ctx: click.Context) -> Any:
         try:
-            return super().__call__(*args, **kwargs)
+            return super().invoke(ctx)
         except RomanSimError as err:
             typer.echo(f"error: {err}", err=True)
-            sys.exit(1)
+            raise typer.Exit(1) from None
 
 
-app = _App(
+app = typer.Typer(
+    cls=_Group,
     name="roman-sim",
     help="Simulation testbed for ROMAN global localization with open-set object maps.",
     no_args_is_help=True,

@@ -25,6 +25,7 @@ from numpy.typing import NDArray
 from roman_sim.atomic import write_bytes
 from roman_sim.errors import EvaluationError
 from roman_sim.geometry import make_T, transform_points
+from roman_sim.glrender import offscreen_renderer
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)
@@ -145,11 +146,9 @@ def _render(clouds: list, boxes: list, cam_pose: NDArray[np.float64], width: int
         scene.add(pyrender.Mesh.from_trimesh(trimesh.util.concatenate(boxes), smooth=False))
     scene.add(pyrender.PerspectiveCamera(yfov=np.radians(45), aspectRatio=width / height), pose=cam_pose)
     scene.add(pyrender.DirectionalLight(intensity=3.0), pose=cam_pose)
-    renderer = pyrender.OffscreenRenderer(width, height, point_size=3.0)
-    try:
-        color, _ = renderer.render(scene)
-    finally:
-        renderer.delete()
+    renderer = offscreen_renderer(width, height)
+    renderer.point_size = 3.0
+    color, _ = renderer.render(scene)
     return np.ascontiguousarray(color[..., :3], dtype=np.uint8)
 
 

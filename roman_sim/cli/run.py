@@ -1,0 +1,239 @@
+"""``roman-sim run``, ``demo``, ``record``, ``report`` and ``sweep``: the pipeline commands."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Optional
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.table import Table
+
+from roman_sim.cli import app
+from roman_sim.cli.listing import LISTINGS
+
+console = Console(stderr=True)
+DEMO_SCENARIO = "demo"
+
+
+class RichProgress:
+    """Rich progress bars for the stages of ``Experiment`` (implements its ``Progress``)."""
+
+    def __init__(self, progress: Progress) -> None:
+        self.p = progress
+        self.tasks: dict[str, Any] = {}
+
+    def start(self, stage: str, total: int | None = None) -> None:
+        if total is None and ":" not in stage:
+            self.tasks[stage] = self.p.add_task(f"[bold]{stage}", total=None)
+        else:
+            self.tasks[stage] = self.p.add_task(f"  {stage}", total=total)
+
+    def advance(self, stage: str, n: int = 1) -> None:
+        if stage in self.tasks:
+            self.p.advance(self.tasks[stage], n)
+
+    def end(self, stage: str) -> None:
+        task = self.tasks.get(stage)
+        if task is not None:
+            total = self.p.tasks[task].total if task < len(self.p.tasks) else None
+            self.p.update(task, total=total or 1, completed=total or 1)
+
+
+def _progress() -> Progress:
+    return Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    TimeRemainingColumn(), console=console, transient=False)
+
+
+def _fmt(v: Any, digits: int = 2) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def print_summary(result: Any) -> None:
+    """The summary table: recall per heading bin per method, runtime; ATE; map size."""
+    from roman_sim.evaluation.summaries import compact_summary
+
+    s = compact_summary(result.metrics, result.ate, result.map_stats)
+    out = Console()
+    t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed}): alignment")
+    bins = [k for k in next(iter(s["methods"].values()), {}) if k.startswith("recall_") and k[7].isdigit()]
+    for col in ["method", "max recall", "recall@P=1", "F1", *[b.replace("recall_", "") + " deg" for b in bins],
+                "median ms"]:
+        t.add_column(col, justify="right" if col != "method" else "left")
+    for name, m in s["methods"].items():
+        ms = None if m["runtime_median_s"] is None else m["runtime_median_s"] * 1000
+        t.add_row(name, _fmt(m["max_recall"]), _fmt(m["recall_at_precision_1"]), _fmt(m["best_f1"]),
+                  *[_fmt(m[b]) for b in bins], _fmt(ms, 1))
+    out.print(t)
+    if s["ate_rmse_m"]:
+        a = Table(title="ATE RMSE (m), all robots, SE(3) aligned")
+        a.add_column("trajectory")
+        a.add_column("ATE", justify="right")
+        for k, v in s["ate_rmse_m"].items():
+            a.add_row(k, _fmt(v))
+        out.print(a)
+    mp = s["map"]
+    out.print(f"map: {mp.get('segments')} segments, {mp.get('submaps')} submaps, "
+              f"{_fmt(mp.get('kb_per_submap'), 1)} KB/submap, {_fmt(mp.get('mb_per_km'))} MB/km")
+    for note in result.notes:
+        out.print(f"[yellow]note:[/yellow] {note}")
+    out.print(f"results: {result.run_dir} (report: {result.run_dir / 'report.md'})")
+
+
+def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: bool,
+         submaps: Optional[Path], aligners: Optional[list[str]]) -> None:
+    from roman_sim.experiment import Experiment, default_run_dir
+    from roman_sim.scenario import load_scenario
+
+    overrides = list(sets or [])
+    sc = load_scenario(scenario, overrides)
+    if aligners:
+        from roman_sim.config import validate_model
+        from roman_sim.scenario import Scenario
+
+        data = sc.model_dump(mode="json")
+        data["aligners"] += [{"method": a} for a in aligners]
+        sc = validate_model(Scenario, data, source="--aligner")
+    run_dir = out or default_run_dir(sc)
+    with _progress() as p:
+        result = Experiment(sc, run_dir, fresh=fresh, progress=RichProgress(p), submaps_dir=submaps).run()
+    print_summary(result)
+
+
+@app.command("run")
+def run_cmd(
+    scenario: str = typer.Argument(..., help="scenario YAML path or bundled scenario name"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="results folder (default results/<name>/...)"),
+    sets: Optional[list[str]] = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
+    fresh: bool = typer.Option(False, "--fresh", help="recompute every stage (ignore cached results)"),
+    submaps: Optional[Path] = typer.Option(None, "--submaps", help="start from saved submaps (<robot>.npz)"),
+    aligner: Optional[list[str]] = typer.Option(None, "--aligner", "-a",
+                                                help="add an aligner (name or package.module:Class)"),
+) -> None:
+    """Run a scenario end to end and print the summary."""
+    _run(scenario, out, sets, fresh, submaps, aligner)
+
+
+@app.command("demo")
+def demo_cmd(
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="results folder (default results/demo/...)"),
+    fresh: bool = typer.Option(False, "--fresh", help="recompute every stage"),
+) -> None:
+    """Run the demo scenario: ROMAN against CLIPPER and RANSAC on opposite-direction traversals."""
+    _run(DEMO_SCENARIO, out, None, fresh, None, None)
+
+
+@app.command("record")
+def record_cmd(
+    scenario: str = typer.Argument(..., help="scenario YAML path or bundled scenario name"),
+    out: Path = typer.Option(..., "--out", "-o", help="folder for the recordings (one sub-folder per robot)"),
+    sets: Optional[list[str]] = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
+    robot: Optional[list[str]] = typer.Option(None, "--robot", "-r", help="only these robots"),
+) -> None:
+    """Render and store the robots' frames (chunked, compressed) with TUM trajectories."""
+    from roman_sim.errors import ConfigError
+    from roman_sim.scenario import load_scenario
+    from roman_sim.sim.recording import write_recording
+    from roman_sim.sim.robot import robot_path, robot_trajectory, simulate_robot
+    from roman_sim.world import generate
+
+    sc = load_scenario(scenario, list(sets or []))
+    names = [r.name for r in sc.robots]
+    unknown = sorted(set(robot or []) - set(names))
+    if unknown:
+        raise ConfigError(f"--robot: unknown {', '.join(unknown)} (robots: {', '.join(names)})")
+    world = generate(sc.world.spec(), sc.seed)
+    paths: dict[str, Any] = {}
+    with _progress() as p:
+        for cfg in sc.robots:
+            paths[cfg.name] = robot_path(world, cfg, sc.seed, paths)
+            if robot and cfg.name not in robot:
+                continue
+            n = len(robot_trajectory(world, cfg, sc.seed, paths)[0])
+            task = p.add_task(f"record {cfg.name}", total=n)
+
+            def frames(cfg: Any = cfg, task: Any = task) -> Any:
+                for f in simulate_robot(world, cfg, sc.seed, paths):
+                    p.advance(task)
+                    yield f
+
+            write_recording(frames(), out / cfg.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
+    Console().print(f"recordings written to {out}")
+
+
+@app.command("report")
+def report_cmd(run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`")) -> None:
+    """Print the summary of a finished run (from its metrics.json)."""
+    from roman_sim.errors import StorageError
+    from roman_sim.evaluation.results import read_metrics_json
+    from roman_sim.experiment import RunResult
+    from roman_sim.scenario import load_scenario
+
+    metrics = read_metrics_json(run_dir / "metrics.json")
+    cfg = run_dir / "config.yaml"
+    if not cfg.is_file():
+        raise StorageError(f"{run_dir}: config.yaml missing: not a complete run folder")
+    sc = load_scenario(cfg)
+    print_summary(RunResult(run_dir, sc, metrics, metrics.get("ate", {}), metrics.get("map", {})))
+
+
+@app.command("sweep")
+def sweep_cmd(
+    sweep_file: Path = typer.Argument(..., help="sweep YAML (scenario, grid, seeds, executor)"),
+    out: Optional[Path] = typer.Option(None, "--out", "-o", help="folder (default results/sweeps/<name>)"),
+    executor: Optional[str] = typer.Option(None, "--executor", help="serial, local or dask (overrides the file)"),
+    workers: Optional[int] = typer.Option(None, "--workers", help="number of processes / Dask workers"),
+    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
+) -> None:
+    """Run a parameter x seed sweep (resumable) and write sweep.csv."""
+    from roman_sim.config import validate_model
+    from roman_sim.sweep import ExecutorConfig, load_sweep, run_sweep
+
+    cfg, scenario_path = load_sweep(sweep_file)
+    ex = cfg.executor.model_dump()
+    ex.update({k: v for k, v in (("kind", executor), ("workers", workers), ("scheduler_address", scheduler))
+               if v is not None})
+    if scheduler is not None and executor is None:
+        ex["kind"] = "dask"
+    cfg.executor = validate_model(ExecutorConfig, ex, source="executor")
+    out_dir = out or Path("results") / "sweeps" / cfg.name
+    with _progress() as p:
+        task = p.add_task(f"sweep {cfg.name}", total=None)
+
+        def cb(done: int, total: int) -> None:
+            p.update(task, completed=done, total=total)
+
+        path = run_sweep(cfg, scenario_path, out_dir, progress=cb)
+    Console().print(f"sweep table: {path}")
+
+
+def _scenarios() -> list[str]:
+    from roman_sim.scenario import bundled_scenarios
+
+    return list(bundled_scenarios())
+
+
+def _aligners() -> list[str]:
+    from roman_sim.align import ALIGNERS
+
+    return ALIGNERS.names()
+
+
+def _segmenters() -> list[str]:
+    from roman_sim.mapping.segmenter import SEGMENTERS
+
+    return SEGMENTERS.names()
+
+
+def _drift() -> list[str]:
+    from roman_sim.sim.odometry import DRIFT_PRESETS
+
+    return DRIFT_PRESETS.names()
+
+
+LISTINGS.update(scenarios=_scenarios, aligners=_aligners, segmenters=_segmenters, drift=_drift)

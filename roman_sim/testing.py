@@ -1,0 +1,98 @@
+"""Ground-truth regression helpers for pytest: pin a method's recall on a seeded scenario.
+
+Example (in a user's own test suite)::
+
+    from roman_sim.testing import assert_recall, run_scenario
+
+    def test_my_aligner_keeps_recall(tmp_path_factory):
+        run = run_scenario("smoke", aligners=["my_pkg.align:MyAligner"],
+                           out=tmp_path_factory.getbasetemp() / "smoke")
+        assert_recall(run, "MyAligner", {"0-60": 0.2, "120-180": 0.1})
+        assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")
+
+Runs are cached in ``out``: several tests on the same scenario share one simulation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+from roman_sim.config import validate_model
+from roman_sim.experiment import Experiment, RunResult, default_run_dir
+from roman_sim.scenario import Scenario, load_scenario
+
+
+def run_scenario(
+    scenario: str | Path,
+    *,
+    aligners: Iterable[str] = (),
+    overrides: Iterable[str] = (),
+    seed: int | None = None,
+    out: str | Path | None = None,
+) -> RunResult:
+    """Run (or reuse) a seeded scenario with extra aligners (names or ``package.module:Class``)."""
+    sets = list(overrides) + ([f"seed={seed}"] if seed is not None else [])
+    sc = load_scenario(scenario, sets)
+    extra = [a for a in aligners if a not in {e.method for e in sc.aligners}]
+    if extra:
+        data = sc.model_dump(mode="json")
+        data["aligners"] += [{"method": a} for a in extra]
+        sc = validate_model(Scenario, data, source="aligners")
+    run_dir = Path(out) / f"seed{sc.seed}" if out is not None else default_run_dir(sc)
+    return Experiment(sc, run_dir).run()
+
+
+def _label(method: str) -> str:
+    return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
+
+
+def assert_recall(
+    run: RunResult,
+    method: str,
+    minimum: float | Mapping[str, float],
+    key: str = "max_recall",
+) -> None:
+    """Assert ``method``'s recall is at least ``minimum`` overall, or per heading bin.
+
+    Args:
+        run: a finished run.
+        method: aligner label (for ``package.module:Class`` the class name).
+        minimum: one overall bound, or ``{"0-60": 0.5, "120-180": 0.2}`` per heading bin.
+        key: which figure (``max_recall``, ``recall_at_precision_1``, ``best_f1``, ``auc``).
+    """
+    method = _label(method)
+    bounds = {None: minimum} if isinstance(minimum, (int, float)) else dict(minimum)
+    failures = []
+    for bin_label, lo in bounds.items():
+        got = run.recall(method, bin_label) if key == "max_recall" else _figure(run, method, bin_label, key)
+        if got is None or got < lo:
+            where = "overall" if bin_label is None else f"heading {bin_label} deg"
+            failures.append(f"{method} {key} {where}: {got} < {lo}")
+    assert not failures, "; ".join(failures)
+
+
+def _figure(run: RunResult, method: str, bin_label: str | None, key: str) -> float | None:
+    from roman_sim.evaluation.summaries import method_recall
+
+    return method_recall(run.metrics, method, bin_label, key=key)
+
+
+def assert_not_worse(
+    run: RunResult, method: str, baseline: str, heading_bin: str | None = None,
+    key: str = "max_recall", tolerance: float = 0.0,
+) -> None:
+    """Assert ``method`` reaches at least ``baseline``'s figure (minus ``tolerance``)."""
+    method, baseline = _label(method), _label(baseline)
+    got, ref = _figure(run, method, heading_bin, key), _figure(run, baseline, heading_bin, key)
+    assert got is not None and ref is not None, f"{key} undefined: {method}={got}, {baseline}={ref}"
+    assert got >= ref - tolerance, f"{method} {key} {heading_bin or 'overall'}: {got:.3f} < {baseline} {ref:.3f}"
+
+
+def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", alignment: str = "se3") -> None:
+    """Assert the pose graph ``variant``'s concatenated ATE is below ``reference``'s."""
+    ate = run.ate
+    got = (ate.get(variant) or {}).get(alignment, {}).get("all")
+    ref = (ate.get(reference) or {}).get(alignment, {}).get("all")
+    assert got is not None and ref is not None, f"ATE not computable: {variant}={got}, {reference}={ref}"
+    assert got < ref, f"ATE of {variant} ({got:.3f} m) is not below {reference} ({ref:.3f} m)"

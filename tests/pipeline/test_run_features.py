@@ -1,0 +1,127 @@
+"""Stage caching, starting from saved submaps, bring-your-own aligner, report and CLI errors."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from roman_sim.cli import app
+from roman_sim.experiment import Experiment
+from roman_sim.scenario import bundled_scenarios, load_scenario
+from roman_sim.testing import assert_recall, run_scenario
+
+ROOT = Path(__file__).resolve().parents[2]
+runner = CliRunner()
+
+
+def test_rerun_reuses_cached_stages(smoke_run):
+    again = Experiment(load_scenario("smoke"), smoke_run.run_dir).run()
+    assert set(again.reused) == {"maps", "submaps", "evaluation", "posegraph"}
+    assert again.map_stats == smoke_run.map_stats
+    assert again.metrics["methods"].keys() == smoke_run.metrics["methods"].keys()
+
+
+def test_changed_aligners_recompute_only_evaluation(smoke_run, tmp_path):
+    run_dir = tmp_path / "copy"
+    shutil.copytree(smoke_run.run_dir, run_dir)
+    sc = load_scenario("smoke", ["aligners=[roman]"])
+    res = Experiment(sc, run_dir).run()
+    assert {"maps", "submaps"} <= set(res.reused)
+    assert "evaluation" not in res.reused
+    assert list(res.metrics["methods"]) == ["roman"]
+
+
+def test_start_from_saved_submaps(smoke_run, tmp_path):
+    res = Experiment(load_scenario("smoke"), tmp_path / "from_submaps",
+                     submaps_dir=smoke_run.run_dir / "submaps").run()
+    assert res.metrics["methods"]["roman"]["n_relevant"] == smoke_run.metrics["methods"]["roman"]["n_relevant"]
+    assert res.recall("roman") == smoke_run.recall("roman")
+    assert any("pose graph skipped" in n for n in res.notes)
+
+
+def test_user_aligner_runs_through_the_same_pipeline(smoke_run, monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT))
+    run = run_scenario("smoke", aligners=["examples.mutual_nn_aligner:MutualNNAligner"],
+                       out=smoke_run.run_dir.parent)
+    assert "MutualNNAligner" in run.metrics["methods"]
+    assert {"roman", "clipper"} <= set(run.metrics["methods"])
+    assert "maps" in run.reused
+    report = (run.run_dir / "report.md").read_text()
+    assert "MutualNNAligner" in report
+    assert_recall(run, "roman", 0.1)
+    with pytest.raises(AssertionError, match="MutualNNAligner max_recall"):
+        assert_recall(run, "examples.mutual_nn_aligner:MutualNNAligner", 1.01)
+
+
+def test_run_folder_contents(smoke_run):
+    d = smoke_run.run_dir
+    for name in ("config.yaml", "metrics.json", "pairs.csv", "report.md", "ate.json", "stages.json"):
+        assert (d / name).is_file(), name
+    for robot in ("a", "b"):
+        for variant in ("truth", "odometry", "roman", "oracle"):
+            assert (d / "trajectories" / f"{robot}.{variant}.tum").is_file()
+    assert (d / "plots" / "trajectories.png").stat().st_size > 1000
+    assert not list(d.rglob("*.tmp"))
+
+
+def test_report_command_prints_summary(smoke_run):
+    res = runner.invoke(app, ["report", str(smoke_run.run_dir)])
+    assert res.exit_code == 0, res.output
+    assert "roman" in res.output and "ATE" in res.output
+
+
+@pytest.mark.parametrize("name", sorted(bundled_scenarios()))
+def test_every_bundled_scenario_validates(name):
+    sc = load_scenario(name)
+    assert sc.robots and sc.aligners
+    assert sc.world.spec() is not None
+    text = bundled_scenarios()[name].read_text()
+    assert text.startswith("#"), "each scenario states its purpose in a comment at its top"
+
+
+def _one_line_error(res) -> str:
+    assert res.exit_code == 1, res.output
+    assert "Traceback" not in res.output
+    lines = [ln for ln in res.output.strip().splitlines() if ln.strip()]
+    assert len(lines) == 1, res.output
+    return lines[0]
+
+
+def test_cli_unknown_key(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nrobots: [{name: a}]\nfrontend: {segmentr: perfect}\n")
+    line = _one_line_error(runner.invoke(app, ["run", str(bad), "--out", str(tmp_path / "o")]))
+    assert "frontend.segmentr" in line and "unknown key" in line
+
+
+def test_cli_bad_value_and_unknown_preset(tmp_path):
+    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--set", "seed=-3", "--out", str(tmp_path)]))
+    assert "seed" in line
+    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--set", "world.preset=moon", "--out", str(tmp_path)]))
+    assert "moon" in line and "tiny" in line
+    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--set", "aligners=[nope]", "--out", str(tmp_path)]))
+    assert "nope" in line and "roman" in line
+
+
+def test_cli_missing_scenario_and_unwritable_out(tmp_path):
+    line = _one_line_error(runner.invoke(app, ["run", str(tmp_path / "none.yaml")]))
+    assert "none.yaml" in line
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--out", str(blocker / "sub")]))
+    assert "cannot write" in line
+
+
+def test_cli_report_on_missing_run(tmp_path):
+    line = _one_line_error(runner.invoke(app, ["report", str(tmp_path)]))
+    assert "metrics.json" in line
+
+
+def test_list_scenarios_and_aligners():
+    res = runner.invoke(app, ["list", "scenarios"])
+    assert res.exit_code == 0 and "smoke" in res.output
+    res = runner.invoke(app, ["list", "aligners"])
+    assert "roman" in res.output and "ransac1m" in res.output

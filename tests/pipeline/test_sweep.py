@@ -1,0 +1,78 @@
+"""Sweeps: expansion, serial and Dask execution, resumption, the sweep table, bad input."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from roman_sim.cli import app
+from roman_sim.errors import ConfigError
+from roman_sim.sweep import SweepConfig, expand, load_sweep, run_sweep
+
+# A very short smoke variant: both robots stop after 12 m.
+MICRO = {"robots.0.max_length_m": [12.0], "robots.1.max_length_m": [12.0]}
+
+
+def _write(tmp_path, **kw):
+    data = {"name": "micro", "scenario": "smoke", "grid": MICRO, "seeds": [0, 1], **kw}
+    path = tmp_path / "sweep.yaml"
+    path.write_text(yaml.safe_dump(data))
+    return path
+
+
+def test_expand_grid_times_seeds():
+    cfg = SweepConfig(name="s", scenario="smoke", grid={"a.b": [1, 2, 3], "c": ["x", "y"]}, seeds=[0, 5])
+    runs = expand(cfg)
+    assert len(runs) == 3 * 2 * 2
+    assert len({r.run_id for r in runs}) == len(runs)
+    assert runs == expand(cfg)  # stable order and ids
+    assert 'a.b=1' in runs[0].overrides
+
+
+def test_bad_sweeps(tmp_path):
+    with pytest.raises(ConfigError, match="grid.x: needs at least one value"):
+        expand(SweepConfig(name="s", scenario="smoke", grid={"x": []}))
+    path = _write(tmp_path, executor={"kind": "cluster"})
+    with pytest.raises(ConfigError, match="executor.kind"):
+        load_sweep(path)
+    path = _write(tmp_path, scenario="no_such_scenario")
+    with pytest.raises(ConfigError, match="no_such_scenario"):
+        load_sweep(path)
+
+
+def _metrics(path):
+    m = json.loads(path.read_text())
+    return {k: {kk: vv for kk, vv in v.items() if kk not in ("runtime_s",)} for k, v in m["methods"].items()}
+
+
+def test_serial_sweep_resumes_and_matches_dask(tmp_path):
+    cfg, scenario = load_sweep(_write(tmp_path))
+    out = tmp_path / "serial"
+    table = run_sweep(cfg, scenario, out)
+    rows = list(csv.DictReader(table.open()))
+    assert {r["status"] for r in rows} == {"ok"}
+    assert {r["seed"] for r in rows} == {"0", "1"}
+    assert {r["method"] for r in rows} == {"roman", "clipper"}
+    stamps = {p: p.stat().st_mtime_ns for p in out.rglob("metrics.json")}
+    assert len(stamps) == 2
+    run_sweep(cfg, scenario, out)  # resumed: nothing is run again
+    assert stamps == {p: p.stat().st_mtime_ns for p in out.rglob("metrics.json")}
+
+    cfg.seeds = [0]
+    cfg.executor.kind = "dask"
+    dask_out = tmp_path / "dask"
+    run_sweep(cfg, scenario, dask_out)
+    (serial_run,) = [p for p in out.rglob("metrics.json") if p.parent.name.endswith("-s0")]
+    (dask_run,) = list(dask_out.rglob("metrics.json"))
+    assert _metrics(serial_run) == _metrics(dask_run)
+
+
+def test_sweep_cli_bad_file(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nscenario: smoke\ngrid: {a: [1]}\nseeds: []\n")
+    res = CliRunner().invoke(app, ["sweep", str(bad)])
+    assert res.exit_code == 1 and "seeds" in res.output and "Traceback" not in res.output
