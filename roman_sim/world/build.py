@@ -13,8 +13,9 @@ from roman_sim.errors import WorldError
 from roman_sim.geometry import make_T, rot_z
 from roman_sim.seeding import child_rng
 from roman_sim.world.catalog import Asset, family_assets
+from roman_sim.world.ground import ground_texture
 from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
-from roman_sim.world.mjcf import new_spec, add_object_geoms, add_terrain
+from roman_sim.world.mjcf import add_object_geoms, new_spec
 from roman_sim.world.roads import make_roads
 from roman_sim.world.spec import FamilySpec, WorldSpec
 from roman_sim.world.terrain import footprint_min_height, make_terrain
@@ -126,7 +127,8 @@ def generate(spec: WorldSpec, seed: int) -> World:
         _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius))
         for i, p in enumerate(placed)
     ]
-    mjs = new_spec(spec, terrain, base_z, elevation)
+    ground = ground_texture(terrain, roads, spec.roads.width_m, child_rng(seed, "world", "ground"))
+    mjs = new_spec(spec, terrain, base_z, elevation, ground)
     meshes: dict[str, trimesh.Trimesh] = {}
     colour_rng = child_rng(seed, "world", "colour")
     for obj, p in zip(objects, placed):

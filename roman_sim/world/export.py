@@ -7,6 +7,7 @@ equals the generated one. ``world.xml`` loads with plain ``mujoco.MjModel.from_x
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 from typing import Any
@@ -15,17 +16,20 @@ import mujoco
 import numpy as np
 import trimesh
 import yaml
+from PIL import Image
 
 from roman_sim.atomic import write_bytes, write_json, write_text
 from roman_sim.config import dump_yaml, validate_model
 from roman_sim.errors import WorldError
 from roman_sim.world.build import World
+from roman_sim.world.mjcf import GROUND
 from roman_sim.world.spec import WorldSpec
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
 TRUTH_VERSION = 1
 MESH_DIR = "meshes"
 HFIELD_FILE = "terrain.bin"
+TEXTURE_FILE = "ground.png"
 
 
 def _msh_bytes(mesh: trimesh.Trimesh) -> bytes:
@@ -64,7 +68,21 @@ def _file_spec(world: World) -> mujoco.MjSpec:
     hf = mjs.hfields[0]
     hf.file = HFIELD_FILE
     hf.userdata = []
+    mjs.texturedir = MESH_DIR
+    tex = mjs.texture(GROUND)
+    tex.file = TEXTURE_FILE
+    tex.data = b""
     return mjs
+
+
+def _texture_bytes(world: World) -> bytes:
+    tid = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_TEXTURE, GROUND)
+    w, h = int(world.model.tex_width[tid]), int(world.model.tex_height[tid])
+    adr = int(world.model.tex_adr[tid])
+    rgb = np.asarray(world.model.tex_data[adr : adr + 3 * w * h], dtype=np.uint8).reshape(h, w, 3)
+    buf = io.BytesIO()
+    Image.fromarray(rgb).save(buf, format="PNG")
+    return buf.getvalue()
 
 
 def truth_to_dict(world: World) -> dict[str, Any]:
@@ -87,6 +105,7 @@ def export_world(world: World, out_dir: str | Path) -> Path:
     for name, mesh in sorted(world.meshes.items()):
         write_bytes(out / MESH_DIR / f"{name}.msh", _msh_bytes(mesh))
     write_bytes(out / MESH_DIR / HFIELD_FILE, _hfield_bytes(world))
+    write_bytes(out / MESH_DIR / TEXTURE_FILE, _texture_bytes(world))
     mjs = _file_spec(world)
     mjs.modelfiledir = str(out)
     mjs.compile()  # to_xml needs a compiled spec; this also checks the files load

@@ -84,15 +84,10 @@ def rows(rng: np.random.Generator, n: int, ctx: LayoutContext) -> tuple[F64, F64
     return pts, _yaws(rng, np.zeros(len(pts)), ctx.regularity)
 
 
-@LAYOUTS.register("roadside")
-def roadside(rng: np.random.Generator, n: int, ctx: LayoutContext) -> tuple[F64, F64]:
-    """Both sides of every road, facing it, ``roadside_offset_m`` beyond the corridor edge."""
-    if not ctx.roads:
-        return uniform(rng, n, ctx)
-    pts, yaws = [], []
-    total = sum(float(np.linalg.norm(np.diff(r, axis=0), axis=1).sum()) for r in ctx.roads)
-    step = max(2 * total / max(n, 1), 2 * ctx.radius + ctx.spec.min_gap_m)
+def _roadside_slots(rng: np.random.Generator, step: float, ctx: LayoutContext) -> tuple[F64, F64]:
+    """Slots every ``step`` metres along both sides of every road: centres (M, 2) and headings (M,)."""
     off = ctx.road_width_m / 2 + ctx.spec.roadside_offset_m + ctx.radius
+    pts, heads = [], []
     for line in ctx.roads:
         seg = np.diff(line, axis=0)
         cum = np.concatenate([[0.0], np.cumsum(np.linalg.norm(seg, axis=1))])
@@ -104,10 +99,27 @@ def roadside(rng: np.random.Generator, n: int, ctx: LayoutContext) -> tuple[F64,
         normal = np.stack([-np.sin(heading), np.cos(heading)], 1)
         for side in (1.0, -1.0):
             pts.append(base + side * off * normal)
-            yaws.append(heading)
-    p, y = np.concatenate(pts), np.concatenate(yaws)
+            heads.append(heading)
+    p, h = np.concatenate(pts), np.concatenate(heads)
     order = rng.permutation(len(p))
-    return p[order], _yaws(rng, y[order], ctx.regularity)
+    return p[order], h[order]
+
+
+@LAYOUTS.register("roadside")
+def roadside(rng: np.random.Generator, n: int, ctx: LayoutContext) -> tuple[F64, F64]:
+    """Both sides of every road, facing it, ``roadside_offset_m`` beyond the corridor edge.
+
+    Evenly spaced slots come first; densely packed slots follow to fill what the even ones
+    lose to crossings and neighbours.
+    """
+    if not ctx.roads:
+        return uniform(rng, n, ctx)
+    total = sum(float(np.linalg.norm(np.diff(r, axis=0), axis=1).sum()) for r in ctx.roads)
+    tight = 2 * ctx.radius + ctx.spec.min_gap_m
+    even_p, even_h = _roadside_slots(rng, max(2 * total / max(n, 1), tight), ctx)
+    fill_p, fill_h = _roadside_slots(rng, tight, ctx)
+    p, h = np.concatenate([even_p, fill_p]), np.concatenate([even_h, fill_h])
+    return p, _yaws(rng, h, ctx.regularity)
 
 
 class Placer:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 import trimesh
+from numpy.typing import NDArray
 
 from roman_sim.world.catalog import Asset
 from roman_sim.world.spec import WorldSpec
@@ -13,6 +14,7 @@ from roman_sim.world.truth import ObjectTruth, Terrain
 
 OFF_WIDTH, OFF_HEIGHT = 1280, 960
 TERRAIN_GEOM = "terrain"
+GROUND = "ground"
 NEAR_CLIP_M = 0.05
 COLOUR_JITTER = 0.12  # relative per-instance brightness jitter
 
@@ -44,30 +46,29 @@ def _sky(mjs: mujoco.MjSpec) -> None:
                     width=64, height=64, rgb1=[0.55, 0.7, 0.9], rgb2=[0.9, 0.93, 0.97])
 
 
-def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: float) -> None:
-    """Add the textured hfield geom (geom 0) that reproduces ``terrain`` exactly."""
+def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8]) -> None:
+    """Add the hfield geom (geom 0) that reproduces ``terrain`` exactly, textured with ``ground``."""
     rows, cols = terrain.shape
-    tex = mjs.add_texture(name="ground", type=mujoco.mjtTexture.mjTEXTURE_2D, builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER,
-                          width=128, height=128, rgb1=[0.33, 0.45, 0.22], rgb2=[0.36, 0.48, 0.24],
-                          mark=mujoco.mjtMark.mjMARK_RANDOM, markrgb=[0.45, 0.4, 0.28], random=0.05)
-    mat = mjs.add_material(name="ground")
+    tex = mjs.add_texture(name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D, width=ground.shape[1], height=ground.shape[0], nchannel=3)
+    tex.data = np.ascontiguousarray(ground).tobytes()
+    mat = mjs.add_material(name=GROUND)
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
-    mat.texrepeat = [terrain.size_x / 4.0, terrain.size_y / 4.0]
+    mat.texrepeat = [1.0, 1.0]  # the image covers the hfield once (roads line up with truth)
     depth = max(1.0, 0.1 * elevation)
     mjs.add_hfield(name="terrain", size=[terrain.size_x / 2, terrain.size_y / 2, elevation, depth],
                    nrow=rows, ncol=cols, userdata=hfield_data(terrain, base_z, elevation).ravel().tolist())
     mjs.worldbody.add_geom(name=TERRAIN_GEOM, type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain",
-                           pos=[0.0, 0.0, base_z], material="ground")
+                           pos=[0.0, 0.0, base_z], material=GROUND)
 
 
-def new_spec(spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float) -> mujoco.MjSpec:
+def new_spec(spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8]) -> mujoco.MjSpec:
     """An MjSpec holding the visuals, the sun and the terrain of a world."""
     mjs = mujoco.MjSpec()
     mjs.modelname = spec.name
     mjs.compiler.degree = False
     _visuals(mjs, spec)
     _sky(mjs)
-    add_terrain(mjs, terrain, base_z, elevation)
+    add_terrain(mjs, terrain, base_z, elevation, ground)
     return mjs
 
 

@@ -137,3 +137,26 @@ def test_ambiguity_knob_changes_the_world() -> None:
     assert len(high.truth.families()) == 1 < len(low.truth.families())
     assert len({tuple(o.mesh_names) for o in high.truth.objects}) == 1
     assert len({round(float(o.T_world_obj[0, 0]), 9) for o in high.truth.objects}) == 1  # common yaw
+
+
+def test_ground_texture_paints_the_roads_where_truth_has_them(tiny_world: World) -> None:
+    from roman_sim.world.ground import GRASS, ROAD
+
+    m, t = tiny_world.model, tiny_world.truth.terrain
+    tid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_TEXTURE, "ground")
+    w, h = int(m.tex_width[tid]), int(m.tex_height[tid])
+    img = m.tex_data[m.tex_adr[tid] : m.tex_adr[tid] + 3 * w * h].reshape(h, w, 3).astype(float)
+
+    def texel(x: float, y: float) -> np.ndarray:  # row 0 at +y, column 0 at -x
+        r = int((t.size_y / 2 - y) / t.size_y * h)
+        c = int((x + t.size_x / 2) / t.size_x * w)
+        return img[max(r - 1, 0) : r + 2, max(c - 1, 0) : c + 2].reshape(-1, 3).mean(0)
+
+    on_road = tiny_world.truth.roads[0][::5]
+    far = np.array([[0.0, 0.0]])  # the tiny loop road keeps the centre clear
+    assert road_distance(tiny_world.truth, far)[0] > tiny_world.spec.roads.width_m
+    for x, y in on_road:
+        px = texel(x, y)
+        assert np.linalg.norm(px - ROAD) < np.linalg.norm(px - GRASS)
+    px = texel(*far[0])
+    assert np.linalg.norm(px - GRASS) < np.linalg.norm(px - ROAD)
