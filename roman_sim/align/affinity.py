@@ -258,6 +258,8 @@ def build_affinity(
     P = len(assoc)
     if P and ((assoc < 0).any() or assoc[:, 0].max() >= len(centers_a) or assoc[:, 1].max() >= len(centers_b)):
         raise ConfigError("assoc: indices out of range of the submaps' segments")
+    if P and len(np.unique(assoc[:, 0] * len(centers_b) + assoc[:, 1])) != P:
+        raise ConfigError("assoc: duplicate associations")
     rows, cols, s_a = consistency_edges(centers_a, centers_b, assoc[:, 0], assoc[:, 1], params)
     so = np.ones(P) if s_o is None else np.asarray(s_o, dtype=np.float64)
     w = _fuse(s_a, so[rows], so[cols], params.fusion, s_o is not None)

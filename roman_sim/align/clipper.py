@@ -7,8 +7,11 @@ whatever is stored). Everything per iteration is one sparse mat-vec plus O(n) wo
 
 Rounding: the reference keeps the top ``round(F)`` entries of ``u``. With weights below 1
 ``F`` underestimates the clique size, and the top entries need not form a clique, so the
-selection is made a clique greedily (descending ``u``), then extended by any node adjacent
-to every selected node whose addition raises the clique density ``1^T M_S 1 / |S|``.
+selection is made a clique greedily (descending ``u``), extended by any node adjacent to
+every selected node whose addition raises the clique density ``1^T M_S 1 / |S|``, and
+finally improved by single additions / one-for-one swaps while the density rises. The
+ascent itself is a local method: on small random weighted graphs it reaches the maximum
+density clique about 95 % of the time (tests/align/test_clipper.py).
 """
 
 from __future__ import annotations
@@ -139,7 +142,7 @@ def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams |
     u = A @ u + u
     u /= np.linalg.norm(u)
     d = _penalty_step(A, B, u, p.eps)
-    total, F = 0, float(u @ (A @ u + u))
+    total = 0
     for _ in range(p.maxoliters):
         G = sp.csr_matrix((A.data + d, A.indices, A.indptr), shape=A.shape)
         u, F, steps = _ascend(G, d, u, p)

@@ -146,3 +146,5 @@ def test_small_entries_dropped_and_no_object_score_means_s_a() -> None:
 def test_out_of_range_associations_raise_config_error() -> None:
     with pytest.raises(ConfigError):
         build_affinity(np.zeros((2, 3)), np.zeros((2, 3)), np.array([[0, 5]]), None, GRAV)
+    with pytest.raises(ConfigError, match="duplicate"):
+        build_affinity(np.zeros((2, 3)), np.zeros((2, 3)), np.array([[0, 1], [0, 1]]), None, GRAV)
