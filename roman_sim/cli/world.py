@@ -31,10 +31,11 @@ def _spec(preset: str, sets: Optional[list[str]]):  # noqa: ANN202 - WorldSpec, 
 
 def _summary(world, where: Path) -> None:  # noqa: ANN001
     counts = Counter(o.family for o in world.truth.objects)
-    table = Table("family", "objects", title=f"{world.spec.name} (seed {world.seed}) -> {where}")
-    for fam, n in sorted(counts.items()):
-        table.add_row(fam, str(n))
-    table.add_row("[b]total[/b]", f"[b]{len(world.truth.objects)}[/b] ({world.model.ngeom} geoms)")
+    requested = {f: pr[1] for f, pr in world.truth.meta.get("placed_requested", {}).items()}
+    table = Table("family", "objects", "requested", title=f"{world.spec.name} (seed {world.seed}) -> {where}")
+    for fam in sorted(set(counts) | set(requested)):
+        table.add_row(fam, str(counts.get(fam, 0)), str(requested.get(fam, "")))
+    table.add_row("[b]total[/b]", f"[b]{len(world.truth.objects)}[/b]", f"({world.model.ngeom} geoms)")
     Console().print(table)
 
 

@@ -76,11 +76,12 @@ def _place_family(spec: WorldSpec, seed: int, fam: FamilySpec, n: int, assets: l
         if placer.try_add(pts[i], radii[i]):
             out.append(_Placed(assets[choice[i]], float(pts[i, 0]), float(pts[i, 1]), float(yaws[i])))
     if len(out) < n:
-        log.debug("family %s: placed %d of %d", fam.name, len(out), n)
+        log.info("family %s: placed %d of %d requested", fam.name, len(out), n)
     return out
 
 
-def _place_all(spec: WorldSpec, seed: int, roads: list) -> list[_Placed]:
+def _place_all(spec: WorldSpec, seed: int, roads: list) -> tuple[list[_Placed], dict[str, list[int]]]:
+    """Place every family; returns the placements and {family: [placed, requested]}."""
     sv = spec.knobs()[1]
     area_ha = spec.extent_m[0] * spec.extent_m[1] / 1e4
     todo = []
@@ -92,9 +93,17 @@ def _place_all(spec: WorldSpec, seed: int, roads: list) -> list[_Placed]:
     todo.sort(key=lambda t: (-t[0], t[1].name))  # large footprints first: they are hardest to fit
     placer = Placer(spec.extent_m, roads, spec.roads.width_m, spec.layout.min_gap_m, spec.max_objects)
     placed: list[_Placed] = []
+    counts: dict[str, list[int]] = {}
     for _, fam, n, assets in todo:
-        placed += _place_family(spec, seed, fam, n, assets, placer, roads)
-    return placed
+        got = _place_family(spec, seed, fam, n, assets, placer, roads)
+        placed += got
+        counts[fam.name] = [counts.get(fam.name, [0, 0])[0] + len(got), counts.get(fam.name, [0, 0])[1] + n]
+    if todo and not placed:
+        raise WorldError(
+            f"world {spec.name!r}: no object fits the extent {spec.extent_m} m next to roads of width "
+            f"{spec.roads.width_m} m; enlarge extent_m or lower roads.width_m / family scales"
+        )
+    return placed, dict(sorted(counts.items()))
 
 
 def _object_truth(i: int, p: _Placed, z: float) -> ObjectTruth:
@@ -122,7 +131,7 @@ def generate(spec: WorldSpec, seed: int) -> World:
     seed = int(seed)
     terrain, base_z, elevation = make_terrain(spec.terrain, spec.extent_m, child_rng(seed, "world", "terrain"))
     roads = make_roads(spec.roads, spec.extent_m)
-    placed = _place_all(spec, seed, roads)
+    placed, counts = _place_all(spec, seed, roads)
     objects = [
         _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius))
         for i, p in enumerate(placed)
@@ -139,7 +148,7 @@ def generate(spec: WorldSpec, seed: int) -> World:
         raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
     for obj in objects:
         obj.geom_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))]
-    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs())}
+    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs()), "placed_requested": counts}
     truth = WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
     log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(objects), model.ngeom)
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)

@@ -37,6 +37,9 @@ def _check_world(world: World) -> None:
 def test_every_preset_builds_and_compiles(preset: str) -> None:
     world = generate(load_world_spec(preset), 0)
     assert len(world.truth.objects) >= 20
+    counts = world.truth.meta["placed_requested"]
+    assert sum(p for p, _ in counts.values()) == len(world.truth.objects)
+    assert all(0 < p <= r for p, r in counts.values())
     assert world.truth.roads, "every preset has a road network"
     _check_world(world)
 

@@ -54,6 +54,8 @@ def test_ambiguity_command(run_cli) -> None:
         (["world", "generate", "tiny", "--set", "families.0.density=-2"], "families.0.density: Input should be greater than or equal to 0"),
         (["world", "generate", "tiny", "--set", "families.0.density=1500", "--set", "max_objects=50"], "more than max_objects=50"),
         (["world", "generate", "tiny", "--seed", "-1"], "seed must be a non-negative integer"),
+        (["world", "generate", "tiny", "--set", "extent_m=[10,10]", "--set", "families=[{name: house, density: 300}]"],
+         "no object fits the extent"),
         (["world", "preview", "MISSING_DIR_FILE"], "missing truth.json"),
         (["list", "robots"], "unknown 'robots' (valid:"),
     ],
