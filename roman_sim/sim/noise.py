@@ -7,9 +7,19 @@ from __future__ import annotations
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.ndimage import maximum_filter, minimum_filter
 
 from roman_sim.sim.camera import DepthNoiseConfig
+
+
+def _filter3(img: NDArray[np.float32], op: np.ufunc) -> NDArray[np.float32]:
+    """3x3 max/min filter (edge-replicated) as two separable passes of ``op``.
+
+    Equivalent to ``scipy.ndimage.maximum_filter(img, 3, mode="nearest")`` (for
+    ``np.maximum``) but about 6x faster at 640 x 480, which matters once per frame.
+    """
+    p = np.pad(img, 1, mode="edge")
+    rows = op(op(p[:-2], p[1:-1]), p[2:])
+    return op(op(rows[:, :-2], rows[:, 1:-1]), rows[:, 2:])
 
 
 def depth_edges(depth: NDArray[np.float32], jump_m: float) -> NDArray[np.bool_]:
@@ -18,10 +28,10 @@ def depth_edges(depth: NDArray[np.float32], jump_m: float) -> NDArray[np.bool_]:
     Invalid neighbours (0) count as a jump, so pixels next to sky are edges too.
     """
     d = np.asarray(depth, dtype=np.float32)
-    hi = maximum_filter(d, size=3, mode="nearest")
-    lo = minimum_filter(np.where(d > 0, d, np.float32(np.inf)), size=3, mode="nearest")
-    has_hole = minimum_filter(d, size=3, mode="nearest") <= 0
-    return (d > 0) & (((hi - lo) > jump_m) | has_hole)
+    hi = _filter3(d, np.maximum)
+    # Holes become a very low value, so a hole in the neighbourhood always counts as a jump.
+    lo = _filter3(np.where(d > 0, d, np.float32(-1e6)), np.minimum)
+    return (d > 0) & ((hi - lo) > jump_m)
 
 
 def apply_depth_noise(
@@ -41,13 +51,15 @@ def apply_depth_noise(
     Returns: (H, W) float32 depth.
     """
     d = np.asarray(depth, dtype=np.float32)
-    valid = d > 0
-    out = d.astype(np.float64)
+    valid = (d > 0) & (d <= max_depth_m)
+    out = d.copy()
     if cfg.enabled:
-        std = cfg.std_at_ref_m * (out / cfg.ref_range_m) ** 2
-        out = out + rng.standard_normal(out.shape) * std
+        std = np.float32(cfg.std_at_ref_m / cfg.ref_range_m**2) * d * d
+        out += rng.standard_normal(d.shape, dtype=np.float32) * std
         if cfg.quantum_m > 0:
-            out = np.round(out / cfg.quantum_m) * cfg.quantum_m
+            q = np.float32(cfg.quantum_m)
+            out = np.round(out / q) * q
         valid &= ~depth_edges(d, cfg.edge_jump_m)
-    valid &= (out > 0) & (d <= max_depth_m)
-    return np.where(valid, out, 0.0).astype(np.float32)
+    valid &= out > 0
+    out[~valid] = 0.0
+    return out

@@ -155,7 +155,7 @@ def route(
     if blocked.any() or any(legs_blocked):
         planner = GridPlanner(obs, need, edge_margin_m)
     for i in np.flatnonzero(blocked):
-        snapped = planner.nearest_free(pts[i], 3.0) if planner else None
+        snapped = planner.nearest_free(pts[i], 5.0) if planner else None
         if snapped is None:
             raise SimError(f"robot {name!r}: waypoint ({pts[i, 0]:.2f}, {pts[i, 1]:.2f}) is blocked by objects")
         pts[i] = snapped

@@ -49,7 +49,14 @@ class SensorRenderer:
         self._near, self._far = float(camera_cfg.near_m), float(camera_cfg.far_m)
         self._gl = mujoco.GLContext(w, h)
         self._gl.make_current()
-        self._ctx: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        # No multisampling: resolving MSAA would blend id colours at object edges (wrong ids)
+        # and costs about 2x in software rendering. The setting is read only here.
+        samples = model.vis.quality.offsamples
+        model.vis.quality.offsamples = 0
+        try:
+            self._ctx: mujoco.MjrContext | None = mujoco.MjrContext(model, mujoco.mjtFontScale.mjFONTSCALE_100)
+        finally:
+            model.vis.quality.offsamples = samples
         mujoco.mjr_setBuffer(mujoco.mjtFramebuffer.mjFB_OFFSCREEN, self._ctx)
         self._ctx.readDepthMap = mujoco.mjtDepthMap.mjDEPTH_ZEROFAR
         self._rect = mujoco.MjrRect(0, 0, w, h)
@@ -116,7 +123,7 @@ class SensorRenderer:
         if self.rgb:
             mujoco.mjr_render(self._rect, self._scene, self._ctx)
             mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
-            rgb = np.flipud(self._rgb_buf).copy()
+            rgb = self._rgb_buf[::-1].copy()
         return rgb, depth, ids
 
     def _render_depth_ids(self) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
@@ -129,12 +136,12 @@ class SensorRenderer:
             mujoco.mjr_readPixels(self._rgb_buf, self._depth_buf, self._rect, self._ctx)
         finally:
             np.copyto(flags, saved)
-        seg = self._rgb_buf.astype(np.int64)
-        seg = seg[..., 0] + (seg[..., 1] << 8) + (seg[..., 2] << 16)
-        seg = np.clip(seg, 0, len(self._seg_lut) - 1)
-        ids = np.flipud(self._seg_lut[seg]).copy()
-        depth = np.flipud(self._linear_depth(self._depth_buf)).copy()
-        return depth, ids
+        buf = self._rgb_buf[::-1]  # OpenGL rows run bottom-up
+        seg = buf[..., 0].astype(np.uint32)
+        seg |= buf[..., 1].astype(np.uint32) << 8
+        seg |= buf[..., 2].astype(np.uint32) << 16
+        np.minimum(seg, len(self._seg_lut) - 1, out=seg)
+        return self._linear_depth(self._depth_buf[::-1]), self._seg_lut[seg]
 
     def _linear_depth(self, zbuf: NDArray[np.float32]) -> NDArray[np.float32]:
         """Reversed-Z depth buffer (1 near, 0 far) -> metric depth; far/sky -> 0."""
@@ -142,11 +149,10 @@ class SensorRenderer:
         c = -(f + n) / (f - n)
         d = -(np.float32(2) * f * n) / (f - n)
         c, d = np.float32(-0.5) * c - np.float32(0.5), np.float32(-0.5) * d
-        z = zbuf.astype(np.float64)
         with np.errstate(divide="ignore"):
-            depth = d / (z + c)
-        depth = np.where((z > 0) & (depth < f * 0.999), depth, 0.0)
-        return depth.astype(np.float32)
+            depth = d / (zbuf + c)
+        depth[(zbuf <= 0) | (depth >= f * np.float32(0.999))] = 0.0
+        return depth.astype(np.float32, copy=False)
 
     def close(self) -> None:
         """Free the OpenGL resources (idempotent)."""

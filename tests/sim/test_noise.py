@@ -47,3 +47,13 @@ def test_disabled_noise_only_truncates_and_same_seed_same_output() -> None:
     a = apply_depth_noise(d, DepthNoiseConfig(), 7.5, np.random.default_rng(5))
     b = apply_depth_noise(d, DepthNoiseConfig(), 7.5, np.random.default_rng(5))
     np.testing.assert_array_equal(a, b)
+
+
+def test_fast_filter_matches_scipy() -> None:
+    from scipy.ndimage import maximum_filter, minimum_filter
+
+    from roman_sim.sim.noise import _filter3
+
+    img = np.random.default_rng(1).uniform(0, 5, (13, 17)).astype(np.float32)
+    np.testing.assert_array_equal(_filter3(img, np.maximum), maximum_filter(img, size=3, mode="nearest"))
+    np.testing.assert_array_equal(_filter3(img, np.minimum), minimum_filter(img, size=3, mode="nearest"))
