@@ -4,13 +4,16 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING, Optional
 
 import typer
 from rich.console import Console
 from rich.table import Table
 
 from roman_sim.cli import app
+
+if TYPE_CHECKING:
+    from roman_sim.world import World, WorldSpec
 
 world_app = typer.Typer(help="Generate, preview and measure procedural worlds.", no_args_is_help=True)
 app.add_typer(world_app, name="world")
@@ -19,7 +22,8 @@ SEED = typer.Option(0, "--seed", help="world seed (same seed, same world)")
 SETS = typer.Option(None, "--set", help="override a spec field, e.g. --set extent_m=[80,80]")
 
 
-def _spec(preset: str, sets: Optional[list[str]]):  # noqa: ANN202 - WorldSpec, imported lazily
+def _spec(preset: str, sets: Optional[list[str]]) -> "WorldSpec":
+    """The spec of a preset or YAML, with ``--set`` overrides applied and re-validated."""
     from roman_sim.config import apply_overrides, validate_model
     from roman_sim.world import WorldSpec, load_world_spec
 
@@ -29,7 +33,7 @@ def _spec(preset: str, sets: Optional[list[str]]):  # noqa: ANN202 - WorldSpec, 
     return validate_model(WorldSpec, apply_overrides(spec.model_dump(mode="json"), sets), preset)
 
 
-def _summary(world, where: Path) -> None:  # noqa: ANN001
+def _summary(world: "World", where: Path) -> None:
     counts = Counter(o.family for o in world.truth.objects)
     requested = {f: pr[1] for f, pr in world.truth.meta.get("placed_requested", {}).items()}
     table = Table("family", "objects", "requested", title=f"{world.spec.name} (seed {world.seed}) -> {where}")

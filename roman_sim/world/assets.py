@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from roman_sim.geometry import make_T, rot_x, rot_y, rot_z
+from roman_sim.geometry import make_T, rot_x, rot_y
 from roman_sim.registry import Registry
 
 Rgba = tuple[float, float, float, float]
@@ -71,7 +71,7 @@ def conifer(rng: np.random.Generator) -> list[Part]:
         .apply_translation([0, 0, trunk_h + k * (h - trunk_h) * 0.2])
         for k in range(3)
     ))
-    return [Part("trunk", _cyl(0.06 * h * 0.4 + 0.1, trunk_h + 0.3), BARK), Part("crown", crown, (0.10, 0.33, 0.16, 1.0))]
+    return [Part("trunk", _cyl(0.1 + 0.024 * h, trunk_h + 0.3), BARK), Part("crown", crown, (0.10, 0.33, 0.16, 1.0))]
 
 
 @FAMILIES.register("deciduous")
@@ -181,6 +181,6 @@ def trash_can(rng: np.random.Generator) -> list[Part]:
 def hay_bale(rng: np.random.Generator) -> list[Part]:
     r = rng.uniform(0.6, 0.8)
     m = trimesh.creation.cylinder(radius=r, height=rng.uniform(1.1, 1.5), sections=12)
-    m.apply_transform(make_T(rot_x(np.pi / 2) @ rot_z(0.0), [0.0, 0.0, r]))
+    m.apply_transform(make_T(rot_x(np.pi / 2), [0.0, 0.0, r]))
     return [Part("body", m, (0.85, 0.75, 0.35, 1.0))]
 

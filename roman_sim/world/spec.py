@@ -18,6 +18,7 @@ from __future__ import annotations
 from enum import Enum
 
 from pydantic import Field, field_validator, model_validator
+from pydantic_core import PydanticCustomError
 
 from roman_sim.config import StrictModel
 
@@ -118,17 +119,31 @@ class WorldSpec(StrictModel):
             raise ValueError("each side must be in [10, 2000] m")
         return v
 
+    @field_validator("families")
+    @classmethod
+    def _unique_families(cls, v: list[FamilySpec]) -> list[FamilySpec]:
+        names = [f.name for f in v]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValueError(f"each family may appear once; repeated: {', '.join(dup)}")
+        return v
+
     @model_validator(mode="after")
     def _fits(self) -> "WorldSpec":
         area_ha = self.extent_m[0] * self.extent_m[1] / 1e4
         expected = sum(f.density for f in self.families) * area_ha
         if expected > self.max_objects:
-            raise ValueError(
-                f"families: densities ask for {expected:.0f} objects, more than "
-                f"max_objects={self.max_objects} can fit; lower a density or the extent"
+            raise PydanticCustomError(
+                "too_many_objects",
+                "families: densities ask for {n} objects, more than max_objects={m}; "
+                "lower a density or the extent, or raise max_objects (<= 20000)",
+                {"n": int(round(expected)), "m": self.max_objects},
             )
         if self.roads.width_m >= 0.5 * min(self.extent_m):
-            raise ValueError("roads.width_m must be below half the smaller extent side")
+            raise PydanticCustomError(
+                "road_too_wide", "roads.width_m: {w} m must be below half the smaller extent side",
+                {"w": self.roads.width_m},
+            )
         return self
 
     def knobs(self) -> tuple[float, float, float]:

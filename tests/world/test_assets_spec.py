@@ -76,6 +76,8 @@ def test_ambiguity_knob_maps_onto_the_three() -> None:
         ({"ambiguity": 1.5}, "ambiguity"),
         ({"extent_m": [5, 5]}, "extent_m"),
         ({"terrain": {"colour": 1}}, "terrain.colour: unknown key"),
+        ({"families": [{"name": "bush", "density": 1}, {"name": "bush", "density": 2}]}, "repeated: bush"),
+        ({"roads": {"width_m": 40}, "extent_m": [60, 60]}, "roads.width_m: 40.0 m must be below half"),
     ],
 )
 def test_bad_spec_values_name_the_field(patch: dict, field: str) -> None:
