@@ -111,8 +111,22 @@ def ellipse_kernel(radius: int) -> NDArray[np.bool_]:
     return (xx**2 + yy**2) <= radius**2 + radius * 0.5
 
 
+@dataclass
+class _Crop:
+    """A mask inside an image window starting at (r0, c0), with its true object ids."""
+
+    pix: NDArray[np.bool_]
+    r0: int
+    c0: int
+    ids: tuple[int, ...]
+
+
 class SimulatedSegmenter:
-    """Instance masks from truth ids, degraded by ``SegmenterConfig``; seeded per robot."""
+    """Instance masks from truth ids, degraded by ``SegmenterConfig``; seeded per robot.
+
+    All work happens in padded bounding-box windows, so the cost grows with the masked
+    area, not with the number of objects in the image.
+    """
 
     def __init__(self, cfg: SegmenterConfig, seed: int = 0) -> None:
         if cfg.max_area_div >= cfg.min_area_div:
@@ -120,6 +134,7 @@ class SimulatedSegmenter:
         self.cfg = cfg
         self.seed = seed
         self._kernel = ellipse_kernel(cfg.erosion_px) if cfg.erosion_px else None
+        self._pad = cfg.erosion_px + cfg.boundary_noise_px + 1
 
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of ``frame`` (deterministic in seed, robot and frame index)."""
@@ -128,56 +143,79 @@ class SimulatedSegmenter:
         if ids.ndim != 2 or ids.shape != depth.shape:
             raise MappingError(f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes")
         rng = child_rng(self.seed, "segmenter", frame.robot, int(frame.index))
-        raw = self._object_masks(ids, depth, rng)
-        raw += [m for m in (spurious_blob(ids, depth, self.cfg.spurious_radius_frac, rng)
-                            for _ in range(rng.poisson(self.cfg.spurious_rate))) if m is not None]
+        crops = self._object_masks(ids, depth, rng)
+        for _ in range(rng.poisson(self.cfg.spurious_rate)):
+            blob = spurious_blob(ids, depth, self.cfg.spurious_radius_frac, rng)
+            if blob is not None:
+                crops.append(self._padded(blob[0], *blob[1], (), ids.shape))
         out = []
-        for pix, oids in raw:
+        for crop in crops:
             if self.cfg.boundary_noise_px:
-                pix = noisy_boundary(pix, self.cfg.boundary_noise_px, rng)
-            m = self._filter_and_erode(pix, oids)
+                crop.pix = noisy_boundary(crop.pix, self.cfg.boundary_noise_px, rng)
+            m = self._filter_and_erode(crop, ids.shape)
             if m is not None:
                 out.append(m)
         return out
 
-    def _object_masks(self, ids: NDArray[np.int32], depth: NDArray[np.float32],
-                      rng: np.random.Generator) -> list[tuple[NDArray[np.bool_], tuple[int, ...]]]:
-        c = self.cfg
-        A = ids.size
-        present = [int(i) for i in np.unique(ids) if i >= 0]
+    def _padded(self, pix: NDArray[np.bool_], r0: int, c0: int, oids: tuple[int, ...],
+                shape: tuple[int, int]) -> _Crop:
+        """Crop grown by the margin that boundary noise and erosion need."""
+        p = self._pad
+        R0, C0 = max(r0 - p, 0), max(c0 - p, 0)
+        R1, C1 = min(r0 + pix.shape[0] + p, shape[0]), min(c0 + pix.shape[1] + p, shape[1])
+        out = np.zeros((R1 - R0, C1 - C0), dtype=bool)
+        out[r0 - R0:r0 - R0 + pix.shape[0], c0 - C0:c0 - C0 + pix.shape[1]] = pix
+        return _Crop(out, R0, C0, oids)
+
+    def _groups(self, ids: NDArray[np.int32], depth: NDArray[np.float32], present: list[int],
+                rng: np.random.Generator) -> list[tuple[int, ...]]:
+        """Object groups after under-segmentation of touching objects."""
         groups = {i: {i} for i in present}
-        for a, b in adjacent_pairs(ids, depth, c.touch_depth_m):
-            if rng.random() < c.undersegment_prob:
+        for a, b in adjacent_pairs(ids, depth, self.cfg.touch_depth_m):
+            if rng.random() < self.cfg.undersegment_prob:
                 merged = groups[a] | groups[b]
                 for k in merged:
                     groups[k] = merged
+        return sorted({tuple(sorted(g)) for g in groups.values()})
+
+    def _object_masks(self, ids: NDArray[np.int32], depth: NDArray[np.float32], rng: np.random.Generator) -> list[_Crop]:
+        c = self.cfg
+        A = ids.size
+        lab = ids.astype(np.int64) + 1
+        counts = np.bincount(lab.ravel())
+        slices = ndimage.find_objects(lab)
+        present = [int(i) - 1 for i in np.flatnonzero(counts[1:]) + 1]
         out = []
-        for members in {tuple(sorted(g)) for g in groups.values()}:
-            pix = np.isin(ids, members)
-            area = int(pix.sum())
-            d = depth[pix]
+        for members in self._groups(ids, depth, present, rng):
+            area = int(sum(counts[m + 1] for m in members))
+            if area < A / c.min_area_div**2 / 2:
+                continue  # far below the area filter even after boundary noise
+            sl = tuple(slice(min(slices[m][d].start for m in members), max(slices[m][d].stop for m in members))
+                       for d in range(2))
+            pix = ids[sl] == members[0] if len(members) == 1 else np.isin(ids[sl], members)
+            d = depth[sl][pix]
             dist = float(np.median(d[d > 0])) if np.any(d > 0) else c.far_end_m
             small = max(0.0, 1.0 - area / (c.small_area_frac * A))
             far = np.clip((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0, 1)
             if rng.random() < min(1.0, c.miss_prob + c.miss_small_prob * small + c.miss_far_prob * far):
                 continue
-            if area > c.oversegment_min_area_frac * A and rng.random() < c.oversegment_prob:
-                out += [(p, members) for p in split_mask(pix, rng)]
-            else:
-                out.append((pix, members))
-        return sorted(out, key=lambda m: (m[1], -int(m[0].sum())))
+            parts = split_mask(pix, rng) if area > c.oversegment_min_area_frac * A and rng.random() < c.oversegment_prob else [pix]
+            out += [self._padded(p, sl[0].start, sl[1].start, members, ids.shape) for p in parts]
+        return out
 
-    def _filter_and_erode(self, pix: NDArray[np.bool_], oids: tuple[int, ...]) -> Mask | None:
-        A = pix.size
+    def _filter_and_erode(self, crop: _Crop, shape: tuple[int, int]) -> Mask | None:
+        A = shape[0] * shape[1]
+        pix = crop.pix
         area = int(pix.sum())
         if not (A / self.cfg.min_area_div**2 <= area <= A / self.cfg.max_area_div**2):
             return None
         if self._kernel is not None:
-            r = self.cfg.erosion_px
-            r0, r1, c0, c1 = mask_bbox(pix)
-            sl = (slice(max(r0 - r, 0), r1 + r), slice(max(c0 - r, 0), c1 + r))
-            eroded = np.zeros_like(pix)
-            eroded[sl] = ndimage.binary_erosion(pix[sl], structure=self._kernel, border_value=0)
-            pix = eroded
-        m = Mask(pix, tuple(oids))
-        return m if m.area > 0 else None
+            pix = ndimage.binary_erosion(pix, structure=self._kernel, border_value=0)
+        full = np.zeros(shape, dtype=bool)
+        full[crop.r0:crop.r0 + pix.shape[0], crop.c0:crop.c0 + pix.shape[1]] = pix
+        rows, cols = np.nonzero(pix)
+        if len(rows) == 0:
+            return None
+        bbox = (crop.r0 + int(rows.min()), crop.r0 + int(rows.max()) + 1,
+                crop.c0 + int(cols.min()), crop.c0 + int(cols.max()) + 1)
+        return Mask(full, tuple(crop.ids), bbox)
