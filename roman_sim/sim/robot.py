@@ -8,7 +8,7 @@
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -60,6 +60,19 @@ class RobotConfig(StrictModel):
 def robot_path(world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
     """The robot's validated path (seeded by ``seed`` and the robot name)."""
     return make_path(cfg.path, world.truth, child_rng(seed, "path", cfg.name), cfg.name, paths_by_name)
+
+
+def plan_paths(world: Any, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:
+    """Every robot's path, in order, so ``reverse_of`` / ``cross`` can refer to earlier robots.
+
+    Raises: SimError for duplicate robot names or a reference to a later/unknown robot.
+    """
+    paths: dict[str, Path2D] = {}
+    for cfg in robots:
+        if cfg.name in paths:
+            raise SimError(f"robot name {cfg.name!r} is used twice")
+        paths[cfg.name] = robot_path(world, cfg, seed, paths)
+    return paths
 
 
 def drive(world: Any, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

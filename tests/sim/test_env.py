@@ -23,6 +23,7 @@ def env(tiny_world):
     e.close()
 
 
+@pytest.mark.filterwarnings("ignore:.*symmetric and normalized")
 def test_check_env_passes(env) -> None:
     check_env(env, skip_render_check=True)
 

@@ -77,3 +77,19 @@ def test_frames_are_consistent_and_deterministic(tiny_world) -> None:
     c = list(simulate_robot(tiny_world, cfg.model_copy(update={"render_rgb": False}), seed=2))
     assert c[0].rgb is None
     assert not np.array_equal(c[1].T_odom_body, a[1].T_odom_body)
+
+
+def test_plan_paths_resolves_references_in_order(tiny_world) -> None:
+    from roman_sim.errors import SimError
+    from roman_sim.sim.robot import plan_paths
+
+    a = _cfg(name="a")
+    b = _cfg(name="b", path=PathConfig(kind="reverse_of", of="a"))
+    paths = plan_paths(tiny_world, [a, b], seed=0)
+    np.testing.assert_allclose(paths["b"].xy[0], paths["a"].xy[-1])
+    t, T_wb, _ = robot_trajectory(tiny_world, b, seed=0, paths_by_name=paths)
+    assert np.linalg.norm(T_wb[0, :2, 3] - paths["a"].xy[-1]) < 1e-9
+    with pytest.raises(SimError, match="path.of='a'"):
+        plan_paths(tiny_world, [b, a], seed=0)
+    with pytest.raises(SimError, match="used twice"):
+        plan_paths(tiny_world, [a, a], seed=0)
