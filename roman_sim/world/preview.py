@@ -24,14 +24,17 @@ from roman_sim.world.truth import WorldTruth  # noqa: E402
 log = logging.getLogger(__name__)
 
 
-def topdown_png(truth: WorldTruth, title: str = "") -> bytes:
-    """PNG bytes of a top-down map: terrain shading, roads, object footprints by family."""
+def topdown_png(truth: WorldTruth, title: str = "", road_width_m: float = 0.0) -> bytes:
+    """PNG bytes of a top-down map: terrain shading, roads (to scale), footprints by family."""
     t = truth.terrain
     fig, ax = plt.subplots(figsize=(8, 8 * t.size_y / t.size_x + 0.5), dpi=100)
     ext = (-t.size_x / 2, t.size_x / 2, -t.size_y / 2, t.size_y / 2)
+    ax.set(xlim=ext[:2], ylim=ext[2:], aspect="equal")
     ax.imshow(t.heights, origin="lower", extent=ext, cmap="Greys", alpha=0.5)
+    points_per_m = ax.get_window_extent().width / t.size_x * 72.0 / fig.dpi
     for road in truth.roads:
-        ax.plot(road[:, 0], road[:, 1], color="sienna", lw=2, alpha=0.7)
+        ax.plot(road[:, 0], road[:, 1], color="sienna", lw=max(1.0, road_width_m * points_per_m), alpha=0.5,
+                solid_capstyle="butt")
     cmap = plt.get_cmap("tab20")
     for k, fam in enumerate(truth.families()):
         objs = [o for o in truth.objects if o.family == fam]
@@ -80,7 +83,7 @@ def write_preview(world: World, out: str | Path, width: int = 640, height: int =
     else:
         top, view = out / "topdown.png", out / "view.png"
     title = f"{world.spec.name} (seed {world.seed}, {len(world.truth.objects)} objects)"
-    write_bytes(top, topdown_png(world.truth, title))
+    write_bytes(top, topdown_png(world.truth, title, world.spec.roads.width_m))
     write_bytes(view, _png(render_view(world, width, height)))
     log.info("preview written to %s and %s", top, view)
     return [top, view]
