@@ -63,8 +63,8 @@ def preview_cmd(
     source: str = typer.Argument(..., help="preset name, world YAML or exported world folder"),
     seed: int = SEED,
     out: Path = typer.Option(..., "--out", help="PNG file (X.png + X_view.png) or folder"),
-    width: int = typer.Option(640, min=16, max=1280),
-    height: int = typer.Option(480, min=16, max=960),
+    width: int = typer.Option(640, help="rendered view width (16..1280)"),
+    height: int = typer.Option(480, help="rendered view height (16..960)"),
 ) -> None:
     """Write a top-down map with families coloured and one rendered RGB view."""
     from roman_sim.world import generate, load_world

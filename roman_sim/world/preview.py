@@ -53,9 +53,9 @@ def render_view(world: World, width: int = 640, height: int = 480, azimuth_deg: 
                 elevation_deg: float = -25.0, distance_frac: float = 0.45) -> NDArray[np.uint8]:
     """(H, W, 3) RGB image from a free camera looking at the world centre."""
     model = world.model
-    if width > model.vis.global_.offwidth or height > model.vis.global_.offheight:
-        raise WorldError(f"preview size {width}x{height} exceeds the offscreen buffer "
-                         f"{model.vis.global_.offwidth}x{model.vis.global_.offheight}")
+    max_w, max_h = model.vis.global_.offwidth, model.vis.global_.offheight
+    if not (16 <= width <= max_w and 16 <= height <= max_h):
+        raise WorldError(f"preview size {width}x{height}: width must be in [16, {max_w}] and height in [16, {max_h}]")
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     cam = mujoco.MjvCamera()

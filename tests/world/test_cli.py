@@ -58,6 +58,7 @@ def test_ambiguity_command(run_cli) -> None:
          "no object fits the extent"),
         (["world", "preview", "MISSING_DIR_FILE"], "missing truth.json"),
         (["list", "robots"], "unknown 'robots' (valid:"),
+        (["world", "preview", "tiny", "--width", "4000"], "width must be in [16, 1280]"),
     ],
 )
 def test_bad_input_one_line_exit_1(run_cli, tmp_path, args: list[str], expect: str) -> None:
@@ -75,3 +76,18 @@ def test_bad_input_one_line_exit_1(run_cli, tmp_path, args: list[str], expect: s
     assert "Traceback" not in out + err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("error: ") and expect in lines[0], err
+
+
+def test_same_bytes_in_a_fresh_process(tmp_path) -> None:
+    """Determinism does not depend on the process (hash seeds, import order)."""
+    import subprocess
+    import sys
+
+    from roman_sim.world import export_world, generate, load_world_spec
+
+    export_world(generate(load_world_spec("tiny"), 4), tmp_path / "here")
+    cmd = [sys.executable, "-c", "from roman_sim.cli import app; app()",
+           "world", "generate", "tiny", "--seed", "4", "--out", str(tmp_path / "there")]
+    subprocess.run(cmd, check=True, capture_output=True, env={"PYTHONHASHSEED": "123", "PATH": ""})
+    for name in ("world.xml", "truth.json", "meshes/ground.png"):
+        assert (tmp_path / "here" / name).read_bytes() == (tmp_path / "there" / name).read_bytes()
