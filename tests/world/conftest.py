@@ -15,11 +15,16 @@ def tiny_world() -> World:
     return generate(load_world_spec("tiny"), 0)
 
 
-def small_spec(preset: str, side_m: float = 80.0, **updates: object) -> WorldSpec:
-    """A preset with its extent shrunk (and optional field updates), validated."""
+def _small_spec(preset: str, side_m: float = 80.0, **updates: object) -> WorldSpec:
     data = load_world_spec(preset).model_dump(mode="json")
     data.update(extent_m=[side_m, side_m], **updates)
     return validate_model(WorldSpec, data, preset)
+
+
+@pytest.fixture
+def small_spec() -> Callable[..., WorldSpec]:
+    """``small_spec(preset, side_m=80, **updates)``: a preset shrunk to a square, validated."""
+    return _small_spec
 
 
 @pytest.fixture

@@ -11,8 +11,6 @@ from roman_sim.world import generate
 from roman_sim.world.ambiguity import ambiguity_index, place_ambiguity
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
-from .conftest import small_spec
-
 
 def _truth(xy: np.ndarray, families: list[str], sizes: np.ndarray) -> WorldTruth:
     objs = []
@@ -49,12 +47,12 @@ def test_too_few_objects_and_bad_arguments() -> None:
         ambiguity_index(truth, n_places=0)
 
 
-def test_presets_order_orchard_forest_park() -> None:
+def test_presets_order_orchard_forest_park(small_spec) -> None:
     values = {p: ambiguity_index(generate(small_spec(p, 100.0), 0).truth, n_places=30) for p in ("orchard", "forest", "park")}
     assert values["orchard"] > values["forest"] > values["park"]
     assert values["orchard"] > 0.5
 
 
-def test_index_rises_with_the_ambiguity_knob() -> None:
+def test_index_rises_with_the_ambiguity_knob(small_spec) -> None:
     values = [ambiguity_index(generate(small_spec("forest", 70.0, ambiguity=a), 0).truth, n_places=25) for a in (0.0, 0.5, 1.0)]
     assert values[0] < values[1] < values[2]
