@@ -71,7 +71,7 @@ class PathFollower:
         self,
         path: Path2D,
         speed_mps: float = 1.0,
-        lookahead_m: float = 0.6,
+        lookahead_m: float = 0.4,
         max_yaw_rate: float = 1.5,
         goal_tolerance_m: float = 0.1,
     ) -> None:
@@ -103,6 +103,8 @@ class PathFollower:
         tx, ty, _ = self.path.at(self.progress_m + self.lookahead)
         alpha = float(wrap_angle(np.arctan2(ty - y, tx - x) - heading))
         dist = max(np.hypot(tx - x, ty - y), 1e-6)
+        k = 2.0 * np.sin(alpha) / dist  # pure-pursuit curvature
         v = self.speed * max(0.2, np.cos(alpha))
-        omega = float(np.clip(2.0 * v * np.sin(alpha) / dist, -self.max_yaw_rate, self.max_yaw_rate))
-        return v, omega
+        if abs(k) * v > self.max_yaw_rate:  # slow down instead of overshooting sharp turns
+            v = self.max_yaw_rate / abs(k)
+        return float(v), float(v * k)

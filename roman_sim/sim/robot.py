@@ -24,6 +24,7 @@ from roman_sim.sim.kinematics import PathFollower, PlanarState, body_pose_on_ter
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, DriftModel, resolve_drift
 from roman_sim.sim.paths import Path2D, PathConfig, make_path
+from roman_sim.sim.planner import Obstacles
 
 log = logging.getLogger(__name__)
 
@@ -37,7 +38,7 @@ class RobotConfig(StrictModel):
     rate_hz: float = Field(6.0, gt=0.0, le=100.0)
     substeps: int = Field(10, ge=1, le=100)
     body_height_m: float = Field(0.1, ge=0.0, le=2.0)
-    lookahead_m: float = Field(0.6, gt=0.05, le=10.0)
+    lookahead_m: float = Field(0.4, gt=0.05, le=10.0)
     max_yaw_rate: float = Field(1.5, gt=0.0, le=10.0)
     camera: CameraConfig = Field(default_factory=CameraConfig)
     drift: str | DriftConfig = "typical"
@@ -104,11 +105,22 @@ def drive(world: Any, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float6
     return np.asarray(times), np.stack(poses)
 
 
+def _check_driven_clearance(world: Any, cfg: RobotConfig, T_wb: NDArray[np.float64]) -> None:
+    """The path is clear by construction; the controller may cut corners slightly."""
+    clear = Obstacles(world.truth).clearance(T_wb[:, :2, 3])
+    i = int(np.argmin(clear)) if len(clear) else 0
+    if len(clear) and clear[i] < 0.0:
+        raise SimError(f"robot {cfg.name!r}: drove into an object footprint at step {i} (path too tight to follow)")
+    if len(clear) and clear[i] < cfg.path.clearance_m:
+        log.warning("robot %s: came %.2f m close to an object (clearance %.2f m)", cfg.name, clear[i], cfg.path.clearance_m)
+
+
 def robot_trajectory(
     world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Times (N,), true ``T_world_body`` (N, 4, 4) and drifted ``T_odom_body`` (N, 4, 4); no rendering."""
     t, T_wb = drive(world, cfg, robot_path(world, cfg, seed, paths_by_name))
+    _check_driven_clearance(world, cfg, T_wb)
     drift = DriftModel(cfg.drift_config(), child_rng(seed, "drift", cfg.name))
     return t, T_wb, np.stack([drift.step(T) for T in T_wb])
 
