@@ -125,3 +125,14 @@ def test_list_scenarios_and_aligners():
     assert res.exit_code == 0 and "smoke" in res.output
     res = runner.invoke(app, ["list", "aligners"])
     assert "roman" in res.output and "ransac1m" in res.output
+
+
+@pytest.mark.parametrize("path", sorted((ROOT / "scenarios" / "sweeps").glob("*.yaml")), ids=lambda p: p.stem)
+def test_every_bundled_sweep_validates(path):
+    from roman_sim.sweep import expand, load_sweep
+
+    cfg, scenario = load_sweep(path)
+    runs = expand(cfg)
+    assert runs
+    for run in runs[:3]:
+        load_scenario(scenario, list(run.overrides) + [f"seed={run.seed}"]).world.spec()
