@@ -1,5 +1,12 @@
 """Virtual ground robots: camera, rendering, paths, kinematics, odometry drift, env, recordings.
 
+Modules: ``camera`` (CameraConfig, intrinsics, mount, project/backproject), ``render``
+(SensorRenderer: MuJoCo RGB, depth, instance ids), ``noise`` (depth noise), ``pyrender_check``
+(independent depth renderer), ``paths`` + ``planner`` (PathConfig, make_path, Path2D),
+``kinematics`` (terrain-following unicycle, PathFollower), ``odometry`` (DriftConfig,
+presets, DriftModel), ``robot`` (RobotConfig, robot_trajectory, simulate_robot,
+record_robot), ``env`` (GroundRobotEnv), ``recording`` (write/read recordings).
+
 Importing this package is cheap: it only registers the gymnasium environment
 ``roman_sim/GroundRobot-v0`` (string entry point); renderers load on first use.
 """

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterator, Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -145,3 +146,18 @@ def simulate_robot(
             yield Frame(cfg.name, i, float(t[i]), rgb, noisy, ids, T_wb[i], T_ob[i], T_bc, renderer.intrinsics)
     finally:
         renderer.close()
+
+
+def record_robot(
+    world: Any,
+    cfg: RobotConfig,
+    seed: int,
+    out_dir: str | Path,
+    paths_by_name: Mapping[str, Path2D] | None = None,
+    overwrite: bool = False,
+) -> Path:
+    """Simulate one robot and store the run with ``write_recording`` (config and seed in meta)."""
+    from roman_sim.sim.recording import write_recording
+
+    extra = {"seed": int(seed), "robot_config": cfg.model_dump(mode="json")}
+    return write_recording(simulate_robot(world, cfg, seed, paths_by_name), out_dir, overwrite=overwrite, extra=extra)

@@ -112,11 +112,12 @@ def test_read_errors(tmp_path: Path) -> None:
 
 def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
     from roman_sim.sim.paths import PathConfig
-    from roman_sim.sim.robot import RobotConfig, simulate_robot
+    from roman_sim.sim.robot import RobotConfig, record_robot, simulate_robot
 
     cfg = RobotConfig(name="a", path=PathConfig(kind="loop", radius_m=5.0), camera=CameraConfig(width=64, height=48),
                       max_duration_s=1.0, render_rgb=False)
-    rec = write_recording(simulate_robot(tiny_world, cfg, seed=0), tmp_path / "run")
+    rec = record_robot(tiny_world, cfg, 0, tmp_path / "run")
+    assert recording_info(rec)["extra"]["robot_config"]["name"] == "a"
     frames = list(read_recording(rec))
     live = list(simulate_robot(tiny_world, cfg, seed=0))
     assert len(frames) == len(live) == 7
