@@ -87,12 +87,6 @@ def largest_cluster(points: NDArray[np.float64], eps: float) -> NDArray[np.float
     return pts[point_labels == int(np.argmax(counts))]
 
 
-def boxes_touch(a: "Segment", b: "Segment", margin: float) -> bool:
-    """Whether the axis-aligned bounds of two segments come within ``margin``."""
-    (alo, ahi), (blo, bhi) = a.bounds, b.bounds
-    return bool(np.all(alo - margin <= bhi) and np.all(blo - margin <= ahi))
-
-
 def contained_fraction(points: NDArray[np.float64], other: "Segment", dist: float) -> float:
     """Fraction of ``points`` whose voxel (size ``dist``) touches one of ``other``'s voxels.
 
@@ -110,7 +104,7 @@ def contained_fraction(points: NDArray[np.float64], other: "Segment", dist: floa
     return float(hit.mean())
 
 
-@dataclass
+@dataclass(eq=False)
 class Segment:
     """A tracked object hypothesis (points in the odometry frame).
 

@@ -72,14 +72,17 @@ def drive(spheres: list[Sphere], n: int = 12, dt: float = 1 / 6, speed: float = 
     return [frame_at(spheres, speed * dt * i, 0.0, 0.0, dt * i, i, T_odom_world, intr=intr) for i in range(n)]
 
 
-def sphere_field(n: int, seed: int, x_range: tuple[float, float] = (2.5, 8.0),
-                 half_width: float = 3.5, radius_range: tuple[float, float] = (0.15, 0.45)) -> list[Sphere]:
-    """``n`` non-overlapping spheres resting on the ground ahead of the origin."""
+def sphere_field(n: int, seed: int, x_range: tuple[float, float] = (2.5, 8.0), half_width: float = 3.5,
+                 radius_range: tuple[float, float] = (0.15, 0.45), max_tries: int = 100_000) -> list[Sphere]:
+    """Up to ``n`` non-overlapping spheres resting on the ground ahead of the origin."""
     rng = np.random.default_rng(seed)
-    out: list[Sphere] = []
-    while len(out) < n:
+    centres = np.zeros((0, 3))
+    radii = np.zeros(0)
+    for _ in range(max_tries):
+        if len(radii) == n:
+            break
         r = float(rng.uniform(*radius_range))
         c = np.array([rng.uniform(*x_range), rng.uniform(-half_width, half_width), r])
-        if all(np.linalg.norm(c - c2) > r + r2 + 0.1 for c2, r2 in out):
-            out.append((c, r))
-    return out
+        if np.all(np.linalg.norm(centres - c, axis=1) > radii + r + 0.1):
+            centres, radii = np.vstack([centres, c]), np.append(radii, r)
+    return [(c, float(r)) for c, r in zip(centres, radii)]

@@ -26,7 +26,7 @@ from pydantic import Field
 from scipy.optimize import linear_sum_assignment
 
 from roman_sim.config import StrictModel
-from roman_sim.mapping.segment import Segment, Status, boxes_touch, contained_fraction
+from roman_sim.mapping.segment import Segment, Status, contained_fraction
 from roman_sim.mapping.voxels import iou, iou_matrix, voxel_set
 
 log = logging.getLogger(__name__)
@@ -127,12 +127,11 @@ class Tracker:
 
     def _merge(self, seen: list[Segment]) -> None:
         """Merge each segment seen this frame with any live segment it overlaps."""
-        v = self.cfg.iou_voxel
         for seg in seen:
             if seg not in self.live:
                 continue
-            for other in list(self.live):
-                if other is seg or other not in self.live:
+            for other in self._near(seg):
+                if other is seg or other not in self.live or seg not in self.live:
                     continue
                 if self._should_merge(seg, other):
                     keep, drop = (seg, other) if seg.id < other.id else (other, seg)
@@ -142,11 +141,22 @@ class Tracker:
                     log.debug("merged segment %d into %d", drop.id, keep.id)
                     seg = keep
 
+    def _near(self, seg: Segment) -> list[Segment]:
+        """Live segments whose bounds come close enough to ``seg``'s to overlap at all."""
+        if not self.live:
+            return []
+        m = max(self.cfg.iou_voxel, self.cfg.merge_contained_dist_m)
+        lo = np.array([s.bounds[0] for s in self.live])
+        hi = np.array([s.bounds[1] for s in self.live])
+        slo, shi = seg.bounds
+        ok = np.all(lo - m <= shi, axis=1) & np.all(slo - m <= hi, axis=1)
+        return [s for s, k in zip(self.live, ok) if k and s is not seg]
+
     def _should_merge(self, a: Segment, b: Segment) -> bool:
         c = self.cfg
         if iou(a.voxels(c.iou_voxel), b.voxels(c.iou_voxel)) > c.merge_iou:
             return True
-        if c.merge_contained > 1 or not boxes_touch(a, b, c.merge_contained_dist_m):
+        if c.merge_contained > 1:
             return False
         small, big = (a, b) if len(a.points) <= len(b.points) else (b, a)
         return contained_fraction(small.points, big, c.merge_contained_dist_m) > c.merge_contained
