@@ -18,6 +18,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from roman_sim.errors import SimError
 from roman_sim.seeding import child_rng
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrate_unicycle
@@ -110,7 +111,7 @@ class GroundRobotEnv(gym.Env):
                 -ter.size_y / 2 + margin, ter.size_y / 2 - margin)
             if self._obstacles.clearance(np.array([[x, y]]))[0] >= self.clearance_m:
                 return PlanarState(float(x), float(y), float(rng.uniform(-np.pi, np.pi)))
-        return PlanarState(0.0, 0.0, 0.0)
+        raise SimError(f"GroundRobotEnv: no free start pose with clearance {self.clearance_m} m found")
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[ObsDict, dict[str, Any]]:
         """Start a new episode; the same ``seed`` gives the same episode."""
