@@ -9,7 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.errors import MappingError
-from roman_sim.mapping.observation import observe
+from roman_sim.mapping.observation import check_frame, observe
 from roman_sim.mapping.segment import Segment
 from roman_sim.mapping.segmenter import Segmenter
 from roman_sim.mapping.semantics import SemanticEncoder
@@ -81,6 +81,7 @@ class Mapper:
             raise MappingError(f"mapper: frame of robot {frame.robot!r} given to the map of {self.robot!r}")
         if self._t and frame.t < self._t[-1]:
             raise MappingError(f"mapper: frame {frame.index} time {frame.t} goes back in time")
+        check_frame(frame)
         masks = self.segmenter.segment(frame)
         obs = observe(frame, masks, self.cfg, self.encoder)
         self._t.append(float(frame.t))

@@ -142,6 +142,9 @@ class SimulatedSegmenter:
         depth = np.asarray(frame.depth)
         if ids.ndim != 2 or ids.shape != depth.shape:
             raise MappingError(f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes")
+        if ids.size == 0:
+            log.debug("frame %d: empty image, no masks", frame.index)
+            return []
         rng = child_rng(self.seed, "segmenter", frame.robot, int(frame.index))
         crops = self._object_masks(ids, depth, rng)
         for _ in range(rng.poisson(self.cfg.spurious_rate)):

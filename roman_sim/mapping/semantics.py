@@ -117,14 +117,21 @@ def family_cosine(cfg: SemanticConfig, fam_a: str, fam_b: str) -> float:
 
 
 class SimulatedEncoder:
-    """CLIP-like embeddings from truth: family prototypes, instance and view terms, noise."""
+    """CLIP-like embeddings from truth: family prototypes, instance and view terms, noise.
+
+    Args:
+        cfg: similarity structure.
+        seed: world-level seed: robots sharing it share prototypes and instance vectors.
+        families: object id -> family name (from ``WorldTruth``).
+        robot: name keying this robot's independent observation-noise stream.
+    """
 
     def __init__(self, cfg: SemanticConfig | None = None, seed: int = 0,
-                 families: Mapping[int, str] | None = None) -> None:
+                 families: Mapping[int, str] | None = None, robot: str = "") -> None:
         self.cfg = cfg or SemanticConfig()
         self.seed = seed
         self.families = dict(families or {})
-        self._rng = child_rng(seed, "semantics", "noise")
+        self._rng = child_rng(seed, "semantics", "noise", robot)
         self._cache: dict[tuple, NDArray[np.float64]] = {}
 
     def _unit(self, *key: str | int) -> NDArray[np.float64]:

@@ -136,3 +136,11 @@ def test_same_seed_same_map_with_noisy_segmenter_and_descriptors():
         np.testing.assert_array_equal(x.points, y.points)
         np.testing.assert_array_equal(x.descriptor, y.descriptor)
     assert all(s.descriptor is not None for s in a.segments)
+
+
+def test_empty_image_is_a_clear_error():
+    f = drive(n=1)[0]
+    f.depth = np.zeros((0, 0), np.float32)
+    f.object_ids = np.zeros((0, 0), np.int32)
+    with pytest.raises(MappingError, match="depth shape"):
+        Mapper(MappingConfig(), build_segmenter("fastsam")).process(f)

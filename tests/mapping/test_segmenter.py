@@ -131,3 +131,8 @@ def test_mask_bbox():
     p = np.zeros((10, 10), bool)
     p[2:4, 5:9] = True
     assert Mask(p).bbox == (2, 4, 5, 9) and Mask(p).area == 8
+
+
+def test_empty_image_gives_no_masks():
+    f = _frame(np.zeros((0, 0), np.int32), np.zeros((0, 0), np.float32))
+    assert build_segmenter("fastsam").segment(f) == []
