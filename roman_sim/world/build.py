@@ -62,6 +62,7 @@ def effective_densities(spec: WorldSpec) -> list[float]:
 
 
 def _place_family(spec: WorldSpec, seed: int, fam: FamilySpec, n: int, assets: list[Asset], placer: Placer, roads: list) -> list[_Placed]:
+    """Up to ``n`` objects of ``fam`` from its layout's candidates, in candidate order."""
     rng = child_rng(seed, "world", "layout", fam.name)
     reg = spec.knobs()[2]
     ctx = LayoutContext(spec.extent_m, roads, spec.roads.width_m, spec.layout, reg, max(a.radius for a in assets))
@@ -97,7 +98,7 @@ def _place_all(spec: WorldSpec, seed: int, roads: list) -> tuple[list[_Placed], 
     for _, fam, n, assets in todo:
         got = _place_family(spec, seed, fam, n, assets, placer, roads)
         placed += got
-        counts[fam.name] = [counts.get(fam.name, [0, 0])[0] + len(got), counts.get(fam.name, [0, 0])[1] + n]
+        counts[fam.name] = [len(got), n]  # families are unique (WorldSpec checks)
     if todo and not placed:
         raise WorldError(
             f"world {spec.name!r}: no object fits the extent {spec.extent_m} m next to roads of width "
