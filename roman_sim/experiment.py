@@ -145,11 +145,28 @@ class Experiment:
         return {"maps": maps, "submaps": submaps, "evaluation": evaluation, "posegraph": posegraph}
 
     # -- the run ---------------------------------------------------------------
+    def validate(self) -> None:
+        """Check what can be checked before any work: world spec, aligners, plug-ins, output folder."""
+        from roman_sim.align import build_aligner
+        from roman_sim.registry import import_object
+
+        if self.submaps_dir is None:
+            self.sc.world.spec()
+        elif not self.submaps_dir.is_dir():
+            raise ConfigError(f"--submaps {self.submaps_dir}: not a folder")
+        for entry in self.sc.aligners:
+            build_aligner(entry.method, entry.params)
+        fe = self.sc.frontend
+        for kind, name in (("segmenter", fe.segmenter), ("semantic encoder", fe.encoder)):
+            if isinstance(name, str) and ":" in name:
+                import_object(name, kind)
+        self._prepare_dir()
+
     def run(self) -> RunResult:
         """Run every stage (reusing cached ones) and return the result."""
         from roman_sim.pipeline import stages as st
 
-        self._prepare_dir()
+        self.validate()
         write_text(self.dir / "config.yaml", dump_yaml(self.sc))
         keys = self._keys()
         steps: list[tuple[str, Callable[[], None], list[Path] | None]] = [

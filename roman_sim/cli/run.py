@@ -99,9 +99,11 @@ def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: b
         data = sc.model_dump(mode="json")
         data["aligners"] += [{"method": a} for a in aligners]
         sc = validate_model(Scenario, data, source="--aligner")
-    run_dir = out or default_run_dir(sc)
+    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps)
+    exp.validate()
     with _progress() as p:
-        result = Experiment(sc, run_dir, fresh=fresh, progress=RichProgress(p), submaps_dir=submaps).run()
+        exp.progress = RichProgress(p)
+        result = exp.run()
     print_summary(result)
 
 
