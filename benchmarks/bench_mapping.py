@@ -26,6 +26,7 @@ from roman_sim.mapping.segmenter import build_segmenter
 from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
+from roman_sim.mapping.types import Submap
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.robot import RobotConfig, simulate_robot
@@ -78,7 +79,7 @@ def _timing(per_frame: list[float], n_obs: list[int], seg: Timed, enc: Timed) ->
 
 def run_dense(n_frames: int, seed: int) -> dict:
     """Throughput on ray-cast 640 x 480 frames with about 20 nearby objects in view."""
-    spheres = synthetic.sphere_field(180, seed, x_range=(2.0, 8.0), half_width=7.0, radius_range=(0.2, 0.3))
+    spheres = synthetic.sphere_field(330, seed, x_range=(2.0, 13.0), half_width=7.0, radius_range=(0.2, 0.3))
     frames = synthetic.drive(spheres, n=n_frames, speed=0.5, intr=synthetic.intrinsics(640, 480, 87.0))
     mapper, seg, enc = _mapper(seed, {k: "boulder" for k in range(len(spheres))})
     per_frame, n_obs = [], []
@@ -123,6 +124,21 @@ def run_world(world_name: str, seconds: float, seed: int) -> dict:
     }
 
 
+def full_submap_bound(seed: int, dim: int = 768) -> dict:
+    """Packet bytes of a full submap (40 segments, random unit descriptors) and the MB/km it implies."""
+    rng = np.random.default_rng(seed)
+    n = SubmapConfig().submap_max_size
+    desc = rng.standard_normal((n, dim))
+    sub = Submap(robot="a", index=0, t=0.0, T_odom_submap=np.eye(4), segment_ids=np.arange(n),
+                 centers=rng.uniform(-15, 15, (n, 3)), volumes=rng.uniform(0.01, 30, n),
+                 shape=rng.uniform(0, 1, (n, 3)), descriptors=(desc / np.linalg.norm(desc, axis=1, keepdims=True)),
+                 extents=np.sort(rng.uniform(0.2, 5, (n, 3)), axis=1)[:, ::-1])
+    nbytes = packet_bytes(sub)
+    per_km = 1000.0 / SubmapConfig().submap_center_dist
+    return {"segments": n, "descriptor_dim": dim, "packet_bytes": nbytes,
+            "mb_per_km_at_one_submap_per_10m": nbytes * per_km / 1e6}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--world", default="forest")
@@ -136,9 +152,10 @@ def main() -> None:
         "targets": {"mapping_fps": 10, "packet_bytes_max": 125_000, "mb_per_km": 12},
         "dense_synthetic": run_dense(args.dense_frames, args.seed),
         "world_road": run_world(args.world, args.seconds, args.seed),
+        "full_submap_bound": full_submap_bound(args.seed),
     }
     write_json(OUT, result)
-    for section in ("dense_synthetic", "world_road"):
+    for section in ("dense_synthetic", "world_road", "full_submap_bound"):
         for k, v in result[section].items():
             print(f"{section}.{k:28s} {v}")
 

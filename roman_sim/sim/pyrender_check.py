@@ -7,7 +7,6 @@ and export bugs: the two depth images must agree.
 
 from __future__ import annotations
 
-import functools
 import logging
 from typing import Any
 
@@ -15,6 +14,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from roman_sim.glrender import offscreen_renderer
 from roman_sim.sim.frame import Intrinsics
 from roman_sim.world.truth import Terrain
 
@@ -68,17 +68,6 @@ def pyrender_depth(
     du, dv = MSAA_SAMPLE_OFFSET_PX
     cam = pyrender.IntrinsicsCamera(k.fx, k.fy, k.cx + 0.5 + du, k.cy + 0.5 + dv, znear=near_m, zfar=far_m)
     scene.add(cam, pose=np.asarray(T_world_cam, dtype=np.float64) @ _T_RDF_GL)
-    depth = _offscreen(k.width, k.height).render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
+    depth = offscreen_renderer(k.width, k.height).render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
     return np.asarray(depth, dtype=np.float32)
 
-
-@functools.lru_cache(maxsize=4)
-def _offscreen(width: int, height: int) -> Any:
-    """One pyrender offscreen renderer per image size, kept for the process lifetime.
-
-    pyrender's ``delete()`` terminates the EGL display, which MuJoCo's contexts share, so
-    the renderer is reused instead of being deleted after each call.
-    """
-    import pyrender
-
-    return pyrender.OffscreenRenderer(width, height)
