@@ -102,6 +102,8 @@ class PathFollower:
             return 0.0, 0.0
         tx, ty, _ = self.path.at(self.progress_m + self.lookahead)
         alpha = float(wrap_angle(np.arctan2(ty - y, tx - x) - heading))
+        if np.cos(alpha) < 0.0:  # target behind (U-turn, sharp corner): turn on the spot
+            return 0.0, float(np.copysign(self.max_yaw_rate, alpha if alpha != 0.0 else 1.0))
         dist = max(np.hypot(tx - x, ty - y), 1e-6)
         k = 2.0 * np.sin(alpha) / dist  # pure-pursuit curvature
         v = self.speed * max(0.2, np.cos(alpha))

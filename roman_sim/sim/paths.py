@@ -3,8 +3,9 @@
 ``make_path`` turns a ``PathConfig`` into a ``Path2D``: a dense (K, 2) curve resampled at
 constant arc length with headings. Kinds: ``loop`` (ellipse), ``out_and_back`` (straight
 out, U-turn, back), ``lawnmower`` (boustrophedon), ``road`` (follow a world road),
-``waypoints`` (user polyline), and the relations ``reverse_of`` / ``cross`` that derive a
-path from another robot's path. Straight legs that would come closer than the clearance
+``waypoints`` (user polyline), and the relations ``reverse_of`` / ``cross`` / ``retrace``
+that derive a path from another robot's path (``retrace`` drives pieces of it, each forward
+or backward, joined by routed connections: e.g. half the way along, half against). Straight legs that would come closer than the clearance
 to an object are replaced by a grid-planned detour; every final path is validated.
 """
 
@@ -27,7 +28,7 @@ from roman_sim.world.truth import WorldTruth
 
 log = logging.getLogger(__name__)
 
-PathKind = Literal["loop", "out_and_back", "lawnmower", "road", "waypoints", "reverse_of", "cross"]
+PathKind = Literal["loop", "out_and_back", "lawnmower", "road", "waypoints", "reverse_of", "cross", "retrace"]
 
 
 class PathConfig(StrictModel):
@@ -50,6 +51,10 @@ class PathConfig(StrictModel):
     of: str | None = None
     heading_offset_deg: float = Field(90.0, ge=-180.0, le=180.0)
     at_fraction: float = Field(0.5, ge=0.0, le=1.0)
+    pieces: list[tuple[float, float]] = Field(
+        default_factory=lambda: [(0.0, 1.0)],
+        description="retrace: (from, to) fractions of the other path; from > to drives it backwards",
+    )
     clearance_m: float = Field(0.6, ge=0.0, le=10.0)
     edge_margin_m: float = Field(1.0, ge=0.0, le=100.0)
     resample_m: float = Field(0.05, gt=0.001, le=1.0)
@@ -105,6 +110,34 @@ def crossing_path(path: Path2D, heading_offset_deg: float, at_fraction: float, l
     u = np.array([np.cos(hh), np.sin(hh)])
     c = np.array([x, y])
     return path_from_points(np.vstack([c - u * length_m / 2, c + u * length_m / 2]), 0.05)
+
+
+def retrace_path(other: Path2D, cfg: PathConfig, truth: WorldTruth, name: str, obs: Obstacles) -> Path2D:
+    """Pieces of ``other`` (fractions ``cfg.pieces``) in order, joined by routed connections."""
+    step = float(other.s[1] - other.s[0]) if len(other.s) > 1 else cfg.resample_m
+    parts: list[NDArray[np.float64]] = []
+    for k, (f0, f1) in enumerate(cfg.pieces):
+        if not (0.0 <= f0 <= 1.0 and 0.0 <= f1 <= 1.0) or abs(f1 - f0) * other.length < 1.0:
+            raise SimError(f"robot {name!r}: path.pieces[{k}]={[f0, f1]} must be fractions in [0, 1] "
+                           "spanning at least 1 m")
+        lo, hi = sorted((f0, f1))
+        sel = other.xy[(other.s >= lo * other.length) & (other.s <= hi * other.length)]
+        piece = sel if f1 > f0 else sel[::-1]
+        if parts and np.linalg.norm(parts[-1][-1] - piece[0]) > 1e-6:
+            join = route(np.vstack([parts[-1][-1], piece[0]]), truth, cfg.clearance_m, cfg.edge_margin_m, name, obs)
+            parts.append(_smooth_clear(join, cfg, obs)[1:-1])
+        parts.append(piece)
+    return path_from_points(np.vstack(parts), step)
+
+
+def _smooth_clear(poly: NDArray[np.float64], cfg: PathConfig, obs: Obstacles) -> NDArray[np.float64]:
+    """The most smoothing of ``poly`` that keeps the clearance (none at worst)."""
+    for it in range(cfg.smooth_iterations, 0, -1):
+        cand = chaikin(poly, it)
+        dense = path_from_points(cand, cfg.resample_m).xy if len(cand) > 1 else cand
+        if obs.clearance(dense).min() >= cfg.clearance_m:
+            return cand
+    return poly
 
 
 def chaikin(pts: NDArray[np.float64], iterations: int) -> NDArray[np.float64]:
@@ -217,13 +250,15 @@ def make_path(
     Raises: SimError when no valid path exists (leaves the world, blocked, unknown ``of``).
     """
     obs = Obstacles(truth)
-    if cfg.kind in ("reverse_of", "cross"):
+    if cfg.kind in ("reverse_of", "cross", "retrace"):
         other = (paths_by_name or {}).get(cfg.of or "")
         if other is None:
             known = ", ".join(sorted(paths_by_name or {})) or "none"
             raise SimError(f"robot {name!r}: path.of={cfg.of!r} is not an earlier robot (known: {known})")
         if cfg.kind == "reverse_of":
             return validate_path(reversed_path(other), truth, cfg, name, obs)
+        if cfg.kind == "retrace":
+            return validate_path(retrace_path(other, cfg, truth, name, obs), truth, cfg, name, obs)
         line = crossing_path(other, cfg.heading_offset_deg, cfg.at_fraction, cfg.length_m).xy
         waypoints = _clip_line(line[[0, -1]], truth, cfg.edge_margin_m)
         return _smooth_valid(route(waypoints, truth, cfg.clearance_m, cfg.edge_margin_m, name, obs), truth, cfg, name, obs)
