@@ -239,3 +239,16 @@ def _drift() -> list[str]:
 
 
 LISTINGS.update(scenarios=_scenarios, aligners=_aligners, segmenters=_segmenters, drift=_drift)
+
+
+@app.command("reproduce")
+def reproduce_cmd(
+    out: Path = typer.Option(Path("results/reference"), "--out", "-o", help="where the small results go"),
+    work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
+    scenario: Optional[list[str]] = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
+) -> None:
+    """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
+    from roman_sim.reference import reproduce
+
+    path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."))
+    Console().print(path.read_text())

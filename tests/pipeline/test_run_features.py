@@ -136,3 +136,18 @@ def test_every_bundled_sweep_validates(path):
     assert runs
     for run in runs[:3]:
         load_scenario(scenario, list(run.overrides) + [f"seed={run.seed}"]).world.spec()
+
+
+def test_reproduce_collects_small_results(smoke_run, tmp_path):
+    from roman_sim.reference import reproduce
+
+    shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
+    path = reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")
+    dest = tmp_path / "ref" / "smoke"
+    assert (dest / "metrics.json").is_file() and (dest / "report.md").is_file()
+    assert (dest / "plots" / "precision_recall.png").is_file()
+    assert not (dest / "maps").exists()  # only small files are collected
+    text = path.read_text()
+    assert "map size (MB per km)" in text
+    assert f"{smoke_run.map_stats['mb_per_km']:.2f}" in text
+    assert "ROMAN max recall, same direction | 0.67 | n/a" in text  # not run here: not computable

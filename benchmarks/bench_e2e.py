@@ -1,0 +1,110 @@
+"""End-to-end benchmark: wall time and peak memory per stage of whole scenario runs.
+
+Each scenario runs fresh in its own subprocess (so peak memory is the run's own); the
+peak resident set size of every stage is read from ``/proc/self/status`` (VmHWM) after
+resetting it through ``/proc/self/clear_refs`` at the stage's start (Linux).
+Writes ``benchmarks/out/e2e.json``.
+Run: ``python benchmarks/bench_e2e.py [scenario ...]`` (default: demo opposite_direction).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+OUT = Path(__file__).resolve().parent / "out" / "e2e.json"
+
+
+def _hwm_mb() -> float | None:
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("VmHWM:"):
+                return int(line.split()[1]) / 1024.0
+    except OSError:
+        return None
+    return None
+
+
+def _reset_hwm() -> None:
+    try:
+        Path("/proc/self/clear_refs").write_text("5")
+    except OSError:
+        pass
+
+
+class MemoryProbe:
+    """An ``Experiment`` progress sink that records wall time and peak RSS per top-level stage."""
+
+    def __init__(self) -> None:
+        self.stages: dict[str, dict[str, float | None]] = {}
+        self._t0: dict[str, float] = {}
+
+    def start(self, stage: str, total: int | None = None) -> None:
+        if ":" not in stage:
+            _reset_hwm()
+            self._t0[stage] = time.perf_counter()
+
+    def advance(self, stage: str, n: int = 1) -> None:
+        pass
+
+    def end(self, stage: str) -> None:
+        if stage in self._t0:
+            self.stages[stage] = {"seconds": time.perf_counter() - self._t0[stage], "peak_rss_mb": _hwm_mb()}
+
+
+def run_one(name: str) -> dict:
+    """Run ``name`` fresh in this process; return its per-stage figures."""
+    from roman_sim.experiment import Experiment
+    from roman_sim.scenario import load_scenario
+
+    sc = load_scenario(name)
+    probe = MemoryProbe()
+    with tempfile.TemporaryDirectory() as d:
+        t0 = time.perf_counter()
+        res = Experiment(sc, Path(d) / name, fresh=True, progress=probe).run()
+        total = time.perf_counter() - t0
+    return {
+        "scenario": name,
+        "total_seconds": total,
+        "stages": probe.stages,
+        "peak_rss_mb": max((s["peak_rss_mb"] or 0.0) for s in probe.stages.values()),
+        "robots": len(sc.robots),
+        "image": [sc.robots[0].camera.width, sc.robots[0].camera.height],
+        "segments": res.map_stats.get("segments"),
+        "submaps": res.map_stats.get("submaps"),
+        "pairs": res.metrics.get("n_pairs"),
+        "summary": res.metrics_summary(),
+    }
+
+
+def main(argv: list[str]) -> None:
+    if argv and argv[0] == "--child":
+        print(json.dumps(run_one(argv[1]), default=float))
+        return
+    names = argv or ["demo", "opposite_direction"]
+    results = []
+    for name in names:
+        proc = subprocess.run([sys.executable, __file__, "--child", name], capture_output=True, text=True,
+                              env={**os.environ, "PYTHONWARNINGS": "ignore"})
+        if proc.returncode != 0:
+            print(proc.stderr[-2000:], file=sys.stderr)
+            raise SystemExit(f"scenario {name} failed")
+        res = json.loads(proc.stdout.strip().splitlines()[-1])
+        results.append(res)
+        print(f"{name}: {res['total_seconds']:.0f} s, peak {res['peak_rss_mb']:.0f} MB, "
+              + ", ".join(f"{k} {v['seconds']:.1f} s" for k, v in res["stages"].items()))
+    from roman_sim.atomic import write_json
+
+    write_json(OUT, {"machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
+                     "load_average_at_end": os.getloadavg(), "runs": results})
+    print(f"wrote {OUT}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])

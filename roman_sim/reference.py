@@ -1,0 +1,128 @@
+"""Reference results: run the paper's experiments and put them next to the paper's figures.
+
+``reproduce`` runs each scenario (cached in a work folder), copies the small outputs
+(``metrics.json``, ``ate.json``, ``report.md``, plots) to ``out_dir/<scenario>/`` and writes
+``out_dir/summary.md`` and ``summary.json`` with the comparison table.
+"""
+
+from __future__ import annotations
+
+import logging
+import shutil
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from roman_sim.atomic import write_json, write_text
+from roman_sim.evaluation.summaries import compact_summary
+
+log = logging.getLogger(__name__)
+
+PAPER_SCENARIOS = [
+    "same_direction", "partial_opposite", "opposite_direction", "heading_sweep",
+    "multi_robot_tunnel", "multi_robot_hybrid", "multi_robot_outdoor",
+]
+
+#: The paper's figures (Kimera-Multi outdoor and the off-road Jackal experiment).
+PAPER = {
+    "max_recall_same_direction": 0.67,
+    "max_recall_opposite_direction": 0.26,
+    "ransac1m_over_roman_runtime": 4.5,
+    "kb_per_submap_max": 250.0,
+    "mb_per_km_max": 24.0,
+    "ate_table": {"tunnel": (4.38, 4.20, 4.12), "hybrid": (5.83, 5.12, 4.77), "outdoor": (9.38, 8.77, 7.77)},
+}
+
+SMALL_FILES = ("metrics.json", "ate.json", "report.md", "config.yaml", "posegraph.json")
+
+
+def reproduce(
+    out_dir: str | Path,
+    scenarios: list[str] | None = None,
+    work_dir: str | Path = "results/work",
+    on_start: Callable[[str], None] | None = None,
+) -> Path:
+    """Run ``scenarios`` (default: the paper's), collect small results, write the summary."""
+    from roman_sim.experiment import Experiment
+    from roman_sim.scenario import load_scenario
+
+    out, work = Path(out_dir), Path(work_dir)
+    runs: dict[str, Any] = {}
+    for name in scenarios or PAPER_SCENARIOS:
+        if on_start:
+            on_start(name)
+        res = Experiment(load_scenario(name), work / name).run()
+        _collect(res.run_dir, out / name)
+        runs[name] = compact_summary(res.metrics, res.ate, res.map_stats)
+    table = comparison(runs)
+    write_json(out / "summary.json", {"runs": runs, "comparison": table, "paper": PAPER})
+    write_text(out / "summary.md", summary_markdown(table))
+    return out / "summary.md"
+
+
+def _collect(run_dir: Path, dest: Path) -> None:
+    dest.mkdir(parents=True, exist_ok=True)
+    for name in SMALL_FILES:
+        if (run_dir / name).is_file():
+            shutil.copyfile(run_dir / name, dest / name)
+    if (run_dir / "plots").is_dir():
+        shutil.copytree(run_dir / "plots", dest / "plots", dirs_exist_ok=True)
+
+
+def _get(runs: dict[str, Any], scenario: str, *keys: str) -> Any:
+    node: Any = runs.get(scenario)
+    for k in keys:
+        if not isinstance(node, dict):
+            return None
+        node = node.get(k)
+    return node
+
+
+def comparison(runs: dict[str, Any]) -> list[dict[str, Any]]:
+    """Rows ``figure, paper, simulation, note`` for the README and summary.md."""
+    rows = []
+    for case, scen in (("same_direction", "same_direction"), ("opposite_direction", "opposite_direction")):
+        rows.append({"figure": f"ROMAN max recall, {case.replace('_', ' ')}",
+                     "paper": PAPER[f"max_recall_{case}"],
+                     "simulation": _get(runs, scen, "methods", "roman", "max_recall")})
+        rows.append({"figure": f"CLIPPER max recall, {case.replace('_', ' ')}", "paper": None,
+                     "simulation": _get(runs, scen, "methods", "clipper", "max_recall")})
+        rows.append({"figure": f"RANSAC-1M max recall, {case.replace('_', ' ')}", "paper": None,
+                     "simulation": _get(runs, scen, "methods", "ransac1m", "max_recall")})
+    ratios = []
+    for scen in ("same_direction", "partial_opposite", "opposite_direction"):
+        r1m = _get(runs, scen, "methods", "ransac1m", "runtime_median_s")
+        ro = _get(runs, scen, "methods", "roman", "runtime_median_s")
+        if r1m and ro:
+            ratios.append(r1m / ro)
+    rows.append({"figure": "RANSAC-1M / ROMAN runtime per pair", "paper": PAPER["ransac1m_over_roman_runtime"],
+                 "simulation": max(ratios) if ratios else None})
+    kb = [v for v in (_get(runs, s, "map", "kb_per_submap_max") for s in runs) if v is not None]
+    mb = [v for v in (_get(runs, s, "map", "mb_per_km") for s in runs) if v is not None]
+    rows.append({"figure": "largest submap packet (KB)", "paper": f"< {PAPER['kb_per_submap_max']:g}",
+                 "simulation": max(kb) if kb else None})
+    rows.append({"figure": "map size (MB per km)", "paper": f"< {PAPER['mb_per_km_max']:g}",
+                 "simulation": max(mb) if mb else None})
+    for variant, paper in PAPER["ate_table"].items():
+        scen = f"multi_robot_{variant}"
+        sim = tuple(_get(runs, scen, "ate_rmse_m", k) for k in ("odometry", "roman", "oracle"))
+        rows.append({"figure": f"ATE RMSE {variant} (m): paper visual / ROMAN / combined; "
+                               "simulation odometry / ROMAN / oracle", "paper": paper, "simulation": sim})
+    return rows
+
+
+def _fmt(v: Any) -> str:
+    if v is None:
+        return "n/a"
+    if isinstance(v, float):
+        return f"{v:.2f}"
+    if isinstance(v, (tuple, list)):
+        return " / ".join(_fmt(x) for x in v)
+    return str(v)
+
+
+def summary_markdown(rows: list[dict[str, Any]]) -> str:
+    """The comparison table as markdown."""
+    lines = ["# Reference results next to the paper", "", "| figure | paper | simulation |", "|---|---|---|"]
+    lines += [f"| {r['figure']} | {_fmt(r['paper'])} | {_fmt(r['simulation'])} |" for r in rows]
+    return "\n".join(lines) + "\n"
