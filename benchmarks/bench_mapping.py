@@ -79,7 +79,7 @@ def _timing(per_frame: list[float], n_obs: list[int], seg: Timed, enc: Timed) ->
 
 def run_dense(n_frames: int, seed: int) -> dict:
     """Throughput on ray-cast 640 x 480 frames with about 20 nearby objects in view."""
-    spheres = synthetic.sphere_field(330, seed, x_range=(2.0, 13.0), half_width=7.0, radius_range=(0.2, 0.3))
+    spheres = synthetic.sphere_field(300, seed, x_range=(2.0, 12.0), half_width=6.0, radius_range=(0.15, 0.35))
     frames = synthetic.drive(spheres, n=n_frames, speed=0.5, intr=synthetic.intrinsics(640, 480, 87.0))
     mapper, seg, enc = _mapper(seed, {k: "boulder" for k in range(len(spheres))})
     per_frame, n_obs = [], []
