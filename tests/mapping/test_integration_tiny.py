@@ -14,7 +14,7 @@ from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
 from roman_sim.sim.camera import CameraConfig, backproject
-from roman_sim.sim.robot import RobotConfig, simulate_robot
+from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
 from roman_sim.world import generate, load_world_spec
 
 
@@ -95,3 +95,23 @@ def test_fastsam_map_submaps_and_storage(run, tmp_path):
     save_segment_map(tmp_path / "m.npz", smap)
     back = load_segment_map(tmp_path / "m.npz")
     assert [s.id for s in back.segments] == [s.id for s in smap.segments]
+
+
+def test_typical_drift_segments_follow_the_drifted_odometry(run):
+    world, frames = run
+    cfg = RobotConfig(name="a", camera=CameraConfig(width=160, height=120), drift="typical",
+                      render_rgb=False, max_duration_s=20.0)
+    t, T_wb, T_ob = robot_trajectory(world, cfg, 0)
+    np.testing.assert_allclose(T_wb, np.stack([f.T_world_body for f in frames]), atol=1e-9)
+    drifted = [dataclasses.replace(f, T_odom_body=T_ob[i]) for i, f in enumerate(frames)]
+    smap = _map(drifted)
+    visible = _visible(frames)
+    assert len(smap) >= 3
+    for s in smap.segments:
+        idx = [i for i, ti in enumerate(t) if s.first_seen <= ti <= s.last_seen]
+        expect = np.array([transform_points(T_ob[i] @ inv_T(T_wb[i]), visible[s.majority_id][None])[0] for i in idx])
+        spread = np.max(np.linalg.norm(expect - expect.mean(axis=0), axis=1))
+        assert np.linalg.norm(s.center - expect.mean(axis=0)) < 0.3 + spread
+    # the drift is real: the odometry frame moves by more than 0.1 m against the world
+    T_ow_end = T_ob[-1] @ inv_T(T_wb[-1])
+    assert np.linalg.norm(T_ow_end[:3, 3] - (T_ob[0] @ inv_T(T_wb[0]))[:3, 3]) > 0.1
