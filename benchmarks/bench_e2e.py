@@ -2,7 +2,8 @@
 
 Each scenario runs fresh in its own subprocess (so peak memory is the run's own); the
 peak resident set size of every stage is read from ``/proc/self/status`` (VmHWM) after
-resetting it through ``/proc/self/clear_refs`` at the stage's start (Linux).
+resetting it through ``/proc/self/clear_refs`` at the stage's start (Linux), as every
+``Experiment`` does (``stages.json`` keeps the same figures for any run).
 Writes ``benchmarks/out/e2e.json``.
 Run: ``python benchmarks/bench_e2e.py [scenario ...]`` (default: demo opposite_direction).
 """
@@ -21,59 +22,22 @@ from pathlib import Path
 OUT = Path(__file__).resolve().parent / "out" / "e2e.json"
 
 
-def _hwm_mb() -> float | None:
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("VmHWM:"):
-                return int(line.split()[1]) / 1024.0
-    except OSError:
-        return None
-    return None
-
-
-def _reset_hwm() -> None:
-    try:
-        Path("/proc/self/clear_refs").write_text("5")
-    except OSError:
-        pass
-
-
-class MemoryProbe:
-    """An ``Experiment`` progress sink that records wall time and peak RSS per top-level stage."""
-
-    def __init__(self) -> None:
-        self.stages: dict[str, dict[str, float | None]] = {}
-        self._t0: dict[str, float] = {}
-
-    def start(self, stage: str, total: int | None = None) -> None:
-        if ":" not in stage:
-            _reset_hwm()
-            self._t0[stage] = time.perf_counter()
-
-    def advance(self, stage: str, n: int = 1) -> None:
-        pass
-
-    def end(self, stage: str) -> None:
-        if stage in self._t0:
-            self.stages[stage] = {"seconds": time.perf_counter() - self._t0[stage], "peak_rss_mb": _hwm_mb()}
-
-
 def run_one(name: str) -> dict:
     """Run ``name`` fresh in this process; return its per-stage figures."""
     from roman_sim.experiment import Experiment
     from roman_sim.scenario import load_scenario
 
     sc = load_scenario(name)
-    probe = MemoryProbe()
     with tempfile.TemporaryDirectory() as d:
         t0 = time.perf_counter()
-        res = Experiment(sc, Path(d) / name, fresh=True, progress=probe).run()
+        res = Experiment(sc, Path(d) / name, fresh=True).run()
         total = time.perf_counter() - t0
+    stages = {k: {"seconds": v, "peak_rss_mb": res.stage_peak_mb.get(k)} for k, v in res.stage_seconds.items()}
     return {
         "scenario": name,
         "total_seconds": total,
-        "stages": probe.stages,
-        "peak_rss_mb": max((s["peak_rss_mb"] or 0.0) for s in probe.stages.values()),
+        "stages": stages,
+        "peak_rss_mb": max((s["peak_rss_mb"] or 0.0) for s in stages.values()),
         "robots": len(sc.robots),
         "image": [sc.robots[0].camera.width, sc.robots[0].camera.height],
         "segments": res.map_stats.get("segments"),

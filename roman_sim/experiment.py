@@ -22,6 +22,7 @@ from typing import Any, Protocol
 from roman_sim.atomic import write_json, write_text
 from roman_sim.config import dump_yaml
 from roman_sim.errors import ConfigError
+from roman_sim.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
@@ -62,6 +63,7 @@ class RunResult:
     ate: dict[str, Any]
     map_stats: dict[str, Any]
     stage_seconds: dict[str, float] = field(default_factory=dict)
+    stage_peak_mb: dict[str, float | None] = field(default_factory=dict)
     reused: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
 
@@ -129,9 +131,10 @@ class Experiment:
         rec = self._stages().get(stage)
         return bool(rec and rec.get("key") == key and all(f.exists() for f in files))
 
-    def _mark(self, stage: str, key: str, seconds: float) -> None:
+    def _mark(self, stage: str, key: str, seconds: float, peak_mb: float | None) -> None:
         stages = self._stages()
-        stages[stage] = {"key": key, "seconds": round(seconds, 3)}
+        stages[stage] = {"key": key, "seconds": round(seconds, 3),
+                         "peak_rss_mb": None if peak_mb is None else round(peak_mb, 1)}
         write_json(self._stages_file, stages)
 
     # -- keys ----------------------------------------------------------------
@@ -186,14 +189,16 @@ class Experiment:
                 self.result.reused.append(name)
                 st.load_stage(self, name)
                 continue
+            reset_peak_rss()
             t0 = time.perf_counter()
             self.progress.start(name)
             fn()
             self.progress.end(name)
             secs = time.perf_counter() - t0
             self.result.stage_seconds[name] = secs
+            self.result.stage_peak_mb[name] = peak_rss_mb()
             if key:
-                self._mark(name, key, secs)
+                self._mark(name, key, secs, self.result.stage_peak_mb[name])
         return self.result
 
     def _prepare_dir(self) -> None:

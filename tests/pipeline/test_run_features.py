@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import shutil
 from pathlib import Path
 
@@ -65,6 +66,8 @@ def test_run_folder_contents(smoke_run):
             assert (d / "trajectories" / f"{robot}.{variant}.tum").is_file()
     assert (d / "plots" / "trajectories.png").stat().st_size > 1000
     assert not list(d.rglob("*.tmp"))
+    stages = json.loads((d / "stages.json").read_text())
+    assert stages["maps"]["seconds"] > 0 and stages["maps"]["peak_rss_mb"] > 0
 
 
 def test_report_command_prints_summary(smoke_run):
@@ -151,3 +154,22 @@ def test_reproduce_collects_small_results(smoke_run, tmp_path):
     assert "map size (MB per km)" in text
     assert f"{smoke_run.map_stats['mb_per_km']:.2f}" in text
     assert "ROMAN max recall, same direction | 0.67 | n/a" in text  # not run here: not computable
+
+
+def test_record_command_stores_readable_frames(tmp_path):
+    from roman_sim.sim.recording import read_recording, recording_info
+    from roman_sim.tum import read_tum
+
+    out = tmp_path / "rec"
+    res = runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "b",
+                              "--set", "robots.1.max_length_m=2.0"])
+    assert res.exit_code == 0, res.output
+    assert not (out / "a").exists()
+    info = recording_info(out / "b")
+    frames = list(read_recording(out / "b"))
+    assert len(frames) == info["frame_count"] > 5
+    assert frames[0].depth.shape == (120, 160) and frames[0].robot == "b"
+    t, T = read_tum(out / "b" / "traj_odom.tum")
+    assert len(t) == len(frames)
+    line = _one_line_error(runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "zz"]))
+    assert "zz" in line and "a, b" in line
