@@ -33,7 +33,23 @@ log = logging.getLogger(__name__)
 
 
 class MappingConfig(StrictModel):
-    """Front-end parameters (names follow the reference implementation)."""
+    """Front-end parameters (names follow the reference implementation).
+
+    Attributes:
+        max_depth_m, min_valid_fraction: depth truncation and the in-range pixel share a
+            mask needs to be kept.
+        voxel: point voxel size (m); iou_voxel: voxel size (m) of the association IoU.
+        min_iou: smallest IoU an association may have; merge_iou: IoU above which two
+            segments merge; merge_contained, merge_contained_dist_m: containment merge.
+        min_sightings: sightings that turn a nursery segment active.
+        nursery_time_s, active_time_s: unseen time after which a nursery segment is
+            deleted / an active one goes inactive.
+        inactive_time_s, inactive_dist_m: unseen time or robot distance that finishes an
+            inactive segment.
+        cluster_eps_m: largest-cluster cleanup scale; min_max_extent_m: speck filter.
+        obs_plane_extents_m, seg_plane_extents_m: plane filters (descending extents).
+        min_points: fewest points an observation or segment may have.
+    """
 
     max_depth_m: float = Field(7.5, gt=0, le=100)
     min_valid_fraction: float = Field(0.25, ge=0, le=1)

@@ -88,3 +88,16 @@ def test_flush_drops_nursery_and_keeps_largest_cluster():
     out = tr.flush()
     assert [s.id for s in out] == [0]
     assert len(out[0].points) == len(a)
+
+
+def test_mapping_config_is_strict():
+    import pytest
+
+    from roman_sim.config import validate_model
+    from roman_sim.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="max_depth"):
+        validate_model(MappingConfig, {"max_depth_m": -1})
+    with pytest.raises(ConfigError, match="unknown key"):
+        validate_model(MappingConfig, {"voxel_size": 0.1})
+    assert MappingConfig().iou_voxel == 0.2 and MappingConfig().min_iou == 0.25
