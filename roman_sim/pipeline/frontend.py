@@ -52,13 +52,16 @@ def build_segmenter_for(exp: "Experiment", robot: str) -> Any:
     return build_segmenter(seg if isinstance(seg, (str, SegmenterConfig)) else seg, seed=exp.sc.seed)
 
 
-def build_encoder_for(exp: "Experiment") -> Any:
-    """The scenario's semantic encoder (simulated from truth, or a user class)."""
+def build_encoder_for(exp: "Experiment", robot: str) -> Any:
+    """The scenario's semantic encoder (simulated from truth, or a user class).
+
+    Prototypes are shared by all robots (same seed); observation noise is per robot.
+    """
     enc = exp.sc.frontend.encoder
     if enc == "simulated":
         world = exp._state["world"]
         families = {o.id: o.family for o in world.truth.objects}
-        return SimulatedEncoder(exp.sc.frontend.semantics, seed=exp.sc.seed, families=families)
+        return SimulatedEncoder(exp.sc.frontend.semantics, seed=exp.sc.seed, families=families, robot=robot)
     if ":" in enc:
         return _user_object(enc, "semantic encoder")
     raise ConfigError(f"frontend.encoder: unknown encoder {enc!r} (valid: simulated, or package.module:Class)")
@@ -94,7 +97,7 @@ def maps_stage(exp: "Experiment") -> None:
         n_frames = len(robot_trajectory(world, cfg, exp.sc.seed, paths)[0])
         stage = f"maps:{cfg.name}"
         exp.progress.start(stage, n_frames)
-        mapper = Mapper(exp.sc.mapping, build_segmenter_for(exp, cfg.name), build_encoder_for(exp), seed=exp.sc.seed)
+        mapper = Mapper(exp.sc.mapping, build_segmenter_for(exp, cfg.name), build_encoder_for(exp, cfg.name), seed=exp.sc.seed)
         for frame in _frames(exp, world, cfg, paths):
             mapper.process(frame)
             exp.progress.advance(stage)
