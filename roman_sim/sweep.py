@@ -23,7 +23,7 @@ from typing import Any, Literal
 from pydantic import Field
 
 from roman_sim.atomic import write_text
-from roman_sim.config import StrictModel, apply_overrides, read_yaml, validate_model
+from roman_sim.config import StrictModel, read_yaml, validate_model
 from roman_sim.errors import ConfigError, RomanSimError
 
 log = logging.getLogger(__name__)

@@ -5,7 +5,6 @@ import pytest
 from scipy import ndimage
 
 from roman_sim.errors import ConfigError, MappingError
-from roman_sim.geometry import make_T
 from roman_sim.mapping.segmenter import SEGMENTERS, Mask, Segmenter, SegmenterConfig, build_segmenter, ellipse_kernel
 from roman_sim.sim.frame import Frame
 
