@@ -41,14 +41,14 @@ class CameraConfig(StrictModel):
     """Camera intrinsics and its mount on the robot body (FLU).
 
     Defaults follow an Intel RealSense D455 depth stream: 640 x 480, 87 deg horizontal
-    field of view. ``vfov_deg`` None means square pixels (about 71 deg vertical at 4:3);
-    set it (e.g. 58, the D455's) for non-square pixels (fy != fx).
+    field of view, 58 deg vertical (the D455's depth field of view, so fy > fx at 4:3).
+    ``vfov_deg`` None means square pixels (about 71 deg vertical at 4:3).
     """
 
     width: int = Field(640, ge=8, le=4096)
     height: int = Field(480, ge=8, le=4096)
     hfov_deg: float = Field(87.0, gt=1.0, lt=179.0)
-    vfov_deg: float | None = Field(None, gt=1.0, lt=179.0)
+    vfov_deg: float | None = Field(58.0, gt=1.0, lt=179.0)
     mount_height_m: float = Field(0.4, ge=0.0, le=5.0)
     mount_forward_m: float = Field(0.2, ge=-2.0, le=2.0)
     mount_pitch_deg: float = Field(0.0, ge=-60.0, le=60.0)

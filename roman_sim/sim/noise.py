@@ -60,6 +60,6 @@ def apply_depth_noise(
             q = np.float32(cfg.quantum_m)
             out = np.round(out / q) * q
         valid &= ~depth_edges(d, cfg.edge_jump_m)
-    valid &= out > 0
+    valid &= (out > 0) & (out <= max_depth_m)  # the measured value must also be in range
     out[~valid] = 0.0
     return out

@@ -17,10 +17,11 @@ def test_default_intrinsics_match_d455() -> None:
     assert (k.width, k.height) == (640, 480)
     hfov, vfov = k.fov_deg
     assert hfov == pytest.approx(87.0, abs=1e-6)
-    assert k.fx == k.fy and k.cx == 319.5 and k.cy == 239.5
-    assert vfov == pytest.approx(np.degrees(2 * np.arctan(np.tan(np.radians(43.5)) * 0.75)))
-    k58 = CameraConfig(vfov_deg=58.0).intrinsics()
-    assert k58.fov_deg[1] == pytest.approx(58.0) and k58.fy > k58.fx
+    assert vfov == pytest.approx(58.0, abs=1e-6)
+    assert k.fy > k.fx and k.cx == 319.5 and k.cy == 239.5
+    square = CameraConfig(vfov_deg=None).intrinsics()
+    assert square.fx == square.fy
+    assert square.fov_deg[1] == pytest.approx(np.degrees(2 * np.arctan(np.tan(np.radians(43.5)) * 0.75)))
 
 
 def test_projection_backprojection_round_trip() -> None:

@@ -57,3 +57,10 @@ def test_fast_filter_matches_scipy() -> None:
     img = np.random.default_rng(1).uniform(0, 5, (13, 17)).astype(np.float32)
     np.testing.assert_array_equal(_filter3(img, np.maximum), maximum_filter(img, size=3, mode="nearest"))
     np.testing.assert_array_equal(_filter3(img, np.minimum), minimum_filter(img, size=3, mode="nearest"))
+
+
+def test_noisy_readings_never_exceed_max_range() -> None:
+    depth = np.full((40, 40), 7.49, dtype=np.float32)  # just inside the range: noise pushes half out
+    out = apply_depth_noise(depth, DepthNoiseConfig(), 7.5, np.random.default_rng(0))
+    assert out.max() <= 7.5
+    assert 0.2 < np.mean(out == 0) < 0.8  # those measured beyond the range are invalid
