@@ -20,6 +20,7 @@ from typing import Any, Protocol
 
 
 from roman_sim.atomic import write_json, write_text
+from roman_sim import __version__
 from roman_sim.config import dump_yaml
 from roman_sim.errors import ConfigError
 from roman_sim.resources import peak_rss_mb, reset_peak_rss
@@ -95,6 +96,8 @@ class Experiment:
         progress: progress sink (the CLI passes rich progress bars).
         submaps_dir: start from saved submaps (``<robot>.npz`` files of
             ``roman_sim.mapping.io.save_submaps``) instead of simulating and mapping.
+        from_stage: recompute this stage and every later one, reuse the earlier ones
+            (e.g. ``"evaluation"`` after changing an aligner's code).
     """
 
     def __init__(
@@ -104,7 +107,11 @@ class Experiment:
         fresh: bool = False,
         progress: Progress | None = None,
         submaps_dir: str | Path | None = None,
+        from_stage: str | None = None,
     ) -> None:
+        if from_stage is not None and from_stage not in STAGES:
+            raise ConfigError(f"from_stage: unknown stage {from_stage!r} (valid: {', '.join(STAGES)})")
+        self.from_stage = from_stage
         self.sc = scenario
         self.dir = Path(run_dir)
         self.fresh = fresh
@@ -128,6 +135,8 @@ class Experiment:
     def _cached(self, stage: str, key: str, files: list[Path]) -> bool:
         if self.fresh:
             return False
+        if self.from_stage is not None and STAGES.index(stage) >= STAGES.index(self.from_stage):
+            return False
         rec = self._stages().get(stage)
         return bool(rec and rec.get("key") == key and all(f.exists() for f in files))
 
@@ -141,7 +150,8 @@ class Experiment:
     def _keys(self) -> dict[str, str]:
         sc = self.sc.model_dump(mode="json")
         src = str(self.submaps_dir) if self.submaps_dir else None
-        maps = _hash(sc["seed"], sc["world"], sc["robots"], sc["frontend"], sc["mapping"])
+        # the package version is part of every key: results of an older release are not reused
+        maps = _hash(__version__, sc["seed"], sc["world"], sc["robots"], sc["frontend"], sc["mapping"])
         submaps = _hash(maps, sc["submaps"], src)
         evaluation = _hash(submaps, sc["aligners"], sc["evaluation"])
         posegraph = _hash(evaluation, sc["posegraph"], sc["posegraph_method"])
@@ -217,11 +227,12 @@ def run_scenario_file(
     run_dir: str | Path | None = None,
     fresh: bool = False,
     progress: Progress | None = None,
+    from_stage: str | None = None,
 ) -> RunResult:
     """Load a scenario (bundled name or path), apply overrides, run it, return the result."""
     sc = load_scenario(name_or_path, overrides)
     out = Path(run_dir) if run_dir else default_run_dir(sc)
-    return Experiment(sc, out, fresh=fresh, progress=progress).run()
+    return Experiment(sc, out, fresh=fresh, progress=progress, from_stage=from_stage).run()
 
 
 def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:

@@ -41,6 +41,7 @@ def reproduce(
     scenarios: list[str] | None = None,
     work_dir: str | Path = "results/work",
     on_start: Callable[[str], None] | None = None,
+    from_stage: str | None = None,
 ) -> Path:
     """Run ``scenarios`` (default: the paper's), collect small results, write the summary."""
     from roman_sim.experiment import Experiment
@@ -51,7 +52,7 @@ def reproduce(
     for name in scenarios or PAPER_SCENARIOS:
         if on_start:
             on_start(name)
-        res = Experiment(load_scenario(name), work / name).run()
+        res = Experiment(load_scenario(name), work / name, from_stage=from_stage).run()
         _collect(res.run_dir, out / name)
         runs[name] = compact_summary(res.metrics, res.ate, res.map_stats)
     table = comparison(runs)

@@ -86,7 +86,7 @@ def print_summary(result: Any) -> None:
 
 
 def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: bool,
-         submaps: Optional[Path], aligners: Optional[list[str]]) -> None:
+         submaps: Optional[Path], aligners: Optional[list[str]], from_stage: Optional[str] = None) -> None:
     from roman_sim.experiment import Experiment, default_run_dir
     from roman_sim.scenario import load_scenario
 
@@ -99,7 +99,7 @@ def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: b
         data = sc.model_dump(mode="json")
         data["aligners"] += [{"method": a} for a in aligners]
         sc = validate_model(Scenario, data, source="--aligner")
-    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps)
+    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage)
     exp.validate()
     with _progress() as p:
         exp.progress = RichProgress(p)
@@ -116,9 +116,11 @@ def run_cmd(
     submaps: Optional[Path] = typer.Option(None, "--submaps", help="start from saved submaps (<robot>.npz)"),
     aligner: Optional[list[str]] = typer.Option(None, "--aligner", "-a",
                                                 help="add an aligner (name or package.module:Class)"),
+    from_stage: Optional[str] = typer.Option(None, "--from", help="recompute from this stage on "
+                                             "(maps, submaps, evaluation, posegraph, report)"),
 ) -> None:
     """Run a scenario end to end and print the summary."""
-    _run(scenario, out, sets, fresh, submaps, aligner)
+    _run(scenario, out, sets, fresh, submaps, aligner, from_stage)
 
 
 @app.command("demo")
@@ -246,9 +248,11 @@ def reproduce_cmd(
     out: Path = typer.Option(Path("results/reference"), "--out", "-o", help="where the small results go"),
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
     scenario: Optional[list[str]] = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
+    from_stage: Optional[str] = typer.Option(None, "--from", help="recompute from this stage on"),
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
     from roman_sim.reference import reproduce
 
-    path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."))
+    path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
+                     from_stage=from_stage)
     Console().print(path.read_text())

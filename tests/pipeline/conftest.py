@@ -15,8 +15,8 @@ def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
     return Experiment(sc, tmp_path_factory.mktemp("smoke") / "seed0").run()
 
 
-@pytest.fixture(scope="session")
-def smoke_run_seed1(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
-    """The smoke scenario with seed 1 (another world, other drift)."""
-    sc = load_scenario("smoke", ["seed=1"])
-    return Experiment(sc, tmp_path_factory.mktemp("smoke") / "seed1").run()
+@pytest.fixture(scope="session", params=[0, 1], ids=["seed0", "seed1"])
+def opposite_run(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory) -> RunResult:
+    """The small opposite-direction case (dense off-road loop) for two seeds."""
+    sc = load_scenario("opposite_small", [f"seed={request.param}"])
+    return Experiment(sc, tmp_path_factory.mktemp("opposite") / f"seed{request.param}").run()

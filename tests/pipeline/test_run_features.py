@@ -173,3 +173,13 @@ def test_record_command_stores_readable_frames(tmp_path):
     assert len(t) == len(frames)
     line = _one_line_error(runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "zz"]))
     assert "zz" in line and "a, b" in line
+
+
+def test_from_stage_recomputes_later_stages_only(smoke_run, tmp_path):
+    run_dir = tmp_path / "copy"
+    shutil.copytree(smoke_run.run_dir, run_dir)
+    res = Experiment(load_scenario("smoke"), run_dir, from_stage="evaluation").run()
+    assert set(res.reused) == {"maps", "submaps"}
+    assert res.recall("roman") == smoke_run.recall("roman")
+    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--from", "nope", "--out", str(run_dir)]))
+    assert "nope" in line and "evaluation" in line
