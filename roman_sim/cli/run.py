@@ -60,11 +60,12 @@ def print_summary(result: Any) -> None:
 
     s = compact_summary(result.metrics, result.ate, result.map_stats)
     out = Console()
-    t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed}): alignment")
+    t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed}): max recall (R) overall and per "
+                    "heading bin, median ms per pair")
     bins = [k for k in next(iter(s["methods"].values()), {}) if k.startswith("recall_") and k[7].isdigit()]
-    for col in ["method", "max recall", "recall@P=1", "F1", *[b.replace("recall_", "") + " deg" for b in bins],
-                "median ms"]:
-        t.add_column(col, justify="right" if col != "method" else "left")
+    t.add_column("method", no_wrap=True)
+    for col in ["max R", "R@P=1", "F1", *[b.replace("recall_", "") + "°" for b in bins], "ms"]:
+        t.add_column(col, justify="right", no_wrap=True)
     for name, m in s["methods"].items():
         ms = None if m["runtime_median_s"] is None else m["runtime_median_s"] * 1000
         t.add_row(name, _fmt(m["max_recall"]), _fmt(m["recall_at_precision_1"]), _fmt(m["best_f1"]),
