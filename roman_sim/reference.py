@@ -35,6 +35,9 @@ PAPER = {
 
 SMALL_FILES = ("metrics.json", "ate.json", "report.md", "config.yaml", "posegraph.json")
 
+#: The sweep run with the paper's scenarios: recall against the ambiguity knob.
+AMBIGUITY_SWEEP = "sweeps/ambiguity_sweep.yaml"
+
 
 def reproduce(
     out_dir: str | Path,
@@ -56,9 +59,47 @@ def reproduce(
         _collect(res.run_dir, out / name)
         runs[name] = compact_summary(res.metrics, res.ate, res.map_stats)
     table = comparison(runs)
-    write_json(out / "summary.json", {"runs": runs, "comparison": table, "paper": PAPER})
-    write_text(out / "summary.md", summary_markdown(table))
+    sweep_rows: list[dict[str, Any]] = []
+    if scenarios is None:
+        if on_start:
+            on_start("ambiguity_sweep")
+        sweep_rows = ambiguity_sweep(out / "ambiguity_sweep", work / "ambiguity_sweep")
+    write_json(out / "summary.json", {"runs": runs, "comparison": table, "ambiguity_sweep": sweep_rows,
+                                      "paper": PAPER})
+    write_text(out / "summary.md", summary_markdown(table) + sweep_markdown(sweep_rows))
     return out / "summary.md"
+
+
+def ambiguity_sweep(dest: Path, work: Path) -> list[dict[str, Any]]:
+    """Run (or resume) the ambiguity sweep; copy its table; rows of max recall per knob and method."""
+    import csv
+
+    from roman_sim.scenario import SCENARIO_DIRS
+    from roman_sim.sweep import load_sweep, run_sweep
+
+    path = next(d / AMBIGUITY_SWEEP for d in SCENARIO_DIRS if (d / AMBIGUITY_SWEEP).is_file())
+    cfg, scenario = load_sweep(path)
+    cfg.executor.kind = "serial"
+    table = run_sweep(cfg, scenario, work)
+    dest.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(table, dest / "sweep.csv")
+    with table.open() as fh:
+        return [{"ambiguity": r["world.overrides.ambiguity"], "method": r["method"],
+                 "max_recall": float(r["max_recall"]) if r.get("max_recall") else None}
+                for r in csv.DictReader(fh) if r.get("status") == "ok"]
+
+
+def sweep_markdown(rows: list[dict[str, Any]]) -> str:
+    """Max recall per ambiguity knob (rows) and method (columns)."""
+    if not rows:
+        return ""
+    methods = sorted({r["method"] for r in rows})
+    knobs = list(dict.fromkeys(r["ambiguity"] for r in rows))
+    cell = {(r["ambiguity"], r["method"]): r["max_recall"] for r in rows}
+    lines = ["", "## Max recall against the ambiguity knob (ambiguity sweep, opposite directions)", "",
+             "| ambiguity | " + " | ".join(methods) + " |", "|---" * (len(methods) + 1) + "|"]
+    lines += [f"| {k} | " + " | ".join(_fmt(cell.get((k, m))) for m in methods) + " |" for k in knobs]
+    return "\n".join(lines) + "\n"
 
 
 def _collect(run_dir: Path, dest: Path) -> None:

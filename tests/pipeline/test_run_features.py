@@ -183,3 +183,15 @@ def test_from_stage_recomputes_later_stages_only(smoke_run, tmp_path):
     assert res.recall("roman") == smoke_run.recall("roman")
     line = _one_line_error(runner.invoke(app, ["run", "smoke", "--from", "nope", "--out", str(run_dir)]))
     assert "nope" in line and "evaluation" in line
+
+
+def test_sweep_markdown_table():
+    from roman_sim.reference import sweep_markdown
+
+    rows = [{"ambiguity": "0.0", "method": "roman", "max_recall": 0.7},
+            {"ambiguity": "0.0", "method": "clipper", "max_recall": 0.6},
+            {"ambiguity": "1.0", "method": "roman", "max_recall": None}]
+    text = sweep_markdown(rows)
+    assert "| ambiguity | clipper | roman |" in text
+    assert "| 0.0 | 0.60 | 0.70 |" in text and "| 1.0 | n/a | n/a |" in text
+    assert sweep_markdown([]) == ""
