@@ -195,3 +195,20 @@ def test_sweep_markdown_table():
     assert "| ambiguity | clipper | roman |" in text
     assert "| 0.0 | 0.60 | 0.70 |" in text and "| 1.0 | n/a | n/a |" in text
     assert sweep_markdown([]) == ""
+
+
+def test_user_segmenter_and_encoder_run_through_the_pipeline(tmp_path, monkeypatch):
+    monkeypatch.syspath_prepend(str(ROOT))
+    sets = ["robots.0.max_length_m=12", "robots.1.max_length_m=12",
+            "frontend.segmenter=examples.depth_segmenter:DepthEdgeSegmenter",
+            "frontend.encoder=examples.depth_segmenter:ShapeEncoder"]
+    res = Experiment(load_scenario("smoke", sets), tmp_path / "byo").run()
+    assert res.map_stats["segments"] > 0
+    from roman_sim.mapping.io import load_submaps
+
+    subs = load_submaps(tmp_path / "byo" / "submaps" / "a.npz")
+    assert any(len(s) for s in subs)
+    assert {s.descriptors.shape[1] for s in subs if len(s)} == {8}
+    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--out", str(tmp_path / "x"),
+                                               "--set", "frontend.encoder=examples.nope:Enc"]))
+    assert "examples.nope" in line
