@@ -61,10 +61,13 @@ class AlignerEntry(StrictModel):
 
     @property
     def name(self) -> str:
-        """Label in tables: ``label``, else the method (the class name for ``module:Class``)."""
-        if self.label:
-            return self.label
-        return self.method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in self.method else self.method
+        """Label in tables: ``label``, else ``method_label(method)``."""
+        return self.label or method_label(self.method)
+
+
+def method_label(method: str) -> str:
+    """Table label of a method name: itself, or the class name of ``package.module:Class``."""
+    return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
 
 
 class FrontEnd(StrictModel):
@@ -119,6 +122,16 @@ class Scenario(StrictModel):
         if self.posegraph_method is not None and self.posegraph_method not in labels:
             raise ValueError(f"posegraph_method: {self.posegraph_method!r} is not among aligners ({', '.join(labels)})")
         return self
+
+
+def with_aligners(sc: Scenario, methods: list[str]) -> Scenario:
+    """``sc`` with the aligners ``methods`` added (those not already in it), validated."""
+    extra = [m for m in methods if m not in {e.method for e in sc.aligners}]
+    if not extra:
+        return sc
+    data = sc.model_dump(mode="json")
+    data["aligners"] += [{"method": m} for m in extra]
+    return validate_model(Scenario, data, source="aligners")
 
 
 def bundled_scenarios() -> dict[str, Path]:

@@ -18,9 +18,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from roman_sim.config import validate_model
 from roman_sim.experiment import Experiment, RunResult, default_run_dir
-from roman_sim.scenario import Scenario, load_scenario
+from roman_sim.scenario import load_scenario, method_label, with_aligners
 
 
 def run_scenario(
@@ -33,18 +32,9 @@ def run_scenario(
 ) -> RunResult:
     """Run (or reuse) a seeded scenario with extra aligners (names or ``package.module:Class``)."""
     sets = list(overrides) + ([f"seed={seed}"] if seed is not None else [])
-    sc = load_scenario(scenario, sets)
-    extra = [a for a in aligners if a not in {e.method for e in sc.aligners}]
-    if extra:
-        data = sc.model_dump(mode="json")
-        data["aligners"] += [{"method": a} for a in extra]
-        sc = validate_model(Scenario, data, source="aligners")
+    sc = with_aligners(load_scenario(scenario, sets), list(aligners))
     run_dir = Path(out) / f"seed{sc.seed}" if out is not None else default_run_dir(sc)
     return Experiment(sc, run_dir).run()
-
-
-def _label(method: str) -> str:
-    return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
 
 
 def assert_recall(
@@ -61,7 +51,7 @@ def assert_recall(
         minimum: one overall bound, or ``{"0-60": 0.5, "120-180": 0.2}`` per heading bin.
         key: which figure (``max_recall``, ``recall_at_precision_1``, ``best_f1``, ``auc``).
     """
-    method = _label(method)
+    method = method_label(method)
     bounds = {None: minimum} if isinstance(minimum, (int, float)) else dict(minimum)
     failures = []
     for bin_label, lo in bounds.items():
@@ -83,7 +73,7 @@ def assert_not_worse(
     key: str = "max_recall", tolerance: float = 0.0,
 ) -> None:
     """Assert ``method`` reaches at least ``baseline``'s figure (minus ``tolerance``)."""
-    method, baseline = _label(method), _label(baseline)
+    method, baseline = method_label(method), method_label(baseline)
     got, ref = _figure(run, method, heading_bin, key), _figure(run, baseline, heading_bin, key)
     assert got is not None and ref is not None, f"{key} undefined: {method}={got}, {baseline}={ref}"
     assert got >= ref - tolerance, f"{method} {key} {heading_bin or 'overall'}: {got:.3f} < {baseline} {ref:.3f}"

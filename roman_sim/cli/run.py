@@ -89,17 +89,9 @@ def print_summary(result: Any) -> None:
 def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: bool,
          submaps: Optional[Path], aligners: Optional[list[str]], from_stage: Optional[str] = None) -> None:
     from roman_sim.experiment import Experiment, default_run_dir
-    from roman_sim.scenario import load_scenario
+    from roman_sim.scenario import load_scenario, with_aligners
 
-    overrides = list(sets or [])
-    sc = load_scenario(scenario, overrides)
-    if aligners:
-        from roman_sim.config import validate_model
-        from roman_sim.scenario import Scenario
-
-        data = sc.model_dump(mode="json")
-        data["aligners"] += [{"method": a} for a in aligners]
-        sc = validate_model(Scenario, data, source="--aligner")
+    sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
     exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage)
     exp.validate()
     with _progress() as p:
