@@ -136,7 +136,7 @@ def record_cmd(
     from roman_sim.errors import ConfigError
     from roman_sim.scenario import load_scenario
     from roman_sim.sim.recording import write_recording
-    from roman_sim.sim.robot import robot_path, robot_trajectory, simulate_robot
+    from roman_sim.sim.robot import plan_paths, render_trajectory, trajectory_along
     from roman_sim.world import generate
 
     sc = load_scenario(scenario, list(sets or []))
@@ -145,17 +145,16 @@ def record_cmd(
     if unknown:
         raise ConfigError(f"--robot: unknown {', '.join(unknown)} (robots: {', '.join(names)})")
     world = generate(sc.world.spec(), sc.seed)
-    paths: dict[str, Any] = {}
+    paths = plan_paths(world, sc.robots, sc.seed)
     with _progress() as p:
         for cfg in sc.robots:
-            paths[cfg.name] = robot_path(world, cfg, sc.seed, paths)
             if robot and cfg.name not in robot:
                 continue
-            n = len(robot_trajectory(world, cfg, sc.seed, paths)[0])
-            task = p.add_task(f"record {cfg.name}", total=n)
+            trajectory = trajectory_along(world, cfg, sc.seed, paths[cfg.name])
+            task = p.add_task(f"record {cfg.name}", total=len(trajectory[0]))
 
-            def frames(cfg: Any = cfg, task: Any = task) -> Any:
-                for f in simulate_robot(world, cfg, sc.seed, paths):
+            def frames(cfg: Any = cfg, task: Any = task, trajectory: Any = trajectory) -> Any:
+                for f in render_trajectory(world, cfg, sc.seed, trajectory):
                     p.advance(task)
                     yield f
 

@@ -67,9 +67,9 @@ def build_encoder_for(exp: "Experiment", robot: str) -> Any:
     raise ConfigError(f"frontend.encoder: unknown encoder {enc!r} (valid: simulated, or package.module:Class)")
 
 
-def _frames(exp: "Experiment", world: Any, cfg: Any, paths: dict[str, Any]) -> Any:
+def _frames(exp: "Experiment", world: Any, cfg: Any, trajectory: Any) -> Any:
     from roman_sim.sim.recording import read_recording, recording_info, write_recording
-    from roman_sim.sim.robot import simulate_robot
+    from roman_sim.sim.robot import render_trajectory
 
     rec_dir = exp.dir / "recordings" / cfg.name
     if exp.sc.record_frames and not exp.fresh:
@@ -78,7 +78,7 @@ def _frames(exp: "Experiment", world: Any, cfg: Any, paths: dict[str, Any]) -> A
             return read_recording(rec_dir)
         except RomanSimError:
             pass
-    frames = simulate_robot(world, cfg, exp.sc.seed, paths)
+    frames = render_trajectory(world, cfg, exp.sc.seed, trajectory)
     if not exp.sc.record_frames:
         return frames
     write_recording(frames, rec_dir, overwrite=True, extra={"scenario": exp.sc.name, "seed": exp.sc.seed})
@@ -87,18 +87,17 @@ def _frames(exp: "Experiment", world: Any, cfg: Any, paths: dict[str, Any]) -> A
 
 def maps_stage(exp: "Experiment") -> None:
     """Simulate and map every robot (paths in order, so relations to earlier robots resolve)."""
-    from roman_sim.sim.robot import robot_path, robot_trajectory
+    from roman_sim.sim.robot import plan_paths, trajectory_along
 
     world = exp._state["world"]
-    paths: dict[str, Any] = {}
+    paths = plan_paths(world, exp.sc.robots, exp.sc.seed)
     maps: dict[str, SegmentMap] = {}
     for cfg in exp.sc.robots:
-        paths[cfg.name] = robot_path(world, cfg, exp.sc.seed, paths)
-        n_frames = len(robot_trajectory(world, cfg, exp.sc.seed, paths)[0])
+        trajectory = trajectory_along(world, cfg, exp.sc.seed, paths[cfg.name])
         stage = f"maps:{cfg.name}"
-        exp.progress.start(stage, n_frames)
+        exp.progress.start(stage, len(trajectory[0]))
         mapper = Mapper(exp.sc.mapping, build_segmenter_for(exp, cfg.name), build_encoder_for(exp, cfg.name), seed=exp.sc.seed)
-        for frame in _frames(exp, world, cfg, paths):
+        for frame in _frames(exp, world, cfg, trajectory):
             mapper.process(frame)
             exp.progress.advance(stage)
         maps[cfg.name] = mapper.finish()

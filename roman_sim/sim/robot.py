@@ -116,11 +116,19 @@ def _check_driven_clearance(world: Any, cfg: RobotConfig, T_wb: NDArray[np.float
         log.warning("robot %s: came %.2f m close to an object (clearance %.2f m)", cfg.name, clear[i], cfg.path.clearance_m)
 
 
+Trajectory = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+
+
 def robot_trajectory(
     world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+) -> Trajectory:
     """Times (N,), true ``T_world_body`` (N, 4, 4) and drifted ``T_odom_body`` (N, 4, 4); no rendering."""
-    t, T_wb = drive(world, cfg, robot_path(world, cfg, seed, paths_by_name))
+    return trajectory_along(world, cfg, seed, robot_path(world, cfg, seed, paths_by_name))
+
+
+def trajectory_along(world: Any, cfg: RobotConfig, seed: int, path: Path2D) -> Trajectory:
+    """``robot_trajectory`` for an already planned ``path`` (e.g. from ``plan_paths``)."""
+    t, T_wb = drive(world, cfg, path)
     _check_driven_clearance(world, cfg, T_wb)
     drift = DriftModel(cfg.drift_config(), child_rng(seed, "drift", cfg.name))
     return t, T_wb, np.stack([drift.step(T) for T in T_wb])
@@ -133,9 +141,14 @@ def simulate_robot(
 
     Nothing is stored: consume the iterator, or pass it to ``write_recording``.
     """
+    yield from render_trajectory(world, cfg, seed, robot_trajectory(world, cfg, seed, paths_by_name))
+
+
+def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: Trajectory) -> Iterator[Frame]:
+    """Rendered ``Frame`` objects along a trajectory from ``robot_trajectory`` / ``trajectory_along``."""
     from roman_sim.sim.render import SensorRenderer  # the renderer needs an OpenGL context
 
-    t, T_wb, T_ob = robot_trajectory(world, cfg, seed, paths_by_name)
+    t, T_wb, T_ob = trajectory
     T_bc = cfg.camera.T_body_cam()
     noise_rng = child_rng(seed, "depth_noise", cfg.name)
     renderer = SensorRenderer(world, cfg.camera, rgb=cfg.render_rgb)
