@@ -15,7 +15,7 @@ from roman_sim.world import export_world, generate, load_world_spec
 
 # Load the exported MJCF in plain MuJoCo, open MuJoCo's viewer on it and let it draw frames.
 VIEWER_SCRIPT = """
-import sys, time
+import os, sys, time
 import mujoco, mujoco.viewer
 model = mujoco.MjModel.from_xml_path(sys.argv[1])
 data = mujoco.MjData(model)
@@ -25,7 +25,8 @@ with mujoco.viewer.launch_passive(model, data) as v:
         v.sync()
         time.sleep(0.05)
     assert v.is_running()
-print(model.ngeom, "viewer ran")
+print(model.ngeom, "viewer ran", flush=True)
+os._exit(0)  # GLFW can crash in interpreter teardown after the viewer closed; that is not the world's fault
 """
 
 
