@@ -225,3 +225,30 @@ def test_user_segmenter_and_encoder_run_through_the_pipeline(tmp_path, monkeypat
     line = _one_line_error(runner.invoke(app, ["run", "smoke", "--out", str(tmp_path / "x"),
                                                "--set", "frontend.encoder=examples.nope:Enc"]))
     assert "examples.nope" in line
+
+
+class _Interrupting:
+    """An aligner that stops the run like Ctrl-C in the middle of the evaluation."""
+
+    name = "interrupting"
+
+    def align(self, a, b):
+        raise KeyboardInterrupt
+
+
+def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
+    from roman_sim.align import ALIGNERS
+
+    run_dir = tmp_path / "interrupted"
+    shutil.copytree(smoke_run.run_dir, run_dir)
+    metrics_before = (run_dir / "metrics.json").read_bytes()
+    ALIGNERS.register("interrupting", _Interrupting)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            Experiment(load_scenario("smoke", ["aligners=[roman, interrupting]"]), run_dir).run()
+    finally:
+        ALIGNERS._items.pop("interrupting", None)
+    assert not list(run_dir.rglob("*.tmp"))  # no half-written file
+    assert (run_dir / "metrics.json").read_bytes() == metrics_before  # previous results intact
+    res = Experiment(load_scenario("smoke"), run_dir).run()
+    assert {"maps", "submaps", "evaluation", "posegraph"} <= set(res.reused)
