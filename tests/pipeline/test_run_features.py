@@ -44,10 +44,10 @@ def test_start_from_saved_submaps(smoke_run, tmp_path):
     assert any("pose graph skipped" in n for n in res.notes)
 
 
-def test_user_aligner_runs_through_the_same_pipeline(smoke_run, monkeypatch):
+def test_user_aligner_runs_through_the_same_pipeline(smoke_run, monkeypatch, tmp_path):
     monkeypatch.syspath_prepend(str(ROOT))
-    run = run_scenario("smoke", aligners=["examples.mutual_nn_aligner:MutualNNAligner"],
-                       out=smoke_run.run_dir.parent)
+    shutil.copytree(smoke_run.run_dir, tmp_path / "byo" / "seed0")  # reuse the rendered stages
+    run = run_scenario("smoke", aligners=["examples.mutual_nn_aligner:MutualNNAligner"], out=tmp_path / "byo")
     assert "MutualNNAligner" in run.metrics["methods"]
     assert {"roman", "clipper"} <= set(run.metrics["methods"])
     assert "maps" in run.reused
