@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.atomic import write_json, write_text
+from roman_sim.evaluation.report import fmt
 from roman_sim.evaluation.summaries import compact_summary
 
 log = logging.getLogger(__name__)
@@ -154,13 +155,9 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def _fmt(v: Any) -> str:
-    if v is None:
-        return "n/a"
-    if isinstance(v, float):
-        return f"{v:.2f}"
     if isinstance(v, (tuple, list)):
         return " / ".join(_fmt(x) for x in v)
-    return str(v)
+    return fmt(v, 2)
 
 
 def summary_markdown(rows: list[dict[str, Any]]) -> str:

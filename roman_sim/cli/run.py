@@ -47,11 +47,9 @@ def _progress() -> Progress:
 
 
 def _fmt(v: Any, digits: int = 2) -> str:
-    if v is None:
-        return "n/a"
-    if isinstance(v, float):
-        return f"{v:.{digits}f}"
-    return str(v)
+    from roman_sim.evaluation.report import fmt
+
+    return fmt(v, digits)
 
 
 def print_summary(result: Any) -> None:

@@ -75,22 +75,21 @@ def evaluation_stage(exp: "Experiment") -> None:
     ev = evaluate(submaps, build_aligners(exp), ec, ambiguity_fn=_ambiguity_fn(exp), pairs=pairs)
     exp.progress.end("evaluation:pairs")
     save_evaluation(exp.dir, ev, submaps, map_view=True)
-    write_json(exp.dir / ALIGNMENTS_JSON, _alignments_record(ev.results))
+    alignments = _alignments_record(ev.results)
+    write_json(exp.dir / ALIGNMENTS_JSON, alignments)
     exp._state["evaluation"] = ev
-    exp._state["alignments"] = _alignments_record(ev.results)
+    exp._state["alignments"] = alignments
     exp._state["metrics"] = ev.metrics
     exp._state["truths"] = {(t.a, t.b): t for t in ev.truths}
     exp.result.notes.extend(ev.notes)
 
 
 def _ambiguity_fn(exp: "Experiment") -> Any:
-    world = exp._state.get("world")
-    if world is None:
-        return None
-    from roman_sim.world.ambiguity import place_ambiguity
+    """Ground-truth place ambiguity at submap scale, when the world was generated in this run."""
+    from roman_sim.evaluation.pairs import world_ambiguity_fn
 
-    radius = exp.sc.submaps.submap_radius
-    return lambda xy: place_ambiguity(world.truth, xy, radius_m=radius)
+    world = exp._state.get("world")
+    return None if world is None else world_ambiguity_fn(world.truth, exp.sc.submaps.submap_radius)
 
 
 def _alignments_record(results: dict[tuple[str, str, str], AlignResult]) -> list[dict[str, Any]]:

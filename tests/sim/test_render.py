@@ -105,16 +105,20 @@ def test_same_pose_same_images(tiny_world) -> None:
         np.testing.assert_array_equal(x, y)
 
 
-def test_pyrender_agrees_with_mujoco(tiny_world) -> None:
+def _both_depths(world, T_wc):
+    """MuJoCo depth and ids, and pyrender depth over the world's meshes, from one camera pose."""
     from roman_sim.sim.pyrender_check import pyrender_depth, world_meshes
 
-    T_wc = _view_of(tiny_world, 0, dist=5.0)
-    r = SensorRenderer(tiny_world, CAM, rgb=False)
+    r = SensorRenderer(world, CAM, rgb=False)
     try:
-        _, d_mj, _ = r.render(T_wc)
+        _, d_mj, ids = r.render(T_wc)
     finally:
         r.close()
-    d_pr = pyrender_depth(world_meshes(tiny_world), CAM.intrinsics(), T_wc, CAM.near_m, CAM.far_m)
+    return d_mj, ids, pyrender_depth(world_meshes(world), CAM.intrinsics(), T_wc, CAM.near_m, CAM.far_m)
+
+
+def test_pyrender_agrees_with_mujoco(tiny_world) -> None:
+    d_mj, _, d_pr = _both_depths(tiny_world, _view_of(tiny_world, 0, dist=5.0))
     valid = (d_mj > 0) & (d_pr > 0)
     assert valid.mean() > 0.3
     assert float(np.median(np.abs(d_mj - d_pr)[valid])) < 0.01
@@ -122,18 +126,11 @@ def test_pyrender_agrees_with_mujoco(tiny_world) -> None:
 
 
 def test_exported_world_renders_like_the_original_meshes(tiny_world, tmp_path) -> None:
-    from roman_sim.sim.pyrender_check import pyrender_depth, world_meshes
     from roman_sim.world import export_world, load_world
 
     export_world(tiny_world, tmp_path / "w")
     loaded = load_world(tmp_path / "w")
-    T_wc = _view_of(tiny_world, 1, dist=4.0)
-    r = SensorRenderer(loaded, CAM, rgb=False)
-    try:
-        _, d_mj, ids = r.render(T_wc)
-    finally:
-        r.close()
-    d_pr = pyrender_depth(world_meshes(loaded), CAM.intrinsics(), T_wc, CAM.near_m, CAM.far_m)
+    d_mj, ids, d_pr = _both_depths(loaded, _view_of(tiny_world, 1, dist=4.0))
     valid = (d_mj > 0) & (d_pr > 0)
     assert valid.mean() > 0.3 and (ids >= 0).any()
     assert float(np.median(np.abs(d_mj - d_pr)[valid])) < 0.01
