@@ -24,8 +24,8 @@ OUT = Path(__file__).resolve().parent / "out" / "e2e.json"
 
 def run_one(name: str) -> dict:
     """Run ``name`` fresh in this process; return its per-stage figures."""
-    from roman_sim.experiment import Experiment
-    from roman_sim.scenario import load_scenario
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import load_scenario
 
     sc = load_scenario(name)
     with tempfile.TemporaryDirectory() as d:
@@ -63,7 +63,7 @@ def main(argv: list[str]) -> None:
         results.append(res)
         print(f"{name}: {res['total_seconds']:.0f} s, peak {res['peak_rss_mb']:.0f} MB, "
               + ", ".join(f"{k} {v['seconds']:.1f} s" for k, v in res["stages"].items()))
-    from roman_sim.atomic import write_json
+    from roman_sim.core.atomic import write_json
 
     write_json(OUT, {"machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
                      "load_average_at_end": os.getloadavg(), "runs": results})

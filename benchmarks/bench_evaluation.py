@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from roman_sim.align.base import AlignResult
-from roman_sim.atomic import write_json
+from roman_sim.core.atomic import write_json
 from roman_sim.evaluation.mapview import render_map
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import PairTruth
@@ -25,7 +25,7 @@ from roman_sim.evaluation.report import write_report
 from roman_sim.evaluation.results import read_pairs_csv, write_pairs_csv
 from roman_sim.geometry import make_T, pose_4dof, rot_x
 from roman_sim.mapping.types import Submap, SubmapTruth
-from roman_sim.seeding import child_rng
+from roman_sim.core.seeding import child_rng
 
 OUT = Path(__file__).resolve().parent / "out" / "evaluation.json"
 N_PAIRS, METHODS = 5000, ("roman", "clipper", "ransac")

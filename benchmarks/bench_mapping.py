@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roman_sim.atomic import write_json
+from roman_sim.core.atomic import write_json
 from roman_sim.mapping import synthetic
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.mapping.mapper import Mapper

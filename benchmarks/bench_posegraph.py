@@ -14,10 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-from roman_sim.atomic import write_json
+from roman_sim.core.atomic import write_json
 from roman_sim.evaluation.ate import multi_robot_ate
 from roman_sim.posegraph import PoseGraphConfig, build_and_solve
-from roman_sim.posegraph_synthetic import SyntheticGraphConfig, synthetic_scenario
+from roman_sim.posegraph.synthetic import SyntheticGraphConfig, synthetic_scenario
 
 OUT = Path(__file__).resolve().parent / "out" / "posegraph.json"
 SEEDS = (0, 1, 2)

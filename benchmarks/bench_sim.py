@@ -16,13 +16,13 @@ import time
 from pathlib import Path
 
 import roman_sim  # noqa: F401  (headless rendering defaults before mujoco loads)
-from roman_sim.atomic import write_json
+from roman_sim.core.atomic import write_json
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.render import SensorRenderer
 from roman_sim.sim.robot import RobotConfig, robot_path, robot_trajectory, simulate_robot
-from roman_sim.seeding import child_rng
+from roman_sim.core.seeding import child_rng
 from roman_sim.world import generate, load_world_spec
 
 OUT = Path(__file__).resolve().parent / "out" / "sim.json"

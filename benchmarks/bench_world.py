@@ -15,7 +15,7 @@ import time
 from pathlib import Path
 
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
-from roman_sim.atomic import write_json
+from roman_sim.core.atomic import write_json
 from roman_sim.world import export_world, generate, load_world_spec
 from roman_sim.world.ambiguity import ambiguity_index
 from roman_sim.world.preview import render_view

@@ -12,7 +12,7 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
-from roman_sim.errors import (  # noqa: E402
+from roman_sim.core.errors import (  # noqa: E402
     AlignmentError,
     ConfigError,
     EvaluationError,

@@ -18,8 +18,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from roman_sim.experiment import Experiment, RunResult, default_run_dir
-from roman_sim.scenario import load_scenario, method_label, with_aligners
+from roman_sim.pipeline.experiment import Experiment, RunResult, default_run_dir
+from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
 
 
 def run_scenario(

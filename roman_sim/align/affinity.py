@@ -28,8 +28,8 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import ConfigError
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import ConfigError
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)

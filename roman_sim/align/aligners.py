@@ -20,8 +20,8 @@ from roman_sim.align.base import ALIGNERS, Aligner, AlignResult
 from roman_sim.align.checks import pair_reason
 from roman_sim.align.clipper import ClipperParams, solve_clipper
 from roman_sim.align.registration import estimate_transform, tilt_ok
-from roman_sim.config import validate_model
-from roman_sim.errors import ConfigError
+from roman_sim.core.config import validate_model
+from roman_sim.core.errors import ConfigError
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)

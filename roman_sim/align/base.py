@@ -13,7 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.mapping.types import Submap
-from roman_sim.registry import Registry
+from roman_sim.core.registry import Registry
 
 
 @dataclass

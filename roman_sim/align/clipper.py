@@ -24,9 +24,9 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 from pydantic import Field
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import AlignmentError
-from roman_sim.seeding import child_rng
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import AlignmentError
+from roman_sim.core.seeding import child_rng
 
 log = logging.getLogger(__name__)
 

@@ -17,8 +17,8 @@ from pydantic import Field
 from roman_sim.align.base import ALIGNERS, AlignResult
 from roman_sim.align.checks import pair_reason
 from roman_sim.align.ransac import RansacParams, one_to_one, ransac_align
-from roman_sim.config import StrictModel, validate_model
-from roman_sim.errors import ConfigError
+from roman_sim.core.config import StrictModel, validate_model
+from roman_sim.core.errors import ConfigError
 from roman_sim.geometry import make_T, transform_points
 from roman_sim.mapping.types import Submap
 

@@ -13,7 +13,7 @@ import click
 import typer
 from typer.core import TyperGroup
 
-from roman_sim.errors import RomanSimError
+from roman_sim.core.errors import RomanSimError
 
 
 class _Group(TyperGroup):

@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.table import Table
 
 from roman_sim.cli import app
-from roman_sim.errors import ConfigError
+from roman_sim.core.errors import ConfigError
 
 LISTINGS: dict[str, Callable[[], list[str]]] = {}
 

@@ -86,8 +86,8 @@ def print_summary(result: Any) -> None:
 
 def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: bool,
          submaps: Optional[Path], aligners: Optional[list[str]], from_stage: Optional[str] = None) -> None:
-    from roman_sim.experiment import Experiment, default_run_dir
-    from roman_sim.scenario import load_scenario, with_aligners
+    from roman_sim.pipeline.experiment import Experiment, default_run_dir
+    from roman_sim.pipeline.scenario import load_scenario, with_aligners
 
     sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
     exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage)
@@ -131,8 +131,8 @@ def record_cmd(
     robot: Optional[list[str]] = typer.Option(None, "--robot", "-r", help="only these robots"),
 ) -> None:
     """Render and store the robots' frames (chunked, compressed) with TUM trajectories."""
-    from roman_sim.errors import ConfigError
-    from roman_sim.scenario import load_scenario
+    from roman_sim.core.errors import ConfigError
+    from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.sim.recording import write_recording
     from roman_sim.sim.robot import plan_paths, render_trajectory, trajectory_along
     from roman_sim.world import generate
@@ -163,10 +163,10 @@ def record_cmd(
 @app.command("report")
 def report_cmd(run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`")) -> None:
     """Print the summary of a finished run (from its metrics.json)."""
-    from roman_sim.errors import StorageError
+    from roman_sim.core.errors import StorageError
     from roman_sim.evaluation.results import read_metrics_json
-    from roman_sim.experiment import RunResult
-    from roman_sim.scenario import load_scenario
+    from roman_sim.pipeline.experiment import RunResult
+    from roman_sim.pipeline.scenario import load_scenario
 
     metrics = read_metrics_json(run_dir / "metrics.json")
     cfg = run_dir / "config.yaml"
@@ -185,8 +185,8 @@ def sweep_cmd(
     scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
 ) -> None:
     """Run a parameter x seed sweep (resumable) and write sweep.csv."""
-    from roman_sim.config import validate_model
-    from roman_sim.sweep import ExecutorConfig, load_sweep, run_sweep
+    from roman_sim.core.config import validate_model
+    from roman_sim.pipeline.sweep import ExecutorConfig, load_sweep, run_sweep
 
     cfg, scenario_path = load_sweep(sweep_file)
     ex = cfg.executor.model_dump()
@@ -207,7 +207,7 @@ def sweep_cmd(
 
 
 def _scenarios() -> list[str]:
-    from roman_sim.scenario import bundled_scenarios
+    from roman_sim.pipeline.scenario import bundled_scenarios
 
     return list(bundled_scenarios())
 
@@ -241,7 +241,7 @@ def reproduce_cmd(
     from_stage: Optional[str] = typer.Option(None, "--from", help="recompute from this stage on"),
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
-    from roman_sim.reference import reproduce
+    from roman_sim.pipeline.reference import reproduce
 
     path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
                      from_stage=from_stage)

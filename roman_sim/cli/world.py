@@ -24,7 +24,7 @@ SETS = typer.Option(None, "--set", help="override a spec field, e.g. --set exten
 
 def _spec(preset: str, sets: Optional[list[str]]) -> "WorldSpec":
     """The spec of a preset or YAML, with ``--set`` overrides applied and re-validated."""
-    from roman_sim.config import apply_overrides, validate_model
+    from roman_sim.core.config import apply_overrides, validate_model
     from roman_sim.world import WorldSpec, load_world_spec
 
     spec = load_world_spec(preset)

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.align.base import Aligner, AlignResult
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.mapview import write_map_view
 from roman_sim.evaluation.metrics import EvalConfig, PairScore, score_pair, summary
 from roman_sim.evaluation.pairs import AmbiguityFn, PairTruth, enumerate_pairs, pair_truth

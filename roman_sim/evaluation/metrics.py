@@ -22,8 +22,8 @@ from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
 from roman_sim.align.base import AlignResult
-from roman_sim.config import StrictModel
-from roman_sim.errors import EvaluationError
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.bins import bin_table, fine_edges, runtime_stats
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.geometry import pose_error

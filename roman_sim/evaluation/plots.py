@@ -19,8 +19,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from roman_sim.align.base import AlignResult
-from roman_sim.atomic import write_bytes
-from roman_sim.errors import EvaluationError
+from roman_sim.core.atomic import write_bytes
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.geometry import transform_points
 from roman_sim.mapping.types import Submap

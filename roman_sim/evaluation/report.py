@@ -12,7 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
-from roman_sim.atomic import write_text
+from roman_sim.core.atomic import write_text
 
 log = logging.getLogger(__name__)
 

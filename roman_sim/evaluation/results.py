@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.atomic import write_json, write_text
-from roman_sim.errors import StorageError
+from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.geometry import pose_4dof, yaw_of

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 
 
 def method_metrics(metrics: dict[str, Any], method: str) -> dict[str, Any]:

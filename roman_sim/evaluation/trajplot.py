@@ -19,8 +19,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike, NDArray
 
-from roman_sim.atomic import write_bytes
-from roman_sim.errors import EvaluationError
+from roman_sim.core.atomic import write_bytes
+from roman_sim.core.errors import EvaluationError
 
 log = logging.getLogger(__name__)
 

@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.atomic import write_npz
-from roman_sim.errors import StorageError
+from roman_sim.core.atomic import write_npz
+from roman_sim.core.errors import StorageError
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment, Status
 from roman_sim.mapping.types import Submap, SubmapTruth
@@ -70,8 +70,8 @@ def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
              "num_sightings": s.num_sightings, "status": s.status.value,
              "truth_counts": sorted([int(k), int(v)] for k, v in s.truth_counts.items())} for s in segs]
     header = {"format": "roman_sim.segment_map", "version": FORMAT_VERSION, "robot": smap.robot, "segments": meta}
-    write_npz(path, header=_header(header), times=smap.times, T_odom_body=smap.T_odom_body,
-              T_world_body=smap.T_world_body,
+    truth = {} if smap.T_world_body is None else {"T_world_body": smap.T_world_body}
+    write_npz(path, header=_header(header), times=smap.times, T_odom_body=smap.T_odom_body, **truth,
               points=np.concatenate([s.points for s in segs]) if segs else np.zeros((0, 3)),
               offsets=np.cumsum([0] + [len(s.points) for s in segs]),
               descriptor_sum=dsum, has_descriptor=np.array([s.descriptor_sum is not None for s in segs], dtype=bool))
@@ -90,7 +90,8 @@ def load_segment_map(path: str | Path) -> SegmentMap:
                 descriptor_sum=a["descriptor_sum"][k].copy() if a["has_descriptor"][k] else None,
                 truth_counts=Counter({int(i): int(c) for i, c in m["truth_counts"]}),
                 status=Status(m["status"])))
-        return SegmentMap(str(header["robot"]), segs, a["times"], a["T_odom_body"], a["T_world_body"])
+        return SegmentMap(str(header["robot"]), segs, a["times"], a["T_odom_body"],
+                          a["T_world_body"] if "T_world_body" in a else None)
     except (KeyError, IndexError, TypeError, ValueError) as err:
         raise StorageError(f"{path}: inconsistent segment map ({type(err).__name__}: {err})") from None
 

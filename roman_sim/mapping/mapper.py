@@ -8,13 +8,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.errors import MappingError
-from roman_sim.mapping.observation import check_frame, observe
+from roman_sim.core.errors import MappingError
+from roman_sim.mapping.observation import observe
 from roman_sim.mapping.segment import Segment
 from roman_sim.mapping.segmenter import Segmenter
 from roman_sim.mapping.semantics import SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Tracker
-from roman_sim.sim.frame import Frame
+from roman_sim.sensors import Frame, check_frame
 
 log = logging.getLogger(__name__)
 
@@ -28,24 +28,26 @@ class SegmentMap:
         segments: finished segments (odometry frame), sorted by id.
         times: (N,) frame times (s).
         T_odom_body: (N, 4, 4) odometry poses (what the robot believes).
-        T_world_body: (N, 4, 4) true poses (evaluation only).
+        T_world_body: (N, 4, 4) true poses (evaluation only), or None when the frames
+            carried no ground truth.
     """
 
     robot: str
     segments: list[Segment]
     times: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     T_odom_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4, 4)))
-    T_world_body: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 4, 4)))
+    T_world_body: NDArray[np.float64] | None = field(default_factory=lambda: np.zeros((0, 4, 4)))
 
     def __len__(self) -> int:
         return len(self.segments)
 
     @property
     def trajectory_length_m(self) -> float:
-        """Length of the true trajectory (m)."""
-        if len(self.T_world_body) < 2:
+        """Length of the true trajectory (m), or of the odometry when there is no truth."""
+        T = self.T_world_body if self.T_world_body is not None else self.T_odom_body
+        if len(T) < 2:
             return 0.0
-        return float(np.linalg.norm(np.diff(self.T_world_body[:, :3, 3], axis=0), axis=1).sum())
+        return float(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1).sum())
 
 
 class Mapper:
@@ -68,7 +70,7 @@ class Mapper:
         self.robot: str | None = None
         self._t: list[float] = []
         self._odom: list[NDArray[np.float64]] = []
-        self._world: list[NDArray[np.float64]] = []
+        self._world: list[NDArray[np.float64]] | None = []
         self._done = False
 
     def process(self, frame: Frame) -> int:
@@ -82,11 +84,17 @@ class Mapper:
         if self._t and frame.t < self._t[-1]:
             raise MappingError(f"mapper: frame {frame.index} time {frame.t} goes back in time")
         check_frame(frame)
+        if self._t and (frame.truth is None) != (self._world is None):
+            raise MappingError(f"mapper: frame {frame.index} of robot {frame.robot}: frames with and "
+                               "without ground truth mixed in one map")
+        if not self._t and frame.truth is None:
+            self._world = None
         masks = self.segmenter.segment(frame)
         obs = observe(frame, masks, self.cfg, self.encoder)
         self._t.append(float(frame.t))
         self._odom.append(np.asarray(frame.T_odom_body, dtype=np.float64))
-        self._world.append(np.asarray(frame.T_world_body, dtype=np.float64))
+        if frame.truth is not None and self._world is not None:
+            self._world.append(np.asarray(frame.truth.T_world_body, dtype=np.float64))
         self.tracker.update(obs, float(frame.t), self._odom[-1][:3, 3])
         return len(obs)
 
@@ -97,4 +105,4 @@ class Mapper:
         log.info("robot %s: %d frames, %d segments", self.robot, len(self._t), len(segs))
         stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))  # noqa: E731
         return SegmentMap(self.robot or "", segs, np.asarray(self._t, dtype=np.float64),
-                          stack(self._odom), stack(self._world))
+                          stack(self._odom), None if self._world is None else stack(self._world))

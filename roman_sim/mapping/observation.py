@@ -3,7 +3,9 @@
 Each mask is back-projected inside its bounding box with the shared camera model, limited
 to ``max_depth_m`` (dropped when fewer than ``min_valid_fraction`` of its pixels are within
 range), moved into the odometry frame with the drifted pose, voxel-downsampled, checked
-against the plane filter and described by the semantic encoder. Masks that back-project
+against the plane filter and described by the semantic encoder. Ground truth, when the frame
+carries it, only labels the observation (for evaluation) and fills the simulated encoder's
+context; an image encoder never sees it. Masks that back-project
 to nothing are skipped (logged at debug level), never an error.
 """
 
@@ -16,32 +18,17 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.errors import MappingError
+from roman_sim.core.errors import MappingError
 from roman_sim.geometry import transform_points
 from roman_sim.mapping.segment import pca_extents
 from roman_sim.mapping.segmenter import Mask
 from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Observation, is_plane_like
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sim.camera import backproject
-from roman_sim.sim.frame import Frame
+from roman_sim.sensors import backproject
+from roman_sim.sensors import Frame, check_frame
 
 log = logging.getLogger(__name__)
-
-
-def check_frame(frame: Frame) -> None:
-    """Raise ``MappingError`` when the frame's arrays are inconsistent."""
-    intr = frame.intrinsics
-    shape = (intr.height, intr.width)
-    depth = np.asarray(frame.depth)
-    if depth.shape != shape:
-        raise MappingError(f"frame {frame.index}: depth shape {depth.shape} does not match intrinsics {shape}")
-    if np.asarray(frame.object_ids).shape != shape:
-        raise MappingError(f"frame {frame.index}: object_ids shape does not match intrinsics {shape}")
-    for name in ("T_odom_body", "T_world_body", "T_body_cam"):
-        T = np.asarray(getattr(frame, name))
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            raise MappingError(f"frame {frame.index}: {name} must be a finite 4x4 matrix")
 
 
 def observe(frame: Frame, masks: list[Mask], cfg: MappingConfig,
@@ -49,7 +36,8 @@ def observe(frame: Frame, masks: list[Mask], cfg: MappingConfig,
     """Observations of ``frame`` from its ``masks`` (skipped masks are logged)."""
     check_frame(frame)
     depth = np.asarray(frame.depth, dtype=np.float32)
-    T_odom_cam, T_world_cam = frame.T_odom_cam, frame.T_world_cam
+    T_odom_cam = frame.T_odom_cam
+    T_world_cam = None if frame.truth is None else frame.truth.T_world_body @ frame.T_body_cam
     out = []
     for k, m in enumerate(masks):
         if m.pixels.shape != depth.shape:
@@ -63,7 +51,8 @@ def observe(frame: Frame, masks: list[Mask], cfg: MappingConfig,
 
 
 def _observe_mask(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingConfig,
-                  encoder: SemanticEncoder | None, T_odom_cam: NDArray, T_world_cam: NDArray) -> Observation | None:
+                  encoder: SemanticEncoder | None, T_odom_cam: NDArray,
+                  T_world_cam: NDArray | None) -> Observation | None:
     r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
     pix = m.pixels[r0:r1, c0:c1]
     d = depth[r0:r1, c0:c1]
@@ -78,14 +67,17 @@ def _observe_mask(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: Mappin
     pts = downsample(transform_points(T_odom_cam, pts_cam), cfg.voxel)
     if len(pts) < cfg.min_points or is_plane_like(pca_extents(pts), cfg.obs_plane_extents_m):
         return None
-    ids = np.asarray(frame.object_ids)[r0:r1, c0:c1][sel]
-    uniq, counts = np.unique(ids, return_counts=True)
-    truth = Counter(dict(zip(uniq.tolist(), counts.tolist())))
-    desc = None
-    if encoder is not None:
+    truth: Counter[int] = Counter()
+    ctx = EncodeContext()
+    if frame.truth is not None and T_world_cam is not None:
+        ids = np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][sel]
+        uniq, counts = np.unique(ids, return_counts=True)
+        truth = Counter(dict(zip(uniq.tolist(), counts.tolist())))
         centre_world = transform_points(T_world_cam, pts_cam.mean(axis=0, keepdims=True))[0]
         ctx = EncodeContext(object_id=int(uniq[np.argmax(counts)]),
                             view_dir=centre_world - T_world_cam[:3, 3])
+    desc = None
+    if encoder is not None:
         crop = None if frame.rgb is None else np.asarray(frame.rgb)[r0:r1, c0:c1]
         desc = np.asarray(encoder.encode(crop, pix, ctx), dtype=np.float32)
     return Observation(points=pts, t=float(frame.t), descriptor=desc, truth=truth)

@@ -18,12 +18,12 @@ from numpy.typing import NDArray
 from pydantic import Field
 from scipy import ndimage
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import MappingError
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import MappingError
 from roman_sim.mapping.mask_noise import adjacent_pairs, noisy_boundary, spurious_blob, split_mask
-from roman_sim.registry import Registry
-from roman_sim.seeding import child_rng
-from roman_sim.sim.frame import Frame
+from roman_sim.core.registry import Registry
+from roman_sim.core.seeding import child_rng
+from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +63,7 @@ def mask_bbox(pixels: NDArray[np.bool_]) -> tuple[int, int, int, int]:
 
 @runtime_checkable
 class Segmenter(Protocol):
-    """Anything that turns a frame into masks (a real model may ignore ``object_ids``)."""
+    """Anything that turns a frame into masks (an image model never reads ``frame.truth``)."""
 
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of one frame."""
@@ -138,7 +138,11 @@ class SimulatedSegmenter:
 
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of ``frame`` (deterministic in seed, robot and frame index)."""
-        ids = np.asarray(frame.object_ids)
+        if frame.truth is None:
+            raise MappingError("the simulated segmenter cuts masks from the true instance image: "
+                               f"frame {frame.index} of robot {frame.robot} has no ground truth "
+                               "(use an image segmenter for real or truth-free frames)")
+        ids = np.asarray(frame.truth.object_ids)
         depth = np.asarray(frame.depth)
         if ids.ndim != 2 or ids.shape != depth.shape:
             raise MappingError(f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes")

@@ -25,9 +25,9 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import ConfigError
-from roman_sim.seeding import child_rng
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import ConfigError, MappingError
+from roman_sim.core.seeding import child_rng
 
 log = logging.getLogger(__name__)
 
@@ -44,12 +44,13 @@ class EncodeContext:
     """What a simulated encoder may know about an observation (a real model ignores it).
 
     Attributes:
-        object_id: true majority object id under the mask (-1 for terrain).
+        object_id: true majority object id under the mask (-1 for terrain), or None when
+            the frame carries no ground truth (a truth-driven encoder cannot run then).
         family: family name; looked up from ``object_id`` when None.
         view_dir: (3,) viewing direction camera -> object in the world frame, or None.
     """
 
-    object_id: int = -1
+    object_id: int | None = None
     family: str | None = None
     view_dir: NDArray[np.float64] | None = None
 
@@ -153,15 +154,18 @@ class SimulatedEncoder:
         """Family of the observed object (``terrain`` for background)."""
         if context.family is not None:
             return context.family
-        if context.object_id < 0:
+        if context.object_id is None or context.object_id < 0:
             return "terrain"
         return self.families.get(int(context.object_id), "unknown")
 
     def encode(self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_],
                context: EncodeContext) -> NDArray[np.float32]:
         """Unit float32 embedding (``rgb_crop`` and ``mask`` are not used by the model)."""
+        if context.object_id is None and context.family is None:
+            raise MappingError("the simulated encoder builds descriptors from ground truth: this frame has none "
+                               "(use an image encoder for real or truth-free frames)")
         c = self.cfg
-        oid = int(context.object_id) + 1  # keys must be non-negative; terrain (-1) -> 0
+        oid = int(context.object_id if context.object_id is not None else -1) + 1  # terrain (-1) -> key 0
         phi = 0.0
         if context.view_dir is not None:
             d = np.asarray(context.view_dir, dtype=np.float64).reshape(3)

@@ -75,7 +75,7 @@ def plot_cosine_statistics(path: str | Path, cfg: SemanticConfig | None = None, 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from roman_sim.atomic import write_bytes
+    from roman_sim.core.atomic import write_bytes
 
     cfg = cfg or SemanticConfig()
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
-from roman_sim.config import StrictModel
+from roman_sim.core.config import StrictModel
 from roman_sim.geometry import gravity_aligned, inv_T, transform_points
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment
@@ -63,9 +63,9 @@ def members(segments: list[Segment], center: NDArray[np.float64], t: float, cfg:
     return [s for _, _, s in cands[: cfg.submap_max_size]]
 
 
-def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float64], T_world_body: NDArray[np.float64],
+def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float64], T_world_body: NDArray[np.float64] | None,
                 segs: list[Segment], cfg: SubmapConfig) -> Submap:
-    """One submap from its member segments and the centre's odometry and true poses."""
+    """One submap from its member segments and the centre's odometry and true poses (truth None without)."""
     T_odom_sub = gravity_aligned(T_odom_body)
     T_sub_odom = inv_T(T_odom_sub)
     n = len(segs)
@@ -84,7 +84,7 @@ def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float6
         descriptors=desc,
         extents=np.array([s.extents for s in segs], dtype=np.float64).reshape(n, 3),
         points=[transform_points(T_sub_odom, s.points) for s in segs] if cfg.keep_points else None,
-        truth=SubmapTruth(
+        truth=None if T_world_body is None else SubmapTruth(
             T_world_submap=gravity_aligned(T_world_body),
             object_ids=np.array([s.majority_id for s in segs], dtype=np.int64),
             purity=np.array([s.purity for s in segs], dtype=np.float64),
@@ -99,6 +99,7 @@ def build_submaps(segment_map: SegmentMap, cfg: SubmapConfig | None = None) -> l
     out = []
     for k, i in enumerate(center_indices(sm.times, sm.T_odom_body, cfg)):
         segs = members(sm.segments, sm.T_odom_body[i, :3, 3], float(sm.times[i]), cfg)
-        out.append(make_submap(sm.robot, k, float(sm.times[i]), sm.T_odom_body[i], sm.T_world_body[i], segs, cfg))
+        T_wb = None if sm.T_world_body is None else sm.T_world_body[i]
+        out.append(make_submap(sm.robot, k, float(sm.times[i]), sm.T_odom_body[i], T_wb, segs, cfg))
     log.info("robot %s: %d submaps", sm.robot, len(out))
     return out

@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.geometry import R_FLU_RDF, make_T, rot_z
-from roman_sim.sim.frame import Frame, Intrinsics
+from roman_sim.sensors import Frame, FrameTruth, Intrinsics
 
 Sphere = tuple[NDArray[np.float64], float]
 
@@ -62,8 +62,8 @@ def frame_at(spheres: list[Sphere], x: float, y: float, yaw: float, t: float, in
     T_wb = make_T(rot_z(yaw), [x, y, 0.0])
     depth, ids = render(spheres, T_wb @ T_BODY_CAM, intr)
     T_ob = (np.eye(4) if T_odom_world is None else T_odom_world) @ T_wb
-    return Frame(robot=robot, index=index, t=t, rgb=None, depth=depth, object_ids=ids,
-                 T_world_body=T_wb, T_odom_body=T_ob, T_body_cam=T_BODY_CAM, intrinsics=intr)
+    return Frame(robot=robot, index=index, t=t, rgb=None, depth=depth, T_odom_body=T_ob,
+                 T_body_cam=T_BODY_CAM, intrinsics=intr, truth=FrameTruth(ids, T_wb))
 
 
 def drive(spheres: list[Sphere], n: int = 12, dt: float = 1 / 6, speed: float = 1.0,

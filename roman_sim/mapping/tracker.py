@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from pydantic import Field
 from scipy.optimize import linear_sum_assignment
 
-from roman_sim.config import StrictModel
+from roman_sim.core.config import StrictModel
 from roman_sim.mapping.segment import Segment, Status, contained_fraction
 from roman_sim.mapping.voxels import iou, iou_matrix, voxel_set
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.errors import MappingError
+from roman_sim.core.errors import MappingError
 
 _BITS = 21
 _OFFSET = 1 << (_BITS - 1)

@@ -1,1 +1,1 @@
-"""The stages of ``roman_sim.experiment.Experiment`` (one module per group of stages)."""
+"""The stages of ``roman_sim.pipeline.experiment.Experiment`` (one module per group of stages)."""

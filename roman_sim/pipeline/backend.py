@@ -10,14 +10,14 @@ import numpy as np
 
 from roman_sim.align import build_aligner
 from roman_sim.align.base import AlignResult
-from roman_sim.atomic import write_json
-from roman_sim.errors import RomanSimError, StorageError
+from roman_sim.core.atomic import write_json
+from roman_sim.core.errors import RomanSimError, StorageError
 from roman_sim.evaluation.evaluate import evaluate, save_evaluation
 from roman_sim.evaluation.results import read_evaluation
 from roman_sim.mapping.types import Submap
 
 if TYPE_CHECKING:
-    from roman_sim.experiment import Experiment
+    from roman_sim.pipeline.experiment import Experiment
 
 log = logging.getLogger(__name__)
 

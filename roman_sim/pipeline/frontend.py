@@ -6,17 +6,17 @@ import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from roman_sim.errors import ConfigError, RomanSimError
+from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.mapping.io import load_segment_map, load_submaps, save_segment_map, save_submaps
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
 from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import build_submaps
 from roman_sim.mapping.types import Submap
-from roman_sim.registry import import_object
+from roman_sim.core.registry import import_object
 
 if TYPE_CHECKING:
-    from roman_sim.experiment import Experiment
+    from roman_sim.pipeline.experiment import Experiment
 
 log = logging.getLogger(__name__)
 

@@ -16,16 +16,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from roman_sim.atomic import write_json
-from roman_sim.errors import EvaluationError
+from roman_sim.core.atomic import write_json
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.ate import multi_robot_ate
 from roman_sim.evaluation.trajplot import plot_trajectories
 from roman_sim.geometry import gravity_aligned, pose_error
 from roman_sim.posegraph import LoopClosure, build_and_solve, submap_nodes_from
-from roman_sim.tum import write_tum
+from roman_sim.core.tum import write_tum
 
 if TYPE_CHECKING:
-    from roman_sim.experiment import Experiment
+    from roman_sim.pipeline.experiment import Experiment
 
 log = logging.getLogger(__name__)
 

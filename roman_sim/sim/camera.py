@@ -11,13 +11,12 @@ from __future__ import annotations
 import logging
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 from pydantic import Field
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import ConfigError
+from roman_sim.core.config import StrictModel
 from roman_sim.geometry import R_FLU_RDF, make_T, rot_y
-from roman_sim.sim.frame import Intrinsics
+from roman_sim.sensors import Intrinsics, check_intrinsics
 
 log = logging.getLogger(__name__)
 
@@ -71,71 +70,3 @@ class CameraConfig(StrictModel):
         """
         R = rot_y(np.radians(self.mount_pitch_deg)) @ R_FLU_RDF
         return make_T(R, [self.mount_forward_m, 0.0, self.mount_height_m])
-
-
-def check_intrinsics(intr: Intrinsics) -> Intrinsics:
-    """Return ``intr`` if valid, else raise ``ConfigError`` naming the bad field."""
-    if intr.width < 1 or intr.height < 1:
-        raise ConfigError(f"intrinsics: width and height must be >= 1, got {intr.width}x{intr.height}")
-    for name in ("fx", "fy"):
-        v = float(getattr(intr, name))
-        if not np.isfinite(v) or v <= 0:
-            raise ConfigError(f"intrinsics.{name}: must be a finite positive focal length, got {v}")
-    for name, lim in (("cx", intr.width), ("cy", intr.height)):
-        v = float(getattr(intr, name))
-        if not np.isfinite(v) or not -0.5 <= v <= lim - 0.5:
-            raise ConfigError(f"intrinsics.{name}: must lie inside the image [-0.5, {lim - 0.5}], got {v}")
-    return intr
-
-
-def project(K: ArrayLike, pts_cam: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Project camera-frame (RDF) points to pixels.
-
-    Args:
-        K: 3x3 camera matrix.
-        pts_cam: (N, 3) points in the camera frame.
-
-    Returns:
-        (N, 2) pixel coordinates (u, v) and an (N,) mask of points in front (z > 0).
-        Pixels of points behind the camera are NaN.
-    """
-    K = np.asarray(K, dtype=np.float64)
-    if K.shape != (3, 3):
-        raise ConfigError(f"project: K must be 3x3, got shape {K.shape}")
-    p = np.asarray(pts_cam, dtype=np.float64).reshape(-1, 3)
-    front = p[:, 2] > 0
-    uv = np.full((len(p), 2), np.nan)
-    z = p[front, 2]
-    uv[front, 0] = K[0, 0] * p[front, 0] / z + K[0, 1] * p[front, 1] / z + K[0, 2]
-    uv[front, 1] = K[1, 1] * p[front, 1] / z + K[1, 2]
-    return uv, front
-
-
-def backproject(
-    depth: ArrayLike, intrinsics: Intrinsics, mask: ArrayLike | None = None
-) -> NDArray[np.float64]:
-    """Back-project valid depth pixels (depth > 0, and inside ``mask``) to camera points.
-
-    Args:
-        depth: (H, W) depth along the optical axis (0 = invalid).
-        intrinsics: camera intrinsics matching the image size.
-        mask: optional (H, W) boolean mask of pixels to use.
-
-    Returns: (N, 3) points in the camera (RDF) frame, in row-major pixel order.
-    """
-    d = np.asarray(depth)
-    if d.shape != (intrinsics.height, intrinsics.width):
-        raise ConfigError(
-            f"backproject: depth shape {d.shape} does not match intrinsics {intrinsics.height}x{intrinsics.width}"
-        )
-    valid = np.isfinite(d) & (d > 0)
-    if mask is not None:
-        m = np.asarray(mask, dtype=bool)
-        if m.shape != d.shape:
-            raise ConfigError(f"backproject: mask shape {m.shape} does not match depth shape {d.shape}")
-        valid &= m
-    v, u = np.nonzero(valid)
-    z = d[v, u].astype(np.float64)
-    x = (u - intrinsics.cx) * z / intrinsics.fx
-    y = (v - intrinsics.cy) * z / intrinsics.fy
-    return np.column_stack([x, y, z])

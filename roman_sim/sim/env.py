@@ -18,8 +18,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from roman_sim.errors import SimError
-from roman_sim.seeding import child_rng
+from roman_sim.core.errors import SimError
+from roman_sim.core.seeding import child_rng
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.noise import apply_depth_noise

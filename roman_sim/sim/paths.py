@@ -20,9 +20,9 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import SimError
-from roman_sim.registry import Registry
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import SimError
+from roman_sim.core.registry import Registry
 from roman_sim.sim.planner import Obstacles, inside_world, route
 from roman_sim.world.truth import WorldTruth
 

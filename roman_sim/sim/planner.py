@@ -14,7 +14,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from roman_sim.errors import SimError
+from roman_sim.core.errors import SimError
 from roman_sim.world.query import footprints
 from roman_sim.world.truth import WorldTruth
 

@@ -14,8 +14,8 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from roman_sim.glrender import offscreen_renderer
-from roman_sim.sim.frame import Intrinsics
+from roman_sim.core.glrender import offscreen_renderer
+from roman_sim.sensors import Intrinsics
 from roman_sim.world.truth import Terrain
 
 log = logging.getLogger(__name__)

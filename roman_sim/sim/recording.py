@@ -30,10 +30,10 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.atomic import write_json
-from roman_sim.errors import RecordingError
-from roman_sim.sim.frame import Frame, Intrinsics
-from roman_sim.tum import write_tum
+from roman_sim.core.atomic import write_json
+from roman_sim.core.errors import RecordingError
+from roman_sim.sensors import Frame, FrameTruth, Intrinsics
+from roman_sim.core.tum import write_tum
 
 log = logging.getLogger(__name__)
 
@@ -53,15 +53,21 @@ def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
             zf.writestr(info, buf.getvalue())
 
 
+def _truth(f: Frame) -> FrameTruth:
+    if f.truth is None:
+        raise RecordingError(f"frame {f.index} of robot {f.robot}: a recording stores ground truth, this frame has none")
+    return f.truth
+
+
 def _pack(frames: list[Frame]) -> dict[str, np.ndarray]:
     depth = np.stack([f.depth for f in frames]).astype(np.float64)
     depth_mm = np.where((depth > 0) & (depth <= 65.535), np.rint(depth * 1000.0), 0).astype(np.uint16)
-    ids = np.stack([f.object_ids for f in frames])
+    ids = np.stack([_truth(f).object_ids for f in frames])
     id_type = np.int16 if ids.size == 0 or (ids.max() < 32767 and ids.min() >= -1) else np.int32
     out = {
         "t": np.array([f.t for f in frames], dtype=np.float64),
         "index": np.array([f.index for f in frames], dtype=np.int64),
-        "T_world_body": np.stack([f.T_world_body for f in frames]).astype(np.float64),
+        "T_world_body": np.stack([_truth(f).T_world_body for f in frames]).astype(np.float64),
         "T_odom_body": np.stack([f.T_odom_body for f in frames]).astype(np.float64),
         "depth_mm": depth_mm,
         "object_ids": ids.astype(id_type),
@@ -145,7 +151,7 @@ def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, extra: dict
         _check_consistent(first, f)
         buf.append(f)
         t.append(f.t)
-        T_true.append(f.T_world_body)
+        T_true.append(_truth(f).T_world_body)
         T_odom.append(f.T_odom_body)
         if len(buf) == chunk_size:
             flush()
@@ -206,8 +212,8 @@ def read_recording(rec_dir: str | Path) -> Iterator[Frame]:
                     robot, int(c["index"][i]), float(c["t"][i]),
                     c["rgb"][i] if "rgb" in c else None,
                     (c["depth_mm"][i].astype(np.float32) / np.float32(1000.0)),
-                    c["object_ids"][i].astype(np.int32),
-                    c["T_world_body"][i], c["T_odom_body"][i], T_bc.copy(), intr,
+                    c["T_odom_body"][i], T_bc.copy(), intr,
+                    truth=FrameTruth(c["object_ids"][i].astype(np.int32), c["T_world_body"][i]),
                 )
         except (KeyError, IndexError) as err:
             raise RecordingError(f"{d / name}: corrupt chunk (missing or short array: {err})") from None

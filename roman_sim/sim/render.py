@@ -15,9 +15,9 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.errors import SimError
+from roman_sim.core.errors import SimError
 from roman_sim.sim.camera import CameraConfig
-from roman_sim.sim.frame import Intrinsics
+from roman_sim.sensors import Intrinsics
 
 log = logging.getLogger(__name__)
 

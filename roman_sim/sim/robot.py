@@ -16,11 +16,11 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, field_validator
 
-from roman_sim.config import StrictModel
-from roman_sim.errors import SimError
-from roman_sim.seeding import child_rng
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import SimError
+from roman_sim.core.seeding import child_rng
 from roman_sim.sim.camera import CameraConfig
-from roman_sim.sim.frame import Frame
+from roman_sim.sensors import Frame, FrameTruth
 from roman_sim.sim.kinematics import PathFollower, PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, DriftModel, resolve_drift
@@ -156,7 +156,8 @@ def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: Traje
         for i in range(len(t)):
             rgb, depth, ids = renderer.render(T_wb[i] @ T_bc)
             noisy = apply_depth_noise(depth, cfg.camera.depth_noise, cfg.camera.max_depth_m, noise_rng)
-            yield Frame(cfg.name, i, float(t[i]), rgb, noisy, ids, T_wb[i], T_ob[i], T_bc, renderer.intrinsics)
+            yield Frame(cfg.name, i, float(t[i]), rgb, noisy, T_ob[i], T_bc, renderer.intrinsics,
+                        truth=FrameTruth(ids, T_wb[i]))
     finally:
         renderer.close()
 

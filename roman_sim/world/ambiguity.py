@@ -25,8 +25,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from roman_sim.errors import WorldError
-from roman_sim.seeding import child_rng
+from roman_sim.core.errors import WorldError
+from roman_sim.core.seeding import child_rng
 from roman_sim.world.truth import WorldTruth
 
 MAX_ANCHOR_PAIRS = 40

@@ -14,7 +14,7 @@ import numpy as np
 import trimesh
 
 from roman_sim.geometry import make_T, rot_x, rot_y
-from roman_sim.registry import Registry
+from roman_sim.core.registry import Registry
 
 Rgba = tuple[float, float, float, float]
 

@@ -13,7 +13,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from roman_sim.seeding import child_rng
+from roman_sim.core.seeding import child_rng
 from roman_sim.world.assets import FAMILIES, Part
 from roman_sim.world.spec import FamilySpec
 

@@ -18,9 +18,9 @@ import trimesh
 import yaml
 from PIL import Image
 
-from roman_sim.atomic import write_bytes, write_json, write_text
-from roman_sim.config import dump_yaml, validate_model
-from roman_sim.errors import WorldError
+from roman_sim.core.atomic import write_bytes, write_json, write_text
+from roman_sim.core.config import dump_yaml, validate_model
+from roman_sim.core.errors import WorldError
 from roman_sim.world.build import World
 from roman_sim.world.mjcf import GROUND
 from roman_sim.world.spec import WorldSpec

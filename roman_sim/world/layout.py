@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.registry import Registry
+from roman_sim.core.registry import Registry
 from roman_sim.world.roads import Polyline, distance_to_roads
 from roman_sim.world.spec import LayoutSpec
 

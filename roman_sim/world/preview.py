@@ -16,8 +16,8 @@ from matplotlib.collections import PatchCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
-from roman_sim.atomic import write_bytes  # noqa: E402
-from roman_sim.errors import WorldError  # noqa: E402
+from roman_sim.core.atomic import write_bytes  # noqa: E402
+from roman_sim.core.errors import WorldError  # noqa: E402
 from roman_sim.world.build import World  # noqa: E402
 from roman_sim.world.truth import WorldTruth  # noqa: E402
 

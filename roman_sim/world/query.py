@@ -6,7 +6,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial import cKDTree
 
-from roman_sim.errors import WorldError
+from roman_sim.core.errors import WorldError
 from roman_sim.world.roads import distance_to_roads
 from roman_sim.world.truth import WorldTruth
 

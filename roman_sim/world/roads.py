@@ -7,7 +7,7 @@ from collections.abc import Callable
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.registry import Registry
+from roman_sim.core.registry import Registry
 from roman_sim.world.spec import RoadSpec
 
 Polyline = NDArray[np.float64]  # (K, 2)

@@ -20,7 +20,7 @@ from enum import Enum
 from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
-from roman_sim.config import StrictModel
+from roman_sim.core.config import StrictModel
 
 
 class LayoutKind(str, Enum):

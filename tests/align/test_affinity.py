@@ -13,7 +13,7 @@ from roman_sim.align.affinity import (
     pairwise_consistency,
 )
 from roman_sim.align.synthetic import make_submap_pair
-from roman_sim.errors import ConfigError
+from roman_sim.core.errors import ConfigError
 from roman_sim.mapping.types import Submap
 
 PLAIN = AffinityParams(gravity=False, use_shape=False, use_semantics=False)
@@ -85,7 +85,7 @@ def test_object_scores_hand_values() -> None:
 
 def test_cos_bounds_validated() -> None:
     with pytest.raises(ConfigError):
-        from roman_sim.config import validate_model
+        from roman_sim.core.config import validate_model
 
         validate_model(AffinityParams, {"cos_min": 0.9, "cos_max": 0.8})
 

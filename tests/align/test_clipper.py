@@ -9,7 +9,7 @@ import pytest
 import scipy.sparse as sp
 
 from roman_sim.align.clipper import ClipperParams, solve_clipper
-from roman_sim.errors import AlignmentError
+from roman_sim.core.errors import AlignmentError
 
 
 def _brute_force_density(W: np.ndarray) -> float:

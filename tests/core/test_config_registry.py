@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 from pydantic import Field
 
-from roman_sim import atomic
-from roman_sim.config import StrictModel, apply_overrides, load_model, validate_model
-from roman_sim.errors import ConfigError, StorageError
-from roman_sim.registry import Registry, import_object
-from roman_sim.seeding import child_rng
-from roman_sim.tum import read_tum, write_tum
+from roman_sim.core import atomic
+from roman_sim.core.config import StrictModel, apply_overrides, load_model, validate_model
+from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.registry import Registry, import_object
+from roman_sim.core.seeding import child_rng
+from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.geometry import make_T, rpy_to_R
 
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.ate import align_4dof, align_se3, associate, ate_rmse, multi_robot_ate
 from roman_sim.geometry import make_T, pose_4dof, rpy_to_R
-from roman_sim.tum import read_tum, write_tum
+from roman_sim.core.tum import read_tum, write_tum
 
 
 def _trajectory(n: int = 40, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.align.base import AlignResult
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.evaluate import evaluate, save_evaluation
 from roman_sim.evaluation.metrics import EvalConfig
 from roman_sim.evaluation.report import write_report

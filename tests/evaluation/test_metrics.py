@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from roman_sim.config import validate_model
-from roman_sim.errors import ConfigError, EvaluationError
+from roman_sim.core.config import validate_model
+from roman_sim.core.errors import ConfigError, EvaluationError
 from roman_sim.evaluation.bins import bin_index, fine_edges, runtime_stats
 from roman_sim.evaluation.metrics import EvalConfig, auc, pr_curve, score_pair, summary
 from roman_sim.geometry import make_T, pose_4dof, rot_x

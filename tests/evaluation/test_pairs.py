@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth, truths_for_pairs
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import pair_truth
 from roman_sim.evaluation.plots import (

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from roman_sim.align.base import AlignResult
-from roman_sim.config import validate_model
-from roman_sim.errors import ConfigError, EvaluationError
+from roman_sim.core.config import validate_model
+from roman_sim.core.errors import ConfigError, EvaluationError
 from roman_sim.evaluation.ate import multi_robot_ate
 from roman_sim.geometry import inv_T, pose_4dof
 from roman_sim.mapping.types import Submap
@@ -20,7 +20,7 @@ from roman_sim.posegraph import (
     closure_from_alignment,
     submap_nodes_from,
 )
-from roman_sim.posegraph_synthetic import SyntheticGraphConfig, synthetic_scenario
+from roman_sim.posegraph.synthetic import SyntheticGraphConfig, synthetic_scenario
 
 NO_DRIFT = dict(drift_yaw_deg=0.0, drift_yaw_bias_deg=0.0, drift_xyz_m=0.0, drift_scale=0.0,
                 closure_noise_m=0.0, closure_noise_deg=0.0)

@@ -75,7 +75,7 @@ def test_ate_rows_accept_result_objects():
 def test_report_from_run_folder_states_missing_stages(metrics, tmp_path):
     import json
 
-    from roman_sim.errors import StorageError
+    from roman_sim.core.errors import StorageError
     from roman_sim.evaluation.evaluate import report_from_run
     from roman_sim.evaluation.results import write_metrics_json
 

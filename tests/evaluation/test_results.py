@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from roman_sim.errors import StorageError
+from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth
 from roman_sim.evaluation.results import (

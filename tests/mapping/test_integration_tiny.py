@@ -13,7 +13,8 @@ from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sim.camera import CameraConfig, backproject
+from roman_sim.sim.camera import CameraConfig
+from roman_sim.sensors import backproject
 from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
 from roman_sim.world import generate, load_world_spec
 
@@ -38,9 +39,9 @@ def _visible(frames, max_depth=7.5):
     pts: dict[int, list] = {}
     for f in frames:
         ok = (f.depth > 0) & (f.depth <= max_depth)
-        for oid in np.unique(f.object_ids[ok & (f.object_ids >= 0)]):
-            sel = ok & (f.object_ids == oid)
-            pts.setdefault(int(oid), []).append(transform_points(f.T_world_cam, backproject(f.depth, f.intrinsics, sel)))
+        for oid in np.unique(f.truth.object_ids[ok & (f.truth.object_ids >= 0)]):
+            sel = ok & (f.truth.object_ids == oid)
+            pts.setdefault(int(oid), []).append(transform_points((f.truth.T_world_body @ f.T_body_cam), backproject(f.depth, f.intrinsics, sel)))
     return {k: downsample(np.vstack(v), 0.05).mean(axis=0) for k, v in pts.items()}
 
 
@@ -59,7 +60,7 @@ def _sufficiently_visible(frames, min_frames=5):
 def test_perfect_zero_drift_one_segment_per_visible_object(run):
     world, frames = run
     smap = _map(frames)
-    T_wo = frames[0].T_world_body @ inv_T(frames[0].T_odom_body)
+    T_wo = frames[0].truth.T_world_body @ inv_T(frames[0].T_odom_body)
     ids = [s.majority_id for s in smap.segments]
     assert len(ids) >= 3
     assert len(ids) == len(set(ids)), "duplicate segments of one object"
@@ -102,7 +103,7 @@ def test_typical_drift_segments_follow_the_drifted_odometry(run):
     cfg = RobotConfig(name="a", camera=CameraConfig(width=160, height=120), drift="typical",
                       render_rgb=False, max_duration_s=20.0)
     t, T_wb, T_ob = robot_trajectory(world, cfg, 0)
-    np.testing.assert_allclose(T_wb, np.stack([f.T_world_body for f in frames]), atol=1e-9)
+    np.testing.assert_allclose(T_wb, np.stack([f.truth.T_world_body for f in frames]), atol=1e-9)
     drifted = [dataclasses.replace(f, T_odom_body=T_ob[i]) for i, f in enumerate(frames)]
     smap = _map(drifted)
     visible = _visible(frames)

@@ -3,14 +3,14 @@
 import numpy as np
 import pytest
 
-from roman_sim.errors import MappingError
+from roman_sim.core.errors import MappingError
 from roman_sim.geometry import pose_4dof, transform_points
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.segmenter import Mask, build_segmenter
 from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sim.camera import backproject
+from roman_sim.sensors import backproject
 
 from mapping_synth import SPHERES, drive, frame_at
 
@@ -27,8 +27,8 @@ def _visible_centres(frames, n):
     pts = {k: [] for k in range(n)}
     for f in frames:
         for k in range(n):
-            sel = (f.object_ids == k) & (f.depth <= 7.5)
-            pts[k].append(transform_points(f.T_world_cam, backproject(f.depth, f.intrinsics, sel)))
+            sel = (f.truth.object_ids == k) & (f.depth <= 7.5)
+            pts[k].append(transform_points((f.truth.T_world_body @ f.T_body_cam), backproject(f.depth, f.intrinsics, sel)))
     return {k: downsample(np.vstack(v), 0.05).mean(axis=0) for k, v in pts.items()}
 
 
@@ -84,7 +84,7 @@ class GroundSegmenter:
         self.inner = build_segmenter("perfect")
 
     def segment(self, frame):
-        ground = (frame.object_ids < 0) & (frame.depth > 0) & (frame.depth < 7.0)
+        ground = (frame.truth.object_ids < 0) & (frame.depth > 0) & (frame.depth < 7.0)
         return self.inner.segment(frame) + [Mask(ground)]
 
 
@@ -141,6 +141,6 @@ def test_same_seed_same_map_with_noisy_segmenter_and_descriptors():
 def test_empty_image_is_a_clear_error():
     f = drive(n=1)[0]
     f.depth = np.zeros((0, 0), np.float32)
-    f.object_ids = np.zeros((0, 0), np.int32)
+    f.truth.object_ids = np.zeros((0, 0), np.int32)
     with pytest.raises(MappingError, match="depth shape"):
         Mapper(MappingConfig(), build_segmenter("fastsam")).process(f)

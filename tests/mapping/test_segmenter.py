@@ -4,16 +4,16 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from roman_sim.errors import ConfigError, MappingError
+from roman_sim.core.errors import ConfigError, MappingError
 from roman_sim.mapping.segmenter import SEGMENTERS, Mask, Segmenter, SegmenterConfig, build_segmenter, ellipse_kernel
-from roman_sim.sim.frame import Frame
+from roman_sim.sensors import Frame, FrameTruth
 
 from mapping_synth import INTR, T_BODY_CAM
 
 
 def _frame(ids, depth=None, index=0):
     depth = np.full(ids.shape, 3.0, np.float32) if depth is None else depth
-    return Frame("a", index, 0.0, None, depth, ids.astype(np.int32), np.eye(4), np.eye(4), T_BODY_CAM, INTR)
+    return Frame("a", index, 0.0, None, depth, np.eye(4), T_BODY_CAM, INTR, FrameTruth(ids.astype(np.int32), np.eye(4)))
 
 
 def _ids_boxes():

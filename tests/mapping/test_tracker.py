@@ -93,8 +93,8 @@ def test_flush_drops_nursery_and_keeps_largest_cluster():
 def test_mapping_config_is_strict():
     import pytest
 
-    from roman_sim.config import validate_model
-    from roman_sim.errors import ConfigError
+    from roman_sim.core.config import validate_model
+    from roman_sim.core.errors import ConfigError
 
     with pytest.raises(ConfigError, match="max_depth"):
         validate_model(MappingConfig, {"max_depth_m": -1})

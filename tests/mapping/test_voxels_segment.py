@@ -5,7 +5,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from roman_sim.errors import MappingError
+from roman_sim.core.errors import MappingError
 from roman_sim.mapping.segment import Segment, largest_cluster, obb_extents
 from roman_sim.mapping.voxels import downsample, iou, iou_matrix, voxel_set
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from roman_sim.experiment import Experiment, RunResult
-from roman_sim.scenario import load_scenario
+from roman_sim.pipeline.experiment import Experiment, RunResult
+from roman_sim.pipeline.scenario import load_scenario
 
 
 @pytest.fixture(scope="session")

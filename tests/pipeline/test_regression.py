@@ -7,8 +7,8 @@ import math
 
 import pytest
 
-from roman_sim.experiment import Experiment
-from roman_sim.scenario import load_scenario
+from roman_sim.pipeline.experiment import Experiment
+from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall
 
 # Figures of `roman-sim run smoke` (seed 0), pinned with tolerances: the run is deterministic,

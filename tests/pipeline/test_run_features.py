@@ -11,8 +11,8 @@ import pytest
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.experiment import Experiment
-from roman_sim.scenario import bundled_scenarios, load_scenario
+from roman_sim.pipeline.experiment import Experiment
+from roman_sim.pipeline.scenario import bundled_scenarios, load_scenario
 from roman_sim.testing import assert_recall, run_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -145,7 +145,7 @@ def test_list_scenarios_and_aligners():
 
 @pytest.mark.parametrize("path", sorted((ROOT / "scenarios" / "sweeps").glob("*.yaml")), ids=lambda p: p.stem)
 def test_every_bundled_sweep_validates(path):
-    from roman_sim.sweep import expand, load_sweep
+    from roman_sim.pipeline.sweep import expand, load_sweep
 
     cfg, scenario = load_sweep(path)
     runs = expand(cfg)
@@ -155,7 +155,7 @@ def test_every_bundled_sweep_validates(path):
 
 
 def test_reproduce_collects_small_results(smoke_run, tmp_path):
-    from roman_sim.reference import reproduce
+    from roman_sim.pipeline.reference import reproduce
 
     shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
     path = reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")
@@ -171,7 +171,7 @@ def test_reproduce_collects_small_results(smoke_run, tmp_path):
 
 def test_record_command_stores_readable_frames(tmp_path):
     from roman_sim.sim.recording import read_recording, recording_info
-    from roman_sim.tum import read_tum
+    from roman_sim.core.tum import read_tum
 
     out = tmp_path / "rec"
     res = runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "b",
@@ -199,7 +199,7 @@ def test_from_stage_recomputes_later_stages_only(smoke_run, tmp_path):
 
 
 def test_sweep_markdown_table():
-    from roman_sim.reference import sweep_markdown
+    from roman_sim.pipeline.reference import sweep_markdown
 
     rows = [{"ambiguity": "0.0", "method": "roman", "max_recall": 0.7},
             {"ambiguity": "0.0", "method": "clipper", "max_recall": 0.6},

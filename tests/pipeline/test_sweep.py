@@ -10,8 +10,8 @@ import yaml
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.errors import ConfigError
-from roman_sim.sweep import SweepConfig, expand, load_sweep, run_sweep
+from roman_sim.core.errors import ConfigError
+from roman_sim.pipeline.sweep import SweepConfig, expand, load_sweep, run_sweep
 
 # A very short smoke variant: both robots stop after 12 m.
 MICRO = {"robots.0.max_length_m": [12.0], "robots.1.max_length_m": [12.0]}

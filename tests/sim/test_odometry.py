@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.config import validate_model
-from roman_sim.errors import ConfigError
+from roman_sim.core.config import validate_model
+from roman_sim.core.errors import ConfigError
 from roman_sim.geometry import R_to_rpy, gravity_aligned, inv_T, make_T, rpy_to_R, wrap_angle, yaw_of
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, drift_trajectory, resolve_drift
 from roman_sim.sim.robot import RobotConfig

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.errors import SimError
+from roman_sim.core.errors import SimError
 from roman_sim.geometry import make_T, wrap_angle
 from roman_sim.sim.paths import PathConfig, crossing_path, make_path, path_from_points, reversed_path
 from roman_sim.sim.planner import Obstacles

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roman_sim.errors import RecordingError
+from roman_sim.core.errors import RecordingError
 from roman_sim.geometry import make_T, rot_z
 from roman_sim.sim.camera import CameraConfig
-from roman_sim.sim.frame import Frame
+from roman_sim.sensors import Frame, FrameTruth
 from roman_sim.sim.recording import read_recording, recording_info, write_recording
-from roman_sim.tum import read_tum
+from roman_sim.core.tum import read_tum
 
 CAM = CameraConfig(width=16, height=12)
 
@@ -28,7 +28,7 @@ def _frames(n: int, rgb: bool = True, robot: str = "r1") -> list[Frame]:
         img = rng.integers(0, 256, (12, 16, 3)).astype(np.uint8) if rgb else None
         T_wb = make_T(rot_z(0.1 * i), [i * 0.2, 1.0, 0.3])
         T_ob = make_T(rot_z(0.1 * i + 0.01), [i * 0.21, 0.0, 0.0])
-        out.append(Frame(robot, i, i / 6.0, img, depth, ids, T_wb, T_ob, CAM.T_body_cam(), CAM.intrinsics()))
+        out.append(Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(), FrameTruth(ids, T_wb)))
     return out
 
 
@@ -43,14 +43,14 @@ def test_round_trip(tmp_path: Path) -> None:
         assert (a.robot, a.index, a.t, a.intrinsics) == (b.robot, b.index, b.t, b.intrinsics)
         np.testing.assert_allclose(b.depth, a.depth, atol=0.0005 + 1e-6)  # millimetre storage
         assert np.all((b.depth == 0) == (a.depth == 0))
-        np.testing.assert_array_equal(b.object_ids, a.object_ids)
-        assert b.object_ids.dtype == np.int32
+        np.testing.assert_array_equal(b.truth.object_ids, a.truth.object_ids)
+        assert b.truth.object_ids.dtype == np.int32
         np.testing.assert_array_equal(b.rgb, a.rgb)
-        np.testing.assert_array_equal(b.T_world_body, a.T_world_body)
+        np.testing.assert_array_equal(b.truth.T_world_body, a.truth.T_world_body)
         np.testing.assert_array_equal(b.T_odom_body, a.T_odom_body)
         np.testing.assert_allclose(b.T_body_cam, a.T_body_cam)
     t, T = read_tum(rec / "traj_true.tum")
-    np.testing.assert_allclose(T, [f.T_world_body for f in frames], atol=1e-8)
+    np.testing.assert_allclose(T, [f.truth.T_world_body for f in frames], atol=1e-8)
     t, T = read_tum(rec / "traj_odom.tum")
     np.testing.assert_allclose(T, [f.T_odom_body for f in frames], atol=1e-8)
     np.testing.assert_allclose(t, [f.t for f in frames], atol=1e-9)
@@ -121,5 +121,5 @@ def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
     frames = list(read_recording(rec))
     live = list(simulate_robot(tiny_world, cfg, seed=0))
     assert len(frames) == len(live) == 7
-    np.testing.assert_array_equal(frames[-1].object_ids, live[-1].object_ids)
+    np.testing.assert_array_equal(frames[-1].truth.object_ids, live[-1].truth.object_ids)
     np.testing.assert_allclose(frames[-1].depth, live[-1].depth, atol=0.0005 + 1e-6)

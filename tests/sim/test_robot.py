@@ -67,11 +67,11 @@ def test_frames_are_consistent_and_deterministic(tiny_world) -> None:
     assert [f.index for f in a] == [0, 1, 2, 3]
     for fa, fb in zip(a, b):
         np.testing.assert_array_equal(fa.depth, fb.depth)
-        np.testing.assert_array_equal(fa.object_ids, fb.object_ids)
+        np.testing.assert_array_equal(fa.truth.object_ids, fb.truth.object_ids)
         np.testing.assert_array_equal(fa.rgb, fb.rgb)
         np.testing.assert_array_equal(fa.T_odom_body, fb.T_odom_body)
     f = a[0]
-    assert f.rgb.shape == (48, 64, 3) and f.depth.shape == (48, 64) and f.object_ids.dtype == np.int32
+    assert f.rgb.shape == (48, 64, 3) and f.depth.shape == (48, 64) and f.truth.object_ids.dtype == np.int32
     np.testing.assert_allclose(f.T_body_cam, SMALL.T_body_cam())
     assert f.depth.max() <= SMALL.max_depth_m
     c = list(simulate_robot(tiny_world, cfg.model_copy(update={"render_rgb": False}), seed=2))
@@ -80,7 +80,7 @@ def test_frames_are_consistent_and_deterministic(tiny_world) -> None:
 
 
 def test_plan_paths_resolves_references_in_order(tiny_world) -> None:
-    from roman_sim.errors import SimError
+    from roman_sim.core.errors import SimError
     from roman_sim.sim.robot import plan_paths
 
     a = _cfg(name="a")

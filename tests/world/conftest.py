@@ -6,7 +6,7 @@ from collections.abc import Callable
 
 import pytest
 
-from roman_sim.config import validate_model
+from roman_sim.core.config import validate_model
 from roman_sim.world import World, WorldSpec, generate, load_world_spec
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.errors import WorldError
+from roman_sim.core.errors import WorldError
 from roman_sim.geometry import make_T
 from roman_sim.world import generate
 from roman_sim.world.ambiguity import ambiguity_index, place_ambiguity

@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.config import validate_model
-from roman_sim.errors import ConfigError
-from roman_sim.seeding import child_rng
+from roman_sim.core.config import validate_model
+from roman_sim.core.errors import ConfigError
+from roman_sim.core.seeding import child_rng
 from roman_sim.world import WORLD_PRESETS, WorldSpec, load_world_spec
 from roman_sim.world.assets import FAMILIES
 from roman_sim.world.catalog import family_assets, n_variants, scale_levels

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.spatial import cKDTree
 
-from roman_sim.errors import WorldError
+from roman_sim.core.errors import WorldError
 from roman_sim.world import WORLD_PRESETS, World, export_world, generate, load_world_spec
 from roman_sim.world.query import is_free, road_distance
 

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from roman_sim.errors import WorldError
+from roman_sim.core.errors import WorldError
 from roman_sim.world import World, export_world, load_world
 
 

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from roman_sim.config import load_model
-from roman_sim.errors import ConfigError
-from roman_sim.registry import Registry
+from roman_sim.core.config import load_model
+from roman_sim.core.errors import ConfigError
+from roman_sim.core.registry import Registry
 from roman_sim.world.spec import WorldSpec
 
 PRESET_DIR = Path(__file__).resolve().parent

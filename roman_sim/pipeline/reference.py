@@ -13,7 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from roman_sim.atomic import write_json, write_text
+from roman_sim.core.atomic import write_json, write_text
 from roman_sim.evaluation.report import fmt
 from roman_sim.evaluation.summaries import compact_summary
 
@@ -48,8 +48,8 @@ def reproduce(
     from_stage: str | None = None,
 ) -> Path:
     """Run ``scenarios`` (default: the paper's), collect small results, write the summary."""
-    from roman_sim.experiment import Experiment
-    from roman_sim.scenario import load_scenario
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import load_scenario
 
     out, work = Path(out_dir), Path(work_dir)
     runs: dict[str, Any] = {}
@@ -75,11 +75,10 @@ def ambiguity_sweep(dest: Path, work: Path) -> list[dict[str, Any]]:
     """Run (or resume) the ambiguity sweep; copy its table; rows of max recall per knob and method."""
     import csv
 
-    from roman_sim.scenario import SCENARIO_DIRS
-    from roman_sim.sweep import load_sweep, run_sweep
+    from roman_sim.pipeline.scenario import SCENARIO_DIR
+    from roman_sim.pipeline.sweep import load_sweep, run_sweep
 
-    path = next(d / AMBIGUITY_SWEEP for d in SCENARIO_DIRS if (d / AMBIGUITY_SWEEP).is_file())
-    cfg, scenario = load_sweep(path)
+    cfg, scenario = load_sweep(SCENARIO_DIR / AMBIGUITY_SWEEP)
     cfg.executor.kind = "serial"
     table = run_sweep(cfg, scenario, work)
     dest.mkdir(parents=True, exist_ok=True)

@@ -16,10 +16,10 @@ from numpy.typing import NDArray
 from pydantic import Field
 from scipy.spatial import cKDTree
 
-from roman_sim.config import StrictModel
+from roman_sim.core.config import StrictModel
 from roman_sim.geometry import gravity_aligned, inv_T, make_T, pose_4dof, pose_error, rot_z, rpy_to_R
-from roman_sim.posegraph import LoopClosure
-from roman_sim.seeding import child_rng
+from roman_sim.posegraph.types import LoopClosure
+from roman_sim.core.seeding import child_rng
 
 F64 = NDArray[np.float64]
 

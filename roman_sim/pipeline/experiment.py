@@ -19,12 +19,12 @@ from pathlib import Path
 from typing import Any, Protocol
 
 
-from roman_sim.atomic import write_json, write_text
+from roman_sim.core.atomic import write_json, write_text
 from roman_sim import __version__
-from roman_sim.config import dump_yaml
-from roman_sim.errors import ConfigError
-from roman_sim.resources import peak_rss_mb, reset_peak_rss
-from roman_sim.scenario import Scenario, load_scenario
+from roman_sim.core.config import dump_yaml
+from roman_sim.core.errors import ConfigError
+from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
+from roman_sim.pipeline.scenario import Scenario, load_scenario
 
 log = logging.getLogger(__name__)
 
@@ -161,7 +161,7 @@ class Experiment:
     def validate(self) -> None:
         """Check what can be checked before any work: world spec, aligners, plug-ins, output folder."""
         from roman_sim.align import build_aligner
-        from roman_sim.registry import import_object
+        from roman_sim.core.registry import import_object
 
         if self.submaps_dir is None:
             self.sc.world.spec()

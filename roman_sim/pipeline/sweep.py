@@ -22,9 +22,9 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from roman_sim.atomic import write_text
-from roman_sim.config import StrictModel, read_yaml, validate_model
-from roman_sim.errors import ConfigError, RomanSimError
+from roman_sim.core.atomic import write_text
+from roman_sim.core.config import StrictModel, read_yaml, validate_model
+from roman_sim.core.errors import ConfigError, RomanSimError
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +78,7 @@ def expand(cfg: SweepConfig) -> list[RunSpec]:
 
 def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
     """Load a sweep YAML; returns the config and the resolved base scenario path."""
-    from roman_sim.scenario import resolve_scenario_path
+    from roman_sim.pipeline.scenario import resolve_scenario_path
 
     path = Path(path)
     cfg = validate_model(SweepConfig, read_yaml(path), source=str(path))
@@ -87,7 +87,7 @@ def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
 
 def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir: str) -> dict[str, Any]:
     """Run one sweep job (top-level so that process pools and Dask can pickle it)."""
-    from roman_sim.experiment import run_scenario_file
+    from roman_sim.pipeline.experiment import run_scenario_file
 
     try:
         result = run_scenario_file(scenario_path, list(overrides) + [f"seed={seed}"], Path(run_dir))

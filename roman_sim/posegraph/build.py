@@ -12,11 +12,11 @@ import gtsam
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.geometry import inv_T
 
 if TYPE_CHECKING:
-    from roman_sim.posegraph import LoopClosure, PoseGraphConfig
+    from roman_sim.posegraph.types import LoopClosure, PoseGraphConfig
 
 log = logging.getLogger(__name__)
 

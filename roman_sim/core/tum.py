@@ -8,8 +8,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 
-from roman_sim.atomic import write_text
-from roman_sim.errors import StorageError
+from roman_sim.core.atomic import write_text
+from roman_sim.core.errors import StorageError
 
 
 def format_tum(t: ArrayLike, T: ArrayLike) -> str:

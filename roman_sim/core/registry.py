@@ -10,7 +10,7 @@ import importlib
 from collections.abc import Callable, Iterator
 from typing import Generic, TypeVar
 
-from roman_sim.errors import ConfigError
+from roman_sim.core.errors import ConfigError
 
 T = TypeVar("T")
 

@@ -12,8 +12,8 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from roman_sim.config import StrictModel, apply_overrides, read_yaml, validate_model
-from roman_sim.errors import ConfigError
+from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, validate_model
+from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
 from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
 from roman_sim.mapping.semantics import SemanticConfig
@@ -24,8 +24,10 @@ from roman_sim.sim.robot import RobotConfig
 
 log = logging.getLogger(__name__)
 
-#: Folder of the bundled scenarios (repository root ``scenarios/``, or installed copy).
-SCENARIO_DIRS = [Path(__file__).resolve().parent / "scenarios", Path(__file__).resolve().parents[1] / "scenarios"]
+#: Folder of the bundled scenarios (package data; the repository root links to it).
+SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
+#: Folder of the bundled sweeps.
+SWEEP_DIR = SCENARIO_DIR / "sweeps"
 
 
 class WorldRef(StrictModel):
@@ -136,12 +138,7 @@ def with_aligners(sc: Scenario, methods: list[str]) -> Scenario:
 
 def bundled_scenarios() -> dict[str, Path]:
     """Scenario name -> YAML path of the scenarios shipped with the project."""
-    out: dict[str, Path] = {}
-    for d in SCENARIO_DIRS:
-        if d.is_dir():
-            for p in sorted(d.glob("*.yaml")):
-                out.setdefault(p.stem, p)
-    return out
+    return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.yaml"))}
 
 
 def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = None) -> Path:

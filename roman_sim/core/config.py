@@ -13,7 +13,7 @@ from typing import Any, TypeVar
 import yaml
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from roman_sim.errors import ConfigError
+from roman_sim.core.errors import ConfigError
 
 M = TypeVar("M", bound=BaseModel)
 

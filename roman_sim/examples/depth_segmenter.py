@@ -14,7 +14,7 @@ import numpy as np
 from scipy import ndimage
 
 from roman_sim.mapping.segmenter import Mask
-from roman_sim.sim.frame import Frame
+from roman_sim.sensors import Frame
 
 
 class DepthEdgeSegmenter:
