@@ -5,6 +5,11 @@ must pass the edge-length check (each of the 3 edges agrees within ``edge_ratio`
 Open3D's correspondence checker), gets a closed-form Kabsch fit, and is scored by how many
 putative correspondences land within ``max_corr_dist_m`` (ties: lower inlier RMSE). The
 best hypothesis is refined on its one-to-one inliers. Vectorised over hypothesis batches.
+
+``iterations`` counts drawn hypotheses, as in the reference. Most fail the first edge check,
+so the sampler enumerates the compatible edge pairs once per submap pair and draws only the
+hypotheses that pass it, in the same distribution (see ``_sample``): the cost follows the
+hypotheses that are fitted, not the ones drawn.
 """
 
 from __future__ import annotations
@@ -47,16 +52,50 @@ class RansacOutcome:
     reason: str | None = None
 
 
-def _sample(
-    rng: np.random.Generator, na: int, nb: int, k: int, Da: NDArray, Db: NDArray, ratio: float
-) -> tuple[NDArray, NDArray]:
-    """Draw ``k`` triples; return (ia, ib) (m, 3) of those passing distinctness and edge checks."""
-    ia, ib = rng.integers(0, na, (k, 3)), rng.integers(0, nb, (k, 3))
-    ok = np.ones(k, dtype=bool)
-    for s, t in ((0, 1), (1, 2), (0, 2)):
-        la, lb = Da[ia[:, s], ia[:, t]], Db[ib[:, s], ib[:, t]]
-        ok &= (la >= ratio * lb) & (lb >= ratio * la) & (la > 0) & (lb > 0)
-    return ia[ok], ib[ok]
+def _ratio_ok(la: NDArray, lb: NDArray, ratio: float) -> NDArray[np.bool_]:
+    """Edge-length check of Open3D's correspondence checker (a zero length fails)."""
+    return (la > 0) & (la >= ratio * lb) & (lb >= ratio * la)
+
+
+def compatible_edges(Da: NDArray, Db: NDArray, ratio: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Every (ordered a-edge, ordered b-edge) whose lengths pass the edge check, as flat indices.
+
+    An edge ``(i, j)`` of a is ``i * n_a + j`` (likewise for b). Lengths are joined through a
+    sorted search on b's lengths, so only pairs near the ratio band are formed, then checked
+    exactly as a drawn triple would be.
+    """
+    la, lb = np.asarray(Da, np.float64).ravel(), np.asarray(Db, np.float64).ravel()
+    order = np.argsort(lb, kind="stable")
+    lbs = lb[order]
+    slack = 1e-9 * (1.0 + float(la.max(initial=0.0)))  # the band is widened, the exact check decides
+    lo = np.searchsorted(lbs, ratio * la - slack, side="left")
+    hi = np.searchsorted(lbs, la / ratio + slack, side="right")
+    counts = np.where(la > 0, hi - lo, 0)
+    ea = np.repeat(np.arange(len(la)), counts)
+    eb = order[np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts) + np.repeat(lo, counts)]
+    ok = _ratio_ok(la[ea], lb[eb], ratio)
+    return ea[ok].astype(np.int64), eb[ok].astype(np.int64)
+
+
+def _sample(rng: np.random.Generator, na: int, nb: int, k: int, Da: NDArray, Db: NDArray, ratio: float,
+            edges: tuple[NDArray[np.int64], NDArray[np.int64]]) -> tuple[NDArray, NDArray]:
+    """``k`` uniform triples of correspondences; (ia, ib) (m, 3) of those passing the edge checks.
+
+    Equivalent in distribution to drawing ``k`` triples and checking all three edges, but
+    the draws that fail the first edge are never made: of ``k`` uniform draws,
+    Binomial(k, C / (n_a^2 n_b^2)) pass the first edge, each a uniform one of the ``C``
+    compatible edge pairs ``edges``; only those get a third correspondence drawn and checked.
+    """
+    ea, eb = edges
+    n = int(rng.binomial(k, len(ea) / float(na * na * nb * nb))) if len(ea) else 0
+    pick = rng.integers(0, len(ea), n) if n else np.zeros(0, np.int64)
+    ia = np.stack([ea[pick] // na, ea[pick] % na, rng.integers(0, na, n)], 1)
+    ib = np.stack([eb[pick] // nb, eb[pick] % nb, rng.integers(0, nb, n)], 1)
+    fa, fb = np.asarray(Da).ravel(), np.asarray(Db).ravel()
+    ok = np.ones(n, dtype=bool)
+    for s, t in ((1, 2), (0, 2)):
+        ok &= _ratio_ok(fa[ia[:, s] * na + ia[:, t]], fb[ib[:, s] * nb + ib[:, t]], ratio)
+    return ia[ok].astype(np.int64), ib[ok].astype(np.int64)
 
 
 def _score(Ts: NDArray, ca: NDArray, cb: NDArray, thr: float) -> tuple[NDArray, NDArray]:
@@ -83,12 +122,13 @@ def ransac_align(centers_a: NDArray, centers_b: NDArray, params: RansacParams | 
     ca, cb = np.asarray(centers_a, dtype=np.float64), np.asarray(centers_b, dtype=np.float64)
     Da, Db = cdist(ca, ca), cdist(cb, cb)
     rng = child_rng(p.seed, "ransac")
+    edges = compatible_edges(Da, Db, p.edge_ratio)
     best = (-1, np.inf, None)
     checked, left = 0, p.iterations
     while left > 0:
         k = min(left, p.batch_size)
         left -= k
-        ia, ib = _sample(rng, len(ca), len(cb), k, Da, Db, p.edge_ratio)
+        ia, ib = _sample(rng, len(ca), len(cb), k, Da, Db, p.edge_ratio, edges)
         for s in range(0, len(ia), 2000):
             Ts = kabsch_batch(cb[ib[s : s + 2000]], ca[ia[s : s + 2000]])
             cnt, rmse = _score(Ts, ca, cb, p.max_corr_dist_m)
