@@ -47,32 +47,64 @@ def _progress() -> Progress:
 
 
 def _fmt(v: Any, digits: int = 2) -> str:
-    from roman_sim.evaluation.report import fmt
+    from roman_sim.evaluation.tables import fmt
 
     return fmt(v, digits)
 
 
-def print_summary(result: Any) -> None:
-    """The summary table: recall per heading bin per method, runtime; ATE; map size."""
-    s = result.metrics_summary()
-    out = Console()
-    t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed}): max recall (R) overall and per "
-                    "heading bin, median ms per pair")
-    bins = [k for k in next(iter(s["methods"].values()), {}) if k.startswith("recall_") and k[7].isdigit()]
+def _recall_cell(d: dict[str, Any], min_n: int) -> str:
+    """``0.77 33/43`` (``n<5 1/2`` for small sets, ``n/a`` without relevant pairs)."""
+    if not d["n_relevant"] or d["max_recall"] is None:
+        return "n/a"
+    if d["n_relevant"] < min_n:
+        return f"n<{min_n} {d['max_hits']}/{d['n_relevant']}"
+    return f"{d['max_recall']:.2f} {d['max_hits']}/{d['n_relevant']}"
+
+
+def _recall_table(s: dict[str, Any], kind: str, title: str, min_n: int) -> Table:
+    t = Table(title=title)
+    first = next(iter(s["methods"].values()))[kind]
     t.add_column("method", no_wrap=True)
-    for col in ["max R", "R@P=1", "F1", *[b.replace("recall_", "") + "°" for b in bins], "ms"]:
+    for col in ["max R", "R@P=1", "F1", *[f"{b}°" for b in first["bins"]], "ms"]:
         t.add_column(col, justify="right", no_wrap=True)
     for name, m in s["methods"].items():
+        k = m[kind]
         ms = None if m["runtime_median_s"] is None else m["runtime_median_s"] * 1000
-        t.add_row(name, _fmt(m["max_recall"]), _fmt(m["recall_at_precision_1"]), _fmt(m["best_f1"]),
-                  *[_fmt(m[b]) for b in bins], _fmt(ms, 1))
-    out.print(t)
-    if s["ate_rmse_m"]:
-        a = Table(title="ATE RMSE (m), all robots, SE(3) aligned")
-        a.add_column("trajectory")
-        a.add_column("ATE", justify="right")
-        for k, v in s["ate_rmse_m"].items():
-            a.add_row(k, _fmt(v))
+        p1 = {"max_recall": k["recall_at_precision_1"], "max_hits": k["hits_at_precision_1"],
+              "n_relevant": k["n_relevant"]}
+        t.add_row(name, _recall_cell(k, min_n), _recall_cell(p1, min_n), _fmt(k["best_f1"]),
+                  *[_recall_cell(b, min_n) for b in k["bins"].values()], _fmt(ms, 1))
+    return t
+
+
+def print_summary(result: Any) -> None:
+    """The summary tables: recall (hits/relevant) per heading bin per method for cross-robot and
+    same-robot pairs, runtime; ATE over the same robots; map size."""
+    from roman_sim.evaluation.types import PAIR_SET_LABELS
+
+    s = result.metrics_summary()
+    cfg = result.metrics.config
+    out = Console()
+    cap = "no distance cap" if cfg["max_pair_dist_m"] is None else (
+        f"distance cap {cfg['max_pair_dist_m']:g} m: {s['n_skipped']} pairs skipped")
+    out.print(f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
+              f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m")
+    kinds = [s["headline"]] + [k for k in ("inter", "intra") if k != s["headline"]]
+    for kind in kinds:
+        if s["methods"] and s["pairs"][kind]["n_pairs"]:
+            label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s["headline"] else "")
+            out.print(_recall_table(s, kind, f"{label} pairs: max recall (hits/relevant) overall and per heading "
+                                             "bin, median ms per pair", int(cfg["min_relevant"])))
+    if s["ate"]:
+        common = ", ".join(s["ate_robots"]["common"]) or "none"
+        a = Table(title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({common}) and over all "
+                        f"{len(s['ate_robots']['robots'])}")
+        for col in ("trajectory", "placed", "common", "all robots"):
+            a.add_column(col, justify="left" if col == "trajectory" else "right")
+        n = len(s["ate_robots"]["robots"])
+        for k, v in s["ate"].items():
+            a.add_row(k, f"{v['connected']}/{n}", _fmt(v["common"]),
+                      _fmt(v["all"]) if v["connected"] == n else "not connected")
         out.print(a)
     mp = s["map"]
     out.print(f"map: {mp.get('segments')} segments, {mp.get('submaps')} submaps, "
@@ -159,11 +191,30 @@ def record_cmd(
 
 
 @app.command("report")
-def report_cmd(run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`")) -> None:
-    """Print the summary of a finished run (an incomplete run is an error naming its missing stages)."""
+def report_cmd(
+    run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`, or a sweep folder"),
+    verify: bool = typer.Option(False, "--verify", help="recompute metrics.json from pairs.csv and ate.json from "
+                                "the TUM files; exit code 1 when they differ"),
+) -> None:
+    """Print the summary of a finished run or sweep (an incomplete run is an error naming its missing stages)."""
     from roman_sim.pipeline.result import RunResult
+    from roman_sim.pipeline.sweep import SWEEP_JSON, print_sweep_summary
 
+    if (run_dir / SWEEP_JSON).is_file():
+        print_sweep_summary(run_dir, Console())
+        return
     print_summary(RunResult.load(run_dir))
+    if verify:
+        from roman_sim.evaluation.verify import verify_run
+
+        res = verify_run(run_dir)
+        out = Console()
+        for d in res.differences:
+            out.print(f"[red]differs:[/red] {d}")
+        out.print(("[green]verified:[/green] " if res.ok else "[red]NOT verified:[/red] ") + "; ".join(res.checked)
+                  + ("" if res.ok else f" ({len(res.differences)} differences)"))
+        if not res.ok:
+            raise typer.Exit(1)
 
 
 @app.command("sweep")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 from pathlib import Path
 
 import numpy as np
@@ -27,7 +28,7 @@ def write_tum(path: str | Path, traj: Trajectory) -> None:
 
 
 def read_tum(path: str | Path) -> Trajectory:
-    """Read a TUM file into a ``Trajectory``. Comment lines (#) are skipped.
+    """Read a TUM file (gzip-compressed when the name ends in ``.gz``) into a ``Trajectory``.
 
     Raises:
         StorageError: missing file, a malformed line (with its number), or an invalid trajectory.
@@ -35,8 +36,19 @@ def read_tum(path: str | Path) -> Trajectory:
     path = Path(path)
     if not path.is_file():
         raise StorageError(f"{path}: TUM file not found")
+    try:
+        raw = path.read_bytes()
+        text = (gzip.decompress(raw) if path.suffix == ".gz" else raw).decode("utf-8")
+    except (OSError, UnicodeDecodeError, EOFError, gzip.BadGzipFile) as err:
+        raise StorageError(f"{path}: unreadable TUM file ({type(err).__name__})") from None
+    return parse_tum(text, str(path))
+
+
+def parse_tum(text: str, source: str = "TUM") -> Trajectory:
+    """A ``Trajectory`` from TUM text. Comment lines (#) are skipped; ``source`` names it in errors."""
+    path = source
     rows = []
-    for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1):
+    for n, line in enumerate(text.splitlines(), start=1):
         line = line.strip()
         if not line or line.startswith("#"):
             continue

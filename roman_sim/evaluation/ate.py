@@ -124,7 +124,8 @@ def _matched_xyz(est: Trajectory, ref: Trajectory, max_diff_s: float, name: str)
     return est.positions[i_e], ref.positions[i_r]
 
 
-def ate_rmse(est: Trajectory, ref: Trajectory, alignment: Alignment = "se3", max_diff_s: float = MAX_DIFF_S) -> AteResult:
+def ate_rmse(est: Trajectory, ref: Trajectory, alignment: Alignment = "se3",
+             max_diff_s: float = MAX_DIFF_S) -> AteResult:
     """ATE of an estimated trajectory against a reference (truth).
 
     Args:

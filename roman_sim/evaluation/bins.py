@@ -42,6 +42,12 @@ def fine_edges(coarse: Sequence[float], step: float) -> list[float]:
     return [float(x) for x in edges] + [hi]
 
 
+def bin_groups(items: Sequence[S], values: Sequence[float], edges: Sequence[float]) -> list[list[S]]:
+    """The items of each bin, in bin order."""
+    idx = bin_index(values, edges)
+    return [[it for it, j in zip(items, idx) if j == i] for i in range(len(edges) - 1)]
+
+
 def bin_table(
     items: Sequence[S],
     values: Sequence[float],
@@ -50,9 +56,8 @@ def bin_table(
     stats: Callable[[list[S], list[int]], CurveStats],
 ) -> list[BinStats]:
     """``stats(items in bin, k_values)`` for each bin, labelled with its edges."""
-    idx = bin_index(values, edges)
-    return [BinStats(bin_label(lo, hi), float(lo), float(hi), stats([it for it, j in zip(items, idx) if j == i], k_values))
-            for i, (lo, hi) in enumerate(zip(edges, edges[1:]))]
+    return [BinStats(bin_label(lo, hi), float(lo), float(hi), stats(group, k_values))
+            for group, lo, hi in zip(bin_groups(items, values, edges), edges, edges[1:])]
 
 
 def runtime_stats(runtimes: Sequence[float]) -> dict[str, Any]:

@@ -1,13 +1,25 @@
 """Scoring aligner results against pair truth: correctness, precision/recall over k, bins.
 
-Definitions (REFERENCE.md section 7): a pair is *relevant* when its true centres are within
-``relevant_dist_m``; a registration is *correct* when its rotation error is within
-``rot_tol_deg`` and its translation error within ``trans_tol_m``; a pair is *positive* at
-threshold k when the aligner accepted at least k associations. TP = relevant, positive and
-correct; FP = positive and not correct; recall = TP / relevant; precision = TP / (TP + FP).
+Definitions: a pair is *relevant* when it should align (``EvalConfig.relevance``: true
+centres within ``relevant_dist_m``, or at least ``min_shared_objects`` true objects in
+common); a registration is *correct* when its rotation error is within ``rot_tol_deg`` and
+its translation error within ``trans_tol_m``; a pair is *positive* at threshold k when the
+aligner accepted at least k associations. TP = relevant, positive and correct; FP =
+positive and not correct; recall = TP / relevant; precision = TP / (TP + FP). Every recall
+comes with its count (hits / relevant) and a Wilson interval; a set with fewer than
+``min_relevant`` relevant pairs is flagged ``few``.
 
-Undefined values (no relevant pair, no positive) are NaN inside curves and ``None`` in
-summaries, never 0, so that "could not be computed" is never read as "failed".
+Association truth (``assoc``): per pair, the true correspondences available and, of the
+method's selected associations, the correct and recovered ones; a pair set's association
+precision is correct / selected and its recall recovered / available, summed over pairs.
+
+Every method is scored on cross-robot pairs (``inter``), same-robot pairs (``intra``) and
+both (``all``); the headline set is ``inter`` when the run has cross-robot pairs. Undefined
+values (no relevant pair, no positive) are NaN inside curves and ``None`` in summaries,
+never 0, so that "could not be computed" is never read as "failed".
+
+Everything here is a pure function of pair truths and aligner results (or of the scores
+read back from ``pairs.csv``), so ``metrics.json`` can be recomputed from ``pairs.csv``.
 """
 
 from __future__ import annotations
@@ -15,53 +27,32 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
-from pydantic import Field, model_validator
 
 from roman_sim.align.base import AlignResult
-from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.bins import bin_table, fine_edges
+from roman_sim.evaluation.assoc import association_truth
+from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
+from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.intervals import wilson
 from roman_sim.evaluation.pairs import PairTruth
-from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MethodMetrics, PRCurve, nan_to_none
+from roman_sim.evaluation.types import (
+    PAIR_SET_LABELS,
+    PAIR_SETS,
+    CurveStats,
+    EvaluationMetrics,
+    MethodMetrics,
+    PairSetMetrics,
+    PRCurve,
+    nan_to_none,
+)
 from roman_sim.geometry import pose_error
 
 log = logging.getLogger(__name__)
 
-
-def _increasing(edges: list[float], name: str) -> None:
-    if len(edges) < 2 or any(b <= a for a, b in zip(edges, edges[1:])):
-        raise ValueError(f"{name} must hold at least 2 strictly increasing edges")
-
-
-class EvalConfig(StrictModel):
-    """Evaluation settings (thresholds, k sweep, bins, pair selection)."""
-
-    relevant_dist_m: float = Field(10.0, gt=0, description="relevance: true centres within this")
-    rot_tol_deg: float = Field(5.0, gt=0, le=180, description="correct: rotation error within this")
-    trans_tol_m: float = Field(1.0, gt=0, description="correct: translation error within this")
-    k_min: int = Field(0, ge=0, description="smallest association count threshold of the sweep")
-    k_max: int = Field(30, ge=0, le=10000, description="largest association count threshold")
-    heading_bins_deg: list[float] = Field(default_factory=lambda: [0.0, 60.0, 120.0, 180.0])
-    fine_heading_bin_deg: float = Field(30.0, gt=0, le=180)
-    ambiguity_bins: list[float] = Field(default_factory=lambda: [0.0, 0.25, 0.5, 0.75, 1.0])
-    intra_min_gap: int = Field(2, ge=1, description="smallest index gap of intra-robot pairs")
-    max_pair_dist_m: float | None = Field(None, ge=0, description="drop farther pairs (None: keep all)")
-
-    @model_validator(mode="after")
-    def _check(self) -> "EvalConfig":
-        if self.k_max < self.k_min:
-            raise ValueError(f"k_max ({self.k_max}) must be >= k_min ({self.k_min})")
-        _increasing(self.heading_bins_deg, "heading_bins_deg")
-        _increasing(self.ambiguity_bins, "ambiguity_bins")
-        if self.heading_bins_deg[0] < 0 or self.heading_bins_deg[-1] > 180:
-            raise ValueError("heading_bins_deg must lie within [0, 180]")
-        return self
-
-    def k_values(self) -> list[int]:
-        """The swept thresholds ``k_min..k_max``."""
-        return list(range(self.k_min, self.k_max + 1))
+__all__ = ["EvalConfig", "PairScore", "auc", "curve_stats", "pr_curve", "score_pair", "summary"]
 
 
 @dataclass(frozen=True)
@@ -74,8 +65,10 @@ class PairScore:
         n_assoc: number of accepted associations.
         rot_err_deg, trans_err_m: errors of the estimate (NaN when there is none).
         correct: estimate within both tolerances.
-        runtime_s: alignment wall time.
+        runtime_s: alignment wall time (NaN when read back from ``pairs.csv``).
         reason: why no estimate was produced (None otherwise).
+        assoc_correct: selected associations that are true correspondences.
+        assoc_recovered: true correspondences recovered one-to-one by the selection.
     """
 
     truth: PairTruth
@@ -86,6 +79,8 @@ class PairScore:
     correct: bool
     runtime_s: float
     reason: str | None = None
+    assoc_correct: int = 0
+    assoc_recovered: int = 0
 
 
 def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = None) -> PairScore:
@@ -98,9 +93,19 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
             raise EvaluationError(f"{result.method} on {truth.a}|{truth.b}: T_a_b must be a finite 4x4")
         r, trans = pose_error(T, truth.T_a_b_true)
         rot = math.degrees(r)
-    correct = bool(rot <= cfg.rot_tol_deg and trans <= cfg.trans_tol_m)  # NaN compares False
-    return PairScore(truth, result.method, result.n_associations, rot, trans, correct,
-                     float(result.runtime_s), result.reason)
+    good, recovered = 0, 0
+    if truth.ids_a is not None and truth.ids_b is not None:
+        try:
+            good, recovered = association_truth(truth.ids_a, truth.ids_b, result.associations)
+        except EvaluationError as err:
+            raise EvaluationError(f"{result.method} on {truth.a}|{truth.b}: {err}") from None
+    return PairScore(truth, result.method, result.n_associations, rot, trans, is_correct(rot, trans, cfg),
+                     float(result.runtime_s), result.reason, good, recovered)
+
+
+def is_correct(rot_err_deg: float, trans_err_m: float, cfg: EvalConfig) -> bool:
+    """Whether an estimate with these errors is within both tolerances (NaN: no estimate, not correct)."""
+    return bool(rot_err_deg <= cfg.rot_tol_deg and trans_err_m <= cfg.trans_tol_m)
 
 
 def pr_curve(scores: list[PairScore], k_values: list[int] | None = None) -> PRCurve:
@@ -142,64 +147,110 @@ def auc(curve: PRCurve) -> float:
     return float(np.trapezoid(up, ur))
 
 
-def curve_stats(scores: list[PairScore], k_values: list[int]) -> CurveStats:
+def _assoc_stats(scores: list[PairScore], level: float) -> dict[str, object]:
+    """Association precision and recall against the true correspondences, summed over the pairs."""
+    sel = sum(s.n_assoc for s in scores)
+    good = sum(s.assoc_correct for s in scores)
+    avail = sum(s.truth.true_correspondences for s in scores)
+    rec = sum(min(s.assoc_recovered, s.truth.true_correspondences) for s in scores)
+    return {"assoc_selected": sel, "assoc_correct": good, "assoc_available": avail, "assoc_recovered": rec,
+            "assoc_precision": good / sel if sel else None, "assoc_precision_ci": wilson(min(good, sel), sel, level),
+            "assoc_recall": rec / avail if avail else None, "assoc_recall_ci": wilson(rec, avail, level)}
+
+
+def curve_stats(scores: list[PairScore], k_values: list[int], cfg: EvalConfig | None = None) -> CurveStats:
     """Headline numbers of one method on a set of pairs (``None`` where undefined)."""
+    cfg = cfg or EvalConfig()
     c = pr_curve(scores, k_values)
-    at_p1 = c.recall[c.precision == 1.0]
+    p1 = np.flatnonzero(c.precision == 1.0)
     has_f1 = not np.all(np.isnan(c.f1))
     best = int(np.nanargmax(c.f1)) if has_f1 else None
     undefined = c.n_relevant == 0
+    hits = int(c.tp.max()) if len(c.tp) else 0
+    # no threshold reaching precision 1 means recall 0 at that precision (defined)
+    hits_p1 = int(c.tp[p1].max()) if len(p1) else 0
     return CurveStats(
         n_pairs=len(scores),
         n_relevant=c.n_relevant,
-        max_recall=None if undefined else float(np.nanmax(c.recall)),
-        max_hits=int(c.tp.max()) if len(c.tp) else 0,
-        # no threshold reaching precision 1 means recall 0 at that precision (defined)
-        recall_at_precision_1=None if undefined else float(at_p1.max() if len(at_p1) else 0.0),
+        max_recall=None if undefined else hits / c.n_relevant,
+        max_hits=hits,
+        max_recall_k=None if undefined else int(c.k[int(np.argmax(c.tp))]),
+        recall_ci=wilson(hits, c.n_relevant, cfg.interval_level),
+        few=c.n_relevant < cfg.min_relevant,
+        recall_at_precision_1=None if undefined else hits_p1 / c.n_relevant,
+        hits_at_precision_1=hits_p1,
+        recall_at_precision_1_ci=wilson(hits_p1, c.n_relevant, cfg.interval_level),
         best_f1=None if best is None else float(c.f1[best]),
         best_f1_k=None if best is None else int(c.k[best]),
         auc=nan_to_none(auc(c)),
+        **_assoc_stats(scores, cfg.interval_level),  # type: ignore[arg-type]
     )
+
+
+def _set_summary(scores: list[PairScore], cfg: EvalConfig) -> PairSetMetrics:
+    ks = cfg.k_values()
+    stats = partial(curve_stats, cfg=cfg)
+    head = [s.truth.heading_diff_deg for s in scores]
+    amb = [s.truth.ambiguity for s in scores]
+    return PairSetMetrics(
+        overall=stats(scores, ks),
+        pr_curve=pr_curve(scores, ks),
+        heading_bins=bin_table(scores, head, cfg.heading_bins_deg, ks, stats),
+        heading_bins_fine=bin_table(scores, head, fine_edges(cfg.heading_bins_deg, cfg.fine_heading_bin_deg), ks,
+                                    stats),
+        heading_pr=[pr_curve(group, ks) for group in bin_groups(scores, head, cfg.heading_bins_deg)],
+        ambiguity_bins=bin_table(scores, amb, cfg.ambiguity_bins, ks, stats),
+        n_ambiguity_unknown=int(np.sum(np.isnan(np.asarray(amb, dtype=float)))),
+    )
+
+
+def _in_set(kind: str, s: PairScore) -> bool:
+    return kind == "all" or s.truth.kind == kind
 
 
 def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> MethodMetrics:
-    ks = cfg.k_values()
-    head = [s.truth.heading_diff_deg for s in scores]
-    amb = [s.truth.ambiguity for s in scores]
-    return MethodMetrics(
-        overall=curve_stats(scores, ks),
-        pr_curve=pr_curve(scores, ks),
-        heading_bins=bin_table(scores, head, cfg.heading_bins_deg, ks, curve_stats),
-        heading_bins_fine=bin_table(scores, head, fine_edges(cfg.heading_bins_deg, cfg.fine_heading_bin_deg),
-                                    ks, curve_stats),
-        ambiguity_bins=bin_table(scores, amb, cfg.ambiguity_bins, ks, curve_stats),
-        n_ambiguity_unknown=int(np.sum(np.isnan(np.asarray(amb, dtype=float)))),
-        by_kind={kind: curve_stats([s for s in scores if s.truth.kind == kind], ks) for kind in ("inter", "intra")},
-        n_failed=sum(1 for s in scores if s.reason is not None),
-    )
+    sets = {k: _set_summary([s for s in scores if _in_set(k, s)], cfg) for k in PAIR_SETS}
+    return MethodMetrics(sets, n_failed=sum(1 for s in scores if s.reason is not None))
 
 
-def summary(scores: list[PairScore], cfg: EvalConfig | None = None) -> EvaluationMetrics:
-    """Per-method metrics of ``scores`` (undefined figures are ``None`` and explained in ``notes``)."""
+def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
+    pairs = {(s.truth.a, s.truth.b): s.truth for s in scores}
+    return {k: {"n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
+                "n_relevant": sum(1 for t in pairs.values() if (k == "all" or t.kind == k) and t.relevant)}
+            for k in PAIR_SETS}
+
+
+def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: int = 0) -> EvaluationMetrics:
+    """Per-method metrics of ``scores`` (undefined figures are ``None`` and explained in ``notes``).
+
+    Args:
+        scores: scored pairs of every method.
+        cfg: the evaluation settings.
+        n_skipped: pairs a distance cap left out (reported, not scored).
+    """
     cfg = cfg or EvalConfig()
     methods = sorted({s.method for s in scores})
-    by_method = {m: [s for s in scores if s.method == m] for m in methods}
-    pairs = {(s.truth.a, s.truth.b): s.truth.relevant for s in scores}
+    counts = _pair_counts(scores)
+    headline = "inter" if counts["inter"]["n_pairs"] else "intra"
     out = EvaluationMetrics(
-        config=cfg.model_dump(mode="json"),
-        n_pairs=len(pairs),
-        n_relevant=sum(pairs.values()),
-        methods={m: _method_summary(by_method[m], cfg) for m in methods},
+        config=cfg.model_dump(mode="json"), headline=headline, n_pairs=counts["all"]["n_pairs"],
+        n_relevant=counts["all"]["n_relevant"], pairs=counts, n_candidates=counts["all"]["n_pairs"] + n_skipped,
+        n_skipped=n_skipped, methods={m: _method_summary([s for s in scores if s.method == m], cfg) for m in methods},
     )
-    if not scores:
-        out.notes.append("no pairs were evaluated: no metric could be computed")
-    elif out.n_relevant == 0:
-        out.notes.append("no relevant pairs (true centres within "
-                         f"{cfg.relevant_dist_m:g} m): recall, F1 and AUC could not be computed")
-    for m in methods:
-        s = out.methods[m].overall
-        if out.n_relevant and not s.n_relevant:
-            out.notes.append(f"{m}: evaluated on no relevant pair: its recall could not be computed")
-        if s.n_relevant and s.best_f1 == 0.0:
-            out.notes.append(f"{m}: no correct alignment of any relevant pair")
+    out.notes += _notes(out, cfg)
     return out
+
+
+def _notes(out: EvaluationMetrics, cfg: EvalConfig) -> list[str]:
+    notes = []
+    label = PAIR_SET_LABELS[out.headline]
+    if not out.n_pairs:
+        return ["no pairs were evaluated: no metric could be computed"]
+    if out.pairs[out.headline]["n_relevant"] == 0:
+        notes.append(f"no relevant {label} pairs ({cfg.describe_relevance()}): recall, F1 and AUC could not be "
+                     "computed")
+    for m, mm in out.methods.items():
+        s = mm.set(out.headline).overall
+        if s.n_relevant and s.best_f1 == 0.0:
+            notes.append(f"{m}: no correct alignment of any relevant {label} pair")
+    return notes

@@ -1,38 +1,47 @@
-"""Evaluation plots (matplotlib, Agg canvas only; no pyplot global state).
+"""Metric plots of a run (matplotlib, Agg canvas only; no pyplot global state).
 
-Every metric plot is drawn from the JSON form of ``EvaluationMetrics`` (what
-``metrics.json`` holds), except the alignment drawings, which need the submaps.
-Undefined values (``None``) are left out of lines and drawn as "n/a" on bar charts.
-PNGs are written atomically and without timestamps, so the same data gives the same bytes.
+Drawn from ``EvaluationMetrics`` (what ``metrics.json`` holds), for the headline pair set
+(cross-robot when the run has cross-robot pairs), with same-robot pairs in their own panel
+where they have relevant pairs:
+
+- ``precision_recall.png``: precision over recall as the association threshold k rises;
+- ``precision_recall_heading.png``: the same per coarse heading bin;
+- ``recall_heading.png`` / ``recall_heading_fine.png``: max recall per heading bin with its
+  hits / relevant count and 95 % Wilson interval; bins with fewer than ``min_relevant``
+  relevant pairs are hatched and marked ``n<N`` instead of showing a rate;
+- ``recall_ambiguity.png``: max recall against place ambiguity, with intervals;
+- ``association_heading.png``: association precision and recall per heading bin.
+
+A plot that would carry a single point (one bin with data, a one-point curve) is not drawn;
+``write_metric_plots`` returns a note saying so. PNGs are written atomically and without
+timestamps, so the same data gives the same bytes.
 """
 
 from __future__ import annotations
 
 import io
 import logging
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.patches import Patch
 
-from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_bytes
-from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.metrics import PairScore
-from roman_sim.evaluation.types import EvaluationMetrics
-from roman_sim.geometry import transform_points
-from roman_sim.mapping.types import Submap
+from roman_sim.evaluation.types import PAIR_SET_LABELS, BinStats, CurveStats, EvaluationMetrics, PRCurve
 
 log = logging.getLogger(__name__)
 
 
-def _figure(w: float = 6.0, h: float = 4.0) -> tuple[Figure, Axes]:
-    fig = Figure(figsize=(w, h), dpi=100)
+def figure(w: float = 6.0, h: float = 4.0, ncols: int = 1, nrows: int = 1) -> Figure:
+    """A figure with an Agg canvas and ``nrows x ncols`` axes (``fig.axes``)."""
+    fig = Figure(figsize=(w, h), dpi=90)
     FigureCanvasAgg(fig)
-    return fig, fig.add_subplot(1, 1, 1)
+    fig.subplots(nrows, ncols, squeeze=False)
+    return fig
 
 
 def save_png(fig: Figure, path: str | Path) -> Path:
@@ -46,164 +55,177 @@ def save_png(fig: Figure, path: str | Path) -> Path:
     return path
 
 
-def _nan(values: list[Any]) -> np.ndarray:
-    return np.array([np.nan if v is None else float(v) for v in values], dtype=np.float64)
+def _points(c: PRCurve) -> int:
+    return int(np.sum(~(np.isnan(c.recall) | np.isnan(c.precision))))
 
 
-def _methods(metrics: dict[str, Any]) -> dict[str, Any]:
-    methods = metrics.get("methods")
-    if not isinstance(methods, dict):
-        raise EvaluationError("metrics have no 'methods' table (not a metrics.summary output)")
-    return methods
-
-
-def plot_pr(metrics: dict[str, Any], path: str | Path) -> Path:
-    """Precision against recall over the association threshold k, one line per method."""
-    fig, ax = _figure()
-    for name, m in _methods(metrics).items():
-        c = m["pr_curve"]
-        ax.plot(_nan(c["recall"]), _nan(c["precision"]), marker=".", label=name)
-    ax.set(xlabel="recall", ylabel="precision", xlim=(0, 1.02), ylim=(0, 1.05),
-           title="Precision-recall over association count k")
-    if not metrics.get("n_relevant"):
-        ax.text(0.5, 0.5, "no relevant pairs: recall undefined", ha="center", transform=ax.transAxes)
+def _pr_axes(ax: Axes, curves: dict[str, PRCurve], title: str) -> None:
+    for name, c in curves.items():
+        ax.plot(c.recall, c.precision, marker=".", label=name)
+    ax.set(xlabel="recall", ylabel="precision", xlim=(0, 1.02), ylim=(0, 1.05), title=title)
     ax.grid(alpha=0.3)
-    if _methods(metrics):
-        ax.legend(loc="best", fontsize=8)
+    ax.legend(loc="best", fontsize=7)
+
+
+def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
+    """Precision over recall as k rises, one line per method (None when no curve has two points)."""
+    kind = metrics.headline
+    curves = {m: mm.set(kind).pr_curve for m, mm in metrics.methods.items()}
+    if max((_points(c) for c in curves.values()), default=0) < 2:
+        return None
+    fig = figure()
+    rel = metrics.pairs[kind]["n_relevant"]
+    _pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
     return save_png(fig, path)
 
 
-def _grouped_bars(ax: Axes, methods: dict[str, Any], table: str, key: str = "max_recall") -> None:
-    names = list(methods)
-    labels = [b["label"] for b in methods[names[0]][table]] if names else []
+def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
+    """Precision-recall per coarse heading bin (one panel per bin with relevant pairs; None if < 2)."""
+    kind = metrics.headline
+    sets = {m: mm.set(kind) for m, mm in metrics.methods.items()}
+    first = next(iter(sets.values()), None)
+    bins = [i for i, b in enumerate(first.heading_bins) if b.stats.n_relevant] if first else []
+    if len(bins) < 2:
+        return None
+    fig = figure(4.2 * len(bins), 4.0, ncols=len(bins))
+    for ax, i in zip(fig.axes, bins):
+        b = first.heading_bins[i]  # type: ignore[union-attr]
+        _pr_axes(ax, {m: s.heading_pr[i] for m, s in sets.items()},
+                 f"{b.label} deg ({b.stats.n_relevant} relevant)")
+    fig.suptitle(f"Precision-recall over k per heading bin, {PAIR_SET_LABELS[kind]} pairs", fontsize=10)
+    return save_png(fig, path)
+
+
+Getter = Callable[[CurveStats], tuple[float | None, int, int, tuple[float, float] | None]]
+
+
+def _recall(s: CurveStats) -> tuple[float | None, int, int, tuple[float, float] | None]:
+    return s.max_recall, s.max_hits, s.n_relevant, s.recall_ci
+
+
+def _assoc_precision(s: CurveStats) -> tuple[float | None, int, int, tuple[float, float] | None]:
+    return s.assoc_precision, s.assoc_correct, s.assoc_selected, s.assoc_precision_ci
+
+
+def _assoc_recall(s: CurveStats) -> tuple[float | None, int, int, tuple[float, float] | None]:
+    return s.assoc_recall, s.assoc_recovered, s.assoc_available, s.assoc_recall_ci
+
+
+def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, ylabel: str) -> None:
+    """Grouped bars per bin and method: rate, Wilson interval, ``hits/n``; small bins hatched."""
+    names = list(rows)
+    labels = [b.label for b in rows[names[0]]] if names else []
     width = 0.8 / max(len(names), 1)
     x = np.arange(len(labels))
     for i, name in enumerate(names):
-        vals = _nan([b[key] for b in methods[name][table]])
         pos = x - 0.4 + width * (i + 0.5)
-        ax.bar(pos, np.nan_to_num(vals), width, label=name)
-        for p, v in zip(pos, vals):
-            if np.isnan(v):
-                ax.text(p, 0.02, "n/a", ha="center", va="bottom", fontsize=7, rotation=90)
+        colour = f"C{i}"
+        for p, b in zip(pos, rows[name]):
+            v, k, n, ci = get(b.stats)
+            if n == 0 or v is None:
+                ax.text(p, 0.02, "none", ha="center", va="bottom", fontsize=6, rotation=90)
+                continue
+            small = n < min_n
+            ax.bar(p, v, width, color=colour, alpha=0.35 if small else 1.0, hatch="//" if small else None)
+            if ci is not None and not small:
+                ax.errorbar(p, v, yerr=[[v - ci[0]], [ci[1] - v]], fmt="none", ecolor="black", capsize=2, lw=0.8)
+            ax.text(p, min(v, 0.9) + 0.04, f"{k}/{n}" + (f"\nn<{min_n}" if small else ""), ha="center",
+                    va="bottom", fontsize=6, rotation=90)
     ax.set_xticks(x, labels)
-    ax.set_ylim(0, 1.05)
+    ax.set_ylim(0, 1.3)
+    ax.set_yticks(np.linspace(0, 1, 6))
+    ax.set_ylabel(ylabel)
     ax.grid(axis="y", alpha=0.3)
     if names:
-        ax.legend(fontsize=8)
+        ax.legend([Patch(color=f"C{i}") for i in range(len(names))], names, fontsize=7, loc="upper left",
+                  ncols=min(len(names), 4))
 
 
-def plot_heading_recall(metrics: dict[str, Any], path: str | Path, fine: bool = False) -> Path:
-    """Max recall per heading-difference bin, grouped bars per method (coarse or fine bins)."""
-    fig, ax = _figure(7.0 if fine else 6.0, 4.0)
-    _grouped_bars(ax, _methods(metrics), "heading_bins_fine" if fine else "heading_bins")
-    ax.set(xlabel="heading difference (deg)", ylabel="max recall",
-           title="Recall per heading difference" + (" (fine bins)" if fine else ""))
+def _with_data(rows: dict[str, list[BinStats]], get: Getter) -> int:
+    """Bins in which some method has a denominator."""
+    first = next(iter(rows.values()), [])
+    return sum(1 for i in range(len(first)) if any(get(r[i].stats)[2] for r in rows.values()))
+
+
+def plot_heading_recall(metrics: EvaluationMetrics, path: str | Path, fine: bool = False) -> Path | None:
+    """Max recall per heading bin with counts and intervals: one panel per pair set with relevant pairs."""
+    table = "heading_bins_fine" if fine else "heading_bins"
+    kinds = [k for k in ("inter", "intra") if metrics.pairs[k]["n_relevant"]]
+    per_kind = {k: {m: getattr(mm.set(k), table) for m, mm in metrics.methods.items()} for k in kinds}
+    kinds = [k for k in kinds if _with_data(per_kind[k], _recall) >= 2]
+    if not kinds:
+        return None
+    n_bins = len(next(iter(per_kind[kinds[0]].values())))
+    fig = figure(max(6.0, 0.35 * n_bins * len(metrics.methods) + 2.0), 3.8 * len(kinds), nrows=len(kinds))
+    fig.suptitle(f"Max recall per heading bin (95 % Wilson intervals; hatched: fewer than "
+                 f"{metrics.config['min_relevant']} relevant pairs)", fontsize=9)
+    for ax, k in zip(fig.axes, kinds):
+        _bars(ax, per_kind[k], _recall, int(metrics.config["min_relevant"]), "max recall")
+        ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[k]} pairs: max recall, hits/relevant")
     return save_png(fig, path)
 
 
-def plot_ambiguity_recall(metrics: dict[str, Any], path: str | Path) -> Path:
-    """Max recall per ground-truth ambiguity bin, one line per method."""
-    fig, ax = _figure()
-    for name, m in _methods(metrics).items():
-        bins = m["ambiguity_bins"]
-        mid = [(b["lo"] + b["hi"]) / 2 for b in bins]
-        ax.plot(mid, _nan([b["max_recall"] for b in bins]), marker="o", label=name)
-    ax.set(xlabel="place ambiguity", ylabel="max recall", ylim=(0, 1.05), title="Recall against ambiguity")
-    unknown = max((m.get("n_ambiguity_unknown", 0) for m in _methods(metrics).values()), default=0)
-    if unknown:
-        ax.text(0.02, 0.02, f"{unknown} pairs without ambiguity value", transform=ax.transAxes, fontsize=8)
+def plot_ambiguity_recall(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
+    """Max recall against place ambiguity (headline pair set) with intervals; None if < 2 bins have data."""
+    kind = metrics.headline
+    rows = {m: mm.set(kind).ambiguity_bins for m, mm in metrics.methods.items()}
+    if _with_data(rows, _recall) < 2:
+        return None
+    fig = figure()
+    ax = fig.axes[0]
+    min_n = int(metrics.config["min_relevant"])
+    for i, (name, bins) in enumerate(rows.items()):
+        pts = [((b.lo + b.hi) / 2 + 0.008 * i, b.stats) for b in bins if b.stats.n_relevant]
+        big = [(x, s) for x, s in pts if not s.few]
+        if big:
+            y = np.array([s.max_recall for _, s in big], dtype=float)
+            err = np.array([[v - s.recall_ci[0], s.recall_ci[1] - v] for v, (_, s) in zip(y, big)]).T  # type: ignore[index]
+            ax.errorbar([x for x, _ in big], y, yerr=err, marker="o", capsize=2, color=f"C{i}", label=name)
+        small = [(x, s) for x, s in pts if s.few]
+        ax.scatter([x for x, _ in small], [s.max_recall for _, s in small], facecolors="none", edgecolors=f"C{i}",
+                   label=f"{name}, < {min_n} relevant" if small else None)
+    ax.set(xlabel="place ambiguity", ylabel="max recall", ylim=(0, 1.05),
+           title=f"Recall against ambiguity, {PAIR_SET_LABELS[kind]} (95 % Wilson)")
     ax.grid(alpha=0.3)
-    if _methods(metrics):
-        ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     return save_png(fig, path)
 
 
-def _cloud(s: Submap) -> np.ndarray:
-    if s.points:
-        return np.concatenate([np.asarray(p, dtype=np.float64).reshape(-1, 3) for p in s.points])
-    return np.asarray(s.centers, dtype=np.float64).reshape(-1, 3)
-
-
-def _assoc_colours(a: Submap, b: Submap, assoc: np.ndarray) -> list[str]:
-    if a.truth is None or b.truth is None:
-        return ["tab:gray"] * len(assoc)
-    ia, ib = a.truth.object_ids[assoc[:, 0]], b.truth.object_ids[assoc[:, 1]]
-    return ["tab:green" if x == y and x >= 0 else "tab:red" for x, y in zip(ia, ib)]
-
-
-def plot_alignment(
-    a: Submap, b: Submap, result: AlignResult, path: str | Path,
-    T_a_b_true: np.ndarray | None = None, title: str | None = None,
-) -> Path:
-    """Top-down view of submap a and submap b moved by the estimate, with association lines.
-
-    Lines are green when both segments come from the same true object, red otherwise
-    (grey without truth). With ``T_a_b_true``, b's true placement is drawn faintly.
-    """
-    if result.T_a_b is None:
-        raise EvaluationError(f"{result.method} on {a.name}|{b.name}: no estimate to draw ({result.reason})")
-    assoc = np.asarray(result.associations, dtype=np.int64).reshape(-1, 2)
-    if len(assoc) and (assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
-        raise EvaluationError(f"{result.method}: association index outside the submaps")
-    fig, ax = _figure(6.0, 6.0)
-    if T_a_b_true is not None:
-        t = transform_points(T_a_b_true, _cloud(b))
-        ax.scatter(t[:, 0], t[:, 1], s=4, c="0.8", label=f"{b.name} (true)")
-    pa, pb = _cloud(a), transform_points(result.T_a_b, _cloud(b))
-    ax.scatter(pa[:, 0], pa[:, 1], s=5, c="tab:blue", label=a.name)
-    ax.scatter(pb[:, 0], pb[:, 1], s=5, c="tab:orange", label=f"{b.name} (estimate)")
-    ca, cb = a.centers[assoc[:, 0]], transform_points(result.T_a_b, b.centers[assoc[:, 1]])
-    for p, q, col in zip(ca, cb, _assoc_colours(a, b, assoc)):
-        ax.plot([p[0], q[0]], [p[1], q[1]], color=col, lw=0.8)
-    ax.set_aspect("equal", adjustable="datalim")
-    ax.set(xlabel=f"x in {a.name} (m)", ylabel="y (m)",
-           title=title or f"{result.method}: {a.name} | {b.name}, {len(assoc)} associations")
-    ax.legend(fontsize=8, loc="upper right")
+def plot_association(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
+    """Association precision and recall per coarse heading bin (headline pair set)."""
+    kind = metrics.headline
+    rows = {m: mm.set(kind).heading_bins for m, mm in metrics.methods.items()}
+    if _with_data(rows, _assoc_recall) < 2:
+        return None
+    fig = figure(max(6.0, 0.35 * 3 * len(rows) + 2.0) * 2, 4.0, ncols=2)
+    for ax, get, what in ((fig.axes[0], _assoc_precision, "precision (correct/selected)"),
+                          (fig.axes[1], _assoc_recall, "recall (recovered/available)")):
+        _bars(ax, rows, get, 1, f"association {what.split()[0]}")
+        ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[kind]}: association {what}")
     return save_png(fig, path)
 
 
-def write_metric_plots(evaluation: EvaluationMetrics, plots_dir: str | Path) -> list[Path]:
-    """The standard metric plots into ``plots_dir``; returns their paths."""
+#: Plot file -> (drawing function, what it would need).
+METRIC_PLOTS: dict[str, tuple[Callable[[EvaluationMetrics, Path], Path | None], str]] = {
+    "precision_recall.png": (plot_pr, "a precision-recall curve with two points"),
+    "precision_recall_heading.png": (plot_pr_heading, "two heading bins with relevant pairs"),
+    "recall_heading.png": (plot_heading_recall, "two heading bins with relevant pairs"),
+    "recall_heading_fine.png": (lambda m, p: plot_heading_recall(m, p, fine=True),
+                                "two fine heading bins with relevant pairs"),
+    "recall_ambiguity.png": (plot_ambiguity_recall, "two ambiguity bins with relevant pairs"),
+    "association_heading.png": (plot_association, "two heading bins with true correspondences"),
+}
+
+
+def write_metric_plots(metrics: EvaluationMetrics, plots_dir: str | Path) -> tuple[list[Path], list[str]]:
+    """The metric plots into ``plots_dir``: (paths written, notes on plots not drawn)."""
     d = Path(plots_dir)
-    metrics = evaluation.to_json()
-    return [
-        plot_pr(metrics, d / "precision_recall.png"),
-        plot_heading_recall(metrics, d / "recall_heading.png"),
-        plot_heading_recall(metrics, d / "recall_heading_fine.png", fine=True),
-        plot_ambiguity_recall(metrics, d / "recall_ambiguity.png"),
-    ]
-
-
-def pick_examples(scores: list[PairScore]) -> tuple[PairScore | None, PairScore | None]:
-    """(most-supported correct relevant pair, most-supported wrong estimate), None if absent."""
-    good = [s for s in scores if s.correct and s.truth.relevant]
-    bad = [s for s in scores if not s.correct and np.isfinite(s.rot_err_deg)]
-    pick = lambda xs: max(xs, key=lambda s: s.n_assoc) if xs else None  # noqa: E731  first on ties
-    return pick(good), pick(bad)
-
-
-def draw_examples(
-    scores: list[PairScore],
-    submaps: dict[str, Submap],
-    results: dict[tuple[str, str, str], AlignResult],
-    plots_dir: str | Path,
-) -> list[Path]:
-    """Draw one correct and one wrong alignment (those that exist) into ``plots_dir``.
-
-    Args:
-        scores: scored pairs (any methods).
-        submaps: submaps by name (``robot/index``).
-        results: aligner results keyed by ``(a name, b name, method)``.
-    """
-    out = []
-    for tag, s in zip(("correct", "wrong"), pick_examples(scores)):
-        if s is None:
-            continue
-        key = (s.truth.a, s.truth.b, s.method)
-        if key not in results or s.truth.a not in submaps or s.truth.b not in submaps:
-            raise EvaluationError(f"no submaps/result for example pair {s.truth.a}|{s.truth.b} ({s.method})")
-        title = (f"{tag}: {s.method} {s.truth.a} | {s.truth.b}, {s.n_assoc} assoc, "
-                 f"err {s.rot_err_deg:.1f} deg / {s.trans_err_m:.2f} m")
-        out.append(plot_alignment(submaps[s.truth.a], submaps[s.truth.b], results[key],
-                                  Path(plots_dir) / f"alignment_{tag}.png", s.truth.T_a_b_true, title))
-    return out
+    written, notes = [], []
+    for name, (draw, needs) in METRIC_PLOTS.items():
+        path = draw(metrics, d / name)
+        if path is None:
+            (d / name).unlink(missing_ok=True)
+            notes.append(f"plot {name} not drawn: it needs {needs}")
+        else:
+            written.append(path)
+    return written, notes

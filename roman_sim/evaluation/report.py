@@ -1,132 +1,115 @@
-"""``report.md``: the evaluation tables of one run, with links to its plots.
+"""``report.md``: the evaluation of one run, with links to its plots.
 
-Takes the ``EvaluationMetrics`` and optionally an ``AteTable`` and ``MapStats``. Anything
-that could not be computed is written as "n/a" and explained in the notes, never as 0.
-Wall-clock runtimes are not in the report (it is byte-identical between runs of one seed);
-they are in the run's ``timings.json``.
+The header states what was scored and how: the pairs (and a distance cap with the number of
+pairs it skipped), the relevance criterion, the success thresholds and the headline pair
+set. Cross-robot and same-robot pairs get their own sections. Every recall carries its
+count and Wilson interval (``tables``). The ATE section explains how robots a variant could
+not place are counted. Anything that could not be computed is written as "n/a" and
+explained in the notes, never as 0. Wall-clock runtimes are not in the report (it is
+byte-identical between runs of one seed); they are in the run's ``timings.json``.
 """
 
 from __future__ import annotations
 
 import logging
-import math
 from pathlib import Path
-from typing import Any
 
 from roman_sim.core.atomic import write_text
-from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
+from roman_sim.evaluation.atetable import AteTable
+from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.tables import (
+    NA,
+    association_rows,
+    ate_rows,
+    bin_rows,
+    fmt,
+    markdown_table,
+    summary_rows,
+)
+from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
 
 log = logging.getLogger(__name__)
 
-NA = "n/a"
 REPORT_MD = "report.md"
 
 #: Captions of the plots the report links when they exist in ``plots/``.
 PLOT_CAPTIONS = {
     "precision_recall.png": "Precision-recall over association count k",
-    "recall_heading.png": "Recall per heading difference",
-    "recall_heading_fine.png": "Recall per heading difference (30 deg bins)",
-    "recall_ambiguity.png": "Recall against place ambiguity",
-    "alignment_correct.png": "A correct alignment",
-    "alignment_wrong.png": "A wrong alignment",
+    "precision_recall_heading.png": "Precision-recall per heading bin",
+    "recall_heading.png": "Max recall per heading bin, with counts and 95 % intervals",
+    "recall_heading_fine.png": "Max recall per heading bin (fine bins)",
+    "recall_ambiguity.png": "Max recall against place ambiguity",
+    "association_heading.png": "Association precision and recall per heading bin",
+    "segments_on_image.png": "Segment masks over a camera image",
     "map_view.png": "Segment maps (map view)",
     "trajectories.png": "Trajectories: truth, odometry and the pose graph",
 }
 
-MAP_LABELS = {
-    "segments": "segments", "submaps": "submaps", "kb_per_submap": "KB per submap",
-    "mb_per_km": "MB per km",
-}
+MAP_LABELS = {"segments": "segments", "submaps": "submaps", "kb_per_submap": "KB per submap",
+              "mb_per_km": "MB per km"}
+
+#: How the ATE table treats robots a variant could not place (the report's policy text).
+ATE_POLICY = (
+    "Every row covers the same robots. A pose graph places a robot in the common frame (the first robot's "
+    "odometry frame) only through inter-robot loop closures; a robot it never connects has no position there, "
+    "and any placement the evaluation could give it (its true start pose, or the origin) would be borrowed from "
+    "the truth or arbitrary, so its error would measure that choice rather than the method. Each row therefore "
+    "states how many robots it placed; the common column is the ATE of the concatenated trajectories of the robots "
+    "every row placed; the all-robots column is given only for rows that placed every robot; a robot a row did not "
+    "place reads 'not connected'. `odometry` places each robot with its true start pose, which no real system "
+    "has; `odometry_no_prior` knows no start pose and aligns each robot by its own fit (the most its odometry can be "
+    "made to agree with the truth); pose-graph rows are aligned by one fit of all their robots together."
+)
 
 
-def fmt(v: Any, digits: int = 3) -> str:
-    """A table cell: numbers rounded, None/NaN as ``n/a``."""
-    if v is None or (isinstance(v, float) and math.isnan(v)):
-        return NA
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return f"{v:.{digits}f}"
-    return str(v)
+def _header(metrics: EvaluationMetrics) -> list[str]:
+    cfg = EvalConfig.model_validate(metrics.config)
+    p = metrics.pairs
+    scored = (f"{metrics.n_pairs} pairs scored (every cross-robot pair and every same-robot pair at least "
+              f"{cfg.intra_min_gap} submaps apart)")
+    if cfg.max_pair_dist_m is None:
+        cap = "no distance cap: every such pair was aligned and scored."
+    else:
+        cap = (f"distance cap {cfg.max_pair_dist_m:g} m on the true centre distance (relevant pairs kept): "
+               f"{metrics.n_skipped} of {metrics.n_candidates} candidate pairs skipped, neither aligned nor scored.")
+    head = PAIR_SET_LABELS[metrics.headline]
+    return [
+        f"- Pairs: {scored}; {cap}",
+        f"- Cross-robot pairs: {p['inter']['n_pairs']} ({p['inter']['n_relevant']} relevant); same-robot pairs: "
+        f"{p['intra']['n_pairs']} ({p['intra']['n_relevant']} relevant). Headline figures: {head} pairs.",
+        f"- Relevant (should align): {cfg.describe_relevance()}. Correct: {cfg.describe_success()}. Positive at "
+        f"threshold k: at least k associations, k = {cfg.k_min}..{cfg.k_max}.",
+        f"- Recall cells: max recall over k (hits/relevant) [{cfg.interval_level:.0%} Wilson interval]; "
+        f"'n<{cfg.min_relevant}: h/n' marks a set with fewer than {cfg.min_relevant} relevant pairs (too few to give a "
+        f"rate); {NA}: no relevant pair.",
+        "",
+    ]
 
 
-def format_summary_rows(metrics: EvaluationMetrics) -> list[dict[str, str]]:
-    """One row per method: column header -> cell text (same columns, in order, for each row).
-
-    Columns: method, pairs, relevant, max recall, recall@P=1, best F1 (k), AUC, max recall
-    per coarse heading bin.
-    """
-    rows = []
-    for name, m in metrics.methods.items():
-        o = m.overall
-        f1 = fmt(o.best_f1)
-        if o.best_f1_k is not None:
-            f1 += f" (k={o.best_f1_k})"
-        row = {
-            "method": name, "pairs": fmt(o.n_pairs), "relevant": fmt(o.n_relevant),
-            "max recall": fmt(o.max_recall), "recall@P=1": fmt(o.recall_at_precision_1),
-            "best F1": f1, "AUC": fmt(o.auc),
-        }
-        for b in m.heading_bins:
-            row[f"recall {b.label} deg"] = fmt(b.stats.max_recall)
-        rows.append(row)
-    return rows
+def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
+    label = PAIR_SET_LABELS[kind]
+    title = f"## Alignment, {label} pairs" + (" (headline)" if kind == metrics.headline else "")
+    if not metrics.pairs[kind]["n_pairs"]:
+        return [title, "", f"No {label} pairs in this run.", ""]
+    lines = [title, "", *markdown_table(summary_rows(metrics, kind)), ""]
+    lines += [f"### Max recall per heading bin, {label}, fine bins", "",
+              *markdown_table(bin_rows(metrics, kind, "heading_bins_fine")), ""]
+    lines += [f"### Max recall against place ambiguity, {label}", "",
+              *markdown_table(bin_rows(metrics, kind, "ambiguity_bins")), ""]
+    lines += [f"### Association truth, {label}", "",
+              "Precision: selected associations joining segments of the same true object (correct/selected); "
+              "recall: true correspondences recovered one-to-one (recovered/available).", "",
+              *markdown_table(association_rows(metrics, kind)), ""]
+    return lines
 
 
-def markdown_table(rows: list[dict[str, str]]) -> list[str]:
-    """Markdown lines of a table whose rows share their keys (the first row's give the header)."""
-    if not rows:
-        return []
-    cols = list(rows[0])
-    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    out += ["| " + " | ".join(r.get(c, NA) for c in cols) + " |" for r in rows]
-    return out
-
-
-def _bin_rows(metrics: EvaluationMetrics, table: str) -> list[dict[str, str]]:
-    rows = []
-    for name, m in metrics.methods.items():
-        row = {"method": name}
-        for b in getattr(m, table):
-            row[b.label] = f"{fmt(b.stats.max_recall, 2)} ({b.stats.n_relevant})"
-        rows.append(row)
-    return rows
-
-
-def ate_rows(ate: AteTable) -> list[dict[str, str]]:
-    """Rows ``variant -> cells`` (``se3/all``, ``se3/a``, ...), in the table's variant order."""
-    cols: list[str] = []
-    cells: dict[str, dict[str, float | None]] = {}
-    for variant, per in ate.variants.items():
-        cells[variant] = {f"{al}/{robot}": v for al, rob in per.items() for robot, v in rob.items()}
-        cols += [c for c in cells[variant] if c not in cols]
-    return [{"trajectory": v, **{c: fmt(cells[v].get(c)) for c in cols}} for v in ate.variants]
-
-
-def _notes(metrics: EvaluationMetrics, ate: AteTable | None, notes: list[str]) -> list[str]:
-    out = list(dict.fromkeys(list(metrics.notes) + list(notes)))
-    if ate is not None and any(v is None for per in ate.variants.values() for rob in per.values() for v in rob.values()):
-        out.append("some trajectory errors could not be computed (n/a in the ATE table)")
-    return out
-
-
-def _section_alignment(metrics: EvaluationMetrics) -> list[str]:
-    lines = ["## Alignment", "", f"Pairs: {metrics.n_pairs}, relevant: {metrics.n_relevant}.", ""]
-    rows = format_summary_rows(metrics)
-    if not rows:
-        return lines + ["No method was evaluated.", ""]
-    lines += markdown_table(rows) + ["", "### Max recall per heading bin, 30 deg (relevant pairs)", ""]
-    lines += markdown_table(_bin_rows(metrics, "heading_bins_fine"))
-    lines += ["", "### Max recall against place ambiguity (relevant pairs)", ""]
-    return lines + markdown_table(_bin_rows(metrics, "ambiguity_bins")) + [""]
-
-
-def _section_table(title: str, rows: list[dict[str, str]] | None, missing: str) -> list[str]:
-    if not rows:
-        return [f"## {title}", "", missing, ""]
-    return [f"## {title}", "", *markdown_table(rows), ""]
+def _section_ate(ate: AteTable | None) -> list[str]:
+    if ate is None or not ate.variants:
+        return ["## Trajectory error (ATE RMSE, m)", "", "No trajectory error was computed for this run.", ""]
+    lines = ["## Trajectory error (ATE RMSE, m)", "", ATE_POLICY, "", "SE(3) alignment:", "",
+             *markdown_table(ate_rows(ate, "se3")), "", "4-DoF alignment (yaw and translation):", "",
+             *markdown_table(ate_rows(ate, "4dof")), ""]
+    return lines
 
 
 def _section_plots(plots: list[str]) -> list[str]:
@@ -155,23 +138,27 @@ def write_report(
         out_dir: the run folder.
         scenario_name: shown in the title.
         metrics: the evaluation's metrics.
-        ate_table: ATE RMSE per pose-graph variant (odometry, the method, oracle, ...).
+        ate_table: ATE RMSE per trajectory variant (odometry, the method, oracle, ...).
         map_stats: map and packet sizes.
         notes: statements to show (no loop closures, a robot never connected, ...).
         plots: plot files to show, relative to ``out_dir`` (e.g. ``plots/recall_heading.png``).
     """
     out = Path(out_dir)
-    lines = [f"# Evaluation report: {scenario_name}", ""]
-    all_notes = _notes(metrics, ate_table, notes or [])
+    lines = [f"# Evaluation report: {scenario_name}", "", *_header(metrics)]
+    all_notes = list(dict.fromkeys(list(metrics.notes) + list(notes or [])))
     if all_notes:
         lines += ["## Notes", "", *[f"- {n}" for n in all_notes], ""]
-    lines += _section_alignment(metrics)
-    lines += [f"Values shown as {NA} could not be computed. Bin cells: max recall (relevant pairs). "
-              "Runtimes per pair and per stage: timings.json.", ""]
-    lines += _section_table("Trajectory error (ATE RMSE, m)", ate_rows(ate_table) if ate_table else None,
-                            "No trajectory error was computed for this run.")
-    map_rows = [{"quantity": MAP_LABELS.get(k, k), "value": fmt(v)} for k, v in (map_stats.to_json() if map_stats else {}).items()]
-    lines += _section_table("Map size", map_rows, "No map statistics were given.")
+    kinds = [metrics.headline] + [k for k in ("inter", "intra") if k != metrics.headline]
+    if not metrics.methods:
+        lines += ["## Alignment", "", "No method was evaluated.", ""]
+    else:
+        for kind in kinds:
+            lines += _section_pairs(metrics, kind)
+    lines += _section_ate(ate_table)
+    map_rows = [{"quantity": MAP_LABELS.get(k, k), "value": fmt(v)}
+                for k, v in (map_stats.to_json() if map_stats else {}).items()]
+    lines += ["## Map size", "", *(markdown_table(map_rows) or ["No map statistics were given."]), ""]
+    lines += ["Runtimes per pair and per stage: timings.json.", ""]
     lines += _section_plots(list(plots or []))
     path = out / REPORT_MD
     write_text(path, "\n".join(lines))

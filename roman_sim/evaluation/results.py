@@ -2,7 +2,10 @@
 
 ``pairs.csv`` holds one row per (pair, method) with the pair's truth and the method's
 outcome; empty cells are undefined values (NaN / no reason). The true relative pose is
-stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned.
+stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned. Floats
+are written with ``repr`` (exact round trip), so ``metrics.json`` can be recomputed from
+this file alone (``roman_sim.evaluation.verify``). A path ending in ``.gz`` is read as
+gzip (the reference results keep their tables compressed).
 ``metrics.json`` is ``EvaluationMetrics.to_json()``. Neither holds wall-clock runtimes (two
 runs of one seed give the same bytes); those are kept in ``timings.json``. Reading either
 file back raises ``StorageError`` when it is missing or corrupt.
@@ -11,6 +14,7 @@ file back raises ``StorageError`` when it is missing or corrupt.
 from __future__ import annotations
 
 import csv
+import gzip
 import io
 import json
 import logging
@@ -34,9 +38,9 @@ METRICS_JSON = "metrics.json"
 
 PAIRS_FIELDS = [
     "a", "b", "robot_a", "robot_b", "index_a", "index_b", "kind",
-    "center_dist_m", "heading_diff_deg", "overlap", "ambiguity", "relevant",
+    "center_dist_m", "heading_diff_deg", "overlap", "shared_objects", "true_corr", "ambiguity", "relevant",
     "true_x_m", "true_y_m", "true_z_m", "true_yaw_rad",
-    "method", "n_assoc", "rot_err_deg", "trans_err_m", "correct", "reason",
+    "method", "n_assoc", "assoc_correct", "assoc_recovered", "rot_err_deg", "trans_err_m", "correct", "reason",
 ]
 
 
@@ -59,9 +63,11 @@ def _row(s: PairScore) -> dict[str, str]:
         "a": t.a, "b": t.b, "robot_a": t.robot_a, "robot_b": t.robot_b,
         "index_a": t.index_a, "index_b": t.index_b, "kind": t.kind,
         "center_dist_m": t.center_dist_m, "heading_diff_deg": t.heading_diff_deg,
-        "overlap": t.overlap, "ambiguity": t.ambiguity, "relevant": t.relevant,
+        "overlap": t.overlap, "shared_objects": t.shared_objects, "true_corr": t.true_correspondences,
+        "ambiguity": t.ambiguity, "relevant": t.relevant,
         "true_x_m": float(T[0, 3]), "true_y_m": float(T[1, 3]), "true_z_m": float(T[2, 3]),
         "true_yaw_rad": yaw_of(T), "method": s.method, "n_assoc": s.n_assoc,
+        "assoc_correct": s.assoc_correct, "assoc_recovered": s.assoc_recovered,
         "rot_err_deg": s.rot_err_deg, "trans_err_m": s.trans_err_m, "correct": s.correct,
         "reason": s.reason,
     }
@@ -106,9 +112,11 @@ def _parse(r: dict[str, str]) -> PairScore:
         center_dist_m=float(r["center_dist_m"]), heading_diff_deg=float(r["heading_diff_deg"]),
         overlap=_float(r["overlap"]), ambiguity=_float(r["ambiguity"]), relevant=_bool(r["relevant"]),
         kind=r["kind"],  # type: ignore[arg-type]
+        shared_objects=int(r["shared_objects"]), true_correspondences=int(r["true_corr"]),
     )
     return PairScore(truth, r["method"], int(r["n_assoc"]), _float(r["rot_err_deg"]),
-                     _float(r["trans_err_m"]), _bool(r["correct"]), float("nan"), r["reason"] or None)
+                     _float(r["trans_err_m"]), _bool(r["correct"]), float("nan"), r["reason"] or None,
+                     int(r["assoc_correct"]), int(r["assoc_recovered"]))
 
 
 def read_pairs_csv(path: str | Path) -> list[PairScore]:
@@ -119,8 +127,9 @@ def read_pairs_csv(path: str | Path) -> list[PairScore]:
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
+        raw = path.read_bytes()
+        text = (gzip.decompress(raw) if path.suffix == ".gz" else raw).decode("utf-8")
+    except (OSError, UnicodeDecodeError, EOFError, gzip.BadGzipFile) as err:
         raise StorageError(f"{path}: cannot read pairs table ({err.__class__.__name__})") from None
     reader = csv.DictReader(io.StringIO(text))
     missing = [f for f in PAIRS_FIELDS if f not in (reader.fieldnames or [])]

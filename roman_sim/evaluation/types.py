@@ -1,10 +1,14 @@
 """Typed results of the alignment evaluation, with ``to_json`` / ``from_json``.
 
-``EvaluationMetrics`` is what ``metrics.json`` holds: per method the headline numbers
-(``CurveStats``), the precision-recall curve, heading and ambiguity bins and per-kind
-(inter-/intra-robot) numbers. Undefined values (no relevant pair, no positive) are None,
-never 0, so that "could not be computed" is never read as "failed". Wall-clock runtimes
-are not part of it (they differ between runs of the same seed; see ``timings.json``).
+``EvaluationMetrics`` is what ``metrics.json`` holds: per method and per pair set
+(``inter``: cross-robot pairs, ``intra``: same-robot pairs, ``all``) the headline numbers
+(``CurveStats``, each recall with its hits / relevant count and a Wilson interval, plus
+association precision and recall against the true correspondences), the precision-recall
+curve, and the heading and ambiguity bins. The ``headline`` pair set is ``inter`` when the
+run has cross-robot pairs, else ``intra``. Undefined values (no relevant pair, no
+positive) are None, never 0, so that "could not be computed" is never read as "failed".
+Wall-clock runtimes are not part of it (they differ between runs of the same seed; see
+``timings.json``).
 """
 
 from __future__ import annotations
@@ -17,9 +21,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, VariantAte
+from roman_sim.evaluation.records import AlignmentRecord, MapStats
+
+__all__ = ["ATE_SCHEMA", "METRICS_SCHEMA", "PAIR_SETS", "PAIR_SET_LABELS", "AlignmentRecord", "AteTable", "BinStats",
+           "CurveStats", "EvaluationMetrics", "MapStats", "MethodMetrics", "PRCurve", "PairSetMetrics", "VariantAte",
+           "nan_to_none"]
 
 #: Schema tag of ``metrics.json``.
-METRICS_SCHEMA = "roman_sim.metrics/2"
+METRICS_SCHEMA = "roman_sim.metrics/3"
 
 
 def nan_to_none(values: Any) -> Any:
@@ -34,6 +44,18 @@ def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:
     return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
 
 
+#: The pair sets every method is scored on: cross-robot, same-robot, both.
+PAIR_SETS = ("inter", "intra", "all")
+#: How the pair sets are named in tables.
+PAIR_SET_LABELS = {"inter": "cross-robot", "intra": "same-robot", "all": "all pairs"}
+
+Interval = tuple[float, float] | None
+
+
+def _interval(v: Any) -> Interval:
+    return None if v is None else (float(v[0]), float(v[1]))
+
+
 @dataclass(frozen=True)
 class CurveStats:
     """Headline numbers of one method on a set of pairs.
@@ -43,28 +65,53 @@ class CurveStats:
         n_relevant: pairs that should align.
         max_recall: best recall over the threshold sweep (None without relevant pairs).
         max_hits: true positives at that threshold (recall = max_hits / n_relevant).
+        max_recall_k: smallest threshold k reaching it (None without relevant pairs).
+        recall_ci: Wilson interval of max_hits / n_relevant (None without relevant pairs).
+        few: fewer relevant pairs than ``EvalConfig.min_relevant``: not a measured recall.
         recall_at_precision_1: best recall among thresholds with precision 1 (0 if none).
+        hits_at_precision_1, recall_at_precision_1_ci: its hits and Wilson interval.
         best_f1, best_f1_k: best F1 and its threshold (None when undefined).
         auc: area under precision over recall (None when undefined).
+        assoc_selected: associations the method selected on these pairs.
+        assoc_correct: of those, true correspondences (same majority object).
+        assoc_available: true correspondences available (one-to-one) on these pairs.
+        assoc_recovered: true correspondences recovered one-to-one.
+        assoc_precision, assoc_precision_ci: correct / selected and its Wilson interval.
+        assoc_recall, assoc_recall_ci: recovered / available and its Wilson interval (the
+            intervals treat associations as independent; they cluster by pair, so they
+            understate the uncertainty).
     """
 
     n_pairs: int
     n_relevant: int
     max_recall: float | None
     max_hits: int
+    max_recall_k: int | None
+    recall_ci: Interval
+    few: bool
     recall_at_precision_1: float | None
+    hits_at_precision_1: int
+    recall_at_precision_1_ci: Interval
     best_f1: float | None
     best_f1_k: int | None
     auc: float | None
+    assoc_selected: int = 0
+    assoc_correct: int = 0
+    assoc_available: int = 0
+    assoc_recovered: int = 0
+    assoc_precision: float | None = None
+    assoc_precision_ci: Interval = None
+    assoc_recall: float | None = None
+    assoc_recall_ci: Interval = None
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return asdict(self)
+        """JSON-ready dict (intervals as [low, high] lists)."""
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "CurveStats":
         """Inverse of ``to_json``."""
-        return cls(**{f.name: d[f.name] for f in fields(cls)})
+        return cls(**{f.name: (_interval(d[f.name]) if f.name.endswith("_ci") else d[f.name]) for f in fields(cls)})
 
 
 @dataclass(frozen=True)
@@ -123,27 +170,25 @@ def _bins_from(rows: list[dict[str, Any]]) -> list[BinStats]:
 
 
 @dataclass
-class MethodMetrics:
-    """Everything the evaluation says about one method.
+class PairSetMetrics:
+    """What the evaluation says about one method on one set of pairs (e.g. cross-robot).
 
     Attributes:
-        overall: headline numbers over all scored pairs.
+        overall: headline numbers over the set.
         pr_curve: precision/recall over the threshold sweep.
         heading_bins, heading_bins_fine: numbers per coarse / fine heading-difference bin.
+        heading_pr: precision/recall curve of each coarse heading bin (same order).
         ambiguity_bins: numbers per place-ambiguity bin.
         n_ambiguity_unknown: pairs without an ambiguity value.
-        by_kind: numbers of inter-robot (``inter``) and intra-robot (``intra``) pairs.
-        n_failed: pairs on which the method produced no estimate.
     """
 
     overall: CurveStats
     pr_curve: PRCurve
     heading_bins: list[BinStats]
     heading_bins_fine: list[BinStats]
+    heading_pr: list[PRCurve]
     ambiguity_bins: list[BinStats]
     n_ambiguity_unknown: int
-    by_kind: dict[str, CurveStats]
-    n_failed: int
 
     def bin(self, label: str) -> BinStats:
         """The coarse (else fine) heading bin ``label``; EvaluationError lists the known ones."""
@@ -154,25 +199,51 @@ class MethodMetrics:
         raise EvaluationError(f"heading bin {label!r} unknown (bins: {', '.join(labels)})")
 
     def to_json(self) -> dict[str, Any]:
-        """JSON: the overall stats' fields at the top level, then curve, bins, kinds."""
+        """JSON: the overall stats' fields at the top level, then curve and bins."""
         return {
             **self.overall.to_json(),
             "pr_curve": self.pr_curve.to_json(),
             "heading_bins": _bins(self.heading_bins),
             "heading_bins_fine": _bins(self.heading_bins_fine),
+            "heading_pr": [c.to_json() for c in self.heading_pr],
             "ambiguity_bins": _bins(self.ambiguity_bins),
             "n_ambiguity_unknown": self.n_ambiguity_unknown,
-            "by_kind": {k: v.to_json() for k, v in self.by_kind.items()},
-            "n_failed": self.n_failed,
         }
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "PairSetMetrics":
+        """Inverse of ``to_json``."""
+        return cls(CurveStats.from_json(d), PRCurve.from_json(d["pr_curve"]), _bins_from(d["heading_bins"]),
+                   _bins_from(d["heading_bins_fine"]), [PRCurve.from_json(c) for c in d["heading_pr"]],
+                   _bins_from(d["ambiguity_bins"]), int(d["n_ambiguity_unknown"]))
+
+
+@dataclass
+class MethodMetrics:
+    """Everything the evaluation says about one method.
+
+    Attributes:
+        sets: pair set (``inter``, ``intra``, ``all``) -> its metrics.
+        n_failed: pairs on which the method produced no estimate.
+    """
+
+    sets: dict[str, PairSetMetrics]
+    n_failed: int
+
+    def set(self, kind: str) -> PairSetMetrics:
+        """The metrics of pair set ``kind``; EvaluationError lists the known sets."""
+        if kind not in self.sets:
+            raise EvaluationError(f"pair set {kind!r} unknown (sets: {', '.join(self.sets)})")
+        return self.sets[kind]
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON: ``n_failed`` and one object per pair set."""
+        return {"n_failed": self.n_failed, **{k: v.to_json() for k, v in self.sets.items()}}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "MethodMetrics":
         """Inverse of ``to_json``."""
-        return cls(CurveStats.from_json(d), PRCurve.from_json(d["pr_curve"]), _bins_from(d["heading_bins"]),
-                   _bins_from(d["heading_bins_fine"]), _bins_from(d["ambiguity_bins"]),
-                   int(d["n_ambiguity_unknown"]), {k: CurveStats.from_json(v) for k, v in d["by_kind"].items()},
-                   int(d["n_failed"]))
+        return cls({k: PairSetMetrics.from_json(d[k]) for k in PAIR_SETS if k in d}, int(d["n_failed"]))
 
 
 @dataclass
@@ -181,14 +252,22 @@ class EvaluationMetrics:
 
     Attributes:
         config: the evaluation settings used (``EvalConfig`` as JSON).
+        headline: the pair set headline figures refer to (``inter`` when there are
+            cross-robot pairs, else ``intra``).
         n_pairs, n_relevant: distinct pairs scored, and how many should align.
+        pairs: per pair set, ``{"n_pairs": .., "n_relevant": ..}``.
+        n_candidates, n_skipped: pairs before the distance cap, and how many it skipped.
         methods: method label -> its metrics (sorted by label).
         notes: statements for the report (undefined figures and why).
     """
 
     config: dict[str, Any]
+    headline: str
     n_pairs: int
     n_relevant: int
+    pairs: dict[str, dict[str, int]]
+    n_candidates: int
+    n_skipped: int
     methods: dict[str, MethodMetrics]
     notes: list[str] = field(default_factory=list)
 
@@ -198,19 +277,27 @@ class EvaluationMetrics:
             raise EvaluationError(f"method {name!r} not in this run (methods: {', '.join(self.methods) or 'none'})")
         return self.methods[name]
 
-    def figure(self, method: str, heading_bin: str | None = None, key: str = "max_recall") -> Any:
-        """One figure (a ``CurveStats`` field) of ``method`` overall or in a heading bin."""
+    def stats(self, method: str, heading_bin: str | None = None, kind: str | None = None) -> CurveStats:
+        """``CurveStats`` of ``method`` on pair set ``kind`` (default: the headline), overall or in a bin."""
+        m = self.method(method).set(kind or self.headline)
+        return m.overall if heading_bin is None else m.bin(heading_bin).stats
+
+    def figure(self, method: str, heading_bin: str | None = None, key: str = "max_recall",
+               kind: str | None = None) -> Any:
+        """One figure (a ``CurveStats`` field) of ``method`` overall or in a heading bin.
+
+        ``kind`` is the pair set (``inter``, ``intra``, ``all``); default the headline set.
+        """
         if key not in {f.name for f in fields(CurveStats)}:
             raise EvaluationError(f"figure {key!r} unknown (valid: {', '.join(f.name for f in fields(CurveStats))})")
-        m = self.method(method)
-        stats = m.overall if heading_bin is None else m.bin(heading_bin).stats
-        return getattr(stats, key)
+        return getattr(self.stats(method, heading_bin, kind), key)
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict with the schema tag."""
-        return {"schema": METRICS_SCHEMA, "config": self.config, "n_pairs": self.n_pairs,
-                "n_relevant": self.n_relevant, "methods": {k: v.to_json() for k, v in self.methods.items()},
-                "notes": list(self.notes)}
+        return {"schema": METRICS_SCHEMA, "config": self.config, "headline": self.headline,
+                "n_pairs": self.n_pairs, "n_relevant": self.n_relevant, "pairs": self.pairs,
+                "n_candidates": self.n_candidates, "n_skipped": self.n_skipped,
+                "methods": {k: v.to_json() for k, v in self.methods.items()}, "notes": list(self.notes)}
 
     @classmethod
     def from_json(cls, d: Any, source: str = "metrics") -> "EvaluationMetrics":
@@ -219,108 +306,9 @@ class EvaluationMetrics:
             found = d.get("schema") if isinstance(d, dict) else type(d).__name__
             raise StorageError(f"{source}: not a metrics file of schema {METRICS_SCHEMA} (found {found!r})")
         try:
-            return cls(dict(d["config"]), int(d["n_pairs"]), int(d["n_relevant"]),
+            return cls(dict(d["config"]), str(d["headline"]), int(d["n_pairs"]), int(d["n_relevant"]),
+                       {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d["pairs"].items()},
+                       int(d["n_candidates"]), int(d["n_skipped"]),
                        {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()}, list(d.get("notes", [])))
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None
-
-
-#: Schema tag of ``ate.json``.
-ATE_SCHEMA = "roman_sim.ate/1"
-
-
-@dataclass
-class AteTable:
-    """ATE RMSE (m) per pose-graph variant, alignment (``se3``, ``4dof``) and robot.
-
-    ``variants[variant][alignment][robot]`` with robot ``"all"`` for the concatenated
-    multi-robot trajectory; None where the error could not be computed.
-    """
-
-    variants: dict[str, dict[str, dict[str, float | None]]] = field(default_factory=dict)
-
-    def rmse(self, variant: str, alignment: str = "se3", robot: str = "all") -> float | None:
-        """One RMSE; EvaluationError names what is unknown."""
-        if variant not in self.variants:
-            raise EvaluationError(f"ATE variant {variant!r} unknown (variants: {', '.join(self.variants) or 'none'})")
-        table = self.variants[variant]
-        if alignment not in table:
-            raise EvaluationError(f"ATE alignment {alignment!r} unknown (alignments: {', '.join(table)})")
-        return table[alignment].get(robot)
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {"schema": ATE_SCHEMA, "variants": self.variants}
-
-    @classmethod
-    def from_json(cls, d: Any, source: str = "ate") -> "AteTable":
-        """Inverse of ``to_json``."""
-        if not isinstance(d, dict) or d.get("schema") != ATE_SCHEMA or not isinstance(d.get("variants"), dict):
-            raise StorageError(f"{source}: not an ATE table of schema {ATE_SCHEMA}")
-        return cls({str(v): {str(a): dict(r) for a, r in al.items()} for v, al in d["variants"].items()})
-
-
-@dataclass(frozen=True)
-class MapStats:
-    """Size of what the robots mapped and would share.
-
-    Attributes:
-        robots: robots with submaps.
-        segments: finished segments of all robots (None when maps are not available).
-        submaps: submaps of all robots.
-        segments_per_submap: mean segments per submap.
-        kb_per_submap, kb_per_submap_max: mean and largest submap packet (kB).
-        trajectory_km: total true trajectory length (None without maps).
-        mb_per_km: submap packets (MB) per km of trajectory.
-    """
-
-    robots: int
-    segments: int | None
-    submaps: int
-    segments_per_submap: float | None
-    kb_per_submap: float | None
-    kb_per_submap_max: float | None
-    trajectory_km: float | None
-    mb_per_km: float | None
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return asdict(self)
-
-    @classmethod
-    def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
-        """Inverse of ``to_json``."""
-        try:
-            return cls(**{f.name: d[f.name] for f in fields(cls)})
-        except (KeyError, TypeError) as err:
-            raise StorageError(f"{source}: malformed map statistics ({err})") from None
-
-
-@dataclass(frozen=True)
-class AlignmentRecord:
-    """What one method estimated for one pair (the input of the pose graph's closures).
-
-    Attributes:
-        a, b: submap names (``robot/index``).
-        method: method label.
-        n_associations: accepted associations.
-        T_a_b: 4x4 estimate of b's frame in a's (rounded to 1e-9), or None.
-    """
-
-    a: str
-    b: str
-    method: str
-    n_associations: int
-    T_a_b: NDArray[np.float64] | None
-
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return {"a": self.a, "b": self.b, "method": self.method, "n_associations": self.n_associations,
-                "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist()}
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "AlignmentRecord":
-        """Inverse of ``to_json``."""
-        T = d["T_a_b"]
-        return cls(str(d["a"]), str(d["b"]), str(d["method"]), int(d["n_associations"]),
-                   None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4))

@@ -71,9 +71,13 @@ class RunResult:
                    and s.name in ("evaluation", "posegraph", "report")}
         return cls.from_outputs(d, sc, outputs, read_timings(d), [])
 
-    def recall(self, method: str, heading_bin: str | None = None) -> float | None:
-        """Max recall of ``method`` overall or in a heading bin such as ``"120-180"``."""
-        return self.metrics.figure(method, heading_bin, "max_recall")
+    def recall(self, method: str, heading_bin: str | None = None, kind: str | None = None) -> float | None:
+        """Max recall of ``method`` overall or in a heading bin such as ``"120-180"``.
+
+        ``kind``: ``inter`` (cross-robot), ``intra`` (same-robot) or ``all``; default the
+        headline set (cross-robot when the run has cross-robot pairs).
+        """
+        return self.metrics.figure(method, heading_bin, "max_recall", kind)
 
     def runtime_median_s(self, method: str) -> float | None:
         """Median alignment time per pair of ``method`` (s), from the timings; None if unknown."""

@@ -35,25 +35,28 @@ def _make_submap(robot: str, index: int, x: float, y: float, yaw_deg: float = 0.
 
 
 def _make_truth(name: str, relevant: bool, heading: float = 0.0, ambiguity: float = float("nan"),
-               kind: str = "inter") -> PairTruth:
+               kind: str = "inter", true_corr: int = 0) -> PairTruth:
     """A pair truth with only the fields the metrics read set meaningfully."""
     return PairTruth(a=f"a/{name}", b=f"b/{name}", robot_a="a", robot_b="b" if kind == "inter" else "a",
                      index_a=0, index_b=int(name) if name.isdigit() else 1, T_a_b_true=np.eye(4),
                      center_dist_m=5.0 if relevant else 50.0, heading_diff_deg=heading, overlap=0.5,
-                     ambiguity=ambiguity, relevant=relevant, kind=kind)  # type: ignore[arg-type]
+                     ambiguity=ambiguity, relevant=relevant, kind=kind,  # type: ignore[arg-type]
+                     shared_objects=true_corr, true_correspondences=true_corr)
 
 
 def _make_score(name: str, relevant: bool, n_assoc: int, correct: bool, method: str = "m",
-               heading: float = 0.0, ambiguity: float = float("nan"), runtime: float = 0.1) -> PairScore:
-    """A scored pair with given counts and outcome."""
+               heading: float = 0.0, ambiguity: float = float("nan"), runtime: float = 0.1,
+               kind: str = "inter", true_corr: int = 0, assoc_correct: int = 0) -> PairScore:
+    """A scored pair with given counts and outcome (and association truth counts)."""
     err = 0.1 if correct else 40.0
-    return PairScore(_make_truth(name, relevant, heading, ambiguity), method, n_assoc, err, err,
-                     correct, runtime, None if n_assoc else "no associations")
+    return PairScore(_make_truth(name, relevant, heading, ambiguity, kind, true_corr), method, n_assoc, err, err,
+                     correct, runtime, None if n_assoc else "no associations", assoc_correct, assoc_correct)
 
 
-def _result_for(T, n_assoc: int, method: str = "m") -> AlignResult:
-    """An AlignResult with ``n_assoc`` dummy associations."""
-    assoc = np.stack([np.arange(n_assoc), np.arange(n_assoc)], 1).astype(np.int64)
+def _result_for(T, n_assoc: int, method: str = "m", n_segments: int = 3) -> AlignResult:
+    """An AlignResult with ``n_assoc`` associations (i % n_segments, i % n_segments)."""
+    idx = np.arange(n_assoc) % n_segments
+    assoc = np.stack([idx, idx], 1).astype(np.int64)
     return AlignResult(method=method, T_a_b=None if T is None else np.asarray(T, float),
                        associations=assoc, scores=np.ones(n_assoc), runtime_s=0.01,
                        reason=None if T is not None else "failed")

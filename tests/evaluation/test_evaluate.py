@@ -45,15 +45,21 @@ def test_evaluate_and_save(make_submap, tmp_path):
     # pairs: a0-b0, a0-b1, a0-b2, b0-b2 (b0-b1 and b1-b2 are time neighbours)
     assert [(t.a, t.b) for t in ev.truths] == [("a/0", "b/0"), ("a/0", "b/1"), ("a/0", "b/2"), ("b/0", "b/2")]
     m = ev.metrics.methods
-    assert m["identity"].overall.n_relevant == 2 and m["identity"].overall.max_recall == 0.5
-    assert m["never"].overall.max_recall == 0.0 and m["never"].n_failed == 4
+    # cross-robot: a0-b0 (relevant, identity right), a0-b1 (relevant, 3 m off), a0-b2 (far); same-robot: b0-b2
+    ident = m["identity"].set("inter").overall
+    assert (ident.n_pairs, ident.n_relevant, ident.max_hits, ident.max_recall) == (3, 2, 1, 0.5)
+    assert m["identity"].set("intra").overall.n_relevant == 0 and m["identity"].set("all").overall.n_pairs == 4
+    # association truth: identity selects (i, i) on submaps with the same ids -> every association correct
+    assert (ident.assoc_selected, ident.assoc_correct, ident.assoc_available) == (12, 12, 12)
+    assert m["never"].set("inter").overall.max_recall == 0.0 and m["never"].n_failed == 4
     paths = save_evaluation(tmp_path, ev, subs)
-    assert {"pairs", "metrics", "precision_recall", "alignment_correct", "alignment_wrong", "map_view"} <= set(paths)
+    assert {"pairs", "metrics", "precision_recall", "alignment_identity_correct",
+            "alignment_identity_false_positive", "map_view"} <= set(paths)
     scores, metrics = read_evaluation(tmp_path)
     assert len(scores) == 8 and metrics.figure("identity") == 0.5
     plots = [p.relative_to(tmp_path).as_posix() for k, p in paths.items() if p.suffix == ".png"]
     text = write_report(tmp_path, "hand", metrics, notes=ev.notes, plots=plots).read_text()
-    assert "| identity | 4 | 2 | 0.500 |" in text and "plots/map_view.png" in text
+    assert "| identity | 3 | 2 | n<5: 1/2 | n<5: 0/2 |" in text and "plots/map_view.png" in text
 
 
 def test_evaluate_rejects_bad_aligner_sets(make_submap):

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth, truths_for_pairs
+from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth, select_pairs, truths_for_pairs
 
 
 def _set(make_submap):
@@ -77,11 +78,12 @@ def test_relevance_threshold_and_intra_kind_and_ambiguity_callable(make_submap):
     a = make_submap("a", 0, 0.0, 0.0)
     b = make_submap("a", 3, 10.0, 0.0, object_ids=(-1, 7))
     seen = []
-    t = pair_truth(a, b, ambiguity_fn=lambda xy: seen.append(xy) or 0.25)
-    assert t.relevant and t.kind == "intra" and t.ambiguity == 0.25
-    np.testing.assert_allclose(seen[0], [5.0, 0.0])
-    assert t.overlap == 0.0
-    assert not pair_truth(a, b, relevant_dist_m=9.99).relevant
+    t = pair_truth(a, b, ambiguity_fn=lambda xy: seen.append(xy) or float(xy[0]) / 20.0)
+    # the pair's ambiguity is the mean over its two true centres: (0 + 10) / 20 / 2
+    assert t.relevant and t.kind == "intra" and t.ambiguity == pytest.approx(0.25)
+    np.testing.assert_allclose(seen, [[0.0, 0.0], [10.0, 0.0]])
+    assert t.overlap == 0.0 and t.shared_objects == 0 and t.true_correspondences == 0
+    assert not pair_truth(a, b, cfg=EvalConfig(relevant_dist_m=9.99)).relevant
     empty = make_submap("b", 0, 0.0, 0.0, object_ids=(-1,))
     assert math.isnan(pair_truth(a, empty).overlap)
     assert len(truths_for_pairs([(a, b), (a, empty)])) == 2
@@ -98,4 +100,5 @@ def test_world_ambiguity_fn_matches_place_ambiguity(make_submap):
                         np.eye(4), np.ones(3), 0.5) for i in range(6)]
     world = WorldTruth(objs, Terrain(60.0, 60.0, np.zeros((5, 5))))
     t = pair_truth(make_submap("a", 0, 0.0, 0.0), make_submap("b", 0, 4.0, 2.0), world_ambiguity_fn(world, 10.0))
-    assert t.ambiguity == pytest.approx(amb.place_ambiguity(world, np.array([2.0, 1.0]), radius_m=10.0))
+    expected = [amb.place_ambiguity(world, np.array(xy), radius_m=10.0) for xy in ([0.0, 0.0], [4.0, 2.0])]
+    assert t.ambiguity == pytest.approx(np.mean(expected))

@@ -1,4 +1,4 @@
-"""Plots are produced as real PNGs, also when metrics are undefined."""
+"""Plots are produced as real PNGs; a plot that would carry one point is not drawn."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import pytest
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import pair_truth
-from roman_sim.evaluation.plots import (
-    draw_examples, pick_examples, plot_alignment, plot_heading_recall, write_metric_plots,
-)
+from roman_sim.evaluation.examples import draw_examples, pick_examples, plot_alignment
+from roman_sim.evaluation.maskview import overlay, plot_masks
+from roman_sim.evaluation.plots import plot_heading_recall, write_metric_plots
 from roman_sim.geometry import make_T, rot_z
 
 PNG = b"\x89PNG\r\n\x1a\n"
@@ -33,20 +33,31 @@ def metrics(make_score):
 
 
 def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
-    paths = write_metric_plots(metrics, tmp_path / "plots")
-    assert [p.name for p in paths] == ["precision_recall.png", "recall_heading.png",
+    paths, notes = write_metric_plots(metrics, tmp_path / "plots")
+    # one ambiguity bin per pair here except the first: four bins with data; no association truth given
+    assert [p.name for p in paths] == ["precision_recall.png", "precision_recall_heading.png", "recall_heading.png",
                                        "recall_heading_fine.png", "recall_ambiguity.png"]
+    assert notes == ["plot association_heading.png not drawn: it needs two heading bins with true correspondences"]
     assert all(_is_png(p) for p in paths)
-    again = plot_heading_recall(metrics.to_json(), tmp_path / "again.png")
-    assert again.read_bytes() == paths[1].read_bytes()
+    again = plot_heading_recall(metrics, tmp_path / "again.png")
+    assert again.read_bytes() == paths[2].read_bytes()
+
+
+def test_plots_carrying_one_point_are_not_drawn(make_score, tmp_path):
+    # every relevant pair in one heading bin and one ambiguity bin: bars and PR per bin would be one point
+    scores = [make_score(str(i), True, 8 - i, i < 2, heading=10.0 + i, ambiguity=0.1) for i in range(4)]
+    paths, notes = write_metric_plots(summary(scores), tmp_path)
+    assert [p.name for p in paths] == ["precision_recall.png"]
+    assert len(notes) == 5 and all("not drawn" in n for n in notes)
+    (tmp_path / "recall_heading.png").write_bytes(b"stale")
+    write_metric_plots(summary(scores), tmp_path)  # a plot no longer drawn leaves no stale file behind
+    assert not (tmp_path / "recall_heading.png").exists()
 
 
 def test_plots_with_undefined_metrics(make_score, tmp_path):
-    m = summary([make_score("0", False, 3, False)])
-    assert all(_is_png(p) for p in write_metric_plots(m, tmp_path))
-    assert all(_is_png(p) for p in write_metric_plots(summary([]), tmp_path / "empty"))
-    with pytest.raises(EvaluationError, match="methods"):
-        plot_heading_recall({"n_pairs": 3}, tmp_path / "bad.png")
+    paths, notes = write_metric_plots(summary([make_score("0", False, 3, False)]), tmp_path)
+    assert paths == [] and len(notes) == 6
+    assert write_metric_plots(summary([]), tmp_path / "empty")[0] == []
 
 
 def test_alignment_drawings(make_submap, result_for, tmp_path):
@@ -63,11 +74,12 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
     scores[1] = score_pair(truth, type(wrong)(**{**wrong.__dict__, "method": "w"}))
     results = {(a.name, b.name, "m"): good, (a.name, b.name, "w"): wrong}
     paths = draw_examples(scores, {a.name: a, b.name: b}, results, tmp_path)
-    assert [p.name for p in paths] == ["alignment_correct.png", "alignment_wrong.png"]
+    assert [p.name for p in paths] == ["alignment_m_correct.png", "alignment_w_false_positive.png"]
     assert all(_is_png(p) for p in paths)
     with pytest.raises(EvaluationError, match="no estimate"):
         plot_alignment(a, b, result_for(None, 0), tmp_path / "x.png")
-    bad_idx = result_for(np.eye(4), 9)
+    bad_idx = result_for(np.eye(4), 2)
+    bad_idx.associations[1] = [0, 9]
     with pytest.raises(EvaluationError, match="outside"):
         plot_alignment(a, b, bad_idx, tmp_path / "x.png")
     with pytest.raises(EvaluationError, match="example pair"):
@@ -93,3 +105,19 @@ def test_map_view_renders_points_and_boxes(make_submap, tmp_path):
         render_map(boxes, frame="map")  # type: ignore[arg-type]
     with pytest.raises(EvaluationError, match="no segments"):
         render_map([make_submap("c", 0, 0.0, 0.0, object_ids=())])
+
+
+def test_masks_over_an_image(tmp_path):
+    rgb = np.full((48, 64, 3), 100, dtype=np.uint8)
+    m1 = np.zeros((48, 64), bool)
+    m1[10:20, 10:30] = True
+    m2 = np.zeros((48, 64), bool)
+    m2[30:40, 40:60] = True
+    img = overlay(rgb, [m1, m2])
+    assert img.shape == (48, 64, 3)
+    np.testing.assert_allclose(img[0, 0], 100 / 255)  # untouched outside the masks
+    assert np.all(img[10, 15] == 1.0) and not np.allclose(img[15, 20], 100 / 255)  # outline white, inside tinted
+    assert not np.allclose(img[15, 20], img[35, 50])  # two masks, two colours
+    assert _is_png(plot_masks(rgb, [m1, m2], tmp_path / "m.png", "two masks", ["7", None]))
+    with pytest.raises(EvaluationError, match="shape"):
+        overlay(rgb, [np.zeros((4, 4), bool)])

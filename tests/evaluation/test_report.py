@@ -1,13 +1,18 @@
-"""report.md holds the tables, links the plots and says what could not be computed."""
+"""report.md: header with what was scored and how, per pair set tables with counts, ATE policy."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
+from roman_sim.core.trajectory import Trajectory
+from roman_sim.evaluation.atetable import VariantEstimate, ate_table
+from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import summary
 from roman_sim.evaluation.plots import write_metric_plots
-from roman_sim.evaluation.report import ate_rows, format_summary_rows, write_report
-from roman_sim.evaluation.types import AteTable, MapStats
+from roman_sim.evaluation.report import write_report
+from roman_sim.evaluation.tables import ate_rows, rate_cell, summary_rows
+from roman_sim.evaluation.types import MapStats
 
 
 @pytest.fixture
@@ -15,46 +20,69 @@ def metrics(make_score):
     scores = [make_score("0", True, 9, True, method="roman", heading=10.0, runtime=0.5),
               make_score("1", True, 4, False, method="roman", heading=150.0, runtime=1.5),
               make_score("2", False, 2, False, method="roman", heading=90.0, runtime=1.0)]
-    return summary(scores)
+    return summary(scores, EvalConfig(min_relevant=1))
+
+
+def test_cells_carry_counts_and_intervals():
+    assert rate_cell(0.5, 1, 2, (0.0945, 0.9055)) == "0.50 (1/2) [0.09, 0.91]"
+    assert rate_cell(0.0, 0, 2, (0.0, 0.66), min_n=5) == "n<5: 0/2"  # never a bare 0.00
+    assert rate_cell(None, 0, 0, None) == "n/a"
 
 
 def test_summary_rows_hand_values(metrics):
-    rows = format_summary_rows(metrics)
+    rows = summary_rows(metrics, "inter")
     assert len(rows) == 1
     r = rows[0]
-    assert list(r)[:3] == ["method", "pairs", "relevant"]
     assert (r["method"], r["pairs"], r["relevant"]) == ("roman", "3", "2")
-    assert r["max recall"] == "0.500" and r["recall@P=1"] == "0.500"
-    assert r["recall 0-60 deg"] == "1.000" and r["recall 120-180 deg"] == "0.000"
-    assert r["recall 60-120 deg"] == "n/a"  # no relevant pair there: undefined, not 0
+    # 1 of 2 relevant: Wilson 95 % of 1/2 is [0.0945, 0.9055]
+    assert r["max recall"] == "0.50 (1/2) [0.09, 0.91]" and r["recall@P=1"] == "0.50 (1/2) [0.09, 0.91]"
+    assert r["0-60 deg"].startswith("1.00 (1/1)") and r["120-180 deg"].startswith("0.00 (0/1)")
+    assert r["60-120 deg"] == "n/a"  # no relevant pair there: undefined, not 0
     assert not any("runtime" in c for c in r)  # wall-clock figures live in timings.json
     # k = 5..9: only the correct pair is positive -> P = 1, R = 0.5, F1 = 2/3
     assert r["best F1"] == "0.667 (k=5)"
 
 
-def test_report_has_tables_plots_and_statements(metrics, tmp_path):
-    plots = [p.relative_to(tmp_path).as_posix() for p in write_metric_plots(metrics, tmp_path / "plots")]
-    ate = AteTable({"odometry": {"se3": {"all": 4.25, "r1": None}},
-                    "roman": {"se3": {"all": 1.5, "r1": 1.25}}, "oracle": {"se3": {"all": None, "r1": None}}})
+def _truth() -> dict[str, Trajectory]:
+    t = np.arange(10, dtype=float)
+    T = np.tile(np.eye(4), (10, 1, 1))
+    T[:, 0, 3] = t
+    return {"r1": Trajectory(t, T), "r2": Trajectory(t, T.copy())}
+
+
+def test_report_has_header_tables_plots_and_statements(metrics, tmp_path):
+    plots = [p.relative_to(tmp_path).as_posix() for p in write_metric_plots(metrics, tmp_path / "plots")[0]]
+    truth = _truth()
+    ate = ate_table(truth, {"odometry": VariantEstimate(truth), "roman": VariantEstimate({"r1": truth["r1"]})})
     maps = MapStats(robots=2, segments=120, submaps=8, segments_per_submap=15.0, kb_per_submap=12.5,
                     kb_per_submap_max=20.0, trajectory_km=0.5, mb_per_km=0.9)
     p = write_report(tmp_path, "smoke", metrics, ate, maps, notes=["robot r2 never connected"], plots=plots)
     text = p.read_text()
     assert p.name == "report.md" and text.startswith("# Evaluation report: smoke")
-    assert "| method | pairs | relevant | max recall |" in text
-    assert "| roman | 3 | 2 | 0.500 | 0.500 | 0.667 (k=5) |" in text
-    assert "| trajectory | se3/all | se3/r1 |" in text
-    assert "| odometry | 4.250 | n/a |" in text and "| roman | 1.500 | 1.250 |" in text
-    assert "| oracle | n/a | n/a |" in text
+    assert "no distance cap" in text and "Headline figures: cross-robot pairs" in text
+    assert "true submap centres within 10 m" in text and "rotation error <= 5 deg" in text
+    assert "## Alignment, cross-robot pairs (headline)" in text and "## Alignment, same-robot pairs" in text
+    assert "No same-robot pairs in this run." in text
+    assert "| roman | 3 | 2 | 0.50 (1/2) [0.09, 0.91] |" in text
+    assert "Every row covers the same robots" in text
+    assert "| trajectory | robots placed | ATE over r1 (common) | ATE over all 2 robots | r1 | r2 |" in text
+    assert "| odometry | 2/2 | 0.000 | 0.000 | 0.000 | 0.000 |" in text
+    assert "| roman | 1/2 | 0.000 | not connected | 0.000 | not connected |" in text
     assert "| KB per submap | 12.500 |" in text
-    assert "robot r2 never connected" in text and "could not be computed" in text
+    assert "robot r2 never connected" in text
     assert "![Precision-recall over association count k](plots/precision_recall.png)" in text
+
+
+def test_report_names_a_distance_cap_and_what_it_skipped(make_score, tmp_path):
+    m = summary([make_score("0", True, 3, True)], EvalConfig(max_pair_dist_m=40.0), n_skipped=7)
+    text = write_report(tmp_path, "capped", m).read_text()
+    assert "distance cap 40 m on the true centre distance (relevant pairs kept): 7 of 8 candidate pairs skipped" in text
 
 
 def test_report_without_relevant_pairs_or_extras(make_score, tmp_path):
     m = summary([make_score("0", False, 3, False)])
     text = write_report(tmp_path, "empty", m).read_text()
-    assert "no relevant pairs" in text
+    assert "no relevant cross-robot pairs" in text
     assert "| m | 1 | 0 | n/a | n/a |" in text
     assert "No trajectory error was computed" in text and "No map statistics" in text
     assert "No plots were written" in text
@@ -62,5 +90,9 @@ def test_report_without_relevant_pairs_or_extras(make_score, tmp_path):
 
 
 def test_ate_rows_in_variant_order():
-    rows = ate_rows(AteTable({"odometry": {"se3": {"all": 3.0}}, "roman": {"se3": {"all": None}}}))
-    assert rows == [{"trajectory": "odometry", "se3/all": "3.000"}, {"trajectory": "roman", "se3/all": "n/a"}]
+    truth = _truth()
+    table = ate_table(truth, {"odometry": VariantEstimate(truth), "roman": VariantEstimate({})})
+    rows = ate_rows(table)
+    assert [r["trajectory"] for r in rows] == ["odometry", "roman"]
+    assert rows[1]["robots placed"] == "0/2" and rows[1]["r1"] == "not connected"
+    assert table.common == []  # roman placed nobody: no robot is common to every row

@@ -1,8 +1,11 @@
 """Stage ``evaluation``: every aligner on every pair of submaps, scored against truth.
 
-Writes ``pairs.csv`` (one row per pair and method), ``alignments.json`` (each method's
-estimate per pair: the pose graph's closures), ``metrics.json`` and the metric plots.
-Per-pair runtimes go to the run's timings, not into these files.
+The stage enumerates the pairs (every pair unless the scenario sets a distance cap), takes
+their truth, aligns them (one call, ``align_pairs``) and scores them (pure functions of the
+pair truths and the aligner results, in ``roman_sim.evaluation``). Writes ``pairs.csv``
+(one row per pair and method), ``alignments.json`` (each method's estimate per pair: the
+pose graph's closures), ``metrics.json`` and the metric plots. Per-pair runtimes go to the
+run's timings, not into these files.
 """
 
 from __future__ import annotations
@@ -17,9 +20,9 @@ from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.bins import runtime_stats
-from roman_sim.evaluation.evaluate import evaluate, save_evaluation
-from roman_sim.evaluation.metrics import PairScore
-from roman_sim.evaluation.pairs import PairTruth, enumerate_pairs, world_ambiguity_fn
+from roman_sim.evaluation.evaluate import Evaluation, align_pairs, save_evaluation, score_pairs
+from roman_sim.evaluation.metrics import PairScore, summary
+from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
 from roman_sim.evaluation.results import read_evaluation
 from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
@@ -66,23 +69,9 @@ class Labelled:
         return res
 
 
-class Counting:
-    """Reports progress as pairs are aligned by the last aligner of the list."""
-
-    def __init__(self, inner: Any, ctx: RunContext) -> None:
-        self.inner, self.ctx, self.name = inner, ctx, inner.name
-
-    def align(self, a: Submap, b: Submap) -> AlignResult:
-        res = self.inner.align(a, b)
-        self.ctx.progress.advance("evaluation:pairs")
-        return res
-
-
 def build_aligners(ctx: RunContext) -> list[Any]:
-    """The scenario's aligners, labelled; the last one counts pairs for the progress bar."""
-    out: list[Any] = [Labelled(build_aligner(e.method, e.params), e.name) for e in ctx.scenario.aligners]
-    out[-1] = Counting(out[-1], ctx)
-    return out
+    """The scenario's aligners, under their labels."""
+    return [Labelled(build_aligner(e.method, e.params), e.name) for e in ctx.scenario.aligners]
 
 
 def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
@@ -111,11 +100,15 @@ class EvaluationStage(Stage[EvaluationOutput]):
         assert submaps is not None, "the evaluation stage needs the submaps"
         all_subs = submaps.all()
         ec = ctx.scenario.evaluation
-        pairs = enumerate_pairs(all_subs, ec.intra_min_gap, ec.max_pair_dist_m, ec.relevant_dist_m)
+        sel = select_pairs(all_subs, ec)
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
-        ctx.progress.start("evaluation:pairs", len(pairs))
-        ev = evaluate(all_subs, build_aligners(ctx), ec, ambiguity_fn=ambiguity, pairs=pairs)
+        truths = truths_for_pairs(sel.pairs, ambiguity, ec)
+        aligners = build_aligners(ctx)
+        ctx.progress.start("evaluation:pairs", len(sel.pairs))
+        results = align_pairs(sel.pairs, aligners, on_pair=lambda: ctx.progress.advance("evaluation:pairs"))
         ctx.progress.end("evaluation:pairs")
+        scores = score_pairs(truths, results, [a.name for a in aligners], ec)
+        ev = Evaluation(truths, scores, results, summary(scores, ec, sel.n_skipped))
         paths = save_evaluation(ctx.run_dir, ev, all_subs, map_view=True)
         ctx.timings["alignment"] = _runtimes(ev.scores)
         written = sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values())

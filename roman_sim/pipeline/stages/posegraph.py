@@ -1,15 +1,19 @@
 """Stage ``posegraph``: pose graphs of the run and their trajectory errors.
 
-Three trajectories per robot are scored against the truth:
+The trajectory variants scored against the truth, in table order:
 
 - ``odometry``: the drifting odometry, each robot placed with its true initial pose;
-- ``<method>``: the multi-robot pose graph with the chosen aligner's loop closures;
-- ``oracle``: the same pose graph with the true relative pose of every relevant pair (the
-  upper bound of what loop closures can give).
+- ``odometry_no_prior``: the odometry with no start pose (each robot aligned by its own fit);
+- one row per entry of ``graph_variants``: the multi-robot pose graph with the chosen
+  aligner's loop closures, and ``oracle``, the same graph with the true relative pose of
+  every relevant pair (what loop closures can give at best). Adding a variant (e.g. a
+  combined method) is one more ``GraphVariant`` in that list.
 
-Writes ``ate.json`` (the ATE table and the stage's notes), ``posegraph.json`` (closures
-used and robots left unconnected per graph), ``trajectories/<robot>.<variant>.tum`` and
-``plots/trajectories.png``.
+Every row of the ATE table covers the same robots (``roman_sim.evaluation.atetable``).
+Writes ``ate.json`` (the table and the stage's notes), ``posegraph.json`` (closures used and
+robots placed per graph), ``trajectories/<robot>.<variant>.tum`` (the placed robots of every
+variant, and the truth) and ``plots/trajectories.png``. The table is computed from the TUM
+files as written, so ``roman-sim report --verify`` recomputes it exactly.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import json
 import logging
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -26,13 +31,13 @@ import numpy as np
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.core.tum import write_tum
+from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.evaluation.ate import multi_robot_ate
+from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
 from roman_sim.evaluation.trajplot import plot_trajectories
-from roman_sim.evaluation.types import AteTable
 from roman_sim.geometry import gravity_aligned, pose_error
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.stages.base import Stage, rel
+from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
@@ -44,7 +49,11 @@ ATE_JSON = "ate.json"
 POSEGRAPH_JSON = "posegraph.json"
 PLOT = "plots/trajectories.png"
 ORACLE_ASSOCIATIONS = 1_000_000
-ALIGNMENTS = ("se3", "4dof")
+
+
+def tum_path(variant: str, robot: str) -> str:
+    """Relative path of a variant's trajectory of one robot (``truth`` for the true trajectory)."""
+    return f"trajectories/{robot}.{variant}.tum"
 
 
 @dataclass(frozen=True)
@@ -60,7 +69,7 @@ class GraphInfo:
 
 @dataclass
 class PoseGraphOutput:
-    """ATE table, per-graph information, trajectories per variant and robot, notes.
+    """ATE table, per-graph information, notes.
 
     ``written`` lists the trajectory files and plot the run wrote (not persisted).
     """
@@ -96,19 +105,24 @@ def oracle_closures(submaps: Submaps, evaluation: EvaluationOutput) -> list[Loop
     return out
 
 
-def score(est: dict[str, Trajectory], ref: dict[str, Trajectory]) -> dict[str, dict[str, float | None]]:
-    """Per alignment: RMSE per robot and of the concatenation (``all``); None where not computable."""
-    out = {}
-    for alignment in ALIGNMENTS:
-        try:
-            res = multi_robot_ate(est, ref, alignment)  # type: ignore[arg-type]
-        except EvaluationError as err:
-            log.warning("ATE (%s) not computable: %s", alignment, err)
-            res = {}
-        table = {k: (None if v is None else v.rmse_m) for k, v in res.items()}
-        table.setdefault("all", None)
-        out[alignment] = table
-    return out
+@dataclass(frozen=True)
+class GraphVariant:
+    """A pose-graph row of the ATE table: its name, what it is, and where its closures come from."""
+
+    name: str
+    description: str
+    closures: Callable[[Submaps, EvaluationOutput], list[LoopClosure]]
+
+
+def graph_variants(ctx: RunContext) -> list[GraphVariant]:
+    """The pose graphs of a run, in table order (one entry per variant)."""
+    method = ctx.scenario.posegraph_method
+    assert method is not None
+    return [
+        GraphVariant(method, f"pose graph with {method}'s loop closures",
+                     lambda s, e: method_closures(s, e, method)),
+        GraphVariant("oracle", "pose graph with the true relative pose of every relevant pair", oracle_closures),
+    ]
 
 
 def _closure_lines(ctx: RunContext, submaps: Submaps, closures: list[LoopClosure], weights: list[Any]) -> list[Any]:
@@ -139,8 +153,22 @@ def _aligned(est: dict[str, Trajectory], truth: dict[str, Trajectory]) -> dict[s
     return {} if res is None else {r: tr.transformed(res.T_align) for r, tr in est.items()}
 
 
+def _round_trip(ctx: RunContext, trajectories: dict[str, dict[str, Trajectory]]) -> tuple[dict, list[str]]:
+    """Write every variant's trajectories as TUM and read them back (what the table is computed from)."""
+    back: dict[str, dict[str, Trajectory]] = {}
+    written = []
+    for variant, per in trajectories.items():
+        back[variant] = {}
+        for robot, tr in per.items():
+            path = tum_path(variant, robot)
+            write_tum(ctx.run_dir / path, tr)
+            back[variant][robot] = read_tum(ctx.run_dir / path)
+            written.append(path)
+    return back, written
+
+
 class PoseGraphStage(Stage[PoseGraphOutput]):
-    """Solve the odometry-only, method and oracle pose graphs and score their trajectories."""
+    """Solve the run's pose graphs and score every trajectory variant over the same robots."""
 
     name = "posegraph"
     inputs = ("maps", "submaps", "evaluation")
@@ -156,45 +184,48 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
         if method is None:
             return PoseGraphOutput(AteTable(), {}, ["pose graph skipped: no posegraph_method"])
         if maps is None:
-            return PoseGraphOutput(AteTable(), {}, ["pose graph skipped: no trajectories (run started from saved submaps)"])
+            return PoseGraphOutput(AteTable(), {},
+                                   ["pose graph skipped: no trajectories (run started from saved submaps)"])
         truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
         odom = {r: m.odometry for r, m in maps.maps.items()}
         placed = {r: odom[r].transformed(gravity_aligned(truth[r].T[0])) for r in truth}
         nodes = submap_nodes_from(submaps.all())
         nodes = {r: nodes.get(r, []) for r in maps.maps}
-        table = {"odometry": score(placed, truth)}
-        graphs, notes, written, seconds = {}, [], [], {}
-        trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed}
-        for variant, closures in ((method, method_closures(submaps, evaluation, method)),
-                                  ("oracle", oracle_closures(submaps, evaluation))):
+        trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed,
+                                                           "odometry_no_prior": dict(odom)}
+        describe = {"odometry": ("odometry, each robot placed with its true start pose", "joint"),
+                    "odometry_no_prior": ("odometry without start poses, each robot aligned on its own", "per_robot")}
+        graphs, notes, seconds = {}, [], {}
+        lines, est_world = [], {}
+        for gv in graph_variants(ctx):
+            closures = gv.closures(submaps, evaluation)
             t0 = time.perf_counter()
             res = build_and_solve(odom, nodes, closures, ctx.scenario.posegraph)
-            seconds[variant] = time.perf_counter() - t0
-            table[variant] = score(res.trajectories, truth)
+            seconds[gv.name] = time.perf_counter() - t0
             used = [w for w in res.closure_weights if w is not None]
-            graphs[variant] = GraphInfo(len(closures), len(used), res.n_inliers, list(res.unconnected))
-            trajectories[variant] = res.trajectories
+            graphs[gv.name] = GraphInfo(len(closures), len(used), res.n_inliers, list(res.unconnected))
+            trajectories[gv.name] = res.trajectories
+            describe[gv.name] = (gv.description, "joint")
             if res.unconnected:
-                notes.append(f"{variant} pose graph: robot(s) {', '.join(res.unconnected)} never connected "
-                             "to the first robot; their ATE is not computable")
+                notes.append(f"{gv.name} pose graph: robot(s) {', '.join(res.unconnected)} never connected to the "
+                             f"first robot: placed {len(res.trajectories)} of {len(odom)} robots")
             if not used:
-                notes.append(f"{variant} pose graph: no loop closure accepted")
-            if variant == method:
+                notes.append(f"{gv.name} pose graph: no loop closure accepted")
+            if gv.name == method:
                 lines = _closure_lines(ctx, submaps, closures, res.closure_weights)
                 est_world = _aligned(res.trajectories, truth)
         ctx.timings["posegraph_s"] = seconds
-        for variant, per in trajectories.items():
-            for r, tr in per.items():
-                path = ctx.run_dir / "trajectories" / f"{r}.{variant}.tum"
-                write_tum(path, tr)
-                written.append(rel(ctx, path))
+        back, written = _round_trip(ctx, trajectories)
+        estimates = {v: VariantEstimate(back[v], describe[v][1], describe[v][0])  # type: ignore[arg-type]
+                     for v in trajectories if v != "truth"}
+        table = ate_table(back["truth"], estimates)
         try:
             plot_trajectories(ctx.run_dir / PLOT, truth, est=est_world or None, odom=placed, closures=lines,
                               title=f"{ctx.scenario.name}: truth, odometry and {method} pose graph")
             written.append(PLOT)
         except EvaluationError as err:
             notes.append(f"trajectory plot not drawn: {err}")
-        return PoseGraphOutput(AteTable(table), graphs, notes, sorted(written))
+        return PoseGraphOutput(table, graphs, notes, sorted(written))
 
     def save(self, out: PoseGraphOutput, ctx: RunContext) -> list[str]:
         write_json(ctx.run_dir / ATE_JSON, {**out.ate.to_json(), "notes": out.notes})

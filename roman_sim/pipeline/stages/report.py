@@ -1,4 +1,10 @@
-"""Stage ``report``: map statistics and ``report.md`` from the outputs of every other stage."""
+"""Stage ``report``: map statistics, a front-end snapshot and ``report.md`` from the other stages' outputs.
+
+The snapshot (``plots/segments_on_image.png``) renders one camera image of the first robot,
+at the centre of its submap with the most segments, runs the scenario's segmenter on it and
+draws the masks over it. Without an OpenGL context (or without a world, when the run
+started from saved submaps) it is noted and skipped.
+"""
 
 from __future__ import annotations
 
@@ -9,18 +15,21 @@ from typing import Any
 import numpy as np
 
 from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
+from roman_sim.core.errors import RomanSimError, StorageError
+from roman_sim.evaluation.maskview import plot_masks
 from roman_sim.evaluation.report import REPORT_MD, write_report
 from roman_sim.evaluation.types import MapStats
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
-from roman_sim.pipeline.stages.maps import Maps
+from roman_sim.pipeline.stages.maps import Maps, build_segmenter_for
 from roman_sim.pipeline.stages.posegraph import PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
+from roman_sim.pipeline.stages.world import WorldOutput
 
 MAP_STATS_JSON = "map_stats.json"
+SNAPSHOT = "plots/segments_on_image.png"
 
 
 @dataclass
@@ -29,6 +38,7 @@ class ReportOutput:
 
     map_stats: MapStats
     notes: list[str] = field(default_factory=list)
+    written: list[str] = field(default_factory=list, repr=False)
 
 
 def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
@@ -48,28 +58,61 @@ def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
     )
 
 
+def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> str:
+    """Render one frame of the first robot, segment it, draw the masks; the plot's relative path.
+
+    Raises:
+        RomanSimError: the frame cannot be rendered or segmented (no OpenGL, ...).
+    """
+    from roman_sim.sim.robot import DrivenRun, render_trajectory
+
+    cfg = ctx.scenario.robots[0]
+    smap, subs = maps.maps[cfg.name], submaps.submaps.get(cfg.name) or []
+    if smap.T_world_body is None or not len(smap.times):
+        raise StorageError(f"robot {cfg.name} has no true trajectory to render from")
+    t = max(subs, key=lambda s: (len(s), -s.index)).t if subs else float(smap.times[len(smap.times) // 2])
+    i = int(np.argmin(np.abs(smap.times - t)))
+    run = DrivenRun(smap.times[i:i + 1], smap.T_world_body[i:i + 1], smap.T_odom_body[i:i + 1])
+    frame = next(iter(render_trajectory(world.world, cfg.model_copy(update={"render_rgb": True}), ctx.scenario.seed,
+                                        run)))
+    masks = build_segmenter_for(ctx, cfg.name).segment(frame)
+    labels = [str(m.object_ids[0]) if m.object_ids else None for m in masks]
+    seg = ctx.scenario.frontend.segmenter
+    title = (f"robot {cfg.name} at t = {frame.t:.1f} s: {len(masks)} masks of the "
+             f"{seg if isinstance(seg, str) else 'configured'} segmenter (numbers: majority true object)")
+    plot_masks(frame.rgb, [m.pixels for m in masks], ctx.run_dir / SNAPSHOT, title, labels)
+    return SNAPSHOT
+
+
 class ReportStage(Stage[ReportOutput]):
-    """Write ``map_stats.json`` and ``report.md``."""
+    """Write ``map_stats.json``, the front-end snapshot and ``report.md``."""
 
     name = "report"
-    inputs = ("maps", "submaps", "evaluation", "posegraph")
+    inputs = ("world", "maps", "submaps", "evaluation", "posegraph")
 
-    def run(self, ctx: RunContext, maps: Maps | None = None, submaps: Submaps | None = None,
-            evaluation: EvaluationOutput | None = None, posegraph: PoseGraphOutput | None = None,
-            **_: Any) -> ReportOutput:
+    def run(self, ctx: RunContext, world: WorldOutput | None = None, maps: Maps | None = None,
+            submaps: Submaps | None = None, evaluation: EvaluationOutput | None = None,
+            posegraph: PoseGraphOutput | None = None, **_: Any) -> ReportOutput:
         assert submaps is not None and evaluation is not None and posegraph is not None
         notes: list[str] = []
         for out in (maps, submaps, evaluation, posegraph):
             notes += [] if out is None else list(out.notes)
         stats = map_stats(maps, submaps)
         plots = [f for f in evaluation.written + posegraph.written if f.endswith(".png")]
-        write_report(ctx.run_dir, ctx.scenario.name, evaluation.metrics, posegraph.ate if posegraph.ate.variants else None,
-                     stats, list(dict.fromkeys(notes)), plots)
-        return ReportOutput(stats, list(dict.fromkeys(notes)))
+        snap: list[str] = []
+        if world is not None and maps is not None:
+            try:
+                snap.append(snapshot(ctx, world, maps, submaps))
+            except (RomanSimError, RuntimeError, ImportError) as err:
+                notes.append(f"front-end snapshot not drawn: {err}")
+        plots += snap
+        ate = posegraph.ate if posegraph.ate.variants else None
+        write_report(ctx.run_dir, ctx.scenario.name, evaluation.metrics, ate, stats, list(dict.fromkeys(notes)), plots)
+        return ReportOutput(stats, list(dict.fromkeys(notes)), snap)
 
     def save(self, out: ReportOutput, ctx: RunContext) -> list[str]:
         write_json(ctx.run_dir / MAP_STATS_JSON, {**out.map_stats.to_json(), "notes": out.notes})
-        return [MAP_STATS_JSON, REPORT_MD]
+        return [MAP_STATS_JSON, REPORT_MD, *out.written]
 
     def load(self, ctx: RunContext, files: list[str]) -> ReportOutput:
         path = ctx.run_dir / MAP_STATS_JSON
@@ -78,4 +121,4 @@ class ReportStage(Stage[ReportOutput]):
             notes = [str(n) for n in data.pop("notes")]
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
-        return ReportOutput(MapStats.from_json(data, str(path)), notes)
+        return ReportOutput(MapStats.from_json(data, str(path)), notes, [f for f in files if f.endswith(".png")])

@@ -1,0 +1,175 @@
+"""The ATE table: every trajectory variant of a run scored over the same robots.
+
+A variant (odometry, a pose graph, ...) places some robots in its common frame and not
+others: a pose graph ties a robot to the first robot only through inter-robot closures,
+and a robot it never connects has no position there. Any placement the evaluation could
+invent for such a robot (its true start pose, or the origin) would be borrowed from the
+truth or arbitrary, so it is not scored; instead:
+
+- each variant states the robots it placed (``connected``);
+- ``common`` is the concatenated ATE over the robots *every* variant placed (the table's
+  common robots), so the rows compare the same poses;
+- ``all`` is the concatenated ATE over every robot, given only for variants that placed
+  every robot (None otherwise: "not connected");
+- per robot, each robot aligned on its own (None for a robot the variant did not place).
+
+A variant's ``fit`` says how its trajectories are aligned to the truth: ``joint`` (one
+SE(3) or 4-DoF fit of the concatenation, as evo's APE of a multi-robot trajectory) or
+``per_robot`` (one fit per robot, the concatenated error pooled: for odometry whose start
+poses are unknown). Adding a variant is one more entry in the ``estimates`` dict.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.trajectory import Trajectory
+from roman_sim.evaluation.ate import AteResult, multi_robot_ate
+
+#: Schema tag of ``ate.json``.
+ATE_SCHEMA = "roman_sim.ate/2"
+Fit = Literal["joint", "per_robot"]
+ALIGNMENTS = ("se3", "4dof")
+#: Row keys for the concatenated trajectories (robot names may not take them).
+COMMON, ALL = "common", "all"
+
+
+@dataclass(frozen=True)
+class VariantEstimate:
+    """One variant's trajectories (connected robots only, in its common frame) and how to fit them."""
+
+    trajectories: Mapping[str, Trajectory]
+    fit: Fit = "joint"
+    description: str = ""
+
+
+@dataclass
+class VariantAte:
+    """One row of the ATE table.
+
+    Attributes:
+        description: what the variant is.
+        fit: ``joint`` or ``per_robot`` (see the module docstring).
+        connected: robots the variant placed in its common frame (scenario order).
+        rmse: alignment -> ``common`` / ``all`` / robot name -> RMSE (m) or None.
+    """
+
+    description: str
+    fit: str
+    connected: list[str]
+    rmse: dict[str, dict[str, float | None]] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {"description": self.description, "fit": self.fit, "connected": self.connected, "rmse": self.rmse}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "VariantAte":
+        """Inverse of ``to_json``."""
+        return cls(str(d["description"]), str(d["fit"]), [str(r) for r in d["connected"]],
+                   {str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}
+                    for a, row in d["rmse"].items()})
+
+
+@dataclass
+class AteTable:
+    """ATE RMSE (m) per trajectory variant, over the same robots in every row.
+
+    Attributes:
+        robots: every robot of the run (scenario order).
+        common: robots every variant placed (what the ``common`` column covers).
+        variants: variant name -> its row, in table order.
+    """
+
+    robots: list[str] = field(default_factory=list)
+    common: list[str] = field(default_factory=list)
+    variants: dict[str, VariantAte] = field(default_factory=dict)
+
+    def rmse(self, variant: str, alignment: str = "se3", robot: str = COMMON) -> float | None:
+        """One RMSE: ``robot`` is ``common`` (default), ``all`` or a robot name."""
+        if variant not in self.variants:
+            raise EvaluationError(f"ATE variant {variant!r} unknown (variants: {', '.join(self.variants) or 'none'})")
+        table = self.variants[variant].rmse
+        if alignment not in table:
+            raise EvaluationError(f"ATE alignment {alignment!r} unknown (alignments: {', '.join(table)})")
+        if robot not in table[alignment]:
+            raise EvaluationError(f"ATE robot {robot!r} unknown (valid: {COMMON}, {ALL}, {', '.join(self.robots)})")
+        return table[alignment][robot]
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict (variants as a list, so their order survives sorted keys)."""
+        return {"schema": ATE_SCHEMA, "robots": self.robots, "common": self.common,
+                "variants": [{"name": k, **v.to_json()} for k, v in self.variants.items()]}
+
+    @classmethod
+    def from_json(cls, d: Any, source: str = "ate") -> "AteTable":
+        """Inverse of ``to_json``; StorageError names ``source`` when the data is not valid."""
+        if not isinstance(d, dict) or d.get("schema") != ATE_SCHEMA:
+            raise StorageError(f"{source}: not an ATE table of schema {ATE_SCHEMA}")
+        try:
+            return cls([str(r) for r in d["robots"]], [str(r) for r in d["common"]],
+                       {str(v["name"]): VariantAte.from_json(v) for v in d["variants"]})
+        except (KeyError, TypeError, ValueError, AttributeError) as err:
+            raise StorageError(f"{source}: malformed ATE table ({type(err).__name__}: {err})") from None
+
+
+def _pooled(results: list[AteResult]) -> float:
+    """RMSE over the union of per-robot residuals: sqrt(sum n rmse^2 / sum n)."""
+    n = sum(r.n for r in results)
+    return math.sqrt(sum(r.n * r.rmse_m**2 for r in results) / n)
+
+
+def _concatenated(est: VariantEstimate, truth: Mapping[str, Trajectory], robots: list[str],
+                  alignment: str) -> float | None:
+    """ATE of ``robots`` (all placed by ``est``) as one trajectory; None if empty or not computable."""
+    if not robots:
+        return None
+    sub_est, sub_ref = {r: est.trajectories[r] for r in robots}, {r: truth[r] for r in robots}
+    res = multi_robot_ate(sub_est, sub_ref, alignment)  # type: ignore[arg-type]
+    if any(res[r] is None for r in robots):
+        return None
+    if est.fit == "per_robot":
+        return _pooled([res[r] for r in robots])  # type: ignore[misc]
+    return None if res["all"] is None else res["all"].rmse_m
+
+
+def ate_table(truth: Mapping[str, Trajectory], estimates: Mapping[str, VariantEstimate],
+              alignments: tuple[str, ...] = ALIGNMENTS) -> AteTable:
+    """Score every variant against ``truth`` over the same robots (see the module docstring).
+
+    Args:
+        truth: robot -> true trajectory (its order is the table's robot order).
+        estimates: variant -> its placed trajectories and fit, in table order.
+        alignments: ``se3`` and/or ``4dof``.
+
+    Raises:
+        EvaluationError: a variant places a robot without truth, or a robot is named
+            ``common`` or ``all``.
+    """
+    robots = list(truth)
+    if {COMMON, ALL} & set(robots):
+        raise EvaluationError(f"ATE table: a robot may not be named {COMMON!r} or {ALL!r}")
+    for name, est in estimates.items():
+        extra = sorted(set(est.trajectories) - set(robots))
+        if extra:
+            raise EvaluationError(f"ATE variant {name!r}: no true trajectory for {', '.join(extra)}")
+    connected = {name: [r for r in robots if r in est.trajectories] for name, est in estimates.items()}
+    common = [r for r in robots if all(r in c for c in connected.values())]
+    table = AteTable(robots, common)
+    for name, est in estimates.items():
+        row = VariantAte(est.description, est.fit, connected[name])
+        for al in alignments:
+            placed = connected[name]
+            per = multi_robot_ate({r: est.trajectories[r] for r in placed}, {r: truth[r] for r in placed},
+                                  al)  # type: ignore[arg-type]
+            cells: dict[str, float | None] = {COMMON: _concatenated(est, truth, common, al),
+                                              ALL: _concatenated(est, truth, robots, al)
+                                              if placed == robots else None}
+            cells.update({r: (None if per.get(r) is None else per[r].rmse_m) for r in robots})  # type: ignore[union-attr]
+            row.rmse[al] = cells
+        table.variants[name] = row
+    return table

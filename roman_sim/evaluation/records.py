@@ -1,0 +1,77 @@
+"""Small typed records of a run: map statistics and one method's estimate for one pair."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.core.errors import StorageError
+
+
+@dataclass(frozen=True)
+class MapStats:
+    """Size of what the robots mapped and would share.
+
+    Attributes:
+        robots: robots with submaps.
+        segments: finished segments of all robots (None when maps are not available).
+        submaps: submaps of all robots.
+        segments_per_submap: mean segments per submap.
+        kb_per_submap, kb_per_submap_max: mean and largest submap packet (kB).
+        trajectory_km: total true trajectory length (None without maps).
+        mb_per_km: submap packets (MB) per km of trajectory.
+    """
+
+    robots: int
+    segments: int | None
+    submaps: int
+    segments_per_submap: float | None
+    kb_per_submap: float | None
+    kb_per_submap_max: float | None
+    trajectory_km: float | None
+    mb_per_km: float | None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return asdict(self)
+
+    @classmethod
+    def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
+        """Inverse of ``to_json``."""
+        try:
+            return cls(**{f.name: d[f.name] for f in fields(cls)})
+        except (KeyError, TypeError) as err:
+            raise StorageError(f"{source}: malformed map statistics ({err})") from None
+
+
+@dataclass(frozen=True)
+class AlignmentRecord:
+    """What one method estimated for one pair (the input of the pose graph's closures).
+
+    Attributes:
+        a, b: submap names (``robot/index``).
+        method: method label.
+        n_associations: accepted associations.
+        T_a_b: 4x4 estimate of b's frame in a's (rounded to 1e-9), or None.
+    """
+
+    a: str
+    b: str
+    method: str
+    n_associations: int
+    T_a_b: NDArray[np.float64] | None
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {"a": self.a, "b": self.b, "method": self.method, "n_associations": self.n_associations,
+                "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist()}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "AlignmentRecord":
+        """Inverse of ``to_json``."""
+        T = d["T_a_b"]
+        return cls(str(d["a"]), str(d["b"]), str(d["method"]), int(d["n_associations"]),
+                   None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4))

@@ -1,0 +1,116 @@
+"""Table cells and rows of the evaluation, shared by ``report.md``, the CLI and the reference summary.
+
+Every recall cell carries its count and interval: ``0.77 (33/43) [0.62, 0.87]``; a set
+with fewer than ``min_relevant`` relevant pairs shows only its count, ``n<5: 1/2``, never a
+bare rate; a set without relevant pairs shows ``n/a``. ATE cells of a robot a variant did
+not place read ``not connected``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from roman_sim.evaluation.atetable import ALL, COMMON, AteTable
+from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
+
+NA = "n/a"
+NOT_CONNECTED = "not connected"
+
+
+def fmt(v: Any, digits: int = 3) -> str:
+    """A table cell: numbers rounded, None/NaN as ``n/a``."""
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return NA
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        return f"{v:.{digits}f}"
+    return str(v)
+
+
+def rate_cell(rate: float | None, k: int, n: int, ci: tuple[float, float] | None, min_n: int = 1,
+              digits: int = 2, interval: bool = True) -> str:
+    """``rate (k/n) [lo, hi]``; ``n<min_n: k/n`` for small sets; ``n/a`` when ``n == 0``."""
+    if n == 0 or rate is None:
+        return NA
+    if n < min_n:
+        return f"n<{min_n}: {k}/{n}"
+    out = f"{rate:.{digits}f} ({k}/{n})"
+    if interval and ci is not None:
+        out += f" [{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+    return out
+
+
+def recall_cell(s: CurveStats, min_n: int, interval: bool = True) -> str:
+    """The max-recall cell of ``s``."""
+    return rate_cell(s.max_recall, s.max_hits, s.n_relevant, s.recall_ci, min_n, interval=interval)
+
+
+def summary_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -> list[dict[str, str]]:
+    """One row per method on pair set ``kind``: counts, max recall, R@P=1, best F1, AUC, coarse bins."""
+    min_n = int(metrics.config.get("min_relevant", 5))
+    rows = []
+    for name, m in metrics.methods.items():
+        ps = m.set(kind)
+        o = ps.overall
+        f1 = fmt(o.best_f1) + (f" (k={o.best_f1_k})" if o.best_f1_k is not None else "")
+        row = {"method": name, "pairs": fmt(o.n_pairs), "relevant": fmt(o.n_relevant),
+               "max recall": recall_cell(o, min_n, interval),
+               "recall@P=1": rate_cell(o.recall_at_precision_1, o.hits_at_precision_1, o.n_relevant,
+                                       o.recall_at_precision_1_ci, min_n, interval=interval),
+               "best F1": f1, "AUC": fmt(o.auc)}
+        for b in ps.heading_bins:
+            row[f"{b.label} deg"] = recall_cell(b.stats, min_n, interval)
+        rows.append(row)
+    return rows
+
+
+def bin_rows(metrics: EvaluationMetrics, kind: str, table: str) -> list[dict[str, str]]:
+    """Max recall per bin (``heading_bins_fine`` or ``ambiguity_bins``) per method, with counts."""
+    min_n = int(metrics.config.get("min_relevant", 5))
+    return [{"method": name, **{b.label: recall_cell(b.stats, min_n, interval=False)
+                                for b in getattr(m.set(kind), table)}} for name, m in metrics.methods.items()]
+
+
+def association_rows(metrics: EvaluationMetrics, kind: str) -> list[dict[str, str]]:
+    """Association precision and recall per coarse heading bin per method (counts in brackets)."""
+    rows = []
+    for name, m in metrics.methods.items():
+        ps = m.set(kind)
+        row = {"method": name}
+        for label, s in [("all", ps.overall)] + [(f"{b.label} deg", b.stats) for b in ps.heading_bins]:
+            p = rate_cell(s.assoc_precision, s.assoc_correct, s.assoc_selected, None, interval=False)
+            r = rate_cell(s.assoc_recall, s.assoc_recovered, s.assoc_available, None, interval=False)
+            row[f"{label}: precision"] = p
+            row[f"{label}: recall"] = r
+        rows.append(row)
+    return rows
+
+
+def ate_rows(ate: AteTable, alignment: str = "se3") -> list[dict[str, str]]:
+    """Rows ``trajectory, robots placed, common, all, per robot`` of one alignment, in variant order."""
+    n = len(ate.robots)
+    common = f"over {', '.join(ate.common)}" if ate.common else "over no robot"
+    rows = []
+    for name, v in ate.variants.items():
+        cells = v.rmse.get(alignment, {})
+        row = {"trajectory": name, "robots placed": f"{len(v.connected)}/{n}",
+               f"ATE {common} (common)": fmt(cells.get(COMMON)),
+               f"ATE over all {n} robots": fmt(cells.get(ALL)) if len(v.connected) == n else NOT_CONNECTED}
+        for r in ate.robots:
+            row[r] = fmt(cells.get(r)) if r in v.connected else NOT_CONNECTED
+        rows.append(row)
+    return rows
+
+
+def markdown_table(rows: list[dict[str, str]]) -> list[str]:
+    """Markdown lines of a table whose rows share their keys (the first row's give the header)."""
+    if not rows:
+        return []
+    cols = list(rows[0])
+    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+    out += ["| " + " | ".join(r.get(c, NA) for c in cols) + " |" for r in rows]
+    return out

@@ -1,0 +1,45 @@
+"""`roman-sim report RUN --verify`: metrics.json from pairs.csv, ate.json from the TUM files."""
+
+from __future__ import annotations
+
+import shutil
+
+from typer.testing import CliRunner
+
+from roman_sim.cli import app
+from roman_sim.evaluation.verify import verify_run
+
+runner = CliRunner()
+
+
+def test_a_fresh_run_verifies(smoke_run):
+    res = verify_run(smoke_run.run_dir)
+    assert res.ok, res.differences
+    assert res.checked == ["metrics.json from pairs.csv", "ate.json from trajectories/*.tum"]
+    out = runner.invoke(app, ["report", str(smoke_run.run_dir), "--verify"])
+    assert out.exit_code == 0 and "verified" in out.output
+
+
+def test_an_edited_pairs_table_or_trajectory_fails_verification(smoke_run, tmp_path):
+    run_dir = tmp_path / "copy"
+    shutil.copytree(smoke_run.run_dir, run_dir)
+    lines = (run_dir / "pairs.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    col = header.index("correct")
+    i = next(i for i, ln in enumerate(lines[1:], 1) if ln.split(",")[col] == "true")
+    cells = lines[i].split(",")
+    cells[header.index("rot_err_deg")] = "9.0"  # an error beyond 5 deg while the row still says correct
+    lines[i] = ",".join(cells)
+    (run_dir / "pairs.csv").write_text("\n".join(lines) + "\n")
+    res = verify_run(run_dir)
+    assert not res.ok and any("correct=True, recomputed False" in d for d in res.differences)
+    out = runner.invoke(app, ["report", str(run_dir), "--verify"])
+    assert out.exit_code == 1 and "NOT verified" in out.output
+    # a moved trajectory: the ATE no longer matches ate.json
+    shutil.copyfile(smoke_run.run_dir / "pairs.csv", run_dir / "pairs.csv")
+    tum = run_dir / "trajectories" / "b.roman.tum"
+    rows = [r.split() for r in tum.read_text().splitlines()]
+    rows[len(rows) // 2][1] = f"{float(rows[len(rows) // 2][1]) + 5.0:.9f}"
+    tum.write_text("".join(" ".join(r) + "\n" for r in rows))
+    res = verify_run(run_dir)
+    assert not res.ok and all(d.startswith("ate.json") for d in res.differences)
