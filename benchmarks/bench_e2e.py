@@ -6,6 +6,14 @@ resetting it through ``/proc/self/clear_refs`` at the stage's start (Linux), as 
 ``Experiment`` does (``stages.json`` keeps the same figures for any run).
 Writes ``benchmarks/out/e2e.json``.
 Run: ``python benchmarks/bench_e2e.py [scenario ...]`` (default: demo opposite_direction).
+
+``--eval-ratio --baseline DIR [--repeats N]`` measures the demo's evaluation stage alone, with
+every pair scored, against the same stage of another checkout of the package (``DIR`` holds
+its ``roman_sim/``, e.g. ``git archive <commit> roman_sim | tar -x -C DIR``) run with the
+40 m distance cap the demo used to have, on the same rendered maps and submaps, alternating
+the two ``N`` times in one run so that both see the same machine load. Writes
+``benchmarks/out/eval_ratio.json`` with the median seconds of each and their ratio.
+``--prepared RUN`` takes the maps and submaps from a finished demo run instead of running one.
 """
 
 from __future__ import annotations
@@ -13,6 +21,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -47,9 +56,73 @@ def run_one(name: str) -> dict:
     }
 
 
+EVAL_CHILD = """
+import json, shutil, sys
+from pathlib import Path
+from roman_sim.pipeline.experiment import Experiment
+from roman_sim.pipeline.scenario import load_scenario
+src, dst, sets = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3:]
+if dst.exists():
+    shutil.rmtree(dst)
+shutil.copytree(src, dst)
+res = Experiment(load_scenario("demo", sets), dst, from_stage="evaluation").run()
+print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "pairs": res.metrics.n_pairs}))
+"""
+
+
+def _eval_child(tree: Path, prepared: Path, dst: Path, sets: list[str]) -> dict:
+    env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONWARNINGS": "ignore"}
+    proc = subprocess.run([sys.executable, "-c", EVAL_CHILD, str(prepared), str(dst), *sets],
+                          capture_output=True, text=True, env=env)
+    if proc.returncode != 0:
+        print(proc.stderr[-2000:], file=sys.stderr)
+        raise SystemExit(f"evaluation stage failed in {tree}")
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -> dict:
+    """Median evaluation-stage seconds: baseline (40 m cap) and this tree (every pair), alternated.
+
+    ``prepared_run``: a finished demo run folder to take the maps and submaps from (else one is run).
+    """
+    import statistics
+
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import load_scenario
+
+    here = Path(__file__).resolve().parents[1]
+    with tempfile.TemporaryDirectory() as d:
+        prepared = Path(d) / "demo"
+        if prepared_run is not None:
+            shutil.copytree(prepared_run, prepared)
+        Experiment(load_scenario("demo"), prepared).run()  # render, map and cut submaps once (or reuse them)
+        runs: dict[str, list[dict]] = {"baseline": [], "current": []}
+        for _ in range(repeats):
+            runs["baseline"].append(_eval_child(baseline, prepared, Path(d) / "b", ["evaluation.max_pair_dist_m=40.0"]))
+            runs["current"].append(_eval_child(here, prepared, Path(d) / "c", []))
+    med = {k: statistics.median(r["seconds"] for r in v) for k, v in runs.items()}
+    return {"baseline_tree": str(baseline), "repeats": repeats, "runs": runs,
+            "baseline_pairs": runs["baseline"][0]["pairs"], "current_pairs": runs["current"][0]["pairs"],
+            "baseline_median_s": med["baseline"], "current_median_s": med["current"],
+            "ratio": med["current"] / med["baseline"], "load_average_at_end": os.getloadavg()}
+
+
 def main(argv: list[str]) -> None:
     if argv and argv[0] == "--child":
         print(json.dumps(run_one(argv[1]), default=float))
+        return
+    if argv and argv[0] == "--eval-ratio":
+        if "--baseline" not in argv:
+            raise SystemExit("--eval-ratio needs --baseline DIR (a checkout holding the roman_sim package to compare)")
+        baseline = Path(argv[argv.index("--baseline") + 1]).resolve()
+        repeats = int(argv[argv.index("--repeats") + 1]) if "--repeats" in argv else 2
+        prepared = Path(argv[argv.index("--prepared") + 1]) if "--prepared" in argv else None
+        from roman_sim.core.atomic import write_json
+
+        res = eval_ratio(baseline, repeats, prepared)
+        write_json(OUT.with_name("eval_ratio.json"), {"machine": {"cpus": os.cpu_count()}, **res})
+        print(f"evaluation stage: baseline {res['baseline_median_s']:.1f} s for {res['baseline_pairs']} pairs, "
+              f"current {res['current_median_s']:.1f} s for {res['current_pairs']} pairs: ratio {res['ratio']:.2f}")
         return
     names = argv or ["demo", "opposite_direction"]
     results = []

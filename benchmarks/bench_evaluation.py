@@ -17,6 +17,8 @@ import numpy as np
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_json
+from roman_sim.core.seeding import child_rng
+from roman_sim.evaluation.assoc import shared_objects, true_correspondences
 from roman_sim.evaluation.mapview import render_map
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import PairTruth
@@ -25,7 +27,6 @@ from roman_sim.evaluation.report import write_report
 from roman_sim.evaluation.results import read_pairs_csv, write_pairs_csv
 from roman_sim.geometry import make_T, pose_4dof, rot_x
 from roman_sim.mapping.types import Submap, SubmapTruth
-from roman_sim.core.seeding import child_rng
 
 OUT = Path(__file__).resolve().parent / "out" / "evaluation.json"
 N_PAIRS, METHODS = 5000, ("roman", "clipper", "ransac")
@@ -36,8 +37,11 @@ def _truths(rng: np.random.Generator) -> list[PairTruth]:
     for i in range(N_PAIRS):
         x, y, yaw = rng.uniform(-30, 30), rng.uniform(-30, 30), rng.uniform(-np.pi, np.pi)
         d = float(np.hypot(x, y))
+        ids_a, ids_b = rng.integers(0, 60, 40), rng.integers(0, 60, 40)
         out.append(PairTruth(f"a/{i}", f"b/{i}", "a", "b", i, i, pose_4dof(x, y, 0.0, yaw), d,
-                             abs(np.degrees(yaw)), rng.uniform(), rng.uniform(), d <= 10.0, "inter"))
+                             abs(np.degrees(yaw)), rng.uniform(), rng.uniform(), d <= 10.0,
+                             "inter" if i % 4 else "intra",
+                             shared_objects(ids_a, ids_b), true_correspondences(ids_a, ids_b), ids_a, ids_b))
     return out
 
 
@@ -46,7 +50,7 @@ def _results(rng: np.random.Generator, truths: list[PairTruth], method: str) -> 
     for t in truths:
         n = int(rng.integers(0, 25))
         err = make_T(rot_x(rng.normal(0, 0.05)), rng.normal(0, 0.5 if rng.uniform() < 0.6 else 5.0, 3))
-        idx = np.zeros((n, 2), dtype=np.int64)
+        idx = np.stack([rng.integers(0, 40, n), rng.integers(0, 40, n)], 1).astype(np.int64)
         out.append(AlignResult(method, t.T_a_b_true @ err, idx, np.ones(n), float(rng.uniform(0.01, 0.2))))
     return out
 
@@ -81,7 +85,8 @@ def main() -> dict:
         d = Path(tmp)
         _, fig["pairs_csv_write_s"] = _timed(write_pairs_csv, d / "pairs.csv", scores)
         fig["pairs_csv_kb"] = (d / "pairs.csv").stat().st_size / 1024
-        _, fig["pairs_csv_read_s"] = _timed(read_pairs_csv, d / "pairs.csv")
+        back, fig["pairs_csv_read_s"] = _timed(read_pairs_csv, d / "pairs.csv")
+        _, fig["summary_from_csv_s"] = _timed(summary, back)
         _, fig["metric_plots_s"] = _timed(write_metric_plots, metrics, d / "plots")
         _, fig["report_s"] = _timed(write_report, d, "bench", metrics)
     subs = _submaps(rng)

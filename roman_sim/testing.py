@@ -10,7 +10,10 @@ Example (in a user's own test suite)::
         assert_recall(run, "MyAligner", {"0-60": 0.2, "120-180": 0.1})
         assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")
 
-Runs are cached in ``out``: several tests on the same scenario share one simulation.
+Runs are cached in ``out``: several tests on the same scenario share one simulation. Figures
+refer to the run's headline pair set (cross-robot pairs when the run has them) unless
+``kind`` names another (``inter``, ``intra``, ``all``). Prefer pinning counts
+(``assert_hits``): a recall of 2 relevant pairs moves by 0.5 when one pair flips.
 """
 
 from __future__ import annotations
@@ -43,6 +46,7 @@ def assert_recall(
     method: str,
     minimum: float | Mapping[str, float],
     key: str = "max_recall",
+    kind: str | None = None,
 ) -> None:
     """Assert ``method``'s recall is at least ``minimum`` overall, or per heading bin.
 
@@ -51,35 +55,49 @@ def assert_recall(
         method: aligner label (for ``package.module:Class`` the class name).
         minimum: one overall bound, or ``{"0-60": 0.5, "120-180": 0.2}`` per heading bin.
         key: which figure (``max_recall``, ``recall_at_precision_1``, ``best_f1``, ``auc``).
+        kind: pair set (default: the run's headline set).
     """
     method = method_label(method)
     bounds = {None: minimum} if isinstance(minimum, (int, float)) else dict(minimum)
     failures = []
     for bin_label, lo in bounds.items():
-        got = _figure(run, method, bin_label, key)
+        got = _figure(run, method, bin_label, key, kind)
         if got is None or got < lo:
             where = "overall" if bin_label is None else f"heading {bin_label} deg"
             failures.append(f"{method} {key} {where}: {got} < {lo}")
     assert not failures, "; ".join(failures)
 
 
-def _figure(run: RunResult, method: str, bin_label: str | None, key: str) -> float | None:
-    return run.metrics.figure(method, bin_label, key)
+def _figure(run: RunResult, method: str, bin_label: str | None, key: str, kind: str | None = None) -> float | None:
+    return run.metrics.figure(method, bin_label, key, kind)
+
+
+def assert_hits(run: RunResult, method: str, pinned: Mapping[str | None, int], tolerance: int = 1,
+                kind: str | None = None) -> None:
+    """Assert ``method``'s max-recall hits per heading bin (None: overall) are within ``tolerance``."""
+    method = method_label(method)
+    failures = []
+    for bin_label, hits in pinned.items():
+        s = run.metrics.stats(method, bin_label, kind)
+        if abs(s.max_hits - hits) > tolerance:
+            where = "overall" if bin_label is None else f"heading {bin_label} deg"
+            failures.append(f"{method} hits {where}: {s.max_hits}/{s.n_relevant}, pinned {hits} +- {tolerance}")
+    assert not failures, "; ".join(failures)
 
 
 def assert_not_worse(
     run: RunResult, method: str, baseline: str, heading_bin: str | None = None,
-    key: str = "max_recall", tolerance: float = 0.0,
+    key: str = "max_recall", tolerance: float = 0.0, kind: str | None = None,
 ) -> None:
     """Assert ``method`` reaches at least ``baseline``'s figure (minus ``tolerance``)."""
     method, baseline = method_label(method), method_label(baseline)
-    got, ref = _figure(run, method, heading_bin, key), _figure(run, baseline, heading_bin, key)
+    got, ref = _figure(run, method, heading_bin, key, kind), _figure(run, baseline, heading_bin, key, kind)
     assert got is not None and ref is not None, f"{key} undefined: {method}={got}, {baseline}={ref}"
     assert got >= ref - tolerance, f"{method} {key} {heading_bin or 'overall'}: {got:.3f} < {baseline} {ref:.3f}"
 
 
 def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", alignment: str = "se3") -> None:
-    """Assert the pose graph ``variant``'s concatenated ATE is below ``reference``'s."""
+    """Assert ``variant``'s ATE is below ``reference``'s, over the robots every row placed."""
     got = run.ate.rmse(variant, alignment)
     ref = run.ate.rmse(reference, alignment)
     assert got is not None and ref is not None, f"ATE not computable: {variant}={got}, {reference}={ref}"

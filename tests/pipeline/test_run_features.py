@@ -65,9 +65,11 @@ def test_run_folder_contents(smoke_run):
                  "ate.json", "posegraph.json", "map_stats.json", "timings.json"):
         assert (d / name).is_file(), name
     for robot in ("a", "b"):
-        for variant in ("truth", "odometry", "roman", "oracle"):
+        for variant in ("truth", "odometry", "odometry_no_prior", "roman", "oracle"):
             assert (d / "trajectories" / f"{robot}.{variant}.tum").is_file()
-    assert (d / "plots" / "trajectories.png").stat().st_size > 1000
+    for plot in ("trajectories", "segments_on_image", "recall_heading", "precision_recall_heading",
+                 "association_heading", "alignment_roman_correct", "alignment_clipper_false_positive"):
+        assert (d / "plots" / f"{plot}.png").stat().st_size > 1000, plot
     assert not list(d.rglob("*.tmp"))
     stages = json.loads((d / "timings.json").read_text())["stages"]
     assert stages["maps"]["seconds"] > 0 and stages["maps"]["peak_rss_mb"] > 0
@@ -83,6 +85,8 @@ def test_report_command_prints_summary(smoke_run):
     res = runner.invoke(app, ["report", str(smoke_run.run_dir)])
     assert res.exit_code == 0, res.output
     assert "roman" in res.output and "ATE" in res.output
+    assert "cross-robot (headline) pairs" in res.output and "same-robot pairs" in res.output
+    assert "no distance cap" in res.output and "odometry_no_prior" in res.output
 
 
 @pytest.mark.parametrize("name", sorted(bundled_scenarios()))
@@ -162,19 +166,26 @@ def test_every_bundled_sweep_validates(path):
         load_scenario(scenario, list(run.overrides) + [f"seed={run.seed}"]).world.spec()
 
 
-def test_reproduce_collects_small_results(smoke_run, tmp_path):
-    from roman_sim.pipeline.reference import reproduce
+def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
+    from roman_sim.evaluation.verify import verify_run
+    from roman_sim.pipeline.reference import rederive, reproduce
 
     shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
     path = reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")
     dest = tmp_path / "ref" / "smoke"
     assert (dest / "metrics.json").is_file() and (dest / "report.md").is_file()
-    assert (dest / "plots" / "precision_recall.png").is_file()
-    assert not (dest / "maps").exists()  # only small files are collected
+    assert (dest / "plots" / "precision_recall.png").is_file() and not (dest / "plots" / "map_view.png").exists()
+    for raw in ("pairs.csv.gz", "alignments.json.gz", "trajectories/a.roman.tum.gz", "trajectories/b.truth.tum.gz"):
+        assert (dest / raw).is_file(), raw
+    assert not (dest / "maps").exists() and not (dest / "pairs.csv").exists()
+    assert verify_run(dest, pairs_file="pairs.csv.gz", tum_suffix=".gz").ok
+    summary = json.loads((tmp_path / "ref" / "summary.json").read_text())
+    again = rederive(tmp_path / "ref")  # the whole summary follows from the collected raw files
+    assert json.loads(json.dumps(again, sort_keys=True)) == summary
     text = path.read_text()
     assert "map size (MB per km)" in text
     assert f"{smoke_run.map_stats.mb_per_km:.2f}" in text
-    assert "ROMAN max recall, same direction | 0.67 | n/a" in text  # not run here: not computable
+    assert "| roman max recall, same direction | 0.67 | n/a | n/a |" in text  # not run here: not computable
 
 
 def test_record_command_stores_readable_frames(tmp_path):
@@ -206,14 +217,14 @@ def test_from_stage_recomputes_later_stages_only(smoke_run, tmp_path):
 
 
 def test_sweep_markdown_table():
-    from roman_sim.pipeline.reference import sweep_markdown
+    from roman_sim.pipeline.claims import sweep_markdown
 
-    rows = [{"ambiguity": "0.0", "method": "roman", "max_recall": 0.7},
-            {"ambiguity": "0.0", "method": "clipper", "max_recall": 0.6},
-            {"ambiguity": "1.0", "method": "roman", "max_recall": None}]
+    rows = [{"ambiguity": 0.0, "method": "roman", "recall": 0.7, "hits": 7, "relevant": 10, "ci": [0.4, 0.89]},
+            {"ambiguity": 0.0, "method": "clipper", "recall": 0.5, "hits": 1, "relevant": 2, "ci": [0.09, 0.91]},
+            {"ambiguity": 1.0, "method": "roman", "recall": None, "hits": 0, "relevant": 0, "ci": None}]
     text = sweep_markdown(rows)
     assert "| ambiguity | clipper | roman |" in text
-    assert "| 0.0 | 0.60 | 0.70 |" in text and "| 1.0 | n/a | n/a |" in text
+    assert "| 0 | n<5: 1/2 | 0.70 (7/10) [0.40, 0.89] |" in text and "| 1 | n/a | n/a |" in text
     assert sweep_markdown([]) == ""
 
 

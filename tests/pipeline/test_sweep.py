@@ -71,6 +71,29 @@ def test_serial_sweep_resumes_and_matches_dask(tmp_path):
     assert _metrics(serial_run) == _metrics(dask_run)
 
 
+def test_sweep_summary_over_seeds_and_report(tmp_path):
+    from roman_sim.evaluation.intervals import mean_interval
+    from roman_sim.pipeline.result import RunResult
+
+    cfg, scenario = load_sweep(_write(tmp_path))
+    out = tmp_path / "serial"
+    run_sweep(cfg, scenario, out)
+    rows = list(csv.DictReader((out / "sweep_summary.csv").open()))
+    row = next(r for r in rows if r["method"] == "roman" and r["kind"] == "inter" and r["bin"] == "all")
+    runs = [RunResult.load(out / r["run_id"]) for r in json.loads((out / "sweep.json").read_text())["runs"]]
+    per_seed = [r.metrics.stats("roman", kind="inter") for r in runs]
+    used = [s for s in per_seed if s.n_relevant]
+    assert int(row["n_seeds"]) == len(used) and int(row["relevant"]) == sum(s.n_relevant for s in used)
+    assert int(row["hits"]) == sum(s.max_hits for s in used)
+    mean, ci = mean_interval([s.max_hits / s.n_relevant for s in used])
+    assert float(row["mean_recall"]) == pytest.approx(mean)
+    if ci is not None:
+        assert (float(row["ci_low"]), float(row["ci_high"])) == pytest.approx(ci)
+    res = CliRunner().invoke(app, ["report", str(out)])
+    assert res.exit_code == 0, res.output
+    assert "sweep micro, cross-robot pairs" in res.output and "roman" in res.output
+
+
 def test_sweep_cli_bad_file(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("name: x\nscenario: smoke\ngrid: {a: [1]}\nseeds: []\n")

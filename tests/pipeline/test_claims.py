@@ -1,0 +1,52 @@
+"""Claims of the reference summary on hand-made run summaries: they hold only when the data says so."""
+
+from __future__ import annotations
+
+from roman_sim.pipeline.claims import claims, claims_markdown, comparison
+
+
+def _rec(h: int, n: int) -> dict:
+    return {"max_recall": h / n if n else None, "max_hits": h, "n_relevant": n, "recall_ci": [0.0, 1.0] if n else None,
+            "few": n < 5}
+
+
+def _method(bins: dict[str, tuple[int, int]], overall: tuple[int, int], runtime: float = 0.01) -> dict:
+    one = {**_rec(*overall), "bins": {b: _rec(*v) for b, v in bins.items()}}
+    return {"inter": one, "intra": {**_rec(0, 0), "bins": {}}, "runtime_median_s": runtime}
+
+
+def _runs(roman_opp: tuple[int, int], ransac_opp: tuple[int, int]) -> dict:
+    return {
+        "same_direction": {"methods": {"roman": _method({"0-60": (9, 10)}, (9, 10), 0.004),
+                                       "ransac1m": _method({"0-60": (8, 10)}, (8, 10), 0.04)}, "map": {}},
+        "opposite_direction": {"methods": {"roman": _method({"120-180": roman_opp}, roman_opp, 0.004),
+                                           "ransac1m": _method({"120-180": ransac_opp}, ransac_opp, 0.04)},
+                               "map": {}},
+        "multi_robot_tunnel": {"methods": {}, "map": {}, "ate_robots": {"robots": ["a", "b", "c"], "common": ["a"]},
+                               "ate": {"odometry": {"connected": 3, "common": 0.4, "all": 0.6},
+                                       "odometry_no_prior": {"connected": 3, "common": 0.3, "all": 0.35},
+                                       "roman": {"connected": 1, "common": 0.4, "all": None},
+                                       "oracle": {"connected": 3, "common": 0.3, "all": 0.4}}},
+    }
+
+
+def test_claims_follow_the_numbers():
+    by_id = {c["id"]: c for c in claims(_runs((6, 10), (5, 10)), [])}
+    assert by_id["opposite_harder"]["holds"]
+    assert by_id["roman_at_or_above_every_baseline"]["holds"]
+    assert by_id["roman_faster_than_ransac1m"]["holds"] and "10.0x" in by_id["roman_faster_than_ransac1m"]["text"]
+    # ROMAN placed 1 of 3 robots and equals odometry over that robot: neither ATE claim holds
+    assert not by_id["roman_ate_below_odometry"]["holds"] and not by_id["roman_places_every_robot"]["holds"]
+    assert "multi_robot_tunnel 1/3" in by_id["roman_places_every_robot"]["text"]
+    worse = {c["id"]: c for c in claims(_runs((6, 10), (7, 10)), [])}["roman_at_or_above_every_baseline"]
+    assert not worse["holds"] and "opposite_direction 120-180 deg: roman 0.60 (6/10)" in worse["text"]
+    text = claims_markdown(claims(_runs((6, 10), (7, 10)), []))
+    assert text.index(worse["text"]) > text.index("Where it does not:")
+
+
+def test_small_bins_are_not_compared_and_cells_carry_counts():
+    by_id = {c["id"]: c for c in claims(_runs((1, 2), (2, 2)), [])}
+    assert "(1 comparisons" in by_id["roman_at_or_above_every_baseline"]["text"]  # only the 10-pair bin counts
+    rows = {r["figure"]: r for r in comparison(_runs((1, 2), (2, 2)))}
+    assert rows["roman max recall, opposite direction"]["cross-robot"] == "n<5: 1/2"
+    assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.00, 1.00]"

@@ -1,0 +1,76 @@
+"""The committed reference results: every number and claim follows from their raw data.
+
+Driven by ``results/reference/summary.json`` (whatever scenarios and claims it holds, so a
+later regeneration needs no change here): each run's ``metrics.json`` and ``ate.json`` are
+recomputed from its compressed pairs table and trajectories; the whole summary is re-derived
+from the raw files; ``summary.md`` and the README's results block must be exactly what that
+summary renders to. A claim that does not hold on the data cannot be listed as holding.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from roman_sim.evaluation.verify import compare, verify_run
+from roman_sim.pipeline.reference import README_BEGIN, README_END, readme_block, rederive, summary_markdown
+
+ROOT = Path(__file__).resolve().parents[2]
+REF = ROOT / "results" / "reference"
+#: Committed reference results (raw data included) must stay small enough for a repository.
+MAX_REFERENCE_MB = 12.0
+
+pytestmark = pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
+
+
+def _summary() -> dict:
+    return json.loads((REF / "summary.json").read_text(encoding="utf-8"))
+
+
+def _scenarios() -> list[str]:
+    return sorted(_summary()["runs"]) if (REF / "summary.json").is_file() else []
+
+
+@pytest.mark.parametrize("scenario", _scenarios())
+def test_each_reference_run_recomputes_from_its_raw_data(scenario):
+    res = verify_run(REF / scenario, rel_tol=1e-6, pairs_file="pairs.csv.gz", tum_suffix=".gz")
+    assert res.ok, res.differences[:10]
+    assert len(res.checked) == (2 if (REF / scenario / "ate.json").is_file() else 1)
+
+
+def test_summary_follows_from_the_raw_files():
+    committed = _summary()
+    again = json.loads(json.dumps(rederive(REF), sort_keys=True))
+    diffs = compare(committed, again, "summary.json", rel_tol=1e-6, abs_tol=1e-9)
+    assert not diffs, diffs[:10]
+
+
+def test_claims_are_listed_as_the_data_says():
+    summary = _summary()
+    assert summary["claims"], "the reference summary states no claim"
+    text = summary_markdown(summary)
+    held, failed = text.split("Where it does not:")
+    for c in summary["claims"]:
+        assert c["text"] in (held if c["holds"] else failed), c["id"]
+
+
+def test_summary_md_is_rendered_from_the_summary():
+    assert (REF / "summary.md").read_text(encoding="utf-8") == summary_markdown(_summary())
+
+
+def test_readme_results_block_is_rendered_from_the_summary():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
+    assert readme[start:end] == readme_block(_summary())
+
+
+def test_reference_results_keep_raw_data_and_stay_small():
+    total = sum(p.stat().st_size for p in REF.rglob("*") if p.is_file())
+    assert total < MAX_REFERENCE_MB * 1e6, f"{total / 1e6:.1f} MB"
+    for scenario in _scenarios():
+        d = REF / scenario
+        assert (d / "pairs.csv.gz").is_file() and (d / "alignments.json.gz").is_file()
+        if (d / "ate.json").is_file():
+            assert list((d / "trajectories").glob("*.truth.tum.gz"))
