@@ -12,7 +12,7 @@ Example (in a user's own test suite)::
 
 Runs are cached in ``out``: several tests on the same scenario share one simulation. Figures
 refer to the run's headline pair set (cross-robot pairs when the run has them) unless
-``kind`` names another (``inter``, ``intra``, ``all``). Prefer pinning counts
+``kind`` names the other (``inter`` or ``intra``). Prefer pinning counts
 (``assert_hits``): a recall of 2 relevant pairs moves by 0.5 when one pair flips.
 """
 

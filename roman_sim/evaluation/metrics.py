@@ -13,8 +13,8 @@ Association truth (``assoc``): per pair, the true correspondences available and,
 method's selected associations, the correct and recovered ones; a pair set's association
 precision is correct / selected and its recall recovered / available, summed over pairs.
 
-Every method is scored on cross-robot pairs (``inter``), same-robot pairs (``intra``) and
-both (``all``); the headline set is ``inter`` when the run has cross-robot pairs. Undefined
+Every method is scored on cross-robot pairs (``inter``) and same-robot pairs (``intra``)
+apart; the headline set is ``inter`` when the run has cross-robot pairs. Undefined
 values (no relevant pair, no positive) are NaN inside curves and ``None`` in summaries,
 never 0, so that "could not be computed" is never read as "failed".
 
@@ -204,12 +204,8 @@ def _set_summary(scores: list[PairScore], cfg: EvalConfig) -> PairSetMetrics:
     )
 
 
-def _in_set(kind: str, s: PairScore) -> bool:
-    return kind == "all" or s.truth.kind == kind
-
-
 def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> MethodMetrics:
-    sets = {k: _set_summary([s for s in scores if _in_set(k, s)], cfg) for k in PAIR_SETS}
+    sets = {k: _set_summary([s for s in scores if s.truth.kind == k], cfg) for k in PAIR_SETS}
     return MethodMetrics(sets, n_failed=sum(1 for s in scores if s.reason is not None))
 
 
@@ -217,7 +213,7 @@ def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
     pairs = {(s.truth.a, s.truth.b): s.truth for s in scores}
     return {k: {"n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
                 "n_relevant": sum(1 for t in pairs.values() if (k == "all" or t.kind == k) and t.relevant)}
-            for k in PAIR_SETS}
+            for k in (*PAIR_SETS, "all")}
 
 
 def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: int = 0) -> EvaluationMetrics:

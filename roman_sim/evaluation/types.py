@@ -1,7 +1,7 @@
 """Typed results of the alignment evaluation, with ``to_json`` / ``from_json``.
 
 ``EvaluationMetrics`` is what ``metrics.json`` holds: per method and per pair set
-(``inter``: cross-robot pairs, ``intra``: same-robot pairs, ``all``) the headline numbers
+(``inter``: cross-robot pairs, ``intra``: same-robot pairs; never mixed) the headline numbers
 (``CurveStats``, each recall with its hits / relevant count and a Wilson interval, plus
 association precision and recall against the true correspondences), the precision-recall
 curve, and the heading and ambiguity bins. The ``headline`` pair set is ``inter`` when the
@@ -44,8 +44,8 @@ def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:
     return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
 
 
-#: The pair sets every method is scored on: cross-robot, same-robot, both.
-PAIR_SETS = ("inter", "intra", "all")
+#: The pair sets every method is scored on: cross-robot and same-robot (never mixed).
+PAIR_SETS = ("inter", "intra")
 #: How the pair sets are named in tables.
 PAIR_SET_LABELS = {"inter": "cross-robot", "intra": "same-robot", "all": "all pairs"}
 
@@ -223,7 +223,7 @@ class MethodMetrics:
     """Everything the evaluation says about one method.
 
     Attributes:
-        sets: pair set (``inter``, ``intra``, ``all``) -> its metrics.
+        sets: pair set (``inter``, ``intra``) -> its metrics.
         n_failed: pairs on which the method produced no estimate.
     """
 
@@ -255,7 +255,7 @@ class EvaluationMetrics:
         headline: the pair set headline figures refer to (``inter`` when there are
             cross-robot pairs, else ``intra``).
         n_pairs, n_relevant: distinct pairs scored, and how many should align.
-        pairs: per pair set, ``{"n_pairs": .., "n_relevant": ..}``.
+        pairs: per pair set and ``all``, ``{"n_pairs": .., "n_relevant": ..}``.
         n_candidates, n_skipped: pairs before the distance cap, and how many it skipped.
         methods: method label -> its metrics (sorted by label).
         notes: statements for the report (undefined figures and why).
@@ -286,7 +286,7 @@ class EvaluationMetrics:
                kind: str | None = None) -> Any:
         """One figure (a ``CurveStats`` field) of ``method`` overall or in a heading bin.
 
-        ``kind`` is the pair set (``inter``, ``intra``, ``all``); default the headline set.
+        ``kind`` is the pair set (``inter``, ``intra``); default the headline set.
         """
         if key not in {f.name for f in fields(CurveStats)}:
             raise EvaluationError(f"figure {key!r} unknown (valid: {', '.join(f.name for f in fields(CurveStats))})")

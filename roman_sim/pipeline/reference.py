@@ -50,11 +50,26 @@ def _gzip_copy(src: Path, dest: Path) -> None:
     write_bytes(dest, gzip.compress(src.read_bytes(), compresslevel=9, mtime=0))
 
 
+def _timings_summary(path: Path) -> dict[str, Any]:
+    """``timings.json`` without the per-pair runtime lists (the statistics are kept)."""
+    data = _json(path)
+    for stage in data.get("stages", {}).values():
+        for method in (stage.get("alignment") or {}).values():
+            method.pop("per_pair_s", None)
+    return data
+
+
 def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True) -> None:
-    """Copy a run's small results and its raw data (gzip) into ``dest``."""
+    """Copy a run's small results and its raw data (gzip) into ``dest``.
+
+    ``timings.json`` is kept without its per-pair runtime lists (medians, means and 90th
+    percentiles per method stay).
+    """
     dest.mkdir(parents=True, exist_ok=True)
     for name in SMALL_FILES:
-        if (run_dir / name).is_file():
+        if name == "timings.json" and (run_dir / name).is_file():
+            write_json(dest / name, _timings_summary(run_dir / name))
+        elif (run_dir / name).is_file():
             shutil.copyfile(run_dir / name, dest / name)
     for name in RAW_FILES:
         if (run_dir / name).is_file():

@@ -74,7 +74,7 @@ class RunResult:
     def recall(self, method: str, heading_bin: str | None = None, kind: str | None = None) -> float | None:
         """Max recall of ``method`` overall or in a heading bin such as ``"120-180"``.
 
-        ``kind``: ``inter`` (cross-robot), ``intra`` (same-robot) or ``all``; default the
+        ``kind``: ``inter`` (cross-robot) or ``intra`` (same-robot); default the
         headline set (cross-robot when the run has cross-robot pairs).
         """
         return self.metrics.figure(method, heading_bin, "max_recall", kind)

@@ -48,7 +48,7 @@ def test_evaluate_and_save(make_submap, tmp_path):
     # cross-robot: a0-b0 (relevant, identity right), a0-b1 (relevant, 3 m off), a0-b2 (far); same-robot: b0-b2
     ident = m["identity"].set("inter").overall
     assert (ident.n_pairs, ident.n_relevant, ident.max_hits, ident.max_recall) == (3, 2, 1, 0.5)
-    assert m["identity"].set("intra").overall.n_relevant == 0 and m["identity"].set("all").overall.n_pairs == 4
+    assert m["identity"].set("intra").overall.n_relevant == 0 and m["identity"].set("intra").overall.n_pairs == 1
     # association truth: identity selects (i, i) on submaps with the same ids -> every association correct
     assert (ident.assoc_selected, ident.assoc_correct, ident.assoc_available) == (12, 12, 12)
     assert m["never"].set("inter").overall.max_recall == 0.0 and m["never"].n_failed == 4

@@ -77,10 +77,10 @@ def test_cross_and_same_robot_pairs_are_scored_apart(make_score):
     assert m.headline == "inter"
     assert m.pairs == {"inter": {"n_pairs": 2, "n_relevant": 2}, "intra": {"n_pairs": 3, "n_relevant": 3},
                        "all": {"n_pairs": 5, "n_relevant": 5}}
-    inter, intra, both = (m.stats("m", kind=k) for k in ("inter", "intra", "all"))
+    inter, intra = (m.stats("m", kind=k) for k in ("inter", "intra"))
     assert (inter.max_hits, inter.n_relevant, inter.few) == (1, 2, True)
     assert (intra.max_hits, intra.n_relevant, intra.few) == (3, 3, False)
-    assert (both.max_hits, both.n_relevant) == (4, 5)
+    assert set(m.methods["m"].sets) == {"inter", "intra"}  # never mixed
     assert m.figure("m") == 0.5 and m.figure("m", kind="intra") == 1.0
     only_intra = summary([make_score("0", True, 6, True, kind="intra")])
     assert only_intra.headline == "intra" and only_intra.figure("m") == 1.0
