@@ -12,7 +12,8 @@ every pair scored, against the same stage of another checkout of the package (``
 its ``roman_sim/``, e.g. ``git archive <commit> roman_sim | tar -x -C DIR``) run with the
 40 m distance cap the demo used to have, on the same rendered maps and submaps, alternating
 the two ``N`` times in one run so that both see the same machine load. Writes
-``benchmarks/out/eval_ratio.json`` with the median seconds of each and their ratio.
+``benchmarks/out/eval_ratio.json`` with the median wall and CPU seconds of each and their ratios
+(the CPU ratio is the robust one on a shared machine).
 ``--prepared RUN`` takes the maps and submaps from a finished demo run instead of running one.
 """
 
@@ -57,16 +58,25 @@ def run_one(name: str) -> dict:
 
 
 EVAL_CHILD = """
-import json, shutil, sys
+import json, shutil, sys, time
 from pathlib import Path
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.pipeline.stages import evaluation as stage
 src, dst, sets = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3:]
 if dst.exists():
     shutil.rmtree(dst)
 shutil.copytree(src, dst)
+run, cpu = stage.EvaluationStage.run, {}
+def timed(self, *args, **kwargs):  # CPU seconds of the stage itself: robust to other processes' load
+    t0 = time.process_time()
+    out = run(self, *args, **kwargs)
+    cpu["s"] = time.process_time() - t0
+    return out
+stage.EvaluationStage.run = timed
 res = Experiment(load_scenario("demo", sets), dst, from_stage="evaluation").run()
-print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "pairs": res.metrics.n_pairs}))
+print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds": cpu["s"],
+                  "pairs": res.metrics.n_pairs}))
 """
 
 
@@ -101,10 +111,13 @@ def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -
             runs["baseline"].append(_eval_child(baseline, prepared, Path(d) / "b", ["evaluation.max_pair_dist_m=40.0"]))
             runs["current"].append(_eval_child(here, prepared, Path(d) / "c", []))
     med = {k: statistics.median(r["seconds"] for r in v) for k, v in runs.items()}
+    cpu = {k: statistics.median(r["cpu_seconds"] for r in v) for k, v in runs.items()}
     return {"baseline_tree": str(baseline), "repeats": repeats, "runs": runs,
             "baseline_pairs": runs["baseline"][0]["pairs"], "current_pairs": runs["current"][0]["pairs"],
             "baseline_median_s": med["baseline"], "current_median_s": med["current"],
-            "ratio": med["current"] / med["baseline"], "load_average_at_end": os.getloadavg()}
+            "ratio": med["current"] / med["baseline"],
+            "baseline_median_cpu_s": cpu["baseline"], "current_median_cpu_s": cpu["current"],
+            "cpu_ratio": cpu["current"] / cpu["baseline"], "load_average_at_end": os.getloadavg()}
 
 
 def main(argv: list[str]) -> None:
@@ -121,8 +134,10 @@ def main(argv: list[str]) -> None:
 
         res = eval_ratio(baseline, repeats, prepared)
         write_json(OUT.with_name("eval_ratio.json"), {"machine": {"cpus": os.cpu_count()}, **res})
-        print(f"evaluation stage: baseline {res['baseline_median_s']:.1f} s for {res['baseline_pairs']} pairs, "
-              f"current {res['current_median_s']:.1f} s for {res['current_pairs']} pairs: ratio {res['ratio']:.2f}")
+        print(f"evaluation stage: baseline {res['baseline_median_s']:.1f} s ({res['baseline_median_cpu_s']:.1f} s CPU) "
+              f"for {res['baseline_pairs']} pairs, current {res['current_median_s']:.1f} s "
+              f"({res['current_median_cpu_s']:.1f} s CPU) for {res['current_pairs']} pairs: ratio {res['ratio']:.2f} "
+              f"wall, {res['cpu_ratio']:.2f} CPU")
         return
     names = argv or ["demo", "opposite_direction"]
     results = []

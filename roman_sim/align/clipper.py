@@ -210,40 +210,42 @@ def round_solution(A: sp.csr_matrix, u: NDArray[np.float64], F: float, eps: floa
     order = order[u[order] > eps]
     k = max(1, int(round(F)))
     chosen: list[int] = []
+    mask = np.zeros(A.shape[0], dtype=bool)
     for i in order:
         if len(chosen) >= k:
             break
-        if _row_weights(A, int(i), chosen) is not None:
+        if _row_weights(A, int(i), mask, len(chosen)) is not None:
             chosen.append(int(i))
+            mask[int(i)] = True
     if not chosen:
         return np.zeros(0, dtype=np.int64)
-    return _local_search(A, _extend(A, order, chosen))
+    return _local_search(A, _extend(A, order, chosen, mask))
 
 
-def _row_weights(A: sp.csr_matrix, i: int, chosen: list[int]) -> NDArray[np.float64] | None:
-    """Weights from node ``i`` to the chosen nodes, or None if one is not a neighbour."""
+def _row_weights(A: sp.csr_matrix, i: int, chosen_mask: NDArray[np.bool_], n_chosen: int) -> NDArray[np.float64] | None:
+    """Weights from node ``i`` to the chosen nodes (``chosen_mask``), or None if one is not a neighbour."""
     lo, hi = A.indptr[i], A.indptr[i + 1]
-    hit = np.isin(A.indices[lo:hi], chosen)
-    if int(hit.sum()) != len(chosen):
+    hit = chosen_mask[A.indices[lo:hi]]
+    if int(hit.sum()) != n_chosen:
         return None
     return A.data[lo:hi][hit]
 
 
-def _extend(A: sp.csr_matrix, order: NDArray[np.int64], chosen: list[int]) -> NDArray[np.int64]:
-    """Add nodes adjacent to all chosen ones while the clique density increases."""
-    in_set = set(chosen)
+def _extend(A: sp.csr_matrix, order: NDArray[np.int64], chosen: list[int],
+            mask: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Add nodes adjacent to all chosen ones while the clique density increases (``mask`` marks them)."""
     total = float(A[chosen][:, chosen].sum()) + len(chosen)
     for i in order:
         i = int(i)
-        if i in in_set:
+        if mask[i]:
             continue
-        w = _row_weights(A, i, chosen)
+        w = _row_weights(A, i, mask, len(chosen))
         if w is None:
             continue
         gain = 2.0 * float(w.sum()) + 1.0
         if (total + gain) / (len(chosen) + 1) > total / len(chosen):
             chosen.append(i)
-            in_set.add(i)
+            mask[i] = True
             total += gain
     return np.sort(np.asarray(chosen, dtype=np.int64))
 
@@ -257,7 +259,7 @@ def _local_search(A: sp.csr_matrix, sel: NDArray[np.int64], max_rounds: int = 50
     sel = np.asarray(sel, dtype=np.int64)
     for _ in range(max_rounds):
         k = len(sel)
-        W = A[:, sel].toarray()
+        W = np.ascontiguousarray(A[sel].toarray().T)  # A is symmetric: its columns sel, from fast row slicing
         cnt, wsum = (W > 0).sum(axis=1), W.sum(axis=1)
         inside = np.zeros(A.shape[0], dtype=bool)
         inside[sel] = True

@@ -1,7 +1,8 @@
 """Example alignments per method: one correct pair and the worst false positive.
 
-Each drawing shows both submaps from above twice: on the left b placed by the method's
-estimate, on the right b placed by the truth. The method's selected associations join the
+One figure per method (``alignment_<method>.png``): a row for the correct pair and a row for
+the worst false positive. Each row shows both submaps from above twice: on the left b placed
+by the method's estimate, on the right b placed by the truth. The method's selected associations join the
 two segment centres, green when both segments come from the same true object and red when
 not (grey without truth), so a drawing separates "found the right objects" from "estimated
 the transform well". The worst false positive is the wrong estimate with the most
@@ -54,33 +55,57 @@ def _panel(ax: Axes, a: Submap, b: Submap, T_a_b: np.ndarray, assoc: np.ndarray,
     for p, q, col in zip(ca, cb, colours):
         ax.plot([p[0], q[0]], [p[1], q[1]], color=col, lw=1.0)
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set(xlabel=f"x in {a.name} (m)", ylabel="y (m)", title=title)
+    ax.set(xlabel=f"x in {a.name} (m)", ylabel="y (m)")
+    ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, loc="upper right")
 
 
-def plot_alignment(a: Submap, b: Submap, result: AlignResult, path: str | Path,
-                   T_a_b_true: np.ndarray | None = None, title: str | None = None) -> Path:
-    """Both submaps with b placed by the estimate (left) and by the truth (right, when given).
-
-    Raises:
-        EvaluationError: no estimate, or an association index outside the submaps.
-    """
+def _check(a: Submap, b: Submap, result: AlignResult) -> np.ndarray:
     if result.T_a_b is None:
         raise EvaluationError(f"{result.method} on {a.name}|{b.name}: no estimate to draw ({result.reason})")
     assoc = np.asarray(result.associations, dtype=np.int64).reshape(-1, 2)
     if len(assoc) and (assoc.min() < 0 or assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
         raise EvaluationError(f"{result.method}: association index outside the submaps")
+    return assoc
+
+
+def _row(axes: list[Axes], a: Submap, b: Submap, result: AlignResult, T_a_b_true: np.ndarray | None,
+         title: str) -> None:
+    assoc = _check(a, b, result)
     colours = assoc_colours(a, b, assoc)
     n_true = colours.count("tab:green")
-    fig = figure(10.0 if T_a_b_true is not None else 5.5, 5.0, ncols=2 if T_a_b_true is not None else 1)
-    axes = fig.axes
-    _panel(axes[0], a, b, result.T_a_b, assoc, colours, "b placed by the estimate")
+    counts = f"{len(assoc)} associations: {n_true} same object (green), {len(assoc) - n_true} not (red)"
+    _panel(axes[0], a, b, result.T_a_b, assoc, colours, f"{title}\nb placed by the estimate")
     if T_a_b_true is not None:
-        _panel(axes[1], a, b, T_a_b_true, assoc, colours, "b placed by the truth")
-    fig.suptitle(title or f"{result.method}: {a.name} | {b.name}", fontsize=9)
-    fig.text(0.01, 0.01, f"{len(assoc)} associations: {n_true} same object (green), {len(assoc) - n_true} "
-             "different (red)", fontsize=8)
+        _panel(axes[1], a, b, T_a_b_true, assoc, colours, f"b placed by the truth\n{counts}")
+
+
+#: ``(a, b, result, T_a_b_true or None, title)``
+Example = tuple[Submap, Submap, AlignResult, np.ndarray | None, str]
+
+
+def plot_examples(rows: list[Example], path: str | Path, suptitle: str = "") -> Path:
+    """One row per example ``(a, b, result, T_a_b_true, title)``: estimate on the left, truth on the right.
+
+    Raises:
+        EvaluationError: an example without an estimate, or an association index outside the submaps.
+    """
+    for a, b, res, _, _ in rows:
+        _check(a, b, res)
+    fig = figure(11.0, 5.2 * len(rows), ncols=2, nrows=len(rows))
+    for i, (a, b, res, T_true, title) in enumerate(rows):
+        _row(fig.axes[2 * i: 2 * i + 2], a, b, res, T_true, title)
+        if T_true is None:
+            fig.axes[2 * i + 1].set_axis_off()
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=10)
     return save_png(fig, path)
+
+
+def plot_alignment(a: Submap, b: Submap, result: AlignResult, path: str | Path,
+                   T_a_b_true: np.ndarray | None = None, title: str | None = None) -> Path:
+    """One pair: b placed by the estimate (left) and by the truth (right, when given)."""
+    return plot_examples([(a, b, result, T_a_b_true, title or f"{result.method}: {a.name} | {b.name}")], path)
 
 
 def pick_examples(scores: list[PairScore]) -> tuple[PairScore | None, PairScore | None]:
@@ -100,13 +125,19 @@ def _slug(method: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]+", "_", method)
 
 
+def _caption(tag: str, s: PairScore) -> str:
+    t = s.truth
+    return (f"{tag}: {t.a} | {t.b}, {t.kind}, {t.center_dist_m:.1f} m, {t.heading_diff_deg:.0f} deg\n"
+            f"error {s.rot_err_deg:.1f} deg / {s.trans_err_m:.2f} m, {t.true_correspondences} true correspondences")
+
+
 def draw_examples(
     scores: list[PairScore],
     submaps: dict[str, Submap],
     results: dict[tuple[str, str, str], AlignResult],
     plots_dir: str | Path,
 ) -> list[Path]:
-    """For each method, ``alignment_<method>_correct.png`` and ``alignment_<method>_false_positive.png``.
+    """``alignment_<method>.png`` per method: its correct example and its worst false positive (those that exist).
 
     Args:
         scores: scored pairs (any methods).
@@ -115,17 +146,16 @@ def draw_examples(
     """
     out = []
     for method in sorted({s.method for s in scores}):
+        rows: list[Example] = []
         mine = [s for s in scores if s.method == method]
-        for tag, s in zip(("correct", "false_positive"), pick_examples(mine)):
+        for tag, s in zip(("correct", "worst false positive"), pick_examples(mine)):
             if s is None:
                 continue
             key = (s.truth.a, s.truth.b, s.method)
             if key not in results or s.truth.a not in submaps or s.truth.b not in submaps:
                 raise EvaluationError(f"no submaps/result for example pair {s.truth.a}|{s.truth.b} ({s.method})")
-            t = s.truth
-            title = (f"{tag.replace('_', ' ')}: {method} {t.a} | {t.b} ({t.kind}, {t.center_dist_m:.1f} m apart, "
-                     f"heading {t.heading_diff_deg:.0f} deg), error {s.rot_err_deg:.1f} deg / {s.trans_err_m:.2f} m; "
-                     f"{t.true_correspondences} true correspondences available")
-            out.append(plot_alignment(submaps[t.a], submaps[t.b], results[key],
-                                      Path(plots_dir) / f"alignment_{_slug(method)}_{tag}.png", t.T_a_b_true, title))
+            rows.append((submaps[s.truth.a], submaps[s.truth.b], results[key], s.truth.T_a_b_true, _caption(tag, s)))
+        if rows:
+            out.append(plot_examples(rows, Path(plots_dir) / f"alignment_{_slug(method)}.png",
+                                     f"{method}: a correct alignment and the worst false positive"))
     return out

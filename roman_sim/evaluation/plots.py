@@ -129,10 +129,12 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
             ax.bar(p, v, width, color=colour, alpha=0.35 if small else 1.0, hatch="//" if small else None)
             if ci is not None and not small:
                 ax.errorbar(p, v, yerr=[[v - ci[0]], [ci[1] - v]], fmt="none", ecolor="black", capsize=2, lw=0.8)
-            ax.text(p, min(v, 0.9) + 0.04, f"{k}/{n}" + (f"\nn<{min_n}" if small else ""), ha="center",
-                    va="bottom", fontsize=6, rotation=90)
+            top = v if ci is None or small else ci[1]
+            ax.text(p, top + 0.03, f"{k}/{n}" + (f" n<{min_n}" if small else ""), ha="center", va="bottom",
+                    fontsize=6, rotation=90)
     ax.set_xticks(x, labels)
-    ax.set_ylim(0, 1.3)
+    ax.set_xlim(-0.5, len(labels) - 0.5)
+    ax.set_ylim(0, 1.35)
     ax.set_yticks(np.linspace(0, 1, 6))
     ax.set_ylabel(ylabel)
     ax.grid(axis="y", alpha=0.3)
@@ -182,7 +184,8 @@ def plot_ambiguity_recall(metrics: EvaluationMetrics, path: str | Path) -> Path 
             err = np.array([[v - s.recall_ci[0], s.recall_ci[1] - v] for v, (_, s) in zip(y, big)]).T  # type: ignore[index]
             ax.errorbar([x for x, _ in big], y, yerr=err, marker="o", capsize=2, color=f"C{i}", label=name)
         small = [(x, s) for x, s in pts if s.few]
-        ax.scatter([x for x, _ in small], [s.max_recall for _, s in small], facecolors="none", edgecolors=f"C{i}",
+        ax.scatter([x for x, _ in small], [float(s.max_recall or 0.0) for _, s in small], facecolors="none",
+                   edgecolors=f"C{i}",
                    label=f"{name}, < {min_n} relevant" if small else None)
     ax.set(xlabel="place ambiguity", ylabel="max recall", ylim=(0, 1.05),
            title=f"Recall against ambiguity, {PAIR_SET_LABELS[kind]} (95 % Wilson)")

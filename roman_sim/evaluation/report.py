@@ -119,6 +119,8 @@ def _section_plots(plots: list[str]) -> list[str]:
     for p in sorted(plots):
         name = Path(p).name
         caption = PLOT_CAPTIONS.get(name, Path(p).stem.replace("_", " "))
+        if name.startswith("alignment_"):
+            caption = f"{name[len('alignment_'):-len('.png')]}: a correct alignment and the worst false positive"
         lines += [f"![{caption}]({p})", ""]
     return lines
 

@@ -96,8 +96,8 @@ def plot_sweep(rows: list[dict[str, Any]], param_keys: list[str], path: str | Pa
                     lo, hi = (r["ci_low"], r["ci_high"]) if t_ci else (r["wilson_low"], r["wilson_high"])
                     pts.append((x + 0.06 * (i - len(methods) / 2), r["mean_recall"], lo, hi))
             if pts:
-                x, y, lo, hi = (np.array(v, dtype=float) for v in zip(*pts))
-                ax.errorbar(x, y, yerr=[y - lo, hi - y], marker="o", capsize=3, label=m, color=f"C{i}")
+                px, py, plo, phi = (np.array(v, dtype=float) for v in zip(*pts))
+                ax.errorbar(px, py, yerr=[py - plo, phi - py], marker="o", capsize=3, label=m, color=f"C{i}")
         ax.set_xticks(range(len(combos)), labels, rotation=30, fontsize=7)
         ax.set(ylim=(0, 1.05), ylabel="max recall", title=f"{'overall' if b == OVERALL else b + ' deg'}")
         ax.grid(alpha=0.3)

@@ -111,7 +111,9 @@ class CurveStats:
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "CurveStats":
         """Inverse of ``to_json``."""
-        return cls(**{f.name: (_interval(d[f.name]) if f.name.endswith("_ci") else d[f.name]) for f in fields(cls)})
+        values: dict[str, Any] = {f.name: (_interval(d[f.name]) if f.name.endswith("_ci") else d[f.name])
+                                  for f in fields(cls)}
+        return cls(**values)
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 #: The paper's figures (Kimera-Multi outdoor and the off-road Jackal experiment).
-PAPER = {
+PAPER: dict[str, Any] = {
     "max_recall_same_direction": 0.67,
     "max_recall_opposite_direction": 0.26,
     "ransac1m_over_roman_runtime": 4.5,

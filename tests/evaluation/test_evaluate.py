@@ -53,8 +53,7 @@ def test_evaluate_and_save(make_submap, tmp_path):
     assert (ident.assoc_selected, ident.assoc_correct, ident.assoc_available) == (12, 12, 12)
     assert m["never"].set("inter").overall.max_recall == 0.0 and m["never"].n_failed == 4
     paths = save_evaluation(tmp_path, ev, subs)
-    assert {"pairs", "metrics", "precision_recall", "alignment_identity_correct",
-            "alignment_identity_false_positive", "map_view"} <= set(paths)
+    assert {"pairs", "metrics", "precision_recall", "alignment_identity", "map_view"} <= set(paths)
     scores, metrics = read_evaluation(tmp_path)
     assert len(scores) == 8 and metrics.figure("identity") == 0.5
     plots = [p.relative_to(tmp_path).as_posix() for k, p in paths.items() if p.suffix == ".png"]

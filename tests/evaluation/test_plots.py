@@ -74,7 +74,7 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
     scores[1] = score_pair(truth, type(wrong)(**{**wrong.__dict__, "method": "w"}))
     results = {(a.name, b.name, "m"): good, (a.name, b.name, "w"): wrong}
     paths = draw_examples(scores, {a.name: a, b.name: b}, results, tmp_path)
-    assert [p.name for p in paths] == ["alignment_m_correct.png", "alignment_w_false_positive.png"]
+    assert [p.name for p in paths] == ["alignment_m.png", "alignment_w.png"]
     assert all(_is_png(p) for p in paths)
     with pytest.raises(EvaluationError, match="no estimate"):
         plot_alignment(a, b, result_for(None, 0), tmp_path / "x.png")

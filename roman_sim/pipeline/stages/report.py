@@ -75,6 +75,8 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
     run = DrivenRun(smap.times[i:i + 1], smap.T_world_body[i:i + 1], smap.T_odom_body[i:i + 1])
     frame = next(iter(render_trajectory(world.world, cfg.model_copy(update={"render_rgb": True}), ctx.scenario.seed,
                                         run)))
+    if frame.rgb is None:
+        raise StorageError(f"robot {cfg.name}: the renderer gave no colour image")
     masks = build_segmenter_for(ctx, cfg.name).segment(frame)
     labels = [str(m.object_ids[0]) if m.object_ids else None for m in masks]
     seg = ctx.scenario.frontend.segmenter
