@@ -40,11 +40,16 @@ COMMON, ALL = "common", "all"
 
 @dataclass(frozen=True)
 class VariantEstimate:
-    """One variant's trajectories (connected robots only, in its common frame) and how to fit them."""
+    """One variant's trajectories (connected robots only, in its common frame) and how to fit them.
+
+    ``source`` names the variant whose trajectory files hold them (default: the variant itself;
+    a per-robot fit of placed odometry needs no files of its own).
+    """
 
     trajectories: Mapping[str, Trajectory]
     fit: Fit = "joint"
     description: str = ""
+    source: str | None = None
 
 
 @dataclass
@@ -56,23 +61,26 @@ class VariantAte:
         fit: ``joint`` or ``per_robot`` (see the module docstring).
         connected: robots the variant placed in its common frame (scenario order).
         rmse: alignment -> ``common`` / ``all`` / robot name -> RMSE (m) or None.
+        source: the variant whose trajectory files hold this row's trajectories.
     """
 
     description: str
     fit: str
     connected: list[str]
     rmse: dict[str, dict[str, float | None]] = field(default_factory=dict)
+    source: str = ""
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {"description": self.description, "fit": self.fit, "connected": self.connected, "rmse": self.rmse}
+        return {"description": self.description, "fit": self.fit, "connected": self.connected, "rmse": self.rmse,
+                "source": self.source}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "VariantAte":
         """Inverse of ``to_json``."""
         return cls(str(d["description"]), str(d["fit"]), [str(r) for r in d["connected"]],
                    {str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}
-                    for a, row in d["rmse"].items()})
+                    for a, row in d["rmse"].items()}, str(d["source"]))
 
 
 @dataclass
@@ -161,7 +169,7 @@ def ate_table(truth: Mapping[str, Trajectory], estimates: Mapping[str, VariantEs
     common = [r for r in robots if all(r in c for c in connected.values())]
     table = AteTable(robots, common)
     for name, est in estimates.items():
-        row = VariantAte(est.description, est.fit, connected[name])
+        row = VariantAte(est.description, est.fit, connected[name], source=est.source or name)
         for al in alignments:
             placed = connected[name]
             per = multi_robot_ate({r: est.trajectories[r] for r in placed}, {r: truth[r] for r in placed},

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import StorageError
 
 
@@ -56,6 +57,7 @@ class AlignmentRecord:
         method: method label.
         n_associations: accepted associations.
         T_a_b: 4x4 estimate of b's frame in a's (rounded to 1e-9), or None.
+        associations: (k, 2) selected associations (indices into a's and b's segments).
     """
 
     a: str
@@ -63,15 +65,24 @@ class AlignmentRecord:
     method: str
     n_associations: int
     T_a_b: NDArray[np.float64] | None
+    associations: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 2), np.int64), compare=False)
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
         return {"a": self.a, "b": self.b, "method": self.method, "n_associations": self.n_associations,
-                "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist()}
+                "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist(),
+                "associations": np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist()}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "AlignmentRecord":
         """Inverse of ``to_json``."""
         T = d["T_a_b"]
         return cls(str(d["a"]), str(d["b"]), str(d["method"]), int(d["n_associations"]),
-                   None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4))
+                   None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4),
+                   np.asarray(d.get("associations", []), dtype=np.int64).reshape(-1, 2))
+
+    def result(self) -> AlignResult:
+        """An ``AlignResult`` holding this record's estimate and associations (for drawing)."""
+        return AlignResult(self.method, self.T_a_b, np.asarray(self.associations, dtype=np.int64).reshape(-1, 2),
+                           np.ones(len(self.associations)), float("nan"),
+                           None if self.T_a_b is not None else "no estimate")

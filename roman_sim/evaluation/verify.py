@@ -111,8 +111,8 @@ def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
     except (OSError, ValueError) as err:
         raise StorageError(f"{run_dir / ATE_JSON}: unreadable ({type(err).__name__})") from None
     truth = {r: read_tum(_tum(run_dir, "truth", r, suffix)) for r in stored.robots}
-    estimates = {v: VariantEstimate({r: read_tum(_tum(run_dir, v, r, suffix)) for r in row.connected},
-                                    row.fit, row.description)  # type: ignore[arg-type]
+    estimates = {v: VariantEstimate({r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected},
+                                    row.fit, row.description, row.source)  # type: ignore[arg-type]
                  for v, row in stored.variants.items()}
     return ate_table(truth, estimates, tuple(next(iter(stored.variants.values())).rmse) if stored.variants else ())
 

@@ -71,3 +71,11 @@ def test_pattern_product_is_bit_identical_to_scipy() -> None:
     pat = _Pattern(A)
     np.testing.assert_array_equal(pat.mv(A.data, v), A @ v)
     np.testing.assert_array_equal(pat.mv(pat.ones, v), (A > 0).astype(float) @ v)
+
+
+def test_dense_rows_equal_scipy_row_slicing() -> None:
+    from roman_sim.align.clipper import _dense_rows
+
+    A = sp.random(40, 40, density=0.15, format="csr", random_state=7)
+    rows = np.array([5, 0, 33, 5])
+    np.testing.assert_array_equal(_dense_rows(A, rows), A[rows].toarray())

@@ -65,7 +65,7 @@ def test_run_folder_contents(smoke_run):
                  "ate.json", "posegraph.json", "map_stats.json", "timings.json"):
         assert (d / name).is_file(), name
     for robot in ("a", "b"):
-        for variant in ("truth", "odometry", "odometry_no_prior", "roman", "oracle"):
+        for variant in ("truth", "odometry", "roman", "oracle"):
             assert (d / "trajectories" / f"{robot}.{variant}.tum").is_file()
     for plot in ("trajectories", "segments_on_image", "recall_heading", "precision_recall_heading",
                  "association_heading", "alignment_roman", "alignment_clipper"):

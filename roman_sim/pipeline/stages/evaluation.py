@@ -3,9 +3,10 @@
 The stage enumerates the pairs (every pair unless the scenario sets a distance cap), takes
 their truth, aligns them (one call, ``align_pairs``) and scores them (pure functions of the
 pair truths and the aligner results, in ``roman_sim.evaluation``). Writes ``pairs.csv``
-(one row per pair and method), ``alignments.json`` (each method's estimate per pair: the
-pose graph's closures), ``metrics.json`` and the metric plots. Per-pair runtimes go to the
-run's timings, not into these files.
+(one row per pair and method), ``alignments.json`` (each method's estimate and selected
+associations per pair: the pose graph's closures and the report's example drawings) and
+``metrics.json``; the report stage draws the plots. Per-pair runtimes go to the run's
+timings, not into these files.
 """
 
 from __future__ import annotations
@@ -15,15 +16,17 @@ import logging
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from roman_sim.align import build_aligner
 from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.bins import runtime_stats
-from roman_sim.evaluation.evaluate import Evaluation, align_pairs, save_evaluation, score_pairs
+from roman_sim.evaluation.evaluate import Evaluation, align_pairs, score_pairs
 from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
-from roman_sim.evaluation.results import read_evaluation
+from roman_sim.evaluation.results import read_evaluation, write_evaluation
 from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
@@ -34,15 +37,15 @@ from roman_sim.pipeline.stages.world import WorldOutput
 log = logging.getLogger(__name__)
 
 ALIGNMENTS_JSON = "alignments.json"
-ALIGNMENTS_SCHEMA = "roman_sim.alignments/1"
+ALIGNMENTS_SCHEMA = "roman_sim.alignments/2"
 
 
 @dataclass
 class EvaluationOutput:
     """Scores of every (pair, method), each method's estimates, the metrics and the notes.
 
-    ``written`` lists the files the run wrote besides ``alignments.json`` (tables and plots,
-    which need the raw aligner results); it is not persisted.
+    ``written`` lists the files the run wrote besides ``alignments.json`` (the tables); it is
+    not persisted.
     """
 
     scores: list[PairScore]
@@ -75,7 +78,8 @@ def build_aligners(ctx: RunContext) -> list[Any]:
 
 
 def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
-    return [AlignmentRecord(a, b, method, r.n_associations, r.T_a_b) for (a, b, method), r in sorted(results.items())]
+    return [AlignmentRecord(a, b, method, r.n_associations, r.T_a_b, np.asarray(r.associations, np.int64))
+            for (a, b, method), r in sorted(results.items())]
 
 
 def _runtimes(scores: list[PairScore]) -> dict[str, Any]:
@@ -109,7 +113,7 @@ class EvaluationStage(Stage[EvaluationOutput]):
         ctx.progress.end("evaluation:pairs")
         scores = score_pairs(truths, results, [a.name for a in aligners], ec)
         ev = Evaluation(truths, scores, results, summary(scores, ec, sel.n_skipped))
-        paths = save_evaluation(ctx.run_dir, ev, all_subs, map_view=True)
+        paths = write_evaluation(ctx.run_dir, ev.scores, ev.metrics)
         ctx.timings["alignment"] = _runtimes(ev.scores)
         written = sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values())
         return EvaluationOutput(ev.scores, _records(ev.results), ev.metrics, list(ev.notes), written)

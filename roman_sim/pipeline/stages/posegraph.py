@@ -3,7 +3,9 @@
 The trajectory variants scored against the truth, in table order:
 
 - ``odometry``: the drifting odometry, each robot placed with its true initial pose;
-- ``odometry_no_prior``: the odometry with no start pose (each robot aligned by its own fit);
+- ``odometry_no_prior``: the odometry with no start pose (each robot aligned by its own fit,
+  which does not depend on where the robot is placed: it is computed from the ``odometry``
+  files);
 - one row per entry of ``graph_variants``: the multi-robot pose graph with the chosen
   aligner's loop closures, and ``oracle``, the same graph with the true relative pose of
   every relevant pair (what loop closures can give at best). Adding a variant (e.g. a
@@ -191,10 +193,10 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
         placed = {r: odom[r].transformed(gravity_aligned(truth[r].T[0])) for r in truth}
         nodes = submap_nodes_from(submaps.all())
         nodes = {r: nodes.get(r, []) for r in maps.maps}
-        trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed,
-                                                           "odometry_no_prior": dict(odom)}
-        describe = {"odometry": ("odometry, each robot placed with its true start pose", "joint"),
-                    "odometry_no_prior": ("odometry without start poses, each robot aligned on its own", "per_robot")}
+        trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed}
+        describe = {"odometry": ("odometry, each robot placed with its true start pose", "joint", "odometry"),
+                    "odometry_no_prior": ("odometry without start poses, each robot aligned on its own", "per_robot",
+                                          "odometry")}
         graphs, notes, seconds = {}, [], {}
         lines, est_world = [], {}
         for gv in graph_variants(ctx):
@@ -205,7 +207,7 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
             used = [w for w in res.closure_weights if w is not None]
             graphs[gv.name] = GraphInfo(len(closures), len(used), res.n_inliers, list(res.unconnected))
             trajectories[gv.name] = res.trajectories
-            describe[gv.name] = (gv.description, "joint")
+            describe[gv.name] = (gv.description, "joint", gv.name)
             if res.unconnected:
                 notes.append(f"{gv.name} pose graph: robot(s) {', '.join(res.unconnected)} never connected to the "
                              f"first robot: placed {len(res.trajectories)} of {len(odom)} robots")
@@ -216,8 +218,8 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
                 est_world = _aligned(res.trajectories, truth)
         ctx.timings["posegraph_s"] = seconds
         back, written = _round_trip(ctx, trajectories)
-        estimates = {v: VariantEstimate(back[v], describe[v][1], describe[v][0])  # type: ignore[arg-type]
-                     for v in trajectories if v != "truth"}
+        estimates = {v: VariantEstimate(back[src], fit, text, src)  # type: ignore[arg-type]
+                     for v, (text, fit, src) in describe.items()}
         table = ate_table(back["truth"], estimates)
         try:
             plot_trajectories(ctx.run_dir / PLOT, truth, est=est_world or None, odom=placed, closures=lines,

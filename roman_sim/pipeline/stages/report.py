@@ -1,9 +1,11 @@
-"""Stage ``report``: map statistics, a front-end snapshot and ``report.md`` from the other stages' outputs.
+"""Stage ``report``: map statistics, the plots and ``report.md`` from the other stages' outputs.
 
-The snapshot (``plots/segments_on_image.png``) renders one camera image of the first robot,
-at the centre of its submap with the most segments, runs the scenario's segmenter on it and
-draws the masks over it. Without an OpenGL context (or without a world, when the run
-started from saved submaps) it is noted and skipped.
+Draws the metric plots (from the metrics), each method's example alignments (from the
+recorded estimates and associations over the submaps), the map view and a front-end
+snapshot: ``plots/segments_on_image.png`` renders one camera image of the first robot, at
+the centre of its submap with the most segments, runs the scenario's segmenter on it and
+draws the masks over it. A plot that cannot be drawn (no OpenGL context, no world when the
+run started from saved submaps, a single point) is noted and skipped.
 """
 
 from __future__ import annotations
@@ -15,8 +17,11 @@ from typing import Any
 import numpy as np
 
 from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import RomanSimError, StorageError
+from roman_sim.core.errors import EvaluationError, RomanSimError, StorageError
+from roman_sim.evaluation.examples import draw_examples
+from roman_sim.evaluation.mapview import write_map_view
 from roman_sim.evaluation.maskview import plot_masks
+from roman_sim.evaluation.plots import write_metric_plots
 from roman_sim.evaluation.report import REPORT_MD, write_report
 from roman_sim.evaluation.types import MapStats
 from roman_sim.mapping.io import packet_bytes
@@ -86,6 +91,19 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
     return SNAPSHOT
 
 
+def draw_plots(ctx: RunContext, evaluation: EvaluationOutput, submaps: Submaps) -> tuple[list[str], list[str]]:
+    """Metric plots, example alignments and the map view: (relative paths written, notes)."""
+    plots = ctx.run_dir / "plots"
+    written, notes = write_metric_plots(evaluation.metrics, plots)
+    results = {(r.a, r.b, r.method): r.result() for r in evaluation.alignments}
+    written += draw_examples(evaluation.scores, submaps.by_name(), results, plots)
+    try:
+        written.append(write_map_view(plots / "map_view.png", submaps.all()))
+    except EvaluationError as err:
+        notes.append(f"map view not rendered: {err}")
+    return [p.relative_to(ctx.run_dir).as_posix() for p in written], notes
+
+
 class ReportStage(Stage[ReportOutput]):
     """Write ``map_stats.json``, the front-end snapshot and ``report.md``."""
 
@@ -100,8 +118,9 @@ class ReportStage(Stage[ReportOutput]):
         for out in (maps, submaps, evaluation, posegraph):
             notes += [] if out is None else list(out.notes)
         stats = map_stats(maps, submaps)
-        plots = [f for f in evaluation.written + posegraph.written if f.endswith(".png")]
-        snap: list[str] = []
+        snap, plot_notes = draw_plots(ctx, evaluation, submaps)
+        notes += plot_notes
+        plots = [f for f in posegraph.written if f.endswith(".png")]
         if world is not None and maps is not None:
             try:
                 snap.append(snapshot(ctx, world, maps, submaps))
