@@ -203,11 +203,15 @@ def report_cmd(
     if (run_dir / SWEEP_JSON).is_file():
         print_sweep_summary(run_dir, Console())
         return
-    print_summary(RunResult.load(run_dir))
+    # reference results keep the raw data compressed and no maps: verify them, nothing to summarise
+    compressed = not (run_dir / "pairs.csv").is_file() and (run_dir / "pairs.csv.gz").is_file()
+    if not compressed:
+        print_summary(RunResult.load(run_dir))
     if verify:
         from roman_sim.evaluation.verify import verify_run
 
-        res = verify_run(run_dir)
+        res = verify_run(run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv",
+                         tum_suffix=".gz" if compressed else "")
         out = Console()
         for d in res.differences:
             out.print(f"[red]differs:[/red] {d}")

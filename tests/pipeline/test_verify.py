@@ -43,3 +43,11 @@ def test_an_edited_pairs_table_or_trajectory_fails_verification(smoke_run, tmp_p
     tum.write_text("".join(" ".join(r) + "\n" for r in rows))
     res = verify_run(run_dir)
     assert not res.ok and all(d.startswith("ate.json") for d in res.differences)
+
+
+def test_compressed_reference_folders_verify_from_the_cli(smoke_run, tmp_path):
+    from roman_sim.pipeline.reference import collect
+
+    collect(smoke_run.run_dir, tmp_path / "ref")
+    out = runner.invoke(app, ["report", str(tmp_path / "ref"), "--verify"])
+    assert out.exit_code == 0 and "verified" in out.output, out.output
