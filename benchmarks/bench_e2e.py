@@ -75,15 +75,17 @@ def timed(self, *args, **kwargs):  # CPU seconds of the stage itself: robust to 
     return out
 stage.EvaluationStage.run = timed
 res = Experiment(load_scenario("demo", sets), dst, from_stage="evaluation").run()
+import roman_sim
 print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds": cpu["s"],
-                  "pairs": res.metrics.n_pairs}))
+                  "pairs": res.metrics.n_pairs, "package": roman_sim.__file__}))
 """
 
 
 def _eval_child(tree: Path, prepared: Path, dst: Path, sets: list[str]) -> dict:
     env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONWARNINGS": "ignore"}
-    proc = subprocess.run([sys.executable, "-c", EVAL_CHILD, str(prepared), str(dst), *sets],
-                          capture_output=True, text=True, env=env)
+    # -P and a neutral working directory: the child imports the package of ``tree``, never the one in the cwd
+    proc = subprocess.run([sys.executable, "-P", "-c", EVAL_CHILD, str(prepared), str(dst), *sets],
+                          capture_output=True, text=True, env=env, cwd=dst.parent)
     if proc.returncode != 0:
         print(proc.stderr[-2000:], file=sys.stderr)
         raise SystemExit(f"evaluation stage failed in {tree}")
@@ -112,6 +114,9 @@ def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -
             runs["current"].append(_eval_child(here, prepared, Path(d) / "c", []))
     med = {k: statistics.median(r["seconds"] for r in v) for k, v in runs.items()}
     cpu = {k: statistics.median(r["cpu_seconds"] for r in v) for k, v in runs.items()}
+    for k, tree in (("baseline", baseline), ("current", here)):
+        if not all(Path(r["package"]).is_relative_to(tree) for r in runs[k]):
+            raise SystemExit(f"the {k} runs imported another package: {runs[k][0]['package']}")
     return {"baseline_tree": str(baseline), "repeats": repeats, "runs": runs,
             "baseline_pairs": runs["baseline"][0]["pairs"], "current_pairs": runs["current"][0]["pairs"],
             "baseline_median_s": med["baseline"], "current_median_s": med["current"],

@@ -58,6 +58,8 @@ def association_truth(ids_a: ArrayLike, ids_b: ArrayLike, associations: ArrayLik
     correct = int(ok.sum())
     if len(good) == 0:
         return correct, 0
+    if len(np.unique(good[:, 0])) == len(good) and len(np.unique(good[:, 1])) == len(good):
+        return correct, int(len(good))  # already one-to-one
     graph = sp.csr_matrix((np.ones(len(good)), (good[:, 0], good[:, 1])), shape=(len(a), len(b)))
     recovered = int((maximum_bipartite_matching(graph, perm_type="column") >= 0).sum())
     return correct, recovered
