@@ -284,10 +284,12 @@ def reproduce_cmd(
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
     scenario: list[str] | None = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
+    readme: Path | None = typer.Option(Path("README.md"), "--readme",
+                                       help="README whose reference-results block is rewritten (when it exists)"),
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
     from roman_sim.pipeline.reference import reproduce
 
     path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
-                     from_stage=from_stage)
+                     from_stage=from_stage, readme=readme if scenario is None or not scenario else None)
     Console().print(path.read_text())

@@ -78,6 +78,12 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
             rows.append({"figure": f"{method} max recall, {scen.replace('_', ' ')}", "paper": num(paper),
                          "cross-robot": rcell(recall(runs, scen, method)),
                          "same-robot": rcell(recall(runs, scen, method, "intra"))})
+    for method in ("roman", "clipper", "ransac100k"):
+        bins = _get(runs, "heading_sweep", "methods", method, "inter", "bins") or {}
+        if bins:
+            rows.append({"figure": f"{method} max recall per heading bin, heading sweep", "paper": "n/a",
+                         "cross-robot": "; ".join(f"{b}: {rcell(r)}" for b, r in bins.items()),
+                         "same-robot": rcell(recall(runs, "heading_sweep", method, "intra"))})
     ratio, how = _ratio(runs)
     rows.append({"figure": "RANSAC-1M / ROMAN runtime per pair", "paper": num(PAPER["ransac1m_over_roman_runtime"]),
                  "cross-robot": f"{num(ratio, 1)} ({how})" if ratio else "n/a", "same-robot": ""})

@@ -114,8 +114,13 @@ def reproduce(
     work_dir: str | Path = "results/work",
     on_start: Callable[[str], None] | None = None,
     from_stage: str | None = None,
+    readme: str | Path | None = None,
 ) -> Path:
-    """Run ``scenarios`` (default: the paper's and the ambiguity sweep), collect, write the summary."""
+    """Run ``scenarios`` (default: the paper's and the ambiguity sweep), collect, write the summary.
+
+    ``readme``: a README whose results block (between the reference-results markers) is
+    rewritten from the new summary.
+    """
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -137,6 +142,8 @@ def reproduce(
     summary = build_summary(runs, sweep)
     write_json(out / "summary.json", summary)
     write_text(out / "summary.md", summary_markdown(summary))
+    if readme is not None and Path(readme).is_file() and not update_readme(readme, summary):
+        log.warning("%s has no %s / %s markers: its results block was not updated", readme, README_BEGIN, README_END)
     return out / "summary.md"
 
 
@@ -188,6 +195,17 @@ def readme_block(summary: dict[str, Any]) -> str:
     """The README's generated results block (between the reference-results markers)."""
     return (f"{README_BEGIN}\n" + table_markdown(summary["comparison"]) + "\n" + claims_markdown(summary["claims"])
             + f"{README_END}")
+
+
+def update_readme(readme: str | Path, summary: dict[str, Any]) -> bool:
+    """Replace the README's results block with ``readme_block(summary)``; False when it has no markers."""
+    path = Path(readme)
+    text = path.read_text(encoding="utf-8")
+    if README_BEGIN not in text or README_END not in text:
+        return False
+    start, end = text.index(README_BEGIN), text.index(README_END) + len(README_END)
+    write_text(path, text[:start] + readme_block(summary) + text[end:])
+    return True
 
 
 def _run_summary(d: Path) -> dict[str, Any]:
