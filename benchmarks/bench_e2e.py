@@ -13,7 +13,8 @@ its ``roman_sim/``, e.g. ``git archive <commit> roman_sim | tar -x -C DIR``) run
 40 m distance cap the demo used to have, on the same rendered maps and submaps, alternating
 the two ``N`` times in one run so that both see the same machine load. Writes
 ``benchmarks/out/eval_ratio.json`` with the median wall and CPU seconds of each and their ratios
-(the CPU ratio is the robust one on a shared machine).
+(the CPU ratio is the robust one on a shared machine), and the ratio of evaluation + report
+stages (the plots moved from the evaluation stage to the report stage).
 ``--prepared RUN`` takes the maps and submaps from a finished demo run instead of running one.
 """
 
@@ -62,21 +63,26 @@ import json, shutil, sys, time
 from pathlib import Path
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
-from roman_sim.pipeline.stages import evaluation as stage
+from roman_sim.pipeline.stages import evaluation, report
 src, dst, sets = Path(sys.argv[1]), Path(sys.argv[2]), sys.argv[3:]
 if dst.exists():
     shutil.rmtree(dst)
 shutil.copytree(src, dst)
-run, cpu = stage.EvaluationStage.run, {}
-def timed(self, *args, **kwargs):  # CPU seconds of the stage itself: robust to other processes' load
-    t0 = time.process_time()
-    out = run(self, *args, **kwargs)
-    cpu["s"] = time.process_time() - t0
-    return out
-stage.EvaluationStage.run = timed
+cpu = {}
+def timed(cls, name):  # CPU seconds of the stage itself: robust to other processes' load
+    run = cls.run
+    def wrapped(self, *args, **kwargs):
+        t0 = time.process_time()
+        out = run(self, *args, **kwargs)
+        cpu[name] = time.process_time() - t0
+        return out
+    cls.run = wrapped
+timed(evaluation.EvaluationStage, "evaluation")
+timed(report.ReportStage, "report")
 res = Experiment(load_scenario("demo", sets), dst, from_stage="evaluation").run()
 import roman_sim
-print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds": cpu["s"],
+print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds": cpu["evaluation"],
+                  "report_seconds": res.timings["report"]["seconds"], "report_cpu_seconds": cpu["report"],
                   "pairs": res.metrics.n_pairs, "package": roman_sim.__file__}))
 """
 
@@ -114,6 +120,7 @@ def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -
             runs["current"].append(_eval_child(here, prepared, Path(d) / "c", []))
     med = {k: statistics.median(r["seconds"] for r in v) for k, v in runs.items()}
     cpu = {k: statistics.median(r["cpu_seconds"] for r in v) for k, v in runs.items()}
+    both = {k: statistics.median(r["seconds"] + r["report_seconds"] for r in v) for k, v in runs.items()}
     for k, tree in (("baseline", baseline), ("current", here)):
         if not all(Path(r["package"]).is_relative_to(tree) for r in runs[k]):
             raise SystemExit(f"the {k} runs imported another package: {runs[k][0]['package']}")
@@ -122,7 +129,9 @@ def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -
             "baseline_median_s": med["baseline"], "current_median_s": med["current"],
             "ratio": med["current"] / med["baseline"],
             "baseline_median_cpu_s": cpu["baseline"], "current_median_cpu_s": cpu["current"],
-            "cpu_ratio": cpu["current"] / cpu["baseline"], "load_average_at_end": os.getloadavg()}
+            "cpu_ratio": cpu["current"] / cpu["baseline"],
+            "with_report_median_s": both, "with_report_ratio": both["current"] / both["baseline"],
+            "load_average_at_end": os.getloadavg()}
 
 
 def main(argv: list[str]) -> None:
@@ -142,7 +151,8 @@ def main(argv: list[str]) -> None:
         print(f"evaluation stage: baseline {res['baseline_median_s']:.1f} s ({res['baseline_median_cpu_s']:.1f} s CPU) "
               f"for {res['baseline_pairs']} pairs, current {res['current_median_s']:.1f} s "
               f"({res['current_median_cpu_s']:.1f} s CPU) for {res['current_pairs']} pairs: ratio {res['ratio']:.2f} "
-              f"wall, {res['cpu_ratio']:.2f} CPU")
+              f"wall, {res['cpu_ratio']:.2f} CPU; with the report stage (where the plots are drawn now) "
+              f"{res['with_report_ratio']:.2f} wall")
         return
     names = argv or ["demo", "opposite_direction"]
     results = []

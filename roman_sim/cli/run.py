@@ -198,7 +198,7 @@ def report_cmd(
 ) -> None:
     """Print the summary of a finished run or sweep (an incomplete run is an error naming its missing stages)."""
     from roman_sim.pipeline.result import RunResult
-    from roman_sim.pipeline.sweep import SWEEP_JSON, print_sweep_summary
+    from roman_sim.pipeline.sweep_summary import SWEEP_JSON, print_sweep_summary
 
     if (run_dir / SWEEP_JSON).is_file():
         print_sweep_summary(run_dir, Console())

@@ -158,7 +158,8 @@ def _sweep_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> list[dict[str, Any]]:
     """Run (or resume) the ambiguity sweep; keep its summary and each run's raw pairs table."""
     from roman_sim.pipeline.scenario import SCENARIO_DIR
-    from roman_sim.pipeline.sweep import SUMMARY_CSV, SWEEP_JSON, load_sweep, run_sweep, sweep_summary
+    from roman_sim.pipeline.sweep import load_sweep, run_sweep
+    from roman_sim.pipeline.sweep_summary import SUMMARY_CSV, SWEEP_JSON, sweep_summary
 
     cfg, scenario = load_sweep(SCENARIO_DIR / AMBIGUITY_SWEEP)
     cfg.executor.kind = "serial"

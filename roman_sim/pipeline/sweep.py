@@ -25,9 +25,9 @@ from typing import Any, Literal
 
 from pydantic import Field
 
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.config import StrictModel, read_yaml, validate_model
-from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.errors import ConfigError, RomanSimError
 
 log = logging.getLogger(__name__)
 
@@ -140,6 +140,8 @@ def run_sweep(
     failures = {k: v["error"] for k, v in outcomes.items() if not v["ok"]}
     for k, v in failures.items():
         log.warning("run %s failed: %s", k, v)
+    from roman_sim.pipeline.sweep_summary import write_sweep_json, write_sweep_summary
+
     write_sweep_json(cfg, runs, out_dir)
     table = write_sweep_table(runs, out_dir, failures)
     write_sweep_summary(out_dir)
@@ -180,98 +182,6 @@ def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[d
         client.close()
         if cluster is not None:
             cluster.close()
-
-
-SWEEP_JSON = "sweep.json"
-SWEEP_SCHEMA = "roman_sim.sweep/1"
-SUMMARY_CSV = "sweep_summary.csv"
-SUMMARY_PLOT = "plots/sweep_summary.png"
-
-
-def write_sweep_json(cfg: SweepConfig, runs: list[RunSpec], out_dir: Path) -> Path:
-    """``sweep.json``: the sweep's name, swept keys, seeds and runs (what the summary is made of)."""
-    path = out_dir / SWEEP_JSON
-    write_json(path, {"schema": SWEEP_SCHEMA, "name": cfg.name, "scenario": cfg.scenario, "grid": sorted(cfg.grid),
-                      "seeds": list(cfg.seeds),
-                      "runs": [{"run_id": r.run_id, "seed": r.seed, "params": r.params} for r in runs]})
-    return path
-
-
-def _read_sweep(out_dir: Path) -> dict[str, Any]:
-    path = out_dir / SWEEP_JSON
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        if data.get("schema") != SWEEP_SCHEMA:
-            raise ValueError(f"schema {data.get('schema')!r}")
-        return data
-    except (OSError, ValueError, AttributeError) as err:
-        raise StorageError(f"{path}: not a sweep record ({type(err).__name__}: {err})") from None
-
-
-def sweep_summary(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[str]]:
-    """(swept keys, summary rows, notes on runs left out) of a sweep folder's finished runs."""
-    from roman_sim.evaluation.sweepstats import aggregate, seed_rows
-    from roman_sim.pipeline.result import RunResult
-
-    data = _read_sweep(out_dir)
-    keys, rows, notes = list(data["grid"]), [], []
-    for r in data["runs"]:
-        try:
-            summary = RunResult.load(out_dir / r["run_id"]).metrics_summary()
-        except RomanSimError as err:
-            notes.append(f"run {r['run_id']} left out: {err}")
-            continue
-        rows += seed_rows({k: r["params"][k] for k in keys}, int(r["seed"]), summary)
-    return keys, aggregate(rows, keys), notes
-
-
-def write_sweep_summary(out_dir: Path) -> Path:
-    """``sweep_summary.csv`` and ``plots/sweep_summary.png`` (when there are two swept values)."""
-    from roman_sim.evaluation.sweepstats import SUMMARY_FIELDS, plot_sweep
-
-    keys, rows, notes = sweep_summary(out_dir)
-    for n in notes:
-        log.warning(n)
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=[*keys, *SUMMARY_FIELDS], lineterminator="\n")
-    w.writeheader()
-    w.writerows([{k: ("" if v is None else v) for k, v in r.items()} for r in rows])
-    path = out_dir / SUMMARY_CSV
-    write_text(path, buf.getvalue())
-    kind = "inter" if any(r["kind"] == "inter" and r["relevant"] for r in rows) else "intra"
-    if plot_sweep(rows, keys, out_dir / SUMMARY_PLOT, kind) is None:
-        (out_dir / SUMMARY_PLOT).unlink(missing_ok=True)
-    return path
-
-
-def print_sweep_summary(out_dir: Path, console: Any) -> None:
-    """Print the sweep's summary: one table per pair set with relevant pairs (rich console)."""
-    from rich.table import Table
-
-    from roman_sim.evaluation.sweepstats import OVERALL, cell
-    from roman_sim.evaluation.types import PAIR_SET_LABELS
-
-    keys, rows, notes = sweep_summary(out_dir)
-    name = _read_sweep(out_dir)["name"]
-    for kind in ("inter", "intra"):
-        mine = [r for r in rows if r["kind"] == kind]
-        if not any(r["relevant"] for r in mine):
-            continue
-        bins = list(dict.fromkeys(r["bin"] for r in mine))
-        t = Table(title=f"sweep {name}, {PAIR_SET_LABELS[kind]} pairs: max recall, mean over seeds [95 % interval]")
-        for k in [*keys, "method"]:
-            t.add_column(k.rsplit(".", 1)[-1])
-        for b in bins:
-            t.add_column("overall" if b == OVERALL else f"{b}°", justify="right")
-        groups: dict[tuple[Any, ...], dict[str, str]] = {}
-        for r in mine:
-            groups.setdefault((*(json.dumps(r[k]) for k in keys), r["method"]), {})[r["bin"]] = cell(r)
-        for g, cells in groups.items():
-            t.add_row(*g, *[cells.get(b, "n/a") for b in bins])
-        console.print(t)
-    for n in notes:
-        console.print(f"[yellow]note:[/yellow] {n}")
-    console.print(f"summary table: {out_dir / SUMMARY_CSV}")
 
 
 def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, str] | None = None) -> Path:
