@@ -128,6 +128,9 @@ class SimulatedSegmenter:
     area, not with the number of objects in the image.
     """
 
+    needs_rgb = False
+    reads_truth = True
+
     def __init__(self, cfg: SegmenterConfig, seed: int = 0) -> None:
         if cfg.max_area_div >= cfg.min_area_div:
             raise MappingError("segmenter: max_area_div must be smaller than min_area_div")

@@ -9,11 +9,9 @@ from typing import TYPE_CHECKING, Any
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.mapping.io import load_segment_map, load_submaps, save_segment_map, save_submaps
 from roman_sim.mapping.mapper import Mapper, SegmentMap
-from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
-from roman_sim.mapping.semantics import SimulatedEncoder
+from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.submap import build_submaps
 from roman_sim.mapping.types import Submap
-from roman_sim.core.registry import import_object
 
 if TYPE_CHECKING:
     from roman_sim.pipeline.experiment import Experiment
@@ -36,35 +34,21 @@ def submap_files(exp: "Experiment") -> list[Path]:
     return [exp.dir / "submaps" / f"{r.name}.npz" for r in exp.sc.robots]
 
 
-def _user_object(path: str, kind: str, **kwargs: Any) -> Any:
-    factory = import_object(path, kind)
-    try:
-        return factory(**kwargs) if callable(factory) else factory
-    except TypeError as err:
-        raise ConfigError(f"{kind} {path!r}: cannot construct it ({err})") from None
-
-
 def build_segmenter_for(exp: "Experiment", robot: str) -> Any:
-    """The scenario's segmenter for ``robot`` (built-in preset, config, or user class)."""
-    seg = exp.sc.frontend.segmenter
-    if isinstance(seg, str) and ":" in seg:
-        return _user_object(seg, "segmenter")
-    return build_segmenter(seg if isinstance(seg, (str, SegmenterConfig)) else seg, seed=exp.sc.seed)
+    """The scenario's segmenter for ``robot`` (built-in or user class, with its params)."""
+    return build_segmenter(exp.sc.frontend, seed=exp.sc.seed, robot=robot)
 
 
 def build_encoder_for(exp: "Experiment", robot: str) -> Any:
-    """The scenario's semantic encoder (simulated from truth, or a user class).
+    """The scenario's semantic encoder for ``robot``.
 
-    Prototypes are shared by all robots (same seed); observation noise is per robot.
+    Prototypes of the simulated encoder are shared by all robots (same seed); its
+    observation noise is per robot. Only a truth-driven encoder gets the families.
     """
-    enc = exp.sc.frontend.encoder
-    if enc == "simulated":
-        world = exp._state["world"]
-        families = {o.id: o.family for o in world.truth.objects}
-        return SimulatedEncoder(exp.sc.frontend.semantics, seed=exp.sc.seed, families=families, robot=robot)
-    if ":" in enc:
-        return _user_object(enc, "semantic encoder")
-    raise ConfigError(f"frontend.encoder: unknown encoder {enc!r} (valid: simulated, or package.module:Class)")
+    families = None
+    if encoder_spec(exp.sc.frontend.encoder).reads_truth:
+        families = {o.id: o.family for o in exp._state["world"].truth.objects}
+    return build_encoder(exp.sc.frontend, seed=exp.sc.seed, robot=robot, families=families)
 
 
 def _frames(exp: "Experiment", world: Any, cfg: Any, trajectory: Any) -> Any:

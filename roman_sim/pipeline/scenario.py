@@ -15,8 +15,7 @@ from pydantic import Field, field_validator, model_validator
 from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
-from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
-from roman_sim.mapping.semantics import SemanticConfig
+from roman_sim.mapping.frontend import FrontEnd
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.posegraph import PoseGraphConfig
@@ -70,21 +69,6 @@ class AlignerEntry(StrictModel):
 def method_label(method: str) -> str:
     """Table label of a method name: itself, or the class name of ``package.module:Class``."""
     return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
-
-
-class FrontEnd(StrictModel):
-    """Segmenter and semantic encoder: built-in simulations or ``package.module:Class``."""
-
-    segmenter: str | SegmenterConfig = "fastsam"
-    encoder: str = "simulated"
-    semantics: SemanticConfig = Field(default_factory=SemanticConfig)
-
-    @field_validator("segmenter")
-    @classmethod
-    def _known_segmenter(cls, v: str | SegmenterConfig) -> str | SegmenterConfig:
-        if isinstance(v, str) and ":" not in v and v not in SEGMENTERS:
-            raise ValueError(f"unknown segmenter {v!r} (valid: {', '.join(SEGMENTERS.names())}, or package.module:Class)")
-        return v
 
 
 class Scenario(StrictModel):

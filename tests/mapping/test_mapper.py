@@ -56,6 +56,8 @@ def test_drifted_frame_moves_segments_by_the_drift():
 class SplittingSegmenter:
     """Perfect masks, but every object is split in two on every third frame."""
 
+    reads_truth = True
+
     def __init__(self):
         self.inner = build_segmenter("perfect")
 
@@ -79,6 +81,8 @@ def test_split_masks_merge_back():
 
 class GroundSegmenter:
     """Perfect masks plus one mask of all near terrain pixels (a ground plane)."""
+
+    reads_truth = True
 
     def __init__(self):
         self.inner = build_segmenter("perfect")
