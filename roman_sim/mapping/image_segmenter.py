@@ -9,10 +9,12 @@ Steps, at a working resolution (``work_width`` columns; the paper ran FastSAM at
 3. Two neighbouring pixels stay in one region when they share a colour region, both have
    valid depth, agree on ground / not ground and their depths differ by at most
    ``max(depth_jump_m, depth_jump_rel * depth)`` (connected components, scipy).
-4. Non-ground regions whose shared border is mostly depth-continuous are merged (one
-   object split by colour: trunk and crown); ground regions are dropped.
-5. Labels go back to full resolution (invalid depth pixels excluded) and pass ROMAN's mask
-   filters (area window, elliptical erosion).
+4. Non-ground regions of similar chroma whose shared border is mostly depth-continuous are
+   merged (one object split by shading); ground regions are dropped.
+5. Labels go back to full resolution (nearest neighbour, so a region also covers the
+   invalid pixels inside its working-resolution cells) and pass ROMAN's mask filters (area
+   window, elliptical erosion). Pixels of working cells without valid depth (sky, beyond
+   ``max_depth_m``) belong to no mask: such a mask could not be back-projected.
 
 It reads ``rgb``, ``depth``, ``T_odom_body``, ``T_body_cam`` and the intrinsics, never
 ``frame.truth``; the result is a deterministic function of those pixels.
@@ -46,6 +48,12 @@ class ImageSegmenterConfig(MaskFilterConfig):
     ground_normal_deg: float = Field(30.0, ge=0, le=90, description="normals this close to up are ground")
     merge_min_continuous: float = Field(0.6, ge=0, le=1.01, description="share of a border that must be "
                                         "depth-continuous to merge two regions (> 1: never merge)")
+    ground_flat_m: float = Field(0.06, ge=0, le=1, description="regions flatter than this (std of their points "
+                                 "along an up-facing normal) are ground")
+    min_valid_fraction: float = Field(0.25, ge=0, le=1, description="regions with a smaller share of valid "
+                                      "depth pixels are dropped (they could not be back-projected)")
+    merge_max_chroma: float = Field(20.0, ge=0, description="largest distance of mean Lab (a, b) chroma "
+                                    "(8-bit units) between two regions that merge")
 
 
 class ImageSegmenter:
@@ -78,29 +86,40 @@ class ImageSegmenter:
         valid_full = (depth > 0) & (depth <= self.cfg.max_depth_m) & np.isfinite(depth)
         small_rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA) if (h, w) != (H, W) else rgb
         d, valid = _mean_depth(depth, valid_full, (h, w), self.cfg.smooth_px)
-        ground = self._ground(frame, d, valid, W / w)
+        ground, valid = self._ground(frame, d, valid, W / w)
         colour = felzenszwalb(small_rgb, scale=self.cfg.scale, sigma=self.cfg.sigma, min_size=self.cfg.min_size_px)
         regions = self._regions(colour.astype(np.int64), d, valid, ground)
-        regions = self._merge(regions, d, ground)
+        chroma = cv2.cvtColor(np.ascontiguousarray(small_rgb), cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float64)
+        regions = self._merge(regions, d, ground, chroma)
+        regions = self._drop_flat(regions, self._points(frame, d, W / w), frame)
         if (h, w) != (H, W):
             regions = cv2.resize(regions, (W, H), interpolation=cv2.INTER_NEAREST)
-        return np.where(valid_full, regions, 0).astype(np.int32)
+        return _drop_unsupported(regions.astype(np.int32), valid_full, self.cfg.min_valid_fraction)
 
-    def _ground(self, frame: Frame, d: NDArray[np.float32], valid: NDArray[np.bool_], step: float) -> NDArray[np.bool_]:
-        """Pixels whose surface normal is within ``ground_normal_deg`` of gravity's up."""
+    def _points(self, frame: Frame, d: NDArray[np.float32], step: float) -> NDArray[np.float32]:
+        """(h, w, 3) camera-frame points of the working cells (cell centres in full-image pixels)."""
         intr = frame.intrinsics
         h, w = d.shape
         u = (np.arange(w, dtype=np.float32) + 0.5) * step - 0.5
         v = (np.arange(h, dtype=np.float32) + 0.5) * step - 0.5
-        x = (u[None, :] - intr.cx) / intr.fx * d
-        y = (v[:, None] - intr.cy) / intr.fy * d
-        P = np.stack([x, y, d], axis=-1)
-        n = np.cross(np.gradient(P, axis=1), np.gradient(P, axis=0))
+        return np.stack([(u[None, :] - intr.cx) / intr.fx * d, (v[:, None] - intr.cy) / intr.fy * d, d], axis=-1)
+
+    def _ground(self, frame: Frame, d: NDArray[np.float32], valid: NDArray[np.bool_],
+                step: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """(ground, known): cells whose normal is within ``ground_normal_deg`` of up, and cells with a normal.
+
+        Differences use valid neighbours only (central where both exist, else one-sided); a
+        cell without a valid neighbour along an axis has no normal (the rim of the valid area).
+        """
+        P = self._points(frame, d, step)
+        du, ok_u = _difference(P, valid, axis=1)
+        dv, ok_v = _difference(P, valid, axis=0)
+        n = np.cross(du, dv)
         norm = np.linalg.norm(n, axis=-1)
-        R = (np.asarray(frame.T_odom_body) @ np.asarray(frame.T_body_cam))[:3, :3]
-        up_cam = R.T @ np.array([0.0, 0.0, 1.0])
-        cos_up = np.abs(n @ up_cam.astype(np.float32)) / np.maximum(norm, 1e-12)
-        return valid & (norm > 0) & (cos_up >= np.cos(np.radians(self.cfg.ground_normal_deg)))
+        up_cam = _up_in_camera(frame)
+        cos_up = np.abs(n @ up_cam) / np.maximum(norm, 1e-12)
+        known = valid & ok_u & ok_v & (norm > 0)
+        return known & (cos_up >= np.cos(np.radians(self.cfg.ground_normal_deg))), known
 
     def _continuous(self, da: NDArray[np.float32], db: NDArray[np.float32]) -> NDArray[np.bool_]:
         jump = np.maximum(self.cfg.depth_jump_m, self.cfg.depth_jump_rel * np.minimum(da, db))
@@ -126,11 +145,15 @@ class ImageSegmenter:
         out[v] = dense.astype(np.int32) + 1
         return out.reshape(h, w)
 
-    def _merge(self, regions: NDArray[np.int32], d: NDArray[np.float32], ground: NDArray[np.bool_]) -> NDArray[np.int32]:
-        """Step 4: merge depth-continuous non-ground neighbours, drop ground regions."""
+    def _merge(self, regions: NDArray[np.int32], d: NDArray[np.float32], ground: NDArray[np.bool_],
+               chroma: NDArray[np.float64]) -> NDArray[np.int32]:
+        """Step 4: merge depth-continuous non-ground neighbours of similar chroma, drop ground regions."""
         n = int(regions.max())
         if n == 0:
             return regions
+        size = np.maximum(np.bincount(regions.ravel(), minlength=n + 1), 1)
+        mean_ab = np.stack([np.bincount(regions.ravel(), weights=chroma[..., k].ravel(), minlength=n + 1) / size
+                            for k in range(2)], axis=1)
         g_count = np.bincount(regions[ground], minlength=n + 1)
         is_ground = g_count * 2 > np.bincount(regions.ravel(), minlength=n + 1)
         pa, pb, cont = [], [], []
@@ -146,7 +169,9 @@ class ImageSegmenter:
         key = a.astype(np.int64) * (n + 1) + b
         uk, inv = np.unique(key, return_inverse=True)
         share = np.bincount(inv, weights=c.astype(np.float64)) / np.bincount(inv)
-        join = uk[share >= self.cfg.merge_min_continuous]
+        ua, ub = uk // (n + 1), uk % (n + 1)
+        similar = np.linalg.norm(mean_ab[ua] - mean_ab[ub], axis=1) <= self.cfg.merge_max_chroma
+        join = uk[(share >= self.cfg.merge_min_continuous) & similar]
         g = sparse.coo_matrix((np.ones(len(join), dtype=np.int8), (join // (n + 1), join % (n + 1))),
                               shape=(n + 1, n + 1))
         _, root = connected_components(g, directed=False)
@@ -157,9 +182,58 @@ class ImageSegmenter:
         return lut[regions]
 
 
+    def _drop_flat(self, regions: NDArray[np.int32], P: NDArray[np.float32], frame: Frame) -> NDArray[np.int32]:
+        """Drop regions whose points lie within ``ground_flat_m`` (std) of a plane facing up.
+
+        Region-level covariances average out the depth noise that makes per-cell normals of
+        distant ground unreliable.
+        """
+        n = int(regions.max())
+        if n == 0:
+            return regions
+        lab = regions.ravel()
+        pts = P.reshape(-1, 3).astype(np.float64)
+        cnt = np.maximum(np.bincount(lab, minlength=n + 1), 1).astype(np.float64)
+        mean = np.stack([np.bincount(lab, weights=pts[:, k], minlength=n + 1) for k in range(3)], 1) / cnt[:, None]
+        cov = np.empty((n + 1, 3, 3))
+        for a in range(3):
+            for b in range(a, 3):
+                m = np.bincount(lab, weights=pts[:, a] * pts[:, b], minlength=n + 1) / cnt - mean[:, a] * mean[:, b]
+                cov[:, a, b] = cov[:, b, a] = m
+        vals, vecs = np.linalg.eigh(cov)
+        up = _up_in_camera(frame).astype(np.float64)
+        facing_up = np.abs(vecs[:, :, 0] @ up) >= np.cos(np.radians(self.cfg.ground_normal_deg))
+        flat = facing_up & (np.sqrt(np.maximum(vals[:, 0], 0.0)) <= self.cfg.ground_flat_m)
+        flat[0] = True
+        _, dense = np.unique(np.where(flat, -1, np.arange(n + 1)), return_inverse=True)
+        return dense.astype(np.int32)[regions] if flat.any() else regions
+
+
+def _drop_unsupported(regions: NDArray[np.int32], valid: NDArray[np.bool_], min_share: float) -> NDArray[np.int32]:
+    """Regions with less than ``min_share`` of valid depth pixels set to 0."""
+    n = int(regions.max())
+    if n == 0 or min_share <= 0:
+        return regions
+    total = np.bincount(regions.ravel(), minlength=n + 1)
+    good = np.bincount(regions[valid], minlength=n + 1)
+    keep = good >= min_share * np.maximum(total, 1)
+    keep[0] = False
+    return np.where(keep[regions], regions, 0).astype(np.int32)
+
+
+def _up_in_camera(frame: Frame) -> NDArray[np.float32]:
+    """Gravity's up in the camera frame (from the odometry pose: VIO observes roll and pitch)."""
+    R = (np.asarray(frame.T_odom_body) @ np.asarray(frame.T_body_cam))[:3, :3]
+    return (R.T @ np.array([0.0, 0.0, 1.0])).astype(np.float32)
+
+
 def _mean_depth(depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tuple[int, int],
                 radius: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
-    """Depth averaged over valid pixels into ``shape`` and a box of ``radius``; (depth, valid)."""
+    """Mean of the valid depth in each working cell and a box of ``radius`` cells; (depth, valid).
+
+    A cell is valid when some valid pixel lies within ``radius`` cells: this fills the holes
+    that sensor noise and the invalidated depth edges leave inside objects.
+    """
     import cv2
 
     h, w = shape
@@ -168,10 +242,28 @@ def _mean_depth(depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tup
     if num.shape != (h, w):
         num = cv2.resize(num, (w, h), interpolation=cv2.INTER_AREA)
         den = cv2.resize(den, (w, h), interpolation=cv2.INTER_AREA)
-    ok = den >= 0.5
     if radius:
         k = (2 * radius + 1, 2 * radius + 1)
-        num = cv2.boxFilter(np.where(ok, num, 0), -1, k, normalize=False)
-        den2 = cv2.boxFilter(np.where(ok, den, 0), -1, k, normalize=False)
-        return np.where(ok, num / np.maximum(den2, 1e-6), 0).astype(np.float32), ok
+        num = cv2.boxFilter(num, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        den = cv2.boxFilter(den, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+    ok = den > 1e-3
     return np.where(ok, num / np.maximum(den, 1e-6), 0).astype(np.float32), ok
+
+
+def _difference(P: NDArray[np.float32], valid: NDArray[np.bool_], axis: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+    """Per-cell difference of ``P`` along ``axis`` from valid neighbours, and where one exists."""
+    fwd = np.zeros_like(P)
+    ok_f = np.zeros_like(valid)
+    sl_a = [slice(None)] * 2
+    sl_b = [slice(None)] * 2
+    sl_a[axis], sl_b[axis] = slice(0, -1), slice(1, None)
+    a, b = tuple(sl_a), tuple(sl_b)
+    fwd[a] = P[b] - P[a]
+    ok_f[a] = valid[a] & valid[b]
+    bwd = np.zeros_like(P)
+    ok_b = np.zeros_like(valid)
+    bwd[b] = P[b] - P[a]
+    ok_b[b] = valid[a] & valid[b]
+    both = ok_f & ok_b
+    diff = np.where(both[..., None], 0.5 * (fwd + bwd), np.where(ok_f[..., None], fwd, bwd))
+    return diff, ok_f | ok_b
