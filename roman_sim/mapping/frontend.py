@@ -82,7 +82,7 @@ class SegmenterEntry(ComponentEntry):
     name: str = Field("fastsam", min_length=1)
 
     @model_validator(mode="after")
-    def _known(self) -> "SegmenterEntry":
+    def _known(self) -> SegmenterEntry:
         _check_entry(SEGMENTER_TYPES, self, "frontend.segmenter")
         return self
 
@@ -93,7 +93,7 @@ class EncoderEntry(ComponentEntry):
     name: str = Field("simulated", min_length=1)
 
     @model_validator(mode="after")
-    def _known(self) -> "EncoderEntry":
+    def _known(self) -> EncoderEntry:
         _check_entry(ENCODER_TYPES, self, "frontend.encoder")
         return self
 

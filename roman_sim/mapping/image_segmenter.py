@@ -82,7 +82,7 @@ class ImageSegmenter:
         depth = np.asarray(frame.depth, dtype=np.float32)
         H, W = depth.shape
         w = min(self.cfg.work_width, W)
-        h = max(1, int(round(H * w / W)))
+        h = max(1, round(H * w / W))
         valid_full = (depth > 0) & (depth <= self.cfg.max_depth_m) & np.isfinite(depth)
         small_rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA) if (h, w) != (H, W) else rgb
         d, valid = _mean_depth(depth, valid_full, (h, w), self.cfg.smooth_px)

@@ -118,6 +118,6 @@ class Mapper:
         self._done = True
         segs = self.tracker.flush()
         log.info("robot %s: %d frames, %d segments", self.robot, len(self._t), len(segs))
-        stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))  # noqa: E731
+        stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))
         return SegmentMap(self.robot or "", segs, np.asarray(self._t, dtype=np.float64),
                           stack(self._odom), None if self._world is None else stack(self._world))

@@ -25,7 +25,7 @@ class MaskFilterConfig(StrictModel):
     erosion_px: int = Field(3, ge=0, le=20)
 
     @model_validator(mode="after")
-    def _window(self) -> "MaskFilterConfig":
+    def _window(self) -> MaskFilterConfig:
         if self.max_area_div >= self.min_area_div:
             raise ValueError("max_area_div must be smaller than min_area_div")
         return self

@@ -14,7 +14,14 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.mapping.models.common import box_crops, load_libraries, load_pretrained, set_threads, unit_rows, weights_dir
+from roman_sim.mapping.models.common import (
+    box_crops,
+    load_libraries,
+    load_pretrained,
+    set_threads,
+    unit_rows,
+    weights_dir,
+)
 from roman_sim.mapping.models.config import ClipConfig
 from roman_sim.mapping.segmenter import Mask
 
