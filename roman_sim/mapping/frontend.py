@@ -163,27 +163,37 @@ def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field:
     return spec.build(params, ctx)
 
 
-def build_segmenter(cfg: FrontEnd | ComponentEntry | str, seed: int = 0, robot: str = "") -> Any:
-    """The configured segmenter of ``robot`` (any object with ``segment(frame) -> list[Mask]``)."""
-    entry = cfg.segmenter if isinstance(cfg, FrontEnd) else SegmenterEntry.model_validate(cfg) \
-        if isinstance(cfg, str) else cfg
+def _entry(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], cls: type[ComponentEntry], field: str) -> ComponentEntry:
+    if isinstance(cfg, FrontEnd):
+        return getattr(cfg, field.rsplit(".", 1)[-1])
+    if isinstance(cfg, ComponentEntry):
+        return cfg
+    return validate_model(cls, {"name": cfg} if isinstance(cfg, str) else cfg, source=field)
+
+
+def build_segmenter(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], seed: int = 0, robot: str = "") -> Any:
+    """The configured segmenter of ``robot`` (any object with ``segment(frame) -> list[Mask]``).
+
+    ``cfg`` is a front end, an entry, a name or an entry's dict.
+    """
+    entry = _entry(cfg, SegmenterEntry, "frontend.segmenter")
     ctx = BuildContext(seed, robot, None, SemanticConfig())
     return _build(segmenter_spec(entry), entry, ctx, "frontend.segmenter")
 
 
-def build_encoder(cfg: FrontEnd | ComponentEntry | str, seed: int = 0, robot: str = "",
+def build_encoder(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], seed: int = 0, robot: str = "",
                   families: Mapping[int, str] | None = None) -> Any:
     """The configured semantic encoder of ``robot``.
 
     Args:
-        cfg: the front end (its ``semantics`` parameterise ``simulated``), an entry or a name.
+        cfg: the front end (its ``semantics`` parameterise ``simulated``), an entry, a name
+            or an entry's dict.
         seed: scenario seed (the simulated encoder's prototypes are shared by all robots).
         robot: robot name (keys the simulated encoder's observation noise).
         families: object id -> family, for truth-driven encoders only.
     """
     semantics = cfg.semantics if isinstance(cfg, FrontEnd) else SemanticConfig()
-    entry = cfg.encoder if isinstance(cfg, FrontEnd) else EncoderEntry.model_validate(cfg) \
-        if isinstance(cfg, str) else cfg
+    entry = _entry(cfg, EncoderEntry, "frontend.encoder")
     spec = encoder_spec(entry)
     ctx = BuildContext(seed, robot, families if spec.reads_truth else None, semantics)
     return _build(spec, entry, ctx, "frontend.encoder")

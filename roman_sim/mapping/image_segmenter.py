@@ -10,7 +10,9 @@ Steps, at a working resolution (``work_width`` columns; the paper ran FastSAM at
    valid depth, agree on ground / not ground and their depths differ by at most
    ``max(depth_jump_m, depth_jump_rel * depth)`` (connected components, scipy).
 4. Non-ground regions of similar chroma whose shared border is mostly depth-continuous are
-   merged (one object split by shading); ground regions are dropped.
+   merged (one object split by shading); an up-facing region enclosed by one object joins it
+   (the object's top); the remaining ground regions and flat, up-facing regions (distant
+   ground, where per-pixel normals are noisy) are dropped.
 5. Labels go back to full resolution (nearest neighbour, so a region also covers the
    invalid pixels inside its working-resolution cells) and pass ROMAN's mask filters (area
    window, elliptical erosion). Pixels of working cells without valid depth (sky, beyond
@@ -48,6 +50,8 @@ class ImageSegmenterConfig(MaskFilterConfig):
     ground_normal_deg: float = Field(30.0, ge=0, le=90, description="normals this close to up are ground")
     merge_min_continuous: float = Field(0.6, ge=0, le=1.01, description="share of a border that must be "
                                         "depth-continuous to merge two regions (> 1: never merge)")
+    cap_border_share: float = Field(0.5, ge=0, le=1.01, description="share of a ground region's border an "
+                                    "object region must hold to absorb it (an object's top)")
     ground_flat_m: float = Field(0.06, ge=0, le=1, description="regions flatter than this (std of their points "
                                  "along an up-facing normal) are ground")
     min_valid_fraction: float = Field(0.25, ge=0, le=1, description="regions with a smaller share of valid "
@@ -147,15 +151,41 @@ class ImageSegmenter:
 
     def _merge(self, regions: NDArray[np.int32], d: NDArray[np.float32], ground: NDArray[np.bool_],
                chroma: NDArray[np.float64]) -> NDArray[np.int32]:
-        """Step 4: merge depth-continuous non-ground neighbours of similar chroma, drop ground regions."""
+        """Step 4: merge depth-continuous neighbours of similar chroma, drop ground regions.
+
+        Two non-ground regions merge; a ground region merges into a non-ground one only when
+        that neighbour holds at least ``cap_border_share`` of its border (the up-facing top
+        of an object, enclosed by the object, not the ground it stands on).
+        """
         n = int(regions.max())
         if n == 0:
             return regions
-        size = np.maximum(np.bincount(regions.ravel(), minlength=n + 1), 1)
-        mean_ab = np.stack([np.bincount(regions.ravel(), weights=chroma[..., k].ravel(), minlength=n + 1) / size
+        flat = regions.ravel()
+        size = np.maximum(np.bincount(flat, minlength=n + 1), 1)
+        mean_ab = np.stack([np.bincount(flat, weights=chroma[..., k].ravel(), minlength=n + 1) / size
                             for k in range(2)], axis=1)
-        g_count = np.bincount(regions[ground], minlength=n + 1)
-        is_ground = g_count * 2 > np.bincount(regions.ravel(), minlength=n + 1)
+        is_ground = np.bincount(regions[ground], minlength=n + 1) * 2 > size
+        ua, ub, count, share = self._borders(regions, d, n)
+        border = np.bincount(ua, weights=count, minlength=n + 1) + np.bincount(ub, weights=count, minlength=n + 1)
+        similar = np.linalg.norm(mean_ab[ua] - mean_ab[ub], axis=1) <= self.cfg.merge_max_chroma
+        ok = (share >= self.cfg.merge_min_continuous) & similar
+        objects = ~is_ground[ua] & ~is_ground[ub]
+        cap_a = is_ground[ua] & ~is_ground[ub] & (count >= self.cfg.cap_border_share * border[ua])
+        cap_b = is_ground[ub] & ~is_ground[ua] & (count >= self.cfg.cap_border_share * border[ub])
+        join = ok & (objects | cap_a | cap_b)
+        g = sparse.coo_matrix((np.ones(int(join.sum()), dtype=np.int8), (ua[join], ub[join])), shape=(n + 1, n + 1))
+        _, root = connected_components(g, directed=False)
+        capped = np.zeros(n + 1, dtype=bool)
+        capped[ua[join & cap_a]] = True
+        capped[ub[join & cap_b]] = True
+        root[is_ground & ~capped] = -1
+        root[0] = -1
+        _, dense = np.unique(root, return_inverse=True)
+        return dense.astype(np.int32)[regions]  # -1 (label 0 and ground) sorts first and maps to 0
+
+    def _borders(self, regions: NDArray[np.int32], d: NDArray[np.float32],
+                 n: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+        """Neighbouring region pairs (a < b): labels, border length and its depth-continuous share."""
         pa, pb, cont = [], [], []
         for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
             ra, rb = regions[a], regions[b]
@@ -164,23 +194,10 @@ class ImageSegmenter:
             pb.append(np.maximum(ra[sel], rb[sel]))
             cont.append(self._continuous(d[a][sel], d[b][sel]))
         a, b, c = np.concatenate(pa), np.concatenate(pb), np.concatenate(cont)
-        keep = ~is_ground[a] & ~is_ground[b]
-        a, b, c = a[keep], b[keep], c[keep]
-        key = a.astype(np.int64) * (n + 1) + b
-        uk, inv = np.unique(key, return_inverse=True)
-        share = np.bincount(inv, weights=c.astype(np.float64)) / np.bincount(inv)
-        ua, ub = uk // (n + 1), uk % (n + 1)
-        similar = np.linalg.norm(mean_ab[ua] - mean_ab[ub], axis=1) <= self.cfg.merge_max_chroma
-        join = uk[(share >= self.cfg.merge_min_continuous) & similar]
-        g = sparse.coo_matrix((np.ones(len(join), dtype=np.int8), (join // (n + 1), join % (n + 1))),
-                              shape=(n + 1, n + 1))
-        _, root = connected_components(g, directed=False)
-        root[is_ground] = -1
-        root[0] = -1
-        _, dense = np.unique(root, return_inverse=True)
-        lut = dense.astype(np.int32)  # -1 (label 0 and ground) sorts first and maps to 0
-        return lut[regions]
-
+        uk, inv = np.unique(a.astype(np.int64) * (n + 1) + b, return_inverse=True)
+        count = np.bincount(inv).astype(np.float64)
+        share = np.bincount(inv, weights=c.astype(np.float64)) / np.maximum(count, 1)
+        return uk // (n + 1), uk % (n + 1), count, share
 
     def _drop_flat(self, regions: NDArray[np.int32], P: NDArray[np.float32], frame: Frame) -> NDArray[np.int32]:
         """Drop regions whose points lie within ``ground_flat_m`` (std) of a plane facing up.
