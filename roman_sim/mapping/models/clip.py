@@ -36,7 +36,7 @@ class ClipEncoder:
 
     def __init__(self, cfg: ClipConfig) -> None:
         self.cfg = cfg
-        path = weights_dir(cfg.weights, FIELD)
+        path = weights_dir(cfg.weights, FIELD, ("clip", "clip_vision_model"))
         self._torch, tf = load_libraries("encoder 'clip'")
         set_threads(self._torch, cfg.threads)
         self.model = load_pretrained(tf.CLIPVisionModelWithProjection, path, FIELD).eval()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import json
 import os
 from pathlib import Path
 from typing import Any
@@ -28,14 +29,24 @@ def load_libraries(component: str) -> tuple[Any, Any]:
     return torch, transformers
 
 
-def weights_dir(path: Path, field: str) -> Path:
-    """The local model folder ``path``; a one-line ``ConfigError`` naming ``field`` when it is missing."""
+def weights_dir(path: Path, field: str, model_types: tuple[str, ...] = ()) -> Path:
+    """The local model folder ``path``; a one-line ``ConfigError`` naming ``field`` when it is missing.
+
+    With ``model_types``, the folder's ``config.json`` must declare one of them as ``model_type``.
+    """
     p = Path(path).expanduser()
     if not p.is_dir():
         raise ConfigError(f"{field}: no model folder at {p} (give a local folder saved with save_pretrained; "
                           "nothing is downloaded)")
     if not (p / "config.json").is_file():
         raise ConfigError(f"{field}: {p} has no config.json (expected a folder saved with save_pretrained)")
+    if model_types:
+        try:
+            kind = json.loads((p / "config.json").read_text(encoding="utf-8")).get("model_type")
+        except (OSError, ValueError, AttributeError) as err:
+            raise ConfigError(f"{field}: cannot read {p / 'config.json'}: {err}") from None
+        if kind not in model_types:
+            raise ConfigError(f"{field}: {p} holds a {kind!r} model, expected {' or '.join(map(repr, model_types))}")
     return p
 
 

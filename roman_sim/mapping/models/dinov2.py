@@ -33,7 +33,7 @@ class Dinov2Encoder:
 
     def __init__(self, cfg: Dinov2Config) -> None:
         self.cfg = cfg
-        path = weights_dir(cfg.weights, FIELD)
+        path = weights_dir(cfg.weights, FIELD, ("dinov2",))
         self._torch, tf = load_libraries("encoder 'dinov2'")
         set_threads(self._torch, cfg.threads)
         self.model = load_pretrained(tf.Dinov2Model, path, FIELD).eval()

@@ -35,7 +35,7 @@ class SamSegmenter:
 
     def __init__(self, cfg: SamConfig) -> None:
         self.cfg = cfg
-        path = weights_dir(cfg.weights, FIELD)
+        path = weights_dir(cfg.weights, FIELD, ("sam",))
         self._torch, tf = load_libraries("segmenter 'sam'")
         set_threads(self._torch, cfg.threads)
         self.model = load_pretrained(tf.SamModel, path, FIELD).eval()
