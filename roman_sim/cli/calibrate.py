@@ -73,7 +73,7 @@ def calibrate_cmd(
     from roman_sim.core.config import validate_model
     from roman_sim.evaluation.calibration import calibrate, render_calibration_frames
     from roman_sim.evaluation.frontend_grades import FrontEndGrades, SegmentationGrades, plot_frontend_grades
-    from roman_sim.mapping.frontend import FrontEnd
+    from roman_sim.mapping.frontend import FrontEnd, build_encoder, build_segmenter, encoder_spec
     from roman_sim.pipeline.scenario import load_scenario
 
     enc, seg = _entry(encoder, "--encoder"), _entry(segmenter, "--segmenter")
@@ -86,8 +86,12 @@ def calibrate_cmd(
     if seg is not None:
         data["segmenter"] = seg
     fe = validate_model(FrontEnd, data, source="frontend")
+    # Truth-free targets (models) are built first, so bad weights fail before anything renders.
+    target_enc = None if enc is None or encoder_spec(fe.encoder).reads_truth else build_encoder(fe, sc.seed, "calibration")
+    target_seg = None if seg is None else build_segmenter(fe, sc.seed, "calibration")
     console.print(f"rendering {frames} frames of {sc.name} ...")
-    cal = calibrate(render_calibration_frames(sc, frames), fe, encoder=enc is not None, segmenter=seg is not None)
+    cal = calibrate(render_calibration_frames(sc, frames), fe, encoder=enc is not None, segmenter=seg is not None,
+                    target_encoder=target_enc, target_segmenter=target_seg)
     write_text(out, cal.frontend_yaml())
     if grades is not None:
         write_json(grades, cal.to_json())

@@ -113,7 +113,8 @@ class Calibration:
 
 def calibrate(data: CalibrationFrames, frontend: FrontEnd, encoder: bool = True, segmenter: bool = True,
               iterations: int = 4, prior_semantics: SemanticConfig | None = None,
-              prior_segmenter: SegmenterConfig | None = None) -> Calibration:
+              prior_segmenter: SegmenterConfig | None = None, target_encoder: Any = None,
+              target_segmenter: Any = None) -> Calibration:
     """Measure ``frontend``'s encoder and/or segmenter on ``data`` and fit the simulated ones to them.
 
     Args:
@@ -126,12 +127,14 @@ def calibrate(data: CalibrationFrames, frontend: FrontEnd, encoder: bool = True,
             (default: the default ``SemanticConfig`` with ``frontend.semantics``' groups).
         prior_segmenter: starting point of the segmenter fit (default: the ``fastsam``
             preset with the target's mask-filter fields).
+        target_encoder, target_segmenter: already built targets (default: built from
+            ``frontend``; build truth-free ones before rendering to fail early on bad weights).
     """
     out = Calibration()
     seed = data.seed
     if encoder:
-        target = build_encoder(frontend, seed, "calibration",
-                               data.families if encoder_spec(frontend.encoder).reads_truth else None)
+        target = target_encoder or build_encoder(frontend, seed, "calibration",
+                                                 data.families if encoder_spec(frontend.encoder).reads_truth else None)
         out.measured_descriptors = grade_encoder(data, target, frontend.semantics)
         if out.measured_descriptors is not None:
             prior = prior_semantics or SemanticConfig(groups=frontend.semantics.groups)
@@ -139,7 +142,7 @@ def calibrate(data: CalibrationFrames, frontend: FrontEnd, encoder: bool = True,
             fitted = build_encoder(FrontEnd(semantics=out.semantics), seed + 1, "calibration-fit", data.families)
             out.fitted_descriptors = grade_encoder(data, fitted, out.semantics)
     if segmenter:
-        target_seg = build_segmenter(frontend, seed, "calibration")
+        target_seg = target_segmenter or build_segmenter(frontend, seed, "calibration")
         out.measured_segmentation = grade_segmenter(data, target_seg)
 
         def grade(cfg: SegmenterConfig) -> SegmentationGrades:

@@ -93,6 +93,8 @@ class SegmentationGrades:
 
     def by_distance(self) -> list[dict[str, Any]]:
         """Per distance bin: objects, missed (no mask belongs), unmatched (no IoU match)."""
+        if not self.table_objects:
+            return []
         obj, det, mat = (np.asarray(t, dtype=np.int64).sum(axis=0) for t in
                          (self.table_objects, self.table_detected, self.table_matched))
         edges = [*self.distance_edges_m, None]

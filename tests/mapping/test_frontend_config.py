@@ -4,8 +4,17 @@ import pytest
 
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.mapping.frontend import (ENCODER_TYPES, SEGMENTER_TYPES, FrontEnd, build_encoder, build_segmenter,
-                                        check_robots, encoder_spec, reads_truth, segmenter_spec)
+from roman_sim.mapping.frontend import (
+    ENCODER_TYPES,
+    SEGMENTER_TYPES,
+    FrontEnd,
+    build_encoder,
+    build_segmenter,
+    check_robots,
+    encoder_spec,
+    reads_truth,
+    segmenter_spec,
+)
 from roman_sim.mapping.image_encoder import ImageEncoder
 from roman_sim.mapping.image_segmenter import ImageSegmenter
 from roman_sim.mapping.segmenter import SimulatedSegmenter

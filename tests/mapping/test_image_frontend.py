@@ -12,7 +12,7 @@ from roman_sim.mapping.image_encoder import ImageEncoder, ImageEncoderConfig
 from roman_sim.mapping.image_segmenter import ImageSegmenter, ImageSegmenterConfig
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.observation import observe_indexed
-from roman_sim.mapping.segmenter import Mask, build_segmenter
+from roman_sim.mapping.segmenter import build_segmenter
 from roman_sim.mapping.tracker import MappingConfig
 
 SKY, GROUND = (150, 190, 235), (110, 140, 70)

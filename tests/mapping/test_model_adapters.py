@@ -9,6 +9,8 @@ import os
 
 import numpy as np
 import pytest
+import torch
+import transformers
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.mapping.frontend import build_encoder, build_segmenter
@@ -18,9 +20,6 @@ from roman_sim.mapping.models.common import box_crops
 from roman_sim.mapping.models.config import ClipConfig, Dinov2Config, SamConfig
 from roman_sim.mapping.segmenter import Mask
 from roman_sim.mapping.tracker import MappingConfig
-
-import torch  # noqa: E402  (the test extra installs torch and transformers: these tests run in CI)
-import transformers  # noqa: E402
 
 
 @pytest.fixture(scope="module")
