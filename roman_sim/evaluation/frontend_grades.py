@@ -182,6 +182,37 @@ class FrontEndGrades:
             raise EvaluationError(f"front-end grades: malformed entry ({err})") from None
 
 
+def _f(v: float | None, digits: int = 2) -> str:
+    return "n/a" if v is None else f"{v:.{digits}f}"
+
+
+def frontend_report_lines(grades: FrontEndGrades) -> list[str]:
+    """The report's front-end section (markdown lines): segmentation grades, misses, cosines."""
+    s = grades.segmentation
+    lines = ["## Front end against truth", "",
+             f"Segmenter `{grades.segmenter}`, encoder `{grades.encoder or 'none'}`, graded on {s.frames} frames "
+             "against the instance image (objects in ROMAN's mask area window, after its erosion).", "",
+             "| precision | recall | mean IoU | masks / frame | over-segmented | under-segmented | spurious |",
+             "|---|---|---|---|---|---|---|",
+             f"| {_f(s.precision)} | {_f(s.recall)} | {_f(s.mean_iou)} | {_f(s.masks / max(s.frames, 1), 1)} | "
+             f"{s.over_segmented} | {s.under_segmented} | {s.spurious} |", ""]
+    rows = s.by_distance()
+    if rows:
+        lines += ["| object distance (m) | object views | missed | recall (IoU match) |", "|---|---|---|---|"]
+        for r in rows:
+            to = "" if r["to_m"] is None else f"{r['to_m']:g}"
+            rec = None if not r["objects"] else 1.0 - r["unmatched"] / r["objects"]
+            lines.append(f"| {r['from_m']:g}-{to} | {r['objects']} | {r['missed']} | {_f(rec)} |")
+        lines.append("")
+    d = grades.descriptors
+    if d is not None:
+        lines += ["| descriptor pairs | pairs | mean cosine | 5 % | 95 % |", "|---|---|---|---|---|"]
+        for name, st in d.classes.items():
+            lines.append(f"| {name.replace('_', ' ')} | {st.pairs} | {_f(st.mean)} | {_f(st.p05)} | {_f(st.p95)} |")
+        lines.append("")
+    return lines
+
+
 def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
     """Three panels: cosine histograms per class, cosine against view difference, objects by distance."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
