@@ -36,14 +36,19 @@ RANDOM_ELEVATION_DEG = (15.0, 75.0)
 
 
 class LightingSpec(StrictModel):
-    """Sun, ambient and headlight intensities; angles in degrees (``null``: seeded random)."""
+    """Sun, ambient and headlight intensities; angles in degrees (``null``: seeded random).
+
+    The lit colour of a surface is its colour times ``ambient + headlight * cos(view angle)
+    + sun * colour * cos(sun angle)``, clipped at 1 (OpenGL's fixed pipeline), so the three
+    intensities should add up to about 1 for surfaces not to wash out.
+    """
 
     azimuth_deg: float | None = Field(214.0, ge=-360.0, le=360.0, description="towards the sun, ccw from +x")
     elevation_deg: float | None = Field(70.0, ge=1.0, le=90.0, description="sun above the horizon")
-    sun: float = Field(0.7, ge=0.0, le=2.0, description="directional (sun) intensity")
-    colour: Colour = Field((1.0, 1.0, 0.93), description="sun colour, RGB in [0, 1]")
-    ambient: float = Field(0.5, ge=0.0, le=1.5, description="light on every surface alike")
-    headlight: float = Field(0.35, ge=0.0, le=1.5, description="diffuse light from the camera")
+    sun: float = Field(0.5, ge=0.0, le=2.0, description="directional (sun) intensity")
+    colour: Colour = Field((1.0, 1.0, 0.95), description="sun colour, RGB in [0, 1]")
+    ambient: float = Field(0.3, ge=0.0, le=1.5, description="light on every surface alike")
+    headlight: float = Field(0.2, ge=0.0, le=1.5, description="diffuse light from the camera")
     sky: Colour = Field((0.55, 0.7, 0.9), description="sky colour at the zenith, RGB in [0, 1]")
 
     @field_validator("colour", "sky")
@@ -56,11 +61,11 @@ class LightingSpec(StrictModel):
 
 LIGHTING: Registry[LightingSpec] = Registry("lighting preset")
 LIGHTING.register("noon", LightingSpec())
-LIGHTING.register("morning", LightingSpec(azimuth_deg=340.0, elevation_deg=20.0, sun=0.8, colour=(1.0, 0.88, 0.72),
-                                          ambient=0.35, headlight=0.25, sky=(0.6, 0.7, 0.85)))
-LIGHTING.register("evening", LightingSpec(azimuth_deg=200.0, elevation_deg=10.0, sun=0.75, colour=(1.0, 0.7, 0.45),
-                                          ambient=0.3, headlight=0.25, sky=(0.45, 0.5, 0.7)))
-LIGHTING.register("overcast", LightingSpec(sun=0.12, colour=(0.92, 0.95, 1.0), ambient=0.65, headlight=0.3,
+LIGHTING.register("morning", LightingSpec(azimuth_deg=340.0, elevation_deg=20.0, sun=0.75, colour=(1.0, 0.88, 0.72),
+                                          sky=(0.6, 0.7, 0.85)))
+LIGHTING.register("evening", LightingSpec(azimuth_deg=200.0, elevation_deg=10.0, sun=0.7, colour=(1.0, 0.7, 0.45),
+                                          ambient=0.25, sky=(0.45, 0.5, 0.7)))
+LIGHTING.register("overcast", LightingSpec(sun=0.12, colour=(0.92, 0.95, 1.0), ambient=0.6, headlight=0.25,
                                            sky=(0.72, 0.74, 0.77)))
 LIGHTING.register("random", LightingSpec(azimuth_deg=None, elevation_deg=None))
 

@@ -65,7 +65,7 @@ def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: 
     rows, cols = terrain.shape
     tex = mjs.add_texture(name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D, width=ground.shape[1], height=ground.shape[0], nchannel=3)
     tex.data = np.ascontiguousarray(ground).tobytes()
-    mat = mjs.add_material(name=GROUND)
+    mat = mjs.add_material(name=GROUND, specular=0.0)  # grass and dirt do not shine
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
     mat.texrepeat = [1.0, 1.0]  # the image covers the hfield once (roads line up with truth)
     depth = max(1.0, 0.1 * elevation)

@@ -70,8 +70,8 @@ def _foliage(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
 
 
 def _rock(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
-    veins = np.exp(-np.abs(noise(rng, n, 0.05 * n)) * 12.0)
-    return 1.0 + 0.14 * _fbm(rng, n, (0.15 * n, 0.05 * n, 0.012 * n)) + 0.05 * noise(rng, n, 0.7) - 0.3 * veins
+    veins = np.exp(-np.abs(noise(rng, n, 0.04 * n)) * 10.0)
+    return 1.0 + 0.2 * _fbm(rng, n, (0.12 * n, 0.04 * n, 0.012 * n)) + 0.06 * noise(rng, n, 0.7) - 0.35 * veins
 
 
 def _wood(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
@@ -81,8 +81,8 @@ def _wood(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
 
 
 def _paint(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
-    dirt = np.clip(noise(rng, n, 0.08 * n) - 0.6, 0.0, None)
-    return 1.0 + 0.035 * noise(rng, n, 0.8) + 0.03 * noise(rng, n, 0.03 * n) - 0.15 * dirt
+    dirt = np.clip(noise(rng, n, 0.08 * n) - 1.0, 0.0, None)
+    return 1.0 + 0.03 * noise(rng, n, 0.8) + 0.02 * noise(rng, n, 0.03 * n) - 0.1 * dirt
 
 
 def _metal(rng: np.random.Generator, n: int) -> NDArray[np.float64]:
