@@ -208,7 +208,7 @@ def check_robots(frontend: FrontEnd, robots: Iterable[Any]) -> None:
     for r in robots:
         if not r.render_rgb:
             names = " and ".join(f"{w} {getattr(frontend, w).name!r}" for w in which)
-            raise ConfigError(f"robots.{r.name}.render_rgb: the front end's {names} needs RGB images; "
+            raise ConfigError(f"robots.{r.name}.render_rgb: the front end's {names} {'need' if len(which) > 1 else 'needs'} RGB images; "
                               f"set render_rgb: true for robot {r.name!r}")
 
 
