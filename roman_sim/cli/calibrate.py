@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import typer
 import yaml
@@ -52,19 +52,20 @@ def _print(cal: Any) -> None:
         for name in ("precision", "recall", "mean_iou"):
             t.add_row(name, _fmt(getattr(m, name)), _fmt(getattr(f, name)))
         for name in ("over_segmented", "under_segmented", "spurious"):
-            t.add_row(f"{name} / frame", _fmt(getattr(m, name) / max(m.frames, 1)), _fmt(getattr(f, name) / max(f.frames, 1)))
+            t.add_row(f"{name} / frame", _fmt(getattr(m, name) / max(m.frames, 1)),
+                      _fmt(getattr(f, name) / max(f.frames, 1)))
         out.print(t)
 
 
 @app.command("calibrate")
 def calibrate_cmd(
     scenario: str = typer.Argument(..., help="bundled scenario name or YAML path (its world and robots are rendered)"),
-    encoder: Optional[str] = typer.Option(None, "--encoder", help="encoder to measure: a name or "
+    encoder: str | None = typer.Option(None, "--encoder", help="encoder to measure: a name or "
                                           "'{name: clip, params: {weights: /path}}'"),
-    segmenter: Optional[str] = typer.Option(None, "--segmenter", help="segmenter to measure, same form"),
+    segmenter: str | None = typer.Option(None, "--segmenter", help="segmenter to measure, same form"),
     out: Path = typer.Option(Path("calibration.yaml"), "--out", "-o", help="YAML with the fitted frontend section"),
-    grades: Optional[Path] = typer.Option(None, "--grades", help="also write measured and fitted grades (JSON)"),
-    plot: Optional[Path] = typer.Option(None, "--plot", help="also plot the measured grades (PNG)"),
+    grades: Path | None = typer.Option(None, "--grades", help="also write measured and fitted grades (JSON)"),
+    plot: Path | None = typer.Option(None, "--plot", help="also plot the measured grades (PNG)"),
     frames: int = typer.Option(120, "--frames", min=2, help="frames rendered in all"),
     overrides: list[str] = typer.Option([], "--set", help="override a scenario field, key=value"),
 ) -> None:
@@ -87,7 +88,8 @@ def calibrate_cmd(
         data["segmenter"] = seg
     fe = validate_model(FrontEnd, data, source="frontend")
     # Truth-free targets (models) are built first, so bad weights fail before anything renders.
-    target_enc = None if enc is None or encoder_spec(fe.encoder).reads_truth else build_encoder(fe, sc.seed, "calibration")
+    truth_enc = enc is None or encoder_spec(fe.encoder).reads_truth
+    target_enc = None if truth_enc else build_encoder(fe, sc.seed, "calibration")
     target_seg = None if seg is None else build_segmenter(fe, sc.seed, "calibration")
     console.print(f"rendering {frames} frames of {sc.name} ...")
     cal = calibrate(render_calibration_frames(sc, frames), fe, encoder=enc is not None, segmenter=seg is not None,

@@ -44,7 +44,7 @@ def render_calibration_frames(scenario: Any, max_frames: int = 120) -> Calibrati
     """At most ``max_frames`` frames in all (RGB on), spread evenly over each robot's run."""
     import numpy as np
 
-    from roman_sim.sim.robot import plan_paths, render_trajectory, trajectory_along
+    from roman_sim.sim.robot import DrivenRun, plan_paths, render_trajectory, trajectory_along
     from roman_sim.world import generate
 
     world = generate(scenario.world.spec(), scenario.seed)
@@ -55,7 +55,7 @@ def render_calibration_frames(scenario: Any, max_frames: int = 120) -> Calibrati
     for r in robots:
         t, T_wb, T_ob = trajectory_along(world, r, scenario.seed, paths[r.name])
         keep = np.unique(np.linspace(0, len(t) - 1, min(per_robot, len(t))).round().astype(int))
-        traj = (t[keep], T_wb[keep], T_ob[keep])
+        traj = DrivenRun(t[keep], T_wb[keep], T_ob[keep])
         frames += list(render_trajectory(world, r, scenario.seed, traj))
     return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed)
 

@@ -56,10 +56,9 @@ class FrontEndGrader:
         self.families = dict(families)
         self.group_of = group_of or (lambda f: f)
         n_a, n_d = len(self.cfg.area_edges_frac) - 1, len(self.cfg.distance_edges_m)
-        zeros = lambda: [[0] * n_d for _ in range(n_a)]
+        tables = {f"table_{k}": [[0] * n_d for _ in range(n_a)] for k in ("objects", "detected", "matched", "over")}
         self.seg = SegmentationGrades(distance_edges_m=list(self.cfg.distance_edges_m),
-                                      area_edges_frac=list(self.cfg.area_edges_frac), table_objects=zeros(),
-                                      table_detected=zeros(), table_matched=zeros(), table_over=zeros())
+                                      area_edges_frac=list(self.cfg.area_edges_frac), **tables)
         self._obs: list[_Obs] = []
         self._seen = 0
         self._rng = child_rng(seed, "frontend_grades")

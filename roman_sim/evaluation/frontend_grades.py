@@ -242,8 +242,7 @@ def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
     ax3.bar(x + 0.2, [r["missed"] for r in rows], 0.4, label="missed")
     ax3.set_xticks(x, labels)
     s = grades.segmentation
-    fmt = lambda v: "n/a" if v is None else f"{v:.2f}"
     ax3.set(xlabel="object distance (m)", ylabel="object views",
-            title=f"{grades.segmenter}: P {fmt(s.precision)} R {fmt(s.recall)} IoU {fmt(s.mean_iou)}")
+            title=f"{grades.segmenter}: P {_f(s.precision)} R {_f(s.recall)} IoU {_f(s.mean_iou)}")
     ax3.legend(fontsize=7)
     return save_png(fig, path)

@@ -163,7 +163,8 @@ def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field:
     return spec.build(params, ctx)
 
 
-def _entry(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], cls: type[ComponentEntry], field: str) -> ComponentEntry:
+def _entry(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], cls: type[ComponentEntry],
+           field: str) -> ComponentEntry:
     if isinstance(cfg, FrontEnd):
         return getattr(cfg, field.rsplit(".", 1)[-1])
     if isinstance(cfg, ComponentEntry):
@@ -203,12 +204,13 @@ def check_robots(frontend: FrontEnd, robots: Iterable[Any]) -> None:
     """Raise ``ConfigError`` naming the first robot (``.name``, ``.render_rgb``) without the RGB the front end needs."""
     if not frontend.needs_rgb:
         return
-    which = [n for n, s in (("segmenter", segmenter_spec(frontend.segmenter)), ("encoder", encoder_spec(frontend.encoder)))
-             if s.needs_rgb]
+    specs = (("segmenter", segmenter_spec(frontend.segmenter)), ("encoder", encoder_spec(frontend.encoder)))
+    which = [n for n, s in specs if s.needs_rgb]
     for r in robots:
         if not r.render_rgb:
             names = " and ".join(f"{w} {getattr(frontend, w).name!r}" for w in which)
-            raise ConfigError(f"robots.{r.name}.render_rgb: the front end's {names} {'need' if len(which) > 1 else 'needs'} RGB images; "
+            verb = "need" if len(which) > 1 else "needs"
+            raise ConfigError(f"robots.{r.name}.render_rgb: the front end's {names} {verb} RGB images; "
                               f"set render_rgb: true for robot {r.name!r}")
 
 

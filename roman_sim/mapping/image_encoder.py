@@ -92,7 +92,8 @@ class ImageEncoder:
         codes = _Codes(crop, self.cfg)
         return self._describe(codes, m, (0, 0))
 
-    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask], contexts: list[Any]) -> NDArray[np.float32]:
+    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask],
+                     contexts: list[Any]) -> NDArray[np.float32]:
         """(N, dim) unit descriptors of every mask of one frame (codes computed once)."""
         if rgb is None:
             raise MappingError("image encoder: the frame has no RGB (set render_rgb: true)")

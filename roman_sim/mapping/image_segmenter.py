@@ -91,8 +91,15 @@ class ImageSegmenter:
         small_rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA) if (h, w) != (H, W) else rgb
         d, valid = _mean_depth(depth, valid_full, (h, w), self.cfg.smooth_px)
         ground, valid = self._ground(frame, d, valid, W / w)
-        colour = felzenszwalb(small_rgb, scale=self.cfg.scale, sigma=self.cfg.sigma, min_size=self.cfg.min_size_px)
-        regions = self._regions(colour.astype(np.int64), d, valid, ground)
+        if not valid.any():
+            return np.zeros((H, W), dtype=np.int32)
+        # Colour regions only where depth is valid (their bounding window): sky and far rows cost nothing.
+        rows, cols = np.flatnonzero(valid.any(axis=1)), np.flatnonzero(valid.any(axis=0))
+        win = np.s_[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
+        colour = np.zeros((h, w), dtype=np.int64)
+        colour[win] = felzenszwalb(np.ascontiguousarray(small_rgb[win]), scale=self.cfg.scale, sigma=self.cfg.sigma,
+                                   min_size=self.cfg.min_size_px)
+        regions = self._regions(colour, d, valid, ground)
         chroma = cv2.cvtColor(np.ascontiguousarray(small_rgb), cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float64)
         regions = self._merge(regions, d, ground, chroma)
         regions = self._drop_flat(regions, self._points(frame, d, W / w), frame)
@@ -267,7 +274,8 @@ def _mean_depth(depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tup
     return np.where(ok, num / np.maximum(den, 1e-6), 0).astype(np.float32), ok
 
 
-def _difference(P: NDArray[np.float32], valid: NDArray[np.bool_], axis: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+def _difference(P: NDArray[np.float32], valid: NDArray[np.bool_],
+                axis: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
     """Per-cell difference of ``P`` along ``axis`` from valid neighbours, and where one exists."""
     fwd = np.zeros_like(P)
     ok_f = np.zeros_like(valid)

@@ -23,12 +23,21 @@ def _grades_of(cfg):
     """Descriptor grades as the grader reports them, filled with the model's expected cosines."""
     edges = list(np.arange(0.0, 181.0, 15.0))
     mids = np.radians(0.5 * (np.array(edges[:-1]) + np.array(edges[1:])))
-    cls = lambda m: {"pairs": 10, "mean": m}
-    return {"classes": {"same_instance": cls(None), "same_family": cls(expected_cosine(cfg, False)),
-                        "same_group": cls(expected_cosine(cfg, False, 0, family_cosine(cfg, "conifer", "deciduous"))),
-                        "other_group": cls(expected_cosine(cfg, False, 0, family_cosine(cfg, "conifer", "rock")))},
-            "view_edges_deg": edges, "view_mean": [expected_cosine(cfg, True, d) for d in mids],
-            "view_pairs": [10] * len(mids)}
+
+    def cls(m):
+        return {"pairs": 10, "mean": m}
+
+    return {
+        "classes": {
+            "same_instance": cls(None),
+            "same_family": cls(expected_cosine(cfg, False)),
+            "same_group": cls(expected_cosine(cfg, False, 0, family_cosine(cfg, "conifer", "deciduous"))),
+            "other_group": cls(expected_cosine(cfg, False, 0, family_cosine(cfg, "conifer", "rock"))),
+        },
+        "view_edges_deg": edges,
+        "view_mean": [expected_cosine(cfg, True, d) for d in mids],
+        "view_pairs": [10] * len(mids),
+    }
 
 
 def test_fit_inverts_the_expected_cosines_exactly():
@@ -100,15 +109,38 @@ def test_calibration_yaml_is_a_frontend_section(calibrated):
 def test_calibrate_command(tmp_path):
     runner = CliRunner()
     out = tmp_path / "cal.yaml"
-    res = runner.invoke(app, ["calibrate", "smoke", "--encoder", "simulated", "--frames", "12", "--out", str(out),
-                              "--grades", str(tmp_path / "g.json"), "--plot", str(tmp_path / "g.png")])
+    res = runner.invoke(
+        app,
+        [
+            "calibrate",
+            "smoke",
+            "--encoder",
+            "simulated",
+            "--frames",
+            "12",
+            "--out",
+            str(out),
+            "--grades",
+            str(tmp_path / "g.json"),
+            "--plot",
+            str(tmp_path / "g.png"),
+        ],
+    )
     assert res.exit_code == 0, res.output
-    sc = load_scenario("smoke", [f"frontend.semantics={json.dumps(yaml.safe_load(out.read_text())['frontend']['semantics'])}"])
+    sc = load_scenario(
+        "smoke", [f"frontend.semantics={json.dumps(yaml.safe_load(out.read_text())['frontend']['semantics'])}"]
+    )
     assert sc.frontend.semantics.dim == 768
-    assert (tmp_path / "g.png").stat().st_size > 0 and "measured_descriptors" in json.loads((tmp_path / "g.json").read_text())
-    for args, msg in ((["calibrate", "smoke"], "give --encoder and/or --segmenter"),
-                      (["calibrate", "smoke", "--encoder", "{name: clip, params: {weights: /no/such}}"],
-                       "frontend.encoder.params.weights: no model folder"),
-                      (["calibrate", "smoke", "--segmenter", "sam9"], "unknown segmenter 'sam9'")):
+    assert (tmp_path / "g.png").stat().st_size > 0 and "measured_descriptors" in json.loads(
+        (tmp_path / "g.json").read_text()
+    )
+    for args, msg in (
+        (["calibrate", "smoke"], "give --encoder and/or --segmenter"),
+        (
+            ["calibrate", "smoke", "--encoder", "{name: clip, params: {weights: /no/such}}"],
+            "frontend.encoder.params.weights: no model folder",
+        ),
+        (["calibrate", "smoke", "--segmenter", "sam9"], "unknown segmenter 'sam9'"),
+    ):
         res = runner.invoke(app, args)
         assert res.exit_code == 1 and msg in res.output and res.output.count("\n") == 1, res.output

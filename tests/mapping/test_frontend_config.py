@@ -62,15 +62,21 @@ def test_entries_accept_names_and_params():
     assert validate_model(FrontEnd, {"segmenter": {"params": {"miss_prob": 0.2}}}).segmenter.name == "fastsam"
 
 
-@pytest.mark.parametrize("data, match", [
-    ({"segmenter": "sam9"}, r"segmenter: Value error, unknown segmenter 'sam9' \(valid: fastsam, image, perfect, sam"),
-    ({"encoder": "clap"}, r"unknown encoder 'clap' \(valid: clip, dinov2, image, simulated"),
-    ({"segmenter": {"name": "image", "params": {"scale": -1}}}, r"frontend.segmenter.params: scale"),
-    ({"segmenter": {"name": "fastsam", "params": {"miss": 1}}}, r"frontend.segmenter.params: miss: unknown key"),
-    ({"encoder": {"name": "clip", "params": {}}}, r"frontend.encoder.params: weights: Field required"),
-    ({"encoder": {"name": "simulated", "params": {"dim": 8}}}, r"frontend.encoder.params: dim: unknown key"),
-    ({"encoder": {"nam": "image"}}, r"encoder.nam: unknown key"),
-])
+@pytest.mark.parametrize(
+    "data, match",
+    [
+        (
+            {"segmenter": "sam9"},
+            r"segmenter: Value error, unknown segmenter 'sam9' \(valid: fastsam, image, perfect, sam",
+        ),
+        ({"encoder": "clap"}, r"unknown encoder 'clap' \(valid: clip, dinov2, image, simulated"),
+        ({"segmenter": {"name": "image", "params": {"scale": -1}}}, r"frontend.segmenter.params: scale"),
+        ({"segmenter": {"name": "fastsam", "params": {"miss": 1}}}, r"frontend.segmenter.params: miss: unknown key"),
+        ({"encoder": {"name": "clip", "params": {}}}, r"frontend.encoder.params: weights: Field required"),
+        ({"encoder": {"name": "simulated", "params": {"dim": 8}}}, r"frontend.encoder.params: dim: unknown key"),
+        ({"encoder": {"nam": "image"}}, r"encoder.nam: unknown key"),
+    ],
+)
 def test_bad_entries_are_one_line_errors(data, match):
     with pytest.raises(ConfigError, match=match) as err:
         validate_model(FrontEnd, data, source="frontend")
@@ -96,8 +102,10 @@ def test_factories_build_the_components():
 
 
 def test_model_adapters_need_a_local_folder(tmp_path):
-    for entry, field in (({"name": "clip", "params": {"weights": str(tmp_path / "none")}}, "frontend.encoder.params.weights"),
-                         ({"name": "dinov2", "params": {"weights": str(tmp_path)}}, "frontend.encoder.params.weights")):
+    for entry, field in (
+        ({"name": "clip", "params": {"weights": str(tmp_path / "none")}}, "frontend.encoder.params.weights"),
+        ({"name": "dinov2", "params": {"weights": str(tmp_path)}}, "frontend.encoder.params.weights"),
+    ):
         with pytest.raises(ConfigError, match=field) as err:
             build_encoder(entry)
         assert "\n" not in str(err.value)

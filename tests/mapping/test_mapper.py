@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from mapping_synth import SPHERES, drive, frame_at
 
 from roman_sim.core.errors import MappingError
 from roman_sim.geometry import pose_4dof, transform_points
@@ -11,8 +12,6 @@ from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
 from roman_sim.sensors import backproject
-
-from mapping_synth import SPHERES, drive, frame_at
 
 
 def _run(frames, segmenter=None, encoder=None):

@@ -26,10 +26,19 @@ from roman_sim.mapping.tracker import MappingConfig
 def clip_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("clip")
     torch.manual_seed(0)
-    cfg = transformers.CLIPVisionConfig(hidden_size=32, intermediate_size=37, num_hidden_layers=1, num_attention_heads=2,
-                                        image_size=32, patch_size=8, projection_dim=16)
+    cfg = transformers.CLIPVisionConfig(
+        hidden_size=32,
+        intermediate_size=37,
+        num_hidden_layers=1,
+        num_attention_heads=2,
+        image_size=32,
+        patch_size=8,
+        projection_dim=16,
+    )
     transformers.CLIPVisionModelWithProjection(cfg).save_pretrained(d)
-    transformers.CLIPImageProcessorPil(size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32}).save_pretrained(d)
+    transformers.CLIPImageProcessorPil(
+        size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32}
+    ).save_pretrained(d)
     return d
 
 
@@ -37,10 +46,13 @@ def clip_dir(tmp_path_factory):
 def dino_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("dinov2")
     torch.manual_seed(1)
-    cfg = transformers.Dinov2Config(hidden_size=32, num_hidden_layers=1, num_attention_heads=2, intermediate_size=37,
-                                    patch_size=8, image_size=32)
+    cfg = transformers.Dinov2Config(
+        hidden_size=32, num_hidden_layers=1, num_attention_heads=2, intermediate_size=37, patch_size=8, image_size=32
+    )
     transformers.Dinov2Model(cfg).save_pretrained(d)
-    transformers.BitImageProcessorPil(size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32}).save_pretrained(d)
+    transformers.BitImageProcessorPil(
+        size={"shortest_edge": 32}, crop_size={"height": 32, "width": 32}
+    ).save_pretrained(d)
     return d
 
 
@@ -48,18 +60,32 @@ def dino_dir(tmp_path_factory):
 def sam_dir(tmp_path_factory):
     d = tmp_path_factory.mktemp("sam")
     torch.manual_seed(2)
-    vision = transformers.SamVisionConfig(hidden_size=16, output_channels=16, num_hidden_layers=1, num_attention_heads=1,
-                                          image_size=64, patch_size=16, mlp_dim=32, global_attn_indexes=[0],
-                                          window_size=0, num_pos_feats=8)
+    vision = transformers.SamVisionConfig(
+        hidden_size=16,
+        output_channels=16,
+        num_hidden_layers=1,
+        num_attention_heads=1,
+        image_size=64,
+        patch_size=16,
+        mlp_dim=32,
+        global_attn_indexes=[0],
+        window_size=0,
+        num_pos_feats=8,
+    )
     prompt = transformers.SamPromptEncoderConfig(hidden_size=16, image_size=64, patch_size=16, mask_input_channels=4)
-    decoder = transformers.SamMaskDecoderConfig(hidden_size=16, num_hidden_layers=1, num_attention_heads=1, mlp_dim=32,
-                                                iou_head_hidden_dim=16)
-    cfg = transformers.SamConfig(vision_config=vision.to_dict(), prompt_encoder_config=prompt.to_dict(),
-                                 mask_decoder_config=decoder.to_dict())
+    decoder = transformers.SamMaskDecoderConfig(
+        hidden_size=16, num_hidden_layers=1, num_attention_heads=1, mlp_dim=32, iou_head_hidden_dim=16
+    )
+    cfg = transformers.SamConfig(
+        vision_config=vision.to_dict(), prompt_encoder_config=prompt.to_dict(), mask_decoder_config=decoder.to_dict()
+    )
     transformers.SamModel(cfg).save_pretrained(d)
-    transformers.SamImageProcessorPil(size={"longest_edge": 64}, pad_size={"height": 64, "width": 64},
-                                      mask_size={"longest_edge": 16},
-                                      mask_pad_size={"height": 16, "width": 16}).save_pretrained(d)
+    transformers.SamImageProcessorPil(
+        size={"longest_edge": 64},
+        pad_size={"height": 64, "width": 64},
+        mask_size={"longest_edge": 16},
+        mask_pad_size={"height": 16, "width": 16},
+    ).save_pretrained(d)
     return d
 
 
@@ -90,7 +116,7 @@ def test_clip_embeds_each_box_crop(clip_dir, frame_and_masks):
     E = enc.encode_batch(f.rgb, masks, [None] * len(masks))
     assert E.shape == (len(masks), 16) and E.dtype == np.float32
     np.testing.assert_allclose(np.linalg.norm(E, axis=1), 1.0, atol=1e-6)
-    crops = [f.rgb[m.bbox[0]:m.bbox[1], m.bbox[2]:m.bbox[3]] for m in masks]
+    crops = [f.rgb[m.bbox[0] : m.bbox[1], m.bbox[2] : m.bbox[3]] for m in masks]
     big = [k for k, c in enumerate(crops) if min(c.shape[:2]) >= 2]
     assert len(big) >= 3
     np.testing.assert_allclose(E[big], _reference_clip(clip_dir, [crops[k] for k in big]), atol=1e-5)
@@ -112,7 +138,7 @@ def test_dinov2_averages_patch_features_over_the_mask(dino_dir, frame_and_masks)
     feats = enc.patch_features(f.rgb)
     assert feats.shape == (4, 5, 32)
     cell = np.zeros((h, w), bool)
-    cell[:h // 4, w // 5:2 * (w // 5)] = True  # exactly patch cell (0, 1)
+    cell[: h // 4, w // 5 : 2 * (w // 5)] = True  # exactly patch cell (0, 1)
     D = enc.encode_batch(f.rgb, [*masks, Mask(cell)], [None] * (len(masks) + 1))
     np.testing.assert_allclose(D[-1], feats[0, 1] / np.linalg.norm(feats[0, 1]), atol=1e-5)
     for k, m in enumerate(masks):  # coverage share of each 30 x 32 cell, counted by hand
@@ -139,8 +165,15 @@ def test_sam_decoding_steps_by_hand():
 
 def test_sam_generates_filtered_masks(sam_dir, frame_and_masks):
     f, _ = frame_and_masks
-    params = {"weights": str(sam_dir), "points_per_side": 4, "batch_size": 5, "pred_iou_thresh": 0.0,
-              "stability_score_thresh": 0.0, "min_area_div": 30.0, "max_area_div": 1.01}
+    params = {
+        "weights": str(sam_dir),
+        "points_per_side": 4,
+        "batch_size": 5,
+        "pred_iou_thresh": 0.0,
+        "stability_score_thresh": 0.0,
+        "min_area_div": 30.0,
+        "max_area_div": 1.01,
+    }
     seg = build_segmenter({"name": "sam", "params": params})
     cand, scores = seg.candidates(f.rgb)
     assert len(cand) == len(scores) > 0 and all(c.shape == f.depth.shape for c in cand)
@@ -170,7 +203,8 @@ def test_missing_or_broken_weights_are_one_line_errors(tmp_path, clip_dir):
     (tmp_path / "config.json").write_text('{"model_type": "dinov2"}')
     with pytest.raises(ConfigError, match="frontend.encoder.params.weights: cannot load Dinov2Model"):
         build_encoder({"name": "dinov2", "params": {"weights": str(tmp_path)}})
-    with pytest.raises(ConfigError, match="frontend.segmenter.params.weights: .* holds a 'clip_vision_model' model, "
-                                          "expected 'sam'"):
+    with pytest.raises(
+        ConfigError, match="frontend.segmenter.params.weights: .* holds a 'clip_vision_model' model, expected 'sam'"
+    ):
         build_segmenter({"name": "sam", "params": {"weights": str(clip_dir)}})
     assert ClipConfig(weights="x").batch_size == 16 and Dinov2Config(weights="x").short_side_patches == 16

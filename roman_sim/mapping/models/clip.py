@@ -61,7 +61,8 @@ class ClipEncoder:
         whole = Mask(np.ones(rgb_crop.shape[:2], dtype=bool))
         return self.embed_crops(box_crops(rgb_crop, [whole], self.cfg.min_crop_px))[0]
 
-    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask], contexts: list[Any]) -> NDArray[np.float32]:
+    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask],
+                     contexts: list[Any]) -> NDArray[np.float32]:
         """(N, dim) unit embeddings of every mask's box crop of one frame."""
         if rgb is None:
             raise _no_rgb()

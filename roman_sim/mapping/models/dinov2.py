@@ -61,9 +61,11 @@ class Dinov2Encoder:
 
     def cell_weights(self, pixels: NDArray[np.bool_], grid: tuple[int, int]) -> NDArray[np.float64]:
         """(rows, cols) share of each patch cell covered by the mask."""
-        return cv2.resize(pixels.astype(np.float32), (grid[1], grid[0]), interpolation=cv2.INTER_AREA).astype(np.float64)
+        share = cv2.resize(pixels.astype(np.float32), (grid[1], grid[0]), interpolation=cv2.INTER_AREA)
+        return share.astype(np.float64)
 
-    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask], contexts: list[Any]) -> NDArray[np.float32]:
+    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask],
+                     contexts: list[Any]) -> NDArray[np.float32]:
         """(N, dim) unit mask-averaged features of one frame (one forward pass)."""
         if rgb is None:
             raise MappingError("encoder 'dinov2': the frame has no RGB (set render_rgb: true)")

@@ -12,8 +12,8 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from roman_sim.core.config import stable_hash
 from roman_sim.core.atomic import write_json
+from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import RomanSimError, StorageError
 from roman_sim.evaluation.frontend_grader import FrontEndGrader
 from roman_sim.evaluation.frontend_grades import FrontEndGrades, plot_frontend_grades
@@ -159,7 +159,8 @@ class MapsStage(Stage[Maps]):
 def _rgb_notes(ctx: RunContext) -> list[str]:
     """A note (and a warning) for each robot whose user segmenter or encoder will get no RGB."""
     fe = ctx.scenario.frontend
-    users = [f"{kind} {e.name!r}" for kind, e in (("segmenter", fe.segmenter), ("encoder", fe.encoder)) if ":" in e.name]
+    entries = (("segmenter", fe.segmenter), ("encoder", fe.encoder))
+    users = [f"{kind} {e.name!r}" for kind, e in entries if ":" in e.name]
     notes = []
     for r in ctx.scenario.robots:
         if users and not r.render_rgb:

@@ -62,7 +62,8 @@ class ReportStage(Stage[ReportOutput]):
         for out in (maps, submaps, evaluation, posegraph):
             notes += [] if out is None else list(out.notes)
         stats = map_stats(maps, submaps)
-        plots = [f for f in (maps.written if maps else []) + evaluation.written + posegraph.written if f.endswith(".png")]
+        written = (maps.written if maps else []) + evaluation.written + posegraph.written
+        plots = [f for f in written if f.endswith(".png")]
         write_report(ctx.run_dir, ctx.scenario.name, evaluation.metrics, posegraph.ate if posegraph.ate.variants else None,
                      stats, list(dict.fromkeys(notes)), plots)
         return ReportOutput(stats, list(dict.fromkeys(notes)))
