@@ -91,11 +91,13 @@ class ImageSegmenter:
         small_rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA) if (h, w) != (H, W) else rgb
         d, valid = _mean_depth(depth, valid_full, (h, w), self.cfg.smooth_px)
         ground, valid = self._ground(frame, d, valid, W / w)
-        if not valid.any():
+        objects = valid & ~ground
+        if not objects.any():
             return np.zeros((H, W), dtype=np.int32)
-        # Colour regions only where depth is valid (their bounding window): sky and far rows cost nothing.
-        rows, cols = np.flatnonzero(valid.any(axis=1)), np.flatnonzero(valid.any(axis=0))
-        win = np.s_[rows[0]:rows[-1] + 1, cols[0]:cols[-1] + 1]
+        # Colour regions only in the window of valid non-ground cells (grown by 2): sky, far and
+        # ground-only rows cost nothing (ground cells outside keep one colour; they are dropped).
+        rows, cols = np.flatnonzero(objects.any(axis=1)), np.flatnonzero(objects.any(axis=0))
+        win = np.s_[max(rows[0] - 2, 0):rows[-1] + 3, max(cols[0] - 2, 0):cols[-1] + 3]
         colour = np.zeros((h, w), dtype=np.int64)
         colour[win] = felzenszwalb(np.ascontiguousarray(small_rgb[win]), scale=self.cfg.scale, sigma=self.cfg.sigma,
                                    min_size=self.cfg.min_size_px)
