@@ -138,6 +138,7 @@ def test_mapper_gives_truth_only_to_truth_driven_components():
     for f in frames:
         m.process(f)
     assert all(f.truth is None for f in seg.frames) and len(seg.frames) == 3
+    assert all(f.rgb is not None for f in seg.frames), "a user segmenter gets the RGB the robot renders"
     assert enc.batches == 3 and enc.singles == 0, "encode_batch: one call per frame"
     assert enc.contexts and all(c.object_id is None and c.view_dir is None for c in enc.contexts)
     # The map still carries evaluation labels from the frames' truth.

@@ -75,3 +75,13 @@ def test_rgb_front_end_without_rgb_fails_before_any_stage(tmp_path):
     line = res.output.strip()
     assert "\n" not in line and "robots.a.render_rgb" in line and "encoder 'image' needs RGB" in line
     assert not (out / "manifest.json").exists()
+
+
+def test_user_components_without_rgb_are_noted(tmp_path):
+    from roman_sim.pipeline.context import RunContext
+    from roman_sim.pipeline.stages.maps import _rgb_notes
+
+    sc = load_scenario("smoke", ["frontend.segmenter=examples.depth_segmenter:DepthEdgeSegmenter"])
+    notes = _rgb_notes(RunContext(sc, tmp_path))
+    assert len(notes) == 2 and "robot a renders no RGB" in notes[0] and "got rgb=None" in notes[0]
+    assert _rgb_notes(RunContext(load_scenario("smoke"), tmp_path)) == []
