@@ -23,7 +23,7 @@ from typing import Any, Literal
 from pydantic import Field
 
 from roman_sim.core.atomic import write_text
-from roman_sim.core.config import StrictModel, read_yaml, validate_model
+from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
 
 log = logging.getLogger(__name__)
@@ -45,7 +45,7 @@ class SweepConfig(StrictModel):
     name: str = Field(..., min_length=1)
     description: str = ""
     scenario: str = Field(..., description="scenario name or YAML path (relative to the sweep file)")
-    grid: dict[str, list[Any]] = Field(default_factory=dict)
+    grid: dict[str, list[FiniteTree]] = Field(default_factory=dict)
     seeds: list[int] = Field(default_factory=lambda: [0], min_length=1)
     executor: ExecutorConfig = ExecutorConfig()
 
