@@ -1,7 +1,9 @@
 """roman_sim: a simulation testbed for ROMAN global localization with open-set object maps.
 
 Importing the package sets headless rendering defaults (``MUJOCO_GL=egl`` and
-``PYOPENGL_PLATFORM=egl``) when they are unset, before any renderer is imported.
+``PYOPENGL_PLATFORM=egl``) when they are unset, before any renderer is imported, and
+registers the gymnasium environment ``roman_sim/GroundRobot-v0`` (as soon as gymnasium is
+imported; importing roman_sim itself loads neither gymnasium nor MuJoCo).
 """
 
 from __future__ import annotations
@@ -24,7 +26,11 @@ from roman_sim.core.errors import (  # noqa: E402
     WorldError,
 )
 
+from roman_sim.core import gymreg as _gymreg  # noqa: E402
+
 __version__ = "0.1.0"
+
+_gymreg.install()
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 
