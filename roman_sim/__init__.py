@@ -14,6 +14,7 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
+from roman_sim.core import gymreg as _gymreg  # noqa: E402
 from roman_sim.core.errors import (  # noqa: E402
     AlignmentError,
     ConfigError,
@@ -25,8 +26,6 @@ from roman_sim.core.errors import (  # noqa: E402
     StorageError,
     WorldError,
 )
-
-from roman_sim.core import gymreg as _gymreg  # noqa: E402
 
 __version__ = "0.1.0"
 

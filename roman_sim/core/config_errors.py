@@ -82,7 +82,7 @@ def _drop_union_alternatives(entries: list[_Entry]) -> list[_Entry]:
         if e.union_at is not None:
             by_field.setdefault(e.union_at, []).append(e)
     out = [e for e in entries if e.union_at is None]
-    for _, group in by_field.items():
+    for group in by_field.values():
         deep = [e for e in group if e.depth_below_union > 0]
         if deep:
             out.extend(deep)

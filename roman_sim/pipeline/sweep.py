@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
@@ -37,6 +37,20 @@ class ExecutorConfig(StrictModel):
     scheduler_address: str | None = Field(
         None, description="connect to an existing Dask scheduler (tcp://host:8786) instead of a local cluster"
     )
+    connect_timeout_s: float = Field(5.0, gt=0, le=600, description="bound on reaching the scheduler (s)")
+
+    @field_validator("scheduler_address")
+    @classmethod
+    def _address(cls, v: str | None) -> str | None:
+        if v is None:
+            return v
+        from roman_sim.pipeline.cluster import parse_scheduler_address
+
+        try:
+            parse_scheduler_address(v)
+        except ConfigError as err:
+            raise ValueError(str(err)) from None
+        return v.strip()
 
 
 class SweepConfig(StrictModel):
@@ -144,10 +158,9 @@ def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[d
     from dask.distributed import Client, LocalCluster
 
     if ex.scheduler_address:
-        try:
-            client = Client(ex.scheduler_address, timeout="10s")
-        except OSError as err:
-            raise ConfigError(f"executor.scheduler_address: cannot connect to {ex.scheduler_address}: {err}") from None
+        from roman_sim.pipeline.cluster import connect
+
+        client = connect(ex.scheduler_address, timeout_s=ex.connect_timeout_s)
         cluster = None
     else:
         cluster = LocalCluster(n_workers=ex.workers, threads_per_worker=1, processes=True, dashboard_address=None)

@@ -18,9 +18,8 @@ arguments are checked up front and a bad one is named.
 from __future__ import annotations
 
 import logging
-from typing import Any
-
 import math
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
