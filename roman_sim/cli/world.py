@@ -55,7 +55,7 @@ def generate_cmd(
     from roman_sim.world import export_world, generate
 
     spec = _spec(preset, sets)
-    output_folder(out, "--out")
+    output_folder(out, "--out", create=False)
     world = generate(spec, seed)
     xml = export_world(world, out)
     _summary(world, xml)

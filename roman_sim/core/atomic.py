@@ -72,35 +72,39 @@ def make_public_dir(path: str | Path) -> None:
     os.chmod(path, 0o777 & ~current_umask())
 
 
-def output_folder(path: str | Path, what: str = "--out") -> Path:
-    """Create ``path`` as an output folder (parents too); ``ConfigError`` naming ``what`` when it cannot be.
+def output_folder(path: str | Path, what: str = "--out", create: bool = True) -> Path:
+    """Check ``path`` as an output folder and create it (parents too, unless ``create`` is False).
+
+    With ``create=False`` nothing is made: the check is that the folder exists or could be
+    created (its nearest existing parent is a writable folder), so a command can check its
+    output before any work without leaving an empty folder behind when the work fails.
 
     Raises:
-        ConfigError: ``path`` or one of its parents is an existing file, or the folder cannot
-            be created or written.
+        ConfigError: naming ``what``: ``path`` or one of its parents is an existing file, or
+            the folder cannot be created or written.
     """
     path = Path(path)
-    for p in [path, *path.parents]:
-        if p.exists() or p.is_symlink():
-            if not p.is_dir():
-                where = "is an existing file" if p == path else f"lies inside {p}, an existing file"
-                raise ConfigError(f"{what} {path}: {where}, not a folder (choose a folder path)")
-            break
-    try:
-        path.mkdir(parents=True, exist_ok=True)
-    except OSError as err:
-        raise ConfigError(f"{what} {path}: cannot create the folder ({err.strerror or err})") from None
-    if not os.access(path, os.W_OK | os.X_OK):
-        raise ConfigError(f"{what} {path}: the folder is not writable")
+    existing = next((p for p in [path, *path.parents] if p.exists() or p.is_symlink()), Path("."))
+    if not existing.is_dir():
+        where = "is an existing file" if existing == path else f"lies inside {existing}, an existing file"
+        raise ConfigError(f"{what} {path}: {where}, not a folder (choose a folder path)")
+    if create:
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise ConfigError(f"{what} {path}: cannot create the folder ({err.strerror or err})") from None
+        existing = path
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"{what} {path}: {'the folder' if existing == path else existing} is not writable")
     return path
 
 
-def output_file(path: str | Path, what: str = "--out") -> Path:
-    """Check that ``path`` can be written as a file (its folder is created); ``ConfigError`` naming ``what``."""
+def output_file(path: str | Path, what: str = "--out", create: bool = True) -> Path:
+    """Check that ``path`` can be written as a file (its folder is created unless ``create`` is False)."""
     path = Path(path)
     if path.is_dir():
         raise ConfigError(f"{what} {path}: is an existing folder, expected a file path")
-    output_folder(path.parent, what=what)
+    output_folder(path.parent, what=what, create=create)
     return path
 
 

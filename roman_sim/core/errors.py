@@ -43,8 +43,10 @@ class ClusterError(RomanSimError):
     """A Dask scheduler cannot be reached in time, or the address is not a Dask scheduler."""
 
 
-class PluginError(RomanSimError):
-    """A user plug-in (``package.module:Class``) failed: import, construction, protocol, a dry call or a call in a run.
+class PluginError(ConfigError):
+    """A user plug-in (``package.module:Class``) failed: import, construction, protocol, dry call or a call in a run.
+
+    A ``ConfigError``: the configuration names a plug-in that does not work.
 
     Attributes:
         plugin: the plug-in's ``package.module:Class`` path.

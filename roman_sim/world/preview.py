@@ -79,15 +79,15 @@ def preview_paths(out: str | Path, what: str = "out") -> tuple[Path, Path]:
     """The (top-down, view) PNG paths for ``out``, checked writable (``ConfigError`` naming ``what``).
 
     ``X.png`` gives ``X.png`` and ``X_view.png``; anything else is a folder that receives
-    ``topdown.png`` and ``view.png``.
+    ``topdown.png`` and ``view.png``. Nothing is created.
     """
     out = Path(out)
     if out.suffix.lower() == ".png":
         top, view = out, out.with_name(out.stem + "_view.png")
-        output_file(top, what)
-        output_file(view, what)
+        output_file(top, what, create=False)
+        output_file(view, what, create=False)
     else:
-        output_folder(out, what)
+        output_folder(out, what, create=False)
         top, view = out / "topdown.png", out / "view.png"
         for p in (top, view):
             if p.is_dir():

@@ -76,6 +76,8 @@ def test_output_folder_and_file_checks(tmp_path) -> None:
         atomic.output_file(tmp_path)
     with pytest.raises(ConfigError, match="is an existing file, not a folder"):
         atomic.output_file(f / "x.png")
+    assert not atomic.output_folder(tmp_path / "later" / "deep", create=False).exists()
+    assert not (tmp_path / "later").exists()  # a check before the work leaves nothing behind
     assert atomic.output_folder(tmp_path / "new" / "deep").is_dir()
     assert atomic.output_file(tmp_path / "n2" / "x.png") == tmp_path / "n2" / "x.png"
     assert (tmp_path / "n2").is_dir()
