@@ -121,7 +121,8 @@ def _tag(member: Any) -> str:
 
 def _walk(model: Any, loc: tuple[Any, ...]) -> tuple[list[Any], tuple[Any, ...] | None, int, Any]:
     """(location without union tags, location of the union field or None, depth below it, parent annotation)."""
-    ann, clean, union_at, depth, parent = model, [], None, 0, None
+    clean: list[Any] = []
+    ann, union_at, depth, parent = model, None, 0, None
     for key in loc:
         ann = _unwrap(ann)
         if get_origin(ann) in (Union, types.UnionType):

@@ -94,6 +94,7 @@ def check_protocol(obj: object, path: str, kind: str) -> None:
 
 def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_rgb: bool = True) -> None:
     """Call ``obj`` once on a tiny synthetic input and check what it returns (``PluginError``)."""
+    args: tuple[Any, ...]
     if kind == "aligner":
         a, b = _dry_submaps(descriptor_dim)
         call, where, args = obj.align, "two synthetic submaps", (a, b)
@@ -211,6 +212,7 @@ def _dry_frame(with_rgb: bool) -> tuple[Any, Any, Any, Any]:
 
     intr = synthetic.intrinsics(64, 48)
     frame = synthetic.frame_at(synthetic.sphere_field(4, seed=0), 0.0, 0.0, 0.0, 0.0, 0, robot="check", intr=intr)
+    assert frame.truth is not None  # frame_at always renders ids
     ids = np.asarray(frame.truth.object_ids)
     palette = np.array([[90, 110, 70], [200, 60, 50], [60, 160, 60], [70, 90, 200], [210, 190, 60]], np.uint8)
     if with_rgb:

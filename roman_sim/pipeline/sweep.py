@@ -4,7 +4,9 @@ A sweep file names a base scenario, a grid of dotted overrides and a list of see
 combination becomes one run folder ``<out>/<run_id>/`` produced by the same pipeline as
 ``roman-sim run``. Sweeps are resumable: a run whose ``metrics.json`` exists and whose
 resolved configuration is unchanged is not run again. The collected figures go to
-``<out>/sweep.csv`` (one row per run and method), written atomically.
+``<out>/sweep.csv`` (one row per run and method), written atomically. Any exception inside
+one run (a user plug-in's included) is recorded as that run's failure in the table; the
+other runs go on.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from pydantic import Field, field_validator
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.registry import one_line
 
 log = logging.getLogger(__name__)
 
@@ -108,6 +111,9 @@ def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir:
         return {"ok": True, "metrics": result.metrics_summary()}
     except RomanSimError as err:
         return {"ok": False, "error": str(err)}
+    except Exception as err:  # a user plug-in (or a bug) in one cell must not abort the whole sweep
+        log.debug("sweep run %s failed", run_dir, exc_info=True)
+        return {"ok": False, "error": f"{type(err).__name__}: {one_line(err)}"}
 
 
 def _is_done(run_dir: Path) -> bool:
@@ -203,6 +209,12 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, st
     path = out_dir / "sweep.csv"
     write_text(path, buf.getvalue())
     return path
+
+
+def sweep_failures(table: Path) -> list[dict[str, str]]:
+    """The rows of ``sweep.csv`` whose run did not finish (status ``failed``, ``missing`` or ``corrupt``)."""
+    with open(table, newline="", encoding="utf-8") as fh:
+        return [row for row in csv.DictReader(fh) if row.get("status") != "ok"]
 
 
 def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -106,7 +106,7 @@ class GroundRobotEnv(gym.Env):
     ) -> None:
         from roman_sim.sim.render import SensorRenderer
 
-        self._renderer = None
+        self._renderer: Any = None
         self.dt = 1.0 / _positive("rate_hz", rate_hz)
         max_speed_mps, max_yaw_rate = _positive("max_speed_mps", max_speed_mps), _positive("max_yaw_rate", max_yaw_rate)
         self.body_height_m = _positive("body_height_m", body_height_m, allow_zero=True)
@@ -127,9 +127,9 @@ class GroundRobotEnv(gym.Env):
         self._renderer = SensorRenderer(self.world, self.camera, rgb=render_rgb)
         self._T_body_cam = self.camera.T_body_cam()
         h, w = self.camera.height, self.camera.width
-        self.action_space = spaces.Box(
-            np.array([0.0, -max_yaw_rate], dtype=np.float32), np.array([max_speed_mps, max_yaw_rate], dtype=np.float32)
-        )
+        self._low = np.array([0.0, -max_yaw_rate], dtype=np.float32)
+        self._high = np.array([max_speed_mps, max_yaw_rate], dtype=np.float32)
+        self.action_space = spaces.Box(self._low, self._high)
         n_obj = max(len(self.world.truth.objects), 1)
         self.observation_space = spaces.Dict({
             "rgb": spaces.Box(0, 255, (h, w, 3), np.uint8),
@@ -213,7 +213,7 @@ class GroundRobotEnv(gym.Env):
             raise SimError(f"GroundRobotEnv: action must hold 2 numbers (speed m/s, yaw rate rad/s), got shape {a.shape}")
         if not np.all(np.isfinite(a)):
             raise SimError(f"GroundRobotEnv: action must be finite, got {a.reshape(2).tolist()} (the episode is unchanged)")
-        return np.clip(a.reshape(2), self.action_space.low, self.action_space.high)
+        return np.clip(a.reshape(2), self._low, self._high)
 
     def _observe(self) -> tuple[ObsDict, dict[str, Any]]:
         T_wb = body_pose_on_terrain(self.world.truth.terrain, self._state, self.body_height_m)
