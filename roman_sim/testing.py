@@ -20,14 +20,13 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-from roman_sim.core.errors import ConfigError, EvaluationError
-from roman_sim.pipeline.experiment import Experiment, RunResult, default_run_dir
+from roman_sim.core.errors import ConfigError
+from roman_sim.pipeline.experiment import Experiment, default_run_dir
+from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
 
 #: The figures ``assert_recall`` and ``assert_not_worse`` compare (all fractions in [0, 1]).
 FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
-#: Trajectory alignments of the ATE.
-ALIGNMENTS = ("se3", "4dof", "none")
 
 
 def names_list(value: Any, what: str) -> list[str]:
@@ -117,9 +116,7 @@ def _bounds(minimum: Any) -> dict[str | None, float]:
 
 
 def _figure(run: RunResult, method: str, bin_label: str | None, key: str) -> float | None:
-    from roman_sim.evaluation.summaries import method_recall
-
-    return method_recall(run.metrics, method, bin_label, key=key)
+    return run.metrics.figure(method, bin_label, key)
 
 
 def assert_not_worse(
@@ -138,14 +135,7 @@ def assert_not_worse(
 
 def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", alignment: str = "se3") -> None:
     """Assert the pose graph ``variant``'s concatenated ATE is below ``reference``'s."""
-    ate = run.ate
-    for what, name in (("variant", variant), ("reference", reference)):
-        if name not in ate:
-            raise EvaluationError(f"{what}: no pose-graph variant {name!r} in this run "
-                                  f"(variants: {', '.join(sorted(ate)) or 'none'})")
-    if alignment not in ALIGNMENTS:
-        raise ConfigError(f"alignment: unknown {alignment!r} (valid: {', '.join(ALIGNMENTS)})")
-    got = (ate.get(variant) or {}).get(alignment, {}).get("all")
-    ref = (ate.get(reference) or {}).get(alignment, {}).get("all")
+    got = run.ate.rmse(variant, alignment)
+    ref = run.ate.rmse(reference, alignment)
     assert got is not None and ref is not None, f"ATE not computable: {variant}={got}, {reference}={ref}"
     assert got < ref, f"ATE of {variant} ({got:.3f} m) is not below {reference} ({ref:.3f} m)"

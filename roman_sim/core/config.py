@@ -11,6 +11,8 @@ and its lines.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
@@ -27,7 +29,7 @@ M = TypeVar("M", bound=BaseModel)
 
 __all__ = [
     "FiniteTree", "StrictLoader", "StrictModel", "apply_overrides", "dump_yaml", "format_validation_error",
-    "load_model", "parse_yaml", "read_yaml", "validate_model",
+    "load_model", "parse_yaml", "read_yaml", "stable_hash", "validate_model",
 ]
 
 
@@ -130,3 +132,9 @@ def load_model(model: type[M], path: str | Path) -> M:
 def dump_yaml(model: BaseModel) -> str:
     """The resolved configuration as YAML (stable key order)."""
     return yaml.safe_dump(model.model_dump(mode="json"), sort_keys=False)
+
+
+def stable_hash(*parts: Any) -> str:
+    """16 hex digits of SHA-256 over the JSON of ``parts`` (sorted keys; same input -> same hash)."""
+    blob = json.dumps(parts, sort_keys=True, default=str).encode("utf-8")
+    return hashlib.sha256(blob).hexdigest()[:16]

@@ -46,7 +46,7 @@ def parse_scheduler_address(address: str) -> tuple[str, str, int | None]:
     except (ValueError, TypeError) as err:
         raise ConfigError(f"Dask scheduler {address!r}: not an address ({_EXPECTED}): {err}") from None
     if scheme not in backends:
-        hint = " (a dashboard URL? the scheduler itself listens on tcp://host:8786)" if scheme.startswith("http") else ""
+        hint = " (a dashboard URL? the scheduler itself listens on tcp://host:8786)" if "http" in scheme else ""
         raise ConfigError(f"Dask scheduler {address!r}: unknown scheme {scheme!r}{hint} "
                           f"(valid: {', '.join(sorted(backends))})")
     if scheme in ("inproc", "ucx"):
@@ -113,7 +113,7 @@ def server_type(address: str, timeout_s: float) -> str:
     pool = ThreadPoolExecutor(max_workers=1)
     try:
         info = pool.submit(asyncio.run, identity()).result(timeout=2 * timeout_s)
-    except (FutureTimeout, asyncio.TimeoutError, TimeoutError):
+    except (FutureTimeout, TimeoutError):
         raise ClusterError(f"Dask scheduler {address!r}: no reply to 'identity' within {timeout_s:g} s") from None
     except Exception as err:  # the remote side's error, or a transport error, of any type
         raise ClusterError(f"Dask scheduler {address!r}: 'identity' failed: {type(err).__name__}: "
@@ -132,8 +132,9 @@ def probe_scheduler(address: str, host: str, port: int, timeout_s: float) -> Non
     except socket.gaierror as err:
         raise ClusterError(f"Dask scheduler {address!r}: unknown host {host!r} ({err.strerror})") from None
     except ConnectionRefusedError:
-        raise ClusterError(f"Dask scheduler {address!r}: nothing listens on {host}:{port} (connection refused)") from None
-    except (TimeoutError, socket.timeout):
+        raise ClusterError(f"Dask scheduler {address!r}: nothing listens on {host}:{port} "
+                           "(connection refused)") from None
+    except TimeoutError:
         raise ClusterError(f"Dask scheduler {address!r}: no answer from {host}:{port} within {timeout_s:g} s") from None
     except OSError as err:
         raise ClusterError(f"Dask scheduler {address!r}: cannot reach {host}:{port} ({err.strerror or err})") from None
@@ -193,7 +194,7 @@ def _recv(sock: socket.socket, n: int, deadline: float) -> tuple[bytes, bool]:
         sock.settimeout(left)
         try:
             chunk = sock.recv(min(n - len(buf), 65536))
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             break
         except OSError:
             return bytes(buf), True

@@ -38,6 +38,7 @@ from roman_sim.sim.planner import Obstacles
 log = logging.getLogger(__name__)
 
 ObsDict = dict[str, np.ndarray]
+_ACTION = "speed m/s, yaw rate rad/s"
 
 
 class EnvResetNeeded(SimError, ResetNeeded):
@@ -116,7 +117,8 @@ class GroundRobotEnv(gym.Env):
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise SimError(f"GroundRobotEnv: render_mode {render_mode!r} unknown (valid: None, "
                            f"{', '.join(self.metadata['render_modes'])})")
-        self.camera = camera if isinstance(camera, CameraConfig) else validate_model(CameraConfig, camera, "GroundRobotEnv camera")
+        self.camera = (camera if isinstance(camera, CameraConfig)
+                       else validate_model(CameraConfig, camera, "GroundRobotEnv camera"))
         self.drift_cfg = resolve_drift(drift)
         self.world = _load_world(world, preset, world_seed)
         self.max_steps, self.render_mode = int(max_steps), render_mode
@@ -155,7 +157,8 @@ class GroundRobotEnv(gym.Env):
         ter = self.world.truth.terrain
         if not ter.contains(x, y):
             raise SimError(f"GroundRobotEnv: start ({x:g}, {y:g}) lies outside the world "
-                           f"(x in [{-ter.size_x / 2:g}, {ter.size_x / 2:g}], y in [{-ter.size_y / 2:g}, {ter.size_y / 2:g}])")
+                           f"(x in [{-ter.size_x / 2:g}, {ter.size_x / 2:g}], "
+                           f"y in [{-ter.size_y / 2:g}, {ter.size_y / 2:g}])")
         free = float(self._obstacles.clearance(np.array([[x, y]]))[0])
         if free < 0.0:
             raise SimError(f"GroundRobotEnv: start ({x:g}, {y:g}) lies inside an object footprint")
@@ -208,11 +211,12 @@ class GroundRobotEnv(gym.Env):
         try:
             a = np.asarray(action, dtype=np.float64)
         except (TypeError, ValueError):
-            raise SimError(f"GroundRobotEnv: action must be 2 numbers (speed m/s, yaw rate rad/s), got {action!r}") from None
+            raise SimError(f"GroundRobotEnv: action must be 2 numbers ({_ACTION}), got {action!r}") from None
         if a.size != 2:
-            raise SimError(f"GroundRobotEnv: action must hold 2 numbers (speed m/s, yaw rate rad/s), got shape {a.shape}")
+            raise SimError(f"GroundRobotEnv: action must hold 2 numbers ({_ACTION}), got shape {a.shape}")
         if not np.all(np.isfinite(a)):
-            raise SimError(f"GroundRobotEnv: action must be finite, got {a.reshape(2).tolist()} (the episode is unchanged)")
+            raise SimError(f"GroundRobotEnv: action must be finite, got {a.reshape(2).tolist()} "
+                           "(the episode is unchanged)")
         return np.clip(a.reshape(2), self._low, self._high)
 
     def _observe(self) -> tuple[ObsDict, dict[str, Any]]:
@@ -249,7 +253,8 @@ class GroundRobotEnv(gym.Env):
         info.update(left_world=left, collision=hit)
         terminated, truncated = bool(left or hit), self._steps >= self.max_steps
         if terminated or truncated:
-            why = "left the world" if left else "collided with an object" if hit else f"reached max_steps={self.max_steps}"
+            why = ("left the world" if left else "collided with an object" if hit
+                   else f"reached max_steps={self.max_steps}")
             self._needs_reset = f"the episode ended ({why}): call reset() before step()"
         return obs, 0.0, terminated, truncated, info
 

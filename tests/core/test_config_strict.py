@@ -91,13 +91,17 @@ def test_a_union_field_reports_what_it_accepts() -> None:
     (["noequals"], "--set 'noequals': expected key=value"),
     (["x={a: 1, a: 2}"], "--set x: value '{a: 1, a: 2}': malformed YAML (line 1, column 8): duplicate key 'a'"),
     (["robots.0.camera.bogus=1"], "robots.0.camera.bogus: unknown key (allowed: depth_noise, far_m, height, hfov_deg"),
-    (["evaluation.heading_bins_deg=[0, .nan, 180]"], "evaluation.heading_bins_deg.1: must be a finite number (got nan)"),
-    (["mapping.obs_plane_extents_m=[3, .inf, 0.2]"], "mapping.obs_plane_extents_m.1: must be a finite number (got inf)"),
+    (["evaluation.heading_bins_deg=[0, .nan, 180]"],
+     "evaluation.heading_bins_deg.1: must be a finite number (got nan)"),
+    (["mapping.obs_plane_extents_m=[3, .inf, 0.2]"],
+     "mapping.obs_plane_extents_m.1: must be a finite number (got inf)"),
     (["robots.0.path.waypoints=[[0, .nan], [5, 5]]"], "robots.0.path.waypoints.0.1: must be a finite number (got nan)"),
     (["world.overrides={extent_m: [.nan, 50]}"], "world.overrides.extent_m.0: must be a finite number (got nan)"),
-    (["aligners=[{method: roman, params: {sigma: .inf}}]"], "aligners.0.params.sigma: must be a finite number (got inf)"),
+    (["aligners=[{method: roman, params: {sigma: .inf}}]"],
+     "aligners.0.params.sigma: must be a finite number (got inf)"),
     (["robots.0.speed_mps=nan"], "robots.0.speed_mps: must be a finite number (got 'nan')"),
-    (["frontend.segmenter={miss_prob: 3}"], "frontend.segmenter.miss_prob: Input should be less than or equal to 1 (got 3)"),
+    (["frontend.segmenter={miss_prob: 3}"],
+     "frontend.segmenter.miss_prob: Input should be less than or equal to 1 (got 3)"),
 ])
 def test_scenario_errors_name_the_field(sets: list[str], expect: str) -> None:
     with pytest.raises(ConfigError) as e:

@@ -154,7 +154,8 @@ def _fails(path: str, kind: str, **kw: object) -> str:
     (f"{MODULE}:ReturnsDict", "segmenter", "segment(frame) returned a dict, expected a list of Mask"),
     (f"{MODULE}:ReturnsStr", "segmenter", "segment(frame) returned a str ('fine'), expected a list of Mask"),
     (f"{MODULE}:ArraySegmenter", "segmenter", "item 0 is a bool array of shape (48, 64), expected a Mask"),
-    (f"{MODULE}:WrongShape", "segmenter", "mask 0 is a bool array of shape (3, 3), expected a bool array of the frame's"),
+    (f"{MODULE}:WrongShape", "segmenter",
+     "mask 0 is a bool array of shape (3, 3), expected a bool array of the frame's"),
     (f"{MODULE}:Divides", "segmenter", "the check on a synthetic 64 x 48 frame raised ZeroDivisionError"),
     (f"{MODULE}:ReturnsNone", "encoder", "encode(...) returned None, expected a unit float vector"),
     (f"{MODULE}:ReturnsDict", "encoder", "encode(...) returned a dict, expected a unit float vector"),
@@ -221,10 +222,11 @@ def test_guarded_aligner_names_the_pair(plugin_dir: Path) -> None:
 
 
 def test_guarded_frontend_names_the_frame(plugin_dir: Path) -> None:
+    from roman_user_plugins_t import Divides, GrowingEncoder  # type: ignore[import-not-found]
+
     from roman_sim.mapping.mapper import Mapper
     from roman_sim.mapping.segmenter import build_segmenter
     from roman_sim.mapping.tracker import MappingConfig
-    from roman_user_plugins_t import Divides, GrowingEncoder  # type: ignore[import-not-found]
 
     frames = synthetic.drive(synthetic.sphere_field(4, seed=0), n=1)  # 160 x 120: three observations
     seg, enc = guard_frontend(build_segmenter("perfect"), "perfect", Divides(), "m:Divides")
