@@ -92,8 +92,8 @@ def check_protocol(obj: object, path: str, kind: str) -> None:
                               f"a{'n' if kind[0] in 'ae' else ''} {kind} has {what}", path, kind)
 
 
-def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_rgb: bool = True) -> None:
-    """Call ``obj`` once on a tiny synthetic input and check what it returns (``PluginError``)."""
+def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_rgb: bool = True) -> Any:
+    """Call ``obj`` once on a tiny synthetic input, check and return what it returned (``PluginError``)."""
     args: tuple[Any, ...]
     if kind == "aligner":
         a, b = _dry_submaps(descriptor_dim)
@@ -112,6 +112,7 @@ def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_
     problem = check_result(kind, out, args)
     if problem:
         raise PluginError(f"{kind} {path!r}: on {where}, {problem}", path, kind)
+    return out
 
 
 def check_result(kind: str, out: Any, args: tuple[Any, ...]) -> str | None:

@@ -79,6 +79,13 @@ class FrontEnd(StrictModel):
     encoder: str = "simulated"
     semantics: SemanticConfig = Field(default_factory=SemanticConfig)
 
+    @field_validator("encoder")
+    @classmethod
+    def _known_encoder(cls, v: str) -> str:
+        if v != "simulated" and ":" not in v:
+            raise ValueError(f"unknown encoder {v!r} (valid: simulated, or package.module:Class)")
+        return v
+
     @field_validator("segmenter")
     @classmethod
     def _known_segmenter(cls, v: str | SegmenterConfig) -> str | SegmenterConfig:

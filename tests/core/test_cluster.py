@@ -179,6 +179,5 @@ def test_sweep_cli_reports_a_bad_scheduler_in_one_line(tmp_path, silent_port: in
                                     "executor": {"kind": "dask", "connect_timeout_s": T}}))
     line = cli_fails("sweep", path, "--scheduler", "not-a-url", "--out", tmp_path / "o")
     assert "scheduler_address: Dask scheduler 'not-a-url': not an address" in line
-    line = cli_fails("sweep", path, "--scheduler", f"tcp://127.0.0.1:{silent_port}", "--out", tmp_path / "o",
-                     allow_progress=True)
+    line = cli_fails("sweep", path, "--scheduler", f"tcp://127.0.0.1:{silent_port}", "--out", tmp_path / "o")
     assert "sent no Dask handshake within 1 s" in line
