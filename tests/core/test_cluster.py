@@ -101,7 +101,7 @@ def local_cluster() -> Iterator[object]:
     from distributed import LocalCluster
 
     cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1",
-                           dashboard_address=None)
+                           dashboard_address=":0")  # a free port: 8787 may be taken
     yield cluster
     cluster.close()
 
