@@ -12,7 +12,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
+from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
 from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
@@ -34,7 +34,7 @@ class WorldRef(StrictModel):
     """Which world: a preset (or YAML path) plus overrides of its ``WorldSpec`` fields."""
 
     preset: str = "offroad"
-    overrides: dict[str, Any] = Field(default_factory=dict)
+    overrides: dict[str, FiniteTree] = Field(default_factory=dict)
 
     def spec(self) -> Any:
         """The resolved ``WorldSpec`` (overrides validated like the preset itself)."""
@@ -59,7 +59,7 @@ class AlignerEntry(StrictModel):
 
     method: str = Field(..., min_length=1)
     label: str | None = Field(None, description="name in tables (default: the method)")
-    params: dict[str, Any] = Field(default_factory=dict)
+    params: dict[str, FiniteTree] = Field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -78,6 +78,13 @@ class FrontEnd(StrictModel):
     segmenter: str | SegmenterConfig = "fastsam"
     encoder: str = "simulated"
     semantics: SemanticConfig = Field(default_factory=SemanticConfig)
+
+    @field_validator("encoder")
+    @classmethod
+    def _known_encoder(cls, v: str) -> str:
+        if v != "simulated" and ":" not in v:
+            raise ValueError(f"unknown encoder {v!r} (valid: simulated, or package.module:Class)")
+        return v
 
     @field_validator("segmenter")
     @classmethod
@@ -155,6 +162,10 @@ def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = N
     bundled = bundled_scenarios()
     if str(name_or_path) in bundled:
         return bundled[str(name_or_path)]
+    for c in candidates:
+        if c.is_dir():
+            raise ConfigError(f"scenario {str(name_or_path)!r}: {c} is a directory, expected a scenario YAML file "
+                              f"or a bundled name ({', '.join(bundled)})")
     raise ConfigError(f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})")
 
 

@@ -13,7 +13,8 @@ from typing import Any
 
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.core.registry import import_object
+from roman_sim.core.plugin_guard import guard_frontend
+from roman_sim.core.plugins import instantiate_plugin
 from roman_sim.mapping.io import load_segment_map, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
@@ -34,19 +35,11 @@ class Maps:
     notes: list[str] = field(default_factory=list)
 
 
-def _user_object(path: str, kind: str, **kwargs: Any) -> Any:
-    factory = import_object(path, kind)
-    try:
-        return factory(**kwargs) if callable(factory) else factory
-    except TypeError as err:
-        raise ConfigError(f"{kind} {path!r}: cannot construct it ({err})") from None
-
-
 def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
     """The scenario's segmenter for ``robot`` (built-in preset, config, or user class)."""
     seg = ctx.scenario.frontend.segmenter
     if isinstance(seg, str) and ":" in seg:
-        return _user_object(seg, "segmenter")
+        return instantiate_plugin(seg, "segmenter")
     return build_segmenter(seg if isinstance(seg, (str, SegmenterConfig)) else seg, seed=ctx.scenario.seed)
 
 
@@ -60,7 +53,7 @@ def build_encoder_for(ctx: RunContext, robot: str, world: Any) -> Any:
         families = {o.id: o.family for o in world.truth.objects}
         return SimulatedEncoder(ctx.scenario.frontend.semantics, seed=ctx.scenario.seed, families=families, robot=robot)
     if ":" in enc:
-        return _user_object(enc, "semantic encoder")
+        return instantiate_plugin(enc, "encoder")
     raise ConfigError(f"frontend.encoder: unknown encoder {enc!r} (valid: simulated, or package.module:Class)")
 
 
@@ -99,7 +92,10 @@ def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
     trajectory = trajectory_along(world, cfg, sc.seed, path)
     stage = f"maps:{cfg.name}"
     ctx.progress.start(stage, len(trajectory[0]))
-    mapper = Mapper(sc.mapping, build_segmenter_for(ctx, cfg.name), build_encoder_for(ctx, cfg.name, world), seed=sc.seed)
+    # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
+    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, cfg.name), sc.frontend.segmenter,
+                                        build_encoder_for(ctx, cfg.name, world), sc.frontend.encoder)
+    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed)
     for frame in _frames(ctx, world, cfg, trajectory):
         mapper.process(frame)
         ctx.progress.advance(stage)
