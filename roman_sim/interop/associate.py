@@ -3,11 +3,12 @@
 A list (``rgb.txt``, ``depth.txt``, ``masks.txt``) has one ``timestamp filename`` per line;
 lines starting with ``#`` are comments, commas and tabs count as spaces (as in the TUM
 tools). ``associate`` pairs two stamp lists the way the benchmark's ``associate.py`` does:
-candidate pairs closer than ``max_diff_s`` are taken greedily, closest first, each stamp
-used at most once. Written here because ``associate.py`` is a script, not a library, and
-compares every stamp with every other (quadratic); this version only considers each
-stamp's two neighbours on the other list (sorted), which yields the same pairs whenever
-the closest candidates are neighbours (always, for sorted lists), in O(n log n).
+every pair closer than ``max_diff_s`` is a candidate, candidates are taken greedily,
+closest first, each stamp used at most once. Written here because ``associate.py`` is a
+script, not a library, and compares every stamp with every other (quadratic); this
+version finds the candidates of each stamp by binary search in the sorted other list
+(the same pairs, in O(n log n + candidates)). ``roman_sim.evaluation.ate.associate``
+differs on purpose: it keeps, per reference stamp, the earliest estimate, not the closest.
 """
 
 from __future__ import annotations
@@ -61,23 +62,21 @@ def associate(t_a: NDArray[np.float64], t_b: NDArray[np.float64],
 
 def _associate_sorted(a: NDArray[np.float64], b: NDArray[np.float64],
                       max_diff_s: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    cands = set()
-    for src, dst, flip in ((a, b, False), (b, a, True)):
-        pos = np.searchsorted(dst, src)
-        for k in (pos - 1, pos):
-            ok = (k >= 0) & (k < len(dst))
-            for i, j in zip(np.flatnonzero(ok), k[ok]):
-                cands.add((int(j), int(i)) if flip else (int(i), int(j)))
-    pairs = sorted((abs(a[i] - b[j]), i, j) for i, j in cands if abs(a[i] - b[j]) < max_diff_s)
-    used_a: set[int] = set()
-    used_b: set[int] = set()
-    out = []
-    for _, i, j in pairs:
-        if i not in used_a and j not in used_b:
-            used_a.add(i)
-            used_b.add(j)
-            out.append((i, j))
-    out.sort()
-    ia = np.array([i for i, _ in out], dtype=np.int64)
-    ib = np.array([j for _, j in out], dtype=np.int64)
-    return ia, ib
+    lo = np.searchsorted(b, a - max_diff_s, side="left")
+    hi = np.searchsorted(b, a + max_diff_s, side="right")
+    counts = hi - lo
+    ia = np.repeat(np.arange(len(a)), counts)
+    ib = np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts - lo, counts)
+    diff = np.abs(a[ia] - b[ib])
+    ok = diff < max_diff_s
+    ia, ib, diff = ia[ok], ib[ok], diff[ok]
+    order = np.lexsort((ib, ia, diff))  # closest first; ties by index, as sorting the tuples would
+    used_a = np.zeros(len(a), dtype=bool)
+    used_b = np.zeros(len(b), dtype=bool)
+    out_a, out_b = [], []
+    for i, j in zip(ia[order].tolist(), ib[order].tolist()):
+        if not used_a[i] and not used_b[j]:
+            used_a[i] = used_b[j] = True
+            out_a.append(i)
+            out_b.append(j)
+    return np.asarray(out_a, dtype=np.int64), np.asarray(out_b, dtype=np.int64)

@@ -97,7 +97,11 @@ ODOMETRY_SOURCES: Registry[OdometryFn] = Registry("odometry source")
 
 
 def _from_file(seq: TumSequence, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    return read_tum(seq.dir / name)
+    path = seq.dir / name
+    if not path.is_file():
+        raise ConfigError(f"source.odometry: {path} not found (valid: {', '.join(ODOMETRY_SOURCES.names())}, "
+                          "or a TUM file of camera poses)")
+    return read_tum(path)
 
 
 def _needs_truth(seq: TumSequence, what: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

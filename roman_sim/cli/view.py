@@ -1,0 +1,32 @@
+"""``roman-sim view``: a 3D view (rerun recording) of a finished run."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from roman_sim.cli import app
+
+
+@app.command("view")
+def view_cmd(
+    run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`"),
+    out: Path | None = typer.Option(None, "--out", "-o", help="recording file (default <run>/view.rrd)"),
+    open_: bool = typer.Option(False, "--open", help="open rerun's viewer on the recording (needs a display)"),
+    images: int = typer.Option(60, "--images", min=0, help="camera frames per robot on the timeline (0: none)"),
+) -> None:
+    """Write a rerun recording of a run: objects, trajectories, maps, submaps, closures, camera images."""
+    from roman_sim.viz import open_viewer, write_run_view
+
+    console = Console(stderr=True)
+    with console.status("writing the recording ..."):
+        result = write_run_view(run_dir, out, max_images=images)
+    for note in result.notes:
+        console.print(f"[yellow]note:[/yellow] {note}")
+    shown = ", ".join(f"{r}: {n}" for r, n in result.images.items()) or "none"
+    closures = ", ".join(f"{n} {k}" for k, n in result.closures.items())
+    Console().print(f"recording: {result.path} (camera frames {shown}; loop closures {closures})")
+    if open_ and not open_viewer(result.path):
+        console.print(f"no display: open it elsewhere with `rerun {result.path}`")
