@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated, Any
 
 import typer
 from rich.console import Console
@@ -13,14 +14,14 @@ from roman_sim.cli import app
 
 @app.command("export")
 def export_cmd(
-    scenario: str = typer.Argument(..., help="scenario YAML path or bundled scenario name"),
-    fmt: str = typer.Option(..., "--format", "-f", help="tum (TUM RGB-D folders) or rosbag2 (ROS 2 bags)"),
-    out: Path = typer.Option(..., "--out", "-o", help="export folder (one sub-folder per robot)"),
-    sets: list[str] | None = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
-    robots: str | None = typer.Option(None, "--robots", "-r", help="only these robots, comma-separated (a,b)"),
-    depth_scale: float = typer.Option(5000.0, "--depth-scale", help="tum: depth PNG units per metre"),
-    storage: str = typer.Option("mcap", "--storage", help="rosbag2: mcap or sqlite3"),
-    overwrite: bool = typer.Option(False, "--overwrite", help="replace robots' folders that already hold files"),
+    scenario: Annotated[str, typer.Argument(help="scenario YAML path or bundled scenario name")],
+    fmt: Annotated[str, typer.Option("--format", "-f", help="tum (TUM RGB-D folders) or rosbag2 (ROS 2 bags)")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="export folder (one sub-folder per robot)")],
+    sets: Annotated[list[str] | None, typer.Option("--set", "-s", help="override, e.g. --set seed=3")] = None,
+    robots: Annotated[str | None, typer.Option("--robots", "-r", help="only these robots, comma-separated (a,b)")] = None,
+    depth_scale: Annotated[float, typer.Option("--depth-scale", help="tum: depth PNG units per metre")] = 5000.0,
+    storage: Annotated[str, typer.Option("--storage", help="rosbag2: mcap or sqlite3")] = "mcap",
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="replace robots' folders that already hold files")] = False,
 ) -> None:
     """Render the robots of a scenario and write them with exact ground truth, masks and the object table."""
     from roman_sim.cli.run import RichProgress, _progress
@@ -30,7 +31,8 @@ def export_cmd(
     from roman_sim.pipeline.scenario import load_scenario
 
     FORMATS.get(fmt)
-    options = {"tum": {"depth_scale": depth_scale}, "rosbag2": {"storage": storage}}.get(fmt, {})
+    by_format: dict[str, dict[str, Any]] = {"tum": {"depth_scale": depth_scale}, "rosbag2": {"storage": storage}}
+    options = by_format.get(fmt, {})
     if depth_scale <= 0:
         raise ConfigError(f"--depth-scale: must be a positive number of units per metre, got {depth_scale}")
     names = [n.strip() for n in robots.split(",") if n.strip()] if robots else None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -12,10 +13,10 @@ from roman_sim.cli import app
 
 @app.command("view")
 def view_cmd(
-    run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`"),
-    out: Path | None = typer.Option(None, "--out", "-o", help="recording file (default <run>/view.rrd)"),
-    open_: bool = typer.Option(False, "--open", help="open rerun's viewer on the recording (needs a display)"),
-    images: int = typer.Option(60, "--images", min=0, help="camera frames per robot on the timeline (0: none)"),
+    run_dir: Annotated[Path, typer.Argument(help="a results folder of `roman-sim run`")],
+    out: Annotated[Path | None, typer.Option("--out", "-o", help="recording file (default <run>/view.rrd)")] = None,
+    open_: Annotated[bool, typer.Option("--open", help="open rerun's viewer on the recording (needs a display)")] = False,
+    images: Annotated[int, typer.Option("--images", min=0, help="camera frames per robot on the timeline (0: none)")] = 60,
 ) -> None:
     """Write a rerun recording of a run: objects, trajectories, maps, submaps, closures, camera images."""
     from roman_sim.viz import open_viewer, write_run_view

@@ -7,14 +7,10 @@ so the TUM folder and the ROS 2 bag of one robot carry the same stamps.
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any, Protocol
 
-import numpy as np
-from numpy.typing import NDArray
-
 from roman_sim.core.registry import Registry
-from roman_sim.sensors import Frame, Intrinsics
+from roman_sim.sensors import Frame
 
 
 def stamp_ns(t: float) -> int:
@@ -43,12 +39,7 @@ class SequenceWriter(Protocol):
         ...
 
 
-class WriterFactory(Protocol):
-    """Builds a ``SequenceWriter`` for one robot."""
-
-    def __call__(self, out_dir: Path, robot: str, intrinsics: Intrinsics, T_body_cam: NDArray[np.float64],
-                 **options: Any) -> SequenceWriter: ...
-
-
-#: Export formats: name -> writer factory (``tum``, ``rosbag2``).
+#: Export formats: name -> ``SequenceWriter`` class, called as
+#: ``cls(out_dir, robot, intrinsics, T_body_cam, **options)`` (``tum``, ``rosbag2``, or a
+#: user's ``package.module:Class``).
 FORMATS: Registry[Any] = Registry("export format")

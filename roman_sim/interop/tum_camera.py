@@ -104,7 +104,8 @@ def _read_txt(p: Path) -> CameraFile:
     if any(d != 0 for d in rows[0][4:]):
         raise StorageError(f"{p}: distortion coefficients must be 0 (undistort the images first)")
     size = (int(rows[1][0]), int(rows[1][1])) if len(rows) > 1 else (None, None)
-    return CameraFile(*rows[0][:4], width=size[0], height=size[1])
+    fx, fy, cx, cy = rows[0][:4]
+    return CameraFile(fx, fy, cx, cy, width=size[0], height=size[1])
 
 
 def read_camera_file(folder: str | Path) -> CameraFile | None:

@@ -110,10 +110,10 @@ def _needs_truth(seq: TumSequence, what: str) -> tuple[NDArray[np.float64], NDAr
     return seq.gt
 
 
-ODOMETRY_SOURCES.register("groundtruth", lambda seq, t: _needs_truth(seq, "groundtruth"))
+def _groundtruth(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    return _needs_truth(seq, "groundtruth")
 
 
-@ODOMETRY_SOURCES.register("drift")  # type: ignore[arg-type]
 def _drifted(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     t_gt, T_wc = _needs_truth(seq, "drift")
     T_wb = T_wc @ inv_T(seq.T_body_cam)
@@ -121,9 +121,12 @@ def _drifted(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float
     return t_gt, T_ob @ seq.T_body_cam
 
 
-@ODOMETRY_SOURCES.register("auto")  # type: ignore[arg-type]
 def _auto(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     return _from_file(seq, "odometry.txt") if (seq.dir / "odometry.txt").is_file() else _drifted(seq, t)
+
+
+for _name, _fn in (("auto", _auto), ("drift", _drifted), ("groundtruth", _groundtruth)):
+    ODOMETRY_SOURCES.register(_name, _fn)
 
 
 class TumSequence:
@@ -222,9 +225,11 @@ class TumSequence:
             units = self._read(depth_name)
             if units.dtype != np.uint16 or units.shape != shape:
                 raise StorageError(f"{self.dir / depth_name}: expected a {shape[1]}x{shape[0]} 16-bit depth PNG")
-            rgb = None if rgb_name is None else self._read(rgb_name)
-            if rgb is not None and rgb.shape != (*shape, 3):
-                raise StorageError(f"{self.dir / rgb_name}: expected a {shape[1]}x{shape[0]} colour PNG")
+            rgb = None
+            if rgb_name is not None:
+                rgb = self._read(rgb_name)
+                if rgb.shape != (*shape, 3):
+                    raise StorageError(f"{self.dir / rgb_name}: expected a {shape[1]}x{shape[0]} colour PNG")
             truth = None
             if self.T_world_body is not None:
                 ids = None if mask_name is None else mask_to_ids(self._read(mask_name))

@@ -155,6 +155,6 @@ def open_viewer(path: str | Path) -> bool:
         raise StorageError(f"{p}: recording not found")
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         return False
-    subprocess.Popen([sys.executable, "-m", "rerun", str(p)], start_new_session=True,  # noqa: S603
+    subprocess.Popen([sys.executable, "-m", "rerun", str(p)], start_new_session=True,
                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return True

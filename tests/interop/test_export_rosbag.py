@@ -92,7 +92,7 @@ def test_odometry_twist_is_the_pose_difference(bag_export: Path, direct_frames: 
 
 def test_mask_side_files(bag_export: Path, direct_frames: dict) -> None:
     for robot, frames in direct_frames.items():
-        stamps, files = read_list(bag_export / robot / "masks.txt")
+        _, files = read_list(bag_export / robot / "masks.txt")
         assert len(files) == FRAMES[robot]
         for f, name in zip(frames, files):
             np.testing.assert_array_equal(read_png(bag_export / robot / name).astype(np.int32) - 1, f.truth.object_ids)

@@ -171,7 +171,7 @@ class SideFileSegmenter:
         self.folder = folder
         self.files = read_list(folder / "masks.txt")[1]
 
-    def segment(self, frame):  # noqa: ANN001, ANN201 - the Segmenter protocol
+    def segment(self, frame):  # the Segmenter protocol
         from roman_sim.interop.images import mask_to_ids, read_png
         from roman_sim.mapping.segmenter import Mask
 
