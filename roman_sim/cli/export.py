@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from roman_sim.cli import app
+from roman_sim.cli.listing import LISTINGS
 
 
 @app.command("export")
@@ -47,3 +48,12 @@ def export_cmd(
         table.add_row(name, str(summary["frames"]), f"{result.render_s[name]:.1f}", f"{result.write_s[name]:.1f}",
                       str(summary.get("bag") or summary.get("folder")))
     Console().print(table)
+
+
+def _formats() -> list[str]:
+    from roman_sim.interop.export import FORMATS
+
+    return FORMATS.names()
+
+
+LISTINGS["formats"] = _formats
