@@ -13,8 +13,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from roman_sim.geometry import make_T, rot_x, rot_y
 from roman_sim.core.registry import Registry
+from roman_sim.geometry import make_T, rot_x, rot_y
 
 Rgba = tuple[float, float, float, float]
 

@@ -10,8 +10,8 @@ import numpy as np
 import trimesh
 
 from roman_sim.core.errors import WorldError
-from roman_sim.geometry import make_T, rot_z
 from roman_sim.core.seeding import child_rng
+from roman_sim.geometry import make_T, rot_z
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
 from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
