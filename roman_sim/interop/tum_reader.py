@@ -32,6 +32,7 @@ from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.geometry import R_FLU_RDF, inv_T, make_T
 from roman_sim.interop.associate import associate, read_list
@@ -91,12 +92,11 @@ class TumSourceConfig(StrictModel):
         return v
 
 
-OdometryFn = Callable[["TumSequence", NDArray[np.float64]], "tuple[NDArray[np.float64], NDArray[np.float64]]"]
-#: Where the odometry comes from: name -> function(sequence, frame times) -> (stamps, T_odom_cam).
-ODOMETRY_SOURCES: Registry[OdometryFn] = Registry("odometry source")
+#: Where the odometry comes from: name -> function(sequence) -> camera poses ``T_odom_cam``.
+ODOMETRY_SOURCES: Registry[Callable[["TumSequence"], Trajectory]] = Registry("odometry source")
 
 
-def _from_file(seq: TumSequence, name: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _from_file(seq: TumSequence, name: str) -> Trajectory:
     path = seq.dir / name
     if not path.is_file():
         raise ConfigError(f"source.odometry: {path} not found (valid: {', '.join(ODOMETRY_SOURCES.names())}, "
@@ -104,25 +104,25 @@ def _from_file(seq: TumSequence, name: str) -> tuple[NDArray[np.float64], NDArra
     return read_tum(path)
 
 
-def _needs_truth(seq: TumSequence, what: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _needs_truth(seq: TumSequence, what: str) -> Trajectory:
     if seq.gt is None:
         raise ConfigError(f"{seq.dir}: odometry {what!r} needs groundtruth.txt (give odometry: <file>)")
     return seq.gt
 
 
-def _groundtruth(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _groundtruth(seq: TumSequence) -> Trajectory:
     return _needs_truth(seq, "groundtruth")
 
 
-def _drifted(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    t_gt, T_wc = _needs_truth(seq, "drift")
-    T_wb = T_wc @ inv_T(seq.T_body_cam)
+def _drifted(seq: TumSequence) -> Trajectory:
+    gt = _needs_truth(seq, "drift")
+    T_wb = gt.T @ inv_T(seq.T_body_cam)
     T_ob = drift_trajectory(T_wb, resolve_drift(seq.cfg.drift), child_rng(seq.seed, "drift", seq.robot))
-    return t_gt, T_ob @ seq.T_body_cam
+    return Trajectory(gt.t, T_ob @ seq.T_body_cam)
 
 
-def _auto(seq: TumSequence, t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    return _from_file(seq, "odometry.txt") if (seq.dir / "odometry.txt").is_file() else _drifted(seq, t)
+def _auto(seq: TumSequence) -> Trajectory:
+    return _from_file(seq, "odometry.txt") if (seq.dir / "odometry.txt").is_file() else _drifted(seq)
 
 
 for _name, _fn in (("auto", _auto), ("drift", _drifted), ("groundtruth", _groundtruth)):
@@ -166,10 +166,10 @@ class TumSequence:
         ir, idp = associate(t_rgb, t_d, tol)
         t = t_rgb[ir]
         keep = np.ones(len(t), dtype=bool)
-        t_o, T_oc = ODOMETRY_SOURCES.get(self.cfg.odometry)(self, t) if self.cfg.odometry in ODOMETRY_SOURCES \
+        odom = ODOMETRY_SOURCES.get(self.cfg.odometry)(self) if self.cfg.odometry in ODOMETRY_SOURCES \
             else _from_file(self, self.cfg.odometry)
-        T_odom = self._match(t, t_o, T_oc, keep)
-        T_world = None if self.gt is None else self._match(t, *self.gt, keep)
+        T_odom = self._match(t, odom, keep)
+        T_world = None if self.gt is None else self._match(t, self.gt, keep)
         masks: list[str | None] = [None] * len(t)
         if self.cfg.masks and (self.dir / "masks.txt").is_file():
             t_m, names = read_list(self.dir / "masks.txt")
@@ -189,12 +189,11 @@ class TumSequence:
         self.T_world_body = None if T_world is None else T_world[idx] @ inv_T(self.T_body_cam)
         self.has_masks = all(m is not None for _, _, m in self._files)
 
-    def _match(self, t: NDArray[np.float64], t_traj: NDArray[np.float64], T: NDArray[np.float64],
-               keep: NDArray[np.bool_]) -> NDArray[np.float64]:
+    def _match(self, t: NDArray[np.float64], traj: Trajectory, keep: NDArray[np.bool_]) -> NDArray[np.float64]:
         """Poses at the frame times (by association); frames without a match are unkept."""
         out = np.tile(np.eye(4), (len(t), 1, 1))
-        i, j = associate(t, t_traj, self.cfg.max_time_diff_s)
-        out[i] = T[j]
+        i, j = associate(t, traj.t, self.cfg.max_time_diff_s)
+        out[i] = traj.T[j]
         matched = np.zeros(len(t), dtype=bool)
         matched[i] = True
         keep &= matched

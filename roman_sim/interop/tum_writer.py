@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import format_tum
 from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
 from roman_sim.interop.images import TUM_DEPTH_SCALE, depth_to_units, encode_png
@@ -98,16 +99,16 @@ class TumWriter:
             write_text(d / f"{sub}.txt", list_text(kind, self.robot, [(s, f"{sub}/{s}.png") for s in st]))
         self._masks.close()
         write_text(d / "associations.txt", "".join(f"{s} rgb/{s}.png {s} depth/{s}.png\n" for s in st))
-        T_wb, T_ob = np.stack(self._T_wb), np.stack(self._T_ob)
+        t, T_wb, T_ob = np.asarray(self._t), np.stack(self._T_wb), np.stack(self._T_ob)
         head = "# {} of robot {}: timestamp tx ty tz qx qy qz qw\n"
         write_text(d / "groundtruth.txt", head.format("true camera pose T_world_cam", self.robot)
-                   + format_tum(self._t, T_wb @ self.T_bc))
+                   + format_tum(Trajectory(t, T_wb @ self.T_bc)))
         write_text(d / "odometry.txt", head.format("drifted camera odometry T_odom_cam", self.robot)
-                   + format_tum(self._t, T_ob @ self.T_bc))
+                   + format_tum(Trajectory(t, T_ob @ self.T_bc)))
         write_text(d / "groundtruth_body.txt", head.format("true body pose T_world_body", self.robot)
-                   + format_tum(self._t, T_wb))
+                   + format_tum(Trajectory(t, T_wb)))
         write_text(d / "odometry_body.txt", head.format("drifted body odometry T_odom_body", self.robot)
-                   + format_tum(self._t, T_ob))
+                   + format_tum(Trajectory(t, T_ob)))
         write_text(d / CAMERA_YAML, camera_yaml_text(self.intr, self.T_bc, self.scale, self.robot))
         write_text(d / CAMERA_TXT, camera_txt_text(self.intr, self.robot))
         if self._too_deep:

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.sensors import Frame
 
 F64 = NDArray[np.float64]
@@ -78,15 +79,15 @@ def log_terrain(rec: Any, terrain: Any, max_side: int = 96) -> None:
                                        albedo_factor=(120, 140, 100, 255)), static=True)
 
 
-def log_trajectories(rec: Any, trajectories: dict[str, dict[str, tuple[F64, F64]]]) -> None:
+def log_trajectories(rec: Any, trajectories: dict[str, dict[str, Trajectory]]) -> None:
     """Each robot's trajectories as line strips (already in the world frame)."""
     import rerun as rr
 
     for robot, variants in trajectories.items():
-        for variant, (_, T) in variants.items():
+        for variant, traj in variants.items():
             colour = TRAJECTORY_COLOURS.get(variant, METHOD_COLOUR)
             rec.log(f"world/trajectories/{robot}/{variant}",
-                    rr.LineStrips3D([T[:, :3, 3]], colors=[colour], radii=[0.05], labels=[f"{robot} {variant}"]),
+                    rr.LineStrips3D([traj.positions], colors=[colour], radii=[0.05], labels=[f"{robot} {variant}"]),
                     static=True)
 
 

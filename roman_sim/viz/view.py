@@ -58,8 +58,8 @@ def _aligned_trajectories(rf: RunFolder, notes: list[str]) -> dict[str, dict[str
         if res is None:
             notes.append(f"trajectories {variant}: not aligned to the truth (not shown)")
             continue
-        for r, (t, T) in est.items():
-            out[r][variant] = (t, res.T_align @ T)
+        for r, tr in est.items():
+            out[r][variant] = tr.transformed(res.T_align)
     return out
 
 

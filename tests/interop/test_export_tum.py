@@ -40,8 +40,8 @@ def test_layout_and_counts(tum_export: Path) -> None:
             assert len(stamps) == n and all((d / f).is_file() for f in files)
             assert len(list((d / name).glob("*.png"))) == n
         for name in ("groundtruth.txt", "odometry.txt", "groundtruth_body.txt", "odometry_body.txt"):
-            t, T = read_tum(d / name)
-            assert len(t) == n and T.shape == (n, 4, 4)
+            traj = read_tum(d / name)
+            assert len(traj) == n and traj.T.shape == (n, 4, 4)
         assert len((d / "associations.txt").read_text().splitlines()) == n
     manifest = json.loads((tum_export / "export.json").read_text())
     assert manifest["sequence_format"] == "tum" and {r: v["frames"] for r, v in manifest["robots"].items()} == FRAMES
@@ -65,9 +65,9 @@ def test_images_and_poses_read_back(tum_export: Path, direct_frames: dict) -> No
 
 def test_groundtruth_is_the_camera_pose(tum_export: Path, direct_frames: dict) -> None:
     f = direct_frames["a"]
-    _, T_cam = read_tum(tum_export / "a" / "groundtruth.txt")
-    _, T_body = read_tum(tum_export / "a" / "groundtruth_body.txt")
-    _, T_odom_cam = read_tum(tum_export / "a" / "odometry.txt")
+    T_cam = read_tum(tum_export / "a" / "groundtruth.txt").T
+    T_body = read_tum(tum_export / "a" / "groundtruth_body.txt").T
+    T_odom_cam = read_tum(tum_export / "a" / "odometry.txt").T
     np.testing.assert_allclose(T_cam, [x.truth.T_world_body @ x.T_body_cam for x in f], atol=1e-6)
     np.testing.assert_allclose(T_body, [x.truth.T_world_body for x in f], atol=1e-6)
     np.testing.assert_allclose(T_odom_cam, [x.T_odom_body @ x.T_body_cam for x in f], atol=1e-6)

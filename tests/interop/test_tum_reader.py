@@ -11,6 +11,7 @@ import pytest
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import ConfigError, MappingError, StorageError
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import format_tum, read_tum
 from roman_sim.geometry import make_T, rot_z
 from roman_sim.interop.associate import associate
@@ -48,7 +49,7 @@ def real_like(tmp_path_factory: pytest.TempPathFactory) -> Path:
     write_text(d / "depth.txt", "# depth maps\n# x\n# timestamp filename\n" + "\n".join(depth_rows) + "\n")
     t_gt = T0 - 0.05 + np.arange(60) / 100.0
     write_text(d / "groundtruth.txt", "# ground truth trajectory\n# timestamp tx ty tz qx qy qz qw\n"
-               + format_tum(t_gt, [_T_world_cam(t) for t in t_gt]))
+               + format_tum(Trajectory(t_gt, np.stack([_T_world_cam(t) for t in t_gt]))))
     write_text(d / "camera.txt", "# fx fy cx cy d0 d1 d2 d3 d4\n30.0 31.0 15.5 11.5 0 0 0 0 0\n")
     return d
 
@@ -89,8 +90,8 @@ def test_odometry_choices(real_like: Path, tmp_path: Path) -> None:
     rel = np.linalg.inv(zero.T_world_body[0]) @ zero.T_world_body
     np.testing.assert_allclose(np.linalg.inv(zero.T_odom_body[0]) @ zero.T_odom_body, rel, atol=1e-9)
     own = tmp_path / "vio.txt"
-    t, T = read_tum(real_like / "groundtruth.txt")
-    write_text(own, format_tum(t, T @ make_T(t=[0.0, 0.0, 1.0])))
+    gt = read_tum(real_like / "groundtruth.txt")
+    write_text(own, format_tum(Trajectory(gt.t, gt.T @ make_T(t=[0.0, 0.0, 1.0]))))
     seq = read_tum_sequence(real_like, odometry=str(own))
     # the file's camera sits 1 m ahead along its optical axis: body positions move by R_world_cam @ z
     ahead = seq.T_world_body[:, :3, :3] @ seq.T_body_cam[:3, :3] @ np.array([0.0, 0.0, 1.0])
@@ -126,7 +127,7 @@ def test_bad_input_names_the_problem(real_like: Path, tmp_path: Path) -> None:
         read_tum_sequence(real_like, depth_scael=5000)
     broken = tmp_path / "broken"
     write_text(broken / "depth.txt", "1.0 depth/1.png\n2.0 depth/2.png\n")
-    write_text(broken / "groundtruth.txt", format_tum([1.0, 2.0], [np.eye(4), np.eye(4)]))
+    write_text(broken / "groundtruth.txt", format_tum(Trajectory(np.array([1.0, 2.0]), np.stack([np.eye(4)] * 2))))
     write_text(broken / "camera.txt", "10 10 1.5 1.5\n")
     write_bytes(broken / "depth" / "1.png", encode_png(np.ones((4, 4), dtype=np.uint16)))
     seq = read_tum_sequence(broken, odometry="groundtruth")
