@@ -19,10 +19,10 @@ def export_cmd(
     fmt: Annotated[str, typer.Option("--format", "-f", help="tum (TUM RGB-D folders) or rosbag2 (ROS 2 bags)")],
     out: Annotated[Path, typer.Option("--out", "-o", help="export folder (one sub-folder per robot)")],
     sets: Annotated[list[str] | None, typer.Option("--set", "-s", help="override, e.g. --set seed=3")] = None,
-    robots: Annotated[str | None, typer.Option("--robots", "-r", help="only these robots, comma-separated (a,b)")] = None,
+    robots: Annotated[str | None, typer.Option("--robots", "-r", help="only these robots: a,b")] = None,
     depth_scale: Annotated[float, typer.Option("--depth-scale", help="tum: depth PNG units per metre")] = 5000.0,
     storage: Annotated[str, typer.Option("--storage", help="rosbag2: mcap or sqlite3")] = "mcap",
-    overwrite: Annotated[bool, typer.Option("--overwrite", help="replace robots' folders that already hold files")] = False,
+    overwrite: Annotated[bool, typer.Option("--overwrite", help="replace robot folders holding files")] = False,
 ) -> None:
     """Render the robots of a scenario and write them with exact ground truth, masks and the object table."""
     from roman_sim.cli.run import RichProgress, _progress

@@ -15,8 +15,8 @@ from roman_sim.cli import app
 def view_cmd(
     run_dir: Annotated[Path, typer.Argument(help="a results folder of `roman-sim run`")],
     out: Annotated[Path | None, typer.Option("--out", "-o", help="recording file (default <run>/view.rrd)")] = None,
-    open_: Annotated[bool, typer.Option("--open", help="open rerun's viewer on the recording (needs a display)")] = False,
-    images: Annotated[int, typer.Option("--images", min=0, help="camera frames per robot on the timeline (0: none)")] = 60,
+    open_: Annotated[bool, typer.Option("--open", help="open rerun's viewer (needs a display)")] = False,
+    images: Annotated[int, typer.Option("--images", min=0, help="camera frames per robot (0: none)")] = 60,
 ) -> None:
     """Write a rerun recording of a run: objects, trajectories, maps, submaps, closures, camera images."""
     from roman_sim.viz import open_viewer, write_run_view

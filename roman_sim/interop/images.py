@@ -36,7 +36,8 @@ DEFAULT_COMPRESS_LEVEL = 1
 def encode_png(image: NDArray[np.uint8] | NDArray[np.uint16], compress_level: int = DEFAULT_COMPRESS_LEVEL) -> bytes:
     """PNG bytes of an (H, W, 3) uint8 RGB image or an (H, W) uint16 / uint8 grey image (zlib level 0-9)."""
     a = np.ascontiguousarray(image)
-    if a.dtype == np.uint16 and a.ndim == 2 or a.dtype == np.uint8 and a.ndim in (2, 3) and (a.ndim == 2 or a.shape[2] == 3):
+    grey16 = a.dtype == np.uint16 and a.ndim == 2
+    if grey16 or a.dtype == np.uint8 and (a.ndim == 2 or a.ndim == 3 and a.shape[2] == 3):
         img = Image.fromarray(a)
     else:
         raise StorageError(f"PNG: unsupported image of shape {a.shape} and dtype {a.dtype}")

@@ -119,7 +119,8 @@ class _Messages:
     def tf(self, transforms: list[Any]) -> Any:
         return self.t["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
-    def odometry(self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64], w_body: NDArray[np.float64]) -> Any:
+    def odometry(self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64],
+                 w_body: NDArray[np.float64]) -> Any:
         g = self.t
         vec, quat = self._pose_parts(T)
         pose = g["geometry_msgs/msg/Pose"](position=g["geometry_msgs/msg/Point"](x=vec.x, y=vec.y, z=vec.z),

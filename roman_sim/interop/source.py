@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.sensors import Frame, Intrinsics
-from roman_sim.sim.robot import RobotConfig, Trajectory, plan_paths, render_trajectory, trajectory_along
+from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_trajectory, trajectory_along
 
 
 @dataclass
@@ -36,7 +36,7 @@ class RobotStream:
     cfg: RobotConfig
     world: Any
     seed: int
-    trajectory: Trajectory
+    trajectory: DrivenRun
 
     @property
     def name(self) -> str:
@@ -64,17 +64,21 @@ class RobotStream:
 
 
 def select_robots(robots: Sequence[RobotConfig], names: Sequence[str] | None) -> list[RobotConfig]:
-    """The robots named in ``names`` (all when None or empty), in scenario order.
+    """The simulated robots named in ``names`` (all simulated ones when None or empty), in order.
 
-    Raises: ConfigError naming unknown robots and the valid names.
+    A scenario robot read from a recorded sequence (``source``) has nothing to render.
+
+    Raises: ConfigError naming unknown or recorded robots and the valid names.
     """
-    known = [r.name for r in robots]
-    if not names:
-        return list(robots)
-    unknown = [n for n in names if n not in known]
-    if unknown:
-        raise ConfigError(f"--robots: unknown robot(s) {', '.join(unknown)} (robots: {', '.join(known)})")
-    return [r for r in robots if r.name in set(names)]
+    simulated = [r for r in robots if getattr(r, "source", None) is None]
+    known = [r.name for r in simulated]
+    unknown = [n for n in names or [] if n not in known]
+    if unknown or not simulated:
+        recorded = sorted({r.name for r in robots} - set(known))
+        extra = f"; read from recorded sequences: {', '.join(recorded)}" if recorded else ""
+        raise ConfigError(f"--robots: no simulated robot {', '.join(unknown)} (simulated robots: "
+                          f"{', '.join(known) or 'none'}{extra})")
+    return [r for r in simulated if not names or r.name in set(names)]
 
 
 def scenario_streams(scenario: Any, names: Sequence[str] | None = None) -> tuple[Any, list[RobotStream]]:
@@ -88,7 +92,7 @@ def scenario_streams(scenario: Any, names: Sequence[str] | None = None) -> tuple
 
     chosen = select_robots(scenario.robots, names)
     world = generate(scenario.world.spec(), scenario.seed)
-    paths = plan_paths(world, scenario.robots, scenario.seed)
+    paths = plan_paths(world, [r for r in scenario.robots if getattr(r, "source", None) is None], scenario.seed)
     streams = []
     for cfg in chosen:
         trajectory = trajectory_along(world, cfg, scenario.seed, paths[cfg.name])

@@ -20,7 +20,7 @@ no offset): the gravity-aligned submaps then assume the trajectory frame has z u
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -74,6 +74,8 @@ class TumSourceConfig(StrictModel):
     odometry: str = Field("auto", min_length=1)
     drift: str | DriftConfig = "typical"
     masks: bool = Field(True, description="use masks/ (when present) as the frames' true object ids")
+    objects: Path | None = Field(None, description="object table for the simulated encoder (default: objects.json "
+                                                   "in the folder or its parent, as an export lays them out)")
     rgb: bool = True
     max_frames: int | None = Field(None, ge=1)
 
@@ -217,10 +219,11 @@ class TumSequence:
     def __len__(self) -> int:
         return len(self.times)
 
-    def frames(self) -> Iterator[Frame]:
-        """The frames in time order (depth in metres, float32; 0 = invalid)."""
+    def frames(self, indices: Iterable[int] | None = None) -> Iterator[Frame]:
+        """The frames in time order (depth in metres, float32; 0 = invalid); only ``indices`` if given."""
         shape = (self.intrinsics.height, self.intrinsics.width)
-        for k, (rgb_name, depth_name, mask_name) in enumerate(self._files):
+        for k in range(len(self)) if indices is None else indices:
+            rgb_name, depth_name, mask_name = self._files[k]
             units = self._read(depth_name)
             if units.dtype != np.uint16 or units.shape != shape:
                 raise StorageError(f"{self.dir / depth_name}: expected a {shape[1]}x{shape[0]} 16-bit depth PNG")

@@ -79,7 +79,11 @@ class Experiment:
         from roman_sim.core.registry import import_object
 
         if self.submaps_dir is None:
-            self.scenario.world.spec()
+            from roman_sim.pipeline.sources import check_sources
+
+            if self.scenario.needs_world:
+                self.scenario.world.spec()
+            check_sources(self.scenario)
         elif not self.submaps_dir.is_dir():
             raise ConfigError(f"--submaps {self.submaps_dir}: not a folder")
         for entry in self.scenario.aligners:

@@ -1,6 +1,7 @@
 """Camera frames of a finished run for the view: from its recordings, else re-rendered.
 
-A run keeps frames only when its scenario sets ``record_frames`` (``recordings/<robot>``);
+A robot read from a TUM RGB-D folder is read from it again. A simulated robot's frames are
+kept only when its scenario sets ``record_frames`` (``recordings/<robot>``);
 otherwise a subsample of each robot's frames is rendered again along the same planned
 trajectory (same world, paths and poses; RGB is rendered for the view even when the run
 did not, and the depth noise differs from the run's, since fewer frames draw from it).
@@ -38,15 +39,22 @@ def _recorded(rec_dir: Path, max_images: int) -> Iterator[Frame]:
             yield frame
 
 
+def _sequence(cfg: Any, seed: int, max_images: int) -> Iterator[Frame]:
+    from roman_sim.interop.tum_reader import TumSequence
+
+    seq = TumSequence(cfg.source, robot=cfg.name, seed=seed)
+    yield from seq.frames(subsample(len(seq), max_images).tolist())
+
+
 def _rendered(world: Any, scenario: Any, cfg: Any, paths: dict[str, Any], max_images: int) -> Iterator[Frame]:
     from dataclasses import replace
 
-    from roman_sim.sim.robot import render_trajectory, trajectory_along
+    from roman_sim.sim.robot import DrivenRun, render_trajectory, trajectory_along
 
     t, T_wb, T_ob = trajectory_along(world, cfg, scenario.seed, paths[cfg.name])
     idx = subsample(len(t), max_images)
     cfg_rgb = cfg.model_copy(update={"render_rgb": True})
-    for k, frame in zip(idx, render_trajectory(world, cfg_rgb, scenario.seed, (t[idx], T_wb[idx], T_ob[idx]))):
+    for k, frame in zip(idx, render_trajectory(world, cfg_rgb, scenario.seed, DrivenRun(t[idx], T_wb[idx], T_ob[idx]))):
         yield replace(frame, index=int(k))
 
 
@@ -59,6 +67,9 @@ def camera_frames(run_dir: Path, scenario: Any, world: Any | None, max_images: i
     paths = None
     for cfg in scenario.robots:
         rec_dir = run_dir / "recordings" / cfg.name
+        if getattr(cfg, "source", None) is not None:
+            out[cfg.name] = _sequence(cfg, scenario.seed, max_images)
+            continue
         if (rec_dir / "meta.json").is_file():
             out[cfg.name] = _recorded(rec_dir, max_images)
             continue

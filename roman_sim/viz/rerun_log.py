@@ -43,22 +43,25 @@ def _family_colour(k: int) -> tuple[int, int, int]:
     return int(255 * r), int(255 * g), int(255 * b)
 
 
-def log_objects(rec: Any, truth: Any) -> None:
-    """The world's objects as oriented boxes, coloured and labelled by family."""
-    import rerun as rr
-    from scipy.spatial.transform import Rotation
+def log_objects(rec: Any, rows: list[dict[str, Any]]) -> None:
+    """Objects as oriented boxes, coloured and labelled by family.
 
-    objs = sorted(truth.objects, key=lambda o: o.id)
-    if not objs:
+    Args:
+        rows: object records as ``roman_sim.interop.objects`` writes them (``object_rows`` of a
+            world's truth, or ``read_object_table`` of an exported sequence).
+    """
+    import rerun as rr
+
+    if not rows:
         return
-    families = sorted({o.family for o in objs})
+    families = sorted({r["family"] for r in rows})
     rec.log("world/objects", rr.AnnotationContext([(k, f, _family_colour(k)) for k, f in enumerate(families)]),
             static=True)
-    boxes = np.stack([o.obb_T_world for o in objs])
     rec.log("world/objects", rr.Boxes3D(
-        centers=boxes[:, :3, 3], half_sizes=np.stack([o.obb_extents for o in objs]) / 2,
-        quaternions=Rotation.from_matrix(boxes[:, :3, :3]).as_quat(),
-        class_ids=[families.index(o.family) for o in objs], labels=[f"{o.family} {o.id}" for o in objs]), static=True)
+        centers=[r["box"]["center"] for r in rows], half_sizes=np.asarray([r["box"]["extents"] for r in rows]) / 2,
+        quaternions=[r["box"]["quaternion_xyzw"] for r in rows],
+        class_ids=[families.index(r["family"]) for r in rows], labels=[f"{r['family']} {r['id']}" for r in rows]),
+        static=True)
 
 
 def log_terrain(rec: Any, terrain: Any, max_side: int = 96) -> None:

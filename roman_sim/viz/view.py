@@ -84,11 +84,25 @@ def _closure_lines(rf: RunFolder, T_wo: dict[str, np.ndarray]) -> dict[str, list
 def _world(rf: RunFolder, notes: list[str]) -> Any:
     from roman_sim.world import generate
 
+    if not rf.scenario.needs_world:
+        return None
     try:
         return generate(rf.scenario.world.spec(), rf.scenario.seed)
     except RomanSimError as err:
         notes.append(f"world not regenerated ({err}): no objects, terrain or re-rendered images")
         return None
+
+
+def _object_rows(rf: RunFolder, world: Any) -> list[dict[str, Any]]:
+    """The world's objects, else those of the recorded sequences' object tables (first one found)."""
+    from roman_sim.interop.objects import object_rows, read_object_table
+    from roman_sim.pipeline.sources import object_table_path
+
+    if world is not None:
+        return object_rows(world.truth)
+    tables = sorted({p for r in rf.scenario.robots if r.source is not None
+                     if (p := object_table_path(r.source)) is not None})
+    return read_object_table(tables[0]) if tables else []
 
 
 def _log_images(rec: Any, rf: RunFolder, world: Any, max_images: int, T_wo: dict[str, np.ndarray]) -> dict[str, int]:
@@ -98,7 +112,8 @@ def _log_images(rec: Any, rf: RunFolder, world: Any, max_images: int, T_wo: dict
     for robot, frames in camera_frames(rf.path, rf.scenario, world, max_images).items():
         n = 0
         for frame in frames:
-            T_wb = frame.truth.T_world_body if frame.truth is not None else T_wo.get(robot, np.eye(4)) @ frame.T_odom_body
+            T_wb = frame.truth.T_world_body if frame.truth is not None \
+                else T_wo.get(robot, np.eye(4)) @ frame.T_odom_body
             rl.log_camera(rec, robot, frame, np.asarray(T_wb) @ frame.T_body_cam, first=n == 0)
             n += 1
         counts[robot] = n
@@ -128,7 +143,7 @@ def write_run_view(run_dir: str | Path, out: str | Path | None = None, max_image
         world = _world(rf, result.notes)
         if world is not None:
             rl.log_terrain(rec, world.truth.terrain)
-            rl.log_objects(rec, world.truth)
+        rl.log_objects(rec, _object_rows(rf, world))
         rl.log_trajectories(rec, _aligned_trajectories(rf, result.notes))
         T_wo = {r: _T_world_odom(m) for r, m in rf.maps.items()}
         for robot, smap in rf.maps.items():

@@ -31,7 +31,7 @@ def test_bad_input_is_one_line(run_cli, tmp_path: Path) -> None:
     sc = str(_scenario_file(tmp_path))
     cases = [
         (["--format", "ply"], "unknown export format 'ply'"),
-        (["--format", "tum", "--robots", "a,zz"], "unknown robot(s) zz"),
+        (["--format", "tum", "--robots", "a,zz"], "no simulated robot zz"),
         (["--format", "rosbag2", "--storage", "tape"], "storage: unknown 'tape'"),
         (["--format", "tum", "--depth-scale", "0"], "--depth-scale"),
         (["--format", "tum", "--set", "robots.0.speed_mps=-1"], "robots.0.speed_mps"),

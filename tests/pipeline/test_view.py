@@ -42,7 +42,8 @@ def test_maps_and_submaps(smoke_run, smoke_view) -> None:
     for robot in ("a", "b"):
         smap = load_segment_map(smoke_run.run_dir / "maps" / f"{robot}.npz")
         assert contents[f"/world/maps/{robot}/centroids"]["Points3D:positions"] == [len(smap)]
-        assert contents[f"/world/maps/{robot}/points"]["Points3D:positions"] == [sum(len(s.points) for s in smap.segments)]
+        n_points = sum(len(s.points) for s in smap.segments)
+        assert contents[f"/world/maps/{robot}/points"]["Points3D:positions"] == [n_points]
         subs = load_submaps(smoke_run.run_dir / "submaps" / f"{robot}.npz")
         logged = sorted(int(e.rsplit("/", 1)[1]) for e in contents
                         if e.startswith(f"/world/submaps/{robot}/") and e.count("/") == 4)
@@ -73,7 +74,8 @@ def test_camera_images_on_the_timeline(smoke_view) -> None:
         cam = f"/world/robots/{robot}/camera"
         assert contents[cam]["Pinhole:image_from_camera"] == [1]
         assert len(contents[cam]["Transform3D:translation"]) == IMAGES
-        for child, comp in (("rgb", "Image:buffer"), ("depth", "DepthImage:buffer"), ("mask", "SegmentationImage:buffer")):
+        for child, comp in (("rgb", "Image:buffer"), ("depth", "DepthImage:buffer"),
+                            ("mask", "SegmentationImage:buffer")):
             assert len(contents[f"{cam}/{child}"][comp]) == IMAGES
 
 
