@@ -161,20 +161,21 @@ def record_cmd(
     from roman_sim.world import generate
 
     sc = load_scenario(scenario, list(sets or []))
-    names = [r.name for r in sc.robots]
+    names = [r.name for r in sc.simulated_robots()]
     unknown = sorted(set(robot or []) - set(names))
-    if unknown:
-        raise ConfigError(f"--robot: unknown {', '.join(unknown)} (robots: {', '.join(names)})")
+    if unknown or not names:
+        raise ConfigError(f"--robot: no simulated robot {', '.join(unknown)} (simulated robots: "
+                          f"{', '.join(names) or 'none'})")
     output_folder(out, "--out", create=False)
-    for cfg in sc.robots:
+    for cfg in sc.simulated_robots():
         if (out / cfg.name).exists() and not (out / cfg.name).is_dir():
             raise ConfigError(f"--out {out}: {cfg.name} there is an existing file, not a recording folder")
     world = generate(sc.world.spec(), sc.seed)
-    paths = plan_paths(world, sc.robots, sc.seed)
+    paths = plan_paths(world, sc.simulated_robots(), sc.seed)
     progress: Any = None
     with _progress() if interactive() else contextlib.nullcontext() as p:
         progress = RichProgress(p) if p is not None else LineProgress()
-        for cfg in sc.robots:
+        for cfg in sc.simulated_robots():
             if robot and cfg.name not in robot:
                 continue
             trajectory = trajectory_along(world, cfg, sc.seed, paths[cfg.name])

@@ -81,7 +81,11 @@ class Experiment:
         broken one fails here in one line instead of after the expensive stages.
         """
         if self.submaps_dir is None:
-            self.scenario.world.spec()
+            from roman_sim.pipeline.sources import check_sources
+
+            if self.scenario.needs_world:
+                self.scenario.world.spec()
+            check_sources(self.scenario)
         elif not self.submaps_dir.is_dir():
             raise ConfigError(f"--submaps {self.submaps_dir}: not a folder")
         self._check_plugins()

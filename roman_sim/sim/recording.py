@@ -55,8 +55,9 @@ def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
 
 
 def _truth(f: Frame) -> FrameTruth:
-    if f.truth is None:
-        raise RecordingError(f"frame {f.index} of robot {f.robot}: a recording stores ground truth, this frame has none")
+    if f.truth is None or f.truth.object_ids is None:
+        raise RecordingError(f"frame {f.index} of robot {f.robot}: a recording stores ground truth "
+                             "(poses and instance ids), this frame has none")
     return f.truth
 
 

@@ -124,7 +124,7 @@ CASES = [
     (["report", "{bad_manifest}"], "unreadable run manifest"),
     # recordings
     (["record", "smoke", "--out", "{taken}"], "--out {taken}: is an existing file, not a folder"),
-    (["record", "smoke", "--robot", "c", "--out", "{dir}/r"], "--robot: unknown c (robots: a, b)"),
+    (["record", "smoke", "--robot", "c", "--out", "{dir}/r"], "--robot: no simulated robot c (simulated robots: a, b)"),
     # sweeps and Dask
     (["sweep", "{sweep_nan}"], "grid.robots.0.speed_mps.1: must be a finite number (got nan)"),
     (["sweep", "{sweep_kind}"], "executor.kind: Input should be 'serial', 'local' or 'dask'"),

@@ -1,7 +1,8 @@
-"""Stage ``maps``: simulate every robot and map its frames into a ``SegmentMap``.
+"""Stage ``maps``: simulate (or read) every robot and map its frames into a ``SegmentMap``.
 
-Robots are planned together (a path may be defined relative to an earlier robot's), then
-rendered and mapped one by one; each robot's map is written as soon as it is finished.
+Simulated robots are planned together (a path may be defined relative to an earlier
+robot's), then rendered and mapped one by one; a robot with a ``source`` is read from its
+TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same way.
 """
 
 from __future__ import annotations
@@ -43,14 +44,18 @@ def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
     return build_segmenter(seg if isinstance(seg, (str, SegmenterConfig)) else seg, seed=ctx.scenario.seed)
 
 
-def build_encoder_for(ctx: RunContext, robot: str, world: Any) -> Any:
+def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
     """The scenario's semantic encoder (simulated from truth, or a user class).
 
-    Prototypes are shared by all robots (same seed); observation noise is per robot.
+    ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
+    simulated encoder. Prototypes are shared by all robots (same seed); observation noise is
+    per robot.
     """
     enc = ctx.scenario.frontend.encoder
     if enc == "simulated":
-        families = {o.id: o.family for o in world.truth.objects}
+        if families is None:
+            raise ConfigError(f"robot {robot}: the simulated encoder needs the objects' families (no world, "
+                              "no object table); use an image encoder package.module:Class")
         return SimulatedEncoder(ctx.scenario.frontend.semantics, seed=ctx.scenario.seed, families=families, robot=robot)
     if ":" in enc:
         return instantiate_plugin(enc, "encoder")
@@ -84,25 +89,39 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
     return read_recording(rec_dir)
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
-    """Render and map one robot along its planned path."""
-    from roman_sim.sim.robot import trajectory_along
-
+def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None
+                ) -> SegmentMap:
     sc = ctx.scenario
-    trajectory = trajectory_along(world, cfg, sc.seed, path)
-    stage = f"maps:{cfg.name}"
-    ctx.progress.start(stage, len(trajectory[0]))
+    stage = f"maps:{name}"
+    ctx.progress.start(stage, n)
     # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
-    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, cfg.name), sc.frontend.segmenter,
-                                        build_encoder_for(ctx, cfg.name, world), sc.frontend.encoder)
+    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), sc.frontend.segmenter,
+                                        build_encoder_for(ctx, name, families), sc.frontend.encoder)
     mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed)
-    for frame in _frames(ctx, world, cfg, trajectory):
+    for frame in frames:
         mapper.process(frame)
         ctx.progress.advance(stage)
     ctx.progress.end(stage)
     smap = mapper.finish()
-    log.info("robot %s: %d segments", cfg.name, len(smap))
+    log.info("robot %s: %d segments", name, len(smap))
     return smap
+
+
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
+    """Render and map one robot along its planned path."""
+    from roman_sim.sim.robot import trajectory_along
+
+    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
+    families = {o.id: o.family for o in world.truth.objects}
+    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]), families)
+
+
+def map_sequence(ctx: RunContext, cfg: Any) -> SegmentMap:
+    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
+    from roman_sim.pipeline.sources import open_sequence, sequence_families
+
+    seq = open_sequence(cfg, ctx.scenario.seed)
+    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), sequence_families(cfg.source))
 
 
 class MapsStage(Stage[Maps]):
@@ -115,17 +134,22 @@ class MapsStage(Stage[Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
+        from roman_sim.pipeline.sources import fingerprint
+
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["robots"], sc["frontend"], sc["mapping"]]
+        sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
+        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else [])]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
 
-        assert world is not None, "the maps stage needs the world"
-        paths = plan_paths(world.world, ctx.scenario.robots, ctx.scenario.seed)
+        simulated = ctx.scenario.simulated_robots()
+        assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
+        paths = plan_paths(world.world, simulated, ctx.scenario.seed) if world is not None and simulated else {}
         maps = {}
         for cfg in ctx.scenario.robots:
-            maps[cfg.name] = map_robot(ctx, world.world, cfg, paths[cfg.name])
+            maps[cfg.name] = map_sequence(ctx, cfg) if cfg.source is not None \
+                else map_robot(ctx, world.world, cfg, paths[cfg.name])  # type: ignore[union-attr]
         return Maps(maps)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
