@@ -45,6 +45,8 @@ class ComponentSpec:
         needs_rgb: the component reads ``frame.rgb`` (robots must render it).
         reads_truth: the component reads ground truth (object ids, families).
         description: one line for listings.
+        check: ``check(params)`` raises ``ConfigError`` for what can fail before any work
+            (a model folder that is not there), without building the component.
     """
 
     build: Callable[[Any, BuildContext], Any]
@@ -52,6 +54,7 @@ class ComponentSpec:
     needs_rgb: bool
     reads_truth: bool
     description: str = ""
+    check: Callable[[Any], None] | None = None
 
 
 class NoParams(StrictModel):
@@ -73,13 +76,25 @@ class ComponentEntry(StrictModel):
     @model_validator(mode="before")
     @classmethod
     def _bare_name(cls, v: Any) -> Any:
-        return {"name": v} if isinstance(v, str) else v
+        if isinstance(v, str):
+            return {"name": v}
+        if not isinstance(v, dict):
+            raise ValueError(f"expected a string or a mapping {{name: ..., params: {{...}}}}, got {type(v).__name__}")
+        return v
 
 
 class SegmenterEntry(ComponentEntry):
     """``frontend.segmenter``: a registered segmenter or ``package.module:Class``."""
 
     name: str = Field("fastsam", min_length=1)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _error_model_fields(cls, v: Any) -> Any:
+        """A mapping of ``SegmenterConfig`` fields alone (the older form) is the fastsam model's params."""
+        if isinstance(v, dict) and v and not ({"name", "params"} & set(v)):
+            return {"name": "fastsam", "params": v}
+        return v
 
     @model_validator(mode="after")
     def _known(self) -> SegmenterEntry:
@@ -214,6 +229,15 @@ def check_robots(frontend: FrontEnd, robots: Iterable[Any]) -> None:
                               f"set render_rgb: true for robot {r.name!r}")
 
 
+def check_frontend(frontend: FrontEnd, robots: Iterable[Any]) -> None:
+    """``check_robots``, then each built-in component's own check (model folders), building nothing."""
+    check_robots(frontend, robots)
+    for entry, spec, field in ((frontend.segmenter, segmenter_spec(frontend.segmenter), "frontend.segmenter"),
+                               (frontend.encoder, encoder_spec(frontend.encoder), "frontend.encoder")):
+        if spec.check is not None and ":" not in entry.name:
+            spec.check(validate_model(spec.params_model, entry.params, source=f"{field}.params"))
+
+
 def reads_truth(component: Any) -> bool:
     """Whether a built component reads ground truth (its ``reads_truth`` attribute; False when absent)."""
     return bool(getattr(component, "reads_truth", False))
@@ -269,6 +293,15 @@ def _dinov2_encoder(params: Any, ctx: BuildContext) -> Any:
     return Dinov2Encoder(params)
 
 
+def _weights_check(field: str, model_types: tuple[str, ...]) -> Callable[[Any], None]:
+    def check(params: Any) -> None:
+        from roman_sim.mapping.models.common import weights_dir
+
+        weights_dir(params.weights, field, model_types)
+
+    return check
+
+
 def _register_builtins() -> None:
     from roman_sim.mapping.image_encoder import ImageEncoderConfig
     from roman_sim.mapping.image_segmenter import ImageSegmenterConfig
@@ -283,15 +316,18 @@ def _register_builtins() -> None:
     seg("image", ComponentSpec(_image_segmenter, ImageSegmenterConfig, True, False,
                                "colour regions cut and joined by depth (no truth)"))
     seg("sam", ComponentSpec(_sam_segmenter, SamConfig, True, False,
-                             "Segment Anything automatic masks (local weights, transformers)"))
+                             "Segment Anything automatic masks (local weights, transformers)",
+                             _weights_check("frontend.segmenter.params.weights", ("sam",))))
     enc("simulated", ComponentSpec(_simulated_encoder, NoParams, False, True,
                                    "CLIP-like descriptors from the true family (frontend.semantics)"))
     enc("image", ComponentSpec(_image_encoder, ImageEncoderConfig, True, False,
                                "colour and texture statistics of the mask's crop (no truth)"))
     enc("clip", ComponentSpec(_clip_encoder, ClipConfig, True, False,
-                              "CLIP image embedding of the mask's box crop (local weights)"))
+                              "CLIP image embedding of the mask's box crop (local weights)",
+                              _weights_check("frontend.encoder.params.weights", ("clip", "clip_vision_model"))))
     enc("dinov2", ComponentSpec(_dinov2_encoder, Dinov2Config, True, False,
-                                "DINOv2 patch features averaged over the mask (local weights)"))
+                                "DINOv2 patch features averaged over the mask (local weights)",
+                                _weights_check("frontend.encoder.params.weights", ("dinov2",))))
 
 
 _register_builtins()

@@ -94,8 +94,8 @@ def _geometry(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingCon
 
 
 def _labels(frame: Frame, geo: _Geometry) -> Counter[int]:
-    """Evaluation-only label: true object ids of the observed pixels (empty without truth)."""
-    if frame.truth is None:
+    """Evaluation-only label: true object ids of the observed pixels (empty without instance truth)."""
+    if frame.truth is None or frame.truth.object_ids is None:  # a real sequence has poses but no labels
         return Counter()
     r0, r1, c0, c1 = geo.bbox
     uniq, counts = np.unique(np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][geo.sel], return_counts=True)
@@ -109,8 +109,8 @@ def _truth_context(frame: Frame, geo: _Geometry) -> EncodeContext:
     labels = _labels(frame, geo)
     T_world_cam = frame.truth.T_world_body @ frame.T_body_cam
     centre_world = transform_points(T_world_cam, geo.pts_cam.mean(axis=0, keepdims=True))[0]
-    return EncodeContext(object_id=int(max(labels, key=lambda i: (labels[i], -i))),
-                         view_dir=centre_world - T_world_cam[:3, 3])
+    object_id = int(max(labels, key=lambda i: (labels[i], -i))) if labels else None
+    return EncodeContext(object_id=object_id, view_dir=centre_world - T_world_cam[:3, 3])
 
 
 def _describe(frame: Frame, masks: list[Mask], geos: list[_Geometry],

@@ -1,7 +1,8 @@
-"""Stage ``maps``: simulate every robot and map its frames into a ``SegmentMap``.
+"""Stage ``maps``: simulate (or read) every robot and map its frames into a ``SegmentMap``.
 
-Robots are planned together (a path may be defined relative to an earlier robot's), then
-rendered and mapped one by one; each robot's map is written as soon as it is finished.
+Simulated robots are planned together (a path may be defined relative to an earlier
+robot's), then rendered and mapped one by one; a robot with a ``source`` is read from its
+TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same way.
 """
 
 from __future__ import annotations
@@ -14,7 +15,8 @@ from typing import Any
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.config import stable_hash
-from roman_sim.core.errors import RomanSimError, StorageError
+from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.plugin_guard import guard_frontend
 from roman_sim.evaluation.frontend_grader import FrontEndGrader
 from roman_sim.evaluation.frontend_grades import FrontEndGrades, plot_frontend_grades
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
@@ -51,14 +53,17 @@ def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
     return build_segmenter(ctx.scenario.frontend, seed=ctx.scenario.seed, robot=robot)
 
 
-def build_encoder_for(ctx: RunContext, robot: str, world: Any) -> Any:
-    """The scenario's semantic encoder for ``robot``; only a truth-driven one gets the families.
+def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
+    """The scenario's semantic encoder for ``robot``; only a truth-driven one gets ``families``.
 
-    The simulated encoder's prototypes are shared by all robots (same seed); its
-    observation noise is per robot.
+    ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
+    simulated encoder. Its prototypes are shared by all robots (same seed); its observation
+    noise is per robot.
     """
     fe = ctx.scenario.frontend
-    families = {o.id: o.family for o in world.truth.objects} if encoder_spec(fe.encoder).reads_truth else None
+    if encoder_spec(fe.encoder).reads_truth and families is None:
+        raise ConfigError(f"robot {robot}: the {fe.encoder.name} encoder needs the objects' families (no world, "
+                          "no object table); use an image encoder (image, clip, dinov2 or package.module:Class)")
     return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
 
 
@@ -89,23 +94,68 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
     return read_recording(rec_dir)
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: FrontEndGrader | None = None) -> SegmentMap:
-    """Render and map one robot along its planned path (each frame graded by ``grader``)."""
-    from roman_sim.sim.robot import trajectory_along
-
+def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None,
+                grader: Any = None) -> SegmentMap:
     sc = ctx.scenario
-    trajectory = trajectory_along(world, cfg, sc.seed, path)
-    stage = f"maps:{cfg.name}"
-    ctx.progress.start(stage, len(trajectory[0]))
-    mapper = Mapper(sc.mapping, build_segmenter_for(ctx, cfg.name), build_encoder_for(ctx, cfg.name, world),
-                    seed=sc.seed, on_frame=None if grader is None else grader.add)
-    for frame in _frames(ctx, world, cfg, trajectory):
+    stage = f"maps:{name}"
+    ctx.progress.start(stage, n)
+    # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
+    fe = sc.frontend
+    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name,
+                                        build_encoder_for(ctx, name, families), fe.encoder.name)
+    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
+    for frame in frames:
         mapper.process(frame)
         ctx.progress.advance(stage)
     ctx.progress.end(stage)
     smap = mapper.finish()
-    log.info("robot %s: %d segments", cfg.name, len(smap))
+    log.info("robot %s: %d segments", name, len(smap))
     return smap
+
+
+class _Grader:
+    """Grades every frame that has instance truth (a real sequence may have none) against it.
+
+    The families of the robot being mapped (the world's, or a sequence's object table)
+    label the descriptors; nothing here is visible to the segmenter or the encoder.
+    """
+
+    def __init__(self, group_of: Any, seed: int) -> None:
+        self.inner = FrontEndGrader({}, group_of, seed=seed)
+
+    def use(self, families: dict[int, str] | None) -> FrontEndGrader:
+        self.inner.families.update(families or {})
+        return self.inner
+
+    def add(self, frame: Frame, masks: Any, observed: Any) -> None:
+        if frame.truth is not None and frame.truth.object_ids is not None:
+            self.inner.add(frame, masks, observed)
+
+    def result(self, segmenter: str, encoder: str) -> FrontEndGrades | None:
+        return self.inner.result(segmenter, encoder) if self.inner.seg.frames else None
+
+
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> SegmentMap:
+    """Render and map one robot along its planned path (each frame graded by ``grader``)."""
+    from roman_sim.sim.robot import trajectory_along
+
+    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
+    families = {o.id: o.family for o in world.truth.objects}
+    if grader is not None:
+        grader.use(families)
+    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]),
+                       families, grader)
+
+
+def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> SegmentMap:
+    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
+    from roman_sim.pipeline.sources import open_sequence, sequence_families
+
+    seq = open_sequence(cfg, ctx.scenario.seed)
+    families = sequence_families(cfg.source)
+    if grader is not None:
+        grader.use(families)
+    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
 
 
 class MapsStage(Stage[Maps]):
@@ -118,23 +168,25 @@ class MapsStage(Stage[Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
+        from roman_sim.pipeline.sources import fingerprint
+
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["robots"], sc["frontend"], sc["mapping"]]
+        sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
+        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else [])]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
 
-        assert world is not None, "the maps stage needs the world"
         sc = ctx.scenario
-        paths = plan_paths(world.world, sc.robots, sc.seed)
-        families = {o.id: o.family for o in world.world.truth.objects}
-        grader = FrontEndGrader(families, sc.frontend.semantics.group_of, seed=sc.seed)
-        notes = _rgb_notes(ctx)
+        simulated = sc.simulated_robots()
+        assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
+        paths = plan_paths(world.world, simulated, sc.seed) if world is not None and simulated else {}
+        grader = _Grader(sc.frontend.semantics.group_of, sc.seed)
         maps = {}
         for cfg in sc.robots:
-            maps[cfg.name] = map_robot(ctx, world.world, cfg, paths[cfg.name], grader)
-        enc = sc.frontend.encoder.name
-        return Maps(maps, notes, grader.result(sc.frontend.segmenter.name, enc))
+            maps[cfg.name] = map_sequence(ctx, cfg, grader) if cfg.source is not None \
+                else map_robot(ctx, world.world, cfg, paths[cfg.name], grader)  # type: ignore[union-attr]
+        return Maps(maps, _rgb_notes(ctx), grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name))
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
