@@ -13,7 +13,12 @@ from functools import lru_cache
 from importlib import resources
 
 from roman_sim.align.visual.aligner import VisualAligner, VisualParams
-from roman_sim.align.visual.keyframes import Keyframe, KeyframeExtractor, KeyframeParams, attach_keyframes
+from roman_sim.align.visual.keyframes import (
+    Keyframe,
+    KeyframeExtractor,
+    KeyframeParams,
+    attach_keyframes,
+)
 from roman_sim.align.visual.vocabulary import Vocabulary, train_vocabulary
 
 #: File name of the shipped vocabulary inside ``roman_sim/align/visual/data``.
@@ -28,5 +33,15 @@ def default_vocabulary() -> Vocabulary:
         return Vocabulary.load(path)
 
 
-__all__ = ["Keyframe", "KeyframeExtractor", "KeyframeParams", "VisualAligner", "VisualParams", "Vocabulary",
-           "attach_keyframes", "default_vocabulary", "train_vocabulary", "VOCABULARY_FILE"]
+__all__ = [
+    "VOCABULARY_FILE",
+    "Keyframe",
+    "KeyframeExtractor",
+    "KeyframeParams",
+    "VisualAligner",
+    "VisualParams",
+    "Vocabulary",
+    "attach_keyframes",
+    "default_vocabulary",
+    "train_vocabulary",
+]

@@ -21,12 +21,12 @@ class BowVector:
     values: NDArray[np.float32]
 
     @classmethod
-    def empty(cls) -> "BowVector":
+    def empty(cls) -> BowVector:
         """The vector of an image without features (scores 0 against anything)."""
         return cls(np.zeros(0, np.int32), np.zeros(0, np.float32))
 
     def __len__(self) -> int:
-        return int(len(self.words))
+        return len(self.words)
 
 
 def l1_score(v1: BowVector, v2: BowVector) -> float:

@@ -50,7 +50,7 @@ class KeyframeFeatures:
     points: NDArray[np.float32]
 
     def __len__(self) -> int:
-        return int(len(self.descriptors))
+        return len(self.descriptors)
 
 
 def make_orb(params: OrbParams | None = None) -> Any:

@@ -18,7 +18,13 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from roman_sim.align.visual.bow import BowVector
-from roman_sim.align.visual.features import DESCRIPTOR_BYTES, KeyframeFeatures, OrbParams, extract_features, make_orb
+from roman_sim.align.visual.features import (
+    DESCRIPTOR_BYTES,
+    KeyframeFeatures,
+    OrbParams,
+    extract_features,
+    make_orb,
+)
 from roman_sim.align.visual.vocabulary import Vocabulary
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError

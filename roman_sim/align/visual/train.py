@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.align.visual.features import OrbParams, orb_descriptors, make_orb
+from roman_sim.align.visual.features import OrbParams, make_orb, orb_descriptors
 from roman_sim.align.visual.vocabulary import Vocabulary, train_vocabulary
 
 log = logging.getLogger(__name__)

@@ -2,9 +2,9 @@
 
 ORB descriptors are matched with OpenCV's brute-force Hamming matcher (two nearest
 neighbours, Lowe ratio 0.7). The matched keypoints' 3D points then go through 3-point
-RANSAC: each hypothesis is a Kabsch fit of three matches, scored by the matches whose
-moved point lands within 0.3 m; the best one is refit (Arun) on its inliers until the
-inlier set stops growing. At least 5 inliers are needed (Kimera-Multi's values).
+RANSAC: each hypothesis is a Kabsch fit of three matches, scored by its truncated
+quadratic cost with a 0.3 m inlier distance; the best one is refit (weighted Arun) on its
+inliers. At least 5 inliers within 0.3 m are needed (Kimera-Multi's values).
 
 Neither OpenCV nor poselib has a rigid 3D-3D RANSAC (OpenCV's ``estimateAffine3D`` fits
 affine maps; poselib's solvers take 2D observations), so hypotheses are drawn and scored
@@ -33,7 +33,7 @@ class VerifyParams(StrictModel):
     inlier_threshold_m: float = Field(0.3, gt=0, description="3D-3D RANSAC inlier distance")
     min_inliers: int = Field(5, ge=3, description="fewer inliers -> rejected")
     ransac_iterations: int = Field(500, ge=1, le=1_000_000, description="3-point hypotheses drawn")
-    refine_rounds: int = Field(3, ge=0, le=20, description="Arun refits on the inliers")
+    refine_rounds: int = Field(5, ge=0, le=50, description="weighted Arun refits on the inliers")
     seed: int = Field(0, ge=0, description="seed of the hypothesis sampler")
 
 
@@ -69,33 +69,29 @@ def _inliers(T: NDArray, src: NDArray, dst: NDArray, thr: float) -> NDArray[np.b
 
 def ransac_rigid(src: NDArray, dst: NDArray, p: VerifyParams, rng: np.random.Generator
                  ) -> tuple[NDArray[np.float64] | None, NDArray[np.bool_]]:
-    """Best rigid ``T`` with ``dst ~ T src`` over (n, 3) correspondences and its inlier mask."""
+    """Best rigid ``T`` with ``dst ~ T src`` over (n, 3) correspondences and its inlier mask.
+
+    Hypotheses are ranked by the truncated quadratic cost (MSAC: sum of min(d^2, thr^2)).
+    The winner is refit on its inliers by Arun's method with Tukey biweights
+    ``(1 - (d / thr)^2)^2``, a few rounds, so matches near the threshold pull less; the
+    inlier set is the matches within ``inlier_threshold_m`` of the final estimate.
+    """
     n = len(src)
-    none = np.zeros(n, dtype=bool)
     if n < 3:
-        return None, none
+        return None, np.zeros(n, dtype=bool)
     idx = np.argsort(rng.random((p.ransac_iterations, n)), axis=1)[:, :3]
     Ts = kabsch_batch(src[idx], dst[idx])
     moved = np.einsum("kij,nj->kni", Ts[:, :3, :3], src) + Ts[:, None, :3, 3]
-    d2 = np.sum((moved - dst[None]) ** 2, axis=-1)
     thr2 = p.inlier_threshold_m ** 2
-    inl = d2 <= thr2
-    cnt = inl.sum(axis=1)
-    sse = np.where(inl, d2, thr2).sum(axis=1)
-    best = int(np.lexsort((sse, -cnt))[0])
-    T, mask = Ts[best], inl[best]
+    cost = np.minimum(np.sum((moved - dst[None]) ** 2, axis=-1), thr2).sum(axis=1)
+    T = Ts[int(np.argmin(cost))]
     for _ in range(p.refine_rounds):
-        if mask.sum() < 3:
+        r2 = np.sum((transform_points(T, src) - dst) ** 2, axis=1)
+        w = np.clip(1.0 - r2 / thr2, 0.0, None) ** 2
+        if np.count_nonzero(w) < 3:
             break
-        T_new = arun(src[mask], dst[mask])
-        m_new = _inliers(T_new, src, dst, p.inlier_threshold_m)
-        if m_new.sum() < mask.sum():
-            break
-        done = np.array_equal(m_new, mask)
-        T, mask = T_new, m_new
-        if done:
-            break
-    return T, mask
+        T = arun(src[w > 0], dst[w > 0], w[w > 0])
+    return T, _inliers(T, src, dst, p.inlier_threshold_m)
 
 
 def verify_pair(dq: NDArray[np.uint8], pq: NDArray, dc: NDArray[np.uint8], pc: NDArray,

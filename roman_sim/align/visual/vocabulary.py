@@ -79,7 +79,7 @@ class Vocabulary:
     @property
     def n_words(self) -> int:
         """Number of words (leaves)."""
-        return int(len(self.weights))
+        return len(self.weights)
 
     def words(self, descriptors: NDArray[np.uint8]) -> NDArray[np.int32]:
         """Word id of each descriptor (n, 32): greedy descent to the nearest child per level."""
@@ -118,7 +118,7 @@ class Vocabulary:
                   centers=self.centers, parent=self.parent, word_of_node=self.word_of_node, weights=self.weights)
 
     @classmethod
-    def load(cls, path: str | Path) -> "Vocabulary":
+    def load(cls, path: str | Path) -> Vocabulary:
         """Read a file written by ``save``.
 
         Raises:
@@ -199,7 +199,7 @@ def train_vocabulary(images: list[NDArray[np.uint8]], k: int = 10, L: int = 4, s
             queue.append((len(parent) - 1, idx[labels == c]))
     word_of_node = np.full(len(parent), -1, dtype=np.int32)
     word_of_node[np.array(sorted(leaves))] = np.arange(len(leaves), dtype=np.int32)
-    meta = {"seed": seed, "max_iterations": max_iterations, "n_images": len(images), "n_descriptors": int(len(x))}
+    meta = {"seed": seed, "max_iterations": max_iterations, "n_images": len(images), "n_descriptors": len(x)}
     voc = Vocabulary(k, L, np.stack(centers).astype(np.uint8), np.asarray(parent, np.int32), word_of_node,
                      np.zeros(len(leaves), np.float32), meta)
     voc.weights = idf_weights(voc, images)
