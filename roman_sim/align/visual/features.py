@@ -56,8 +56,9 @@ class KeyframeFeatures:
 def make_orb(params: OrbParams | None = None) -> Any:
     """An OpenCV ORB detector with ``params``."""
     p = params or OrbParams()
-    return cv2.ORB_create(nfeatures=p.n_features, scaleFactor=p.scale_factor, nlevels=p.n_levels,
-                          edgeThreshold=p.edge_threshold, patchSize=31, fastThreshold=p.fast_threshold)
+    return cv2.ORB_create(  # type: ignore[attr-defined]
+        nfeatures=p.n_features, scaleFactor=p.scale_factor, nlevels=p.n_levels,
+        edgeThreshold=p.edge_threshold, patchSize=31, fastThreshold=p.fast_threshold)
 
 
 def to_gray(rgb: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -65,7 +66,8 @@ def to_gray(rgb: NDArray[np.uint8]) -> NDArray[np.uint8]:
     img = np.asarray(rgb)
     if img.dtype != np.uint8 or img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
         raise MappingError(f"ORB needs an (H, W, 3) or (H, W) uint8 image, got {img.dtype} {img.shape}")
-    return img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    gray = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    return np.asarray(gray, dtype=np.uint8)
 
 
 def orb_descriptors(image: NDArray[np.uint8], orb: Any) -> tuple[NDArray[np.float32], NDArray[np.uint8]]:

@@ -180,7 +180,8 @@ def train_vocabulary(images: list[NDArray[np.uint8]], k: int = 10, L: int = 4, s
     """
     if not 2 <= k <= 64 or not 1 <= L <= 8:
         raise ConfigError(f"vocabulary: k must be in [2, 64] and L in [1, 8], got k={k}, L={L}")
-    x = np.concatenate([np.asarray(d, np.uint8).reshape(-1, 32) for d in images]) if images else np.zeros((0, 32))
+    x = np.concatenate([np.asarray(d, np.uint8).reshape(-1, 32) for d in images]) if images \
+        else np.zeros((0, 32), np.uint8)
     if len(x) == 0:
         raise ConfigError("vocabulary: no training descriptors")
     centers, parent, level = [np.zeros(32, np.uint8)], [-1], [0]

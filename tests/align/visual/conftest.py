@@ -5,7 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.align.visual.features import KeyframeFeatures, OrbParams, extract_features, make_orb
+from roman_sim.align.visual.features import (
+    KeyframeFeatures,
+    OrbParams,
+    extract_features,
+    make_orb,
+)
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.render import SensorRenderer
 

@@ -6,10 +6,15 @@ import numpy as np
 import pytest
 
 from roman_sim.align.visual.features import extract_features, make_orb
-from roman_sim.align.visual.verify import VerifyParams, match_descriptors, ransac_rigid, verify_pair
+from roman_sim.align.visual.verify import (
+    VerifyParams,
+    match_descriptors,
+    ransac_rigid,
+    verify_pair,
+)
 from roman_sim.core.errors import MappingError
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import inv_T, pose_error, rpy_to_R, make_T, transform_points
+from roman_sim.geometry import inv_T, make_T, pose_error, rpy_to_R, transform_points
 
 P = VerifyParams()
 

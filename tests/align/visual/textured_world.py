@@ -9,9 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+# isort: off
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
-import cv2
 import mujoco
+# isort: on
+import cv2
 import numpy as np
 
 from roman_sim.core.seeding import child_rng
