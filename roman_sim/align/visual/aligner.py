@@ -1,11 +1,12 @@
 """The ``visual`` method: Kimera-Multi's loop closures between two submaps' keyframes.
 
-Candidate selection (DBoW2 / Kimera-Multi): every keyframe q of submap a scores every
-keyframe c of submap b with the L1 score s(q, c); the score is normalised by s(q, q'),
-q' being q's previous keyframe in a (the next one for a's first keyframe), and the pair
-is a candidate when s(q, c) / s(q, q') > ``alpha``. Queries whose neighbour score is
-below ``min_nss_factor`` are skipped (a frame unlike its own neighbour says nothing). The
-best ``max_candidates`` candidates by normalised score are verified in 3D
+Candidate selection (DBoW2 / Kimera-Multi): every keyframe q of submap a is a query
+against the keyframes c of submap b, scored with the L1 score s(q, c) and normalised by
+s(q, q'), q' being q's previous keyframe in a (the next one for a's first keyframe). As
+Kimera-Multi does for each new keyframe, each query keeps its best match, a candidate
+when s(q, c) / s(q, q') > ``alpha``; queries whose neighbour score is below
+``min_nss_factor`` are skipped (a frame unlike its own neighbour says nothing). The
+candidates (at most ``max_candidates``, best normalised score first) are verified in 3D
 (``verify_pair``); the one with most inliers wins. The estimate between the submaps'
 frames is ``T_a_b = T_a_q T_q_c inv(T_b_c)`` with the keyframes' camera poses in their
 submaps. ``n_associations`` is the inlier count; ``associations`` are pairs of feature
@@ -34,7 +35,9 @@ class VisualParams(StrictModel):
 
     alpha: float = Field(0.4, gt=0, description="normalised BoW score threshold for a candidate")
     min_nss_factor: float = Field(0.005, ge=0, description="skip queries scoring below this with their neighbour")
-    max_candidates: int = Field(1, ge=1, le=100, description="candidates verified, best normalised score first")
+    # On same_direction (seed 0, 120 m per robot, textured): verifying 3 candidates gave the same
+    # max recall as 10 (0.90; 1 candidate: 0.71) at precision 0.73 instead of 0.56 at 5 inliers.
+    max_candidates: int = Field(3, ge=1, le=1000, description="candidates verified, best normalised score first")
     verify: VerifyParams = Field(default_factory=VerifyParams)
 
 
@@ -54,23 +57,22 @@ def neighbour_scores(bows: list[BowVector]) -> NDArray[np.float64]:
 
 
 def candidates(a: KeyframeSet, b: KeyframeSet, p: VisualParams) -> tuple[list[tuple[int, int, float]], float]:
-    """Candidate pairs (q in a, c in b, normalised score) above alpha, best first; and the best normalised score."""
+    """Each query keyframe's best match: (q in a, c in b, normalised score) above alpha, best first.
+
+    Also returns the best normalised score over all pairs (NaN when no query is usable).
+    """
     ba, bb = _bows(a), _bows(b)
     nss = neighbour_scores(ba)
     usable = np.isfinite(nss) & (nss >= max(p.min_nss_factor, 1e-12))
-    if not usable.any():
+    if not usable.any() or len(bb) == 0:
         return [], float("nan")
     S = score_matrix(ba, bb)
     N = np.full_like(S, -np.inf)
     N[usable] = S[usable] / nss[usable, None]
-    order = np.argsort(-N, axis=None, kind="stable")
-    best = float(N.flat[order[0]]) if N.size else float("nan")
-    out = []
-    for flat in order[: p.max_candidates]:
-        q, c = np.unravel_index(flat, N.shape)
-        if N[q, c] > p.alpha:
-            out.append((int(q), int(c), float(N[q, c])))
-    return out, best
+    best_c = np.argmax(N, axis=1)
+    best = N[np.arange(len(N)), best_c]
+    out = [(int(q), int(best_c[q]), float(best[q])) for q in np.argsort(-best, kind="stable") if best[q] > p.alpha]
+    return out[: p.max_candidates], float(best.max())
 
 
 class VisualAligner:
@@ -98,9 +100,11 @@ class VisualAligner:
             return AlignResult.failure(self.name, why, time.perf_counter() - t0, **info)
         winner = None
         for q, c, score in cands:
-            _, dq, pq = ka.features(q)
+            uq, dq, pq = ka.features(q)
             _, dc, pc = kb.features(c)
-            out = verify_pair(dq, pq, dc, pc, self.params.verify, (a.name, b.name, q, c))
+            fx, fy, cx, cy = ka.intrinsics[q]
+            K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+            out = verify_pair(dq, pq, dc, pc, self.params.verify, (a.name, b.name, q, c), uq, K)
             if winner is None or len(out.inliers) > len(winner[0].inliers):
                 winner = (out, q, c, score)
         assert winner is not None

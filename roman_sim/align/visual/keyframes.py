@@ -83,7 +83,7 @@ class KeyframeExtractor:
             return None
         self._last = (frame.t, np.array(T, dtype=np.float64))
         k = frame.intrinsics
-        feats = extract_features(frame.rgb, frame.depth, k, self._orb)
+        feats = extract_features(frame.rgb, frame.depth, k, self._orb, self.params.orb)
         kf = Keyframe(float(frame.t), frame.T_odom_cam, np.array([k.fx, k.fy, k.cx, k.cy]), feats,
                       self.vocabulary.transform(feats.descriptors))
         self.keyframes.append(kf)

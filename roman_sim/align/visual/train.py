@@ -1,10 +1,11 @@
 """Re-train the shipped ORB vocabulary: ``python -m roman_sim.align.visual.train [--out PATH] [--check]``.
 
 Training frames come from worlds no evaluation uses: every world preset at its own seed
-(9101 + preset index, far from the scenarios' seeds), one robot driving a loop, an RGB-D
-frame every ``frame_every`` steps at 640 x 480 (the D455 camera), ``frames_per_world``
-frames each. ORB (700 features) runs on every frame; the vocabulary (k = 10, L = 4,
-seed 0) is trained on their descriptors. Rendering and ORB are deterministic on one
+(9101 + preset index, far from the scenarios' seeds), textured, each under another
+lighting preset, one robot driving a loop, an RGB-D frame every ``frame_every`` steps at
+640 x 480 (the D455 camera), ``frames_per_world`` frames each. ORB (the keyframes'
+settings, ``OrbParams()``) runs on every frame; the vocabulary (k = 10, L = 4, seed 0) is
+trained on their descriptors. Rendering and ORB are deterministic on one
 machine, so the same command writes the same bytes; ``--check`` re-trains and compares
 with the shipped file (another CPU or Mesa build may render slightly different pixels).
 """
@@ -22,28 +23,38 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.align.visual.features import OrbParams, make_orb, orb_descriptors
+from roman_sim.align.visual.features import (
+    OrbParams,
+    depth_mask,
+    make_orb,
+    orb_descriptors,
+)
 from roman_sim.align.visual.vocabulary import Vocabulary, train_vocabulary
 
 log = logging.getLogger(__name__)
 
-#: (preset, seed) of the training worlds.
-TRAINING_WORLDS: tuple[tuple[str, int], ...] = (
-    ("forest", 9101), ("orchard", 9102), ("park", 9103), ("suburb", 9104), ("offroad", 9105), ("parking", 9106),
+#: (preset, seed, lighting preset) of the training worlds.
+TRAINING_WORLDS: tuple[tuple[str, int, str], ...] = (
+    ("forest", 9101, "noon"), ("orchard", 9102, "morning"), ("park", 9103, "evening"), ("suburb", 9104, "overcast"),
+    ("offroad", 9105, "random"), ("parking", 9106, "noon"),
 )
 K, L, SEED = 10, 4, 0
 
 
-def training_images(frames_per_world: int = 30, frame_every: int = 12) -> list[NDArray[np.uint8]]:
+def training_images(frames_per_world: int = 60, frame_every: int = 6) -> list[NDArray[np.uint8]]:
     """ORB descriptors (one (n_i, 32) array per frame) of the training frames."""
     from roman_sim.sim.paths import PathConfig
     from roman_sim.sim.robot import RobotConfig, render_trajectory, robot_trajectory
     from roman_sim.world import generate, load_world_spec
+    from roman_sim.world.appearance import AppearanceSpec
 
-    orb = make_orb(OrbParams())
+    params = OrbParams()
+    orb = make_orb(params)
     out = []
-    for preset, seed in TRAINING_WORLDS:
-        world = generate(load_world_spec(preset), seed)
+    for preset, seed, lighting in TRAINING_WORLDS:
+        spec = load_world_spec(preset)
+        spec = spec.model_copy(update={"appearance": AppearanceSpec(textures=True, lighting=lighting)})
+        world = generate(spec, seed)
         cfg = RobotConfig(name="vocabulary", path=PathConfig(kind="loop", radius_m=12.0),
                           max_length_m=frames_per_world * frame_every / 6.0 + 1.0)
         traj = robot_trajectory(world, cfg, seed)
@@ -51,7 +62,8 @@ def training_images(frames_per_world: int = 30, frame_every: int = 12) -> list[N
         for i, frame in enumerate(render_trajectory(world, cfg, seed, traj)):
             if i % frame_every or frame.rgb is None:
                 continue
-            out.append(orb_descriptors(frame.rgb, orb)[1])
+            mask = depth_mask(frame.depth, params.mask_erode_px) if params.depth_mask else None
+            out.append(orb_descriptors(frame.rgb, orb, mask)[1])
             taken += 1
             if taken == frames_per_world:
                 break

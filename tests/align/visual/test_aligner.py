@@ -58,10 +58,16 @@ def test_same_place_aligns_to_the_true_submap_pose(submaps) -> None:
     assert len(a.keyframes) == 7 and len(b.keyframes) == 7  # 0.33 m steps, one keyframe each
     r = build_aligner("visual").align(a.public(), b.public())
     assert r.ok and r.n_associations >= 5 and r.info["normalised_score"] > 0.4
-    rot, trans = pose_error(r.T_a_b, _truth(a, b))
-    assert np.degrees(rot) < 2.0 and trans < 0.1
-    back = build_aligner("visual").align(b.public(), a.public())
-    assert back.ok and pose_error(back.T_a_b, _truth(b, a))[1] < 0.1
+    # the reprojection refinement (on by default, for noisy depth) leaves up to about 1 deg on
+    # these clean 320 x 240 frames (3D-3D alone: 0.3 deg), and the winning keyframes sit up to
+    # 1 m from their submap centres
+    for x, y in ((a, b), (b, a)):
+        r = build_aligner("visual").align(x.public(), y.public())
+        rot, trans = pose_error(r.T_a_b, _truth(x, y))
+        assert r.ok and np.degrees(rot) < 2.0 and trans < 0.2
+        r = build_aligner("visual", {"verify": {"refine_reprojection": False}}).align(x.public(), y.public())
+        rot, trans = pose_error(r.T_a_b, _truth(x, y))
+        assert r.ok and np.degrees(rot) < 0.5 and trans < 0.05
 
 
 def test_opposite_heading_and_missing_keyframes_are_rejected(submaps) -> None:

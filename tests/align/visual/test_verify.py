@@ -39,11 +39,13 @@ def test_features_back_project_onto_the_rendered_surfaces(shooter) -> None:
         extract_features(rgb[:10], depth, shooter.K, shooter.orb)
 
 
+@pytest.mark.parametrize("refine", [False, True])
 @pytest.mark.parametrize("pose", [(0.6, 0.3, 12.0), (-0.5, 0.4, -8.0), (1.0, 0.0, 0.0)])
-def test_nearby_views_of_a_place_recover_the_true_relative_pose(shooter, pose) -> None:
+def test_nearby_views_of_a_place_recover_the_true_relative_pose(shooter, pose, refine) -> None:
     Tq, fq = shooter.features(0.0, 0.0, 0.0)
     Tc, fc = shooter.features(*pose)
-    out = _verify(fq, fc)
+    uv, K = (fq.uv, shooter.K.K) if refine else (None, None)
+    out = verify_pair(fq.descriptors, fq.points, fc.descriptors, fc.points, P, (), uv, K)
     assert out.reason is None and len(out.inliers) >= P.min_inliers
     rot, trans = pose_error(out.T_q_c, inv_T(Tq) @ Tc)
     assert np.degrees(rot) < 2.0 and trans < 0.1

@@ -99,7 +99,7 @@ def test_shipped_vocabulary_is_trained_on_worlds_no_scenario_uses() -> None:
     voc = default_vocabulary()
     assert (voc.k, voc.L) == (10, 4) and 5000 < voc.n_words <= 10 ** 4
     assert [tuple(w) for w in voc.meta["worlds"]] == [tuple(w) for w in TRAINING_WORLDS]
-    assert all(seed >= 9000 for _, seed in TRAINING_WORLDS)
+    assert all(seed >= 9000 for _, seed, _ in TRAINING_WORLDS)
     assert np.all(voc.weights >= 0) and (voc.weights > 0).mean() > 0.9
 
 
