@@ -32,7 +32,7 @@ def run_one(name: str) -> dict:
         t0 = time.perf_counter()
         res = Experiment(sc, Path(d) / name, fresh=True).run()
         total = time.perf_counter() - t0
-    stages = {k: {"seconds": v, "peak_rss_mb": res.stage_peak_mb.get(k)} for k, v in res.stage_seconds.items()}
+    stages = {k: {"seconds": v["seconds"], "peak_rss_mb": v["peak_rss_mb"]} for k, v in res.timings.items()}
     return {
         "scenario": name,
         "total_seconds": total,
@@ -40,9 +40,9 @@ def run_one(name: str) -> dict:
         "peak_rss_mb": max((s["peak_rss_mb"] or 0.0) for s in stages.values()),
         "robots": len(sc.robots),
         "image": [sc.robots[0].camera.width, sc.robots[0].camera.height],
-        "segments": res.map_stats.get("segments"),
-        "submaps": res.map_stats.get("submaps"),
-        "pairs": res.metrics.get("n_pairs"),
+        "segments": res.map_stats.segments,
+        "submaps": res.map_stats.submaps,
+        "pairs": res.metrics.n_pairs,
         "summary": res.metrics_summary(),
     }
 

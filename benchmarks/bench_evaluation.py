@@ -90,7 +90,7 @@ def main() -> dict:
     _, fig["map_view_boxes_640x480_s"] = _timed(render_map, no_pts)
     fig["map_view_points_in_map"] = sum(len(p) for s in subs for p in s.points or [])
     fig["map_view_points_drawn"] = sum(min(len(p), 100) for s in subs for p in s.points or [])
-    out = {"figures": fig, "max_recall": {m: metrics["methods"][m]["max_recall"] for m in METHODS},
+    out = {"figures": fig, "max_recall": {m: metrics.figure(m) for m in METHODS},
            "machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine()}}
     write_json(OUT, out)
     return out

@@ -30,7 +30,7 @@ def _run(seed: int, scenario_cfg: SyntheticGraphConfig, cfg: PoseGraphConfig) ->
     res = build_and_solve(sc.odom, sc.submap_nodes, sc.closures, cfg)
     weights = np.array([np.nan if w is None else w for w in res.closure_weights])
     true = np.array(sc.closure_true)
-    odom_world = {r: (t, sc.T_world_odom[r] @ T) for r, (t, T) in sc.odom.items()}
+    odom_world = {r: tr.transformed(sc.T_world_odom[r]) for r, tr in sc.odom.items()}
     ate = {}
     for alignment in ("se3", "4dof"):
         before = multi_robot_ate(odom_world, sc.truth, alignment)["all"]
@@ -42,7 +42,7 @@ def _run(seed: int, scenario_cfg: SyntheticGraphConfig, cfg: PoseGraphConfig) ->
         "solve_s": res.runtime_s,
         "n_nodes": int(res.info["n_nodes"]),
         "n_factors": int(res.info["n_factors"]),
-        "n_poses": int(sum(len(t) for t, _ in sc.odom.values())),
+        "n_poses": int(sum(len(tr) for tr in sc.odom.values())),
         "n_closures": len(sc.closures),
         "n_false": int((~true).sum()),
         "false_rejected": int(np.sum(weights[~true] < 0.5)),

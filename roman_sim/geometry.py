@@ -99,9 +99,15 @@ def pose_4dof(x: float, y: float, z: float, yaw: float) -> F64:
 
 
 def rotation_angle(R: ArrayLike) -> float:
-    """Angle (radians) of a rotation matrix."""
+    """Angle (radians, in [0, pi]) of a rotation matrix, accurate over the whole range.
+
+    ``atan2(sin, cos)`` with ``sin = |vee(R - R^T)| / 2`` and ``cos = (tr R - 1) / 2``:
+    ``arccos`` of the cosine alone loses half the digits near 0 (a floor near 1.5e-8 rad), so
+    two machines whose SVDs differ in the last bit would report different small errors.
+    """
     R = np.asarray(R, dtype=np.float64)
-    return float(np.arccos(np.clip((np.trace(R) - 1.0) / 2.0, -1.0, 1.0)))
+    axial = np.array([R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]])
+    return float(np.arctan2(0.5 * np.linalg.norm(axial), 0.5 * (np.trace(R) - 1.0)))
 
 
 def pose_error(T_est: ArrayLike, T_true: ArrayLike) -> tuple[float, float]:

@@ -18,7 +18,8 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 
-from roman_sim.pipeline.experiment import Experiment, RunResult, default_run_dir
+from roman_sim.pipeline.experiment import Experiment, default_run_dir
+from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
 
 
@@ -55,7 +56,7 @@ def assert_recall(
     bounds = {None: minimum} if isinstance(minimum, (int, float)) else dict(minimum)
     failures = []
     for bin_label, lo in bounds.items():
-        got = run.recall(method, bin_label) if key == "max_recall" else _figure(run, method, bin_label, key)
+        got = _figure(run, method, bin_label, key)
         if got is None or got < lo:
             where = "overall" if bin_label is None else f"heading {bin_label} deg"
             failures.append(f"{method} {key} {where}: {got} < {lo}")
@@ -63,9 +64,7 @@ def assert_recall(
 
 
 def _figure(run: RunResult, method: str, bin_label: str | None, key: str) -> float | None:
-    from roman_sim.evaluation.summaries import method_recall
-
-    return method_recall(run.metrics, method, bin_label, key=key)
+    return run.metrics.figure(method, bin_label, key)
 
 
 def assert_not_worse(
@@ -81,8 +80,7 @@ def assert_not_worse(
 
 def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", alignment: str = "se3") -> None:
     """Assert the pose graph ``variant``'s concatenated ATE is below ``reference``'s."""
-    ate = run.ate
-    got = (ate.get(variant) or {}).get(alignment, {}).get("all")
-    ref = (ate.get(reference) or {}).get(alignment, {}).get("all")
+    got = run.ate.rmse(variant, alignment)
+    ref = run.ate.rmse(reference, alignment)
     assert got is not None and ref is not None, f"ATE not computable: {variant}={got}, {reference}={ref}"
     assert got < ref, f"ATE of {variant} ({got:.3f} m) is not below {reference} ({ref:.3f} m)"

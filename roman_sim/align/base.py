@@ -12,8 +12,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.mapping.types import Submap
 from roman_sim.core.registry import Registry
+from roman_sim.mapping.types import Submap
 
 
 @dataclass

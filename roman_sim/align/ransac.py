@@ -20,8 +20,8 @@ from scipy.spatial.distance import cdist
 
 from roman_sim.align.registration import estimate_transform, kabsch_batch
 from roman_sim.core.config import StrictModel
-from roman_sim.geometry import transform_points
 from roman_sim.core.seeding import child_rng
+from roman_sim.geometry import transform_points
 
 log = logging.getLogger(__name__)
 

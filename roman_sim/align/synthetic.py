@@ -13,9 +13,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.seeding import child_rng
 from roman_sim.geometry import inv_T, rot_z, transform_points
 from roman_sim.mapping.types import Submap, SubmapTruth
-from roman_sim.core.seeding import child_rng
 
 #: Base box extents (m) of the object families.
 FAMILY_EXTENTS = np.array(

@@ -6,7 +6,6 @@ Other areas add their own listings: ``LISTINGS["aligners"] = lambda: ALIGNERS.na
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Optional
 
 import typer
 from rich.console import Console
@@ -35,7 +34,7 @@ LISTINGS["families"] = _families
 
 
 @app.command("list")
-def list_cmd(what: Optional[str] = typer.Argument(None, help="what to list (default: everything)")) -> None:
+def list_cmd(what: str | None = typer.Argument(None, help="what to list (default: everything)")) -> None:
     """List world presets, object families and everything else registered."""
     if what is not None and what not in LISTINGS:
         raise ConfigError(f"list: unknown {what!r} (valid: {', '.join(sorted(LISTINGS))})")

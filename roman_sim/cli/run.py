@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Optional
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -54,9 +54,7 @@ def _fmt(v: Any, digits: int = 2) -> str:
 
 def print_summary(result: Any) -> None:
     """The summary table: recall per heading bin per method, runtime; ATE; map size."""
-    from roman_sim.evaluation.summaries import compact_summary
-
-    s = compact_summary(result.metrics, result.ate, result.map_stats)
+    s = result.metrics_summary()
     out = Console()
     t = Table(title=f"{result.scenario.name} (seed {result.scenario.seed}): max recall (R) overall and per "
                     "heading bin, median ms per pair")
@@ -84,8 +82,8 @@ def print_summary(result: Any) -> None:
     out.print(f"results: {result.run_dir} (report: {result.run_dir / 'report.md'})")
 
 
-def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: bool,
-         submaps: Optional[Path], aligners: Optional[list[str]], from_stage: Optional[str] = None) -> None:
+def _run(scenario: str, out: Path | None, sets: list[str] | None, fresh: bool,
+         submaps: Path | None, aligners: list[str] | None, from_stage: str | None = None) -> None:
     from roman_sim.pipeline.experiment import Experiment, default_run_dir
     from roman_sim.pipeline.scenario import load_scenario, with_aligners
 
@@ -101,13 +99,13 @@ def _run(scenario: str, out: Optional[Path], sets: Optional[list[str]], fresh: b
 @app.command("run")
 def run_cmd(
     scenario: str = typer.Argument(..., help="scenario YAML path or bundled scenario name"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="results folder (default results/<name>/...)"),
-    sets: Optional[list[str]] = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
+    out: Path | None = typer.Option(None, "--out", "-o", help="results folder (default results/<name>/...)"),
+    sets: list[str] | None = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage (ignore cached results)"),
-    submaps: Optional[Path] = typer.Option(None, "--submaps", help="start from saved submaps (<robot>.npz)"),
-    aligner: Optional[list[str]] = typer.Option(None, "--aligner", "-a",
+    submaps: Path | None = typer.Option(None, "--submaps", help="start from saved submaps (<robot>.npz)"),
+    aligner: list[str] | None = typer.Option(None, "--aligner", "-a",
                                                 help="add an aligner (name or package.module:Class)"),
-    from_stage: Optional[str] = typer.Option(None, "--from", help="recompute from this stage on "
+    from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on "
                                              "(maps, submaps, evaluation, posegraph, report)"),
 ) -> None:
     """Run a scenario end to end and print the summary."""
@@ -116,7 +114,7 @@ def run_cmd(
 
 @app.command("demo")
 def demo_cmd(
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="results folder (default results/demo/...)"),
+    out: Path | None = typer.Option(None, "--out", "-o", help="results folder (default results/demo/...)"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage"),
 ) -> None:
     """Run the demo scenario: ROMAN against CLIPPER and RANSAC on opposite-direction traversals."""
@@ -127,8 +125,8 @@ def demo_cmd(
 def record_cmd(
     scenario: str = typer.Argument(..., help="scenario YAML path or bundled scenario name"),
     out: Path = typer.Option(..., "--out", "-o", help="folder for the recordings (one sub-folder per robot)"),
-    sets: Optional[list[str]] = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
-    robot: Optional[list[str]] = typer.Option(None, "--robot", "-r", help="only these robots"),
+    sets: list[str] | None = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
+    robot: list[str] | None = typer.Option(None, "--robot", "-r", help="only these robots"),
 ) -> None:
     """Render and store the robots' frames (chunked, compressed) with TUM trajectories."""
     from roman_sim.core.errors import ConfigError
@@ -162,27 +160,19 @@ def record_cmd(
 
 @app.command("report")
 def report_cmd(run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`")) -> None:
-    """Print the summary of a finished run (from its metrics.json)."""
-    from roman_sim.core.errors import StorageError
-    from roman_sim.evaluation.results import read_metrics_json
-    from roman_sim.pipeline.experiment import RunResult
-    from roman_sim.pipeline.scenario import load_scenario
+    """Print the summary of a finished run (an incomplete run is an error naming its missing stages)."""
+    from roman_sim.pipeline.result import RunResult
 
-    metrics = read_metrics_json(run_dir / "metrics.json")
-    cfg = run_dir / "config.yaml"
-    if not cfg.is_file():
-        raise StorageError(f"{run_dir}: config.yaml missing: not a complete run folder")
-    sc = load_scenario(cfg)
-    print_summary(RunResult(run_dir, sc, metrics, metrics.get("ate", {}), metrics.get("map", {})))
+    print_summary(RunResult.load(run_dir))
 
 
 @app.command("sweep")
 def sweep_cmd(
     sweep_file: Path = typer.Argument(..., help="sweep YAML (scenario, grid, seeds, executor)"),
-    out: Optional[Path] = typer.Option(None, "--out", "-o", help="folder (default results/sweeps/<name>)"),
-    executor: Optional[str] = typer.Option(None, "--executor", help="serial, local or dask (overrides the file)"),
-    workers: Optional[int] = typer.Option(None, "--workers", help="number of processes / Dask workers"),
-    scheduler: Optional[str] = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
+    out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/sweeps/<name>)"),
+    executor: str | None = typer.Option(None, "--executor", help="serial, local or dask (overrides the file)"),
+    workers: int | None = typer.Option(None, "--workers", help="number of processes / Dask workers"),
+    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
 ) -> None:
     """Run a parameter x seed sweep (resumable) and write sweep.csv."""
     from roman_sim.core.config import validate_model
@@ -237,8 +227,8 @@ LISTINGS.update(scenarios=_scenarios, aligners=_aligners, segmenters=_segmenters
 def reproduce_cmd(
     out: Path = typer.Option(Path("results/reference"), "--out", "-o", help="where the small results go"),
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
-    scenario: Optional[list[str]] = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
-    from_stage: Optional[str] = typer.Option(None, "--from", help="recompute from this stage on"),
+    scenario: list[str] | None = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
+    from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
     from roman_sim.pipeline.reference import reproduce

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections import Counter
 from pathlib import Path
-from typing import TYPE_CHECKING, Optional
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -22,7 +22,7 @@ SEED = typer.Option(0, "--seed", help="world seed (same seed, same world)")
 SETS = typer.Option(None, "--set", help="override a spec field, e.g. --set extent_m=[80,80]")
 
 
-def _spec(preset: str, sets: Optional[list[str]]) -> "WorldSpec":
+def _spec(preset: str, sets: list[str] | None) -> "WorldSpec":
     """The spec of a preset or YAML, with ``--set`` overrides applied and re-validated."""
     from roman_sim.core.config import apply_overrides, validate_model
     from roman_sim.world import WorldSpec, load_world_spec
@@ -48,7 +48,7 @@ def generate_cmd(
     preset: str = typer.Argument(..., help="preset name or world YAML"),
     seed: int = SEED,
     out: Path = typer.Option(..., "--out", help="output folder (world.xml, meshes/, truth.json)"),
-    sets: Optional[list[str]] = SETS,
+    sets: list[str] | None = SETS,
 ) -> None:
     """Generate a world and export it as a folder that plain MuJoCo loads."""
     from roman_sim.world import export_world, generate
@@ -82,7 +82,7 @@ def ambiguity_cmd(
     seed: int = SEED,
     places: int = typer.Option(50, min=1, help="number of random discs"),
     radius: float = typer.Option(15.0, min=1.0, help="disc radius (m), about a submap"),
-    sets: Optional[list[str]] = SETS,
+    sets: list[str] | None = SETS,
 ) -> None:
     """Print the ground-truth ambiguity index of a world."""
     from roman_sim.world import generate

@@ -7,6 +7,8 @@ pydantic's errors into a ``ConfigError`` whose message names the field and what 
 
 from __future__ import annotations
 
+import hashlib
+import json
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -124,3 +126,9 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
         else:
             raise ConfigError(f"--set {key}: cannot set inside a {type(node).__name__}")
     return out
+
+
+def stable_hash(*parts: Any) -> str:
+    """16 hex digits of SHA-256 over the JSON of ``parts`` (sorted keys; same input -> same hash)."""
+    blob = json.dumps(parts, sort_keys=True, default=str).encode("utf-8")
+    return hashlib.sha256(blob).hexdigest()[:16]

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.trajectory import MAX_DIFF_S, Trajectory
 from roman_sim.geometry import arun, arun_4dof, transform_points
 
 log = logging.getLogger(__name__)
@@ -92,34 +93,6 @@ def _check_pair(est: F64, ref: F64) -> None:
         raise EvaluationError(f"ATE: {len(est)} associated poses, at least {MIN_POSES} needed")
 
 
-def _poses(t: ArrayLike, T: ArrayLike, name: str) -> tuple[F64, F64]:
-    t = np.asarray(t, dtype=np.float64).reshape(-1)
-    T = np.asarray(T, dtype=np.float64)
-    if T.shape != (len(t), 4, 4):
-        raise EvaluationError(f"{name}: expected T of shape ({len(t)}, 4, 4) for {len(t)} times, got {T.shape}")
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(T[:, :3, 3]))):
-        raise EvaluationError(f"{name}: contains NaN or inf")
-    return t, T
-
-
-def associate(t_est: ArrayLike, t_ref: ArrayLike, max_diff_s: float = 0.01) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Index pairs (i_est, i_ref) of nearest timestamps within ``max_diff_s``; each ref used once."""
-    t_est = np.asarray(t_est, dtype=np.float64).reshape(-1)
-    t_ref = np.asarray(t_ref, dtype=np.float64).reshape(-1)
-    if len(t_est) == 0 or len(t_ref) == 0:
-        return np.zeros(0, np.int64), np.zeros(0, np.int64)
-    order = np.argsort(t_ref, kind="stable")
-    ts = t_ref[order]
-    right = np.clip(np.searchsorted(ts, t_est), 1, len(ts) - 1) if len(ts) > 1 else np.zeros(len(t_est), int)
-    left = np.maximum(right - 1, 0)
-    pick = np.where(np.abs(t_est - ts[left]) <= np.abs(ts[right] - t_est), left, right)
-    ok = np.abs(ts[pick] - t_est) <= max_diff_s
-    i_est, i_ref = np.flatnonzero(ok), order[pick[ok]]
-    _, first = np.unique(i_ref, return_index=True)
-    keep = np.sort(first)
-    return i_est[keep].astype(np.int64), i_ref[keep].astype(np.int64)
-
-
 def _check_alignment(alignment: str) -> None:
     if alignment not in ALIGNMENTS:
         raise EvaluationError(f"ATE alignment {alignment!r} unknown (valid: {', '.join(ALIGNMENTS)})")
@@ -141,47 +114,37 @@ def _stats(est_xyz: F64, ref_xyz: F64, alignment: str) -> AteResult:
     )
 
 
-def _matched_xyz(t_est, T_est, t_ref, T_ref, max_diff_s: float, name: str) -> tuple[F64, F64]:
-    t_e, T_e = _poses(t_est, T_est, f"{name} estimate")
-    t_r, T_r = _poses(t_ref, T_ref, f"{name} reference")
-    i_e, i_r = associate(t_e, t_r, max_diff_s)
+def _matched_xyz(est: Trajectory, ref: Trajectory, max_diff_s: float, name: str) -> tuple[F64, F64]:
+    i_e, i_r = est.associate(ref, max_diff_s)
     if len(i_e) < MIN_POSES:
-        span_e = f"[{t_e.min():.3f}, {t_e.max():.3f}]" if len(t_e) else "[]"
-        span_r = f"[{t_r.min():.3f}, {t_r.max():.3f}]" if len(t_r) else "[]"
+        span_e = f"[{est.t.min():.3f}, {est.t.max():.3f}]" if len(est) else "[]"
+        span_r = f"[{ref.t.min():.3f}, {ref.t.max():.3f}]" if len(ref) else "[]"
         raise EvaluationError(f"{name}: only {len(i_e)} poses matched in time (estimate {span_e} s, "
                               f"reference {span_r} s, tolerance {max_diff_s} s); at least {MIN_POSES} needed")
-    return T_e[i_e, :3, 3], T_r[i_r, :3, 3]
+    return est.positions[i_e], ref.positions[i_r]
 
 
-def ate_rmse(
-    t_est: ArrayLike,
-    T_est: ArrayLike,
-    t_ref: ArrayLike,
-    T_ref: ArrayLike,
-    alignment: Alignment = "se3",
-    max_diff_s: float = 0.01,
-) -> AteResult:
-    """ATE of an estimated trajectory against a reference.
+def ate_rmse(est: Trajectory, ref: Trajectory, alignment: Alignment = "se3", max_diff_s: float = MAX_DIFF_S) -> AteResult:
+    """ATE of an estimated trajectory against a reference (truth).
 
     Args:
-        t_est, T_est: times (N,) and poses (N,4,4) of the estimate.
-        t_ref, T_ref: times (M,) and poses (M,4,4) of the reference (truth).
+        est, ref: the estimate and the reference.
         alignment: ``se3``, ``4dof`` or ``none``.
         max_diff_s: timestamp association tolerance.
 
     Raises:
-        EvaluationError: fewer than 3 poses matched in time, bad shapes or unknown alignment.
+        EvaluationError: fewer than 3 poses matched in time or unknown alignment.
     """
     _check_alignment(alignment)
-    est, ref = _matched_xyz(t_est, T_est, t_ref, T_ref, max_diff_s, "ATE")
-    return _stats(est, ref, alignment)
+    e, r = _matched_xyz(est, ref, max_diff_s, "ATE")
+    return _stats(e, r, alignment)
 
 
 def multi_robot_ate(
-    est: Mapping[str, tuple[ArrayLike, ArrayLike]],
-    ref: Mapping[str, tuple[ArrayLike, ArrayLike]],
+    est: Mapping[str, Trajectory],
+    ref: Mapping[str, Trajectory],
     alignment: Alignment = "se3",
-    max_diff_s: float = 0.01,
+    max_diff_s: float = MAX_DIFF_S,
 ) -> dict[str, AteResult | None]:
     """Per-robot ATE (each robot aligned on its own) and ``"all"``: one alignment of the union.
 
@@ -206,7 +169,7 @@ def multi_robot_ate(
             out[robot] = None
             continue
         try:
-            e, r = _matched_xyz(*est[robot], *ref[robot], max_diff_s, f"ATE {robot}")
+            e, r = _matched_xyz(est[robot], ref[robot], max_diff_s, f"ATE {robot}")
             out[robot] = _stats(e, r, alignment)
         except EvaluationError as err:
             log.warning("%s; not computable", err)

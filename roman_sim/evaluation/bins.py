@@ -13,6 +13,8 @@ from typing import Any, TypeVar
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.evaluation.types import BinStats, CurveStats
+
 S = TypeVar("S")
 
 
@@ -45,16 +47,12 @@ def bin_table(
     values: Sequence[float],
     edges: Sequence[float],
     k_values: list[int],
-    stats: Callable[[list[S], list[int]], dict[str, Any]],
-) -> list[dict[str, Any]]:
-    """``stats(items in bin, k_values)`` for each bin, with ``label``, ``lo`` and ``hi``."""
+    stats: Callable[[list[S], list[int]], CurveStats],
+) -> list[BinStats]:
+    """``stats(items in bin, k_values)`` for each bin, labelled with its edges."""
     idx = bin_index(values, edges)
-    rows = []
-    for i, (lo, hi) in enumerate(zip(edges, edges[1:])):
-        row: dict[str, Any] = {"label": bin_label(lo, hi), "lo": float(lo), "hi": float(hi)}
-        row.update(stats([it for it, j in zip(items, idx) if j == i], k_values))
-        rows.append(row)
-    return rows
+    return [BinStats(bin_label(lo, hi), float(lo), float(hi), stats([it for it, j in zip(items, idx) if j == i], k_values))
+            for i, (lo, hi) in enumerate(zip(edges, edges[1:]))]
 
 
 def runtime_stats(runtimes: Sequence[float]) -> dict[str, Any]:

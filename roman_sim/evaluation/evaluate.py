@@ -8,12 +8,10 @@ plots, one correct and one wrong alignment drawing, and the map view.
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from roman_sim.align.base import Aligner, AlignResult
 from roman_sim.core.errors import EvaluationError
@@ -21,16 +19,13 @@ from roman_sim.evaluation.mapview import write_map_view
 from roman_sim.evaluation.metrics import EvalConfig, PairScore, score_pair, summary
 from roman_sim.evaluation.pairs import AmbiguityFn, PairTruth, enumerate_pairs, pair_truth
 from roman_sim.evaluation.plots import draw_examples, write_metric_plots
-from roman_sim.evaluation.report import write_report
-from roman_sim.evaluation.results import METRICS_JSON, read_metrics_json, write_evaluation
+from roman_sim.evaluation.results import write_evaluation
+from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)
 
 ResultKey = tuple[str, str, str]
-#: Optional stage files of a run folder that ``report_from_run`` includes when present.
-ATE_JSON = "ate.json"
-MAP_STATS_JSON = "map_stats.json"
 
 
 @dataclass
@@ -48,7 +43,7 @@ class Evaluation:
     truths: list[PairTruth]
     scores: list[PairScore]
     results: dict[ResultKey, AlignResult]
-    metrics: dict[str, Any]
+    metrics: EvaluationMetrics
     notes: list[str] = field(default_factory=list)
 
 
@@ -118,36 +113,3 @@ def save_evaluation(
             log.warning("map view skipped: %s", err)
             ev.notes.append(f"map view not rendered: {err}")
     return paths
-
-
-def _optional_json(path: Path, what: str, notes: list[str]) -> dict[str, Any] | None:
-    """An optional stage's JSON dict, or None with a note saying why it is absent."""
-    if not path.is_file():
-        notes.append(f"{what} not available ({path.name} missing)")
-        return None
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        notes.append(f"{what} not available ({path.name} unreadable or corrupt: {type(err).__name__})")
-        return None
-    if not isinstance(data, dict):
-        notes.append(f"{what} not available ({path.name} is not a JSON object)")
-        return None
-    notes.extend(str(n) for n in data.pop("notes", []) or [])
-    return data
-
-
-def report_from_run(run_dir: str | Path, scenario_name: str | None = None) -> Path:
-    """Re-draw the metric plots and rewrite ``report.md`` of an existing run folder.
-
-    ``metrics.json`` is required (StorageError when missing or corrupt); ``ate.json`` and
-    ``map_stats.json`` are optional and their absence is stated in the report. The
-    scenario name defaults to the run folder's parent (``results/<scenario>/<run-id>``).
-    """
-    run = Path(run_dir)
-    metrics = read_metrics_json(run / METRICS_JSON)
-    notes: list[str] = []
-    ate = _optional_json(run / ATE_JSON, "trajectory error", notes)
-    maps = _optional_json(run / MAP_STATS_JSON, "map size", notes)
-    write_metric_plots(metrics, run / "plots")
-    return write_report(run, scenario_name or run.resolve().parent.name, metrics, ate, maps, notes)

@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_bytes
 from roman_sim.core.errors import EvaluationError
-from roman_sim.geometry import make_T, transform_points
 from roman_sim.core.glrender import offscreen_renderer
+from roman_sim.geometry import make_T, transform_points
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)

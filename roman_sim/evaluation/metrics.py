@@ -15,17 +15,16 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.bins import bin_table, fine_edges, runtime_stats
+from roman_sim.evaluation.bins import bin_table, fine_edges
 from roman_sim.evaluation.pairs import PairTruth
+from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MethodMetrics, PRCurve, nan_to_none
 from roman_sim.geometry import pose_error
 
 log = logging.getLogger(__name__)
@@ -104,35 +103,6 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
                      float(result.runtime_s), result.reason)
 
 
-@dataclass
-class PRCurve:
-    """Precision/recall of one method over association thresholds ``k`` (arrays of len(k))."""
-
-    k: NDArray[np.int64]
-    tp: NDArray[np.int64]
-    fp: NDArray[np.int64]
-    n_relevant: int
-    precision: NDArray[np.float64]
-    recall: NDArray[np.float64]
-    f1: NDArray[np.float64]
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly lists; undefined values are ``None``."""
-        return {
-            "k": self.k.tolist(), "tp": self.tp.tolist(), "fp": self.fp.tolist(),
-            "n_relevant": self.n_relevant, "precision": nan_to_none(self.precision),
-            "recall": nan_to_none(self.recall), "f1": nan_to_none(self.f1),
-        }
-
-
-def nan_to_none(values: Any) -> Any:
-    """Floats with NaN replaced by None (scalars or 1-D sequences)."""
-    if np.ndim(values) == 0:
-        v = float(values)
-        return None if math.isnan(v) else v
-    return [nan_to_none(v) for v in values]
-
-
 def pr_curve(scores: list[PairScore], k_values: list[int] | None = None) -> PRCurve:
     """Precision/recall/F1 at each threshold (default k = 0..30) for one method's scores."""
     if len({s.method for s in scores}) > 1:
@@ -172,73 +142,64 @@ def auc(curve: PRCurve) -> float:
     return float(np.trapezoid(up, ur))
 
 
-def curve_stats(scores: list[PairScore], k_values: list[int]) -> dict[str, Any]:
+def curve_stats(scores: list[PairScore], k_values: list[int]) -> CurveStats:
     """Headline numbers of one method on a set of pairs (``None`` where undefined)."""
     c = pr_curve(scores, k_values)
     at_p1 = c.recall[c.precision == 1.0]
     has_f1 = not np.all(np.isnan(c.f1))
     best = int(np.nanargmax(c.f1)) if has_f1 else None
     undefined = c.n_relevant == 0
-    return {
-        "n_pairs": len(scores),
-        "n_relevant": c.n_relevant,
-        "max_recall": None if undefined else float(np.nanmax(c.recall)),
+    return CurveStats(
+        n_pairs=len(scores),
+        n_relevant=c.n_relevant,
+        max_recall=None if undefined else float(np.nanmax(c.recall)),
+        max_hits=int(c.tp.max()) if len(c.tp) else 0,
         # no threshold reaching precision 1 means recall 0 at that precision (defined)
-        "recall_at_precision_1": None if undefined else float(at_p1.max() if len(at_p1) else 0.0),
-        "best_f1": None if best is None else float(c.f1[best]),
-        "best_f1_k": None if best is None else int(c.k[best]),
-        "auc": nan_to_none(auc(c)),
-    }
+        recall_at_precision_1=None if undefined else float(at_p1.max() if len(at_p1) else 0.0),
+        best_f1=None if best is None else float(c.f1[best]),
+        best_f1_k=None if best is None else int(c.k[best]),
+        auc=nan_to_none(auc(c)),
+    )
 
 
-def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> dict[str, Any]:
+def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> MethodMetrics:
     ks = cfg.k_values()
-    out = curve_stats(scores, ks)
-    out["pr_curve"] = pr_curve(scores, ks).to_dict()
     head = [s.truth.heading_diff_deg for s in scores]
-    out["heading_bins"] = bin_table(scores, head, cfg.heading_bins_deg, ks, curve_stats)
-    out["heading_bins_fine"] = bin_table(
-        scores, head, fine_edges(cfg.heading_bins_deg, cfg.fine_heading_bin_deg), ks, curve_stats)
     amb = [s.truth.ambiguity for s in scores]
-    out["ambiguity_bins"] = bin_table(scores, amb, cfg.ambiguity_bins, ks, curve_stats)
-    out["n_ambiguity_unknown"] = int(np.sum(np.isnan(np.asarray(amb, dtype=float))))
-    out["by_kind"] = {
-        kind: curve_stats([s for s in scores if s.truth.kind == kind], ks) for kind in ("inter", "intra")
-    }
-    out["runtime_s"] = runtime_stats([s.runtime_s for s in scores])
-    out["n_failed"] = sum(1 for s in scores if s.reason is not None)
-    return out
+    return MethodMetrics(
+        overall=curve_stats(scores, ks),
+        pr_curve=pr_curve(scores, ks),
+        heading_bins=bin_table(scores, head, cfg.heading_bins_deg, ks, curve_stats),
+        heading_bins_fine=bin_table(scores, head, fine_edges(cfg.heading_bins_deg, cfg.fine_heading_bin_deg),
+                                    ks, curve_stats),
+        ambiguity_bins=bin_table(scores, amb, cfg.ambiguity_bins, ks, curve_stats),
+        n_ambiguity_unknown=int(np.sum(np.isnan(np.asarray(amb, dtype=float)))),
+        by_kind={kind: curve_stats([s for s in scores if s.truth.kind == kind], ks) for kind in ("inter", "intra")},
+        n_failed=sum(1 for s in scores if s.reason is not None),
+    )
 
 
-def summary(scores: list[PairScore], cfg: EvalConfig | None = None) -> dict[str, Any]:
-    """Per-method summary (JSON-ready; undefined metrics are ``None``, listed in ``notes``).
-
-    Returns:
-        ``{"config": ..., "n_pairs": ..., "n_relevant": ..., "methods": {name: {...}},
-        "notes": [...]}``; each method holds max recall, recall at precision 1, best F1
-        (and its k), AUC, the PR curve, coarse/fine heading bins, ambiguity bins, per-kind
-        numbers and runtime (median, mean, p90).
-    """
+def summary(scores: list[PairScore], cfg: EvalConfig | None = None) -> EvaluationMetrics:
+    """Per-method metrics of ``scores`` (undefined figures are ``None`` and explained in ``notes``)."""
     cfg = cfg or EvalConfig()
     methods = sorted({s.method for s in scores})
     by_method = {m: [s for s in scores if s.method == m] for m in methods}
-    out: dict[str, Any] = {
-        "config": cfg.model_dump(mode="json"),
-        "methods": {m: _method_summary(by_method[m], cfg) for m in methods},
-        "notes": [],
-    }
     pairs = {(s.truth.a, s.truth.b): s.truth.relevant for s in scores}
-    out["n_pairs"] = len(pairs)
-    out["n_relevant"] = sum(pairs.values())
+    out = EvaluationMetrics(
+        config=cfg.model_dump(mode="json"),
+        n_pairs=len(pairs),
+        n_relevant=sum(pairs.values()),
+        methods={m: _method_summary(by_method[m], cfg) for m in methods},
+    )
     if not scores:
-        out["notes"].append("no pairs were evaluated: no metric could be computed")
-    elif out["n_relevant"] == 0:
-        out["notes"].append("no relevant pairs (true centres within "
-                            f"{cfg.relevant_dist_m:g} m): recall, F1 and AUC could not be computed")
+        out.notes.append("no pairs were evaluated: no metric could be computed")
+    elif out.n_relevant == 0:
+        out.notes.append("no relevant pairs (true centres within "
+                         f"{cfg.relevant_dist_m:g} m): recall, F1 and AUC could not be computed")
     for m in methods:
-        s = out["methods"][m]
-        if out["n_relevant"] and not s["n_relevant"]:
-            out["notes"].append(f"{m}: evaluated on no relevant pair: its recall could not be computed")
-        if s["n_relevant"] and s["best_f1"] == 0.0:
-            out["notes"].append(f"{m}: no correct alignment of any relevant pair")
+        s = out.methods[m].overall
+        if out.n_relevant and not s.n_relevant:
+            out.notes.append(f"{m}: evaluated on no relevant pair: its recall could not be computed")
+        if s.n_relevant and s.best_f1 == 0.0:
+            out.notes.append(f"{m}: no correct alignment of any relevant pair")
     return out

@@ -1,7 +1,7 @@
 """Evaluation plots (matplotlib, Agg canvas only; no pyplot global state).
 
-Every plot is drawn from the JSON-ready ``metrics.summary`` dict (so a report can be
-re-plotted from ``metrics.json``), except the alignment drawings, which need the submaps.
+Every metric plot is drawn from the JSON form of ``EvaluationMetrics`` (what
+``metrics.json`` holds), except the alignment drawings, which need the submaps.
 Undefined values (``None``) are left out of lines and drawn as "n/a" on bar charts.
 PNGs are written atomically and without timestamps, so the same data gives the same bytes.
 """
@@ -22,6 +22,7 @@ from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_bytes
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.metrics import PairScore
+from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.geometry import transform_points
 from roman_sim.mapping.types import Submap
 
@@ -161,9 +162,10 @@ def plot_alignment(
     return save_png(fig, path)
 
 
-def write_metric_plots(metrics: dict[str, Any], plots_dir: str | Path) -> list[Path]:
+def write_metric_plots(evaluation: EvaluationMetrics, plots_dir: str | Path) -> list[Path]:
     """The standard metric plots into ``plots_dir``; returns their paths."""
     d = Path(plots_dir)
+    metrics = evaluation.to_json()
     return [
         plot_pr(metrics, d / "precision_recall.png"),
         plot_heading_recall(metrics, d / "recall_heading.png"),

@@ -1,8 +1,9 @@
 """``report.md``: the evaluation tables of one run, with links to its plots.
 
-Takes the ``metrics.summary`` dict, and optionally an ATE table and map statistics as
-plain dicts (computed elsewhere). Anything that could not be computed is written as
-"n/a" and explained in the notes, never as 0.
+Takes the ``EvaluationMetrics`` and optionally an ``AteTable`` and ``MapStats``. Anything
+that could not be computed is written as "n/a" and explained in the notes, never as 0.
+Wall-clock runtimes are not in the report (it is byte-identical between runs of one seed);
+they are in the run's ``timings.json``.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.core.atomic import write_text
+from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 
 log = logging.getLogger(__name__)
 
@@ -28,6 +30,7 @@ PLOT_CAPTIONS = {
     "alignment_correct.png": "A correct alignment",
     "alignment_wrong.png": "A wrong alignment",
     "map_view.png": "Segment maps (map view)",
+    "trajectories.png": "Trajectories: truth, odometry and the pose graph",
 }
 
 MAP_LABELS = {
@@ -49,25 +52,25 @@ def fmt(v: Any, digits: int = 3) -> str:
     return str(v)
 
 
-def format_summary_rows(metrics: dict[str, Any]) -> list[dict[str, str]]:
+def format_summary_rows(metrics: EvaluationMetrics) -> list[dict[str, str]]:
     """One row per method: column header -> cell text (same columns, in order, for each row).
 
     Columns: method, pairs, relevant, max recall, recall@P=1, best F1 (k), AUC, max recall
-    per coarse heading bin, median runtime.
+    per coarse heading bin.
     """
     rows = []
-    for name, m in metrics.get("methods", {}).items():
-        f1 = fmt(m.get("best_f1"))
-        if m.get("best_f1_k") is not None:
-            f1 += f" (k={m['best_f1_k']})"
+    for name, m in metrics.methods.items():
+        o = m.overall
+        f1 = fmt(o.best_f1)
+        if o.best_f1_k is not None:
+            f1 += f" (k={o.best_f1_k})"
         row = {
-            "method": name, "pairs": fmt(m.get("n_pairs")), "relevant": fmt(m.get("n_relevant")),
-            "max recall": fmt(m.get("max_recall")), "recall@P=1": fmt(m.get("recall_at_precision_1")),
-            "best F1": f1, "AUC": fmt(m.get("auc")),
+            "method": name, "pairs": fmt(o.n_pairs), "relevant": fmt(o.n_relevant),
+            "max recall": fmt(o.max_recall), "recall@P=1": fmt(o.recall_at_precision_1),
+            "best F1": f1, "AUC": fmt(o.auc),
         }
-        for b in m.get("heading_bins", []):
-            row[f"recall {b['label']} deg"] = fmt(b.get("max_recall"))
-        row["median runtime (s)"] = fmt((m.get("runtime_s") or {}).get("median"), 4)
+        for b in m.heading_bins:
+            row[f"recall {b.label} deg"] = fmt(b.stats.max_recall)
         rows.append(row)
     return rows
 
@@ -82,48 +85,35 @@ def markdown_table(rows: list[dict[str, str]]) -> list[str]:
     return out
 
 
-def _bin_rows(metrics: dict[str, Any], table: str) -> list[dict[str, str]]:
+def _bin_rows(metrics: EvaluationMetrics, table: str) -> list[dict[str, str]]:
     rows = []
-    for name, m in metrics.get("methods", {}).items():
+    for name, m in metrics.methods.items():
         row = {"method": name}
-        for b in m.get(table, []):
-            row[b["label"]] = f"{fmt(b.get('max_recall'), 2)} ({b.get('n_relevant', 0)})"
+        for b in getattr(m, table):
+            row[b.label] = f"{fmt(b.stats.max_recall, 2)} ({b.stats.n_relevant})"
         rows.append(row)
     return rows
 
 
-def _flatten(value: Any, prefix: str = "") -> dict[str, Any]:
-    """Nested ATE dicts to ``{"se3/all": rmse, ...}``; a dict with ``rmse_m`` is a leaf."""
-    if hasattr(value, "to_dict"):  # e.g. an ``AteResult``
-        value = value.to_dict()
-    if isinstance(value, dict) and "rmse_m" not in value:
-        out: dict[str, Any] = {}
-        for k, v in value.items():
-            out.update(_flatten(v, f"{prefix}/{k}" if prefix else str(k)))
-        return out
-    leaf = value.get("rmse_m") if isinstance(value, dict) else value
-    return {prefix or "ATE RMSE (m)": leaf}
-
-
-def ate_rows(ate_table: dict[str, Any]) -> list[dict[str, str]]:
-    """Rows ``variant -> cells`` of an ATE table (values in metres; nested dicts flattened)."""
-    flat = {variant: _flatten(v) for variant, v in ate_table.items()}
+def ate_rows(ate: AteTable) -> list[dict[str, str]]:
+    """Rows ``variant -> cells`` (``se3/all``, ``se3/a``, ...), in the table's variant order."""
     cols: list[str] = []
-    for cells in flat.values():
-        cols += [c for c in cells if c not in cols]
-    return [{"trajectory": variant, **{c: fmt(cells.get(c)) for c in cols}} for variant, cells in flat.items()]
+    cells: dict[str, dict[str, float | None]] = {}
+    for variant, per in ate.variants.items():
+        cells[variant] = {f"{al}/{robot}": v for al, rob in per.items() for robot, v in rob.items()}
+        cols += [c for c in cells[variant] if c not in cols]
+    return [{"trajectory": v, **{c: fmt(cells[v].get(c)) for c in cols}} for v in ate.variants]
 
 
-def _notes(metrics: dict[str, Any], ate_table: dict[str, Any] | None, notes: list[str]) -> list[str]:
-    out = list(metrics.get("notes", [])) + list(notes)
-    if ate_table is not None and any(fmt(v) == NA for v in _flatten(ate_table).values()):
+def _notes(metrics: EvaluationMetrics, ate: AteTable | None, notes: list[str]) -> list[str]:
+    out = list(dict.fromkeys(list(metrics.notes) + list(notes)))
+    if ate is not None and any(v is None for per in ate.variants.values() for rob in per.values() for v in rob.values()):
         out.append("some trajectory errors could not be computed (n/a in the ATE table)")
     return out
 
 
-def _section_alignment(metrics: dict[str, Any]) -> list[str]:
-    lines = ["## Alignment", "",
-             f"Pairs: {metrics.get('n_pairs', 0)}, relevant: {metrics.get('n_relevant', 0)}.", ""]
+def _section_alignment(metrics: EvaluationMetrics) -> list[str]:
+    lines = ["## Alignment", "", f"Pairs: {metrics.n_pairs}, relevant: {metrics.n_relevant}.", ""]
     rows = format_summary_rows(metrics)
     if not rows:
         return lines + ["No method was evaluated.", ""]
@@ -139,36 +129,36 @@ def _section_table(title: str, rows: list[dict[str, str]] | None, missing: str) 
     return [f"## {title}", "", *markdown_table(rows), ""]
 
 
-def _section_plots(out_dir: Path) -> list[str]:
-    plots = sorted((out_dir / "plots").glob("*.png")) if (out_dir / "plots").is_dir() else []
+def _section_plots(plots: list[str]) -> list[str]:
     if not plots:
         return ["## Plots", "", "No plots were written.", ""]
     lines = ["## Plots", ""]
-    for p in plots:
-        caption = PLOT_CAPTIONS.get(p.name, p.stem.replace("_", " "))
-        lines += [f"![{caption}](plots/{p.name})", ""]
+    for p in sorted(plots):
+        name = Path(p).name
+        caption = PLOT_CAPTIONS.get(name, Path(p).stem.replace("_", " "))
+        lines += [f"![{caption}]({p})", ""]
     return lines
 
 
 def write_report(
     out_dir: str | Path,
     scenario_name: str,
-    metrics: dict[str, Any],
-    ate_table: dict[str, Any] | None = None,
-    map_stats: dict[str, Any] | None = None,
+    metrics: EvaluationMetrics,
+    ate_table: AteTable | None = None,
+    map_stats: MapStats | None = None,
     notes: list[str] | None = None,
+    plots: list[str] | None = None,
 ) -> Path:
     """Write ``out_dir/report.md`` and return its path.
 
     Args:
-        out_dir: the run folder (plots are looked up in ``out_dir/plots``).
+        out_dir: the run folder.
         scenario_name: shown in the title.
-        metrics: ``metrics.summary`` output (or ``metrics.json`` read back).
-        ate_table: ``{variant: value}`` with variant e.g. odometry / roman / oracle and value
-            an RMSE in metres, None, or a (nested) dict of those, of ``{"rmse_m": ...}`` or of
-            objects with ``to_dict()`` giving one.
-        map_stats: e.g. ``{"segments", "submaps", "kb_per_submap", "mb_per_km"}``.
+        metrics: the evaluation's metrics.
+        ate_table: ATE RMSE per pose-graph variant (odometry, the method, oracle, ...).
+        map_stats: map and packet sizes.
         notes: statements to show (no loop closures, a robot never connected, ...).
+        plots: plot files to show, relative to ``out_dir`` (e.g. ``plots/recall_heading.png``).
     """
     out = Path(out_dir)
     lines = [f"# Evaluation report: {scenario_name}", ""]
@@ -176,12 +166,13 @@ def write_report(
     if all_notes:
         lines += ["## Notes", "", *[f"- {n}" for n in all_notes], ""]
     lines += _section_alignment(metrics)
-    lines += [f"Values shown as {NA} could not be computed. Bin cells: max recall (relevant pairs).", ""]
+    lines += [f"Values shown as {NA} could not be computed. Bin cells: max recall (relevant pairs). "
+              "Runtimes per pair and per stage: timings.json.", ""]
     lines += _section_table("Trajectory error (ATE RMSE, m)", ate_rows(ate_table) if ate_table else None,
                             "No trajectory error was computed for this run.")
-    map_rows = [{"quantity": MAP_LABELS.get(k, k), "value": fmt(v)} for k, v in (map_stats or {}).items()]
+    map_rows = [{"quantity": MAP_LABELS.get(k, k), "value": fmt(v)} for k, v in (map_stats.to_json() if map_stats else {}).items()]
     lines += _section_table("Map size", map_rows, "No map statistics were given.")
-    lines += _section_plots(out)
+    lines += _section_plots(list(plots or []))
     path = out / REPORT_MD
     write_text(path, "\n".join(lines))
     log.info("wrote %s", path)

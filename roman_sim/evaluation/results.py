@@ -3,8 +3,9 @@
 ``pairs.csv`` holds one row per (pair, method) with the pair's truth and the method's
 outcome; empty cells are undefined values (NaN / no reason). The true relative pose is
 stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned.
-``metrics.json`` is the ``metrics.summary`` output plus a schema tag. Reading either file
-back raises ``StorageError`` when it is missing or corrupt.
+``metrics.json`` is ``EvaluationMetrics.to_json()``. Neither holds wall-clock runtimes (two
+runs of one seed give the same bytes); those are kept in ``timings.json``. Reading either
+file back raises ``StorageError`` when it is missing or corrupt.
 """
 
 from __future__ import annotations
@@ -23,19 +24,19 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.pairs import PairTruth
+from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.geometry import pose_4dof, yaw_of
 
 log = logging.getLogger(__name__)
 
 PAIRS_CSV = "pairs.csv"
 METRICS_JSON = "metrics.json"
-METRICS_SCHEMA = "roman_sim.metrics/1"
 
 PAIRS_FIELDS = [
     "a", "b", "robot_a", "robot_b", "index_a", "index_b", "kind",
     "center_dist_m", "heading_diff_deg", "overlap", "ambiguity", "relevant",
     "true_x_m", "true_y_m", "true_z_m", "true_yaw_rad",
-    "method", "n_assoc", "rot_err_deg", "trans_err_m", "correct", "runtime_s", "reason",
+    "method", "n_assoc", "rot_err_deg", "trans_err_m", "correct", "reason",
 ]
 
 
@@ -62,7 +63,7 @@ def _row(s: PairScore) -> dict[str, str]:
         "true_x_m": float(T[0, 3]), "true_y_m": float(T[1, 3]), "true_z_m": float(T[2, 3]),
         "true_yaw_rad": yaw_of(T), "method": s.method, "n_assoc": s.n_assoc,
         "rot_err_deg": s.rot_err_deg, "trans_err_m": s.trans_err_m, "correct": s.correct,
-        "runtime_s": s.runtime_s, "reason": s.reason,
+        "reason": s.reason,
     }
     return {k: _fmt(vals[k]) for k in PAIRS_FIELDS}
 
@@ -107,8 +108,7 @@ def _parse(r: dict[str, str]) -> PairScore:
         kind=r["kind"],  # type: ignore[arg-type]
     )
     return PairScore(truth, r["method"], int(r["n_assoc"]), _float(r["rot_err_deg"]),
-                     _float(r["trans_err_m"]), _bool(r["correct"]), _float(r["runtime_s"]),
-                     r["reason"] or None)
+                     _float(r["trans_err_m"]), _bool(r["correct"]), float("nan"), r["reason"] or None)
 
 
 def read_pairs_csv(path: str | Path) -> list[PairScore]:
@@ -137,29 +137,18 @@ def read_pairs_csv(path: str | Path) -> list[PairScore]:
     return out
 
 
-def _clean(obj: Any) -> Any:
-    """NaN -> None recursively, so the JSON is standard."""
-    if isinstance(obj, float) and math.isnan(obj):
-        return None
-    if isinstance(obj, dict):
-        return {k: _clean(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_clean(v) for v in obj]
-    return obj
-
-
-def write_metrics_json(path: str | Path, metrics: dict[str, Any]) -> Path:
-    """Atomically write ``metrics.json`` (a ``metrics.summary`` dict) with a schema tag."""
+def write_metrics_json(path: str | Path, metrics: EvaluationMetrics) -> Path:
+    """Atomically write ``metrics.json``."""
     path = Path(path)
-    write_json(path, _clean({**metrics, "schema": METRICS_SCHEMA}))
+    write_json(path, metrics.to_json())
     return path
 
 
-def read_metrics_json(path: str | Path) -> dict[str, Any]:
+def read_metrics_json(path: str | Path) -> EvaluationMetrics:
     """Read ``metrics.json``.
 
     Raises:
-        StorageError: missing, not JSON, wrong schema, or without per-method results.
+        StorageError: missing, not JSON, wrong schema, or malformed.
     """
     path = Path(path)
     try:
@@ -168,14 +157,10 @@ def read_metrics_json(path: str | Path) -> dict[str, Any]:
         raise StorageError(f"{path}: cannot read metrics ({err.__class__.__name__})") from None
     except json.JSONDecodeError as err:
         raise StorageError(f"{path}: corrupt metrics JSON (line {err.lineno}: {err.msg})") from None
-    if not isinstance(data, dict) or data.get("schema") != METRICS_SCHEMA:
-        raise StorageError(f"{path}: not a metrics file of schema {METRICS_SCHEMA}")
-    if not isinstance(data.get("methods"), dict):
-        raise StorageError(f"{path}: metrics file has no 'methods' table")
-    return data
+    return EvaluationMetrics.from_json(data, source=str(path))
 
 
-def write_evaluation(out_dir: str | Path, scores: list[PairScore], metrics: dict[str, Any]) -> dict[str, Path]:
+def write_evaluation(out_dir: str | Path, scores: list[PairScore], metrics: EvaluationMetrics) -> dict[str, Path]:
     """Write ``pairs.csv`` and ``metrics.json`` into ``out_dir``; returns their paths."""
     out = Path(out_dir)
     return {
@@ -184,7 +169,7 @@ def write_evaluation(out_dir: str | Path, scores: list[PairScore], metrics: dict
     }
 
 
-def read_evaluation(out_dir: str | Path) -> tuple[list[PairScore], dict[str, Any]]:
+def read_evaluation(out_dir: str | Path) -> tuple[list[PairScore], EvaluationMetrics]:
     """Read a run folder's ``pairs.csv`` and ``metrics.json`` (StorageError if either is bad)."""
     out = Path(out_dir)
     return read_pairs_csv(out / PAIRS_CSV), read_metrics_json(out / METRICS_JSON)

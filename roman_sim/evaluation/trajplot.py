@@ -21,6 +21,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from roman_sim.core.atomic import write_bytes
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.trajectory import Trajectory
 
 log = logging.getLogger(__name__)
 
@@ -40,15 +41,15 @@ LAYERS = {  # name -> line style of that trajectory layer
 
 
 def _positions(value: Any, name: str) -> F64:
-    """(N, 3) positions from ``(t, T (N,4,4))``, ``T (N,4,4)`` or ``xyz (N,3)``."""
-    if isinstance(value, tuple) and len(value) == 2:
-        value = value[1]
+    """(N, 3) positions from a ``Trajectory``, ``T (N,4,4)`` or ``xyz (N,3)``."""
+    if isinstance(value, Trajectory):
+        return value.positions
     arr = np.asarray(value, dtype=np.float64)
     if arr.ndim == 3 and arr.shape[1:] == (4, 4):
         return arr[:, :3, 3]
     if arr.ndim == 2 and arr.shape[1] == 3:
         return arr
-    raise EvaluationError(f"trajectory plot: {name} must be (t, T (N,4,4)), T (N,4,4) or xyz (N,3); got {arr.shape}")
+    raise EvaluationError(f"trajectory plot: {name} must be a Trajectory, T (N,4,4) or xyz (N,3); got {arr.shape}")
 
 
 def _robot_colours(robots: Sequence[str]) -> dict[str, Any]:
@@ -114,7 +115,7 @@ def plot_trajectories(
 
     Args:
         path_png: output file (written atomically).
-        truth, est, odom: robot -> ``(t, T (N,4,4))`` (or ``T`` or ``xyz (N,3)``), all in
+        truth, est, odom: robot -> ``Trajectory`` (or ``T (N,4,4)`` or ``xyz (N,3)``), all in
             the same frame (e.g. the world, or after alignment); ``est``/``odom`` optional.
         closures: ``(xyz_a, xyz_b, kind, correct)`` per closure line.
         title: figure title.

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.mapping.observation import observe
 from roman_sim.mapping.segment import Segment
 from roman_sim.mapping.segmenter import Segmenter
@@ -40,6 +41,16 @@ class SegmentMap:
 
     def __len__(self) -> int:
         return len(self.segments)
+
+    @property
+    def odometry(self) -> Trajectory:
+        """The odometry trajectory ``T_odom_body``."""
+        return Trajectory(self.times, self.T_odom_body)
+
+    @property
+    def truth(self) -> Trajectory | None:
+        """The true trajectory ``T_world_body`` (None without ground truth)."""
+        return None if self.T_world_body is None else Trajectory(self.times, self.T_world_body)
 
     @property
     def trajectory_length_m(self) -> float:

@@ -25,8 +25,7 @@ from roman_sim.mapping.segmenter import Mask
 from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Observation, is_plane_like
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sensors import backproject
-from roman_sim.sensors import Frame, check_frame
+from roman_sim.sensors import Frame, backproject, check_frame
 
 log = logging.getLogger(__name__)
 

@@ -20,9 +20,9 @@ from scipy import ndimage
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError
-from roman_sim.mapping.mask_noise import adjacent_pairs, noisy_boundary, spurious_blob, split_mask
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
+from roman_sim.mapping.mask_noise import adjacent_pairs, noisy_boundary, split_mask, spurious_blob
 from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)

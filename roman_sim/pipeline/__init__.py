@@ -1,1 +1,2 @@
-"""The stages of ``roman_sim.pipeline.experiment.Experiment`` (one module per group of stages)."""
+"""Orchestration: scenario, run context, stage table, experiment (orders, caches, times), results,
+sweeps and the reference results."""

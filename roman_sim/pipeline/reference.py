@@ -15,7 +15,6 @@ from typing import Any
 
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.evaluation.report import fmt
-from roman_sim.evaluation.summaries import compact_summary
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +33,8 @@ PAPER = {
     "ate_table": {"tunnel": (4.38, 4.20, 4.12), "hybrid": (5.83, 5.12, 4.77), "outdoor": (9.38, 8.77, 7.77)},
 }
 
-SMALL_FILES = ("metrics.json", "ate.json", "report.md", "config.yaml", "posegraph.json")
+SMALL_FILES = ("metrics.json", "ate.json", "report.md", "config.yaml", "posegraph.json", "map_stats.json",
+               "manifest.json", "timings.json")
 
 #: The sweep run with the paper's scenarios: recall against the ambiguity knob.
 AMBIGUITY_SWEEP = "sweeps/ambiguity_sweep.yaml"
@@ -58,7 +58,7 @@ def reproduce(
             on_start(name)
         res = Experiment(load_scenario(name), work / name, from_stage=from_stage).run()
         _collect(res.run_dir, out / name)
-        runs[name] = compact_summary(res.metrics, res.ate, res.map_stats)
+        runs[name] = res.metrics_summary()
     table = comparison(runs)
     sweep_rows: list[dict[str, Any]] = []
     if scenarios is None:

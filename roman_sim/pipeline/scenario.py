@@ -12,7 +12,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, validate_model
+from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
 from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
@@ -105,6 +105,10 @@ class Scenario(StrictModel):
     posegraph: PoseGraphConfig = Field(default_factory=PoseGraphConfig)
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
     record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
+
+    def config_hash(self) -> str:
+        """Hash of the resolved scenario (what a run folder's ``config.yaml`` holds)."""
+        return stable_hash(self.model_dump(mode="json"))
 
     @field_validator("aligners", mode="before")
     @classmethod

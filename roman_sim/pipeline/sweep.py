@@ -2,7 +2,7 @@
 
 A sweep file names a base scenario, a grid of dotted overrides and a list of seeds. Every
 combination becomes one run folder ``<out>/<run_id>/`` produced by the same pipeline as
-``roman-sim run``. Sweeps are resumable: a run whose ``metrics.json`` exists and whose
+``roman-sim run``. Sweeps are resumable: a run that completed (its manifest says so) and whose
 resolved configuration is unchanged is not run again. The collected figures go to
 ``<out>/sweep.csv`` (one row per run and method), written atomically.
 """
@@ -96,8 +96,15 @@ def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir:
         return {"ok": False, "error": str(err)}
 
 
-def _is_done(run_dir: Path) -> bool:
-    return (run_dir / "metrics.json").is_file()
+def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
+    """Whether the cell's run completed with exactly the cell's resolved configuration."""
+    from roman_sim.pipeline.manifest import existing_manifest
+    from roman_sim.pipeline.scenario import load_scenario
+
+    man = existing_manifest(run_dir)
+    if man is None or not man.complete:
+        return False
+    return man.config_hash == load_scenario(scenario_path, list(overrides) + [f"seed={seed}"]).config_hash()
 
 
 def run_sweep(
@@ -108,7 +115,7 @@ def run_sweep(
 ) -> Path:
     """Run (or resume) every job of the sweep; returns the path of ``sweep.csv``."""
     runs = expand(cfg)
-    todo = [r for r in runs if not _is_done(out_dir / r.run_id)]
+    todo = [r for r in runs if not _is_done(out_dir / r.run_id, str(scenario_path), r.overrides, r.seed)]
     log.info("sweep %s: %d runs, %d to do", cfg.name, len(runs), len(todo))
     args = [(str(scenario_path), r.overrides, r.seed, str(out_dir / r.run_id)) for r in todo]
     outcomes: dict[str, dict[str, Any]] = {}
@@ -163,23 +170,23 @@ def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[d
 
 
 def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, str] | None = None) -> Path:
-    """Collect each run's ``metrics.json`` into ``sweep.csv`` (one row per run and method)."""
+    """Collect each finished run into ``sweep.csv`` (one row per run and method)."""
+    from roman_sim.pipeline.result import RunResult
+
     failures = failures or {}
     rows: list[dict[str, Any]] = []
     for r in runs:
         base = {"run_id": r.run_id, "seed": r.seed, **r.params}
-        mpath = out_dir / r.run_id / "metrics.json"
-        if not mpath.is_file():
-            rows.append({**base, "status": "failed" if r.run_id in failures else "missing",
-                         "error": failures.get(r.run_id, "")})
+        if r.run_id in failures:
+            rows.append({**base, "status": "failed", "error": failures[r.run_id]})
             continue
         try:
-            metrics = json.loads(mpath.read_text())
-        except (OSError, json.JSONDecodeError) as err:
-            rows.append({**base, "status": "corrupt", "error": str(err)})
+            summary = RunResult.load(out_dir / r.run_id).metrics_summary()
+        except RomanSimError as err:
+            rows.append({**base, "status": "missing", "error": str(err)})
             continue
-        for method, m in sorted(metrics.get("methods", {}).items()):
-            rows.append({**base, "status": "ok", "method": method, **_flatten(m.get("overall", m))})
+        for method, m in sorted(summary["methods"].items()):
+            rows.append({**base, "status": "ok", "method": method, **_flatten(m)})
     cols: list[str] = []
     for row in rows:
         cols.extend(k for k in row if k not in cols)

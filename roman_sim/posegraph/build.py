@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.geometry import inv_T
 
 if TYPE_CHECKING:
@@ -65,17 +66,15 @@ def _sigmas(sigma_m: float, sigma_deg: float) -> gtsam.noiseModel.Diagonal:
     return gtsam.noiseModel.Diagonal.Sigmas(np.array([r, r, r, sigma_m, sigma_m, sigma_m]))
 
 
-def _check_trajectory(robot: str, t: object, T: object) -> tuple[F64, F64]:
-    t = np.asarray(t, dtype=np.float64)
-    T = np.asarray(T, dtype=np.float64)
-    if t.ndim != 1 or len(t) == 0 or T.shape != (len(t), 4, 4):
-        raise EvaluationError(f"trajectory {robot!r}: expected t (N,) and T (N,4,4) with N >= 1, "
-                              f"got {t.shape} and {T.shape}")
-    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(T))):
-        raise EvaluationError(f"trajectory {robot!r}: contains NaN or inf")
-    if np.any(np.diff(t) <= 0):
+def _check_trajectory(robot: str, traj: object) -> tuple[F64, F64]:
+    """Times and poses of a robot's odometry (a ``Trajectory`` with >= 1 pose, strictly increasing times)."""
+    if not isinstance(traj, Trajectory):
+        raise EvaluationError(f"trajectory {robot!r}: expected a Trajectory, got {type(traj).__name__}")
+    if len(traj) == 0:
+        raise EvaluationError(f"trajectory {robot!r}: no poses")
+    if np.any(np.diff(traj.t) <= 0):
         raise EvaluationError(f"trajectory {robot!r}: timestamps must be strictly increasing")
-    return t, T
+    return traj.t, traj.T
 
 
 def _keyframe_indices(T: F64, node_idx: NDArray[np.int64], spacing_m: float) -> NDArray[np.int64]:
@@ -104,8 +103,8 @@ def _chains(
     """Keyframe chains with odometry factors; maps (robot, submap) -> (chain position, T_kf_submap)."""
     chains, anchors, odom_factors = {}, {}, []
     key = 0
-    for robot, (t_raw, T_raw) in trajectories.items():
-        t, T = _check_trajectory(robot, t_raw, T_raw)
+    for robot, traj in trajectories.items():
+        t, T = _check_trajectory(robot, traj)
         nodes = submap_nodes.get(robot, [])
         sample = _submap_samples(robot, t, nodes)
         idx = _keyframe_indices(T, sample, cfg.keyframe_spacing_m)

@@ -44,8 +44,8 @@ def build_and_solve(
     """Build the multi-robot pose graph and solve it with GNC.
 
     Args:
-        trajectories: robot -> (t (N,), T_odom_body (N,4,4)) full-rate odometry; the first
-            robot's odometry frame becomes the common frame.
+        trajectories: robot -> full-rate odometry ``T_odom_body``; the first robot's odometry
+            frame becomes the common frame.
         submap_nodes: robot -> [(t, T_odom_submap)] submap centres (list position = index).
         closures: measured loop closures; those with fewer than ``lc_association_thresh``
             associations are ignored.
@@ -121,13 +121,13 @@ def _collect(
     connected: dict[str, Trajectory] = {}
     loose: dict[str, Trajectory] = {}
     keyframes: dict[str, Trajectory] = {}
-    for robot, (t, T_odom) in trajectories.items():
+    for robot, odom in trajectories.items():
         chain = parts.chains[robot]
         T_kf = np.stack([values.atPose3(k).matrix() for k in chain.keys])
-        keyframes[robot] = (np.asarray(t)[chain.idx], T_kf)
-        est = _apply_corrections(np.asarray(T_odom, dtype=np.float64), chain.idx, chain.T_odom_kf, T_kf)
+        keyframes[robot] = Trajectory(odom.t[chain.idx], T_kf)
+        est = _apply_corrections(odom.T, chain.idx, chain.T_odom_kf, T_kf)
         target = connected if parts.root[robot] == parts.first else loose
-        target[robot] = (np.asarray(t, dtype=np.float64), est)
+        target[robot] = Trajectory(odom.t, est)
     closure_weights: list[float | None] = [None] * n_closures
     for ci, fi in parts.closure_factor.items():
         closure_weights[ci] = float(weights[fi])

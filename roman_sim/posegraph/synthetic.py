@@ -17,9 +17,10 @@ from pydantic import Field
 from scipy.spatial import cKDTree
 
 from roman_sim.core.config import StrictModel
+from roman_sim.core.seeding import child_rng
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.geometry import gravity_aligned, inv_T, make_T, pose_4dof, pose_error, rot_z, rpy_to_R
 from roman_sim.posegraph.types import LoopClosure
-from roman_sim.core.seeding import child_rng
 
 F64 = NDArray[np.float64]
 
@@ -49,8 +50,8 @@ class SyntheticGraph:
     """A scenario: truth, drifting odometry, submap centres and closures.
 
     Attributes:
-        truth: robot -> (t (N,), T_world_body (N,4,4)).
-        odom: robot -> (t (N,), T_odom_body (N,4,4)); odometry frame = gravity-aligned start.
+        truth: robot -> true ``T_world_body`` trajectory.
+        odom: robot -> drifting ``T_odom_body`` trajectory; odometry frame = gravity-aligned start.
         T_world_odom: robot -> 4x4 true pose of its odometry frame.
         submap_nodes: robot -> [(t, T_odom_submap)].
         T_world_submap: robot -> (M,4,4) true gravity-aligned submap poses.
@@ -58,8 +59,8 @@ class SyntheticGraph:
         closure_true: per closure, whether it is a correct measurement.
     """
 
-    truth: dict[str, tuple[F64, F64]]
-    odom: dict[str, tuple[F64, F64]]
+    truth: dict[str, Trajectory]
+    odom: dict[str, Trajectory]
     T_world_odom: dict[str, F64]
     submap_nodes: dict[str, list[tuple[float, F64]]]
     T_world_submap: dict[str, F64]
@@ -166,7 +167,7 @@ def synthetic_scenario(seed: int, cfg: SyntheticGraphConfig | None = None) -> Sy
         T_true = _true_path(cfg, r)
         t = np.arange(len(T_true)) * cfg.step_m / cfg.speed_mps
         T_wo[name], T_odom = _drift(cfg, T_true, child_rng(seed, "posegraph_synthetic", "drift", name))
-        truth[name], odom[name] = (t, T_true), (t, T_odom)
+        truth[name], odom[name] = Trajectory(t, T_true), Trajectory(t, T_odom)
         idx = _submap_index(cfg, len(t))
         nodes[name] = [(float(t[i]), gravity_aligned(T_odom[i])) for i in idx]
         T_ws[name] = np.stack([gravity_aligned(T_true[i]) for i in idx])

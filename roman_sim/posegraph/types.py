@@ -10,9 +10,9 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from roman_sim.core.config import StrictModel
+from roman_sim.core.trajectory import Trajectory
 
 F64 = NDArray[np.float64]
-Trajectory = tuple[F64, F64]  # times (N,), poses (N, 4, 4)
 
 
 class PoseGraphConfig(StrictModel):
@@ -69,15 +69,15 @@ class PoseGraphResult:
     """Outcome of ``build_and_solve``.
 
     Attributes:
-        trajectories: robot -> (t (N,), T (N,4,4)) in the first robot's odometry frame,
-            for the robots connected to the first robot.
+        trajectories: robot -> trajectory in the first robot's odometry frame, for the
+            robots connected to the first robot.
         unconnected: robots no inter-robot closure chain ties to the first robot.
         unconnected_trajectories: their optimized trajectories, each expressed in the
             odometry frame of the first robot of its own connected group.
         closure_weights: per input closure, the GNC inlier weight (about 1 inlier, about 0
             outlier), or None when the closure was not used (below the association
             threshold or degenerate).
-        keyframes: robot -> (t_kf (K,), T_kf (K,4,4)) optimized keyframes (same frames).
+        keyframes: robot -> optimized keyframes (same frames).
         runtime_s: wall time of building and solving.
     """
 

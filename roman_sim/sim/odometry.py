@@ -36,8 +36,8 @@ from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import SimError
-from roman_sim.geometry import R_to_rpy, gravity_aligned, inv_T, make_T, rot_x, rot_y, rot_z, yaw_of
 from roman_sim.core.registry import Registry
+from roman_sim.geometry import R_to_rpy, gravity_aligned, inv_T, make_T, rot_x, rot_y, rot_z, yaw_of
 
 log = logging.getLogger(__name__)
 

@@ -32,8 +32,9 @@ import numpy as np
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import RecordingError
-from roman_sim.sensors import Frame, FrameTruth, Intrinsics
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import write_tum
+from roman_sim.sensors import Frame, FrameTruth, Intrinsics
 
 log = logging.getLogger(__name__)
 
@@ -159,8 +160,8 @@ def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, extra: dict
         raise RecordingError("recording: no frames to write")
     if buf:
         flush()
-    write_tum(tmp / "traj_true.tum", t, T_true)
-    write_tum(tmp / "traj_odom.tum", t, T_odom)
+    write_tum(tmp / "traj_true.tum", Trajectory(t, np.asarray(T_true).reshape(-1, 4, 4)))
+    write_tum(tmp / "traj_odom.tum", Trajectory(t, np.asarray(T_odom).reshape(-1, 4, 4)))
     write_json(tmp / "meta.json", _meta(first, len(t), chunks, extra))
 
 

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import SimError
-from roman_sim.sim.camera import CameraConfig
 from roman_sim.sensors import Intrinsics
+from roman_sim.sim.camera import CameraConfig
 
 log = logging.getLogger(__name__)
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -19,8 +19,9 @@ from pydantic import Field, field_validator
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import SimError
 from roman_sim.core.seeding import child_rng
-from roman_sim.sim.camera import CameraConfig
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.sensors import Frame, FrameTruth
+from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PathFollower, PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, DriftModel, resolve_drift
@@ -116,22 +117,45 @@ def _check_driven_clearance(world: Any, cfg: RobotConfig, T_wb: NDArray[np.float
         log.warning("robot %s: came %.2f m close to an object (clearance %.2f m)", cfg.name, clear[i], cfg.path.clearance_m)
 
 
-Trajectory = tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]
+class DrivenRun(NamedTuple):
+    """A robot's scripted run (unpacks as ``t, T_world_body, T_odom_body``).
+
+    Attributes:
+        t: (N,) times (s).
+        T_world_body: (N, 4, 4) true poses.
+        T_odom_body: (N, 4, 4) drifted odometry poses.
+    """
+
+    t: NDArray[np.float64]
+    T_world_body: NDArray[np.float64]
+    T_odom_body: NDArray[np.float64]
+
+    @property
+    def truth(self) -> Trajectory:
+        """The true trajectory."""
+        return Trajectory(self.t, self.T_world_body)
+
+    @property
+    def odom(self) -> Trajectory:
+        """The odometry trajectory."""
+        return Trajectory(self.t, self.T_odom_body)
+
+
 
 
 def robot_trajectory(
     world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
-) -> Trajectory:
+) -> DrivenRun:
     """Times (N,), true ``T_world_body`` (N, 4, 4) and drifted ``T_odom_body`` (N, 4, 4); no rendering."""
     return trajectory_along(world, cfg, seed, robot_path(world, cfg, seed, paths_by_name))
 
 
-def trajectory_along(world: Any, cfg: RobotConfig, seed: int, path: Path2D) -> Trajectory:
+def trajectory_along(world: Any, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
     """``robot_trajectory`` for an already planned ``path`` (e.g. from ``plan_paths``)."""
     t, T_wb = drive(world, cfg, path)
     _check_driven_clearance(world, cfg, T_wb)
     drift = DriftModel(cfg.drift_config(), child_rng(seed, "drift", cfg.name))
-    return t, T_wb, np.stack([drift.step(T) for T in T_wb])
+    return DrivenRun(t, T_wb, np.stack([drift.step(T) for T in T_wb]))
 
 
 def simulate_robot(
@@ -144,7 +168,7 @@ def simulate_robot(
     yield from render_trajectory(world, cfg, seed, robot_trajectory(world, cfg, seed, paths_by_name))
 
 
-def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: Trajectory) -> Iterator[Frame]:
+def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: DrivenRun) -> Iterator[Frame]:
     """Rendered ``Frame`` objects along a trajectory from ``robot_trajectory`` / ``trajectory_along``."""
     from roman_sim.sim.render import SensorRenderer  # the renderer needs an OpenGL context
 

@@ -11,6 +11,7 @@ from roman_sim.core.config import StrictModel, apply_overrides, load_model, vali
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.registry import Registry, import_object
 from roman_sim.core.seeding import child_rng
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.geometry import make_T, rpy_to_R
 
@@ -94,9 +95,15 @@ def test_atomic_write_leaves_no_partial_file(tmp_path):
 
 def test_tum_round_trip_and_errors(tmp_path):
     T = np.stack([make_T(rpy_to_R(0.1 * k, -0.2, k), [k, 2, 3]) for k in range(4)])
-    write_tum(tmp_path / "a.tum", np.arange(4) / 6, T)
-    t, T2 = read_tum(tmp_path / "a.tum")
-    assert np.allclose(t, np.arange(4) / 6) and np.allclose(T, T2, atol=1e-8)
+    write_tum(tmp_path / "a.tum", Trajectory(np.arange(4) / 6, T))
+    back = read_tum(tmp_path / "a.tum")
+    assert np.allclose(back.t, np.arange(4) / 6) and np.allclose(T, back.T, atol=1e-8)
+    (tmp_path / "nan.tum").write_text("0 nan 0 0 0 0 0 1\n")
+    with pytest.raises(StorageError, match="non-finite"):
+        read_tum(tmp_path / "nan.tum")
+    (tmp_path / "back.tum").write_text("1 0 0 0 0 0 0 1\n0 0 0 0 0 0 0 1\n")
+    with pytest.raises(StorageError, match="backwards"):
+        read_tum(tmp_path / "back.tum")
     (tmp_path / "bad.tum").write_text("0 1 2\n")
     with pytest.raises(StorageError, match="expected 8 values"):
         read_tum(tmp_path / "bad.tum")

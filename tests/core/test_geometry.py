@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from roman_sim import geometry as g
 
@@ -88,3 +89,12 @@ def test_voxel_downsample_means_per_voxel():
 def test_wrap_angle():
     assert np.isclose(g.wrap_angle(3 * np.pi), np.pi)
     assert np.isclose(g.wrap_angle(-np.pi / 2), -np.pi / 2)
+
+
+@pytest.mark.parametrize("angle", [0.0, 1e-12, 3e-9, 1e-6, 0.3, 1.0, np.pi / 2, 3.0, np.pi - 1e-9, np.pi])
+def test_rotation_angle_is_accurate_over_the_whole_range(angle):
+    """Relative accuracy near 0 (arccos of the trace has a floor near 1.5e-8 rad) and near pi."""
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    R = Rotation.from_rotvec(angle * axis).as_matrix()
+    assert g.rotation_angle(R) == pytest.approx(angle, rel=1e-6, abs=1e-15)
+    assert g.pose_error(g.make_T(R, [1, 2, 3]), g.make_T(t=[1, 2, 3]))[0] == pytest.approx(angle, rel=1e-6, abs=1e-15)

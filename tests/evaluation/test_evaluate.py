@@ -44,14 +44,15 @@ def test_evaluate_and_save(make_submap, tmp_path):
     assert not ident.saw_truth
     # pairs: a0-b0, a0-b1, a0-b2, b0-b2 (b0-b1 and b1-b2 are time neighbours)
     assert [(t.a, t.b) for t in ev.truths] == [("a/0", "b/0"), ("a/0", "b/1"), ("a/0", "b/2"), ("b/0", "b/2")]
-    m = ev.metrics["methods"]
-    assert m["identity"]["n_relevant"] == 2 and m["identity"]["max_recall"] == 0.5
-    assert m["never"]["max_recall"] == 0.0 and m["never"]["n_failed"] == 4
+    m = ev.metrics.methods
+    assert m["identity"].overall.n_relevant == 2 and m["identity"].overall.max_recall == 0.5
+    assert m["never"].overall.max_recall == 0.0 and m["never"].n_failed == 4
     paths = save_evaluation(tmp_path, ev, subs)
     assert {"pairs", "metrics", "precision_recall", "alignment_correct", "alignment_wrong", "map_view"} <= set(paths)
     scores, metrics = read_evaluation(tmp_path)
-    assert len(scores) == 8 and metrics["methods"]["identity"]["max_recall"] == 0.5
-    text = write_report(tmp_path, "hand", metrics, notes=ev.notes).read_text()
+    assert len(scores) == 8 and metrics.figure("identity") == 0.5
+    plots = [p.relative_to(tmp_path).as_posix() for k, p in paths.items() if p.suffix == ".png"]
+    text = write_report(tmp_path, "hand", metrics, notes=ev.notes, plots=plots).read_text()
     assert "| identity | 4 | 2 | 0.500 |" in text and "plots/map_view.png" in text
 
 
@@ -72,5 +73,5 @@ def test_roman_aligner_on_a_synthetic_pair_is_scored_correct():
     roman = next(s for s in ev.scores if s.method == "roman")
     assert roman.truth.relevant and roman.truth.kind == "inter"
     assert roman.correct and roman.n_assoc >= 10
-    assert ev.metrics["methods"]["roman"]["max_recall"] == 1.0
-    assert ev.metrics["methods"]["never"]["max_recall"] == 0.0
+    assert ev.metrics.figure("roman") == 1.0
+    assert ev.metrics.figure("never") == 0.0

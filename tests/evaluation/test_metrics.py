@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -37,9 +38,9 @@ def test_pr_curve_hand_counts(six):
 
 
 def test_summary_headlines_over_full_sweep(six):
-    s = summary(six)["methods"]["m"]
+    s = summary(six).to_json()["methods"]["m"]
     assert s["n_pairs"] == 6 and s["n_relevant"] == 4
-    assert s["max_recall"] == pytest.approx(0.5)
+    assert s["max_recall"] == pytest.approx(0.5) and s["max_hits"] == 2
     assert s["recall_at_precision_1"] == pytest.approx(0.25)
     # k = 4..5: positives {10, 5, 8}: P = 2/3, R = 1/2
     assert s["best_f1"] == pytest.approx(4 / 7) and s["best_f1_k"] == 4
@@ -50,26 +51,26 @@ def test_summary_headlines_over_full_sweep(six):
 
 def test_recall_at_precision_one_is_zero_when_never_reached(make_score):
     scores = [make_score("0", True, 5, True), make_score("1", False, 5, False)]
-    s = summary(scores)["methods"]["m"]
+    s = summary(scores).to_json()["methods"]["m"]
     assert s["recall_at_precision_1"] == 0.0 and s["max_recall"] == 1.0
 
 
 def test_undefined_metrics_are_none_not_zero(make_score):
     scores = [make_score("0", False, 5, False), make_score("1", False, 0, False)]
-    out = summary(scores)
+    out = summary(scores).to_json()
     s = out["methods"]["m"]
     for key in ("max_recall", "recall_at_precision_1", "auc", "best_f1"):
         assert s[key] is None, key
     assert any("no relevant pairs" in n for n in out["notes"])
     assert all(v is None for v in s["pr_curve"]["recall"])
-    empty = summary([])
+    empty = summary([]).to_json()
     assert empty["methods"] == {} and empty["notes"]
 
 
 def test_heading_bins_at_boundaries(make_score):
     heads = [0.0, 59.999, 60.0, 120.0, 180.0, 90.0]
     scores = [make_score(str(i), True, 5, i % 2 == 0, heading=h) for i, h in enumerate(heads)]
-    s = summary(scores)["methods"]["m"]
+    s = summary(scores).to_json()["methods"]["m"]
     coarse = {b["label"]: (b["n_pairs"], b["max_recall"]) for b in s["heading_bins"]}
     # 0, 59.999 -> 0-60; 60, 90 -> 60-120; 120, 180 -> 120-180
     assert coarse == {"0-60": (2, 0.5), "60-120": (2, 0.5), "120-180": (2, 0.5)}
@@ -82,7 +83,7 @@ def test_heading_bins_at_boundaries(make_score):
 def test_ambiguity_bins_skip_unknown_and_empty_bins_are_none(make_score):
     scores = [make_score("0", True, 5, True, ambiguity=0.1), make_score("1", True, 5, False, ambiguity=1.0),
               make_score("2", True, 5, True)]
-    s = summary(scores)["methods"]["m"]
+    s = summary(scores).to_json()["methods"]["m"]
     bins = s["ambiguity_bins"]
     assert [b["n_pairs"] for b in bins] == [1, 0, 0, 1]
     assert bins[0]["max_recall"] == 1.0 and bins[3]["max_recall"] == 0.0
@@ -90,11 +91,18 @@ def test_ambiguity_bins_skip_unknown_and_empty_bins_are_none(make_score):
     assert s["n_ambiguity_unknown"] == 1
 
 
-def test_runtime_stats_hand_values(make_score):
-    scores = [make_score(str(i), True, 5, True, runtime=r) for i, r in enumerate([1, 2, 3, 4, 10])]
-    rt = summary(scores)["methods"]["m"]["runtime_s"]
-    assert (rt["median"], rt["mean"], rt["p90"]) == pytest.approx((3.0, 4.0, 7.6))
+def test_runtime_stats_hand_values():
+    rt = runtime_stats([1, 2, 3, 4, 10, float("nan")])
+    assert rt["n"] == 5 and (rt["median"], rt["mean"], rt["p90"]) == pytest.approx((3.0, 4.0, 7.6))
     assert runtime_stats([])["median"] is None
+
+
+def test_summary_holds_no_wall_clock(make_score):
+    """Runtimes differ between runs of one seed: they are not part of the metrics."""
+    a = [make_score(str(i), True, 5, True, runtime=r) for i, r in enumerate([1, 2, 3])]
+    b = [make_score(str(i), True, 5, True, runtime=r) for i, r in enumerate([7, 8, 9])]
+    assert summary(a).to_json() == summary(b).to_json()
+    assert "runtime" not in json.dumps(summary(a).to_json())
 
 
 def test_score_pair_tolerances(make_truth, result_for):
@@ -130,8 +138,8 @@ def test_mixed_methods_and_config_errors(make_score):
 def test_summary_counts_distinct_pairs_across_methods(make_score):
     scores = [make_score("0", True, 5, True, method="x"), make_score("0", True, 5, True, method="y"),
               make_score("1", False, 5, False, method="y")]
-    out = summary(scores)
+    out = summary(scores).to_json()
     assert (out["n_pairs"], out["n_relevant"]) == (2, 1)
     only_irrelevant = summary([make_score("0", True, 5, True, method="x"),
                                make_score("1", False, 5, False, method="y")])
-    assert any(n.startswith("y: evaluated on no relevant pair") for n in only_irrelevant["notes"])
+    assert any(n.startswith("y: evaluated on no relevant pair") for n in only_irrelevant.notes)

@@ -37,7 +37,7 @@ def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
     assert [p.name for p in paths] == ["precision_recall.png", "recall_heading.png",
                                        "recall_heading_fine.png", "recall_ambiguity.png"]
     assert all(_is_png(p) for p in paths)
-    again = plot_heading_recall(metrics, tmp_path / "again.png")
+    again = plot_heading_recall(metrics.to_json(), tmp_path / "again.png")
     assert again.read_bytes() == paths[1].read_bytes()
 
 
@@ -46,7 +46,7 @@ def test_plots_with_undefined_metrics(make_score, tmp_path):
     assert all(_is_png(p) for p in write_metric_plots(m, tmp_path))
     assert all(_is_png(p) for p in write_metric_plots(summary([]), tmp_path / "empty"))
     with pytest.raises(EvaluationError, match="methods"):
-        write_metric_plots({"n_pairs": 3}, tmp_path)
+        plot_heading_recall({"n_pairs": 3}, tmp_path / "bad.png")
 
 
 def test_alignment_drawings(make_submap, result_for, tmp_path):

@@ -10,6 +10,7 @@ import pytest
 from roman_sim.align.base import AlignResult
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, EvaluationError
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import multi_robot_ate
 from roman_sim.geometry import inv_T, pose_4dof
 from roman_sim.mapping.types import Submap
@@ -28,7 +29,7 @@ NO_DRIFT = dict(drift_yaw_deg=0.0, drift_yaw_bias_deg=0.0, drift_xyz_m=0.0, drif
 
 def _odom_in_world(sc):
     """Odometry-only baseline: each robot placed with its true initial pose."""
-    return {r: (t, sc.T_world_odom[r] @ T) for r, (t, T) in sc.odom.items()}
+    return {r: tr.transformed(sc.T_world_odom[r]) for r, tr in sc.odom.items()}
 
 
 @pytest.fixture(scope="module")
@@ -68,10 +69,10 @@ def test_exact_inputs_give_truth_in_first_robot_frame():
     res = build_and_solve(sc.odom, sc.submap_nodes, sc.closures)
     assert res.unconnected == []
     T_o0_w = inv_T(sc.T_world_odom["robot0"])
-    for robot, (t, T_est) in res.trajectories.items():
-        t_true, T_true = sc.truth[robot]
-        np.testing.assert_array_equal(t, t_true)
-        np.testing.assert_allclose(T_est, T_o0_w @ T_true, atol=1e-4)
+    for robot, est in res.trajectories.items():
+        true = sc.truth[robot]
+        np.testing.assert_array_equal(est.t, true.t)
+        np.testing.assert_allclose(est.T, T_o0_w @ true.T, atol=1e-4)
 
 
 def test_unconnected_robot_is_reported():
@@ -80,8 +81,7 @@ def test_unconnected_robot_is_reported():
     res = build_and_solve(sc.odom, sc.submap_nodes, kept)
     assert res.unconnected == ["robot2"]
     assert set(res.trajectories) == {"robot0", "robot1"}
-    t, T = res.unconnected_trajectories["robot2"]
-    assert T.shape == (len(sc.odom["robot2"][0]), 4, 4)
+    assert res.unconnected_trajectories["robot2"].T.shape == (len(sc.odom["robot2"]), 4, 4)
     ate = multi_robot_ate(res.trajectories, sc.truth, "se3")
     assert ate["robot2"] is None and ate["all"] is not None
 
@@ -90,8 +90,8 @@ def test_no_closures_returns_odometry():
     sc = synthetic_scenario(4, SyntheticGraphConfig(n_robots=2, length_m=60, n_closures=0))
     res = build_and_solve(sc.odom, sc.submap_nodes, [])
     assert res.unconnected == ["robot1"]
-    np.testing.assert_allclose(res.trajectories["robot0"][1], sc.odom["robot0"][1], atol=1e-6)
-    np.testing.assert_allclose(res.unconnected_trajectories["robot1"][1], sc.odom["robot1"][1], atol=1e-6)
+    np.testing.assert_allclose(res.trajectories["robot0"].T, sc.odom["robot0"].T, atol=1e-6)
+    np.testing.assert_allclose(res.unconnected_trajectories["robot1"].T, sc.odom["robot1"].T, atol=1e-6)
 
 
 def test_weak_closures_are_not_used(drifting):
@@ -112,11 +112,13 @@ def test_bad_inputs_raise_clear_errors(drifting):
         build_and_solve(drifting.odom, drifting.submap_nodes, [replace(c, T_a_b=np.eye(3))])
     with pytest.raises(EvaluationError, match="sigma_m must be a positive"):
         build_and_solve(drifting.odom, drifting.submap_nodes, [replace(c, sigma_m=-1.0)])
-    t, T = drifting.odom["robot0"]
+    t, T = drifting.odom["robot0"].t, drifting.odom["robot0"].T
     with pytest.raises(EvaluationError, match="strictly increasing"):
-        build_and_solve({"robot0": (t[::-1], T)}, {}, [])
+        build_and_solve({"robot0": Trajectory(np.zeros(len(t)), T)}, {}, [])
+    with pytest.raises(EvaluationError, match="expected a Trajectory"):
+        build_and_solve({"robot0": (t, T)}, {}, [])  # type: ignore[dict-item]
     with pytest.raises(EvaluationError, match="outside the trajectory"):
-        build_and_solve({"robot0": (t, T)}, {"robot0": [(t[-1] + 100.0, np.eye(4))]}, [])
+        build_and_solve({"robot0": Trajectory(t, T)}, {"robot0": [(t[-1] + 100.0, np.eye(4))]}, [])
     with pytest.raises(EvaluationError, match="no trajectories"):
         build_and_solve({}, {}, [])
     with pytest.raises(ConfigError, match="gnc_loss"):
@@ -150,8 +152,8 @@ def test_synthetic_scenario_is_deterministic():
     cfg = SyntheticGraphConfig(n_robots=2, length_m=60, n_closures=6, outlier_fraction=0.5)
     a, b = synthetic_scenario(9, cfg), synthetic_scenario(9, cfg)
     for robot in a.odom:
-        np.testing.assert_array_equal(a.odom[robot][1], b.odom[robot][1])
+        np.testing.assert_array_equal(a.odom[robot].T, b.odom[robot].T)
     assert [c.T_a_b.tobytes() for c in a.closures] == [c.T_a_b.tobytes() for c in b.closures]
     assert a.closure_true == b.closure_true and sum(a.closure_true) == 3
     other = synthetic_scenario(10, cfg)
-    assert not np.array_equal(other.odom["robot0"][1], a.odom["robot0"][1])
+    assert not np.array_equal(other.odom["robot0"].T, a.odom["robot0"].T)

@@ -7,13 +7,14 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.trajplot import plot_trajectories
 from roman_sim.geometry import make_T
 
 
-def _traj(offset: float) -> tuple[np.ndarray, np.ndarray]:
+def _traj(offset: float) -> Trajectory:
     s = np.linspace(0, 2 * np.pi, 30)
-    return s, np.stack([make_T(t=[10 * np.cos(a) + offset, 10 * np.sin(a), 0]) for a in s])
+    return Trajectory(s, np.stack([make_T(t=[10 * np.cos(a) + offset, 10 * np.sin(a), 0]) for a in s]))
 
 
 def _count(img: np.ndarray, rgb: tuple[float, float, float], tol: float = 0.08) -> int:
@@ -28,7 +29,7 @@ TAB_BLUE = (0.122, 0.467, 0.706)
 def test_writes_png_with_closure_colours(tmp_path):
     truth = {"a": _traj(0.0), "b": _traj(25.0)}
     est = {"a": _traj(0.5)}
-    odom = {"b": _traj(24.0)[1][:, :3, 3]}  # plain xyz accepted
+    odom = {"b": _traj(24.0).positions}  # plain xyz accepted
     good = [([10, 0, 0], [15, 0, 0], "inter", True)]
     out = plot_trajectories(tmp_path / "plots" / "traj.png", truth, est, odom, good, title="t")
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from roman_sim.pipeline.experiment import Experiment, RunResult
+from roman_sim.pipeline.experiment import Experiment
+from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
 
 

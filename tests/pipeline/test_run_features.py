@@ -21,9 +21,10 @@ runner = CliRunner()
 
 def test_rerun_reuses_cached_stages(smoke_run):
     again = Experiment(load_scenario("smoke"), smoke_run.run_dir).run()
-    assert set(again.reused) == {"maps", "submaps", "evaluation", "posegraph"}
+    assert set(again.reused) == {"maps", "submaps", "evaluation", "posegraph", "report"}
     assert again.map_stats == smoke_run.map_stats
-    assert again.metrics["methods"].keys() == smoke_run.metrics["methods"].keys()
+    assert again.metrics.to_json() == smoke_run.metrics.to_json()
+    assert again.notes == smoke_run.notes
 
 
 def test_changed_aligners_recompute_only_evaluation(smoke_run, tmp_path):
@@ -33,13 +34,13 @@ def test_changed_aligners_recompute_only_evaluation(smoke_run, tmp_path):
     res = Experiment(sc, run_dir).run()
     assert {"maps", "submaps"} <= set(res.reused)
     assert "evaluation" not in res.reused
-    assert list(res.metrics["methods"]) == ["roman"]
+    assert list(res.metrics.methods) == ["roman"]
 
 
 def test_start_from_saved_submaps(smoke_run, tmp_path):
     res = Experiment(load_scenario("smoke"), tmp_path / "from_submaps",
                      submaps_dir=smoke_run.run_dir / "submaps").run()
-    assert res.metrics["methods"]["roman"]["n_relevant"] == smoke_run.metrics["methods"]["roman"]["n_relevant"]
+    assert res.metrics.figure("roman", key="n_relevant") == smoke_run.metrics.figure("roman", key="n_relevant")
     assert res.recall("roman") == smoke_run.recall("roman")
     assert any("pose graph skipped" in n for n in res.notes)
 
@@ -48,8 +49,8 @@ def test_user_aligner_runs_through_the_same_pipeline(smoke_run, monkeypatch, tmp
     monkeypatch.syspath_prepend(str(ROOT))
     shutil.copytree(smoke_run.run_dir, tmp_path / "byo" / "seed0")  # reuse the rendered stages
     run = run_scenario("smoke", aligners=["examples.mutual_nn_aligner:MutualNNAligner"], out=tmp_path / "byo")
-    assert "MutualNNAligner" in run.metrics["methods"]
-    assert {"roman", "clipper"} <= set(run.metrics["methods"])
+    assert "MutualNNAligner" in run.metrics.methods
+    assert {"roman", "clipper"} <= set(run.metrics.methods)
     assert "maps" in run.reused
     report = (run.run_dir / "report.md").read_text()
     assert "MutualNNAligner" in report
@@ -60,15 +61,22 @@ def test_user_aligner_runs_through_the_same_pipeline(smoke_run, monkeypatch, tmp
 
 def test_run_folder_contents(smoke_run):
     d = smoke_run.run_dir
-    for name in ("config.yaml", "metrics.json", "pairs.csv", "report.md", "ate.json", "stages.json"):
+    for name in ("config.yaml", "manifest.json", "metrics.json", "pairs.csv", "alignments.json", "report.md",
+                 "ate.json", "posegraph.json", "map_stats.json", "timings.json"):
         assert (d / name).is_file(), name
     for robot in ("a", "b"):
         for variant in ("truth", "odometry", "roman", "oracle"):
             assert (d / "trajectories" / f"{robot}.{variant}.tum").is_file()
     assert (d / "plots" / "trajectories.png").stat().st_size > 1000
     assert not list(d.rglob("*.tmp"))
-    stages = json.loads((d / "stages.json").read_text())
+    stages = json.loads((d / "timings.json").read_text())["stages"]
     assert stages["maps"]["seconds"] > 0 and stages["maps"]["peak_rss_mb"] > 0
+    assert stages["evaluation"]["alignment"]["roman"]["median"] > 0
+    manifest = json.loads((d / "manifest.json").read_text())
+    assert manifest["complete"] and sorted(manifest["stages"]) == ["evaluation", "maps", "posegraph", "report", "submaps"]
+    listed = {f for rec in manifest["stages"].values() for f in rec["files"]}
+    assert {"maps/a.npz", "maps/b.npz", "submaps/a.npz", "plots/trajectories.png", "report.md"} <= listed
+    assert all((d / f).is_file() for f in listed)
 
 
 def test_report_command_prints_summary(smoke_run):
@@ -133,7 +141,7 @@ def test_cli_missing_scenario_and_unwritable_out(tmp_path):
 
 def test_cli_report_on_missing_run(tmp_path):
     line = _one_line_error(runner.invoke(app, ["report", str(tmp_path)]))
-    assert "metrics.json" in line
+    assert "manifest.json" in line and "not a run folder" in line
 
 
 def test_list_scenarios_and_aligners():
@@ -165,7 +173,7 @@ def test_reproduce_collects_small_results(smoke_run, tmp_path):
     assert not (dest / "maps").exists()  # only small files are collected
     text = path.read_text()
     assert "map size (MB per km)" in text
-    assert f"{smoke_run.map_stats['mb_per_km']:.2f}" in text
+    assert f"{smoke_run.map_stats.mb_per_km:.2f}" in text
     assert "ROMAN max recall, same direction | 0.67 | n/a" in text  # not run here: not computable
 
 
@@ -182,8 +190,7 @@ def test_record_command_stores_readable_frames(tmp_path):
     frames = list(read_recording(out / "b"))
     assert len(frames) == info["frame_count"] > 5
     assert frames[0].depth.shape == (120, 160) and frames[0].robot == "b"
-    t, T = read_tum(out / "b" / "traj_odom.tum")
-    assert len(t) == len(frames)
+    assert len(read_tum(out / "b" / "traj_odom.tum")) == len(frames)
     line = _one_line_error(runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "zz"]))
     assert "zz" in line and "a, b" in line
 
@@ -216,7 +223,7 @@ def test_user_segmenter_and_encoder_run_through_the_pipeline(tmp_path, monkeypat
             "frontend.segmenter=examples.depth_segmenter:DepthEdgeSegmenter",
             "frontend.encoder=examples.depth_segmenter:ShapeEncoder"]
     res = Experiment(load_scenario("smoke", sets), tmp_path / "byo").run()
-    assert res.map_stats["segments"] > 0
+    assert res.map_stats.segments > 0
     from roman_sim.mapping.io import load_submaps
 
     subs = load_submaps(tmp_path / "byo" / "submaps" / "a.npz")
@@ -239,9 +246,14 @@ class _Interrupting:
 def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
     from roman_sim.align import ALIGNERS
 
+    """A changed configuration interrupted mid-way: the folder says it is incomplete (no stale
+    metrics are reported under the new config.yaml); the next run completes it from the kept stages."""
+    from roman_sim.align import ALIGNERS
+    from roman_sim.core.errors import StorageError
+    from roman_sim.pipeline.result import RunResult
+
     run_dir = tmp_path / "interrupted"
     shutil.copytree(smoke_run.run_dir, run_dir)
-    metrics_before = (run_dir / "metrics.json").read_bytes()
     ALIGNERS.register("interrupting", _Interrupting)
     try:
         with pytest.raises(KeyboardInterrupt):
@@ -249,6 +261,12 @@ def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
     finally:
         ALIGNERS._items.pop("interrupting", None)
     assert not list(run_dir.rglob("*.tmp"))  # no half-written file
-    assert (run_dir / "metrics.json").read_bytes() == metrics_before  # previous results intact
+    assert not (run_dir / "metrics.json").exists()  # the old configuration's results are gone with it
+    with pytest.raises(StorageError, match="stages missing: evaluation, posegraph, report"):
+        RunResult.load(run_dir)
+    line = _one_line_error(runner.invoke(app, ["report", str(run_dir)]))
+    assert "did not complete" in line
     res = Experiment(load_scenario("smoke"), run_dir).run()
-    assert {"maps", "submaps", "evaluation", "posegraph"} <= set(res.reused)
+    assert {"maps", "submaps"} <= set(res.reused) and "evaluation" not in res.reused
+    assert res.metrics.to_json() == smoke_run.metrics.to_json()
+    assert RunResult.load(run_dir).metrics.to_json() == smoke_run.metrics.to_json()

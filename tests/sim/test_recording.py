@@ -49,11 +49,11 @@ def test_round_trip(tmp_path: Path) -> None:
         np.testing.assert_array_equal(b.truth.T_world_body, a.truth.T_world_body)
         np.testing.assert_array_equal(b.T_odom_body, a.T_odom_body)
         np.testing.assert_allclose(b.T_body_cam, a.T_body_cam)
-    t, T = read_tum(rec / "traj_true.tum")
-    np.testing.assert_allclose(T, [f.truth.T_world_body for f in frames], atol=1e-8)
-    t, T = read_tum(rec / "traj_odom.tum")
-    np.testing.assert_allclose(T, [f.T_odom_body for f in frames], atol=1e-8)
-    np.testing.assert_allclose(t, [f.t for f in frames], atol=1e-9)
+    true = read_tum(rec / "traj_true.tum")
+    np.testing.assert_allclose(true.T, [f.truth.T_world_body for f in frames], atol=1e-8)
+    odom = read_tum(rec / "traj_odom.tum")
+    np.testing.assert_allclose(odom.T, [f.T_odom_body for f in frames], atol=1e-8)
+    np.testing.assert_allclose(odom.t, [f.t for f in frames], atol=1e-9)
 
 
 def test_same_frames_same_bytes(tmp_path: Path) -> None:

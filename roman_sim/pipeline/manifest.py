@@ -1,0 +1,109 @@
+"""``manifest.json``: what a run folder holds, so that nothing stale is ever read or reported.
+
+The manifest records the hash of the resolved configuration, the package version and, per
+completed stage, its cache key and the files it wrote (relative paths). A stage's outputs
+are reused only when its recorded key matches and every recorded file exists; outputs are
+read only from the files the manifest lists (never by globbing the folder). A run is
+complete when every stage of its scenario is recorded. Wall-clock figures live elsewhere
+(``timings.json``), so two runs of one seed write the same manifest.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from roman_sim.core.atomic import write_json
+from roman_sim.core.errors import StorageError
+
+log = logging.getLogger(__name__)
+
+MANIFEST_JSON = "manifest.json"
+MANIFEST_SCHEMA = "roman_sim.run/1"
+
+
+@dataclass
+class StageRecord:
+    """One completed stage: its cache key and the files it wrote (relative to the run folder)."""
+
+    key: str
+    files: list[str]
+
+
+@dataclass
+class Manifest:
+    """The record of a run folder (see the module docstring)."""
+
+    scenario: str
+    seed: int
+    config_hash: str
+    package_version: str
+    stages: dict[str, StageRecord] = field(default_factory=dict)
+    expected: list[str] = field(default_factory=list)
+
+    @property
+    def missing(self) -> list[str]:
+        """Stages of the run that have not completed."""
+        return [s for s in self.expected if s not in self.stages]
+
+    @property
+    def complete(self) -> bool:
+        """Whether every stage of the run completed."""
+        return not self.missing
+
+    def valid(self, stage: str, key: str, run_dir: Path) -> bool:
+        """Whether ``stage`` is recorded with ``key`` and all of its files exist."""
+        rec = self.stages.get(stage)
+        return bool(rec and rec.key == key and all((run_dir / f).is_file() for f in rec.files))
+
+    def to_json(self) -> dict[str, Any]:
+        """JSON-ready dict."""
+        return {"schema": MANIFEST_SCHEMA, "scenario": self.scenario, "seed": self.seed,
+                "config_hash": self.config_hash, "package_version": self.package_version,
+                "expected": self.expected, "complete": self.complete,
+                "stages": {k: {"key": v.key, "files": v.files} for k, v in self.stages.items()}}
+
+    @classmethod
+    def from_json(cls, d: Any, source: str) -> "Manifest":
+        """Inverse of ``to_json``; StorageError names ``source`` when invalid."""
+        if not isinstance(d, dict) or d.get("schema") != MANIFEST_SCHEMA:
+            raise StorageError(f"{source}: not a run manifest of schema {MANIFEST_SCHEMA}")
+        try:
+            stages = {str(k): StageRecord(str(v["key"]), [str(f) for f in v["files"]]) for k, v in d["stages"].items()}
+            return cls(str(d["scenario"]), int(d["seed"]), str(d["config_hash"]), str(d["package_version"]),
+                       stages, [str(s) for s in d["expected"]])
+        except (KeyError, TypeError, ValueError, AttributeError) as err:
+            raise StorageError(f"{source}: malformed run manifest ({type(err).__name__}: {err})") from None
+
+    def save(self, run_dir: Path) -> None:
+        """Write ``manifest.json`` atomically."""
+        write_json(run_dir / MANIFEST_JSON, self.to_json())
+
+
+def read_manifest(run_dir: Path) -> Manifest:
+    """The manifest of ``run_dir``.
+
+    Raises:
+        StorageError: no manifest (not a run folder) or a corrupt one.
+    """
+    path = run_dir / MANIFEST_JSON
+    if not path.is_file():
+        raise StorageError(f"{run_dir}: no {MANIFEST_JSON}: not a run folder (or a run that never started)")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise StorageError(f"{path}: unreadable run manifest ({type(err).__name__})") from None
+    return Manifest.from_json(data, str(path))
+
+
+def existing_manifest(run_dir: Path) -> Manifest | None:
+    """The manifest of ``run_dir`` if one is readable; a corrupt one is logged and ignored."""
+    try:
+        return read_manifest(run_dir)
+    except StorageError as err:
+        if (run_dir / MANIFEST_JSON).exists():
+            log.warning("%s: recomputing every stage", err)
+        return None

@@ -1,0 +1,98 @@
+"""``RunResult``: what a run produced, from the run itself or opened from any finished run folder."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from roman_sim.core.errors import StorageError
+from roman_sim.evaluation.summaries import compact_summary
+from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.manifest import read_manifest
+from roman_sim.pipeline.scenario import Scenario, load_scenario
+
+TIMINGS_JSON = "timings.json"
+
+
+@dataclass
+class RunResult:
+    """The results of one run (everything is also on disk in ``run_dir``).
+
+    Attributes:
+        run_dir: the run folder.
+        scenario: the resolved scenario.
+        metrics: the alignment evaluation.
+        ate: ATE RMSE per pose-graph variant (empty when no pose graph was solved).
+        map_stats: map and packet sizes.
+        notes: every stage's statements for the report, in stage order.
+        timings: wall-clock figures per stage (``timings.json``).
+        reused: stages whose cached outputs were reused.
+    """
+
+    run_dir: Path
+    scenario: Scenario
+    metrics: EvaluationMetrics
+    ate: AteTable
+    map_stats: MapStats
+    notes: list[str] = field(default_factory=list)
+    timings: dict[str, Any] = field(default_factory=dict)
+    reused: list[str] = field(default_factory=list)
+
+    @classmethod
+    def from_outputs(cls, run_dir: Path, scenario: Scenario, outputs: dict[str, Any], timings: dict[str, Any],
+                     reused: list[str]) -> "RunResult":
+        """The result of a run from its stage outputs."""
+        ev, pg, rep = outputs["evaluation"], outputs["posegraph"], outputs["report"]
+        return cls(run_dir, scenario, ev.metrics, pg.ate, rep.map_stats, list(rep.notes), timings, reused)
+
+    @classmethod
+    def load(cls, run_dir: str | Path) -> "RunResult":
+        """Open a finished run folder.
+
+        Raises:
+            StorageError: not a run folder, a run that did not complete (naming the missing
+                stages), a configuration that does not match the outputs, or unreadable files.
+        """
+        from roman_sim.pipeline.stages import STAGES
+
+        d = Path(run_dir)
+        man = read_manifest(d)
+        if not man.complete:
+            raise StorageError(f"{d}: the run did not complete (stages missing: {', '.join(man.missing)}); "
+                               "run it again to finish it")
+        sc = load_scenario(d / "config.yaml")
+        if sc.config_hash() != man.config_hash:
+            raise StorageError(f"{d}: config.yaml does not match the run's outputs (edited after the run?)")
+        ctx = RunContext(sc, d)
+        outputs = {s.name: s.load(ctx, man.stages[s.name].files) for s in STAGES if s.name in man.stages
+                   and s.name in ("evaluation", "posegraph", "report")}
+        return cls.from_outputs(d, sc, outputs, read_timings(d), [])
+
+    def recall(self, method: str, heading_bin: str | None = None) -> float | None:
+        """Max recall of ``method`` overall or in a heading bin such as ``"120-180"``."""
+        return self.metrics.figure(method, heading_bin, "max_recall")
+
+    def runtime_median_s(self, method: str) -> float | None:
+        """Median alignment time per pair of ``method`` (s), from the timings; None if unknown."""
+        alignment = (self.timings.get("evaluation") or {}).get("alignment") or {}
+        return (alignment.get(method) or {}).get("median")
+
+    def metrics_summary(self) -> dict[str, Any]:
+        """A compact JSON-ready summary (per method recall, runtime; ATE; map size)."""
+        runtimes = {m: self.runtime_median_s(m) for m in self.metrics.methods}
+        return compact_summary(self.metrics, self.ate, self.map_stats, runtimes)
+
+
+def read_timings(run_dir: Path) -> dict[str, Any]:
+    """The per-stage timings of a run folder (empty when absent or unreadable)."""
+    try:
+        data = json.loads((run_dir / TIMINGS_JSON).read_text(encoding="utf-8"))
+        return dict(data["stages"])
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+__all__ = ["TIMINGS_JSON", "RunResult", "read_timings"]

@@ -1,0 +1,22 @@
+"""The pipeline's stages, in order: world -> maps -> submaps -> evaluation -> posegraph -> report.
+
+Adding a stage is one module (a ``Stage`` subclass with a typed output) plus one line here.
+"""
+
+from __future__ import annotations
+
+from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.evaluation import EvaluationOutput, EvaluationStage
+from roman_sim.pipeline.stages.maps import Maps, MapsStage
+from roman_sim.pipeline.stages.posegraph import PoseGraphOutput, PoseGraphStage
+from roman_sim.pipeline.stages.report import ReportOutput, ReportStage
+from roman_sim.pipeline.stages.submaps import Submaps, SubmapsStage
+from roman_sim.pipeline.stages.world import WorldOutput, WorldStage
+
+#: The stage table (order = execution order; every stage's inputs come earlier).
+STAGES: tuple[Stage, ...] = (WorldStage(), MapsStage(), SubmapsStage(), EvaluationStage(), PoseGraphStage(),
+                             ReportStage())
+STAGE_NAMES: tuple[str, ...] = tuple(s.name for s in STAGES)
+
+__all__ = ["STAGES", "STAGE_NAMES", "EvaluationOutput", "Maps", "PoseGraphOutput", "ReportOutput", "Stage",
+           "Submaps", "WorldOutput"]

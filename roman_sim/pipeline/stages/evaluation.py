@@ -1,0 +1,141 @@
+"""Stage ``evaluation``: every aligner on every pair of submaps, scored against truth.
+
+Writes ``pairs.csv`` (one row per pair and method), ``alignments.json`` (each method's
+estimate per pair: the pose graph's closures), ``metrics.json`` and the metric plots.
+Per-pair runtimes go to the run's timings, not into these files.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from dataclasses import dataclass, field
+from typing import Any
+
+from roman_sim.align import build_aligner
+from roman_sim.align.base import AlignResult
+from roman_sim.core.atomic import write_json
+from roman_sim.core.errors import StorageError
+from roman_sim.evaluation.bins import runtime_stats
+from roman_sim.evaluation.evaluate import evaluate, save_evaluation
+from roman_sim.evaluation.metrics import PairScore
+from roman_sim.evaluation.pairs import PairTruth, enumerate_pairs, world_ambiguity_fn
+from roman_sim.evaluation.results import read_evaluation
+from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
+from roman_sim.mapping.types import Submap
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.submaps import Submaps
+from roman_sim.pipeline.stages.world import WorldOutput
+
+log = logging.getLogger(__name__)
+
+ALIGNMENTS_JSON = "alignments.json"
+ALIGNMENTS_SCHEMA = "roman_sim.alignments/1"
+
+
+@dataclass
+class EvaluationOutput:
+    """Scores of every (pair, method), each method's estimates, the metrics and the notes.
+
+    ``written`` lists the files the run wrote besides ``alignments.json`` (tables and plots,
+    which need the raw aligner results); it is not persisted.
+    """
+
+    scores: list[PairScore]
+    alignments: list[AlignmentRecord]
+    metrics: EvaluationMetrics
+    notes: list[str] = field(default_factory=list)
+    written: list[str] = field(default_factory=list, repr=False)
+
+    def truths(self) -> dict[tuple[str, str], PairTruth]:
+        """Truth of each scored pair, keyed by (a name, b name)."""
+        return {(s.truth.a, s.truth.b): s.truth for s in self.scores}
+
+
+class Labelled:
+    """Runs an aligner under the scenario's label (so two settings of one method can coexist)."""
+
+    def __init__(self, inner: Any, name: str) -> None:
+        self.inner = inner
+        self.name = name
+
+    def align(self, a: Submap, b: Submap) -> AlignResult:
+        res = self.inner.align(a, b)
+        res.method = self.name
+        return res
+
+
+class Counting:
+    """Reports progress as pairs are aligned by the last aligner of the list."""
+
+    def __init__(self, inner: Any, ctx: RunContext) -> None:
+        self.inner, self.ctx, self.name = inner, ctx, inner.name
+
+    def align(self, a: Submap, b: Submap) -> AlignResult:
+        res = self.inner.align(a, b)
+        self.ctx.progress.advance("evaluation:pairs")
+        return res
+
+
+def build_aligners(ctx: RunContext) -> list[Any]:
+    """The scenario's aligners, labelled; the last one counts pairs for the progress bar."""
+    out: list[Any] = [Labelled(build_aligner(e.method, e.params), e.name) for e in ctx.scenario.aligners]
+    out[-1] = Counting(out[-1], ctx)
+    return out
+
+
+def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
+    return [AlignmentRecord(a, b, method, r.n_associations, r.T_a_b) for (a, b, method), r in sorted(results.items())]
+
+
+def _runtimes(scores: list[PairScore]) -> dict[str, Any]:
+    """Per method: runtime statistics and the per-pair runtimes in ``pairs.csv`` order (s)."""
+    methods = sorted({s.method for s in scores})
+    return {m: {**runtime_stats([s.runtime_s for s in scores if s.method == m]),
+                "per_pair_s": [s.runtime_s for s in scores if s.method == m]} for m in methods}
+
+
+class EvaluationStage(Stage[EvaluationOutput]):
+    """Align and score every pair with every aligner of the scenario."""
+
+    name = "evaluation"
+    inputs = ("world", "submaps")
+
+    def config_parts(self, ctx: RunContext) -> list[Any]:
+        sc = ctx.scenario.model_dump(mode="json")
+        return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"]]
+
+    def run(self, ctx: RunContext, world: WorldOutput | None = None, submaps: Submaps | None = None,
+            **_: Any) -> EvaluationOutput:
+        assert submaps is not None, "the evaluation stage needs the submaps"
+        all_subs = submaps.all()
+        ec = ctx.scenario.evaluation
+        pairs = enumerate_pairs(all_subs, ec.intra_min_gap, ec.max_pair_dist_m, ec.relevant_dist_m)
+        ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
+        ctx.progress.start("evaluation:pairs", len(pairs))
+        ev = evaluate(all_subs, build_aligners(ctx), ec, ambiguity_fn=ambiguity, pairs=pairs)
+        ctx.progress.end("evaluation:pairs")
+        paths = save_evaluation(ctx.run_dir, ev, all_subs, map_view=True)
+        ctx.timings["alignment"] = _runtimes(ev.scores)
+        written = sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values())
+        return EvaluationOutput(ev.scores, _records(ev.results), ev.metrics, list(ev.notes), written)
+
+    def save(self, out: EvaluationOutput, ctx: RunContext) -> list[str]:
+        write_json(ctx.run_dir / ALIGNMENTS_JSON, {"schema": ALIGNMENTS_SCHEMA, "notes": out.notes,
+                                                   "alignments": [r.to_json() for r in out.alignments]})
+        return [*out.written, ALIGNMENTS_JSON]
+
+    def load(self, ctx: RunContext, files: list[str]) -> EvaluationOutput:
+        scores, metrics = read_evaluation(ctx.run_dir)
+        path = ctx.run_dir / ALIGNMENTS_JSON
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            if data.get("schema") != ALIGNMENTS_SCHEMA:
+                raise ValueError(f"schema {data.get('schema')!r}")
+            records = [AlignmentRecord.from_json(r) for r in data["alignments"]]
+            notes = [str(n) for n in data["notes"]]
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
+            raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
+        return EvaluationOutput(scores, records, metrics, notes, [f for f in files if f != ALIGNMENTS_JSON])
+

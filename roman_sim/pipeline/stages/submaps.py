@@ -1,0 +1,83 @@
+"""Stage ``submaps``: cut each robot's segment map into gravity-aligned submaps.
+
+A run may instead start from the user's saved submaps (``--submaps DIR`` with one
+``<robot>.npz`` per robot of the scenario, as ``roman_sim.mapping.io.save_submaps`` writes
+them); files of other robots in that folder are never read.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from typing import Any
+
+from roman_sim.core.errors import ConfigError
+from roman_sim.mapping.io import load_submaps, save_submaps
+from roman_sim.mapping.submap import build_submaps
+from roman_sim.mapping.types import Submap
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.maps import Maps
+from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot
+
+
+@dataclass
+class Submaps:
+    """Each robot's submaps (robot name -> submaps in index order) and the stage's notes."""
+
+    submaps: dict[str, list[Submap]]
+    notes: list[str] = field(default_factory=list)
+
+    def all(self) -> list[Submap]:
+        """Every submap, robot by robot."""
+        return [s for subs in self.submaps.values() for s in subs]
+
+    def by_name(self) -> dict[str, Submap]:
+        """Submap name (``robot/index``) -> submap."""
+        return {s.name: s for s in self.all()}
+
+
+def _user_files(ctx: RunContext) -> dict[str, Any]:
+    """``<robot>.npz`` of each scenario robot in the user's submaps folder (ConfigError if one is missing)."""
+    d = ctx.submaps_dir
+    assert d is not None
+    if not d.is_dir():
+        raise ConfigError(f"--submaps {d}: not a folder")
+    files = {r.name: d / f"{r.name}.npz" for r in ctx.scenario.robots}
+    missing = [f"{r}.npz" for r, p in files.items() if not p.is_file()]
+    if missing:
+        found = ", ".join(sorted(p.name for p in d.glob("*.npz"))) or "none"
+        raise ConfigError(f"--submaps {d}: no {', '.join(missing)} for the scenario's robots (found: {found})")
+    return files
+
+
+class SubmapsStage(Stage[Submaps]):
+    """Build submaps from the maps (or load the user's)."""
+
+    name = "submaps"
+    inputs = ("maps",)
+
+    def config_parts(self, ctx: RunContext) -> list[Any]:
+        parts: list[Any] = [ctx.scenario.model_dump(mode="json")["submaps"]]
+        if ctx.submaps_dir is not None:  # the user's files by content, not by path
+            parts.append({r: hashlib.sha256(p.read_bytes()).hexdigest() for r, p in _user_files(ctx).items()})
+        return parts
+
+    def run(self, ctx: RunContext, maps: Maps | None = None, **_: Any) -> Submaps:
+        if ctx.submaps_dir is not None:
+            out = {}
+            for robot, path in _user_files(ctx).items():
+                subs = load_submaps(path)
+                wrong = sorted({s.robot for s in subs} - {robot})
+                if wrong:
+                    raise ConfigError(f"--submaps {path}: holds submaps of robot(s) {', '.join(wrong)}, not {robot}")
+                out[robot] = subs
+            return Submaps(out)
+        assert maps is not None, "the submaps stage needs the maps"
+        return Submaps({name: build_submaps(smap, ctx.scenario.submaps) for name, smap in maps.maps.items()})
+
+    def save(self, out: Submaps, ctx: RunContext) -> list[str]:
+        return save_per_robot(ctx, "submaps", out.submaps, save_submaps, out.notes)
+
+    def load(self, ctx: RunContext, files: list[str]) -> Submaps:
+        return Submaps(*load_per_robot(ctx, "submaps", load_submaps))
