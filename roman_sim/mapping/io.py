@@ -151,6 +151,21 @@ def load_submaps(path: str | Path) -> list[Submap]:
         raise StorageError(f"{path}: inconsistent submap file ({type(err).__name__}: {err})") from None
 
 
+def save_keyframes(path: str | Path, keyframes: KeyframeSet) -> None:
+    """Write one robot's keyframes (format ``roman_sim.keyframes``) atomically."""
+    header = {"format": "roman_sim.keyframes", "version": FORMAT_VERSION}
+    write_npz(path, header=_header(header), **{f: np.asarray(getattr(keyframes, f)) for f in KeyframeSet.FIELDS})
+
+
+def load_keyframes(path: str | Path) -> KeyframeSet:
+    """Read a file written by ``save_keyframes``."""
+    _, a = _open(path, "roman_sim.keyframes")
+    try:
+        return KeyframeSet(*(a[f] for f in KeyframeSet.FIELDS))
+    except KeyError as err:
+        raise StorageError(f"{path}: inconsistent keyframe file (missing {err})") from None
+
+
 PacketPart = Literal["segments", "keyframes", "all"]
 
 

@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
+from roman_sim.align.visual.keyframes import KeyframeParams
 from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
@@ -67,6 +68,10 @@ class AlignerEntry(StrictModel):
         return self.label or method_label(self.method)
 
 
+#: Methods that align submaps by their visual keyframes (the maps stage extracts them).
+VISUAL_METHODS = frozenset({"visual"})
+
+
 def method_label(method: str) -> str:
     """Table label of a method name: itself, or the class name of ``package.module:Class``."""
     return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
@@ -78,6 +83,8 @@ class FrontEnd(StrictModel):
     segmenter: str | SegmenterConfig = "fastsam"
     encoder: str = "simulated"
     semantics: SemanticConfig = Field(default_factory=SemanticConfig)
+    keyframes: KeyframeParams = Field(default_factory=KeyframeParams,
+                                      description="visual keyframes (ORB + BoW), extracted when a method needs them")
 
     @field_validator("segmenter")
     @classmethod
@@ -106,6 +113,11 @@ class Scenario(StrictModel):
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
     record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
 
+    @property
+    def uses_visual(self) -> bool:
+        """Whether an aligner needs the robots' visual keyframes (the ``visual`` method)."""
+        return any(a.method in VISUAL_METHODS for a in self.aligners)
+
     def config_hash(self) -> str:
         """Hash of the resolved scenario (what a run folder's ``config.yaml`` holds)."""
         return stable_hash(self.model_dump(mode="json"))
@@ -127,6 +139,11 @@ class Scenario(StrictModel):
             raise ValueError(f"aligners: labels must be unique, got {', '.join(labels)} (set 'label')")
         if self.posegraph_method is not None and self.posegraph_method not in labels:
             raise ValueError(f"posegraph_method: {self.posegraph_method!r} is not among aligners ({', '.join(labels)})")
+        if self.uses_visual:
+            for i, r in enumerate(self.robots):
+                if not r.render_rgb:
+                    raise ValueError(f"robots.{i}.render_rgb: robot {r.name!r} must render RGB (render_rgb: true) "
+                                     "for the visual method")
         return self
 
 

@@ -89,6 +89,10 @@ class KeyframeExtractor:
         self.keyframes.append(kf)
         return kf
 
+    def keyframe_set(self) -> KeyframeSet:
+        """The keyframes so far, camera poses in the odometry frame."""
+        return keyframe_set(self.keyframes, np.eye(4))
+
 
 def keyframe_set(keyframes: list[Keyframe], T_odom_submap: NDArray[np.float64]) -> KeyframeSet:
     """Pack keyframes into a ``KeyframeSet`` with camera poses in the submap frame."""
@@ -113,14 +117,33 @@ def keyframe_set(keyframes: list[Keyframe], T_odom_submap: NDArray[np.float64]) 
     )
 
 
-def attach_keyframes(submaps: list[Submap], keyframes: list[Keyframe]) -> list[Submap]:
-    """Copies of one robot's ``submaps`` carrying its keyframes (each in the submap nearest in time)."""
+def select_keyframes(kf: KeyframeSet, idx: NDArray[np.int64], T_new_old: NDArray[np.float64]) -> KeyframeSet:
+    """The keyframes ``idx`` of ``kf`` (in order), their camera poses re-expressed by ``T_new_old``."""
+    idx = np.asarray(idx, dtype=np.int64)
+    f = [np.arange(kf.feat_offsets[i], kf.feat_offsets[i + 1]) for i in idx]
+    w = [np.arange(kf.bow_offsets[i], kf.bow_offsets[i + 1]) for i in idx]
+    fi = np.concatenate(f).astype(np.int64) if f else np.zeros(0, np.int64)
+    wi = np.concatenate(w).astype(np.int64) if w else np.zeros(0, np.int64)
+    return KeyframeSet(
+        t=kf.t[idx], T_submap_cam=np.einsum("ij,njk->nik", T_new_old, kf.T_submap_cam[idx]).reshape(-1, 4, 4),
+        intrinsics=kf.intrinsics[idx], bow_offsets=np.cumsum([0] + [len(x) for x in w]).astype(np.int64),
+        bow_words=kf.bow_words[wi], bow_values=kf.bow_values[wi],
+        feat_offsets=np.cumsum([0] + [len(x) for x in f]).astype(np.int64),
+        uv=kf.uv[fi], descriptors=kf.descriptors[fi], points=kf.points[fi])
+
+
+def attach_keyframes(submaps: list[Submap], keyframes: KeyframeSet | list[Keyframe]) -> list[Submap]:
+    """Copies of one robot's ``submaps`` carrying its keyframes (each in the submap nearest in time).
+
+    Args:
+        submaps: the robot's submaps.
+        keyframes: its keyframes, as ``Keyframe`` objects or a ``KeyframeSet`` whose poses are
+            in the odometry frame (``KeyframeExtractor.keyframe_set()``).
+    """
+    kf = keyframe_set(keyframes, np.eye(4)) if isinstance(keyframes, list) else keyframes
     if not submaps:
         return []
     centre_t = np.array([s.t for s in submaps])
-    owner = [int(np.argmin(np.abs(centre_t - k.t))) for k in keyframes]
-    out = []
-    for i, s in enumerate(submaps):
-        mine = [k for k, o in zip(keyframes, owner) if o == i]
-        out.append(replace(s, keyframes=keyframe_set(mine, s.T_odom_submap)))
-    return out
+    owner = np.argmin(np.abs(centre_t[None, :] - kf.t[:, None]), axis=1) if len(kf) else np.zeros(0, np.int64)
+    return [replace(s, keyframes=select_keyframes(kf, np.flatnonzero(owner == i), inv_T(s.T_odom_submap)))
+            for i, s in enumerate(submaps)]

@@ -2,6 +2,9 @@
 
 Robots are planned together (a path may be defined relative to an earlier robot's), then
 rendered and mapped one by one; each robot's map is written as soon as it is finished.
+When a scenario lists the ``visual`` method, the same frames also give each robot's visual
+keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
+``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
 """
 
 from __future__ import annotations
@@ -11,11 +14,13 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.core.registry import import_object
-from roman_sim.mapping.io import load_segment_map, save_segment_map
+from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
+from roman_sim.mapping.types import KeyframeSet
 from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
 from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.pipeline.context import RunContext
@@ -26,12 +31,15 @@ from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
 
+
 @dataclass
 class Maps:
-    """Each robot's segment map (robot name -> map, in scenario order) and the stage's notes."""
+    """Each robot's segment map (robot name -> map, in scenario order), the stage's notes and,
+    when the visual method runs, each robot's keyframes (poses in its odometry frame)."""
 
     maps: dict[str, SegmentMap]
     notes: list[str] = field(default_factory=list)
+    keyframes: dict[str, KeyframeSet] = field(default_factory=dict)
 
 
 def _user_object(path: str, kind: str, **kwargs: Any) -> Any:
@@ -91,8 +99,8 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
     return read_recording(rec_dir)
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
-    """Render and map one robot along its planned path."""
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> tuple[SegmentMap, KeyframeSet | None]:
+    """Render and map one robot along its planned path; its keyframes too when the visual method runs."""
     from roman_sim.sim.robot import trajectory_along
 
     sc = ctx.scenario
@@ -100,13 +108,17 @@ def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
     stage = f"maps:{cfg.name}"
     ctx.progress.start(stage, len(trajectory[0]))
     mapper = Mapper(sc.mapping, build_segmenter_for(ctx, cfg.name), build_encoder_for(ctx, cfg.name, world), seed=sc.seed)
+    extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
     for frame in _frames(ctx, world, cfg, trajectory):
         mapper.process(frame)
+        if extractor is not None:
+            extractor.offer(frame.public())
         ctx.progress.advance(stage)
     ctx.progress.end(stage)
     smap = mapper.finish()
-    log.info("robot %s: %d segments", cfg.name, len(smap))
-    return smap
+    log.info("robot %s: %d segments%s", cfg.name, len(smap),
+             "" if extractor is None else f", {len(extractor.keyframes)} keyframes")
+    return smap, None if extractor is None else extractor.keyframe_set()
 
 
 class MapsStage(Stage[Maps]):
@@ -120,20 +132,27 @@ class MapsStage(Stage[Maps]):
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["robots"], sc["frontend"], sc["mapping"]]
+        return [sc["robots"], sc["frontend"], sc["mapping"], ctx.scenario.uses_visual]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
 
         assert world is not None, "the maps stage needs the world"
         paths = plan_paths(world.world, ctx.scenario.robots, ctx.scenario.seed)
-        maps = {}
+        maps, keyframes = {}, {}
         for cfg in ctx.scenario.robots:
-            maps[cfg.name] = map_robot(ctx, world.world, cfg, paths[cfg.name])
-        return Maps(maps)
+            maps[cfg.name], kf = map_robot(ctx, world.world, cfg, paths[cfg.name])
+            if kf is not None:
+                keyframes[cfg.name] = kf
+        return Maps(maps, keyframes=keyframes)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
-        return save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+        files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+        if out.keyframes:
+            files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
+        return files
 
     def load(self, ctx: RunContext, files: list[str]) -> Maps:
-        return Maps(*load_per_robot(ctx, "maps", load_segment_map))
+        maps, notes = load_per_robot(ctx, "maps", load_segment_map)
+        keyframes = load_per_robot(ctx, "keyframes", load_keyframes)[0] if ctx.scenario.uses_visual else {}
+        return Maps(maps, notes, keyframes)

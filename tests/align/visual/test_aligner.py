@@ -37,7 +37,7 @@ def _robot_submap(shooter, name: str, poses: list[tuple[float, float, float]], d
         ex.offer(Frame(name, i, float(i), rgb, depth, drift @ T_wb[-1], T_bc, shooter.K))
     c = len(poses) // 2
     sub = make_submap(name, 0, float(c), drift @ T_wb[c], T_wb[c], [], SubmapConfig())
-    return attach_keyframes([sub], ex.keyframes)[0]
+    return attach_keyframes([sub], ex.keyframe_set())[0]
 
 
 @pytest.fixture(scope="module")
