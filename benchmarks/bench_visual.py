@@ -1,15 +1,18 @@
 """Visual-method benchmark: keyframe features + BoW at 640 x 480, vocabulary training, per-pair time.
 
-Frames: one robot drives a 12 m loop in the ``offroad`` preset (seed 9300, no scenario
-uses it) with the D455 camera (640 x 480, RGB + noisy depth); a second robot drives the
-same loop in reverse. Every frame goes through ``KeyframeExtractor`` (ORB, 700 features,
+Frames: one robot drives 30 m of a loop in the textured ``offroad`` preset (seed 9300, no
+scenario uses it) with the D455 camera (640 x 480, RGB + noisy depth); a second robot
+retraces it in the same direction. Every frame goes through ``KeyframeExtractor`` (ORB, 700 features,
 BoW with the shipped vocabulary; keyframe every 1 m); extraction is timed on its own
 (rendering excluded) over every frame, in frames per second. Submaps: every 10 keyframes;
 per-pair time of the ``visual`` aligner over every pair of the two robots' submaps.
 Vocabulary: training time of ``train_vocabulary`` (k = 10, L = 4) on the descriptors of
 the benchmark frames (rendering of the shipped training set excluded; ``--full`` re-runs
 the shipped training end to end), and the shipped file's size.
-Writes ``benchmarks/out/visual.json``. Run: ``python benchmarks/bench_visual.py [--quick] [--full]``.
+Demo (``--demo``): the bundled demo run fresh with and without the visual method (without:
+no visual aligner, no RGB, no textures, as the demo was before it), wall time of each and
+their ratio, in one process one after the other.
+Writes ``benchmarks/out/visual.json``. Run: ``python benchmarks/bench_visual.py [--quick] [--full] [--demo]``.
 """
 
 from __future__ import annotations
@@ -51,7 +54,39 @@ def _robots(quick: bool) -> list[RobotConfig]:
     length = 12.0 if quick else 30.0
     path = PathConfig(kind="loop", radius_m=6.0)
     return [RobotConfig(name="a", path=path, max_length_m=length),
-            RobotConfig(name="b", path=PathConfig(kind="reverse_of", of="a"), max_length_m=length)]
+            RobotConfig(name="b", path=PathConfig(kind="retrace", of="a", pieces=[(0.0, 1.0)]), max_length_m=length)]
+
+
+def _demo_times() -> dict:
+    """Wall time of the demo with and without the visual method (fresh runs, one process)."""
+    import tempfile
+
+    from roman_sim.core.config import validate_model
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import Scenario, load_scenario
+
+    with_visual = load_scenario("demo")
+    data = with_visual.model_dump(mode="json")
+    data["aligners"] = [a for a in data["aligners"] if a["method"] != "visual"]
+    data["world"]["overrides"].pop("appearance.textures", None)
+    for r in data["robots"]:
+        r["render_rgb"] = False
+    before = validate_model(Scenario, data, source="demo without visual")
+    out = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, sc in (("demo_before_s", before), ("demo_with_visual_s", with_visual)):
+            t0 = time.perf_counter()
+            Experiment(sc, Path(tmp) / label, fresh=True).run()
+            out[label] = time.perf_counter() - t0
+    out["ratio"] = out["demo_with_visual_s"] / out["demo_before_s"]
+    return out
+
+
+def _textured_world():
+    from roman_sim.world.appearance import AppearanceSpec
+
+    spec = load_world_spec("offroad")
+    return generate(spec.model_copy(update={"appearance": AppearanceSpec(textures=True)}), SEED)
 
 
 def _drive(world, cfg, path, voc):
@@ -74,9 +109,9 @@ def _drive(world, cfg, path, voc):
     return n, spent, timer.keyframes, attach_keyframes(subs, kfs)
 
 
-def main(quick: bool = False, full: bool = False) -> dict:
+def main(quick: bool = False, full: bool = False, demo: bool = False) -> dict:
     voc = default_vocabulary()
-    world = generate(load_world_spec("offroad"), SEED)
+    world = _textured_world()
     robots = _robots(quick)
     paths = plan_paths(world, robots, SEED)
     runs = [_drive(world, cfg, paths[cfg.name], voc) for cfg in robots]
@@ -105,6 +140,8 @@ def main(quick: bool = False, full: bool = False) -> dict:
         "vocabulary": {"shipped_bytes": shipped.stat().st_size, "words": voc.n_words,
                        "train_s_on_benchmark_descriptors": train_s, "benchmark_descriptors": int(sum(map(len, feats)))},
     }
+    if demo:
+        res["demo"] = _demo_times()
     if full:
         from roman_sim.align.visual.train import train_default
 
@@ -117,4 +154,4 @@ def main(quick: bool = False, full: bool = False) -> dict:
 
 
 if __name__ == "__main__":
-    print(json.dumps(main(quick="--quick" in sys.argv, full="--full" in sys.argv), indent=2))
+    print(json.dumps(main(quick="--quick" in sys.argv, full="--full" in sys.argv, demo="--demo" in sys.argv), indent=2))

@@ -91,3 +91,30 @@ def test_keyframe_packet_is_counted_apart_from_the_segment_packet() -> None:
     assert submaps_mb_per_km([with_kf], 100.0, "keyframes") == pytest.approx(kf3 / 1e6 / 0.1)
     with pytest.raises(StorageError, match="packet part"):
         packet_bytes(bare, "everything")  # type: ignore[arg-type]
+
+
+def test_keyframe_file_round_trip_and_split_between_submaps(tmp_path) -> None:
+    from roman_sim.align.visual.keyframes import attach_keyframes
+    from roman_sim.mapping.io import load_keyframes, save_keyframes
+
+    kfs = _keyframes(1, n=5, feats=20)  # times 0..4, odometry poses x = 0..4
+    odom = keyframe_set(kfs, np.eye(4))
+    save_keyframes(tmp_path / "k.npz", odom)
+    back = load_keyframes(tmp_path / "k.npz")
+    for f in odom.FIELDS:
+        np.testing.assert_array_equal(getattr(odom, f), getattr(back, f))
+    with pytest.raises(StorageError, match="expected format"):
+        load_submaps(tmp_path / "k.npz")
+    subs = [make_submap("r", i, t, pose_4dof(x, 1.0, 0, 0.3), None, [], SubmapConfig())
+            for i, (t, x) in enumerate([(0.0, 0.0), (3.0, 3.0)])]
+    parts = attach_keyframes(subs, back)
+    np.testing.assert_array_equal(parts[0].keyframes.t, [0.0, 1.0])  # t = 2 is nearer the centre at 3 s
+    np.testing.assert_array_equal(parts[1].keyframes.t, [2.0, 3.0, 4.0])
+    k = parts[1].keyframes
+    np.testing.assert_allclose(subs[1].T_odom_submap @ k.T_submap_cam[0], kfs[2].T_odom_cam, atol=1e-12)
+    _, desc, pts = k.features(1)
+    np.testing.assert_array_equal(desc, kfs[3].features.descriptors)
+    np.testing.assert_array_equal(pts, kfs[3].features.points)
+    np.testing.assert_array_equal(k.bow(2)[0], kfs[4].bow.words)
+    assert sum(len(p.keyframes) for p in parts) == 5
+    assert attach_keyframes([], back) == []
