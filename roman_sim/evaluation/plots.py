@@ -138,7 +138,8 @@ def plot_alignment(
     """Top-down view of submap a and submap b moved by the estimate, with association lines.
 
     Lines are green when both segments come from the same true object, red otherwise
-    (grey without truth); none for a method whose associations are not segments (visual). With ``T_a_b_true``, b's true placement is drawn faintly.
+    (grey without truth); none for a method whose associations are not segments (visual).
+    With ``T_a_b_true``, b's true placement is drawn faintly.
     """
     if result.T_a_b is None:
         raise EvaluationError(f"{result.method} on {a.name}|{b.name}: no estimate to draw ({result.reason})")

@@ -189,7 +189,8 @@ def keyframe_packet_bytes(submap: Submap) -> int:
     return _compressed_size(
         t=kf.t.astype(np.float64), T_submap_cam=kf.T_submap_cam[:, :3, :].astype(np.float32),
         intrinsics=kf.intrinsics.astype(np.float32), bow_offsets=kf.bow_offsets.astype(np.int32),
-        bow_words=kf.bow_words.astype(np.uint16 if small_ids else np.int32), bow_values=kf.bow_values.astype(np.float32),
+        bow_words=kf.bow_words.astype(np.uint16 if small_ids else np.int32),
+        bow_values=kf.bow_values.astype(np.float32),
         feat_offsets=kf.feat_offsets.astype(np.int32), uv=kf.uv.astype(np.float32), descriptors=kf.descriptors,
         points=kf.points.astype(np.float32))
 

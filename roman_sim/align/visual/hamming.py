@@ -56,7 +56,8 @@ def majority(d: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return np.packbits((2 * counts >= len(d)).astype(np.uint8))
 
 
-def majority_by_label(d: NDArray[np.uint8], labels: NDArray[np.int64], k: int) -> tuple[NDArray[np.uint8], NDArray[np.bool_]]:
+def majority_by_label(d: NDArray[np.uint8], labels: NDArray[np.int64], k: int
+                      ) -> tuple[NDArray[np.uint8], NDArray[np.bool_]]:
     """Bitwise majority of the descriptors of each label 0..k-1 -> (k, 32) and a (k,) non-empty mask."""
     order = np.argsort(labels, kind="stable")
     lab = labels[order]

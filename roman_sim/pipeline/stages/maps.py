@@ -20,9 +20,9 @@ from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.core.registry import import_object
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
-from roman_sim.mapping.types import KeyframeSet
 from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
 from roman_sim.mapping.semantics import SimulatedEncoder
+from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot

@@ -97,7 +97,8 @@ def _set(vectors: list[dict[int, float]]) -> KeyframeSet:
     for v in vectors:
         w = np.array(sorted(v), np.int32)
         vals = np.array([v[i] for i in w], np.float32)
-        feats = KeyframeFeatures(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros((0, 3), np.float32))
+        feats = KeyframeFeatures(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8),
+                                 np.zeros((0, 3), np.float32))
         kfs.append(Keyframe(0.0, np.eye(4), np.ones(4), feats, BowVector(w, vals / vals.sum())))
     return keyframe_set(kfs, np.eye(4))
 

@@ -50,8 +50,8 @@ def test_nearby_views_of_a_place_recover_the_true_relative_pose(shooter, pose, r
     rot, trans = pose_error(out.T_q_c, inv_T(Tq) @ Tc)
     assert np.degrees(rot) < 2.0 and trans < 0.1
     # inliers really are the same surface points
-    d = np.linalg.norm(transform_points(Tq, fq.points[out.inliers[:, 0]]) - transform_points(Tc, fc.points[out.inliers[:, 1]]),
-                       axis=1)
+    pq = transform_points(Tq, fq.points[out.inliers[:, 0]])
+    d = np.linalg.norm(pq - transform_points(Tc, fc.points[out.inliers[:, 1]]), axis=1)
     assert np.median(d) < 0.05
 
 

@@ -79,7 +79,8 @@ def build_textured_world(seed: int = 0, size_px: int = 320) -> TexturedWorld:
             r = PANEL_RADIUS_M + offset
             quat = np.zeros(4)
             mujoco.mju_mat2Quat(quat, rot_z(yaw).ravel())
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 1.5, 1.2], pos=[r * np.cos(yaw), r * np.sin(yaw), 1.2],
+            pos = [r * np.cos(yaw), r * np.sin(yaw), 1.2]
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 1.5, 1.2], pos=pos,
                           quat=quat, material=mat)
     body.add_light(type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, dir=[0.3, 0.2, -1], pos=[0, 0, 10])
     terrain = Terrain(size_x=40.0, size_y=40.0, heights=np.zeros((5, 5)))
