@@ -301,8 +301,9 @@ class MapStats:
     def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
         """Inverse of ``to_json`` (files without keyframe figures are read with None)."""
         try:
-            return cls(**{f.name: d[f.name] if f.name in d or not f.name.startswith("keyframe") else None
-                          for f in fields(cls)})
+            values: dict[str, Any] = {f.name: d[f.name] if f.name in d or not f.name.startswith("keyframe") else None
+                                      for f in fields(cls)}
+            return cls(**values)
         except (KeyError, TypeError) as err:
             raise StorageError(f"{source}: malformed map statistics ({err})") from None
 

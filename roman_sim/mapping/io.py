@@ -154,7 +154,8 @@ def load_submaps(path: str | Path) -> list[Submap]:
 def save_keyframes(path: str | Path, keyframes: KeyframeSet) -> None:
     """Write one robot's keyframes (format ``roman_sim.keyframes``) atomically."""
     header = {"format": "roman_sim.keyframes", "version": FORMAT_VERSION}
-    write_npz(path, header=_header(header), **{f: np.asarray(getattr(keyframes, f)) for f in KeyframeSet.FIELDS})
+    arrays: dict[str, Any] = {f: np.asarray(getattr(keyframes, f)) for f in KeyframeSet.FIELDS}
+    write_npz(path, header=_header(header), **arrays)
 
 
 def load_keyframes(path: str | Path) -> KeyframeSet:

@@ -85,9 +85,10 @@ def depth_mask(depth: NDArray[np.floating], erode_px: int) -> NDArray[np.uint8]:
     """(H, W) uint8 detection mask (255 = use): valid depth, eroded by ``erode_px``."""
     d = np.asarray(depth)
     m = (np.isfinite(d) & (d > 0)).astype(np.uint8) * 255
-    if erode_px > 0:
-        m = cv2.erode(m, cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * erode_px + 1, 2 * erode_px + 1)))
-    return np.asarray(m, dtype=np.uint8)
+    if erode_px <= 0:
+        return m
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * erode_px + 1, 2 * erode_px + 1))
+    return np.asarray(cv2.erode(m, kernel), dtype=np.uint8)
 
 
 def orb_descriptors(image: NDArray[np.uint8], orb: Any, mask: NDArray[np.uint8] | None = None

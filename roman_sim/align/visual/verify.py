@@ -20,6 +20,7 @@ here, all at once with numpy (``kabsch_batch``), from a seeded ``child_rng`` str
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import cv2
 import numpy as np
@@ -106,8 +107,8 @@ def refine_reprojection(T_q_c: NDArray, pc: NDArray, uv_q: NDArray, K_q: NDArray
 
     Returns the input pose when OpenCV fails or gives a non-finite result.
     """
-    rvec, _ = cv2.Rodrigues(np.asarray(T_q_c[:3, :3], np.float64))
-    tvec = np.asarray(T_q_c[:3, 3], np.float64).reshape(3, 1)
+    rvec: Any = cv2.Rodrigues(np.asarray(T_q_c[:3, :3], np.float64))[0]
+    tvec: Any = np.asarray(T_q_c[:3, 3], np.float64).reshape(3, 1)
     try:
         rvec, tvec = cv2.solvePnPRefineLM(np.asarray(pc, np.float64), np.asarray(uv_q, np.float64),
                                           np.asarray(K_q, np.float64), None, rvec, tvec)
