@@ -41,6 +41,11 @@ class VisualParams(StrictModel):
     verify: VerifyParams = Field(default_factory=VerifyParams)
 
 
+def _K(intrinsics: NDArray[np.float64]) -> NDArray[np.float64]:
+    fx, fy, cx, cy = intrinsics
+    return np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
+
+
 def _bows(kf: KeyframeSet) -> list[BowVector]:
     return [BowVector(*kf.bow(i)) for i in range(len(kf))]
 
@@ -101,10 +106,9 @@ class VisualAligner:
         winner = None
         for q, c, score in cands:
             uq, dq, pq = ka.features(q)
-            _, dc, pc = kb.features(c)
-            fx, fy, cx, cy = ka.intrinsics[q]
-            K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
-            out = verify_pair(dq, pq, dc, pc, self.params.verify, (a.name, b.name, q, c), uq, K)
+            uc, dc, pc = kb.features(c)
+            out = verify_pair(dq, pq, dc, pc, self.params.verify, (a.name, b.name, q, c), uq, _K(ka.intrinsics[q]),
+                              uc, _K(kb.intrinsics[c]))
             if winner is None or len(out.inliers) > len(winner[0].inliers):
                 winner = (out, q, c, score)
         assert winner is not None

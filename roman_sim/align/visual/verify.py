@@ -43,6 +43,8 @@ class VerifyParams(StrictModel):
     refine_rounds: int = Field(5, ge=0, le=50, description="weighted Arun refits on the inliers")
     seed: int = Field(0, ge=0, description="seed of the hypothesis sampler")
     refine_reprojection: bool = Field(True, description="refine the pose on q's keypoints (needs uv and K)")
+    mono_check: bool = Field(True, description="2D-2D essential-matrix RANSAC before the 3D-3D one (needs uv, K)")
+    mono_threshold_px: float = Field(2.0, gt=0, le=50, description="epipolar inlier distance of the 2D-2D check")
 
 
 @dataclass
@@ -119,9 +121,33 @@ def refine_reprojection(T_q_c: NDArray, pc: NDArray, uv_q: NDArray, K_q: NDArray
     return make_T(cv2.Rodrigues(rvec)[0], tvec.ravel())
 
 
+def mono_inliers(uv_q: NDArray, K_q: NDArray, uv_c: NDArray, K_c: NDArray, threshold_px: float) -> NDArray[np.bool_]:
+    """Inliers of a 5-point essential-matrix RANSAC (OpenCV) between two keyframes' matched pixels.
+
+    Pixels are normalised by each camera's matrix; the threshold is scaled by q's focal length.
+    """
+    n = len(uv_q)
+    if n < 5:
+        return np.zeros(n, dtype=bool)
+
+    def _norm(uv: NDArray, K: NDArray) -> NDArray:
+        return np.column_stack([(uv[:, 0] - K[0, 2]) / K[0, 0], (uv[:, 1] - K[1, 2]) / K[1, 1]])
+
+    f = float(np.sqrt(K_q[0, 0] * K_q[1, 1]))
+    try:
+        E, mask = cv2.findEssentialMat(_norm(np.asarray(uv_q, np.float64), K_q), _norm(np.asarray(uv_c, np.float64), K_c),
+                                       np.eye(3), method=cv2.RANSAC, prob=0.999, threshold=threshold_px / f)
+    except cv2.error:
+        return np.zeros(n, dtype=bool)
+    if E is None or mask is None:
+        return np.zeros(n, dtype=bool)
+    return np.asarray(mask, dtype=bool).reshape(-1)
+
+
 def verify_pair(dq: NDArray[np.uint8], pq: NDArray, dc: NDArray[np.uint8], pc: NDArray,
                 p: VerifyParams, stream: tuple[str | int, ...] = (), uv_q: NDArray | None = None,
-                K_q: NDArray | None = None) -> VerifyOutcome:
+                K_q: NDArray | None = None, uv_c: NDArray | None = None, K_c: NDArray | None = None
+                ) -> VerifyOutcome:
     """Match keyframe q's features to c's and verify them in 3D.
 
     Args:
@@ -131,17 +157,23 @@ def verify_pair(dq: NDArray[np.uint8], pq: NDArray, dc: NDArray[np.uint8], pc: N
         stream: extra names of the sampler's random stream (e.g. the pair), for independence.
         uv_q, K_q: q's keypoint pixels (n, 2) and 3x3 camera matrix, for the reprojection
             refinement (skipped when either is None).
+        uv_c, K_c: c's, for the 2D-2D check (skipped unless all four are given).
     """
     m = match_descriptors(dq, dc, p.lowe_ratio)
     if len(m) < p.min_inliers:
         return VerifyOutcome(None, np.zeros((0, 2), np.int64), len(m), f"only {len(m)} descriptor matches")
+    n_matches = len(m)
+    if p.mono_check and uv_q is not None and K_q is not None and uv_c is not None and K_c is not None:
+        m = m[mono_inliers(np.asarray(uv_q)[m[:, 0]], K_q, np.asarray(uv_c)[m[:, 1]], K_c, p.mono_threshold_px)]
+        if len(m) < p.min_inliers:
+            return VerifyOutcome(None, np.zeros((0, 2), np.int64), n_matches, f"only {len(m)} 2D-2D inliers")
     src = np.asarray(pc, np.float64)[m[:, 1]]
     dst = np.asarray(pq, np.float64)[m[:, 0]]
     T, mask = ransac_rigid(src, dst, p, child_rng(p.seed, "visual_ransac", *stream))
     k = int(mask.sum())
     if T is None or k < p.min_inliers:
-        return VerifyOutcome(None, m[mask], len(m), f"only {k} 3D-3D inliers (need {p.min_inliers})")
+        return VerifyOutcome(None, m[mask], n_matches, f"only {k} 3D-3D inliers (need {p.min_inliers})")
     inl = m[mask]
     if p.refine_reprojection and uv_q is not None and K_q is not None:
         T = refine_reprojection(T, np.asarray(pc)[inl[:, 1]], np.asarray(uv_q)[inl[:, 0]], K_q)
-    return VerifyOutcome(T, inl, len(m))
+    return VerifyOutcome(T, inl, n_matches)
