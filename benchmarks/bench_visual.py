@@ -157,4 +157,5 @@ def main(quick: bool = False, full: bool = False, demo: bool = False) -> dict:
 
 
 if __name__ == "__main__":
-    print(json.dumps(main(quick="--quick" in sys.argv, full="--full" in sys.argv, demo="--demo" in sys.argv), indent=2))
+    flags = {f: f"--{f}" in sys.argv for f in ("quick", "full", "demo")}
+    print(json.dumps(main(**flags), indent=2))

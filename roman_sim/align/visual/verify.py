@@ -135,8 +135,8 @@ def mono_inliers(uv_q: NDArray, K_q: NDArray, uv_c: NDArray, K_c: NDArray, thres
 
     f = float(np.sqrt(K_q[0, 0] * K_q[1, 1]))
     try:
-        E, mask = cv2.findEssentialMat(_norm(np.asarray(uv_q, np.float64), K_q), _norm(np.asarray(uv_c, np.float64), K_c),
-                                       np.eye(3), method=cv2.RANSAC, prob=0.999, threshold=threshold_px / f)
+        nq, nc = _norm(np.asarray(uv_q, np.float64), K_q), _norm(np.asarray(uv_c, np.float64), K_c)
+        E, mask = cv2.findEssentialMat(nq, nc, np.eye(3), method=cv2.RANSAC, prob=0.999, threshold=threshold_px / f)
     except cv2.error:
         return np.zeros(n, dtype=bool)
     if E is None or mask is None:
