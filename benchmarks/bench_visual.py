@@ -141,7 +141,8 @@ def main(quick: bool = False, full: bool = False, demo: bool = False) -> dict:
                   "p90_ms": 1000 * float(np.percentile(times, 90)),
                   "keyframes_per_submap": float(np.mean([len(s.keyframes) for r in runs for s in r[3]]))},
         "vocabulary": {"shipped_bytes": shipped.stat().st_size, "words": voc.n_words,
-                       "train_s_on_benchmark_descriptors": train_s, "train_cpu_s": train_cpu, "benchmark_descriptors": int(sum(map(len, feats)))},
+                       "train_s_on_benchmark_descriptors": train_s, "train_cpu_s": train_cpu,
+                       "benchmark_descriptors": int(sum(map(len, feats)))},
     }
     if demo:
         res["demo"] = _demo_times()
