@@ -59,7 +59,7 @@ def test_visual_orderings_hold_on_every_seed(visual_run) -> None:
     ROMAN 0.86/0.67/0.75, 0.82/0.40/0.70, 0.81/0.60/0.35, 0.84/1.00/0.65;
     visual 0.68/0.17/0.00, 0.64/0.20/0.00, 0.77/0.00/0.00, 0.52/0.00/0.00.
     SE(3) ATE of all robots (m), combined / ROMAN / visual / odometry / oracle:
-    0.388/0.408/20.6/0.434/0.281, 0.388/0.396/33.9/0.910/0.284, 0.531/0.541/21.3/0.613/0.209,
+    0.387/0.408/20.6/0.434/0.281, 0.388/0.396/33.9/0.910/0.284, 0.531/0.541/21.3/0.613/0.209,
     0.400/0.404/30.6/0.764/0.265. Visual's graph is far off because robot c (opposite
     direction) is tied to the others only by wrong visual closures.
     """
