@@ -94,12 +94,12 @@ class VisualAligner:
         for s in (a, b):
             if s.keyframes is None or len(s.keyframes) == 0:
                 why = f"submap {s.name} has no keyframes (the visual method needs render_rgb: true)"
-                return AlignResult.failure(self.name, why, time.perf_counter() - t0, n_candidates=0)
+                return AlignResult.failure(self.name, why, time.perf_counter() - t0, n_putative=0, n_candidates=0)
         ka, kb = a.keyframes, b.keyframes
         assert ka is not None and kb is not None
         cands, best = candidates(ka, kb, self.params)
-        info: dict[str, Any] = {"best_normalised_score": best, "n_candidates": len(cands),
-                                "association_kind": "keyframe_features"}
+        info: dict[str, Any] = {"n_putative": len(ka) * len(kb), "best_normalised_score": best,
+                                "n_candidates": len(cands), "association_kind": "keyframe_features"}
         if not cands:
             why = f"no keyframe pair above alpha = {self.params.alpha:g}"
             return AlignResult.failure(self.name, why, time.perf_counter() - t0, **info)
