@@ -77,7 +77,7 @@ class AppearanceSpec(StrictModel):
     texture_px: int = Field(256, ge=32, le=1024, description="side of each square surface texture")
     instance_variation: float = Field(0.5, ge=0.0, le=1.0, description="fraction of each family's colour range")
     lighting: LightingSpec = Field(default_factory=LightingSpec, description="a preset name or a mapping")
-    shadows: bool = Field(False, description="the sun casts shadows (about 5x the RGB cost)")
+    shadows: bool = Field(False, description="the sun casts shadows (a frame costs about 2x)")
     shadow_px: int = Field(4096, ge=256, le=8192, description="shadow map side")
 
     @field_validator("lighting", mode="before")

@@ -18,12 +18,11 @@ from typing import Any
 import mujoco
 import numpy as np
 import trimesh
-import yaml
 from numpy.typing import NDArray
 from PIL import Image
 
-from roman_sim.core.atomic import write_bytes, write_json, write_text
-from roman_sim.core.config import dump_yaml, validate_model
+from roman_sim.core.atomic import output_folder, write_bytes, write_json, write_text
+from roman_sim.core.config import dump_yaml, load_model
 from roman_sim.core.errors import WorldError
 from roman_sim.world.build import World
 from roman_sim.world.mjcf import GROUND, MATERIAL_PREFIX
@@ -80,7 +79,12 @@ def _mesh_file(model: mujoco.MjModel, name: str) -> str:
 
 def _read_msh(path: Path) -> trimesh.Trimesh:
     raw = path.read_bytes()
-    nv, nn, nt, nf = np.frombuffer(raw[:16], dtype=np.int32)
+    if len(raw) < 16:
+        raise ValueError(f"{len(raw)} bytes, shorter than the 16-byte header")
+    nv, nn, nt, nf = (int(x) for x in np.frombuffer(raw[:16], dtype=np.int32))
+    expected = 16 + 4 * (3 * nv + 3 * nn + 2 * nt + 3 * nf)
+    if min(nv, nn, nt, nf) < 0 or len(raw) != expected:
+        raise ValueError(f"{len(raw)} bytes, but the header (counts {nv}, {nn}, {nt}, {nf}) says {expected}")
     off = 16
     v = np.frombuffer(raw, np.float32, 3 * nv, off).reshape(-1, 3)
     off += 4 * (3 * nv + 3 * nn + 2 * nt)
@@ -152,8 +156,8 @@ def truth_to_dict(world: World) -> dict[str, Any]:
 
 def export_world(world: World, out_dir: str | Path) -> Path:
     """Write the world folder; returns the path of ``world.xml``."""
-    out = Path(out_dir)
-    (out / MESH_DIR).mkdir(parents=True, exist_ok=True)
+    out = output_folder(out_dir, "out_dir")
+    output_folder(out / MESH_DIR, "out_dir")
     mjs = _file_spec(world)  # checks the world has an MjSpec
     for name, mesh in sorted(world.meshes.items()):
         uv = _mesh_texcoords(world.model, name)
@@ -184,21 +188,51 @@ def _truth_from(doc: dict[str, Any], model: mujoco.MjModel) -> WorldTruth:
 
 
 def load_world(world_dir: str | Path) -> World:
-    """Reload an exported world folder (``WorldError`` on missing or corrupt files)."""
+    """Reload an exported world folder (``WorldError`` naming the missing or corrupt file)."""
     d = Path(world_dir)
+    if not d.is_dir():
+        raise WorldError(f"{d}: not a folder (an exported world folder holds world.xml, truth.json, spec.yaml)")
     for name in ("world.xml", "truth.json", "spec.yaml"):
         if not (d / name).is_file():
             raise WorldError(f"{d}: missing {name} (not an exported world folder)")
+    model, mjs = _load_xml(d / "world.xml")
+    doc = _load_truth_json(d / "truth.json")
+    spec = load_model(WorldSpec, d / "spec.yaml")
     try:
-        model = mujoco.MjModel.from_xml_path(str(d / "world.xml"))
-        mjs = mujoco.MjSpec.from_file(str(d / "world.xml"))
-        doc = json.loads((d / "truth.json").read_text(encoding="utf-8"))
-        spec = validate_model(WorldSpec, yaml.safe_load((d / "spec.yaml").read_text(encoding="utf-8")), str(d / "spec.yaml"))
         truth = _truth_from(doc, model)
-        meshes = {m.name: (_read_obj if m.file.endswith(".obj") else _read_msh)(d / MESH_DIR / Path(m.file).name)
-                  for m in mjs.meshes}
-    except (ValueError, KeyError, TypeError, OSError, yaml.YAMLError) as err:
-        raise WorldError(f"{d}: corrupt world folder: {type(err).__name__}: {err}") from None
+        seed = int(doc["seed"])
+    except KeyError as err:
+        raise WorldError(f"{d / 'truth.json'}: corrupt: missing key {err}") from None
+    except (ValueError, TypeError, IndexError, AttributeError) as err:
+        raise WorldError(f"{d / 'truth.json'}: corrupt: {type(err).__name__}: {err}") from None
+    meshes = {}
+    for m in mjs.meshes:
+        path = d / MESH_DIR / Path(m.file).name
+        try:
+            meshes[m.name] = (_read_obj if path.suffix == ".obj" else _read_msh)(path)
+        except (OSError, ValueError, TypeError, IndexError) as err:
+            raise WorldError(f"{path}: corrupt mesh file: {err}") from None
+    return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)
+
+
+def _load_xml(path: Path) -> tuple[mujoco.MjModel, mujoco.MjSpec]:
+    """The compiled model and the spec of ``world.xml``; MuJoCo's parse errors name the file."""
+    try:
+        return mujoco.MjModel.from_xml_path(str(path)), mujoco.MjSpec.from_file(str(path))
+    except (ValueError, OSError) as err:
+        detail = " ".join(str(err).split())
+        raise WorldError(f"{path}: MuJoCo cannot load it: {detail}") from None
+
+
+def _load_truth_json(path: Path) -> dict[str, Any]:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise WorldError(f"{path}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise WorldError(f"{path}: cannot read: {err}") from None
+    if not isinstance(doc, dict):
+        raise WorldError(f"{path}: expected a JSON object, got {type(doc).__name__}")
     if doc.get("version") != TRUTH_VERSION:
-        raise WorldError(f"{d}/truth.json: version {doc.get('version')!r}, expected {TRUTH_VERSION}")
-    return World(spec=spec, seed=int(doc["seed"]), model=model, truth=truth, meshes=meshes, mjspec=mjs)
+        raise WorldError(f"{path}: version {doc.get('version')!r}, expected {TRUTH_VERSION}")
+    return doc

@@ -101,7 +101,10 @@ class Looks:
         if name in self.added:
             return name
         surface = SURFACES.get(kind)
-        mat = mjs.add_material(name=name, specular=surface.specular, shininess=surface.shininess)
+        # MuJoCo takes a geom's rgba only when it differs from the default grey, else the
+        # material's: the material is that grey too, so every instance shows its own colour
+        mat = mjs.add_material(name=name, specular=surface.specular, shininess=surface.shininess,
+                               rgba=[0.5, 0.5, 0.5, 1.0])
         if self.spec.textures:
             n = self.spec.texture_px
             img = texture_image(kind, child_rng(self.seed, "world", "appearance", "texture", kind), n)

@@ -53,8 +53,10 @@ def noise(rng: np.random.Generator, n: int, sigma_u: float, sigma_v: float | Non
 
 
 def _fbm(rng: np.random.Generator, n: int, sigmas: tuple[float, ...], gain: float = 0.55) -> NDArray[np.float64]:
-    out = sum(gain**k * noise(rng, n, s) for k, s in enumerate(sorted(sigmas, reverse=True)))
-    return out / np.std(out)
+    out = np.zeros((n, n))
+    for k, s in enumerate(sorted(sigmas, reverse=True)):
+        out += gain**k * noise(rng, n, s)
+    return out / float(np.std(out))
 
 
 def _bark(rng: np.random.Generator, n: int) -> NDArray[np.float64]:

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import binary_erosion, laplace
 
-from roman_sim.core.config import validate_model
+from roman_sim.core.config import apply_overrides, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.sensors import backproject
 from roman_sim.sim.camera import CameraConfig
@@ -304,3 +304,12 @@ def test_textured_world_exports_and_reloads_in_plain_mujoco(gen: Callable[..., W
         np.testing.assert_allclose(back.meshes[name].vertices, mesh.vertices, atol=1e-6)
     again = load_world(export_world(back, tmp_path / "again").parent)
     np.testing.assert_allclose(again.model.mesh_texcoord, g.mesh_texcoord, atol=1e-6)
+
+
+def test_appearance_takes_dotted_overrides() -> None:
+    data = apply_overrides(_spec().model_dump(mode="json"),
+                           ["appearance.lighting=evening", "appearance.shadows=true", "appearance.textures=true"])
+    app = validate_model(WorldSpec, data).appearance
+    assert app.lighting == LIGHTING.get("evening") and app.shadows and app.textures
+    data = apply_overrides(_spec().model_dump(mode="json"), ["appearance.lighting.azimuth_deg=90"])
+    assert validate_model(WorldSpec, data).appearance.lighting.azimuth_deg == 90.0

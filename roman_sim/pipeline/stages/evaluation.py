@@ -16,6 +16,7 @@ from roman_sim.align import build_aligner
 from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
+from roman_sim.core.plugin_guard import guard_aligner
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.evaluate import evaluate, save_evaluation
 from roman_sim.evaluation.metrics import PairScore
@@ -79,8 +80,9 @@ class Counting:
 
 
 def build_aligners(ctx: RunContext) -> list[Any]:
-    """The scenario's aligners, labelled; the last one counts pairs for the progress bar."""
-    out: list[Any] = [Labelled(build_aligner(e.method, e.params), e.name) for e in ctx.scenario.aligners]
+    """The scenario's aligners, labelled (plug-ins guarded); the last one counts pairs for the progress bar."""
+    out: list[Any] = [Labelled(guard_aligner(build_aligner(e.method, e.params), e.method), e.name)
+                      for e in ctx.scenario.aligners]
     out[-1] = Counting(out[-1], ctx)
     return out
 
