@@ -94,3 +94,22 @@ def test_ratio_test_keeps_distinctive_matches_only() -> None:
     assert len(match_descriptors(d, twins, 0.7)) == 0
     assert len(match_descriptors(d, d[:1], 0.7)) == 0
     assert make_orb() is not None
+
+
+def test_two_view_check_keeps_epipolar_inliers_and_drops_shuffled_matches(shooter) -> None:
+    from roman_sim.align.visual.verify import mono_inliers
+
+    Tq, fq = shooter.features(0.0, 0.0, 0.0)
+    Tc, fc = shooter.features(0.6, 0.3, 12.0)
+    m = match_descriptors(fq.descriptors, fc.descriptors, 0.7)
+    K = shooter.K.K
+    keep = mono_inliers(fq.uv[m[:, 0]], K, fc.uv[m[:, 1]], K, 2.0)
+    assert keep.mean() > 0.8  # true matches between two clean views of one place
+    rng = np.random.default_rng(0)
+    shuffled = mono_inliers(fq.uv[m[:, 0]], K, fc.uv[rng.permutation(m[:, 1])], K, 2.0)
+    assert shuffled.mean() < 0.3
+    assert not mono_inliers(fq.uv[:4], K, fc.uv[:4], K, 2.0).any()  # fewer than 5 points
+    # and the whole check with it recovers the pose
+    out = verify_pair(fq.descriptors, fq.points, fc.descriptors, fc.points, P, (), fq.uv, K, fc.uv, K)
+    rot, trans = pose_error(out.T_q_c, inv_T(Tq) @ Tc)
+    assert out.reason is None and np.degrees(rot) < 2.0 and trans < 0.1
