@@ -2,8 +2,9 @@
 
 ORB descriptors are matched with OpenCV's brute-force Hamming matcher (two nearest
 neighbours, Lowe ratio 0.7). As Kimera-Multi does, a 2D-2D check comes first: OpenCV's
-5-point essential-matrix RANSAC on the matched pixels (2 px) keeps its inliers (Kimera-
-Multi uses opengv's Stewenius solver). Their 3D points then go through 3-point RANSAC: each hypothesis is a Kabsch fit of three matches, scored by its truncated
+5-point essential-matrix RANSAC on the matched pixels (2 px) keeps its inliers
+(Kimera-Multi uses opengv's Stewenius solver). Their 3D points then go through 3-point
+RANSAC: each hypothesis is a Kabsch fit of three matches, scored by its truncated
 quadratic cost with a 0.3 m inlier distance; the best one is refit (weighted Arun) on its
 inliers. At least 5 inliers within 0.3 m are needed (Kimera-Multi's values). Like
 Kimera's optional pose refinement, the accepted pose is then refined on the inliers by
