@@ -186,3 +186,21 @@ def backproject(
     x = (u - intrinsics.cx) * z / intrinsics.fx
     y = (v - intrinsics.cy) * z / intrinsics.fy
     return np.column_stack([x, y, z])
+
+
+def backproject_pixels(
+    uv: ArrayLike, z: ArrayLike, intrinsics: Intrinsics
+) -> NDArray[np.float64]:
+    """Back-project pixels ``uv`` (N, 2) (column, row; any sub-pixel position) at depths ``z`` (N,).
+
+    Same convention as ``backproject``: ``x = (u - cx) z / fx``, ``y = (v - cy) z / fy``.
+
+    Returns: (N, 3) points in the camera (RDF) frame.
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    z = np.asarray(z, dtype=np.float64).reshape(-1)
+    if len(z) != len(uv):
+        raise ConfigError(f"backproject_pixels: {len(uv)} pixels but {len(z)} depths")
+    x = (uv[:, 0] - intrinsics.cx) * z / intrinsics.fx
+    y = (uv[:, 1] - intrinsics.cy) * z / intrinsics.fy
+    return np.column_stack([x, y, z])

@@ -74,7 +74,7 @@ def calibrate_cmd(
     from roman_sim.core.config import validate_model
     from roman_sim.evaluation.calibration import calibrate, render_calibration_frames
     from roman_sim.evaluation.frontend_grades import FrontEndGrades, SegmentationGrades, plot_frontend_grades
-    from roman_sim.mapping.frontend import FrontEnd, build_encoder, build_segmenter, encoder_spec
+    from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
     from roman_sim.pipeline.scenario import load_scenario
 
     enc, seg = _entry(encoder, "--encoder"), _entry(segmenter, "--segmenter")
@@ -86,7 +86,7 @@ def calibrate_cmd(
         data["encoder"] = enc
     if seg is not None:
         data["segmenter"] = seg
-    fe = validate_model(FrontEnd, data, source="frontend")
+    fe = validate_model(type(sc.frontend), data, source="frontend")
     # Truth-free targets (models) are built first, so bad weights fail before anything renders.
     truth_enc = enc is None or encoder_spec(fe.encoder).reads_truth
     target_enc = None if truth_enc else build_encoder(fe, sc.seed, "calibration")

@@ -138,11 +138,14 @@ def plot_alignment(
     """Top-down view of submap a and submap b moved by the estimate, with association lines.
 
     Lines are green when both segments come from the same true object, red otherwise
-    (grey without truth). With ``T_a_b_true``, b's true placement is drawn faintly.
+    (grey without truth); none for a method whose associations are not segments (visual).
+    With ``T_a_b_true``, b's true placement is drawn faintly.
     """
     if result.T_a_b is None:
         raise EvaluationError(f"{result.method} on {a.name}|{b.name}: no estimate to draw ({result.reason})")
     assoc = np.asarray(result.associations, dtype=np.int64).reshape(-1, 2)
+    if result.info.get("association_kind") == "keyframe_features":  # feature pairs, not segments: no lines
+        assoc = assoc[:0]
     if len(assoc) and (assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
         raise EvaluationError(f"{result.method}: association index outside the submaps")
     fig, ax = _figure(6.0, 6.0)

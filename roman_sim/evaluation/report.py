@@ -38,6 +38,8 @@ PLOT_CAPTIONS = {
 MAP_LABELS = {
     "segments": "segments", "submaps": "submaps", "kb_per_submap": "KB per submap",
     "mb_per_km": "MB per km",
+    "keyframes_per_submap": "visual keyframes per submap", "keyframe_kb_per_submap": "visual KB per submap",
+    "keyframe_kb_per_submap_max": "largest visual packet (KB)", "keyframe_mb_per_km": "visual MB per km",
 }
 
 

@@ -12,11 +12,12 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
+from roman_sim.align.visual.keyframes import KeyframeParams
 from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
 from roman_sim.interop.tum_reader import TumSourceConfig
-from roman_sim.mapping.frontend import FrontEnd
+from roman_sim.mapping.frontend import FrontEnd as FrontEndBase
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.posegraph import PoseGraphConfig
@@ -67,9 +68,20 @@ class AlignerEntry(StrictModel):
         return self.label or method_label(self.method)
 
 
+#: Methods that align submaps by their visual keyframes (the maps stage extracts them).
+VISUAL_METHODS = frozenset({"visual"})
+
+
 def method_label(method: str) -> str:
     """Table label of a method name: itself, or the class name of ``package.module:Class``."""
     return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
+
+
+class FrontEnd(FrontEndBase):
+    """The scenario's front end: segmenter, encoder, the simulated encoder's semantics and visual keyframes."""
+
+    keyframes: KeyframeParams = Field(default_factory=KeyframeParams,
+                                      description="visual keyframes (ORB + BoW), extracted when a method needs them")
 
 
 class ScenarioRobot(RobotConfig):
@@ -102,6 +114,11 @@ class Scenario(StrictModel):
     posegraph: PoseGraphConfig = Field(default_factory=PoseGraphConfig)
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
     record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
+
+    @property
+    def uses_visual(self) -> bool:
+        """Whether an aligner needs the robots' visual keyframes (the ``visual`` method)."""
+        return any(a.method in VISUAL_METHODS for a in self.aligners)
 
     def simulated_robots(self) -> list[ScenarioRobot]:
         """The robots the simulator renders (those without a ``source``), in order."""
@@ -138,6 +155,11 @@ class Scenario(StrictModel):
             if r.simulated and r.path.of in recorded:
                 raise ValueError(f"robots.{k}.path.of: {r.path.of!r} is read from a TUM folder and has no "
                                  "planned path to follow (refer to a simulated robot)")
+        if self.uses_visual:
+            for i, r in enumerate(self.robots):
+                if r.simulated and not r.render_rgb:
+                    raise ValueError(f"robots.{i}.render_rgb: robot {r.name!r} must render RGB (render_rgb: true) "
+                                     "for the visual method")
         return self
 
 

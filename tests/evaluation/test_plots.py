@@ -70,6 +70,8 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
     bad_idx = result_for(np.eye(4), 9)
     with pytest.raises(EvaluationError, match="outside"):
         plot_alignment(a, b, bad_idx, tmp_path / "x.png")
+    bad_idx.info["association_kind"] = "keyframe_features"  # visual: feature pairs, drawn without lines
+    assert _is_png(plot_alignment(a, b, bad_idx, tmp_path / "visual.png"))
     with pytest.raises(EvaluationError, match="example pair"):
         draw_examples(scores, {}, results, tmp_path)
 

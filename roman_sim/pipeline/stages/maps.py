@@ -3,6 +3,9 @@
 Simulated robots are planned together (a path may be defined relative to an earlier
 robot's), then rendered and mapped one by one; a robot with a ``source`` is read from its
 TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same way.
+When a scenario lists the ``visual`` method, the same frames also give each robot's visual
+keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
+``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
 from roman_sim.core.atomic import write_json
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
@@ -20,8 +24,9 @@ from roman_sim.core.plugin_guard import guard_frontend
 from roman_sim.evaluation.frontend_grader import FrontEndGrader
 from roman_sim.evaluation.frontend_grades import FrontEndGrades, plot_frontend_grades
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
-from roman_sim.mapping.io import load_segment_map, save_segment_map
+from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
+from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot
@@ -29,6 +34,8 @@ from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
+MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
+
 
 FRONTEND_JSON = "maps/frontend.json"
 FRONTEND_PNG = "plots/frontend.png"
@@ -36,14 +43,17 @@ FRONTEND_PNG = "plots/frontend.png"
 
 @dataclass
 class Maps:
-    """Each robot's segment map (robot name -> map, in scenario order), the front end's grades and notes.
+    """Each robot's segment map (robot name -> map, in scenario order), the stage's notes, the
+    front end's grades and, when the visual method runs, each robot's keyframes (poses in its
+    odometry frame).
 
-    ``frontend`` grades whatever segmenter and encoder ran, against the rendered truth, over
-    every robot's frames (None when the frames carry no truth); ``written`` lists the plot.
+    ``frontend`` grades whatever segmenter and encoder ran against the frames' instance truth,
+    over every robot (None when no frame has instance truth); ``written`` lists the plot.
     """
 
     maps: dict[str, SegmentMap]
     notes: list[str] = field(default_factory=list)
+    keyframes: dict[str, KeyframeSet] = field(default_factory=dict)
     frontend: FrontEndGrades | None = None
     written: list[str] = field(default_factory=list)
 
@@ -95,7 +105,7 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
 
 
 def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None,
-                grader: Any = None) -> SegmentMap:
+                grader: Any = None) -> MapAndKeyframes:
     sc = ctx.scenario
     stage = f"maps:{name}"
     ctx.progress.start(stage, n)
@@ -104,13 +114,17 @@ def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, fam
     segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name,
                                         build_encoder_for(ctx, name, families), fe.encoder.name)
     mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
+    extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
     for frame in frames:
         mapper.process(frame)
+        if extractor is not None:
+            extractor.offer(frame.public())
         ctx.progress.advance(stage)
     ctx.progress.end(stage)
     smap = mapper.finish()
-    log.info("robot %s: %d segments", name, len(smap))
-    return smap
+    log.info("robot %s: %d segments%s", name, len(smap),
+             "" if extractor is None else f", {len(extractor.keyframes)} keyframes")
+    return smap, None if extractor is None else extractor.keyframe_set()
 
 
 class _Grader:
@@ -135,8 +149,9 @@ class _Grader:
         return self.inner.result(segmenter, encoder) if self.inner.seg.frames else None
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> SegmentMap:
-    """Render and map one robot along its planned path (each frame graded by ``grader``)."""
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+    """Render and map one robot along its planned path (graded by ``grader``; keyframes when the
+    visual method runs)."""
     from roman_sim.sim.robot import trajectory_along
 
     trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
@@ -147,7 +162,7 @@ def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader 
                        families, grader)
 
 
-def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> SegmentMap:
+def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> MapAndKeyframes:
     """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
     from roman_sim.pipeline.sources import open_sequence, sequence_families
 
@@ -172,7 +187,8 @@ class MapsStage(Stage[Maps]):
 
         sc = ctx.scenario.model_dump(mode="json")
         sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
-        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else [])]
+        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else []),
+                *(["visual"] if ctx.scenario.uses_visual else [])]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
@@ -182,22 +198,28 @@ class MapsStage(Stage[Maps]):
         assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
         paths = plan_paths(world.world, simulated, sc.seed) if world is not None and simulated else {}
         grader = _Grader(sc.frontend.semantics.group_of, sc.seed)
-        maps = {}
+        maps, keyframes = {}, {}
         for cfg in sc.robots:
-            maps[cfg.name] = map_sequence(ctx, cfg, grader) if cfg.source is not None \
+            maps[cfg.name], kf = map_sequence(ctx, cfg, grader) if cfg.source is not None \
                 else map_robot(ctx, world.world, cfg, paths[cfg.name], grader)  # type: ignore[union-attr]
-        return Maps(maps, _rgb_notes(ctx), grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name))
+            if kf is not None:
+                keyframes[cfg.name] = kf
+        return Maps(maps, _rgb_notes(ctx), keyframes,
+                    grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name))
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
-        if out.frontend is None:
-            return files
-        write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
-        plot_frontend_grades(out.frontend, ctx.run_dir / FRONTEND_PNG)
-        return [*files, FRONTEND_JSON, FRONTEND_PNG]
+        if out.keyframes:
+            files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
+        if out.frontend is not None:
+            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
+            plot_frontend_grades(out.frontend, ctx.run_dir / FRONTEND_PNG)
+            files += [FRONTEND_JSON, FRONTEND_PNG]
+        return files
 
     def load(self, ctx: RunContext, files: list[str]) -> Maps:
         maps, notes = load_per_robot(ctx, "maps", load_segment_map)
+        keyframes = load_per_robot(ctx, "keyframes", load_keyframes)[0] if ctx.scenario.uses_visual else {}
         grades = None
         if FRONTEND_JSON in files:
             path = ctx.run_dir / FRONTEND_JSON
@@ -205,7 +227,7 @@ class MapsStage(Stage[Maps]):
                 grades = FrontEndGrades.from_json(json.loads(path.read_text(encoding="utf-8")))
             except (OSError, ValueError) as err:
                 raise StorageError(f"{path}: unreadable front-end grades ({type(err).__name__})") from None
-        return Maps(maps, notes, grades, [f for f in files if f.endswith(".png")])
+        return Maps(maps, notes, keyframes, grades, [f for f in files if f.endswith(".png")])
 
 
 def _rgb_notes(ctx: RunContext) -> list[str]:

@@ -7,6 +7,13 @@ Three trajectories per robot are scored against the truth:
 - ``oracle``: the same pose graph with the true relative pose of every relevant pair (the
   upper bound of what loop closures can give).
 
+When the scenario also runs the visual method (and the pose graph's method is another
+one), two more: ``<visual label>`` (the visual closures alone) and ``combined`` (the
+method's and the visual closures in one GNC graph, as the paper's Table I combines ROMAN
+with Kimera-Multi's visual loop closures). Visual closures are those the visual aligner
+accepted (at least its ``min_inliers`` 3D-3D inliers); the method's keep
+``lc_association_thresh``.
+
 Writes ``ate.json`` (the ATE table and the stage's notes), ``posegraph.json`` (closures
 used and robots left unconnected per graph), ``trajectories/<robot>.<variant>.tum`` and
 ``plots/trajectories.png``.
@@ -32,6 +39,7 @@ from roman_sim.evaluation.trajplot import plot_trajectories
 from roman_sim.evaluation.types import AteTable
 from roman_sim.geometry import gravity_aligned, pose_error
 from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.scenario import VISUAL_METHODS
 from roman_sim.pipeline.stages.base import Stage, rel
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
@@ -96,6 +104,19 @@ def oracle_closures(submaps: Submaps, evaluation: EvaluationOutput) -> list[Loop
     return out
 
 
+def graph_variants(ctx: RunContext, submaps: Submaps, evaluation: EvaluationOutput, method: str
+                   ) -> list[tuple[str, list[LoopClosure], int]]:
+    """(variant, closures, association threshold) of every pose graph to solve, in table order."""
+    thresh = ctx.scenario.posegraph.lc_association_thresh
+    own = method_closures(submaps, evaluation, method)
+    out = [(method, own, thresh)]
+    visual = next((a.name for a in ctx.scenario.aligners if a.method in VISUAL_METHODS), None)
+    if visual is not None and visual != method:
+        vis = method_closures(submaps, evaluation, visual)
+        out += [(visual, vis, 0), ("combined", [c for c in own if c.n_associations >= thresh] + vis, 0)]
+    return [*out, ("oracle", oracle_closures(submaps, evaluation), thresh)]
+
+
 def score(est: dict[str, Trajectory], ref: dict[str, Trajectory]) -> dict[str, dict[str, float | None]]:
     """Per alignment: RMSE per robot and of the concatenation (``all``); None where not computable."""
     out = {}
@@ -140,7 +161,7 @@ def _aligned(est: dict[str, Trajectory], truth: dict[str, Trajectory]) -> dict[s
 
 
 class PoseGraphStage(Stage[PoseGraphOutput]):
-    """Solve the odometry-only, method and oracle pose graphs and score their trajectories."""
+    """Solve the odometry-only, method (visual, combined) and oracle pose graphs and score their trajectories."""
 
     name = "posegraph"
     inputs = ("maps", "submaps", "evaluation")
@@ -165,10 +186,10 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
         table = {"odometry": score(placed, truth)}
         graphs, notes, written, seconds = {}, [], [], {}
         trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed}
-        for variant, closures in ((method, method_closures(submaps, evaluation, method)),
-                                  ("oracle", oracle_closures(submaps, evaluation))):
+        for variant, closures, thresh in graph_variants(ctx, submaps, evaluation, method):
             t0 = time.perf_counter()
-            res = build_and_solve(odom, nodes, closures, ctx.scenario.posegraph)
+            cfg = ctx.scenario.posegraph.model_copy(update={"lc_association_thresh": thresh})
+            res = build_and_solve(odom, nodes, closures, cfg)
             seconds[variant] = time.perf_counter() - t0
             table[variant] = score(res.trajectories, truth)
             used = [w for w in res.closure_weights if w is not None]

@@ -32,11 +32,17 @@ class ReportOutput:
 
 
 def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
-    """Segments, submaps, packet size per submap and MB per km of trajectory."""
+    """Segments, submaps, packet size per submap and MB per km of trajectory (keyframes apart)."""
     subs = submaps.all()
     sizes = [packet_bytes(s) for s in subs]
     length_m = sum(m.trajectory_length_m for m in maps.maps.values()) if maps else 0.0
+    with_kf = [s for s in subs if s.keyframes is not None]
+    kf = [packet_bytes(s, "keyframes") for s in with_kf]
     return MapStats(
+        keyframes_per_submap=float(np.mean([len(s.keyframes or []) for s in with_kf])) if with_kf else None,
+        keyframe_kb_per_submap=float(np.mean(kf)) / 1000.0 if kf else None,
+        keyframe_kb_per_submap_max=float(np.max(kf)) / 1000.0 if kf else None,
+        keyframe_mb_per_km=(sum(kf) / 1e6) / (length_m / 1000.0) if kf and length_m > 0 else None,
         robots=len(submaps.submaps),
         segments=sum(len(m) for m in maps.maps.values()) if maps else None,
         submaps=len(subs),
