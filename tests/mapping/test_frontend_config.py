@@ -51,7 +51,7 @@ def test_registries_and_flags():
 
 
 def test_entries_accept_names_and_params():
-    assert ScenarioFrontEnd is FrontEnd
+    assert issubclass(ScenarioFrontEnd, FrontEnd) and "keyframes" in ScenarioFrontEnd.model_fields
     fe = validate_model(FrontEnd, {"segmenter": "image", "encoder": {"name": "image", "params": {"l_bins": 3}}})
     assert (fe.segmenter.name, fe.segmenter.params, fe.encoder.params) == ("image", {}, {"l_bins": 3})
     assert fe.needs_rgb and not fe.reads_truth
