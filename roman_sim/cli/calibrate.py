@@ -112,10 +112,4 @@ def _encoders() -> list[str]:
     return ENCODER_TYPES.names()
 
 
-def _segmenter_types() -> list[str]:
-    from roman_sim.mapping.frontend import SEGMENTER_TYPES
-
-    return SEGMENTER_TYPES.names()
-
-
-LISTINGS.update(encoders=_encoders, segmenter_types=_segmenter_types)
+LISTINGS.update(encoders=_encoders)

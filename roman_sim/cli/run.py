@@ -268,9 +268,9 @@ def _aligners() -> list[str]:
 
 
 def _segmenters() -> list[str]:
-    from roman_sim.mapping.segmenter import SEGMENTERS
+    from roman_sim.mapping.frontend import SEGMENTER_TYPES
 
-    return SEGMENTERS.names()
+    return SEGMENTER_TYPES.names()
 
 
 def _drift() -> list[str]:
