@@ -55,6 +55,7 @@ def run_one(name: str) -> dict:
         "submaps": res.map_stats.submaps,
         "pairs": res.metrics.n_pairs,
         "summary": res.metrics_summary(),
+        "frontend": res.metrics.frontend,
     }
 
 

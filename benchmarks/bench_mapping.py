@@ -1,16 +1,22 @@
 """Mapping benchmark: front-end throughput at 640 x 480, packet bytes per submap, MB per km.
 
-Two runs: (1) ``dense_synthetic``: ray-cast 640 x 480 frames with about 20 objects within
+Runs: (1) ``dense_synthetic``: ray-cast 640 x 480 frames with about 20 objects within
 range (the throughput case); (2) ``world_road``: frames rendered in a generated world while
-the robot drives along a road (submaps, packet bytes, MB per km). Only the mapping work
-(segmentation, observations + semantics, tracking) is timed; rendering is excluded. Writes ``benchmarks/out/mapping.json``.
+the robot drives along a road (submaps, packet bytes, MB per km); (3) ``image_frontend``:
+the truth-free image segmenter + encoder against the truth-driven fastsam + simulated front
+end on the same rendered RGB-D frames of the textured demo world (``demo_pixels``), at
+320 x 240 and 640 x 480 (frames per second of segmenter + encoder in wall and CPU time,
+each one's time per frame, and the whole mapper). Only the mapping work is timed; rendering is excluded. Writes
+``benchmarks/out/mapping.json``; ``--sections`` runs some runs and keeps the other figures.
 
 Usage: python benchmarks/bench_mapping.py [--world forest] [--seconds 90] [--seed 0]
+       [--sections dense_synthetic world_road full_submap_bound image_frontend]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import platform
 import time
@@ -139,23 +145,92 @@ def full_submap_bound(seed: int, dim: int = 768) -> dict:
             "mb_per_km_at_one_submap_per_10m": nbytes * per_km / 1e6}
 
 
+def _frontend_timing(frames: list, segmenter, encoder, families) -> dict:
+    """Segmenter, encoder (all masks of a frame at once) and whole-mapper time on ``frames``."""
+    from roman_sim.mapping.frontend import reads_truth
+    from roman_sim.mapping.observation import observe_indexed
+
+    seg_s, enc_s, seg_cpu, enc_cpu, masks = [], [], 0.0, 0.0, 0
+    cfg = MappingConfig()
+    for f in frames:
+        seen = f if reads_truth(segmenter) else f.public()
+        c0, t0 = time.process_time(), time.perf_counter()
+        ms = segmenter.segment(seen)
+        c1, t1 = time.process_time(), time.perf_counter()
+        observe_indexed(f, ms, cfg, encoder)  # back-projection + the encoder, as the mapper runs it
+        c2, t2 = time.process_time(), time.perf_counter()
+        seg_s.append(t1 - t0)
+        enc_s.append(t2 - t1)
+        seg_cpu += c1 - c0
+        enc_cpu += c2 - c1
+        masks += len(ms)
+    mapper = Mapper(cfg, segmenter, encoder)
+    t0 = time.perf_counter()
+    for f in frames:
+        mapper.process(f)
+    mapper_s = time.perf_counter() - t0
+    seg_t, enc_t = float(np.sum(seg_s)), float(np.sum(enc_s))
+    return {"frames": len(frames), "masks_per_frame": masks / len(frames),
+            "frontend_fps": len(frames) / (seg_t + enc_t), "frontend_fps_cpu_time": len(frames) / (seg_cpu + enc_cpu),
+            "segmenter_ms_per_frame": seg_t / len(frames) * 1e3,
+            "segmenter_cpu_ms_per_frame": seg_cpu / len(frames) * 1e3,
+            "encoder_ms_per_frame": enc_t / len(frames) * 1e3, "encoder_cpu_ms_per_frame": enc_cpu / len(frames) * 1e3,
+            "mapper_fps": len(frames) / mapper_s,
+            "segments": len(mapper.finish())}
+
+
+def run_image_frontend(n_frames: int, seed: int) -> dict:
+    """Image front end vs truth-driven front end on the same frames of the textured demo world.
+
+    The encoder's time includes the back-projection of each mask (what ``observe`` does
+    around the encoder), so both front ends are timed the same way.
+    """
+    from roman_sim.mapping.frontend import build_encoder
+    from roman_sim.mapping.frontend import build_segmenter as build_any_segmenter
+    from roman_sim.pipeline.scenario import load_scenario
+    from roman_sim.sim.robot import DrivenRun, plan_paths, render_trajectory, trajectory_along
+
+    sc = load_scenario("demo_pixels")
+    world = generate(sc.world.spec(), sc.seed)
+    families = {o.id: o.family for o in world.truth.objects}
+    out: dict = {"scenario": "demo_pixels", "world_seed": sc.seed}
+    for w, h in ((320, 240), (640, 480)):
+        robot = sc.robots[0].model_copy(update={"render_rgb": True, "camera": CameraConfig(width=w, height=h)})
+        path = plan_paths(world, [robot], sc.seed)[robot.name]
+        t, T_wb, T_ob = trajectory_along(world, robot, sc.seed, path)
+        keep = np.linspace(0, len(t) - 1, min(n_frames, len(t))).round().astype(int)
+        frames = list(render_trajectory(world, robot, sc.seed, DrivenRun(t[keep], T_wb[keep], T_ob[keep])))
+        image = _frontend_timing(frames, build_any_segmenter("image", seed), build_encoder("image"), families)
+        truth = _frontend_timing(frames, build_any_segmenter("fastsam", seed),
+                                 build_encoder("simulated", seed, "a", families), families)
+        out[f"{w}x{h}"] = {"image": image, "truth_driven": truth,
+                           "image_over_truth_frontend_time": truth["frontend_fps"] / image["frontend_fps"]}
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--world", default="forest")
     ap.add_argument("--seconds", type=float, default=90.0)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--dense-frames", type=int, default=60)
+    ap.add_argument("--image-frames", type=int, default=60)
+    runs = {"dense_synthetic": lambda a: run_dense(a.dense_frames, a.seed),
+            "world_road": lambda a: run_world(a.world, a.seconds, a.seed),
+            "full_submap_bound": lambda a: full_submap_bound(a.seed),
+            "image_frontend": lambda a: run_image_frontend(a.image_frames, a.seed)}
+    ap.add_argument("--sections", nargs="+", choices=sorted(runs), default=list(runs))
     args = ap.parse_args()
-    result = {
+    result = json.loads(OUT.read_text()) if OUT.is_file() else {}
+    result.update({
         "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
                     "note": "2 cores shared with other jobs; rendering excluded from timing"},
-        "targets": {"mapping_fps": 10, "packet_bytes_max": 125_000, "mb_per_km": 12},
-        "dense_synthetic": run_dense(args.dense_frames, args.seed),
-        "world_road": run_world(args.world, args.seconds, args.seed),
-        "full_submap_bound": full_submap_bound(args.seed),
-    }
+        "targets": {"mapping_fps": 10, "packet_bytes_max": 125_000, "mb_per_km": 12, "image_frontend_fps_320x240": 10},
+    })
+    for section in args.sections:
+        result[section] = runs[section](args)
     write_json(OUT, result)
-    for section in ("dense_synthetic", "world_road", "full_submap_bound"):
+    for section in args.sections:
         for k, v in result[section].items():
             print(f"{section}.{k:28s} {v}")
 

@@ -75,3 +75,13 @@ class Aligner(Protocol):
 
 #: Registry of aligner factories: ``ALIGNERS.get(name)(**params) -> Aligner``.
 ALIGNERS: Registry[Any] = Registry("aligner")
+
+
+def segment_associations(result: AlignResult) -> bool:
+    """Whether ``result.associations`` index segments of the two submaps.
+
+    Methods whose associations are something else (the visual method's feature matches,
+    ``info["association_kind"] == "keyframe_features"``) are not graded against the true
+    segment correspondences and draw no association lines.
+    """
+    return result.info.get("association_kind", "segments") == "segments"

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.axes import Axes
 
-from roman_sim.align.base import AlignResult
+from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.plots import figure, save_png
@@ -64,6 +64,8 @@ def _check(a: Submap, b: Submap, result: AlignResult) -> np.ndarray:
     if result.T_a_b is None:
         raise EvaluationError(f"{result.method} on {a.name}|{b.name}: no estimate to draw ({result.reason})")
     assoc = np.asarray(result.associations, dtype=np.int64).reshape(-1, 2)
+    if not segment_associations(result):  # feature matches, not segments: no association lines
+        return assoc[:0]
     if len(assoc) and (assoc.min() < 0 or assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
         raise EvaluationError(f"{result.method}: association index outside the submaps")
     return assoc

@@ -31,7 +31,7 @@ from functools import partial
 
 import numpy as np
 
-from roman_sim.align.base import AlignResult
+from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
@@ -67,8 +67,11 @@ class PairScore:
         correct: estimate within both tolerances.
         runtime_s: alignment wall time (NaN when read back from ``pairs.csv``).
         reason: why no estimate was produced (None otherwise).
-        assoc_correct: selected associations that are true correspondences.
-        assoc_recovered: true correspondences recovered one-to-one by the selection.
+        assoc_correct: selected associations that are true correspondences (-1: not graded,
+            the method's associations are not segment pairs, e.g. the visual method's
+            feature matches).
+        assoc_recovered: true correspondences recovered one-to-one by the selection (-1: not
+            graded).
     """
 
     truth: PairTruth
@@ -94,7 +97,9 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
         r, trans = pose_error(T, truth.T_a_b_true)
         rot = math.degrees(r)
     good, recovered = 0, 0
-    if truth.ids_a is not None and truth.ids_b is not None:
+    if not segment_associations(result):
+        good, recovered = -1, -1
+    elif truth.ids_a is not None and truth.ids_b is not None:
         try:
             good, recovered = association_truth(truth.ids_a, truth.ids_b, result.associations)
         except EvaluationError as err:
@@ -148,7 +153,12 @@ def auc(curve: PRCurve) -> float:
 
 
 def _assoc_stats(scores: list[PairScore], level: float) -> dict[str, object]:
-    """Association precision and recall against the true correspondences, summed over the pairs."""
+    """Association precision and recall against the true correspondences, summed over the pairs.
+
+    Pairs whose associations are not graded (not segment pairs) are left out; with none
+    graded every figure is 0 or None.
+    """
+    scores = [s for s in scores if s.assoc_correct >= 0]
     sel = sum(s.n_assoc for s in scores)
     good = sum(s.assoc_correct for s in scores)
     avail = sum(s.truth.true_correspondences for s in scores)

@@ -24,6 +24,10 @@ class MapStats:
         kb_per_submap, kb_per_submap_max: mean and largest submap packet (kB).
         trajectory_km: total true trajectory length (None without maps).
         mb_per_km: submap packets (MB) per km of trajectory.
+        keyframes_per_submap: mean visual keyframes per submap (None without keyframes).
+        keyframe_kb_per_submap, keyframe_kb_per_submap_max: mean and largest keyframe
+            packet (kB), what the visual method shares, counted apart from the segments.
+        keyframe_mb_per_km: keyframe packets (MB) per km of trajectory.
     """
 
     robots: int
@@ -34,16 +38,24 @@ class MapStats:
     kb_per_submap_max: float | None
     trajectory_km: float | None
     mb_per_km: float | None
+    keyframes_per_submap: float | None = None
+    keyframe_kb_per_submap: float | None = None
+    keyframe_kb_per_submap_max: float | None = None
+    keyframe_mb_per_km: float | None = None
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict."""
-        return asdict(self)
+        """JSON-ready dict (keyframe figures only when there are keyframes)."""
+        d = asdict(self)
+        return d if self.keyframes_per_submap is not None else {k: v for k, v in d.items()
+                                                                if not k.startswith("keyframe")}
 
     @classmethod
     def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
-        """Inverse of ``to_json``."""
+        """Inverse of ``to_json`` (files without keyframe figures are read with None)."""
         try:
-            return cls(**{f.name: d[f.name] for f in fields(cls)})
+            values: dict[str, Any] = {f.name: d[f.name] if f.name in d or not f.name.startswith("keyframe") else None
+                                      for f in fields(cls)}
+            return cls(**values)
         except (KeyError, TypeError) as err:
             raise StorageError(f"{source}: malformed map statistics ({err})") from None
 

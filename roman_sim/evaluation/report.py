@@ -17,6 +17,7 @@ from pathlib import Path
 from roman_sim.core.atomic import write_text
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.frontend_grades import FrontEndGrades, frontend_report_lines
 from roman_sim.evaluation.tables import (
     NA,
     association_rows,
@@ -43,10 +44,15 @@ PLOT_CAPTIONS = {
     "segments_on_image.png": "Segment masks over a camera image",
     "map_view.png": "Segment maps (map view)",
     "trajectories.png": "Trajectories: truth, odometry and the pose graph",
+    "frontend.png": "Front end against truth: descriptor cosines, cosine against view difference, objects missed",
 }
 
-MAP_LABELS = {"segments": "segments", "submaps": "submaps", "kb_per_submap": "KB per submap",
-              "mb_per_km": "MB per km"}
+MAP_LABELS = {
+    "segments": "segments", "submaps": "submaps", "kb_per_submap": "KB per submap",
+    "mb_per_km": "MB per km",
+    "keyframes_per_submap": "visual keyframes per submap", "keyframe_kb_per_submap": "visual KB per submap",
+    "keyframe_kb_per_submap_max": "largest visual packet (KB)", "keyframe_mb_per_km": "visual MB per km",
+}
 
 #: How the ATE table treats robots a variant could not place (the report's policy text).
 ATE_POLICY = (
@@ -160,6 +166,8 @@ def write_report(
     map_rows = [{"quantity": MAP_LABELS.get(k, k), "value": fmt(v)}
                 for k, v in (map_stats.to_json() if map_stats else {}).items()]
     lines += ["## Map size", "", *(markdown_table(map_rows) or ["No map statistics were given."]), ""]
+    if metrics.frontend is not None:
+        lines += frontend_report_lines(FrontEndGrades.from_json(metrics.frontend))
     lines += ["Runtimes per pair and per stage: timings.json.", ""]
     lines += _section_plots(list(plots or []))
     path = out / REPORT_MD

@@ -261,6 +261,8 @@ class EvaluationMetrics:
         n_candidates, n_skipped: pairs before the distance cap, and how many it skipped.
         methods: method label -> its metrics (sorted by label).
         notes: statements for the report (undefined figures and why).
+        frontend: the front end's grades against truth (``FrontEndGrades.to_json()``), or
+            None when the run did not map (saved submaps).
     """
 
     config: dict[str, Any]
@@ -272,6 +274,7 @@ class EvaluationMetrics:
     n_skipped: int
     methods: dict[str, MethodMetrics]
     notes: list[str] = field(default_factory=list)
+    frontend: dict[str, Any] | None = None
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -295,11 +298,12 @@ class EvaluationMetrics:
         return getattr(self.stats(method, heading_bin, kind), key)
 
     def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict with the schema tag."""
+        """JSON-ready dict with the schema tag (``frontend`` only when the run graded its front end)."""
         return {"schema": METRICS_SCHEMA, "config": self.config, "headline": self.headline,
                 "n_pairs": self.n_pairs, "n_relevant": self.n_relevant, "pairs": self.pairs,
                 "n_candidates": self.n_candidates, "n_skipped": self.n_skipped,
-                "methods": {k: v.to_json() for k, v in self.methods.items()}, "notes": list(self.notes)}
+                "methods": {k: v.to_json() for k, v in self.methods.items()}, "notes": list(self.notes),
+                **({} if self.frontend is None else {"frontend": self.frontend})}
 
     @classmethod
     def from_json(cls, d: Any, source: str = "metrics") -> "EvaluationMetrics":
@@ -311,6 +315,7 @@ class EvaluationMetrics:
             return cls(dict(d["config"]), str(d["headline"]), int(d["n_pairs"]), int(d["n_relevant"]),
                        {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d["pairs"].items()},
                        int(d["n_candidates"]), int(d["n_skipped"]),
-                       {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()}, list(d.get("notes", [])))
+                       {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()}, list(d.get("notes", [])),
+                       d.get("frontend"))
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

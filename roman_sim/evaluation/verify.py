@@ -97,7 +97,9 @@ def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[Evalu
     cfg = _eval_config(run_dir)
     scores, diffs = rederive(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
-    return summary(scores, cfg, stored.n_skipped), diffs
+    metrics = summary(scores, cfg, stored.n_skipped)
+    metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
+    return metrics, diffs
 
 
 def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:

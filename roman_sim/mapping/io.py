@@ -9,11 +9,14 @@ arrays sit beside it:
   segment points stacked) with ``offsets`` (n+1,), ``descriptor_sum`` (n,D) float64,
   ``has_descriptor`` (n,); the header lists id, times, sightings, status, truth counts.
 - submaps: ``s<k>_<field>`` for every array field of submap k (descriptor dtype kept),
-  optional ``s<k>_points`` + ``s<k>_offsets`` and ``s<k>_truth_*``.
+  optional ``s<k>_points`` + ``s<k>_offsets``, ``s<k>_kf_<field>`` (visual keyframes,
+  version 2 on) and ``s<k>_truth_*``.
 
-Round trips are exact. Unknown formats, versions and corrupt files raise ``StorageError``.
-A packet (``packet_bytes``) is what a robot sends: public fields only, float32 geometry,
-float16 descriptors, compressed.
+Round trips are exact. Version 1 files (no keyframes) are still read. Unknown formats,
+versions and corrupt files raise ``StorageError``. A packet (``packet_bytes``) is what a
+robot sends, compressed: the segment packet (public fields only, float32 geometry, float16
+descriptors) and, counted apart, the keyframe packet (poses, BoW vectors, ORB descriptors,
+keypoints and their 3D points).
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ import json
 import zipfile
 from collections import Counter
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -31,9 +34,11 @@ from roman_sim.core.atomic import write_npz
 from roman_sim.core.errors import StorageError
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment, Status
-from roman_sim.mapping.types import Submap, SubmapTruth
+from roman_sim.mapping.types import KeyframeSet, Submap, SubmapTruth
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Versions this reader accepts (1: submaps without keyframes).
+READABLE_VERSIONS = (1, 2)
 _SUBMAP_ARRAYS = ("T_odom_submap", "segment_ids", "centers", "volumes", "shape", "descriptors", "extents")
 
 
@@ -53,8 +58,9 @@ def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndar
         raise StorageError(f"{path}: not a readable roman_sim file ({type(err).__name__})") from None
     if not isinstance(header, dict) or header.get("format") != fmt:
         raise StorageError(f"{path}: expected format {fmt!r}, found {header.get('format') if isinstance(header, dict) else None!r}")
-    if header.get("version") != FORMAT_VERSION:
-        raise StorageError(f"{path}: format version {header.get('version')!r} not supported (this reader: {FORMAT_VERSION})")
+    if header.get("version") not in READABLE_VERSIONS:
+        raise StorageError(f"{path}: format version {header.get('version')!r} not supported "
+                           f"(this reader: {', '.join(map(str, READABLE_VERSIONS))})")
     return header, arrays
 
 
@@ -101,6 +107,9 @@ def _submap_arrays(k: int, s: Submap) -> dict[str, np.ndarray]:
     if s.points is not None:
         out[f"s{k}_points"] = np.concatenate(s.points) if s.points else np.zeros((0, 3))
         out[f"s{k}_offsets"] = np.cumsum([0] + [len(p) for p in s.points])
+    if s.keyframes is not None:
+        for f in KeyframeSet.FIELDS:
+            out[f"s{k}_kf_{f}"] = np.asarray(getattr(s.keyframes, f))
     if s.truth is not None:
         out[f"s{k}_truth_T_world_submap"] = s.truth.T_world_submap
         out[f"s{k}_truth_object_ids"] = s.truth.object_ids
@@ -115,7 +124,8 @@ def save_submaps(path: str | Path, submaps: list[Submap]) -> None:
     for k, s in enumerate(submaps):
         arrays.update(_submap_arrays(k, s))
         meta.append({"robot": s.robot, "index": s.index, "t": s.t,
-                     "points": s.points is not None, "truth": s.truth is not None})
+                     "points": s.points is not None, "keyframes": s.keyframes is not None,
+                     "truth": s.truth is not None})
     header = {"format": "roman_sim.submaps", "version": FORMAT_VERSION, "submaps": meta}
     write_npz(path, header=_header(header), **arrays)
 
@@ -133,23 +143,78 @@ def load_submaps(path: str | Path) -> list[Submap]:
                 points = [pts[off[i]:off[i + 1]] for i in range(len(off) - 1)]
             truth = SubmapTruth(*(a[f"s{k}_truth_{f}"] for f in ("T_world_submap", "object_ids", "purity"))) \
                 if m["truth"] else None
+            kf = KeyframeSet(*(a[f"s{k}_kf_{f}"] for f in KeyframeSet.FIELDS)) if m.get("keyframes") else None
             out.append(Submap(robot=str(m["robot"]), index=int(m["index"]), t=float(m["t"]),
-                              points=points, truth=truth, **fields))
+                              points=points, keyframes=kf, truth=truth, **fields))
         return out
     except (KeyError, IndexError, TypeError, ValueError) as err:
         raise StorageError(f"{path}: inconsistent submap file ({type(err).__name__}: {err})") from None
 
 
-def packet_bytes(submap: Submap) -> int:
-    """Bytes of the compressed packet a robot would send for ``submap`` (public fields only)."""
-    s = submap.public()
+def save_keyframes(path: str | Path, keyframes: KeyframeSet) -> None:
+    """Write one robot's keyframes (format ``roman_sim.keyframes``) atomically."""
+    header = {"format": "roman_sim.keyframes", "version": FORMAT_VERSION}
+    arrays: dict[str, Any] = {f: np.asarray(getattr(keyframes, f)) for f in KeyframeSet.FIELDS}
+    write_npz(path, header=_header(header), **arrays)
+
+
+def load_keyframes(path: str | Path) -> KeyframeSet:
+    """Read a file written by ``save_keyframes``."""
+    _, a = _open(path, "roman_sim.keyframes")
+    try:
+        return KeyframeSet(*(a[f] for f in KeyframeSet.FIELDS))
+    except KeyError as err:
+        raise StorageError(f"{path}: inconsistent keyframe file (missing {err})") from None
+
+
+PacketPart = Literal["segments", "keyframes", "all"]
+
+
+def _compressed_size(**arrays: Any) -> int:
     buf = io.BytesIO()
-    np.savez_compressed(
-        buf, T_odom_submap=s.T_odom_submap, t=np.float64(s.t), index=np.int32(s.index),
+    np.savez_compressed(buf, **arrays)
+    return len(buf.getvalue())
+
+
+def keyframe_packet_bytes(submap: Submap) -> int:
+    """Bytes of the compressed keyframe packet of ``submap`` (0 without keyframes).
+
+    Per keyframe: time, pose (float32), intrinsics, BoW vector (uint16 word ids when the
+    ids fit, float32 values), ORB descriptors (32 bytes each), keypoints and their 3D
+    points (float32).
+    """
+    kf = submap.keyframes
+    if kf is None:
+        return 0
+    small_ids = len(kf.bow_words) == 0 or int(kf.bow_words.max()) < 2**16
+    return _compressed_size(
+        t=kf.t.astype(np.float64), T_submap_cam=kf.T_submap_cam[:, :3, :].astype(np.float32),
+        intrinsics=kf.intrinsics.astype(np.float32), bow_offsets=kf.bow_offsets.astype(np.int32),
+        bow_words=kf.bow_words.astype(np.uint16 if small_ids else np.int32),
+        bow_values=kf.bow_values.astype(np.float32),
+        feat_offsets=kf.feat_offsets.astype(np.int32), uv=kf.uv.astype(np.float32), descriptors=kf.descriptors,
+        points=kf.points.astype(np.float32))
+
+
+def packet_bytes(submap: Submap, part: PacketPart = "segments") -> int:
+    """Bytes of the compressed packet a robot would send for ``submap`` (public fields only).
+
+    Args:
+        submap: the submap.
+        part: ``segments`` (ROMAN's packet), ``keyframes`` (the visual method's packet, see
+            ``keyframe_packet_bytes``) or ``all`` (their sum).
+    """
+    if part not in ("segments", "keyframes", "all"):
+        raise StorageError(f"packet part {part!r}: expected segments, keyframes or all")
+    if part == "keyframes":
+        return keyframe_packet_bytes(submap)
+    s = submap.public()
+    seg = _compressed_size(
+        T_odom_submap=s.T_odom_submap, t=np.float64(s.t), index=np.int32(s.index),
         segment_ids=s.segment_ids.astype(np.int32), centers=s.centers.astype(np.float32),
         volumes=s.volumes.astype(np.float32), shape=s.shape.astype(np.float32),
         extents=s.extents.astype(np.float32), descriptors=np.asarray(s.descriptors).astype(np.float16))
-    return len(buf.getvalue())
+    return seg + (keyframe_packet_bytes(submap) if part == "all" else 0)
 
 
 def mb_per_km(total_bytes: int | float, length_m: float) -> float:
@@ -157,6 +222,6 @@ def mb_per_km(total_bytes: int | float, length_m: float) -> float:
     return float(total_bytes) / 1e6 / (length_m / 1000.0) if length_m > 0 else float("nan")
 
 
-def submaps_mb_per_km(submaps: list[Submap], length_m: float) -> float:
+def submaps_mb_per_km(submaps: list[Submap], length_m: float, part: PacketPart = "segments") -> float:
     """Packet megabytes per kilometre for a robot's submaps over ``length_m`` of trajectory."""
-    return mb_per_km(sum(packet_bytes(s) for s in submaps), length_m)
+    return mb_per_km(sum(packet_bytes(s, part) for s in submaps), length_m)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -10,9 +11,10 @@ from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.mapping.observation import observe
+from roman_sim.mapping.frontend import reads_truth
+from roman_sim.mapping.observation import observe_indexed
 from roman_sim.mapping.segment import Segment
-from roman_sim.mapping.segmenter import Segmenter
+from roman_sim.mapping.segmenter import Mask, Segmenter
 from roman_sim.mapping.semantics import SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Tracker
 from roman_sim.sensors import Frame, check_frame
@@ -69,14 +71,24 @@ class Mapper:
         segmenter: any ``Segmenter`` (e.g. ``build_segmenter("fastsam", seed)``).
         encoder: any ``SemanticEncoder``, or None for no descriptors.
         seed: kept for reproducibility of user components (the built-ins are seeded).
+        on_frame: called after each frame as ``on_frame(frame, masks, observed)`` with the
+            frame as given (truth included), the segmenter's masks and ``observed``, the
+            (mask index, descriptor or None) of every mask that gave an observation: the
+            hook of front-end grading.
+
+    The segmenter sees ``frame.public()`` (no ground truth) unless it declares
+    ``reads_truth``; the encoder gets truth-derived contexts only if it declares it.
     """
 
     def __init__(self, cfg: MappingConfig, segmenter: Segmenter,
-                 encoder: SemanticEncoder | None = None, seed: int = 0) -> None:
+                 encoder: SemanticEncoder | None = None, seed: int = 0,
+                 on_frame: Callable[[Frame, list[Mask], list[tuple[int, NDArray[np.float32] | None]]], None]
+                 | None = None) -> None:
         self.cfg = cfg
         self.segmenter = segmenter
         self.encoder = encoder
         self.seed = seed
+        self.on_frame = on_frame
         self.tracker = Tracker(cfg)
         self.robot: str | None = None
         self._t: list[float] = []
@@ -100,8 +112,11 @@ class Mapper:
                                "without ground truth mixed in one map")
         if not self._t and frame.truth is None:
             self._world = None
-        masks = self.segmenter.segment(frame)
-        obs = observe(frame, masks, self.cfg, self.encoder)
+        masks = self.segmenter.segment(frame if reads_truth(self.segmenter) else frame.public())
+        indexed = observe_indexed(frame, masks, self.cfg, self.encoder)
+        obs = [o for _, o in indexed]
+        if self.on_frame is not None:
+            self.on_frame(frame, masks, [(k, o.descriptor) for k, o in indexed])
         self._t.append(float(frame.t))
         self._odom.append(np.asarray(frame.T_odom_body, dtype=np.float64))
         if frame.truth is not None and self._world is not None:
@@ -114,6 +129,6 @@ class Mapper:
         self._done = True
         segs = self.tracker.flush()
         log.info("robot %s: %d frames, %d segments", self.robot, len(self._t), len(segs))
-        stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))  # noqa: E731
+        stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))
         return SegmentMap(self.robot or "", segs, np.asarray(self._t, dtype=np.float64),
                           stack(self._odom), None if self._world is None else stack(self._world))

@@ -4,22 +4,23 @@ Each mask is back-projected inside its bounding box with the shared camera model
 to ``max_depth_m`` (dropped when fewer than ``min_valid_fraction`` of its pixels are within
 range), moved into the odometry frame with the drifted pose, voxel-downsampled, checked
 against the plane filter and described by the semantic encoder. Ground truth, when the frame
-carries it, only labels the observation (for evaluation) and fills the simulated encoder's
-context; an image encoder never sees it. Masks that back-project
-to nothing are skipped (logged at debug level), never an error.
+carries it, only labels the observation (for evaluation) and fills the context of an encoder
+that declares ``reads_truth`` (the simulated one); any other encoder never sees it. Masks
+that back-project to nothing are skipped (logged at debug level), never an error.
 """
 
 from __future__ import annotations
 
 import logging
 from collections import Counter
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
 from roman_sim.geometry import transform_points
+from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.segment import pca_extents
 from roman_sim.mapping.segmenter import Mask
 from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
@@ -33,25 +34,48 @@ log = logging.getLogger(__name__)
 def observe(frame: Frame, masks: list[Mask], cfg: MappingConfig,
             encoder: SemanticEncoder | None) -> list[Observation]:
     """Observations of ``frame`` from its ``masks`` (skipped masks are logged)."""
+    return [obs for _, obs in observe_indexed(frame, masks, cfg, encoder)]
+
+
+def observe_indexed(frame: Frame, masks: list[Mask], cfg: MappingConfig,
+                    encoder: SemanticEncoder | None) -> list[tuple[int, Observation]]:
+    """(mask index, observation) of every mask that gives an observation.
+
+    The encoder describes all kept masks of the frame at once when it has ``encode_batch``;
+    it gets truth-derived contexts only when it declares ``reads_truth``.
+    """
     check_frame(frame)
     depth = np.asarray(frame.depth, dtype=np.float32)
     T_odom_cam = frame.T_odom_cam
-    T_world_cam = None if frame.truth is None else frame.truth.T_world_body @ frame.T_body_cam
-    out = []
+    kept: list[tuple[int, _Geometry]] = []
     for k, m in enumerate(masks):
         if m.pixels.shape != depth.shape:
             raise MappingError(f"frame {frame.index}: mask {k} shape {m.pixels.shape} != depth {depth.shape}")
-        obs = _observe_mask(frame, depth, m, cfg, encoder, T_odom_cam, T_world_cam)
-        if obs is None:
+        geo = _geometry(frame, depth, m, cfg, T_odom_cam)
+        if geo is None:
             log.debug("frame %d: mask %d skipped", frame.index, k)
         else:
-            out.append(obs)
+            kept.append((k, geo))
+    descs = _describe(frame, [masks[k] for k, _ in kept], [g for _, g in kept], encoder)
+    out = []
+    for j, (k, geo) in enumerate(kept):
+        desc = None if descs is None else descs[j]
+        out.append((k, Observation(points=geo.points, t=float(frame.t), descriptor=desc, truth=_labels(frame, geo))))
     return out
 
 
-def _observe_mask(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingConfig,
-                  encoder: SemanticEncoder | None, T_odom_cam: NDArray,
-                  T_world_cam: NDArray | None) -> Observation | None:
+@dataclass
+class _Geometry:
+    """A mask's back-projection: odometry-frame points, camera-frame points, and its window."""
+
+    points: NDArray[np.float64]
+    pts_cam: NDArray[np.float64]
+    sel: NDArray[np.bool_]
+    bbox: tuple[int, int, int, int]
+
+
+def _geometry(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingConfig,
+              T_odom_cam: NDArray) -> _Geometry | None:
     r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
     pix = m.pixels[r0:r1, c0:c1]
     d = depth[r0:r1, c0:c1]
@@ -66,17 +90,47 @@ def _observe_mask(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: Mappin
     pts = downsample(transform_points(T_odom_cam, pts_cam), cfg.voxel)
     if len(pts) < cfg.min_points or is_plane_like(pca_extents(pts), cfg.obs_plane_extents_m):
         return None
-    truth: Counter[int] = Counter()
-    ctx = EncodeContext()
-    if frame.truth is not None and T_world_cam is not None:
-        ids = np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][sel]
-        uniq, counts = np.unique(ids, return_counts=True)
-        truth = Counter(dict(zip(uniq.tolist(), counts.tolist())))
-        centre_world = transform_points(T_world_cam, pts_cam.mean(axis=0, keepdims=True))[0]
-        ctx = EncodeContext(object_id=int(uniq[np.argmax(counts)]),
-                            view_dir=centre_world - T_world_cam[:3, 3])
-    desc = None
-    if encoder is not None:
-        crop = None if frame.rgb is None else np.asarray(frame.rgb)[r0:r1, c0:c1]
-        desc = np.asarray(encoder.encode(crop, pix, ctx), dtype=np.float32)
-    return Observation(points=pts, t=float(frame.t), descriptor=desc, truth=truth)
+    return _Geometry(pts, pts_cam, sel, (r0, r1, c0, c1))
+
+
+def _labels(frame: Frame, geo: _Geometry) -> Counter[int]:
+    """Evaluation-only label: true object ids of the observed pixels (empty without instance truth)."""
+    if frame.truth is None or frame.truth.object_ids is None:  # a real sequence has poses but no labels
+        return Counter()
+    r0, r1, c0, c1 = geo.bbox
+    uniq, counts = np.unique(np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][geo.sel], return_counts=True)
+    return Counter(dict(zip(uniq.tolist(), counts.tolist())))
+
+
+def _truth_context(frame: Frame, geo: _Geometry) -> EncodeContext:
+    """What a truth-driven encoder may know: majority object id and the world viewing direction."""
+    if frame.truth is None:
+        return EncodeContext()
+    labels = _labels(frame, geo)
+    T_world_cam = frame.truth.T_world_body @ frame.T_body_cam
+    centre_world = transform_points(T_world_cam, geo.pts_cam.mean(axis=0, keepdims=True))[0]
+    object_id = int(max(labels, key=lambda i: (labels[i], -i))) if labels else None
+    return EncodeContext(object_id=object_id, view_dir=centre_world - T_world_cam[:3, 3])
+
+
+def _describe(frame: Frame, masks: list[Mask], geos: list[_Geometry],
+              encoder: SemanticEncoder | None) -> NDArray[np.float32] | None:
+    """(N, D) descriptors of the kept masks, or None without an encoder."""
+    if encoder is None or not masks:
+        return None
+    truth = reads_truth(encoder)
+    ctxs = [_truth_context(frame, g) if truth else EncodeContext() for g in geos]
+    rgb = None if frame.rgb is None else np.asarray(frame.rgb)
+    batch = getattr(encoder, "encode_batch", None)
+    if callable(batch):
+        out = np.asarray(batch(rgb, masks, ctxs), dtype=np.float32)
+        if out.ndim != 2 or out.shape[0] != len(masks):
+            raise MappingError(f"frame {frame.index}: encode_batch returned shape {out.shape} for {len(masks)} masks "
+                               "(expected (masks, dim))")
+        return out
+    rows = []
+    for m, ctx in zip(masks, ctxs):
+        r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
+        crop = None if rgb is None else rgb[r0:r1, c0:c1]
+        rows.append(np.asarray(encoder.encode(crop, m.pixels[r0:r1, c0:c1], ctx), dtype=np.float32))
+    return np.stack(rows)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -98,8 +98,16 @@ SEGMENTERS.register("perfect", SegmenterConfig(
     undersegment_prob=0, spurious_rate=0, boundary_noise_px=0))
 
 
-def build_segmenter(cfg: SegmenterConfig | str = "fastsam", seed: int = 0) -> "SimulatedSegmenter":
-    """A simulated segmenter from a config or a preset name."""
+def build_segmenter(cfg: SegmenterConfig | str | Any = "fastsam", seed: int = 0) -> Any:
+    """A simulated segmenter from a config or a preset name.
+
+    A front-end entry (``frontend.segmenter``, any registered segmenter) is built by
+    ``roman_sim.mapping.frontend.build_segmenter``.
+    """
+    if not isinstance(cfg, (str, SegmenterConfig)):
+        from roman_sim.mapping.frontend import build_segmenter as build_entry
+
+        return build_entry(cfg, seed)
     if isinstance(cfg, str):
         cfg = SEGMENTERS.get(cfg).model_copy()
     return SimulatedSegmenter(cfg, seed)
@@ -128,6 +136,9 @@ class SimulatedSegmenter:
     area, not with the number of objects in the image.
     """
 
+    needs_rgb = False
+    reads_truth = True
+
     def __init__(self, cfg: SegmenterConfig, seed: int = 0) -> None:
         if cfg.max_area_div >= cfg.min_area_div:
             raise MappingError("segmenter: max_area_div must be smaller than min_area_div")
@@ -138,9 +149,9 @@ class SimulatedSegmenter:
 
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of ``frame`` (deterministic in seed, robot and frame index)."""
-        if frame.truth is None:
+        if frame.truth is None or frame.truth.object_ids is None:
             raise MappingError("the simulated segmenter cuts masks from the true instance image: "
-                               f"frame {frame.index} of robot {frame.robot} has no ground truth "
+                               f"frame {frame.index} of robot {frame.robot} has no instance labels "
                                "(use an image segmenter for real or truth-free frames)")
         ids = np.asarray(frame.truth.object_ids)
         depth = np.asarray(frame.depth)

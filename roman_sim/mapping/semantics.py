@@ -127,6 +127,9 @@ class SimulatedEncoder:
         robot: name keying this robot's independent observation-noise stream.
     """
 
+    needs_rgb = False
+    reads_truth = True
+
     def __init__(self, cfg: SemanticConfig | None = None, seed: int = 0,
                  families: Mapping[int, str] | None = None, robot: str = "") -> None:
         self.cfg = cfg or SemanticConfig()

@@ -29,6 +29,56 @@ class SubmapTruth:
 
 
 @dataclass
+class KeyframeSet:
+    """Visual keyframes of one submap (robot data, no truth): what the visual method shares.
+
+    Per keyframe i, its features are rows ``feat_offsets[i]:feat_offsets[i+1]`` of ``uv``,
+    ``descriptors`` and ``points``, and its sparse BoW vector is rows
+    ``bow_offsets[i]:bow_offsets[i+1]`` of ``bow_words`` / ``bow_values``.
+
+    Attributes:
+        t: (m,) keyframe times (s).
+        T_submap_cam: (m, 4, 4) camera (RDF) poses in the submap frame, from odometry.
+        intrinsics: (m, 4) fx, fy, cx, cy of each keyframe's camera.
+        bow_offsets: (m + 1,) int64 offsets into the BoW arrays.
+        bow_words: (B,) int32 sorted word ids per keyframe.
+        bow_values: (B,) float32 L1-normalised tf-idf values.
+        feat_offsets: (m + 1,) int64 offsets into the feature arrays.
+        uv: (F, 2) float32 keypoint pixels.
+        descriptors: (F, 32) uint8 ORB descriptors.
+        points: (F, 3) float32 keypoints' 3D points in their camera frame.
+    """
+
+    t: NDArray[np.float64]
+    T_submap_cam: NDArray[np.float64]
+    intrinsics: NDArray[np.float64]
+    bow_offsets: NDArray[np.int64]
+    bow_words: NDArray[np.int32]
+    bow_values: NDArray[np.float32]
+    feat_offsets: NDArray[np.int64]
+    uv: NDArray[np.float32]
+    descriptors: NDArray[np.uint8]
+    points: NDArray[np.float32]
+
+    #: Array fields, in storage order.
+    FIELDS = ("t", "T_submap_cam", "intrinsics", "bow_offsets", "bow_words", "bow_values",
+              "feat_offsets", "uv", "descriptors", "points")
+
+    def __len__(self) -> int:
+        return int(len(self.t))
+
+    def bow(self, i: int) -> tuple[NDArray[np.int32], NDArray[np.float32]]:
+        """Word ids and values of keyframe ``i``'s BoW vector."""
+        s, e = self.bow_offsets[i], self.bow_offsets[i + 1]
+        return self.bow_words[s:e], self.bow_values[s:e]
+
+    def features(self, i: int) -> tuple[NDArray[np.float32], NDArray[np.uint8], NDArray[np.float32]]:
+        """(uv, descriptors, points) of keyframe ``i``."""
+        s, e = self.feat_offsets[i], self.feat_offsets[i + 1]
+        return self.uv[s:e], self.descriptors[s:e], self.points[s:e]
+
+
+@dataclass
 class Submap:
     """Segments of one robot near one centre pose, in the submap's gravity-aligned frame.
 
@@ -44,6 +94,7 @@ class Submap:
         descriptors: (n, D) unit semantic descriptors (float32 or float16).
         extents: (n, 3) oriented-box extents, sorted descending.
         points: optional per-segment (k_i, 3) points in the submap frame (for drawing).
+        keyframes: optional visual keyframes (ORB features, BoW vectors) of the submap.
         truth: evaluation-only truth, or None when stripped.
     """
 
@@ -58,6 +109,7 @@ class Submap:
     descriptors: NDArray[np.floating]
     extents: NDArray[np.float64]
     points: list[NDArray[np.float64]] | None = None
+    keyframes: KeyframeSet | None = None
     truth: SubmapTruth | None = field(default=None, repr=False)
 
     def __len__(self) -> int:

@@ -8,6 +8,8 @@ resolved configuration is unchanged is not run again. Written atomically into ``
 ``sweep_summary.csv`` (per swept value, method, pair set and heading bin: mean recall over
 the seeds with its 95 % interval, and the pooled hits / relevant with a Wilson interval) and
 ``plots/sweep_summary.png``; ``roman-sim report <out>`` prints the summary.
+Any exception inside one run (a user plug-in's included) is recorded as that run's failure
+in the table; the other runs go on.
 """
 
 from __future__ import annotations
@@ -23,11 +25,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from roman_sim.core.atomic import write_text
-from roman_sim.core.config import StrictModel, read_yaml, validate_model
+from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.registry import one_line
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +43,20 @@ class ExecutorConfig(StrictModel):
     scheduler_address: str | None = Field(
         None, description="connect to an existing Dask scheduler (tcp://host:8786) instead of a local cluster"
     )
+    connect_timeout_s: float = Field(5.0, gt=0, le=600, description="bound on reaching the scheduler (s)")
+
+    @field_validator("scheduler_address")
+    @classmethod
+    def _address(cls, v: str | None) -> str | None:
+        if v is None:
+            return v
+        from roman_sim.pipeline.cluster import parse_scheduler_address
+
+        try:
+            parse_scheduler_address(v)
+        except ConfigError as err:
+            raise ValueError(str(err)) from None
+        return v.strip()
 
 
 class SweepConfig(StrictModel):
@@ -48,7 +65,7 @@ class SweepConfig(StrictModel):
     name: str = Field(..., min_length=1)
     description: str = ""
     scenario: str = Field(..., description="scenario name or YAML path (relative to the sweep file)")
-    grid: dict[str, list[Any]] = Field(default_factory=dict)
+    grid: dict[str, list[FiniteTree]] = Field(default_factory=dict)
     seeds: list[int] = Field(default_factory=lambda: [0], min_length=1)
     executor: ExecutorConfig = ExecutorConfig()
 
@@ -99,6 +116,9 @@ def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir:
         return {"ok": True, "metrics": result.metrics_summary()}
     except RomanSimError as err:
         return {"ok": False, "error": str(err)}
+    except Exception as err:  # a user plug-in (or a bug) in one cell must not abort the whole sweep
+        log.debug("sweep run %s failed", run_dir, exc_info=True)
+        return {"ok": False, "error": f"{type(err).__name__}: {one_line(err)}"}
 
 
 def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
@@ -166,10 +186,9 @@ def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[d
     from dask.distributed import Client, LocalCluster
 
     if ex.scheduler_address:
-        try:
-            client = Client(ex.scheduler_address, timeout="10s")
-        except OSError as err:
-            raise ConfigError(f"executor.scheduler_address: cannot connect to {ex.scheduler_address}: {err}") from None
+        from roman_sim.pipeline.cluster import connect
+
+        client = connect(ex.scheduler_address, timeout_s=ex.connect_timeout_s)
         cluster = None
     else:
         cluster = LocalCluster(n_workers=ex.workers, threads_per_worker=1, processes=True, dashboard_address=None)
@@ -212,6 +231,12 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, st
     path = out_dir / "sweep.csv"
     write_text(path, buf.getvalue())
     return path
+
+
+def sweep_failures(table: Path) -> list[dict[str, str]]:
+    """The rows of ``sweep.csv`` whose run did not finish (status ``failed``, ``missing`` or ``corrupt``)."""
+    with open(table, newline="", encoding="utf-8") as fh:
+        return [row for row in csv.DictReader(fh) if row.get("status") != "ok"]
 
 
 def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:

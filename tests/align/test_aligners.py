@@ -74,7 +74,10 @@ def test_geometry_only_is_fooled_by_some_repeated_layouts() -> None:
     assert wrong >= 1
 
 
-@pytest.mark.parametrize("name", [n for n in ALIGNERS.names() if n != "kiss_matcher" or find_spec("kiss_matcher")])
+# visual aligns submaps by their keyframes, which synthetic segment submaps do not have
+# (tests/align/visual covers it on rendered frames)
+@pytest.mark.parametrize("name", [n for n in ALIGNERS.names()
+                                  if (n != "kiss_matcher" or find_spec("kiss_matcher")) and n != "visual"])
 def test_every_method_returns_a_valid_result(name: str) -> None:
     T = pose_4dof(3.0, 2.0, 0.2, np.deg2rad(30.0))
     a, b, truth = make_submap_pair(8, 12, 6, 6, T_a_b=T, noise_m=0.05, descriptor_dim=64)

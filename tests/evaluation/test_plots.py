@@ -82,6 +82,8 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
     bad_idx.associations[1] = [0, 9]
     with pytest.raises(EvaluationError, match="outside"):
         plot_alignment(a, b, bad_idx, tmp_path / "x.png")
+    bad_idx.info["association_kind"] = "keyframe_features"  # visual: feature pairs, drawn without lines
+    assert _is_png(plot_alignment(a, b, bad_idx, tmp_path / "visual.png"))
     with pytest.raises(EvaluationError, match="example pair"):
         draw_examples(scores, {}, results, tmp_path)
 

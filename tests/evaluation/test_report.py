@@ -96,3 +96,14 @@ def test_ate_rows_in_variant_order():
     assert [r["trajectory"] for r in rows] == ["odometry", "roman"]
     assert rows[1]["robots placed"] == "0/2" and rows[1]["r1"] == "not connected"
     assert table.common == []  # roman placed nobody: no robot is common to every row
+
+
+def test_map_stats_keyframe_figures_are_optional():
+    base = dict(robots=2, segments=120, submaps=8, segments_per_submap=15.0, kb_per_submap=12.5,
+                kb_per_submap_max=20.0, trajectory_km=0.4, mb_per_km=0.25)
+    old = MapStats(**base)
+    assert "keyframe_kb_per_submap" not in old.to_json()
+    assert MapStats.from_json(old.to_json()) == old  # files written before keyframes existed
+    new = MapStats(**base, keyframes_per_submap=9.0, keyframe_kb_per_submap=30.0, keyframe_kb_per_submap_max=60.0,
+                   keyframe_mb_per_km=3.0)
+    assert MapStats.from_json(new.to_json()) == new and new.to_json()["keyframe_mb_per_km"] == 3.0

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from mapping_synth import SPHERES, drive, frame_at
 
 from roman_sim.core.errors import MappingError
 from roman_sim.geometry import pose_4dof, transform_points
@@ -11,8 +12,6 @@ from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
 from roman_sim.sensors import backproject
-
-from mapping_synth import SPHERES, drive, frame_at
 
 
 def _run(frames, segmenter=None, encoder=None):
@@ -56,6 +55,8 @@ def test_drifted_frame_moves_segments_by_the_drift():
 class SplittingSegmenter:
     """Perfect masks, but every object is split in two on every third frame."""
 
+    reads_truth = True
+
     def __init__(self):
         self.inner = build_segmenter("perfect")
 
@@ -79,6 +80,8 @@ def test_split_masks_merge_back():
 
 class GroundSegmenter:
     """Perfect masks plus one mask of all near terrain pixels (a ground plane)."""
+
+    reads_truth = True
 
     def __init__(self):
         self.inner = build_segmenter("perfect")

@@ -5,8 +5,9 @@ their truth, aligns them (one call, ``align_pairs``) and scores them (pure funct
 pair truths and the aligner results, in ``roman_sim.evaluation``). Writes ``pairs.csv``
 (one row per pair and method), ``alignments.json`` (each method's estimate and selected
 associations per pair: the pose graph's closures and the report's example drawings) and
-``metrics.json``; the report stage draws the plots. Per-pair runtimes go to the run's
-timings, not into these files.
+``metrics.json`` (with the front end's grades from the maps stage in its ``frontend``
+section); the report stage draws the plots. Per-pair runtimes go to the run's timings, not
+into these files.
 """
 
 from __future__ import annotations
@@ -19,9 +20,10 @@ from typing import Any
 import numpy as np
 
 from roman_sim.align import build_aligner
-from roman_sim.align.base import AlignResult
+from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
+from roman_sim.core.plugin_guard import guard_aligner
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.evaluate import Evaluation, align_pairs, score_pairs
 from roman_sim.evaluation.metrics import PairScore, summary
@@ -31,6 +33,7 @@ from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
 
@@ -73,12 +76,16 @@ class Labelled:
 
 
 def build_aligners(ctx: RunContext) -> list[Any]:
-    """The scenario's aligners, under their labels."""
-    return [Labelled(build_aligner(e.method, e.params), e.name) for e in ctx.scenario.aligners]
+    """The scenario's aligners, under their labels (plug-ins guarded)."""
+    return [Labelled(guard_aligner(build_aligner(e.method, e.params), e.method), e.name)
+            for e in ctx.scenario.aligners]
 
 
 def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
-    return [AlignmentRecord(a, b, method, r.n_associations, r.T_a_b, np.asarray(r.associations, np.int64))
+    """Records of every result; associations kept only where they index segments (drawn and graded)."""
+    empty = np.zeros((0, 2), np.int64)
+    return [AlignmentRecord(a, b, method, r.n_associations, r.T_a_b,
+                            np.asarray(r.associations, np.int64).reshape(-1, 2) if segment_associations(r) else empty)
             for (a, b, method), r in sorted(results.items())]
 
 
@@ -93,14 +100,14 @@ class EvaluationStage(Stage[EvaluationOutput]):
     """Align and score every pair with every aligner of the scenario."""
 
     name = "evaluation"
-    inputs = ("world", "submaps")
+    inputs = ("world", "maps", "submaps")
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
         sc = ctx.scenario.model_dump(mode="json")
         return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"]]
 
-    def run(self, ctx: RunContext, world: WorldOutput | None = None, submaps: Submaps | None = None,
-            **_: Any) -> EvaluationOutput:
+    def run(self, ctx: RunContext, world: WorldOutput | None = None, maps: Maps | None = None,
+            submaps: Submaps | None = None, **_: Any) -> EvaluationOutput:
         assert submaps is not None, "the evaluation stage needs the submaps"
         all_subs = submaps.all()
         ec = ctx.scenario.evaluation
@@ -113,6 +120,8 @@ class EvaluationStage(Stage[EvaluationOutput]):
         ctx.progress.end("evaluation:pairs")
         scores = score_pairs(truths, results, [a.name for a in aligners], ec)
         ev = Evaluation(truths, scores, results, summary(scores, ec, sel.n_skipped))
+        if maps is not None and maps.frontend is not None:
+            ev.metrics.frontend = maps.frontend.to_json()
         paths = write_evaluation(ctx.run_dir, ev.scores, ev.metrics)
         ctx.timings["alignment"] = _runtimes(ev.scores)
         written = sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values())

@@ -1,23 +1,32 @@
-"""Stage ``maps``: simulate every robot and map its frames into a ``SegmentMap``.
+"""Stage ``maps``: simulate (or read) every robot and map its frames into a ``SegmentMap``.
 
-Robots are planned together (a path may be defined relative to an earlier robot's), then
-rendered and mapped one by one; each robot's map is written as soon as it is finished.
+Simulated robots are planned together (a path may be defined relative to an earlier
+robot's), then rendered and mapped one by one; a robot with a ``source`` is read from its
+TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same way.
+When a scenario lists the ``visual`` method, the same frames also give each robot's visual
+keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
+``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
+from roman_sim.core.atomic import write_json
 from roman_sim.core.config import stable_hash
-from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.core.registry import import_object
-from roman_sim.mapping.io import load_segment_map, save_segment_map
+from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.plugin_guard import guard_frontend
+from roman_sim.evaluation.frontend_grader import FrontEndGrader
+from roman_sim.evaluation.frontend_grades import FrontEndGrades, plot_frontend_grades
+from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
-from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
-from roman_sim.mapping.semantics import SimulatedEncoder
+from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot
@@ -25,43 +34,47 @@ from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
+MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
+
+
+FRONTEND_JSON = "maps/frontend.json"
+FRONTEND_PNG = "plots/frontend.png"
+
 
 @dataclass
 class Maps:
-    """Each robot's segment map (robot name -> map, in scenario order) and the stage's notes."""
+    """Each robot's segment map (robot name -> map, in scenario order), the stage's notes, the
+    front end's grades and, when the visual method runs, each robot's keyframes (poses in its
+    odometry frame).
+
+    ``frontend`` grades whatever segmenter and encoder ran against the frames' instance truth,
+    over every robot (None when no frame has instance truth); ``written`` lists the plot.
+    """
 
     maps: dict[str, SegmentMap]
     notes: list[str] = field(default_factory=list)
-
-
-def _user_object(path: str, kind: str, **kwargs: Any) -> Any:
-    factory = import_object(path, kind)
-    try:
-        return factory(**kwargs) if callable(factory) else factory
-    except TypeError as err:
-        raise ConfigError(f"{kind} {path!r}: cannot construct it ({err})") from None
+    keyframes: dict[str, KeyframeSet] = field(default_factory=dict)
+    frontend: FrontEndGrades | None = None
+    written: list[str] = field(default_factory=list)
 
 
 def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
-    """The scenario's segmenter for ``robot`` (built-in preset, config, or user class)."""
-    seg = ctx.scenario.frontend.segmenter
-    if isinstance(seg, str) and ":" in seg:
-        return _user_object(seg, "segmenter")
-    return build_segmenter(seg if isinstance(seg, (str, SegmenterConfig)) else seg, seed=ctx.scenario.seed)
+    """The scenario's segmenter for ``robot`` (built-in or user class, with its params)."""
+    return build_segmenter(ctx.scenario.frontend, seed=ctx.scenario.seed, robot=robot)
 
 
-def build_encoder_for(ctx: RunContext, robot: str, world: Any) -> Any:
-    """The scenario's semantic encoder (simulated from truth, or a user class).
+def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
+    """The scenario's semantic encoder for ``robot``; only a truth-driven one gets ``families``.
 
-    Prototypes are shared by all robots (same seed); observation noise is per robot.
+    ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
+    simulated encoder. Its prototypes are shared by all robots (same seed); its observation
+    noise is per robot.
     """
-    enc = ctx.scenario.frontend.encoder
-    if enc == "simulated":
-        families = {o.id: o.family for o in world.truth.objects}
-        return SimulatedEncoder(ctx.scenario.frontend.semantics, seed=ctx.scenario.seed, families=families, robot=robot)
-    if ":" in enc:
-        return _user_object(enc, "semantic encoder")
-    raise ConfigError(f"frontend.encoder: unknown encoder {enc!r} (valid: simulated, or package.module:Class)")
+    fe = ctx.scenario.frontend
+    if encoder_spec(fe.encoder).reads_truth and families is None:
+        raise ConfigError(f"robot {robot}: the {fe.encoder.name} encoder needs the objects' families (no world, "
+                          "no object table); use an image encoder (image, clip, dinov2 or package.module:Class)")
+    return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
 
 
 def _recording_key(ctx: RunContext, cfg: Any) -> str:
@@ -91,22 +104,73 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
     return read_recording(rec_dir)
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
-    """Render and map one robot along its planned path."""
-    from roman_sim.sim.robot import trajectory_along
-
+def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None,
+                grader: Any = None) -> MapAndKeyframes:
     sc = ctx.scenario
-    trajectory = trajectory_along(world, cfg, sc.seed, path)
-    stage = f"maps:{cfg.name}"
-    ctx.progress.start(stage, len(trajectory[0]))
-    mapper = Mapper(sc.mapping, build_segmenter_for(ctx, cfg.name), build_encoder_for(ctx, cfg.name, world), seed=sc.seed)
-    for frame in _frames(ctx, world, cfg, trajectory):
+    stage = f"maps:{name}"
+    ctx.progress.start(stage, n)
+    # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
+    fe = sc.frontend
+    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name,
+                                        build_encoder_for(ctx, name, families), fe.encoder.name)
+    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
+    extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
+    for frame in frames:
         mapper.process(frame)
+        if extractor is not None:
+            extractor.offer(frame.public())
         ctx.progress.advance(stage)
     ctx.progress.end(stage)
     smap = mapper.finish()
-    log.info("robot %s: %d segments", cfg.name, len(smap))
-    return smap
+    log.info("robot %s: %d segments%s", name, len(smap),
+             "" if extractor is None else f", {len(extractor.keyframes)} keyframes")
+    return smap, None if extractor is None else extractor.keyframe_set()
+
+
+class _Grader:
+    """Grades every frame that has instance truth (a real sequence may have none) against it.
+
+    The families of the robot being mapped (the world's, or a sequence's object table)
+    label the descriptors; nothing here is visible to the segmenter or the encoder.
+    """
+
+    def __init__(self, group_of: Any, seed: int) -> None:
+        self.inner = FrontEndGrader({}, group_of, seed=seed)
+
+    def use(self, families: dict[int, str] | None) -> FrontEndGrader:
+        self.inner.families.update(families or {})
+        return self.inner
+
+    def add(self, frame: Frame, masks: Any, observed: Any) -> None:
+        if frame.truth is not None and frame.truth.object_ids is not None:
+            self.inner.add(frame, masks, observed)
+
+    def result(self, segmenter: str, encoder: str) -> FrontEndGrades | None:
+        return self.inner.result(segmenter, encoder) if self.inner.seg.frames else None
+
+
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+    """Render and map one robot along its planned path (graded by ``grader``; keyframes when the
+    visual method runs)."""
+    from roman_sim.sim.robot import trajectory_along
+
+    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
+    families = {o.id: o.family for o in world.truth.objects}
+    if grader is not None:
+        grader.use(families)
+    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]),
+                       families, grader)
+
+
+def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
+    from roman_sim.pipeline.sources import open_sequence, sequence_families
+
+    seq = open_sequence(cfg, ctx.scenario.seed)
+    families = sequence_families(cfg.source)
+    if grader is not None:
+        grader.use(families)
+    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
 
 
 class MapsStage(Stage[Maps]):
@@ -119,21 +183,62 @@ class MapsStage(Stage[Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
+        from roman_sim.pipeline.sources import fingerprint
+
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["robots"], sc["frontend"], sc["mapping"]]
+        sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
+        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else []),
+                *(["visual"] if ctx.scenario.uses_visual else [])]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
 
-        assert world is not None, "the maps stage needs the world"
-        paths = plan_paths(world.world, ctx.scenario.robots, ctx.scenario.seed)
-        maps = {}
-        for cfg in ctx.scenario.robots:
-            maps[cfg.name] = map_robot(ctx, world.world, cfg, paths[cfg.name])
-        return Maps(maps)
+        sc = ctx.scenario
+        simulated = sc.simulated_robots()
+        assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
+        paths = plan_paths(world.world, simulated, sc.seed) if world is not None and simulated else {}
+        grader = _Grader(sc.frontend.semantics.group_of, sc.seed)
+        maps, keyframes = {}, {}
+        for cfg in sc.robots:
+            maps[cfg.name], kf = map_sequence(ctx, cfg, grader) if cfg.source is not None \
+                else map_robot(ctx, world.world, cfg, paths[cfg.name], grader)  # type: ignore[union-attr]
+            if kf is not None:
+                keyframes[cfg.name] = kf
+        return Maps(maps, _rgb_notes(ctx), keyframes,
+                    grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name))
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
-        return save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+        files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+        if out.keyframes:
+            files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
+        if out.frontend is not None:
+            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
+            plot_frontend_grades(out.frontend, ctx.run_dir / FRONTEND_PNG)
+            files += [FRONTEND_JSON, FRONTEND_PNG]
+        return files
 
     def load(self, ctx: RunContext, files: list[str]) -> Maps:
-        return Maps(*load_per_robot(ctx, "maps", load_segment_map))
+        maps, notes = load_per_robot(ctx, "maps", load_segment_map)
+        keyframes = load_per_robot(ctx, "keyframes", load_keyframes)[0] if ctx.scenario.uses_visual else {}
+        grades = None
+        if FRONTEND_JSON in files:
+            path = ctx.run_dir / FRONTEND_JSON
+            try:
+                grades = FrontEndGrades.from_json(json.loads(path.read_text(encoding="utf-8")))
+            except (OSError, ValueError) as err:
+                raise StorageError(f"{path}: unreadable front-end grades ({type(err).__name__})") from None
+        return Maps(maps, notes, keyframes, grades, [f for f in files if f.endswith(".png")])
+
+
+def _rgb_notes(ctx: RunContext) -> list[str]:
+    """A note (and a warning) for each robot whose user segmenter or encoder will get no RGB."""
+    fe = ctx.scenario.frontend
+    entries = (("segmenter", fe.segmenter), ("encoder", fe.encoder))
+    users = [f"{kind} {e.name!r}" for kind, e in entries if ":" in e.name]
+    notes = []
+    for r in ctx.scenario.robots:
+        if users and not r.render_rgb:
+            notes.append(f"robot {r.name} renders no RGB (render_rgb: false): the user {' and '.join(users)} "
+                         "got rgb=None")
+            log.warning(notes[-1])
+    return notes

@@ -11,6 +11,13 @@ The trajectory variants scored against the truth, in table order:
   every relevant pair (what loop closures can give at best). Adding a variant (e.g. a
   combined method) is one more ``GraphVariant`` in that list.
 
+When the scenario also runs the visual method (and the pose graph's method is another
+one), two more rows: ``<visual label>`` (the visual closures alone) and ``combined`` (the
+method's and the visual closures in one GNC graph, as the paper's Table I combines ROMAN
+with Kimera-Multi's visual loop closures). Visual closures are those the visual aligner
+accepted (at least its ``min_inliers`` 3D-3D inliers); the method's keep
+``lc_association_thresh``.
+
 Every row of the ATE table covers the same robots (``roman_sim.evaluation.atetable``).
 Writes ``ate.json`` (the table and the stage's notes), ``posegraph.json`` (closures used and
 robots placed per graph), ``trajectories/<robot>.<variant>.tum`` (the placed robots of every
@@ -39,6 +46,7 @@ from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
 from roman_sim.evaluation.trajplot import plot_trajectories
 from roman_sim.geometry import gravity_aligned, pose_error
 from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.scenario import VISUAL_METHODS
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
@@ -109,22 +117,39 @@ def oracle_closures(submaps: Submaps, evaluation: EvaluationOutput) -> list[Loop
 
 @dataclass(frozen=True)
 class GraphVariant:
-    """A pose-graph row of the ATE table: its name, what it is, and where its closures come from."""
+    """A pose-graph row of the ATE table: its name, what it is, where its closures come from.
+
+    ``association_thresh`` overrides the scenario's ``lc_association_thresh`` for this graph
+    (None keeps it; visual closures are already verified, so their graphs use 0).
+    """
 
     name: str
     description: str
     closures: Callable[[Submaps, EvaluationOutput], list[LoopClosure]]
+    association_thresh: int | None = None
 
 
 def graph_variants(ctx: RunContext) -> list[GraphVariant]:
     """The pose graphs of a run, in table order (one entry per variant)."""
     method = ctx.scenario.posegraph_method
     assert method is not None
-    return [
-        GraphVariant(method, f"pose graph with {method}'s loop closures",
-                     lambda s, e: method_closures(s, e, method)),
-        GraphVariant("oracle", "pose graph with the true relative pose of every relevant pair", oracle_closures),
-    ]
+    thresh = ctx.scenario.posegraph.lc_association_thresh
+    out = [GraphVariant(method, f"pose graph with {method}'s loop closures",
+                        lambda s, e: method_closures(s, e, method))]
+    visual = next((a.name for a in ctx.scenario.aligners if a.method in VISUAL_METHODS), None)
+    if visual is not None and visual != method:
+        vis = visual
+
+        def combined(s: Submaps, e: EvaluationOutput) -> list[LoopClosure]:
+            own = [c for c in method_closures(s, e, method) if c.n_associations >= thresh]
+            return own + method_closures(s, e, vis)
+
+        out += [GraphVariant(vis, f"pose graph with {vis}'s visual loop closures",
+                             lambda s, e: method_closures(s, e, vis), 0),
+                GraphVariant("combined", f"pose graph with {method}'s and {vis}'s loop closures", combined, 0)]
+    out.append(GraphVariant("oracle", "pose graph with the true relative pose of every relevant pair",
+                            oracle_closures))
+    return out
 
 
 def _closure_lines(ctx: RunContext, submaps: Submaps, closures: list[LoopClosure], weights: list[Any]) -> list[Any]:
@@ -170,7 +195,7 @@ def _round_trip(ctx: RunContext, trajectories: dict[str, dict[str, Trajectory]])
 
 
 class PoseGraphStage(Stage[PoseGraphOutput]):
-    """Solve the run's pose graphs and score every trajectory variant over the same robots."""
+    """Solve the run's pose graphs (method, visual, combined, oracle) and score every variant over the same robots."""
 
     name = "posegraph"
     inputs = ("maps", "submaps", "evaluation")
@@ -201,8 +226,11 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
         lines, est_world = [], {}
         for gv in graph_variants(ctx):
             closures = gv.closures(submaps, evaluation)
+            cfg = ctx.scenario.posegraph
+            if gv.association_thresh is not None:
+                cfg = cfg.model_copy(update={"lc_association_thresh": gv.association_thresh})
             t0 = time.perf_counter()
-            res = build_and_solve(odom, nodes, closures, ctx.scenario.posegraph)
+            res = build_and_solve(odom, nodes, closures, cfg)
             seconds[gv.name] = time.perf_counter() - t0
             used = [w for w in res.closure_weights if w is not None]
             graphs[gv.name] = GraphInfo(len(closures), len(used), res.n_inliers, list(res.unconnected))

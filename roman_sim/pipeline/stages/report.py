@@ -24,6 +24,7 @@ from roman_sim.evaluation.maskview import plot_masks
 from roman_sim.evaluation.plots import write_metric_plots
 from roman_sim.evaluation.report import REPORT_MD, write_report
 from roman_sim.evaluation.types import MapStats
+from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage
@@ -47,11 +48,17 @@ class ReportOutput:
 
 
 def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
-    """Segments, submaps, packet size per submap and MB per km of trajectory."""
+    """Segments, submaps, packet size per submap and MB per km of trajectory (keyframes apart)."""
     subs = submaps.all()
     sizes = [packet_bytes(s) for s in subs]
     length_m = sum(m.trajectory_length_m for m in maps.maps.values()) if maps else 0.0
+    with_kf = [s for s in subs if s.keyframes is not None]
+    kf = [packet_bytes(s, "keyframes") for s in with_kf]
     return MapStats(
+        keyframes_per_submap=float(np.mean([len(s.keyframes or []) for s in with_kf])) if with_kf else None,
+        keyframe_kb_per_submap=float(np.mean(kf)) / 1000.0 if kf else None,
+        keyframe_kb_per_submap_max=float(np.max(kf)) / 1000.0 if kf else None,
+        keyframe_mb_per_km=(sum(kf) / 1e6) / (length_m / 1000.0) if kf and length_m > 0 else None,
         robots=len(submaps.submaps),
         segments=sum(len(m) for m in maps.maps.values()) if maps else None,
         submaps=len(subs),
@@ -63,8 +70,18 @@ def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
     )
 
 
+def _majority(object_ids: np.ndarray, pixels: np.ndarray) -> str | None:
+    """The most frequent true object id under a mask (None when it covers only terrain/sky)."""
+    ids = object_ids[pixels]
+    ids = ids[ids >= 0]
+    return None if not len(ids) else str(int(np.bincount(ids).argmax()))
+
+
 def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> str:
     """Render one frame of the first robot, segment it, draw the masks; the plot's relative path.
+
+    The segmenter sees the frame without truth unless it reads truth (as in the maps stage);
+    the numbers drawn are each mask's majority true object, from the object-id render.
 
     Raises:
         RomanSimError: the frame cannot be rendered or segmented (no OpenGL, ...).
@@ -82,8 +99,10 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
                                         run)))
     if frame.rgb is None:
         raise StorageError(f"robot {cfg.name}: the renderer gave no colour image")
-    masks = build_segmenter_for(ctx, cfg.name).segment(frame)
-    labels = [str(m.object_ids[0]) if m.object_ids else None for m in masks]
+    segmenter = build_segmenter_for(ctx, cfg.name)
+    masks = segmenter.segment(frame if reads_truth(segmenter) else frame.public())
+    ids = frame.truth.object_ids if frame.truth is not None else None
+    labels = [None if ids is None else _majority(ids, m.pixels) for m in masks]
     seg = ctx.scenario.frontend.segmenter
     title = (f"robot {cfg.name} at t = {frame.t:.1f} s: {len(masks)} masks of the "
              f"{seg if isinstance(seg, str) else 'configured'} segmenter (numbers: majority true object)")
@@ -120,7 +139,7 @@ class ReportStage(Stage[ReportOutput]):
         stats = map_stats(maps, submaps)
         snap, plot_notes = draw_plots(ctx, evaluation, submaps)
         notes += plot_notes
-        plots = [f for f in posegraph.written if f.endswith(".png")]
+        plots = [f for f in (maps.written if maps else []) + posegraph.written if f.endswith(".png")]
         if world is not None and maps is not None:
             try:
                 snap.append(snapshot(ctx, world, maps, submaps))

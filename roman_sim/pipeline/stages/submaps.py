@@ -1,5 +1,8 @@
 """Stage ``submaps``: cut each robot's segment map into gravity-aligned submaps.
 
+When the maps stage extracted visual keyframes, each submap carries those nearest its
+centre in time (``attach_keyframes``), poses in the submap frame.
+
 A run may instead start from the user's saved submaps (``--submaps DIR`` with one
 ``<robot>.npz`` per robot of the scenario, as ``roman_sim.mapping.io.save_submaps`` writes
 them); files of other robots in that folder are never read.
@@ -11,6 +14,7 @@ import hashlib
 from dataclasses import dataclass, field
 from typing import Any
 
+from roman_sim.align.visual import attach_keyframes
 from roman_sim.core.errors import ConfigError
 from roman_sim.mapping.io import load_submaps, save_submaps
 from roman_sim.mapping.submap import build_submaps
@@ -74,7 +78,11 @@ class SubmapsStage(Stage[Submaps]):
                 out[robot] = subs
             return Submaps(out)
         assert maps is not None, "the submaps stage needs the maps"
-        return Submaps({name: build_submaps(smap, ctx.scenario.submaps) for name, smap in maps.maps.items()})
+        out = {}
+        for name, smap in maps.maps.items():
+            subs = build_submaps(smap, ctx.scenario.submaps)
+            out[name] = attach_keyframes(subs, maps.keyframes[name]) if name in maps.keyframes else subs
+        return Submaps(out)
 
     def save(self, out: Submaps, ctx: RunContext) -> list[str]:
         return save_per_robot(ctx, "submaps", out.submaps, save_submaps, out.notes)

@@ -1,0 +1,63 @@
+"""The demo with the image front end against the demo with the truth-driven front end.
+
+Runs ``demo`` (fastsam error model + simulated encoder, no RGB) and ``demo_pixels`` (the
+same world textured, RGB rendered, image segmenter + image encoder) fresh, each in its own
+subprocess, and records wall time and CPU time (the child's user + system seconds: less
+sensitive to other jobs on a shared machine) in all and per stage, the ratio of the two,
+recall per heading bin of each method, and the front end's grades. Target: the pixels
+demo in at most twice the demo's time. Writes ``benchmarks/out/pixels.json``.
+
+Run: ``python benchmarks/bench_pixels.py``
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+from pathlib import Path
+
+OUT = Path(__file__).resolve().parent / "out" / "pixels.json"
+E2E = Path(__file__).resolve().parent / "bench_e2e.py"
+
+
+def _child(name: str) -> dict:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    proc = subprocess.run([sys.executable, str(E2E), "--child", name], capture_output=True, text=True,
+                          env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if proc.returncode != 0:
+        print(proc.stderr[-2000:], file=sys.stderr)
+        raise SystemExit(f"scenario {name} failed")
+    res = json.loads(proc.stdout.strip().splitlines()[-1])
+    res["cpu_seconds"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return res
+
+
+def main() -> None:
+    runs = {name: _child(name) for name in ("demo", "demo_pixels")}
+    demo, pixels = runs["demo"], runs["demo_pixels"]
+    out = {
+        "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
+                    "note": "2 cores shared with other jobs: compare the ratios, CPU time first"},
+        "load_average_at_end": os.getloadavg(),
+        "target_ratio": 2.0,
+        "ratio_wall": pixels["total_seconds"] / demo["total_seconds"],
+        "ratio_cpu": pixels["cpu_seconds"] / demo["cpu_seconds"],
+        "ratio_maps_stage_wall": pixels["stages"]["maps"]["seconds"] / demo["stages"]["maps"]["seconds"],
+        "runs": runs,
+    }
+    from roman_sim.core.atomic import write_json
+
+    write_json(OUT, out)
+    print(f"demo {demo['total_seconds']:.0f} s wall / {demo['cpu_seconds']:.0f} s CPU; demo_pixels "
+          f"{pixels['total_seconds']:.0f} s / {pixels['cpu_seconds']:.0f} s; ratio wall {out['ratio_wall']:.2f}, "
+          f"CPU {out['ratio_cpu']:.2f}")
+    print(f"wrote {OUT}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,204 @@
+"""``FrontEndGrader``: grades a front end frame by frame against the frame's truth.
+
+Definitions are in ``roman_sim.evaluation.frontend_grades``. ``add(frame, masks, observed)``
+has the signature of the mapper's ``on_frame`` hook, so grading runs during mapping for
+whatever segmenter and encoder ran; nothing else in front-end grading reads truth.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.optimize import linear_sum_assignment
+
+from roman_sim.core.errors import EvaluationError
+from roman_sim.core.seeding import child_rng
+from roman_sim.evaluation.frontend_grades import (
+    CLASSES,
+    CosineStats,
+    DescriptorGrades,
+    FrontEndGrades,
+    GradeConfig,
+    SegmentationGrades,
+)
+from roman_sim.mapping.mask_filter import masks_from_labels
+from roman_sim.mapping.segmenter import Mask
+from roman_sim.sensors import Frame, backproject
+
+
+@dataclass
+class _Obs:
+    """One graded observation: instance, family, viewing angle (rad), frame key, descriptor."""
+
+    oid: int
+    family: str
+    yaw: float
+    frame: tuple[str, int]
+    desc: NDArray[np.float32]
+
+
+class FrontEndGrader:
+    """Accumulates grades frame by frame; ``add`` has the mapper's ``on_frame`` signature.
+
+    Args:
+        families: object id -> family (world truth).
+        group_of: family -> group (e.g. ``SemanticConfig.group_of``); each family its own group when None.
+        cfg: matching and binning.
+        seed: seeds the reservoir sampling of observations.
+    """
+
+    def __init__(self, families: Mapping[int, str], group_of: Callable[[str], str] | None = None,
+                 cfg: GradeConfig | None = None, seed: int = 0) -> None:
+        self.cfg = cfg or GradeConfig()
+        self.families = dict(families)
+        self.group_of = group_of or (lambda f: f)
+        n_a, n_d = len(self.cfg.area_edges_frac) - 1, len(self.cfg.distance_edges_m)
+        tables = {f"table_{k}": [[0] * n_d for _ in range(n_a)] for k in ("objects", "detected", "matched", "over")}
+        self.seg = SegmentationGrades(distance_edges_m=list(self.cfg.distance_edges_m),
+                                      area_edges_frac=list(self.cfg.area_edges_frac), **tables)
+        self._obs: list[_Obs] = []
+        self._seen = 0
+        self._rng = child_rng(seed, "frontend_grades")
+
+    def add(self, frame: Frame, masks: list[Mask], observed: list[tuple[int, NDArray[np.float32] | None]]) -> None:
+        """Grade one frame's masks and keep its observed descriptors."""
+        if frame.truth is None:
+            raise EvaluationError(f"front-end grades: frame {frame.index} of robot {frame.robot} has no ground truth")
+        ids = np.asarray(frame.truth.object_ids)
+        owner = self._grade_masks(frame, ids, masks)
+        for k, desc in observed:
+            if desc is not None and owner[k] >= 0:
+                self._keep(frame, masks[k], int(owner[k]), desc)
+
+    def _objects(self, ids: NDArray[np.int32]) -> tuple[list[int], list[Mask], NDArray[np.int64]]:
+        """Counted object ids, their eroded true masks, and raw pixel counts per id (index id + 1)."""
+        counts = np.bincount(ids.ravel() + 1)
+        lab = np.where(ids >= 0, ids + 1, 0).astype(np.int32)
+        lo, hi = self.cfg.area_range(ids.shape)
+        eroded, kept = [], []
+        for m in masks_from_labels(lab, self.cfg):
+            oid = int(ids[m.pixels][0])
+            if lo <= counts[oid + 1] <= hi:
+                kept.append(oid)
+                eroded.append(m)
+        return kept, eroded, counts
+
+    def _grade_masks(self, frame: Frame, ids: NDArray[np.int32], masks: list[Mask]) -> NDArray[np.int64]:
+        """Update the segmentation counts; return each mask's owner id (-1 background or mixed)."""
+        c, s = self.cfg, self.seg
+        objs, eroded, counts = self._objects(ids)
+        s.frames += 1
+        s.masks += len(masks)
+        s.objects += len(objs)
+        col = {o: j for j, o in enumerate(objs)}
+        owner = np.full(len(masks), -1, dtype=np.int64)
+        iou = np.zeros((len(masks), len(objs)))
+        n_belong = np.zeros(len(objs), dtype=np.int64)
+        for i, m in enumerate(masks):
+            r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
+            pix = m.pixels[r0:r1, c0:c1]
+            under = ids[r0:r1, c0:c1][pix]
+            u, n = np.unique(under, return_counts=True)
+            top = int(np.argmax(n)) if len(n) else -1
+            if top >= 0 and n[top] >= c.belong_frac * len(under):
+                owner[i] = int(u[top])
+            if owner[i] < 0 and top >= 0 and u[top] < 0:
+                s.spurious += 1
+            if owner[i] in col or owner[i] < 0:
+                s.graded_masks += 1
+            if owner[i] in col:
+                n_belong[col[owner[i]]] += 1
+            covered = [o for o, k in zip(u.tolist(), n.tolist()) if o in col and k >= c.cover_frac * counts[o + 1]]
+            s.under_segmented += int(len(covered) >= 2)
+            for j, e in enumerate(eroded):
+                inter = int(np.count_nonzero(e.pixels[r0:r1, c0:c1] & pix))
+                if inter:
+                    iou[i, j] = inter / (m.area + e.area - inter)
+        matched = np.zeros(len(objs), dtype=bool)
+        if len(masks) and len(objs):
+            rows, cols = linear_sum_assignment(-iou)
+            ok = iou[rows, cols] >= c.iou_match
+            matched[cols[ok]] = True
+            s.matched += int(ok.sum())
+            s.iou_sum += float(iou[rows, cols][ok].sum())
+        s.over_segmented += int((n_belong >= 2).sum())
+        self._tables(frame, ids, objs, counts, n_belong, matched)
+        return owner
+
+    def _tables(self, frame: Frame, ids: NDArray[np.int32], objs: list[int], counts: NDArray[np.int64],
+                n_belong: NDArray[np.int64], matched: NDArray[np.bool_]) -> None:
+        from roman_sim.mapping.mask_noise import adjacent_pairs
+
+        depth = np.asarray(frame.depth)
+        A = ids.size
+        s = self.seg
+        for j, o in enumerate(objs):
+            d = depth[(ids == o) & (depth > 0)]
+            dist = float(np.median(d)) if len(d) else np.inf
+            di = int(np.searchsorted(self.cfg.distance_edges_m, dist, side="right")) - 1
+            ai = min(int(np.searchsorted(self.cfg.area_edges_frac, counts[o + 1] / A, side="right")) - 1,
+                     len(self.cfg.area_edges_frac) - 2)
+            di = min(max(di, 0), len(self.cfg.distance_edges_m) - 1)
+            s.table_objects[ai][di] += 1
+            s.table_detected[ai][di] += int(n_belong[j] >= 1)
+            s.table_matched[ai][di] += int(matched[j])
+            s.table_over[ai][di] += int(n_belong[j] >= 2)
+        counted = set(objs)
+        s.touching_pairs += sum(1 for a, b in adjacent_pairs(ids, depth.astype(np.float32), self.cfg.touch_depth_m)
+                                if a in counted and b in counted)
+
+    def _keep(self, frame: Frame, m: Mask, oid: int, desc: NDArray[np.float32]) -> None:
+        assert frame.truth is not None
+        T_world_cam = np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam)
+        pts = backproject(frame.depth, frame.intrinsics, m.pixels)
+        if len(pts) == 0:
+            return
+        centre = T_world_cam[:3, :3] @ pts.mean(axis=0)
+        obs = _Obs(oid, self.families.get(oid, "unknown"), float(np.arctan2(centre[1], centre[0])),
+                   (frame.robot, int(frame.index)), np.asarray(desc, dtype=np.float32))
+        self._seen += 1
+        if len(self._obs) < self.cfg.max_observations:
+            self._obs.append(obs)
+        else:
+            j = int(self._rng.integers(self._seen))
+            if j < self.cfg.max_observations:
+                self._obs[j] = obs
+
+    def descriptor_grades(self) -> DescriptorGrades | None:
+        """Cosine distributions of the kept observations (None when no descriptor was kept)."""
+        if not self._obs:
+            return None
+        c = self.cfg
+        D = np.stack([o.desc for o in self._obs]).astype(np.float64)
+        C = D @ D.T
+        oid = np.array([o.oid for o in self._obs])
+        fam = np.array([o.family for o in self._obs])
+        grp = np.array([self.group_of(f) for f in fam])
+        yaw = np.array([o.yaw for o in self._obs])
+        keys: dict[tuple[str, int], int] = {}
+        fkey = np.array([keys.setdefault(o.frame, len(keys)) for o in self._obs])
+        i, j = np.triu_indices(len(self._obs), k=1)
+        diff_frame = fkey[i] != fkey[j]
+        i, j = i[diff_frame], j[diff_frame]
+        cos = C[i, j]
+        same_i = oid[i] == oid[j]
+        same_f = ~same_i & (fam[i] == fam[j])
+        same_g = ~same_i & ~same_f & (grp[i] == grp[j])
+        other = ~same_i & ~same_f & ~same_g
+        classes = {name: CosineStats.of(cos[sel], c.cos_bins)
+                   for name, sel in zip(CLASSES, (same_i, same_f, same_g, other))}
+        dview = np.degrees(np.abs(np.angle(np.exp(1j * (yaw[i] - yaw[j])))))[same_i]
+        edges = np.arange(0.0, 180.0 + c.view_step_deg / 2, c.view_step_deg)
+        edges[-1] = 180.0
+        b = np.clip(np.searchsorted(edges, dview, side="right") - 1, 0, len(edges) - 2)
+        cs = cos[same_i]
+        means = [float(cs[b == k].mean()) if np.any(b == k) else None for k in range(len(edges) - 1)]
+        pairs = [int(np.sum(b == k)) for k in range(len(edges) - 1)]
+        return DescriptorGrades(len(self._obs), classes, edges.tolist(), means, pairs)
+
+    def result(self, segmenter: str, encoder: str | None) -> FrontEndGrades:
+        """The grades so far, labelled with the components' names."""
+        return FrontEndGrades(segmenter, encoder, self.seg, self.descriptor_grades())

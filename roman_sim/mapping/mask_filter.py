@@ -1,0 +1,97 @@
+"""ROMAN's own mask filters, shared by every image segmenter.
+
+A mask is kept when its area lies within [A / min_area_div^2, A / max_area_div^2]
+(A = image width x height; 30 and 3 in the reference), then eroded with an elliptical
+kernel of size 2 * erosion_px + 1 (3 in the reference). Work happens on each mask's
+bounding-box window (padded by the kernel radius), so the cost follows the masked area.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field, model_validator
+from scipy import ndimage
+
+from roman_sim.core.config import StrictModel
+from roman_sim.mapping.segmenter import Mask, ellipse_kernel
+
+
+class MaskFilterConfig(StrictModel):
+    """Area window and erosion of ROMAN's mask filter."""
+
+    min_area_div: float = Field(30.0, gt=1)
+    max_area_div: float = Field(3.0, gt=0)
+    erosion_px: int = Field(3, ge=0, le=20)
+
+    @model_validator(mode="after")
+    def _window(self) -> MaskFilterConfig:
+        if self.max_area_div >= self.min_area_div:
+            raise ValueError("max_area_div must be smaller than min_area_div")
+        return self
+
+    def area_range(self, shape: tuple[int, int]) -> tuple[float, float]:
+        """(smallest, largest) kept area in pixels for an image of ``shape``."""
+        A = float(shape[0] * shape[1])
+        return A / self.min_area_div**2, A / self.max_area_div**2
+
+
+def _kernel(radius: int) -> NDArray[np.uint8]:
+    """The simulated segmenter's elliptical kernel, as OpenCV wants it."""
+    return ellipse_kernel(radius).astype(np.uint8)
+
+
+def masks_from_labels(labels: NDArray[np.int32], cfg: MaskFilterConfig) -> list[Mask]:
+    """Filtered, eroded masks of every label >= 1 of a label image (0 = no mask), in label order."""
+    lo, hi = cfg.area_range(labels.shape)
+    n = int(labels.max()) if labels.size else 0
+    if n < 1:
+        return []
+    areas = np.bincount(labels.ravel(), minlength=n + 1)
+    slices = ndimage.find_objects(labels)
+    out = []
+    for k in np.flatnonzero((areas >= lo) & (areas <= hi)):
+        if k == 0 or slices[k - 1] is None:
+            continue
+        sl = slices[k - 1]
+        m = _eroded(labels, sl, int(k), cfg.erosion_px)
+        if m is not None:
+            out.append(m)
+    return out
+
+
+def filter_masks(masks: list[NDArray[np.bool_]], cfg: MaskFilterConfig) -> list[Mask]:
+    """Filtered, eroded ``Mask`` objects from full-image boolean masks (order kept)."""
+    out = []
+    for pix in masks:
+        pix = np.asarray(pix, dtype=bool)
+        lo, hi = cfg.area_range(pix.shape)
+        area = int(pix.sum())
+        if not lo <= area <= hi:
+            continue
+        sl = ndimage.find_objects(pix.astype(np.int32))[0]
+        m = _eroded(pix.astype(np.int32), sl, 1, cfg.erosion_px)
+        if m is not None:
+            out.append(m)
+    return out
+
+
+def _eroded(labels: NDArray[np.int32], sl: tuple[slice, slice], k: int, radius: int) -> Mask | None:
+    """Mask of label ``k`` inside the window ``sl``, eroded; None when nothing survives."""
+    h, w = labels.shape
+    p = radius + 1
+    r0, r1 = max(sl[0].start - p, 0), min(sl[0].stop + p, h)
+    c0, c1 = max(sl[1].start - p, 0), min(sl[1].stop + p, w)
+    win = (labels[r0:r1, c0:c1] == k).astype(np.uint8)
+    if radius:
+        import cv2  # imported on use: loading a configuration should not import OpenCV
+
+        # Pixels outside the image count as background, as in binary erosion with border 0.
+        win = cv2.erode(win, _kernel(radius), borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    rows, cols = np.nonzero(win)
+    if len(rows) == 0:
+        return None
+    full = np.zeros((h, w), dtype=bool)
+    full[r0:r1, c0:c1] = win.astype(bool)
+    bbox = (r0 + int(rows.min()), r0 + int(rows.max()) + 1, c0 + int(cols.min()), c0 + int(cols.max()) + 1)
+    return Mask(full, (), bbox)

@@ -1,0 +1,144 @@
+"""Front-end grades on hand-built frames: every count and cosine is known in advance."""
+
+import numpy as np
+import pytest
+
+from roman_sim.core.errors import EvaluationError
+from roman_sim.evaluation.frontend_grader import FrontEndGrader
+from roman_sim.evaluation.frontend_grades import FrontEndGrades, GradeConfig, plot_frontend_grades
+from roman_sim.geometry import R_FLU_RDF, make_T
+from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
+from roman_sim.mapping.segmenter import Mask
+from roman_sim.sensors import Frame, FrameTruth, Intrinsics
+
+H, W = 120, 160
+INTR = Intrinsics(W, H, 80.0, 80.0, (W - 1) / 2, (H - 1) / 2)
+T_BC = make_T(R_FLU_RDF, [0.0, 0.0, 0.5])
+
+
+def frame(ids, depth, index=0, yaw=0.0, robot="a"):
+    c, s = np.cos(yaw), np.sin(yaw)
+    T_wb = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+    return Frame(robot, index, index / 6, None, depth.astype(np.float32), T_wb, T_BC, INTR, FrameTruth(ids, T_wb))
+
+
+def scene():
+    """Three objects: 0 (big, 3 m), 1 (medium, 6 m), 2 (beyond range: no valid depth), terrain around."""
+    ids = np.full((H, W), -1, np.int32)
+    depth = np.full((H, W), 5.0, np.float32)
+    ids[20:60, 10:50] = 0
+    depth[20:60, 10:50] = 3.0
+    ids[30:60, 80:110] = 1
+    depth[30:60, 80:110] = 6.0
+    ids[70:90, 120:150] = 2
+    depth[70:90, 120:150] = 0.0
+    return ids, depth
+
+
+def truth_masks(ids):
+    return masks_from_labels(np.where(ids >= 0, ids + 1, 0).astype(np.int32), MaskFilterConfig())
+
+
+def box(r0, r1, c0, c1):
+    m = np.zeros((H, W), bool)
+    m[r0:r1, c0:c1] = True
+    return Mask(m)
+
+
+def test_perfect_masks_score_one():
+    ids, depth = scene()
+    g = FrontEndGrader({0: "rock", 1: "bush", 2: "rock"})
+    g.add(frame(ids, depth), truth_masks(ids), [])
+    s = g.seg
+    assert (s.objects, s.masks, s.matched, s.spurious, s.over_segmented, s.under_segmented) == (3, 3, 3, 0, 0, 0)
+    assert s.precision == s.recall == 1.0 and s.mean_iou == pytest.approx(1.0)
+    rows = s.by_distance()
+    assert [r["objects"] for r in rows] == [0, 1, 1, 1]  # 3 m, 6 m, and no valid depth (open last bin)
+    assert [r["missed"] for r in rows] == [0, 0, 0, 0]
+    assert sum(map(sum, s.table_objects)) == 3
+
+
+def test_errors_are_counted():
+    ids, depth = scene()
+    t = truth_masks(ids)
+    split_a, split_b = box(23, 57, 13, 33), box(23, 57, 33, 47)  # object 0 in two parts: IoU 680/1156, 476/1156
+    merged = Mask(ids >= 1)  # objects 1 and 2 in one mask (under-segmentation)
+    sky = box(95, 115, 10, 40)  # terrain only: spurious
+    g = FrontEndGrader({})
+    g.add(frame(ids, depth), [split_a, split_b, merged, sky], [])
+    s = g.seg
+    assert s.over_segmented == 1 and s.under_segmented == 1 and s.spurious == 1
+    # Only the larger part of object 0 matches; the merged mask's IoU with object 1 is 576/1500.
+    assert t[0].area == 34 * 34 and t[1].area == 24 * 24
+    assert s.matched == 1 and s.mean_iou == pytest.approx(680 / 1156)
+    assert s.graded_masks == 4 and s.precision == 0.25 and s.recall == pytest.approx(1 / 3)
+    # No mask at all: every object missed, in its distance bin.
+    g2 = FrontEndGrader({})
+    g2.add(frame(ids, depth), [], [])
+    assert [r["missed"] for r in g2.seg.by_distance()] == [0, 1, 1, 1] and g2.seg.precision is None
+
+
+def test_objects_outside_romans_window_are_not_graded():
+    ids, depth = scene()
+    ids[0:2, 0:2] = 7  # 4 pixels: below A / 30^2
+    big = np.full((H, W), 9, np.int32)
+    big[:, :20] = -1  # one object filling most of the image: above A / 3^2
+    g = FrontEndGrader({})
+    g.add(frame(ids, depth), truth_masks(ids), [])
+    assert g.seg.objects == 3
+    g.add(frame(big, depth, 1), [Mask(big >= 0)], [])
+    assert g.seg.objects == 3 and g.seg.masks == 4 and g.seg.graded_masks == 3
+
+
+def test_descriptor_cosines_by_class_and_view():
+    ids, depth = scene()
+    fams = {0: "conifer", 1: "deciduous", 2: "boulder"}
+    groups = {"conifer": "tree", "deciduous": "tree", "boulder": "rock"}
+    g = FrontEndGrader(fams, groups.get, GradeConfig(view_step_deg=30.0))
+    e = np.eye(4, dtype=np.float32)
+    masks = truth_masks(ids)
+    desc0 = [np.array([1, 0, 0, 0], np.float32), np.array([0.8, 0.6, 0, 0], np.float32)]
+    for k, yaw in enumerate((0.0, np.pi / 2)):
+        obs = [(0, desc0[k]), (1, e[2]), (2, e[3])]
+        g.add(frame(ids, depth, k, yaw), masks, obs)
+    d = g.descriptor_grades()
+    assert d.observations == 4, "object 2 has no valid depth: no viewing direction, not kept"
+    same = d.classes["same_instance"]
+    assert same.pairs == 2 and same.mean == pytest.approx(0.9)  # object 0: 0.8; object 1: 1.0
+    assert d.classes["same_group"].pairs == 2 and d.classes["same_group"].mean == pytest.approx(0.0)
+    assert d.classes["other_group"].pairs == 0 and d.classes["same_family"].pairs == 0
+    # Views turn with the robot by 90 deg: both same-instance pairs fall in the 90-120 bin.
+    assert d.view_pairs[3] == 2 and d.view_mean[3] == pytest.approx(0.9) and d.view_mean[0] is None
+    assert sum(same.hist) == 2
+
+
+def test_reservoir_keeps_the_cap_and_is_seeded():
+    ids, depth = scene()
+    def run(seed):
+        g = FrontEndGrader({}, cfg=GradeConfig(max_observations=10), seed=seed)
+        for k in range(12):
+            g.add(frame(ids, depth, k), truth_masks(ids), [(0, np.float32([1, k, 0])), (1, np.float32([0, 1, k]))])
+        return g
+    a, b = run(0), run(0)
+    assert len(a._obs) == 10 and a._seen == 24
+    assert [o.frame for o in a._obs] == [o.frame for o in b._obs]
+
+
+def test_json_round_trip_plot_and_bad_input(tmp_path):
+    ids, depth = scene()
+    g = FrontEndGrader({0: "rock", 1: "rock"})
+    masks = truth_masks(ids)
+    for k in range(2):
+        g.add(frame(ids, depth, k), masks, [(0, np.float32([1, 0])), (1, np.float32([0.6, 0.8]))])
+    res = g.result("perfect", "simulated")
+    back = FrontEndGrades.from_json(res.to_json())
+    assert back.to_json() == res.to_json()
+    assert res.to_json()["segmentation"]["recall"] == 1.0
+    png = plot_frontend_grades(res, tmp_path / "plots" / "frontend.png")
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert plot_frontend_grades(res, tmp_path / "again.png").read_bytes() == png.read_bytes()
+    with pytest.raises(EvaluationError, match="no ground truth"):
+        g.add(frame(ids, depth).public(), masks, [])
+    with pytest.raises(EvaluationError, match="malformed"):
+        FrontEndGrades.from_json({"segmenter": "x"})
+    assert FrontEndGrader({}).descriptor_grades() is None
