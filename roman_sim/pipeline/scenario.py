@@ -19,6 +19,7 @@ from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
 from roman_sim.mapping.semantics import SemanticConfig
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
+from roman_sim.pipeline.gating import GatingConfig
 from roman_sim.posegraph import PoseGraphConfig
 from roman_sim.sim.robot import RobotConfig
 
@@ -104,6 +105,7 @@ class Scenario(StrictModel):
     )
     posegraph: PoseGraphConfig = Field(default_factory=PoseGraphConfig)
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
+    gating: GatingConfig = Field(default_factory=GatingConfig, description="submap gating before registration")
     record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
 
     def config_hash(self) -> str:

@@ -1,5 +1,8 @@
 """Stage ``evaluation``: every aligner on every pair of submaps, scored against truth.
 
+The aligners run through ``apply_aligners`` (optional submap gating, then chunks of pairs on
+the run's executor, resumable per chunk); scoring is ``evaluate``'s.
+
 Writes ``pairs.csv`` (one row per pair and method), ``alignments.json`` (each method's
 estimate per pair: the pose graph's closures), ``metrics.json`` and the metric plots.
 Per-pair runtimes go to the run's timings, not into these files.
@@ -12,7 +15,6 @@ import logging
 from dataclasses import dataclass, field
 from typing import Any
 
-from roman_sim.align import build_aligner
 from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
@@ -53,36 +55,29 @@ class EvaluationOutput:
         return {(s.truth.a, s.truth.b): s.truth for s in self.scores}
 
 
-class Labelled:
-    """Runs an aligner under the scenario's label (so two settings of one method can coexist)."""
+def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> list[Any]:
+    """Run the scenario's aligners on the pairs (gated, chunked, through the executor); aligners replaying them.
 
-    def __init__(self, inner: Any, name: str) -> None:
-        self.inner = inner
-        self.name = name
+    The returned objects implement the ``Aligner`` protocol, so the scoring stays the
+    evaluation's own; pairs that submap gating skipped answer "no alignment".
+    """
+    import time
 
-    def align(self, a: Submap, b: Submap) -> AlignResult:
-        res = self.inner.align(a, b)
-        res.method = self.name
-        return res
+    from roman_sim.pipeline.gating import GATED_REASON, gate_pairs
+    from roman_sim.pipeline.pairwork import align_pairs, replay_aligners
 
-
-class Counting:
-    """Reports progress as pairs are aligned by the last aligner of the list."""
-
-    def __init__(self, inner: Any, ctx: RunContext) -> None:
-        self.inner, self.ctx, self.name = inner, ctx, inner.name
-
-    def align(self, a: Submap, b: Submap) -> AlignResult:
-        res = self.inner.align(a, b)
-        self.ctx.progress.advance("evaluation:pairs")
-        return res
-
-
-def build_aligners(ctx: RunContext) -> list[Any]:
-    """The scenario's aligners, labelled; the last one counts pairs for the progress bar."""
-    out: list[Any] = [Labelled(build_aligner(e.method, e.params), e.name) for e in ctx.scenario.aligners]
-    out[-1] = Counting(out[-1], ctx)
-    return out
+    t0 = time.perf_counter()
+    keep, _ = gate_pairs(pairs, ctx.scenario.gating)
+    kept = [p for p, k in zip(pairs, keep) if k]
+    gating_s = time.perf_counter() - t0
+    ctx.progress.start("evaluation:pairs", len(kept))
+    t1 = time.perf_counter()
+    results = align_pairs(ctx, kept)
+    ctx.progress.end("evaluation:pairs")
+    ctx.timings["pairs"] = {"candidates": len(pairs), "aligned": len(kept), "gating_s": round(gating_s, 4),
+                            "alignment_wall_s": round(time.perf_counter() - t1, 3),
+                            "workers": ctx.tasks().workers, "executor": ctx.tasks().kind}
+    return replay_aligners(ctx, results, GATED_REASON if ctx.scenario.gating.enabled else None)
 
 
 def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
@@ -104,7 +99,7 @@ class EvaluationStage(Stage[EvaluationOutput]):
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"]]
+        return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"], sc["gating"]]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, submaps: Submaps | None = None,
             **_: Any) -> EvaluationOutput:
@@ -113,9 +108,7 @@ class EvaluationStage(Stage[EvaluationOutput]):
         ec = ctx.scenario.evaluation
         pairs = enumerate_pairs(all_subs, ec.intra_min_gap, ec.max_pair_dist_m, ec.relevant_dist_m)
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
-        ctx.progress.start("evaluation:pairs", len(pairs))
-        ev = evaluate(all_subs, build_aligners(ctx), ec, ambiguity_fn=ambiguity, pairs=pairs)
-        ctx.progress.end("evaluation:pairs")
+        ev = evaluate(all_subs, apply_aligners(ctx, pairs), ec, ambiguity_fn=ambiguity, pairs=pairs)
         paths = save_evaluation(ctx.run_dir, ev, all_subs, map_view=True)
         ctx.timings["alignment"] = _runtimes(ev.scores)
         written = sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values())

@@ -109,6 +109,52 @@ def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
     return smap
 
 
+def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]) -> dict[str, SegmentMap]:
+    """Every robot's map, one ``map_robot`` task per robot on the run's executor (scenario order).
+
+    Each finished robot's map is written to ``maps/<robot>.npz`` at once and checkpointed,
+    so an interrupted run maps only the robots that did not finish. What is returned is
+    the map as written and read back, so fresh and resumed robots give the same bytes.
+    """
+    from roman_sim.pipeline.checkpoint import Checkpoint
+    from roman_sim.pipeline.tasks import map_robot_task
+
+    ex = ctx.tasks()
+    done = Checkpoint(ctx.run_dir, "maps", None if ctx.fresh else ctx.stage_key)
+    files = {r.name: ctx.run_dir / "maps" / f"{r.name}.npz" for r in ctx.scenario.robots}
+    maps: dict[str, SegmentMap] = {}
+    for name, f in files.items():
+        rec = done.get(name)
+        if rec is not None and f.is_file() and rec.get("sha256") == _sha256(f):
+            maps[name] = load_segment_map(f)
+            log.info("robot %s: reusing the map of an interrupted run", name)
+    todo = [r for r in ctx.scenario.robots if r.name not in maps]
+    sc_json = ctx.scenario.model_dump_json()
+    local = ex.kind == "serial"
+    args = [(sc_json, r.name, paths[r.name], str(ctx.run_dir), world if local else None) for r in todo]
+    fn = (lambda sc, name, path, d, w: map_robot(ctx, w, _robot(ctx, name), path)) if local else map_robot_task
+    ctx.progress.start("maps:robots", len(files))
+    ctx.progress.advance("maps:robots", len(maps))
+    for i, smap in ex.run_tasks(fn, args, [f"mapping robot {r.name}" for r in todo]):
+        name = todo[i].name
+        save_segment_map(files[name], smap)
+        done.put(name, {"sha256": _sha256(files[name])})
+        maps[name] = load_segment_map(files[name])
+        ctx.progress.advance("maps:robots")
+    ctx.progress.end("maps:robots")
+    return {name: maps[name] for name in files}
+
+
+def _robot(ctx: RunContext, name: str) -> Any:
+    return next(r for r in ctx.scenario.robots if r.name == name)
+
+
+def _sha256(path: Any) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 class MapsStage(Stage[Maps]):
     """Render and map every robot of the scenario."""
 
@@ -127,10 +173,7 @@ class MapsStage(Stage[Maps]):
 
         assert world is not None, "the maps stage needs the world"
         paths = plan_paths(world.world, ctx.scenario.robots, ctx.scenario.seed)
-        maps = {}
-        for cfg in ctx.scenario.robots:
-            maps[cfg.name] = map_robot(ctx, world.world, cfg, paths[cfg.name])
-        return Maps(maps)
+        return Maps(map_robots(ctx, world.world, paths))
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         return save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
