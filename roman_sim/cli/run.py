@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
 from rich.table import Table
 
+from roman_sim.cli import _executor as X
 from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
 
@@ -83,12 +84,14 @@ def print_summary(result: Any) -> None:
 
 
 def _run(scenario: str, out: Path | None, sets: list[str] | None, fresh: bool,
-         submaps: Path | None, aligners: list[str] | None, from_stage: str | None = None) -> None:
+         submaps: Path | None, aligners: list[str] | None, from_stage: str | None = None,
+         executor: Any = None) -> None:
     from roman_sim.pipeline.experiment import Experiment, default_run_dir
     from roman_sim.pipeline.scenario import load_scenario, with_aligners
 
     sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
-    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage)
+    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage,
+                     executor=executor)
     exp.validate()
     with _progress() as p:
         exp.progress = RichProgress(p)
@@ -107,18 +110,44 @@ def run_cmd(
                                                 help="add an aligner (name or package.module:Class)"),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on "
                                              "(maps, submaps, evaluation, posegraph, report)"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
-    """Run a scenario end to end and print the summary."""
-    _run(scenario, out, sets, fresh, submaps, aligner, from_stage)
+    """Run a scenario end to end and print the summary (robots and pairs spread over the workers)."""
+    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
+                               tls_cert, tls_key, insecure, dashboard, upload)
+    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex)
 
 
 @app.command("demo")
 def demo_cmd(
     out: Path | None = typer.Option(None, "--out", "-o", help="results folder (default results/demo/...)"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run the demo scenario: ROMAN against CLIPPER and RANSAC on opposite-direction traversals."""
-    _run(DEMO_SCENARIO, out, None, fresh, None, None)
+    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
+                               tls_cert, tls_key, insecure, dashboard, upload)
+    _run(DEMO_SCENARIO, out, None, fresh, None, None, None, ex)
 
 
 @app.command("record")
@@ -170,29 +199,43 @@ def report_cmd(run_dir: Path = typer.Argument(..., help="a results folder of `ro
 def sweep_cmd(
     sweep_file: Path = typer.Argument(..., help="sweep YAML (scenario, grid, seeds, executor)"),
     out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/sweeps/<name>)"),
-    executor: str | None = typer.Option(None, "--executor", help="serial, local or dask (overrides the file)"),
-    workers: int | None = typer.Option(None, "--workers", help="number of processes / Dask workers"),
-    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
-    """Run a parameter x seed sweep (resumable) and write sweep.csv."""
-    from roman_sim.core.config import validate_model
-    from roman_sim.pipeline.sweep import ExecutorConfig, load_sweep, run_sweep
+    """Run a parameter x seed sweep (resumable) and write sweep.csv; exit 1 with a table if a cell failed."""
+    from roman_sim.pipeline.sweep import SweepError, load_sweep, run_sweep
 
     cfg, scenario_path = load_sweep(sweep_file)
-    ex = cfg.executor.model_dump()
-    ex.update({k: v for k, v in (("kind", executor), ("workers", workers), ("scheduler_address", scheduler))
-               if v is not None})
-    if scheduler is not None and executor is None:
-        ex["kind"] = "dask"
-    cfg.executor = validate_model(ExecutorConfig, ex, source="executor")
+    cfg.executor = X.executor_config(cfg.executor.model_dump(), executor, workers, scheduler, chunk_pairs, tls,
+                                     tls_ca_file, tls_cert, tls_key, insecure, dashboard, upload)
     out_dir = out or Path("results") / "sweeps" / cfg.name
-    with _progress() as p:
-        task = p.add_task(f"sweep {cfg.name}", total=None)
+    try:
+        with _progress() as p:
+            task = p.add_task(f"sweep {cfg.name}", total=None)
 
-        def cb(done: int, total: int) -> None:
-            p.update(task, completed=done, total=total)
+            def cb(done: int, total: int) -> None:
+                p.update(task, completed=done, total=total)
 
-        path = run_sweep(cfg, scenario_path, out_dir, progress=cb)
+            path = run_sweep(cfg, scenario_path, out_dir, progress=cb)
+    except SweepError as err:
+        t = Table(title=f"sweep {cfg.name}: cells without results")
+        for col in ("run", "status", "error"):
+            t.add_column(col, overflow="fold")
+        for run_id, (status, why) in sorted(err.failed.items()):
+            t.add_row(run_id, status, why)
+        Console(stderr=True).print(t)
+        typer.echo(f"error: {len(err.failed)} sweep cell(s) did not complete; table: "
+                   f"{out_dir.resolve() / 'sweep.csv'}", err=True)
+        raise typer.Exit(1) from None
     Console().print(f"sweep table: {path}")
 
 
@@ -229,10 +272,23 @@ def reproduce_cmd(
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
     scenario: list[str] | None = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
     from roman_sim.pipeline.reference import reproduce
 
+    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
+                               tls_cert, tls_key, insecure, dashboard, upload)
     path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
-                     from_stage=from_stage)
+                     from_stage=from_stage, executor=ex)
     Console().print(path.read_text())

@@ -103,4 +103,5 @@ def require_dask() -> None:
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise ConfigError("executor.kind: dask needs the 'distributed' package (pip install 'dask[distributed]')") from None
+        raise ConfigError("executor.kind: dask needs the 'distributed' package "
+                          "(pip install 'dask[distributed]')") from None

@@ -69,7 +69,8 @@ def security_for(cfg: ExecutorConfig) -> Any:
     remote_tls = cfg.scheduler_address.strip().startswith("tls://")
     if not remote_tls:
         if cfg.tls:
-            raise ConfigError(f"executor.scheduler_address {cfg.scheduler_address!r}: tls is set, give a tls:// address")
+            raise ConfigError(f"executor.scheduler_address {cfg.scheduler_address!r}: tls is set, "
+                              "give a tls:// address")
         return None
     if not files["ca"] or not files["cert"]:
         raise ConfigError(f"executor.scheduler_address {cfg.scheduler_address!r}: a tls:// scheduler needs a CA "

@@ -46,7 +46,7 @@ class ExecutorConfig(StrictModel):
     chunk_pairs: int = Field(32, ge=1, le=100000, description="submap pairs per alignment task")
     connect_timeout_s: float = Field(10.0, gt=0.0, le=600.0, description="bound on reaching the scheduler")
     tls: bool = Field(False, description="local cluster: TLS with temporary certificates; remote: require tls://")
-    tls_ca_file: str | None = Field(None, description="CA certificate (PEM) the scheduler's certificate is checked against")
+    tls_ca_file: str | None = Field(None, description="CA certificate (PEM) that signed the cluster's certificates")
     tls_cert: str | None = Field(None, description="client certificate (PEM)")
     tls_key: str | None = Field(None, description="client private key (PEM; may be inside tls_cert)")
     insecure: bool = Field(False, description="allow an unauthenticated tcp:// scheduler that is not on loopback")
@@ -97,10 +97,10 @@ class Executor(ABC):
         out: dict[int, Any] = dict(self.run_tasks(fn, args, labels))
         return [out[i] for i in range(len(args))]
 
-    def check_imports(self, modules: Sequence[str]) -> None:
+    def check_imports(self, modules: Sequence[str]) -> None:  # noqa: B027 (optional hook: workers share this process's imports)
         """Fail (naming the worker and the module) when a worker cannot import one of ``modules``."""
 
-    def close(self) -> None:
+    def close(self) -> None:  # noqa: B027 (optional hook: nothing to release by default)
         """Release the workers."""
 
     def __enter__(self) -> "Executor":
@@ -152,7 +152,8 @@ class LocalPoolExecutor(Executor):
                 try:
                     yield futures[fut], fut.result()
                 except BrokenProcessPool:
-                    raise TaskError(f"{labels[futures[fut]]}: a worker process died (out of memory or killed)") from None
+                    raise TaskError(f"{labels[futures[fut]]}: a worker process died "
+                                    "(out of memory or killed)") from None
         finally:
             for fut in futures:
                 fut.cancel()

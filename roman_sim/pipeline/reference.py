@@ -46,8 +46,12 @@ def reproduce(
     work_dir: str | Path = "results/work",
     on_start: Callable[[str], None] | None = None,
     from_stage: str | None = None,
+    executor: Any = None,
 ) -> Path:
-    """Run ``scenarios`` (default: the paper's), collect small results, write the summary."""
+    """Run ``scenarios`` (default: the paper's), collect small results, write the summary.
+
+    ``executor`` (an ``ExecutorConfig``) spreads each run's robots and pairs over workers.
+    """
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -56,7 +60,7 @@ def reproduce(
     for name in scenarios or PAPER_SCENARIOS:
         if on_start:
             on_start(name)
-        res = Experiment(load_scenario(name), work / name, from_stage=from_stage).run()
+        res = Experiment(load_scenario(name), work / name, from_stage=from_stage, executor=executor).run()
         _collect(res.run_dir, out / name)
         runs[name] = res.metrics_summary()
     table = comparison(runs)

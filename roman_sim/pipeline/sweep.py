@@ -5,6 +5,11 @@ combination becomes one run folder ``<out>/<run_id>/`` produced by the same pipe
 ``roman-sim run``. Sweeps are resumable: a run that completed (its manifest says so) and whose
 resolved configuration is unchanged is not run again. The collected figures go to
 ``<out>/sweep.csv`` (one row per run and method), written atomically.
+
+Cells run as tasks of the run executor interface (``roman_sim.pipeline.executors``: serial,
+local pool, Dask). Every path a task gets is absolute, so a worker in another folder writes
+where the table is read. A cell that failed or left no complete run is a ``SweepError``
+(after the table is written) listing every such cell.
 """
 
 from __future__ import annotations
@@ -15,28 +20,19 @@ import io
 import itertools
 import json
 import logging
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 from pydantic import Field
 
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.pipeline.executors import ExecutorConfig, TaskError, open_executor
 
 log = logging.getLogger(__name__)
-
-
-class ExecutorConfig(StrictModel):
-    """Where the runs execute."""
-
-    kind: Literal["serial", "local", "dask"] = "serial"
-    workers: int = Field(1, ge=1, le=256, description="processes (local) or Dask workers")
-    scheduler_address: str | None = Field(
-        None, description="connect to an existing Dask scheduler (tcp://host:8786) instead of a local cluster"
-    )
 
 
 class SweepConfig(StrictModel):
@@ -85,8 +81,19 @@ def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
     return cfg, resolve_scenario_path(cfg.scenario, relative_to=path.parent)
 
 
+class SweepError(RomanSimError):
+    """Some cells of a sweep failed or left no complete run (``failed``: run id -> status and error)."""
+
+    def __init__(self, message: str, failed: dict[str, tuple[str, str]]) -> None:
+        super().__init__(message)
+        self.failed = failed
+
+    def __reduce__(self) -> Any:
+        return (type(self), (str(self), self.failed))
+
+
 def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir: str) -> dict[str, Any]:
-    """Run one sweep job (top-level so that process pools and Dask can pickle it)."""
+    """Run one sweep cell (top-level so that process pools and Dask can pickle it); never raises."""
     from roman_sim.pipeline.experiment import run_scenario_file
 
     try:
@@ -94,6 +101,8 @@ def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir:
         return {"ok": True, "metrics": result.metrics_summary()}
     except RomanSimError as err:
         return {"ok": False, "error": str(err)}
+    except Exception as err:  # a bug or a plug-in's error: the cell fails, the sweep goes on
+        return {"ok": False, "error": f"{type(err).__name__}: {err}"}
 
 
 def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
@@ -113,77 +122,65 @@ def run_sweep(
     out_dir: Path,
     progress: Callable[[int, int], None] | None = None,
 ) -> Path:
-    """Run (or resume) every job of the sweep; returns the path of ``sweep.csv``."""
+    """Run (or resume) every cell of the sweep; returns the path of ``sweep.csv``.
+
+    Raises:
+        SweepError: after writing the table, when a cell failed or has no complete run.
+    """
+    out_dir, scenario_path = Path(out_dir).resolve(), Path(scenario_path).resolve()
     runs = expand(cfg)
     todo = [r for r in runs if not _is_done(out_dir / r.run_id, str(scenario_path), r.overrides, r.seed)]
     log.info("sweep %s: %d runs, %d to do", cfg.name, len(runs), len(todo))
     args = [(str(scenario_path), r.overrides, r.seed, str(out_dir / r.run_id)) for r in todo]
-    outcomes: dict[str, dict[str, Any]] = {}
+    failures: dict[str, str] = {}
     done = len(runs) - len(todo)
     if progress:
         progress(done, len(runs))
-    for run, outcome in zip(todo, _execute(cfg.executor, args)):
-        outcomes[run.run_id] = outcome
-        done += 1
-        if progress:
-            progress(done, len(runs))
-    failures = {k: v["error"] for k, v in outcomes.items() if not v["ok"]}
+    finished: set[int] = set()
+    if todo:
+        try:
+            with open_executor(cfg.executor) as ex:
+                for i, outcome in ex.run_tasks(_run_one, args, [f"sweep cell {r.run_id}" for r in todo]):
+                    finished.add(i)
+                    if not outcome["ok"]:
+                        failures[todo[i].run_id] = outcome["error"]
+                    done += 1
+                    if progress:
+                        progress(done, len(runs))
+        except TaskError as err:  # a lost worker: every unfinished cell failed with it
+            failures.update({r.run_id: str(err) for i, r in enumerate(todo) if i not in finished})
     for k, v in failures.items():
         log.warning("run %s failed: %s", k, v)
-    return write_sweep_table(runs, out_dir, failures)
+    path, bad = write_sweep_table(runs, out_dir, failures)
+    if bad:
+        lines = "; ".join(f"{k}: {status}: {err}" for k, (status, err) in sorted(bad.items()))
+        raise SweepError(f"sweep {cfg.name}: {len(bad)} of {len(runs)} cell(s) did not complete (table: {path}): "
+                         f"{lines}", bad)
+    return path
 
 
-def _execute(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[dict[str, Any]]:
-    """Yield outcomes in the order of ``args``."""
-    if ex.kind == "serial" or not args:
-        for a in args:
-            yield _run_one(*a)
-    elif ex.kind == "local":
-        from concurrent.futures import ProcessPoolExecutor
+def write_sweep_table(runs: list[RunSpec], out_dir: Path,
+                      failures: dict[str, str] | None = None) -> tuple[Path, dict[str, tuple[str, str]]]:
+    """Collect each finished run into ``sweep.csv`` (one row per run and method).
 
-        with ProcessPoolExecutor(max_workers=ex.workers) as pool:
-            yield from pool.map(_run_one, *zip(*args))
-    else:
-        yield from _execute_dask(ex, args)
-
-
-def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[dict[str, Any]]:
-    from dask.distributed import Client, LocalCluster
-
-    if ex.scheduler_address:
-        try:
-            client = Client(ex.scheduler_address, timeout="10s")
-        except OSError as err:
-            raise ConfigError(f"executor.scheduler_address: cannot connect to {ex.scheduler_address}: {err}") from None
-        cluster = None
-    else:
-        cluster = LocalCluster(n_workers=ex.workers, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-    try:
-        futures = [client.submit(_run_one, *a, pure=False) for a in args]
-        for fut in futures:
-            yield fut.result()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-
-
-def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, str] | None = None) -> Path:
-    """Collect each finished run into ``sweep.csv`` (one row per run and method)."""
+    Returns the table's path and the cells without results (run id -> status, error).
+    """
     from roman_sim.pipeline.result import RunResult
 
     failures = failures or {}
+    bad: dict[str, tuple[str, str]] = {}
     rows: list[dict[str, Any]] = []
     for r in runs:
         base = {"run_id": r.run_id, "seed": r.seed, **r.params}
         if r.run_id in failures:
             rows.append({**base, "status": "failed", "error": failures[r.run_id]})
+            bad[r.run_id] = ("failed", failures[r.run_id])
             continue
         try:
             summary = RunResult.load(out_dir / r.run_id).metrics_summary()
         except RomanSimError as err:
             rows.append({**base, "status": "missing", "error": str(err)})
+            bad[r.run_id] = ("missing", str(err))
             continue
         for method, m in sorted(summary["methods"].items()):
             rows.append({**base, "status": "ok", "method": method, **_flatten(m)})
@@ -196,7 +193,7 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, st
     w.writerows(rows)
     path = out_dir / "sweep.csv"
     write_text(path, buf.getvalue())
-    return path
+    return path, bad
 
 
 def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:

@@ -132,7 +132,8 @@ def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]) -> dict[str, 
     sc_json = ctx.scenario.model_dump_json()
     local = ex.kind == "serial"
     args = [(sc_json, r.name, paths[r.name], str(ctx.run_dir), world if local else None) for r in todo]
-    fn = (lambda sc, name, path, d, w: map_robot(ctx, w, _robot(ctx, name), path)) if local else map_robot_task
+    fn = (lambda sc, name, path, d, w: map_robot(ctx, w, _robot(ctx, name), path)) if local \
+        else map_robot_task
     ctx.progress.start("maps:robots", len(files))
     ctx.progress.advance("maps:robots", len(maps))
     for i, smap in ex.run_tasks(fn, args, [f"mapping robot {r.name}" for r in todo]):

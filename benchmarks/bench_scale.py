@@ -1,0 +1,154 @@
+"""Scale benchmark: one run over several workers, paper-scale runs, Dask, pairs per second.
+
+Parts (each merges its figures into ``benchmarks/out/scale.json``; run them one by one on a
+shared machine, with ``nice -n 10``):
+
+* ``demo``: the demo fresh with the local pool, 1 worker then 2, in this one benchmark run
+  (target: 2 workers <= 0.6x the 1-worker time).
+* ``paper SCENARIO [WORKERS]``: a paper-scale scenario end to end on the local pool
+  (target <= 45 min); its run folder is ``results/work/SCENARIO``, the folder
+  ``roman-sim reproduce --scenario SCENARIO`` uses, so the reference run reuses it.
+* ``dask SCENARIO``: the scenario fresh on a loopback Dask ``LocalCluster`` with 1 then 2
+  workers (target speed-up >= 1.8x).
+* ``pairs SCENARIO``: from a finished run of SCENARIO, the evaluation again with all pairs and
+  with submap gating: pairs per second per method, and recall per heading bin side by side.
+
+The machine's load (``os.getloadavg``) is recorded before and after each part: figures
+measured while others use the cores are noisy; compare ratios within one part.
+Run: ``python benchmarks/bench_scale.py demo`` (see the parts above).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import shutil
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+OUT = Path(__file__).resolve().parent / "out" / "scale.json"
+WORK = Path("results/work")
+
+
+def _load() -> list[float]:
+    return [round(x, 2) for x in os.getloadavg()]
+
+
+def _run(name: str, run_dir: Path, executor: Any, overrides: list[str] | None = None, fresh: bool = True,
+         from_stage: str | None = None) -> dict[str, Any]:
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import load_scenario
+
+    sc = load_scenario(name, overrides)
+    t0 = time.perf_counter()
+    res = Experiment(sc, run_dir, fresh=fresh, executor=executor, from_stage=from_stage).run()
+    total = time.perf_counter() - t0
+    s = res.metrics_summary()
+    km = res.map_stats.trajectory_km
+    return {"scenario": name, "total_s": round(total, 1), "robots": len(sc.robots),
+            "trajectory_km": km, "submaps": res.map_stats.submaps, "pairs": res.metrics.n_pairs,
+            "stages_s": {k: v.get("seconds") for k, v in res.timings.items()},
+            "pairs_timing": (res.timings.get("evaluation") or {}).get("pairs"),
+            "alignment": {m: {k: v for k, v in a.items() if k != "per_pair_s"}
+                          for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()},
+            "ate_rmse_m": s["ate_rmse_m"], "methods": s["methods"],
+            "posegraph": _posegraph(res.run_dir)}
+
+
+def _posegraph(run_dir: Path) -> Any:
+    try:
+        return json.loads((run_dir / "posegraph.json").read_text())
+    except OSError:
+        return None
+
+
+def part_demo() -> dict[str, Any]:
+    from roman_sim.pipeline.executors import ExecutorConfig
+
+    out: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as d:
+        for w in (1, 2):
+            out[f"workers_{w}"] = _run("demo", Path(d) / f"w{w}", ExecutorConfig(kind="local", workers=w))
+    out["ratio_2_over_1"] = round(out["workers_2"]["total_s"] / out["workers_1"]["total_s"], 3)
+    out["target"] = "<= 0.6"
+    return out
+
+
+def part_paper(name: str, workers: int) -> dict[str, Any]:
+    from roman_sim.pipeline.executors import ExecutorConfig
+
+    res = _run(name, WORK / name, ExecutorConfig(kind="local", workers=workers))
+    res["workers"] = workers
+    res["target_s"] = 45 * 60
+    return res
+
+
+def part_dask(name: str, overrides: list[str]) -> dict[str, Any]:
+    from roman_sim.pipeline.executors import ExecutorConfig
+
+    out: dict[str, Any] = {"overrides": overrides}
+    with tempfile.TemporaryDirectory() as d:
+        for w in (1, 2):
+            out[f"workers_{w}"] = _run(name, Path(d) / f"w{w}", ExecutorConfig(kind="dask", workers=w), overrides)
+    out["speedup_2_over_1"] = round(out["workers_1"]["total_s"] / out["workers_2"]["total_s"], 3)
+    out["target"] = ">= 1.8"
+    return out
+
+
+def part_pairs(name: str, workers: int) -> dict[str, Any]:
+    """Evaluation only, from the finished run's maps and submaps: all pairs vs gated."""
+    from roman_sim.pipeline.executors import ExecutorConfig
+
+    src = WORK / name
+    out: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory() as d:
+        for tag, ovr in (("all_pairs", []), ("gated", ["gating.enabled=true"])):
+            run_dir = Path(d) / tag
+            shutil.copytree(src, run_dir)
+            r = _run(name, run_dir, ExecutorConfig(kind="local", workers=workers), ovr, fresh=False,
+                     from_stage="evaluation")
+            pt = r["pairs_timing"] or {}
+            eval_s = r["stages_s"].get("evaluation") or 0.0
+            wall = (pt.get("alignment_wall_s") or 0.0) + (pt.get("gating_s") or 0.0)
+            out[tag] = {
+                "candidates": pt.get("candidates"), "aligned": pt.get("aligned"), "gating_s": pt.get("gating_s"),
+                "alignment_wall_s": pt.get("alignment_wall_s"), "evaluation_stage_s": eval_s,
+                "candidate_pairs_per_s_all_methods": round((pt.get("candidates") or 0) / wall, 1) if wall else None,
+                "per_method": {m: {"median_s": a.get("median"), "mean_s": a.get("mean"),
+                                   "pairs_per_s_one_worker": round(1.0 / a["mean"], 1) if a.get("mean") else None}
+                               for m, a in r["alignment"].items()},
+                "recall": {m: {k: v for k, v in v.items() if k.startswith("recall_") or k == "max_recall"}
+                           for m, v in r["methods"].items()},
+                "ate_rmse_m": r["ate_rmse_m"]}
+    out["workers"] = workers
+    return out
+
+
+def main(argv: list[str]) -> None:
+    part, rest = argv[0], argv[1:]
+    before = _load()
+    if part == "demo":
+        key, fig = "demo_workers", part_demo()
+    elif part == "paper":
+        key, fig = f"paper_{rest[0]}", part_paper(rest[0], int(rest[1]) if len(rest) > 1 else os.cpu_count() or 1)
+    elif part == "dask":
+        key, fig = f"dask_{rest[0]}", part_dask(rest[0], rest[1:])
+    elif part == "pairs":
+        key, fig = f"pairs_{rest[0]}", part_pairs(rest[0], int(rest[1]) if len(rest) > 1 else os.cpu_count() or 1)
+    else:
+        raise SystemExit(f"unknown part {part!r} (demo, paper, dask, pairs)")
+    fig["load_before"], fig["load_after"] = before, _load()
+    data = json.loads(OUT.read_text()) if OUT.is_file() else {}
+    data[key] = fig
+    data["machine"] = {"cpus": os.cpu_count(), "python": platform.python_version(), "platform": platform.platform()}
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(json.dumps(data, indent=2, sort_keys=True, default=float) + "\n")
+    print(json.dumps({key: fig}, indent=1, default=float)[:4000])
+
+
+if __name__ == "__main__":
+    main(sys.argv[1:])
