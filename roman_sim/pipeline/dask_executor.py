@@ -73,7 +73,7 @@ class DaskExecutor(Executor):
         futures = [self.client.submit(guarded, fn, labels[i], *a, pure=False) for i, a in enumerate(args)]
         index = {f.key: i for i, f in enumerate(futures)}
         try:
-            for fut in as_completed(futures):
+            for fut in as_completed(futures, loop=self.client.loop):
                 i = index[fut.key]
                 try:
                     yield i, fut.result()

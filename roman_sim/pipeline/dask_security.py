@@ -113,14 +113,19 @@ def check_address(address: str, cfg: ExecutorConfig, security: Any) -> str:
 
 
 def local_cluster(cfg: ExecutorConfig, security: Any) -> Any:
-    """A ``LocalCluster`` on 127.0.0.1: one single-threaded process per worker, dashboard off unless asked."""
+    """A ``LocalCluster`` on 127.0.0.1: one single-threaded process per worker, dashboard off unless asked.
+
+    The scheduler always serves HTTP (health and metrics); it is bound to 127.0.0.1 on a free
+    port, and the dashboard's pages are only added with ``dashboard``. Workers bind to
+    127.0.0.1 as well.
+    """
     from distributed import LocalCluster
 
     return LocalCluster(
         n_workers=cfg.n_workers(), threads_per_worker=1, processes=True, host=LOOPBACK,
         protocol="tls://" if security is not None else "tcp://", security=security,
-        dashboard_address=f"{LOOPBACK}:0" if cfg.dashboard else None, worker_dashboard_address=None,
-        silence_logs=logging.WARNING,
+        dashboard_address=f"{LOOPBACK}:0", scheduler_kwargs={"dashboard": cfg.dashboard},
+        worker_dashboard_address=None, silence_logs=logging.WARNING,
     )
 
 

@@ -118,8 +118,8 @@ def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed
 
 def run_sweep(
     cfg: SweepConfig,
-    scenario_path: Path,
-    out_dir: Path,
+    scenario_path: str | Path,
+    out_dir: str | Path,
     progress: Callable[[int, int], None] | None = None,
 ) -> Path:
     """Run (or resume) every cell of the sweep; returns the path of ``sweep.csv``.

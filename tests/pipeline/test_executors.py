@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import os
 import shutil
-from pathlib import Path
 
 import pytest
 
@@ -14,18 +13,7 @@ from roman_sim.pipeline.executors import ExecutorConfig, LocalPoolExecutor, Seri
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stages import maps as maps_stage
-
-
-def folder_bytes(d: Path) -> dict[str, bytes]:
-    """Every file of a run folder but the wall-clock timings, by relative path."""
-    return {p.relative_to(d).as_posix(): p.read_bytes() for p in sorted(d.rglob("*"))
-            if p.is_file() and p.name != "timings.json"}
-
-
-def assert_same_folder(a: Path, b: Path) -> None:
-    fa, fb = folder_bytes(a), folder_bytes(b)
-    assert sorted(fa) == sorted(fb)
-    assert [n for n in fa if fa[n] != fb[n]] == []
+from roman_sim.testing import assert_same_run_folder as assert_same_folder
 
 
 def _fail_on_two(x: int) -> int:

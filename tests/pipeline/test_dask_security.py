@@ -1,0 +1,177 @@
+"""Dask over TLS, loopback-only local clusters, plug-ins on workers, refused insecure addresses."""
+
+from __future__ import annotations
+
+import datetime
+import ipaddress
+import logging
+from pathlib import Path
+
+import pytest
+
+from roman_sim.core.errors import ConfigError
+from roman_sim.pipeline.dask_executor import ClusterConnectError, DaskExecutor, connect_client
+from roman_sim.pipeline.dask_security import PluginImportError, check_address, is_loopback, security_for
+from roman_sim.pipeline.executors import ExecutorConfig
+from roman_sim.pipeline.experiment import Experiment
+from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.testing import assert_same_run_folder as assert_same_folder
+
+distributed = pytest.importorskip("distributed")
+x509 = pytest.importorskip("cryptography.x509")
+
+
+def _pem_pair(tmp: Path, name: str, issuer: tuple | None = None) -> tuple[Path, Path, object, object]:
+    """A key and certificate (self-signed CA when ``issuer`` is None) as PEM files."""
+    from cryptography.hazmat.primitives import hashes, serialization
+    from cryptography.hazmat.primitives.asymmetric import ec
+    from cryptography.x509.oid import NameOID
+
+    key = ec.generate_private_key(ec.SECP256R1())
+    subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)])
+    ca_cert, ca_key = issuer if issuer else (None, key)
+    now = datetime.datetime.now(datetime.UTC)
+    b = (x509.CertificateBuilder().subject_name(subject).issuer_name(ca_cert.subject if ca_cert else subject)
+         .public_key(key.public_key()).serial_number(x509.random_serial_number())
+         .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=1))
+         .add_extension(x509.BasicConstraints(ca=issuer is None, path_length=None), critical=True))
+    if issuer:
+        b = b.add_extension(x509.SubjectAlternativeName([x509.DNSName("localhost"),
+                                                         x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]), False)
+    cert = b.sign(ca_key, hashes.SHA256())
+    cert_path, key_path = tmp / f"{name}.pem", tmp / f"{name}.key"
+    cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
+    key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
+                                           serialization.NoEncryption()))
+    return cert_path, key_path, cert, key
+
+
+@pytest.fixture(scope="module")
+def tls_cluster(tmp_path_factory):
+    """A TLS LocalCluster on 127.0.0.1 (one worker), its CA and a client certificate signed by it."""
+    from distributed import LocalCluster
+    from distributed.security import Security
+
+    d = tmp_path_factory.mktemp("certs")
+    ca_pem, _, ca_cert, ca_key = _pem_pair(d, "ca")
+    node_pem, node_key, _, _ = _pem_pair(d, "node", (ca_cert, ca_key))
+    client_pem, client_key, _, _ = _pem_pair(d, "client", (ca_cert, ca_key))
+    rogue_ca_pem, _, rogue_ca, rogue_ca_key = _pem_pair(d, "rogue_ca")
+    rogue_pem, rogue_key, _, _ = _pem_pair(d, "rogue", (rogue_ca, rogue_ca_key))
+    sec = Security(tls_ca_file=str(ca_pem), tls_scheduler_cert=str(node_pem), tls_scheduler_key=str(node_key),
+                   tls_worker_cert=str(node_pem), tls_worker_key=str(node_key), tls_client_cert=str(client_pem),
+                   tls_client_key=str(client_key), require_encryption=True)
+    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1", protocol="tls://",
+                           security=sec, dashboard_address=None)
+    yield {"address": cluster.scheduler_address, "ca": ca_pem, "cert": client_pem, "key": client_key,
+           "rogue_cert": rogue_pem, "rogue_key": rogue_key, "rogue_ca": rogue_ca_pem}
+    cluster.close()
+
+
+@pytest.mark.slow
+def test_smoke_through_a_tls_cluster_gives_the_local_bytes(smoke_run, tls_cluster, tmp_path):
+    assert tls_cluster["address"].startswith("tls://127.0.0.1:")
+    ex = ExecutorConfig(kind="dask", scheduler_address=tls_cluster["address"], tls_ca_file=str(tls_cluster["ca"]),
+                        tls_cert=str(tls_cluster["cert"]), tls_key=str(tls_cluster["key"]))
+    res = Experiment(load_scenario("smoke"), tmp_path / "tls", executor=ex).run()
+    assert res.timings["evaluation"]["pairs"]["executor"] == "dask"
+    assert_same_folder(smoke_run.run_dir, res.run_dir)
+
+
+def test_clients_without_the_certificate_are_refused(tls_cluster):
+    from distributed.security import Security
+
+    addr = tls_cluster["address"]
+    with pytest.raises(ClusterConnectError, match=f"Dask scheduler {addr}: cannot connect"):
+        connect_client(addr, 5.0, None)  # no TLS at all
+    rogue = Security(tls_ca_file=str(tls_cluster["ca"]), tls_client_cert=str(tls_cluster["rogue_cert"]),
+                     tls_client_key=str(tls_cluster["rogue_key"]), require_encryption=True)
+    with pytest.raises(ClusterConnectError, match="cannot connect"):
+        connect_client(addr, 5.0, rogue)  # a certificate the cluster's CA did not sign
+    with pytest.raises(ConfigError, match="needs a CA and a client certificate"):
+        DaskExecutor(ExecutorConfig(kind="dask", scheduler_address=addr))
+    ok = connect_client(addr, 10.0, security_for(ExecutorConfig(
+        kind="dask", scheduler_address=addr, tls_ca_file=str(tls_cluster["ca"]), tls_cert=str(tls_cluster["cert"]),
+        tls_key=str(tls_cluster["key"]))))
+    assert ok.submit(sum, [1, 2, 3]).result() == 6
+    ok.close()
+
+
+def test_certificates_from_dask_config(tls_cluster):
+    import dask
+
+    with dask.config.set({"distributed.comm.tls.ca-file": str(tls_cluster["ca"]),
+                          "distributed.comm.tls.client.cert": str(tls_cluster["cert"]),
+                          "distributed.comm.tls.client.key": str(tls_cluster["key"])}):
+        sec = security_for(ExecutorConfig(kind="dask", scheduler_address=tls_cluster["address"]))
+    assert sec.tls_ca_file == str(tls_cluster["ca"]) and sec.require_encryption
+
+
+def test_addresses_not_on_loopback_need_tls_or_insecure(caplog):
+    assert is_loopback("127.0.0.1") and is_loopback("localhost") and is_loopback("127.0.0.9")
+    assert not is_loopback("192.0.2.10") and not is_loopback("no-such-host.invalid")
+    cfg = ExecutorConfig(kind="dask", scheduler_address="tcp://192.0.2.10:8786")
+    with pytest.raises(ConfigError, match="unauthenticated .* --insecure"):
+        check_address("tcp://192.0.2.10:8786", cfg, None)
+    with caplog.at_level(logging.WARNING):
+        assert check_address("192.0.2.10:8786", cfg.model_copy(update={"insecure": True}), None) == \
+            "tcp://192.0.2.10:8786"
+    assert "unauthenticated" in caplog.text
+    assert check_address("tcp://localhost:8786", cfg, None) == "tcp://localhost:8786"
+    for bad in ("tcp://host", "http://127.0.0.1:8787", "tcp://127.0.0.1:0"):
+        with pytest.raises(ConfigError, match="executor.scheduler_address"):
+            check_address(bad, cfg, None)
+    with pytest.raises(ConfigError, match="tls is set"):
+        security_for(ExecutorConfig(kind="dask", scheduler_address="tcp://127.0.0.1:8786", tls=True))
+    with pytest.raises(ConfigError, match="executor.tls_ca_file: no such file"):
+        security_for(ExecutorConfig(kind="dask", scheduler_address="tls://127.0.0.1:8786", tls_ca_file="/nope.pem"))
+
+
+def _http_host(dask_scheduler=None) -> str:
+    return dask_scheduler.http_server.address
+
+
+def _http_status(info, path: str) -> int:
+    import urllib.error
+    import urllib.request
+
+    url = f"http://127.0.0.1:{info['services']['dashboard']}{path}"
+    try:
+        with urllib.request.urlopen(url, timeout=10) as r:
+            return r.status
+    except urllib.error.HTTPError as err:
+        return err.code
+
+
+def _w11_probe() -> str:
+    import w11_uploaded_plugin
+
+    return w11_uploaded_plugin.NAME
+
+
+def test_local_cluster_is_loopback_only_and_plugins_must_be_importable_on_workers(tmp_path, monkeypatch):
+    with DaskExecutor(ExecutorConfig(kind="dask", workers=1)) as ex:
+        info = ex.client.scheduler_info()
+        assert ex.address.startswith("tcp://127.0.0.1:")
+        assert all(w.startswith("tcp://127.0.0.1:") for w in info["workers"])
+        assert _http_status(info, "/status") == 404  # no dashboard pages; HTTP only on loopback
+        assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"
+        local = tmp_path / "local"
+        local.mkdir()
+        (local / "w11_probe_plugin.py").write_text("NAME = 'probe'\n")
+        monkeypatch.syspath_prepend(str(local))  # importable here, not on the running worker
+        with pytest.raises(PluginImportError, match=r"Dask worker tcp://127\.0\.0\.1:\d+ cannot import plug-in "
+                                                    r"module 'w11_probe_plugin'.*--upload w11_probe_plugin\.py"):
+            ex.check_imports(["w11_probe_plugin"])
+    shipped = tmp_path / "shipped" / "w11_uploaded_plugin.py"
+    shipped.parent.mkdir()
+    shipped.write_text("NAME = 'uploaded aligner'\n")
+    with DaskExecutor(ExecutorConfig(kind="dask", workers=1, upload=[str(shipped)], tls=True)) as ex:
+        assert ex.address.startswith("tls://127.0.0.1:")
+        ex.check_imports(["w11_uploaded_plugin"])
+        assert ex.map(_w11_probe, [()], ["probe"]) == ["uploaded aligner"]
+    with DaskExecutor(ExecutorConfig(kind="dask", workers=1, dashboard=True)) as ex:
+        assert _http_status(ex.client.scheduler_info(), "/status") == 200
+        assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"
+    with pytest.raises(ConfigError, match="executor.upload"):
+        DaskExecutor(ExecutorConfig(kind="dask", workers=1, upload=[str(tmp_path / "missing.py")]))
