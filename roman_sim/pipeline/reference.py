@@ -33,6 +33,10 @@ PAPER = {
     "ate_table": {"tunnel": (4.38, 4.20, 4.12), "hybrid": (5.83, 5.12, 4.77), "outdoor": (9.38, 8.77, 7.77)},
 }
 
+#: Paper-sized multi-robot scenarios (6-8 robots, about 1 km each; tens of minutes each), run on request:
+#: ``roman-sim reproduce --scenario kimera_tunnel --scenario kimera_hybrid --scenario kimera_outdoor``.
+PAPER_SCALE_SCENARIOS = ["kimera_tunnel", "kimera_hybrid", "kimera_outdoor"]
+
 SMALL_FILES = ("metrics.json", "ate.json", "report.md", "config.yaml", "posegraph.json", "map_stats.json",
                "manifest.json", "timings.json")
 
@@ -62,7 +66,7 @@ def reproduce(
             on_start(name)
         res = Experiment(load_scenario(name), work / name, from_stage=from_stage, executor=executor).run()
         _collect(res.run_dir, out / name)
-        runs[name] = res.metrics_summary()
+        runs[name] = {**res.metrics_summary(), "robots_connected": connected(res.run_dir, len(res.scenario.robots))}
     table = comparison(runs)
     sweep_rows: list[dict[str, Any]] = []
     if scenarios is None:
@@ -104,6 +108,17 @@ def sweep_markdown(rows: list[dict[str, Any]]) -> str:
              "| ambiguity | " + " | ".join(methods) + " |", "|---" * (len(methods) + 1) + "|"]
     lines += [f"| {k} | " + " | ".join(_fmt(cell.get((k, m))) for m in methods) + " |" for k in knobs]
     return "\n".join(lines) + "\n"
+
+
+def connected(run_dir: Path, n_robots: int) -> dict[str, int]:
+    """Per pose-graph variant: how many robots ended up in the first robot's frame."""
+    import json
+
+    try:
+        graphs = json.loads((run_dir / "posegraph.json").read_text(encoding="utf-8"))
+        return {k: n_robots - len(v.get("unconnected") or []) for k, v in graphs.items()}
+    except (OSError, ValueError, AttributeError):
+        return {}
 
 
 def _collect(run_dir: Path, dest: Path) -> None:
@@ -154,6 +169,12 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, Any]]:
         sim = tuple(_get(runs, scen, "ate_rmse_m", k) for k in ("odometry", "roman", "oracle"))
         rows.append({"figure": f"ATE RMSE {variant} (m): paper visual / ROMAN / combined; "
                                "simulation odometry / ROMAN / oracle", "paper": paper, "simulation": sim})
+        big = f"kimera_{variant}"
+        if big in runs:
+            sim = tuple(_get(runs, big, "ate_rmse_m", k) for k in ("odometry", "roman", "oracle"))
+            linked, total = _get(runs, big, "robots_connected", "roman"), _get(runs, big, "map", "robots")
+            rows.append({"figure": f"ATE RMSE {variant}, paper scale ({big}; robots connected by ROMAN: "
+                                   f"{linked}/{total})", "paper": paper, "simulation": sim})
     return rows
 
 
