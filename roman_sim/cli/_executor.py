@@ -26,8 +26,8 @@ def executor_config(base: dict[str, Any] | None, kind: str | None, workers: int 
     from roman_sim.core.config import validate_model
     from roman_sim.pipeline.executors import ExecutorConfig
 
-    data = dict(base) if base is not None else {"kind": "local"}
-    given = {"kind": kind, "workers": workers, "scheduler_address": scheduler, "chunk_pairs": chunk,
+    data: dict[str, Any] = dict(base) if base is not None else {"kind": "local"}
+    given: dict[str, Any] = {"kind": kind, "workers": workers, "scheduler_address": scheduler, "chunk_pairs": chunk,
              "tls_ca_file": ca, "tls_cert": cert, "tls_key": key}
     data.update({k: v for k, v in given.items() if v is not None})
     for flag, value in (("tls", tls), ("insecure", insecure), ("dashboard", dashboard)):

@@ -175,3 +175,20 @@ def test_local_cluster_is_loopback_only_and_plugins_must_be_importable_on_worker
         assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"
     with pytest.raises(ConfigError, match="executor.upload"):
         DaskExecutor(ExecutorConfig(kind="dask", workers=1, upload=[str(tmp_path / "missing.py")]))
+
+
+def test_cli_refuses_insecure_and_incomplete_cluster_options_in_one_line(tmp_path):
+    from typer.testing import CliRunner
+
+    from roman_sim.cli import app
+
+    cases = [(["--scheduler", "tcp://192.0.2.10:8786"], "unauthenticated"),
+             (["--scheduler", "tls://127.0.0.1:1", "--tls-ca-file", str(tmp_path / "nope.pem")], "tls_ca_file"),
+             (["--scheduler", "tls://127.0.0.1:1"], "needs a CA and a client certificate"),
+             (["--executor", "dask", "--upload", str(tmp_path / "x.txt")], "executor.upload"),
+             (["--executor", "cluster"], "executor: kind: Input should be")]
+    for opts, msg in cases:
+        res = CliRunner().invoke(app, ["run", "smoke", "--out", str(tmp_path / "run"), *opts])
+        assert res.exit_code == 1, (opts, res.output)
+        assert msg in res.output and "Traceback" not in res.output, (opts, res.output)
+        assert not (tmp_path / "run" / "maps").exists()
