@@ -5,25 +5,41 @@ World: the ``forest`` preset (about 1000 objects, 200 x 200 m), seed 0. Camera 6
 are representative, not of empty sky). Also times the cheap parts of a run (path planning,
 driving + odometry), the depth noise, and whole ``simulate_robot`` frames (RGB, depth,
 ids, noise, odometry; renderer start-up included).
-Writes ``benchmarks/out/sim.json``. Run: ``python benchmarks/bench_sim.py [--quick]``.
+The ``appearance`` section prices each look option (``WorldSpec.appearance``: textures,
+instance colour variation, every lighting preset, shadows) as milliseconds per RGB + depth +
+ids frame at 320 x 240 and 640 x 480 on the same forest world, next to the default look
+measured in the same run (ratios are what to read: the machine is shared).
+Writes ``benchmarks/out/sim.json``. Run: ``python benchmarks/bench_sim.py [--quick]``, or
+``--appearance`` to measure only that section and merge it into the existing file.
 """
 
 from __future__ import annotations
 
+import json
 import platform
 import sys
 import time
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 import roman_sim  # noqa: F401  (headless rendering defaults before mujoco loads)
 from roman_sim.core.atomic import write_json
+from roman_sim.core.config import validate_model
+from roman_sim.core.seeding import child_rng
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.render import SensorRenderer
-from roman_sim.sim.robot import RobotConfig, robot_path, robot_trajectory, simulate_robot
-from roman_sim.core.seeding import child_rng
-from roman_sim.world import generate, load_world_spec
+from roman_sim.sim.robot import (
+    RobotConfig,
+    robot_path,
+    robot_trajectory,
+    simulate_robot,
+)
+from roman_sim.world import WorldSpec, generate, load_world_spec
+from roman_sim.world.appearance import LIGHTING
 
 OUT = Path(__file__).resolve().parent / "out" / "sim.json"
 
@@ -34,6 +50,92 @@ def _fps(renderer: SensorRenderer, poses: list, T_bc) -> float:
     for T in poses:
         renderer.render(T @ T_bc)
     return len(poses) / (time.perf_counter() - t0)
+
+
+APPEARANCE_OPTIONS: dict[str, dict[str, Any]] = {
+    "default": {},
+    "textures": {"textures": True},
+    "instance_variation_1": {"instance_variation": 1.0},
+    "instance_variation_0": {"instance_variation": 0.0},
+    **{f"lighting_{name}": {"lighting": name} for name in LIGHTING.names()},
+    "shadows": {"shadows": True},
+    "shadows_2048": {"shadows": True, "shadow_px": 2048},
+    "textures_shadows_evening": {"textures": True, "shadows": True, "lighting": "evening"},
+    "default_again": {},  # the default look once more at the end of each round: the reference is their mean
+}
+SIZES = ((320, 240), (640, 480))
+
+
+def _frame_ms(world: Any, cam: CameraConfig, poses: list, rgb: bool = True) -> tuple[float, float]:
+    """(median wall ms, median CPU ms of all threads) per frame; CPU time is steadier on a shared machine."""
+    r = SensorRenderer(world, cam, rgb=rgb)
+    T_bc = cam.T_body_cam()
+    try:
+        r.render(poses[0] @ T_bc)  # warm-up (shader compilation, texture upload)
+        wall, cpu = [], []
+        for T in poses:
+            t0, c0 = time.perf_counter(), time.process_time()
+            r.render(T @ T_bc)
+            wall.append(time.perf_counter() - t0)
+            cpu.append(time.process_time() - c0)
+        return 1000.0 * float(np.median(wall)), 1000.0 * float(np.median(cpu))
+    finally:
+        r.close()
+
+
+def _timed_row(world: Any, poses: list, depth_only: bool) -> dict[str, float]:
+    row: dict[str, float] = {}
+    for w, h in SIZES:
+        cam = CameraConfig(width=w, height=h)
+        row[f"ms_{w}x{h}"], row[f"cpu_ms_{w}x{h}"] = _frame_ms(world, cam, poses)
+        if depth_only:
+            row[f"depth_ids_only_ms_{w}x{h}"], row[f"depth_ids_only_cpu_ms_{w}x{h}"] = _frame_ms(
+                world, cam, poses, rgb=False)
+    return row
+
+
+def appearance_costs(poses: list, quick: bool = False) -> dict[str, Any]:
+    """Per-frame cost (RGB + depth + ids) of each appearance option at each image size.
+
+    Every option is timed in each of several rounds (options interleaved); a figure is the
+    smallest over the rounds of the median over frames, the least disturbed by other jobs.
+    """
+    base = load_world_spec("forest").model_dump(mode="json")
+    poses, rounds = poses[: 6 if quick else 20], 1 if quick else 3
+    table: dict[str, dict[str, Any]] = {}
+    for _ in range(rounds):
+        for key, app in APPEARANCE_OPTIONS.items():
+            t0 = time.perf_counter()
+            world = generate(validate_model(WorldSpec, {**base, "appearance": app}), 0)
+            timed = {"generate_s": time.perf_counter() - t0, **_timed_row(world, poses, key == "default")}
+            row = table.setdefault(key, {"textures": int(world.model.ntex), "texture_bytes": int(world.model.ntexdata),
+                                         "meshes": int(world.model.nmesh),
+                                         "mesh_texcoords": int(world.model.nmeshtexcoord)})
+            for k, v in timed.items():
+                row[k] = round(min(v, row.get(k, np.inf)), 2 if k == "generate_s" else 1)
+            del world
+    for w, h in SIZES:
+        ref = (table["default"][f"cpu_ms_{w}x{h}"] + table["default_again"][f"cpu_ms_{w}x{h}"]) / 2
+        for row in table.values():
+            row[f"cpu_ratio_to_default_{w}x{h}"] = round(row[f"cpu_ms_{w}x{h}"] / ref, 2)
+    return {"frames_timed": len(poses), "rounds": rounds, "options": APPEARANCE_OPTIONS, "per_option": table,
+            "note": "min over rounds of the median per frame over robot poses on the forest loop; cpu_ms counts "
+                    "all rendering threads of the process; the machine was shared with other jobs"}
+
+
+def _robot_poses(world: Any, n_frames: int) -> list:
+    cfg = RobotConfig(name="bench", path=PathConfig(kind="road", road_index=0), camera=CameraConfig())
+    _, T_wb, _ = robot_trajectory(world, cfg, 0)
+    return list(T_wb[:: max(1, len(T_wb) // n_frames)][:n_frames])
+
+
+def appearance_only(quick: bool = False) -> dict:
+    """Measure only the appearance section and merge it into the existing ``sim.json``."""
+    world = generate(load_world_spec("forest"), 0)
+    doc = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
+    doc["appearance"] = appearance_costs(_robot_poses(world, 40), quick)
+    write_json(OUT, doc)
+    return doc
 
 
 def main(quick: bool = False) -> dict:
@@ -80,6 +182,7 @@ def main(quick: bool = False) -> dict:
         "targets_fps": {"depth_ids": 10, "rgb_depth_ids": 5},
         "fps_simulate_robot_rgb": round(sim_fps, 2),
         "depth_noise_ms": round((time.perf_counter() - t0) / 10 * 1000, 2),
+        "appearance": appearance_costs(poses, quick),
         "path_plan_s": round(path_s, 3),
         "trajectory_s": round(traj_s, 3),
         "trajectory_frames": len(t),
@@ -91,6 +194,5 @@ def main(quick: bool = False) -> dict:
 
 
 if __name__ == "__main__":
-    import json
-
-    sys.stdout.write(json.dumps(main(quick="--quick" in sys.argv), indent=2) + "\n")
+    run = appearance_only if "--appearance" in sys.argv else main
+    sys.stdout.write(json.dumps(run(quick="--quick" in sys.argv), indent=2) + "\n")

@@ -1,7 +1,9 @@
 """roman_sim: a simulation testbed for ROMAN global localization with open-set object maps.
 
 Importing the package sets headless rendering defaults (``MUJOCO_GL=egl`` and
-``PYOPENGL_PLATFORM=egl``) when they are unset, before any renderer is imported.
+``PYOPENGL_PLATFORM=egl``) when they are unset, before any renderer is imported, and
+registers the gymnasium environment ``roman_sim/GroundRobot-v0`` (as soon as gymnasium is
+imported; importing roman_sim itself loads neither gymnasium nor MuJoCo).
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import os
 os.environ.setdefault("MUJOCO_GL", "egl")
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
+from roman_sim.core import gymreg as _gymreg  # noqa: E402
 from roman_sim.core.errors import (  # noqa: E402
     AlignmentError,
     ConfigError,
@@ -25,6 +28,8 @@ from roman_sim.core.errors import (  # noqa: E402
 )
 
 __version__ = "0.1.0"
+
+_gymreg.install()
 
 logging.getLogger(__name__).addHandler(logging.NullHandler())
 

@@ -49,12 +49,17 @@ class Intrinsics:
 class FrameTruth:
     """Evaluation-only facts of a frame (a simulator has them; a real sequence may not).
 
+    A real sequence usually has a true trajectory (motion capture, RTK) but no instance
+    labels: ``object_ids`` is then None. Segments of such frames carry no object truth
+    (their majority id is -1), and the evaluation scores pairs by the true poses alone.
+
     Attributes:
-        object_ids: (H, W) int32 true object id per pixel, -1 for background (terrain, sky).
+        object_ids: (H, W) int32 true object id per pixel, -1 for background (terrain, sky),
+            or None when the source has no instance labels.
         T_world_body: 4x4 true body pose.
     """
 
-    object_ids: NDArray[np.int32]
+    object_ids: NDArray[np.int32] | None
     T_world_body: NDArray[np.float64]
 
 
@@ -106,7 +111,7 @@ def check_frame(frame: Frame) -> None:
                            f"intrinsics {shape} x 3")
     poses = {"T_odom_body": frame.T_odom_body, "T_body_cam": frame.T_body_cam}
     if frame.truth is not None:
-        if np.asarray(frame.truth.object_ids).shape != shape:
+        if frame.truth.object_ids is not None and np.asarray(frame.truth.object_ids).shape != shape:
             raise MappingError(f"frame {frame.index}: truth.object_ids shape does not match intrinsics {shape}")
         poses["truth.T_world_body"] = frame.truth.T_world_body
     for name, T in poses.items():

@@ -15,12 +15,47 @@ Runs are cached in ``out``: several tests on the same scenario share one simulat
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
+from typing import Any
 
+from roman_sim.core.errors import ConfigError
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
+
+#: The figures ``assert_recall`` and ``assert_not_worse`` compare (all fractions in [0, 1]).
+FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
+
+
+def names_list(value: Any, what: str) -> list[str]:
+    """``value`` as a list of strings; ``ConfigError`` for a bare string (a list is meant) or non-strings."""
+    if isinstance(value, (str, bytes)):
+        raise ConfigError(f"{what}: expected a list of strings, got the string {value!r} (write {what}=[{value!r}])")
+    try:
+        items = list(value)
+    except TypeError:
+        raise ConfigError(f"{what}: expected a list of strings, got {type(value).__name__}") from None
+    bad = [x for x in items if not isinstance(x, str)]
+    if bad:
+        raise ConfigError(f"{what}: every entry must be a string, got {bad[0]!r}")
+    return items
+
+
+def _check_key(key: Any) -> str:
+    if key not in FIGURES:
+        raise ConfigError(f"key: unknown figure {key!r} (valid: {', '.join(FIGURES)})")
+    return str(key)
+
+
+def _fraction(value: Any, what: str) -> float:
+    """A finite number in [0, 1] (booleans are not numbers here); ``ConfigError`` naming ``what``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ConfigError(f"{what}: expected a number in [0, 1], got {value!r}")
+    if not math.isfinite(value) or not 0.0 <= value <= 1.0:
+        raise ConfigError(f"{what}: expected a finite number in [0, 1], got {value!r}")
+    return float(value)
 
 
 def run_scenario(
@@ -32,6 +67,7 @@ def run_scenario(
     out: str | Path | None = None,
 ) -> RunResult:
     """Run (or reuse) a seeded scenario with extra aligners (names or ``package.module:Class``)."""
+    aligners, overrides = names_list(aligners, "aligners"), names_list(overrides, "overrides")
     sets = list(overrides) + ([f"seed={seed}"] if seed is not None else [])
     sc = with_aligners(load_scenario(scenario, sets), list(aligners))
     run_dir = Path(out) / f"seed{sc.seed}" if out is not None else default_run_dir(sc)
@@ -52,15 +88,31 @@ def assert_recall(
         minimum: one overall bound, or ``{"0-60": 0.5, "120-180": 0.2}`` per heading bin.
         key: which figure (``max_recall``, ``recall_at_precision_1``, ``best_f1``, ``auc``).
     """
-    method = method_label(method)
-    bounds = {None: minimum} if isinstance(minimum, (int, float)) else dict(minimum)
+    method, key = method_label(method), _check_key(key)
+    bounds = _bounds(minimum)
     failures = []
     for bin_label, lo in bounds.items():
         got = _figure(run, method, bin_label, key)
-        if got is None or got < lo:
-            where = "overall" if bin_label is None else f"heading {bin_label} deg"
-            failures.append(f"{method} {key} {where}: {got} < {lo}")
+        where = "overall" if bin_label is None else f"heading {bin_label} deg"
+        if got is None:
+            failures.append(f"{method} {key} {where}: undefined (no relevant pairs), bound {lo}")
+        elif got < lo:
+            failures.append(f"{method} {key} {where}: {got:.3f} < {lo}")
     assert not failures, "; ".join(failures)
+
+
+def _bounds(minimum: Any) -> dict[str | None, float]:
+    """``{None: bound}`` or ``{bin label: bound}``, every bound a finite fraction."""
+    if isinstance(minimum, Mapping):
+        if not minimum:
+            raise ConfigError("minimum: an empty mapping checks nothing (give {'0-60': 0.5, ...} or a number)")
+        out: dict[str | None, float] = {}
+        for label, lo in minimum.items():
+            if not isinstance(label, str):
+                raise ConfigError(f"minimum: heading bin labels are strings such as '0-60', got {label!r}")
+            out[label] = _fraction(lo, f"minimum[{label!r}]")
+        return out
+    return {None: _fraction(minimum, "minimum")}
 
 
 def _figure(run: RunResult, method: str, bin_label: str | None, key: str) -> float | None:
@@ -72,7 +124,10 @@ def assert_not_worse(
     key: str = "max_recall", tolerance: float = 0.0,
 ) -> None:
     """Assert ``method`` reaches at least ``baseline``'s figure (minus ``tolerance``)."""
-    method, baseline = method_label(method), method_label(baseline)
+    method, baseline, key = method_label(method), method_label(baseline), _check_key(key)
+    tolerance = _fraction(tolerance, "tolerance")
+    if heading_bin is not None and not isinstance(heading_bin, str):
+        raise ConfigError(f"heading_bin: expected a bin label such as '120-180' or None, got {heading_bin!r}")
     got, ref = _figure(run, method, heading_bin, key), _figure(run, baseline, heading_bin, key)
     assert got is not None and ref is not None, f"{key} undefined: {method}={got}, {baseline}={ref}"
     assert got >= ref - tolerance, f"{method} {key} {heading_bin or 'overall'}: {got:.3f} < {baseline} {ref:.3f}"

@@ -166,7 +166,13 @@ def build_aligner(name: str, params: dict[str, Any] | None = None) -> Aligner:
     Raises:
         ConfigError: unknown name (the message lists the valid ones), bad parameters, or an
             object without ``name`` and ``align``.
+        PluginError: a ``package.module:Class`` that cannot be imported or built, or lacks
+            ``name`` and ``align`` (``roman_sim.core.plugins.load_plugin`` also dry-runs it).
     """
+    if ":" in name and name not in ALIGNERS:
+        from roman_sim.core.plugins import instantiate_plugin
+
+        return instantiate_plugin(name, "aligner", params)  # type: ignore[return-value]
     factory = ALIGNERS.get(name)
     if not callable(factory):
         raise ConfigError(f"aligner {name!r}: not callable")

@@ -2,6 +2,8 @@
 
 Each area adds its commands from its own module (``world``, ``record``, ``run``, ...).
 Any ``RomanSimError`` becomes one line on stderr and exit code 1; a traceback means a bug.
+Ctrl-C (SIGINT) ends a command with one line and exit code 130; results already written
+(completed stages) are kept, since every file is written atomically.
 """
 
 from __future__ import annotations
@@ -25,6 +27,10 @@ class _Group(TyperGroup):
         except RomanSimError as err:
             typer.echo(f"error: {err}", err=True)
             raise typer.Exit(1) from None
+        except KeyboardInterrupt:
+            typer.echo("interrupted: results written so far (completed stages) are kept; run the same command "
+                       "again to resume", err=True)
+            raise typer.Exit(130) from None
 
 
 app = typer.Typer(

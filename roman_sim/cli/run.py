@@ -2,17 +2,20 @@
 
 from __future__ import annotations
 
+import contextlib
 from pathlib import Path
 from typing import Any
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.progress import Progress
 from rich.table import Table
 
 from roman_sim.cli import _executor as X
 from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
+from roman_sim.cli.progress import LineProgress, interactive, rich_progress
+from roman_sim.core.errors import RomanSimError
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -43,8 +46,7 @@ class RichProgress:
 
 
 def _progress() -> Progress:
-    return Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                    TimeRemainingColumn(), console=console, transient=False)
+    return rich_progress(console)
 
 
 def _fmt(v: Any, digits: int = 2) -> str:
@@ -93,10 +95,32 @@ def _run(scenario: str, out: Path | None, sets: list[str] | None, fresh: bool,
     exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage,
                      executor=executor)
     exp.validate()
-    with _progress() as p:
-        exp.progress = RichProgress(p)
-        result = exp.run()
+    try:
+        if interactive():
+            with _progress() as p:
+                exp.progress = RichProgress(p)
+                result = exp.run()
+        else:  # CI, nohup, a pipe: one line per finished stage, so a killed run leaves a log
+            exp.progress = LineProgress()
+            result = exp.run()
+    except KeyboardInterrupt:
+        typer.echo(f"interrupted: {_kept(exp.run_dir)}; run the same command again to resume", err=True)
+        raise typer.Exit(130) from None
+    except RomanSimError as err:
+        err.args = (f"{err} ({_kept(exp.run_dir)})",)  # one line: what failed, and what was kept
+        raise
     print_summary(result)
+
+
+def _kept(run_dir: Path) -> str:
+    """What an interrupted or failed run leaves: its completed stages, kept in ``run_dir``."""
+    from roman_sim.pipeline.manifest import existing_manifest
+
+    man = existing_manifest(run_dir)
+    done = sorted(man.stages) if man is not None else []
+    if not done:
+        return f"no stage completed in {run_dir}"
+    return f"completed stages kept in {run_dir}: {', '.join(done)}"
 
 
 @app.command("run")
@@ -158,6 +182,7 @@ def record_cmd(
     robot: list[str] | None = typer.Option(None, "--robot", "-r", help="only these robots"),
 ) -> None:
     """Render and store the robots' frames (chunked, compressed) with TUM trajectories."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.core.errors import ConfigError
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.sim.recording import write_recording
@@ -165,25 +190,34 @@ def record_cmd(
     from roman_sim.world import generate
 
     sc = load_scenario(scenario, list(sets or []))
-    names = [r.name for r in sc.robots]
+    names = [r.name for r in sc.simulated_robots()]
     unknown = sorted(set(robot or []) - set(names))
-    if unknown:
-        raise ConfigError(f"--robot: unknown {', '.join(unknown)} (robots: {', '.join(names)})")
+    if unknown or not names:
+        raise ConfigError(f"--robot: no simulated robot {', '.join(unknown)} (simulated robots: "
+                          f"{', '.join(names) or 'none'})")
+    output_folder(out, "--out", create=False)
+    for cfg in sc.simulated_robots():
+        if (out / cfg.name).exists() and not (out / cfg.name).is_dir():
+            raise ConfigError(f"--out {out}: {cfg.name} there is an existing file, not a recording folder")
     world = generate(sc.world.spec(), sc.seed)
-    paths = plan_paths(world, sc.robots, sc.seed)
-    with _progress() as p:
-        for cfg in sc.robots:
+    paths = plan_paths(world, sc.simulated_robots(), sc.seed)
+    progress: Any = None
+    with _progress() if interactive() else contextlib.nullcontext() as p:
+        progress = RichProgress(p) if p is not None else LineProgress()
+        for cfg in sc.simulated_robots():
             if robot and cfg.name not in robot:
                 continue
             trajectory = trajectory_along(world, cfg, sc.seed, paths[cfg.name])
-            task = p.add_task(f"record {cfg.name}", total=len(trajectory[0]))
+            stage = f"record:{cfg.name}"
+            progress.start(stage, len(trajectory[0]))
 
-            def frames(cfg: Any = cfg, task: Any = task, trajectory: Any = trajectory) -> Any:
+            def frames(cfg: Any = cfg, stage: str = stage, trajectory: Any = trajectory) -> Any:
                 for f in render_trajectory(world, cfg, sc.seed, trajectory):
-                    p.advance(task)
+                    progress.advance(stage)
                     yield f
 
             write_recording(frames(), out / cfg.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
+            progress.end(stage)
     Console().print(f"recordings written to {out}")
 
 
@@ -212,13 +246,13 @@ def sweep_cmd(
     upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run a parameter x seed sweep (resumable) and write sweep.csv; exit 1 with a table if a cell failed."""
-    from roman_sim.pipeline.sweep import SweepError, load_sweep, run_sweep
+    from roman_sim.pipeline.sweep import load_sweep, run_sweep, sweep_failures
 
     cfg, scenario_path = load_sweep(sweep_file)
     cfg.executor = X.executor_config(cfg.executor.model_dump(), executor, workers, scheduler, chunk_pairs, tls,
                                      tls_ca_file, tls_cert, tls_key, insecure, dashboard, upload)
     out_dir = out or Path("results") / "sweeps" / cfg.name
-    try:
+    if interactive():
         with _progress() as p:
             task = p.add_task(f"sweep {cfg.name}", total=None)
 
@@ -226,17 +260,31 @@ def sweep_cmd(
                 p.update(task, completed=done, total=total)
 
             path = run_sweep(cfg, scenario_path, out_dir, progress=cb)
-    except SweepError as err:
-        t = Table(title=f"sweep {cfg.name}: cells without results")
-        for col in ("run", "status", "error"):
-            t.add_column(col, overflow="fold")
-        for run_id, (status, why) in sorted(err.failed.items()):
-            t.add_row(run_id, status, why)
-        Console(stderr=True).print(t)
-        typer.echo(f"error: {len(err.failed)} sweep cell(s) did not complete; table: "
-                   f"{out_dir.resolve() / 'sweep.csv'}", err=True)
-        raise typer.Exit(1) from None
+    else:  # one line per finished run
+        lines = LineProgress()
+        last = [0]
+
+        def cb_lines(done: int, total: int) -> None:
+            if done > last[0]:
+                lines.line(f"sweep {cfg.name}: {done}/{total} runs done")
+            last[0] = done
+
+        path = run_sweep(cfg, scenario_path, out_dir, progress=cb_lines)
     Console().print(f"sweep table: {path}")
+    failed = sweep_failures(path)
+    if failed:
+        _failure_table(failed, path)
+        raise typer.Exit(1)
+
+
+def _failure_table(failed: list[dict[str, str]], path: Path) -> None:
+    """The runs of a sweep that did not finish, on stderr."""
+    t = Table(title=f"{len(failed)} sweep run(s) failed (all rows in {path})")
+    for col in ("run", "seed", "status", "error"):
+        t.add_column(col, overflow="fold")
+    for row in failed:
+        t.add_row(row.get("run_id", ""), row.get("seed", ""), row.get("status", ""), row.get("error", ""))
+    console.print(t)
 
 
 def _scenarios() -> list[str]:

@@ -51,9 +51,12 @@ def generate_cmd(
     sets: list[str] | None = SETS,
 ) -> None:
     """Generate a world and export it as a folder that plain MuJoCo loads."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.world import export_world, generate
 
-    world = generate(_spec(preset, sets), seed)
+    spec = _spec(preset, sets)
+    output_folder(out, "--out", create=False)
+    world = generate(spec, seed)
     xml = export_world(world, out)
     _summary(world, xml)
 
@@ -68,10 +71,12 @@ def preview_cmd(
 ) -> None:
     """Write a top-down map with families coloured and one rendered RGB view."""
     from roman_sim.world import generate, load_world
-    from roman_sim.world.preview import write_preview
+    from roman_sim.world.preview import preview_paths, write_preview
 
     src = Path(source)
-    world = load_world(src) if src.is_dir() else generate(_spec(source, None), seed)
+    spec = None if src.is_dir() else _spec(source, None)
+    preview_paths(out, "--out")
+    world = load_world(src) if spec is None else generate(spec, seed)
     paths = write_preview(world, out, width, height)
     Console().print("wrote " + ", ".join(str(p) for p in paths))
 

@@ -1,6 +1,9 @@
 """Atomic file writes: write to a temporary file in the same folder, then rename.
 
-An interrupted process therefore never leaves a half-written result behind.
+An interrupted process therefore never leaves a half-written result behind. Files get the
+mode an ordinary ``open()`` would give them (0666 minus the umask, usually 0644), not the
+0600 of the temporary file. ``output_folder`` and ``output_file`` check an output location
+before any work, so a file where a folder is meant (or the reverse) is a one-line error.
 """
 
 from __future__ import annotations
@@ -16,23 +19,93 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
+from roman_sim.core.errors import ConfigError, StorageError
+
 
 @contextmanager
 def atomic_open(path: str | Path, mode: str = "wb") -> Iterator[Any]:
     """Open a temporary file next to ``path``; on success rename it over ``path``."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    except OSError as err:
+        raise StorageError(f"{path}: cannot write ({err.strerror or err})") from None
+    try:
+        os.fchmod(fd, 0o666 & ~current_umask())
         with os.fdopen(fd, mode) as fh:
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        _replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def _replace(tmp: str, path: Path) -> None:
+    try:
+        os.replace(tmp, path)
+    except IsADirectoryError:
+        raise StorageError(f"{path}: is an existing folder, cannot write a file there") from None
+    except OSError as err:
+        raise StorageError(f"{path}: cannot write ({err.strerror or err})") from None
+
+
+def current_umask() -> int:
+    """The process umask, read without changing it where Linux exposes it (else set and restored)."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+def make_public_dir(path: str | Path) -> None:
+    """Give a folder made by ``tempfile.mkdtemp`` (mode 0700) the mode of an ordinary ``mkdir``."""
+    os.chmod(path, 0o777 & ~current_umask())
+
+
+def output_folder(path: str | Path, what: str = "--out", create: bool = True) -> Path:
+    """Check ``path`` as an output folder and create it (parents too, unless ``create`` is False).
+
+    With ``create=False`` nothing is made: the check is that the folder exists or could be
+    created (its nearest existing parent is a writable folder), so a command can check its
+    output before any work without leaving an empty folder behind when the work fails.
+
+    Raises:
+        ConfigError: naming ``what``: ``path`` or one of its parents is an existing file, or
+            the folder cannot be created or written.
+    """
+    path = Path(path)
+    existing = next((p for p in [path, *path.parents] if p.exists() or p.is_symlink()), Path("."))
+    if not existing.is_dir():
+        where = "is an existing file" if existing == path else f"lies inside {existing}, an existing file"
+        raise ConfigError(f"{what} {path}: {where}, not a folder (choose a folder path)")
+    if create:
+        try:
+            path.mkdir(parents=True, exist_ok=True)
+        except OSError as err:
+            raise ConfigError(f"{what} {path}: cannot create the folder ({err.strerror or err})") from None
+        existing = path
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise ConfigError(f"{what} {path}: {'the folder' if existing == path else existing} is not writable")
+    return path
+
+
+def output_file(path: str | Path, what: str = "--out", create: bool = True) -> Path:
+    """Check that ``path`` can be written as a file (its folder is created unless ``create`` is False)."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{what} {path}: is an existing folder, expected a file path")
+    output_folder(path.parent, what=what, create=create)
+    return path
 
 
 def write_bytes(path: str | Path, data: bytes) -> None:

@@ -1,60 +1,115 @@
 """Configuration plumbing: strict pydantic models, YAML loading with one-line errors.
 
 Each stage defines its own model (``WorldSpec``, ``CameraConfig``, ...) by subclassing
-``StrictModel``; unknown keys are errors. ``load_model`` and ``validate_model`` turn
+``StrictModel``: unknown keys are errors, and NaN or infinity in any float field (scalars,
+lists, tuples, nested models) is an error naming the field. Free-form fields (``dict[str,
+Any]``) use ``FiniteTree`` for the same check. ``load_model`` and ``validate_model`` turn
 pydantic's errors into a ``ConfigError`` whose message names the field and what is allowed.
+YAML is read with ``StrictLoader``: a key repeated in one mapping is an error naming the key
+and its lines.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
+import math
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Annotated, Any, TypeVar
 
 import yaml
-from pydantic import BaseModel, ConfigDict, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, ValidationError
+from pydantic_core import PydanticCustomError
 
+from roman_sim.core.config_errors import format_validation_error
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.overrides import apply_overrides
 
 M = TypeVar("M", bound=BaseModel)
 
+__all__ = [
+    "FiniteTree", "StrictLoader", "StrictModel", "apply_overrides", "dump_yaml", "format_validation_error",
+    "load_model", "parse_yaml", "read_yaml", "stable_hash", "validate_model",
+]
+
 
 class StrictModel(BaseModel):
-    """Base of every configuration model: unknown keys are errors, values are validated."""
+    """Base of every configuration model: unknown keys and non-finite floats are errors."""
 
-    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False)
-
-
-def format_validation_error(err: ValidationError, source: str = "") -> str:
-    """One line naming each bad field and what is allowed."""
-    parts = []
-    for e in err.errors():
-        loc = ".".join(str(x) for x in e["loc"]) or "<root>"
-        msg = e["msg"]
-        if e["type"] == "extra_forbidden":
-            msg = "unknown key"
-            allowed = _allowed_keys(err, e["loc"])
-            if allowed:
-                msg += f" (allowed: {', '.join(allowed)})"
-        parts.append(f"{loc}: {msg}")
-    prefix = f"{source}: " if source else ""
-    return prefix + "; ".join(parts)
+    model_config = ConfigDict(extra="forbid", validate_assignment=True, frozen=False, allow_inf_nan=False)
 
 
-def _allowed_keys(err: ValidationError, loc: tuple[Any, ...]) -> list[str]:
-    model = getattr(err, "_roman_model", None)
-    if model is None:
-        return []
-    cls: Any = model
-    for key in loc[:-1]:
-        field = getattr(cls, "model_fields", {}).get(key)
-        if field is None:
-            return []
-        cls = field.annotation
-        if not (isinstance(cls, type) and issubclass(cls, BaseModel)):
-            return []
-    return sorted(getattr(cls, "model_fields", {}).keys())
+def _finite_tree(value: Any) -> Any:
+    bad = _first_non_finite(value, "")
+    if bad is not None:
+        where, v = bad
+        raise PydanticCustomError("non_finite", "must be a finite number (got {value})",
+                                  {"where": where, "value": repr(v)})
+    return value
+
+
+def _first_non_finite(value: Any, where: str) -> tuple[str, float] | None:
+    if isinstance(value, float) and not math.isfinite(value):
+        return where, value
+    items: Any = ()
+    if isinstance(value, dict):
+        items = value.items()
+    elif isinstance(value, (list, tuple)):
+        items = enumerate(value)
+    for k, v in items:
+        bad = _first_non_finite(v, f"{where}.{k}" if where else str(k))
+        if bad is not None:
+            return bad
+    return None
+
+
+#: Free-form value (plug-in parameters, override maps) in which every float must be finite.
+FiniteTree = Annotated[Any, AfterValidator(_finite_tree)]
+
+
+class StrictLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that rejects a key repeated within one mapping (instead of keeping the last)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: dict[Any, yaml.Mark] = {}
+        for key_node, _ in node.value:
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue  # keys merged with '<<' may be overridden by explicit ones: YAML's own rule
+            key = self.construct_object(key_node, deep=True)
+            try:
+                first = seen.setdefault(key, key_node.start_mark)
+            except TypeError:  # an unhashable key: SafeLoader reports it below
+                continue
+            if first is not key_node.start_mark:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r} (first at line {first.line + 1}, again at line "
+                    f"{key_node.start_mark.line + 1})", key_node.start_mark)
+        return super().construct_mapping(node, deep=deep)
+
+
+def parse_yaml(text: str, source: str) -> Any:
+    """Parse YAML ``text`` strictly; ``ConfigError`` (naming ``source``, line and problem) when malformed."""
+    try:
+        return yaml.load(text, Loader=StrictLoader)  # StrictLoader is a SafeLoader
+    except yaml.YAMLError as err:
+        mark = getattr(err, "problem_mark", None)
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
+        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
+        raise ConfigError(f"{source}: malformed YAML{where}: {problem}") from None
+
+
+def read_yaml(path: str | Path) -> Any:
+    """Read a YAML file; missing, unreadable or malformed files raise ``ConfigError``."""
+    path = Path(path)
+    if path.is_dir():
+        raise ConfigError(f"{path}: is a directory, expected a YAML file")
+    if not path.is_file():
+        raise ConfigError(f"{path}: file not found")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{path}: cannot read: {err}") from None
+    return parse_yaml(text, str(path))
 
 
 def validate_model(model: type[M], data: Any, source: str = "") -> M:
@@ -66,24 +121,7 @@ def validate_model(model: type[M], data: Any, source: str = "") -> M:
     try:
         return model.model_validate(data)
     except ValidationError as err:
-        err._roman_model = model  # type: ignore[attr-defined]
-        raise ConfigError(format_validation_error(err, source or model.__name__)) from None
-
-
-def read_yaml(path: str | Path) -> Any:
-    """Read a YAML file; missing or malformed files raise ``ConfigError``."""
-    path = Path(path)
-    if not path.is_file():
-        raise ConfigError(f"{path}: file not found")
-    try:
-        return yaml.safe_load(path.read_text(encoding="utf-8"))
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
-        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        raise ConfigError(f"{path}: malformed YAML{where}: {problem}") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{path}: cannot read: {err}") from None
+        raise ConfigError(format_validation_error(err, source or model.__name__, model)) from None
 
 
 def load_model(model: type[M], path: str | Path) -> M:
@@ -94,38 +132,6 @@ def load_model(model: type[M], path: str | Path) -> M:
 def dump_yaml(model: BaseModel) -> str:
     """The resolved configuration as YAML (stable key order)."""
     return yaml.safe_dump(model.model_dump(mode="json"), sort_keys=False)
-
-
-def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
-    """Apply ``key.sub=value`` overrides (values parsed as YAML) to a nested dict copy."""
-    import copy
-
-    out = copy.deepcopy(data)
-    for item in overrides:
-        if "=" not in item:
-            raise ConfigError(f"--set {item!r}: expected key=value")
-        key, raw = item.split("=", 1)
-        try:
-            value = yaml.safe_load(raw)
-        except yaml.YAMLError:
-            raise ConfigError(f"--set {key}: value {raw!r} is not valid YAML") from None
-        node = out
-        parts = key.strip().split(".")
-        for p in parts[:-1]:
-            if isinstance(node, list) and p.isdigit() and int(p) < len(node):
-                node = node[int(p)]
-                continue
-            if not isinstance(node, dict):
-                raise ConfigError(f"--set {key}: {p!r} is not a mapping")
-            node = node.setdefault(p, {})
-        last = parts[-1]
-        if isinstance(node, list) and last.isdigit() and int(last) < len(node):
-            node[int(last)] = value
-        elif isinstance(node, dict):
-            node[last] = value
-        else:
-            raise ConfigError(f"--set {key}: cannot set inside a {type(node).__name__}")
-    return out
 
 
 def stable_hash(*parts: Any) -> str:

@@ -37,3 +37,22 @@ class AlignmentError(RomanSimError):
 
 class EvaluationError(RomanSimError):
     """Evaluation inputs are missing or inconsistent."""
+
+
+class ClusterError(RomanSimError):
+    """A Dask scheduler cannot be reached in time, or the address is not a Dask scheduler."""
+
+
+class PluginError(ConfigError):
+    """A user plug-in (``package.module:Class``) failed: import, construction, protocol, dry call or a call in a run.
+
+    A ``ConfigError``: the configuration names a plug-in that does not work.
+
+    Attributes:
+        plugin: the plug-in's ``package.module:Class`` path.
+        kind: ``aligner``, ``segmenter`` or ``encoder``.
+    """
+
+    def __init__(self, message: str, plugin: str = "", kind: str = "") -> None:
+        super().__init__(message)
+        self.plugin, self.kind = plugin, kind

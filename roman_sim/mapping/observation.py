@@ -69,12 +69,14 @@ def _observe_mask(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: Mappin
     truth: Counter[int] = Counter()
     ctx = EncodeContext()
     if frame.truth is not None and T_world_cam is not None:
-        ids = np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][sel]
-        uniq, counts = np.unique(ids, return_counts=True)
-        truth = Counter(dict(zip(uniq.tolist(), counts.tolist())))
         centre_world = transform_points(T_world_cam, pts_cam.mean(axis=0, keepdims=True))[0]
-        ctx = EncodeContext(object_id=int(uniq[np.argmax(counts)]),
-                            view_dir=centre_world - T_world_cam[:3, 3])
+        object_id = None
+        if frame.truth.object_ids is not None:  # a real sequence has poses but no instance labels
+            ids = np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][sel]
+            uniq, counts = np.unique(ids, return_counts=True)
+            truth = Counter(dict(zip(uniq.tolist(), counts.tolist())))
+            object_id = int(uniq[np.argmax(counts)])
+        ctx = EncodeContext(object_id=object_id, view_dir=centre_world - T_world_cam[:3, 3])
     desc = None
     if encoder is not None:
         crop = None if frame.rgb is None else np.asarray(frame.rgb)[r0:r1, c0:c1]

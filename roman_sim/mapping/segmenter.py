@@ -138,9 +138,9 @@ class SimulatedSegmenter:
 
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of ``frame`` (deterministic in seed, robot and frame index)."""
-        if frame.truth is None:
+        if frame.truth is None or frame.truth.object_ids is None:
             raise MappingError("the simulated segmenter cuts masks from the true instance image: "
-                               f"frame {frame.index} of robot {frame.robot} has no ground truth "
+                               f"frame {frame.index} of robot {frame.robot} has no instance labels "
                                "(use an image segmenter for real or truth-free frames)")
         ids = np.asarray(frame.truth.object_ids)
         depth = np.asarray(frame.depth)

@@ -12,25 +12,30 @@ import logging
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
 from roman_sim.pipeline.executors import Executor, ExecutorConfig, TaskError, guarded
 
 log = logging.getLogger(__name__)
 
 
-class ClusterConnectError(RomanSimError):
-    """The Dask scheduler cannot be reached or refuses this client."""
-
-
 def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
-    """A ``distributed.Client`` connected to ``address`` within ``timeout_s`` (one-line error otherwise)."""
+    """A ``distributed.Client`` connected to ``address`` within ``timeout_s`` (one-line error otherwise).
+
+    Plain ``tcp://`` goes through ``roman_sim.pipeline.cluster.connect`` (a bounded handshake
+    probe, then an identity check: ports that are not Dask schedulers fail in one line);
+    ``tls://`` connects with ``security``, bounded by the client's own timeout.
+    """
     from distributed import Client
 
+    if security is None and address.strip().startswith("tcp://"):
+        from roman_sim.pipeline.cluster import connect
+
+        return connect(address, timeout_s=timeout_s)
     try:
         return Client(address, timeout=f"{timeout_s}s", security=security, set_as_default=False)
     except Exception as err:  # distributed raises OSError, TimeoutError or the remote side's errors
         msg = " ".join(str(err).split())[:240]
-        raise ClusterConnectError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None
+        raise ClusterError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None
 
 
 class DaskExecutor(Executor):

@@ -22,10 +22,10 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any, Literal
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
-from roman_sim.core.errors import RomanSimError
+from roman_sim.core.errors import ConfigError, RomanSimError
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +44,7 @@ class ExecutorConfig(StrictModel):
     scheduler_address: str | None = Field(
         None, description="an existing Dask scheduler (tls://host:8786) instead of a local cluster")
     chunk_pairs: int = Field(32, ge=1, le=100000, description="submap pairs per alignment task")
-    connect_timeout_s: float = Field(10.0, gt=0.0, le=600.0, description="bound on reaching the scheduler")
+    connect_timeout_s: float = Field(5.0, gt=0.0, le=600.0, description="bound on reaching the scheduler (s)")
     tls: bool = Field(False, description="local cluster: TLS with temporary certificates; remote: require tls://")
     tls_ca_file: str | None = Field(None, description="CA certificate (PEM) that signed the cluster's certificates")
     tls_cert: str | None = Field(None, description="client certificate (PEM)")
@@ -53,6 +53,19 @@ class ExecutorConfig(StrictModel):
     dashboard: bool = Field(False, description="local cluster: serve the dashboard on 127.0.0.1 (off by default)")
     upload: list[str] = Field(default_factory=list,
                               description="plug-in files (.py, .zip, .egg) uploaded to every Dask worker")
+
+    @field_validator("scheduler_address")
+    @classmethod
+    def _address(cls, v: str | None) -> str | None:
+        if v is None:
+            return v
+        from roman_sim.pipeline.cluster import parse_scheduler_address
+
+        try:
+            parse_scheduler_address(v)
+        except ConfigError as err:
+            raise ValueError(str(err)) from None
+        return v.strip()
 
     def n_workers(self) -> int:
         """The worker count (``workers`` or the number of cores)."""

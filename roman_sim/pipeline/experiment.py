@@ -87,21 +87,43 @@ class Experiment:
                           chunk_pairs=chunk)
 
     def validate(self) -> None:
-        """Check what can be checked before any work: world spec, aligners, plug-ins, output folder."""
-        from roman_sim.align import build_aligner
-        from roman_sim.core.registry import import_object
+        """Check what can be checked before any work: world spec, aligners, plug-ins, output folder.
 
+        Every user plug-in (``package.module:Class``) is imported, built, checked against its
+        protocol and called once on a tiny synthetic input (``roman_sim.core.plugins``), so a
+        broken one fails here in one line instead of after the expensive stages.
+        """
         if self.submaps_dir is None:
-            self.scenario.world.spec()
+            from roman_sim.pipeline.sources import check_sources
+
+            if self.scenario.needs_world:
+                self.scenario.world.spec()
+            check_sources(self.scenario)
         elif not self.submaps_dir.is_dir():
             raise ConfigError(f"--submaps {self.submaps_dir}: not a folder")
-        for entry in self.scenario.aligners:
-            build_aligner(entry.method, entry.params)
-        fe = self.scenario.frontend
-        for kind, name in (("segmenter", fe.segmenter), ("semantic encoder", fe.encoder)):
-            if isinstance(name, str) and ":" in name:
-                import_object(name, kind)
+        self._check_plugins()
         self._prepare_dir()
+
+    def _check_plugins(self) -> None:
+        from roman_sim.align import build_aligner
+        from roman_sim.core.plugin_guard import is_plugin
+        from roman_sim.core.plugins import dry_call, instantiate_plugin
+
+        sc = self.scenario
+        fe = sc.frontend
+        with_rgb = all(r.render_rgb for r in sc.robots)
+        dim = fe.semantics.dim
+        if self.submaps_dir is None:  # the front end runs only when the run maps its own frames
+            if is_plugin(fe.segmenter):
+                seg = instantiate_plugin(str(fe.segmenter), "segmenter")
+                dry_call(seg, str(fe.segmenter), "segmenter", with_rgb=with_rgb)
+            if is_plugin(fe.encoder):
+                enc = instantiate_plugin(fe.encoder, "encoder")
+                dim = len(dry_call(enc, fe.encoder, "encoder", with_rgb=with_rgb))
+        for entry in sc.aligners:
+            aligner = build_aligner(entry.method, entry.params)
+            if is_plugin(entry.method):
+                dry_call(aligner, entry.method, "aligner", descriptor_dim=dim)
 
     def _prepare_dir(self) -> None:
         try:
@@ -188,7 +210,6 @@ class Experiment:
         self.progress.start(stage.name)
         out = stage.run(ctx, **{i: outputs.get(i) for i in stage.inputs})
         files = stage.save(out, ctx) if stage.cached else []
-        self.progress.end(stage.name)
         if stage.cached:
             manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
             manifest.save(self.run_dir)
@@ -196,6 +217,7 @@ class Experiment:
             # Later stages get exactly what a cached re-run would load (saving may round), so a run
             # gives the same bytes whether its earlier stages were computed or reused.
             out = stage.load(ctx, files)
+        self.progress.end(stage.name)  # after the manifest: a stage reported done is a stage kept
         seconds = time.perf_counter() - t0
         peak = peak_rss_mb()
         log.info("stage %s: %.1f s", stage.name, seconds)

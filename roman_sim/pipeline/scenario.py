@@ -12,9 +12,10 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
-from roman_sim.core.config import StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
+from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
+from roman_sim.interop.tum_reader import TumSourceConfig
 from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig
 from roman_sim.mapping.semantics import SemanticConfig
 from roman_sim.mapping.submap import SubmapConfig
@@ -35,7 +36,7 @@ class WorldRef(StrictModel):
     """Which world: a preset (or YAML path) plus overrides of its ``WorldSpec`` fields."""
 
     preset: str = "offroad"
-    overrides: dict[str, Any] = Field(default_factory=dict)
+    overrides: dict[str, FiniteTree] = Field(default_factory=dict)
 
     def spec(self) -> Any:
         """The resolved ``WorldSpec`` (overrides validated like the preset itself)."""
@@ -60,7 +61,7 @@ class AlignerEntry(StrictModel):
 
     method: str = Field(..., min_length=1)
     label: str | None = Field(None, description="name in tables (default: the method)")
-    params: dict[str, Any] = Field(default_factory=dict)
+    params: dict[str, FiniteTree] = Field(default_factory=dict)
 
     @property
     def name(self) -> str:
@@ -80,12 +81,31 @@ class FrontEnd(StrictModel):
     encoder: str = "simulated"
     semantics: SemanticConfig = Field(default_factory=SemanticConfig)
 
+    @field_validator("encoder")
+    @classmethod
+    def _known_encoder(cls, v: str) -> str:
+        if v != "simulated" and ":" not in v:
+            raise ValueError(f"unknown encoder {v!r} (valid: simulated, or package.module:Class)")
+        return v
+
     @field_validator("segmenter")
     @classmethod
     def _known_segmenter(cls, v: str | SegmenterConfig) -> str | SegmenterConfig:
         if isinstance(v, str) and ":" not in v and v not in SEGMENTERS:
             raise ValueError(f"unknown segmenter {v!r} (valid: {', '.join(SEGMENTERS.names())}, or package.module:Class)")
         return v
+
+
+class ScenarioRobot(RobotConfig):
+    """A robot of a scenario: simulated (the ``RobotConfig`` fields), or read from a recorded
+    sequence (``source``: a TUM RGB-D folder; the simulation fields are then unused)."""
+
+    source: TumSourceConfig | None = Field(None, description="read this robot from a TUM RGB-D folder")
+
+    @property
+    def simulated(self) -> bool:
+        """Whether the robot is simulated (no ``source``)."""
+        return self.source is None
 
 
 class Scenario(StrictModel):
@@ -95,7 +115,7 @@ class Scenario(StrictModel):
     description: str = ""
     seed: int = Field(0, ge=0)
     world: WorldRef = Field(default_factory=WorldRef)
-    robots: list[RobotConfig] = Field(..., min_length=1)
+    robots: list[ScenarioRobot] = Field(..., min_length=1)
     frontend: FrontEnd = Field(default_factory=FrontEnd)
     mapping: MappingConfig = Field(default_factory=MappingConfig)
     submaps: SubmapConfig = Field(default_factory=SubmapConfig)
@@ -107,6 +127,15 @@ class Scenario(StrictModel):
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
     gating: GatingConfig = Field(default_factory=GatingConfig, description="submap gating before registration")
     record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
+
+    def simulated_robots(self) -> list[ScenarioRobot]:
+        """The robots the simulator renders (those without a ``source``), in order."""
+        return [r for r in self.robots if r.simulated]
+
+    @property
+    def needs_world(self) -> bool:
+        """Whether any robot is simulated (a scenario of recorded sequences needs no world)."""
+        return bool(self.simulated_robots())
 
     def config_hash(self) -> str:
         """Hash of the resolved scenario (what a run folder's ``config.yaml`` holds)."""
@@ -129,6 +158,11 @@ class Scenario(StrictModel):
             raise ValueError(f"aligners: labels must be unique, got {', '.join(labels)} (set 'label')")
         if self.posegraph_method is not None and self.posegraph_method not in labels:
             raise ValueError(f"posegraph_method: {self.posegraph_method!r} is not among aligners ({', '.join(labels)})")
+        recorded = {r.name for r in self.robots if not r.simulated}
+        for k, r in enumerate(self.robots):
+            if r.simulated and r.path.of in recorded:
+                raise ValueError(f"robots.{k}.path.of: {r.path.of!r} is read from a TUM folder and has no "
+                                 "planned path to follow (refer to a simulated robot)")
         return self
 
 
@@ -157,6 +191,10 @@ def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = N
     bundled = bundled_scenarios()
     if str(name_or_path) in bundled:
         return bundled[str(name_or_path)]
+    for c in candidates:
+        if c.is_dir():
+            raise ConfigError(f"scenario {str(name_or_path)!r}: {c} is a directory, expected a scenario YAML file "
+                              f"or a bundled name ({', '.join(bundled)})")
     raise ConfigError(f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})")
 
 
@@ -168,4 +206,21 @@ def load_scenario(name_or_path: str | Path, overrides: list[str] | None = None) 
         raise ConfigError(f"{path}: expected a mapping at the top level")
     if overrides:
         data = apply_overrides(data, overrides)
-    return validate_model(Scenario, data, source=str(path))
+    return _resolve_sources(validate_model(Scenario, data, source=str(path)), path.parent)
+
+
+def _resolve_sources(sc: Scenario, base: Path) -> Scenario:
+    """Relative ``source.tum`` folders (and object tables) resolved against the scenario file's folder.
+
+    A path that exists there is made absolute, so the run folder's ``config.yaml`` points at
+    the same data from anywhere; any other relative path stays relative to the working folder.
+    """
+    for r in sc.robots:
+        src = r.source
+        if src is None:
+            continue
+        for name in ("tum", "objects"):
+            p = getattr(src, name)
+            if p is not None and not p.is_absolute() and (base / p).exists():
+                setattr(src, name, (base / p).resolve())
+    return sc

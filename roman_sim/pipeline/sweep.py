@@ -4,12 +4,14 @@ A sweep file names a base scenario, a grid of dotted overrides and a list of see
 combination becomes one run folder ``<out>/<run_id>/`` produced by the same pipeline as
 ``roman-sim run``. Sweeps are resumable: a run that completed (its manifest says so) and whose
 resolved configuration is unchanged is not run again. The collected figures go to
-``<out>/sweep.csv`` (one row per run and method), written atomically.
+``<out>/sweep.csv`` (one row per run and method), written atomically. Any exception inside
+one run (a user plug-in's included) is recorded as that run's failure in the table; the
+other runs go on.
 
 Cells run as tasks of the run executor interface (``roman_sim.pipeline.executors``: serial,
 local pool, Dask). Every path a task gets is absolute, so a worker in another folder writes
-where the table is read. A cell that failed or left no complete run is a ``SweepError``
-(after the table is written) listing every such cell.
+where the table is read; ``sweep_failures`` lists the cells that failed or left no complete
+run (the CLI prints them and exits 1).
 """
 
 from __future__ import annotations
@@ -28,8 +30,9 @@ from typing import Any
 from pydantic import Field
 
 from roman_sim.core.atomic import write_text
-from roman_sim.core.config import StrictModel, read_yaml, validate_model
+from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.registry import one_line
 from roman_sim.pipeline.executors import ExecutorConfig, TaskError, open_executor
 
 log = logging.getLogger(__name__)
@@ -41,7 +44,7 @@ class SweepConfig(StrictModel):
     name: str = Field(..., min_length=1)
     description: str = ""
     scenario: str = Field(..., description="scenario name or YAML path (relative to the sweep file)")
-    grid: dict[str, list[Any]] = Field(default_factory=dict)
+    grid: dict[str, list[FiniteTree]] = Field(default_factory=dict)
     seeds: list[int] = Field(default_factory=lambda: [0], min_length=1)
     executor: ExecutorConfig = ExecutorConfig()
 
@@ -81,19 +84,8 @@ def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
     return cfg, resolve_scenario_path(cfg.scenario, relative_to=path.parent)
 
 
-class SweepError(RomanSimError):
-    """Some cells of a sweep failed or left no complete run (``failed``: run id -> status and error)."""
-
-    def __init__(self, message: str, failed: dict[str, tuple[str, str]]) -> None:
-        super().__init__(message)
-        self.failed = failed
-
-    def __reduce__(self) -> Any:
-        return (type(self), (str(self), self.failed))
-
-
 def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir: str) -> dict[str, Any]:
-    """Run one sweep cell (top-level so that process pools and Dask can pickle it); never raises."""
+    """Run one sweep job (top-level so that process pools and Dask can pickle it)."""
     from roman_sim.pipeline.experiment import run_scenario_file
 
     try:
@@ -101,8 +93,9 @@ def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir:
         return {"ok": True, "metrics": result.metrics_summary()}
     except RomanSimError as err:
         return {"ok": False, "error": str(err)}
-    except Exception as err:  # a bug or a plug-in's error: the cell fails, the sweep goes on
-        return {"ok": False, "error": f"{type(err).__name__}: {err}"}
+    except Exception as err:  # a user plug-in (or a bug) in one cell must not abort the whole sweep
+        log.debug("sweep run %s failed", run_dir, exc_info=True)
+        return {"ok": False, "error": f"{type(err).__name__}: {one_line(err)}"}
 
 
 def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
@@ -122,12 +115,14 @@ def run_sweep(
     out_dir: str | Path,
     progress: Callable[[int, int], None] | None = None,
 ) -> Path:
-    """Run (or resume) every cell of the sweep; returns the path of ``sweep.csv``.
+    """Run (or resume) every cell of the sweep on ``cfg.executor``; returns the path of ``sweep.csv``.
 
-    Raises:
-        SweepError: after writing the table, when a cell failed or has no complete run.
+    Paths are resolved here, once: the cells get absolute ones whatever the workers' folders
+    (a bundled scenario name stays a name).
     """
-    out_dir, scenario_path = Path(out_dir).resolve(), Path(scenario_path).resolve()
+    out_dir = Path(out_dir).resolve()
+    if Path(scenario_path).is_file():
+        scenario_path = Path(scenario_path).resolve()
     runs = expand(cfg)
     todo = [r for r in runs if not _is_done(out_dir / r.run_id, str(scenario_path), r.overrides, r.seed)]
     log.info("sweep %s: %d runs, %d to do", cfg.name, len(runs), len(todo))
@@ -151,36 +146,24 @@ def run_sweep(
             failures.update({r.run_id: str(err) for i, r in enumerate(todo) if i not in finished})
     for k, v in failures.items():
         log.warning("run %s failed: %s", k, v)
-    path, bad = write_sweep_table(runs, out_dir, failures)
-    if bad:
-        lines = "; ".join(f"{k}: {status}: {err}" for k, (status, err) in sorted(bad.items()))
-        raise SweepError(f"sweep {cfg.name}: {len(bad)} of {len(runs)} cell(s) did not complete (table: {path}): "
-                         f"{lines}", bad)
-    return path
+    return write_sweep_table(runs, out_dir, failures)
 
 
-def write_sweep_table(runs: list[RunSpec], out_dir: Path,
-                      failures: dict[str, str] | None = None) -> tuple[Path, dict[str, tuple[str, str]]]:
-    """Collect each finished run into ``sweep.csv`` (one row per run and method).
-
-    Returns the table's path and the cells without results (run id -> status, error).
-    """
+def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, str] | None = None) -> Path:
+    """Collect each finished run into ``sweep.csv`` (one row per run and method)."""
     from roman_sim.pipeline.result import RunResult
 
     failures = failures or {}
-    bad: dict[str, tuple[str, str]] = {}
     rows: list[dict[str, Any]] = []
     for r in runs:
         base = {"run_id": r.run_id, "seed": r.seed, **r.params}
         if r.run_id in failures:
             rows.append({**base, "status": "failed", "error": failures[r.run_id]})
-            bad[r.run_id] = ("failed", failures[r.run_id])
             continue
         try:
             summary = RunResult.load(out_dir / r.run_id).metrics_summary()
         except RomanSimError as err:
             rows.append({**base, "status": "missing", "error": str(err)})
-            bad[r.run_id] = ("missing", str(err))
             continue
         for method, m in sorted(summary["methods"].items()):
             rows.append({**base, "status": "ok", "method": method, **_flatten(m)})
@@ -193,7 +176,13 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path,
     w.writerows(rows)
     path = out_dir / "sweep.csv"
     write_text(path, buf.getvalue())
-    return path, bad
+    return path
+
+
+def sweep_failures(table: Path) -> list[dict[str, str]]:
+    """The rows of ``sweep.csv`` whose run did not finish (status ``failed``, ``missing`` or ``corrupt``)."""
+    with open(table, newline="", encoding="utf-8") as fh:
+        return [row for row in csv.DictReader(fh) if row.get("status") != "ok"]
 
 
 def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:

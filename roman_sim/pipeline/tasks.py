@@ -36,18 +36,19 @@ def _world(world_json: str, seed: int) -> Any:
 
 
 def map_robot_task(scenario_json: str, robot: str, path: Any, run_dir: str, world: Any = None) -> Any:
-    """Render and map ``robot`` along its planned ``path``; its ``SegmentMap``.
+    """Map ``robot``: rendered along its planned ``path``, or read from its ``source``; its ``SegmentMap``.
 
-    ``world`` is passed in-process; workers regenerate it from the scenario (same bytes).
+    ``world`` is passed in-process; workers regenerate it from the scenario (same bytes). A
+    robot read from a TUM folder needs that folder on the worker.
     """
     from roman_sim.pipeline.context import RunContext
-    from roman_sim.pipeline.stages.maps import map_robot
+    from roman_sim.pipeline.stages.maps import map_one
 
     sc = _scenario(scenario_json)
-    if world is None:
-        world = _world(sc.world.model_dump_json(), sc.seed)
     cfg = next(r for r in sc.robots if r.name == robot)
-    return map_robot(RunContext(sc, Path(run_dir)), world, cfg, path)
+    if world is None and cfg.source is None:
+        world = _world(sc.world.model_dump_json(), sc.seed)
+    return map_one(RunContext(sc, Path(run_dir)), world, cfg, path)
 
 
 @lru_cache(maxsize=4)
@@ -55,8 +56,10 @@ def _aligners(aligners_json: str) -> list[Any]:
     import json
 
     from roman_sim.align import build_aligner
+    from roman_sim.core.plugin_guard import guard_aligner
 
-    return [(e["label"], build_aligner(e["method"], e["params"])) for e in json.loads(aligners_json)]
+    return [(e["label"], guard_aligner(build_aligner(e["method"], e["params"]), e["method"]))
+            for e in json.loads(aligners_json)]
 
 
 def align_chunk_task(aligners_json: str, submaps: dict[str, Any], pairs: list[tuple[str, str]]) -> list[dict[str, Any]]:

@@ -7,17 +7,13 @@ Modules: ``camera`` (CameraConfig, intrinsics, mount, project/backproject), ``re
 presets, DriftModel), ``robot`` (RobotConfig, robot_trajectory, simulate_robot,
 record_robot), ``env`` (GroundRobotEnv), ``recording`` (write/read recordings).
 
-Importing this package is cheap: it only registers the gymnasium environment
-``roman_sim/GroundRobot-v0`` (string entry point); renderers load on first use.
+Importing this package is cheap: ``import roman_sim`` registers the gymnasium environment
+``roman_sim/GroundRobot-v0`` (string entry point) once gymnasium is imported; renderers
+load on first use.
 """
 
 from __future__ import annotations
 
-import gymnasium as gym
-
-ENV_ID = "roman_sim/GroundRobot-v0"
-
-if ENV_ID not in gym.registry:
-    gym.register(id=ENV_ID, entry_point="roman_sim.sim.env:GroundRobotEnv")
+from roman_sim.core.gymreg import ENV_ID
 
 __all__ = ["ENV_ID"]

@@ -7,17 +7,26 @@ drifted ``T_odom_body``. Action (``Box``): (forward speed m/s, yaw rate rad/s) w
 the robot leaves the world or touches an object footprint, and is truncated after
 ``max_steps``. ``info`` carries the true ``T_world_body`` and the time, so a scripted
 ``PathFollower`` (or any user policy) can drive the same kinematics as ``simulate_robot``.
+
+Misuse is an error that leaves the environment usable: a NaN, infinite or wrongly shaped
+action raises ``SimError`` before any state changes; ``step`` before ``reset`` or after the
+episode ended raises ``EnvResetNeeded`` (a ``gymnasium.error.ResetNeeded``), any call after
+``close`` raises ``EnvClosed`` (a ``gymnasium.error.ClosedEnvironmentError``). Constructor
+arguments are checked up front and a bad one is named.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ClosedEnvironmentError, ResetNeeded
 
+from roman_sim.core.config import validate_model
 from roman_sim.core.errors import SimError
 from roman_sim.core.seeding import child_rng
 from roman_sim.sim.camera import CameraConfig
@@ -29,6 +38,26 @@ from roman_sim.sim.planner import Obstacles
 log = logging.getLogger(__name__)
 
 ObsDict = dict[str, np.ndarray]
+_ACTION = "speed m/s, yaw rate rad/s"
+
+
+class EnvResetNeeded(SimError, ResetNeeded):
+    """``step`` was called before ``reset`` or after the episode terminated or was truncated."""
+
+
+class EnvClosed(SimError, ClosedEnvironmentError):
+    """The environment was used after ``close``."""
+
+
+def _positive(name: str, value: Any, allow_zero: bool = False) -> float:
+    """``value`` as a float, or ``SimError`` naming ``name`` unless it is finite and > 0 (>= 0)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise SimError(f"GroundRobotEnv: {name} must be a number, got {value!r}") from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise SimError(f"GroundRobotEnv: {name} must be a finite number {'>=' if allow_zero else '>'} 0, got {value!r}")
+    return v
 
 
 def _load_world(world: Any, preset: str, world_seed: int) -> Any:
@@ -78,20 +107,31 @@ class GroundRobotEnv(gym.Env):
     ) -> None:
         from roman_sim.sim.render import SensorRenderer
 
-        self.world = _load_world(world, preset, world_seed)
-        self.camera = camera if isinstance(camera, CameraConfig) else CameraConfig(**(camera or {}))
+        self._renderer: Any = None
+        self.dt = 1.0 / _positive("rate_hz", rate_hz)
+        max_speed_mps, max_yaw_rate = _positive("max_speed_mps", max_speed_mps), _positive("max_yaw_rate", max_yaw_rate)
+        self.body_height_m = _positive("body_height_m", body_height_m, allow_zero=True)
+        self.clearance_m = _positive("clearance_m", clearance_m, allow_zero=True)
+        if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+            raise SimError(f"GroundRobotEnv: max_steps must be an integer >= 1, got {max_steps!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise SimError(f"GroundRobotEnv: render_mode {render_mode!r} unknown (valid: None, "
+                           f"{', '.join(self.metadata['render_modes'])})")
+        self.camera = (camera if isinstance(camera, CameraConfig)
+                       else validate_model(CameraConfig, camera, "GroundRobotEnv camera"))
         self.drift_cfg = resolve_drift(drift)
-        self.dt = 1.0 / rate_hz
-        self.body_height_m, self.clearance_m = body_height_m, clearance_m
-        self.max_steps, self.start = max_steps, start
-        self.render_mode = render_mode
+        self.world = _load_world(world, preset, world_seed)
+        self.max_steps, self.render_mode = int(max_steps), render_mode
         self._obstacles = Obstacles(self.world.truth)
+        self.start = self._check_start(start)
+        if start is None:
+            self._check_clearance_possible()
         self._renderer = SensorRenderer(self.world, self.camera, rgb=render_rgb)
         self._T_body_cam = self.camera.T_body_cam()
         h, w = self.camera.height, self.camera.width
-        self.action_space = spaces.Box(
-            np.array([0.0, -max_yaw_rate], dtype=np.float32), np.array([max_speed_mps, max_yaw_rate], dtype=np.float32)
-        )
+        self._low = np.array([0.0, -max_yaw_rate], dtype=np.float32)
+        self._high = np.array([max_speed_mps, max_yaw_rate], dtype=np.float32)
+        self.action_space = spaces.Box(self._low, self._high)
         n_obj = max(len(self.world.truth.objects), 1)
         self.observation_space = spaces.Dict({
             "rgb": spaces.Box(0, 255, (h, w, 3), np.uint8),
@@ -102,6 +142,43 @@ class GroundRobotEnv(gym.Env):
         self._state = PlanarState(0.0, 0.0, 0.0)
         self._steps = 0
         self._last_rgb: np.ndarray | None = None
+        self._needs_reset: str | None = "call reset() before step()"
+
+    def _check_start(self, start: Any) -> tuple[float, float, float] | None:
+        """The fixed start pose, checked: three finite numbers, inside the world, clear of objects."""
+        if start is None:
+            return None
+        try:
+            x, y, heading = (float(v) for v in np.asarray(start, dtype=np.float64).reshape(3))
+        except (TypeError, ValueError):
+            raise SimError(f"GroundRobotEnv: start must be (x, y, heading rad), got {start!r}") from None
+        if not all(math.isfinite(v) for v in (x, y, heading)):
+            raise SimError(f"GroundRobotEnv: start must be finite, got ({x}, {y}, {heading})")
+        ter = self.world.truth.terrain
+        if not ter.contains(x, y):
+            raise SimError(f"GroundRobotEnv: start ({x:g}, {y:g}) lies outside the world "
+                           f"(x in [{-ter.size_x / 2:g}, {ter.size_x / 2:g}], "
+                           f"y in [{-ter.size_y / 2:g}, {ter.size_y / 2:g}])")
+        free = float(self._obstacles.clearance(np.array([[x, y]]))[0])
+        if free < 0.0:
+            raise SimError(f"GroundRobotEnv: start ({x:g}, {y:g}) lies inside an object footprint")
+        return (x, y, heading)
+
+    def _check_clearance_possible(self) -> None:
+        """``SimError`` when no random start can keep ``clearance_m`` (sampled on a grid of the start region)."""
+        ter = self.world.truth.terrain
+        margin = 2.0 * self.clearance_m + 1.0
+        hx, hy = ter.size_x / 2 - margin, ter.size_y / 2 - margin
+        best = -math.inf
+        if hx > 0 and hy > 0:
+            step = max(0.5, max(hx, hy) / 200.0)
+            gx, gy = np.meshgrid(np.arange(-hx, hx + 1e-9, step), np.arange(-hy, hy + 1e-9, step))
+            best = float(np.max(self._obstacles.clearance(np.column_stack([gx.ravel(), gy.ravel()]))))
+        if best < self.clearance_m:
+            found = "the world is too small for that margin" if best == -math.inf else f"the most found is {best:.2f} m"
+            raise SimError(f"GroundRobotEnv: clearance_m={self.clearance_m:g} is impossible in this {ter.size_x:g} x "
+                           f"{ter.size_y:g} m world: no start pose is {margin:g} m from the edge and "
+                           f"{self.clearance_m:g} m from every object ({found})")
 
     def _random_start(self, rng: np.random.Generator) -> PlanarState:
         ter = self.world.truth.terrain
@@ -115,13 +192,32 @@ class GroundRobotEnv(gym.Env):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[ObsDict, dict[str, Any]]:
         """Start a new episode; the same ``seed`` gives the same episode."""
+        self._check_open("reset")
         super().reset(seed=seed)
         base = int(self.np_random.integers(0, 2**31 - 1))
         self._state = PlanarState(*self.start) if self.start is not None else self._random_start(child_rng(base, "env", "start"))
         self._drift = DriftModel(self.drift_cfg, child_rng(base, "env", "drift"))
         self._noise_rng = child_rng(base, "env", "depth_noise")
         self._steps = 0
+        self._needs_reset = None
         return self._observe()
+
+    def _check_open(self, what: str) -> None:
+        if self._renderer is None:
+            raise EnvClosed(f"GroundRobotEnv: {what}() after close(); make a new environment")
+
+    def _action(self, action: Any) -> np.ndarray:
+        """``action`` as (speed, yaw rate) clipped to the limits; ``SimError`` for a bad shape or value."""
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise SimError(f"GroundRobotEnv: action must be 2 numbers ({_ACTION}), got {action!r}") from None
+        if a.size != 2:
+            raise SimError(f"GroundRobotEnv: action must hold 2 numbers ({_ACTION}), got shape {a.shape}")
+        if not np.all(np.isfinite(a)):
+            raise SimError(f"GroundRobotEnv: action must be finite, got {a.reshape(2).tolist()} "
+                           "(the episode is unchanged)")
+        return np.clip(a.reshape(2), self._low, self._high)
 
     def _observe(self) -> tuple[ObsDict, dict[str, Any]]:
         T_wb = body_pose_on_terrain(self.world.truth.terrain, self._state, self.body_height_m)
@@ -137,7 +233,10 @@ class GroundRobotEnv(gym.Env):
 
     def step(self, action: np.ndarray) -> tuple[ObsDict, float, bool, bool, dict[str, Any]]:
         """Apply (forward speed, yaw rate) for one sensor period (clipped to the limits)."""
-        a = np.clip(np.asarray(action, dtype=np.float64).reshape(2), self.action_space.low, self.action_space.high)
+        self._check_open("step")
+        if self._needs_reset:
+            raise EnvResetNeeded(f"GroundRobotEnv: {self._needs_reset}")
+        a = self._action(action)
         substeps = 10
         for _ in range(substeps):
             self._state = integrate_unicycle(self._state, float(a[0]), float(a[1]), self.dt / substeps)
@@ -152,7 +251,12 @@ class GroundRobotEnv(gym.Env):
                 float(np.clip(self._state.y, -ter.size_y / 2, ter.size_y / 2)), self._state.heading)
         obs, info = self._observe()
         info.update(left_world=left, collision=hit)
-        return obs, 0.0, bool(left or hit), self._steps >= self.max_steps, info
+        terminated, truncated = bool(left or hit), self._steps >= self.max_steps
+        if terminated or truncated:
+            why = ("left the world" if left else "collided with an object" if hit
+                   else f"reached max_steps={self.max_steps}")
+            self._needs_reset = f"the episode ended ({why}): call reset() before step()"
+        return obs, 0.0, terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
         """The last RGB observation (``rgb_array`` mode)."""

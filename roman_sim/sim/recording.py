@@ -30,8 +30,8 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import RecordingError
+from roman_sim.core.atomic import make_public_dir, output_folder, write_json
+from roman_sim.core.errors import ConfigError, RecordingError
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import write_tum
 from roman_sim.sensors import Frame, FrameTruth, Intrinsics
@@ -55,8 +55,9 @@ def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
 
 
 def _truth(f: Frame) -> FrameTruth:
-    if f.truth is None:
-        raise RecordingError(f"frame {f.index} of robot {f.robot}: a recording stores ground truth, this frame has none")
+    if f.truth is None or f.truth.object_ids is None:
+        raise RecordingError(f"frame {f.index} of robot {f.robot}: a recording stores ground truth "
+                             "(poses and instance ids), this frame has none")
     return f.truth
 
 
@@ -121,8 +122,14 @@ def write_recording(
         raise RecordingError(f"chunk_size must be >= 1, got {chunk_size}")
     if out.exists() and not overwrite:
         raise RecordingError(f"{out}: already exists (pass overwrite=True to replace it)")
-    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise RecordingError(f"{out}: is an existing file, not a recording folder")
+    try:
+        output_folder(out.parent, "recording folder")
+    except ConfigError as err:
+        raise RecordingError(str(err)) from None
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    make_public_dir(tmp)
     try:
         _write_into(frames, tmp, chunk_size, extra)
         if out.exists():

@@ -2,7 +2,9 @@
 
 Each family builder takes a Generator and returns a few coloured parts (one MuJoCo geom
 each) in the object frame: origin at the base centre, z up, resting on z = 0. Meshes are
-light (tens to a few hundred faces) so 1000-object worlds render fast.
+light (tens to a few hundred faces) so 1000-object worlds render fast. Each part names its
+surface kind (``roman_sim.world.textures.SURFACES``: texture and colour range), the axis its
+grain runs along, and optionally a colour range of its own.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import trimesh
 
 from roman_sim.core.registry import Registry
 from roman_sim.geometry import make_T, rot_x, rot_y
+from roman_sim.world.appearance import Variation
 
 Rgba = tuple[float, float, float, float]
 
@@ -26,6 +29,9 @@ class Part:
     name: str
     mesh: trimesh.Trimesh
     rgba: Rgba
+    surface: str = "paint"  # surface kind: texture, tile size, colour range
+    grain_axis: int = 2  # object axis the texture's streaks or grain follow
+    variation: Variation | None = None  # colour range; None: the surface kind's
 
 
 Builder = Callable[[np.random.Generator], list[Part]]
@@ -34,6 +40,7 @@ FAMILIES: Registry[Builder] = Registry("family")
 BARK: Rgba = (0.40, 0.27, 0.16, 1.0)
 WOOD: Rgba = (0.55, 0.38, 0.22, 1.0)
 METAL: Rgba = (0.25, 0.25, 0.28, 1.0)
+ANY_HUE = Variation(180.0, 0.2, 0.25)  # man-made objects painted in any colour
 
 
 def _cyl(r: float, h: float, sections: int = 8, z0: float = 0.0) -> trimesh.Trimesh:
@@ -71,7 +78,8 @@ def conifer(rng: np.random.Generator) -> list[Part]:
         .apply_translation([0, 0, trunk_h + k * (h - trunk_h) * 0.2])
         for k in range(3)
     ))
-    return [Part("trunk", _cyl(0.1 + 0.024 * h, trunk_h + 0.3), BARK), Part("crown", crown, (0.10, 0.33, 0.16, 1.0))]
+    return [Part("trunk", _cyl(0.1 + 0.024 * h, trunk_h + 0.3), BARK, "bark"),
+            Part("crown", crown, (0.10, 0.33, 0.16, 1.0), "foliage")]
 
 
 @FAMILIES.register("deciduous")
@@ -79,25 +87,25 @@ def deciduous(rng: np.random.Generator) -> list[Part]:
     trunk_h = rng.uniform(1.8, 3.0)
     cr = rng.uniform(1.8, 2.8)
     crown = _blob(rng, cr, cr * rng.uniform(0.85, 1.0), cr * rng.uniform(0.8, 1.1), trunk_h - 0.3, 0.12)
-    return [Part("trunk", _cyl(0.18, trunk_h + 0.2), BARK), Part("crown", crown, (0.30, 0.52, 0.18, 1.0))]
+    return [Part("trunk", _cyl(0.18, trunk_h + 0.2), BARK, "bark"), Part("crown", crown, (0.30, 0.52, 0.18, 1.0), "foliage")]
 
 
 @FAMILIES.register("bush")
 def bush(rng: np.random.Generator) -> list[Part]:
     r = rng.uniform(0.6, 1.1)
-    return [Part("body", _blob(rng, r, r * rng.uniform(0.7, 1.0), r * rng.uniform(0.6, 0.9), 0.0, 0.15), (0.22, 0.45, 0.15, 1.0))]
+    return [Part("body", _blob(rng, r, r * rng.uniform(0.7, 1.0), r * rng.uniform(0.6, 0.9), 0.0, 0.15), (0.22, 0.45, 0.15, 1.0), "foliage")]
 
 
 @FAMILIES.register("boulder")
 def boulder(rng: np.random.Generator) -> list[Part]:
     r = rng.uniform(0.5, 1.2)
     m = _blob(rng, r, r * rng.uniform(0.6, 1.0), r * rng.uniform(0.4, 0.8), 0.0, 0.2)
-    return [Part("body", m, (0.50, 0.49, 0.46, 1.0))]
+    return [Part("body", m, (0.50, 0.49, 0.46, 1.0), "rock")]
 
 
 @FAMILIES.register("stump")
 def stump(rng: np.random.Generator) -> list[Part]:
-    return [Part("body", _cyl(rng.uniform(0.25, 0.45), rng.uniform(0.3, 0.7), sections=10), WOOD)]
+    return [Part("body", _cyl(rng.uniform(0.25, 0.45), rng.uniform(0.3, 0.7), sections=10), WOOD, "wood")]
 
 
 @FAMILIES.register("log")
@@ -105,7 +113,7 @@ def log(rng: np.random.Generator) -> list[Part]:
     r, length = rng.uniform(0.15, 0.3), rng.uniform(2.0, 4.0)
     m = trimesh.creation.cylinder(radius=r, height=length, sections=8)
     m.apply_transform(make_T(rot_y(np.pi / 2), [0.0, 0.0, r]))
-    return [Part("body", m, BARK)]
+    return [Part("body", m, BARK, "bark", grain_axis=0)]
 
 
 def _gable_roof(w: float, d: float, h: float, z0: float, overhang: float = 0.3) -> trimesh.Trimesh:
@@ -123,15 +131,15 @@ def house(rng: np.random.Generator) -> list[Part]:
     w, d, h = rng.uniform(7.0, 11.0), rng.uniform(6.0, 9.0), rng.uniform(3.0, 5.5)
     wall = tuple(rng.uniform(0.65, 0.9, 3)) + (1.0,)
     return [
-        Part("walls", _box(w, d, h), wall),  # type: ignore[arg-type]
-        Part("roof", _gable_roof(w, d, rng.uniform(1.5, 3.0), h), (0.55, 0.18, 0.12, 1.0)),
+        Part("walls", _box(w, d, h), wall, "paint"),  # type: ignore[arg-type]
+        Part("roof", _gable_roof(w, d, rng.uniform(1.5, 3.0), h), (0.55, 0.18, 0.12, 1.0), "tiles"),
     ]
 
 
 @FAMILIES.register("shed")
 def shed(rng: np.random.Generator) -> list[Part]:
     w, d, h = rng.uniform(2.5, 4.0), rng.uniform(2.0, 3.0), rng.uniform(2.0, 2.6)
-    return [Part("walls", _box(w, d, h), WOOD), Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0))]
+    return [Part("walls", _box(w, d, h), WOOD, "wood"), Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0), "metal")]
 
 
 @FAMILIES.register("car")
@@ -144,14 +152,15 @@ def car(rng: np.random.Generator) -> list[Part]:
         for sx in (-1, 1) for sy in (-1, 1)
     ))
     colour = tuple(rng.uniform(0.1, 0.9, 3)) + (1.0,)
-    return [Part("body", body, colour), Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0))]  # type: ignore[arg-type]
+    return [Part("body", body, colour, "paint", variation=ANY_HUE),  # type: ignore[arg-type]
+            Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0), "metal")]
 
 
 @FAMILIES.register("lamp_post")
 def lamp_post(rng: np.random.Generator) -> list[Part]:
     h = rng.uniform(4.0, 6.0)
     head = _box(0.9, 0.3, 0.25, x=0.35, z0=h)
-    return [Part("pole", _cyl(0.08, h + 0.1, sections=6), METAL), Part("lamp", head, (0.95, 0.92, 0.7, 1.0))]
+    return [Part("pole", _cyl(0.08, h + 0.1, sections=6), METAL, "metal"), Part("lamp", head, (0.95, 0.92, 0.7, 1.0), "paint")]
 
 
 @FAMILIES.register("bench")
@@ -160,21 +169,21 @@ def bench(rng: np.random.Generator) -> list[Part]:
     seat = _box(length, 0.45, 0.06, z0=0.42)
     back = _box(length, 0.06, 0.4, y=0.22, z0=0.5)
     legs = [_box(0.06, 0.45, 0.42, x=s * (length / 2 - 0.1)) for s in (-1, 1)]
-    return [Part("body", _cat(seat, back, *legs), WOOD)]
+    return [Part("body", _cat(seat, back, *legs), WOOD, "wood", grain_axis=0)]
 
 
 @FAMILIES.register("fence")
 def fence(rng: np.random.Generator) -> list[Part]:
     length, h = rng.uniform(3.0, 6.0), rng.uniform(0.9, 1.4)
-    n_posts = int(round(length / 1.5)) + 1
+    n_posts = round(length / 1.5) + 1
     posts = [_box(0.1, 0.1, h, x=x) for x in np.linspace(-length / 2, length / 2, n_posts)]
     rails = [_box(length, 0.04, 0.1, z0=z) for z in (0.3 * h, 0.75 * h)]
-    return [Part("body", _cat(*posts, *rails), (0.62, 0.50, 0.36, 1.0))]
+    return [Part("body", _cat(*posts, *rails), (0.62, 0.50, 0.36, 1.0), "wood")]
 
 
 @FAMILIES.register("trash_can")
 def trash_can(rng: np.random.Generator) -> list[Part]:
-    return [Part("body", _cyl(rng.uniform(0.25, 0.35), rng.uniform(0.8, 1.1), sections=10), (0.15, 0.35, 0.2, 1.0))]
+    return [Part("body", _cyl(rng.uniform(0.25, 0.35), rng.uniform(0.8, 1.1), sections=10), (0.15, 0.35, 0.2, 1.0), "paint")]
 
 
 @FAMILIES.register("hay_bale")
@@ -182,5 +191,5 @@ def hay_bale(rng: np.random.Generator) -> list[Part]:
     r = rng.uniform(0.6, 0.8)
     m = trimesh.creation.cylinder(radius=r, height=rng.uniform(1.1, 1.5), sections=12)
     m.apply_transform(make_T(rot_x(np.pi / 2), [0.0, 0.0, r]))
-    return [Part("body", m, (0.85, 0.75, 0.35, 1.0))]
+    return [Part("body", m, (0.85, 0.75, 0.35, 1.0), "straw")]
 

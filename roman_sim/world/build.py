@@ -12,10 +12,11 @@ import trimesh
 from roman_sim.core.errors import WorldError
 from roman_sim.core.seeding import child_rng
 from roman_sim.geometry import make_T, rot_z
+from roman_sim.world.appearance import resolve_sun
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
 from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
-from roman_sim.world.mjcf import add_object_geoms, new_spec
+from roman_sim.world.mjcf import Looks, add_object_geoms, new_spec
 from roman_sim.world.roads import make_roads
 from roman_sim.world.spec import FamilySpec, WorldSpec
 from roman_sim.world.terrain import footprint_min_height, make_terrain
@@ -87,7 +88,7 @@ def _place_all(spec: WorldSpec, seed: int, roads: list) -> tuple[list[_Placed], 
     area_ha = spec.extent_m[0] * spec.extent_m[1] / 1e4
     todo = []
     for fam, dens in zip(spec.families, effective_densities(spec)):
-        n = int(round(dens * area_ha))
+        n = round(dens * area_ha)
         if n > 0:
             assets = family_assets(seed, fam, sv)
             todo.append((max(a.radius for a in assets), fam, n, assets))
@@ -138,18 +139,20 @@ def generate(spec: WorldSpec, seed: int) -> World:
         for i, p in enumerate(placed)
     ]
     ground = ground_texture(terrain, roads, spec.roads.width_m, child_rng(seed, "world", "ground"))
-    mjs = new_spec(spec, terrain, base_z, elevation, ground)
+    sun = resolve_sun(spec.appearance.lighting, seed)
+    mjs = new_spec(spec, terrain, base_z, elevation, ground, sun)
     meshes: dict[str, trimesh.Trimesh] = {}
-    colour_rng = child_rng(seed, "world", "colour")
+    looks = Looks(spec.appearance, seed)
     for obj, p in zip(objects, placed):
-        add_object_geoms(mjs, obj, p.asset, meshes, colour_rng)
+        add_object_geoms(mjs, obj, p.asset, meshes, looks)
     try:
         model = mjs.compile()
-    except Exception as err:  # MuJoCo raises plain ValueError on compile failures
+    except Exception as err:  # noqa: BLE001  (MuJoCo raises plain ValueError on compile failures)
         raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
     for obj in objects:
         obj.geom_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))]
-    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs()), "placed_requested": counts}
+    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs()), "placed_requested": counts,
+            "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg}}
     truth = WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
     log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(objects), model.ngeom)
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)

@@ -7,7 +7,7 @@ scale actually used.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import trimesh
@@ -84,7 +84,7 @@ def _scaled(key: str, family: str, parts: list[Part], shape: _Shape, s: float) -
     return Asset(
         key=key,
         family=family,
-        parts=tuple(Part(p.name, trimesh.Trimesh(p.mesh.vertices * s, p.mesh.faces, process=False), p.rgba) for p in parts),
+        parts=tuple(replace(p, mesh=trimesh.Trimesh(p.mesh.vertices * s, p.mesh.faces, process=False)) for p in parts),
         radius=shape.radius * s,
         obb_T_local=obb_T,
         obb_extents=shape.obb_extents * s,
@@ -103,7 +103,7 @@ def scale_levels(fam: FamilySpec, size_variation: float) -> NDArray[np.float64]:
 
 def n_variants(fam: FamilySpec, size_variation: float) -> int:
     """Shape variants used at this ``size_variation`` (1 at zero)."""
-    return 1 + int(round(size_variation * (fam.variants - 1)))
+    return 1 + round(size_variation * (fam.variants - 1))
 
 
 def family_assets(seed: int, fam: FamilySpec, size_variation: float) -> list[Asset]:

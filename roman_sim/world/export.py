@@ -1,8 +1,11 @@
 """Export a world folder (``world.xml``, ``meshes/``, ``truth.json``, ``spec.yaml``) and load it back.
 
-Meshes are written in MuJoCo's binary ``.msh`` format and the terrain as a binary hfield
-file (``meshes/terrain.bin``), both float32 exactly as compiled, so the reloaded model
-equals the generated one. ``world.xml`` loads with plain ``mujoco.MjModel.from_xml_path``.
+Meshes are written in MuJoCo's binary ``.msh`` format, or as Wavefront ``.obj`` when they
+carry texture coordinates (``.msh`` holds one texture coordinate per vertex, the box
+projection one per face corner); the terrain as a binary hfield file (``meshes/terrain.bin``),
+float32 exactly as compiled, and the ground and surface textures as PNG files, so the
+reloaded model equals the generated one. ``world.xml`` loads with plain
+``mujoco.MjModel.from_xml_path``.
 """
 
 from __future__ import annotations
@@ -15,14 +18,14 @@ from typing import Any
 import mujoco
 import numpy as np
 import trimesh
-import yaml
+from numpy.typing import NDArray
 from PIL import Image
 
-from roman_sim.core.atomic import write_bytes, write_json, write_text
-from roman_sim.core.config import dump_yaml, validate_model
+from roman_sim.core.atomic import output_folder, write_bytes, write_json, write_text
+from roman_sim.core.config import dump_yaml, load_model
 from roman_sim.core.errors import WorldError
 from roman_sim.world.build import World
-from roman_sim.world.mjcf import GROUND
+from roman_sim.world.mjcf import GROUND, MATERIAL_PREFIX
 from roman_sim.world.spec import WorldSpec
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
@@ -39,9 +42,49 @@ def _msh_bytes(mesh: trimesh.Trimesh) -> bytes:
     return header.tobytes() + v.tobytes() + f.tobytes()
 
 
+def _mesh_texcoords(model: mujoco.MjModel, name: str) -> tuple[NDArray[np.float32], NDArray[np.int64]] | None:
+    """(texcoords (T, 2), face texcoord indices (F, 3)) of mesh ``name``, or None when untextured."""
+    i = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_MESH, name)
+    adr, num = int(model.mesh_texcoordadr[i]), int(model.mesh_texcoordnum[i])
+    if num == 0:
+        return None
+    fadr, fnum = int(model.mesh_faceadr[i]), int(model.mesh_facenum[i])
+    return model.mesh_texcoord[adr : adr + num].copy(), model.mesh_facetexcoord[fadr : fadr + fnum].astype(np.int64)
+
+
+def _obj_text(mesh: trimesh.Trimesh, uv: NDArray[np.float32], ft: NDArray[np.int64]) -> str:
+    """Wavefront OBJ with per-corner texture coordinates (``.msh`` holds only one per vertex).
+
+    MuJoCo reads an OBJ's ``vt`` as ``(u, 1 - v)``, so ``1 - v`` is written.
+    """
+    v = np.asarray(mesh.vertices, dtype=np.float32)
+    f = np.asarray(mesh.faces, dtype=np.int64) + 1
+    lines = [f"v {a:.9g} {b:.9g} {c:.9g}" for a, b, c in v]
+    lines += [f"vt {a:.9g} {b:.9g}" for a, b in zip(uv[:, 0], np.float32(1.0) - uv[:, 1])]
+    lines += [f"f {a}/{ta} {b}/{tb} {c}/{tc}" for (a, b, c), (ta, tb, tc) in zip(f, ft + 1)]
+    return "\n".join(lines) + "\n"
+
+
+def _read_obj(path: Path) -> trimesh.Trimesh:
+    """Vertices and faces of an OBJ written by ``_obj_text``, in file order."""
+    rows = [line.split() for line in path.read_text(encoding="utf-8").splitlines()]
+    v = np.array([r[1:4] for r in rows if r and r[0] == "v"], dtype=np.float32)
+    f = np.array([[int(c.split("/")[0]) - 1 for c in r[1:4]] for r in rows if r and r[0] == "f"], dtype=np.int64)
+    return trimesh.Trimesh(v.astype(np.float64), f, process=False)
+
+
+def _mesh_file(model: mujoco.MjModel, name: str) -> str:
+    return f"{name}.obj" if _mesh_texcoords(model, name) is not None else f"{name}.msh"
+
+
 def _read_msh(path: Path) -> trimesh.Trimesh:
     raw = path.read_bytes()
-    nv, nn, nt, nf = np.frombuffer(raw[:16], dtype=np.int32)
+    if len(raw) < 16:
+        raise ValueError(f"{len(raw)} bytes, shorter than the 16-byte header")
+    nv, nn, nt, nf = (int(x) for x in np.frombuffer(raw[:16], dtype=np.int32))
+    expected = 16 + 4 * (3 * nv + 3 * nn + 2 * nt + 3 * nf)
+    if min(nv, nn, nt, nf) < 0 or len(raw) != expected:
+        raise ValueError(f"{len(raw)} bytes, but the header (counts {nv}, {nn}, {nt}, {nf}) says {expected}")
     off = 16
     v = np.frombuffer(raw, np.float32, 3 * nv, off).reshape(-1, 3)
     off += 4 * (3 * nv + 3 * nn + 2 * nt)
@@ -62,21 +105,34 @@ def _file_spec(world: World) -> mujoco.MjSpec:
     mjs = world.mjspec.copy()
     mjs.meshdir = MESH_DIR
     for mesh in mjs.meshes:
-        mesh.file = f"{mesh.name}.msh"
+        mesh.file = _mesh_file(world.model, mesh.name)
         mesh.uservert = []
         mesh.userface = []
+        mesh.usertexcoord = []
+        mesh.userfacetexcoord = []
     hf = mjs.hfields[0]
     hf.file = HFIELD_FILE
     hf.userdata = []
     mjs.texturedir = MESH_DIR
-    tex = mjs.texture(GROUND)
-    tex.file = TEXTURE_FILE
-    tex.data = b""
+    images = _image_textures(mjs)
+    for tex in mjs.textures:
+        if tex.name in images:
+            tex.file = _texture_file(tex.name)
+            tex.data = b""
     return mjs
 
 
-def _texture_bytes(world: World) -> bytes:
-    tid = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_TEXTURE, GROUND)
+def _image_textures(mjs: mujoco.MjSpec) -> list[str]:
+    """Names of the textures held as images: the ground and the surface textures (not the sky)."""
+    return [GROUND] + sorted(t.name for t in mjs.textures if t.name.startswith(MATERIAL_PREFIX))
+
+
+def _texture_file(name: str) -> str:
+    return TEXTURE_FILE if name == GROUND else f"{name}.png"
+
+
+def _texture_bytes(world: World, name: str) -> bytes:
+    tid = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_TEXTURE, name)
     w, h = int(world.model.tex_width[tid]), int(world.model.tex_height[tid])
     adr = int(world.model.tex_adr[tid])
     rgb = np.asarray(world.model.tex_data[adr : adr + 3 * w * h], dtype=np.uint8).reshape(h, w, 3)
@@ -100,13 +156,18 @@ def truth_to_dict(world: World) -> dict[str, Any]:
 
 def export_world(world: World, out_dir: str | Path) -> Path:
     """Write the world folder; returns the path of ``world.xml``."""
-    out = Path(out_dir)
-    (out / MESH_DIR).mkdir(parents=True, exist_ok=True)
+    out = output_folder(out_dir, "out_dir")
+    output_folder(out / MESH_DIR, "out_dir")
+    mjs = _file_spec(world)  # checks the world has an MjSpec
     for name, mesh in sorted(world.meshes.items()):
-        write_bytes(out / MESH_DIR / f"{name}.msh", _msh_bytes(mesh))
+        uv = _mesh_texcoords(world.model, name)
+        if uv is None:
+            write_bytes(out / MESH_DIR / f"{name}.msh", _msh_bytes(mesh))
+        else:
+            write_text(out / MESH_DIR / f"{name}.obj", _obj_text(mesh, *uv))
     write_bytes(out / MESH_DIR / HFIELD_FILE, _hfield_bytes(world))
-    write_bytes(out / MESH_DIR / TEXTURE_FILE, _texture_bytes(world))
-    mjs = _file_spec(world)
+    for name in _image_textures(mjs):
+        write_bytes(out / MESH_DIR / _texture_file(name), _texture_bytes(world, name))
     mjs.modelfiledir = str(out)
     mjs.compile()  # to_xml needs a compiled spec; this also checks the files load
     write_text(out / "world.xml", mjs.to_xml())
@@ -127,20 +188,51 @@ def _truth_from(doc: dict[str, Any], model: mujoco.MjModel) -> WorldTruth:
 
 
 def load_world(world_dir: str | Path) -> World:
-    """Reload an exported world folder (``WorldError`` on missing or corrupt files)."""
+    """Reload an exported world folder (``WorldError`` naming the missing or corrupt file)."""
     d = Path(world_dir)
+    if not d.is_dir():
+        raise WorldError(f"{d}: not a folder (an exported world folder holds world.xml, truth.json, spec.yaml)")
     for name in ("world.xml", "truth.json", "spec.yaml"):
         if not (d / name).is_file():
             raise WorldError(f"{d}: missing {name} (not an exported world folder)")
+    model, mjs = _load_xml(d / "world.xml")
+    doc = _load_truth_json(d / "truth.json")
+    spec = load_model(WorldSpec, d / "spec.yaml")
     try:
-        model = mujoco.MjModel.from_xml_path(str(d / "world.xml"))
-        mjs = mujoco.MjSpec.from_file(str(d / "world.xml"))
-        doc = json.loads((d / "truth.json").read_text(encoding="utf-8"))
-        spec = validate_model(WorldSpec, yaml.safe_load((d / "spec.yaml").read_text(encoding="utf-8")), str(d / "spec.yaml"))
         truth = _truth_from(doc, model)
-        meshes = {m.name: _read_msh(d / MESH_DIR / f"{m.name}.msh") for m in mjs.meshes}
-    except (ValueError, KeyError, TypeError, OSError, yaml.YAMLError) as err:
-        raise WorldError(f"{d}: corrupt world folder: {type(err).__name__}: {err}") from None
+        seed = int(doc["seed"])
+    except KeyError as err:
+        raise WorldError(f"{d / 'truth.json'}: corrupt: missing key {err}") from None
+    except (ValueError, TypeError, IndexError, AttributeError) as err:
+        raise WorldError(f"{d / 'truth.json'}: corrupt: {type(err).__name__}: {err}") from None
+    meshes = {}
+    for m in mjs.meshes:
+        path = d / MESH_DIR / Path(m.file).name
+        try:
+            meshes[m.name] = (_read_obj if path.suffix == ".obj" else _read_msh)(path)
+        except (OSError, ValueError, TypeError, IndexError) as err:
+            raise WorldError(f"{path}: corrupt mesh file: {err}") from None
+    return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)
+
+
+def _load_xml(path: Path) -> tuple[mujoco.MjModel, mujoco.MjSpec]:
+    """The compiled model and the spec of ``world.xml``; MuJoCo's parse errors name the file."""
+    try:
+        return mujoco.MjModel.from_xml_path(str(path)), mujoco.MjSpec.from_file(str(path))
+    except (ValueError, OSError) as err:
+        detail = " ".join(str(err).split())
+        raise WorldError(f"{path}: MuJoCo cannot load it: {detail}") from None
+
+
+def _load_truth_json(path: Path) -> dict[str, Any]:
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise WorldError(f"{path}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise WorldError(f"{path}: cannot read: {err}") from None
+    if not isinstance(doc, dict):
+        raise WorldError(f"{path}: expected a JSON object, got {type(doc).__name__}")
     if doc.get("version") != TRUTH_VERSION:
-        raise WorldError(f"{d}/truth.json: version {doc.get('version')!r}, expected {TRUTH_VERSION}")
-    return World(spec=spec, seed=int(doc["seed"]), model=model, truth=truth, meshes=meshes, mjspec=mjs)
+        raise WorldError(f"{path}: version {doc.get('version')!r}, expected {TRUTH_VERSION}")
+    return doc

@@ -1,49 +1,63 @@
-"""MjSpec construction: visual settings, lights, the terrain hfield and object geoms."""
+"""MjSpec construction: visual settings, the sun, the sky, the terrain hfield, object geoms and
+their materials (``roman_sim.world.appearance`` says what each setting does)."""
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from roman_sim.core.seeding import child_rng
+from roman_sim.world.appearance import AppearanceSpec, Sun, instance_draws, vary_rgba
+from roman_sim.world.assets import Part
 from roman_sim.world.catalog import Asset
 from roman_sim.world.spec import WorldSpec
 from roman_sim.world.terrain import hfield_data
+from roman_sim.world.textures import SURFACES, TEXTURE_MEAN, box_uv, texture_image
 from roman_sim.world.truth import ObjectTruth, Terrain
 
 OFF_WIDTH, OFF_HEIGHT = 1280, 960
 TERRAIN_GEOM = "terrain"
 GROUND = "ground"
 NEAR_CLIP_M = 0.05
-COLOUR_JITTER = 0.12  # relative per-instance brightness jitter
+SUN = "sun"
+MATERIAL_PREFIX = "surf_"  # material (and texture) of each surface kind: surf_bark, surf_rock, ...
 
 
-def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec) -> None:
+def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec, sun: Sun) -> None:
+    app, light = spec.appearance, spec.appearance.lighting
     mjs.visual.global_.offwidth = OFF_WIDTH
     mjs.visual.global_.offheight = OFF_HEIGHT
-    mjs.visual.quality.shadowsize = 0  # shadows cost ~5x in software rendering
-    mjs.visual.headlight.ambient = [0.35, 0.35, 0.35]
-    mjs.visual.headlight.diffuse = [0.35, 0.35, 0.35]
+    mjs.visual.quality.shadowsize = app.shadow_px if app.shadows else 0  # shadows cost ~5x in software
+    mjs.visual.headlight.ambient = [light.ambient] * 3
+    mjs.visual.headlight.diffuse = [light.headlight] * 3
     mjs.stat.extent = float(max(spec.extent_m)) / 2
     # clip planes are relative to stat.extent: 5 cm near plane, far plane past the world
     mjs.visual.map.znear = NEAR_CLIP_M / mjs.stat.extent
     mjs.visual.map.zfar = 2.0 * max(spec.extent_m) / mjs.stat.extent
     mjs.stat.center = [0.0, 0.0, 0.0]
+    # a directional light's shadow map is an orthographic view from its position along dir,
+    # so the sun sits on its own side of the world, one world radius out
+    towards = sun.towards
     mjs.worldbody.add_light(
-        name="sun",
+        name=SUN,
         type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
-        dir=[0.3, 0.2, -1.0],
-        pos=[0.0, 0.0, 100.0],
-        diffuse=[0.7, 0.7, 0.65],
-        ambient=[0.15, 0.15, 0.15],
-        castshadow=False,
+        dir=(-towards).tolist(),
+        pos=(towards * 2.0 * mjs.stat.extent).tolist(),
+        diffuse=(light.sun * np.asarray(light.colour)).tolist(),
+        ambient=[0.0, 0.0, 0.0],
+        castshadow=app.shadows,
     )
 
 
-def _sky(mjs: mujoco.MjSpec) -> None:
+def _sky(mjs: mujoco.MjSpec, spec: WorldSpec) -> None:
+    zenith = np.asarray(spec.appearance.lighting.sky)
+    horizon = 1.0 - 0.22 * (1.0 - zenith)
     mjs.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                    width=64, height=64, rgb1=[0.55, 0.7, 0.9], rgb2=[0.9, 0.93, 0.97])
+                    width=64, height=64, rgb1=zenith.tolist(), rgb2=horizon.tolist())
 
 
 def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8]) -> None:
@@ -51,7 +65,7 @@ def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: 
     rows, cols = terrain.shape
     tex = mjs.add_texture(name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D, width=ground.shape[1], height=ground.shape[0], nchannel=3)
     tex.data = np.ascontiguousarray(ground).tobytes()
-    mat = mjs.add_material(name=GROUND)
+    mat = mjs.add_material(name=GROUND, specular=0.0)  # grass and dirt do not shine
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
     mat.texrepeat = [1.0, 1.0]  # the image covers the hfield once (roads line up with truth)
     depth = max(1.0, 0.1 * elevation)
@@ -61,34 +75,76 @@ def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: 
                            pos=[0.0, 0.0, base_z], material=GROUND)
 
 
-def new_spec(spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8]) -> mujoco.MjSpec:
+def new_spec(spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8],
+             sun: Sun) -> mujoco.MjSpec:
     """An MjSpec holding the visuals, the sun and the terrain of a world."""
     mjs = mujoco.MjSpec()
     mjs.modelname = spec.name
     mjs.compiler.degree = False
-    _visuals(mjs, spec)
-    _sky(mjs)
+    _visuals(mjs, spec, sun)
+    _sky(mjs, spec)
     add_terrain(mjs, terrain, base_z, elevation, ground)
     return mjs
 
 
-def _add_mesh(mjs: mujoco.MjSpec, name: str, mesh: trimesh.Trimesh) -> None:
+@dataclass
+class Looks:
+    """Adds surface materials (and their textures) to an MjSpec once each, and colours instances."""
+
+    spec: AppearanceSpec
+    seed: int
+    added: set[str] = field(default_factory=set)
+
+    def material(self, mjs: mujoco.MjSpec, kind: str) -> str:
+        """Name of the material of surface ``kind`` (created on first use)."""
+        name = f"{MATERIAL_PREFIX}{kind}"
+        if name in self.added:
+            return name
+        surface = SURFACES.get(kind)
+        # MuJoCo takes a geom's rgba only when it differs from the default grey, else the
+        # material's: the material is that grey too, so every instance shows its own colour
+        mat = mjs.add_material(name=name, specular=surface.specular, shininess=surface.shininess,
+                               rgba=[0.5, 0.5, 0.5, 1.0])
+        if self.spec.textures:
+            n = self.spec.texture_px
+            img = texture_image(kind, child_rng(self.seed, "world", "appearance", "texture", kind), n)
+            tex = mjs.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=n, height=n, nchannel=3)
+            tex.data = img.tobytes()
+            mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
+        self.added.add(name)
+        return name
+
+    def rgba(self, part: Part, draws: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The instance colour of ``part`` (brightened to offset the texture's mean when textured)."""
+        var = part.variation or SURFACES.get(part.surface).variation
+        rgba = vary_rgba(part.rgba, var, self.spec.instance_variation, draws)
+        if self.spec.textures and rgba[:3].max() > 0:
+            rgba[:3] *= min(1.0 / TEXTURE_MEAN, 1.0 / rgba[:3].max())  # same hue, saturation
+        return rgba
+
+
+def _add_mesh(mjs: mujoco.MjSpec, name: str, part: Part, textured: bool) -> None:
     m = mjs.add_mesh(name=name)
-    m.uservert = np.asarray(mesh.vertices, dtype=np.float32).ravel().tolist()
-    m.userface = np.asarray(mesh.faces, dtype=np.int32).ravel().tolist()
+    m.uservert = np.asarray(part.mesh.vertices, dtype=np.float32).ravel().tolist()
+    m.userface = np.asarray(part.mesh.faces, dtype=np.int32).ravel().tolist()
+    if textured:
+        uv, idx = box_uv(part.mesh, SURFACES.get(part.surface).tile_m, part.grain_axis)
+        m.usertexcoord = uv.ravel().tolist()
+        m.userfacetexcoord = idx.tolist()
 
 
-def add_object_geoms(mjs: mujoco.MjSpec, obj: ObjectTruth, asset: Asset, meshes: dict[str, trimesh.Trimesh], rng: np.random.Generator) -> None:
-    """Add one static mesh geom per part of ``obj`` (named ``obj{id}_{k}``), sharing meshes."""
+def add_object_geoms(mjs: mujoco.MjSpec, obj: ObjectTruth, asset: Asset, meshes: dict[str, trimesh.Trimesh],
+                     looks: Looks) -> None:
+    """Add one static mesh geom per part of ``obj`` (named ``obj{id}_{k}``), sharing meshes and materials."""
     pos = obj.T_world_obj[:3, 3]
     yaw = float(np.arctan2(obj.T_world_obj[1, 0], obj.T_world_obj[0, 0]))
     quat = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
+    draws = instance_draws(looks.seed, obj.id, len(asset.parts))
     for k, part in enumerate(asset.parts):
         name = asset.mesh_name(part)
         if name not in meshes:
             meshes[name] = part.mesh
-            _add_mesh(mjs, name, part.mesh)
-        gain = 1.0 + COLOUR_JITTER * rng.uniform(-1.0, 1.0)
-        rgba = np.clip(np.array(part.rgba) * [gain, gain, gain, 1.0], 0.0, 1.0)
+            _add_mesh(mjs, name, part, looks.spec.textures)
         mjs.worldbody.add_geom(name=f"obj{obj.id}_{k}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
-                               pos=pos.tolist(), quat=quat, rgba=rgba.tolist())
+                               pos=pos.tolist(), quat=quat, rgba=looks.rgba(part, draws[k]).tolist(),
+                               material=looks.material(mjs, part.surface))

@@ -16,8 +16,8 @@ from matplotlib.collections import PatchCollection  # noqa: E402
 from matplotlib.patches import Circle  # noqa: E402
 from numpy.typing import NDArray  # noqa: E402
 
-from roman_sim.core.atomic import write_bytes  # noqa: E402
-from roman_sim.core.errors import WorldError  # noqa: E402
+from roman_sim.core.atomic import output_file, output_folder, write_bytes  # noqa: E402
+from roman_sim.core.errors import ConfigError, WorldError  # noqa: E402
 from roman_sim.world.build import World  # noqa: E402
 from roman_sim.world.truth import WorldTruth  # noqa: E402
 
@@ -75,13 +75,29 @@ def _png(rgb: NDArray[np.uint8]) -> bytes:
     return buf.getvalue()
 
 
-def write_preview(world: World, out: str | Path, width: int = 640, height: int = 480) -> list[Path]:
-    """Write ``topdown.png`` and ``view.png`` into folder ``out``, or ``X.png`` and ``X_view.png``."""
+def preview_paths(out: str | Path, what: str = "out") -> tuple[Path, Path]:
+    """The (top-down, view) PNG paths for ``out``, checked writable (``ConfigError`` naming ``what``).
+
+    ``X.png`` gives ``X.png`` and ``X_view.png``; anything else is a folder that receives
+    ``topdown.png`` and ``view.png``. Nothing is created.
+    """
     out = Path(out)
     if out.suffix.lower() == ".png":
         top, view = out, out.with_name(out.stem + "_view.png")
+        output_file(top, what, create=False)
+        output_file(view, what, create=False)
     else:
+        output_folder(out, what, create=False)
         top, view = out / "topdown.png", out / "view.png"
+        for p in (top, view):
+            if p.is_dir():
+                raise ConfigError(f"{what} {out}: {p.name} there is a folder, cannot write the preview")
+    return top, view
+
+
+def write_preview(world: World, out: str | Path, width: int = 640, height: int = 480) -> list[Path]:
+    """Write ``topdown.png`` and ``view.png`` into folder ``out``, or ``X.png`` and ``X_view.png``."""
+    top, view = preview_paths(out)
     title = f"{world.spec.name} (seed {world.seed}, {len(world.truth.objects)} objects)"
     write_bytes(top, topdown_png(world.truth, title, world.spec.roads.width_m))
     write_bytes(view, _png(render_view(world, width, height)))

@@ -1,4 +1,5 @@
-"""World specification: extent, terrain, object families, layout, roads and ambiguity knobs.
+"""World specification: extent, terrain, object families, layout, roads, ambiguity knobs and
+appearance (textures, per-instance colours, lighting, shadows: ``roman_sim.world.appearance``).
 
 The three ambiguity knobs act on generation as follows (all in [0, 1]):
 
@@ -21,6 +22,7 @@ from pydantic import Field, field_validator, model_validator
 from pydantic_core import PydanticCustomError
 
 from roman_sim.core.config import StrictModel
+from roman_sim.world.appearance import AppearanceSpec
 
 
 class LayoutKind(str, Enum):
@@ -111,6 +113,7 @@ class WorldSpec(StrictModel):
     layout_regularity: float = Field(0.0, ge=0.0, le=1.0)
     ambiguity: float | None = Field(None, ge=0.0, le=1.0, description="overrides the 3 knobs")
     max_objects: int = Field(5000, ge=1, le=20000)
+    appearance: AppearanceSpec = Field(default_factory=AppearanceSpec, description="textures, colours, lighting")
 
     @field_validator("extent_m")
     @classmethod
@@ -129,7 +132,7 @@ class WorldSpec(StrictModel):
         return v
 
     @model_validator(mode="after")
-    def _fits(self) -> "WorldSpec":
+    def _fits(self) -> WorldSpec:
         area_ha = self.extent_m[0] * self.extent_m[1] / 1e4
         expected = sum(f.density for f in self.families) * area_ha
         if expected > self.max_objects:
@@ -137,7 +140,7 @@ class WorldSpec(StrictModel):
                 "too_many_objects",
                 "families: densities ask for {n} objects, more than max_objects={m}; "
                 "lower a density or the extent, or raise max_objects (<= 20000)",
-                {"n": int(round(expected)), "m": self.max_objects},
+                {"n": round(expected), "m": self.max_objects},
             )
         if self.roads.width_m >= 0.5 * min(self.extent_m):
             raise PydanticCustomError(

@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from roman_sim.core.errors import ConfigError
-from roman_sim.pipeline.dask_executor import ClusterConnectError, DaskExecutor, connect_client
+from roman_sim.core.errors import ClusterError, ConfigError
+from roman_sim.pipeline.dask_executor import DaskExecutor, connect_client
 from roman_sim.pipeline.dask_security import PluginImportError, check_address, is_loopback, security_for
 from roman_sim.pipeline.executors import ExecutorConfig
 from roman_sim.pipeline.experiment import Experiment
@@ -82,11 +82,11 @@ def test_clients_without_the_certificate_are_refused(tls_cluster):
     from distributed.security import Security
 
     addr = tls_cluster["address"]
-    with pytest.raises(ClusterConnectError, match=f"Dask scheduler {addr}: cannot connect"):
+    with pytest.raises(ClusterError, match=f"Dask scheduler {addr}: cannot connect"):
         connect_client(addr, 5.0, None)  # no TLS at all
     rogue = Security(tls_ca_file=str(tls_cluster["ca"]), tls_client_cert=str(tls_cluster["rogue_cert"]),
                      tls_client_key=str(tls_cluster["rogue_key"]), require_encryption=True)
-    with pytest.raises(ClusterConnectError, match="cannot connect"):
+    with pytest.raises(ClusterError, match="cannot connect"):
         connect_client(addr, 5.0, rogue)  # a certificate the cluster's CA did not sign
     with pytest.raises(ConfigError, match="needs a CA and a client certificate"):
         DaskExecutor(ExecutorConfig(kind="dask", scheduler_address=addr))

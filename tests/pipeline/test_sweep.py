@@ -85,7 +85,7 @@ def test_relative_out_folder_on_a_local_pool_and_failed_cells_exit_nonzero(tmp_p
     path = _write(tmp_path, grid=grid, seeds=[0], executor={"kind": "local", "workers": 2})
     res = CliRunner().invoke(app, ["sweep", str(path), "--out", "rel/out"])
     assert res.exit_code == 1, res.output
-    assert "1 sweep cell(s) did not complete" in res.output and "speed_mps" in res.output
+    assert "1 sweep run(s) failed" in res.output and "speed_mps" in res.output
     rows = list(csv.DictReader((tmp_path / "rel" / "out" / "sweep.csv").open()))
     assert sorted({(r["robots.1.speed_mps"], r["status"]) for r in rows}) == [("1.0", "ok"), ("99.0", "failed")]
     assert len([r for r in rows if r["status"] == "ok"]) == 2  # roman and clipper of the good cell

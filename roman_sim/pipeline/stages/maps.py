@@ -1,7 +1,8 @@
-"""Stage ``maps``: simulate every robot and map its frames into a ``SegmentMap``.
+"""Stage ``maps``: simulate (or read) every robot and map its frames into a ``SegmentMap``.
 
-Robots are planned together (a path may be defined relative to an earlier robot's), then
-rendered and mapped one by one; each robot's map is written as soon as it is finished.
+Simulated robots are planned together (a path may be defined relative to an earlier
+robot's), then rendered and mapped one by one; a robot with a ``source`` is read from its
+TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same way.
 """
 
 from __future__ import annotations
@@ -13,7 +14,8 @@ from typing import Any
 
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.core.registry import import_object
+from roman_sim.core.plugin_guard import guard_frontend
+from roman_sim.core.plugins import instantiate_plugin
 from roman_sim.mapping.io import load_segment_map, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.segmenter import SegmenterConfig, build_segmenter
@@ -34,33 +36,29 @@ class Maps:
     notes: list[str] = field(default_factory=list)
 
 
-def _user_object(path: str, kind: str, **kwargs: Any) -> Any:
-    factory = import_object(path, kind)
-    try:
-        return factory(**kwargs) if callable(factory) else factory
-    except TypeError as err:
-        raise ConfigError(f"{kind} {path!r}: cannot construct it ({err})") from None
-
-
 def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
     """The scenario's segmenter for ``robot`` (built-in preset, config, or user class)."""
     seg = ctx.scenario.frontend.segmenter
     if isinstance(seg, str) and ":" in seg:
-        return _user_object(seg, "segmenter")
+        return instantiate_plugin(seg, "segmenter")
     return build_segmenter(seg if isinstance(seg, (str, SegmenterConfig)) else seg, seed=ctx.scenario.seed)
 
 
-def build_encoder_for(ctx: RunContext, robot: str, world: Any) -> Any:
+def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
     """The scenario's semantic encoder (simulated from truth, or a user class).
 
-    Prototypes are shared by all robots (same seed); observation noise is per robot.
+    ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
+    simulated encoder. Prototypes are shared by all robots (same seed); observation noise is
+    per robot.
     """
     enc = ctx.scenario.frontend.encoder
     if enc == "simulated":
-        families = {o.id: o.family for o in world.truth.objects}
+        if families is None:
+            raise ConfigError(f"robot {robot}: the simulated encoder needs the objects' families (no world, "
+                              "no object table); use an image encoder package.module:Class")
         return SimulatedEncoder(ctx.scenario.frontend.semantics, seed=ctx.scenario.seed, families=families, robot=robot)
     if ":" in enc:
-        return _user_object(enc, "semantic encoder")
+        return instantiate_plugin(enc, "encoder")
     raise ConfigError(f"frontend.encoder: unknown encoder {enc!r} (valid: simulated, or package.module:Class)")
 
 
@@ -91,26 +89,48 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
     return read_recording(rec_dir)
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
-    """Render and map one robot along its planned path."""
-    from roman_sim.sim.robot import trajectory_along
-
+def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None
+                ) -> SegmentMap:
     sc = ctx.scenario
-    trajectory = trajectory_along(world, cfg, sc.seed, path)
-    stage = f"maps:{cfg.name}"
-    ctx.progress.start(stage, len(trajectory[0]))
-    mapper = Mapper(sc.mapping, build_segmenter_for(ctx, cfg.name), build_encoder_for(ctx, cfg.name, world), seed=sc.seed)
-    for frame in _frames(ctx, world, cfg, trajectory):
+    stage = f"maps:{name}"
+    ctx.progress.start(stage, n)
+    # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
+    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), sc.frontend.segmenter,
+                                        build_encoder_for(ctx, name, families), sc.frontend.encoder)
+    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed)
+    for frame in frames:
         mapper.process(frame)
         ctx.progress.advance(stage)
     ctx.progress.end(stage)
     smap = mapper.finish()
-    log.info("robot %s: %d segments", cfg.name, len(smap))
+    log.info("robot %s: %d segments", name, len(smap))
     return smap
 
 
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
+    """Render and map one robot along its planned path."""
+    from roman_sim.sim.robot import trajectory_along
+
+    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
+    families = {o.id: o.family for o in world.truth.objects}
+    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]), families)
+
+
+def map_sequence(ctx: RunContext, cfg: Any) -> SegmentMap:
+    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
+    from roman_sim.pipeline.sources import open_sequence, sequence_families
+
+    seq = open_sequence(cfg, ctx.scenario.seed)
+    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), sequence_families(cfg.source))
+
+
+def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> SegmentMap:
+    """One robot's map: read from its sequence (``cfg.source``) or simulated along ``path``."""
+    return map_sequence(ctx, cfg) if cfg.source is not None else map_robot(ctx, world, cfg, path)
+
+
 def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]) -> dict[str, SegmentMap]:
-    """Every robot's map, one ``map_robot`` task per robot on the run's executor (scenario order).
+    """Every robot's map, one ``map_one`` task per robot on the run's executor (scenario order).
 
     Each finished robot's map is written to ``maps/<robot>.npz`` at once and checkpointed,
     so an interrupted run maps only the robots that did not finish. What is returned is
@@ -131,9 +151,8 @@ def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]) -> dict[str, 
     todo = [r for r in ctx.scenario.robots if r.name not in maps]
     sc_json = ctx.scenario.model_dump_json()
     local = ex.kind == "serial"
-    args = [(sc_json, r.name, paths[r.name], str(ctx.run_dir), world if local else None) for r in todo]
-    fn = (lambda sc, name, path, d, w: map_robot(ctx, w, _robot(ctx, name), path)) if local \
-        else map_robot_task
+    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), world if local else None) for r in todo]
+    fn = (lambda sc, name, path, d, w: map_one(ctx, w, _robot(ctx, name), path)) if local else map_robot_task
     ctx.progress.start("maps:robots", len(files))
     ctx.progress.advance("maps:robots", len(maps))
     for i, smap in ex.run_tasks(fn, args, [f"mapping robot {r.name}" for r in todo]):
@@ -166,15 +185,19 @@ class MapsStage(Stage[Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
+        from roman_sim.pipeline.sources import fingerprint
+
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["robots"], sc["frontend"], sc["mapping"]]
+        sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
+        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else [])]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
 
-        assert world is not None, "the maps stage needs the world"
-        paths = plan_paths(world.world, ctx.scenario.robots, ctx.scenario.seed)
-        return Maps(map_robots(ctx, world.world, paths))
+        simulated = ctx.scenario.simulated_robots()
+        assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
+        paths = plan_paths(world.world, simulated, ctx.scenario.seed) if world is not None and simulated else {}
+        return Maps(map_robots(ctx, None if world is None else world.world, paths))
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         return save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)

@@ -24,7 +24,8 @@ class WorldStage(Stage[WorldOutput]):
     cached = False
 
     def applies(self, ctx: RunContext) -> bool:
-        return ctx.submaps_dir is None
+        """Not when starting from saved submaps, nor when every robot is read from a sequence."""
+        return ctx.submaps_dir is None and ctx.scenario.needs_world
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
         sc = ctx.scenario.model_dump(mode="json")

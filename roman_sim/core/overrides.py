@@ -1,0 +1,75 @@
+"""``key.sub=value`` overrides of nested configuration data (``--set`` on the command line).
+
+Dotted parts index mappings by key and lists by position (``robots.1.drift=poor``); the
+value is parsed as YAML (strictly: a repeated key is an error). A missing mapping key is
+created (the model's validation then names it if it is unknown); a list position out of
+range, a non-numeric position or a path through a scalar is a ``ConfigError`` that says so.
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Any
+
+from roman_sim.core.errors import ConfigError
+
+
+def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
+    """Apply ``key.sub=value`` overrides (values parsed as YAML) to a nested copy of ``data``."""
+    out = copy.deepcopy(data)
+    for item in overrides:
+        key, value = _parse(item)
+        parts = key.split(".")
+        node: Any = out
+        for depth, part in enumerate(parts):
+            last = depth == len(parts) - 1
+            here = ".".join(parts[:depth]) or "<root>"
+            if isinstance(node, list):
+                idx = _index(key, here, part, node)
+                if last:
+                    node[idx] = value
+                else:
+                    node = node[idx]
+            elif isinstance(node, dict):
+                if last:
+                    node[part] = value
+                else:
+                    node = node.setdefault(part, {})
+            else:
+                raise ConfigError(f"--set {key}: {here} is {_kind(node)} ({node!r}), not a mapping or list, "
+                                  f"so it has no {part!r}")
+    return out
+
+
+def _parse(item: str) -> tuple[str, Any]:
+    from roman_sim.core.config import parse_yaml
+
+    if "=" not in item:
+        raise ConfigError(f"--set {item!r}: expected key=value")
+    key, raw = item.split("=", 1)
+    key = key.strip()
+    if not key or any(not p for p in key.split(".")):
+        raise ConfigError(f"--set {item!r}: empty key or empty part in {key!r} (use a.b.c=value)")
+    return key, parse_yaml(raw, f"--set {key}: value {raw!r}")
+
+
+def _index(key: str, here: str, part: str, node: list[Any]) -> int:
+    n = len(node)
+    valid = f"0..{n - 1}" if n else "none: the list is empty"
+    if not part.isdigit():
+        raise ConfigError(f"--set {key}: {here} is a list of {n} entries, {part!r} is not a position in it "
+                          f"(positions: {valid})")
+    idx = int(part)
+    if idx >= n:
+        raise ConfigError(f"--set {key}: position {idx} out of range: {here} has {n} entries (positions: {valid})")
+    return idx
+
+
+def _kind(value: Any) -> str:
+    if value is None:
+        return "empty"
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, (int, float)):
+        return "a number"
+    return "a string" if isinstance(value, str) else f"a {type(value).__name__}"

@@ -1,0 +1,13 @@
+"""Interoperability: export scenarios as standard sequences, import real or exported ones.
+
+- ``export_scenario``: every simulated robot of a scenario as a TUM RGB-D folder or a ROS 2
+  bag, with exact ground truth, instance masks and the object table.
+- ``read_tum_sequence`` / ``TumSequence``: a TUM RGB-D folder (real or exported) as
+  ``Frame`` objects, ground truth kept apart in ``frame.truth``; ``TumSourceConfig`` is a
+  scenario robot's ``source``.
+"""
+
+from roman_sim.interop.export import ExportResult, export_scenario
+from roman_sim.interop.tum_reader import TumSequence, TumSourceConfig, read_tum_sequence
+
+__all__ = ["ExportResult", "TumSequence", "TumSourceConfig", "export_scenario", "read_tum_sequence"]

@@ -1,0 +1,234 @@
+"""One robot as a ROS 2 bag (``rosbags``, pure Python), written frame by frame.
+
+Topics (``r`` is the robot name; stamps are the frame times, see ``roman_sim.interop.base``):
+
+=====================================  ============================  =======================
+topic                                  type                          content
+=====================================  ============================  =======================
+``/r/camera/color/image_raw``          sensor_msgs/msg/Image         ``rgb8``
+``/r/camera/color/camera_info``        sensor_msgs/msg/CameraInfo    pinhole, no distortion
+``/r/camera/depth/image``              sensor_msgs/msg/Image         ``32FC1`` metres, NaN =
+                                                                     no reading (REP 118),
+                                                                     registered to colour
+``/r/camera/depth/camera_info``        sensor_msgs/msg/CameraInfo    same camera
+``/r/odom``                            nav_msgs/msg/Odometry         drifted odometry
+``/tf``                                tf2_msgs/msg/TFMessage        ``world -> r/base_link_gt``
+                                                                     (truth) and
+                                                                     ``r/odom -> r/base_link``
+``/tf_static``                         tf2_msgs/msg/TFMessage        ``r/base_link ->
+                                                                     r/camera_optical_frame``
+=====================================  ============================  =======================
+
+Images carry ``frame_id = r/camera_optical_frame`` (RDF optical axes); the body frames are
+FLU. The truth lives in its own frame ``r/base_link_gt`` under ``world``, so it never
+conflicts with the odometry tree (``r/odom -> r/base_link``) a SLAM system builds on.
+``/tf_static`` is offered with transient-local durability, as ``robot_state_publisher``
+does. The odometry twist is the finite difference of consecutive odometry poses in the
+body frame (zero for the first frame); its covariances are zero ("unknown").
+
+The bag is written into a temporary folder next to its destination and renamed when closed,
+so an interrupted export never leaves a half bag under the final name.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
+from roman_sim.interop.masks import MaskWriter
+from roman_sim.sensors import Frame, Intrinsics
+
+log = logging.getLogger(__name__)
+
+BAG_DIR = "bag"
+STORAGES = ("mcap", "sqlite3")
+
+
+def topics(robot: str) -> dict[str, str]:
+    """Topic name -> message type of one robot's bag."""
+    return {
+        f"/{robot}/camera/color/image_raw": "sensor_msgs/msg/Image",
+        f"/{robot}/camera/color/camera_info": "sensor_msgs/msg/CameraInfo",
+        f"/{robot}/camera/depth/image": "sensor_msgs/msg/Image",
+        f"/{robot}/camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
+        f"/{robot}/odom": "nav_msgs/msg/Odometry",
+        "/tf": "tf2_msgs/msg/TFMessage",
+        "/tf_static": "tf2_msgs/msg/TFMessage",
+    }
+
+
+def _qos(transient_local: bool) -> Any:
+    from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
+
+    zero = QosTime(0, 0)
+    return Qos(QosHistory.KEEP_LAST, 1 if transient_local else 10, QosReliability.RELIABLE,
+               QosDurability.TRANSIENT_LOCAL if transient_local else QosDurability.VOLATILE,
+               zero, zero, QosLiveliness.AUTOMATIC, zero, False)
+
+
+class _Messages:
+    """Builds the message objects of one robot with a ``rosbags`` type store."""
+
+    def __init__(self, typestore: Any, robot: str, intr: Intrinsics) -> None:
+        self.ts, self.t = typestore, typestore.types
+        self.robot, self.intr = robot, intr
+        self.cam_frame = f"{robot}/camera_optical_frame"
+
+    def header(self, ns: int, frame_id: str) -> Any:
+        stamp = self.t["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id)
+
+    def image(self, ns: int, data: NDArray[Any], encoding: str) -> Any:
+        h, w = data.shape[:2]
+        raw = np.ascontiguousarray(data).view(np.uint8).reshape(-1)
+        return self.t["sensor_msgs/msg/Image"](header=self.header(ns, self.cam_frame), height=h, width=w,
+                                                encoding=encoding, is_bigendian=0, step=len(raw) // h, data=raw)
+
+    def camera_info(self, ns: int) -> Any:
+        k = self.intr
+        K = np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=np.float64)
+        P = np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=np.float64)
+        roi = self.t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
+        return self.t["sensor_msgs/msg/CameraInfo"](
+            header=self.header(ns, self.cam_frame), height=k.height, width=k.width, distortion_model="plumb_bob",
+            d=np.zeros(5), k=K, r=np.eye(3).reshape(-1), p=P, binning_x=0, binning_y=0, roi=roi)
+
+    def _pose_parts(self, T: NDArray[np.float64]) -> tuple[Any, Any]:
+        g = self.t
+        q = Rotation.from_matrix(T[:3, :3]).as_quat()
+        vec = g["geometry_msgs/msg/Vector3"](x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3]))
+        quat = g["geometry_msgs/msg/Quaternion"](x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))
+        return vec, quat
+
+    def transform(self, ns: int, parent: str, child: str, T: NDArray[np.float64]) -> Any:
+        vec, quat = self._pose_parts(T)
+        tf = self.t["geometry_msgs/msg/Transform"](translation=vec, rotation=quat)
+        return self.t["geometry_msgs/msg/TransformStamped"](header=self.header(ns, parent), child_frame_id=child,
+                                                             transform=tf)
+
+    def tf(self, transforms: list[Any]) -> Any:
+        return self.t["tf2_msgs/msg/TFMessage"](transforms=transforms)
+
+    def odometry(self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64],
+                 w_body: NDArray[np.float64]) -> Any:
+        g = self.t
+        vec, quat = self._pose_parts(T)
+        pose = g["geometry_msgs/msg/Pose"](position=g["geometry_msgs/msg/Point"](x=vec.x, y=vec.y, z=vec.z),
+                                           orientation=quat)
+        V3 = g["geometry_msgs/msg/Vector3"]
+        twist = g["geometry_msgs/msg/Twist"](linear=V3(x=float(v_body[0]), y=float(v_body[1]), z=float(v_body[2])),
+                                             angular=V3(x=float(w_body[0]), y=float(w_body[1]), z=float(w_body[2])))
+        return g["nav_msgs/msg/Odometry"](
+            header=self.header(ns, f"{self.robot}/odom"), child_frame_id=f"{self.robot}/base_link",
+            pose=g["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
+            twist=g["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)))
+
+
+def body_twist(T_prev: NDArray[np.float64] | None, T: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
+    """Linear and angular body-frame velocity from two consecutive poses (zeros without a previous one)."""
+    if T_prev is None or dt <= 0:
+        return np.zeros(3), np.zeros(3)
+    d = np.linalg.inv(T_prev) @ T
+    return d[:3, 3] / dt, Rotation.from_matrix(d[:3, :3]).as_rotvec() / dt
+
+
+class RosbagWriter:
+    """Writes one robot's frames as a ROS 2 bag in ``out_dir/bag`` plus mask side files.
+
+    Args:
+        out_dir: the robot's folder (created); the bag goes to ``out_dir/bag``.
+        robot: robot name (topic and frame prefix).
+        intrinsics: camera intrinsics of every frame.
+        T_body_cam: 4x4 camera pose in the body frame (the static transform).
+        storage: ``mcap`` (ROS 2 Iron and later) or ``sqlite3`` (Humble's default).
+        distro: ``rosbags`` type store for the message definitions.
+    """
+
+    def __init__(self, out_dir: Path, robot: str, intrinsics: Intrinsics, T_body_cam: NDArray[np.float64],
+                 storage: str = "mcap", distro: str = "ros2_humble") -> None:
+        from rosbags.rosbag2 import StoragePlugin, Writer
+        from rosbags.typesys import Stores, get_typestore
+
+        if storage not in STORAGES:
+            raise ConfigError(f"storage: unknown {storage!r} (valid: {', '.join(STORAGES)})")
+        try:
+            typestore = get_typestore(Stores(distro))
+        except ValueError:
+            raise ConfigError(f"distro: unknown {distro!r} (valid: {', '.join(s.value for s in Stores)})") from None
+        self.dir, self.robot, self.intr = Path(out_dir), robot, intrinsics
+        self.T_bc = np.asarray(T_body_cam, dtype=np.float64)
+        self.final = self.dir / BAG_DIR
+        if self.final.exists():
+            raise StorageError(f"{self.final}: already exists (remove it or export to a new folder)")
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self._tmp_parent = Path(tempfile.mkdtemp(prefix=".bag.", suffix=".tmp", dir=self.dir))
+        plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+        self._writer = Writer(self._tmp_parent / BAG_DIR, version=9, storage_plugin=plugin)
+        self._writer.open()
+        self._msgs = _Messages(typestore, robot, intrinsics)
+        self._conn = {topic: self._writer.add_connection(topic, msgtype, typestore=typestore,
+                                                         offered_qos_profiles=[_qos(topic == "/tf_static")])
+                      for topic, msgtype in topics(robot).items()}
+        self._masks = MaskWriter(self.dir, robot)
+        self._counts = {topic: 0 for topic in self._conn}
+        self._prev: tuple[int, NDArray[np.float64]] | None = None
+
+    def _put(self, topic: str, ns: int, msg: Any) -> None:
+        self._writer.write(self._conn[topic], ns, self._msgs.ts.serialize_cdr(msg, msg.__msgtype__))
+        self._counts[topic] += 1
+
+    def write(self, frame: Frame) -> None:
+        """Write one frame's images, camera infos, odometry and transforms, and its mask."""
+        if frame.rgb is None or frame.truth is None:
+            raise StorageError(f"rosbag2 export: frame {frame.index} of robot {frame.robot} needs RGB and truth")
+        ns, r, m = stamp_ns(frame.t), self.robot, self._msgs
+        if self._prev is not None and ns <= self._prev[0]:
+            raise StorageError(f"rosbag2 export: frame {frame.index}: time stamp does not increase")
+        if self._prev is None:
+            self._put("/tf_static", ns, m.tf([m.transform(ns, f"{r}/base_link", m.cam_frame, self.T_bc)]))
+        depth = np.asarray(frame.depth, dtype=np.float32)
+        depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(np.nan)).astype("<f4")
+        self._put(f"/{r}/camera/color/image_raw", ns, m.image(ns, np.asarray(frame.rgb, dtype=np.uint8), "rgb8"))
+        self._put(f"/{r}/camera/color/camera_info", ns, m.camera_info(ns))
+        self._put(f"/{r}/camera/depth/image", ns, m.image(ns, depth, "32FC1"))
+        self._put(f"/{r}/camera/depth/camera_info", ns, m.camera_info(ns))
+        T_ob = np.asarray(frame.T_odom_body, dtype=np.float64)
+        dt = 0.0 if self._prev is None else (ns - self._prev[0]) / 1e9
+        v, w = body_twist(None if self._prev is None else self._prev[1], T_ob, dt)
+        self._put(f"/{r}/odom", ns, m.odometry(ns, T_ob, v, w))
+        self._put("/tf", ns, m.tf([m.transform(ns, "world", f"{r}/base_link_gt", frame.truth.T_world_body),
+                                   m.transform(ns, f"{r}/odom", f"{r}/base_link", T_ob)]))
+        self._masks.write(frame, stamp_text(ns))
+        self._prev = (ns, T_ob)
+
+    def close(self) -> dict[str, Any]:
+        """Finish the bag, move it to ``out_dir/bag``, write ``masks.txt``; returns message counts."""
+        if self._prev is None:
+            self.abort()
+            raise StorageError(f"rosbag2 export: robot {self.robot} has no frames")
+        self._writer.close()
+        os.replace(self._tmp_parent / BAG_DIR, self.final)
+        shutil.rmtree(self._tmp_parent, ignore_errors=True)
+        self._masks.close()
+        return {"frames": self._counts[f"/{self.robot}/odom"], "messages": dict(self._counts), "bag": str(self.final)}
+
+    def abort(self) -> None:
+        """Close and delete the unfinished bag."""
+        try:
+            self._writer.close()
+        except Exception:
+            log.debug("closing an aborted bag failed", exc_info=True)
+        shutil.rmtree(self._tmp_parent, ignore_errors=True)
+
+
+FORMATS.register("rosbag2", RosbagWriter)

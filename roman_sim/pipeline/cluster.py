@@ -1,0 +1,211 @@
+"""Connecting to a Dask scheduler with a bounded handshake and one clear line per failure.
+
+``connect(address, timeout_s)`` returns a ``distributed.Client`` or raises ``ClusterError``
+within about ``timeout_s`` seconds. ``distributed`` itself can hang or crash on endpoints
+that are not schedulers: its client waits without a deadline for the handshake of a port
+that accepts and never answers, and reads the first eight bytes of any answer as a message
+length, so an HTTP server ("HTTP/1.1" is 3.5e18) or random bytes make it allocate exabytes.
+Hence a plain-socket probe first: a Dask server sends its handshake (an 8-byte length, then
+a small msgpack message) as soon as it accepts a connection, so the probe reads at most a
+few kilobytes, decodes them with ``distributed.protocol`` and only then hands the address
+to ``Client``. Non-TCP schemes (``tls://``, ``ws://``, ...) are not probed (their transport
+speaks first); ``Client``'s own timeout bounds them.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import struct
+import time
+from typing import TYPE_CHECKING, Any
+
+from roman_sim.core.errors import ClusterError, ConfigError
+
+if TYPE_CHECKING:
+    import distributed
+
+log = logging.getLogger(__name__)
+
+#: Default bound on reaching a scheduler and completing its handshake (seconds).
+DEFAULT_TIMEOUT_S = 5.0
+_MAX_HANDSHAKE = 64 * 1024  # a Dask handshake is about 60 bytes
+_HTTP_PROBE = b"GET / HTTP/1.0\r\n\r\n"
+_EXPECTED = "expected tcp://host:port, e.g. tcp://10.0.0.5:8786"
+
+
+def parse_scheduler_address(address: str) -> tuple[str, str, int | None]:
+    """(scheme, host, port) of a scheduler address (port None for schemes without one); ``ConfigError`` if malformed."""
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import backends
+
+    if not isinstance(address, str) or not address.strip():
+        raise ConfigError(f"Dask scheduler {address!r}: empty address ({_EXPECTED})")
+    try:
+        scheme, loc = parse_address(address.strip())
+    except (ValueError, TypeError) as err:
+        raise ConfigError(f"Dask scheduler {address!r}: not an address ({_EXPECTED}): {err}") from None
+    if scheme not in backends:
+        hint = " (a dashboard URL? the scheduler itself listens on tcp://host:8786)" if "http" in scheme else ""
+        raise ConfigError(f"Dask scheduler {address!r}: unknown scheme {scheme!r}{hint} "
+                          f"(valid: {', '.join(sorted(backends))})")
+    if scheme in ("inproc", "ucx"):
+        return scheme, loc, None
+    try:
+        host, port = parse_host_port(loc)
+    except (ValueError, TypeError) as err:
+        raise ConfigError(f"Dask scheduler {address!r}: not an address ({_EXPECTED}): {err}") from None
+    if not host or not 0 < int(port) < 65536:
+        raise ConfigError(f"Dask scheduler {address!r}: host and a port in 1..65535 needed ({_EXPECTED})")
+    return scheme, host, int(port)
+
+
+def connect(address: str, timeout_s: float = DEFAULT_TIMEOUT_S) -> "distributed.Client":
+    """A ``distributed.Client`` connected to the scheduler at ``address``.
+
+    Args:
+        address: scheduler address, ``tcp://host:port`` (``host:port`` means tcp).
+        timeout_s: bound on reaching it and completing the handshake (seconds, > 0).
+
+    Raises:
+        ConfigError: ``address`` is not a scheduler address or ``timeout_s`` is not positive.
+        ClusterError: nothing listens there, it does not answer in time, it answers with
+            something other than the Dask protocol (an HTTP server, random bytes), or it is
+            a Dask server but not a scheduler.
+    """
+    if not isinstance(timeout_s, (int, float)) or not 0 < timeout_s < float("inf"):
+        raise ConfigError(f"timeout_s: expected a positive number of seconds, got {timeout_s!r}")
+    scheme, host, port = parse_scheduler_address(address)
+    if scheme == "tcp" and port is not None:
+        probe_scheduler(address, host, port, timeout_s)
+    kind = server_type(address.strip(), timeout_s)
+    if kind != "Scheduler":
+        raise ClusterError(f"Dask scheduler {address!r}: that is a Dask {kind}, not a scheduler "
+                           "(give the scheduler's address, by default port 8786)")
+    from distributed import Client
+
+    try:
+        client = Client(address.strip(), timeout=f"{timeout_s}s", set_as_default=False)
+    except Exception as err:  # distributed re-raises the remote side's errors, of any type
+        raise ClusterError(f"Dask scheduler {address!r}: cannot connect: {type(err).__name__}: "
+                           f"{' '.join(str(err).split())[:200]}") from None
+    log.info("connected to the Dask scheduler at %s", address)
+    return client
+
+
+def server_type(address: str, timeout_s: float) -> str:
+    """The ``type`` a Dask server at ``address`` reports (``Scheduler``, ``Worker``, ``Nanny``), within ``timeout_s``.
+
+    Runs ``identity`` over ``distributed.core.rpc`` on an event loop of its own (in a worker
+    thread, so it also works when the caller runs an event loop); ``ClusterError`` when it
+    fails or takes longer.
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+    from concurrent.futures import TimeoutError as FutureTimeout
+
+    from distributed.core import rpc
+
+    async def identity() -> Any:
+        async with rpc(address, timeout=timeout_s) as remote:
+            return await asyncio.wait_for(remote.identity(), timeout_s)
+
+    pool = ThreadPoolExecutor(max_workers=1)
+    try:
+        info = pool.submit(asyncio.run, identity()).result(timeout=2 * timeout_s)
+    except (FutureTimeout, TimeoutError):
+        raise ClusterError(f"Dask scheduler {address!r}: no reply to 'identity' within {timeout_s:g} s") from None
+    except Exception as err:  # the remote side's error, or a transport error, of any type
+        raise ClusterError(f"Dask scheduler {address!r}: 'identity' failed: {type(err).__name__}: "
+                           f"{' '.join(str(err).split())[:200]}") from None
+    finally:
+        pool.shutdown(wait=False, cancel_futures=True)
+    kind = info.get("type") if isinstance(info, dict) else None
+    return str(kind) if kind else "server of unknown type"
+
+
+def probe_scheduler(address: str, host: str, port: int, timeout_s: float) -> None:
+    """Check within ``timeout_s`` that ``host:port`` opens with a Dask handshake; ``ClusterError`` if not."""
+    deadline = time.monotonic() + timeout_s
+    try:
+        sock = socket.create_connection((host, port), timeout=timeout_s)
+    except socket.gaierror as err:
+        raise ClusterError(f"Dask scheduler {address!r}: unknown host {host!r} ({err.strerror})") from None
+    except ConnectionRefusedError:
+        raise ClusterError(f"Dask scheduler {address!r}: nothing listens on {host}:{port} "
+                           "(connection refused)") from None
+    except TimeoutError:
+        raise ClusterError(f"Dask scheduler {address!r}: no answer from {host}:{port} within {timeout_s:g} s") from None
+    except OSError as err:
+        raise ClusterError(f"Dask scheduler {address!r}: cannot reach {host}:{port} ({err.strerror or err})") from None
+    with sock:
+        head, closed = _recv(sock, 8, min(deadline, time.monotonic() + timeout_s / 2))
+        if not head and not closed:
+            _send_quietly(sock, _HTTP_PROBE)  # a Dask server speaks first; an HTTP server answers a request
+            head, closed = _recv(sock, 8, deadline)
+        _check_head(address, host, port, head, closed, timeout_s)
+        (n,) = struct.unpack("Q", head)
+        body, _ = _recv(sock, n, deadline)
+        if len(body) < n:
+            raise ClusterError(f"Dask scheduler {address!r}: {host}:{port} stopped after {len(body)} of the "
+                               f"{n} handshake bytes it announced (not a Dask scheduler?)")
+    _check_body(address, host, port, body)
+
+
+def _check_head(address: str, host: str, port: int, head: bytes, closed: bool, timeout_s: float) -> None:
+    where = f"Dask scheduler {address!r}: {host}:{port}"
+    if head.startswith(b"HTTP/"):
+        raise ClusterError(f"{where} is an HTTP server, not a Dask scheduler (the dashboard? the scheduler "
+                           "listens on tcp://host:8786 by default)")
+    if not head and closed:
+        raise ClusterError(f"{where} closed the connection without a Dask handshake (not a Dask scheduler?)")
+    if not head:
+        raise ClusterError(f"{where} accepted the connection but sent no Dask handshake within {timeout_s:g} s "
+                           "(not a Dask scheduler?)")
+    if len(head) < 8:
+        raise ClusterError(f"{where} sent {len(head)} bytes ({head[:8].hex()}) and then nothing: not a Dask handshake")
+    (n,) = struct.unpack("Q", head)
+    if not 8 <= n <= _MAX_HANDSHAKE:
+        raise ClusterError(f"{where} does not speak the Dask protocol: its first bytes ({head.hex()}) announce "
+                           f"a {n}-byte message")
+
+
+def _check_body(address: str, host: str, port: int, body: bytes) -> None:
+    from distributed.protocol import loads
+    from distributed.protocol.utils import unpack_frames
+
+    try:
+        frames, missing = unpack_frames(body, partial=True)
+        msg = None if missing else loads(frames, deserialize=False)
+    except Exception:  # garbage that merely looked like a length: reported below
+        msg = None
+    if not isinstance(msg, dict) or "pickle-protocol" not in msg:
+        raise ClusterError(f"Dask scheduler {address!r}: {host}:{port} answered with bytes that are not a Dask "
+                           "handshake (not a Dask scheduler?)")
+
+
+def _recv(sock: socket.socket, n: int, deadline: float) -> tuple[bytes, bool]:
+    """(up to ``n`` bytes received before ``deadline``, whether the peer closed the connection)."""
+    buf = bytearray()
+    while len(buf) < n:
+        left = deadline - time.monotonic()
+        if left <= 0:
+            break
+        sock.settimeout(left)
+        try:
+            chunk = sock.recv(min(n - len(buf), 65536))
+        except TimeoutError:
+            break
+        except OSError:
+            return bytes(buf), True
+        if not chunk:
+            return bytes(buf), True
+        buf.extend(chunk)
+    return bytes(buf), False
+
+
+def _send_quietly(sock: socket.socket, data: bytes) -> None:
+    try:
+        sock.sendall(data)
+    except OSError:
+        pass
