@@ -8,6 +8,8 @@ shared machine, with ``nice -n 10``):
 * ``paper SCENARIO [WORKERS]``: a paper-scale scenario end to end on the local pool
   (target <= 45 min); its run folder is ``results/work/SCENARIO``, the folder
   ``roman-sim reproduce --scenario SCENARIO`` uses, so the reference run reuses it.
+* ``probe SCENARIO WORKERS LENGTH_M``: the same with every robot stopped after LENGTH_M metres
+  (in ``results/work/SCENARIO-probe``): seconds per km per stage on the paper-scale worlds.
 * ``dask SCENARIO``: the scenario fresh on a loopback Dask ``LocalCluster`` with 1 then 2
   workers (target speed-up >= 1.8x).
 * ``pairs SCENARIO``: from a finished run of SCENARIO, the evaluation again with all pairs and
@@ -87,6 +89,19 @@ def part_paper(name: str, workers: int) -> dict[str, Any]:
     return res
 
 
+def part_probe(name: str, workers: int, length_m: float) -> dict[str, Any]:
+    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.pipeline.scenario import load_scenario
+
+    n = len(load_scenario(name).robots)
+    ovr = [f"robots.{i}.max_length_m={length_m}" for i in range(n)]
+    res = _run(name, WORK / f"{name}-probe", ExecutorConfig(kind="local", workers=workers), ovr)
+    km = res["trajectory_km"] or 0.0
+    res["workers"], res["length_m"] = workers, length_m
+    res["seconds_per_km"] = {k: round(v / km, 1) for k, v in res["stages_s"].items() if v is not None and km}
+    return res
+
+
 def part_dask(name: str, overrides: list[str]) -> dict[str, Any]:
     from roman_sim.pipeline.executors import ExecutorConfig
 
@@ -135,12 +150,14 @@ def main(argv: list[str]) -> None:
         key, fig = "demo_workers", part_demo()
     elif part == "paper":
         key, fig = f"paper_{rest[0]}", part_paper(rest[0], int(rest[1]) if len(rest) > 1 else os.cpu_count() or 1)
+    elif part == "probe":
+        key, fig = f"probe_{rest[0]}", part_probe(rest[0], int(rest[1]), float(rest[2]))
     elif part == "dask":
         key, fig = f"dask_{rest[0]}", part_dask(rest[0], rest[1:])
     elif part == "pairs":
         key, fig = f"pairs_{rest[0]}", part_pairs(rest[0], int(rest[1]) if len(rest) > 1 else os.cpu_count() or 1)
     else:
-        raise SystemExit(f"unknown part {part!r} (demo, paper, dask, pairs)")
+        raise SystemExit(f"unknown part {part!r} (demo, paper, probe, dask, pairs)")
     fig["load_before"], fig["load_after"] = before, _load()
     data = json.loads(OUT.read_text()) if OUT.is_file() else {}
     data[key] = fig

@@ -131,16 +131,40 @@ def _http_host(dask_scheduler=None) -> str:
     return dask_scheduler.http_server.address
 
 
-def _http_status(info, path: str) -> int:
-    import urllib.error
-    import urllib.request
-
-    url = f"http://127.0.0.1:{info['services']['dashboard']}{path}"
+_DASHBOARD_PROBE = """
+import json, sys, urllib.error, urllib.request
+from roman_sim.pipeline.dask_executor import DaskExecutor
+from roman_sim.pipeline.executors import ExecutorConfig
+def status(port):
     try:
-        with urllib.request.urlopen(url, timeout=10) as r:
+        with urllib.request.urlopen(f"http://127.0.0.1:{port}/status", timeout=10) as r:
             return r.status
     except urllib.error.HTTPError as err:
         return err.code
+if __name__ == "__main__":
+    with DaskExecutor(ExecutorConfig(kind="dask", workers=1, dashboard=sys.argv[1] == "on")) as ex:
+        info = ex.client.scheduler_info()
+        host = ex.client.run_on_scheduler(lambda dask_scheduler: dask_scheduler.http_server.address)
+        print(json.dumps([host, status(info["services"]["dashboard"])]))
+"""
+
+
+def _dashboard(tmp_path, mode: str) -> list:
+    """(HTTP host, status of /status) of a fresh local cluster, in a process of its own.
+
+    Its own process: a dashboard another test started in this process leaves its pages
+    registered in ``distributed``'s HTTP routes.
+    """
+    import json
+    import os
+    import subprocess
+    import sys
+
+    script = tmp_path / "dash_probe.py"
+    script.write_text(_DASHBOARD_PROBE)
+    out = subprocess.run([sys.executable, str(script), mode], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}, check=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
 
 
 def _w11_probe() -> str:
@@ -154,8 +178,7 @@ def test_local_cluster_is_loopback_only_and_plugins_must_be_importable_on_worker
         info = ex.client.scheduler_info()
         assert ex.address.startswith("tcp://127.0.0.1:")
         assert all(w.startswith("tcp://127.0.0.1:") for w in info["workers"])
-        assert _http_status(info, "/status") == 404  # no dashboard pages; HTTP only on loopback
-        assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"
+        assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"  # health/metrics HTTP on loopback only
         local = tmp_path / "local"
         local.mkdir()
         (local / "w11_probe_plugin.py").write_text("NAME = 'probe'\n")
@@ -170,9 +193,8 @@ def test_local_cluster_is_loopback_only_and_plugins_must_be_importable_on_worker
         assert ex.address.startswith("tls://127.0.0.1:")
         ex.check_imports(["w11_uploaded_plugin"])
         assert ex.map(_w11_probe, [()], ["probe"]) == ["uploaded aligner"]
-    with DaskExecutor(ExecutorConfig(kind="dask", workers=1, dashboard=True)) as ex:
-        assert _http_status(ex.client.scheduler_info(), "/status") == 200
-        assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"
+    assert _dashboard(tmp_path, "off") == ["127.0.0.1", 404]  # no dashboard pages unless asked for
+    assert _dashboard(tmp_path, "on") == ["127.0.0.1", 200]
     with pytest.raises(ConfigError, match="executor.upload"):
         DaskExecutor(ExecutorConfig(kind="dask", workers=1, upload=[str(tmp_path / "missing.py")]))
 
