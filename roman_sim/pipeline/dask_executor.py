@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
-from roman_sim.pipeline.executors import Executor, ExecutorConfig, TaskError, guarded
+from roman_sim.pipeline.executors import Executor, ExecutorConfig, TaskError, collect, guarded
 
 log = logging.getLogger(__name__)
 
@@ -36,6 +36,26 @@ def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
     except Exception as err:  # distributed raises OSError, TimeoutError or the remote side's errors
         msg = " ".join(str(err).split())[:240]
         raise ClusterError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None
+
+
+def _result(fut: Any) -> Any:
+    """A future's result; errors of the cluster itself (a lost worker, an unpicklable result) as ``TaskError``."""
+    try:
+        return fut.result()
+    except (RomanSimError, _LOST):
+        raise
+    except Exception as err:
+        if type(err).__name__ == "CancelledError":
+            raise
+        raise TaskError(f"{type(err).__name__}: {' '.join(str(err).split())[:240]}") from None
+
+
+try:
+    from distributed.scheduler import KilledWorker as _KilledWorker
+
+    _LOST: tuple[type[BaseException], ...] = (_KilledWorker,)
+except ImportError:  # distributed is optional until a Dask executor is built
+    _LOST = ()
 
 
 class DaskExecutor(Executor):
@@ -75,17 +95,10 @@ class DaskExecutor(Executor):
 
         if not args:
             return
-        futures = [self.client.submit(guarded, fn, labels[i], *a, pure=False) for i, a in enumerate(args)]
-        index = {f.key: i for i, f in enumerate(futures)}
+        futures = {self.client.submit(guarded, fn, labels[i], True, *a, pure=False): i for i, a in enumerate(args)}
         try:
-            for fut in as_completed(futures, loop=self.client.loop):
-                i = index[fut.key]
-                try:
-                    yield i, fut.result()
-                except RomanSimError:
-                    raise
-                except Exception as err:  # lost workers, a scheduler gone, unpicklable results
-                    raise TaskError(f"{labels[i]}: {type(err).__name__}: {' '.join(str(err).split())[:240]}") from None
+            yield from collect(futures, labels, as_completed(list(futures), loop=self.client.loop), _result,
+                               self.client.cancel, _LOST)
         finally:
             self.client.cancel([f for f in futures if not f.done()])
 

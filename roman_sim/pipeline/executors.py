@@ -7,9 +7,12 @@ results in task order, so the output never depends on the executor, the worker c
 order in which tasks finish. Task functions are top-level functions of importable modules
 (the pool and Dask pickle them by reference) and return plain data.
 
-An error inside a task reaches the caller as a ``TaskError`` naming the task and the
-worker (the process or the Dask worker's address); in-process execution raises the task's
-own error unchanged.
+When tasks fail, the pending tasks are cancelled (on the local pool the running ones still
+finish and are yielded, so the caller checkpoints them), and the error of the failed task
+with the lowest index is raised once nothing runs any more. The package's
+own errors (``RomanSimError``) reach the caller unchanged from the local pool and, on Dask,
+as a ``TaskError`` that also names the worker's address; any other exception (a bug, a
+plug-in's own error) becomes a ``TaskError`` naming the task.
 """
 
 from __future__ import annotations
@@ -82,16 +85,45 @@ def worker_name() -> str:
         return f"{socket.gethostname()}:pid{os.getpid()}"
 
 
-def guarded(fn: Callable[..., Any], label: str, *args: Any) -> Any:
-    """Run ``fn(*args)`` on a worker; any error becomes a ``TaskError`` naming ``label`` and the worker."""
+def guarded(fn: Callable[..., Any], label: str, name_worker: bool, *args: Any) -> Any:
+    """Run ``fn(*args)`` on a worker: errors become picklable one-liners (see the module docstring)."""
     try:
         return fn(*args)
     except RomanSimError as err:
+        if not name_worker:
+            raise
         raise TaskError(f"{label} failed on worker {worker_name()}: {err}") from None
     except Exception as err:  # a bug or a plug-in's own error: keep the place it happened
         where = traceback.extract_tb(err.__traceback__)[-1]
-        raise TaskError(f"{label} failed on worker {worker_name()}: {type(err).__name__}: {err} "
+        on = f" on worker {worker_name()}" if name_worker else ""
+        raise TaskError(f"{label} failed{on}: {type(err).__name__}: {err} "
                         f"(at {os.path.basename(where.filename)}:{where.lineno})") from None
+
+
+def collect(futures: dict[Any, int], labels: Sequence[str], completed: Iterator[Any], result: Callable[[Any], Any],
+            cancel: Callable[[list[Any]], None], lost: type[BaseException] | tuple[type[BaseException], ...]
+            ) -> Iterator[tuple[int, Any]]:
+    """Yield ``(index, result)`` of finished futures; after a failure cancel the pending ones and,
+    once the running ones are done, raise the error of the lowest failed index."""
+    failed: dict[int, BaseException] = {}
+    for fut in completed:
+        i = futures[fut]
+        try:
+            res = result(fut)
+        except lost as err:  # the worker died: not the task's own error
+            failed[i] = TaskError(f"{labels[i]}: a worker was lost ({type(err).__name__})")
+        except BaseException as err:  # CancelledError is a BaseException for asyncio-based futures
+            if type(err).__name__ == "CancelledError":
+                continue
+            if not isinstance(err, Exception):
+                raise
+            failed[i] = err
+        else:
+            yield i, res
+            continue
+        cancel([f for f, j in futures.items() if j not in failed])
+    if failed:
+        raise failed[min(failed)]
 
 
 class Executor(ABC):
@@ -159,14 +191,10 @@ class LocalPoolExecutor(Executor):
         if not args:
             return
         pool = self._get_pool()
-        futures = {pool.submit(guarded, fn, labels[i], *a): i for i, a in enumerate(args)}
+        futures = {pool.submit(guarded, fn, labels[i], False, *a): i for i, a in enumerate(args)}
         try:
-            for fut in as_completed(futures):
-                try:
-                    yield futures[fut], fut.result()
-                except BrokenProcessPool:
-                    raise TaskError(f"{labels[futures[fut]]}: a worker process died "
-                                    "(out of memory or killed)") from None
+            yield from collect(futures, labels, as_completed(futures), lambda f: f.result(),
+                               lambda fs: [f.cancel() for f in fs], BrokenProcessPool)
         finally:
             for fut in futures:
                 fut.cancel()

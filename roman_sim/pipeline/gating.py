@@ -48,11 +48,11 @@ def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return v / n if n > 0 else v
 
 
-def submap_descriptor(s: Submap, cfg: GatingConfig) -> NDArray[np.float64]:
-    """The unit global descriptor of ``s`` (zeros for an empty submap)."""
+def submap_descriptor(s: Submap, cfg: GatingConfig, dim: int | None = None) -> NDArray[np.float64]:
+    """The unit global descriptor of ``s``; zeros for an empty submap (``dim``: semantic dimension)."""
     n = len(s.segment_ids)
     if n == 0:
-        dim = s.descriptors.shape[1] if s.descriptors.ndim == 2 else 0
+        dim = dim if dim is not None else (s.descriptors.shape[1] if s.descriptors.ndim == 2 else 0)
         return np.zeros(dim + len(_VOLUME_EDGES) - 1 + 3)
     sem = _unit(np.asarray(s.descriptors, dtype=np.float64).mean(axis=0))
     logv = np.log10(np.clip(np.asarray(s.volumes, dtype=np.float64), 1e-3, 1e3))
@@ -62,15 +62,15 @@ def submap_descriptor(s: Submap, cfg: GatingConfig) -> NDArray[np.float64]:
 
 
 def gate_pairs(pairs: list[tuple[Submap, Submap]], cfg: GatingConfig) -> tuple[list[bool], list[float]]:
-    """Per pair: whether it is registered, and its descriptor similarity."""
-    names = sorted({s.name for ab in pairs for s in ab})
-    if not pairs:
-        return [], []
-    subs = {s.name: s for ab in pairs for s in ab}
-    desc = {n: submap_descriptor(subs[n], cfg) for n in names}
-    sims = [float(np.dot(desc[a.name], desc[b.name])) for a, b in pairs]
+    """Per pair: whether it is registered, and its descriptor similarity (NaN when gating is off)."""
     if not cfg.enabled:
-        return [True] * len(pairs), sims
+        return [True] * len(pairs), [float("nan")] * len(pairs)
+    names = sorted({s.name for ab in pairs for s in ab})
+    subs = {s.name: s for ab in pairs for s in ab}
+    dim = max((subs[n].descriptors.shape[1] for n in names if subs[n].descriptors.ndim == 2
+               and len(subs[n].segment_ids)), default=0)
+    desc = {n: submap_descriptor(subs[n], cfg, dim) for n in names}
+    sims = [float(np.dot(desc[a.name], desc[b.name])) for a, b in pairs]
     keep = [cfg.min_similarity is not None and s >= cfg.min_similarity for s in sims]
     if cfg.top_k is not None:
         by_submap: dict[str, list[int]] = {}

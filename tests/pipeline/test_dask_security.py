@@ -12,7 +12,7 @@ import pytest
 from roman_sim.core.errors import ClusterError, ConfigError
 from roman_sim.pipeline.dask_executor import DaskExecutor, connect_client
 from roman_sim.pipeline.dask_security import PluginImportError, check_address, is_loopback, security_for
-from roman_sim.pipeline.executors import ExecutorConfig
+from roman_sim.pipeline.executors import ExecutorConfig, TaskError
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_same_run_folder as assert_same_folder
@@ -134,7 +134,7 @@ def _http_host(dask_scheduler=None) -> str:
 _DASHBOARD_PROBE = """
 import json, sys, urllib.error, urllib.request
 from roman_sim.pipeline.dask_executor import DaskExecutor
-from roman_sim.pipeline.executors import ExecutorConfig
+from roman_sim.pipeline.executors import ExecutorConfig, TaskError
 def status(port):
     try:
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/status", timeout=10) as r:
@@ -167,6 +167,12 @@ def _dashboard(tmp_path, mode: str) -> list:
     return json.loads(out.strip().splitlines()[-1])
 
 
+def _no_odd(x: int) -> int:
+    if x % 2:
+        raise ConfigError("no odd numbers")
+    return x
+
+
 def _w11_probe() -> str:
     import w11_uploaded_plugin
 
@@ -179,6 +185,8 @@ def test_local_cluster_is_loopback_only_and_plugins_must_be_importable_on_worker
         assert ex.address.startswith("tcp://127.0.0.1:")
         assert all(w.startswith("tcp://127.0.0.1:") for w in info["workers"])
         assert ex.client.run_on_scheduler(_http_host) == "127.0.0.1"  # health/metrics HTTP on loopback only
+        with pytest.raises(TaskError, match=r"^task 1 failed on worker tcp://127\.0\.0\.1:\d+: no odd numbers$"):
+            ex.map(_no_odd, [(0,), (1,), (2,)], ["task 0", "task 1", "task 2"])
         local = tmp_path / "local"
         local.mkdir()
         (local / "w11_probe_plugin.py").write_text("NAME = 'probe'\n")

@@ -22,6 +22,18 @@ def _fail_on_two(x: int) -> int:
     return x * x
 
 
+def _fail_from_two(x: int) -> int:
+    if x <= 2:
+        raise ConfigError("two is not allowed" if x == 2 else "one is not allowed")
+    if x == 5:
+        raise ConfigError("five is not allowed")
+    return x
+
+
+def _divide(x: int) -> float:
+    return 1 / x
+
+
 def _pid(_: int) -> int:
     return os.getpid()
 
@@ -35,8 +47,12 @@ def test_serial_and_pool_give_results_in_task_order_and_name_the_failing_worker(
     with LocalPoolExecutor(2) as ex:
         assert ex.map(_fail_on_two, [(i,) for i in (0, 1, 3)], ["a", "b", "c"]) == [0, 1, 9]
         assert os.getpid() not in ex.map(_pid, args, ["p"] * 5)
-        with pytest.raises(TaskError, match=r"task 2 failed on worker \S+:pid\d+: two is not allowed"):
+        with pytest.raises(ConfigError, match="^two is not allowed$"):  # the package's errors unchanged
             ex.map(_fail_on_two, args, [f"task {i}" for i in range(5)])
+        with pytest.raises(ConfigError, match="^five is not allowed$"):  # the lowest failed index wins
+            ex.map(_fail_from_two, [(i,) for i in (5, 4, 3, 2, 1)], [f"task {i}" for i in range(5)])
+        with pytest.raises(TaskError, match=r"^task 1 failed: ZeroDivisionError: division by zero \(at "):
+            ex.map(_divide, [(1,), (0,), (2,)], ["task 0", "task 1", "task 2"])
 
 
 def test_open_executor_kinds():

@@ -64,6 +64,10 @@ def test_top_k_and_threshold_keep_the_most_similar_candidates():
     keep, _ = gate_pairs(pairs, GatingConfig(enabled=True, top_k=None, min_similarity=sims[1]))
     assert keep == [False, True, True]
     assert gate_pairs(pairs, GatingConfig(enabled=False))[0] == [True, True, True]
+    empty = _submap("c", 0, [[1, 0, 0]], [1.0])
+    empty.segment_ids, empty.descriptors = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.float32)
+    keep, sims = gate_pairs([(q, empty), (q, near)], GatingConfig(enabled=True, top_k=1))
+    assert keep == [True, True] and sims[0] == 0.0  # an empty submap: zero similarity, still its own best
 
 
 def test_gated_run_aligns_only_kept_pairs_and_counts_the_rest_as_misses(smoke_run, tmp_path):
