@@ -3,15 +3,16 @@
 Parts (each merges its figures into ``benchmarks/out/scale.json``; run them one by one on a
 shared machine, with ``nice -n 10``):
 
-* ``demo``: the demo fresh with the local pool, 1 worker then 2, in this one benchmark run
-  (target: 2 workers <= 0.6x the 1-worker time).
+* ``demo [REPEATS]``: the demo fresh with the local pool, 1 and 2 workers interleaved
+  REPEATS times (default 2) in this one benchmark run (target: 2 workers <= 0.6x the
+  1-worker time, medians).
 * ``paper SCENARIO [WORKERS]``: a paper-scale scenario end to end on the local pool
   (target <= 45 min); its run folder is ``results/work/SCENARIO``, the folder
   ``roman-sim reproduce --scenario SCENARIO`` uses, so the reference run reuses it.
 * ``probe SCENARIO WORKERS LENGTH_M``: the same with every robot stopped after LENGTH_M metres
   (in ``results/work/SCENARIO-probe``): seconds per km per stage on the paper-scale worlds.
-* ``dask SCENARIO``: the scenario fresh on a loopback Dask ``LocalCluster`` with 1 then 2
-  workers (target speed-up >= 1.8x).
+* ``dask SCENARIO [REPEATS]``: the scenario fresh on a loopback Dask ``LocalCluster`` with 1
+  and 2 workers, interleaved REPEATS times (default 3; target speed-up >= 1.8x, medians).
 * ``pairs SCENARIO``: from a finished run of SCENARIO, the evaluation again with all pairs and
   with submap gating: pairs per second per method, and recall per heading bin side by side.
 
@@ -68,16 +69,29 @@ def _posegraph(run_dir: Path) -> Any:
         return None
 
 
-def part_demo() -> dict[str, Any]:
+def _one_vs_two(name: str, kind: str, repeats: int, overrides: list[str] | None = None) -> dict[str, Any]:
+    """``name`` fresh with 1 and 2 workers, interleaved ``repeats`` times (the load of a shared machine
+    drifts within minutes: the medians of interleaved runs compare like with like)."""
+    import statistics
+
     from roman_sim.pipeline.executors import ExecutorConfig
 
-    out: dict[str, Any] = {}
+    runs: dict[int, list[dict[str, Any]]] = {1: [], 2: []}
     with tempfile.TemporaryDirectory() as d:
-        for w in (1, 2):
-            out[f"workers_{w}"] = _run("demo", Path(d) / f"w{w}", ExecutorConfig(kind="local", workers=w))
-    out["ratio_2_over_1"] = round(out["workers_2"]["total_s"] / out["workers_1"]["total_s"], 3)
-    out["target"] = "<= 0.6"
-    return out
+        for r in range(repeats):
+            for w in ((1, 2) if r % 2 == 0 else (2, 1)):
+                runs[w].append(_run(name, Path(d) / f"w{w}r{r}", ExecutorConfig(kind=kind, workers=w), overrides))
+                runs[w][-1]["load_after"] = _load()
+    med = {w: statistics.median(x["total_s"] for x in rs) for w, rs in runs.items()}
+    return {"scenario": name, "executor": kind, "repeats": repeats,
+            "total_s": {str(w): [x["total_s"] for x in rs] for w, rs in runs.items()},
+            "stages_s": {str(w): [x["stages_s"] for x in rs] for w, rs in runs.items()},
+            "median_s": {str(w): m for w, m in med.items()}, "ratio_2_over_1": round(med[2] / med[1], 3),
+            "speedup_2_over_1": round(med[1] / med[2], 3), "example_run": runs[1][0]}
+
+
+def part_demo(repeats: int) -> dict[str, Any]:
+    return {**_one_vs_two("demo", "local", repeats), "target": "ratio_2_over_1 <= 0.6"}
 
 
 def part_paper(name: str, workers: int) -> dict[str, Any]:
@@ -102,16 +116,8 @@ def part_probe(name: str, workers: int, length_m: float) -> dict[str, Any]:
     return res
 
 
-def part_dask(name: str, overrides: list[str]) -> dict[str, Any]:
-    from roman_sim.pipeline.executors import ExecutorConfig
-
-    out: dict[str, Any] = {"overrides": overrides}
-    with tempfile.TemporaryDirectory() as d:
-        for w in (1, 2):
-            out[f"workers_{w}"] = _run(name, Path(d) / f"w{w}", ExecutorConfig(kind="dask", workers=w), overrides)
-    out["speedup_2_over_1"] = round(out["workers_1"]["total_s"] / out["workers_2"]["total_s"], 3)
-    out["target"] = ">= 1.8"
-    return out
+def part_dask(name: str, repeats: int) -> dict[str, Any]:
+    return {**_one_vs_two(name, "dask", repeats), "target": "speedup_2_over_1 >= 1.8"}
 
 
 def part_pairs(name: str, workers: int) -> dict[str, Any]:
@@ -147,13 +153,13 @@ def main(argv: list[str]) -> None:
     part, rest = argv[0], argv[1:]
     before = _load()
     if part == "demo":
-        key, fig = "demo_workers", part_demo()
+        key, fig = "demo_workers", part_demo(int(rest[0]) if rest else 2)
     elif part == "paper":
         key, fig = f"paper_{rest[0]}", part_paper(rest[0], int(rest[1]) if len(rest) > 1 else os.cpu_count() or 1)
     elif part == "probe":
         key, fig = f"probe_{rest[0]}", part_probe(rest[0], int(rest[1]), float(rest[2]))
     elif part == "dask":
-        key, fig = f"dask_{rest[0]}", part_dask(rest[0], rest[1:])
+        key, fig = f"dask_{rest[0]}", part_dask(rest[0], int(rest[1]) if len(rest) > 1 else 3)
     elif part == "pairs":
         key, fig = f"pairs_{rest[0]}", part_pairs(rest[0], int(rest[1]) if len(rest) > 1 else os.cpu_count() or 1)
     else:

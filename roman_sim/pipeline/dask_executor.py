@@ -42,7 +42,7 @@ def _result(fut: Any) -> Any:
     """A future's result; errors of the cluster itself (a lost worker, an unpicklable result) as ``TaskError``."""
     try:
         return fut.result()
-    except (RomanSimError, _LOST):
+    except (RomanSimError, *_LOST):
         raise
     except Exception as err:
         if type(err).__name__ == "CancelledError":
