@@ -157,3 +157,18 @@ def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", 
     ref = run.ate.rmse(reference, alignment)
     assert got is not None and ref is not None, f"ATE not computable: {variant}={got}, {reference}={ref}"
     assert got < ref, f"ATE of {variant} ({got:.3f} m) is not below {reference} ({ref:.3f} m)"
+
+
+def run_folder_bytes(run_dir: str | Path) -> dict[str, bytes]:
+    """Every file of a run folder except the wall-clock ``timings.json``, by relative path."""
+    d = Path(run_dir)
+    return {p.relative_to(d).as_posix(): p.read_bytes() for p in sorted(d.rglob("*"))
+            if p.is_file() and p.name != "timings.json"}
+
+
+def assert_same_run_folder(a: str | Path, b: str | Path) -> None:
+    """Two run folders hold the same files with the same bytes (timings aside), e.g. across executors."""
+    fa, fb = run_folder_bytes(a), run_folder_bytes(b)
+    assert sorted(fa) == sorted(fb), f"different files: {sorted(set(fa) ^ set(fb))}"
+    differ = [n for n in fa if fa[n] != fb[n]]
+    assert not differ, f"files differ: {differ}"

@@ -11,6 +11,7 @@ from rich.console import Console
 from rich.progress import Progress
 from rich.table import Table
 
+from roman_sim.cli import _executor as X
 from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
 from roman_sim.cli.progress import LineProgress, interactive, rich_progress
@@ -117,12 +118,14 @@ def print_summary(result: Any) -> None:
 
 
 def _run(scenario: str, out: Path | None, sets: list[str] | None, fresh: bool,
-         submaps: Path | None, aligners: list[str] | None, from_stage: str | None = None) -> None:
+         submaps: Path | None, aligners: list[str] | None, from_stage: str | None = None,
+         executor: Any = None) -> None:
     from roman_sim.pipeline.experiment import Experiment, default_run_dir
     from roman_sim.pipeline.scenario import load_scenario, with_aligners
 
     sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
-    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage)
+    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage,
+                     executor=executor)
     exp.validate()
     try:
         if interactive():
@@ -163,18 +166,44 @@ def run_cmd(
                                                 help="add an aligner (name or package.module:Class)"),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on "
                                              "(maps, submaps, evaluation, posegraph, report)"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
-    """Run a scenario end to end and print the summary."""
-    _run(scenario, out, sets, fresh, submaps, aligner, from_stage)
+    """Run a scenario end to end and print the summary (robots and pairs spread over the workers)."""
+    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
+                               tls_cert, tls_key, insecure, dashboard, upload)
+    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex)
 
 
 @app.command("demo")
 def demo_cmd(
     out: Path | None = typer.Option(None, "--out", "-o", help="results folder (default results/demo/...)"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run the demo scenario: ROMAN against CLIPPER and RANSAC on opposite-direction traversals."""
-    _run(DEMO_SCENARIO, out, None, fresh, None, None)
+    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
+                               tls_cert, tls_key, insecure, dashboard, upload)
+    _run(DEMO_SCENARIO, out, None, fresh, None, None, None, ex)
 
 
 @app.command("record")
@@ -259,21 +288,24 @@ def report_cmd(
 def sweep_cmd(
     sweep_file: Path = typer.Argument(..., help="sweep YAML (scenario, grid, seeds, executor)"),
     out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/sweeps/<name>)"),
-    executor: str | None = typer.Option(None, "--executor", help="serial, local or dask (overrides the file)"),
-    workers: int | None = typer.Option(None, "--workers", help="number of processes / Dask workers"),
-    scheduler: str | None = typer.Option(None, "--scheduler", help="Dask scheduler address (tcp://host:8786)"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
-    """Run a parameter x seed sweep (resumable) and write sweep.csv."""
-    from roman_sim.core.config import validate_model
-    from roman_sim.pipeline.sweep import ExecutorConfig, load_sweep, run_sweep, sweep_failures
+    """Run a parameter x seed sweep (resumable) and write sweep.csv; exit 1 with a table if a cell failed."""
+    from roman_sim.pipeline.sweep import load_sweep, run_sweep, sweep_failures
 
     cfg, scenario_path = load_sweep(sweep_file)
-    ex = cfg.executor.model_dump()
-    ex.update({k: v for k, v in (("kind", executor), ("workers", workers), ("scheduler_address", scheduler))
-               if v is not None})
-    if scheduler is not None and executor is None:
-        ex["kind"] = "dask"
-    cfg.executor = validate_model(ExecutorConfig, ex, source="executor")
+    cfg.executor = X.executor_config(cfg.executor.model_dump(), executor, workers, scheduler, chunk_pairs, tls,
+                                     tls_ca_file, tls_cert, tls_key, insecure, dashboard, upload)
     out_dir = out or Path("results") / "sweeps" / cfg.name
     if interactive():
         with _progress() as p:
@@ -345,10 +377,23 @@ def reproduce_cmd(
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
     readme: Path | None = typer.Option(Path("README.md"), "--readme",
                                        help="README whose reference-results block is rewritten (when it exists)"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
     from roman_sim.pipeline.reference import reproduce
 
+    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
+                               tls_cert, tls_key, insecure, dashboard, upload)
     path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
-                     from_stage=from_stage, readme=readme if scenario is None or not scenario else None)
+                     from_stage=from_stage, readme=readme if scenario is None or not scenario else None, executor=ex)
     Console().print(path.read_text())

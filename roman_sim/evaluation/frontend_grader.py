@@ -3,6 +3,13 @@
 Definitions are in ``roman_sim.evaluation.frontend_grades``. ``add(frame, masks, observed)``
 has the signature of the mapper's ``on_frame`` hook, so grading runs during mapping for
 whatever segmenter and encoder ran; nothing else in front-end grading reads truth.
+
+Robots are mapped as separate tasks (possibly on other processes), so each robot is graded
+on its own (``part()``: plain data, saved with the robot's checkpoint) and the run's grades
+are ``FrontEndGrader.from_parts`` of the robots' parts in scenario order: the counts are
+summed, and the kept observations are pooled (each robot's reservoir sample weighted by
+how many it saw) and subsampled to ``max_observations`` with the run's seed. The result
+does not depend on the executor or on which robots were resumed.
 """
 
 from __future__ import annotations
@@ -40,6 +47,48 @@ class _Obs:
     desc: NDArray[np.float32]
 
 
+@dataclass
+class GraderPart:
+    """One robot's accumulated grades: segmentation counts, kept observations, observations seen."""
+
+    seg: SegmentationGrades
+    obs: list[_Obs]
+    seen: int
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """The part as arrays (``roman_sim.core.atomic.write_npz``); inverse ``from_arrays``."""
+        import json
+
+        dim = len(self.obs[0].desc) if self.obs else 0
+        return {
+            "seg": np.frombuffer(json.dumps(self.seg.to_json(), sort_keys=True).encode(), dtype=np.uint8),
+            "seen": np.array([self.seen], dtype=np.int64),
+            "oid": np.array([o.oid for o in self.obs], dtype=np.int64),
+            "family": np.array([o.family for o in self.obs], dtype=str),
+            "yaw": np.array([o.yaw for o in self.obs], dtype=np.float64),
+            "frame_robot": np.array([o.frame[0] for o in self.obs], dtype=str),
+            "frame_index": np.array([o.frame[1] for o in self.obs], dtype=np.int64),
+            "desc": np.stack([o.desc for o in self.obs]).astype(np.float32) if self.obs
+            else np.zeros((0, dim), np.float32),
+        }
+
+    @classmethod
+    def from_arrays(cls, d: Mapping[str, np.ndarray]) -> GraderPart:
+        """Inverse of ``arrays``."""
+        import json
+
+        seg = SegmentationGrades.from_json(json.loads(bytes(np.asarray(d["seg"], dtype=np.uint8)).decode()))
+        obs = [_Obs(int(o), str(f), float(y), (str(r), int(i)), np.asarray(v, dtype=np.float32))
+               for o, f, y, r, i, v in zip(d["oid"], d["family"], d["yaw"], d["frame_robot"], d["frame_index"],
+                                           d["desc"])]
+        return cls(seg, obs, int(np.asarray(d["seen"])[0]))
+
+
+_COUNTS = ("frames", "masks", "graded_masks", "matched", "iou_sum", "objects", "spurious", "over_segmented",
+           "under_segmented", "touching_pairs")
+_TABLES = ("table_objects", "table_detected", "table_matched", "table_over")
+
+
 class FrontEndGrader:
     """Accumulates grades frame by frame; ``add`` has the mapper's ``on_frame`` signature.
 
@@ -51,7 +100,7 @@ class FrontEndGrader:
     """
 
     def __init__(self, families: Mapping[int, str], group_of: Callable[[str], str] | None = None,
-                 cfg: GradeConfig | None = None, seed: int = 0) -> None:
+                 cfg: GradeConfig | None = None, seed: int = 0, stream: str | None = None) -> None:
         self.cfg = cfg or GradeConfig()
         self.families = dict(families)
         self.group_of = group_of or (lambda f: f)
@@ -61,7 +110,35 @@ class FrontEndGrader:
                                       area_edges_frac=list(self.cfg.area_edges_frac), **tables)
         self._obs: list[_Obs] = []
         self._seen = 0
-        self._rng = child_rng(seed, "frontend_grades")
+        self._seed = seed
+        self._rng = child_rng(seed, "frontend_grades", *([] if stream is None else [stream]))
+
+    def part(self) -> GraderPart:
+        """This grader's counts and kept observations as plain data (one robot's share)."""
+        return GraderPart(self.seg, list(self._obs), self._seen)
+
+    @classmethod
+    def from_parts(cls, parts: list[GraderPart], group_of: Callable[[str], str] | None = None,
+                   cfg: GradeConfig | None = None, seed: int = 0) -> FrontEndGrader:
+        """A grader holding the sum of ``parts`` (in the given order; see the module docstring)."""
+        out = cls({}, group_of, cfg, seed)
+        s = out.seg
+        for p in parts:
+            for name in _COUNTS:
+                setattr(s, name, getattr(s, name) + getattr(p.seg, name))
+            for name in _TABLES:
+                mine, theirs = getattr(s, name), getattr(p.seg, name)
+                setattr(s, name, (np.asarray(mine, np.int64) + np.asarray(theirs, np.int64)).tolist())
+        obs = [o for p in parts for o in p.obs]
+        weight = np.array([p.seen / len(p.obs) for p in parts for _ in p.obs], dtype=np.float64)
+        out._seen = sum(p.seen for p in parts)
+        cap = out.cfg.max_observations
+        if len(obs) > cap:
+            rng = child_rng(seed, "frontend_grades", "pooled")
+            keep = np.sort(rng.choice(len(obs), size=cap, replace=False, p=weight / weight.sum()))
+            obs = [obs[int(k)] for k in keep]
+        out._obs = obs
+        return out
 
     def add(self, frame: Frame, masks: list[Mask], observed: list[tuple[int, NDArray[np.float32] | None]]) -> None:
         """Grade one frame's masks and keep its observed descriptors."""

@@ -103,6 +103,26 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
                                f"odometry (no prior) / ROMAN / oracle over robots {common}",
                      "paper": num(paper), "cross-robot": f"{sim} (ROMAN placed {num(placed)}/{n} robots)",
                      "same-robot": ""})
+    return rows + paper_scale_rows(runs)
+
+
+def paper_scale_rows(runs: dict[str, Any]) -> list[dict[str, str]]:
+    """ATE rows of the paper-scale ``kimera_*`` runs present in ``runs`` (the same columns as the small ones)."""
+    rows = []
+    for variant, paper in PAPER["ate_table"].items():
+        scen = f"kimera_{variant}"
+        ate = _ate(runs, scen)
+        if not ate:
+            continue
+        n = len(_get(runs, scen, "ate_robots", "robots") or [])
+        common = _get(runs, scen, "ate_robots", "common") or []
+        sim = " / ".join(num(_get(ate, v, "common")) for v in ("odometry", "odometry_no_prior", "roman", "oracle"))
+        placed = num(_get(ate, "roman", "connected"))
+        rows.append({"figure": f"ATE RMSE {variant}, paper scale ({scen}, {n} robots): paper visual / ROMAN / "
+                               f"combined; here odometry / odometry (no prior) / ROMAN / oracle over the "
+                               f"{len(common)} robots every row placed",
+                     "paper": num(paper), "cross-robot": f"{sim} (ROMAN placed {placed}/{n} robots)",
+                     "same-robot": ""})
     return rows
 
 

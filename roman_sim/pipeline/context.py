@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import Any, Protocol
 
 from roman_sim.pipeline.scenario import Scenario
 
@@ -45,6 +45,9 @@ class RunContext:
             simulating and mapping.
         timings: wall-clock figures stages report (seconds), kept out of the
             reproducible outputs and written to ``timings.json``.
+        executor: where independent tasks run (``roman_sim.pipeline.executors``; None: here).
+        stage_key: cache key of the running stage (checkpoints of finished tasks are kept under it).
+        chunk_pairs: submap pairs per alignment task.
     """
 
     scenario: Scenario
@@ -53,3 +56,14 @@ class RunContext:
     fresh: bool = False
     submaps_dir: Path | None = None
     timings: dict[str, object] = field(default_factory=dict)
+    executor: Any = None
+    stage_key: str | None = None
+    chunk_pairs: int = 32
+
+    def tasks(self) -> Any:
+        """The run's executor (a serial one when none was given)."""
+        from roman_sim.pipeline.executors import SerialExecutor
+
+        if self.executor is None:
+            self.executor = SerialExecutor()
+        return self.executor

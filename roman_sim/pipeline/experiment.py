@@ -9,6 +9,11 @@ finishes; what later stages receive is the output as saved and read back, so a f
 cached stage give the same bytes downstream. A cached stage is loaded only when a stage that
 runs needs its output. Wall-clock
 figures (per stage and per pair) go to ``timings.json``, never into the other outputs.
+
+Independent tasks (one per robot to map, one per chunk of pairs to align) run on the
+executor ``executor`` describes (this process by default; a local pool or Dask). Each
+finished task is checkpointed, so an interrupted stage resumes with the unfinished tasks;
+the checkpoints are removed once the stage completes.
 """
 
 from __future__ import annotations
@@ -24,7 +29,9 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
+from roman_sim.pipeline.checkpoint import clear_checkpoints
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
+from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
 from roman_sim.pipeline.manifest import Manifest, StageRecord, existing_manifest
 from roman_sim.pipeline.result import TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
@@ -49,6 +56,8 @@ class Experiment:
             simulating and mapping.
         from_stage: recompute this stage and every later one, reuse the earlier ones
             (e.g. ``"evaluation"`` after changing an aligner's code).
+        executor: where tasks run (``ExecutorConfig``, an open ``Executor`` the caller
+            closes, or None: in this process).
     """
 
     def __init__(
@@ -59,6 +68,7 @@ class Experiment:
         progress: Progress | None = None,
         submaps_dir: str | Path | None = None,
         from_stage: str | None = None,
+        executor: ExecutorConfig | Executor | None = None,
     ) -> None:
         if from_stage is not None and from_stage not in STAGE_NAMES:
             raise ConfigError(f"from_stage: unknown stage {from_stage!r} (valid: {', '.join(STAGE_NAMES)})")
@@ -68,10 +78,13 @@ class Experiment:
         self.from_stage = from_stage
         self.progress: Progress = progress or NullProgress()
         self.submaps_dir = Path(submaps_dir) if submaps_dir else None
+        self.executor = executor
 
     def context(self) -> RunContext:
         """The run context the stages see."""
-        return RunContext(self.scenario, self.run_dir, self.progress, self.fresh, self.submaps_dir)
+        chunk = self.executor.chunk_pairs if isinstance(self.executor, ExecutorConfig) else ExecutorConfig().chunk_pairs
+        return RunContext(self.scenario, self.run_dir, self.progress, self.fresh, self.submaps_dir,
+                          chunk_pairs=chunk)
 
     def validate(self) -> None:
         """Check what can be checked before any work: world spec, aligners, plug-ins, RGB, output folder.
@@ -157,7 +170,19 @@ class Experiment:
     def run(self) -> RunResult:
         """Run every stage (reusing cached ones) and return the result."""
         self.validate()
+        if isinstance(self.executor, Executor):
+            return self._run(self.executor)
+        with open_executor(self.executor) as ex:
+            return self._run(ex)
+
+    def _run(self, ex: Executor) -> RunResult:
+        from roman_sim.pipeline.dask_security import plugin_modules
+
+        ex.check_imports(plugin_modules(self.scenario))
         ctx = self.context()
+        ctx.executor = ex
+        if self.fresh:
+            clear_checkpoints(self.run_dir)
         active = [s for s in STAGES if s.applies(ctx)]
         keys = self._keys(ctx, active)
         old = existing_manifest(self.run_dir)
@@ -185,12 +210,14 @@ class Experiment:
         reset_peak_rss()
         t0 = time.perf_counter()
         ctx.timings = {}
+        ctx.stage_key = keys.get(stage.name)
         self.progress.start(stage.name)
         out = stage.run(ctx, **{i: outputs.get(i) for i in stage.inputs})
         files = stage.save(out, ctx) if stage.cached else []
         if stage.cached:
             manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
             manifest.save(self.run_dir)
+            clear_checkpoints(self.run_dir, stage.name)
             # Later stages get exactly what a cached re-run would load (saving may round), so a run
             # gives the same bytes whether its earlier stages were computed or reused.
             out = stage.load(ctx, files)
@@ -225,11 +252,12 @@ def run_scenario_file(
     fresh: bool = False,
     progress: Progress | None = None,
     from_stage: str | None = None,
+    executor: ExecutorConfig | Executor | None = None,
 ) -> RunResult:
     """Load a scenario (bundled name or path), apply overrides, run it, return the result."""
     sc = load_scenario(name_or_path, overrides)
     out = Path(run_dir) if run_dir else default_run_dir(sc)
-    return Experiment(sc, out, fresh=fresh, progress=progress, from_stage=from_stage).run()
+    return Experiment(sc, out, fresh=fresh, progress=progress, from_stage=from_stage, executor=executor).run()
 
 
 def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:

@@ -34,6 +34,9 @@ PAPER_SCENARIOS = [
     "same_direction", "partial_opposite", "opposite_direction", "heading_sweep",
     "multi_robot_tunnel", "multi_robot_hybrid", "multi_robot_outdoor",
 ]
+#: Paper-sized multi-robot scenarios (6-8 robots, about 1 km each; tens of minutes each), run on request:
+#: ``roman-sim reproduce --scenario kimera_tunnel --scenario kimera_hybrid --scenario kimera_outdoor``.
+PAPER_SCALE_SCENARIOS = ["kimera_tunnel", "kimera_hybrid", "kimera_outdoor"]
 SMALL_FILES = ("ate.json", "report.md", "config.yaml", "posegraph.json", "map_stats.json", "manifest.json")
 #: Raw data kept compressed (the pairs table, each method's estimates).
 RAW_FILES = ("pairs.csv", "alignments.json")
@@ -115,11 +118,13 @@ def reproduce(
     on_start: Callable[[str], None] | None = None,
     from_stage: str | None = None,
     readme: str | Path | None = None,
+    executor: Any = None,
 ) -> Path:
     """Run ``scenarios`` (default: the paper's and the ambiguity sweep), collect, write the summary.
 
     ``readme``: a README whose results block (between the reference-results markers) is
-    rewritten from the new summary.
+    rewritten from the new summary. ``executor`` (an ``ExecutorConfig``) spreads each run's
+    robots and pairs over workers (the results do not depend on it).
     """
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
@@ -129,7 +134,7 @@ def reproduce(
     for name in scenarios or PAPER_SCENARIOS:
         if on_start:
             on_start(name)
-        res = Experiment(load_scenario(name), work / name, from_stage=from_stage).run()
+        res = Experiment(load_scenario(name), work / name, from_stage=from_stage, executor=executor).run()
         if (out / name).is_dir():
             shutil.rmtree(out / name)
         collect(res.run_dir, out / name)

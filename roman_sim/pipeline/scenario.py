@@ -20,6 +20,7 @@ from roman_sim.interop.tum_reader import TumSourceConfig
 from roman_sim.mapping.frontend import FrontEnd as FrontEndBase
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
+from roman_sim.pipeline.gating import GatingConfig
 from roman_sim.posegraph import PoseGraphConfig
 from roman_sim.sim.robot import RobotConfig
 
@@ -113,6 +114,7 @@ class Scenario(StrictModel):
     )
     posegraph: PoseGraphConfig = Field(default_factory=PoseGraphConfig)
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
+    gating: GatingConfig = Field(default_factory=GatingConfig, description="submap gating before registration")
     record_frames: bool = Field(False, description="store rendered frames so mapping can re-run without rendering")
 
     @property

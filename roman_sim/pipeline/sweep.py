@@ -10,6 +10,11 @@ the seeds with its 95 % interval, and the pooled hits / relevant with a Wilson i
 ``plots/sweep_summary.png``; ``roman-sim report <out>`` prints the summary.
 Any exception inside one run (a user plug-in's included) is recorded as that run's failure
 in the table; the other runs go on.
+
+Cells run as tasks of the run executor interface (``roman_sim.pipeline.executors``: serial,
+local pool, Dask). Every path a task gets is absolute, so a worker in another folder writes
+where the table is read; ``sweep_failures`` lists the cells that failed or left no complete
+run (the CLI prints them and exits 1).
 """
 
 from __future__ import annotations
@@ -20,43 +25,20 @@ import io
 import itertools
 import json
 import logging
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
-from pydantic import Field, field_validator
+from pydantic import Field
 
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.core.registry import one_line
+from roman_sim.pipeline.executors import ExecutorConfig, TaskError, open_executor
 
 log = logging.getLogger(__name__)
-
-
-class ExecutorConfig(StrictModel):
-    """Where the runs execute."""
-
-    kind: Literal["serial", "local", "dask"] = "serial"
-    workers: int = Field(1, ge=1, le=256, description="processes (local) or Dask workers")
-    scheduler_address: str | None = Field(
-        None, description="connect to an existing Dask scheduler (tcp://host:8786) instead of a local cluster"
-    )
-    connect_timeout_s: float = Field(5.0, gt=0, le=600, description="bound on reaching the scheduler (s)")
-
-    @field_validator("scheduler_address")
-    @classmethod
-    def _address(cls, v: str | None) -> str | None:
-        if v is None:
-            return v
-        from roman_sim.pipeline.cluster import parse_scheduler_address
-
-        try:
-            parse_scheduler_address(v)
-        except ConfigError as err:
-            raise ValueError(str(err)) from None
-        return v.strip()
 
 
 class SweepConfig(StrictModel):
@@ -134,30 +116,42 @@ def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed
 
 def run_sweep(
     cfg: SweepConfig,
-    scenario_path: Path,
-    out_dir: Path,
+    scenario_path: str | Path,
+    out_dir: str | Path,
     progress: Callable[[int, int], None] | None = None,
     from_stage: str | None = None,
 ) -> Path:
-    """Run (or resume) every job of the sweep; returns the path of ``sweep.csv``.
+    """Run (or resume) every cell of the sweep on ``cfg.executor``; returns the path of ``sweep.csv``.
 
     ``from_stage`` recomputes that stage and later ones in every run (finished runs included).
+    Paths are resolved here, once: the cells get absolute ones whatever the workers' folders
+    (a bundled scenario name stays a name).
     """
+    out_dir = Path(out_dir).resolve()
+    if Path(scenario_path).is_file():
+        scenario_path = Path(scenario_path).resolve()
     runs = expand(cfg)
     todo = [r for r in runs
             if from_stage is not None or not _is_done(out_dir / r.run_id, str(scenario_path), r.overrides, r.seed)]
     log.info("sweep %s: %d runs, %d to do", cfg.name, len(runs), len(todo))
     args = [(str(scenario_path), r.overrides, r.seed, str(out_dir / r.run_id), from_stage) for r in todo]
-    outcomes: dict[str, dict[str, Any]] = {}
+    failures: dict[str, str] = {}
     done = len(runs) - len(todo)
     if progress:
         progress(done, len(runs))
-    for run, outcome in zip(todo, _execute(cfg.executor, args)):
-        outcomes[run.run_id] = outcome
-        done += 1
-        if progress:
-            progress(done, len(runs))
-    failures = {k: v["error"] for k, v in outcomes.items() if not v["ok"]}
+    finished: set[int] = set()
+    if todo:
+        try:
+            with open_executor(cfg.executor) as ex:
+                for i, outcome in ex.run_tasks(_run_one, args, [f"sweep cell {r.run_id}" for r in todo]):
+                    finished.add(i)
+                    if not outcome["ok"]:
+                        failures[todo[i].run_id] = outcome["error"]
+                    done += 1
+                    if progress:
+                        progress(done, len(runs))
+        except TaskError as err:  # a lost worker: every unfinished cell failed with it
+            failures.update({r.run_id: str(err) for i, r in enumerate(todo) if i not in finished})
     for k, v in failures.items():
         log.warning("run %s failed: %s", k, v)
     from roman_sim.pipeline.sweep_summary import write_sweep_json, write_sweep_summary
@@ -166,41 +160,6 @@ def run_sweep(
     table = write_sweep_table(runs, out_dir, failures)
     write_sweep_summary(out_dir)
     return table
-
-
-def _execute(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[dict[str, Any]]:
-    """Yield outcomes in the order of ``args``."""
-    if ex.kind == "serial" or not args:
-        for a in args:
-            yield _run_one(*a)
-    elif ex.kind == "local":
-        from concurrent.futures import ProcessPoolExecutor
-
-        with ProcessPoolExecutor(max_workers=ex.workers) as pool:
-            yield from pool.map(_run_one, *zip(*args))
-    else:
-        yield from _execute_dask(ex, args)
-
-
-def _execute_dask(ex: ExecutorConfig, args: list[tuple[Any, ...]]) -> Iterable[dict[str, Any]]:
-    from dask.distributed import Client, LocalCluster
-
-    if ex.scheduler_address:
-        from roman_sim.pipeline.cluster import connect
-
-        client = connect(ex.scheduler_address, timeout_s=ex.connect_timeout_s)
-        cluster = None
-    else:
-        cluster = LocalCluster(n_workers=ex.workers, threads_per_worker=1, processes=True, dashboard_address=None)
-        client = Client(cluster)
-    try:
-        futures = [client.submit(_run_one, *a, pure=False) for a in args]
-        for fut in futures:
-            yield fut.result()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
 
 
 def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, str] | None = None) -> Path:

@@ -99,3 +99,20 @@ def test_sweep_cli_bad_file(tmp_path):
     bad.write_text("name: x\nscenario: smoke\ngrid: {a: [1]}\nseeds: []\n")
     res = CliRunner().invoke(app, ["sweep", str(bad)])
     assert res.exit_code == 1 and "seeds" in res.output and "Traceback" not in res.output
+
+
+def test_relative_out_folder_on_a_local_pool_and_failed_cells_exit_nonzero(tmp_path, monkeypatch):
+    """Workers resolve nothing themselves (absolute paths); a failed cell is a table and exit code 1."""
+    monkeypatch.chdir(tmp_path)
+    grid = {**MICRO, "robots.1.speed_mps": [1.0, 99.0]}  # 99 m/s is out of range: that cell fails
+    path = _write(tmp_path, grid=grid, seeds=[0], executor={"kind": "local", "workers": 2})
+    res = CliRunner().invoke(app, ["sweep", str(path), "--out", "rel/out"])
+    assert res.exit_code == 1, res.output
+    assert "1 sweep run(s) failed" in res.output and "speed_mps" in res.output
+    rows = list(csv.DictReader((tmp_path / "rel" / "out" / "sweep.csv").open()))
+    assert sorted({(r["robots.1.speed_mps"], r["status"]) for r in rows}) == [("1.0", "ok"), ("99.0", "failed")]
+    assert len([r for r in rows if r["status"] == "ok"]) == 2  # roman and clipper of the good cell
+    cfg, scenario = load_sweep(_write(tmp_path, seeds=[0], executor={"kind": "local", "workers": 2}))
+    table = run_sweep(cfg, scenario, "rel/out")  # a relative folder, resolved here once
+    assert table == (tmp_path / "rel" / "out" / "sweep.csv").resolve()
+    assert {r["status"] for r in csv.DictReader(table.open())} == {"ok"}

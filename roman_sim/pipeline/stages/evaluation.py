@@ -8,6 +8,10 @@ associations per pair: the pose graph's closures and the report's example drawin
 ``metrics.json`` (with the front end's grades from the maps stage in its ``frontend``
 section); the report stage draws the plots. Per-pair runtimes go to the run's timings, not
 into these files.
+
+The aligners run through ``apply_aligners``: optional submap gating, then chunks of pairs on
+the run's executor (serial, process pool or Dask), resumable per chunk; the results are the
+same bytes whatever the executor.
 """
 
 from __future__ import annotations
@@ -19,13 +23,11 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.align import build_aligner
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
-from roman_sim.core.plugin_guard import guard_aligner
 from roman_sim.evaluation.bins import runtime_stats
-from roman_sim.evaluation.evaluate import Evaluation, align_pairs, score_pairs
+from roman_sim.evaluation.evaluate import Evaluation, score_pairs
 from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
 from roman_sim.evaluation.results import read_evaluation, write_evaluation
@@ -62,23 +64,33 @@ class EvaluationOutput:
         return {(s.truth.a, s.truth.b): s.truth for s in self.scores}
 
 
-class Labelled:
-    """Runs an aligner under the scenario's label (so two settings of one method can coexist)."""
+def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[tuple[str, str, str], AlignResult]:
+    """Every scenario aligner on every pair, ``(a name, b name, label) -> AlignResult``.
 
-    def __init__(self, inner: Any, name: str) -> None:
-        self.inner = inner
-        self.name = name
+    Gated (when ``gating.enabled``), then in chunks through the run's executor; pairs that
+    gating skipped get "no alignment" with the gating reason, so they count as misses.
+    """
+    import time
 
-    def align(self, a: Submap, b: Submap) -> AlignResult:
-        res = self.inner.align(a, b)
-        res.method = self.name
-        return res
+    from roman_sim.pipeline.gating import GATED_REASON, gate_pairs
+    from roman_sim.pipeline.pairwork import align_pairs as run_chunks
 
-
-def build_aligners(ctx: RunContext) -> list[Any]:
-    """The scenario's aligners, under their labels (plug-ins guarded)."""
-    return [Labelled(guard_aligner(build_aligner(e.method, e.params), e.method), e.name)
-            for e in ctx.scenario.aligners]
+    t0 = time.perf_counter()
+    keep, _ = gate_pairs(pairs, ctx.scenario.gating)
+    kept = [p for p, k in zip(pairs, keep) if k]
+    gating_s = time.perf_counter() - t0
+    ctx.progress.start("evaluation:pairs", len(kept))
+    t1 = time.perf_counter()
+    results = run_chunks(ctx, kept)
+    ctx.progress.end("evaluation:pairs")
+    ctx.timings["pairs"] = {"candidates": len(pairs), "aligned": len(kept), "gating_s": round(gating_s, 4),
+                            "alignment_wall_s": round(time.perf_counter() - t1, 3),
+                            "workers": ctx.tasks().workers, "executor": ctx.tasks().kind}
+    for (a, b), k in zip(pairs, keep):
+        if not k:
+            for e in ctx.scenario.aligners:
+                results[(a.name, b.name, e.name)] = AlignResult.failure(e.name, GATED_REASON)
+    return results
 
 
 def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
@@ -104,7 +116,7 @@ class EvaluationStage(Stage[EvaluationOutput]):
 
     def config_parts(self, ctx: RunContext) -> list[Any]:
         sc = ctx.scenario.model_dump(mode="json")
-        return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"]]
+        return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"], sc["gating"]]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, maps: Maps | None = None,
             submaps: Submaps | None = None, **_: Any) -> EvaluationOutput:
@@ -114,11 +126,8 @@ class EvaluationStage(Stage[EvaluationOutput]):
         sel = select_pairs(all_subs, ec)
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
         truths = truths_for_pairs(sel.pairs, ambiguity, ec)
-        aligners = build_aligners(ctx)
-        ctx.progress.start("evaluation:pairs", len(sel.pairs))
-        results = align_pairs(sel.pairs, aligners, on_pair=lambda: ctx.progress.advance("evaluation:pairs"))
-        ctx.progress.end("evaluation:pairs")
-        scores = score_pairs(truths, results, [a.name for a in aligners], ec)
+        results = apply_aligners(ctx, sel.pairs)
+        scores = score_pairs(truths, results, [e.name for e in ctx.scenario.aligners], ec)
         ev = Evaluation(truths, scores, results, summary(scores, ec, sel.n_skipped))
         if maps is not None and maps.frontend is not None:
             ev.metrics.frontend = maps.frontend.to_json()

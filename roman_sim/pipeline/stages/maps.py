@@ -16,12 +16,14 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
 from roman_sim.core.atomic import write_json
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.plugin_guard import guard_frontend
-from roman_sim.evaluation.frontend_grader import FrontEndGrader
+from roman_sim.evaluation.frontend_grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.frontend_grades import FrontEndGrades, plot_frontend_grades
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
@@ -134,8 +136,8 @@ class _Grader:
     label the descriptors; nothing here is visible to the segmenter or the encoder.
     """
 
-    def __init__(self, group_of: Any, seed: int) -> None:
-        self.inner = FrontEndGrader({}, group_of, seed=seed)
+    def __init__(self, group_of: Any, seed: int, robot: str | None = None) -> None:
+        self.inner = FrontEndGrader({}, group_of, seed=seed, stream=robot)
 
     def use(self, families: dict[int, str] | None) -> FrontEndGrader:
         self.inner.families.update(families or {})
@@ -145,8 +147,9 @@ class _Grader:
         if frame.truth is not None and frame.truth.object_ids is not None:
             self.inner.add(frame, masks, observed)
 
-    def result(self, segmenter: str, encoder: str) -> FrontEndGrades | None:
-        return self.inner.result(segmenter, encoder) if self.inner.seg.frames else None
+    def part(self) -> GraderPart | None:
+        """This robot's share of the grades (None when no frame had instance truth)."""
+        return self.inner.part() if self.inner.seg.frames else None
 
 
 def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> MapAndKeyframes:
@@ -173,6 +176,94 @@ def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> Ma
     return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
 
 
+#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
+RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
+
+
+def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> RobotMapping:
+    """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
+    grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
+    smap, kf = map_sequence(ctx, cfg, grader) if cfg.source is not None else map_robot(ctx, world, cfg, path, grader)
+    return smap, kf, grader.part()
+
+
+def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]
+               ) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart]]:
+    """Every robot, one ``map_one`` task per robot on the run's executor (scenario order).
+
+    Each finished robot's map (and keyframes) is written to ``maps/<robot>.npz``
+    (``keyframes/<robot>.npz``) at once and checkpointed with its share of the front-end
+    grades, so an interrupted run maps only the robots that did not finish. What is returned
+    is what was written and read back, so fresh and resumed robots give the same bytes.
+    Returns the maps, the keyframes (robots that have them) and the grade parts (robots with
+    instance truth), in scenario order.
+    """
+    from roman_sim.core.atomic import write_npz
+    from roman_sim.pipeline.checkpoint import Checkpoint
+    from roman_sim.pipeline.tasks import map_robot_task
+
+    ex = ctx.tasks()
+    done = Checkpoint(ctx.run_dir, "maps", None if ctx.fresh else ctx.stage_key)
+    names = [r.name for r in ctx.scenario.robots]
+    files = {n: ctx.run_dir / "maps" / f"{n}.npz" for n in names}
+    kf_files = {n: ctx.run_dir / "keyframes" / f"{n}.npz" for n in names}
+    part_files = {n: done.folder / f"{n}.grades.npz" for n in names}
+    results: dict[str, tuple[SegmentMap, KeyframeSet | None, GraderPart | None]] = {}
+
+    def read_back(name: str, has_kf: bool, has_part: bool) -> RobotMapping:
+        part = None
+        if has_part:
+            with np.load(part_files[name], allow_pickle=False) as z:
+                part = GraderPart.from_arrays(z)
+        return (load_segment_map(files[name]), load_keyframes(kf_files[name]) if has_kf else None, part)
+
+    for name in names:
+        rec = done.get(name)
+        if rec is None or not files[name].is_file() or rec.get("sha256") != _sha256(files[name]):
+            continue
+        ok = all(rec.get(k) is None or (f.is_file() and rec.get(k) == _sha256(f))
+                 for k, f in (("keyframes_sha256", kf_files[name]), ("grades_sha256", part_files[name])))
+        if ok:
+            results[name] = read_back(name, rec.get("keyframes_sha256") is not None,
+                                      rec.get("grades_sha256") is not None)
+            log.info("robot %s: reusing the map of an interrupted run", name)
+    todo = [r for r in ctx.scenario.robots if r.name not in results]
+    sc_json = ctx.scenario.model_dump_json()
+    local = ex.kind == "serial"
+    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), world if local else None) for r in todo]
+    fn = (lambda sc, name, path, d, w: map_one(ctx, w, _robot(ctx, name), path)) if local else map_robot_task
+    ctx.progress.start("maps:robots", len(files))
+    ctx.progress.advance("maps:robots", len(results))
+    for i, (smap, kf, part) in ex.run_tasks(fn, args, [f"mapping robot {r.name}" for r in todo]):
+        name = todo[i].name
+        save_segment_map(files[name], smap)
+        rec: dict[str, Any] = {"sha256": _sha256(files[name]), "keyframes_sha256": None, "grades_sha256": None}
+        if kf is not None:
+            save_keyframes(kf_files[name], kf)
+            rec["keyframes_sha256"] = _sha256(kf_files[name])
+        if part is not None:
+            write_npz(part_files[name], **part.arrays())
+            rec["grades_sha256"] = _sha256(part_files[name])
+        done.put(name, rec)
+        results[name] = read_back(name, kf is not None, part is not None)
+        ctx.progress.advance("maps:robots")
+    ctx.progress.end("maps:robots")
+    maps = {n: results[n][0] for n in names}
+    keyframes = {n: kf for n in names if (kf := results[n][1]) is not None}
+    parts = [p for n in names if (p := results[n][2]) is not None]
+    return maps, keyframes, parts
+
+
+def _robot(ctx: RunContext, name: str) -> Any:
+    return next(r for r in ctx.scenario.robots if r.name == name)
+
+
+def _sha256(path: Any) -> str:
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
 class MapsStage(Stage[Maps]):
     """Render and map every robot of the scenario."""
 
@@ -197,15 +288,12 @@ class MapsStage(Stage[Maps]):
         simulated = sc.simulated_robots()
         assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
         paths = plan_paths(world.world, simulated, sc.seed) if world is not None and simulated else {}
-        grader = _Grader(sc.frontend.semantics.group_of, sc.seed)
-        maps, keyframes = {}, {}
-        for cfg in sc.robots:
-            maps[cfg.name], kf = map_sequence(ctx, cfg, grader) if cfg.source is not None \
-                else map_robot(ctx, world.world, cfg, paths[cfg.name], grader)  # type: ignore[union-attr]
-            if kf is not None:
-                keyframes[cfg.name] = kf
-        return Maps(maps, _rgb_notes(ctx), keyframes,
-                    grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name))
+        maps, keyframes, parts = map_robots(ctx, None if world is None else world.world, paths)
+        grades = None
+        if parts:
+            grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)
+            grades = grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name)
+        return Maps(maps, _rgb_notes(ctx), keyframes, grades)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)

@@ -1,0 +1,125 @@
+"""The Dask executor: tasks on an existing scheduler or on a local cluster bound to loopback.
+
+A local cluster (no ``scheduler_address``) listens on 127.0.0.1 only, one single-threaded
+worker process per worker, with no dashboard unless ``dashboard`` is set (then on
+127.0.0.1, a free port). Results come back to this process, which writes every file, so
+workers need no access to the run folder.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterator, Sequence
+from typing import Any
+
+from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
+from roman_sim.pipeline.executors import Executor, ExecutorConfig, TaskError, collect, guarded
+
+log = logging.getLogger(__name__)
+
+
+def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
+    """A ``distributed.Client`` connected to ``address`` within ``timeout_s`` (one-line error otherwise).
+
+    Plain ``tcp://`` goes through ``roman_sim.pipeline.cluster.connect`` (a bounded handshake
+    probe, then an identity check: ports that are not Dask schedulers fail in one line);
+    ``tls://`` connects with ``security``, bounded by the client's own timeout.
+    """
+    from distributed import Client
+
+    if security is None and address.strip().startswith("tcp://"):
+        from roman_sim.pipeline.cluster import connect
+
+        return connect(address, timeout_s=timeout_s)
+    try:
+        return Client(address, timeout=f"{timeout_s}s", security=security, set_as_default=False)
+    except Exception as err:  # distributed raises OSError, TimeoutError or the remote side's errors
+        msg = " ".join(str(err).split())[:240]
+        raise ClusterError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None
+
+
+def _result(fut: Any) -> Any:
+    """A future's result; errors of the cluster itself (a lost worker, an unpicklable result) as ``TaskError``."""
+    try:
+        return fut.result()
+    except (RomanSimError, *_LOST):
+        raise
+    except Exception as err:
+        if type(err).__name__ == "CancelledError":
+            raise
+        raise TaskError(f"{type(err).__name__}: {' '.join(str(err).split())[:240]}") from None
+
+
+try:
+    from distributed.scheduler import KilledWorker as _KilledWorker
+
+    _LOST: tuple[type[BaseException], ...] = (_KilledWorker,)
+except ImportError:  # distributed is optional until a Dask executor is built
+    _LOST = ()
+
+
+class DaskExecutor(Executor):
+    """Tasks on a Dask cluster (see the module docstring)."""
+
+    kind = "dask"
+
+    def __init__(self, cfg: ExecutorConfig) -> None:
+        from roman_sim.pipeline import dask_security as sec
+
+        self.cfg = cfg
+        self.cluster: Any = None
+        security = sec.security_for(cfg)
+        if cfg.scheduler_address:
+            address = sec.check_address(cfg.scheduler_address, cfg, security)
+            self.client = connect_client(address, cfg.connect_timeout_s, security)
+        else:
+            self.cluster = sec.local_cluster(cfg, security)
+            self.client = connect_client(self.cluster.scheduler_address, cfg.connect_timeout_s, security)
+        self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
+        try:
+            for path in cfg.upload:
+                sec.upload(self.client, path)
+        except BaseException:
+            self.close()
+            raise
+        log.info("Dask executor: %s, %d worker(s)", self.client.scheduler.address, self.workers)
+
+    @property
+    def address(self) -> str:
+        """The scheduler's address."""
+        return str(self.client.scheduler.address)
+
+    def run_tasks(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]],
+                  labels: Sequence[str]) -> Iterator[tuple[int, Any]]:
+        from distributed import as_completed
+
+        if not args:
+            return
+        futures = {self.client.submit(guarded, fn, labels[i], True, *a, pure=False): i for i, a in enumerate(args)}
+        try:
+            yield from collect(futures, labels, as_completed(list(futures), loop=self.client.loop), _result,
+                               self.client.cancel, _LOST)
+        finally:
+            self.client.cancel([f for f in futures if not f.done()])
+
+    def check_imports(self, modules: Sequence[str]) -> None:
+        from roman_sim.pipeline import dask_security as sec
+
+        sec.check_worker_imports(self.client, list(modules))
+
+    def close(self) -> None:
+        try:
+            self.client.close()
+        finally:
+            if self.cluster is not None:
+                self.cluster.close()
+                self.cluster = None
+
+
+def require_dask() -> None:
+    """ConfigError when ``distributed`` is not installed."""
+    try:
+        import distributed  # noqa: F401
+    except ImportError:
+        raise ConfigError("executor.kind: dask needs the 'distributed' package "
+                          "(pip install 'dask[distributed]')") from None

@@ -1,0 +1,108 @@
+"""The tasks a run sends to its workers: map one robot, align one chunk of submap pairs.
+
+Tasks get the scenario as JSON (the worker validates it again) and return plain data; the
+calling process writes every file. A worker keeps the last world it generated (worlds
+are deterministic in spec and seed) and the aligners it built, so consecutive tasks of one
+run do not rebuild them.
+"""
+
+from __future__ import annotations
+
+import logging
+from functools import lru_cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roman_sim.align.base import AlignResult
+
+log = logging.getLogger(__name__)
+
+
+@lru_cache(maxsize=2)
+def _scenario(scenario_json: str) -> Any:
+    from roman_sim.pipeline.scenario import Scenario
+
+    return Scenario.model_validate_json(scenario_json)
+
+
+@lru_cache(maxsize=1)
+def _world(world_json: str, seed: int) -> Any:
+    from roman_sim.pipeline.scenario import WorldRef
+    from roman_sim.world import generate
+
+    return generate(WorldRef.model_validate_json(world_json).spec(), seed)
+
+
+def map_robot_task(scenario_json: str, robot: str, path: Any, run_dir: str, world: Any = None) -> Any:
+    """Map ``robot``: rendered along its planned ``path``, or read from its ``source``; its ``SegmentMap``.
+
+    ``world`` is passed in-process; workers regenerate it from the scenario (same bytes). A
+    robot read from a TUM folder needs that folder on the worker.
+    """
+    from roman_sim.pipeline.context import RunContext
+    from roman_sim.pipeline.stages.maps import map_one
+
+    sc = _scenario(scenario_json)
+    cfg = next(r for r in sc.robots if r.name == robot)
+    if world is None and cfg.source is None:
+        world = _world(sc.world.model_dump_json(), sc.seed)
+    return map_one(RunContext(sc, Path(run_dir)), world, cfg, path)
+
+
+@lru_cache(maxsize=4)
+def _aligners(aligners_json: str) -> list[Any]:
+    import json
+
+    from roman_sim.align import build_aligner
+    from roman_sim.core.plugin_guard import guard_aligner
+
+    return [(e["label"], guard_aligner(build_aligner(e["method"], e["params"]), e["method"]))
+            for e in json.loads(aligners_json)]
+
+
+def align_chunk_task(aligners_json: str, submaps: dict[str, Any], pairs: list[tuple[str, str]]) -> list[dict[str, Any]]:
+    """Every aligner on every pair of the chunk (submaps already public); JSON-ready results in order.
+
+    Returns one record per (pair, aligner), pair-major: ``result_to_json`` of the result
+    under the aligner's label.
+    """
+    out = []
+    labelled = _aligners(aligners_json)
+    for a, b in pairs:
+        for label, aligner in labelled:
+            res = aligner.align(submaps[a], submaps[b])
+            res.method = label
+            out.append({"a": a, "b": b, **result_to_json(res)})
+    return out
+
+
+def _plain(v: Any) -> Any:
+    """``v`` with numpy values turned into JSON types (lists, floats, ints, bools)."""
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    return str(v)
+
+
+def result_to_json(res: AlignResult) -> dict[str, Any]:
+    """JSON-ready ``AlignResult`` (floats round-trip exactly through JSON)."""
+    return {"method": res.method, "T_a_b": None if res.T_a_b is None else np.asarray(res.T_a_b).tolist(),
+            "associations": np.asarray(res.associations, dtype=np.int64).reshape(-1, 2).tolist(),
+            "scores": np.asarray(res.scores, dtype=np.float64).tolist(), "runtime_s": float(res.runtime_s),
+            "reason": res.reason, "info": _plain(res.info)}
+
+
+def result_from_json(d: dict[str, Any]) -> AlignResult:
+    """Inverse of ``result_to_json``."""
+    T = None if d["T_a_b"] is None else np.asarray(d["T_a_b"], dtype=np.float64)
+    return AlignResult(str(d["method"]), T, np.asarray(d["associations"], dtype=np.int64).reshape(-1, 2),
+                       np.asarray(d["scores"], dtype=np.float64), float(d["runtime_s"]), d["reason"], dict(d["info"]))
