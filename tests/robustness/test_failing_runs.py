@@ -88,7 +88,7 @@ def test_any_exception_in_a_cell_is_that_cells_failure(tmp_path: Path, monkeypat
 
     calls: list[int] = []
 
-    def fake_run(path: str, overrides: list[str], run_dir: Path) -> object:
+    def fake_run(path: str, overrides: list[str], run_dir: Path, from_stage: str | None = None) -> object:
         calls.append(1)
         if "seed=1" in overrides:
             raise ZeroDivisionError("division by zero")
