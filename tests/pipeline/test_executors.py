@@ -88,12 +88,12 @@ def test_interrupted_run_resumes_per_robot_and_per_chunk_to_the_same_bytes(smoke
     mapped: list[str] = []
     chunks: list[int] = []
 
-    def map_robot(ctx, world, cfg, path):
+    def map_robot(ctx, world, cfg, path, grader=None):
         if cfg.name == "b" and "interrupted" not in mapped:
             mapped.append("interrupted")
             raise Interrupt
         mapped.append(cfg.name)
-        return real_map(ctx, world, cfg, path)
+        return real_map(ctx, world, cfg, path, grader)
 
     def align_chunk(spec, submaps, pairs):
         chunks.append(len(pairs))
