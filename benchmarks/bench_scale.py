@@ -58,8 +58,26 @@ def _run(name: str, run_dir: Path, executor: Any, overrides: list[str] | None = 
             "pairs_timing": (res.timings.get("evaluation") or {}).get("pairs"),
             "alignment": {m: {k: v for k, v in a.items() if k != "per_pair_s"}
                           for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()},
-            "ate_rmse_m": s["ate_rmse_m"], "methods": s["methods"],
+            "ate": s["ate"], "methods": s["methods"], "cross_robot": _cross_robot(res),
             "posegraph": _posegraph(res.run_dir)}
+
+
+def _cross_robot(res: Any) -> dict[str, dict[str, str]]:
+    """Per method: cross-robot max recall per coarse heading bin and overall, as ``0.52 (13/25)``."""
+    from roman_sim.core.errors import EvaluationError
+
+    out: dict[str, dict[str, str]] = {}
+    for method in res.metrics.methods:
+        cells = {}
+        for label in ("0-60", "60-120", "120-180", None):
+            try:
+                st = res.metrics.stats(method, label, "inter")
+            except EvaluationError:  # a bin the run has no pairs in
+                continue
+            cells[label or "all"] = ("n/a" if st.max_recall is None
+                                     else f"{st.max_recall:.2f} ({st.max_hits}/{st.n_relevant})")
+        out[method] = cells
+    return out
 
 
 def _posegraph(run_dir: Path) -> Any:
@@ -142,10 +160,12 @@ def part_pairs(name: str, workers: int) -> dict[str, Any]:
                 "per_method": {m: {"median_s": a.get("median"), "mean_s": a.get("mean"),
                                    "pairs_per_s_one_worker": round(1.0 / a["mean"], 1) if a.get("mean") else None}
                                for m, a in r["alignment"].items()},
-                "recall": {m: {k: v for k, v in v.items() if k.startswith("recall_") or k == "max_recall"}
-                           for m, v in r["methods"].items()},
-                "ate_rmse_m": r["ate_rmse_m"]}
+                "cross_robot": r["cross_robot"],
+                "ate": r["ate"]}
+    from roman_sim.pipeline.scenario import load_scenario
+
     out["workers"] = workers
+    out["top_k"] = load_scenario(name).gating.top_k
     return out
 
 
