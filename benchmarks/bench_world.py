@@ -14,13 +14,14 @@ import tempfile
 import time
 from pathlib import Path
 
+# isort: off
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
+import mujoco
+# isort: on
 from roman_sim.core.atomic import write_json
 from roman_sim.world import export_world, generate, load_world_spec
 from roman_sim.world.ambiguity import ambiguity_index
 from roman_sim.world.preview import render_view
-
-import mujoco  # noqa: E402
 
 OUT = Path(__file__).resolve().parent / "out" / "bench_world.json"
 REPEATS = 3

@@ -13,8 +13,8 @@ from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sim.camera import CameraConfig
 from roman_sim.sensors import backproject
+from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
 from roman_sim.world import generate, load_world_spec
 

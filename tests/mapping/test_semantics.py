@@ -3,10 +3,16 @@
 import numpy as np
 import pytest
 
-from roman_sim.core.errors import ConfigError
 from roman_sim.core.config import validate_model
-from roman_sim.mapping.semantics import (EncodeContext, SemanticConfig, SemanticEncoder, SimulatedEncoder,
-                                         expected_cosine, family_cosine)
+from roman_sim.core.errors import ConfigError
+from roman_sim.mapping.semantics import (
+    EncodeContext,
+    SemanticConfig,
+    SemanticEncoder,
+    SimulatedEncoder,
+    expected_cosine,
+    family_cosine,
+)
 from roman_sim.mapping.semantics_stats import CASES, cosine_statistics, view_curve
 
 M = np.ones((2, 2), bool)

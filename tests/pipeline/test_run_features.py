@@ -189,8 +189,8 @@ def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
 
 
 def test_record_command_stores_readable_frames(tmp_path):
-    from roman_sim.sim.recording import read_recording, recording_info
     from roman_sim.core.tum import read_tum
+    from roman_sim.sim.recording import read_recording, recording_info
 
     out = tmp_path / "rec"
     res = runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "b",
@@ -259,7 +259,6 @@ def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
 
     """A changed configuration interrupted mid-way: the folder says it is incomplete (no stale
     metrics are reported under the new config.yaml); the next run completes it from the kept stages."""
-    from roman_sim.align import ALIGNERS
     from roman_sim.core.errors import StorageError
     from roman_sim.pipeline.result import RunResult
 

@@ -19,7 +19,7 @@ from roman_sim.pipeline.stages import STAGE_NAMES, STAGES
 from roman_sim.pipeline.stages.evaluation import EvaluationStage
 from roman_sim.pipeline.stages.posegraph import PoseGraphStage
 from roman_sim.pipeline.stages.report import ReportStage
-from roman_sim.pipeline.stages.submaps import Submaps, SubmapsStage
+from roman_sim.pipeline.stages.submaps import Submaps
 
 SHORT = ["robots.0.max_length_m=12", "robots.1.max_length_m=12"]
 

@@ -8,9 +8,8 @@ import pytest
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.geometry import transform_points
+from roman_sim.sensors import Intrinsics, backproject, check_intrinsics, project
 from roman_sim.sim.camera import CameraConfig
-from roman_sim.sensors import backproject, check_intrinsics, project
-from roman_sim.sensors import Intrinsics
 
 
 def test_default_intrinsics_match_d455() -> None:

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import RecordingError
-from roman_sim.geometry import make_T, rot_z
-from roman_sim.sim.camera import CameraConfig
-from roman_sim.sensors import Frame, FrameTruth
-from roman_sim.sim.recording import read_recording, recording_info, write_recording
 from roman_sim.core.tum import read_tum
+from roman_sim.geometry import make_T, rot_z
+from roman_sim.sensors import Frame, FrameTruth
+from roman_sim.sim.camera import CameraConfig
+from roman_sim.sim.recording import read_recording, recording_info, write_recording
 
 CAM = CameraConfig(width=16, height=12)
 

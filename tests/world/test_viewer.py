@@ -12,7 +12,6 @@ import pytest
 
 from roman_sim.world import export_world, generate, load_world_spec
 
-
 # Load the exported MJCF in plain MuJoCo, open MuJoCo's viewer on it and let it draw frames.
 VIEWER_SCRIPT = """
 import os, sys, time
