@@ -57,7 +57,8 @@ def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndar
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, UnicodeDecodeError, EOFError) as err:
         raise StorageError(f"{path}: not a readable roman_sim file ({type(err).__name__})") from None
     if not isinstance(header, dict) or header.get("format") != fmt:
-        raise StorageError(f"{path}: expected format {fmt!r}, found {header.get('format') if isinstance(header, dict) else None!r}")
+        found = header.get("format") if isinstance(header, dict) else None
+        raise StorageError(f"{path}: expected format {fmt!r}, found {found!r}")
     if header.get("version") not in READABLE_VERSIONS:
         raise StorageError(f"{path}: format version {header.get('version')!r} not supported "
                            f"(this reader: {', '.join(map(str, READABLE_VERSIONS))})")
