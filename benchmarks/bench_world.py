@@ -37,7 +37,9 @@ def _best_of(fn, repeats: int = REPEATS) -> tuple[float, object]:  # noqa: ANN00
 
 
 def main() -> dict:
-    figures: dict = {"machine": {"python": sys.version.split()[0], "mujoco": mujoco.__version__, "cpu": platform.processor() or platform.machine()}}
+    machine = {"python": sys.version.split()[0], "mujoco": mujoco.__version__,
+               "cpu": platform.processor() or platform.machine()}
+    figures: dict = {"machine": machine}
     forest = load_world_spec("forest")
     gen_s, world = _best_of(lambda: generate(forest, 0))
     m = world.model

@@ -41,7 +41,8 @@ def _visible(frames, max_depth=7.5):
         ok = (f.depth > 0) & (f.depth <= max_depth)
         for oid in np.unique(f.truth.object_ids[ok & (f.truth.object_ids >= 0)]):
             sel = ok & (f.truth.object_ids == oid)
-            pts.setdefault(int(oid), []).append(transform_points((f.truth.T_world_body @ f.T_body_cam), backproject(f.depth, f.intrinsics, sel)))
+            world_pts = transform_points(f.truth.T_world_body @ f.T_body_cam, backproject(f.depth, f.intrinsics, sel))
+            pts.setdefault(int(oid), []).append(world_pts)
     return {k: downsample(np.vstack(v), 0.05).mean(axis=0) for k, v in pts.items()}
 
 

@@ -75,7 +75,8 @@ def test_run_folder_contents(smoke_run):
     assert stages["maps"]["seconds"] > 0 and stages["maps"]["peak_rss_mb"] > 0
     assert stages["evaluation"]["alignment"]["roman"]["median"] > 0
     manifest = json.loads((d / "manifest.json").read_text())
-    assert manifest["complete"] and sorted(manifest["stages"]) == ["evaluation", "maps", "posegraph", "report", "submaps"]
+    assert manifest["complete"]
+    assert sorted(manifest["stages"]) == ["evaluation", "maps", "posegraph", "report", "submaps"]
     listed = {f for rec in manifest["stages"].values() for f in rec["files"]}
     assert {"maps/a.npz", "maps/b.npz", "submaps/a.npz", "plots/trajectories.png", "report.md"} <= listed
     assert all((d / f).is_file() for f in listed)

@@ -61,7 +61,8 @@ def test_mount_is_flu_to_rdf_with_pitch_down() -> None:
 
 @pytest.mark.parametrize(
     "data, field",
-    [({"width": 0}, "width"), ({"hfov_deg": 200}, "hfov_deg"), ({"max_depth_m": -1}, "max_depth_m"), ({"fov": 3}, "fov")],
+    [({"width": 0}, "width"), ({"hfov_deg": 200}, "hfov_deg"), ({"max_depth_m": -1}, "max_depth_m"),
+     ({"fov": 3}, "fov")],
 )
 def test_invalid_camera_config(data: dict, field: str) -> None:
     with pytest.raises(ConfigError, match=field):

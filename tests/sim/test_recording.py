@@ -28,7 +28,8 @@ def _frames(n: int, rgb: bool = True, robot: str = "r1") -> list[Frame]:
         img = rng.integers(0, 256, (12, 16, 3)).astype(np.uint8) if rgb else None
         T_wb = make_T(rot_z(0.1 * i), [i * 0.2, 1.0, 0.3])
         T_ob = make_T(rot_z(0.1 * i + 0.01), [i * 0.21, 0.0, 0.0])
-        out.append(Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(), FrameTruth(ids, T_wb)))
+        out.append(Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(),
+                         FrameTruth(ids, T_wb)))
     return out
 
 
