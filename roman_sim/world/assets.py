@@ -9,7 +9,7 @@ grain runs along, and optionally a colour range of its own.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,8 +64,15 @@ def _blob(rng: np.random.Generator, rx: float, ry: float, rz: float, z0: float, 
     return trimesh.Trimesh(v, m.faces, process=False)
 
 
+def concat_meshes(meshes: Iterable[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """``meshes`` as one triangle mesh (``trimesh.util.concatenate``, typed for triangle meshes)."""
+    out = trimesh.util.concatenate(list(meshes))
+    assert isinstance(out, trimesh.Trimesh)  # triangle meshes (or none) concatenate to a triangle mesh
+    return out
+
+
 def _cat(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
-    return trimesh.util.concatenate(list(meshes))
+    return concat_meshes(meshes)
 
 
 @FAMILIES.register("conifer")
@@ -133,7 +140,7 @@ def house(rng: np.random.Generator) -> list[Part]:
     w, d, h = rng.uniform(7.0, 11.0), rng.uniform(6.0, 9.0), rng.uniform(3.0, 5.5)
     wall = tuple(rng.uniform(0.65, 0.9, 3)) + (1.0,)
     return [
-        Part("walls", _box(w, d, h), wall, "paint"),  # type: ignore[arg-type]
+        Part("walls", _box(w, d, h), wall, "paint"),
         Part("roof", _gable_roof(w, d, rng.uniform(1.5, 3.0), h), (0.55, 0.18, 0.12, 1.0), "tiles"),
     ]
 
@@ -155,7 +162,7 @@ def car(rng: np.random.Generator) -> list[Part]:
         for sx in (-1, 1) for sy in (-1, 1)
     ))
     colour = tuple(rng.uniform(0.1, 0.9, 3)) + (1.0,)
-    return [Part("body", body, colour, "paint", variation=ANY_HUE),  # type: ignore[arg-type]
+    return [Part("body", body, colour, "paint", variation=ANY_HUE),
             Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0), "metal")]
 
 

@@ -13,6 +13,7 @@ from roman_sim.core.errors import WorldError
 from roman_sim.core.seeding import child_rng
 from roman_sim.geometry import make_T, rot_z
 from roman_sim.world.appearance import resolve_sun
+from roman_sim.world.assets import concat_meshes
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
 from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
@@ -41,7 +42,7 @@ class World:
         if not 0 <= obj_id < len(self.truth.objects):
             raise WorldError(f"obj_id {obj_id} out of range (0..{len(self.truth.objects) - 1})")
         obj = self.truth.objects[obj_id]
-        mesh = trimesh.util.concatenate([self.meshes[n] for n in obj.mesh_names])
+        mesh = concat_meshes(self.meshes[n] for n in obj.mesh_names)
         return mesh.apply_transform(obj.T_world_obj)
 
 
