@@ -129,7 +129,8 @@ def _false_T(T_true: F64, rng: np.random.Generator) -> F64:
             return T
 
 
-def _distinct_submaps(T_ws: dict[str, F64], robots: list[str], rng: np.random.Generator):
+def _distinct_submaps(T_ws: dict[str, F64], robots: list[str],
+                      rng: np.random.Generator) -> tuple[tuple[str, int], tuple[str, int]]:
     """Two different submaps, robots and indices drawn uniformly."""
     while True:
         ra, rb = (str(r) for r in rng.choice(robots, size=2))
@@ -138,11 +139,13 @@ def _distinct_submaps(T_ws: dict[str, F64], robots: list[str], rng: np.random.Ge
             return (ra, ia), (rb, ib)
 
 
-def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64], rng: np.random.Generator):
+def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64],
+              rng: np.random.Generator) -> tuple[list[LoopClosure], list[bool]]:
     cands = _candidates(cfg, T_ws)
     n_false = int(round(cfg.n_closures * cfg.outlier_fraction))
     n_true = min(cfg.n_closures - n_false, len(cands))
-    closures, is_true = [], []
+    closures: list[LoopClosure] = []
+    is_true: list[bool] = []
     for k in rng.choice(len(cands), size=n_true, replace=False) if n_true else []:
         ra, ia, rb, ib = cands[k]
         dx, dy, dz = cfg.closure_noise_m * rng.normal(size=3)
