@@ -22,8 +22,8 @@ from roman_sim.align.aligners import ClipperBaselineParams
 from roman_sim.align.clipper import solve_clipper
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.atomic import write_json
-from roman_sim.geometry import pose_4dof, pose_error
 from roman_sim.core.seeding import child_rng
+from roman_sim.geometry import pose_4dof, pose_error
 
 OUT = Path(__file__).resolve().parent / "out" / "align.json"
 

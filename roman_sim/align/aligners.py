@@ -139,7 +139,9 @@ class RomanAligner:
         if len(sel) < p.min_associations_for_transform:
             why = f"only {len(sel)} associations (need {p.min_associations_for_transform})"
         else:
-            T, why = estimate_transform(b.centers[sel[:, 1]], a.centers[sel[:, 0]], u if p.weighted else None, p.dof)
+            dof = p.dof
+            assert dof is not None  # the params' validator resolves None to 4 or 6
+            T, why = estimate_transform(b.centers[sel[:, 1]], a.centers[sel[:, 0]], u if p.weighted else None, dof)
             if T is not None and not tilt_ok(T, p.max_roll_pitch_deg):
                 T, why = None, f"roll/pitch above {p.max_roll_pitch_deg:g} deg"
         return AlignResult(self.name, T, sel, np.asarray(u, dtype=np.float64), time.perf_counter() - t0, why, info)

@@ -71,7 +71,10 @@ class ClipperSolution:
 
 def _prepare(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
     """Square, finite, non-negative CSR of ``M`` without its diagonal (entries assumed unique)."""
-    A = M if sp.issparse(M) and M.format == "csr" and M.dtype == np.float64 else sp.csr_matrix(M, dtype=np.float64)
+    if isinstance(M, (sp.csr_matrix, sp.csr_array)) and M.dtype == np.float64:
+        A = M
+    else:
+        A = sp.csr_matrix(M, dtype=np.float64)
     if A.shape[0] != A.shape[1]:
         raise AlignmentError(f"affinity matrix must be square, got shape {A.shape}")
     if A.nnz and (not np.all(np.isfinite(A.data)) or A.data.min() < 0):

@@ -111,8 +111,9 @@ class KissMatcherAligner:
         assoc = one_to_one(np.asarray(a.centers), transform_points(T, b.centers), self.params.max_corr_dist_m)
         reason = None
         if len(assoc) < self.params.min_associations_for_transform:
-            T, reason = None, f"only {len(assoc)} inliers"
-        return AlignResult(self.name, T, assoc, np.ones(len(assoc)), time.perf_counter() - t0, reason, info)
+            reason = f"only {len(assoc)} inliers"
+        T_a_b = T if reason is None else None
+        return AlignResult(self.name, T_a_b, assoc, np.ones(len(assoc)), time.perf_counter() - t0, reason, info)
 
 
 ALIGNERS.register("ransac100k", RansacAligner)

@@ -11,7 +11,6 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-import click
 import typer
 from typer.core import TyperGroup
 
@@ -21,7 +20,9 @@ from roman_sim.core.errors import RomanSimError
 class _Group(TyperGroup):
     """Command group that turns ``RomanSimError`` into one clear line and exit code 1."""
 
-    def invoke(self, ctx: click.Context) -> Any:
+    # ``ctx`` is a click Context: the ``click`` package's in older typer, the copy typer vendors
+    # (``typer._click``) in newer ones (0.29 here); ``Any`` keeps the override valid for both.
+    def invoke(self, ctx: Any) -> Any:
         try:
             return super().invoke(ctx)
         except RomanSimError as err:

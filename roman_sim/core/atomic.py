@@ -12,7 +12,7 @@ import io
 import json
 import os
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -125,9 +125,15 @@ def write_json(path: str | Path, obj: Any, indent: int = 2) -> None:
 
 
 def write_npz(path: str | Path, compressed: bool = True, **arrays: np.ndarray) -> None:
-    """Atomically write arrays to an ``.npz`` file."""
+    """Atomically write arrays to an ``.npz`` file (``write_arrays`` takes them as a mapping)."""
+    write_arrays(path, arrays, compressed)
+
+
+def write_arrays(path: str | Path, arrays: Mapping[str, np.ndarray], compressed: bool = True) -> None:
+    """Atomically write the named ``arrays`` to an ``.npz`` file."""
     buf = io.BytesIO()
-    (np.savez_compressed if compressed else np.savez)(buf, **arrays)
+    # numpy's stub matches the names against savez's own ``allow_pickle: bool``; no array is called that
+    (np.savez_compressed if compressed else np.savez)(buf, **arrays)  # type: ignore[arg-type]
     write_bytes(path, buf.getvalue())
 
 

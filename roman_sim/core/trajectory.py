@@ -76,12 +76,16 @@ class Trajectory:
         i = np.asarray(idx, dtype=np.int64)
         return Trajectory(self.t[i], self.T[i])
 
-    def associate(self, ref: "Trajectory", max_diff_s: float = MAX_DIFF_S) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    def associate(
+        self, ref: "Trajectory", max_diff_s: float = MAX_DIFF_S
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Index pairs (i_self, i_ref) of nearest timestamps within ``max_diff_s``; each ref pose used once."""
         return associate(self.t, ref.t, max_diff_s)
 
 
-def associate(t_est: ArrayLike, t_ref: ArrayLike, max_diff_s: float = MAX_DIFF_S) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def associate(
+    t_est: ArrayLike, t_ref: ArrayLike, max_diff_s: float = MAX_DIFF_S
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Index pairs (i_est, i_ref) of nearest timestamps within ``max_diff_s``; each ref used once."""
     t_est = np.asarray(t_est, dtype=np.float64).reshape(-1)
     t_ref = np.asarray(t_ref, dtype=np.float64).reshape(-1)

@@ -74,10 +74,12 @@ def _check(a: Submap, b: Submap, result: AlignResult) -> np.ndarray:
 def _row(axes: list[Axes], a: Submap, b: Submap, result: AlignResult, T_a_b_true: np.ndarray | None,
          title: str) -> None:
     assoc = _check(a, b, result)
+    T_est = result.T_a_b
+    assert T_est is not None  # _check rejects a result without an estimate
     colours = assoc_colours(a, b, assoc)
     n_true = colours.count("tab:green")
     counts = f"{len(assoc)} associations: {n_true} same object (green), {len(assoc) - n_true} not (red)"
-    _panel(axes[0], a, b, result.T_a_b, assoc, colours, f"{title}\nb placed by the estimate")
+    _panel(axes[0], a, b, T_est, assoc, colours, f"{title}\nb placed by the estimate")
     if T_a_b_true is not None:
         _panel(axes[1], a, b, T_a_b_true, assoc, colours, f"b placed by the truth\n{counts}")
 

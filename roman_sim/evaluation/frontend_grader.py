@@ -105,9 +105,13 @@ class FrontEndGrader:
         self.families = dict(families)
         self.group_of = group_of or (lambda f: f)
         n_a, n_d = len(self.cfg.area_edges_frac) - 1, len(self.cfg.distance_edges_m)
-        tables = {f"table_{k}": [[0] * n_d for _ in range(n_a)] for k in ("objects", "detected", "matched", "over")}
+
+        def zeros() -> list[list[int]]:
+            return [[0] * n_d for _ in range(n_a)]
+
         self.seg = SegmentationGrades(distance_edges_m=list(self.cfg.distance_edges_m),
-                                      area_edges_frac=list(self.cfg.area_edges_frac), **tables)
+                                      area_edges_frac=list(self.cfg.area_edges_frac), table_objects=zeros(),
+                                      table_detected=zeros(), table_matched=zeros(), table_over=zeros())
         self._obs: list[_Obs] = []
         self._seen = 0
         self._seed = seed

@@ -157,7 +157,8 @@ def write_map_view(path: str | Path, submaps: list[Submap], **kwargs: object) ->
     path = Path(path)
     img = render_map(submaps, **kwargs)  # type: ignore[arg-type]
     buf = io.BytesIO()
-    imsave(buf, img, format="png", metadata={"Software": None})
+    # None leaves the Software key out (same bytes everywhere); matplotlib's stub allows str only
+    imsave(buf, img, format="png", metadata={"Software": None})  # type: ignore[dict-item]
     write_bytes(path, buf.getvalue())
     log.info("wrote map view %s", path)
     return path

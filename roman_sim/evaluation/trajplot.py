@@ -32,8 +32,8 @@ ClosureLine = tuple[ArrayLike, ArrayLike, str, bool | None]
 CLOSURE_COLOURS = {"intra": "tab:blue", "inter": "tab:green"}
 #: tab10 entries for robots: blue, green and red are left to the closure lines.
 ROBOT_PALETTE = (1, 4, 5, 6, 7, 8, 9)
-WRONG_STYLE = {"color": "tab:red", "linestyle": "--", "linewidth": 1.4, "alpha": 1.0}
-LAYERS = {  # name -> line style of that trajectory layer
+WRONG_STYLE: dict[str, Any] = {"color": "tab:red", "linestyle": "--", "linewidth": 1.4, "alpha": 1.0}
+LAYERS: dict[str, dict[str, Any]] = {  # name -> line style (matplotlib keywords) of that trajectory layer
     "truth": {"linestyle": "-", "linewidth": 1.6, "alpha": 0.9},
     "estimate": {"linestyle": "--", "linewidth": 1.3, "alpha": 0.9},
     "odometry": {"linestyle": ":", "linewidth": 1.2, "alpha": 0.8},

@@ -10,11 +10,17 @@ encoder describes a mask by its bounding-box shape and fill. Use them as
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import NDArray
 from scipy import ndimage
 
 from roman_sim.mapping.segmenter import Mask
 from roman_sim.sensors import Frame
+
+if TYPE_CHECKING:
+    from roman_sim.mapping.semantics import EncodeContext
 
 
 class DepthEdgeSegmenter:
@@ -39,7 +45,8 @@ class DepthEdgeSegmenter:
 class ShapeEncoder:
     """An 8-d unit descriptor from the mask's bounding-box shape and fill."""
 
-    def encode(self, rgb_crop, mask, context) -> np.ndarray:  # noqa: ANN001 - protocol signature
+    def encode(self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_],
+               context: EncodeContext) -> NDArray[np.float32]:
         rows, cols = np.nonzero(mask)
         h = rows.max() - rows.min() + 1 if len(rows) else 1
         w = cols.max() - cols.min() + 1 if len(cols) else 1

@@ -70,15 +70,15 @@ def fit_semantics(desc: Any, prior: SemanticConfig | None = None) -> SemanticCon
     view = prior.view_weight if not np.isfinite(b) else _clip(b / a)
     out = {"noise_energy": noise, "view_weight": view}
     static = 1.0 - prior.instance_weight - view
-    if means.get("same_family") is not None:
-        inst = _clip(1.0 - view - means["same_family"] / a, 0.0, 1.0 - view)
+    if (same_family := means.get("same_family")) is not None:
+        inst = _clip(1.0 - view - same_family / a, 0.0, 1.0 - view)
         out["instance_weight"] = inst
         static = 1.0 - inst - view
-    if static > 1e-6 and means.get("other_group") is not None:
-        out["common_weight"] = _clip(means["other_group"] / (a * static))
+    if static > 1e-6 and (other_group := means.get("other_group")) is not None:
+        out["common_weight"] = _clip(other_group / (a * static))
     common = out.get("common_weight", prior.common_weight)
-    if static > 1e-6 and means.get("same_group") is not None:
-        out["group_weight"] = _clip(means["same_group"] / (a * static) - common, 0.0, 1.0 - common)
+    if static > 1e-6 and (same_group := means.get("same_group")) is not None:
+        out["group_weight"] = _clip(same_group / (a * static) - common, 0.0, 1.0 - common)
     else:
         out["group_weight"] = min(prior.group_weight, 1.0 - common)
     return prior.model_copy(update=out)

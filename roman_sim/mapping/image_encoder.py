@@ -116,7 +116,8 @@ class ImageEncoder:
         if not np.any(pix):
             raise MappingError("image encoder: empty mask")
         hists = (np.bincount(codes.colour[win][pix], minlength=self.sizes[0]).astype(np.float64),
-                 np.bincount(codes.orient[win][pix], weights=codes.weight[win][pix], minlength=self.sizes[1]),
+                 np.bincount(codes.orient[win][pix], weights=codes.weight[win][pix],
+                             minlength=self.sizes[1]).astype(np.float64),
                  np.bincount(codes.lbp[win][pix], minlength=self.sizes[2]).astype(np.float64))
         blocks = [_block(hh, wt, self.cfg.centre) for hh, wt in zip(hists, self.weights)]
         v = np.concatenate(blocks)

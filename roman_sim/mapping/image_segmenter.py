@@ -106,7 +106,7 @@ class ImageSegmenter:
         regions = self._merge(regions, d, ground, chroma)
         regions = self._drop_flat(regions, self._points(frame, d, W / w), frame)
         if (h, w) != (H, W):
-            regions = cv2.resize(regions, (W, H), interpolation=cv2.INTER_NEAREST)
+            regions = np.asarray(cv2.resize(regions, (W, H), interpolation=cv2.INTER_NEAREST), dtype=np.int32)
         return _drop_unsupported(regions.astype(np.int32), valid_full, self.cfg.min_valid_fraction)
 
     def _points(self, frame: Frame, d: NDArray[np.float32], step: float) -> NDArray[np.float32]:
@@ -196,12 +196,12 @@ class ImageSegmenter:
                  n: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """Neighbouring region pairs (a < b): labels, border length and its depth-continuous share."""
         pa, pb, cont = [], [], []
-        for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
-            ra, rb = regions[a], regions[b]
+        for sa, sb in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
+            ra, rb = regions[sa], regions[sb]
             sel = (ra != rb) & (ra > 0) & (rb > 0)
             pa.append(np.minimum(ra[sel], rb[sel]))
             pb.append(np.maximum(ra[sel], rb[sel]))
-            cont.append(self._continuous(d[a][sel], d[b][sel]))
+            cont.append(self._continuous(d[sa][sel], d[sb][sel]))
         a, b, c = np.concatenate(pa), np.concatenate(pb), np.concatenate(cont)
         uk, inv = np.unique(a.astype(np.int64) * (n + 1) + b, return_inverse=True)
         count = np.bincount(inv).astype(np.float64)
@@ -266,12 +266,13 @@ def _mean_depth(depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tup
     num = np.where(valid, depth, 0).astype(np.float32)
     den = valid.astype(np.float32)
     if num.shape != (h, w):
-        num = cv2.resize(num, (w, h), interpolation=cv2.INTER_AREA)
-        den = cv2.resize(den, (w, h), interpolation=cv2.INTER_AREA)
+        # np.asarray only types OpenCV's result: resize and boxFilter keep the float32 input
+        num = np.asarray(cv2.resize(num, (w, h), interpolation=cv2.INTER_AREA), dtype=np.float32)
+        den = np.asarray(cv2.resize(den, (w, h), interpolation=cv2.INTER_AREA), dtype=np.float32)
     if radius:
         k = (2 * radius + 1, 2 * radius + 1)
-        num = cv2.boxFilter(num, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
-        den = cv2.boxFilter(den, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT)
+        num = np.asarray(cv2.boxFilter(num, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT), dtype=np.float32)
+        den = np.asarray(cv2.boxFilter(den, -1, k, normalize=False, borderType=cv2.BORDER_CONSTANT), dtype=np.float32)
     ok = den > 1e-3
     return np.where(ok, num / np.maximum(den, 1e-6), 0).astype(np.float32), ok
 

@@ -30,7 +30,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from roman_sim.core.atomic import write_npz
+from roman_sim.core.atomic import write_arrays, write_npz
 from roman_sim.core.errors import StorageError
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment, Status
@@ -57,7 +57,8 @@ def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndar
     except (OSError, ValueError, KeyError, zipfile.BadZipFile, UnicodeDecodeError, EOFError) as err:
         raise StorageError(f"{path}: not a readable roman_sim file ({type(err).__name__})") from None
     if not isinstance(header, dict) or header.get("format") != fmt:
-        raise StorageError(f"{path}: expected format {fmt!r}, found {header.get('format') if isinstance(header, dict) else None!r}")
+        found = header.get("format") if isinstance(header, dict) else None
+        raise StorageError(f"{path}: expected format {fmt!r}, found {found!r}")
     if header.get("version") not in READABLE_VERSIONS:
         raise StorageError(f"{path}: format version {header.get('version')!r} not supported "
                            f"(this reader: {', '.join(map(str, READABLE_VERSIONS))})")
@@ -77,10 +78,12 @@ def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
              "truth_counts": sorted([int(k), int(v)] for k, v in s.truth_counts.items())} for s in segs]
     header = {"format": "roman_sim.segment_map", "version": FORMAT_VERSION, "robot": smap.robot, "segments": meta}
     truth = {} if smap.T_world_body is None else {"T_world_body": smap.T_world_body}
-    write_npz(path, header=_header(header), times=smap.times, T_odom_body=smap.T_odom_body, **truth,
-              points=np.concatenate([s.points for s in segs]) if segs else np.zeros((0, 3)),
-              offsets=np.cumsum([0] + [len(s.points) for s in segs]),
-              descriptor_sum=dsum, has_descriptor=np.array([s.descriptor_sum is not None for s in segs], dtype=bool))
+    write_arrays(path, {
+        "header": _header(header), "times": smap.times, "T_odom_body": smap.T_odom_body, **truth,
+        "points": np.concatenate([s.points for s in segs]) if segs else np.zeros((0, 3)),
+        "offsets": np.cumsum([0] + [len(s.points) for s in segs]),
+        "descriptor_sum": dsum, "has_descriptor": np.array([s.descriptor_sum is not None for s in segs], dtype=bool),
+    })
 
 
 def load_segment_map(path: str | Path) -> SegmentMap:
@@ -127,7 +130,7 @@ def save_submaps(path: str | Path, submaps: list[Submap]) -> None:
                      "points": s.points is not None, "keyframes": s.keyframes is not None,
                      "truth": s.truth is not None})
     header = {"format": "roman_sim.submaps", "version": FORMAT_VERSION, "submaps": meta}
-    write_npz(path, header=_header(header), **arrays)
+    write_arrays(path, {"header": _header(header), **arrays})
 
 
 def load_submaps(path: str | Path) -> list[Submap]:

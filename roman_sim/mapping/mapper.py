@@ -22,6 +22,11 @@ from roman_sim.sensors import Frame, check_frame
 log = logging.getLogger(__name__)
 
 
+def _stack(poses: list[NDArray[np.float64]]) -> NDArray[np.float64]:
+    """(N, 4, 4) stack of ``poses`` ((0, 4, 4) when there are none)."""
+    return np.stack(poses) if poses else np.zeros((0, 4, 4))
+
+
 @dataclass
 class SegmentMap:
     """Finished segments of one robot plus its trajectories.
@@ -129,6 +134,5 @@ class Mapper:
         self._done = True
         segs = self.tracker.flush()
         log.info("robot %s: %d frames, %d segments", self.robot, len(self._t), len(segs))
-        stack = lambda xs: np.stack(xs) if xs else np.zeros((0, 4, 4))
         return SegmentMap(self.robot or "", segs, np.asarray(self._t, dtype=np.float64),
-                          stack(self._odom), None if self._world is None else stack(self._world))
+                          _stack(self._odom), None if self._world is None else _stack(self._world))

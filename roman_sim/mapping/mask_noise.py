@@ -52,7 +52,8 @@ def noisy_boundary(pix: NDArray[np.bool_], width: int, rng: np.random.Generator)
         return pix
     u = pix.view(np.uint8)
     size = 2 * width + 1  # square window: separable min/max filters are cheap
-    band = ndimage.maximum_filter(u, size=size, mode="constant") != ndimage.minimum_filter(u, size=size, mode="constant")
+    band = (ndimage.maximum_filter(u, size=size, mode="constant")
+            != ndimage.minimum_filter(u, size=size, mode="constant"))
     idx = np.flatnonzero(band)
     out = pix.copy()
     flat = out.reshape(-1)

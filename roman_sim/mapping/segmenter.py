@@ -156,7 +156,8 @@ class SimulatedSegmenter:
         ids = np.asarray(frame.truth.object_ids)
         depth = np.asarray(frame.depth)
         if ids.ndim != 2 or ids.shape != depth.shape:
-            raise MappingError(f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes")
+            raise MappingError(
+                f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes")
         if ids.size == 0:
             log.debug("frame %d: empty image, no masks", frame.index)
             return []
@@ -196,7 +197,9 @@ class SimulatedSegmenter:
                     groups[k] = merged
         return sorted({tuple(sorted(g)) for g in groups.values()})
 
-    def _object_masks(self, ids: NDArray[np.int32], depth: NDArray[np.float32], rng: np.random.Generator) -> list[_Crop]:
+    def _object_masks(
+        self, ids: NDArray[np.int32], depth: NDArray[np.float32], rng: np.random.Generator
+    ) -> list[_Crop]:
         c = self.cfg
         A = ids.size
         lab = ids.astype(np.int64) + 1
@@ -217,7 +220,8 @@ class SimulatedSegmenter:
             far = np.clip((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0, 1)
             if rng.random() < min(1.0, c.miss_prob + c.miss_small_prob * small + c.miss_far_prob * far):
                 continue
-            parts = split_mask(pix, rng) if area > c.oversegment_min_area_frac * A and rng.random() < c.oversegment_prob else [pix]
+            split = area > c.oversegment_min_area_frac * A and rng.random() < c.oversegment_prob
+            parts = split_mask(pix, rng) if split else [pix]
             out += [self._padded(p, sl[0].start, sl[1].start, members, ids.shape) for p in parts]
         return out
 

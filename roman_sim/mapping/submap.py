@@ -63,8 +63,8 @@ def members(segments: list[Segment], center: NDArray[np.float64], t: float, cfg:
     return [s for _, _, s in cands[: cfg.submap_max_size]]
 
 
-def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float64], T_world_body: NDArray[np.float64] | None,
-                segs: list[Segment], cfg: SubmapConfig) -> Submap:
+def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float64],
+                T_world_body: NDArray[np.float64] | None, segs: list[Segment], cfg: SubmapConfig) -> Submap:
     """One submap from its member segments and the centre's odometry and true poses (truth None without)."""
     T_odom_sub = gravity_aligned(T_odom_body)
     T_sub_odom = inv_T(T_odom_sub)

@@ -42,7 +42,7 @@ def _result(fut: Any) -> Any:
     """A future's result; errors of the cluster itself (a lost worker, an unpicklable result) as ``TaskError``."""
     try:
         return fut.result()
-    except (RomanSimError, *_LOST):
+    except _RERAISE:
         raise
     except Exception as err:
         if type(err).__name__ == "CancelledError":
@@ -56,6 +56,9 @@ try:
     _LOST: tuple[type[BaseException], ...] = (_KilledWorker,)
 except ImportError:  # distributed is optional until a Dask executor is built
     _LOST = ()
+
+#: Errors ``_result`` passes on unchanged: the library's own and a lost worker's.
+_RERAISE: tuple[type[BaseException], ...] = (RomanSimError, *_LOST)
 
 
 class DaskExecutor(Executor):

@@ -101,7 +101,7 @@ def guarded(fn: Callable[..., Any], label: str, name_worker: bool, *args: Any) -
 
 
 def collect(futures: dict[Any, int], labels: Sequence[str], completed: Iterator[Any], result: Callable[[Any], Any],
-            cancel: Callable[[list[Any]], None], lost: type[BaseException] | tuple[type[BaseException], ...]
+            cancel: Callable[[list[Any]], object], lost: type[BaseException] | tuple[type[BaseException], ...]
             ) -> Iterator[tuple[int, Any]]:
     """Yield ``(index, result)`` of finished futures; after a failure cancel the pending ones and,
     once the running ones are done, raise the error of the lowest failed index."""

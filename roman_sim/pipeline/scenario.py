@@ -194,7 +194,8 @@ def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = N
         if c.is_dir():
             raise ConfigError(f"scenario {str(name_or_path)!r}: {c} is a directory, expected a scenario YAML file "
                               f"or a bundled name ({', '.join(bundled)})")
-    raise ConfigError(f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})")
+    raise ConfigError(
+        f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})")
 
 
 def load_scenario(name_or_path: str | Path, overrides: list[str] | None = None) -> Scenario:

@@ -122,13 +122,15 @@ def _false_T(T_true: F64, rng: np.random.Generator) -> F64:
     Closer errors would be explained by the reference loop-closure noise (2 m / 10 deg).
     """
     while True:
-        T = pose_4dof(*rng.uniform(-12.0, 12.0, 2), 0.0, rng.uniform(-np.pi, np.pi))
+        x, y = rng.uniform(-12.0, 12.0, 2)
+        T = pose_4dof(x, y, 0.0, rng.uniform(-np.pi, np.pi))
         rot, trans = pose_error(T, T_true)
         if trans > 10.0 or rot > np.deg2rad(60.0):
             return T
 
 
-def _distinct_submaps(T_ws: dict[str, F64], robots: list[str], rng: np.random.Generator):
+def _distinct_submaps(T_ws: dict[str, F64], robots: list[str],
+                      rng: np.random.Generator) -> tuple[tuple[str, int], tuple[str, int]]:
     """Two different submaps, robots and indices drawn uniformly."""
     while True:
         ra, rb = (str(r) for r in rng.choice(robots, size=2))
@@ -137,14 +139,17 @@ def _distinct_submaps(T_ws: dict[str, F64], robots: list[str], rng: np.random.Ge
             return (ra, ia), (rb, ib)
 
 
-def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64], rng: np.random.Generator):
+def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64],
+              rng: np.random.Generator) -> tuple[list[LoopClosure], list[bool]]:
     cands = _candidates(cfg, T_ws)
     n_false = int(round(cfg.n_closures * cfg.outlier_fraction))
     n_true = min(cfg.n_closures - n_false, len(cands))
-    closures, is_true = [], []
+    closures: list[LoopClosure] = []
+    is_true: list[bool] = []
     for k in rng.choice(len(cands), size=n_true, replace=False) if n_true else []:
         ra, ia, rb, ib = cands[k]
-        noise = pose_4dof(*(cfg.closure_noise_m * rng.normal(size=3)), np.deg2rad(cfg.closure_noise_deg) * rng.normal())
+        dx, dy, dz = cfg.closure_noise_m * rng.normal(size=3)
+        noise = pose_4dof(dx, dy, dz, np.deg2rad(cfg.closure_noise_deg) * rng.normal())
         T = inv_T(T_ws[ra][ia]) @ T_ws[rb][ib] @ noise
         closures.append(LoopClosure(ra, int(ia), rb, int(ib), T, int(rng.integers(6, 21)), source="synthetic"))
         is_true.append(True)
@@ -165,7 +170,7 @@ def synthetic_scenario(seed: int, cfg: SyntheticGraphConfig | None = None) -> Sy
     for r in range(cfg.n_robots):
         name = f"robot{r}"
         T_true = _true_path(cfg, r)
-        t = np.arange(len(T_true)) * cfg.step_m / cfg.speed_mps
+        t = np.arange(len(T_true), dtype=np.float64) * cfg.step_m / cfg.speed_mps
         T_wo[name], T_odom = _drift(cfg, T_true, child_rng(seed, "posegraph_synthetic", "drift", name))
         truth[name], odom[name] = Trajectory(t, T_true), Trajectory(t, T_odom)
         idx = _submap_index(cfg, len(t))

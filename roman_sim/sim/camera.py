@@ -60,7 +60,8 @@ class CameraConfig(StrictModel):
         """Pinhole intrinsics with a centred principal point."""
         fx = (self.width / 2.0) / np.tan(np.radians(self.hfov_deg) / 2.0)
         fy = fx if self.vfov_deg is None else (self.height / 2.0) / np.tan(np.radians(self.vfov_deg) / 2.0)
-        intr = Intrinsics(self.width, self.height, float(fx), float(fy), (self.width - 1) / 2.0, (self.height - 1) / 2.0)
+        cx, cy = (self.width - 1) / 2.0, (self.height - 1) / 2.0
+        intr = Intrinsics(self.width, self.height, float(fx), float(fy), cx, cy)
         return check_intrinsics(intr)
 
     def T_body_cam(self) -> NDArray[np.float64]:

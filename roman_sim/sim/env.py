@@ -190,12 +190,17 @@ class GroundRobotEnv(gym.Env):
                 return PlanarState(float(x), float(y), float(rng.uniform(-np.pi, np.pi)))
         raise SimError(f"GroundRobotEnv: no free start pose with clearance {self.clearance_m} m found")
 
-    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[ObsDict, dict[str, Any]]:
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[ObsDict, dict[str, Any]]:
         """Start a new episode; the same ``seed`` gives the same episode."""
         self._check_open("reset")
         super().reset(seed=seed)
         base = int(self.np_random.integers(0, 2**31 - 1))
-        self._state = PlanarState(*self.start) if self.start is not None else self._random_start(child_rng(base, "env", "start"))
+        if self.start is not None:
+            self._state = PlanarState(*self.start)
+        else:
+            self._state = self._random_start(child_rng(base, "env", "start"))
         self._drift = DriftModel(self.drift_cfg, child_rng(base, "env", "drift"))
         self._noise_rng = child_rng(base, "env", "depth_noise")
         self._steps = 0

@@ -130,7 +130,9 @@ class DriftModel:
         return make_T(rot_y(pitch + dp) @ rot_x(roll + dr))
 
 
-def drift_trajectory(T_world_body: NDArray[np.float64], cfg: DriftConfig, rng: np.random.Generator) -> NDArray[np.float64]:
+def drift_trajectory(
+    T_world_body: NDArray[np.float64], cfg: DriftConfig, rng: np.random.Generator
+) -> NDArray[np.float64]:
     """Drifted odometry (N, 4, 4) for a whole true trajectory (N, 4, 4)."""
     model = DriftModel(cfg, rng)
     return np.stack([model.step(T) for T in np.asarray(T_world_body, dtype=np.float64).reshape(-1, 4, 4)])

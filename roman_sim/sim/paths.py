@@ -5,8 +5,9 @@ constant arc length with headings. Kinds: ``loop`` (ellipse), ``out_and_back`` (
 out, U-turn, back), ``lawnmower`` (boustrophedon), ``road`` (follow a world road),
 ``waypoints`` (user polyline), and the relations ``reverse_of`` / ``cross`` / ``retrace``
 that derive a path from another robot's path (``retrace`` drives pieces of it, each forward
-or backward, joined by routed connections: e.g. half the way along, half against). Straight legs that would come closer than the clearance
-to an object are replaced by a grid-planned detour; every final path is validated.
+or backward, joined by routed connections: e.g. half the way along, half against). Straight
+legs that would come closer than the clearance to an object are replaced by a grid-planned
+detour; every final path is validated.
 """
 
 from __future__ import annotations
@@ -214,12 +215,15 @@ def _waypoints(cfg: PathConfig, truth: WorldTruth, rng: np.random.Generator) -> 
     return np.asarray(cfg.waypoints, dtype=np.float64)
 
 
-def validate_path(path: Path2D, truth: WorldTruth, cfg: PathConfig, name: str, obstacles: Obstacles | None = None) -> Path2D:
+def validate_path(
+    path: Path2D, truth: WorldTruth, cfg: PathConfig, name: str, obstacles: Obstacles | None = None
+) -> Path2D:
     """Return ``path`` if it stays inside the world and clear of objects, else raise ``SimError``."""
     out = ~inside_world(truth, path.xy, cfg.edge_margin_m)
     if out.any():
         x, y = path.xy[np.argmax(out)]
-        raise SimError(f"robot {name!r}: path leaves the world at ({x:.2f}, {y:.2f}) (edge margin {cfg.edge_margin_m} m)")
+        raise SimError(
+            f"robot {name!r}: path leaves the world at ({x:.2f}, {y:.2f}) (edge margin {cfg.edge_margin_m} m)")
     clear = (obstacles or Obstacles(truth)).clearance(path.xy)
     if np.any(clear < cfg.clearance_m - 1e-6):
         i = int(np.argmin(clear))
@@ -261,13 +265,15 @@ def make_path(
             return validate_path(retrace_path(other, cfg, truth, name, obs), truth, cfg, name, obs)
         line = crossing_path(other, cfg.heading_offset_deg, cfg.at_fraction, cfg.length_m).xy
         waypoints = _clip_line(line[[0, -1]], truth, cfg.edge_margin_m)
-        return _smooth_valid(route(waypoints, truth, cfg.clearance_m, cfg.edge_margin_m, name, obs), truth, cfg, name, obs)
+        routed = route(waypoints, truth, cfg.clearance_m, cfg.edge_margin_m, name, obs)
+        return _smooth_valid(routed, truth, cfg, name, obs)
     gen = WAYPOINTS.get(cfg.kind)
     # Randomly placed shapes are re-drawn a few times if a placement cannot be routed.
     attempts = _RANDOM_ATTEMPTS if cfg.center is None and cfg.kind in _RANDOM_KINDS else 1
     for k in range(attempts):
         try:
-            return _smooth_valid(route(gen(cfg, truth, rng), truth, cfg.clearance_m, cfg.edge_margin_m, name, obs), truth, cfg, name, obs)
+            routed = route(gen(cfg, truth, rng), truth, cfg.clearance_m, cfg.edge_margin_m, name, obs)
+            return _smooth_valid(routed, truth, cfg, name, obs)
         except SimError as err:
             if k == attempts - 1:
                 raise

@@ -46,7 +46,9 @@ class Obstacles:
         d, idx = d.reshape(len(pts), k), idx.reshape(len(pts), k)
         return np.min(d - self.r[idx], axis=1)
 
-    def segment_free(self, a: NDArray[np.float64], b: NDArray[np.float64], clearance_m: float, step: float = 0.1) -> bool:
+    def segment_free(
+        self, a: NDArray[np.float64], b: NDArray[np.float64], clearance_m: float, step: float = 0.1
+    ) -> bool:
         """Whether the straight segment a -> b keeps ``clearance_m`` from every object."""
         n = max(2, int(np.ceil(np.linalg.norm(b - a) / step)) + 1)
         pts = a + np.linspace(0.0, 1.0, n)[:, None] * (b - a)
@@ -140,7 +142,8 @@ def _shortcut(pts: NDArray[np.float64], obs: Obstacles, clearance: float) -> NDA
 
 
 def route(
-    waypoints: NDArray[np.float64], truth: WorldTruth, clearance_m: float, edge_margin_m: float, name: str, obs: Obstacles
+    waypoints: NDArray[np.float64], truth: WorldTruth, clearance_m: float, edge_margin_m: float, name: str,
+    obs: Obstacles,
 ) -> NDArray[np.float64]:
     """Polyline through ``waypoints`` with detours around objects (grid planner when needed)."""
     out = ~inside_world(truth, waypoints, edge_margin_m)

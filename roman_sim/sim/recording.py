@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from roman_sim.core.atomic import make_public_dir, output_folder, write_json
 from roman_sim.core.errors import ConfigError, RecordingError
@@ -61,12 +62,18 @@ def _truth(f: Frame) -> FrameTruth:
     return f.truth
 
 
+def _object_ids(f: Frame) -> NDArray[np.int32]:
+    ids = _truth(f).object_ids
+    assert ids is not None  # _truth rejects frames without instance ids
+    return ids
+
+
 def _pack(frames: list[Frame]) -> dict[str, np.ndarray]:
     depth = np.stack([f.depth for f in frames]).astype(np.float64)
     depth_mm = np.where((depth > 0) & (depth <= 65.535), np.rint(depth * 1000.0), 0).astype(np.uint16)
-    ids = np.stack([_truth(f).object_ids for f in frames])
+    ids = np.stack([_object_ids(f) for f in frames])
     id_type = np.int16 if ids.size == 0 or (ids.max() < 32767 and ids.min() >= -1) else np.int32
-    out = {
+    out: dict[str, np.ndarray] = {
         "t": np.array([f.t for f in frames], dtype=np.float64),
         "index": np.array([f.index for f in frames], dtype=np.int64),
         "T_world_body": np.stack([_truth(f).T_world_body for f in frames]).astype(np.float64),
@@ -74,8 +81,9 @@ def _pack(frames: list[Frame]) -> dict[str, np.ndarray]:
         "depth_mm": depth_mm,
         "object_ids": ids.astype(id_type),
     }
-    if frames[0].rgb is not None:
-        out["rgb"] = np.stack([f.rgb for f in frames]).astype(np.uint8)
+    rgb = [f.rgb for f in frames if f.rgb is not None]  # all frames or none (_check_consistent)
+    if rgb:
+        out["rgb"] = np.stack(rgb).astype(np.uint8)
     return out
 
 
@@ -167,8 +175,9 @@ def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, extra: dict
         raise RecordingError("recording: no frames to write")
     if buf:
         flush()
-    write_tum(tmp / "traj_true.tum", Trajectory(t, np.asarray(T_true).reshape(-1, 4, 4)))
-    write_tum(tmp / "traj_odom.tum", Trajectory(t, np.asarray(T_odom).reshape(-1, 4, 4)))
+    times = np.asarray(t, dtype=np.float64)
+    write_tum(tmp / "traj_true.tum", Trajectory(times, np.asarray(T_true).reshape(-1, 4, 4)))
+    write_tum(tmp / "traj_odom.tum", Trajectory(times, np.asarray(T_odom).reshape(-1, 4, 4)))
     write_json(tmp / "meta.json", _meta(first, len(t), chunks, extra))
 
 

@@ -114,7 +114,8 @@ def _check_driven_clearance(world: Any, cfg: RobotConfig, T_wb: NDArray[np.float
     if len(clear) and clear[i] < 0.0:
         raise SimError(f"robot {cfg.name!r}: drove into an object footprint at step {i} (path too tight to follow)")
     if len(clear) and clear[i] < cfg.path.clearance_m:
-        log.warning("robot %s: came %.2f m close to an object (clearance %.2f m)", cfg.name, clear[i], cfg.path.clearance_m)
+        log.warning("robot %s: came %.2f m close to an object (clearance %.2f m)",
+                    cfg.name, clear[i], cfg.path.clearance_m)
 
 
 class DrivenRun(NamedTuple):

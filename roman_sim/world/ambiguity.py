@@ -107,7 +107,9 @@ def place_ambiguity(truth: WorldTruth, center_xy: ArrayLike, radius_m: float = 1
     return float(max(0, inliers - 2) / (len(P) - 2))
 
 
-def ambiguity_index(truth: WorldTruth, n_places: int = 50, radius_m: float = 15.0, seed: int = 0, **kwargs: float) -> float:
+def ambiguity_index(
+    truth: WorldTruth, n_places: int = 50, radius_m: float = 15.0, seed: int = 0, **kwargs: float
+) -> float:
     """Mean ``place_ambiguity`` over ``n_places`` random disc centres inside the extent."""
     if n_places < 1:
         raise WorldError(f"ambiguity_index: n_places must be >= 1, got {n_places}")

@@ -129,7 +129,9 @@ class Variation:
     val: float
 
 
-def vary_rgba(rgba: tuple[float, ...], var: Variation, amount: float, draws: NDArray[np.float64]) -> NDArray[np.float64]:
+def vary_rgba(
+    rgba: tuple[float, ...], var: Variation, amount: float, draws: NDArray[np.float64]
+) -> NDArray[np.float64]:
     """``rgba`` moved within ``var`` scaled by ``amount``; ``draws`` = (d_h, d_s, d_v) in [-1, 1]."""
     h, s, v = colorsys.rgb_to_hsv(*rgba[:3])
     h = (h + amount * var.hue_deg * float(draws[0]) / 360.0) % 1.0

@@ -9,7 +9,7 @@ grain runs along, and optionally a colour range of its own.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,8 +64,15 @@ def _blob(rng: np.random.Generator, rx: float, ry: float, rz: float, z0: float, 
     return trimesh.Trimesh(v, m.faces, process=False)
 
 
+def concat_meshes(meshes: Iterable[trimesh.Trimesh]) -> trimesh.Trimesh:
+    """``meshes`` as one triangle mesh (``trimesh.util.concatenate``, typed for triangle meshes)."""
+    out = trimesh.util.concatenate(list(meshes))
+    assert isinstance(out, trimesh.Trimesh)  # triangle meshes (or none) concatenate to a triangle mesh
+    return out
+
+
 def _cat(*meshes: trimesh.Trimesh) -> trimesh.Trimesh:
-    return trimesh.util.concatenate(list(meshes))
+    return concat_meshes(meshes)
 
 
 @FAMILIES.register("conifer")
@@ -87,13 +94,15 @@ def deciduous(rng: np.random.Generator) -> list[Part]:
     trunk_h = rng.uniform(1.8, 3.0)
     cr = rng.uniform(1.8, 2.8)
     crown = _blob(rng, cr, cr * rng.uniform(0.85, 1.0), cr * rng.uniform(0.8, 1.1), trunk_h - 0.3, 0.12)
-    return [Part("trunk", _cyl(0.18, trunk_h + 0.2), BARK, "bark"), Part("crown", crown, (0.30, 0.52, 0.18, 1.0), "foliage")]
+    return [Part("trunk", _cyl(0.18, trunk_h + 0.2), BARK, "bark"),
+            Part("crown", crown, (0.30, 0.52, 0.18, 1.0), "foliage")]
 
 
 @FAMILIES.register("bush")
 def bush(rng: np.random.Generator) -> list[Part]:
     r = rng.uniform(0.6, 1.1)
-    return [Part("body", _blob(rng, r, r * rng.uniform(0.7, 1.0), r * rng.uniform(0.6, 0.9), 0.0, 0.15), (0.22, 0.45, 0.15, 1.0), "foliage")]
+    body = _blob(rng, r, r * rng.uniform(0.7, 1.0), r * rng.uniform(0.6, 0.9), 0.0, 0.15)
+    return [Part("body", body, (0.22, 0.45, 0.15, 1.0), "foliage")]
 
 
 @FAMILIES.register("boulder")
@@ -131,7 +140,7 @@ def house(rng: np.random.Generator) -> list[Part]:
     w, d, h = rng.uniform(7.0, 11.0), rng.uniform(6.0, 9.0), rng.uniform(3.0, 5.5)
     wall = tuple(rng.uniform(0.65, 0.9, 3)) + (1.0,)
     return [
-        Part("walls", _box(w, d, h), wall, "paint"),  # type: ignore[arg-type]
+        Part("walls", _box(w, d, h), wall, "paint"),
         Part("roof", _gable_roof(w, d, rng.uniform(1.5, 3.0), h), (0.55, 0.18, 0.12, 1.0), "tiles"),
     ]
 
@@ -139,7 +148,8 @@ def house(rng: np.random.Generator) -> list[Part]:
 @FAMILIES.register("shed")
 def shed(rng: np.random.Generator) -> list[Part]:
     w, d, h = rng.uniform(2.5, 4.0), rng.uniform(2.0, 3.0), rng.uniform(2.0, 2.6)
-    return [Part("walls", _box(w, d, h), WOOD, "wood"), Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0), "metal")]
+    return [Part("walls", _box(w, d, h), WOOD, "wood"),
+            Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0), "metal")]
 
 
 @FAMILIES.register("car")
@@ -152,7 +162,7 @@ def car(rng: np.random.Generator) -> list[Part]:
         for sx in (-1, 1) for sy in (-1, 1)
     ))
     colour = tuple(rng.uniform(0.1, 0.9, 3)) + (1.0,)
-    return [Part("body", body, colour, "paint", variation=ANY_HUE),  # type: ignore[arg-type]
+    return [Part("body", body, colour, "paint", variation=ANY_HUE),
             Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0), "metal")]
 
 
@@ -160,7 +170,8 @@ def car(rng: np.random.Generator) -> list[Part]:
 def lamp_post(rng: np.random.Generator) -> list[Part]:
     h = rng.uniform(4.0, 6.0)
     head = _box(0.9, 0.3, 0.25, x=0.35, z0=h)
-    return [Part("pole", _cyl(0.08, h + 0.1, sections=6), METAL, "metal"), Part("lamp", head, (0.95, 0.92, 0.7, 1.0), "paint")]
+    return [Part("pole", _cyl(0.08, h + 0.1, sections=6), METAL, "metal"),
+            Part("lamp", head, (0.95, 0.92, 0.7, 1.0), "paint")]
 
 
 @FAMILIES.register("bench")
@@ -183,7 +194,8 @@ def fence(rng: np.random.Generator) -> list[Part]:
 
 @FAMILIES.register("trash_can")
 def trash_can(rng: np.random.Generator) -> list[Part]:
-    return [Part("body", _cyl(rng.uniform(0.25, 0.35), rng.uniform(0.8, 1.1), sections=10), (0.15, 0.35, 0.2, 1.0), "paint")]
+    body = _cyl(rng.uniform(0.25, 0.35), rng.uniform(0.8, 1.1), sections=10)
+    return [Part("body", body, (0.15, 0.35, 0.2, 1.0), "paint")]
 
 
 @FAMILIES.register("hay_bale")

@@ -13,6 +13,7 @@ from roman_sim.core.errors import WorldError
 from roman_sim.core.seeding import child_rng
 from roman_sim.geometry import make_T, rot_z
 from roman_sim.world.appearance import resolve_sun
+from roman_sim.world.assets import concat_meshes
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
 from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
@@ -41,7 +42,7 @@ class World:
         if not 0 <= obj_id < len(self.truth.objects):
             raise WorldError(f"obj_id {obj_id} out of range (0..{len(self.truth.objects) - 1})")
         obj = self.truth.objects[obj_id]
-        mesh = trimesh.util.concatenate([self.meshes[n] for n in obj.mesh_names])
+        mesh = concat_meshes(self.meshes[n] for n in obj.mesh_names)
         return mesh.apply_transform(obj.T_world_obj)
 
 
@@ -62,7 +63,9 @@ def effective_densities(spec: WorldSpec) -> list[float]:
     return out.tolist()
 
 
-def _place_family(spec: WorldSpec, seed: int, fam: FamilySpec, n: int, assets: list[Asset], placer: Placer, roads: list) -> list[_Placed]:
+def _place_family(
+    spec: WorldSpec, seed: int, fam: FamilySpec, n: int, assets: list[Asset], placer: Placer, roads: list
+) -> list[_Placed]:
     """Up to ``n`` objects of ``fam`` from its layout's candidates, in candidate order."""
     rng = child_rng(seed, "world", "layout", fam.name)
     reg = spec.knobs()[2]
@@ -150,9 +153,10 @@ def generate(spec: WorldSpec, seed: int) -> World:
     except Exception as err:  # noqa: BLE001  (MuJoCo raises plain ValueError on compile failures)
         raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
     for obj in objects:
-        obj.geom_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))]
-    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs()), "placed_requested": counts,
-            "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg}}
+        obj.geom_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}")
+                        for k in range(len(obj.mesh_names))]
+    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs()),
+            "placed_requested": counts, "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg}}
     truth = WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
     log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(objects), model.ngeom)
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)

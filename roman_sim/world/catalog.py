@@ -14,7 +14,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from roman_sim.core.seeding import child_rng
-from roman_sim.world.assets import FAMILIES, Part
+from roman_sim.world.assets import FAMILIES, Part, concat_meshes
 from roman_sim.world.spec import FamilySpec
 
 
@@ -36,7 +36,7 @@ class Asset:
 
     def combined(self) -> trimesh.Trimesh:
         """All parts as one mesh in the object frame."""
-        return trimesh.util.concatenate([p.mesh for p in self.parts])
+        return concat_meshes(p.mesh for p in self.parts)
 
 
 @dataclass(frozen=True)
@@ -51,7 +51,7 @@ class _Shape:
 
 def _shape(parts: list[Part]) -> _Shape:
     """Gravity-aligned oriented box (2D box in xy, z range), radius and volume centroid."""
-    mesh = trimesh.util.concatenate([p.mesh for p in parts])
+    mesh = concat_meshes(p.mesh for p in parts)
     v = mesh.vertices
     T2, ext2 = trimesh.bounds.oriented_bounds_2D(v[:, :2])
     T_inv = np.linalg.inv(T2)  # box frame -> object frame (2D)

@@ -41,7 +41,9 @@ def _road_distance_px(shape: tuple[int, int], terrain: Terrain, roads: list[Poly
     return distance_transform_edt(~centre, sampling=(my, mx))
 
 
-def ground_texture(terrain: Terrain, roads: list[Polyline], road_width_m: float, rng: np.random.Generator) -> NDArray[np.uint8]:
+def ground_texture(
+    terrain: Terrain, roads: list[Polyline], road_width_m: float, rng: np.random.Generator
+) -> NDArray[np.uint8]:
     """(rows, cols, 3) RGB ground image: patchy grass, fine noise and the road surfaces."""
     shape = texture_shape(terrain)
     coarse = rng.normal(0.0, 1.0, (max(2, shape[0] // 32), max(2, shape[1] // 32)))

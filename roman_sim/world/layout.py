@@ -125,7 +125,9 @@ def roadside(rng: np.random.Generator, n: int, ctx: LayoutContext) -> tuple[F64,
 class Placer:
     """Greedy acceptance of footprint discs (centre, radius) with a minimum gap."""
 
-    def __init__(self, extent: tuple[float, float], roads: list[Polyline], road_width_m: float, gap: float, capacity: int) -> None:
+    def __init__(
+        self, extent: tuple[float, float], roads: list[Polyline], road_width_m: float, gap: float, capacity: int
+    ) -> None:
         self.half = np.array(extent, dtype=np.float64) / 2
         self.roads = roads
         self.road_half = road_width_m / 2

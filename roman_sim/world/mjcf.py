@@ -60,10 +60,13 @@ def _sky(mjs: mujoco.MjSpec, spec: WorldSpec) -> None:
                     width=64, height=64, rgb1=zenith.tolist(), rgb2=horizon.tolist())
 
 
-def add_terrain(mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8]) -> None:
+def add_terrain(
+    mjs: mujoco.MjSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8]
+) -> None:
     """Add the hfield geom (geom 0) that reproduces ``terrain`` exactly, textured with ``ground``."""
     rows, cols = terrain.shape
-    tex = mjs.add_texture(name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D, width=ground.shape[1], height=ground.shape[0], nchannel=3)
+    tex = mjs.add_texture(name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D,
+                          width=ground.shape[1], height=ground.shape[0], nchannel=3)
     tex.data = np.ascontiguousarray(ground).tobytes()
     mat = mjs.add_material(name=GROUND, specular=0.0)  # grass and dirt do not shine
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name

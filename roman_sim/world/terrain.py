@@ -24,7 +24,9 @@ def grid_shape(extent_m: tuple[float, float], resolution_m: float) -> tuple[int,
     return rows, cols
 
 
-def _octave(rng: np.random.Generator, rows: int, cols: int, extent_m: tuple[float, float], wavelength: float) -> NDArray[np.float64]:
+def _octave(
+    rng: np.random.Generator, rows: int, cols: int, extent_m: tuple[float, float], wavelength: float
+) -> NDArray[np.float64]:
     """Smooth value noise in [-1, 1] with lattice pitch ``wavelength`` metres."""
     nx = int(np.ceil(extent_m[0] / wavelength)) + 2
     ny = int(np.ceil(extent_m[1] / wavelength)) + 2
@@ -35,7 +37,9 @@ def _octave(rng: np.random.Generator, rows: int, cols: int, extent_m: tuple[floa
     return map_coordinates(lattice, [gy, gx], order=3, mode="nearest")
 
 
-def make_terrain(spec: TerrainSpec, extent_m: tuple[float, float], rng: np.random.Generator) -> tuple[Terrain, float, float]:
+def make_terrain(
+    spec: TerrainSpec, extent_m: tuple[float, float], rng: np.random.Generator
+) -> tuple[Terrain, float, float]:
     """Generate the terrain.
 
     Returns:

@@ -93,7 +93,8 @@ class Terrain:
 
     @property
     def shape(self) -> tuple[int, int]:
-        return self.heights.shape  # type: ignore[return-value]
+        rows, cols = self.heights.shape
+        return rows, cols
 
     def height_at(self, x: NDArray[np.float64] | float, y: NDArray[np.float64] | float) -> NDArray[np.float64]:
         """Bilinear terrain height at world (x, y); points outside are clamped to the edge."""

@@ -95,10 +95,10 @@ def _dense_reference(ca, cb, assoc, p):
     S = np.zeros((P, P))
     for x in range(P):
         for y in range(x + 1, P):
-            (i, j), (k, l) = assoc[x], assoc[y]
-            if i == k or j == l:
+            (i, j), (k, m) = assoc[x], assoc[y]
+            if i == k or j == m:
                 continue
-            S[x, y] = S[y, x] = pairwise_consistency(ca[i] - ca[k], cb[j] - cb[l], p)
+            S[x, y] = S[y, x] = pairwise_consistency(ca[i] - ca[k], cb[j] - cb[m], p)
     return S
 
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import ConfigError, EvaluationError
+from roman_sim.evaluation.atetable import AteTable, VariantAte
 from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.pairs import PairTruth
-from roman_sim.evaluation.atetable import AteTable, VariantAte
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall, names_list, run_scenario

@@ -8,9 +8,9 @@ from scipy.spatial.transform import Rotation
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.trajectory import Trajectory, associate
+from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.evaluation.ate import align_4dof, align_se3, ate_rmse, multi_robot_ate
 from roman_sim.geometry import make_T, pose_4dof, rpy_to_R
-from roman_sim.core.tum import read_tum, write_tum
 
 
 def _tr(t: np.ndarray, T: np.ndarray) -> Trajectory:

@@ -9,7 +9,7 @@ import pytest
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth, select_pairs, truths_for_pairs
+from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth, truths_for_pairs
 
 
 def _set(make_submap):

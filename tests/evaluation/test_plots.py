@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.metrics import score_pair, summary
-from roman_sim.evaluation.pairs import pair_truth
 from roman_sim.evaluation.examples import draw_examples, pick_examples, plot_alignment
 from roman_sim.evaluation.maskview import overlay, plot_masks
+from roman_sim.evaluation.metrics import score_pair, summary
+from roman_sim.evaluation.pairs import pair_truth
 from roman_sim.evaluation.plots import plot_heading_recall, write_metric_plots
 from roman_sim.geometry import make_T, rot_z
 

@@ -143,7 +143,8 @@ def test_submap_helpers():
     ok = AlignResult("roman", pose_4dof(1, 2, 0, 0.3), np.zeros((5, 2), np.int64), np.ones(5), 0.01)
     lc = closure_from_alignment(subs[1], subs[2], ok)
     assert isinstance(lc, LoopClosure)
-    assert (lc.robot_a, lc.submap_a, lc.robot_b, lc.submap_b, lc.n_associations, lc.source) == ("a", 0, "b", 0, 5, "roman")
+    got = (lc.robot_a, lc.submap_a, lc.robot_b, lc.submap_b, lc.n_associations, lc.source)
+    assert got == ("a", 0, "b", 0, 5, "roman")
     assert lc.inter
     assert closure_from_alignment(subs[1], subs[2], AlignResult.failure("roman", "too few")) is None
 

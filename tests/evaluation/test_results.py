@@ -12,7 +12,12 @@ from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth
 from roman_sim.evaluation.results import (
-    PAIRS_FIELDS, read_evaluation, read_metrics_json, read_pairs_csv, write_evaluation, write_pairs_csv,
+    PAIRS_FIELDS,
+    read_evaluation,
+    read_metrics_json,
+    read_pairs_csv,
+    write_evaluation,
+    write_pairs_csv,
 )
 
 

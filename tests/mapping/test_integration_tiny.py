@@ -13,8 +13,8 @@ from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sim.camera import CameraConfig
 from roman_sim.sensors import backproject
+from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
 from roman_sim.world import generate, load_world_spec
 
@@ -41,7 +41,8 @@ def _visible(frames, max_depth=7.5):
         ok = (f.depth > 0) & (f.depth <= max_depth)
         for oid in np.unique(f.truth.object_ids[ok & (f.truth.object_ids >= 0)]):
             sel = ok & (f.truth.object_ids == oid)
-            pts.setdefault(int(oid), []).append(transform_points((f.truth.T_world_body @ f.T_body_cam), backproject(f.depth, f.intrinsics, sel)))
+            world_pts = transform_points(f.truth.T_world_body @ f.T_body_cam, backproject(f.depth, f.intrinsics, sel))
+            pts.setdefault(int(oid), []).append(world_pts)
     return {k: downsample(np.vstack(v), 0.05).mean(axis=0) for k, v in pts.items()}
 
 

@@ -27,7 +27,8 @@ def _visible_centres(frames, n):
     for f in frames:
         for k in range(n):
             sel = (f.truth.object_ids == k) & (f.depth <= 7.5)
-            pts[k].append(transform_points((f.truth.T_world_body @ f.T_body_cam), backproject(f.depth, f.intrinsics, sel)))
+            pts[k].append(transform_points(f.truth.T_world_body @ f.T_body_cam,
+                                           backproject(f.depth, f.intrinsics, sel)))
     return {k: downsample(np.vstack(v), 0.05).mean(axis=0) for k, v in pts.items()}
 
 

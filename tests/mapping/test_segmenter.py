@@ -2,13 +2,12 @@
 
 import numpy as np
 import pytest
+from mapping_synth import INTR, T_BODY_CAM
 from scipy import ndimage
 
 from roman_sim.core.errors import ConfigError, MappingError
 from roman_sim.mapping.segmenter import SEGMENTERS, Mask, Segmenter, SegmenterConfig, build_segmenter, ellipse_kernel
 from roman_sim.sensors import Frame, FrameTruth
-
-from mapping_synth import INTR, T_BODY_CAM
 
 
 def _frame(ids, depth=None, index=0):

@@ -3,10 +3,16 @@
 import numpy as np
 import pytest
 
-from roman_sim.core.errors import ConfigError
 from roman_sim.core.config import validate_model
-from roman_sim.mapping.semantics import (EncodeContext, SemanticConfig, SemanticEncoder, SimulatedEncoder,
-                                         expected_cosine, family_cosine)
+from roman_sim.core.errors import ConfigError
+from roman_sim.mapping.semantics import (
+    EncodeContext,
+    SemanticConfig,
+    SemanticEncoder,
+    SimulatedEncoder,
+    expected_cosine,
+    family_cosine,
+)
 from roman_sim.mapping.semantics_stats import CASES, cosine_statistics, view_curve
 
 M = np.ones((2, 2), bool)
@@ -23,7 +29,9 @@ def test_unit_float32_and_deterministic():
     assert a.family_of(EncodeContext(0)) == "rock" and a.family_of(EncodeContext(-1)) == "terrain"
 
 
-@pytest.mark.parametrize("cfg", [SemanticConfig(), SemanticConfig(view_weight=0.2, noise_energy=0.1, instance_weight=0.2)])
+@pytest.mark.parametrize(
+    "cfg", [SemanticConfig(), SemanticConfig(view_weight=0.2, noise_energy=0.1, instance_weight=0.2)]
+)
 def test_cosine_statistics_match_configuration(cfg):
     stats = cosine_statistics(cfg, n=60, seed=1)
     for case, (same, dview, fam_b) in CASES.items():

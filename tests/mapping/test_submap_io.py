@@ -7,8 +7,15 @@ import pytest
 
 from roman_sim.core.errors import StorageError
 from roman_sim.geometry import make_T, pose_4dof, rpy_to_R, transform_points
-from roman_sim.mapping.io import (load_segment_map, load_submaps, mb_per_km, packet_bytes, save_segment_map,
-                                  save_submaps, submaps_mb_per_km)
+from roman_sim.mapping.io import (
+    load_segment_map,
+    load_submaps,
+    mb_per_km,
+    packet_bytes,
+    save_segment_map,
+    save_submaps,
+    submaps_mb_per_km,
+)
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment, Status
 from roman_sim.mapping.submap import SubmapConfig, build_submaps, center_indices
@@ -102,6 +109,7 @@ def test_corrupt_wrong_version_and_wrong_format_files(tmp_path):
     with pytest.raises(StorageError, match="expected format"):
         load_segment_map(tmp_path / "s.npz")
     import json
+
     from roman_sim.core.atomic import write_npz
     hdr = np.frombuffer(json.dumps({"format": "roman_sim.submaps", "version": 99, "submaps": []}).encode(), np.uint8)
     write_npz(tmp_path / "v.npz", header=hdr)

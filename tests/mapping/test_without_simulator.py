@@ -50,5 +50,7 @@ def test_frames_without_truth_map_without_the_simulator(tmp_path):
 
 
 def test_importing_the_mapper_does_not_import_the_simulator():
-    code = "import sys, roman_sim.mapping.mapper, roman_sim.sensors; print(sorted(m for m in ('mujoco', 'gymnasium') if m in sys.modules))"
-    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == "[]"
+    code = ("import sys, roman_sim.mapping.mapper, roman_sim.sensors; "
+            "print(sorted(m for m in ('mujoco', 'gymnasium') if m in sys.modules))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert proc.stdout.strip() == "[]"

@@ -75,7 +75,8 @@ def test_run_folder_contents(smoke_run):
     assert stages["maps"]["seconds"] > 0 and stages["maps"]["peak_rss_mb"] > 0
     assert stages["evaluation"]["alignment"]["roman"]["median"] > 0
     manifest = json.loads((d / "manifest.json").read_text())
-    assert manifest["complete"] and sorted(manifest["stages"]) == ["evaluation", "maps", "posegraph", "report", "submaps"]
+    assert manifest["complete"]
+    assert sorted(manifest["stages"]) == ["evaluation", "maps", "posegraph", "report", "submaps"]
     listed = {f for rec in manifest["stages"].values() for f in rec["files"]}
     assert {"maps/a.npz", "maps/b.npz", "submaps/a.npz", "plots/trajectories.png", "report.md"} <= listed
     assert all((d / f).is_file() for f in listed)
@@ -189,8 +190,8 @@ def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
 
 
 def test_record_command_stores_readable_frames(tmp_path):
-    from roman_sim.sim.recording import read_recording, recording_info
     from roman_sim.core.tum import read_tum
+    from roman_sim.sim.recording import read_recording, recording_info
 
     out = tmp_path / "rec"
     res = runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "b",
@@ -259,7 +260,6 @@ def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
 
     """A changed configuration interrupted mid-way: the folder says it is incomplete (no stale
     metrics are reported under the new config.yaml); the next run completes it from the kept stages."""
-    from roman_sim.align import ALIGNERS
     from roman_sim.core.errors import StorageError
     from roman_sim.pipeline.result import RunResult
 

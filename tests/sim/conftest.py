@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+# isort: off
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import mujoco
+# isort: on
 import numpy as np
 import pytest
 

@@ -55,7 +55,8 @@ def test_random_walk_grows_with_sqrt_distance() -> None:
 
 def test_yaw_drift_and_bounded_roll_pitch() -> None:
     cfg = DriftConfig(translation_sigma_m_per_sqrt_m=0.0, z_sigma_m_per_sqrt_m=0.0, yaw_sigma_deg_per_sqrt_m=0.5,
-                      scale_error_std=0.0, yaw_bias_std_deg_per_m=0.0, roll_pitch_sigma_deg=0.5, roll_pitch_bound_deg=1.0)
+                      scale_error_std=0.0, yaw_bias_std_deg_per_m=0.0, roll_pitch_sigma_deg=0.5,
+                      roll_pitch_bound_deg=1.0)
     T_wb = _straight(21, 2.0)  # 40 m
     yaw_err, tilt = [], []
     for s in range(400):
@@ -96,6 +97,7 @@ def test_unknown_preset_lists_valid_names() -> None:
 
 
 def test_yaw_wraps_correctly_on_u_turns() -> None:
-    T_wb = np.stack([make_T(rpy_to_R(0, 0, float(wrap_angle(0.2 * k))), [np.cos(0.2 * k), np.sin(0.2 * k), 0]) for k in range(70)])
+    T_wb = np.stack([make_T(rpy_to_R(0, 0, float(wrap_angle(0.2 * k))), [np.cos(0.2 * k), np.sin(0.2 * k), 0])
+                     for k in range(70)])
     T_ob = drift_trajectory(T_wb, resolve_drift("zero"), np.random.default_rng(0))
     np.testing.assert_allclose(T_ob[-1], inv_T(gravity_aligned(T_wb[0])) @ T_wb[-1], atol=1e-9)

@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import RecordingError
-from roman_sim.geometry import make_T, rot_z
-from roman_sim.sim.camera import CameraConfig
-from roman_sim.sensors import Frame, FrameTruth
-from roman_sim.sim.recording import read_recording, recording_info, write_recording
 from roman_sim.core.tum import read_tum
+from roman_sim.geometry import make_T, rot_z
+from roman_sim.sensors import Frame, FrameTruth
+from roman_sim.sim.camera import CameraConfig
+from roman_sim.sim.recording import read_recording, recording_info, write_recording
 
 CAM = CameraConfig(width=16, height=12)
 
@@ -28,7 +28,8 @@ def _frames(n: int, rgb: bool = True, robot: str = "r1") -> list[Frame]:
         img = rng.integers(0, 256, (12, 16, 3)).astype(np.uint8) if rgb else None
         T_wb = make_T(rot_z(0.1 * i), [i * 0.2, 1.0, 0.3])
         T_ob = make_T(rot_z(0.1 * i + 0.01), [i * 0.21, 0.0, 0.0])
-        out.append(Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(), FrameTruth(ids, T_wb)))
+        out.append(Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(),
+                         FrameTruth(ids, T_wb)))
     return out
 
 

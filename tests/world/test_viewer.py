@@ -12,7 +12,6 @@ import pytest
 
 from roman_sim.world import export_world, generate, load_world_spec
 
-
 # Load the exported MJCF in plain MuJoCo, open MuJoCo's viewer on it and let it draw frames.
 VIEWER_SCRIPT = """
 import os, sys, time
@@ -34,7 +33,7 @@ os._exit(0)  # GLFW can crash in interpreter teardown after the viewer closed; t
 def test_export_opens_in_mujoco_viewer(tmp_path):
     export_world(generate(load_world_spec("tiny"), 0), tmp_path / "w")
     xml = tmp_path / "w" / "world.xml"
-    display = ":%d" % (90 + os.getpid() % 9)
+    display = f":{90 + os.getpid() % 9}"
     xvfb = subprocess.Popen(["Xvfb", display, "-screen", "0", "800x600x24"],
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:

@@ -198,7 +198,7 @@ def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]
     Returns the maps, the keyframes (robots that have them) and the grade parts (robots with
     instance truth), in scenario order.
     """
-    from roman_sim.core.atomic import write_npz
+    from roman_sim.core.atomic import write_arrays
     from roman_sim.pipeline.checkpoint import Checkpoint
     from roman_sim.pipeline.tasks import map_robot_task
 
@@ -237,14 +237,14 @@ def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]
     for i, (smap, kf, part) in ex.run_tasks(fn, args, [f"mapping robot {r.name}" for r in todo]):
         name = todo[i].name
         save_segment_map(files[name], smap)
-        rec: dict[str, Any] = {"sha256": _sha256(files[name]), "keyframes_sha256": None, "grades_sha256": None}
+        entry: dict[str, Any] = {"sha256": _sha256(files[name]), "keyframes_sha256": None, "grades_sha256": None}
         if kf is not None:
             save_keyframes(kf_files[name], kf)
-            rec["keyframes_sha256"] = _sha256(kf_files[name])
+            entry["keyframes_sha256"] = _sha256(kf_files[name])
         if part is not None:
-            write_npz(part_files[name], **part.arrays())
-            rec["grades_sha256"] = _sha256(part_files[name])
-        done.put(name, rec)
+            write_arrays(part_files[name], part.arrays())
+            entry["grades_sha256"] = _sha256(part_files[name])
+        done.put(name, entry)
         results[name] = read_back(name, kf is not None, part is not None)
         ctx.progress.advance("maps:robots")
     ctx.progress.end("maps:robots")
