@@ -54,7 +54,8 @@ def test_cost_model_by_hand(tmp_path):
     # 10x: one worker 80 km x 200 s + 80000 x 0.01 s = 16800 s; 10 workers a tenth of it, 1680 s
     assert "| 10x `kimera_outdoor` (80 robots) | 80 | 80000 | 4.7 h | 28 min |" in out
     # the runs table: total = 10 + 1600 + 5 + 50 + 3 + 2 s = 1670 s
-    assert "| `kimera_outdoor` | 8 | 8.0 | 100 | 8000 (of 32000; 30 m) | 27 min | 50 s | 20 s | 28 min | 2 (local) |" in out
+    row = "| `kimera_outdoor` | 8 | 8.0 | 100 | 8000 (of 32000; 30 m) | 27 min | 50 s | 20 s | 28 min | 2 (local) |"
+    assert row in out
 
 
 def test_update_rewrites_only_the_block(tmp_path):
