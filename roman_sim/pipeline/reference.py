@@ -34,6 +34,7 @@ log = logging.getLogger(__name__)
 PAPER_SCENARIOS = [
     "same_direction", "partial_opposite", "opposite_direction", "heading_sweep",
     "multi_robot_tunnel", "multi_robot_hybrid", "multi_robot_outdoor",
+    "opposite_direction_pixels",  # the opposite-direction scenario with the image front end
 ]
 SMALL_FILES = ("ate.json", "report.md", "config.yaml", "posegraph.json", "map_stats.json", "manifest.json")
 #: Raw data kept compressed (the pairs table, each method's estimates).
