@@ -8,7 +8,9 @@ from roman_sim.pipeline.reference_tables import frontends, frontends_markdown, t
 
 
 def _ate(**rows: tuple[int, float | None]) -> dict:
-    return {v: {"connected": n, "common": c, "all": c} for v, (n, c) in rows.items()}
+    """Rows ``name=(robots placed, ATE over the common robots)``; over all robots: 10x that, if all 3 placed."""
+    return {v: {"connected": n, "common": c, "all": None if n < 3 or c is None else 10 * c}
+            for v, (n, c) in rows.items()}
 
 
 def _multi(ate: dict, common: list[str]) -> dict:
@@ -28,20 +30,22 @@ def test_table1_puts_every_row_next_to_the_paper():
     rows = table1(_runs_ate())
     assert [r["environment"] for r in rows] == ["tunnel", "hybrid"]  # the paper's order; outdoor did not run
     assert rows[0]["paper"] == {"visual": 4.38, "roman": 4.20, "combined": 4.12}
-    assert rows[1]["simulation"]["visual"] == {"ate_m": 0.5, "placed": 2}
+    assert rows[1]["simulation"]["visual"] == {"ate_m": 0.5, "ate_all_m": None, "placed": 2}
     assert rows[1]["common"] == ["a", "c"] and rows[1]["robots"] == ["a", "b", "c"]
     lines = table1_markdown(rows).splitlines()
-    assert lines[-2] == ("| tunnel | 4.38 | 4.20 | 4.12 | 0.50 (3/3) | 0.45 (3/3) | 0.40 (3/3) | 0.30 (3/3) | "
+    assert lines[-4] == ("| tunnel | 4.38 | 4.20 | 4.12 | 0.50 (3/3) | 0.45 (3/3) | 0.40 (3/3) | 0.30 (3/3) | "
                          "0.25 (3/3) | 0.20 (3/3) | a, b, c of 3 |")
-    assert lines[-1] == ("| hybrid | 5.83 | 5.12 | 4.77 | 0.60 (3/3) | 0.55 (3/3) | 0.50 (2/3) | 0.35 (3/3) | "
+    assert lines[-2] == ("| hybrid | 5.83 | 5.12 | 4.77 | 0.60 (3/3) | 0.55 (3/3) | 0.50 (2/3) | 0.35 (3/3) | "
                          "0.40 (3/3) | 0.30 (3/3) | a, c of 3 |")
+    assert lines[-1] == ("| hybrid, all robots |  |  |  | 6.00 (3/3) | 5.50 (3/3) | n/a (2/3) | 3.50 (3/3) | "
+                         "4.00 (3/3) | 3.00 (3/3) | a, b, c |")
 
 
 def test_table1_marks_rows_a_run_does_not_have():
     runs = {"multi_robot_outdoor": _multi(_ate(odometry=(3, 0.5), roman=(2, None)), [])}
     row = table1(runs)[0]
-    assert row["simulation"]["visual"] == {"ate_m": None, "placed": None}
-    assert table1_markdown([row]).splitlines()[-1] == ("| outdoor | 9.38 | 8.77 | 7.77 | 0.50 (3/3) | n/a | n/a | "
+    assert row["simulation"]["visual"] == {"ate_m": None, "ate_all_m": None, "placed": None}
+    assert table1_markdown([row]).splitlines()[-2] == ("| outdoor | 9.38 | 8.77 | 7.77 | 0.50 (3/3) | n/a | n/a | "
                                                        "n/a (2/3) | n/a | n/a | none of 3 |")
     assert table1_markdown([]) == ""
 
@@ -55,8 +59,10 @@ def test_table1_claims_follow_the_rows():
     assert not lowest["holds"]  # hybrid: combined 0.40 > ROMAN 0.35
     assert "multi_robot_tunnel: combined 0.25, visual 0.40, ROMAN 0.30 m over 3/3 robots" in lowest["text"]
     runs = _runs_ate()
-    runs["multi_robot_hybrid"]["ate"]["combined"]["common"] = 0.35  # a tie with ROMAN counts as "at or below"
+    runs["multi_robot_hybrid"]["ate"]["combined"]["common"] = 0.354  # within 5 mm of ROMAN: a tie, "at or below"
     assert {c["id"]: c for c in claims(runs, [])}["combined_ate_lowest"]["holds"]
+    runs["multi_robot_hybrid"]["ate"]["visual"]["common"] = 0.354  # ROMAN 0.35 is then not lower than visual
+    assert not {c["id"]: c for c in claims(runs, [])}["roman_ate_below_visual"]["holds"]
     no_visual = {"multi_robot_tunnel": _multi(_ate(odometry=(3, 0.5), roman=(3, 0.3)), ["a"])}
     assert not {c["id"] for c in claims(no_visual, [])} & {"roman_ate_below_visual", "combined_ate_lowest"}
 
