@@ -58,13 +58,20 @@ def test_table1_claims_follow_the_rows():
     assert "tunnel 4.38 / 4.20 / 4.12" in below["text"]
     assert not lowest["holds"]  # hybrid: combined 0.40 > ROMAN 0.35
     assert "multi_robot_tunnel: combined 0.25, visual 0.40, ROMAN 0.30 m over 3/3 robots" in lowest["text"]
+    whole = by_id["combined_all_robots_below_odometry"]  # over all robots: 10x the common figures here
+    assert whole["holds"]
+    assert "multi_robot_tunnel: combined 2.50 m (3/3 robots placed) vs odometry 5.00 m" in whole["text"]
+    runs = _runs_ate()
+    runs["multi_robot_tunnel"]["ate"]["combined"].update(connected=2, all=None)  # a robot left out: no all-robot ATE
+    assert not {c["id"]: c for c in claims(runs, [])}["combined_all_robots_below_odometry"]["holds"]
     runs = _runs_ate()
     runs["multi_robot_hybrid"]["ate"]["combined"]["common"] = 0.354  # within 5 mm of ROMAN: a tie, "at or below"
     assert {c["id"]: c for c in claims(runs, [])}["combined_ate_lowest"]["holds"]
     runs["multi_robot_hybrid"]["ate"]["visual"]["common"] = 0.354  # ROMAN 0.35 is then not lower than visual
     assert not {c["id"]: c for c in claims(runs, [])}["roman_ate_below_visual"]["holds"]
     no_visual = {"multi_robot_tunnel": _multi(_ate(odometry=(3, 0.5), roman=(3, 0.3)), ["a"])}
-    assert not {c["id"] for c in claims(no_visual, [])} & {"roman_ate_below_visual", "combined_ate_lowest"}
+    assert not {c["id"] for c in claims(no_visual, [])} & {"roman_ate_below_visual", "combined_ate_lowest",
+                                                          "combined_all_robots_below_odometry"}
 
 
 def _rec(h: int, n: int, ci: tuple[float, float] | None = (0.1, 0.9)) -> dict:
