@@ -373,7 +373,8 @@ LISTINGS.update(scenarios=_scenarios, aligners=_aligners, segmenters=_segmenters
 def reproduce_cmd(
     out: Path = typer.Option(Path("results/reference"), "--out", "-o", help="where the small results go"),
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
-    scenario: list[str] | None = typer.Option(None, "--scenario", help="only these (default: the paper's)"),
+    scenario: list[str] | None = typer.Option(None, "--scenario", help="only these (default: the paper's); the "
+                                              "summary keeps the other committed scenarios and the sweep"),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
     readme: Path | None = typer.Option(Path("README.md"), "--readme",
                                        help="README whose reference-results block is rewritten (when it exists)"),
@@ -395,5 +396,5 @@ def reproduce_cmd(
     ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
                                tls_cert, tls_key, insecure, dashboard, upload)
     path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
-                     from_stage=from_stage, readme=readme if scenario is None or not scenario else None, executor=ex)
+                     from_stage=from_stage, readme=readme, executor=ex)
     Console().print(path.read_text())

@@ -23,6 +23,33 @@ def _set(metrics: EvaluationMetrics, method: str, kind: str) -> dict[str, Any]:
             "bins": {b.label: _stats(b.stats) for b in ps.heading_bins}}
 
 
+def _weighted_mean(classes: dict[str, Any], names: tuple[str, ...]) -> float | None:
+    """Pair-weighted mean cosine of the descriptor classes ``names`` (None without pairs)."""
+    got = [(classes[n]["pairs"], classes[n]["mean"]) for n in names if n in classes and classes[n]["pairs"]]
+    total = sum(n for n, _ in got)
+    return sum(n * m for n, m in got) / total if total else None
+
+
+def frontend_summary(grades: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The front end's grades in short (from metrics.json's ``frontend`` section; None when not graded).
+
+    Segmentation precision, recall, mean IoU, over- / under-segmented and spurious counts over
+    the graded frames; descriptor cosine means for the same instance, the same family and other
+    families (pairs of the same group and of other groups, weighted by their pair counts).
+    """
+    if not grades:
+        return None
+    s = grades["segmentation"]
+    classes = (grades.get("descriptors") or {}).get("classes") or {}
+    return {"segmenter": grades["segmenter"], "encoder": grades.get("encoder"), "frames": s["frames"],
+            "objects": s["objects"], "masks": s["masks"], "precision": s.get("precision"), "recall": s.get("recall"),
+            "mean_iou": s.get("mean_iou"), "over_segmented": s["over_segmented"],
+            "under_segmented": s["under_segmented"], "spurious": s["spurious"],
+            "cosine_same_instance": _weighted_mean(classes, ("same_instance",)),
+            "cosine_same_family": _weighted_mean(classes, ("same_family",)),
+            "cosine_other_family": _weighted_mean(classes, ("same_group", "other_group"))}
+
+
 def compact_summary(metrics: EvaluationMetrics, ate: AteTable | None, map_stats: MapStats | None,
                     runtimes: dict[str, float | None] | None = None) -> dict[str, Any]:
     """JSON-ready summary of a run.
@@ -31,11 +58,13 @@ def compact_summary(metrics: EvaluationMetrics, ate: AteTable | None, map_stats:
     the max recall with its hits / relevant count, Wilson interval and small-set flag, recall
     at precision 1, F1, AUC, association precision / recall and the coarse heading bins; plus
     the median runtime when given. ``ate[variant]`` holds the robots it placed and the SE(3)
-    ATE over the common robots and over all robots; ``map`` the map size. Undefined values
-    are None.
+    ATE over the common robots and over all robots; ``map`` the map size; ``frontend`` the
+    front end's grades against truth when the run graded it (``frontend_summary``). Undefined
+    values are None.
     """
     out: dict[str, Any] = {"headline": metrics.headline, "pairs": metrics.pairs, "n_skipped": metrics.n_skipped,
-                           "methods": {}, "ate": {}, "ate_robots": {}, "map": map_stats.to_json() if map_stats else {}}
+                           "methods": {}, "ate": {}, "ate_robots": {}, "map": map_stats.to_json() if map_stats else {},
+                           "frontend": frontend_summary(metrics.frontend)}
     for name in metrics.methods:
         out["methods"][name] = {"inter": _set(metrics, name, "inter"), "intra": _set(metrics, name, "intra"),
                                 "runtime_median_s": (runtimes or {}).get(name)}

@@ -27,12 +27,14 @@ from typing import Any
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.pipeline.claims import PAPER, claims, claims_markdown, comparison, sweep_markdown, table_markdown
+from roman_sim.pipeline.reference_tables import frontends, frontends_markdown, table1, table1_markdown
 
 log = logging.getLogger(__name__)
 
 PAPER_SCENARIOS = [
     "same_direction", "partial_opposite", "opposite_direction", "heading_sweep",
     "multi_robot_tunnel", "multi_robot_hybrid", "multi_robot_outdoor",
+    "opposite_direction_pixels",  # the opposite-direction scenario with the image front end
 ]
 #: Paper-sized multi-robot scenarios (6-8 robots, about 1 km each; tens of minutes each), run on request:
 #: ``roman-sim reproduce --scenario kimera_tunnel --scenario kimera_hybrid --scenario kimera_outdoor``.
@@ -123,8 +125,10 @@ def reproduce(
     """Run ``scenarios`` (default: the paper's and the ambiguity sweep), collect, write the summary.
 
     ``readme``: a README whose results block (between the reference-results markers) is
-    rewritten from the new summary. ``executor`` (an ``ExecutorConfig``) spreads each run's
-    robots and pairs over workers (the results do not depend on it).
+    rewritten from the new summary. A run of some scenarios only updates the summary already
+    in ``out_dir`` (``merge_committed``): the other scenarios and the sweep stay as committed.
+    ``executor`` (an ``ExecutorConfig``) spreads each run's robots and pairs over workers (the
+    results do not depend on it).
     """
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
@@ -144,6 +148,8 @@ def reproduce(
         if on_start:
             on_start("ambiguity_sweep")
         sweep = ambiguity_sweep(out / "ambiguity_sweep", work / "ambiguity_sweep", from_stage)
+    else:
+        runs, sweep = merge_committed(out, runs)
     summary = build_summary(runs, sweep)
     write_json(out / "summary.json", summary)
     write_text(out / "summary.md", summary_markdown(summary))
@@ -181,10 +187,52 @@ def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> li
     return _sweep_rows(sweep_summary(work)[1])
 
 
+def merge_committed(out: Path, runs: dict[str, Any]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The runs of a subset run together with the results already in ``out``, and the sweep rows.
+
+    Every scenario of ``out/summary.json`` that was not re-run keeps its committed results; its
+    summary (and the ambiguity sweep's rows) are recomputed from its raw files, as ``rederive``
+    does, so the merged summary follows from the raw data with the current code. A listed
+    scenario whose folder is gone is dropped with a warning. Order: the committed scenarios,
+    then the new ones.
+    """
+    if not (out / "summary.json").is_file():
+        return runs, []
+    merged: dict[str, Any] = {}
+    for name in _json(out / "summary.json").get("runs", {}):
+        if name in runs:
+            merged[name] = runs[name]
+        elif (out / name / "pairs.csv.gz").is_file():
+            merged[name] = _run_summary(out / name)
+        else:
+            log.warning("%s: no committed results in %s; dropped from the summary", name, out / name)
+    merged.update({k: v for k, v in runs.items() if k not in merged})
+    return merged, _committed_sweep(out)
+
+
+def _committed_sweep(d: Path) -> list[dict[str, Any]]:
+    """The ambiguity sweep's rows recomputed from its committed raw files ([] without a sweep)."""
+    from roman_sim.evaluation.sweepstats import aggregate, seed_rows
+
+    if not (d / "ambiguity_sweep" / "sweep.json").is_file():
+        return []
+    spec = _json(d / "ambiguity_sweep" / "sweep.json")
+    rows = []
+    for r in spec["runs"]:
+        s = _run_summary(d / "ambiguity_sweep" / r["run_id"])
+        rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s)
+    return _sweep_rows(aggregate(rows, list(spec["grid"])))
+
+
 def build_summary(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> dict[str, Any]:
-    """``summary.json``: the runs, the comparison with the paper, the claims, the sweep rows."""
-    return {"runs": runs, "comparison": comparison(runs), "claims": claims(runs, sweep), "ambiguity_sweep": sweep,
-            "paper": PAPER}
+    """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the claims,
+    the sweep rows."""
+    return {"runs": runs, "comparison": comparison(runs), "table1": table1(runs), "frontends": frontends(runs),
+            "claims": claims(runs, sweep), "ambiguity_sweep": sweep, "paper": PAPER}
+
+
+def _tables_markdown(summary: dict[str, Any]) -> str:
+    return table1_markdown(summary.get("table1") or []) + frontends_markdown(summary.get("frontends") or {})
 
 
 def summary_markdown(summary: dict[str, Any]) -> str:
@@ -193,14 +241,14 @@ def summary_markdown(summary: dict[str, Any]) -> str:
             "Recall cells: cross-robot (or same-robot) max recall over the association threshold k, "
             "(hits/relevant) [95 % Wilson interval]; 'n<5' marks fewer than 5 relevant pairs. "
             "Every pair of submaps is aligned and scored.\n\n"
-            + table_markdown(summary["comparison"]) + "\n" + claims_markdown(summary["claims"])
-            + sweep_markdown(summary["ambiguity_sweep"]))
+            + table_markdown(summary["comparison"]) + _tables_markdown(summary) + "\n"
+            + claims_markdown(summary["claims"]) + sweep_markdown(summary["ambiguity_sweep"]))
 
 
 def readme_block(summary: dict[str, Any]) -> str:
     """The README's generated results block (between the reference-results markers)."""
-    return (f"{README_BEGIN}\n" + table_markdown(summary["comparison"]) + "\n" + claims_markdown(summary["claims"])
-            + f"{README_END}")
+    return (f"{README_BEGIN}\n" + table_markdown(summary["comparison"]) + _tables_markdown(summary) + "\n"
+            + claims_markdown(summary["claims"]) + f"{README_END}")
 
 
 def update_readme(readme: str | Path, summary: dict[str, Any]) -> bool:
@@ -237,17 +285,7 @@ def _json(path: Path) -> Any:
 
 def rederive(ref_dir: str | Path) -> dict[str, Any]:
     """``summary.json`` recomputed from the raw files under ``ref_dir`` (scenarios as committed)."""
-    from roman_sim.evaluation.sweepstats import aggregate, seed_rows
-
     d = Path(ref_dir)
     committed = _json(d / "summary.json")
     runs = {name: _run_summary(d / name) for name in committed["runs"]}
-    sweep: list[dict[str, Any]] = []
-    if (d / "ambiguity_sweep" / "sweep.json").is_file():
-        spec = _json(d / "ambiguity_sweep" / "sweep.json")
-        rows = []
-        for r in spec["runs"]:
-            s = _run_summary(d / "ambiguity_sweep" / r["run_id"])
-            rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s)
-        sweep = _sweep_rows(aggregate(rows, list(spec["grid"])))
-    return build_summary(runs, sweep)
+    return build_summary(runs, _committed_sweep(d))

@@ -1,0 +1,85 @@
+"""``reproduce`` of some scenarios updates the committed summary instead of replacing it.
+
+The reference folder is built from the smoke run (collected under several names, with a
+one-run ambiguity sweep); the experiment is replaced by that run, so nothing is simulated
+here beyond the shared smoke fixture.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from roman_sim.core.atomic import write_json
+from roman_sim.evaluation.verify import compare
+from roman_sim.pipeline import experiment, scenario
+from roman_sim.pipeline.reference import (
+    AMBIGUITY_KEY,
+    README_BEGIN,
+    README_END,
+    build_summary,
+    collect,
+    readme_block,
+    rederive,
+    reproduce,
+)
+
+
+class _Replay:
+    """Stands in for ``Experiment``: every scenario 'runs' to the given result."""
+
+    def __init__(self, result):
+        self.result, self.ran = result, []
+
+    def __call__(self, sc, run_dir, from_stage=None):
+        self.ran.append(sc)
+        return self
+
+    def run(self):
+        return self.result
+
+
+@pytest.fixture()
+def committed(smoke_run, tmp_path: Path) -> Path:
+    out = tmp_path / "reference"
+    for name in ("alpha", "beta"):
+        collect(smoke_run.run_dir, out / name)
+    collect(smoke_run.run_dir, out / "ambiguity_sweep" / "r0", trajectories=False, plots=False, alignments=False)
+    write_json(out / "ambiguity_sweep" / "sweep.json",
+               {"grid": [AMBIGUITY_KEY], "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}]})
+    stale = {"pairs": {"stale": True}, "methods": {}, "map": {}}
+    # gamma was listed once but its folder is gone; beta's entry is stale until it is re-run
+    write_json(out / "summary.json", build_summary({"alpha": stale, "beta": stale, "gamma": stale}, []))
+    return out
+
+
+def test_subset_run_keeps_the_other_scenarios_and_the_sweep(committed, smoke_run, monkeypatch, tmp_path):
+    replay = _Replay(smoke_run)
+    monkeypatch.setattr(experiment, "Experiment", replay)
+    monkeypatch.setattr(scenario, "load_scenario", lambda name: name)
+    readme = tmp_path / "README.md"
+    readme.write_text(f"intro\n{README_BEGIN}\nold block\n{README_END}\noutro\n", encoding="utf-8")
+
+    reproduce(committed, ["beta", "delta"], tmp_path / "work", readme=readme)
+
+    assert replay.ran == ["beta", "delta"]
+    summary = json.loads((committed / "summary.json").read_text(encoding="utf-8"))
+    assert list(summary["runs"]) == ["alpha", "beta", "delta"]  # committed order, gamma dropped, delta appended
+    fresh = json.loads(json.dumps(smoke_run.metrics_summary()))
+    for name in ("alpha", "beta", "delta"):  # alpha recomputed from its raw files, beta and delta from the run
+        assert not compare(fresh, summary["runs"][name], name, rel_tol=1e-6, abs_tol=1e-9)
+    assert [r["ambiguity"] for r in summary["ambiguity_sweep"]] == [0.25] * len(summary["ambiguity_sweep"])
+    assert {r["method"] for r in summary["ambiguity_sweep"]} == set(fresh["methods"])
+    again = json.loads(json.dumps(rederive(committed), sort_keys=True))
+    assert not compare(summary, again, "summary.json", rel_tol=1e-6, abs_tol=1e-9)
+    assert readme.read_text(encoding="utf-8") == f"intro\n{readme_block(summary)}\noutro\n"
+
+
+def test_subset_run_into_an_empty_folder_writes_only_its_scenarios(smoke_run, monkeypatch, tmp_path):
+    monkeypatch.setattr(experiment, "Experiment", _Replay(smoke_run))
+    monkeypatch.setattr(scenario, "load_scenario", lambda name: name)
+    reproduce(tmp_path / "ref", ["beta"], tmp_path / "work")
+    summary = json.loads((tmp_path / "ref" / "summary.json").read_text(encoding="utf-8"))
+    assert list(summary["runs"]) == ["beta"] and summary["ambiguity_sweep"] == []
