@@ -19,8 +19,10 @@ from roman_sim.pipeline.reference import README_BEGIN, README_END, readme_block,
 
 ROOT = Path(__file__).resolve().parents[2]
 REF = ROOT / "results" / "reference"
-#: Committed reference results (raw data included) must stay small enough for a repository.
-MAX_REFERENCE_MB = 16.0
+#: Committed reference results (raw data included) must stay small enough for a repository:
+#: about 15 MB for the small scenarios and the sweep, 12 MB for the three paper-scale runs
+#: (their trajectories at frame rate are most of it).
+MAX_REFERENCE_MB = 30.0
 
 pytestmark = pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
 

@@ -33,7 +33,7 @@ class _Replay:
     def __init__(self, result):
         self.result, self.ran = result, []
 
-    def __call__(self, sc, run_dir, from_stage=None):
+    def __call__(self, sc, run_dir, from_stage=None, executor=None):
         self.ran.append(sc)
         return self
 
