@@ -68,6 +68,18 @@ def test_readme_results_block_is_rendered_from_the_summary():
     assert readme[start:end] == readme_block(_summary())
 
 
+def test_readme_states_the_committed_size():
+    import re
+
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    m = re.search(r"([\d.]+) MB in all, ([\d.]+) MB of it\s+the three paper-scale runs", readme)
+    assert m, "the README states the size of the reference results"
+    files = [p for p in REF.rglob("*") if p.is_file()]
+    total = sum(p.stat().st_size for p in files) / 1e6
+    big = sum(p.stat().st_size for p in files if p.relative_to(REF).parts[0].startswith("kimera_")) / 1e6
+    assert abs(float(m.group(1)) - total) < 0.15 and abs(float(m.group(2)) - big) < 0.15, (total, big)
+
+
 def test_reference_results_keep_raw_data_and_stay_small():
     total = sum(p.stat().st_size for p in REF.rglob("*") if p.is_file())
     assert total < MAX_REFERENCE_MB * 1e6, f"{total / 1e6:.1f} MB"
