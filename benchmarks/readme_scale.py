@@ -134,17 +134,20 @@ def _workers(scale: dict[str, Any]) -> list[str]:
         if not v:
             continue
         speed, target = v.get("speedup_2_over_1"), str(v.get("target", ""))
-        number = float(re.findall(r"[\d.]+", target)[-1]) if re.findall(r"[\d.]+", target) else None
+        found = re.findall(r"[\d.]+", target)
+        number = float(found[-1]) if found else None
         if number is not None and "ratio" in target:  # a time ratio target: its speed-up is the inverse
             number = 1.0 / number
-        rows.append(f"`{key}` {speed:.2f}x (target {_f(number, 2)}x)")
+        verdict = "" if number is None else (" met" if speed >= number else " missed")
+        load = v.get("load_before") or [None]
+        rows.append(f"`{key}` {speed:.2f}x (target {_f(number, 2)}x{verdict}; load average {_f(load[0], 1)} "
+                    "before)")
     if not rows:
         return []
-    return ["Two workers against one on this machine, interleaved medians (`bench_scale.py demo` / `dask`): "
-            + "; ".join(rows) + ". The targets are missed here: the kernel shares the cores between login "
-            "sessions (autogroup scheduling), not between processes, so a session's share is the same with one "
-            "worker or two while others run; the tasks are independent, so on free cores the mapping term "
-            "divides by the workers as the model says.", ""]
+    return ["Two workers against one, interleaved medians (`bench_scale.py demo` / `dask`): " + "; ".join(rows)
+            + ". Serial stages (world, report) and a robot count that does not divide by the workers bound the "
+            "speed-up of a small run; on a machine shared with other login sessions the kernel shares the cores "
+            "between sessions, so the speed-up holds only on free cores.", ""]
 
 
 def render(root: Path = ROOT) -> str:
