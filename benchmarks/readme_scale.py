@@ -145,9 +145,10 @@ def _workers(scale: dict[str, Any]) -> list[str]:
     if not rows:
         return []
     return ["Two workers against one, interleaved medians (`bench_scale.py demo` / `dask`): " + "; ".join(rows)
-            + ". Serial stages (world, report) and a robot count that does not divide by the workers bound the "
-            "speed-up of a small run; on a machine shared with other login sessions the kernel shares the cores "
-            "between sessions, so the speed-up holds only on free cores.", ""]
+            + ". Serial work (world generation in each worker, the report stage) bounds the speed-up of a small "
+            "run; on a machine shared with other login sessions the kernel shares the cores between sessions, so "
+            "the speed-up holds only on free cores.",
+            ""]
 
 
 def render(root: Path = ROOT) -> str:
