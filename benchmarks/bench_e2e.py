@@ -33,12 +33,12 @@ from pathlib import Path
 OUT = Path(__file__).resolve().parent / "out" / "e2e.json"
 
 
-def run_one(name: str) -> dict:
-    """Run ``name`` fresh in this process; return its per-stage figures."""
+def run_one(name: str, overrides: list[str] | None = None) -> dict:
+    """Run ``name`` (with dotted ``overrides``) fresh in this process; return its per-stage figures."""
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
-    sc = load_scenario(name)
+    sc = load_scenario(name, overrides or [])
     with tempfile.TemporaryDirectory() as d:
         t0 = time.perf_counter()
         res = Experiment(sc, Path(d) / name, fresh=True).run()
@@ -137,7 +137,7 @@ def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -
 
 def main(argv: list[str]) -> None:
     if argv and argv[0] == "--child":
-        print(json.dumps(run_one(argv[1]), default=float))
+        print(json.dumps(run_one(argv[1], argv[2:]), default=float))
         return
     if argv and argv[0] == "--eval-ratio":
         if "--baseline" not in argv:

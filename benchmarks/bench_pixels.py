@@ -1,7 +1,8 @@
 """The demo with the image front end against the demo with the truth-driven front end.
 
-Runs ``demo`` (fastsam error model + simulated encoder, no RGB) and ``demo_pixels`` (the
-same world textured, RGB rendered, image segmenter + image encoder) fresh, each in its own
+Runs ``demo`` (fastsam error model + simulated encoder; without the visual method and its RGB,
+``DEMO_LIKE``, so that both runs have the same aligners) and ``demo_pixels`` (the same world
+textured, RGB rendered, image segmenter + image encoder) fresh, each in its own
 subprocess, and records wall time and CPU time (the child's user + system seconds: less
 sensitive to other jobs on a shared machine) in all and per stage, the ratio of the two,
 recall per heading bin of each method, and the front end's grades. Target: the pixels
@@ -24,9 +25,15 @@ OUT = Path(__file__).resolve().parent / "out" / "pixels.json"
 E2E = Path(__file__).resolve().parent / "bench_e2e.py"
 
 
-def _child(name: str) -> dict:
+#: The demo as demo_pixels runs it: the same aligners, no RGB rendered.
+DEMO_LIKE = ["aligners=[roman, clipper, clipper_prune, ransac100k]", "robots.0.render_rgb=false",
+             "robots.1.render_rgb=false"]
+
+
+def _child(name: str, overrides: list[str] | None = None) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run([sys.executable, str(E2E), "--child", name], capture_output=True, text=True,
+    proc = subprocess.run([sys.executable, str(E2E), "--child", name, *(overrides or [])], capture_output=True,
+                          text=True,
                           env={**os.environ, "PYTHONWARNINGS": "ignore"})
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
@@ -38,7 +45,7 @@ def _child(name: str) -> dict:
 
 
 def main() -> None:
-    runs = {name: _child(name) for name in ("demo", "demo_pixels")}
+    runs = {"demo": _child("demo", DEMO_LIKE), "demo_pixels": _child("demo_pixels")}
     demo, pixels = runs["demo"], runs["demo_pixels"]
     out = {
         "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
