@@ -1,4 +1,4 @@
-"""Consistency scores and the sparse affinity matrix of ROMAN (REFERENCE.md section 5).
+"""Consistency scores and the sparse affinity matrix of ROMAN.
 
 - ``pairwise_consistency``: the geometric score s_a of two associations, plain (3D
   distance) or gravity-decoupled (lateral / vertical split), with the optional
@@ -13,7 +13,7 @@ Fusion: the geometric gate decides the edges (s_a = 0 is never an edge, whatever
 fusion); without any object score, M = s_a as in standard CLIPPER. An association whose
 s_o is 0 (cosine <= cos_min) is not a putative association at all.
 
-Gravity-uncertainty widening: following REFERENCE.md literally, ``d_xy`` and ``d_z`` are
+Gravity-uncertainty widening: as ROMAN defines it, ``d_xy`` and ``d_z`` are
 the mean (over the two submaps) lateral length and absolute vertical difference of the
 pair; sigma and epsilon of each part are widened additively.
 """

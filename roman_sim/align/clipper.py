@@ -1,7 +1,7 @@
 """CLIPPER: densest-subgraph search on a sparse weighted consistency graph (Lusk & How).
 
 Maximises ``u^T M u / u^T u`` over ``u >= 0`` supported on a clique of ``C = (M > 0)`` by
-projected gradient ascent with a growing penalty ``d`` on non-edges (REFERENCE.md sect. 5).
+projected gradient ascent with a growing penalty ``d`` on non-edges.
 ``M`` is a symmetric scipy sparse matrix with unit diagonal (the diagonal is treated as 1
 whatever is stored). Everything per iteration is one sparse mat-vec plus O(n) work.
 

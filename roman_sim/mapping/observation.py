@@ -1,4 +1,4 @@
-"""Masks -> 3D observations in the odometry frame (REFERENCE.md section 2).
+"""Masks -> 3D observations in the odometry frame.
 
 Each mask is back-projected inside its bounding box with the shared camera model, limited
 to ``max_depth_m`` (dropped when fewer than ``min_valid_fraction`` of its pixels are within

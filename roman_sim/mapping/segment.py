@@ -2,7 +2,7 @@
 
 Keeps voxel-downsampled points, sighting times, a count-weighted running-mean semantic
 descriptor and, for evaluation only, how many of its observed points came from each true
-object. Shape features (REFERENCE.md section 3) are computed lazily and cached.
+object. Shape features are computed lazily and cached.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Submaps (REFERENCE.md section 4): segments near a centre pose, in its gravity-aligned frame.
+"""Submaps: segments near a centre pose, in its gravity-aligned frame.
 
 Centres are placed along the odometry trajectory whenever the robot has moved more than
 ``submap_center_dist`` from the previous centre or ``submap_center_time`` has passed. A

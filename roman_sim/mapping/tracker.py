@@ -1,6 +1,6 @@
 """Segment tracking: voxel-IoU association, lifecycle, merging and removal filters.
 
-Implements REFERENCE.md section 3: observations (already in the odometry frame) are
+Implements ROMAN's tracking: observations (already in the odometry frame) are
 associated to nursery/active segments by 3D voxel IoU (0.2 m) with Hungarian assignment
 (IoU < ``min_iou`` not allowed); unmatched observations start nursery segments. Nursery
 segments become active after ``min_sightings``; unseen segments go inactive (largest

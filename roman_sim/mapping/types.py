@@ -1,4 +1,4 @@
-"""``Submap``: the contract between mapping (W3), alignment (W4) and evaluation (W5).
+"""``Submap``: the contract between mapping, alignment and evaluation.
 
 A submap is what a robot would send to another: segment centres and features in the
 submap's gravity-aligned frame. Evaluation-only truth is kept in ``truth`` and stripped by

@@ -1,6 +1,6 @@
 """Ground truth of a generated world: every object, and the terrain.
 
-This is the contract between the world generator (W1) and every later stage. Nothing in
+This is the contract between the world generator and every later stage. Nothing in
 here is given to a mapping or alignment algorithm; it is for simulation and evaluation.
 """
 
