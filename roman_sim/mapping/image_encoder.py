@@ -6,7 +6,8 @@ of the crop that lie under the mask by three histograms:
 - colour: joint CIELAB histogram (``l_bins`` x ``ab_bins`` x ``ab_bins``, OpenCV's 8-bit Lab);
 - gradient orientation: unsigned orientation of the grey-level gradient in ``orient_bins``
   bins, weighted by gradient magnitude (texture direction: bark, trunks, foliage);
-- local binary patterns (uniform, 8 neighbours, radius 1; scikit-image): micro-texture.
+- local binary patterns (uniform, 8 neighbours, radius 1, as scikit-image's
+  ``local_binary_pattern(grey, 8, 1, "uniform")`` defines them): micro-texture.
 
 Each histogram is normalised to sum 1 and square-rooted (so the cosine of two blocks is
 their Bhattacharyya coefficient), centred by subtracting ``centre`` times the square root
@@ -48,8 +49,7 @@ class _Codes:
     """Per-pixel codes of an RGB image: colour bin, orientation bin, gradient weight, LBP code."""
 
     def __init__(self, rgb: NDArray[np.uint8], cfg: ImageEncoderConfig) -> None:
-        import cv2  # OpenCV and scikit-image are imported on use, not when a configuration loads
-        from skimage.feature import local_binary_pattern
+        import cv2  # OpenCV is imported on use, not when a configuration loads
 
         lab = cv2.cvtColor(np.ascontiguousarray(rgb), cv2.COLOR_RGB2LAB).astype(np.int32)
         lq = lab[..., 0] * cfg.l_bins // 256
@@ -63,7 +63,7 @@ class _Codes:
         theta = np.mod(np.arctan2(gy, gx), np.pi)
         self.orient = np.minimum((theta / np.pi * cfg.orient_bins).astype(np.int32), cfg.orient_bins - 1)
         self.weight = np.where(mag >= cfg.min_gradient, mag, 0.0).astype(np.float64)
-        self.lbp = local_binary_pattern(grey, 8, 1, method="uniform").astype(np.int32)
+        self.lbp = uniform_lbp(grey)
 
 
 class ImageEncoder:
@@ -126,6 +126,72 @@ class ImageEncoder:
             v = np.concatenate([np.full(s, wt / np.sqrt(s)) for s, wt in zip(self.sizes, self.weights)])
             n = np.linalg.norm(v)
         return (v / n).astype(np.float32)
+
+
+def _uniform_lbp_table() -> NDArray[np.int32]:
+    """Uniform LBP code of each 8-bit neighbour pattern (bit i: neighbour i >= centre).
+
+    As scikit-image counts them: the 0/1 changes between neighbours 0..7 taken in order
+    (7 transitions, not wrapping around); at most 2 changes give the number of ones, else 9.
+    """
+    lut = np.zeros(256, dtype=np.int32)
+    for code in range(256):
+        bits = [(code >> i) & 1 for i in range(8)]
+        changes = sum(bits[i] != bits[i + 1] for i in range(7))
+        lut[code] = sum(bits) if changes <= 2 else 9
+    return lut
+
+
+_LBP_TABLE = _uniform_lbp_table()
+_LBP_ANGLES = 2 * np.pi * np.arange(8, dtype=np.float64) / 8
+_LBP_DR = np.round(-np.sin(_LBP_ANGLES), 5)  # neighbour i at (r + dr[i], c + dc[i])
+_LBP_DC = np.round(np.cos(_LBP_ANGLES), 5)
+
+
+def uniform_lbp(grey: NDArray[Any]) -> NDArray[np.int32]:
+    """(H, W) uniform local binary patterns of a grey image (8 neighbours, radius 1).
+
+    The same codes as ``skimage.feature.local_binary_pattern(grey, 8, 1, "uniform")``, bit
+    for bit: each neighbour is bilinearly interpolated (zero outside the image) with the
+    same double-precision weights, from the same rounded offsets. scikit-image computes
+    those weights pixel by pixel; here each neighbour is a few whole-image operations,
+    about 3x faster, which matters because the encoder runs on every frame.
+    """
+    img = np.asarray(grey).astype(np.float64)
+    H, W = img.shape
+    pad = np.zeros((H + 2, W + 2))
+    pad[1:-1, 1:-1] = img
+    rows = np.arange(H, dtype=np.float64)[:, None]
+    cols = np.arange(W, dtype=np.float64)[None, :]
+    code = np.zeros((H, W), dtype=np.uint8)
+    top, bottom, tmp = np.empty((H, W)), np.empty((H, W)), np.empty((H, W))
+    for i in range(8):
+        rr, cc = rows + _LBP_DR[i], cols + _LBP_DC[i]
+        r0, c0 = np.floor(rr), np.floor(cc)
+        dr, dc = rr - r0, cc - c0
+        # the neighbour's cell offset is the same at every pixel (read at pixel 0, 0)
+        a = 1 + int(r0[0, 0]) if H else 1
+        b = 1 + int(c0[0, 0]) if W else 1
+        tl = pad[a:a + H, b:b + W]
+        if not dr.any() and not dc.any():
+            bit = tl >= img  # on the pixel grid the interpolation returns the pixel itself
+        else:
+            tr = pad[a:a + H, b + 1:b + 1 + W]
+            bl, br = pad[a + 1:a + 1 + H, b:b + W], pad[a + 1:a + 1 + H, b + 1:b + 1 + W]
+            one_dc = 1 - dc
+            np.multiply(one_dc, tl, out=top)
+            np.multiply(dc, tr, out=tmp)
+            top += tmp
+            np.multiply(one_dc, bl, out=bottom)
+            np.multiply(dc, br, out=tmp)
+            bottom += tmp
+            np.multiply(1 - dr, top, out=top)
+            np.multiply(dr, bottom, out=bottom)
+            top += bottom
+            top -= img
+            bit = top >= 0
+        code |= bit.view(np.uint8) << np.uint8(i)
+    return _LBP_TABLE[code]
 
 
 def _block(hist: NDArray[np.float64], weight: float, centre: float) -> NDArray[np.float64]:

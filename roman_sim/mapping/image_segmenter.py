@@ -90,7 +90,8 @@ class ImageSegmenter:
         valid_full = (depth > 0) & (depth <= self.cfg.max_depth_m) & np.isfinite(depth)
         small_rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA) if (h, w) != (H, W) else rgb
         d, valid = _mean_depth(depth, valid_full, (h, w), self.cfg.smooth_px)
-        ground, valid = self._ground(frame, d, valid, W / w)
+        P = self._points(frame, d, W / w)
+        ground, valid = self._ground(frame, P, valid)
         objects = valid & ~ground
         if not objects.any():
             return np.zeros((H, W), dtype=np.int32)
@@ -104,10 +105,16 @@ class ImageSegmenter:
         regions = self._regions(colour, d, valid, ground)
         chroma = cv2.cvtColor(np.ascontiguousarray(small_rgb), cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float64)
         regions = self._merge(regions, d, ground, chroma)
-        regions = self._drop_flat(regions, self._points(frame, d, W / w), frame)
-        if (h, w) != (H, W):
-            regions = np.asarray(cv2.resize(regions, (W, H), interpolation=cv2.INTER_NEAREST), dtype=np.int32)
-        return _drop_unsupported(regions.astype(np.int32), valid_full, self.cfg.min_valid_fraction)
+        regions = self._drop_flat(regions, P, frame).astype(np.int32)
+        f = W // w
+        if f * w == W and f * h == H:
+            # Nearest-neighbour upsampling by an integer factor repeats each cell in an f x f
+            # block, so a region's pixel and valid-pixel counts follow from the cells.
+            valid_cells = valid_full.reshape(h, f, w, f).sum(axis=(1, 3)) if f > 1 else valid_full
+            regions = _drop_unsupported(regions, valid_cells, self.cfg.min_valid_fraction, f * f)
+            return regions if f == 1 else np.repeat(np.repeat(regions, f, axis=0), f, axis=1)
+        regions = np.asarray(cv2.resize(regions, (W, H), interpolation=cv2.INTER_NEAREST), dtype=np.int32)
+        return _drop_unsupported(regions, valid_full, self.cfg.min_valid_fraction)
 
     def _points(self, frame: Frame, d: NDArray[np.float32], step: float) -> NDArray[np.float32]:
         """(h, w, 3) camera-frame points of the working cells (cell centres in full-image pixels)."""
@@ -117,14 +124,13 @@ class ImageSegmenter:
         v = (np.arange(h, dtype=np.float32) + 0.5) * step - 0.5
         return np.stack([(u[None, :] - intr.cx) / intr.fx * d, (v[:, None] - intr.cy) / intr.fy * d, d], axis=-1)
 
-    def _ground(self, frame: Frame, d: NDArray[np.float32], valid: NDArray[np.bool_],
-                step: float) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    def _ground(self, frame: Frame, P: NDArray[np.float32],
+                valid: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """(ground, known): cells whose normal is within ``ground_normal_deg`` of up, and cells with a normal.
 
         Differences use valid neighbours only (central where both exist, else one-sided); a
         cell without a valid neighbour along an axis has no normal (the rim of the valid area).
         """
-        P = self._points(frame, d, step)
         du, ok_u = _difference(P, valid, axis=1)
         dv, ok_v = _difference(P, valid, axis=0)
         n = np.cross(du, dv)
@@ -142,20 +148,23 @@ class ImageSegmenter:
                  ground: NDArray[np.bool_]) -> NDArray[np.int32]:
         """Connected components of the pixel graph of step 3 (1-based; 0 = invalid)."""
         h, w = d.shape
-        idx = np.arange(h * w).reshape(h, w)
-        rows, cols = [], []
-        for a, b in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
-            keep = (valid[a] & valid[b] & (colour[a] == colour[b]) & (ground[a] == ground[b])
-                    & self._continuous(d[a], d[b]))
-            rows.append(idx[a][keep])
-            cols.append(idx[b][keep])
-        r, c = np.concatenate(rows), np.concatenate(cols)
-        g = sparse.coo_matrix((np.ones(len(r), dtype=np.int8), (r, c)), shape=(h * w, h * w))
-        _, lab = connected_components(g, directed=False)
+        N = h * w
+        # Each cell links to its right (column 0) and lower (column 1) neighbour: the graph is
+        # built in CSR form directly (row i holds i + 1 and then i + w), with no sorting.
+        grid = np.zeros((h, w, 2), dtype=bool)
+        for k, (a, b) in enumerate(((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :]))):
+            grid[a + (k,)] = (valid[a] & valid[b] & (colour[a] == colour[b]) & (ground[a] == ground[b])
+                              & self._continuous(d[a], d[b]))
+        link = grid.reshape(N, 2)
+        targets = np.stack([np.arange(1, N + 1, dtype=np.int32), np.arange(w, N + w, dtype=np.int32)], axis=1)
+        indptr = np.zeros(N + 1, dtype=np.int32)
+        np.cumsum(link.sum(axis=1), out=indptr[1:])
+        indices = targets[link]
+        g = sparse.csr_matrix((np.ones(len(indices)), indices, indptr), shape=(N, N))
+        n_comp, lab = connected_components(g, directed=False)
         out = np.zeros(h * w, dtype=np.int32)
         v = valid.ravel()
-        _, dense = np.unique(lab[v], return_inverse=True)
-        out[v] = dense.astype(np.int32) + 1
+        out[v] = _dense_ranks(lab[v], n_comp)
         return out.reshape(h, w)
 
     def _merge(self, regions: NDArray[np.int32], d: NDArray[np.float32], ground: NDArray[np.bool_],
@@ -187,10 +196,12 @@ class ImageSegmenter:
         capped = np.zeros(n + 1, dtype=bool)
         capped[ua[join & cap_a]] = True
         capped[ub[join & cap_b]] = True
-        root[is_ground & ~capped] = -1
-        root[0] = -1
-        _, dense = np.unique(root, return_inverse=True)
-        return dense.astype(np.int32)[regions]  # -1 (label 0 and ground) sorts first and maps to 0
+        gone = is_ground & ~capped
+        gone[0] = True
+        # label 0 and dropped ground regions map to 0, the other roots to 1, 2, ... in root order
+        dense = np.zeros(n + 1, dtype=np.int32)
+        dense[~gone] = _dense_ranks(root[~gone], n + 1)
+        return dense[regions]
 
     def _borders(self, regions: NDArray[np.int32], d: NDArray[np.float32],
                  n: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
@@ -218,7 +229,9 @@ class ImageSegmenter:
         if n == 0:
             return regions
         lab = regions.ravel()
-        pts = P.reshape(-1, 3).astype(np.float64)
+        inside = lab > 0  # label 0 is dropped anyway: its cells need no sums
+        lab = lab[inside]
+        pts = P.reshape(-1, 3)[inside].astype(np.float64)
         cnt = np.maximum(np.bincount(lab, minlength=n + 1), 1).astype(np.float64)
         mean = np.stack([np.bincount(lab, weights=pts[:, k], minlength=n + 1) for k in range(3)], 1) / cnt[:, None]
         cov = np.empty((n + 1, 3, 3))
@@ -231,20 +244,36 @@ class ImageSegmenter:
         facing_up = np.abs(vecs[:, :, 0] @ up) >= np.cos(np.radians(self.cfg.ground_normal_deg))
         flat = facing_up & (np.sqrt(np.maximum(vals[:, 0], 0.0)) <= self.cfg.ground_flat_m)
         flat[0] = True
-        _, dense = np.unique(np.where(flat, -1, np.arange(n + 1)), return_inverse=True)
-        return dense.astype(np.int32)[regions] if flat.any() else regions
+        dense = np.where(flat, 0, np.cumsum(~flat)).astype(np.int32)
+        return dense[regions]
 
 
-def _drop_unsupported(regions: NDArray[np.int32], valid: NDArray[np.bool_], min_share: float) -> NDArray[np.int32]:
-    """Regions with less than ``min_share`` of valid depth pixels set to 0."""
+def _drop_unsupported(regions: NDArray[np.int32], valid: NDArray[np.bool_] | NDArray[np.int64], min_share: float,
+                      cell_px: int = 1) -> NDArray[np.int32]:
+    """Regions with less than ``min_share`` of valid depth pixels set to 0.
+
+    ``valid`` holds each cell's number of valid pixels (a boolean image: one pixel per cell)
+    and ``cell_px`` the pixels of a cell.
+    """
     n = int(regions.max())
     if n == 0 or min_share <= 0:
         return regions
-    total = np.bincount(regions.ravel(), minlength=n + 1)
-    good = np.bincount(regions[valid], minlength=n + 1)
+    flat = regions.ravel()
+    total = np.bincount(flat, minlength=n + 1) * cell_px
+    good = np.bincount(flat, weights=np.asarray(valid).ravel().astype(np.float64), minlength=n + 1)
     keep = good >= min_share * np.maximum(total, 1)
     keep[0] = False
     return np.where(keep[regions], regions, 0).astype(np.int32)
+
+
+def _dense_ranks(labels: NDArray[np.integer], size: int) -> NDArray[np.int32]:
+    """1-based rank of each label among the distinct labels present (labels in [0, size)).
+
+    The same numbers as ``np.unique(labels, return_inverse=True)[1] + 1`` in linear time.
+    """
+    present = np.zeros(size, dtype=bool)
+    present[labels] = True
+    return np.cumsum(present, dtype=np.int32)[labels]
 
 
 def _up_in_camera(frame: Frame) -> NDArray[np.float32]:

@@ -96,11 +96,9 @@ def contained_fraction(points: NDArray[np.float64], other: "Segment", dist: floa
         return 0.0
     big = other.voxels(dist)
     keys = hash_voxels(points, dist)
-    hit = np.zeros(len(keys), dtype=bool)
-    for off in _NEIGHBOUR_OFFSETS:
-        q = keys + off
-        idx = np.minimum(np.searchsorted(big, q), len(big) - 1)
-        hit |= big[idx] == q
+    q = (keys[None, :] + _NEIGHBOUR_OFFSETS[:, None]).ravel()  # all 27 neighbours in one search
+    idx = np.minimum(np.searchsorted(big, q), len(big) - 1)
+    hit = (big[idx] == q).reshape(len(_NEIGHBOUR_OFFSETS), len(keys)).any(axis=0)
     return float(hit.mean())
 
 

@@ -176,3 +176,48 @@ def test_image_front_end_on_rendered_frames(tiny_rgb_frames):
 
 
 TINY_NEAR_OBJECTS, TINY_MATCHED, TINY_MASKS = 39, 38, 41
+
+
+def test_uniform_lbp_matches_scikit_image(tiny_rgb_frames):
+    """The encoder's vectorised LBP gives scikit-image's codes bit for bit, exact ties included."""
+    import cv2
+    from skimage.feature import local_binary_pattern
+
+    from roman_sim.mapping.image_encoder import uniform_lbp
+
+    rng = np.random.default_rng(0)
+    images = [rng.integers(0, 256, (int(rng.integers(1, 30)), int(rng.integers(1, 30)))).astype(np.uint8)
+              for _ in range(60)]
+    images += [rng.integers(0, 3, (25, 31)).astype(np.uint8) for _ in range(10)]  # flat patches: ties
+    images += [np.full((4, 6), 7, np.uint8), np.zeros((1, 1), np.uint8), np.full((3, 3), 255, np.uint8)]
+    images += [cv2.cvtColor(f.rgb, cv2.COLOR_RGB2GRAY) for f in tiny_rgb_frames[::10]]
+    for g in images:
+        ref = local_binary_pattern(g, 8, 1, method="uniform").astype(np.int32)
+        assert np.array_equal(uniform_lbp(g), ref), g.shape
+    assert uniform_lbp(np.zeros((0, 4), np.uint8)).shape == (0, 4)
+
+
+def test_dense_ranks_match_numpy_unique():
+    from roman_sim.mapping.image_segmenter import _dense_ranks
+
+    rng = np.random.default_rng(1)
+    for size in (1, 5, 300):
+        labels = rng.integers(0, size, int(rng.integers(1, 500)))
+        assert np.array_equal(_dense_ranks(labels, size), np.unique(labels, return_inverse=True)[1] + 1)
+
+
+@pytest.mark.parametrize("f", [1, 2, 4])
+def test_drop_unsupported_on_cells_matches_full_resolution(f):
+    """Counting valid pixels per working cell gives what counting them at full resolution gives."""
+    from roman_sim.mapping.image_segmenter import _drop_unsupported
+
+    rng = np.random.default_rng(f)
+    small = rng.integers(0, 12, (15, 20)).astype(np.int32)
+    valid = rng.random((15 * f, 20 * f)) < rng.random((15 * f, 20 * f))
+    up = np.repeat(np.repeat(small, f, axis=0), f, axis=1)
+    cells = valid.reshape(15, f, 20, f).sum(axis=(1, 3))
+    for share in (0.0, 0.3, 0.5, 0.9):
+        full = _drop_unsupported(up, valid, share)
+        via_cells = _drop_unsupported(small, cells, share, f * f)
+        assert np.array_equal(np.repeat(np.repeat(via_cells, f, axis=0), f, axis=1), full)
+        assert 0 < len(np.unique(full)) <= 12
