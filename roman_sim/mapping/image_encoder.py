@@ -159,6 +159,8 @@ def uniform_lbp(grey: NDArray[Any]) -> NDArray[np.int32]:
     """
     img = np.asarray(grey).astype(np.float64)
     H, W = img.shape
+    if img.size == 0:
+        return np.zeros((H, W), dtype=np.int32)
     pad = np.zeros((H + 2, W + 2))
     pad[1:-1, 1:-1] = img
     rows = np.arange(H, dtype=np.float64)[:, None]
@@ -170,8 +172,7 @@ def uniform_lbp(grey: NDArray[Any]) -> NDArray[np.int32]:
         r0, c0 = np.floor(rr), np.floor(cc)
         dr, dc = rr - r0, cc - c0
         # the neighbour's cell offset is the same at every pixel (read at pixel 0, 0)
-        a = 1 + int(r0[0, 0]) if H else 1
-        b = 1 + int(c0[0, 0]) if W else 1
+        a, b = 1 + int(r0[0, 0]), 1 + int(c0[0, 0])
         tl = pad[a:a + H, b:b + W]
         if not dr.any() and not dc.any():
             bit = tl >= img  # on the pixel grid the interpolation returns the pixel itself
