@@ -22,8 +22,8 @@ from roman_sim.align.aligners import ClipperBaselineParams
 from roman_sim.align.clipper import solve_clipper
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.atomic import write_json
+from roman_sim.core.geometry import pose_4dof, pose_error
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import pose_4dof, pose_error
 
 OUT = Path(__file__).resolve().parent / "out" / "align.json"
 
@@ -51,8 +51,11 @@ def _bench_method(name: str, pairs: list[tuple], repeats: int) -> dict:
         correct += int(ok)
         n_assoc.append(r.n_associations)
     return {
-        "median_ms": 1e3 * float(np.median(times)), "min_ms": 1e3 * float(np.min(times)),
-        "runs": len(times), "correct_fraction": correct / len(pairs), "median_associations": float(np.median(n_assoc)),
+        "median_ms": 1e3 * float(np.median(times)),
+        "min_ms": 1e3 * float(np.min(times)),
+        "runs": len(times),
+        "correct_fraction": correct / len(pairs),
+        "median_associations": float(np.median(n_assoc)),
     }
 
 
@@ -71,8 +74,11 @@ def _bench_solver(repeats: int) -> dict:
             sol = solve_clipper(M, p.solver)
             times.append(time.perf_counter() - t0)
         out[str(n * n)] = {
-            "median_ms": 1e3 * float(np.median(times)), "min_ms": 1e3 * float(np.min(times)),
-            "affinity_build_ms": 1e3 * t_build, "nnz": int(M.nnz), "iterations": sol.iterations,
+            "median_ms": 1e3 * float(np.median(times)),
+            "min_ms": 1e3 * float(np.min(times)),
+            "affinity_build_ms": 1e3 * t_build,
+            "nnz": int(M.nnz),
+            "iterations": sol.iterations,
             "selected": int(len(sol.selected)),
         }
     return out
@@ -88,7 +94,8 @@ def main(quick: bool = False) -> dict:
         methods[name] = _bench_method(name, pairs[: 3 if slow else n_pairs], 1 if slow else reps)
     res = {
         "setup": "40 x 40 segments, 1600 putative associations, 768-d descriptors, 20 shared objects",
-        "machine": platform.platform(), "python": platform.python_version(),
+        "machine": platform.platform(),
+        "python": platform.python_version(),
         "load_average": list(np.round(np.array(_loadavg()), 2)),
         "methods": methods,
         "solver_only": _bench_solver(3 if quick else 10),

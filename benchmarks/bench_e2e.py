@@ -91,8 +91,13 @@ print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds"
 def _eval_child(tree: Path, prepared: Path, dst: Path, sets: list[str]) -> dict:
     env = {**os.environ, "PYTHONPATH": str(tree), "PYTHONWARNINGS": "ignore"}
     # -P and a neutral working directory: the child imports the package of ``tree``, never the one in the cwd
-    proc = subprocess.run([sys.executable, "-P", "-c", EVAL_CHILD, str(prepared), str(dst), *sets],
-                          capture_output=True, text=True, env=env, cwd=dst.parent)
+    proc = subprocess.run(
+        [sys.executable, "-P", "-c", EVAL_CHILD, str(prepared), str(dst), *sets],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=dst.parent,
+    )
     if proc.returncode != 0:
         print(proc.stderr[-2000:], file=sys.stderr)
         raise SystemExit(f"evaluation stage failed in {tree}")
@@ -125,14 +130,22 @@ def eval_ratio(baseline: Path, repeats: int, prepared_run: Path | None = None) -
     for k, tree in (("baseline", baseline), ("current", here)):
         if not all(Path(r["package"]).is_relative_to(tree) for r in runs[k]):
             raise SystemExit(f"the {k} runs imported another package: {runs[k][0]['package']}")
-    return {"baseline_tree": str(baseline), "repeats": repeats, "runs": runs,
-            "baseline_pairs": runs["baseline"][0]["pairs"], "current_pairs": runs["current"][0]["pairs"],
-            "baseline_median_s": med["baseline"], "current_median_s": med["current"],
-            "ratio": med["current"] / med["baseline"],
-            "baseline_median_cpu_s": cpu["baseline"], "current_median_cpu_s": cpu["current"],
-            "cpu_ratio": cpu["current"] / cpu["baseline"],
-            "with_report_median_s": both, "with_report_ratio": both["current"] / both["baseline"],
-            "load_average_at_end": os.getloadavg()}
+    return {
+        "baseline_tree": str(baseline),
+        "repeats": repeats,
+        "runs": runs,
+        "baseline_pairs": runs["baseline"][0]["pairs"],
+        "current_pairs": runs["current"][0]["pairs"],
+        "baseline_median_s": med["baseline"],
+        "current_median_s": med["current"],
+        "ratio": med["current"] / med["baseline"],
+        "baseline_median_cpu_s": cpu["baseline"],
+        "current_median_cpu_s": cpu["current"],
+        "cpu_ratio": cpu["current"] / cpu["baseline"],
+        "with_report_median_s": both,
+        "with_report_ratio": both["current"] / both["baseline"],
+        "load_average_at_end": os.getloadavg(),
+    }
 
 
 def main(argv: list[str]) -> None:
@@ -149,28 +162,42 @@ def main(argv: list[str]) -> None:
 
         res = eval_ratio(baseline, repeats, prepared)
         write_json(OUT.with_name("eval_ratio.json"), {"machine": {"cpus": os.cpu_count()}, **res})
-        print(f"evaluation stage: baseline {res['baseline_median_s']:.1f} s ({res['baseline_median_cpu_s']:.1f} s CPU) "
-              f"for {res['baseline_pairs']} pairs, current {res['current_median_s']:.1f} s "
-              f"({res['current_median_cpu_s']:.1f} s CPU) for {res['current_pairs']} pairs: ratio {res['ratio']:.2f} "
-              f"wall, {res['cpu_ratio']:.2f} CPU; with the report stage (where the plots are drawn now) "
-              f"{res['with_report_ratio']:.2f} wall")
+        print(
+            f"evaluation stage: baseline {res['baseline_median_s']:.1f} s ({res['baseline_median_cpu_s']:.1f} s CPU) "
+            f"for {res['baseline_pairs']} pairs, current {res['current_median_s']:.1f} s "
+            f"({res['current_median_cpu_s']:.1f} s CPU) for {res['current_pairs']} pairs: ratio {res['ratio']:.2f} "
+            f"wall, {res['cpu_ratio']:.2f} CPU; with the report stage (where the plots are drawn now) "
+            f"{res['with_report_ratio']:.2f} wall"
+        )
         return
     names = argv or ["demo", "opposite_direction"]
     results = []
     for name in names:
-        proc = subprocess.run([sys.executable, __file__, "--child", name], capture_output=True, text=True,
-                              env={**os.environ, "PYTHONWARNINGS": "ignore"})
+        proc = subprocess.run(
+            [sys.executable, __file__, "--child", name],
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONWARNINGS": "ignore"},
+        )
         if proc.returncode != 0:
             print(proc.stderr[-2000:], file=sys.stderr)
             raise SystemExit(f"scenario {name} failed")
         res = json.loads(proc.stdout.strip().splitlines()[-1])
         results.append(res)
-        print(f"{name}: {res['total_seconds']:.0f} s, peak {res['peak_rss_mb']:.0f} MB, "
-              + ", ".join(f"{k} {v['seconds']:.1f} s" for k, v in res["stages"].items()))
+        print(
+            f"{name}: {res['total_seconds']:.0f} s, peak {res['peak_rss_mb']:.0f} MB, "
+            + ", ".join(f"{k} {v['seconds']:.1f} s" for k, v in res["stages"].items())
+        )
     from roman_sim.core.atomic import write_json
 
-    write_json(OUT, {"machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
-                     "load_average_at_end": os.getloadavg(), "runs": results})
+    write_json(
+        OUT,
+        {
+            "machine": {"cpus": os.cpu_count(), "python": platform.python_version()},
+            "load_average_at_end": os.getloadavg(),
+            "runs": results,
+        },
+    )
     print(f"wrote {OUT}")
 
 

@@ -17,16 +17,16 @@ import numpy as np
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.atomic import write_json
+from roman_sim.core.geometry import make_T, pose_4dof, rot_x
 from roman_sim.core.seeding import child_rng
 from roman_sim.evaluation.assoc import shared_objects, true_correspondences
-from roman_sim.evaluation.mapview import render_map
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import PairTruth
-from roman_sim.evaluation.plots import write_metric_plots
-from roman_sim.evaluation.report import write_report
 from roman_sim.evaluation.results import read_pairs_csv, write_pairs_csv
-from roman_sim.geometry import make_T, pose_4dof, rot_x
 from roman_sim.mapping.types import Submap, SubmapTruth
+from roman_sim.report.mapview import render_map
+from roman_sim.report.markdown import write_report
+from roman_sim.report.plots import write_metric_plots
 
 OUT = Path(__file__).resolve().parent / "out" / "evaluation.json"
 N_PAIRS, METHODS = 5000, ("roman", "clipper", "ransac")
@@ -38,10 +38,27 @@ def _truths(rng: np.random.Generator) -> list[PairTruth]:
         x, y, yaw = rng.uniform(-30, 30), rng.uniform(-30, 30), rng.uniform(-np.pi, np.pi)
         d = float(np.hypot(x, y))
         ids_a, ids_b = rng.integers(0, 60, 40), rng.integers(0, 60, 40)
-        out.append(PairTruth(f"a/{i}", f"b/{i}", "a", "b", i, i, pose_4dof(x, y, 0.0, yaw), d,
-                             abs(np.degrees(yaw)), rng.uniform(), rng.uniform(), d <= 10.0,
-                             "inter" if i % 4 else "intra",
-                             shared_objects(ids_a, ids_b), true_correspondences(ids_a, ids_b), ids_a, ids_b))
+        out.append(
+            PairTruth(
+                f"a/{i}",
+                f"b/{i}",
+                "a",
+                "b",
+                i,
+                i,
+                pose_4dof(x, y, 0.0, yaw),
+                d,
+                abs(np.degrees(yaw)),
+                rng.uniform(),
+                rng.uniform(),
+                d <= 10.0,
+                "inter" if i % 4 else "intra",
+                shared_objects(ids_a, ids_b),
+                true_correspondences(ids_a, ids_b),
+                ids_a,
+                ids_b,
+            )
+        )
     return out
 
 
@@ -61,9 +78,22 @@ def _submaps(rng: np.random.Generator, n_sub: int = 40, n_seg: int = 40, n_pts: 
         centers = rng.uniform([-15, -15, 0], [15, 15, 3], (n_seg, 3))
         pts = [c + rng.normal(0, 0.4, (n_pts, 3)) for c in centers]
         T = pose_4dof(10.0 * i, 5.0 * np.sin(i / 4), 0.0, i / 10)
-        subs.append(Submap("r", i, float(i), T, np.arange(n_seg) + 1000 * i, centers, np.ones(n_seg),
-                           np.zeros((n_seg, 3)), np.zeros((n_seg, 4), np.float32), np.ones((n_seg, 3)), pts,
-                           SubmapTruth(T, np.arange(n_seg), np.ones(n_seg))))
+        subs.append(
+            Submap(
+                "r",
+                i,
+                float(i),
+                T,
+                np.arange(n_seg) + 1000 * i,
+                centers,
+                np.ones(n_seg),
+                np.zeros((n_seg, 3)),
+                np.zeros((n_seg, 4), np.float32),
+                np.ones((n_seg, 3)),
+                pts,
+                SubmapTruth(T, np.arange(n_seg), np.ones(n_seg)),
+            )
+        )
     return subs
 
 
@@ -95,8 +125,11 @@ def main() -> dict:
     _, fig["map_view_boxes_640x480_s"] = _timed(render_map, no_pts)
     fig["map_view_points_in_map"] = sum(len(p) for s in subs for p in s.points or [])
     fig["map_view_points_drawn"] = sum(min(len(p), 100) for s in subs for p in s.points or [])
-    out = {"figures": fig, "max_recall": {m: metrics.figure(m) for m in METHODS},
-           "machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine()}}
+    out = {
+        "figures": fig,
+        "max_recall": {m: metrics.figure(m) for m in METHODS},
+        "machine": {"python": platform.python_version(), "cpu": platform.processor() or platform.machine()},
+    }
     write_json(OUT, out)
     return out
 

@@ -32,8 +32,9 @@ def _bytes(folder: Path) -> int:
 def main(quick: bool = False) -> dict:
     """Run the benchmark and write its figures."""
     n = 10 if quick else 40
-    sc = load_scenario("demo", [f"robots.0.max_duration_s={(n - 1) / 6.0}", "robots.0.camera.width=640",
-                                "robots.0.camera.height=480"])
+    sc = load_scenario(
+        "demo", [f"robots.0.max_duration_s={(n - 1) / 6.0}", "robots.0.camera.width=640", "robots.0.camera.height=480"]
+    )
     out: dict = {"scenario": "demo", "robot": "a", "image": [640, 480], "formats": {}}
     with tempfile.TemporaryDirectory(prefix="bench_export.") as tmp:
         for key, options in FORMATS.items():
@@ -50,8 +51,11 @@ def main(quick: bool = False) -> dict:
                 "write_ms_per_frame": round(1000 * write_s / frames, 1),
                 "kb_per_frame": round(_bytes(Path(tmp) / key / "a") / frames / 1000, 1),
             }
-    out["machine"] = {"python": platform.python_version(), "cpu_count": os.cpu_count(),
-                      "note": "2 cores shared with other jobs while measured; compare formats within one run"}
+    out["machine"] = {
+        "python": platform.python_version(),
+        "cpu_count": os.cpu_count(),
+        "note": "2 cores shared with other jobs while measured; compare formats within one run",
+    }
     write_json(OUT, out)
     return out
 

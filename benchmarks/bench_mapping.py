@@ -103,8 +103,14 @@ def run_dense(n_frames: int, seed: int) -> dict:
 def run_world(world_name: str, seconds: float, seed: int) -> dict:
     """A robot on a road of a generated world: timing, submaps, packet bytes and MB per km."""
     world = generate(load_world_spec(world_name), seed)
-    robot = RobotConfig(name="a", path=PathConfig(kind="road"), camera=CameraConfig(width=640, height=480),
-                        render_rgb=False, drift="typical", max_duration_s=seconds)
+    robot = RobotConfig(
+        name="a",
+        path=PathConfig(kind="road"),
+        camera=CameraConfig(width=640, height=480),
+        render_rgb=False,
+        drift="typical",
+        max_duration_s=seconds,
+    )
     mapper, seg, enc = _mapper(seed, {o.id: o.family for o in world.truth.objects})
     per_frame, n_obs = [], []
     t_wall = time.perf_counter()
@@ -117,7 +123,9 @@ def run_world(world_name: str, seconds: float, seed: int) -> dict:
     packets = [packet_bytes(s) for s in subs]
     length_km = smap.trajectory_length_m / 1000.0
     return {
-        "world": world_name, "seed": seed, "image": [640, 480],
+        "world": world_name,
+        "seed": seed,
+        "image": [640, 480],
         **_timing(per_frame, n_obs, seg, enc),
         "segments": len(smap),
         "submaps": len(subs),
@@ -135,14 +143,26 @@ def full_submap_bound(seed: int, dim: int = 768) -> dict:
     rng = np.random.default_rng(seed)
     n = SubmapConfig().submap_max_size
     desc = rng.standard_normal((n, dim))
-    sub = Submap(robot="a", index=0, t=0.0, T_odom_submap=np.eye(4), segment_ids=np.arange(n),
-                 centers=rng.uniform(-15, 15, (n, 3)), volumes=rng.uniform(0.01, 30, n),
-                 shape=rng.uniform(0, 1, (n, 3)), descriptors=(desc / np.linalg.norm(desc, axis=1, keepdims=True)),
-                 extents=np.sort(rng.uniform(0.2, 5, (n, 3)), axis=1)[:, ::-1])
+    sub = Submap(
+        robot="a",
+        index=0,
+        t=0.0,
+        T_odom_submap=np.eye(4),
+        segment_ids=np.arange(n),
+        centers=rng.uniform(-15, 15, (n, 3)),
+        volumes=rng.uniform(0.01, 30, n),
+        shape=rng.uniform(0, 1, (n, 3)),
+        descriptors=(desc / np.linalg.norm(desc, axis=1, keepdims=True)),
+        extents=np.sort(rng.uniform(0.2, 5, (n, 3)), axis=1)[:, ::-1],
+    )
     nbytes = packet_bytes(sub)
     per_km = 1000.0 / SubmapConfig().submap_center_dist
-    return {"segments": n, "descriptor_dim": dim, "packet_bytes": nbytes,
-            "mb_per_km_at_one_submap_per_10m": nbytes * per_km / 1e6}
+    return {
+        "segments": n,
+        "descriptor_dim": dim,
+        "packet_bytes": nbytes,
+        "mb_per_km_at_one_submap_per_10m": nbytes * per_km / 1e6,
+    }
 
 
 def _frontend_timing(frames: list, segmenter, encoder, families) -> dict:
@@ -170,13 +190,18 @@ def _frontend_timing(frames: list, segmenter, encoder, families) -> dict:
         mapper.process(f)
     mapper_s = time.perf_counter() - t0
     seg_t, enc_t = float(np.sum(seg_s)), float(np.sum(enc_s))
-    return {"frames": len(frames), "masks_per_frame": masks / len(frames),
-            "frontend_fps": len(frames) / (seg_t + enc_t), "frontend_fps_cpu_time": len(frames) / (seg_cpu + enc_cpu),
-            "segmenter_ms_per_frame": seg_t / len(frames) * 1e3,
-            "segmenter_cpu_ms_per_frame": seg_cpu / len(frames) * 1e3,
-            "encoder_ms_per_frame": enc_t / len(frames) * 1e3, "encoder_cpu_ms_per_frame": enc_cpu / len(frames) * 1e3,
-            "mapper_fps": len(frames) / mapper_s,
-            "segments": len(mapper.finish())}
+    return {
+        "frames": len(frames),
+        "masks_per_frame": masks / len(frames),
+        "frontend_fps": len(frames) / (seg_t + enc_t),
+        "frontend_fps_cpu_time": len(frames) / (seg_cpu + enc_cpu),
+        "segmenter_ms_per_frame": seg_t / len(frames) * 1e3,
+        "segmenter_cpu_ms_per_frame": seg_cpu / len(frames) * 1e3,
+        "encoder_ms_per_frame": enc_t / len(frames) * 1e3,
+        "encoder_cpu_ms_per_frame": enc_cpu / len(frames) * 1e3,
+        "mapper_fps": len(frames) / mapper_s,
+        "segments": len(mapper.finish()),
+    }
 
 
 def run_image_frontend(n_frames: int, seed: int) -> dict:
@@ -201,10 +226,14 @@ def run_image_frontend(n_frames: int, seed: int) -> dict:
         keep = np.linspace(0, len(t) - 1, min(n_frames, len(t))).round().astype(int)
         frames = list(render_trajectory(world, robot, sc.seed, DrivenRun(t[keep], T_wb[keep], T_ob[keep])))
         image = _frontend_timing(frames, build_any_segmenter("image", seed), build_encoder("image"), families)
-        truth = _frontend_timing(frames, build_any_segmenter("fastsam", seed),
-                                 build_encoder("simulated", seed, "a", families), families)
-        out[f"{w}x{h}"] = {"image": image, "truth_driven": truth,
-                           "image_over_truth_frontend_time": truth["frontend_fps"] / image["frontend_fps"]}
+        truth = _frontend_timing(
+            frames, build_any_segmenter("fastsam", seed), build_encoder("simulated", seed, "a", families), families
+        )
+        out[f"{w}x{h}"] = {
+            "image": image,
+            "truth_driven": truth,
+            "image_over_truth_frontend_time": truth["frontend_fps"] / image["frontend_fps"],
+        }
     return out
 
 
@@ -215,18 +244,30 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--dense-frames", type=int, default=60)
     ap.add_argument("--image-frames", type=int, default=60)
-    runs = {"dense_synthetic": lambda a: run_dense(a.dense_frames, a.seed),
-            "world_road": lambda a: run_world(a.world, a.seconds, a.seed),
-            "full_submap_bound": lambda a: full_submap_bound(a.seed),
-            "image_frontend": lambda a: run_image_frontend(a.image_frames, a.seed)}
+    runs = {
+        "dense_synthetic": lambda a: run_dense(a.dense_frames, a.seed),
+        "world_road": lambda a: run_world(a.world, a.seconds, a.seed),
+        "full_submap_bound": lambda a: full_submap_bound(a.seed),
+        "image_frontend": lambda a: run_image_frontend(a.image_frames, a.seed),
+    }
     ap.add_argument("--sections", nargs="+", choices=sorted(runs), default=list(runs))
     args = ap.parse_args()
     result = json.loads(OUT.read_text()) if OUT.is_file() else {}
-    result.update({
-        "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
-                    "note": "2 cores shared with other jobs; rendering excluded from timing"},
-        "targets": {"mapping_fps": 10, "packet_bytes_max": 125_000, "mb_per_km": 12, "image_frontend_fps_320x240": 10},
-    })
+    result.update(
+        {
+            "machine": {
+                "cpus": os.cpu_count(),
+                "python": platform.python_version(),
+                "note": "2 cores shared with other jobs; rendering excluded from timing",
+            },
+            "targets": {
+                "mapping_fps": 10,
+                "packet_bytes_max": 125_000,
+                "mb_per_km": 12,
+                "image_frontend_fps_320x240": 10,
+            },
+        }
+    )
     for section in args.sections:
         result[section] = runs[section](args)
     write_json(OUT, result)

@@ -31,15 +31,21 @@ E2E = Path(__file__).resolve().parent / "bench_e2e.py"
 
 
 #: The demo as demo_pixels runs it: the same aligners, no RGB rendered.
-DEMO_LIKE = ["aligners=[roman, clipper, clipper_prune, ransac100k]", "robots.0.render_rgb=false",
-             "robots.1.render_rgb=false"]
+DEMO_LIKE = [
+    "aligners=[roman, clipper, clipper_prune, ransac100k]",
+    "robots.0.render_rgb=false",
+    "robots.1.render_rgb=false",
+]
 
 
 def _child(name: str, overrides: list[str] | None = None) -> dict:
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run([sys.executable, str(E2E), "--child", name, *(overrides or [])], capture_output=True,
-                          text=True,
-                          env={**os.environ, "PYTHONWARNINGS": "ignore"})
+    proc = subprocess.run(
+        [sys.executable, str(E2E), "--child", name, *(overrides or [])],
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONWARNINGS": "ignore"},
+    )
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if proc.returncode != 0:
         print(proc.stderr[-2000:], file=sys.stderr)
@@ -55,8 +61,7 @@ def _fastest(results: list[dict]) -> dict:
     out["cpu_seconds"] = min(r["cpu_seconds"] for r in results)
     out["total_seconds"] = min(r["total_seconds"] for r in results)
     for stage in out["stages"]:
-        out["stages"][stage] = {**out["stages"][stage],
-                                "seconds": min(r["stages"][stage]["seconds"] for r in results)}
+        out["stages"][stage] = {**out["stages"][stage], "seconds": min(r["stages"][stage]["seconds"] for r in results)}
     out["repeats"] = [{"cpu_seconds": r["cpu_seconds"], "total_seconds": r["total_seconds"]} for r in results]
     return out
 
@@ -73,18 +78,25 @@ def main() -> None:
     for k in range(args.repeats):
         results["demo"].append(_child("demo", DEMO_LIKE))
         results["demo_pixels"].append(_child("demo_pixels"))
-        print(f"repeat {k + 1}/{args.repeats}: demo {results['demo'][-1]['cpu_seconds']:.0f} s CPU, demo_pixels "
-              f"{results['demo_pixels'][-1]['cpu_seconds']:.0f} s CPU", flush=True)
+        print(
+            f"repeat {k + 1}/{args.repeats}: demo {results['demo'][-1]['cpu_seconds']:.0f} s CPU, demo_pixels "
+            f"{results['demo_pixels'][-1]['cpu_seconds']:.0f} s CPU",
+            flush=True,
+        )
     runs = {name: _fastest(rs) for name, rs in results.items()}
     demo, pixels = runs["demo"], runs["demo_pixels"]
     out = {
-        "machine": {"cpus": os.cpu_count(), "python": platform.python_version(),
-                    "note": "2 cores shared with other jobs: compare the ratios, CPU time first"},
+        "machine": {
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+            "note": "2 cores shared with other jobs: compare the ratios, CPU time first",
+        },
         "load_average_at_end": os.getloadavg(),
         "target_ratio": 2.0,
         "repeats": args.repeats,
-        "ratio_cpu_per_repeat": [p["cpu_seconds"] / d["cpu_seconds"]
-                                 for d, p in zip(results["demo"], results["demo_pixels"])],
+        "ratio_cpu_per_repeat": [
+            p["cpu_seconds"] / d["cpu_seconds"] for d, p in zip(results["demo"], results["demo_pixels"])
+        ],
         "ratio_wall": pixels["total_seconds"] / demo["total_seconds"],
         "ratio_cpu": pixels["cpu_seconds"] / demo["cpu_seconds"],
         "ratio_maps_stage_wall": pixels["stages"]["maps"]["seconds"] / demo["stages"]["maps"]["seconds"],
@@ -93,9 +105,11 @@ def main() -> None:
     from roman_sim.core.atomic import write_json
 
     write_json(OUT, out)
-    print(f"demo {demo['total_seconds']:.0f} s wall / {demo['cpu_seconds']:.0f} s CPU; demo_pixels "
-          f"{pixels['total_seconds']:.0f} s / {pixels['cpu_seconds']:.0f} s; ratio wall {out['ratio_wall']:.2f}, "
-          f"CPU {out['ratio_cpu']:.2f}")
+    print(
+        f"demo {demo['total_seconds']:.0f} s wall / {demo['cpu_seconds']:.0f} s CPU; demo_pixels "
+        f"{pixels['total_seconds']:.0f} s / {pixels['cpu_seconds']:.0f} s; ratio wall {out['ratio_wall']:.2f}, "
+        f"CPU {out['ratio_cpu']:.2f}"
+    )
     print(f"wrote {OUT}")
 
 

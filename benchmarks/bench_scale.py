@@ -41,8 +41,14 @@ def _load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def _run(name: str, run_dir: Path, executor: Any, overrides: list[str] | None = None, fresh: bool = True,
-         from_stage: str | None = None) -> dict[str, Any]:
+def _run(
+    name: str,
+    run_dir: Path,
+    executor: Any,
+    overrides: list[str] | None = None,
+    fresh: bool = True,
+    from_stage: str | None = None,
+) -> dict[str, Any]:
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -52,14 +58,24 @@ def _run(name: str, run_dir: Path, executor: Any, overrides: list[str] | None = 
     total = time.perf_counter() - t0
     s = res.metrics_summary()
     km = res.map_stats.trajectory_km
-    return {"scenario": name, "total_s": round(total, 1), "robots": len(sc.robots),
-            "trajectory_km": km, "submaps": res.map_stats.submaps, "pairs": res.metrics.n_pairs,
-            "stages_s": {k: v.get("seconds") for k, v in res.timings.items()},
-            "pairs_timing": (res.timings.get("evaluation") or {}).get("pairs"),
-            "alignment": {m: {k: v for k, v in a.items() if k != "per_pair_s"}
-                          for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()},
-            "ate": s["ate"], "methods": s["methods"], "cross_robot": _cross_robot(res),
-            "posegraph": _posegraph(res.run_dir)}
+    return {
+        "scenario": name,
+        "total_s": round(total, 1),
+        "robots": len(sc.robots),
+        "trajectory_km": km,
+        "submaps": res.map_stats.submaps,
+        "pairs": res.metrics.n_pairs,
+        "stages_s": {k: v.get("seconds") for k, v in res.timings.items()},
+        "pairs_timing": (res.timings.get("evaluation") or {}).get("pairs"),
+        "alignment": {
+            m: {k: v for k, v in a.items() if k != "per_pair_s"}
+            for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()
+        },
+        "ate": s["ate"],
+        "methods": s["methods"],
+        "cross_robot": _cross_robot(res),
+        "posegraph": _posegraph(res.run_dir),
+    }
 
 
 def _cross_robot(res: Any) -> dict[str, dict[str, str]]:
@@ -74,8 +90,9 @@ def _cross_robot(res: Any) -> dict[str, dict[str, str]]:
                 st = res.metrics.stats(method, label, "inter")
             except EvaluationError:  # a bin the run has no pairs in
                 continue
-            cells[label or "all"] = ("n/a" if st.max_recall is None
-                                     else f"{st.max_recall:.2f} ({st.max_hits}/{st.n_relevant})")
+            cells[label or "all"] = (
+                "n/a" if st.max_recall is None else f"{st.max_recall:.2f} ({st.max_hits}/{st.n_relevant})"
+            )
         out[method] = cells
     return out
 
@@ -97,15 +114,21 @@ def _one_vs_two(name: str, kind: str, repeats: int, overrides: list[str] | None 
     runs: dict[int, list[dict[str, Any]]] = {1: [], 2: []}
     with tempfile.TemporaryDirectory() as d:
         for r in range(repeats):
-            for w in ((1, 2) if r % 2 == 0 else (2, 1)):
+            for w in (1, 2) if r % 2 == 0 else (2, 1):
                 runs[w].append(_run(name, Path(d) / f"w{w}r{r}", ExecutorConfig(kind=kind, workers=w), overrides))
                 runs[w][-1]["load_after"] = _load()
     med = {w: statistics.median(x["total_s"] for x in rs) for w, rs in runs.items()}
-    return {"scenario": name, "executor": kind, "repeats": repeats,
-            "total_s": {str(w): [x["total_s"] for x in rs] for w, rs in runs.items()},
-            "stages_s": {str(w): [x["stages_s"] for x in rs] for w, rs in runs.items()},
-            "median_s": {str(w): m for w, m in med.items()}, "ratio_2_over_1": round(med[2] / med[1], 3),
-            "speedup_2_over_1": round(med[1] / med[2], 3), "example_run": runs[1][0]}
+    return {
+        "scenario": name,
+        "executor": kind,
+        "repeats": repeats,
+        "total_s": {str(w): [x["total_s"] for x in rs] for w, rs in runs.items()},
+        "stages_s": {str(w): [x["stages_s"] for x in rs] for w, rs in runs.items()},
+        "median_s": {str(w): m for w, m in med.items()},
+        "ratio_2_over_1": round(med[2] / med[1], 3),
+        "speedup_2_over_1": round(med[1] / med[2], 3),
+        "example_run": runs[1][0],
+    }
 
 
 def part_demo(repeats: int) -> dict[str, Any]:
@@ -148,20 +171,30 @@ def part_pairs(name: str, workers: int) -> dict[str, Any]:
         for tag, ovr in (("all_pairs", []), ("gated", ["gating.enabled=true"])):
             run_dir = Path(d) / tag
             shutil.copytree(src, run_dir)
-            r = _run(name, run_dir, ExecutorConfig(kind="local", workers=workers), ovr, fresh=False,
-                     from_stage="evaluation")
+            r = _run(
+                name, run_dir, ExecutorConfig(kind="local", workers=workers), ovr, fresh=False, from_stage="evaluation"
+            )
             pt = r["pairs_timing"] or {}
             eval_s = r["stages_s"].get("evaluation") or 0.0
             wall = (pt.get("alignment_wall_s") or 0.0) + (pt.get("gating_s") or 0.0)
             out[tag] = {
-                "candidates": pt.get("candidates"), "aligned": pt.get("aligned"), "gating_s": pt.get("gating_s"),
-                "alignment_wall_s": pt.get("alignment_wall_s"), "evaluation_stage_s": eval_s,
+                "candidates": pt.get("candidates"),
+                "aligned": pt.get("aligned"),
+                "gating_s": pt.get("gating_s"),
+                "alignment_wall_s": pt.get("alignment_wall_s"),
+                "evaluation_stage_s": eval_s,
                 "candidate_pairs_per_s_all_methods": round((pt.get("candidates") or 0) / wall, 1) if wall else None,
-                "per_method": {m: {"median_s": a.get("median"), "mean_s": a.get("mean"),
-                                   "pairs_per_s_one_worker": round(1.0 / a["mean"], 1) if a.get("mean") else None}
-                               for m, a in r["alignment"].items()},
+                "per_method": {
+                    m: {
+                        "median_s": a.get("median"),
+                        "mean_s": a.get("mean"),
+                        "pairs_per_s_one_worker": round(1.0 / a["mean"], 1) if a.get("mean") else None,
+                    }
+                    for m, a in r["alignment"].items()
+                },
                 "cross_robot": r["cross_robot"],
-                "ate": r["ate"]}
+                "ate": r["ate"],
+            }
     from roman_sim.pipeline.scenario import load_scenario
 
     out["workers"] = workers

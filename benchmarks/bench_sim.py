@@ -90,7 +90,8 @@ def _timed_row(world: Any, poses: list, depth_only: bool) -> dict[str, float]:
         row[f"ms_{w}x{h}"], row[f"cpu_ms_{w}x{h}"] = _frame_ms(world, cam, poses)
         if depth_only:
             row[f"depth_ids_only_ms_{w}x{h}"], row[f"depth_ids_only_cpu_ms_{w}x{h}"] = _frame_ms(
-                world, cam, poses, rgb=False)
+                world, cam, poses, rgb=False
+            )
     return row
 
 
@@ -108,9 +109,15 @@ def appearance_costs(poses: list, quick: bool = False) -> dict[str, Any]:
             t0 = time.perf_counter()
             world = generate(validate_model(WorldSpec, {**base, "appearance": app}), 0)
             timed = {"generate_s": time.perf_counter() - t0, **_timed_row(world, poses, key == "default")}
-            row = table.setdefault(key, {"textures": int(world.model.ntex), "texture_bytes": int(world.model.ntexdata),
-                                         "meshes": int(world.model.nmesh),
-                                         "mesh_texcoords": int(world.model.nmeshtexcoord)})
+            row = table.setdefault(
+                key,
+                {
+                    "textures": int(world.model.ntex),
+                    "texture_bytes": int(world.model.ntexdata),
+                    "meshes": int(world.model.nmesh),
+                    "mesh_texcoords": int(world.model.nmeshtexcoord),
+                },
+            )
             for k, v in timed.items():
                 row[k] = round(min(v, row.get(k, np.inf)), 2 if k == "generate_s" else 1)
             del world
@@ -118,9 +125,14 @@ def appearance_costs(poses: list, quick: bool = False) -> dict[str, Any]:
         ref = (table["default"][f"cpu_ms_{w}x{h}"] + table["default_again"][f"cpu_ms_{w}x{h}"]) / 2
         for row in table.values():
             row[f"cpu_ratio_to_default_{w}x{h}"] = round(row[f"cpu_ms_{w}x{h}"] / ref, 2)
-    return {"frames_timed": len(poses), "rounds": rounds, "options": APPEARANCE_OPTIONS, "per_option": table,
-            "note": "min over rounds of the median per frame over robot poses on the forest loop; cpu_ms counts "
-                    "all rendering threads of the process; the machine was shared with other jobs"}
+    return {
+        "frames_timed": len(poses),
+        "rounds": rounds,
+        "options": APPEARANCE_OPTIONS,
+        "per_option": table,
+        "note": "min over rounds of the median per frame over robot poses on the forest loop; cpu_ms counts "
+        "all rendering threads of the process; the machine was shared with other jobs",
+    }
 
 
 def _robot_poses(world: Any, n_frames: int) -> list:
@@ -174,8 +186,12 @@ def main(quick: bool = False) -> dict:
     for _ in range(10):
         apply_depth_noise(depth, cam.depth_noise, cam.max_depth_m, rng)
     out = {
-        "world": {"preset": "forest", "objects": len(world.truth.objects), "ngeom": int(world.model.ngeom),
-                  "generate_s": round(gen_s, 2)},
+        "world": {
+            "preset": "forest",
+            "objects": len(world.truth.objects),
+            "ngeom": int(world.model.ngeom),
+            "generate_s": round(gen_s, 2),
+        },
         "image": [cam.width, cam.height],
         "frames_timed": len(poses),
         **results,
@@ -186,8 +202,11 @@ def main(quick: bool = False) -> dict:
         "path_plan_s": round(path_s, 3),
         "trajectory_s": round(traj_s, 3),
         "trajectory_frames": len(t),
-        "machine": {"python": platform.python_version(), "cpu_count": __import__("os").cpu_count(),
-                    "note": "2 cores shared with other jobs while measured"},
+        "machine": {
+            "python": platform.python_version(),
+            "cpu_count": __import__("os").cpu_count(),
+            "note": "2 cores shared with other jobs while measured",
+        },
     }
     write_json(OUT, out)
     return out

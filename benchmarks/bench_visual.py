@@ -54,8 +54,10 @@ SEED = 9300
 def _robots(quick: bool) -> list[RobotConfig]:
     length = 12.0 if quick else 30.0
     path = PathConfig(kind="loop", radius_m=6.0)
-    return [RobotConfig(name="a", path=path, max_length_m=length),
-            RobotConfig(name="b", path=PathConfig(kind="retrace", of="a", pieces=[(0.0, 1.0)]), max_length_m=length)]
+    return [
+        RobotConfig(name="a", path=path, max_length_m=length),
+        RobotConfig(name="b", path=PathConfig(kind="retrace", of="a", pieces=[(0.0, 1.0)]), max_length_m=length),
+    ]
 
 
 def _demo_times() -> dict:
@@ -133,21 +135,37 @@ def main(quick: bool = False, full: bool = False, demo: bool = False) -> dict:
     train_s, train_cpu = time.perf_counter() - t0, time.process_time() - c0
     shipped = Path(str(resources.files("roman_sim.align.visual") / "data" / "orb_vocabulary.npz"))
     res = {
-        "machine": platform.platform(), "python": platform.python_version(), "load_average": list(os.getloadavg()),
-        "image_size": [640, 480], "orb_features": 700,
-        "extraction": {"frames": frames, "fps": fps, "ms_per_frame": 1000.0 / fps, "fps_cpu_time": fps_cpu,
-                       "median_features_with_depth": float(np.median([len(d) for d in feats]))},
-        "pairs": {"n": len(times), "verified": ok, "median_ms": 1000 * float(np.median(times)),
-                  "p90_ms": 1000 * float(np.percentile(times, 90)),
-                  "keyframes_per_submap": float(np.mean([len(s.keyframes) for r in runs for s in r[3]]))},
-        "vocabulary": {"shipped_bytes": shipped.stat().st_size, "words": voc.n_words,
-                       "train_s_on_benchmark_descriptors": train_s, "train_cpu_s": train_cpu,
-                       "benchmark_descriptors": int(sum(map(len, feats)))},
+        "machine": platform.platform(),
+        "python": platform.python_version(),
+        "load_average": list(os.getloadavg()),
+        "image_size": [640, 480],
+        "orb_features": 700,
+        "extraction": {
+            "frames": frames,
+            "fps": fps,
+            "ms_per_frame": 1000.0 / fps,
+            "fps_cpu_time": fps_cpu,
+            "median_features_with_depth": float(np.median([len(d) for d in feats])),
+        },
+        "pairs": {
+            "n": len(times),
+            "verified": ok,
+            "median_ms": 1000 * float(np.median(times)),
+            "p90_ms": 1000 * float(np.percentile(times, 90)),
+            "keyframes_per_submap": float(np.mean([len(s.keyframes) for r in runs for s in r[3]])),
+        },
+        "vocabulary": {
+            "shipped_bytes": shipped.stat().st_size,
+            "words": voc.n_words,
+            "train_s_on_benchmark_descriptors": train_s,
+            "train_cpu_s": train_cpu,
+            "benchmark_descriptors": int(sum(map(len, feats))),
+        },
     }
     if demo:
         res["demo"] = _demo_times()
     if full:
-        from roman_sim.align.visual.train import train_default
+        from roman_sim.studies.vocabulary import train_default
 
         t0 = time.perf_counter()
         train_default()

@@ -17,6 +17,7 @@ from pathlib import Path
 # isort: off
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import mujoco
+
 # isort: on
 from roman_sim.core.atomic import write_json
 from roman_sim.world import export_world, generate, load_world_spec
@@ -37,8 +38,11 @@ def _best_of(fn, repeats: int = REPEATS) -> tuple[float, object]:  # noqa: ANN00
 
 
 def main() -> dict:
-    machine = {"python": sys.version.split()[0], "mujoco": mujoco.__version__,
-               "cpu": platform.processor() or platform.machine()}
+    machine = {
+        "python": sys.version.split()[0],
+        "mujoco": mujoco.__version__,
+        "cpu": platform.processor() or platform.machine(),
+    }
     figures: dict = {"machine": machine}
     forest = load_world_spec("forest")
     gen_s, world = _best_of(lambda: generate(forest, 0))

@@ -45,11 +45,16 @@ def _runs(root: Path) -> dict[str, dict[str, Any]]:
         ev = t.get("evaluation") or {}
         pairs = ev.get("pairs") or {}
         out[name] = {
-            "robots": ms["robots"], "km": ms["trajectory_km"], "submaps": ms["submaps"],
-            "pairs": m["n_pairs"], "candidates": m["n_candidates"], "skipped": m["n_skipped"],
+            "robots": ms["robots"],
+            "km": ms["trajectory_km"],
+            "submaps": ms["submaps"],
+            "pairs": m["n_pairs"],
+            "candidates": m["n_candidates"],
+            "skipped": m["n_skipped"],
             "cap_m": m["config"].get("max_pair_dist_m"),
             "stages": {s: (t.get(s) or {}).get("seconds") for s in STAGES},
-            "workers": pairs.get("workers"), "executor": pairs.get("executor"),
+            "workers": pairs.get("workers"),
+            "executor": pairs.get("executor"),
             "align_mean_s": {k: v["mean"] for k, v in (ev.get("alignment") or {}).items()},
         }
     return out
@@ -68,16 +73,21 @@ def _duration(s: float) -> str:
 
 
 def _runs_table(runs: dict[str, dict[str, Any]]) -> list[str]:
-    lines = ["| run | robots | km | submaps | pairs aligned (of candidates; cap) | maps | evaluation | "
-             "other stages | total | workers |", "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        "| run | robots | km | submaps | pairs aligned (of candidates; cap) | maps | evaluation | "
+        "other stages | total | workers |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for name, r in runs.items():
         st = r["stages"]
         other = sum(v for k, v in st.items() if k not in ("maps", "evaluation") and v is not None)
         total = sum(v for v in st.values() if v is not None)
-        lines.append(f"| `{name}` | {r['robots']} | {_f(r['km'])} | {r['submaps']} | {r['pairs']} "
-                     f"(of {r['candidates']}; {_f(r['cap_m'], 0)} m) | {_duration(st['maps'] or 0.0)} | "
-                     f"{_duration(st['evaluation'] or 0.0)} | {_duration(other)} | {_duration(total)} | "
-                     f"{r['workers']} ({r['executor']}) |")
+        lines.append(
+            f"| `{name}` | {r['robots']} | {_f(r['km'])} | {r['submaps']} | {r['pairs']} "
+            f"(of {r['candidates']}; {_f(r['cap_m'], 0)} m) | {_duration(st['maps'] or 0.0)} | "
+            f"{_duration(st['evaluation'] or 0.0)} | {_duration(other)} | {_duration(total)} | "
+            f"{r['workers']} ({r['executor']}) |"
+        )
     return lines
 
 
@@ -88,16 +98,22 @@ def _cost_model(runs: dict[str, dict[str, Any]], scale: dict[str, Any]) -> list[
     a = sum(big["align_mean_s"].values())
     methods = ", ".join(f"{k} {1000 * v:.1f} s" for k, v in sorted(big["align_mean_s"].items()))
     pairs_per_km = big["pairs"] / big["km"]
-    lines = [f"Measured on `{big_name}` ({big['robots']} robots, {_f(big['km'])} km, {big['workers']} workers): "
-             f"mapping m = {m:.0f} s per km of trajectory (render + segment + track, wall), alignment "
-             f"a = {1000 * a:.1f} s per 1000 pairs of all methods together ({methods}), "
-             f"{pairs_per_km:.0f} candidate pairs per km.", ""]
+    lines = [
+        f"Measured on `{big_name}` ({big['robots']} robots, {_f(big['km'])} km, {big['workers']} workers): "
+        f"mapping m = {m:.0f} s per km of trajectory (render + segment + track, wall), alignment "
+        f"a = {1000 * a:.1f} s per 1000 pairs of all methods together ({methods}), "
+        f"{pairs_per_km:.0f} candidate pairs per km.",
+        "",
+    ]
     probes = [(n.removeprefix("probe_"), v) for n, v in sorted(scale.items()) if n.startswith("probe_")]
     if probes:
-        lines += ["Mapping seconds per km on each paper-scale world (every robot stopped after "
-                  f"{probes[0][1]['length_m']:g} m, `bench_scale.py probe`): "
-                  + ", ".join(f"`{n}` {v['seconds_per_km']['maps']:.0f} s" for n, v in probes)
-                  + " (denser worlds put more objects in view).", ""]
+        lines += [
+            "Mapping seconds per km on each paper-scale world (every robot stopped after "
+            f"{probes[0][1]['length_m']:g} m, `bench_scale.py probe`): "
+            + ", ".join(f"`{n}` {v['seconds_per_km']['maps']:.0f} s" for n, v in probes)
+            + " (denser worlds put more objects in view).",
+            "",
+        ]
     lines += ["| experiment | km | pairs | 1 worker | 10 workers | 100 workers |", "|---|---|---|---|---|---|"]
     for factor in (1, 10, 100):
         km, pairs = big["km"] * factor, big["pairs"] * factor
@@ -113,16 +129,21 @@ def _gating(scale: dict[str, Any]) -> list[str]:
         if not key.startswith("pairs_") or "gated" not in g or "cross_robot" not in g["gated"]:
             continue
         name = key.removeprefix("pairs_")
-        out += [f"On `{name}` ({g['workers']} workers, `gating.top_k` {g['top_k']}), cross-robot max recall "
-                "(hits/relevant) per heading bin:", "",
-                "| pairs | aligned | alignment wall time | method | 0-60 deg | 60-120 deg | 120-180 deg | all |",
-                "|---|---|---|---|---|---|---|---|"]
+        out += [
+            f"On `{name}` ({g['workers']} workers, `gating.top_k` {g['top_k']}), cross-robot max recall "
+            "(hits/relevant) per heading bin:",
+            "",
+            "| pairs | aligned | alignment wall time | method | 0-60 deg | 60-120 deg | 120-180 deg | all |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
         for tag in ("all_pairs", "gated"):
             r = g[tag]
             for method, cells in sorted(r["cross_robot"].items()):
                 bins = [cells.get(b, "n/a") for b in ("0-60", "60-120", "120-180", "all")]
-                out.append(f"| {tag.replace('_', ' ')} | {r['aligned']} of {r['candidates']} | "
-                           f"{_f(r['alignment_wall_s'], 0)} s | {method} | " + " | ".join(bins) + " |")
+                out.append(
+                    f"| {tag.replace('_', ' ')} | {r['aligned']} of {r['candidates']} | "
+                    f"{_f(r['alignment_wall_s'], 0)} s | {method} | " + " | ".join(bins) + " |"
+                )
         out.append("")
     return out
 
@@ -140,15 +161,17 @@ def _workers(scale: dict[str, Any]) -> list[str]:
             number = 1.0 / number
         verdict = "" if number is None else (" met" if speed >= number else " missed")
         load = v.get("load_before") or [None]
-        rows.append(f"`{key}` {speed:.2f}x (target {_f(number, 2)}x{verdict}; load average {_f(load[0], 1)} "
-                    "before)")
+        rows.append(f"`{key}` {speed:.2f}x (target {_f(number, 2)}x{verdict}; load average {_f(load[0], 1)} before)")
     if not rows:
         return []
-    return ["Two workers against one, interleaved medians (`bench_scale.py demo` / `dask`): " + "; ".join(rows)
-            + ". Serial work (world generation in each worker, the report stage) bounds the speed-up of a small "
-            "run; on a machine shared with other login sessions the kernel shares the cores between sessions, so "
-            "the speed-up holds only on free cores.",
-            ""]
+    return [
+        "Two workers against one, interleaved medians (`bench_scale.py demo` / `dask`): "
+        + "; ".join(rows)
+        + ". Serial work (world generation in each worker, the report stage) bounds the speed-up of a small "
+        "run; on a machine shared with other login sessions the kernel shares the cores between sessions, so "
+        "the speed-up holds only on free cores.",
+        "",
+    ]
 
 
 def render(root: Path = ROOT) -> str:
@@ -158,13 +181,25 @@ def render(root: Path = ROOT) -> str:
     scale = _json(scale_path) if scale_path.is_file() else {}
     lines = [BEGIN]
     if not runs:
-        lines += ["No paper-scale reference run is committed yet (`roman-sim reproduce --scenario kimera_tunnel "
-                  "--scenario kimera_hybrid --scenario kimera_outdoor`)."]
+        lines += [
+            "No paper-scale reference run is committed yet (`roman-sim reproduce --scenario kimera_tunnel "
+            "--scenario kimera_hybrid --scenario kimera_outdoor`)."
+        ]
     else:
-        lines += ["Paper-scale reference runs (seed 0; wall times on this shared 2-core machine, upper bounds):", "",
-                  *_runs_table(runs), "", "### Cost model", "",
-                  "Run time on N workers: `T(N) = km x m / min(N, robots) + pairs x a / N`.", "",
-                  *_cost_model(runs, scale), "", *_gating(scale), *_workers(scale)]
+        lines += [
+            "Paper-scale reference runs (seed 0; wall times on this shared 2-core machine, upper bounds):",
+            "",
+            *_runs_table(runs),
+            "",
+            "### Cost model",
+            "",
+            "Run time on N workers: `T(N) = km x m / min(N, robots) + pairs x a / N`.",
+            "",
+            *_cost_model(runs, scale),
+            "",
+            *_gating(scale),
+            *_workers(scale),
+        ]
     while lines[-1] == "":
         lines.pop()
     return "\n".join(lines + [END])

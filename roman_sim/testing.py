@@ -124,8 +124,9 @@ def _figure(run: RunResult, method: str, bin_label: str | None, key: str, kind: 
     return run.metrics.figure(method, bin_label, key, kind)
 
 
-def assert_hits(run: RunResult, method: str, pinned: Mapping[str | None, int], tolerance: int = 1,
-                kind: str | None = None) -> None:
+def assert_hits(
+    run: RunResult, method: str, pinned: Mapping[str | None, int], tolerance: int = 1, kind: str | None = None
+) -> None:
     """Assert ``method``'s max-recall hits per heading bin (None: overall) are within ``tolerance``."""
     method = method_label(method)
     failures = []
@@ -138,8 +139,13 @@ def assert_hits(run: RunResult, method: str, pinned: Mapping[str | None, int], t
 
 
 def assert_not_worse(
-    run: RunResult, method: str, baseline: str, heading_bin: str | None = None,
-    key: str = "max_recall", tolerance: float = 0.0, kind: str | None = None,
+    run: RunResult,
+    method: str,
+    baseline: str,
+    heading_bin: str | None = None,
+    key: str = "max_recall",
+    tolerance: float = 0.0,
+    kind: str | None = None,
 ) -> None:
     """Assert ``method`` reaches at least ``baseline``'s figure (minus ``tolerance``)."""
     method, baseline, key = method_label(method), method_label(baseline), _check_key(key)
@@ -162,8 +168,11 @@ def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", 
 def run_folder_bytes(run_dir: str | Path) -> dict[str, bytes]:
     """Every file of a run folder except the wall-clock ``timings.json``, by relative path."""
     d = Path(run_dir)
-    return {p.relative_to(d).as_posix(): p.read_bytes() for p in sorted(d.rglob("*"))
-            if p.is_file() and p.name != "timings.json"}
+    return {
+        p.relative_to(d).as_posix(): p.read_bytes()
+        for p in sorted(d.rglob("*"))
+        if p.is_file() and p.name != "timings.json"
+    }
 
 
 def assert_same_run_folder(a: str | Path, b: str | Path) -> None:

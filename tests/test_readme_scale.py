@@ -21,21 +21,32 @@ def _module():
 def test_readme_block_is_rendered_from_the_committed_files():
     mod = _module()
     text = (ROOT / "README.md").read_text(encoding="utf-8")
-    block = text[text.index(mod.BEGIN):text.index(mod.END) + len(mod.END)]
+    block = text[text.index(mod.BEGIN) : text.index(mod.END) + len(mod.END)]
     assert block == mod.render(ROOT), "run: python benchmarks/readme_scale.py"
 
 
 def _fake_run(root: Path, name: str, robots: int, km: float, maps_s: float, pairs: int) -> None:
     d = root / "results" / "reference" / name
     d.mkdir(parents=True)
-    stages = {"world": {"seconds": 10.0}, "maps": {"seconds": maps_s}, "submaps": {"seconds": 5.0},
-              "evaluation": {"seconds": 50.0, "pairs": {"workers": 2, "executor": "local"},
-                             "alignment": {"roman": {"mean": 0.004}, "clipper": {"mean": 0.006}}},
-              "posegraph": {"seconds": 3.0}, "report": {"seconds": 2.0}}
+    stages = {
+        "world": {"seconds": 10.0},
+        "maps": {"seconds": maps_s},
+        "submaps": {"seconds": 5.0},
+        "evaluation": {
+            "seconds": 50.0,
+            "pairs": {"workers": 2, "executor": "local"},
+            "alignment": {"roman": {"mean": 0.004}, "clipper": {"mean": 0.006}},
+        },
+        "posegraph": {"seconds": 3.0},
+        "report": {"seconds": 2.0},
+    }
     (d / "timings.json").write_text(json.dumps({"stages": stages}))
     (d / "map_stats.json").write_text(json.dumps({"robots": robots, "trajectory_km": km, "submaps": 100}))
-    (d / "metrics.json").write_text(json.dumps({"n_pairs": pairs, "n_candidates": 4 * pairs, "n_skipped": 3 * pairs,
-                                                "config": {"max_pair_dist_m": 30.0}}))
+    (d / "metrics.json").write_text(
+        json.dumps(
+            {"n_pairs": pairs, "n_candidates": 4 * pairs, "n_skipped": 3 * pairs, "config": {"max_pair_dist_m": 30.0}}
+        )
+    )
 
 
 def test_cost_model_by_hand(tmp_path):
@@ -60,8 +71,11 @@ def test_cost_model_by_hand(tmp_path):
 
 def test_update_rewrites_only_the_block(tmp_path):
     mod = _module()
-    shutil.copytree(ROOT / "results" / "reference", tmp_path / "results" / "reference",
-                    ignore=shutil.ignore_patterns("*.gz", "*.png", "*.csv"))
+    shutil.copytree(
+        ROOT / "results" / "reference",
+        tmp_path / "results" / "reference",
+        ignore=shutil.ignore_patterns("*.gz", "*.png", "*.csv"),
+    )
     (tmp_path / "benchmarks" / "out").mkdir(parents=True)
     shutil.copyfile(ROOT / "benchmarks" / "out" / "scale.json", tmp_path / "benchmarks" / "out" / "scale.json")
     readme = tmp_path / "README.md"

@@ -60,9 +60,7 @@ class AffinityParams(StrictModel):
         return self
 
 
-def _residual_score(
-    c_xy: NDArray, c_z: NDArray, d_xy: NDArray, d_z: NDArray, p: AffinityParams
-) -> NDArray[np.float64]:
+def _residual_score(c_xy: NDArray, c_z: NDArray, d_xy: NDArray, d_z: NDArray, p: AffinityParams) -> NDArray[np.float64]:
     """Gravity-decoupled score from lateral and vertical residuals (0 outside the gates)."""
     s_xy, e_xy, s_z, e_z = _XY * p.sigma, _XY * p.epsilon, _Z * p.sigma, _Z * p.epsilon
     if p.gravity_uncertainty_deg > 0:
@@ -244,8 +242,11 @@ def csr_from_entries(rows: NDArray, cols: NDArray, vals: NDArray, n: int) -> sp.
 
 
 def build_affinity(
-    centers_a: NDArray, centers_b: NDArray, assoc: NDArray[np.int64],
-    s_o: NDArray[np.float64] | None, params: AffinityParams,
+    centers_a: NDArray,
+    centers_b: NDArray,
+    assoc: NDArray[np.int64],
+    s_o: NDArray[np.float64] | None,
+    params: AffinityParams,
 ) -> sp.csr_matrix:
     """The (P, P) sparse affinity over associations ``assoc`` ((P, 2) indices into a, b).
 

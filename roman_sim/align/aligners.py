@@ -129,8 +129,13 @@ class RomanAligner:
         M = build_affinity(a.centers, b.centers, assoc, s_o, p)
         sol = solve_clipper(M, p.solver)
         sel = assoc[sol.selected]
-        info = {"n_putative": int(len(assoc)), "n_edges": int((M.nnz - len(assoc)) // 2),
-                "F": sol.F, "density": sol.density, "iterations": sol.iterations}
+        info = {
+            "n_putative": int(len(assoc)),
+            "n_edges": int((M.nnz - len(assoc)) // 2),
+            "F": sol.F,
+            "density": sol.density,
+            "iterations": sol.iterations,
+        }
         return self._finish(a, b, sel, sol.u[sol.selected], info, t0)
 
     def _finish(self, a: Submap, b: Submap, sel: NDArray[np.int64], u: NDArray, info: dict, t0: float) -> AlignResult:

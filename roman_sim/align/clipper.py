@@ -264,8 +264,9 @@ def _row_weights(A: sp.csr_matrix, i: int, chosen_mask: NDArray[np.bool_], n_cho
     return A.data[lo:hi][hit]
 
 
-def _extend(A: sp.csr_matrix, order: NDArray[np.int64], chosen: list[int],
-            mask: NDArray[np.bool_]) -> NDArray[np.int64]:
+def _extend(
+    A: sp.csr_matrix, order: NDArray[np.int64], chosen: list[int], mask: NDArray[np.bool_]
+) -> NDArray[np.int64]:
     """Add nodes adjacent to all chosen ones while the clique density increases (``mask`` marks them)."""
     total = _sub_sum(A, chosen) + len(chosen)
     for i in order:

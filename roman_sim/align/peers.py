@@ -19,7 +19,7 @@ from roman_sim.align.checks import pair_reason
 from roman_sim.align.ransac import RansacParams, one_to_one, ransac_align
 from roman_sim.core.config import StrictModel, validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.geometry import make_T, transform_points
+from roman_sim.core.geometry import make_T, transform_points
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)

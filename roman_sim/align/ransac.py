@@ -25,8 +25,8 @@ from scipy.spatial.distance import cdist
 
 from roman_sim.align.registration import estimate_transform, kabsch_batch
 from roman_sim.core.config import StrictModel
+from roman_sim.core.geometry import transform_points
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import transform_points
 
 log = logging.getLogger(__name__)
 
@@ -77,8 +77,16 @@ def compatible_edges(Da: NDArray, Db: NDArray, ratio: float) -> tuple[NDArray[np
     return ea[ok].astype(np.int64), eb[ok].astype(np.int64)
 
 
-def _sample(rng: np.random.Generator, na: int, nb: int, k: int, Da: NDArray, Db: NDArray, ratio: float,
-            edges: tuple[NDArray[np.int64], NDArray[np.int64]]) -> tuple[NDArray, NDArray]:
+def _sample(
+    rng: np.random.Generator,
+    na: int,
+    nb: int,
+    k: int,
+    Da: NDArray,
+    Db: NDArray,
+    ratio: float,
+    edges: tuple[NDArray[np.int64], NDArray[np.int64]],
+) -> tuple[NDArray, NDArray]:
     """``k`` uniform triples of correspondences; (ia, ib) (m, 3) of those passing the edge checks.
 
     Equivalent in distribution to drawing ``k`` triples and checking all three edges, but

@@ -1,6 +1,6 @@
 """Rigid registration of associated object centres: Arun/Kabsch (6-DoF) or yaw + translation.
 
-Thin, checked wrappers over ``roman_sim.geometry.arun`` / ``arun_4dof``: degenerate point
+Thin, checked wrappers over ``roman_sim.core.geometry.arun`` / ``arun_4dof``: degenerate point
 sets (fewer than 3 points, coincident or collinear centres) and implausible tilts give a
 reason string instead of a transform, never a numpy error.
 """
@@ -13,7 +13,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.geometry import R_to_rpy, arun, arun_4dof
+from roman_sim.core.geometry import R_to_rpy, arun, arun_4dof
 
 log = logging.getLogger(__name__)
 

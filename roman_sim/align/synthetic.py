@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.geometry import inv_T, rot_z, transform_points
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import inv_T, rot_z, transform_points
 from roman_sim.mapping.types import Submap, SubmapTruth
 
 #: Base box extents (m) of the object families.
@@ -79,8 +79,16 @@ class _Scene:
 def _submap(robot: str, centers: NDArray, ext: NDArray, desc: NDArray, ids: NDArray, T: NDArray) -> Submap:
     e, vol, shape = _features(ext)
     return Submap(
-        robot=robot, index=0, t=0.0, T_odom_submap=np.eye(4), segment_ids=np.arange(len(centers), dtype=np.int64),
-        centers=centers, volumes=vol, shape=shape, descriptors=desc, extents=e,
+        robot=robot,
+        index=0,
+        t=0.0,
+        T_odom_submap=np.eye(4),
+        segment_ids=np.arange(len(centers), dtype=np.int64),
+        centers=centers,
+        volumes=vol,
+        shape=shape,
+        descriptors=desc,
+        extents=e,
         truth=SubmapTruth(T_world_submap=T, object_ids=ids.astype(np.int64), purity=np.ones(len(centers))),
     )
 
@@ -151,13 +159,20 @@ def make_submap_pair(
 
 def _check_args(n_in: int, n_oa: int, n_ob: int, noise: float, dim: int, fams: int, radius: float) -> None:
     checks = {
-        "n_inliers": n_in >= 0, "n_outliers_a": n_oa >= 0, "n_outliers_b": n_ob >= 0, "noise_m": noise >= 0,
-        "descriptor_dim": dim >= 1, "n_families": fams >= 2, "radius_m": radius > 0,
+        "n_inliers": n_in >= 0,
+        "n_outliers_a": n_oa >= 0,
+        "n_outliers_b": n_ob >= 0,
+        "noise_m": noise >= 0,
+        "descriptor_dim": dim >= 1,
+        "n_families": fams >= 2,
+        "radius_m": radius > 0,
     }
     for name, ok in checks.items():
         if not ok:
-            raise ConfigError(f"make_submap_pair: {name} out of range (counts and noise >= 0, "
-                              "descriptor_dim >= 1, n_families >= 2, radius_m > 0)")
+            raise ConfigError(
+                f"make_submap_pair: {name} out of range (counts and noise >= 0, "
+                "descriptor_dim >= 1, n_families >= 2, radius_m > 0)"
+            )
 
 
 def _stack_views(

@@ -29,8 +29,10 @@ class _Group(TyperGroup):
             typer.echo(f"error: {err}", err=True)
             raise typer.Exit(1) from None
         except KeyboardInterrupt:
-            typer.echo("interrupted: results written so far (completed stages) are kept; run the same command "
-                       "again to resume", err=True)
+            typer.echo(
+                "interrupted: results written so far (completed stages) are kept; run the same command again to resume",
+                err=True,
+            )
             raise typer.Exit(130) from None
 
 

@@ -19,16 +19,34 @@ DASHBOARD = typer.Option(False, "--dashboard", help="local Dask cluster: serve t
 UPLOAD = typer.Option(None, "--upload", help="plug-in file (.py/.zip/.egg) to send to every Dask worker")
 
 
-def executor_config(base: dict[str, Any] | None, kind: str | None, workers: int | None, scheduler: str | None,
-                    chunk: int | None, tls: bool, ca: str | None, cert: str | None, key: str | None,
-                    insecure: bool, dashboard: bool, upload: list[str] | None) -> Any:
+def executor_config(
+    base: dict[str, Any] | None,
+    kind: str | None,
+    workers: int | None,
+    scheduler: str | None,
+    chunk: int | None,
+    tls: bool,
+    ca: str | None,
+    cert: str | None,
+    key: str | None,
+    insecure: bool,
+    dashboard: bool,
+    upload: list[str] | None,
+) -> Any:
     """An ``ExecutorConfig``: ``base`` (a sweep file's, or the CLI default: local pool) with the options set."""
     from roman_sim.core.config import validate_model
     from roman_sim.pipeline.executors import ExecutorConfig
 
     data: dict[str, Any] = dict(base) if base is not None else {"kind": "local"}
-    given: dict[str, Any] = {"kind": kind, "workers": workers, "scheduler_address": scheduler, "chunk_pairs": chunk,
-             "tls_ca_file": ca, "tls_cert": cert, "tls_key": key}
+    given: dict[str, Any] = {
+        "kind": kind,
+        "workers": workers,
+        "scheduler_address": scheduler,
+        "chunk_pairs": chunk,
+        "tls_ca_file": ca,
+        "tls_cert": cert,
+        "tls_key": key,
+    }
     data.update({k: v for k, v in given.items() if v is not None})
     for flag, value in (("tls", tls), ("insecure", insecure), ("dashboard", dashboard)):
         if value:

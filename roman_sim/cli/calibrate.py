@@ -52,16 +52,18 @@ def _print(cal: Any) -> None:
         for name in ("precision", "recall", "mean_iou"):
             t.add_row(name, _fmt(getattr(m, name)), _fmt(getattr(f, name)))
         for name in ("over_segmented", "under_segmented", "spurious"):
-            t.add_row(f"{name} / frame", _fmt(getattr(m, name) / max(m.frames, 1)),
-                      _fmt(getattr(f, name) / max(f.frames, 1)))
+            t.add_row(
+                f"{name} / frame", _fmt(getattr(m, name) / max(m.frames, 1)), _fmt(getattr(f, name) / max(f.frames, 1))
+            )
         out.print(t)
 
 
 @app.command("calibrate")
 def calibrate_cmd(
     scenario: str = typer.Argument(..., help="bundled scenario name or YAML path (its world and robots are rendered)"),
-    encoder: str | None = typer.Option(None, "--encoder", help="encoder to measure: a name or "
-                                          "'{name: clip, params: {weights: /path}}'"),
+    encoder: str | None = typer.Option(
+        None, "--encoder", help="encoder to measure: a name or '{name: clip, params: {weights: /path}}'"
+    ),
     segmenter: str | None = typer.Option(None, "--segmenter", help="segmenter to measure, same form"),
     out: Path = typer.Option(Path("calibration.yaml"), "--out", "-o", help="YAML with the fitted frontend section"),
     grades: Path | None = typer.Option(None, "--grades", help="also write measured and fitted grades (JSON)"),
@@ -72,10 +74,11 @@ def calibrate_cmd(
     """Measure an encoder and/or a segmenter on rendered frames; write the fitted simulated front end."""
     from roman_sim.core.atomic import write_json, write_text
     from roman_sim.core.config import validate_model
-    from roman_sim.evaluation.calibration import calibrate, render_calibration_frames
-    from roman_sim.evaluation.frontend_grades import FrontEndGrades, SegmentationGrades, plot_frontend_grades
+    from roman_sim.evaluation.frontend_types import FrontEndGrades, SegmentationGrades
     from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
     from roman_sim.pipeline.scenario import load_scenario
+    from roman_sim.report.frontend import plot_frontend_grades
+    from roman_sim.studies.calibration import calibrate, render_calibration_frames
 
     enc, seg = _entry(encoder, "--encoder"), _entry(segmenter, "--segmenter")
     if enc is None and seg is None:
@@ -92,16 +95,28 @@ def calibrate_cmd(
     target_enc = None if truth_enc else build_encoder(fe, sc.seed, "calibration")
     target_seg = None if seg is None else build_segmenter(fe, sc.seed, "calibration")
     console.print(f"rendering {frames} frames of {sc.name} ...")
-    cal = calibrate(render_calibration_frames(sc, frames), fe, encoder=enc is not None, segmenter=seg is not None,
-                    target_encoder=target_enc, target_segmenter=target_seg)
+    cal = calibrate(
+        render_calibration_frames(sc, frames),
+        fe,
+        encoder=enc is not None,
+        segmenter=seg is not None,
+        target_encoder=target_enc,
+        target_segmenter=target_seg,
+    )
     write_text(out, cal.frontend_yaml())
     if grades is not None:
         write_json(grades, cal.to_json())
     if plot is not None:
         seg_grades = cal.measured_segmentation or SegmentationGrades()
-        plot_frontend_grades(FrontEndGrades(fe.segmenter.name if seg is not None else "-",
-                                            fe.encoder.name if enc is not None else None, seg_grades,
-                                            cal.measured_descriptors), plot)
+        plot_frontend_grades(
+            FrontEndGrades(
+                fe.segmenter.name if seg is not None else "-",
+                fe.encoder.name if enc is not None else None,
+                seg_grades,
+                cal.measured_descriptors,
+            ),
+            plot,
+        )
     _print(cal)
     console.print(f"wrote {out}")
 

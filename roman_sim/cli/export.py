@@ -39,14 +39,18 @@ def export_cmd(
     names = [n.strip() for n in robots.split(",") if n.strip()] if robots else None
     sc = load_scenario(scenario, list(sets or []))
     with _progress() as p:
-        result = export_scenario(sc, fmt, out, robots=names, progress=RichProgress(p), overwrite=overwrite,
-                                 **options)
+        result = export_scenario(sc, fmt, out, robots=names, progress=RichProgress(p), overwrite=overwrite, **options)
     table = Table(title=f"{sc.name} (seed {sc.seed}) exported as {fmt} -> {out}")
     for col in ("robot", "frames", "render s", "write s", "folder"):
         table.add_column(col, justify="left" if col in ("robot", "folder") else "right")
     for name, summary in result.robots.items():
-        table.add_row(name, str(summary["frames"]), f"{result.render_s[name]:.1f}", f"{result.write_s[name]:.1f}",
-                      str(summary.get("bag") or summary.get("folder")))
+        table.add_row(
+            name,
+            str(summary["frames"]),
+            f"{result.render_s[name]:.1f}",
+            f"{result.write_s[name]:.1f}",
+            str(summary.get("bag") or summary.get("folder")),
+        )
     Console().print(table)
 
 

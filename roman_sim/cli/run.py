@@ -50,7 +50,7 @@ def _progress() -> Progress:
 
 
 def _fmt(v: Any, digits: int = 2) -> str:
-    from roman_sim.evaluation.tables import fmt
+    from roman_sim.report.tables import fmt
 
     return fmt(v, digits)
 
@@ -73,10 +73,19 @@ def _recall_table(s: dict[str, Any], kind: str, title: str, min_n: int) -> Table
     for name, m in s["methods"].items():
         k = m[kind]
         ms = None if m["runtime_median_s"] is None else m["runtime_median_s"] * 1000
-        p1 = {"max_recall": k["recall_at_precision_1"], "max_hits": k["hits_at_precision_1"],
-              "n_relevant": k["n_relevant"]}
-        t.add_row(name, _recall_cell(k, min_n), _recall_cell(p1, min_n), _fmt(k["best_f1"]),
-                  *[_recall_cell(b, min_n) for b in k["bins"].values()], _fmt(ms, 1))
+        p1 = {
+            "max_recall": k["recall_at_precision_1"],
+            "max_hits": k["hits_at_precision_1"],
+            "n_relevant": k["n_relevant"],
+        }
+        t.add_row(
+            name,
+            _recall_cell(k, min_n),
+            _recall_cell(p1, min_n),
+            _fmt(k["best_f1"]),
+            *[_recall_cell(b, min_n) for b in k["bins"].values()],
+            _fmt(ms, 1),
+        )
     return t
 
 
@@ -88,44 +97,71 @@ def print_summary(result: Any) -> None:
     s = result.metrics_summary()
     cfg = result.metrics.config
     out = Console()
-    cap = "no distance cap" if cfg["max_pair_dist_m"] is None else (
-        f"distance cap {cfg['max_pair_dist_m']:g} m: {s['n_skipped']} pairs skipped")
-    out.print(f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
-              f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m")
+    cap = (
+        "no distance cap"
+        if cfg["max_pair_dist_m"] is None
+        else (f"distance cap {cfg['max_pair_dist_m']:g} m: {s['n_skipped']} pairs skipped")
+    )
+    out.print(
+        f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
+        f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
+    )
     kinds = [s["headline"]] + [k for k in ("inter", "intra") if k != s["headline"]]
     for kind in kinds:
         if s["methods"] and s["pairs"][kind]["n_pairs"]:
             label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s["headline"] else "")
-            out.print(_recall_table(s, kind, f"{label} pairs: max recall (hits/relevant) overall and per heading "
-                                             "bin, median ms per pair", int(cfg["min_relevant"])))
+            out.print(
+                _recall_table(
+                    s,
+                    kind,
+                    f"{label} pairs: max recall (hits/relevant) overall and per heading bin, median ms per pair",
+                    int(cfg["min_relevant"]),
+                )
+            )
     if s["ate"]:
         common = ", ".join(s["ate_robots"]["common"]) or "none"
-        a = Table(title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({common}) and over all "
-                        f"{len(s['ate_robots']['robots'])}")
+        a = Table(
+            title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({common}) and over all "
+            f"{len(s['ate_robots']['robots'])}"
+        )
         for col in ("trajectory", "placed", "common", "all robots"):
             a.add_column(col, justify="left" if col == "trajectory" else "right")
         n = len(s["ate_robots"]["robots"])
         for k, v in s["ate"].items():
-            a.add_row(k, f"{v['connected']}/{n}", _fmt(v["common"]),
-                      _fmt(v["all"]) if v["connected"] == n else "not connected")
+            a.add_row(
+                k,
+                f"{v['connected']}/{n}",
+                _fmt(v["common"]),
+                _fmt(v["all"]) if v["connected"] == n else "not connected",
+            )
         out.print(a)
     mp = s["map"]
-    out.print(f"map: {mp.get('segments')} segments, {mp.get('submaps')} submaps, "
-              f"{_fmt(mp.get('kb_per_submap'), 1)} KB/submap, {_fmt(mp.get('mb_per_km'))} MB/km")
+    out.print(
+        f"map: {mp.get('segments')} segments, {mp.get('submaps')} submaps, "
+        f"{_fmt(mp.get('kb_per_submap'), 1)} KB/submap, {_fmt(mp.get('mb_per_km'))} MB/km"
+    )
     for note in result.notes:
         out.print(f"[yellow]note:[/yellow] {note}")
     out.print(f"results: {result.run_dir} (report: {result.run_dir / 'report.md'})")
 
 
-def _run(scenario: str, out: Path | None, sets: list[str] | None, fresh: bool,
-         submaps: Path | None, aligners: list[str] | None, from_stage: str | None = None,
-         executor: Any = None) -> None:
+def _run(
+    scenario: str,
+    out: Path | None,
+    sets: list[str] | None,
+    fresh: bool,
+    submaps: Path | None,
+    aligners: list[str] | None,
+    from_stage: str | None = None,
+    executor: Any = None,
+) -> None:
     from roman_sim.pipeline.experiment import Experiment, default_run_dir
     from roman_sim.pipeline.scenario import load_scenario, with_aligners
 
     sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
-    exp = Experiment(sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage,
-                     executor=executor)
+    exp = Experiment(
+        sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage, executor=executor
+    )
     exp.validate()
     try:
         if interactive():
@@ -162,10 +198,12 @@ def run_cmd(
     sets: list[str] | None = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage (ignore cached results)"),
     submaps: Path | None = typer.Option(None, "--submaps", help="start from saved submaps (<robot>.npz)"),
-    aligner: list[str] | None = typer.Option(None, "--aligner", "-a",
-                                                help="add an aligner (name or package.module:Class)"),
-    from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on "
-                                             "(maps, submaps, evaluation, posegraph, report)"),
+    aligner: list[str] | None = typer.Option(
+        None, "--aligner", "-a", help="add an aligner (name or package.module:Class)"
+    ),
+    from_stage: str | None = typer.Option(
+        None, "--from", help="recompute from this stage on (maps, submaps, evaluation, posegraph, report)"
+    ),
     executor: str | None = X.EXECUTOR,
     workers: int | None = X.WORKERS,
     scheduler: str | None = X.SCHEDULER,
@@ -179,8 +217,20 @@ def run_cmd(
     upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run a scenario end to end and print the summary (robots and pairs spread over the workers)."""
-    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
-                               tls_cert, tls_key, insecure, dashboard, upload)
+    ex = X.executor_config(
+        None,
+        executor,
+        workers,
+        scheduler,
+        chunk_pairs,
+        tls,
+        tls_ca_file,
+        tls_cert,
+        tls_key,
+        insecure,
+        dashboard,
+        upload,
+    )
     _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex)
 
 
@@ -201,8 +251,20 @@ def demo_cmd(
     upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run the demo scenario: ROMAN against CLIPPER and RANSAC on opposite-direction traversals."""
-    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
-                               tls_cert, tls_key, insecure, dashboard, upload)
+    ex = X.executor_config(
+        None,
+        executor,
+        workers,
+        scheduler,
+        chunk_pairs,
+        tls,
+        tls_ca_file,
+        tls_cert,
+        tls_key,
+        insecure,
+        dashboard,
+        upload,
+    )
     _run(DEMO_SCENARIO, out, None, fresh, None, None, None, ex)
 
 
@@ -225,8 +287,9 @@ def record_cmd(
     names = [r.name for r in sc.simulated_robots()]
     unknown = sorted(set(robot or []) - set(names))
     if unknown or not names:
-        raise ConfigError(f"--robot: no simulated robot {', '.join(unknown)} (simulated robots: "
-                          f"{', '.join(names) or 'none'})")
+        raise ConfigError(
+            f"--robot: no simulated robot {', '.join(unknown)} (simulated robots: {', '.join(names) or 'none'})"
+        )
     output_folder(out, "--out", create=False)
     for cfg in sc.simulated_robots():
         if (out / cfg.name).exists() and not (out / cfg.name).is_dir():
@@ -256,8 +319,11 @@ def record_cmd(
 @app.command("report")
 def report_cmd(
     run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`, or a sweep folder"),
-    verify: bool = typer.Option(False, "--verify", help="recompute metrics.json from pairs.csv and ate.json from "
-                                "the TUM files; exit code 1 when they differ"),
+    verify: bool = typer.Option(
+        False,
+        "--verify",
+        help="recompute metrics.json from pairs.csv and ate.json from the TUM files; exit code 1 when they differ",
+    ),
 ) -> None:
     """Print the summary of a finished run or sweep (an incomplete run is an error naming its missing stages)."""
     from roman_sim.pipeline.result import RunResult
@@ -273,13 +339,17 @@ def report_cmd(
     if verify:
         from roman_sim.evaluation.verify import verify_run
 
-        res = verify_run(run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv",
-                         tum_suffix=".gz" if compressed else "")
+        res = verify_run(
+            run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv", tum_suffix=".gz" if compressed else ""
+        )
         out = Console()
         for d in res.differences:
             out.print(f"[red]differs:[/red] {d}")
-        out.print(("[green]verified:[/green] " if res.ok else "[red]NOT verified:[/red] ") + "; ".join(res.checked)
-                  + ("" if res.ok else f" ({len(res.differences)} differences)"))
+        out.print(
+            ("[green]verified:[/green] " if res.ok else "[red]NOT verified:[/red] ")
+            + "; ".join(res.checked)
+            + ("" if res.ok else f" ({len(res.differences)} differences)")
+        )
         if not res.ok:
             raise typer.Exit(1)
 
@@ -304,8 +374,20 @@ def sweep_cmd(
     from roman_sim.pipeline.sweep import load_sweep, run_sweep, sweep_failures
 
     cfg, scenario_path = load_sweep(sweep_file)
-    cfg.executor = X.executor_config(cfg.executor.model_dump(), executor, workers, scheduler, chunk_pairs, tls,
-                                     tls_ca_file, tls_cert, tls_key, insecure, dashboard, upload)
+    cfg.executor = X.executor_config(
+        cfg.executor.model_dump(),
+        executor,
+        workers,
+        scheduler,
+        chunk_pairs,
+        tls,
+        tls_ca_file,
+        tls_cert,
+        tls_key,
+        insecure,
+        dashboard,
+        upload,
+    )
     out_dir = out or Path("results") / "sweeps" / cfg.name
     if interactive():
         with _progress() as p:
@@ -373,11 +455,15 @@ LISTINGS.update(scenarios=_scenarios, aligners=_aligners, segmenters=_segmenters
 def reproduce_cmd(
     out: Path = typer.Option(Path("results/reference"), "--out", "-o", help="where the small results go"),
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
-    scenario: list[str] | None = typer.Option(None, "--scenario", help="only these (default: the paper's); the "
-                                              "summary keeps the other committed scenarios and the sweep"),
+    scenario: list[str] | None = typer.Option(
+        None,
+        "--scenario",
+        help="only these (default: the paper's); the summary keeps the other committed scenarios and the sweep",
+    ),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
-    readme: Path | None = typer.Option(Path("README.md"), "--readme",
-                                       help="README whose reference-results block is rewritten (when it exists)"),
+    readme: Path | None = typer.Option(
+        Path("README.md"), "--readme", help="README whose reference-results block is rewritten (when it exists)"
+    ),
     executor: str | None = X.EXECUTOR,
     workers: int | None = X.WORKERS,
     scheduler: str | None = X.SCHEDULER,
@@ -391,10 +477,29 @@ def reproduce_cmd(
     upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
-    from roman_sim.pipeline.reference import reproduce
+    from roman_sim.studies.reference import reproduce
 
-    ex = X.executor_config(None, executor, workers, scheduler, chunk_pairs, tls, tls_ca_file,
-                               tls_cert, tls_key, insecure, dashboard, upload)
-    path = reproduce(out, list(scenario or []) or None, work, on_start=lambda n: console.print(f"running {n} ..."),
-                     from_stage=from_stage, readme=readme, executor=ex)
+    ex = X.executor_config(
+        None,
+        executor,
+        workers,
+        scheduler,
+        chunk_pairs,
+        tls,
+        tls_ca_file,
+        tls_cert,
+        tls_key,
+        insecure,
+        dashboard,
+        upload,
+    )
+    path = reproduce(
+        out,
+        list(scenario or []) or None,
+        work,
+        on_start=lambda n: console.print(f"running {n} ..."),
+        from_stage=from_stage,
+        readme=readme,
+        executor=ex,
+    )
     Console().print(path.read_text())

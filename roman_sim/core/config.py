@@ -5,8 +5,8 @@ Each stage defines its own model (``WorldSpec``, ``CameraConfig``, ...) by subcl
 lists, tuples, nested models) is an error naming the field. Free-form fields (``dict[str,
 Any]``) use ``FiniteTree`` for the same check. ``load_model`` and ``validate_model`` turn
 pydantic's errors into a ``ConfigError`` whose message names the field and what is allowed.
-YAML is read with ``StrictLoader``: a key repeated in one mapping is an error naming the key
-and its lines.
+YAML is read with ``StrictLoader`` (``roman_sim.core.yamlio``): a key repeated in one mapping
+is an error naming the key and its lines.
 """
 
 from __future__ import annotations
@@ -24,12 +24,22 @@ from pydantic_core import PydanticCustomError
 from roman_sim.core.config_errors import format_validation_error
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.overrides import apply_overrides
+from roman_sim.core.yamlio import StrictLoader, parse_yaml, read_yaml
 
 M = TypeVar("M", bound=BaseModel)
 
 __all__ = [
-    "FiniteTree", "StrictLoader", "StrictModel", "apply_overrides", "dump_yaml", "format_validation_error",
-    "load_model", "parse_yaml", "read_yaml", "stable_hash", "validate_model",
+    "FiniteTree",
+    "StrictLoader",
+    "StrictModel",
+    "apply_overrides",
+    "dump_yaml",
+    "format_validation_error",
+    "load_model",
+    "parse_yaml",
+    "read_yaml",
+    "stable_hash",
+    "validate_model",
 ]
 
 
@@ -43,8 +53,9 @@ def _finite_tree(value: Any) -> Any:
     bad = _first_non_finite(value, "")
     if bad is not None:
         where, v = bad
-        raise PydanticCustomError("non_finite", "must be a finite number (got {value})",
-                                  {"where": where, "value": repr(v)})
+        raise PydanticCustomError(
+            "non_finite", "must be a finite number (got {value})", {"where": where, "value": repr(v)}
+        )
     return value
 
 
@@ -65,51 +76,6 @@ def _first_non_finite(value: Any, where: str) -> tuple[str, float] | None:
 
 #: Free-form value (plug-in parameters, override maps) in which every float must be finite.
 FiniteTree = Annotated[Any, AfterValidator(_finite_tree)]
-
-
-class StrictLoader(yaml.SafeLoader):
-    """``yaml.SafeLoader`` that rejects a key repeated within one mapping (instead of keeping the last)."""
-
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        seen: dict[Any, yaml.Mark] = {}
-        for key_node, _ in node.value:
-            if key_node.tag == "tag:yaml.org,2002:merge":
-                continue  # keys merged with '<<' may be overridden by explicit ones: YAML's own rule
-            key = self.construct_object(key_node, deep=True)
-            try:
-                first = seen.setdefault(key, key_node.start_mark)
-            except TypeError:  # an unhashable key: SafeLoader reports it below
-                continue
-            if first is not key_node.start_mark:
-                raise yaml.constructor.ConstructorError(
-                    None, None, f"duplicate key {key!r} (first at line {first.line + 1}, again at line "
-                    f"{key_node.start_mark.line + 1})", key_node.start_mark)
-        return super().construct_mapping(node, deep=deep)
-
-
-def parse_yaml(text: str, source: str) -> Any:
-    """Parse YAML ``text`` strictly; ``ConfigError`` (naming ``source``, line and problem) when malformed."""
-    try:
-        return yaml.load(text, Loader=StrictLoader)  # StrictLoader is a SafeLoader
-    except yaml.YAMLError as err:
-        mark = getattr(err, "problem_mark", None)
-        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
-        problem = getattr(err, "problem", None) or str(err).splitlines()[0]
-        raise ConfigError(f"{source}: malformed YAML{where}: {problem}") from None
-
-
-def read_yaml(path: str | Path) -> Any:
-    """Read a YAML file; missing, unreadable or malformed files raise ``ConfigError``."""
-    path = Path(path)
-    if path.is_dir():
-        raise ConfigError(f"{path}: is a directory, expected a YAML file")
-    if not path.is_file():
-        raise ConfigError(f"{path}: file not found")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as err:
-        raise ConfigError(f"{path}: cannot read: {err}") from None
-    return parse_yaml(text, str(path))
 
 
 def validate_model(model: type[M], data: Any, source: str = "") -> M:

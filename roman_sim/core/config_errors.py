@@ -59,11 +59,27 @@ class _Entry:
         if kind == "missing":
             return "required"
         if kind == "value_error" and msg.startswith("Value error, "):
-            return msg[len("Value error, "):]
+            return msg[len("Value error, ") :]
         if kind.startswith(("too_short", "too_long")):
             return msg
-        if kind.startswith(("greater", "less", "multiple", "string_", "int_", "float_", "bool_",
-                            "literal", "enum", "list_", "tuple_", "dict_", "model_", "none_")):
+        if kind.startswith(
+            (
+                "greater",
+                "less",
+                "multiple",
+                "string_",
+                "int_",
+                "float_",
+                "bool_",
+                "literal",
+                "enum",
+                "list_",
+                "tuple_",
+                "dict_",
+                "model_",
+                "none_",
+            )
+        ):
             return msg + _got(e.get("input"))
         return msg
 
@@ -100,7 +116,7 @@ def _describe(e: Any) -> str:
         return f"a mapping of {e.get('ctx', {}).get('class_name', 'its')} fields"
     for head in ("Input should be a valid ", "Input should be "):
         if msg.startswith(head):
-            rest = msg[len(head):].split(",")[0]
+            rest = msg[len(head) :].split(",")[0]
             return rest if rest.startswith(("a ", "an ", "'")) else f"a {rest}"
     return msg
 

@@ -12,6 +12,7 @@ import copy
 from typing import Any
 
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.yamlio import parse_yaml
 
 
 def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
@@ -36,14 +37,13 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
                 else:
                     node = node.setdefault(part, {})
             else:
-                raise ConfigError(f"--set {key}: {here} is {_kind(node)} ({node!r}), not a mapping or list, "
-                                  f"so it has no {part!r}")
+                raise ConfigError(
+                    f"--set {key}: {here} is {_kind(node)} ({node!r}), not a mapping or list, so it has no {part!r}"
+                )
     return out
 
 
 def _parse(item: str) -> tuple[str, Any]:
-    from roman_sim.core.config import parse_yaml
-
     if "=" not in item:
         raise ConfigError(f"--set {item!r}: expected key=value")
     key, raw = item.split("=", 1)
@@ -57,8 +57,9 @@ def _index(key: str, here: str, part: str, node: list[Any]) -> int:
     n = len(node)
     valid = f"0..{n - 1}" if n else "none: the list is empty"
     if not part.isdigit():
-        raise ConfigError(f"--set {key}: {here} is a list of {n} entries, {part!r} is not a position in it "
-                          f"(positions: {valid})")
+        raise ConfigError(
+            f"--set {key}: {here} is a list of {n} entries, {part!r} is not a position in it (positions: {valid})"
+        )
     idx = int(part)
     if idx >= n:
         raise ConfigError(f"--set {key}: position {idx} out of range: {here} has {n} entries (positions: {valid})")

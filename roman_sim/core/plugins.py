@@ -1,19 +1,13 @@
-"""User plug-ins (aligners, segmenters, encoders named ``package.module:Class``), checked before a run.
+"""User plug-ins (aligners, segmenters, encoders named ``package.module:Class``): import and build.
 
-``load_plugin`` imports the plug-in, builds it, checks its protocol and makes one dry call
-on a tiny synthetic input: two synthetic submaps (``roman_sim.align.synthetic``) for an
-aligner, a ray-cast frame of four spheres (``roman_sim.mapping.synthetic``) for a
-segmenter, one of its masks for an encoder. Every failure is one ``PluginError`` line naming
-the plug-in and what went wrong, so a broken plug-in stops a run before its expensive
-stages. ``check_result`` is the return-type check, shared with the run-time guards of
-``roman_sim.core.plugin_guard``. The synthetic inputs come from the algorithm layers and are
-imported only when a check runs.
+``instantiate_plugin`` imports the plug-in, builds it and checks its protocol (the methods a
+kind must have). Every failure is one ``PluginError`` line naming the plug-in and what went
+wrong. The dry call on synthetic inputs and the return-type checks live with the pipeline
+(``roman_sim.pipeline.plugins``), which knows the algorithm layers' types.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable
 from typing import Any, Literal, get_args
 
 import numpy as np
@@ -30,28 +24,6 @@ PROTOCOLS: dict[str, tuple[tuple[str, ...], str]] = {
     "segmenter": (("segment",), "segment(frame) -> list[Mask]"),
     "encoder": (("encode",), "encode(rgb_crop, mask, context) -> unit float vector"),
 }
-UNIT_TOL = 1e-3  # |norm - 1| allowed of an encoder's descriptor (float32 rounding is ~1e-7)
-
-
-def load_plugin(path: str, kind: str, params: dict[str, Any] | None = None, *,
-                descriptor_dim: int = 768, with_rgb: bool = True) -> object:
-    """Import, build, check and dry-run the plug-in ``path``; returns the built instance.
-
-    Args:
-        path: ``package.module:Class`` (a class, a factory function or an instance).
-        kind: ``aligner``, ``segmenter`` or ``encoder``.
-        params: keyword arguments of the constructor.
-        descriptor_dim: descriptor size of the submaps given to an aligner's dry call.
-        with_rgb: give the segmenter's and encoder's dry call an RGB image (else None,
-            as in a run with ``render_rgb: false``).
-
-    Raises:
-        PluginError: it cannot be imported or built, lacks the protocol's methods, raises
-            in the dry call or returns the wrong type.
-    """
-    obj = instantiate_plugin(path, kind, params)
-    dry_call(obj, path, kind, descriptor_dim=descriptor_dim, with_rgb=with_rgb)
-    return obj
 
 
 def instantiate_plugin(path: str, kind: str, params: dict[str, Any] | None = None) -> object:
@@ -68,8 +40,9 @@ def instantiate_plugin(path: str, kind: str, params: dict[str, Any] | None = Non
             obj = factory(**params)
         except Exception as err:  # a user's constructor may raise anything
             args = f"**{params!r}" if params else ""
-            raise PluginError(f"{kind} {path!r}: {_short(path)}({args}) raised {type(err).__name__}: "
-                              f"{one_line(err)}", path, kind) from None
+            raise PluginError(
+                f"{kind} {path!r}: {_short(path)}({args}) raised {type(err).__name__}: {one_line(err)}", path, kind
+            ) from None
     elif params:
         raise PluginError(f"{kind} {path!r}: is an instance, it cannot take parameters {sorted(params)}", path, kind)
     else:
@@ -85,39 +58,18 @@ def check_protocol(obj: object, path: str, kind: str) -> None:
         if name == "name":
             value = getattr(obj, "name", None)
             if not isinstance(value, str) or not value:
-                raise PluginError(f"{kind} {path!r}: needs a non-empty string attribute 'name' "
-                                  f"(got {value!r}); an {kind} has {what}", path, kind)
+                raise PluginError(
+                    f"{kind} {path!r}: needs a non-empty string attribute 'name' (got {value!r}); an {kind} has {what}",
+                    path,
+                    kind,
+                )
         elif not callable(getattr(obj, name, None)):
-            raise PluginError(f"{kind} {path!r}: {type(obj).__name__} has no method {name!r}; "
-                              f"a{'n' if kind[0] in 'ae' else ''} {kind} has {what}", path, kind)
-
-
-def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_rgb: bool = True) -> Any:
-    """Call ``obj`` once on a tiny synthetic input, check and return what it returned (``PluginError``)."""
-    args: tuple[Any, ...]
-    if kind == "aligner":
-        a, b = _dry_submaps(descriptor_dim)
-        call, where, args = obj.align, "two synthetic submaps", (a, b)
-    else:
-        frame, mask, crop, ctx = _dry_frame(with_rgb)
-        if kind == "segmenter":
-            call, where, args = obj.segment, "a synthetic 64 x 48 frame", (frame,)
-        else:
-            call, where, args = obj.encode, "a mask of a synthetic frame", (crop, mask, ctx)
-    try:
-        out = call(*args)
-    except Exception as err:  # the user's code may raise anything; report it in one line
-        raise PluginError(f"{kind} {path!r}: the check on {where} raised {type(err).__name__}: "
-                          f"{one_line(err)}", path, kind) from None
-    problem = check_result(kind, out, args)
-    if problem:
-        raise PluginError(f"{kind} {path!r}: on {where}, {problem}", path, kind)
-    return out
-
-
-def check_result(kind: str, out: Any, args: tuple[Any, ...]) -> str | None:
-    """What is wrong with the value ``out`` a plug-in returned for ``args`` (None when it is fine)."""
-    return _CHECKS[kind](out, args)
+            raise PluginError(
+                f"{kind} {path!r}: {type(obj).__name__} has no method {name!r}; "
+                f"a{'n' if kind[0] in 'ae' else ''} {kind} has {what}",
+                path,
+                kind,
+            )
 
 
 def describe(value: Any) -> str:
@@ -132,96 +84,9 @@ def describe(value: Any) -> str:
     return text
 
 
-def _check_align(out: Any, args: tuple[Any, ...]) -> str | None:
-    from roman_sim.align.base import AlignResult
-
-    if not isinstance(out, AlignResult):
-        return f"align(a, b) returned {describe(out)}, expected an AlignResult (roman_sim.align.base)"
-    a, b = args
-    if out.T_a_b is not None:
-        T = np.asarray(out.T_a_b)
-        if T.shape != (4, 4) or not np.issubdtype(T.dtype, np.number) or not np.all(np.isfinite(T)):
-            return f"AlignResult.T_a_b is {describe(T)}, expected None or a finite 4 x 4 matrix"
-    assoc = np.asarray(out.associations)
-    if assoc.size and (assoc.ndim != 2 or assoc.shape[1] != 2 or not np.issubdtype(assoc.dtype, np.integer)):
-        return f"AlignResult.associations is {describe(assoc)}, expected a (k, 2) integer array"
-    if assoc.size and (assoc.min() < 0 or assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
-        return f"AlignResult.associations index segments outside the submaps ({len(a)} and {len(b)} segments)"
-    if not isinstance(out.runtime_s, (int, float)) or not math.isfinite(out.runtime_s):
-        return f"AlignResult.runtime_s is {describe(out.runtime_s)}, expected a finite number of seconds"
-    return None
-
-
-def _check_segment(out: Any, args: tuple[Any, ...]) -> str | None:
-    from roman_sim.mapping.segmenter import Mask
-
-    if not isinstance(out, (list, tuple)):
-        return f"segment(frame) returned {describe(out)}, expected a list of Mask (roman_sim.mapping.segmenter)"
-    shape = np.asarray(args[0].depth).shape
-    for k, m in enumerate(out):
-        if not isinstance(m, Mask):
-            return f"segment(frame) returned a list whose item {k} is {describe(m)}, expected a Mask"
-        pix = np.asarray(m.pixels)
-        if pix.shape != shape or pix.dtype != np.bool_:
-            return f"mask {k} is {describe(pix)}, expected a bool array of the frame's shape {shape}"
-    return None
-
-
-def _check_encode(out: Any, args: tuple[Any, ...]) -> str | None:
-    if out is None or isinstance(out, (str, bytes, dict)):
-        return f"encode(...) returned {describe(out)}, expected a unit float vector"
-    try:
-        v = np.asarray(out, dtype=np.float64)
-    except (TypeError, ValueError):
-        return f"encode(...) returned {describe(out)}, expected a unit float vector"
-    if v.ndim != 1 or v.size == 0:
-        return f"encode(...) returned {describe(np.asarray(out))}, expected a 1-d unit float vector"
-    if not np.all(np.isfinite(v)):
-        return "encode(...) returned a vector with NaN or infinite entries"
-    norm = float(np.linalg.norm(v))
-    if abs(norm - 1.0) > UNIT_TOL:
-        return f"encode(...) returned a vector of norm {norm:.4g}, expected a unit vector (normalise it)"
-    return None
-
-
-_CHECKS: dict[str, Callable[[Any, tuple[Any, ...]], str | None]] = {
-    "aligner": _check_align, "segmenter": _check_segment, "encoder": _check_encode,
-}
-
-
 def _has_protocol(obj: object, kind: str) -> bool:
     return all(hasattr(obj, n) for n in PROTOCOLS[kind][0])
 
 
 def _short(path: str) -> str:
     return path.split(":", 1)[-1]
-
-
-def _dry_submaps(descriptor_dim: int) -> tuple[Any, Any]:
-    from roman_sim.align.synthetic import make_submap_pair
-
-    a, b, _ = make_submap_pair(seed=0, n_inliers=8, n_outliers_a=3, n_outliers_b=3, descriptor_dim=descriptor_dim)
-    return a.public(), b.public()
-
-
-def _dry_frame(with_rgb: bool) -> tuple[Any, Any, Any, Any]:
-    """A 64 x 48 frame of four spheres (RGB coloured by object), one sphere's mask, its crop and context."""
-    from dataclasses import replace
-
-    from roman_sim.mapping import synthetic
-    from roman_sim.mapping.semantics import EncodeContext
-
-    intr = synthetic.intrinsics(64, 48)
-    frame = synthetic.frame_at(synthetic.sphere_field(4, seed=0), 0.0, 0.0, 0.0, 0.0, 0, robot="check", intr=intr)
-    assert frame.truth is not None  # frame_at always renders ids
-    ids = np.asarray(frame.truth.object_ids)
-    palette = np.array([[90, 110, 70], [200, 60, 50], [60, 160, 60], [70, 90, 200], [210, 190, 60]], np.uint8)
-    if with_rgb:
-        frame = replace(frame, rgb=palette[np.clip(ids + 1, 0, len(palette) - 1)])
-    k = int(np.bincount(ids[ids >= 0]).argmax()) if np.any(ids >= 0) else -1
-    pix = ids == k
-    rows, cols = np.flatnonzero(pix.any(1)), np.flatnonzero(pix.any(0))
-    r0, r1, c0, c1 = rows[0], rows[-1] + 1, cols[0], cols[-1] + 1
-    crop = None if frame.rgb is None else np.asarray(frame.rgb)[r0:r1, c0:c1]
-    ctx = EncodeContext(object_id=k, view_dir=np.array([1.0, 0.0, 0.0]))
-    return frame, pix[r0:r1, c0:c1], crop, ctx

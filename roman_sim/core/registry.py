@@ -59,9 +59,7 @@ class Registry(Generic[T]):
             return self._items[name]
         if ":" in name:
             return import_object(name, self.kind)  # type: ignore[return-value]
-        raise ConfigError(
-            f"unknown {self.kind} {name!r} (valid: {', '.join(self.names())}, or package.module:Name)"
-        )
+        raise ConfigError(f"unknown {self.kind} {name!r} (valid: {', '.join(self.names())}, or package.module:Name)")
 
 
 def import_object(path: str, kind: str = "object") -> object:
@@ -79,8 +77,9 @@ def import_object(path: str, kind: str = "object") -> object:
     except ImportError as err:
         raise ConfigError(f"{kind} {path!r}: cannot import {mod_name!r}: {one_line(err)}") from None
     except Exception as err:  # a plug-in's module may raise anything while it is imported
-        raise ConfigError(f"{kind} {path!r}: importing {mod_name!r} raised {type(err).__name__}: "
-                          f"{one_line(err)}") from None
+        raise ConfigError(
+            f"{kind} {path!r}: importing {mod_name!r} raised {type(err).__name__}: {one_line(err)}"
+        ) from None
     obj: object = module
     for part in attr.split("."):
         if not hasattr(obj, part):

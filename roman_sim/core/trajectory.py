@@ -36,8 +36,9 @@ class Trajectory:
         t = np.asarray(self.t, dtype=np.float64).reshape(-1)
         T = np.asarray(self.T, dtype=np.float64)
         if T.ndim != 3 or T.shape != (len(t), 4, 4):
-            raise EvaluationError(f"trajectory: expected poses of shape ({len(t)}, 4, 4) for {len(t)} "
-                                  f"timestamps, got {T.shape}")
+            raise EvaluationError(
+                f"trajectory: expected poses of shape ({len(t)}, 4, 4) for {len(t)} timestamps, got {T.shape}"
+            )
         if not (np.all(np.isfinite(t)) and np.all(np.isfinite(T))):
             raise EvaluationError("trajectory: timestamps and poses must be finite (NaN or inf found)")
         if len(t) > 1 and np.any(np.diff(t) < 0):

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import arun, arun_4dof, transform_points
 from roman_sim.core.trajectory import MAX_DIFF_S, Trajectory
-from roman_sim.geometry import arun, arun_4dof, transform_points
 
 log = logging.getLogger(__name__)
 
@@ -50,8 +50,14 @@ class AteResult:
 
     def to_dict(self) -> dict[str, float | int | str]:
         """JSON-ready statistics (without the alignment matrix)."""
-        return {"rmse_m": self.rmse_m, "mean_m": self.mean_m, "median_m": self.median_m,
-                "max_m": self.max_m, "n": self.n, "alignment": self.alignment}
+        return {
+            "rmse_m": self.rmse_m,
+            "mean_m": self.mean_m,
+            "median_m": self.median_m,
+            "max_m": self.max_m,
+            "n": self.n,
+            "alignment": self.alignment,
+        }
 
 
 def _xyz(pts: ArrayLike, name: str) -> F64:
@@ -119,13 +125,16 @@ def _matched_xyz(est: Trajectory, ref: Trajectory, max_diff_s: float, name: str)
     if len(i_e) < MIN_POSES:
         span_e = f"[{est.t.min():.3f}, {est.t.max():.3f}]" if len(est) else "[]"
         span_r = f"[{ref.t.min():.3f}, {ref.t.max():.3f}]" if len(ref) else "[]"
-        raise EvaluationError(f"{name}: only {len(i_e)} poses matched in time (estimate {span_e} s, "
-                              f"reference {span_r} s, tolerance {max_diff_s} s); at least {MIN_POSES} needed")
+        raise EvaluationError(
+            f"{name}: only {len(i_e)} poses matched in time (estimate {span_e} s, "
+            f"reference {span_r} s, tolerance {max_diff_s} s); at least {MIN_POSES} needed"
+        )
     return est.positions[i_e], ref.positions[i_r]
 
 
-def ate_rmse(est: Trajectory, ref: Trajectory, alignment: Alignment = "se3",
-             max_diff_s: float = MAX_DIFF_S) -> AteResult:
+def ate_rmse(
+    est: Trajectory, ref: Trajectory, alignment: Alignment = "se3", max_diff_s: float = MAX_DIFF_S
+) -> AteResult:
     """ATE of an estimated trajectory against a reference (truth).
 
     Args:

@@ -72,15 +72,27 @@ class VariantAte:
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {"description": self.description, "fit": self.fit, "connected": self.connected, "rmse": self.rmse,
-                "source": self.source}
+        return {
+            "description": self.description,
+            "fit": self.fit,
+            "connected": self.connected,
+            "rmse": self.rmse,
+            "source": self.source,
+        }
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "VariantAte":
         """Inverse of ``to_json``."""
-        return cls(str(d["description"]), str(d["fit"]), [str(r) for r in d["connected"]],
-                   {str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}
-                    for a, row in d["rmse"].items()}, str(d["source"]))
+        return cls(
+            str(d["description"]),
+            str(d["fit"]),
+            [str(r) for r in d["connected"]],
+            {
+                str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}
+                for a, row in d["rmse"].items()
+            },
+            str(d["source"]),
+        )
 
 
 @dataclass
@@ -110,8 +122,12 @@ class AteTable:
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (variants as a list, so their order survives sorted keys)."""
-        return {"schema": ATE_SCHEMA, "robots": self.robots, "common": self.common,
-                "variants": [{"name": k, **v.to_json()} for k, v in self.variants.items()]}
+        return {
+            "schema": ATE_SCHEMA,
+            "robots": self.robots,
+            "common": self.common,
+            "variants": [{"name": k, **v.to_json()} for k, v in self.variants.items()],
+        }
 
     @classmethod
     def from_json(cls, d: Any, source: str = "ate") -> "AteTable":
@@ -119,8 +135,11 @@ class AteTable:
         if not isinstance(d, dict) or d.get("schema") != ATE_SCHEMA:
             raise StorageError(f"{source}: not an ATE table of schema {ATE_SCHEMA}")
         try:
-            return cls([str(r) for r in d["robots"]], [str(r) for r in d["common"]],
-                       {str(v["name"]): VariantAte.from_json(v) for v in d["variants"]})
+            return cls(
+                [str(r) for r in d["robots"]],
+                [str(r) for r in d["common"]],
+                {str(v["name"]): VariantAte.from_json(v) for v in d["variants"]},
+            )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed ATE table ({type(err).__name__}: {err})") from None
 
@@ -131,8 +150,9 @@ def _pooled(results: list[AteResult]) -> float:
     return math.sqrt(sum(r.n * r.rmse_m**2 for r in results) / n)
 
 
-def _concatenated(est: VariantEstimate, truth: Mapping[str, Trajectory], robots: list[str],
-                  alignment: str) -> float | None:
+def _concatenated(
+    est: VariantEstimate, truth: Mapping[str, Trajectory], robots: list[str], alignment: str
+) -> float | None:
     """ATE of ``robots`` (all placed by ``est``) as one trajectory; None if empty or not computable."""
     if not robots:
         return None
@@ -145,8 +165,9 @@ def _concatenated(est: VariantEstimate, truth: Mapping[str, Trajectory], robots:
     return None if res["all"] is None else res["all"].rmse_m
 
 
-def ate_table(truth: Mapping[str, Trajectory], estimates: Mapping[str, VariantEstimate],
-              alignments: tuple[str, ...] = ALIGNMENTS) -> AteTable:
+def ate_table(
+    truth: Mapping[str, Trajectory], estimates: Mapping[str, VariantEstimate], alignments: tuple[str, ...] = ALIGNMENTS
+) -> AteTable:
     """Score every variant against ``truth`` over the same robots (see the module docstring).
 
     Args:
@@ -172,11 +193,11 @@ def ate_table(truth: Mapping[str, Trajectory], estimates: Mapping[str, VariantEs
         row = VariantAte(est.description, est.fit, connected[name], source=est.source or name)
         for al in alignments:
             placed = connected[name]
-            per = multi_robot_ate({r: est.trajectories[r] for r in placed}, {r: truth[r] for r in placed},
-                                  al)  # type: ignore[arg-type]
-            cells: dict[str, float | None] = {COMMON: _concatenated(est, truth, common, al),
-                                              ALL: _concatenated(est, truth, robots, al)
-                                              if placed == robots else None}
+            per = multi_robot_ate({r: est.trajectories[r] for r in placed}, {r: truth[r] for r in placed}, al)  # type: ignore[arg-type]
+            cells: dict[str, float | None] = {
+                COMMON: _concatenated(est, truth, common, al),
+                ALL: _concatenated(est, truth, robots, al) if placed == robots else None,
+            }
             cells.update({r: (None if per.get(r) is None else per[r].rmse_m) for r in robots})  # type: ignore[union-attr]
             row.rmse[al] = cells
         table.variants[name] = row

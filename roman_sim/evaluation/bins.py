@@ -56,8 +56,10 @@ def bin_table(
     stats: Callable[[list[S], list[int]], CurveStats],
 ) -> list[BinStats]:
     """``stats(items in bin, k_values)`` for each bin, labelled with its edges."""
-    return [BinStats(bin_label(lo, hi), float(lo), float(hi), stats(group, k_values))
-            for group, lo, hi in zip(bin_groups(items, values, edges), edges, edges[1:])]
+    return [
+        BinStats(bin_label(lo, hi), float(lo), float(hi), stats(group, k_values))
+        for group, lo, hi in zip(bin_groups(items, values, edges), edges, edges[1:])
+    ]
 
 
 def runtime_stats(runtimes: Sequence[float]) -> dict[str, Any]:

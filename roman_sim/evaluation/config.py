@@ -34,8 +34,11 @@ def _increasing(edges: list[float], name: str) -> None:
 class EvalConfig(StrictModel):
     """Evaluation settings (pair selection, relevance, success thresholds, k sweep, bins, intervals)."""
 
-    relevance: Relevance = Field("distance", description="distance: centres within relevant_dist_m; "
-                                 "shared_objects: at least min_shared_objects true objects in common")
+    relevance: Relevance = Field(
+        "distance",
+        description="distance: centres within relevant_dist_m; "
+        "shared_objects: at least min_shared_objects true objects in common",
+    )
     relevant_dist_m: float = Field(10.0, gt=0, description="relevance by distance: true centres within this")
     min_shared_objects: int = Field(3, ge=1, description="relevance by shared objects: at least this many")
     rot_tol_deg: float = Field(5.0, gt=0, le=180, description="correct: rotation error within this")
@@ -46,8 +49,12 @@ class EvalConfig(StrictModel):
     fine_heading_bin_deg: float = Field(30.0, gt=0, le=180)
     ambiguity_bins: list[float] = Field(default_factory=lambda: [0.0, 0.25, 0.5, 0.75, 1.0])
     intra_min_gap: int = Field(2, ge=1, description="smallest index gap of intra-robot pairs")
-    max_pair_dist_m: float | None = Field(None, ge=0, description="distance cap: pairs whose true centres are "
-                                          "farther apart are not aligned (relevant pairs are kept); None: every pair")
+    max_pair_dist_m: float | None = Field(
+        None,
+        ge=0,
+        description="distance cap: pairs whose true centres are "
+        "farther apart are not aligned (relevant pairs are kept); None: every pair",
+    )
     min_relevant: int = Field(5, ge=1, description="bins with fewer relevant pairs are marked, not measured")
     interval_level: float = Field(0.95, gt=0, lt=1, description="confidence level of the Wilson intervals")
 
@@ -87,8 +94,12 @@ class Criterion(NamedTuple):
 
 #: ``relevance`` name -> criterion.
 RELEVANCE: dict[str, Criterion] = {
-    "distance": Criterion(lambda c, dist, shared: bool(dist <= c.relevant_dist_m),
-                          lambda c: f"true submap centres within {c.relevant_dist_m:g} m"),
-    "shared_objects": Criterion(lambda c, dist, shared: bool(shared >= c.min_shared_objects),
-                                lambda c: f"at least {c.min_shared_objects} true objects in both submaps"),
+    "distance": Criterion(
+        lambda c, dist, shared: bool(dist <= c.relevant_dist_m),
+        lambda c: f"true submap centres within {c.relevant_dist_m:g} m",
+    ),
+    "shared_objects": Criterion(
+        lambda c, dist, shared: bool(shared >= c.min_shared_objects),
+        lambda c: f"at least {c.min_shared_objects} true objects in both submaps",
+    ),
 }

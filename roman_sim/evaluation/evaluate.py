@@ -23,14 +23,14 @@ from pathlib import Path
 from roman_sim.align.base import Aligner, AlignResult
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.examples import draw_examples
-from roman_sim.evaluation.mapview import write_map_view
 from roman_sim.evaluation.metrics import PairScore, score_pair, summary
 from roman_sim.evaluation.pairs import AmbiguityFn, PairSelection, PairTruth, select_pairs, truths_for_pairs
-from roman_sim.evaluation.plots import write_metric_plots
 from roman_sim.evaluation.results import write_evaluation
 from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.mapping.types import Submap
+from roman_sim.report.examples import draw_examples
+from roman_sim.report.mapview import write_map_view
+from roman_sim.report.plots import write_metric_plots
 
 log = logging.getLogger(__name__)
 
@@ -68,8 +68,9 @@ def check_aligners(aligners: Iterable[Aligner]) -> list[Aligner]:
     return out
 
 
-def align_pairs(pairs: list[tuple[Submap, Submap]], aligners: list[Aligner],
-                on_pair: Callable[[], None] | None = None) -> dict[ResultKey, AlignResult]:
+def align_pairs(
+    pairs: list[tuple[Submap, Submap]], aligners: list[Aligner], on_pair: Callable[[], None] | None = None
+) -> dict[ResultKey, AlignResult]:
     """Every aligner on every pair; the aligners see ``public()`` copies (no truth).
 
     ``on_pair`` is called after each pair (progress). Results are keyed by
@@ -85,8 +86,9 @@ def align_pairs(pairs: list[tuple[Submap, Submap]], aligners: list[Aligner],
     return results
 
 
-def score_pairs(truths: list[PairTruth], results: dict[ResultKey, AlignResult], methods: list[str],
-                cfg: EvalConfig | None = None) -> list[PairScore]:
+def score_pairs(
+    truths: list[PairTruth], results: dict[ResultKey, AlignResult], methods: list[str], cfg: EvalConfig | None = None
+) -> list[PairScore]:
     """Score each method's result on each pair (pair-major, methods in the given order).
 
     Raises:
@@ -125,13 +127,17 @@ def evaluate(
     truths = truths_for_pairs(sel.pairs, ambiguity_fn, cfg)
     results = align_pairs(sel.pairs, methods)
     scores = score_pairs(truths, results, [m.name for m in methods], cfg)
-    log.info("evaluated %d pairs with %d aligners (%d skipped by the distance cap)", len(truths), len(methods),
-             sel.n_skipped)
+    log.info(
+        "evaluated %d pairs with %d aligners (%d skipped by the distance cap)", len(truths), len(methods), sel.n_skipped
+    )
     return Evaluation(truths, scores, results, summary(scores, cfg, sel.n_skipped))
 
 
 def save_evaluation(
-    out_dir: str | Path, ev: Evaluation, submaps: list[Submap], map_view: bool = True,
+    out_dir: str | Path,
+    ev: Evaluation,
+    submaps: list[Submap],
+    map_view: bool = True,
 ) -> dict[str, Path]:
     """Write pairs.csv, metrics.json and plots/ into ``out_dir``; returns the written paths.
 

@@ -33,6 +33,7 @@ import numpy as np
 
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import pose_error
 from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
@@ -48,7 +49,6 @@ from roman_sim.evaluation.types import (
     PRCurve,
     nan_to_none,
 )
-from roman_sim.geometry import pose_error
 
 log = logging.getLogger(__name__)
 
@@ -104,8 +104,18 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
             good, recovered = association_truth(truth.ids_a, truth.ids_b, result.associations)
         except EvaluationError as err:
             raise EvaluationError(f"{result.method} on {truth.a}|{truth.b}: {err}") from None
-    return PairScore(truth, result.method, result.n_associations, rot, trans, is_correct(rot, trans, cfg),
-                     float(result.runtime_s), result.reason, good, recovered)
+    return PairScore(
+        truth,
+        result.method,
+        result.n_associations,
+        rot,
+        trans,
+        is_correct(rot, trans, cfg),
+        float(result.runtime_s),
+        result.reason,
+        good,
+        recovered,
+    )
 
 
 def is_correct(rot_err_deg: float, trans_err_m: float, cfg: EvalConfig) -> bool:
@@ -163,9 +173,16 @@ def _assoc_stats(scores: list[PairScore], level: float) -> dict[str, object]:
     good = sum(s.assoc_correct for s in scores)
     avail = sum(s.truth.true_correspondences for s in scores)
     rec = sum(min(s.assoc_recovered, s.truth.true_correspondences) for s in scores)
-    return {"assoc_selected": sel, "assoc_correct": good, "assoc_available": avail, "assoc_recovered": rec,
-            "assoc_precision": good / sel if sel else None, "assoc_precision_ci": wilson(min(good, sel), sel, level),
-            "assoc_recall": rec / avail if avail else None, "assoc_recall_ci": wilson(rec, avail, level)}
+    return {
+        "assoc_selected": sel,
+        "assoc_correct": good,
+        "assoc_available": avail,
+        "assoc_recovered": rec,
+        "assoc_precision": good / sel if sel else None,
+        "assoc_precision_ci": wilson(min(good, sel), sel, level),
+        "assoc_recall": rec / avail if avail else None,
+        "assoc_recall_ci": wilson(rec, avail, level),
+    }
 
 
 def curve_stats(scores: list[PairScore], k_values: list[int], cfg: EvalConfig | None = None) -> CurveStats:
@@ -206,8 +223,9 @@ def _set_summary(scores: list[PairScore], cfg: EvalConfig) -> PairSetMetrics:
         overall=stats(scores, ks),
         pr_curve=pr_curve(scores, ks),
         heading_bins=bin_table(scores, head, cfg.heading_bins_deg, ks, stats),
-        heading_bins_fine=bin_table(scores, head, fine_edges(cfg.heading_bins_deg, cfg.fine_heading_bin_deg), ks,
-                                    stats),
+        heading_bins_fine=bin_table(
+            scores, head, fine_edges(cfg.heading_bins_deg, cfg.fine_heading_bin_deg), ks, stats
+        ),
         heading_pr=[pr_curve(group, ks) for group in bin_groups(scores, head, cfg.heading_bins_deg)],
         ambiguity_bins=bin_table(scores, amb, cfg.ambiguity_bins, ks, stats),
         n_ambiguity_unknown=int(np.sum(np.isnan(np.asarray(amb, dtype=float)))),
@@ -221,9 +239,13 @@ def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> MethodMetrics:
 
 def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
     pairs = {(s.truth.a, s.truth.b): s.truth for s in scores}
-    return {k: {"n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
-                "n_relevant": sum(1 for t in pairs.values() if (k == "all" or t.kind == k) and t.relevant)}
-            for k in (*PAIR_SETS, "all")}
+    return {
+        k: {
+            "n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
+            "n_relevant": sum(1 for t in pairs.values() if (k == "all" or t.kind == k) and t.relevant),
+        }
+        for k in (*PAIR_SETS, "all")
+    }
 
 
 def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: int = 0) -> EvaluationMetrics:
@@ -239,9 +261,14 @@ def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: i
     counts = _pair_counts(scores)
     headline = "inter" if counts["inter"]["n_pairs"] else "intra"
     out = EvaluationMetrics(
-        config=cfg.model_dump(mode="json"), headline=headline, n_pairs=counts["all"]["n_pairs"],
-        n_relevant=counts["all"]["n_relevant"], pairs=counts, n_candidates=counts["all"]["n_pairs"] + n_skipped,
-        n_skipped=n_skipped, methods={m: _method_summary([s for s in scores if s.method == m], cfg) for m in methods},
+        config=cfg.model_dump(mode="json"),
+        headline=headline,
+        n_pairs=counts["all"]["n_pairs"],
+        n_relevant=counts["all"]["n_relevant"],
+        pairs=counts,
+        n_candidates=counts["all"]["n_pairs"] + n_skipped,
+        n_skipped=n_skipped,
+        methods={m: _method_summary([s for s in scores if s.method == m], cfg) for m in methods},
     )
     out.notes += _notes(out, cfg)
     return out
@@ -253,8 +280,9 @@ def _notes(out: EvaluationMetrics, cfg: EvalConfig) -> list[str]:
     if not out.n_pairs:
         return ["no pairs were evaluated: no metric could be computed"]
     if out.pairs[out.headline]["n_relevant"] == 0:
-        notes.append(f"no relevant {label} pairs ({cfg.describe_relevance()}): recall, F1 and AUC could not be "
-                     "computed")
+        notes.append(
+            f"no relevant {label} pairs ({cfg.describe_relevance()}): recall, F1 and AUC could not be computed"
+        )
     for m, mm in out.methods.items():
         s = mm.set(out.headline).overall
         if s.n_relevant and s.best_f1 == 0.0:

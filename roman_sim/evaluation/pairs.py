@@ -27,9 +27,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import inv_T, yaw_of
 from roman_sim.evaluation.assoc import shared_objects, true_correspondences
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.geometry import inv_T, yaw_of
 from roman_sim.mapping.types import Submap
 
 if TYPE_CHECKING:
@@ -152,11 +152,23 @@ def pair_truth(
     ids_a, ids_b = _object_ids(a), _object_ids(b)
     shared = shared_objects(ids_a, ids_b)
     return PairTruth(
-        a=a.name, b=b.name, robot_a=a.robot, robot_b=b.robot, index_a=int(a.index), index_b=int(b.index),
-        T_a_b_true=T_ab, center_dist_m=dist, heading_diff_deg=float(abs(np.degrees(yaw_of(T_ab)))),
-        overlap=overlap_fraction(a, b), ambiguity=float(ambiguity), relevant=cfg.is_relevant(dist, shared),
-        kind="inter" if a.robot != b.robot else "intra", shared_objects=shared,
-        true_correspondences=true_correspondences(ids_a, ids_b), ids_a=ids_a, ids_b=ids_b,
+        a=a.name,
+        b=b.name,
+        robot_a=a.robot,
+        robot_b=b.robot,
+        index_a=int(a.index),
+        index_b=int(b.index),
+        T_a_b_true=T_ab,
+        center_dist_m=dist,
+        heading_diff_deg=float(abs(np.degrees(yaw_of(T_ab)))),
+        overlap=overlap_fraction(a, b),
+        ambiguity=float(ambiguity),
+        relevant=cfg.is_relevant(dist, shared),
+        kind="inter" if a.robot != b.robot else "intra",
+        shared_objects=shared,
+        true_correspondences=true_correspondences(ids_a, ids_b),
+        ids_a=ids_a,
+        ids_b=ids_b,
     )
 
 
@@ -168,8 +180,11 @@ def _candidates(submaps: list[Submap], intra_min_gap: int) -> list[tuple[Submap,
     names = [s.name for s in ordered]
     if len(set(names)) != len(names):
         raise EvaluationError("duplicate submap names (robot/index) in the evaluated submaps")
-    return [(a, b) for a, b in combinations(ordered, 2)
-            if not (a.robot == b.robot and abs(a.index - b.index) < intra_min_gap)]
+    return [
+        (a, b)
+        for a, b in combinations(ordered, 2)
+        if not (a.robot == b.robot and abs(a.index - b.index) < intra_min_gap)
+    ]
 
 
 @dataclass
@@ -249,5 +264,4 @@ def truths_for_pairs(
     if ambiguity_fn is not None:
         for s in {s.name: s for p in pairs for s in p}.values():
             amb[s.name] = float(ambiguity_fn(_true_pose(s)[:2, 3]))
-    return [pair_truth(a, b, cfg=cfg, ambiguity=0.5 * (amb[a.name] + amb[b.name]) if amb else None)
-            for a, b in pairs]
+    return [pair_truth(a, b, cfg=cfg, ambiguity=0.5 * (amb[a.name] + amb[b.name]) if amb else None) for a, b in pairs]

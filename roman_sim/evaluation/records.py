@@ -46,15 +46,17 @@ class MapStats:
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict (keyframe figures only when there are keyframes)."""
         d = asdict(self)
-        return d if self.keyframes_per_submap is not None else {k: v for k, v in d.items()
-                                                                if not k.startswith("keyframe")}
+        return (
+            d if self.keyframes_per_submap is not None else {k: v for k, v in d.items() if not k.startswith("keyframe")}
+        )
 
     @classmethod
     def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
         """Inverse of ``to_json`` (files without keyframe figures are read with None)."""
         try:
-            values: dict[str, Any] = {f.name: d[f.name] if f.name in d or not f.name.startswith("keyframe") else None
-                                      for f in fields(cls)}
+            values: dict[str, Any] = {
+                f.name: d[f.name] if f.name in d or not f.name.startswith("keyframe") else None for f in fields(cls)
+            }
             return cls(**values)
         except (KeyError, TypeError) as err:
             raise StorageError(f"{source}: malformed map statistics ({err})") from None
@@ -81,20 +83,35 @@ class AlignmentRecord:
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {"a": self.a, "b": self.b, "method": self.method, "n_associations": self.n_associations,
-                "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist(),
-                "associations": np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist()}
+        return {
+            "a": self.a,
+            "b": self.b,
+            "method": self.method,
+            "n_associations": self.n_associations,
+            "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist(),
+            "associations": np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist(),
+        }
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "AlignmentRecord":
         """Inverse of ``to_json``."""
         T = d["T_a_b"]
-        return cls(str(d["a"]), str(d["b"]), str(d["method"]), int(d["n_associations"]),
-                   None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4),
-                   np.asarray(d.get("associations", []), dtype=np.int64).reshape(-1, 2))
+        return cls(
+            str(d["a"]),
+            str(d["b"]),
+            str(d["method"]),
+            int(d["n_associations"]),
+            None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4),
+            np.asarray(d.get("associations", []), dtype=np.int64).reshape(-1, 2),
+        )
 
     def result(self) -> AlignResult:
         """An ``AlignResult`` holding this record's estimate and associations (for drawing)."""
-        return AlignResult(self.method, self.T_a_b, np.asarray(self.associations, dtype=np.int64).reshape(-1, 2),
-                           np.ones(len(self.associations)), float("nan"),
-                           None if self.T_a_b is not None else "no estimate")
+        return AlignResult(
+            self.method,
+            self.T_a_b,
+            np.asarray(self.associations, dtype=np.int64).reshape(-1, 2),
+            np.ones(len(self.associations)),
+            float("nan"),
+            None if self.T_a_b is not None else "no estimate",
+        )

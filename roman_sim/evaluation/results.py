@@ -26,10 +26,10 @@ import numpy as np
 
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.geometry import pose_4dof, yaw_of
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import EvaluationMetrics
-from roman_sim.geometry import pose_4dof, yaw_of
 
 log = logging.getLogger(__name__)
 
@@ -37,10 +37,32 @@ PAIRS_CSV = "pairs.csv"
 METRICS_JSON = "metrics.json"
 
 PAIRS_FIELDS = [
-    "a", "b", "robot_a", "robot_b", "index_a", "index_b", "kind",
-    "center_dist_m", "heading_diff_deg", "overlap", "shared_objects", "true_corr", "ambiguity", "relevant",
-    "true_x_m", "true_y_m", "true_z_m", "true_yaw_rad",
-    "method", "n_assoc", "assoc_correct", "assoc_recovered", "rot_err_deg", "trans_err_m", "correct", "reason",
+    "a",
+    "b",
+    "robot_a",
+    "robot_b",
+    "index_a",
+    "index_b",
+    "kind",
+    "center_dist_m",
+    "heading_diff_deg",
+    "overlap",
+    "shared_objects",
+    "true_corr",
+    "ambiguity",
+    "relevant",
+    "true_x_m",
+    "true_y_m",
+    "true_z_m",
+    "true_yaw_rad",
+    "method",
+    "n_assoc",
+    "assoc_correct",
+    "assoc_recovered",
+    "rot_err_deg",
+    "trans_err_m",
+    "correct",
+    "reason",
 ]
 
 
@@ -60,15 +82,31 @@ def _row(s: PairScore) -> dict[str, str]:
     t = s.truth
     T = t.T_a_b_true
     vals: dict[str, Any] = {
-        "a": t.a, "b": t.b, "robot_a": t.robot_a, "robot_b": t.robot_b,
-        "index_a": t.index_a, "index_b": t.index_b, "kind": t.kind,
-        "center_dist_m": t.center_dist_m, "heading_diff_deg": t.heading_diff_deg,
-        "overlap": t.overlap, "shared_objects": t.shared_objects, "true_corr": t.true_correspondences,
-        "ambiguity": t.ambiguity, "relevant": t.relevant,
-        "true_x_m": float(T[0, 3]), "true_y_m": float(T[1, 3]), "true_z_m": float(T[2, 3]),
-        "true_yaw_rad": yaw_of(T), "method": s.method, "n_assoc": s.n_assoc,
-        "assoc_correct": s.assoc_correct, "assoc_recovered": s.assoc_recovered,
-        "rot_err_deg": s.rot_err_deg, "trans_err_m": s.trans_err_m, "correct": s.correct,
+        "a": t.a,
+        "b": t.b,
+        "robot_a": t.robot_a,
+        "robot_b": t.robot_b,
+        "index_a": t.index_a,
+        "index_b": t.index_b,
+        "kind": t.kind,
+        "center_dist_m": t.center_dist_m,
+        "heading_diff_deg": t.heading_diff_deg,
+        "overlap": t.overlap,
+        "shared_objects": t.shared_objects,
+        "true_corr": t.true_correspondences,
+        "ambiguity": t.ambiguity,
+        "relevant": t.relevant,
+        "true_x_m": float(T[0, 3]),
+        "true_y_m": float(T[1, 3]),
+        "true_z_m": float(T[2, 3]),
+        "true_yaw_rad": yaw_of(T),
+        "method": s.method,
+        "n_assoc": s.n_assoc,
+        "assoc_correct": s.assoc_correct,
+        "assoc_recovered": s.assoc_recovered,
+        "rot_err_deg": s.rot_err_deg,
+        "trans_err_m": s.trans_err_m,
+        "correct": s.correct,
         "reason": s.reason,
     }
     return {k: _fmt(vals[k]) for k in PAIRS_FIELDS}
@@ -107,16 +145,34 @@ def _parse(r: dict[str, str]) -> PairScore:
     if r["kind"] not in ("inter", "intra"):
         raise ValueError(f"kind must be inter or intra, got {r['kind']!r}")
     truth = PairTruth(
-        a=r["a"], b=r["b"], robot_a=r["robot_a"], robot_b=r["robot_b"],
-        index_a=int(r["index_a"]), index_b=int(r["index_b"]), T_a_b_true=T,
-        center_dist_m=float(r["center_dist_m"]), heading_diff_deg=float(r["heading_diff_deg"]),
-        overlap=_float(r["overlap"]), ambiguity=_float(r["ambiguity"]), relevant=_bool(r["relevant"]),
+        a=r["a"],
+        b=r["b"],
+        robot_a=r["robot_a"],
+        robot_b=r["robot_b"],
+        index_a=int(r["index_a"]),
+        index_b=int(r["index_b"]),
+        T_a_b_true=T,
+        center_dist_m=float(r["center_dist_m"]),
+        heading_diff_deg=float(r["heading_diff_deg"]),
+        overlap=_float(r["overlap"]),
+        ambiguity=_float(r["ambiguity"]),
+        relevant=_bool(r["relevant"]),
         kind=r["kind"],  # type: ignore[arg-type]
-        shared_objects=int(r["shared_objects"]), true_correspondences=int(r["true_corr"]),
+        shared_objects=int(r["shared_objects"]),
+        true_correspondences=int(r["true_corr"]),
     )
-    return PairScore(truth, r["method"], int(r["n_assoc"]), _float(r["rot_err_deg"]),
-                     _float(r["trans_err_m"]), _bool(r["correct"]), float("nan"), r["reason"] or None,
-                     int(r["assoc_correct"]), int(r["assoc_recovered"]))
+    return PairScore(
+        truth,
+        r["method"],
+        int(r["n_assoc"]),
+        _float(r["rot_err_deg"]),
+        _float(r["trans_err_m"]),
+        _bool(r["correct"]),
+        float("nan"),
+        r["reason"] or None,
+        int(r["assoc_correct"]),
+        int(r["assoc_recovered"]),
+    )
 
 
 def read_pairs_csv(path: str | Path) -> list[PairScore]:

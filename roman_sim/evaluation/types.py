@@ -24,9 +24,23 @@ from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, VariantAte
 from roman_sim.evaluation.records import AlignmentRecord, MapStats
 
-__all__ = ["ATE_SCHEMA", "METRICS_SCHEMA", "PAIR_SETS", "PAIR_SET_LABELS", "AlignmentRecord", "AteTable", "BinStats",
-           "CurveStats", "EvaluationMetrics", "MapStats", "MethodMetrics", "PRCurve", "PairSetMetrics", "VariantAte",
-           "nan_to_none"]
+__all__ = [
+    "ATE_SCHEMA",
+    "METRICS_SCHEMA",
+    "PAIR_SETS",
+    "PAIR_SET_LABELS",
+    "AlignmentRecord",
+    "AteTable",
+    "BinStats",
+    "CurveStats",
+    "EvaluationMetrics",
+    "MapStats",
+    "MethodMetrics",
+    "PRCurve",
+    "PairSetMetrics",
+    "VariantAte",
+    "nan_to_none",
+]
 
 #: Schema tag of ``metrics.json``.
 METRICS_SCHEMA = "roman_sim.metrics/3"
@@ -111,8 +125,9 @@ class CurveStats:
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "CurveStats":
         """Inverse of ``to_json``."""
-        values: dict[str, Any] = {f.name: (_interval(d[f.name]) if f.name.endswith("_ci") else d[f.name])
-                                  for f in fields(cls)}
+        values: dict[str, Any] = {
+            f.name: (_interval(d[f.name]) if f.name.endswith("_ci") else d[f.name]) for f in fields(cls)
+        }
         return cls(**values)
 
 
@@ -150,17 +165,27 @@ class PRCurve:
     def to_json(self) -> dict[str, Any]:
         """JSON-friendly lists; undefined values are ``None``."""
         return {
-            "k": self.k.tolist(), "tp": self.tp.tolist(), "fp": self.fp.tolist(),
-            "n_relevant": self.n_relevant, "precision": nan_to_none(self.precision),
-            "recall": nan_to_none(self.recall), "f1": nan_to_none(self.f1),
+            "k": self.k.tolist(),
+            "tp": self.tp.tolist(),
+            "fp": self.fp.tolist(),
+            "n_relevant": self.n_relevant,
+            "precision": nan_to_none(self.precision),
+            "recall": nan_to_none(self.recall),
+            "f1": nan_to_none(self.f1),
         }
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "PRCurve":
         """Inverse of ``to_json``."""
-        return cls(np.asarray(d["k"], dtype=np.int64), np.asarray(d["tp"], dtype=np.int64),
-                   np.asarray(d["fp"], dtype=np.int64), int(d["n_relevant"]), _none_to_nan(d["precision"]),
-                   _none_to_nan(d["recall"]), _none_to_nan(d["f1"]))
+        return cls(
+            np.asarray(d["k"], dtype=np.int64),
+            np.asarray(d["tp"], dtype=np.int64),
+            np.asarray(d["fp"], dtype=np.int64),
+            int(d["n_relevant"]),
+            _none_to_nan(d["precision"]),
+            _none_to_nan(d["recall"]),
+            _none_to_nan(d["f1"]),
+        )
 
 
 def _bins(rows: list[BinStats]) -> list[dict[str, Any]]:
@@ -215,9 +240,15 @@ class PairSetMetrics:
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "PairSetMetrics":
         """Inverse of ``to_json``."""
-        return cls(CurveStats.from_json(d), PRCurve.from_json(d["pr_curve"]), _bins_from(d["heading_bins"]),
-                   _bins_from(d["heading_bins_fine"]), [PRCurve.from_json(c) for c in d["heading_pr"]],
-                   _bins_from(d["ambiguity_bins"]), int(d["n_ambiguity_unknown"]))
+        return cls(
+            CurveStats.from_json(d),
+            PRCurve.from_json(d["pr_curve"]),
+            _bins_from(d["heading_bins"]),
+            _bins_from(d["heading_bins_fine"]),
+            [PRCurve.from_json(c) for c in d["heading_pr"]],
+            _bins_from(d["ambiguity_bins"]),
+            int(d["n_ambiguity_unknown"]),
+        )
 
 
 @dataclass
@@ -287,8 +318,9 @@ class EvaluationMetrics:
         m = self.method(method).set(kind or self.headline)
         return m.overall if heading_bin is None else m.bin(heading_bin).stats
 
-    def figure(self, method: str, heading_bin: str | None = None, key: str = "max_recall",
-               kind: str | None = None) -> Any:
+    def figure(
+        self, method: str, heading_bin: str | None = None, key: str = "max_recall", kind: str | None = None
+    ) -> Any:
         """One figure (a ``CurveStats`` field) of ``method`` overall or in a heading bin.
 
         ``kind`` is the pair set (``inter``, ``intra``); default the headline set.
@@ -299,11 +331,19 @@ class EvaluationMetrics:
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict with the schema tag (``frontend`` only when the run graded its front end)."""
-        return {"schema": METRICS_SCHEMA, "config": self.config, "headline": self.headline,
-                "n_pairs": self.n_pairs, "n_relevant": self.n_relevant, "pairs": self.pairs,
-                "n_candidates": self.n_candidates, "n_skipped": self.n_skipped,
-                "methods": {k: v.to_json() for k, v in self.methods.items()}, "notes": list(self.notes),
-                **({} if self.frontend is None else {"frontend": self.frontend})}
+        return {
+            "schema": METRICS_SCHEMA,
+            "config": self.config,
+            "headline": self.headline,
+            "n_pairs": self.n_pairs,
+            "n_relevant": self.n_relevant,
+            "pairs": self.pairs,
+            "n_candidates": self.n_candidates,
+            "n_skipped": self.n_skipped,
+            "methods": {k: v.to_json() for k, v in self.methods.items()},
+            "notes": list(self.notes),
+            **({} if self.frontend is None else {"frontend": self.frontend}),
+        }
 
     @classmethod
     def from_json(cls, d: Any, source: str = "metrics") -> "EvaluationMetrics":
@@ -312,10 +352,17 @@ class EvaluationMetrics:
             found = d.get("schema") if isinstance(d, dict) else type(d).__name__
             raise StorageError(f"{source}: not a metrics file of schema {METRICS_SCHEMA} (found {found!r})")
         try:
-            return cls(dict(d["config"]), str(d["headline"]), int(d["n_pairs"]), int(d["n_relevant"]),
-                       {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d["pairs"].items()},
-                       int(d["n_candidates"]), int(d["n_skipped"]),
-                       {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()}, list(d.get("notes", [])),
-                       d.get("frontend"))
+            return cls(
+                dict(d["config"]),
+                str(d["headline"]),
+                int(d["n_pairs"]),
+                int(d["n_relevant"]),
+                {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d["pairs"].items()},
+                int(d["n_candidates"]),
+                int(d["n_skipped"]),
+                {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()},
+                list(d.get("notes", [])),
+                d.get("frontend"),
+            )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

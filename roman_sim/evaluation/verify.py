@@ -59,8 +59,9 @@ def compare(expected: Any, got: Any, where: str = "", rel_tol: float = REL_TOL, 
     if isinstance(expected, list) and isinstance(got, list):
         if len(expected) != len(got):
             return [f"{where}: {len(expected)} entries in the file, {len(got)} recomputed"]
-        return [d for i, (a, b) in enumerate(zip(expected, got))
-                for d in compare(a, b, f"{where}[{i}]", rel_tol, abs_tol)]
+        return [
+            d for i, (a, b) in enumerate(zip(expected, got)) for d in compare(a, b, f"{where}[{i}]", rel_tol, abs_tol)
+        ]
     numbers = (int, float)
     if isinstance(expected, numbers) and isinstance(got, numbers) and not isinstance(expected, bool):
         if math.isclose(float(expected), float(got), rel_tol=rel_tol, abs_tol=abs_tol):
@@ -83,11 +84,13 @@ def rederive(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore],
         rel = cfg.is_relevant(s.truth.center_dist_m, s.truth.shared_objects)
         ok = is_correct(s.rot_err_deg, s.trans_err_m, cfg)
         if rel != s.truth.relevant:
-            diffs.append(f"pairs.csv row {i + 1} ({s.truth.a}|{s.truth.b}): relevant={s.truth.relevant}, "
-                         f"recomputed {rel}")
+            diffs.append(
+                f"pairs.csv row {i + 1} ({s.truth.a}|{s.truth.b}): relevant={s.truth.relevant}, recomputed {rel}"
+            )
         if ok != s.correct:
-            diffs.append(f"pairs.csv row {i + 1} ({s.truth.a}|{s.truth.b}, {s.method}): correct={s.correct}, "
-                         f"recomputed {ok}")
+            diffs.append(
+                f"pairs.csv row {i + 1} ({s.truth.a}|{s.truth.b}, {s.method}): correct={s.correct}, recomputed {ok}"
+            )
         out.append(replace(s, truth=replace(s.truth, relevant=rel), correct=ok))
     return out, diffs
 
@@ -113,9 +116,15 @@ def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
     except (OSError, ValueError) as err:
         raise StorageError(f"{run_dir / ATE_JSON}: unreadable ({type(err).__name__})") from None
     truth = {r: read_tum(_tum(run_dir, "truth", r, suffix)) for r in stored.robots}
-    estimates = {v: VariantEstimate({r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected},
-                                    row.fit, row.description, row.source)  # type: ignore[arg-type]
-                 for v, row in stored.variants.items()}
+    estimates = {
+        v: VariantEstimate(
+            {r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected},
+            row.fit,
+            row.description,
+            row.source,
+        )  # type: ignore[arg-type]
+        for v, row in stored.variants.items()
+    }
     return ate_table(truth, estimates, tuple(next(iter(stored.variants.values())).rmse) if stored.variants else ())
 
 
@@ -123,8 +132,9 @@ def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
     return run_dir / "trajectories" / f"{robot}.{variant}.tum{suffix}"
 
 
-def verify_run(run_dir: str | Path, rel_tol: float = REL_TOL, pairs_file: str = PAIRS_CSV,
-               tum_suffix: str = "") -> Verification:
+def verify_run(
+    run_dir: str | Path, rel_tol: float = REL_TOL, pairs_file: str = PAIRS_CSV, tum_suffix: str = ""
+) -> Verification:
     """Recompute ``metrics.json`` (and ``ate.json`` when present) and list every difference."""
     d = Path(run_dir)
     out = Verification()

@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from roman_sim.mapping.segmenter import Mask
-from roman_sim.sensors import Frame
+from roman_sim.core.sensors import Frame
+from roman_sim.mapping.mask import Mask
 
 if TYPE_CHECKING:
     from roman_sim.mapping.semantics import EncodeContext
@@ -45,8 +45,9 @@ class DepthEdgeSegmenter:
 class ShapeEncoder:
     """An 8-d unit descriptor from the mask's bounding-box shape and fill."""
 
-    def encode(self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_],
-               context: EncodeContext) -> NDArray[np.float32]:
+    def encode(
+        self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_], context: EncodeContext
+    ) -> NDArray[np.float32]:
         rows, cols = np.nonzero(mask)
         h = rows.max() - rows.min() + 1 if len(rows) else 1
         w = cols.max() - cols.min() + 1 if len(cols) else 1

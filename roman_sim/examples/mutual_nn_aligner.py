@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from roman_sim.align.base import AlignResult
-from roman_sim.geometry import arun_4dof
+from roman_sim.core.geometry import arun_4dof
 from roman_sim.mapping.types import Submap
 
 
@@ -32,8 +32,9 @@ class MutualNNAligner:
         db = np.asarray(b.descriptors, dtype=np.float64)
         sim = da @ db.T
         best_b, best_a = sim.argmax(axis=1), sim.argmax(axis=0)
-        pairs = np.array([(i, j) for i, j in enumerate(best_b)
-                          if best_a[j] == i and sim[i, j] >= self.min_cosine], dtype=np.int64).reshape(-1, 2)
+        pairs = np.array(
+            [(i, j) for i, j in enumerate(best_b) if best_a[j] == i and sim[i, j] >= self.min_cosine], dtype=np.int64
+        ).reshape(-1, 2)
         if len(pairs) < 3:
             return AlignResult.failure(self.name, "fewer than 3 mutual matches", time.perf_counter() - t0)
         T = arun_4dof(b.centers[pairs[:, 1]], a.centers[pairs[:, 0]])

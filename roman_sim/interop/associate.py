@@ -44,8 +44,9 @@ def read_list(path: str | Path) -> tuple[NDArray[np.float64], list[str]]:
     return np.asarray(stamps, dtype=np.float64)[order], [names[i] for i in order]
 
 
-def associate(t_a: NDArray[np.float64], t_b: NDArray[np.float64],
-              max_diff_s: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def associate(
+    t_a: NDArray[np.float64], t_b: NDArray[np.float64], max_diff_s: float
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Index pairs ``(ia, ib)`` matching stamps ``t_a`` to ``t_b`` within ``max_diff_s``.
 
     Greedy, closest pair first, one-to-one; the result is ordered by ``ia``.
@@ -60,8 +61,9 @@ def associate(t_a: NDArray[np.float64], t_b: NDArray[np.float64],
     return ia[order], ib[order]
 
 
-def _associate_sorted(a: NDArray[np.float64], b: NDArray[np.float64],
-                      max_diff_s: float) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+def _associate_sorted(
+    a: NDArray[np.float64], b: NDArray[np.float64], max_diff_s: float
+) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     lo = np.searchsorted(b, a - max_diff_s, side="left")
     hi = np.searchsorted(b, a + max_diff_s, side="right")
     counts = hi - lo

@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Any, Protocol
 
 from roman_sim.core.registry import Registry
-from roman_sim.sensors import Frame
+from roman_sim.core.sensors import Frame
 
 
 def stamp_ns(t: float) -> int:

@@ -79,8 +79,14 @@ def _prepare(out: Path, names: list[str], overwrite: bool) -> None:
         raise ConfigError(f"--out {out}: cannot create it ({err.strerror or err})") from None
 
 
-def _export_robot(stream: RobotStream, fmt: str, out: Path, options: dict[str, Any],
-                  progress: ExportProgress | None, result: ExportResult) -> None:
+def _export_robot(
+    stream: RobotStream,
+    fmt: str,
+    out: Path,
+    options: dict[str, Any],
+    progress: ExportProgress | None,
+    result: ExportResult,
+) -> None:
     stage = f"export:{stream.name}"
     try:
         writer = FORMATS.get(fmt)(out / stream.name, stream.name, stream.intrinsics, stream.T_body_cam, **options)
@@ -147,12 +153,22 @@ def export_scenario(
     for stream in streams:
         _export_robot(stream, fmt, out, options, progress, result)
         log.info("robot %s: %d frames exported as %s", stream.name, stream.n_frames, fmt)
-    manifest = {"format": "roman_sim.export", "version": 1, "sequence_format": fmt, "scenario": scenario.name,
-                "seed": int(scenario.seed), "options": options,
-                "robots": {name: {k: v for k, v in summary.items() if k not in ("folder", "bag")}
-                           for name, summary in result.robots.items()},
-                "conventions": {"time": "seconds since the robot's start; stamps are integer nanoseconds",
-                                "world": "frame of groundtruth.txt, objects.json and the 'world' tf frame",
-                                "masks": "16-bit PNG, object id + 1 (0 = background)"}}
+    manifest = {
+        "format": "roman_sim.export",
+        "version": 1,
+        "sequence_format": fmt,
+        "scenario": scenario.name,
+        "seed": int(scenario.seed),
+        "options": options,
+        "robots": {
+            name: {k: v for k, v in summary.items() if k not in ("folder", "bag")}
+            for name, summary in result.robots.items()
+        },
+        "conventions": {
+            "time": "seconds since the robot's start; stamps are integer nanoseconds",
+            "world": "frame of groundtruth.txt, objects.json and the 'world' tf frame",
+            "masks": "16-bit PNG, object id + 1 (0 = background)",
+        },
+    }
     write_json(out / EXPORT_JSON, manifest)
     return result

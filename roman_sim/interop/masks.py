@@ -12,8 +12,8 @@ import numpy as np
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.sensors import Frame
 from roman_sim.interop.images import encode_png, ids_to_mask
-from roman_sim.sensors import Frame
 
 
 def list_text(kind: str, robot: str, rows: list[tuple[str, str]]) -> str:
@@ -41,6 +41,12 @@ class MaskWriter:
     def close(self) -> Path:
         """Write ``masks.txt``; returns its path."""
         path = self.dir / "masks.txt"
-        write_text(path, list_text("instance mask (object id + 1, 0 = background)", self.robot,
-                                   [(s, f"masks/{s}.png") for s in self.stamps]))
+        write_text(
+            path,
+            list_text(
+                "instance mask (object id + 1, 0 = background)",
+                self.robot,
+                [(s, f"masks/{s}.png") for s in self.stamps],
+            ),
+        )
         return path

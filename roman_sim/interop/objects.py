@@ -24,8 +24,25 @@ from roman_sim.world.truth import WorldTruth
 OBJECTS_JSON = "objects.json"
 OBJECTS_CSV = "objects.csv"
 FORMAT = "roman_sim.objects"
-CSV_COLUMNS = ("id", "mask_value", "family", "center_x", "center_y", "center_z", "qx", "qy", "qz", "qw",
-               "extent_x", "extent_y", "extent_z", "volume_m3", "centroid_x", "centroid_y", "centroid_z")
+CSV_COLUMNS = (
+    "id",
+    "mask_value",
+    "family",
+    "center_x",
+    "center_y",
+    "center_z",
+    "qx",
+    "qy",
+    "qz",
+    "qw",
+    "extent_x",
+    "extent_y",
+    "extent_z",
+    "volume_m3",
+    "centroid_x",
+    "centroid_y",
+    "centroid_z",
+)
 
 
 def _r(a: Any) -> Any:
@@ -37,12 +54,22 @@ def object_rows(truth: WorldTruth) -> list[dict[str, Any]]:
     rows = []
     for o in sorted(truth.objects, key=lambda o: o.id):
         box = np.asarray(o.obb_T_world, dtype=np.float64)
-        rows.append({
-            "id": int(o.id), "mask_value": int(o.id) + 1, "family": o.family,
-            "box": {"center": _r(box[:3, 3]), "quaternion_xyzw": _r(Rotation.from_matrix(box[:3, :3]).as_quat()),
-                    "R": _r(box[:3, :3]), "extents": _r(o.obb_extents)},
-            "T_world_obj": _r(o.T_world_obj), "volume_m3": round(float(o.volume), 9), "centroid": _r(o.centroid),
-        })
+        rows.append(
+            {
+                "id": int(o.id),
+                "mask_value": int(o.id) + 1,
+                "family": o.family,
+                "box": {
+                    "center": _r(box[:3, 3]),
+                    "quaternion_xyzw": _r(Rotation.from_matrix(box[:3, :3]).as_quat()),
+                    "R": _r(box[:3, :3]),
+                    "extents": _r(o.obb_extents),
+                },
+                "T_world_obj": _r(o.T_world_obj),
+                "volume_m3": round(float(o.volume), 9),
+                "centroid": _r(o.centroid),
+            }
+        )
     return rows
 
 
@@ -52,8 +79,18 @@ def _csv_text(rows: list[dict[str, Any]]) -> str:
     w.writerow(CSV_COLUMNS)
     for r in rows:
         b = r["box"]
-        w.writerow([r["id"], r["mask_value"], r["family"], *b["center"], *b["quaternion_xyzw"], *b["extents"],
-                    r["volume_m3"], *r["centroid"]])
+        w.writerow(
+            [
+                r["id"],
+                r["mask_value"],
+                r["family"],
+                *b["center"],
+                *b["quaternion_xyzw"],
+                *b["extents"],
+                r["volume_m3"],
+                *r["centroid"],
+            ]
+        )
     return buf.getvalue()
 
 
@@ -61,8 +98,14 @@ def write_object_table(out_dir: str | Path, truth: WorldTruth, extra: dict[str, 
     """Write ``objects.json`` and ``objects.csv`` atomically into ``out_dir``; returns both paths."""
     out = Path(out_dir)
     rows = object_rows(truth)
-    doc = {"format": FORMAT, "version": 1, "frame": "world", "mask_value": "id + 1 (0 = background)",
-           "objects": rows, **(extra or {})}
+    doc = {
+        "format": FORMAT,
+        "version": 1,
+        "frame": "world",
+        "mask_value": "id + 1 (0 = background)",
+        "objects": rows,
+        **(extra or {}),
+    }
     write_json(out / OBJECTS_JSON, doc)
     write_text(out / OBJECTS_CSV, _csv_text(rows))
     return [out / OBJECTS_JSON, out / OBJECTS_CSV]

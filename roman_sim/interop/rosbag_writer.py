@@ -44,9 +44,9 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
 from roman_sim.interop.masks import MaskWriter
-from roman_sim.sensors import Frame, Intrinsics
 
 log = logging.getLogger(__name__)
 
@@ -71,9 +71,17 @@ def _qos(transient_local: bool) -> Any:
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
     zero = QosTime(0, 0)
-    return Qos(QosHistory.KEEP_LAST, 1 if transient_local else 10, QosReliability.RELIABLE,
-               QosDurability.TRANSIENT_LOCAL if transient_local else QosDurability.VOLATILE,
-               zero, zero, QosLiveliness.AUTOMATIC, zero, False)
+    return Qos(
+        QosHistory.KEEP_LAST,
+        1 if transient_local else 10,
+        QosReliability.RELIABLE,
+        QosDurability.TRANSIENT_LOCAL if transient_local else QosDurability.VOLATILE,
+        zero,
+        zero,
+        QosLiveliness.AUTOMATIC,
+        zero,
+        False,
+    )
 
 
 class _Messages:
@@ -91,8 +99,15 @@ class _Messages:
     def image(self, ns: int, data: NDArray[Any], encoding: str) -> Any:
         h, w = data.shape[:2]
         raw = np.ascontiguousarray(data).view(np.uint8).reshape(-1)
-        return self.t["sensor_msgs/msg/Image"](header=self.header(ns, self.cam_frame), height=h, width=w,
-                                                encoding=encoding, is_bigendian=0, step=len(raw) // h, data=raw)
+        return self.t["sensor_msgs/msg/Image"](
+            header=self.header(ns, self.cam_frame),
+            height=h,
+            width=w,
+            encoding=encoding,
+            is_bigendian=0,
+            step=len(raw) // h,
+            data=raw,
+        )
 
     def camera_info(self, ns: int) -> Any:
         k = self.intr
@@ -100,8 +115,18 @@ class _Messages:
         P = np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=np.float64)
         roi = self.t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
         return self.t["sensor_msgs/msg/CameraInfo"](
-            header=self.header(ns, self.cam_frame), height=k.height, width=k.width, distortion_model="plumb_bob",
-            d=np.zeros(5), k=K, r=np.eye(3).reshape(-1), p=P, binning_x=0, binning_y=0, roi=roi)
+            header=self.header(ns, self.cam_frame),
+            height=k.height,
+            width=k.width,
+            distortion_model="plumb_bob",
+            d=np.zeros(5),
+            k=K,
+            r=np.eye(3).reshape(-1),
+            p=P,
+            binning_x=0,
+            binning_y=0,
+            roi=roi,
+        )
 
     def _pose_parts(self, T: NDArray[np.float64]) -> tuple[Any, Any]:
         g = self.t
@@ -113,25 +138,32 @@ class _Messages:
     def transform(self, ns: int, parent: str, child: str, T: NDArray[np.float64]) -> Any:
         vec, quat = self._pose_parts(T)
         tf = self.t["geometry_msgs/msg/Transform"](translation=vec, rotation=quat)
-        return self.t["geometry_msgs/msg/TransformStamped"](header=self.header(ns, parent), child_frame_id=child,
-                                                             transform=tf)
+        return self.t["geometry_msgs/msg/TransformStamped"](
+            header=self.header(ns, parent), child_frame_id=child, transform=tf
+        )
 
     def tf(self, transforms: list[Any]) -> Any:
         return self.t["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
-    def odometry(self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64],
-                 w_body: NDArray[np.float64]) -> Any:
+    def odometry(
+        self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64], w_body: NDArray[np.float64]
+    ) -> Any:
         g = self.t
         vec, quat = self._pose_parts(T)
-        pose = g["geometry_msgs/msg/Pose"](position=g["geometry_msgs/msg/Point"](x=vec.x, y=vec.y, z=vec.z),
-                                           orientation=quat)
+        pose = g["geometry_msgs/msg/Pose"](
+            position=g["geometry_msgs/msg/Point"](x=vec.x, y=vec.y, z=vec.z), orientation=quat
+        )
         V3 = g["geometry_msgs/msg/Vector3"]
-        twist = g["geometry_msgs/msg/Twist"](linear=V3(x=float(v_body[0]), y=float(v_body[1]), z=float(v_body[2])),
-                                             angular=V3(x=float(w_body[0]), y=float(w_body[1]), z=float(w_body[2])))
+        twist = g["geometry_msgs/msg/Twist"](
+            linear=V3(x=float(v_body[0]), y=float(v_body[1]), z=float(v_body[2])),
+            angular=V3(x=float(w_body[0]), y=float(w_body[1]), z=float(w_body[2])),
+        )
         return g["nav_msgs/msg/Odometry"](
-            header=self.header(ns, f"{self.robot}/odom"), child_frame_id=f"{self.robot}/base_link",
+            header=self.header(ns, f"{self.robot}/odom"),
+            child_frame_id=f"{self.robot}/base_link",
             pose=g["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
-            twist=g["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)))
+            twist=g["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
+        )
 
 
 def body_twist(T_prev: NDArray[np.float64] | None, T: NDArray[np.float64], dt: float) -> tuple[NDArray, NDArray]:
@@ -154,8 +186,15 @@ class RosbagWriter:
         distro: ``rosbags`` type store for the message definitions.
     """
 
-    def __init__(self, out_dir: Path, robot: str, intrinsics: Intrinsics, T_body_cam: NDArray[np.float64],
-                 storage: str = "mcap", distro: str = "ros2_humble") -> None:
+    def __init__(
+        self,
+        out_dir: Path,
+        robot: str,
+        intrinsics: Intrinsics,
+        T_body_cam: NDArray[np.float64],
+        storage: str = "mcap",
+        distro: str = "ros2_humble",
+    ) -> None:
         from rosbags.rosbag2 import StoragePlugin, Writer
         from rosbags.typesys import Stores, get_typestore
 
@@ -176,9 +215,12 @@ class RosbagWriter:
         self._writer = Writer(self._tmp_parent / BAG_DIR, version=9, storage_plugin=plugin)
         self._writer.open()
         self._msgs = _Messages(typestore, robot, intrinsics)
-        self._conn = {topic: self._writer.add_connection(topic, msgtype, typestore=typestore,
-                                                         offered_qos_profiles=[_qos(topic == "/tf_static")])
-                      for topic, msgtype in topics(robot).items()}
+        self._conn = {
+            topic: self._writer.add_connection(
+                topic, msgtype, typestore=typestore, offered_qos_profiles=[_qos(topic == "/tf_static")]
+            )
+            for topic, msgtype in topics(robot).items()
+        }
         self._masks = MaskWriter(self.dir, robot)
         self._counts = {topic: 0 for topic in self._conn}
         self._prev: tuple[int, NDArray[np.float64]] | None = None
@@ -206,8 +248,16 @@ class RosbagWriter:
         dt = 0.0 if self._prev is None else (ns - self._prev[0]) / 1e9
         v, w = body_twist(None if self._prev is None else self._prev[1], T_ob, dt)
         self._put(f"/{r}/odom", ns, m.odometry(ns, T_ob, v, w))
-        self._put("/tf", ns, m.tf([m.transform(ns, "world", f"{r}/base_link_gt", frame.truth.T_world_body),
-                                   m.transform(ns, f"{r}/odom", f"{r}/base_link", T_ob)]))
+        self._put(
+            "/tf",
+            ns,
+            m.tf(
+                [
+                    m.transform(ns, "world", f"{r}/base_link_gt", frame.truth.T_world_body),
+                    m.transform(ns, f"{r}/odom", f"{r}/base_link", T_ob),
+                ]
+            ),
+        )
         self._masks.write(frame, stamp_text(ns))
         self._prev = (ns, T_ob)
 

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
-from roman_sim.sensors import Frame, Intrinsics
+from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_trajectory, trajectory_along
 
 
@@ -76,8 +76,9 @@ def select_robots(robots: Sequence[RobotConfig], names: Sequence[str] | None) ->
     if unknown or not simulated:
         recorded = sorted({r.name for r in robots} - set(known))
         extra = f"; read from recorded sequences: {', '.join(recorded)}" if recorded else ""
-        raise ConfigError(f"--robots: no simulated robot {', '.join(unknown)} (simulated robots: "
-                          f"{', '.join(known) or 'none'}{extra})")
+        raise ConfigError(
+            f"--robots: no simulated robot {', '.join(unknown)} (simulated robots: {', '.join(known) or 'none'}{extra})"
+        )
     return [r for r in simulated if not names or r.name in set(names)]
 
 

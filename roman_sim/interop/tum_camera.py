@@ -18,7 +18,7 @@ import yaml
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import StorageError
-from roman_sim.sensors import Intrinsics
+from roman_sim.core.sensors import Intrinsics
 
 CAMERA_YAML = "camera.yaml"
 CAMERA_TXT = "camera.txt"
@@ -41,33 +41,48 @@ class CameraFile:
     def intrinsics(self, width: int, height: int) -> Intrinsics:
         """Intrinsics for an image of ``width`` x ``height`` (checked against the file's size)."""
         if (self.width, self.height) != (None, None) and (self.width, self.height) != (width, height):
-            raise StorageError(f"camera file: size {self.width}x{self.height} does not match the images "
-                               f"({width}x{height})")
+            raise StorageError(
+                f"camera file: size {self.width}x{self.height} does not match the images ({width}x{height})"
+            )
         return Intrinsics(width, height, self.fx, self.fy, self.cx, self.cy)
 
 
 def camera_yaml_text(intr: Intrinsics, T_body_cam: NDArray[np.float64], depth_scale: float, robot: str) -> str:
     """``camera.yaml``: intrinsics, depth scale and camera mount of an exported sequence."""
     doc = {
-        "format": CAMERA_FORMAT, "version": 1, "robot": robot,
-        "width": intr.width, "height": intr.height,
-        "fx": float(intr.fx), "fy": float(intr.fy), "cx": float(intr.cx), "cy": float(intr.cy),
-        "distortion_model": "plumb_bob", "distortion": [0.0] * 5,
+        "format": CAMERA_FORMAT,
+        "version": 1,
+        "robot": robot,
+        "width": intr.width,
+        "height": intr.height,
+        "fx": float(intr.fx),
+        "fy": float(intr.fy),
+        "cx": float(intr.cx),
+        "cy": float(intr.cy),
+        "distortion_model": "plumb_bob",
+        "distortion": [0.0] * 5,
         "depth_scale": float(depth_scale),
         "depth_registered_to_rgb": True,
         "T_body_cam": np.round(np.asarray(T_body_cam, dtype=np.float64), 12).tolist(),
-        "frames": {"camera": "RDF optical (x right, y down, z forward)", "body": "FLU (x forward, y left, z up)",
-                   "groundtruth.txt": "T_world_cam", "odometry.txt": "T_odom_cam",
-                   "groundtruth_body.txt": "T_world_body", "odometry_body.txt": "T_odom_body"},
+        "frames": {
+            "camera": "RDF optical (x right, y down, z forward)",
+            "body": "FLU (x forward, y left, z up)",
+            "groundtruth.txt": "T_world_cam",
+            "odometry.txt": "T_odom_cam",
+            "groundtruth_body.txt": "T_world_body",
+            "odometry_body.txt": "T_odom_body",
+        },
     }
     return yaml.safe_dump(doc, sort_keys=False)
 
 
 def camera_txt_text(intr: Intrinsics, robot: str) -> str:
     """``camera.txt``: ``fx fy cx cy d0..d4`` (TUM's calibration order), then ``width height``."""
-    return (f"# pinhole camera of robot {robot}: fx fy cx cy d0 d1 d2 d3 d4 (pixels, no distortion), "
-            "then width height\n"
-            f"{intr.fx:.9f} {intr.fy:.9f} {intr.cx:.9f} {intr.cy:.9f} 0 0 0 0 0\n{intr.width} {intr.height}\n")
+    return (
+        f"# pinhole camera of robot {robot}: fx fy cx cy d0 d1 d2 d3 d4 (pixels, no distortion), "
+        "then width height\n"
+        f"{intr.fx:.9f} {intr.fy:.9f} {intr.cx:.9f} {intr.cy:.9f} 0 0 0 0 0\n{intr.width} {intr.height}\n"
+    )
 
 
 def _read_yaml(p: Path) -> CameraFile:
@@ -81,13 +96,20 @@ def _read_yaml(p: Path) -> CameraFile:
         T = doc.get("T_body_cam")
         T_bc = None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4)
         scale = doc.get("depth_scale")
-        return CameraFile(float(doc["fx"]), float(doc["fy"]), float(doc["cx"]), float(doc["cy"]),
-                          int(doc["width"]) if "width" in doc else None,
-                          int(doc["height"]) if "height" in doc else None,
-                          None if scale is None else float(scale), T_bc)
+        return CameraFile(
+            float(doc["fx"]),
+            float(doc["fy"]),
+            float(doc["cx"]),
+            float(doc["cy"]),
+            int(doc["width"]) if "width" in doc else None,
+            int(doc["height"]) if "height" in doc else None,
+            None if scale is None else float(scale),
+            T_bc,
+        )
     except (KeyError, TypeError, ValueError) as err:
-        raise StorageError(f"{p}: not a readable camera file (needs fx, fy, cx, cy; {type(err).__name__}: "
-                           f"{err})") from None
+        raise StorageError(
+            f"{p}: not a readable camera file (needs fx, fy, cx, cy; {type(err).__name__}: {err})"
+        ) from None
 
 
 def _read_txt(p: Path) -> CameraFile:

@@ -30,15 +30,15 @@ from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.geometry import R_FLU_RDF, inv_T, make_T
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
+from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics, check_intrinsics
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
-from roman_sim.geometry import R_FLU_RDF, inv_T, make_T
 from roman_sim.interop.associate import associate, read_list
 from roman_sim.interop.images import TUM_DEPTH_SCALE, mask_to_ids, read_png, units_to_depth
 from roman_sim.interop.tum_camera import CameraFile, read_camera_file
-from roman_sim.sensors import Frame, FrameTruth, Intrinsics, check_intrinsics
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, drift_trajectory, resolve_drift
 
 log = logging.getLogger(__name__)
@@ -74,8 +74,11 @@ class TumSourceConfig(StrictModel):
     odometry: str = Field("auto", min_length=1)
     drift: str | DriftConfig = "typical"
     masks: bool = Field(True, description="use masks/ (when present) as the frames' true object ids")
-    objects: Path | None = Field(None, description="object table for the simulated encoder (default: objects.json "
-                                                   "in the folder or its parent, as an export lays them out)")
+    objects: Path | None = Field(
+        None,
+        description="object table for the simulated encoder (default: objects.json "
+        "in the folder or its parent, as an export lays them out)",
+    )
     rgb: bool = True
     max_frames: int | None = Field(None, ge=1)
 
@@ -101,8 +104,10 @@ ODOMETRY_SOURCES: Registry[Callable[["TumSequence"], Trajectory]] = Registry("od
 def _from_file(seq: TumSequence, name: str) -> Trajectory:
     path = seq.dir / name
     if not path.is_file():
-        raise ConfigError(f"source.odometry: {path} not found (valid: {', '.join(ODOMETRY_SOURCES.names())}, "
-                          "or a TUM file of camera poses)")
+        raise ConfigError(
+            f"source.odometry: {path} not found (valid: {', '.join(ODOMETRY_SOURCES.names())}, "
+            "or a TUM file of camera poses)"
+        )
     return read_tum(path)
 
 
@@ -147,8 +152,9 @@ class TumSequence:
             raise ConfigError(f"source.tum {self.dir}: not a folder")
         self.camera_file = read_camera_file(self.dir)
         self.T_body_cam = self._T_body_cam()
-        self.depth_scale = float(cfg.depth_scale or (self.camera_file and self.camera_file.depth_scale)
-                                 or TUM_DEPTH_SCALE)
+        self.depth_scale = float(
+            cfg.depth_scale or (self.camera_file and self.camera_file.depth_scale) or TUM_DEPTH_SCALE
+        )
         self.gt = read_tum(self.dir / "groundtruth.txt") if (self.dir / "groundtruth.txt").is_file() else None
         self._associate()
         self.intrinsics = self._intrinsics()
@@ -168,8 +174,11 @@ class TumSequence:
         ir, idp = associate(t_rgb, t_d, tol)
         t = t_rgb[ir]
         keep = np.ones(len(t), dtype=bool)
-        odom = ODOMETRY_SOURCES.get(self.cfg.odometry)(self) if self.cfg.odometry in ODOMETRY_SOURCES \
+        odom = (
+            ODOMETRY_SOURCES.get(self.cfg.odometry)(self)
+            if self.cfg.odometry in ODOMETRY_SOURCES
             else _from_file(self, self.cfg.odometry)
+        )
         T_odom = self._match(t, odom, keep)
         T_world = None if self.gt is None else self._match(t, self.gt, keep)
         masks: list[str | None] = [None] * len(t)
@@ -181,8 +190,7 @@ class TumSequence:
             keep &= np.array([m is not None for m in masks])
         idx = np.flatnonzero(keep)[: self.cfg.max_frames]
         if len(idx) == 0:
-            raise StorageError(f"{self.dir}: no frame has depth, odometry and truth within "
-                               f"{tol} s of its RGB stamp")
+            raise StorageError(f"{self.dir}: no frame has depth, odometry and truth within {tol} s of its RGB stamp")
         if len(idx) < len(t_rgb):
             log.warning("%s: %d of %d images kept after association", self.dir, len(idx), len(t_rgb))
         self.times = t[idx]
@@ -209,8 +217,10 @@ class TumSequence:
         elif self.camera_file is not None:
             cam = self.camera_file
         else:
-            raise ConfigError(f"source.intrinsics: {self.dir} has no camera.yaml or camera.txt; give "
-                              "intrinsics: {fx, fy, cx, cy} (pixels)")
+            raise ConfigError(
+                f"source.intrinsics: {self.dir} has no camera.yaml or camera.txt; give "
+                "intrinsics: {fx, fy, cx, cy} (pixels)"
+            )
         return check_intrinsics(cam.intrinsics(w, h))
 
     def _read(self, name: str) -> Any:
@@ -236,8 +246,17 @@ class TumSequence:
             if self.T_world_body is not None:
                 ids = None if mask_name is None else mask_to_ids(self._read(mask_name))
                 truth = FrameTruth(ids, self.T_world_body[k])
-            yield Frame(self.robot, k, float(self.times[k]), rgb, units_to_depth(units, self.depth_scale),
-                        self.T_odom_body[k], self.T_body_cam.copy(), self.intrinsics, truth=truth)
+            yield Frame(
+                self.robot,
+                k,
+                float(self.times[k]),
+                rgb,
+                units_to_depth(units, self.depth_scale),
+                self.T_odom_body[k],
+                self.T_body_cam.copy(),
+                self.intrinsics,
+                truth=truth,
+            )
 
 
 def read_tum_sequence(path: str | Path, robot: str = "robot", seed: int = 0, **options: Any) -> TumSequence:

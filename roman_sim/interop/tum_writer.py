@@ -31,13 +31,13 @@ from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import format_tum
 from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
 from roman_sim.interop.images import TUM_DEPTH_SCALE, depth_to_units, encode_png
 from roman_sim.interop.masks import MaskWriter, list_text
 from roman_sim.interop.tum_camera import CAMERA_TXT, CAMERA_YAML, camera_txt_text, camera_yaml_text
-from roman_sim.sensors import Frame, Intrinsics
 
 log = logging.getLogger(__name__)
 
@@ -53,8 +53,14 @@ class TumWriter:
         depth_scale: depth units per metre in the depth PNGs.
     """
 
-    def __init__(self, out_dir: Path, robot: str, intrinsics: Intrinsics, T_body_cam: NDArray[np.float64],
-                 depth_scale: float = TUM_DEPTH_SCALE) -> None:
+    def __init__(
+        self,
+        out_dir: Path,
+        robot: str,
+        intrinsics: Intrinsics,
+        T_body_cam: NDArray[np.float64],
+        depth_scale: float = TUM_DEPTH_SCALE,
+    ) -> None:
         if not np.isfinite(depth_scale) or depth_scale <= 0:
             raise StorageError(f"depth_scale must be a positive number of units per metre, got {depth_scale}")
         self.dir = Path(out_dir)
@@ -72,8 +78,9 @@ class TumWriter:
     def write(self, frame: Frame) -> None:
         """Write the frame's three PNGs and remember its poses."""
         if frame.rgb is None or frame.truth is None or frame.truth.object_ids is None:
-            raise StorageError(f"TUM export: frame {frame.index} of robot {frame.robot} needs RGB, "
-                               "instance ids and the true pose")
+            raise StorageError(
+                f"TUM export: frame {frame.index} of robot {frame.robot} needs RGB, instance ids and the true pose"
+            )
         if frame.intrinsics != self.intr or not np.allclose(frame.T_body_cam, self.T_bc):
             raise StorageError(f"TUM export: frame {frame.index}: camera differs from the sequence's")
         ns = stamp_ns(frame.t)
@@ -101,19 +108,31 @@ class TumWriter:
         write_text(d / "associations.txt", "".join(f"{s} rgb/{s}.png {s} depth/{s}.png\n" for s in st))
         t, T_wb, T_ob = np.asarray(self._t), np.stack(self._T_wb), np.stack(self._T_ob)
         head = "# {} of robot {}: timestamp tx ty tz qx qy qz qw\n"
-        write_text(d / "groundtruth.txt", head.format("true camera pose T_world_cam", self.robot)
-                   + format_tum(Trajectory(t, T_wb @ self.T_bc)))
-        write_text(d / "odometry.txt", head.format("drifted camera odometry T_odom_cam", self.robot)
-                   + format_tum(Trajectory(t, T_ob @ self.T_bc)))
-        write_text(d / "groundtruth_body.txt", head.format("true body pose T_world_body", self.robot)
-                   + format_tum(Trajectory(t, T_wb)))
-        write_text(d / "odometry_body.txt", head.format("drifted body odometry T_odom_body", self.robot)
-                   + format_tum(Trajectory(t, T_ob)))
+        write_text(
+            d / "groundtruth.txt",
+            head.format("true camera pose T_world_cam", self.robot) + format_tum(Trajectory(t, T_wb @ self.T_bc)),
+        )
+        write_text(
+            d / "odometry.txt",
+            head.format("drifted camera odometry T_odom_cam", self.robot) + format_tum(Trajectory(t, T_ob @ self.T_bc)),
+        )
+        write_text(
+            d / "groundtruth_body.txt",
+            head.format("true body pose T_world_body", self.robot) + format_tum(Trajectory(t, T_wb)),
+        )
+        write_text(
+            d / "odometry_body.txt",
+            head.format("drifted body odometry T_odom_body", self.robot) + format_tum(Trajectory(t, T_ob)),
+        )
         write_text(d / CAMERA_YAML, camera_yaml_text(self.intr, self.T_bc, self.scale, self.robot))
         write_text(d / CAMERA_TXT, camera_txt_text(self.intr, self.robot))
         if self._too_deep:
-            log.warning("robot %s: %d depth readings deeper than %.3f m stored as invalid (16-bit limit)",
-                        self.robot, self._too_deep, 65535 / self.scale)
+            log.warning(
+                "robot %s: %d depth readings deeper than %.3f m stored as invalid (16-bit limit)",
+                self.robot,
+                self._too_deep,
+                65535 / self.scale,
+            )
         return {"frames": len(st), "depth_dropped_too_deep": self._too_deep, "folder": str(d)}
 
     def abort(self) -> None:

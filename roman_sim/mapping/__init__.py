@@ -18,12 +18,24 @@ from typing import Any
 # Names are imported lazily so that ``roman_sim.mapping.types`` (used by alignment and
 # evaluation) stays cheap to import and free of import cycles.
 _EXPORTS: dict[str, str] = {
-    **dict.fromkeys(["FORMAT_VERSION", "load_segment_map", "load_submaps", "mb_per_km", "packet_bytes",
-                     "save_segment_map", "save_submaps", "submaps_mb_per_km"], "io"),
+    **dict.fromkeys(
+        [
+            "FORMAT_VERSION",
+            "load_segment_map",
+            "load_submaps",
+            "mb_per_km",
+            "packet_bytes",
+            "save_segment_map",
+            "save_submaps",
+            "submaps_mb_per_km",
+        ],
+        "io",
+    ),
     **dict.fromkeys(["Mapper", "SegmentMap"], "mapper"),
     **dict.fromkeys(["Segment", "Status"], "segment"),
-    **dict.fromkeys(["SEGMENTERS", "Mask", "Segmenter", "SegmenterConfig", "SimulatedSegmenter",
-                     "build_segmenter"], "segmenter"),
+    **dict.fromkeys(
+        ["SEGMENTERS", "Mask", "Segmenter", "SegmenterConfig", "SimulatedSegmenter", "build_segmenter"], "segmenter"
+    ),
     **dict.fromkeys(["EncodeContext", "SemanticConfig", "SemanticEncoder", "SimulatedEncoder"], "semantics"),
     **dict.fromkeys(["SubmapConfig", "build_submaps"], "submap"),
     **dict.fromkeys(["MappingConfig", "Observation", "Tracker"], "tracker"),

@@ -106,9 +106,14 @@ def _rates(g: Any) -> dict[str, Any]:
     obj = np.asarray(g.table_objects, dtype=np.float64)
     det = np.asarray(g.table_detected, dtype=np.float64)
     over = np.asarray(g.table_over, dtype=np.float64).sum()
-    return {"objects": obj, "miss": np.where(obj > 0, 1.0 - det / np.maximum(obj, 1), 0.0),
-            "over": over / max(det.sum(), 1.0), "under": g.under_segmented / max(g.touching_pairs, 1),
-            "spurious": g.spurious / max(g.frames, 1), "iou": g.mean_iou or 0.0}
+    return {
+        "objects": obj,
+        "miss": np.where(obj > 0, 1.0 - det / np.maximum(obj, 1), 0.0),
+        "over": over / max(det.sum(), 1.0),
+        "under": g.under_segmented / max(g.touching_pairs, 1),
+        "spurious": g.spurious / max(g.frames, 1),
+        "iou": g.mean_iou or 0.0,
+    }
 
 
 def _ratio_step(value: float, target: float, sim: float, hi: float) -> float:
@@ -117,8 +122,9 @@ def _ratio_step(value: float, target: float, sim: float, hi: float) -> float:
     return _clip(value + target, 0.0, hi)
 
 
-def fit_segmenter(target: Any, grade: GradeFn, prior: SegmenterConfig | None = None,
-                  iterations: int = 4) -> SegmenterConfig:
+def fit_segmenter(
+    target: Any, grade: GradeFn, prior: SegmenterConfig | None = None, iterations: int = 4
+) -> SegmenterConfig:
     """``fastsam`` error rates whose grades on the calibration frames match ``target``'s.
 
     Args:
@@ -129,8 +135,10 @@ def fit_segmenter(target: Any, grade: GradeFn, prior: SegmenterConfig | None = N
     """
     cfg = (prior or SegmenterConfig()).model_copy()
     want = _rates(target)
-    best = min(range(5), key=lambda px: abs(_rates(grade(cfg.model_copy(update={"boundary_noise_px": px})))["iou"]
-                                             - want["iou"]))
+    best = min(
+        range(5),
+        key=lambda px: abs(_rates(grade(cfg.model_copy(update={"boundary_noise_px": px})))["iou"] - want["iou"]),
+    )
     cfg = cfg.model_copy(update={"boundary_noise_px": best})
     feats = _features(cfg, target.area_edges_frac, target.distance_edges_m)
     w = np.sqrt(want["objects"]).ravel()
@@ -138,11 +146,14 @@ def fit_segmenter(target: Any, grade: GradeFn, prior: SegmenterConfig | None = N
         got = _rates(grade(cfg))
         resid = (want["miss"] - got["miss"]).ravel()
         step, *_ = np.linalg.lstsq(feats.reshape(-1, 3) * w[:, None], resid * w, rcond=None)
-        upd = {"miss_prob": _clip(cfg.miss_prob + step[0]), "miss_small_prob": _clip(cfg.miss_small_prob + step[1]),
-               "miss_far_prob": _clip(cfg.miss_far_prob + step[2]),
-               "oversegment_prob": _ratio_step(cfg.oversegment_prob, want["over"], got["over"], 1.0),
-               "undersegment_prob": _ratio_step(cfg.undersegment_prob, want["under"], got["under"], 1.0),
-               "spurious_rate": _ratio_step(cfg.spurious_rate, want["spurious"], got["spurious"], 20.0)}
+        upd = {
+            "miss_prob": _clip(cfg.miss_prob + step[0]),
+            "miss_small_prob": _clip(cfg.miss_small_prob + step[1]),
+            "miss_far_prob": _clip(cfg.miss_far_prob + step[2]),
+            "oversegment_prob": _ratio_step(cfg.oversegment_prob, want["over"], got["over"], 1.0),
+            "undersegment_prob": _ratio_step(cfg.undersegment_prob, want["under"], got["under"], 1.0),
+            "spurious_rate": _ratio_step(cfg.spurious_rate, want["spurious"], got["spurious"], 20.0),
+        }
         cfg = cfg.model_copy(update=upd)
         log.info("segmenter calibration round %d: %s", it + 1, upd)
     return cfg

@@ -118,8 +118,9 @@ def _check_entry(registry: Registry[ComponentSpec], entry: ComponentEntry, field
     if ":" in entry.name:
         return
     if entry.name not in registry:
-        raise ValueError(f"unknown {registry.kind} {entry.name!r} (valid: {', '.join(registry.names())}, "
-                         "or package.module:Class)")
+        raise ValueError(
+            f"unknown {registry.kind} {entry.name!r} (valid: {', '.join(registry.names())}, or package.module:Class)"
+        )
     validate_model(registry.get(entry.name).params_model, entry.params, source=f"{field}.params")
 
 
@@ -155,8 +156,9 @@ def _user_spec(name: str, kind: str) -> ComponentSpec:
         except TypeError as err:
             raise ConfigError(f"{kind} {name!r}: cannot construct it with params {sorted(params)} ({err})") from None
 
-    return ComponentSpec(build, NoParams, bool(getattr(cls, "needs_rgb", False)),
-                         bool(getattr(cls, "reads_truth", False)), "user class")
+    return ComponentSpec(
+        build, NoParams, bool(getattr(cls, "needs_rgb", False)), bool(getattr(cls, "reads_truth", False)), "user class"
+    )
 
 
 def segmenter_spec(entry: ComponentEntry | str) -> ComponentSpec:
@@ -178,8 +180,9 @@ def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field:
     return spec.build(params, ctx)
 
 
-def _entry(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], cls: type[ComponentEntry],
-           field: str) -> ComponentEntry:
+def _entry(
+    cfg: FrontEnd | ComponentEntry | str | dict[str, Any], cls: type[ComponentEntry], field: str
+) -> ComponentEntry:
     if isinstance(cfg, FrontEnd):
         return getattr(cfg, field.rsplit(".", 1)[-1])
     if isinstance(cfg, ComponentEntry):
@@ -197,8 +200,12 @@ def build_segmenter(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], seed:
     return _build(segmenter_spec(entry), entry, ctx, "frontend.segmenter")
 
 
-def build_encoder(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], seed: int = 0, robot: str = "",
-                  families: Mapping[int, str] | None = None) -> Any:
+def build_encoder(
+    cfg: FrontEnd | ComponentEntry | str | dict[str, Any],
+    seed: int = 0,
+    robot: str = "",
+    families: Mapping[int, str] | None = None,
+) -> Any:
     """The configured semantic encoder of ``robot``.
 
     Args:
@@ -225,15 +232,19 @@ def check_robots(frontend: FrontEnd, robots: Iterable[Any]) -> None:
         if not r.render_rgb:
             names = " and ".join(f"{w} {getattr(frontend, w).name!r}" for w in which)
             verb = "need" if len(which) > 1 else "needs"
-            raise ConfigError(f"robots.{r.name}.render_rgb: the front end's {names} {verb} RGB images; "
-                              f"set render_rgb: true for robot {r.name!r}")
+            raise ConfigError(
+                f"robots.{r.name}.render_rgb: the front end's {names} {verb} RGB images; "
+                f"set render_rgb: true for robot {r.name!r}"
+            )
 
 
 def check_frontend(frontend: FrontEnd, robots: Iterable[Any]) -> None:
     """``check_robots``, then each built-in component's own check (model folders), building nothing."""
     check_robots(frontend, robots)
-    for entry, spec, field in ((frontend.segmenter, segmenter_spec(frontend.segmenter), "frontend.segmenter"),
-                               (frontend.encoder, encoder_spec(frontend.encoder), "frontend.encoder")):
+    for entry, spec, field in (
+        (frontend.segmenter, segmenter_spec(frontend.segmenter), "frontend.segmenter"),
+        (frontend.encoder, encoder_spec(frontend.encoder), "frontend.encoder"),
+    ):
         if spec.check is not None and ":" not in entry.name:
             spec.check(validate_model(spec.params_model, entry.params, source=f"{field}.params"))
 
@@ -245,6 +256,7 @@ def reads_truth(component: Any) -> bool:
 
 # Built-in components. Factories import their modules on use, so that loading a configuration
 # never imports an optional model library.
+
 
 def _simulated_segmenter(preset: str) -> Callable[[Any, BuildContext], Any]:
     def build(params: Any, ctx: BuildContext) -> Any:
@@ -309,25 +321,81 @@ def _register_builtins() -> None:
     from roman_sim.mapping.segmenter import SegmenterConfig
 
     seg, enc = SEGMENTER_TYPES.register, ENCODER_TYPES.register
-    seg("perfect", ComponentSpec(_simulated_segmenter("perfect"), SegmenterConfig, False, True,
-                                 "true instance masks, ROMAN's area filter and erosion only"))
-    seg("fastsam", ComponentSpec(_simulated_segmenter("fastsam"), SegmenterConfig, False, True,
-                                 "true instance masks degraded by FastSAM-like errors (SegmenterConfig)"))
-    seg("image", ComponentSpec(_image_segmenter, ImageSegmenterConfig, True, False,
-                               "colour regions cut and joined by depth (no truth)"))
-    seg("sam", ComponentSpec(_sam_segmenter, SamConfig, True, False,
-                             "Segment Anything automatic masks (local weights, transformers)",
-                             _weights_check("frontend.segmenter.params.weights", ("sam",))))
-    enc("simulated", ComponentSpec(_simulated_encoder, NoParams, False, True,
-                                   "CLIP-like descriptors from the true family (frontend.semantics)"))
-    enc("image", ComponentSpec(_image_encoder, ImageEncoderConfig, True, False,
-                               "colour and texture statistics of the mask's crop (no truth)"))
-    enc("clip", ComponentSpec(_clip_encoder, ClipConfig, True, False,
-                              "CLIP image embedding of the mask's box crop (local weights)",
-                              _weights_check("frontend.encoder.params.weights", ("clip", "clip_vision_model"))))
-    enc("dinov2", ComponentSpec(_dinov2_encoder, Dinov2Config, True, False,
-                                "DINOv2 patch features averaged over the mask (local weights)",
-                                _weights_check("frontend.encoder.params.weights", ("dinov2",))))
+    seg(
+        "perfect",
+        ComponentSpec(
+            _simulated_segmenter("perfect"),
+            SegmenterConfig,
+            False,
+            True,
+            "true instance masks, ROMAN's area filter and erosion only",
+        ),
+    )
+    seg(
+        "fastsam",
+        ComponentSpec(
+            _simulated_segmenter("fastsam"),
+            SegmenterConfig,
+            False,
+            True,
+            "true instance masks degraded by FastSAM-like errors (SegmenterConfig)",
+        ),
+    )
+    seg(
+        "image",
+        ComponentSpec(
+            _image_segmenter, ImageSegmenterConfig, True, False, "colour regions cut and joined by depth (no truth)"
+        ),
+    )
+    seg(
+        "sam",
+        ComponentSpec(
+            _sam_segmenter,
+            SamConfig,
+            True,
+            False,
+            "Segment Anything automatic masks (local weights, transformers)",
+            _weights_check("frontend.segmenter.params.weights", ("sam",)),
+        ),
+    )
+    enc(
+        "simulated",
+        ComponentSpec(
+            _simulated_encoder, NoParams, False, True, "CLIP-like descriptors from the true family (frontend.semantics)"
+        ),
+    )
+    enc(
+        "image",
+        ComponentSpec(
+            _image_encoder,
+            ImageEncoderConfig,
+            True,
+            False,
+            "colour and texture statistics of the mask's crop (no truth)",
+        ),
+    )
+    enc(
+        "clip",
+        ComponentSpec(
+            _clip_encoder,
+            ClipConfig,
+            True,
+            False,
+            "CLIP image embedding of the mask's box crop (local weights)",
+            _weights_check("frontend.encoder.params.weights", ("clip", "clip_vision_model")),
+        ),
+    )
+    enc(
+        "dinov2",
+        ComponentSpec(
+            _dinov2_encoder,
+            Dinov2Config,
+            True,
+            False,
+            "DINOv2 patch features averaged over the mask (local weights)",
+            _weights_check("frontend.encoder.params.weights", ("dinov2",)),
+        ),
+    )
 
 
 _register_builtins()

@@ -26,7 +26,7 @@ from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError
-from roman_sim.mapping.segmenter import Mask
+from roman_sim.mapping.mask import Mask
 
 
 class ImageEncoderConfig(StrictModel):
@@ -92,8 +92,9 @@ class ImageEncoder:
         codes = _Codes(crop, self.cfg)
         return self._describe(codes, m, (0, 0))
 
-    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask],
-                     contexts: list[Any]) -> NDArray[np.float32]:
+    def encode_batch(
+        self, rgb: NDArray[np.uint8] | None, masks: list[Mask], contexts: list[Any]
+    ) -> NDArray[np.float32]:
         """(N, dim) unit descriptors of every mask of one frame (codes computed once)."""
         if rgb is None:
             raise MappingError("image encoder: the frame has no RGB (set render_rgb: true)")
@@ -112,13 +113,16 @@ class ImageEncoder:
 
     def _describe(self, codes: _Codes, pix: NDArray[np.bool_], at: tuple[int, int]) -> NDArray[np.float32]:
         h, w = pix.shape
-        win = np.s_[at[0]:at[0] + h, at[1]:at[1] + w]
+        win = np.s_[at[0] : at[0] + h, at[1] : at[1] + w]
         if not np.any(pix):
             raise MappingError("image encoder: empty mask")
-        hists = (np.bincount(codes.colour[win][pix], minlength=self.sizes[0]).astype(np.float64),
-                 np.bincount(codes.orient[win][pix], weights=codes.weight[win][pix],
-                             minlength=self.sizes[1]).astype(np.float64),
-                 np.bincount(codes.lbp[win][pix], minlength=self.sizes[2]).astype(np.float64))
+        hists = (
+            np.bincount(codes.colour[win][pix], minlength=self.sizes[0]).astype(np.float64),
+            np.bincount(codes.orient[win][pix], weights=codes.weight[win][pix], minlength=self.sizes[1]).astype(
+                np.float64
+            ),
+            np.bincount(codes.lbp[win][pix], minlength=self.sizes[2]).astype(np.float64),
+        )
         blocks = [_block(hh, wt, self.cfg.centre) for hh, wt in zip(hists, self.weights)]
         v = np.concatenate(blocks)
         n = np.linalg.norm(v)
@@ -173,12 +177,12 @@ def uniform_lbp(grey: NDArray[Any]) -> NDArray[np.int32]:
         dr, dc = rr - r0, cc - c0
         # the neighbour's cell offset is the same at every pixel (read at pixel 0, 0)
         a, b = 1 + int(r0[0, 0]), 1 + int(c0[0, 0])
-        tl = pad[a:a + H, b:b + W]
+        tl = pad[a : a + H, b : b + W]
         if not dr.any() and not dc.any():
             bit = tl >= img  # on the pixel grid the interpolation returns the pixel itself
         else:
-            tr = pad[a:a + H, b + 1:b + 1 + W]
-            bl, br = pad[a + 1:a + 1 + H, b:b + W], pad[a + 1:a + 1 + H, b + 1:b + 1 + W]
+            tr = pad[a : a + H, b + 1 : b + 1 + W]
+            bl, br = pad[a + 1 : a + 1 + H, b : b + W], pad[a + 1 : a + 1 + H, b + 1 : b + 1 + W]
             one_dc = 1 - dc
             np.multiply(one_dc, tl, out=top)
             np.multiply(dc, tr, out=tmp)

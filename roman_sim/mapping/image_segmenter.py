@@ -31,9 +31,9 @@ from scipy import sparse
 from scipy.sparse.csgraph import connected_components
 
 from roman_sim.core.errors import MappingError
+from roman_sim.core.sensors import Frame
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
-from roman_sim.mapping.segmenter import Mask
-from roman_sim.sensors import Frame
 
 
 class ImageSegmenterConfig(MaskFilterConfig):
@@ -48,16 +48,35 @@ class ImageSegmenterConfig(MaskFilterConfig):
     depth_jump_rel: float = Field(0.06, ge=0, le=1)
     smooth_px: int = Field(2, ge=0, le=10, description="radius of the valid-depth box filter")
     ground_normal_deg: float = Field(30.0, ge=0, le=90, description="normals this close to up are ground")
-    merge_min_continuous: float = Field(0.6, ge=0, le=1.01, description="share of a border that must be "
-                                        "depth-continuous to merge two regions (> 1: never merge)")
-    cap_border_share: float = Field(0.5, ge=0, le=1.01, description="share of a ground region's border an "
-                                    "object region must hold to absorb it (an object's top)")
-    ground_flat_m: float = Field(0.06, ge=0, le=1, description="regions flatter than this (std of their points "
-                                 "along an up-facing normal) are ground")
-    min_valid_fraction: float = Field(0.25, ge=0, le=1, description="regions with a smaller share of valid "
-                                      "depth pixels are dropped (they could not be back-projected)")
-    merge_max_chroma: float = Field(20.0, ge=0, description="largest distance of mean Lab (a, b) chroma "
-                                    "(8-bit units) between two regions that merge")
+    merge_min_continuous: float = Field(
+        0.6,
+        ge=0,
+        le=1.01,
+        description="share of a border that must be depth-continuous to merge two regions (> 1: never merge)",
+    )
+    cap_border_share: float = Field(
+        0.5,
+        ge=0,
+        le=1.01,
+        description="share of a ground region's border an object region must hold to absorb it (an object's top)",
+    )
+    ground_flat_m: float = Field(
+        0.06,
+        ge=0,
+        le=1,
+        description="regions flatter than this (std of their points along an up-facing normal) are ground",
+    )
+    min_valid_fraction: float = Field(
+        0.25,
+        ge=0,
+        le=1,
+        description="regions with a smaller share of valid depth pixels are dropped (they could not be back-projected)",
+    )
+    merge_max_chroma: float = Field(
+        20.0,
+        ge=0,
+        description="largest distance of mean Lab (a, b) chroma (8-bit units) between two regions that merge",
+    )
 
 
 class ImageSegmenter:
@@ -72,8 +91,10 @@ class ImageSegmenter:
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of one frame (``frame.rgb`` required)."""
         if frame.rgb is None:
-            raise MappingError(f"image segmenter: frame {frame.index} of robot {frame.robot} has no RGB "
-                               "(set render_rgb: true for this robot)")
+            raise MappingError(
+                f"image segmenter: frame {frame.index} of robot {frame.robot} has no RGB "
+                "(set render_rgb: true for this robot)"
+            )
         labels = self.labels(frame)
         return masks_from_labels(labels, self.cfg)
 
@@ -98,10 +119,14 @@ class ImageSegmenter:
         # Colour regions only in the window of valid non-ground cells (grown by 2): sky, far and
         # ground-only rows cost nothing (ground cells outside keep one colour; they are dropped).
         rows, cols = np.flatnonzero(objects.any(axis=1)), np.flatnonzero(objects.any(axis=0))
-        win = np.s_[max(rows[0] - 2, 0):rows[-1] + 3, max(cols[0] - 2, 0):cols[-1] + 3]
+        win = np.s_[max(rows[0] - 2, 0) : rows[-1] + 3, max(cols[0] - 2, 0) : cols[-1] + 3]
         colour = np.zeros((h, w), dtype=np.int64)
-        colour[win] = felzenszwalb(np.ascontiguousarray(small_rgb[win]), scale=self.cfg.scale, sigma=self.cfg.sigma,
-                                   min_size=self.cfg.min_size_px)
+        colour[win] = felzenszwalb(
+            np.ascontiguousarray(small_rgb[win]),
+            scale=self.cfg.scale,
+            sigma=self.cfg.sigma,
+            min_size=self.cfg.min_size_px,
+        )
         regions = self._regions(colour, d, valid, ground)
         chroma = cv2.cvtColor(np.ascontiguousarray(small_rgb), cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float64)
         regions = self._merge(regions, d, ground, chroma)
@@ -124,8 +149,9 @@ class ImageSegmenter:
         v = (np.arange(h, dtype=np.float32) + 0.5) * step - 0.5
         return np.stack([(u[None, :] - intr.cx) / intr.fx * d, (v[:, None] - intr.cy) / intr.fy * d, d], axis=-1)
 
-    def _ground(self, frame: Frame, P: NDArray[np.float32],
-                valid: NDArray[np.bool_]) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    def _ground(
+        self, frame: Frame, P: NDArray[np.float32], valid: NDArray[np.bool_]
+    ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
         """(ground, known): cells whose normal is within ``ground_normal_deg`` of up, and cells with a normal.
 
         Differences use valid neighbours only (central where both exist, else one-sided); a
@@ -144,8 +170,9 @@ class ImageSegmenter:
         jump = np.maximum(self.cfg.depth_jump_m, self.cfg.depth_jump_rel * np.minimum(da, db))
         return np.abs(da - db) <= jump
 
-    def _regions(self, colour: NDArray[np.int64], d: NDArray[np.float32], valid: NDArray[np.bool_],
-                 ground: NDArray[np.bool_]) -> NDArray[np.int32]:
+    def _regions(
+        self, colour: NDArray[np.int64], d: NDArray[np.float32], valid: NDArray[np.bool_], ground: NDArray[np.bool_]
+    ) -> NDArray[np.int32]:
         """Connected components of the pixel graph of step 3 (1-based; 0 = invalid)."""
         h, w = d.shape
         N = h * w
@@ -153,8 +180,9 @@ class ImageSegmenter:
         # built in CSR form directly (row i holds i + 1 and then i + w), with no sorting.
         grid = np.zeros((h, w, 2), dtype=bool)
         for k, (a, b) in enumerate(((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :]))):
-            grid[a + (k,)] = (valid[a] & valid[b] & (colour[a] == colour[b]) & (ground[a] == ground[b])
-                              & self._continuous(d[a], d[b]))
+            grid[a + (k,)] = (
+                valid[a] & valid[b] & (colour[a] == colour[b]) & (ground[a] == ground[b]) & self._continuous(d[a], d[b])
+            )
         link = grid.reshape(N, 2)
         targets = np.stack([np.arange(1, N + 1, dtype=np.int32), np.arange(w, N + w, dtype=np.int32)], axis=1)
         indptr = np.zeros(N + 1, dtype=np.int32)
@@ -167,8 +195,9 @@ class ImageSegmenter:
         out[v] = _dense_ranks(lab[v], n_comp)
         return out.reshape(h, w)
 
-    def _merge(self, regions: NDArray[np.int32], d: NDArray[np.float32], ground: NDArray[np.bool_],
-               chroma: NDArray[np.float64]) -> NDArray[np.int32]:
+    def _merge(
+        self, regions: NDArray[np.int32], d: NDArray[np.float32], ground: NDArray[np.bool_], chroma: NDArray[np.float64]
+    ) -> NDArray[np.int32]:
         """Step 4: merge depth-continuous neighbours of similar chroma, drop ground regions.
 
         Two non-ground regions merge; a ground region merges into a non-ground one only when
@@ -180,8 +209,9 @@ class ImageSegmenter:
             return regions
         flat = regions.ravel()
         size = np.maximum(np.bincount(flat, minlength=n + 1), 1)
-        mean_ab = np.stack([np.bincount(flat, weights=chroma[..., k].ravel(), minlength=n + 1) / size
-                            for k in range(2)], axis=1)
+        mean_ab = np.stack(
+            [np.bincount(flat, weights=chroma[..., k].ravel(), minlength=n + 1) / size for k in range(2)], axis=1
+        )
         is_ground = np.bincount(regions[ground], minlength=n + 1) * 2 > size
         ua, ub, count, share = self._borders(regions, d, n)
         border = np.bincount(ua, weights=count, minlength=n + 1) + np.bincount(ub, weights=count, minlength=n + 1)
@@ -203,8 +233,9 @@ class ImageSegmenter:
         dense[~gone] = _dense_ranks(root[~gone], n + 1)
         return dense[regions]
 
-    def _borders(self, regions: NDArray[np.int32], d: NDArray[np.float32],
-                 n: int) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    def _borders(
+        self, regions: NDArray[np.int32], d: NDArray[np.float32], n: int
+    ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
         """Neighbouring region pairs (a < b): labels, border length and its depth-continuous share."""
         pa, pb, cont = [], [], []
         for sa, sb in ((np.s_[:, :-1], np.s_[:, 1:]), (np.s_[:-1, :], np.s_[1:, :])):
@@ -248,8 +279,9 @@ class ImageSegmenter:
         return dense[regions]
 
 
-def _drop_unsupported(regions: NDArray[np.int32], valid: NDArray[np.bool_] | NDArray[np.int64], min_share: float,
-                      cell_px: int = 1) -> NDArray[np.int32]:
+def _drop_unsupported(
+    regions: NDArray[np.int32], valid: NDArray[np.bool_] | NDArray[np.int64], min_share: float, cell_px: int = 1
+) -> NDArray[np.int32]:
     """Regions with less than ``min_share`` of valid depth pixels set to 0.
 
     ``valid`` holds each cell's number of valid pixels (a boolean image: one pixel per cell)
@@ -282,8 +314,9 @@ def _up_in_camera(frame: Frame) -> NDArray[np.float32]:
     return (R.T @ np.array([0.0, 0.0, 1.0])).astype(np.float32)
 
 
-def _mean_depth(depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tuple[int, int],
-                radius: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+def _mean_depth(
+    depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tuple[int, int], radius: int
+) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
     """Mean of the valid depth in each working cell and a box of ``radius`` cells; (depth, valid).
 
     A cell is valid when some valid pixel lies within ``radius`` cells: this fills the holes
@@ -306,8 +339,9 @@ def _mean_depth(depth: NDArray[np.float32], valid: NDArray[np.bool_], shape: tup
     return np.where(ok, num / np.maximum(den, 1e-6), 0).astype(np.float32), ok
 
 
-def _difference(P: NDArray[np.float32], valid: NDArray[np.bool_],
-                axis: int) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
+def _difference(
+    P: NDArray[np.float32], valid: NDArray[np.bool_], axis: int
+) -> tuple[NDArray[np.float32], NDArray[np.bool_]]:
     """Per-cell difference of ``P`` along ``axis`` from valid neighbours, and where one exists."""
     fwd = np.zeros_like(P)
     ok_f = np.zeros_like(valid)

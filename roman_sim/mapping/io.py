@@ -60,8 +60,10 @@ def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndar
         found = header.get("format") if isinstance(header, dict) else None
         raise StorageError(f"{path}: expected format {fmt!r}, found {found!r}")
     if header.get("version") not in READABLE_VERSIONS:
-        raise StorageError(f"{path}: format version {header.get('version')!r} not supported "
-                           f"(this reader: {', '.join(map(str, READABLE_VERSIONS))})")
+        raise StorageError(
+            f"{path}: format version {header.get('version')!r} not supported "
+            f"(this reader: {', '.join(map(str, READABLE_VERSIONS))})"
+        )
     return header, arrays
 
 
@@ -73,17 +75,32 @@ def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
     for k, s in enumerate(segs):
         if s.descriptor_sum is not None:
             dsum[k] = s.descriptor_sum
-    meta = [{"id": s.id, "first_seen": s.first_seen, "last_seen": s.last_seen,
-             "num_sightings": s.num_sightings, "status": s.status.value,
-             "truth_counts": sorted([int(k), int(v)] for k, v in s.truth_counts.items())} for s in segs]
+    meta = [
+        {
+            "id": s.id,
+            "first_seen": s.first_seen,
+            "last_seen": s.last_seen,
+            "num_sightings": s.num_sightings,
+            "status": s.status.value,
+            "truth_counts": sorted([int(k), int(v)] for k, v in s.truth_counts.items()),
+        }
+        for s in segs
+    ]
     header = {"format": "roman_sim.segment_map", "version": FORMAT_VERSION, "robot": smap.robot, "segments": meta}
     truth = {} if smap.T_world_body is None else {"T_world_body": smap.T_world_body}
-    write_arrays(path, {
-        "header": _header(header), "times": smap.times, "T_odom_body": smap.T_odom_body, **truth,
-        "points": np.concatenate([s.points for s in segs]) if segs else np.zeros((0, 3)),
-        "offsets": np.cumsum([0] + [len(s.points) for s in segs]),
-        "descriptor_sum": dsum, "has_descriptor": np.array([s.descriptor_sum is not None for s in segs], dtype=bool),
-    })
+    write_arrays(
+        path,
+        {
+            "header": _header(header),
+            "times": smap.times,
+            "T_odom_body": smap.T_odom_body,
+            **truth,
+            "points": np.concatenate([s.points for s in segs]) if segs else np.zeros((0, 3)),
+            "offsets": np.cumsum([0] + [len(s.points) for s in segs]),
+            "descriptor_sum": dsum,
+            "has_descriptor": np.array([s.descriptor_sum is not None for s in segs], dtype=bool),
+        },
+    )
 
 
 def load_segment_map(path: str | Path) -> SegmentMap:
@@ -92,15 +109,22 @@ def load_segment_map(path: str | Path) -> SegmentMap:
     try:
         segs = []
         for k, m in enumerate(header["segments"]):
-            pts = a["points"][a["offsets"][k]:a["offsets"][k + 1]]
-            segs.append(Segment(
-                id=int(m["id"]), points=pts, first_seen=float(m["first_seen"]), last_seen=float(m["last_seen"]),
-                num_sightings=int(m["num_sightings"]),
-                descriptor_sum=a["descriptor_sum"][k].copy() if a["has_descriptor"][k] else None,
-                truth_counts=Counter({int(i): int(c) for i, c in m["truth_counts"]}),
-                status=Status(m["status"])))
-        return SegmentMap(str(header["robot"]), segs, a["times"], a["T_odom_body"],
-                          a["T_world_body"] if "T_world_body" in a else None)
+            pts = a["points"][a["offsets"][k] : a["offsets"][k + 1]]
+            segs.append(
+                Segment(
+                    id=int(m["id"]),
+                    points=pts,
+                    first_seen=float(m["first_seen"]),
+                    last_seen=float(m["last_seen"]),
+                    num_sightings=int(m["num_sightings"]),
+                    descriptor_sum=a["descriptor_sum"][k].copy() if a["has_descriptor"][k] else None,
+                    truth_counts=Counter({int(i): int(c) for i, c in m["truth_counts"]}),
+                    status=Status(m["status"]),
+                )
+            )
+        return SegmentMap(
+            str(header["robot"]), segs, a["times"], a["T_odom_body"], a["T_world_body"] if "T_world_body" in a else None
+        )
     except (KeyError, IndexError, TypeError, ValueError) as err:
         raise StorageError(f"{path}: inconsistent segment map ({type(err).__name__}: {err})") from None
 
@@ -126,9 +150,16 @@ def save_submaps(path: str | Path, submaps: list[Submap]) -> None:
     meta = []
     for k, s in enumerate(submaps):
         arrays.update(_submap_arrays(k, s))
-        meta.append({"robot": s.robot, "index": s.index, "t": s.t,
-                     "points": s.points is not None, "keyframes": s.keyframes is not None,
-                     "truth": s.truth is not None})
+        meta.append(
+            {
+                "robot": s.robot,
+                "index": s.index,
+                "t": s.t,
+                "points": s.points is not None,
+                "keyframes": s.keyframes is not None,
+                "truth": s.truth is not None,
+            }
+        )
     header = {"format": "roman_sim.submaps", "version": FORMAT_VERSION, "submaps": meta}
     write_arrays(path, {"header": _header(header), **arrays})
 
@@ -143,12 +174,24 @@ def load_submaps(path: str | Path) -> list[Submap]:
             points = None
             if m["points"]:
                 pts, off = a[f"s{k}_points"], a[f"s{k}_offsets"]
-                points = [pts[off[i]:off[i + 1]] for i in range(len(off) - 1)]
-            truth = SubmapTruth(*(a[f"s{k}_truth_{f}"] for f in ("T_world_submap", "object_ids", "purity"))) \
-                if m["truth"] else None
+                points = [pts[off[i] : off[i + 1]] for i in range(len(off) - 1)]
+            truth = (
+                SubmapTruth(*(a[f"s{k}_truth_{f}"] for f in ("T_world_submap", "object_ids", "purity")))
+                if m["truth"]
+                else None
+            )
             kf = KeyframeSet(*(a[f"s{k}_kf_{f}"] for f in KeyframeSet.FIELDS)) if m.get("keyframes") else None
-            out.append(Submap(robot=str(m["robot"]), index=int(m["index"]), t=float(m["t"]),
-                              points=points, keyframes=kf, truth=truth, **fields))
+            out.append(
+                Submap(
+                    robot=str(m["robot"]),
+                    index=int(m["index"]),
+                    t=float(m["t"]),
+                    points=points,
+                    keyframes=kf,
+                    truth=truth,
+                    **fields,
+                )
+            )
         return out
     except (KeyError, IndexError, TypeError, ValueError) as err:
         raise StorageError(f"{path}: inconsistent submap file ({type(err).__name__}: {err})") from None
@@ -191,12 +234,17 @@ def keyframe_packet_bytes(submap: Submap) -> int:
         return 0
     small_ids = len(kf.bow_words) == 0 or int(kf.bow_words.max()) < 2**16
     return _compressed_size(
-        t=kf.t.astype(np.float64), T_submap_cam=kf.T_submap_cam[:, :3, :].astype(np.float32),
-        intrinsics=kf.intrinsics.astype(np.float32), bow_offsets=kf.bow_offsets.astype(np.int32),
+        t=kf.t.astype(np.float64),
+        T_submap_cam=kf.T_submap_cam[:, :3, :].astype(np.float32),
+        intrinsics=kf.intrinsics.astype(np.float32),
+        bow_offsets=kf.bow_offsets.astype(np.int32),
         bow_words=kf.bow_words.astype(np.uint16 if small_ids else np.int32),
         bow_values=kf.bow_values.astype(np.float32),
-        feat_offsets=kf.feat_offsets.astype(np.int32), uv=kf.uv.astype(np.float32), descriptors=kf.descriptors,
-        points=kf.points.astype(np.float32))
+        feat_offsets=kf.feat_offsets.astype(np.int32),
+        uv=kf.uv.astype(np.float32),
+        descriptors=kf.descriptors,
+        points=kf.points.astype(np.float32),
+    )
 
 
 def packet_bytes(submap: Submap, part: PacketPart = "segments") -> int:
@@ -213,10 +261,16 @@ def packet_bytes(submap: Submap, part: PacketPart = "segments") -> int:
         return keyframe_packet_bytes(submap)
     s = submap.public()
     seg = _compressed_size(
-        T_odom_submap=s.T_odom_submap, t=np.float64(s.t), index=np.int32(s.index),
-        segment_ids=s.segment_ids.astype(np.int32), centers=s.centers.astype(np.float32),
-        volumes=s.volumes.astype(np.float32), shape=s.shape.astype(np.float32),
-        extents=s.extents.astype(np.float32), descriptors=np.asarray(s.descriptors).astype(np.float16))
+        T_odom_submap=s.T_odom_submap,
+        t=np.float64(s.t),
+        index=np.int32(s.index),
+        segment_ids=s.segment_ids.astype(np.int32),
+        centers=s.centers.astype(np.float32),
+        volumes=s.volumes.astype(np.float32),
+        shape=s.shape.astype(np.float32),
+        extents=s.extents.astype(np.float32),
+        descriptors=np.asarray(s.descriptors).astype(np.float16),
+    )
     return seg + (keyframe_packet_bytes(submap) if part == "all" else 0)
 
 

@@ -10,14 +10,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
+from roman_sim.core.sensors import Frame, check_frame
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.mapping.frontend import reads_truth
+from roman_sim.mapping.mask import Mask, Segmenter
 from roman_sim.mapping.observation import observe_indexed
 from roman_sim.mapping.segment import Segment
-from roman_sim.mapping.segmenter import Mask, Segmenter
 from roman_sim.mapping.semantics import SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Tracker
-from roman_sim.sensors import Frame, check_frame
 
 log = logging.getLogger(__name__)
 
@@ -85,10 +85,14 @@ class Mapper:
     ``reads_truth``; the encoder gets truth-derived contexts only if it declares it.
     """
 
-    def __init__(self, cfg: MappingConfig, segmenter: Segmenter,
-                 encoder: SemanticEncoder | None = None, seed: int = 0,
-                 on_frame: Callable[[Frame, list[Mask], list[tuple[int, NDArray[np.float32] | None]]], None]
-                 | None = None) -> None:
+    def __init__(
+        self,
+        cfg: MappingConfig,
+        segmenter: Segmenter,
+        encoder: SemanticEncoder | None = None,
+        seed: int = 0,
+        on_frame: Callable[[Frame, list[Mask], list[tuple[int, NDArray[np.float32] | None]]], None] | None = None,
+    ) -> None:
         self.cfg = cfg
         self.segmenter = segmenter
         self.encoder = encoder
@@ -113,8 +117,10 @@ class Mapper:
             raise MappingError(f"mapper: frame {frame.index} time {frame.t} goes back in time")
         check_frame(frame)
         if self._t and (frame.truth is None) != (self._world is None):
-            raise MappingError(f"mapper: frame {frame.index} of robot {frame.robot}: frames with and "
-                               "without ground truth mixed in one map")
+            raise MappingError(
+                f"mapper: frame {frame.index} of robot {frame.robot}: frames with and "
+                "without ground truth mixed in one map"
+            )
         if not self._t and frame.truth is None:
             self._world = None
         masks = self.segmenter.segment(frame if reads_truth(self.segmenter) else frame.public())
@@ -134,5 +140,10 @@ class Mapper:
         self._done = True
         segs = self.tracker.flush()
         log.info("robot %s: %d frames, %d segments", self.robot, len(self._t), len(segs))
-        return SegmentMap(self.robot or "", segs, np.asarray(self._t, dtype=np.float64),
-                          _stack(self._odom), None if self._world is None else _stack(self._world))
+        return SegmentMap(
+            self.robot or "",
+            segs,
+            np.asarray(self._t, dtype=np.float64),
+            _stack(self._odom),
+            None if self._world is None else _stack(self._world),
+        )

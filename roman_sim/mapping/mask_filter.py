@@ -14,7 +14,7 @@ from pydantic import Field, model_validator
 from scipy import ndimage
 
 from roman_sim.core.config import StrictModel
-from roman_sim.mapping.segmenter import Mask, ellipse_kernel
+from roman_sim.mapping.mask import Mask, ellipse_kernel
 
 
 class MaskFilterConfig(StrictModel):

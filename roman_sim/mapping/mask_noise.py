@@ -52,8 +52,9 @@ def noisy_boundary(pix: NDArray[np.bool_], width: int, rng: np.random.Generator)
         return pix
     u = pix.view(np.uint8)
     size = 2 * width + 1  # square window: separable min/max filters are cheap
-    band = (ndimage.maximum_filter(u, size=size, mode="constant")
-            != ndimage.minimum_filter(u, size=size, mode="constant"))
+    band = ndimage.maximum_filter(u, size=size, mode="constant") != ndimage.minimum_filter(
+        u, size=size, mode="constant"
+    )
     idx = np.flatnonzero(band)
     out = pix.copy()
     flat = out.reshape(-1)
@@ -62,8 +63,9 @@ def noisy_boundary(pix: NDArray[np.bool_], width: int, rng: np.random.Generator)
     return out
 
 
-def spurious_blob(ids: NDArray[np.int32], depth: NDArray[np.float32], radius_frac: float,
-                  rng: np.random.Generator) -> tuple[NDArray[np.bool_], tuple[int, int]] | None:
+def spurious_blob(
+    ids: NDArray[np.int32], depth: NDArray[np.float32], radius_frac: float, rng: np.random.Generator
+) -> tuple[NDArray[np.bool_], tuple[int, int]] | None:
     """An elliptic crop mask on background (terrain) pixels with valid depth and its (row, col) origin."""
     h, w = ids.shape
     r, c = int(rng.integers(h)), int(rng.integers(w))

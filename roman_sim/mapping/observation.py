@@ -19,26 +19,26 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
-from roman_sim.geometry import transform_points
+from roman_sim.core.geometry import transform_points
+from roman_sim.core.sensors import Frame, backproject, check_frame
 from roman_sim.mapping.frontend import reads_truth
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.segment import pca_extents
-from roman_sim.mapping.segmenter import Mask
 from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Observation, is_plane_like
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sensors import Frame, backproject, check_frame
 
 log = logging.getLogger(__name__)
 
 
-def observe(frame: Frame, masks: list[Mask], cfg: MappingConfig,
-            encoder: SemanticEncoder | None) -> list[Observation]:
+def observe(frame: Frame, masks: list[Mask], cfg: MappingConfig, encoder: SemanticEncoder | None) -> list[Observation]:
     """Observations of ``frame`` from its ``masks`` (skipped masks are logged)."""
     return [obs for _, obs in observe_indexed(frame, masks, cfg, encoder)]
 
 
-def observe_indexed(frame: Frame, masks: list[Mask], cfg: MappingConfig,
-                    encoder: SemanticEncoder | None) -> list[tuple[int, Observation]]:
+def observe_indexed(
+    frame: Frame, masks: list[Mask], cfg: MappingConfig, encoder: SemanticEncoder | None
+) -> list[tuple[int, Observation]]:
     """(mask index, observation) of every mask that gives an observation.
 
     The encoder describes all kept masks of the frame at once when it has ``encode_batch``;
@@ -74,8 +74,9 @@ class _Geometry:
     bbox: tuple[int, int, int, int]
 
 
-def _geometry(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingConfig,
-              T_odom_cam: NDArray) -> _Geometry | None:
+def _geometry(
+    frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingConfig, T_odom_cam: NDArray
+) -> _Geometry | None:
     r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
     pix = m.pixels[r0:r1, c0:c1]
     d = depth[r0:r1, c0:c1]
@@ -84,8 +85,9 @@ def _geometry(frame: Frame, depth: NDArray[np.float32], m: Mask, cfg: MappingCon
     n_sel = int(sel.sum())
     if total == 0 or n_sel < cfg.min_points or n_sel < cfg.min_valid_fraction * total:
         return None
-    intr = replace(frame.intrinsics, width=c1 - c0, height=r1 - r0,
-                   cx=frame.intrinsics.cx - c0, cy=frame.intrinsics.cy - r0)
+    intr = replace(
+        frame.intrinsics, width=c1 - c0, height=r1 - r0, cx=frame.intrinsics.cx - c0, cy=frame.intrinsics.cy - r0
+    )
     pts_cam = backproject(d, intr, sel)
     pts = downsample(transform_points(T_odom_cam, pts_cam), cfg.voxel)
     if len(pts) < cfg.min_points or is_plane_like(pca_extents(pts), cfg.obs_plane_extents_m):
@@ -113,8 +115,9 @@ def _truth_context(frame: Frame, geo: _Geometry) -> EncodeContext:
     return EncodeContext(object_id=object_id, view_dir=centre_world - T_world_cam[:3, 3])
 
 
-def _describe(frame: Frame, masks: list[Mask], geos: list[_Geometry],
-              encoder: SemanticEncoder | None) -> NDArray[np.float32] | None:
+def _describe(
+    frame: Frame, masks: list[Mask], geos: list[_Geometry], encoder: SemanticEncoder | None
+) -> NDArray[np.float32] | None:
     """(N, D) descriptors of the kept masks, or None without an encoder."""
     if encoder is None or not masks:
         return None
@@ -125,8 +128,10 @@ def _describe(frame: Frame, masks: list[Mask], geos: list[_Geometry],
     if callable(batch):
         out = np.asarray(batch(rgb, masks, ctxs), dtype=np.float32)
         if out.ndim != 2 or out.shape[0] != len(masks):
-            raise MappingError(f"frame {frame.index}: encode_batch returned shape {out.shape} for {len(masks)} masks "
-                               "(expected (masks, dim))")
+            raise MappingError(
+                f"frame {frame.index}: encode_batch returned shape {out.shape} for {len(masks)} masks "
+                "(expected (masks, dim))"
+            )
         return out
     rows = []
     for m, ctx in zip(masks, ctxs):

@@ -19,7 +19,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
-from roman_sim.geometry import pca_shape_features
+from roman_sim.core.geometry import pca_shape_features
 from roman_sim.mapping.voxels import NEIGHBOUR_OFFSETS as _NEIGHBOUR_OFFSETS
 from roman_sim.mapping.voxels import downsample, hash_voxels, voxel_set
 
@@ -132,8 +132,9 @@ class Segment:
         self.points = downsample(points, voxel)
         self._cache.clear()
 
-    def add_observation(self, points: NDArray[np.float64], t: float, descriptor: NDArray | None,
-                        truth: Counter, voxel: float) -> None:
+    def add_observation(
+        self, points: NDArray[np.float64], t: float, descriptor: NDArray | None, truth: Counter, voxel: float
+    ) -> None:
         """Fuse one observation (points in the odometry frame) into this segment."""
         self.set_points(np.vstack([self.points, points]), voxel)
         self.first_seen = min(self.first_seen, t)
@@ -183,8 +184,11 @@ class Segment:
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Axis-aligned (min, max) corners of the points (odometry frame)."""
         if "bounds" not in self._cache:
-            self._cache["bounds"] = (self.points.min(axis=0), self.points.max(axis=0)) if len(self.points) \
+            self._cache["bounds"] = (
+                (self.points.min(axis=0), self.points.max(axis=0))
+                if len(self.points)
                 else (np.full(3, np.inf), np.full(3, -np.inf))
+            )
         return self._cache["bounds"]
 
     def _obb(self) -> tuple[NDArray[np.float64], float]:

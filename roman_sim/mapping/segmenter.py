@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,52 +22,11 @@ from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
+from roman_sim.core.sensors import Frame
+from roman_sim.mapping.mask import Mask, ellipse_kernel
 from roman_sim.mapping.mask_noise import adjacent_pairs, noisy_boundary, split_mask, spurious_blob
-from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
-
-
-@dataclass
-class Mask:
-    """One segmentation mask.
-
-    Attributes:
-        pixels: (H, W) bool mask.
-        object_ids: evaluation only: true object id(s) under the mask (empty for terrain).
-        bbox: (row0, row1, col0, col1) half-open bounding box of ``pixels``.
-    """
-
-    pixels: NDArray[np.bool_]
-    object_ids: tuple[int, ...] = ()
-    bbox: tuple[int, int, int, int] | None = None
-
-    def __post_init__(self) -> None:
-        if self.bbox is None:
-            self.bbox = mask_bbox(self.pixels)
-
-    @property
-    def area(self) -> int:
-        """Number of mask pixels."""
-        r0, r1, c0, c1 = self.bbox  # type: ignore[misc]
-        return int(self.pixels[r0:r1, c0:c1].sum())
-
-
-def mask_bbox(pixels: NDArray[np.bool_]) -> tuple[int, int, int, int]:
-    """Half-open bounding box (row0, row1, col0, col1); (0, 0, 0, 0) when empty."""
-    rows, cols = np.flatnonzero(pixels.any(axis=1)), np.flatnonzero(pixels.any(axis=0))
-    if len(rows) == 0:
-        return (0, 0, 0, 0)
-    return (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
-
-
-@runtime_checkable
-class Segmenter(Protocol):
-    """Anything that turns a frame into masks (an image model never reads ``frame.truth``)."""
-
-    def segment(self, frame: Frame) -> list[Mask]:
-        """Masks of one frame."""
-        ...
 
 
 class SegmenterConfig(StrictModel):
@@ -93,9 +52,18 @@ class SegmenterConfig(StrictModel):
 
 SEGMENTERS: Registry[SegmenterConfig] = Registry("segmenter preset")
 SEGMENTERS.register("fastsam", SegmenterConfig())
-SEGMENTERS.register("perfect", SegmenterConfig(
-    miss_prob=0, miss_small_prob=0, miss_far_prob=0, oversegment_prob=0,
-    undersegment_prob=0, spurious_rate=0, boundary_noise_px=0))
+SEGMENTERS.register(
+    "perfect",
+    SegmenterConfig(
+        miss_prob=0,
+        miss_small_prob=0,
+        miss_far_prob=0,
+        oversegment_prob=0,
+        undersegment_prob=0,
+        spurious_rate=0,
+        boundary_noise_px=0,
+    ),
+)
 
 
 def build_segmenter(cfg: SegmenterConfig | str | Any = "fastsam", seed: int = 0) -> Any:
@@ -105,18 +73,13 @@ def build_segmenter(cfg: SegmenterConfig | str | Any = "fastsam", seed: int = 0)
     ``roman_sim.mapping.frontend.build_segmenter``.
     """
     if not isinstance(cfg, (str, SegmenterConfig)):
-        from roman_sim.mapping.frontend import build_segmenter as build_entry
-
-        return build_entry(cfg, seed)
+        raise MappingError(
+            f"build_segmenter: expected a preset name or a SegmenterConfig, got {type(cfg).__name__} "
+            "(a front-end entry is built by roman_sim.mapping.frontend.build_segmenter)"
+        )
     if isinstance(cfg, str):
         cfg = SEGMENTERS.get(cfg).model_copy()
     return SimulatedSegmenter(cfg, seed)
-
-
-def ellipse_kernel(radius: int) -> NDArray[np.bool_]:
-    """Elliptical (disk) structuring element of size 2*radius+1."""
-    yy, xx = np.mgrid[-radius:radius + 1, -radius:radius + 1]
-    return (xx**2 + yy**2) <= radius**2 + radius * 0.5
 
 
 @dataclass
@@ -150,14 +113,17 @@ class SimulatedSegmenter:
     def segment(self, frame: Frame) -> list[Mask]:
         """Masks of ``frame`` (deterministic in seed, robot and frame index)."""
         if frame.truth is None or frame.truth.object_ids is None:
-            raise MappingError("the simulated segmenter cuts masks from the true instance image: "
-                               f"frame {frame.index} of robot {frame.robot} has no instance labels "
-                               "(use an image segmenter for real or truth-free frames)")
+            raise MappingError(
+                "the simulated segmenter cuts masks from the true instance image: "
+                f"frame {frame.index} of robot {frame.robot} has no instance labels "
+                "(use an image segmenter for real or truth-free frames)"
+            )
         ids = np.asarray(frame.truth.object_ids)
         depth = np.asarray(frame.depth)
         if ids.ndim != 2 or ids.shape != depth.shape:
             raise MappingError(
-                f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes")
+                f"frame {frame.index}: object_ids {ids.shape} and depth {depth.shape} must be equal 2D shapes"
+            )
         if ids.size == 0:
             log.debug("frame %d: empty image, no masks", frame.index)
             return []
@@ -176,18 +142,18 @@ class SimulatedSegmenter:
                 out.append(m)
         return out
 
-    def _padded(self, pix: NDArray[np.bool_], r0: int, c0: int, oids: tuple[int, ...],
-                shape: tuple[int, int]) -> _Crop:
+    def _padded(self, pix: NDArray[np.bool_], r0: int, c0: int, oids: tuple[int, ...], shape: tuple[int, int]) -> _Crop:
         """Crop grown by the margin that boundary noise and erosion need."""
         p = self._pad
         R0, C0 = max(r0 - p, 0), max(c0 - p, 0)
         R1, C1 = min(r0 + pix.shape[0] + p, shape[0]), min(c0 + pix.shape[1] + p, shape[1])
         out = np.zeros((R1 - R0, C1 - C0), dtype=bool)
-        out[r0 - R0:r0 - R0 + pix.shape[0], c0 - C0:c0 - C0 + pix.shape[1]] = pix
+        out[r0 - R0 : r0 - R0 + pix.shape[0], c0 - C0 : c0 - C0 + pix.shape[1]] = pix
         return _Crop(out, R0, C0, oids)
 
-    def _groups(self, ids: NDArray[np.int32], depth: NDArray[np.float32], present: list[int],
-                rng: np.random.Generator) -> list[tuple[int, ...]]:
+    def _groups(
+        self, ids: NDArray[np.int32], depth: NDArray[np.float32], present: list[int], rng: np.random.Generator
+    ) -> list[tuple[int, ...]]:
         """Object groups after under-segmentation of touching objects."""
         groups = {i: {i} for i in present}
         for a, b in adjacent_pairs(ids, depth, self.cfg.touch_depth_m):
@@ -211,8 +177,10 @@ class SimulatedSegmenter:
             area = int(sum(counts[m + 1] for m in members))
             if area < A / c.min_area_div**2 / 2:
                 continue  # far below the area filter even after boundary noise
-            sl = tuple(slice(min(slices[m][d].start for m in members), max(slices[m][d].stop for m in members))
-                       for d in range(2))
+            sl = tuple(
+                slice(min(slices[m][d].start for m in members), max(slices[m][d].stop for m in members))
+                for d in range(2)
+            )
             pix = ids[sl] == members[0] if len(members) == 1 else np.isin(ids[sl], members)
             d = depth[sl][pix]
             dist = float(np.median(d[d > 0])) if np.any(d > 0) else c.far_end_m
@@ -234,10 +202,14 @@ class SimulatedSegmenter:
         if self._kernel is not None:
             pix = ndimage.binary_erosion(pix, structure=self._kernel, border_value=0)
         full = np.zeros(shape, dtype=bool)
-        full[crop.r0:crop.r0 + pix.shape[0], crop.c0:crop.c0 + pix.shape[1]] = pix
+        full[crop.r0 : crop.r0 + pix.shape[0], crop.c0 : crop.c0 + pix.shape[1]] = pix
         rows, cols = np.nonzero(pix)
         if len(rows) == 0:
             return None
-        bbox = (crop.r0 + int(rows.min()), crop.r0 + int(rows.max()) + 1,
-                crop.c0 + int(cols.min()), crop.c0 + int(cols.max()) + 1)
+        bbox = (
+            crop.r0 + int(rows.min()),
+            crop.r0 + int(rows.max()) + 1,
+            crop.c0 + int(cols.min()),
+            crop.c0 + int(cols.max()) + 1,
+        )
         return Mask(full, tuple(crop.ids), bbox)

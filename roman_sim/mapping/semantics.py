@@ -59,8 +59,9 @@ class EncodeContext:
 class SemanticEncoder(Protocol):
     """Image crop + mask -> unit float32 descriptor (CLIP, DINO, or a simulation)."""
 
-    def encode(self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_],
-               context: EncodeContext) -> NDArray[np.float32]:
+    def encode(
+        self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_], context: EncodeContext
+    ) -> NDArray[np.float32]:
         """Unit descriptor of one masked observation."""
         ...
 
@@ -92,8 +93,9 @@ class SemanticConfig(StrictModel):
         return f"_{family}"
 
 
-def expected_cosine(cfg: SemanticConfig, same_instance: bool, view_diff_rad: float = 0.0,
-                    family_cos: float = 1.0) -> float:
+def expected_cosine(
+    cfg: SemanticConfig, same_instance: bool, view_diff_rad: float = 0.0, family_cos: float = 1.0
+) -> float:
     """High-dimensional expectation of the cosine between two simulated embeddings.
 
     Args:
@@ -130,8 +132,13 @@ class SimulatedEncoder:
     needs_rgb = False
     reads_truth = True
 
-    def __init__(self, cfg: SemanticConfig | None = None, seed: int = 0,
-                 families: Mapping[int, str] | None = None, robot: str = "") -> None:
+    def __init__(
+        self,
+        cfg: SemanticConfig | None = None,
+        seed: int = 0,
+        families: Mapping[int, str] | None = None,
+        robot: str = "",
+    ) -> None:
         self.cfg = cfg or SemanticConfig()
         self.seed = seed
         self.families = dict(families or {})
@@ -148,9 +155,11 @@ class SimulatedEncoder:
         """Unit prototype of ``family``."""
         c = self.cfg
         own = max(0.0, 1.0 - c.common_weight - c.group_weight)
-        v = (np.sqrt(c.common_weight) * self._unit("common")
-             + np.sqrt(c.group_weight) * self._unit("group", c.group_of(family))
-             + np.sqrt(own) * self._unit("family", family))
+        v = (
+            np.sqrt(c.common_weight) * self._unit("common")
+            + np.sqrt(c.group_weight) * self._unit("group", c.group_of(family))
+            + np.sqrt(own) * self._unit("family", family)
+        )
         return v / np.linalg.norm(v)
 
     def family_of(self, context: EncodeContext) -> str:
@@ -161,12 +170,15 @@ class SimulatedEncoder:
             return "terrain"
         return self.families.get(int(context.object_id), "unknown")
 
-    def encode(self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_],
-               context: EncodeContext) -> NDArray[np.float32]:
+    def encode(
+        self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_], context: EncodeContext
+    ) -> NDArray[np.float32]:
         """Unit float32 embedding (``rgb_crop`` and ``mask`` are not used by the model)."""
         if context.object_id is None and context.family is None:
-            raise MappingError("the simulated encoder builds descriptors from ground truth: this frame has none "
-                               "(use an image encoder for real or truth-free frames)")
+            raise MappingError(
+                "the simulated encoder builds descriptors from ground truth: this frame has none "
+                "(use an image encoder for real or truth-free frames)"
+            )
         c = self.cfg
         oid = int(context.object_id if context.object_id is not None else -1) + 1  # terrain (-1) -> key 0
         phi = 0.0
@@ -176,9 +188,11 @@ class SimulatedEncoder:
                 raise ConfigError("semantics: view_dir must be finite")
             phi = float(np.arctan2(d[1], d[0]))
         static = max(0.0, 1.0 - c.instance_weight - c.view_weight)
-        v = (np.sqrt(static) * self.prototype(self.family_of(context))
-             + np.sqrt(c.instance_weight) * self._unit("instance", oid)
-             + np.sqrt(c.view_weight) * (np.cos(phi) * self._unit("view_a", oid)
-                                         + np.sin(phi) * self._unit("view_b", oid))
-             + self._rng.standard_normal(c.dim) * np.sqrt(c.noise_energy / c.dim))
+        v = (
+            np.sqrt(static) * self.prototype(self.family_of(context))
+            + np.sqrt(c.instance_weight) * self._unit("instance", oid)
+            + np.sqrt(c.view_weight)
+            * (np.cos(phi) * self._unit("view_a", oid) + np.sin(phi) * self._unit("view_b", oid))
+            + self._rng.standard_normal(c.dim) * np.sqrt(c.noise_energy / c.dim)
+        )
         return (v / np.linalg.norm(v)).astype(np.float32)

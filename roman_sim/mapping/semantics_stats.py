@@ -40,20 +40,27 @@ def sample_cosines(cfg: SemanticConfig, case: str, n: int = 200, seed: int = 0) 
     return out
 
 
-def cosine_statistics(cfg: SemanticConfig | None = None, n: int = 200, seed: int = 0,
-                      threshold: float = 0.85) -> dict[str, dict[str, float]]:
+def cosine_statistics(
+    cfg: SemanticConfig | None = None, n: int = 200, seed: int = 0, threshold: float = 0.85
+) -> dict[str, dict[str, float]]:
     """Mean, std, 5/95 % quantiles and fraction above ``threshold`` for every case."""
     cfg = cfg or SemanticConfig()
     stats = {}
     for case in CASES:
         c = sample_cosines(cfg, case, n, seed)
-        stats[case] = {"mean": float(c.mean()), "std": float(c.std()), "p05": float(np.quantile(c, 0.05)),
-                       "p95": float(np.quantile(c, 0.95)), "frac_above": float(np.mean(c > threshold))}
+        stats[case] = {
+            "mean": float(c.mean()),
+            "std": float(c.std()),
+            "p05": float(np.quantile(c, 0.05)),
+            "p95": float(np.quantile(c, 0.95)),
+            "frac_above": float(np.mean(c > threshold)),
+        }
     return stats
 
 
-def view_curve(cfg: SemanticConfig | None = None, n: int = 50, seed: int = 0,
-               steps: int = 13) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def view_curve(
+    cfg: SemanticConfig | None = None, n: int = 50, seed: int = 0, steps: int = 13
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(view difference deg, mean same-instance cosine) from 0 to 180 deg."""
     cfg = cfg or SemanticConfig()
     enc = SimulatedEncoder(cfg, seed)
@@ -61,14 +68,16 @@ def view_curve(cfg: SemanticConfig | None = None, n: int = 50, seed: int = 0,
     mask = np.ones((1, 1), dtype=bool)
     means = []
     for d in degs:
-        cs = [enc.encode(None, mask, EncodeContext(k, "conifer", _view(0.0)))
-              @ enc.encode(None, mask, EncodeContext(k, "conifer", _view(np.radians(d)))) for k in range(n)]
+        cs = [
+            enc.encode(None, mask, EncodeContext(k, "conifer", _view(0.0)))
+            @ enc.encode(None, mask, EncodeContext(k, "conifer", _view(np.radians(d))))
+            for k in range(n)
+        ]
         means.append(float(np.mean(cs)))
     return degs, np.array(means)
 
 
-def plot_cosine_statistics(path: str | Path, cfg: SemanticConfig | None = None, n: int = 200,
-                           seed: int = 0) -> Path:
+def plot_cosine_statistics(path: str | Path, cfg: SemanticConfig | None = None, n: int = 200, seed: int = 0) -> Path:
     """Histogram of every case plus the view curve, saved as a PNG at ``path``."""
     import matplotlib
 

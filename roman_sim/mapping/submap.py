@@ -17,7 +17,7 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from roman_sim.core.config import StrictModel
-from roman_sim.geometry import gravity_aligned, inv_T, transform_points
+from roman_sim.core.geometry import gravity_aligned, inv_T, transform_points
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment
 from roman_sim.mapping.types import Submap, SubmapTruth
@@ -63,8 +63,15 @@ def members(segments: list[Segment], center: NDArray[np.float64], t: float, cfg:
     return [s for _, _, s in cands[: cfg.submap_max_size]]
 
 
-def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float64],
-                T_world_body: NDArray[np.float64] | None, segs: list[Segment], cfg: SubmapConfig) -> Submap:
+def make_submap(
+    robot: str,
+    index: int,
+    t: float,
+    T_odom_body: NDArray[np.float64],
+    T_world_body: NDArray[np.float64] | None,
+    segs: list[Segment],
+    cfg: SubmapConfig,
+) -> Submap:
     """One submap from its member segments and the centre's odometry and true poses (truth None without)."""
     T_odom_sub = gravity_aligned(T_odom_body)
     T_sub_odom = inv_T(T_odom_sub)
@@ -76,7 +83,10 @@ def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float6
             desc[k] = s.descriptor
     centers = transform_points(T_sub_odom, np.array([s.center for s in segs]).reshape(-1, 3))
     return Submap(
-        robot=robot, index=index, t=float(t), T_odom_submap=T_odom_sub,
+        robot=robot,
+        index=index,
+        t=float(t),
+        T_odom_submap=T_odom_sub,
         segment_ids=np.array([s.id for s in segs], dtype=np.int64),
         centers=centers,
         volumes=np.array([s.volume for s in segs], dtype=np.float64),
@@ -84,7 +94,9 @@ def make_submap(robot: str, index: int, t: float, T_odom_body: NDArray[np.float6
         descriptors=desc,
         extents=np.array([s.extents for s in segs], dtype=np.float64).reshape(n, 3),
         points=[transform_points(T_sub_odom, s.points) for s in segs] if cfg.keep_points else None,
-        truth=None if T_world_body is None else SubmapTruth(
+        truth=None
+        if T_world_body is None
+        else SubmapTruth(
             T_world_submap=gravity_aligned(T_world_body),
             object_ids=np.array([s.majority_id for s in segs], dtype=np.int64),
             purity=np.array([s.purity for s in segs], dtype=np.float64),

@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.geometry import R_FLU_RDF, make_T, rot_z
-from roman_sim.sensors import Frame, FrameTruth, Intrinsics
+from roman_sim.core.geometry import R_FLU_RDF, make_T, rot_z
+from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics
 
 Sphere = tuple[NDArray[np.float64], float]
 
@@ -24,10 +24,11 @@ def intrinsics(width: int = 160, height: int = 120, hfov_deg: float = 90.0) -> I
     return Intrinsics(width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0)
 
 
-def render(spheres: list[Sphere], T_world_cam: NDArray[np.float64], intr: Intrinsics,
-           ground: bool = True) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
+def render(
+    spheres: list[Sphere], T_world_cam: NDArray[np.float64], intr: Intrinsics, ground: bool = True
+) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
     """(depth, ids) images: depth along the optical axis (0 = no hit), ids -1 for ground/sky."""
-    v, u = np.mgrid[0:intr.height, 0:intr.width]
+    v, u = np.mgrid[0 : intr.height, 0 : intr.width]
     d_cam = np.stack([(u - intr.cx) / intr.fx, (v - intr.cy) / intr.fy, np.ones(u.shape)], -1)
     d_w = d_cam @ T_world_cam[:3, :3].T  # z-component 1 in the camera: ray parameter = depth
     o = T_world_cam[:3, 3]
@@ -54,26 +55,55 @@ def render(spheres: list[Sphere], T_world_cam: NDArray[np.float64], intr: Intrin
     return depth, ids
 
 
-def frame_at(spheres: list[Sphere], x: float, y: float, yaw: float, t: float, index: int,
-             T_odom_world: NDArray[np.float64] | None = None, robot: str = "a",
-             intr: Intrinsics | None = None) -> Frame:
+def frame_at(
+    spheres: list[Sphere],
+    x: float,
+    y: float,
+    yaw: float,
+    t: float,
+    index: int,
+    T_odom_world: NDArray[np.float64] | None = None,
+    robot: str = "a",
+    intr: Intrinsics | None = None,
+) -> Frame:
     """A frame with the body at (x, y, 0) heading ``yaw``; odometry = ``T_odom_world`` @ truth."""
     intr = intr or intrinsics()
     T_wb = make_T(rot_z(yaw), [x, y, 0.0])
     depth, ids = render(spheres, T_wb @ T_BODY_CAM, intr)
     T_ob = (np.eye(4) if T_odom_world is None else T_odom_world) @ T_wb
-    return Frame(robot=robot, index=index, t=t, rgb=None, depth=depth, T_odom_body=T_ob,
-                 T_body_cam=T_BODY_CAM, intrinsics=intr, truth=FrameTruth(ids, T_wb))
+    return Frame(
+        robot=robot,
+        index=index,
+        t=t,
+        rgb=None,
+        depth=depth,
+        T_odom_body=T_ob,
+        T_body_cam=T_BODY_CAM,
+        intrinsics=intr,
+        truth=FrameTruth(ids, T_wb),
+    )
 
 
-def drive(spheres: list[Sphere], n: int = 12, dt: float = 1 / 6, speed: float = 1.0,
-          T_odom_world: NDArray[np.float64] | None = None, intr: Intrinsics | None = None) -> list[Frame]:
+def drive(
+    spheres: list[Sphere],
+    n: int = 12,
+    dt: float = 1 / 6,
+    speed: float = 1.0,
+    T_odom_world: NDArray[np.float64] | None = None,
+    intr: Intrinsics | None = None,
+) -> list[Frame]:
     """Frames of a robot driving along +x from the origin."""
     return [frame_at(spheres, speed * dt * i, 0.0, 0.0, dt * i, i, T_odom_world, intr=intr) for i in range(n)]
 
 
-def sphere_field(n: int, seed: int, x_range: tuple[float, float] = (2.5, 8.0), half_width: float = 3.5,
-                 radius_range: tuple[float, float] = (0.15, 0.45), max_tries: int = 100_000) -> list[Sphere]:
+def sphere_field(
+    n: int,
+    seed: int,
+    x_range: tuple[float, float] = (2.5, 8.0),
+    half_width: float = 3.5,
+    radius_range: tuple[float, float] = (0.15, 0.45),
+    max_tries: int = 100_000,
+) -> list[Sphere]:
     """Up to ``n`` non-overlapping spheres resting on the ground ahead of the origin."""
     rng = np.random.default_rng(seed)
     centres = np.zeros((0, 3))

@@ -61,8 +61,18 @@ class KeyframeSet:
     points: NDArray[np.float32]
 
     #: Array fields, in storage order.
-    FIELDS = ("t", "T_submap_cam", "intrinsics", "bow_offsets", "bow_words", "bow_values",
-              "feat_offsets", "uv", "descriptors", "points")
+    FIELDS = (
+        "t",
+        "T_submap_cam",
+        "intrinsics",
+        "bow_offsets",
+        "bow_words",
+        "bow_values",
+        "feat_offsets",
+        "uv",
+        "descriptors",
+        "points",
+    )
 
     def __len__(self) -> int:
         return int(len(self.t))

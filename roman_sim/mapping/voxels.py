@@ -18,8 +18,10 @@ _OFFSET = 1 << (_BITS - 1)
 _MASK = (1 << _BITS) - 1
 
 #: Packed-key offsets of the 27 voxels of a 3x3x3 neighbourhood (valid away from the key range ends).
-NEIGHBOUR_OFFSETS = np.array([(dx << (2 * _BITS)) + (dy << _BITS) + dz
-                              for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)], dtype=np.int64)
+NEIGHBOUR_OFFSETS = np.array(
+    [(dx << (2 * _BITS)) + (dy << _BITS) + dz for dx in (-1, 0, 1) for dy in (-1, 0, 1) for dz in (-1, 0, 1)],
+    dtype=np.int64,
+)
 
 
 def hash_voxels(points: NDArray[np.float64], voxel: float) -> NDArray[np.int64]:

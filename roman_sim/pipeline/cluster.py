@@ -47,8 +47,9 @@ def parse_scheduler_address(address: str) -> tuple[str, str, int | None]:
         raise ConfigError(f"Dask scheduler {address!r}: not an address ({_EXPECTED}): {err}") from None
     if scheme not in backends:
         hint = " (a dashboard URL? the scheduler itself listens on tcp://host:8786)" if "http" in scheme else ""
-        raise ConfigError(f"Dask scheduler {address!r}: unknown scheme {scheme!r}{hint} "
-                          f"(valid: {', '.join(sorted(backends))})")
+        raise ConfigError(
+            f"Dask scheduler {address!r}: unknown scheme {scheme!r}{hint} (valid: {', '.join(sorted(backends))})"
+        )
     if scheme in ("inproc", "ucx"):
         return scheme, loc, None
     try:
@@ -80,15 +81,18 @@ def connect(address: str, timeout_s: float = DEFAULT_TIMEOUT_S) -> "distributed.
         probe_scheduler(address, host, port, timeout_s)
     kind = server_type(address.strip(), timeout_s)
     if kind != "Scheduler":
-        raise ClusterError(f"Dask scheduler {address!r}: that is a Dask {kind}, not a scheduler "
-                           "(give the scheduler's address, by default port 8786)")
+        raise ClusterError(
+            f"Dask scheduler {address!r}: that is a Dask {kind}, not a scheduler "
+            "(give the scheduler's address, by default port 8786)"
+        )
     from distributed import Client
 
     try:
         client = Client(address.strip(), timeout=f"{timeout_s}s", set_as_default=False)
     except Exception as err:  # distributed re-raises the remote side's errors, of any type
-        raise ClusterError(f"Dask scheduler {address!r}: cannot connect: {type(err).__name__}: "
-                           f"{' '.join(str(err).split())[:200]}") from None
+        raise ClusterError(
+            f"Dask scheduler {address!r}: cannot connect: {type(err).__name__}: {' '.join(str(err).split())[:200]}"
+        ) from None
     log.info("connected to the Dask scheduler at %s", address)
     return client
 
@@ -116,8 +120,9 @@ def server_type(address: str, timeout_s: float) -> str:
     except (FutureTimeout, TimeoutError):
         raise ClusterError(f"Dask scheduler {address!r}: no reply to 'identity' within {timeout_s:g} s") from None
     except Exception as err:  # the remote side's error, or a transport error, of any type
-        raise ClusterError(f"Dask scheduler {address!r}: 'identity' failed: {type(err).__name__}: "
-                           f"{' '.join(str(err).split())[:200]}") from None
+        raise ClusterError(
+            f"Dask scheduler {address!r}: 'identity' failed: {type(err).__name__}: {' '.join(str(err).split())[:200]}"
+        ) from None
     finally:
         pool.shutdown(wait=False, cancel_futures=True)
     kind = info.get("type") if isinstance(info, dict) else None
@@ -132,8 +137,9 @@ def probe_scheduler(address: str, host: str, port: int, timeout_s: float) -> Non
     except socket.gaierror as err:
         raise ClusterError(f"Dask scheduler {address!r}: unknown host {host!r} ({err.strerror})") from None
     except ConnectionRefusedError:
-        raise ClusterError(f"Dask scheduler {address!r}: nothing listens on {host}:{port} "
-                           "(connection refused)") from None
+        raise ClusterError(
+            f"Dask scheduler {address!r}: nothing listens on {host}:{port} (connection refused)"
+        ) from None
     except TimeoutError:
         raise ClusterError(f"Dask scheduler {address!r}: no answer from {host}:{port} within {timeout_s:g} s") from None
     except OSError as err:
@@ -147,27 +153,33 @@ def probe_scheduler(address: str, host: str, port: int, timeout_s: float) -> Non
         (n,) = struct.unpack("Q", head)
         body, _ = _recv(sock, n, deadline)
         if len(body) < n:
-            raise ClusterError(f"Dask scheduler {address!r}: {host}:{port} stopped after {len(body)} of the "
-                               f"{n} handshake bytes it announced (not a Dask scheduler?)")
+            raise ClusterError(
+                f"Dask scheduler {address!r}: {host}:{port} stopped after {len(body)} of the "
+                f"{n} handshake bytes it announced (not a Dask scheduler?)"
+            )
     _check_body(address, host, port, body)
 
 
 def _check_head(address: str, host: str, port: int, head: bytes, closed: bool, timeout_s: float) -> None:
     where = f"Dask scheduler {address!r}: {host}:{port}"
     if head.startswith(b"HTTP/"):
-        raise ClusterError(f"{where} is an HTTP server, not a Dask scheduler (the dashboard? the scheduler "
-                           "listens on tcp://host:8786 by default)")
+        raise ClusterError(
+            f"{where} is an HTTP server, not a Dask scheduler (the dashboard? the scheduler "
+            "listens on tcp://host:8786 by default)"
+        )
     if not head and closed:
         raise ClusterError(f"{where} closed the connection without a Dask handshake (not a Dask scheduler?)")
     if not head:
-        raise ClusterError(f"{where} accepted the connection but sent no Dask handshake within {timeout_s:g} s "
-                           "(not a Dask scheduler?)")
+        raise ClusterError(
+            f"{where} accepted the connection but sent no Dask handshake within {timeout_s:g} s (not a Dask scheduler?)"
+        )
     if len(head) < 8:
         raise ClusterError(f"{where} sent {len(head)} bytes ({head[:8].hex()}) and then nothing: not a Dask handshake")
     (n,) = struct.unpack("Q", head)
     if not 8 <= n <= _MAX_HANDSHAKE:
-        raise ClusterError(f"{where} does not speak the Dask protocol: its first bytes ({head.hex()}) announce "
-                           f"a {n}-byte message")
+        raise ClusterError(
+            f"{where} does not speak the Dask protocol: its first bytes ({head.hex()}) announce a {n}-byte message"
+        )
 
 
 def _check_body(address: str, host: str, port: int, body: bytes) -> None:
@@ -180,8 +192,10 @@ def _check_body(address: str, host: str, port: int, body: bytes) -> None:
     except Exception:  # garbage that merely looked like a length: reported below
         msg = None
     if not isinstance(msg, dict) or "pickle-protocol" not in msg:
-        raise ClusterError(f"Dask scheduler {address!r}: {host}:{port} answered with bytes that are not a Dask "
-                           "handshake (not a Dask scheduler?)")
+        raise ClusterError(
+            f"Dask scheduler {address!r}: {host}:{port} answered with bytes that are not a Dask "
+            "handshake (not a Dask scheduler?)"
+        )
 
 
 def _recv(sock: socket.socket, n: int, deadline: float) -> tuple[bytes, bool]:

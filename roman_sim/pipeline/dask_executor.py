@@ -13,7 +13,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
-from roman_sim.pipeline.executors import Executor, ExecutorConfig, TaskError, collect, guarded
+from roman_sim.pipeline.executor_base import Executor, ExecutorConfig, TaskError, collect, guarded
 
 log = logging.getLogger(__name__)
 
@@ -92,16 +92,18 @@ class DaskExecutor(Executor):
         """The scheduler's address."""
         return str(self.client.scheduler.address)
 
-    def run_tasks(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]],
-                  labels: Sequence[str]) -> Iterator[tuple[int, Any]]:
+    def run_tasks(
+        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, Any]]:
         from distributed import as_completed
 
         if not args:
             return
         futures = {self.client.submit(guarded, fn, labels[i], True, *a, pure=False): i for i, a in enumerate(args)}
         try:
-            yield from collect(futures, labels, as_completed(list(futures), loop=self.client.loop), _result,
-                               self.client.cancel, _LOST)
+            yield from collect(
+                futures, labels, as_completed(list(futures), loop=self.client.loop), _result, self.client.cancel, _LOST
+            )
         finally:
             self.client.cancel([f for f in futures if not f.done()])
 
@@ -124,5 +126,6 @@ def require_dask() -> None:
     try:
         import distributed  # noqa: F401
     except ImportError:
-        raise ConfigError("executor.kind: dask needs the 'distributed' package "
-                          "(pip install 'dask[distributed]')") from None
+        raise ConfigError(
+            "executor.kind: dask needs the 'distributed' package (pip install 'dask[distributed]')"
+        ) from None

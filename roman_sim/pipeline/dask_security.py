@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.pipeline.executors import ExecutorConfig
+from roman_sim.pipeline.executor_base import ExecutorConfig
 
 log = logging.getLogger(__name__)
 
@@ -50,34 +50,46 @@ def _from_dask_config() -> dict[str, str | None]:
     import dask
 
     get = dask.config.get
-    return {"ca": get("distributed.comm.tls.ca-file", None), "cert": get("distributed.comm.tls.client.cert", None),
-            "key": get("distributed.comm.tls.client.key", None)}
+    return {
+        "ca": get("distributed.comm.tls.ca-file", None),
+        "cert": get("distributed.comm.tls.client.cert", None),
+        "key": get("distributed.comm.tls.client.key", None),
+    }
 
 
 def security_for(cfg: ExecutorConfig) -> Any:
     """The ``Security`` for ``cfg`` (None: plain tcp to loopback or an explicitly insecure address)."""
     from distributed.security import Security
 
-    explicit = {"ca": _file(cfg.tls_ca_file, "tls_ca_file"), "cert": _file(cfg.tls_cert, "tls_cert"),
-                "key": _file(cfg.tls_key, "tls_key")}
+    explicit = {
+        "ca": _file(cfg.tls_ca_file, "tls_ca_file"),
+        "cert": _file(cfg.tls_cert, "tls_cert"),
+        "key": _file(cfg.tls_key, "tls_key"),
+    }
     files = explicit if any(explicit.values()) else _from_dask_config()
     if cfg.scheduler_address is None:
         if any(explicit.values()):
-            raise ConfigError("executor.tls_*: certificates are for a remote scheduler (set scheduler_address); "
-                              "a local cluster with tls uses temporary certificates")
+            raise ConfigError(
+                "executor.tls_*: certificates are for a remote scheduler (set scheduler_address); "
+                "a local cluster with tls uses temporary certificates"
+            )
         return Security.temporary() if cfg.tls else None
     remote_tls = cfg.scheduler_address.strip().startswith("tls://")
     if not remote_tls:
         if cfg.tls:
-            raise ConfigError(f"executor.scheduler_address {cfg.scheduler_address!r}: tls is set, "
-                              "give a tls:// address")
+            raise ConfigError(
+                f"executor.scheduler_address {cfg.scheduler_address!r}: tls is set, give a tls:// address"
+            )
         return None
     if not files["ca"] or not files["cert"]:
-        raise ConfigError(f"executor.scheduler_address {cfg.scheduler_address!r}: a tls:// scheduler needs a CA "
-                          "and a client certificate (--tls-ca-file, --tls-cert [--tls-key], or Dask's config "
-                          "distributed.comm.tls.ca-file / distributed.comm.tls.client.cert)")
-    return Security(tls_ca_file=files["ca"], tls_client_cert=files["cert"], tls_client_key=files["key"],
-                    require_encryption=True)
+        raise ConfigError(
+            f"executor.scheduler_address {cfg.scheduler_address!r}: a tls:// scheduler needs a CA "
+            "and a client certificate (--tls-ca-file, --tls-cert [--tls-key], or Dask's config "
+            "distributed.comm.tls.ca-file / distributed.comm.tls.client.cert)"
+        )
+    return Security(
+        tls_ca_file=files["ca"], tls_client_cert=files["cert"], tls_client_key=files["key"], require_encryption=True
+    )
 
 
 def is_loopback(host: str) -> bool:
@@ -105,9 +117,11 @@ def check_address(address: str, cfg: ExecutorConfig, security: Any) -> str:
         raise ConfigError(f"executor.scheduler_address {address!r}: expected tls://host:port or tcp://host:port")
     if scheme == "tcp" and not is_loopback(host):
         if not cfg.insecure:
-            raise ConfigError(f"executor.scheduler_address {address!r}: plain tcp:// to a host that is not on "
-                              "loopback is unauthenticated (anyone who reaches the scheduler runs code on its "
-                              "workers); use tls:// with certificates, or pass --insecure to accept that")
+            raise ConfigError(
+                f"executor.scheduler_address {address!r}: plain tcp:// to a host that is not on "
+                "loopback is unauthenticated (anyone who reaches the scheduler runs code on its "
+                "workers); use tls:// with certificates, or pass --insecure to accept that"
+            )
         log.warning("Dask scheduler %s: unauthenticated tcp:// connection (--insecure)", address)
     return addr
 
@@ -122,10 +136,16 @@ def local_cluster(cfg: ExecutorConfig, security: Any) -> Any:
     from distributed import LocalCluster
 
     return LocalCluster(
-        n_workers=cfg.n_workers(), threads_per_worker=1, processes=True, host=LOOPBACK,
-        protocol="tls://" if security is not None else "tcp://", security=security,
-        dashboard_address=f"{LOOPBACK}:0", scheduler_kwargs={"dashboard": cfg.dashboard},
-        worker_dashboard_address=None, silence_logs=logging.WARNING,
+        n_workers=cfg.n_workers(),
+        threads_per_worker=1,
+        processes=True,
+        host=LOOPBACK,
+        protocol="tls://" if security is not None else "tcp://",
+        security=security,
+        dashboard_address=f"{LOOPBACK}:0",
+        scheduler_kwargs={"dashboard": cfg.dashboard},
+        worker_dashboard_address=None,
+        silence_logs=logging.WARNING,
     )
 
 
@@ -137,8 +157,10 @@ def upload(client: Any, path: str) -> None:
     try:
         client.upload_file(str(p.resolve()), load=True)
     except Exception as err:  # the worker's import error, of any type
-        raise PluginImportError(f"executor.upload {path!r}: a worker could not load it: {type(err).__name__}: "
-                                f"{' '.join(str(err).split())[:200]}") from None
+        raise PluginImportError(
+            f"executor.upload {path!r}: a worker could not load it: {type(err).__name__}: "
+            f"{' '.join(str(err).split())[:200]}"
+        ) from None
 
 
 def _try_imports(modules: list[str]) -> dict[str, str]:
@@ -163,7 +185,8 @@ def check_worker_imports(client: Any, modules: list[str]) -> None:
         for module, why in sorted(failed.items()):
             raise PluginImportError(
                 f"Dask worker {worker} cannot import plug-in module {module!r} ({why}); install it on the "
-                f"workers or ship it with --upload {module.replace('.', '/')}.py")
+                f"workers or ship it with --upload {module.replace('.', '/')}.py"
+            )
 
 
 def plugin_modules(scenario: Any) -> list[str]:

@@ -18,148 +18,27 @@ plug-in's own error) becomes a ``TaskError`` naming the task.
 from __future__ import annotations
 
 import logging
-import os
-import socket
-import traceback
-from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, Literal
+from typing import Any
 
-from pydantic import Field, field_validator
-
-from roman_sim.core.config import StrictModel
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.pipeline.executor_base import (
+    Executor,
+    ExecutorConfig,
+    TaskError,
+    collect,
+    guarded,
+    worker_name,
+)
 
 log = logging.getLogger(__name__)
-
-ExecutorKind = Literal["serial", "local", "dask"]
-
-
-class TaskError(RomanSimError):
-    """A task failed on a worker (the message names the task and the worker)."""
-
-
-class ExecutorConfig(StrictModel):
-    """How a run or sweep spreads its tasks (not part of any result: any setting gives the same bytes)."""
-
-    kind: ExecutorKind = "serial"
-    workers: int | None = Field(None, ge=1, le=1024, description="processes / Dask workers (default: cores)")
-    scheduler_address: str | None = Field(
-        None, description="an existing Dask scheduler (tls://host:8786) instead of a local cluster")
-    chunk_pairs: int = Field(32, ge=1, le=100000, description="submap pairs per alignment task")
-    connect_timeout_s: float = Field(5.0, gt=0.0, le=600.0, description="bound on reaching the scheduler (s)")
-    tls: bool = Field(False, description="local cluster: TLS with temporary certificates; remote: require tls://")
-    tls_ca_file: str | None = Field(None, description="CA certificate (PEM) that signed the cluster's certificates")
-    tls_cert: str | None = Field(None, description="client certificate (PEM)")
-    tls_key: str | None = Field(None, description="client private key (PEM; may be inside tls_cert)")
-    insecure: bool = Field(False, description="allow an unauthenticated tcp:// scheduler that is not on loopback")
-    dashboard: bool = Field(False, description="local cluster: serve the dashboard on 127.0.0.1 (off by default)")
-    upload: list[str] = Field(default_factory=list,
-                              description="plug-in files (.py, .zip, .egg) uploaded to every Dask worker")
-
-    @field_validator("scheduler_address")
-    @classmethod
-    def _address(cls, v: str | None) -> str | None:
-        if v is None:
-            return v
-        from roman_sim.pipeline.cluster import parse_scheduler_address
-
-        try:
-            parse_scheduler_address(v)
-        except ConfigError as err:
-            raise ValueError(str(err)) from None
-        return v.strip()
-
-    def n_workers(self) -> int:
-        """The worker count (``workers`` or the number of cores)."""
-        return self.workers or (os.cpu_count() or 1)
-
-
-def worker_name() -> str:
-    """Who runs this code: the Dask worker's address, else ``host:pid``."""
-    try:
-        from distributed import get_worker
-
-        return str(get_worker().address)
-    except (ImportError, ValueError):
-        return f"{socket.gethostname()}:pid{os.getpid()}"
-
-
-def guarded(fn: Callable[..., Any], label: str, name_worker: bool, *args: Any) -> Any:
-    """Run ``fn(*args)`` on a worker: errors become picklable one-liners (see the module docstring)."""
-    try:
-        return fn(*args)
-    except RomanSimError as err:
-        if not name_worker:
-            raise
-        raise TaskError(f"{label} failed on worker {worker_name()}: {err}") from None
-    except Exception as err:  # a bug or a plug-in's own error: keep the place it happened
-        where = traceback.extract_tb(err.__traceback__)[-1]
-        on = f" on worker {worker_name()}" if name_worker else ""
-        raise TaskError(f"{label} failed{on}: {type(err).__name__}: {err} "
-                        f"(at {os.path.basename(where.filename)}:{where.lineno})") from None
-
-
-def collect(futures: dict[Any, int], labels: Sequence[str], completed: Iterator[Any], result: Callable[[Any], Any],
-            cancel: Callable[[list[Any]], object], lost: type[BaseException] | tuple[type[BaseException], ...]
-            ) -> Iterator[tuple[int, Any]]:
-    """Yield ``(index, result)`` of finished futures; after a failure cancel the pending ones and,
-    once the running ones are done, raise the error of the lowest failed index."""
-    failed: dict[int, BaseException] = {}
-    for fut in completed:
-        i = futures[fut]
-        try:
-            res = result(fut)
-        except lost as err:  # the worker died: not the task's own error
-            failed[i] = TaskError(f"{labels[i]}: a worker was lost ({type(err).__name__})")
-        except BaseException as err:  # CancelledError is a BaseException for asyncio-based futures
-            if type(err).__name__ == "CancelledError":
-                continue
-            if not isinstance(err, Exception):
-                raise
-            failed[i] = err
-        else:
-            yield i, res
-            continue
-        cancel([f for f, j in futures.items() if j not in failed])
-    if failed:
-        raise failed[min(failed)]
-
-
-class Executor(ABC):
-    """Runs independent tasks (see the module docstring)."""
-
-    kind: str = "serial"
-    workers: int = 1
-
-    @abstractmethod
-    def run_tasks(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]],
-                  labels: Sequence[str]) -> Iterator[tuple[int, Any]]:
-        """Run ``fn(*args[i])`` for every i; yield ``(i, result)`` as each finishes."""
-
-    def map(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]) -> list[Any]:
-        """The results of every task, in task order."""
-        out: dict[int, Any] = dict(self.run_tasks(fn, args, labels))
-        return [out[i] for i in range(len(args))]
-
-    def check_imports(self, modules: Sequence[str]) -> None:  # noqa: B027 (optional hook: workers share this process's imports)
-        """Fail (naming the worker and the module) when a worker cannot import one of ``modules``."""
-
-    def close(self) -> None:  # noqa: B027 (optional hook: nothing to release by default)
-        """Release the workers."""
-
-    def __enter__(self) -> "Executor":
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
 
 
 class SerialExecutor(Executor):
     """Every task in this process, one after the other (errors unchanged)."""
 
-    def run_tasks(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]],
-                  labels: Sequence[str]) -> Iterator[tuple[int, Any]]:
+    def run_tasks(
+        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, Any]]:
         for i, a in enumerate(args):
             yield i, fn(*a)
 
@@ -183,8 +62,9 @@ class LocalPoolExecutor(Executor):
             self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
         return self._pool
 
-    def run_tasks(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]],
-                  labels: Sequence[str]) -> Iterator[tuple[int, Any]]:
+    def run_tasks(
+        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, Any]]:
         from concurrent.futures import as_completed
         from concurrent.futures.process import BrokenProcessPool
 
@@ -193,8 +73,14 @@ class LocalPoolExecutor(Executor):
         pool = self._get_pool()
         futures = {pool.submit(guarded, fn, labels[i], False, *a): i for i, a in enumerate(args)}
         try:
-            yield from collect(futures, labels, as_completed(futures), lambda f: f.result(),
-                               lambda fs: [f.cancel() for f in fs], BrokenProcessPool)
+            yield from collect(
+                futures,
+                labels,
+                as_completed(futures),
+                lambda f: f.result(),
+                lambda fs: [f.cancel() for f in fs],
+                BrokenProcessPool,
+            )
         finally:
             for fut in futures:
                 fut.cancel()
@@ -217,5 +103,13 @@ def open_executor(cfg: ExecutorConfig | None) -> Executor:
     return DaskExecutor(cfg)
 
 
-__all__ = ["Executor", "ExecutorConfig", "LocalPoolExecutor", "SerialExecutor", "TaskError", "guarded",
-           "open_executor", "worker_name"]
+__all__ = [
+    "Executor",
+    "ExecutorConfig",
+    "LocalPoolExecutor",
+    "SerialExecutor",
+    "TaskError",
+    "guarded",
+    "open_executor",
+    "worker_name",
+]

@@ -83,8 +83,7 @@ class Experiment:
     def context(self) -> RunContext:
         """The run context the stages see."""
         chunk = self.executor.chunk_pairs if isinstance(self.executor, ExecutorConfig) else ExecutorConfig().chunk_pairs
-        return RunContext(self.scenario, self.run_dir, self.progress, self.fresh, self.submaps_dir,
-                          chunk_pairs=chunk)
+        return RunContext(self.scenario, self.run_dir, self.progress, self.fresh, self.submaps_dir, chunk_pairs=chunk)
 
     def validate(self) -> None:
         """Check what can be checked before any work: world spec, aligners, plug-ins, RGB, output folder.
@@ -106,9 +105,10 @@ class Experiment:
 
     def _check_plugins(self) -> None:
         from roman_sim.align import build_aligner
-        from roman_sim.core.plugin_guard import is_plugin
-        from roman_sim.core.plugins import dry_call, instantiate_plugin
+        from roman_sim.core.plugins import instantiate_plugin
         from roman_sim.mapping.frontend import check_frontend
+        from roman_sim.pipeline.plugin_guard import is_plugin
+        from roman_sim.pipeline.plugins import dry_call
 
         sc = self.scenario
         fe = sc.frontend
@@ -152,16 +152,23 @@ class Experiment:
             return False
         return old.valid(stage.name, key, self.run_dir)
 
-    def _start_manifest(self, old: Manifest | None, keys: dict[str, str], reuse: set[str],
-                        active: list[Stage]) -> Manifest:
+    def _start_manifest(
+        self, old: Manifest | None, keys: dict[str, str], reuse: set[str], active: list[Stage]
+    ) -> Manifest:
         """The manifest of this run before any stage runs; outputs of stale stages are deleted."""
         keep = {name: old.stages[name] for name in reuse} if old else {}
-        for name, rec in (old.stages.items() if old else []):
+        for name, rec in old.stages.items() if old else []:
             if name not in reuse:
                 for f in rec.files:
                     (self.run_dir / f).unlink(missing_ok=True)
-        man = Manifest(self.scenario.name, self.scenario.seed, self.scenario.config_hash(), __version__,
-                       keep, [s.name for s in active if s.cached])
+        man = Manifest(
+            self.scenario.name,
+            self.scenario.seed,
+            self.scenario.config_hash(),
+            __version__,
+            keep,
+            [s.name for s in active if s.cached],
+        )
         write_text(self.run_dir / "config.yaml", dump_yaml(self.scenario))
         man.save(self.run_dir)
         return man
@@ -200,13 +207,16 @@ class Experiment:
                 continue
             outputs[stage.name], timings[stage.name] = self._run_stage(stage, ctx, outputs, manifest, keys)
         write_json(self.run_dir / TIMINGS_JSON, {"stages": timings})
-        log.info("run %s complete in %s (reused: %s)", self.scenario.name, self.run_dir,
-                 ", ".join(sorted(reuse)) or "none")
-        return RunResult.from_outputs(self.run_dir, self.scenario, outputs, timings,
-                                      [s.name for s in active if s.name in reuse])
+        log.info(
+            "run %s complete in %s (reused: %s)", self.scenario.name, self.run_dir, ", ".join(sorted(reuse)) or "none"
+        )
+        return RunResult.from_outputs(
+            self.run_dir, self.scenario, outputs, timings, [s.name for s in active if s.name in reuse]
+        )
 
-    def _run_stage(self, stage: Stage, ctx: RunContext, outputs: dict[str, Any], manifest: Manifest,
-                   keys: dict[str, str]) -> tuple[Any, dict[str, Any]]:
+    def _run_stage(
+        self, stage: Stage, ctx: RunContext, outputs: dict[str, Any], manifest: Manifest, keys: dict[str, str]
+    ) -> tuple[Any, dict[str, Any]]:
         reset_peak_rss()
         t0 = time.perf_counter()
         ctx.timings = {}
@@ -225,16 +235,21 @@ class Experiment:
         seconds = time.perf_counter() - t0
         peak = peak_rss_mb()
         log.info("stage %s: %.1f s", stage.name, seconds)
-        return out, {"seconds": round(seconds, 3), "peak_rss_mb": None if peak is None else round(peak, 1),
-                     "reused": False, **ctx.timings}
+        return out, {
+            "seconds": round(seconds, 3),
+            "peak_rss_mb": None if peak is None else round(peak, 1),
+            "reused": False,
+            **ctx.timings,
+        }
 
     def _load(self, stage: Stage, ctx: RunContext, files: list[str]) -> Any:
         log.info("stage %s: reusing cached results", stage.name)
         try:
             return stage.load(ctx, files)
         except RomanSimError as err:
-            raise StorageError(f"cached stage {stage.name!r} in {self.run_dir} is unusable: {err} "
-                               "(re-run with --fresh)") from None
+            raise StorageError(
+                f"cached stage {stage.name!r} in {self.run_dir} is unusable: {err} (re-run with --fresh)"
+            ) from None
 
     def _old_timings(self, reuse: set[str]) -> dict[str, Any]:
         """Timings of the reused stages, from the previous run's ``timings.json``."""
@@ -265,5 +280,4 @@ def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:
     return Path(root) / sc.name / f"seed{sc.seed}-{sc.config_hash()[:8]}"
 
 
-__all__ = ["Experiment", "NullProgress", "Progress", "RunResult", "default_run_dir",
-           "run_scenario_file"]
+__all__ = ["Experiment", "NullProgress", "Progress", "RunResult", "default_run_dir", "run_scenario_file"]

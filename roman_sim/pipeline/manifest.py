@@ -61,10 +61,16 @@ class Manifest:
 
     def to_json(self) -> dict[str, Any]:
         """JSON-ready dict."""
-        return {"schema": MANIFEST_SCHEMA, "scenario": self.scenario, "seed": self.seed,
-                "config_hash": self.config_hash, "package_version": self.package_version,
-                "expected": self.expected, "complete": self.complete,
-                "stages": {k: {"key": v.key, "files": v.files} for k, v in self.stages.items()}}
+        return {
+            "schema": MANIFEST_SCHEMA,
+            "scenario": self.scenario,
+            "seed": self.seed,
+            "config_hash": self.config_hash,
+            "package_version": self.package_version,
+            "expected": self.expected,
+            "complete": self.complete,
+            "stages": {k: {"key": v.key, "files": v.files} for k, v in self.stages.items()},
+        }
 
     @classmethod
     def from_json(cls, d: Any, source: str) -> "Manifest":
@@ -73,8 +79,14 @@ class Manifest:
             raise StorageError(f"{source}: not a run manifest of schema {MANIFEST_SCHEMA}")
         try:
             stages = {str(k): StageRecord(str(v["key"]), [str(f) for f in v["files"]]) for k, v in d["stages"].items()}
-            return cls(str(d["scenario"]), int(d["seed"]), str(d["config_hash"]), str(d["package_version"]),
-                       stages, [str(s) for s in d["expected"]])
+            return cls(
+                str(d["scenario"]),
+                int(d["seed"]),
+                str(d["config_hash"]),
+                str(d["package_version"]),
+                stages,
+                [str(s) for s in d["expected"]],
+            )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed run manifest ({type(err).__name__}: {err})") from None
 

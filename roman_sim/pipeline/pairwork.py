@@ -32,8 +32,9 @@ ResultKey = tuple[str, str, str]
 
 def aligners_json(ctx: RunContext) -> str:
     """The scenario's aligners (label, method, params) as the JSON the alignment tasks take."""
-    return json.dumps([{"label": e.name, "method": e.method, "params": e.params} for e in ctx.scenario.aligners],
-                      sort_keys=True)
+    return json.dumps(
+        [{"label": e.name, "method": e.method, "params": e.params} for e in ctx.scenario.aligners], sort_keys=True
+    )
 
 
 def _chunk_id(pairs: list[tuple[str, str]]) -> str:
@@ -47,7 +48,7 @@ def align_pairs(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[Res
     """
     size = max(1, int(ctx.chunk_pairs))
     names = [(a.name, b.name) for a, b in pairs]
-    chunks = [names[i:i + size] for i in range(0, len(names), size)]
+    chunks = [names[i : i + size] for i in range(0, len(names), size)]
     public = {s.name: s.public() for ab in pairs for s in ab}
     done = Checkpoint(ctx.run_dir, "evaluation", None if ctx.fresh else ctx.stage_key)
     records: dict[int, list[dict[str, Any]]] = {}
@@ -94,7 +95,8 @@ class Replay:
         return AlignResult.failure(self.name, self.missing_reason)
 
 
-def replay_aligners(ctx: RunContext, results: dict[ResultKey, AlignResult],
-                    missing_reason: str | None = None) -> list[Replay]:
+def replay_aligners(
+    ctx: RunContext, results: dict[ResultKey, AlignResult], missing_reason: str | None = None
+) -> list[Replay]:
     """One ``Replay`` per scenario aligner, in scenario order."""
     return [Replay(e.name, results, missing_reason) for e in ctx.scenario.aligners]

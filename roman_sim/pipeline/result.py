@@ -8,11 +8,11 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.core.errors import StorageError
-from roman_sim.evaluation.summaries import compact_summary
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.manifest import read_manifest
 from roman_sim.pipeline.scenario import Scenario, load_scenario
+from roman_sim.report.summaries import compact_summary
 
 TIMINGS_JSON = "timings.json"
 
@@ -42,8 +42,9 @@ class RunResult:
     reused: list[str] = field(default_factory=list)
 
     @classmethod
-    def from_outputs(cls, run_dir: Path, scenario: Scenario, outputs: dict[str, Any], timings: dict[str, Any],
-                     reused: list[str]) -> "RunResult":
+    def from_outputs(
+        cls, run_dir: Path, scenario: Scenario, outputs: dict[str, Any], timings: dict[str, Any], reused: list[str]
+    ) -> "RunResult":
         """The result of a run from its stage outputs."""
         ev, pg, rep = outputs["evaluation"], outputs["posegraph"], outputs["report"]
         return cls(run_dir, scenario, ev.metrics, pg.ate, rep.map_stats, list(rep.notes), timings, reused)
@@ -61,14 +62,18 @@ class RunResult:
         d = Path(run_dir)
         man = read_manifest(d)
         if not man.complete:
-            raise StorageError(f"{d}: the run did not complete (stages missing: {', '.join(man.missing)}); "
-                               "run it again to finish it")
+            raise StorageError(
+                f"{d}: the run did not complete (stages missing: {', '.join(man.missing)}); run it again to finish it"
+            )
         sc = load_scenario(d / "config.yaml")
         if sc.config_hash() != man.config_hash:
             raise StorageError(f"{d}: config.yaml does not match the run's outputs (edited after the run?)")
         ctx = RunContext(sc, d)
-        outputs = {s.name: s.load(ctx, man.stages[s.name].files) for s in STAGES if s.name in man.stages
-                   and s.name in ("evaluation", "posegraph", "report")}
+        outputs = {
+            s.name: s.load(ctx, man.stages[s.name].files)
+            for s in STAGES
+            if s.name in man.stages and s.name in ("evaluation", "posegraph", "report")
+        }
         return cls.from_outputs(d, sc, outputs, read_timings(d), [])
 
     def recall(self, method: str, heading_bin: str | None = None, kind: str | None = None) -> float | None:

@@ -12,6 +12,7 @@ from typing import Any
 
 from pydantic import Field, field_validator, model_validator
 
+from roman_sim.align.gating import GatingConfig
 from roman_sim.align.visual.keyframes import KeyframeParams
 from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
@@ -20,7 +21,6 @@ from roman_sim.interop.tum_reader import TumSourceConfig
 from roman_sim.mapping.frontend import FrontEnd as FrontEndBase
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
-from roman_sim.pipeline.gating import GatingConfig
 from roman_sim.posegraph import PoseGraphConfig
 from roman_sim.sim.robot import RobotConfig
 
@@ -81,8 +81,9 @@ def method_label(method: str) -> str:
 class FrontEnd(FrontEndBase):
     """The scenario's front end: segmenter, encoder, the simulated encoder's semantics and visual keyframes."""
 
-    keyframes: KeyframeParams = Field(default_factory=KeyframeParams,
-                                      description="visual keyframes (ORB + BoW), extracted when a method needs them")
+    keyframes: KeyframeParams = Field(
+        default_factory=KeyframeParams, description="visual keyframes (ORB + BoW), extracted when a method needs them"
+    )
 
 
 class ScenarioRobot(RobotConfig):
@@ -155,13 +156,17 @@ class Scenario(StrictModel):
         recorded = {r.name for r in self.robots if not r.simulated}
         for k, r in enumerate(self.robots):
             if r.simulated and r.path.of in recorded:
-                raise ValueError(f"robots.{k}.path.of: {r.path.of!r} is read from a TUM folder and has no "
-                                 "planned path to follow (refer to a simulated robot)")
+                raise ValueError(
+                    f"robots.{k}.path.of: {r.path.of!r} is read from a TUM folder and has no "
+                    "planned path to follow (refer to a simulated robot)"
+                )
         if self.uses_visual:
             for i, r in enumerate(self.robots):
                 if r.simulated and not r.render_rgb:
-                    raise ValueError(f"robots.{i}.render_rgb: robot {r.name!r} must render RGB (render_rgb: true) "
-                                     "for the visual method")
+                    raise ValueError(
+                        f"robots.{i}.render_rgb: robot {r.name!r} must render RGB (render_rgb: true) "
+                        "for the visual method"
+                    )
         return self
 
 
@@ -192,10 +197,13 @@ def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = N
         return bundled[str(name_or_path)]
     for c in candidates:
         if c.is_dir():
-            raise ConfigError(f"scenario {str(name_or_path)!r}: {c} is a directory, expected a scenario YAML file "
-                              f"or a bundled name ({', '.join(bundled)})")
+            raise ConfigError(
+                f"scenario {str(name_or_path)!r}: {c} is a directory, expected a scenario YAML file "
+                f"or a bundled name ({', '.join(bundled)})"
+            )
     raise ConfigError(
-        f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})")
+        f"scenario {str(name_or_path)!r}: no such file or bundled scenario (bundled: {', '.join(bundled)})"
+    )
 
 
 def load_scenario(name_or_path: str | Path, overrides: list[str] | None = None) -> Scenario:

@@ -27,8 +27,10 @@ def open_sequence(cfg: Any, seed: int) -> TumSequence:
     """The robot's associated sequence (ConfigError when it has no ground truth to score against)."""
     seq = TumSequence(cfg.source, robot=cfg.name, seed=seed)
     if seq.T_world_body is None:
-        raise ConfigError(f"robot {cfg.name}: source.tum {seq.dir} has no groundtruth.txt; the evaluation "
-                          "scores every robot against its true trajectory")
+        raise ConfigError(
+            f"robot {cfg.name}: source.tum {seq.dir} has no groundtruth.txt; the evaluation "
+            "scores every robot against its true trajectory"
+        )
     return seq
 
 
@@ -70,7 +72,9 @@ def check_sources(scenario: Any) -> None:
             continue
         open_sequence(cfg, scenario.seed)
         if encoder_spec(scenario.frontend.encoder).reads_truth and sequence_families(cfg.source) is None:
-            raise ConfigError(f"robot {cfg.name}: the {scenario.frontend.encoder.name} encoder needs the objects' "
-                              "families, and "
-                              f"source.tum {cfg.source.tum} has no objects.json (set source.objects, or "
-                              "frontend.encoder to an image encoder such as image or clip)")
+            raise ConfigError(
+                f"robot {cfg.name}: the {scenario.frontend.encoder.name} encoder needs the objects' "
+                "families, and "
+                f"source.tum {cfg.source.tum} has no objects.json (set source.objects, or "
+                "frontend.encoder to an image encoder such as image or clip)"
+            )

@@ -20,62 +20,20 @@ run (the CLI prints them and exits 1).
 from __future__ import annotations
 
 import csv
-import hashlib
 import io
-import itertools
-import json
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
-
 from roman_sim.core.atomic import write_text
-from roman_sim.core.config import FiniteTree, StrictModel, read_yaml, validate_model
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.config import read_yaml, validate_model
+from roman_sim.core.errors import RomanSimError
 from roman_sim.core.registry import one_line
-from roman_sim.pipeline.executors import ExecutorConfig, TaskError, open_executor
+from roman_sim.pipeline.executors import TaskError, open_executor
+from roman_sim.pipeline.sweep_spec import RunSpec, SweepConfig, expand
 
 log = logging.getLogger(__name__)
-
-
-class SweepConfig(StrictModel):
-    """A sweep: base scenario, grid of overrides, seeds, executor."""
-
-    name: str = Field(..., min_length=1)
-    description: str = ""
-    scenario: str = Field(..., description="scenario name or YAML path (relative to the sweep file)")
-    grid: dict[str, list[FiniteTree]] = Field(default_factory=dict)
-    seeds: list[int] = Field(default_factory=lambda: [0], min_length=1)
-    executor: ExecutorConfig = ExecutorConfig()
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    """One run of a sweep."""
-
-    run_id: str
-    overrides: tuple[str, ...]
-    seed: int
-    params: dict[str, Any]
-
-
-def expand(cfg: SweepConfig) -> list[RunSpec]:
-    """Every grid combination x seed, in a stable order."""
-    keys = sorted(cfg.grid)
-    for k in keys:
-        if not cfg.grid[k]:
-            raise ConfigError(f"grid.{k}: needs at least one value")
-    runs = []
-    for values in itertools.product(*(cfg.grid[k] for k in keys)):
-        params = dict(zip(keys, values))
-        ovr = tuple(f"{k}={json.dumps(v)}" for k, v in params.items())
-        tag = hashlib.sha1(json.dumps(params, sort_keys=True).encode()).hexdigest()[:8] if params else "base"
-        for seed in cfg.seeds:
-            runs.append(RunSpec(run_id=f"{tag}-s{seed}", overrides=ovr, seed=seed, params=params))
-    return runs
 
 
 def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
@@ -87,14 +45,16 @@ def load_sweep(path: str | Path) -> tuple[SweepConfig, Path]:
     return cfg, resolve_scenario_path(cfg.scenario, relative_to=path.parent)
 
 
-def _run_one(scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir: str,
-             from_stage: str | None = None) -> dict[str, Any]:
+def _run_one(
+    scenario_path: str, overrides: tuple[str, ...], seed: int, run_dir: str, from_stage: str | None = None
+) -> dict[str, Any]:
     """Run one sweep job (top-level so that process pools and Dask can pickle it)."""
     from roman_sim.pipeline.experiment import run_scenario_file
 
     try:
-        result = run_scenario_file(scenario_path, list(overrides) + [f"seed={seed}"], Path(run_dir),
-                                   from_stage=from_stage)
+        result = run_scenario_file(
+            scenario_path, list(overrides) + [f"seed={seed}"], Path(run_dir), from_stage=from_stage
+        )
         return {"ok": True, "metrics": result.metrics_summary()}
     except RomanSimError as err:
         return {"ok": False, "error": str(err)}
@@ -131,8 +91,11 @@ def run_sweep(
     if Path(scenario_path).is_file():
         scenario_path = Path(scenario_path).resolve()
     runs = expand(cfg)
-    todo = [r for r in runs
-            if from_stage is not None or not _is_done(out_dir / r.run_id, str(scenario_path), r.overrides, r.seed)]
+    todo = [
+        r
+        for r in runs
+        if from_stage is not None or not _is_done(out_dir / r.run_id, str(scenario_path), r.overrides, r.seed)
+    ]
     log.info("sweep %s: %d runs, %d to do", cfg.name, len(runs), len(todo))
     args = [(str(scenario_path), r.overrides, r.seed, str(out_dir / r.run_id), from_stage) for r in todo]
     failures: dict[str, str] = {}

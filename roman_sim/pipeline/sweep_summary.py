@@ -18,7 +18,7 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import RomanSimError, StorageError
 
 if TYPE_CHECKING:
-    from roman_sim.pipeline.sweep import RunSpec, SweepConfig
+    from roman_sim.pipeline.sweep_spec import RunSpec, SweepConfig
 
 log = logging.getLogger(__name__)
 
@@ -31,9 +31,17 @@ SUMMARY_PLOT = "plots/sweep_summary.png"
 def write_sweep_json(cfg: "SweepConfig", runs: "list[RunSpec]", out_dir: Path) -> Path:
     """``sweep.json``: the sweep's name, swept keys, seeds and runs (what the summary is made of)."""
     path = out_dir / SWEEP_JSON
-    write_json(path, {"schema": SWEEP_SCHEMA, "name": cfg.name, "scenario": cfg.scenario, "grid": sorted(cfg.grid),
-                      "seeds": list(cfg.seeds),
-                      "runs": [{"run_id": r.run_id, "seed": r.seed, "params": r.params} for r in runs]})
+    write_json(
+        path,
+        {
+            "schema": SWEEP_SCHEMA,
+            "name": cfg.name,
+            "scenario": cfg.scenario,
+            "grid": sorted(cfg.grid),
+            "seeds": list(cfg.seeds),
+            "runs": [{"run_id": r.run_id, "seed": r.seed, "params": r.params} for r in runs],
+        },
+    )
     return path
 
 
@@ -67,7 +75,8 @@ def sweep_summary(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[
 
 def write_sweep_summary(out_dir: Path) -> Path:
     """``sweep_summary.csv`` and ``plots/sweep_summary.png`` (when there are two swept values)."""
-    from roman_sim.evaluation.sweepstats import SUMMARY_FIELDS, plot_sweep
+    from roman_sim.evaluation.sweepstats import SUMMARY_FIELDS
+    from roman_sim.report.sweepplot import plot_sweep
 
     keys, rows, notes = sweep_summary(out_dir)
     for n in notes:

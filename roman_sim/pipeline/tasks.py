@@ -42,7 +42,7 @@ def map_robot_task(scenario_json: str, robot: str, path: Any, run_dir: str, worl
     robot read from a TUM folder needs that folder on the worker.
     """
     from roman_sim.pipeline.context import RunContext
-    from roman_sim.pipeline.stages.maps import map_one
+    from roman_sim.pipeline.robot_mapping import map_one
 
     sc = _scenario(scenario_json)
     cfg = next(r for r in sc.robots if r.name == robot)
@@ -56,10 +56,12 @@ def _aligners(aligners_json: str) -> list[Any]:
     import json
 
     from roman_sim.align import build_aligner
-    from roman_sim.core.plugin_guard import guard_aligner
+    from roman_sim.pipeline.plugin_guard import guard_aligner
 
-    return [(e["label"], guard_aligner(build_aligner(e["method"], e["params"]), e["method"]))
-            for e in json.loads(aligners_json)]
+    return [
+        (e["label"], guard_aligner(build_aligner(e["method"], e["params"]), e["method"]))
+        for e in json.loads(aligners_json)
+    ]
 
 
 def align_chunk_task(aligners_json: str, submaps: dict[str, Any], pairs: list[tuple[str, str]]) -> list[dict[str, Any]]:
@@ -95,14 +97,26 @@ def _plain(v: Any) -> Any:
 
 def result_to_json(res: AlignResult) -> dict[str, Any]:
     """JSON-ready ``AlignResult`` (floats round-trip exactly through JSON)."""
-    return {"method": res.method, "T_a_b": None if res.T_a_b is None else np.asarray(res.T_a_b).tolist(),
-            "associations": np.asarray(res.associations, dtype=np.int64).reshape(-1, 2).tolist(),
-            "scores": np.asarray(res.scores, dtype=np.float64).tolist(), "runtime_s": float(res.runtime_s),
-            "reason": res.reason, "info": _plain(res.info)}
+    return {
+        "method": res.method,
+        "T_a_b": None if res.T_a_b is None else np.asarray(res.T_a_b).tolist(),
+        "associations": np.asarray(res.associations, dtype=np.int64).reshape(-1, 2).tolist(),
+        "scores": np.asarray(res.scores, dtype=np.float64).tolist(),
+        "runtime_s": float(res.runtime_s),
+        "reason": res.reason,
+        "info": _plain(res.info),
+    }
 
 
 def result_from_json(d: dict[str, Any]) -> AlignResult:
     """Inverse of ``result_to_json``."""
     T = None if d["T_a_b"] is None else np.asarray(d["T_a_b"], dtype=np.float64)
-    return AlignResult(str(d["method"]), T, np.asarray(d["associations"], dtype=np.int64).reshape(-1, 2),
-                       np.asarray(d["scores"], dtype=np.float64), float(d["runtime_s"]), d["reason"], dict(d["info"]))
+    return AlignResult(
+        str(d["method"]),
+        T,
+        np.asarray(d["associations"], dtype=np.int64).reshape(-1, 2),
+        np.asarray(d["scores"], dtype=np.float64),
+        float(d["runtime_s"]),
+        d["reason"],
+        dict(d["info"]),
+    )

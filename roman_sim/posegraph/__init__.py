@@ -6,5 +6,12 @@
 from roman_sim.posegraph.solve import build_and_solve, closure_from_alignment, submap_nodes_from
 from roman_sim.posegraph.types import LoopClosure, PoseGraphConfig, PoseGraphResult, Trajectory
 
-__all__ = ["LoopClosure", "PoseGraphConfig", "PoseGraphResult", "Trajectory", "build_and_solve",
-           "closure_from_alignment", "submap_nodes_from"]
+__all__ = [
+    "LoopClosure",
+    "PoseGraphConfig",
+    "PoseGraphResult",
+    "Trajectory",
+    "build_and_solve",
+    "closure_from_alignment",
+    "submap_nodes_from",
+]

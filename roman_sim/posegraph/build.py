@@ -13,8 +13,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import inv_T
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.geometry import inv_T
 
 if TYPE_CHECKING:
     from roman_sim.posegraph.types import LoopClosure, PoseGraphConfig
@@ -89,8 +89,9 @@ def _keyframe_indices(T: F64, node_idx: NDArray[np.int64], spacing_m: float) -> 
 def _submap_samples(robot: str, t: F64, nodes: list[tuple[float, F64]]) -> NDArray[np.int64]:
     times = np.array([float(n[0]) for n in nodes], dtype=np.float64)
     if len(times) and (times.min() < t[0] - TIME_TOLERANCE_S or times.max() > t[-1] + TIME_TOLERANCE_S):
-        raise EvaluationError(f"submap_nodes {robot!r}: submap times outside the trajectory "
-                              f"[{t[0]:.3f}, {t[-1]:.3f}] s")
+        raise EvaluationError(
+            f"submap_nodes {robot!r}: submap times outside the trajectory [{t[0]:.3f}, {t[-1]:.3f}] s"
+        )
     right = np.clip(np.searchsorted(t, times), 1, len(t) - 1) if len(t) > 1 else np.zeros(len(times), int)
     left = np.maximum(right - 1, 0)
     nearer_left = np.abs(times - t[left]) <= np.abs(t[right] - times)
@@ -118,8 +119,14 @@ def _chains(
             scale = np.sqrt(length / cfg.odom_ref_edge_m)
             Z = inv_T(chain.T_odom_kf[k]) @ chain.T_odom_kf[k + 1]
             odom_factors.append(graph.size())
-            graph.add(gtsam.BetweenFactorPose3(chain.keys[k], chain.keys[k + 1], gtsam.Pose3(Z),
-                                               _sigmas(cfg.odom_sigma_m * scale, cfg.odom_sigma_deg * scale)))
+            graph.add(
+                gtsam.BetweenFactorPose3(
+                    chain.keys[k],
+                    chain.keys[k + 1],
+                    gtsam.Pose3(Z),
+                    _sigmas(cfg.odom_sigma_m * scale, cfg.odom_sigma_deg * scale),
+                )
+            )
         pos = np.searchsorted(idx, sample)
         for s, (_, T_sub) in enumerate(nodes):
             T_sub = np.asarray(T_sub, dtype=np.float64)
@@ -193,11 +200,16 @@ def build_graph(
     edges = _edges(closures, anchors, chains, cfg.lc_association_thresh)
     for e in edges:
         lc = closures[e.closure]
-        noise = _sigmas(cfg.lc_sigma_m if lc.sigma_m is None else lc.sigma_m,
-                        cfg.lc_sigma_deg if lc.sigma_deg is None else lc.sigma_deg)
+        noise = _sigmas(
+            cfg.lc_sigma_m if lc.sigma_m is None else lc.sigma_m,
+            cfg.lc_sigma_deg if lc.sigma_deg is None else lc.sigma_deg,
+        )
         parts.closure_factor[e.closure] = graph.size()
-        graph.add(gtsam.BetweenFactorPose3(chains[e.robot_a].keys[e.pos_a], chains[e.robot_b].keys[e.pos_b],
-                                           gtsam.Pose3(e.Z), noise))
+        graph.add(
+            gtsam.BetweenFactorPose3(
+                chains[e.robot_a].keys[e.pos_a], chains[e.robot_b].keys[e.pos_b], gtsam.Pose3(e.Z), noise
+            )
+        )
     _place(list(trajectories), edges, chains, parts)
     prior = _sigmas(cfg.prior_sigma_m, cfg.prior_sigma_deg)
     for robot, root in parts.root.items():

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import EvaluationError
-from roman_sim.geometry import inv_T
+from roman_sim.core.geometry import inv_T
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph.build import GraphParts, build_graph
 from roman_sim.posegraph.types import LoopClosure, PoseGraphConfig, PoseGraphResult, Trajectory
@@ -69,8 +69,13 @@ def build_and_solve(
         error_initial=_weighted_error(parts.graph, initial, weights),
         error_final=_weighted_error(parts.graph, values, weights),
     )
-    log.info("pose graph: %d nodes, %d/%d closures inliers, %.2f s", initial.size(),
-             result.n_inliers, len(parts.closure_factor), result.runtime_s)
+    log.info(
+        "pose graph: %d nodes, %d/%d closures inliers, %.2f s",
+        initial.size(),
+        result.n_inliers,
+        len(parts.closure_factor),
+        result.runtime_s,
+    )
     return result
 
 
@@ -168,5 +173,12 @@ def closure_from_alignment(a: Submap, b: Submap, result: AlignResult) -> LoopClo
     """The loop closure an alignment of submaps ``a`` and ``b`` proposes (None without a transform)."""
     if result.T_a_b is None:
         return None
-    return LoopClosure(a.robot, int(a.index), b.robot, int(b.index), np.asarray(result.T_a_b, dtype=np.float64),
-                       n_associations=result.n_associations, source=result.method)
+    return LoopClosure(
+        a.robot,
+        int(a.index),
+        b.robot,
+        int(b.index),
+        np.asarray(result.T_a_b, dtype=np.float64),
+        n_associations=result.n_associations,
+        source=result.method,
+    )

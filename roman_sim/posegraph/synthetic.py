@@ -17,9 +17,9 @@ from pydantic import Field
 from scipy.spatial import cKDTree
 
 from roman_sim.core.config import StrictModel
+from roman_sim.core.geometry import gravity_aligned, inv_T, make_T, pose_4dof, pose_error, rot_z, rpy_to_R
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.geometry import gravity_aligned, inv_T, make_T, pose_4dof, pose_error, rot_z, rpy_to_R
 from roman_sim.posegraph.types import LoopClosure
 
 F64 = NDArray[np.float64]
@@ -129,8 +129,9 @@ def _false_T(T_true: F64, rng: np.random.Generator) -> F64:
             return T
 
 
-def _distinct_submaps(T_ws: dict[str, F64], robots: list[str],
-                      rng: np.random.Generator) -> tuple[tuple[str, int], tuple[str, int]]:
+def _distinct_submaps(
+    T_ws: dict[str, F64], robots: list[str], rng: np.random.Generator
+) -> tuple[tuple[str, int], tuple[str, int]]:
     """Two different submaps, robots and indices drawn uniformly."""
     while True:
         ra, rb = (str(r) for r in rng.choice(robots, size=2))
@@ -139,8 +140,9 @@ def _distinct_submaps(T_ws: dict[str, F64], robots: list[str],
             return (ra, ia), (rb, ib)
 
 
-def _closures(cfg: SyntheticGraphConfig, T_ws: dict[str, F64],
-              rng: np.random.Generator) -> tuple[list[LoopClosure], list[bool]]:
+def _closures(
+    cfg: SyntheticGraphConfig, T_ws: dict[str, F64], rng: np.random.Generator
+) -> tuple[list[LoopClosure], list[bool]]:
     cands = _candidates(cfg, T_ws)
     n_false = int(round(cfg.n_closures * cfg.outlier_fraction))
     n_true = min(cfg.n_closures - n_false, len(cands))

@@ -33,8 +33,6 @@ class PoseGraphConfig(StrictModel):
     lc_association_thresh: int = Field(4, ge=0, le=10000)
 
 
-
-
 @dataclass
 class LoopClosure:
     """A measured relative pose between two submaps.

@@ -15,8 +15,8 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from roman_sim.core.config import StrictModel
-from roman_sim.geometry import R_FLU_RDF, make_T, rot_y
-from roman_sim.sensors import Intrinsics, check_intrinsics
+from roman_sim.core.geometry import R_FLU_RDF, make_T, rot_y
+from roman_sim.core.sensors import Intrinsics, check_intrinsics
 
 log = logging.getLogger(__name__)
 

@@ -115,10 +115,15 @@ class GroundRobotEnv(gym.Env):
         if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
             raise SimError(f"GroundRobotEnv: max_steps must be an integer >= 1, got {max_steps!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise SimError(f"GroundRobotEnv: render_mode {render_mode!r} unknown (valid: None, "
-                           f"{', '.join(self.metadata['render_modes'])})")
-        self.camera = (camera if isinstance(camera, CameraConfig)
-                       else validate_model(CameraConfig, camera, "GroundRobotEnv camera"))
+            raise SimError(
+                f"GroundRobotEnv: render_mode {render_mode!r} unknown (valid: None, "
+                f"{', '.join(self.metadata['render_modes'])})"
+            )
+        self.camera = (
+            camera
+            if isinstance(camera, CameraConfig)
+            else validate_model(CameraConfig, camera, "GroundRobotEnv camera")
+        )
         self.drift_cfg = resolve_drift(drift)
         self.world = _load_world(world, preset, world_seed)
         self.max_steps, self.render_mode = int(max_steps), render_mode
@@ -133,12 +138,14 @@ class GroundRobotEnv(gym.Env):
         self._high = np.array([max_speed_mps, max_yaw_rate], dtype=np.float32)
         self.action_space = spaces.Box(self._low, self._high)
         n_obj = max(len(self.world.truth.objects), 1)
-        self.observation_space = spaces.Dict({
-            "rgb": spaces.Box(0, 255, (h, w, 3), np.uint8),
-            "depth": spaces.Box(0.0, np.float32(self.camera.far_m * 2), (h, w), np.float32),
-            "object_ids": spaces.Box(-1, n_obj - 1, (h, w), np.int32),
-            "odom_pose": spaces.Box(-1e6, 1e6, (4, 4), np.float64),
-        })
+        self.observation_space = spaces.Dict(
+            {
+                "rgb": spaces.Box(0, 255, (h, w, 3), np.uint8),
+                "depth": spaces.Box(0.0, np.float32(self.camera.far_m * 2), (h, w), np.float32),
+                "object_ids": spaces.Box(-1, n_obj - 1, (h, w), np.int32),
+                "odom_pose": spaces.Box(-1e6, 1e6, (4, 4), np.float64),
+            }
+        )
         self._state = PlanarState(0.0, 0.0, 0.0)
         self._steps = 0
         self._last_rgb: np.ndarray | None = None
@@ -156,9 +163,11 @@ class GroundRobotEnv(gym.Env):
             raise SimError(f"GroundRobotEnv: start must be finite, got ({x}, {y}, {heading})")
         ter = self.world.truth.terrain
         if not ter.contains(x, y):
-            raise SimError(f"GroundRobotEnv: start ({x:g}, {y:g}) lies outside the world "
-                           f"(x in [{-ter.size_x / 2:g}, {ter.size_x / 2:g}], "
-                           f"y in [{-ter.size_y / 2:g}, {ter.size_y / 2:g}])")
+            raise SimError(
+                f"GroundRobotEnv: start ({x:g}, {y:g}) lies outside the world "
+                f"(x in [{-ter.size_x / 2:g}, {ter.size_x / 2:g}], "
+                f"y in [{-ter.size_y / 2:g}, {ter.size_y / 2:g}])"
+            )
         free = float(self._obstacles.clearance(np.array([[x, y]]))[0])
         if free < 0.0:
             raise SimError(f"GroundRobotEnv: start ({x:g}, {y:g}) lies inside an object footprint")
@@ -176,16 +185,20 @@ class GroundRobotEnv(gym.Env):
             best = float(np.max(self._obstacles.clearance(np.column_stack([gx.ravel(), gy.ravel()]))))
         if best < self.clearance_m:
             found = "the world is too small for that margin" if best == -math.inf else f"the most found is {best:.2f} m"
-            raise SimError(f"GroundRobotEnv: clearance_m={self.clearance_m:g} is impossible in this {ter.size_x:g} x "
-                           f"{ter.size_y:g} m world: no start pose is {margin:g} m from the edge and "
-                           f"{self.clearance_m:g} m from every object ({found})")
+            raise SimError(
+                f"GroundRobotEnv: clearance_m={self.clearance_m:g} is impossible in this {ter.size_x:g} x "
+                f"{ter.size_y:g} m world: no start pose is {margin:g} m from the edge and "
+                f"{self.clearance_m:g} m from every object ({found})"
+            )
 
     def _random_start(self, rng: np.random.Generator) -> PlanarState:
         ter = self.world.truth.terrain
         margin = 2.0 * self.clearance_m + 1.0
         for _ in range(1000):
-            x, y = rng.uniform(-ter.size_x / 2 + margin, ter.size_x / 2 - margin), rng.uniform(
-                -ter.size_y / 2 + margin, ter.size_y / 2 - margin)
+            x, y = (
+                rng.uniform(-ter.size_x / 2 + margin, ter.size_x / 2 - margin),
+                rng.uniform(-ter.size_y / 2 + margin, ter.size_y / 2 - margin),
+            )
             if self._obstacles.clearance(np.array([[x, y]]))[0] >= self.clearance_m:
                 return PlanarState(float(x), float(y), float(rng.uniform(-np.pi, np.pi)))
         raise SimError(f"GroundRobotEnv: no free start pose with clearance {self.clearance_m} m found")
@@ -220,8 +233,9 @@ class GroundRobotEnv(gym.Env):
         if a.size != 2:
             raise SimError(f"GroundRobotEnv: action must hold 2 numbers ({_ACTION}), got shape {a.shape}")
         if not np.all(np.isfinite(a)):
-            raise SimError(f"GroundRobotEnv: action must be finite, got {a.reshape(2).tolist()} "
-                           "(the episode is unchanged)")
+            raise SimError(
+                f"GroundRobotEnv: action must be finite, got {a.reshape(2).tolist()} (the episode is unchanged)"
+            )
         return np.clip(a.reshape(2), self._low, self._high)
 
     def _observe(self) -> tuple[ObsDict, dict[str, Any]]:
@@ -253,13 +267,20 @@ class GroundRobotEnv(gym.Env):
         if left:
             self._state = PlanarState(
                 float(np.clip(self._state.x, -ter.size_x / 2, ter.size_x / 2)),
-                float(np.clip(self._state.y, -ter.size_y / 2, ter.size_y / 2)), self._state.heading)
+                float(np.clip(self._state.y, -ter.size_y / 2, ter.size_y / 2)),
+                self._state.heading,
+            )
         obs, info = self._observe()
         info.update(left_world=left, collision=hit)
         terminated, truncated = bool(left or hit), self._steps >= self.max_steps
         if terminated or truncated:
-            why = ("left the world" if left else "collided with an object" if hit
-                   else f"reached max_steps={self.max_steps}")
+            why = (
+                "left the world"
+                if left
+                else "collided with an object"
+                if hit
+                else f"reached max_steps={self.max_steps}"
+            )
             self._needs_reset = f"the episode ended ({why}): call reset() before step()"
         return obs, 0.0, terminated, truncated, info
 

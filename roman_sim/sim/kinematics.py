@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.geometry import make_T, wrap_angle
+from roman_sim.core.geometry import make_T, wrap_angle
 from roman_sim.sim.paths import Path2D
 from roman_sim.world.truth import Terrain
 
@@ -87,7 +87,7 @@ class PathFollower:
         s = self.path.s
         lo = np.searchsorted(s, self.progress_m)
         hi = np.searchsorted(s, self.progress_m + max(2.0, 2 * self.lookahead))
-        seg = self.path.xy[lo: hi + 1]
+        seg = self.path.xy[lo : hi + 1]
         if len(seg):
             i = int(np.argmin(np.sum((seg - [x, y]) ** 2, axis=1)))
             self.progress_m = float(s[lo + i])

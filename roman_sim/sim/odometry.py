@@ -36,8 +36,8 @@ from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import SimError
+from roman_sim.core.geometry import R_to_rpy, gravity_aligned, inv_T, make_T, rot_x, rot_y, rot_z, yaw_of
 from roman_sim.core.registry import Registry
-from roman_sim.geometry import R_to_rpy, gravity_aligned, inv_T, make_T, rot_x, rot_y, rot_z, yaw_of
 
 log = logging.getLogger(__name__)
 
@@ -55,19 +55,43 @@ class DriftConfig(StrictModel):
 
 
 DRIFT_PRESETS: Registry[DriftConfig] = Registry("drift preset")
-DRIFT_PRESETS.register("zero", DriftConfig(
-    translation_sigma_m_per_sqrt_m=0, z_sigma_m_per_sqrt_m=0, yaw_sigma_deg_per_sqrt_m=0,
-    scale_error_std=0, yaw_bias_std_deg_per_m=0, roll_pitch_sigma_deg=0, roll_pitch_bound_deg=0,
-))
-DRIFT_PRESETS.register("good", DriftConfig(
-    translation_sigma_m_per_sqrt_m=0.025, z_sigma_m_per_sqrt_m=0.01, yaw_sigma_deg_per_sqrt_m=0.05,
-    scale_error_std=0.002, yaw_bias_std_deg_per_m=0.002, roll_pitch_sigma_deg=0.1, roll_pitch_bound_deg=0.5,
-))
+DRIFT_PRESETS.register(
+    "zero",
+    DriftConfig(
+        translation_sigma_m_per_sqrt_m=0,
+        z_sigma_m_per_sqrt_m=0,
+        yaw_sigma_deg_per_sqrt_m=0,
+        scale_error_std=0,
+        yaw_bias_std_deg_per_m=0,
+        roll_pitch_sigma_deg=0,
+        roll_pitch_bound_deg=0,
+    ),
+)
+DRIFT_PRESETS.register(
+    "good",
+    DriftConfig(
+        translation_sigma_m_per_sqrt_m=0.025,
+        z_sigma_m_per_sqrt_m=0.01,
+        yaw_sigma_deg_per_sqrt_m=0.05,
+        scale_error_std=0.002,
+        yaw_bias_std_deg_per_m=0.002,
+        roll_pitch_sigma_deg=0.1,
+        roll_pitch_bound_deg=0.5,
+    ),
+)
 DRIFT_PRESETS.register("typical", DriftConfig())
-DRIFT_PRESETS.register("poor", DriftConfig(
-    translation_sigma_m_per_sqrt_m=0.15, z_sigma_m_per_sqrt_m=0.06, yaw_sigma_deg_per_sqrt_m=0.3,
-    scale_error_std=0.015, yaw_bias_std_deg_per_m=0.015, roll_pitch_sigma_deg=0.4, roll_pitch_bound_deg=2.0,
-))
+DRIFT_PRESETS.register(
+    "poor",
+    DriftConfig(
+        translation_sigma_m_per_sqrt_m=0.15,
+        z_sigma_m_per_sqrt_m=0.06,
+        yaw_sigma_deg_per_sqrt_m=0.3,
+        scale_error_std=0.015,
+        yaw_bias_std_deg_per_m=0.015,
+        roll_pitch_sigma_deg=0.4,
+        roll_pitch_bound_deg=2.0,
+    ),
+)
 
 
 def resolve_drift(drift: str | DriftConfig) -> DriftConfig:

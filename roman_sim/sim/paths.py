@@ -119,8 +119,9 @@ def retrace_path(other: Path2D, cfg: PathConfig, truth: WorldTruth, name: str, o
     parts: list[NDArray[np.float64]] = []
     for k, (f0, f1) in enumerate(cfg.pieces):
         if not (0.0 <= f0 <= 1.0 and 0.0 <= f1 <= 1.0) or abs(f1 - f0) * other.length < 1.0:
-            raise SimError(f"robot {name!r}: path.pieces[{k}]={[f0, f1]} must be fractions in [0, 1] "
-                           "spanning at least 1 m")
+            raise SimError(
+                f"robot {name!r}: path.pieces[{k}]={[f0, f1]} must be fractions in [0, 1] spanning at least 1 m"
+            )
         lo, hi = sorted((f0, f1))
         sel = other.xy[(other.s >= lo * other.length) & (other.s <= hi * other.length)]
         piece = sel if f1 > f0 else sel[::-1]
@@ -223,7 +224,8 @@ def validate_path(
     if out.any():
         x, y = path.xy[np.argmax(out)]
         raise SimError(
-            f"robot {name!r}: path leaves the world at ({x:.2f}, {y:.2f}) (edge margin {cfg.edge_margin_m} m)")
+            f"robot {name!r}: path leaves the world at ({x:.2f}, {y:.2f}) (edge margin {cfg.edge_margin_m} m)"
+        )
     clear = (obstacles or Obstacles(truth)).clearance(path.xy)
     if np.any(clear < cfg.clearance_m - 1e-6):
         i = int(np.argmin(clear))

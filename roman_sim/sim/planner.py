@@ -80,8 +80,8 @@ class GridPlanner:
         idx = np.arange(self.nx * self.ny).reshape(self.ny, self.nx)
         rows, cols, w = [], [], []
         for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
-            a = idx[: self.ny - dy, max(0, -dx): self.nx - max(0, dx)]
-            b = idx[dy:, max(0, dx): self.nx - max(0, -dx)]
+            a = idx[: self.ny - dy, max(0, -dx) : self.nx - max(0, dx)]
+            b = idx[dy:, max(0, dx) : self.nx - max(0, -dx)]
             ok = self.free[a] & self.free[b]
             rows.append(a[ok])
             cols.append(b[ok])
@@ -142,7 +142,11 @@ def _shortcut(pts: NDArray[np.float64], obs: Obstacles, clearance: float) -> NDA
 
 
 def route(
-    waypoints: NDArray[np.float64], truth: WorldTruth, clearance_m: float, edge_margin_m: float, name: str,
+    waypoints: NDArray[np.float64],
+    truth: WorldTruth,
+    clearance_m: float,
+    edge_margin_m: float,
+    name: str,
     obs: Obstacles,
 ) -> NDArray[np.float64]:
     """Polyline through ``waypoints`` with detours around objects (grid planner when needed)."""

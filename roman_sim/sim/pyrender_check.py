@@ -15,7 +15,7 @@ import trimesh
 from numpy.typing import NDArray
 
 from roman_sim.core.glrender import offscreen_renderer
-from roman_sim.sensors import Intrinsics
+from roman_sim.core.sensors import Intrinsics
 from roman_sim.world.truth import Terrain
 
 log = logging.getLogger(__name__)
@@ -70,4 +70,3 @@ def pyrender_depth(
     scene.add(cam, pose=np.asarray(T_world_cam, dtype=np.float64) @ _T_RDF_GL)
     depth = offscreen_renderer(k.width, k.height).render(scene, flags=pyrender.RenderFlags.DEPTH_ONLY)
     return np.asarray(depth, dtype=np.float32)
-

@@ -33,9 +33,9 @@ from numpy.typing import NDArray
 
 from roman_sim.core.atomic import make_public_dir, output_folder, write_json
 from roman_sim.core.errors import ConfigError, RecordingError
+from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import write_tum
-from roman_sim.sensors import Frame, FrameTruth, Intrinsics
 
 log = logging.getLogger(__name__)
 
@@ -57,8 +57,10 @@ def _write_npz(path: Path, arrays: dict[str, np.ndarray]) -> None:
 
 def _truth(f: Frame) -> FrameTruth:
     if f.truth is None or f.truth.object_ids is None:
-        raise RecordingError(f"frame {f.index} of robot {f.robot}: a recording stores ground truth "
-                             "(poses and instance ids), this frame has none")
+        raise RecordingError(
+            f"frame {f.index} of robot {f.robot}: a recording stores ground truth "
+            "(poses and instance ids), this frame has none"
+        )
     return f.truth
 
 
@@ -103,15 +105,24 @@ def _meta(first: Frame, n: int, chunks: list[str], extra: dict[str, Any] | None)
         "frame_count": n,
         "chunks": chunks,
         "has_rgb": first.rgb is not None,
-        "intrinsics": {"width": k.width, "height": k.height, "fx": float(k.fx), "fy": float(k.fy),
-                       "cx": float(k.cx), "cy": float(k.cy)},
+        "intrinsics": {
+            "width": k.width,
+            "height": k.height,
+            "fx": float(k.fx),
+            "fy": float(k.fy),
+            "cx": float(k.cx),
+            "cy": float(k.cy),
+        },
         "T_body_cam": np.asarray(first.T_body_cam, dtype=np.float64).tolist(),
         "extra": extra or {},
     }
 
 
 def write_recording(
-    frames: Iterable[Frame], out_dir: str | Path, chunk_size: int = 50, overwrite: bool = False,
+    frames: Iterable[Frame],
+    out_dir: str | Path,
+    chunk_size: int = 50,
+    overwrite: bool = False,
     extra: dict[str, Any] | None = None,
 ) -> Path:
     """Store ``frames`` (one robot) in ``out_dir``; returns the folder path.
@@ -226,12 +237,15 @@ def read_recording(rec_dir: str | Path) -> Iterator[Frame]:
         try:
             for i in range(len(c["t"])):
                 yield Frame(
-                    robot, int(c["index"][i]), float(c["t"][i]),
+                    robot,
+                    int(c["index"][i]),
+                    float(c["t"][i]),
                     c["rgb"][i] if "rgb" in c else None,
                     (c["depth_mm"][i].astype(np.float32) / np.float32(1000.0)),
-                    c["T_odom_body"][i], T_bc.copy(), intr,
+                    c["T_odom_body"][i],
+                    T_bc.copy(),
+                    intr,
                     truth=FrameTruth(c["object_ids"][i].astype(np.int32), c["T_world_body"][i]),
                 )
         except (KeyError, IndexError) as err:
             raise RecordingError(f"{d / name}: corrupt chunk (missing or short array: {err})") from None
-

@@ -16,7 +16,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import SimError
-from roman_sim.sensors import Intrinsics
+from roman_sim.core.sensors import Intrinsics
 from roman_sim.sim.camera import CameraConfig
 
 log = logging.getLogger(__name__)
@@ -167,4 +167,3 @@ class SensorRenderer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-

@@ -19,8 +19,8 @@ from pydantic import Field, field_validator
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import SimError
 from roman_sim.core.seeding import child_rng
+from roman_sim.core.sensors import Frame, FrameTruth
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.sensors import Frame, FrameTruth
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PathFollower, PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.noise import apply_depth_noise
@@ -114,8 +114,9 @@ def _check_driven_clearance(world: Any, cfg: RobotConfig, T_wb: NDArray[np.float
     if len(clear) and clear[i] < 0.0:
         raise SimError(f"robot {cfg.name!r}: drove into an object footprint at step {i} (path too tight to follow)")
     if len(clear) and clear[i] < cfg.path.clearance_m:
-        log.warning("robot %s: came %.2f m close to an object (clearance %.2f m)",
-                    cfg.name, clear[i], cfg.path.clearance_m)
+        log.warning(
+            "robot %s: came %.2f m close to an object (clearance %.2f m)", cfg.name, clear[i], cfg.path.clearance_m
+        )
 
 
 class DrivenRun(NamedTuple):
@@ -140,8 +141,6 @@ class DrivenRun(NamedTuple):
     def odom(self) -> Trajectory:
         """The odometry trajectory."""
         return Trajectory(self.t, self.T_odom_body)
-
-
 
 
 def robot_trajectory(
@@ -181,8 +180,9 @@ def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: Drive
         for i in range(len(t)):
             rgb, depth, ids = renderer.render(T_wb[i] @ T_bc)
             noisy = apply_depth_noise(depth, cfg.camera.depth_noise, cfg.camera.max_depth_m, noise_rng)
-            yield Frame(cfg.name, i, float(t[i]), rgb, noisy, T_ob[i], T_bc, renderer.intrinsics,
-                        truth=FrameTruth(ids, T_wb[i]))
+            yield Frame(
+                cfg.name, i, float(t[i]), rgb, noisy, T_ob[i], T_bc, renderer.intrinsics, truth=FrameTruth(ids, T_wb[i])
+            )
     finally:
         renderer.close()
 

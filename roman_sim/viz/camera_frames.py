@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.sensors import Frame
+from roman_sim.core.sensors import Frame
 
 log = logging.getLogger(__name__)
 

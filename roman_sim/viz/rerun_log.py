@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.core.sensors import Frame
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.sensors import Frame
 
 F64 = NDArray[np.float64]
 
@@ -55,13 +55,20 @@ def log_objects(rec: Any, rows: list[dict[str, Any]]) -> None:
     if not rows:
         return
     families = sorted({r["family"] for r in rows})
-    rec.log("world/objects", rr.AnnotationContext([(k, f, _family_colour(k)) for k, f in enumerate(families)]),
-            static=True)
-    rec.log("world/objects", rr.Boxes3D(
-        centers=[r["box"]["center"] for r in rows], half_sizes=np.asarray([r["box"]["extents"] for r in rows]) / 2,
-        quaternions=[r["box"]["quaternion_xyzw"] for r in rows],
-        class_ids=[families.index(r["family"]) for r in rows], labels=[f"{r['family']} {r['id']}" for r in rows]),
-        static=True)
+    rec.log(
+        "world/objects", rr.AnnotationContext([(k, f, _family_colour(k)) for k, f in enumerate(families)]), static=True
+    )
+    rec.log(
+        "world/objects",
+        rr.Boxes3D(
+            centers=[r["box"]["center"] for r in rows],
+            half_sizes=np.asarray([r["box"]["extents"] for r in rows]) / 2,
+            quaternions=[r["box"]["quaternion_xyzw"] for r in rows],
+            class_ids=[families.index(r["family"]) for r in rows],
+            labels=[f"{r['family']} {r['id']}" for r in rows],
+        ),
+        static=True,
+    )
 
 
 def log_terrain(rec: Any, terrain: Any, max_side: int = 96) -> None:
@@ -76,10 +83,14 @@ def log_terrain(rec: Any, terrain: Any, max_side: int = 96) -> None:
     Z = terrain.height_at(X.ravel(), Y.ravel())
     verts = np.column_stack([X.ravel(), Y.ravel(), Z])
     i = np.arange(nr - 1)[:, None] * nc + np.arange(nc - 1)[None, :]
-    tris = np.concatenate([np.stack([i, i + 1, i + nc], -1).reshape(-1, 3),
-                           np.stack([i + 1, i + nc + 1, i + nc], -1).reshape(-1, 3)])
-    rec.log("world/terrain", rr.Mesh3D(vertex_positions=verts, triangle_indices=tris,
-                                       albedo_factor=(120, 140, 100, 255)), static=True)
+    tris = np.concatenate(
+        [np.stack([i, i + 1, i + nc], -1).reshape(-1, 3), np.stack([i + 1, i + nc + 1, i + nc], -1).reshape(-1, 3)]
+    )
+    rec.log(
+        "world/terrain",
+        rr.Mesh3D(vertex_positions=verts, triangle_indices=tris, albedo_factor=(120, 140, 100, 255)),
+        static=True,
+    )
 
 
 def log_trajectories(rec: Any, trajectories: dict[str, dict[str, Trajectory]]) -> None:
@@ -89,9 +100,11 @@ def log_trajectories(rec: Any, trajectories: dict[str, dict[str, Trajectory]]) -
     for robot, variants in trajectories.items():
         for variant, traj in variants.items():
             colour = TRAJECTORY_COLOURS.get(variant, METHOD_COLOUR)
-            rec.log(f"world/trajectories/{robot}/{variant}",
-                    rr.LineStrips3D([traj.positions], colors=[colour], radii=[0.05], labels=[f"{robot} {variant}"]),
-                    static=True)
+            rec.log(
+                f"world/trajectories/{robot}/{variant}",
+                rr.LineStrips3D([traj.positions], colors=[colour], radii=[0.05], labels=[f"{robot} {variant}"]),
+                static=True,
+            )
 
 
 def log_transform(rec: Any, path: str, T: F64, static: bool = False) -> None:
@@ -113,8 +126,11 @@ def log_segment_map(rec: Any, robot: str, smap: Any, T_world_odom: F64) -> None:
     pts = np.concatenate([s.points for s in segs])
     ids = np.concatenate([np.full(len(s.points), s.id) for s in segs])
     rec.log(f"{base}/points", rr.Points3D(pts, class_ids=ids % 65536, radii=[0.03]), static=True)
-    rec.log(f"{base}/centroids", rr.Points3D(np.stack([s.center for s in segs]), radii=[0.12],
-                                             labels=[f"{robot}:{s.id}" for s in segs]), static=True)
+    rec.log(
+        f"{base}/centroids",
+        rr.Points3D(np.stack([s.center for s in segs]), radii=[0.12], labels=[f"{robot}:{s.id}" for s in segs]),
+        static=True,
+    )
 
 
 def log_submaps(rec: Any, robot: str, submaps: Iterable[Any], T_world_odom: F64) -> None:
@@ -125,8 +141,11 @@ def log_submaps(rec: Any, robot: str, submaps: Iterable[Any], T_world_odom: F64)
         T = s.truth.T_world_submap if s.truth is not None else T_world_odom @ s.T_odom_submap
         path = f"world/submaps/{robot}/{s.index}"
         log_transform(rec, path, np.asarray(T, dtype=np.float64), static=True)
-        rec.log(f"{path}/segments", rr.Points3D(np.asarray(s.centers).reshape(-1, 3), radii=[0.1],
-                                                colors=[METHOD_COLOUR]), static=True)
+        rec.log(
+            f"{path}/segments",
+            rr.Points3D(np.asarray(s.centers).reshape(-1, 3), radii=[0.1], colors=[METHOD_COLOUR]),
+            static=True,
+        )
 
 
 def log_closures(rec: Any, segments: dict[str, list[tuple[F64, F64]]]) -> None:
@@ -135,9 +154,11 @@ def log_closures(rec: Any, segments: dict[str, list[tuple[F64, F64]]]) -> None:
 
     for verdict, lines in segments.items():
         if lines:
-            rec.log(f"world/loop_closures/{verdict}",
-                    rr.LineStrips3D([np.stack(ab) for ab in lines], colors=[CLOSURE_COLOURS[verdict]], radii=[0.08]),
-                    static=True)
+            rec.log(
+                f"world/loop_closures/{verdict}",
+                rr.LineStrips3D([np.stack(ab) for ab in lines], colors=[CLOSURE_COLOURS[verdict]], radii=[0.08]),
+                static=True,
+            )
 
 
 def log_camera(rec: Any, robot: str, frame: Frame, T_world_cam: F64, first: bool) -> None:
@@ -149,8 +170,16 @@ def log_camera(rec: Any, robot: str, frame: Frame, T_world_cam: F64, first: bool
     rec.set_time("frame", sequence=int(frame.index))
     if first:
         k = frame.intrinsics
-        rec.log(base, rr.Pinhole(image_from_camera=k.K, resolution=[k.width, k.height],
-                                 camera_xyz=rr.ViewCoordinates.RDF, image_plane_distance=1.0), static=True)
+        rec.log(
+            base,
+            rr.Pinhole(
+                image_from_camera=k.K,
+                resolution=[k.width, k.height],
+                camera_xyz=rr.ViewCoordinates.RDF,
+                image_plane_distance=1.0,
+            ),
+            static=True,
+        )
     log_transform(rec, base, T_world_cam)
     if frame.rgb is not None:
         rec.log(f"{base}/rgb", rr.Image(np.asarray(frame.rgb, dtype=np.uint8)))
@@ -158,4 +187,3 @@ def log_camera(rec: Any, robot: str, frame: Frame, T_world_cam: F64, first: bool
     if frame.truth is not None and frame.truth.object_ids is not None:
         mask = (np.asarray(frame.truth.object_ids, dtype=np.int64) + 1).astype(np.uint16)
         rec.log(f"{base}/mask", rr.SegmentationImage(mask, opacity=0.5))
-

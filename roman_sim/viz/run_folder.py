@@ -84,8 +84,11 @@ def _closures(rf: RunFolder, evaluation: Any, submaps: Any) -> list[Closure]:
         nodes = submap_nodes_from(submaps.all())
         res = build_and_solve(odom, {r: nodes.get(r, []) for r in odom}, closures, sc.posegraph)
         verdicts = [None if w is None else w > 0.5 for w in res.closure_weights]
-    return [Closure(r.a, r.b, r.n_associations, bool(correct.get((r.a, r.b), False)), v)
-            for r, c, v in zip(records, closures, verdicts) if c.n_associations >= thresh]
+    return [
+        Closure(r.a, r.b, r.n_associations, bool(correct.get((r.a, r.b), False)), v)
+        for r, c, v in zip(records, closures, verdicts)
+        if c.n_associations >= thresh
+    ]
 
 
 def load_run_folder(run_dir: str | Path) -> RunFolder:
@@ -103,8 +106,11 @@ def load_run_folder(run_dir: str | Path) -> RunFolder:
         raise StorageError(f"{run}: the run did not complete (stages missing: {', '.join(man.missing)})")
     rf = RunFolder(run, load_scenario(run / "config.yaml"))
     ctx = RunContext(rf.scenario, run)
-    out = {s.name: s.load(ctx, man.stages[s.name].files) for s in STAGES
-           if s.name in ("maps", "submaps", "evaluation") and s.name in man.stages}
+    out = {
+        s.name: s.load(ctx, man.stages[s.name].files)
+        for s in STAGES
+        if s.name in ("maps", "submaps", "evaluation") and s.name in man.stages
+    }
     rf.trajectories = _trajectories(run / "trajectories")
     rf.maps = out["maps"].maps if "maps" in out else {}
     rf.submaps = out["submaps"].submaps if "submaps" in out else {}

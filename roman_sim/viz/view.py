@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from roman_sim.core.errors import RomanSimError, StorageError
-from roman_sim.geometry import gravity_aligned
+from roman_sim.core.geometry import gravity_aligned
 from roman_sim.viz import rerun_log as rl
 from roman_sim.viz.run_folder import RunFolder, load_run_folder
 
@@ -100,8 +100,9 @@ def _object_rows(rf: RunFolder, world: Any) -> list[dict[str, Any]]:
 
     if world is not None:
         return object_rows(world.truth)
-    tables = sorted({p for r in rf.scenario.robots if r.source is not None
-                     if (p := object_table_path(r.source)) is not None})
+    tables = sorted(
+        {p for r in rf.scenario.robots if r.source is not None if (p := object_table_path(r.source)) is not None}
+    )
     return read_object_table(tables[0]) if tables else []
 
 
@@ -112,8 +113,9 @@ def _log_images(rec: Any, rf: RunFolder, world: Any, max_images: int, T_wo: dict
     for robot, frames in camera_frames(rf.path, rf.scenario, world, max_images).items():
         n = 0
         for frame in frames:
-            T_wb = frame.truth.T_world_body if frame.truth is not None \
-                else T_wo.get(robot, np.eye(4)) @ frame.T_odom_body
+            T_wb = (
+                frame.truth.T_world_body if frame.truth is not None else T_wo.get(robot, np.eye(4)) @ frame.T_odom_body
+            )
             rl.log_camera(rec, robot, frame, np.asarray(T_wb) @ frame.T_body_cam, first=n == 0)
             n += 1
         counts[robot] = n
@@ -170,6 +172,10 @@ def open_viewer(path: str | Path) -> bool:
         raise StorageError(f"{p}: recording not found")
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         return False
-    subprocess.Popen([sys.executable, "-m", "rerun", str(p)], start_new_session=True,
-                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    subprocess.Popen(
+        [sys.executable, "-m", "rerun", str(p)],
+        start_new_session=True,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+    )
     return True

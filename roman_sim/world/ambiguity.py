@@ -50,8 +50,14 @@ def _pairs(idx: NDArray[np.int64], ordered: bool) -> tuple[NDArray[np.int64], ND
     return a[keep], b[keep]
 
 
-def _hypotheses(F: NDArray[np.float64], code: NDArray[np.int64], P: NDArray[np.int64], Q: NDArray[np.int64],
-                inlier_m: float, rng: np.random.Generator) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _hypotheses(
+    F: NDArray[np.float64],
+    code: NDArray[np.int64],
+    P: NDArray[np.int64],
+    Q: NDArray[np.int64],
+    inlier_m: float,
+    rng: np.random.Generator,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Yaws (H,) and translations (H, 2) mapping anchor pairs of P onto matching pairs of Q."""
     ai, aj = _pairs(P, ordered=False)
     if len(ai) > MAX_ANCHOR_PAIRS:
@@ -76,9 +82,17 @@ def _hypotheses(F: NDArray[np.float64], code: NDArray[np.int64], P: NDArray[np.i
     return yaw, F[qk[m_q], :2] - rp
 
 
-def place_ambiguity(truth: WorldTruth, center_xy: ArrayLike, radius_m: float = 15.0, region_factor: float = 2.0,
-                    inlier_m: float = 0.5, size_tol: float = 0.25, min_wrong_shift_m: float = 2.0,
-                    min_wrong_yaw_deg: float = 10.0, seed: int = 0) -> float:
+def place_ambiguity(
+    truth: WorldTruth,
+    center_xy: ArrayLike,
+    radius_m: float = 15.0,
+    region_factor: float = 2.0,
+    inlier_m: float = 0.5,
+    size_tol: float = 0.25,
+    min_wrong_shift_m: float = 2.0,
+    min_wrong_yaw_deg: float = 10.0,
+    seed: int = 0,
+) -> float:
     """Ambiguity in [0, 1] of the disc around ``center_xy`` (see the module docstring)."""
     if radius_m <= 0 or region_factor < 1 or inlier_m <= 0 or size_tol <= 0:
         raise WorldError("place_ambiguity: need radius_m > 0, region_factor >= 1, inlier_m > 0, size_tol > 0")

@@ -61,12 +61,19 @@ class LightingSpec(StrictModel):
 
 LIGHTING: Registry[LightingSpec] = Registry("lighting preset")
 LIGHTING.register("noon", LightingSpec())
-LIGHTING.register("morning", LightingSpec(azimuth_deg=340.0, elevation_deg=20.0, sun=0.75, colour=(1.0, 0.88, 0.72),
-                                          sky=(0.6, 0.7, 0.85)))
-LIGHTING.register("evening", LightingSpec(azimuth_deg=200.0, elevation_deg=10.0, sun=0.7, colour=(1.0, 0.7, 0.45),
-                                          ambient=0.25, sky=(0.45, 0.5, 0.7)))
-LIGHTING.register("overcast", LightingSpec(sun=0.12, colour=(0.92, 0.95, 1.0), ambient=0.6, headlight=0.25,
-                                           sky=(0.72, 0.74, 0.77)))
+LIGHTING.register(
+    "morning",
+    LightingSpec(azimuth_deg=340.0, elevation_deg=20.0, sun=0.75, colour=(1.0, 0.88, 0.72), sky=(0.6, 0.7, 0.85)),
+)
+LIGHTING.register(
+    "evening",
+    LightingSpec(
+        azimuth_deg=200.0, elevation_deg=10.0, sun=0.7, colour=(1.0, 0.7, 0.45), ambient=0.25, sky=(0.45, 0.5, 0.7)
+    ),
+)
+LIGHTING.register(
+    "overcast", LightingSpec(sun=0.12, colour=(0.92, 0.95, 1.0), ambient=0.6, headlight=0.25, sky=(0.72, 0.74, 0.77))
+)
 LIGHTING.register("random", LightingSpec(azimuth_deg=None, elevation_deg=None))
 
 
@@ -116,8 +123,10 @@ def resolve_sun(lighting: LightingSpec, seed: int) -> Sun:
     """The sun angles of ``lighting``, drawing the ``null`` ones from the world seed."""
     rng = child_rng(seed, "world", "appearance", "lighting")
     az, el = rng.uniform(0.0, 360.0), rng.uniform(*RANDOM_ELEVATION_DEG)  # drawn always: stable streams
-    return Sun(azimuth_deg=float(az if lighting.azimuth_deg is None else lighting.azimuth_deg),
-               elevation_deg=float(el if lighting.elevation_deg is None else lighting.elevation_deg))
+    return Sun(
+        azimuth_deg=float(az if lighting.azimuth_deg is None else lighting.azimuth_deg),
+        elevation_deg=float(el if lighting.elevation_deg is None else lighting.elevation_deg),
+    )
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
+from roman_sim.core.geometry import make_T, rot_x, rot_y
 from roman_sim.core.registry import Registry
-from roman_sim.geometry import make_T, rot_x, rot_y
 from roman_sim.world.appearance import Variation
 
 Rgba = tuple[float, float, float, float]
@@ -80,13 +80,18 @@ def conifer(rng: np.random.Generator) -> list[Part]:
     h = rng.uniform(6.0, 10.0)
     trunk_h = h * rng.uniform(0.12, 0.2)
     r = h * rng.uniform(0.2, 0.28)
-    crown = _cat(*(
-        trimesh.creation.cone(radius=r * (1 - 0.3 * k), height=(h - trunk_h) * 0.6, sections=10)
-        .apply_translation([0, 0, trunk_h + k * (h - trunk_h) * 0.2])
-        for k in range(3)
-    ))
-    return [Part("trunk", _cyl(0.1 + 0.024 * h, trunk_h + 0.3), BARK, "bark"),
-            Part("crown", crown, (0.10, 0.33, 0.16, 1.0), "foliage")]
+    crown = _cat(
+        *(
+            trimesh.creation.cone(radius=r * (1 - 0.3 * k), height=(h - trunk_h) * 0.6, sections=10).apply_translation(
+                [0, 0, trunk_h + k * (h - trunk_h) * 0.2]
+            )
+            for k in range(3)
+        )
+    )
+    return [
+        Part("trunk", _cyl(0.1 + 0.024 * h, trunk_h + 0.3), BARK, "bark"),
+        Part("crown", crown, (0.10, 0.33, 0.16, 1.0), "foliage"),
+    ]
 
 
 @FAMILIES.register("deciduous")
@@ -94,8 +99,10 @@ def deciduous(rng: np.random.Generator) -> list[Part]:
     trunk_h = rng.uniform(1.8, 3.0)
     cr = rng.uniform(1.8, 2.8)
     crown = _blob(rng, cr, cr * rng.uniform(0.85, 1.0), cr * rng.uniform(0.8, 1.1), trunk_h - 0.3, 0.12)
-    return [Part("trunk", _cyl(0.18, trunk_h + 0.2), BARK, "bark"),
-            Part("crown", crown, (0.30, 0.52, 0.18, 1.0), "foliage")]
+    return [
+        Part("trunk", _cyl(0.18, trunk_h + 0.2), BARK, "bark"),
+        Part("crown", crown, (0.30, 0.52, 0.18, 1.0), "foliage"),
+    ]
 
 
 @FAMILIES.register("bush")
@@ -148,30 +155,40 @@ def house(rng: np.random.Generator) -> list[Part]:
 @FAMILIES.register("shed")
 def shed(rng: np.random.Generator) -> list[Part]:
     w, d, h = rng.uniform(2.5, 4.0), rng.uniform(2.0, 3.0), rng.uniform(2.0, 2.6)
-    return [Part("walls", _box(w, d, h), WOOD, "wood"),
-            Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0), "metal")]
+    return [
+        Part("walls", _box(w, d, h), WOOD, "wood"),
+        Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0), "metal"),
+    ]
 
 
 @FAMILIES.register("car")
 def car(rng: np.random.Generator) -> list[Part]:
     length, width = rng.uniform(3.8, 4.8), rng.uniform(1.7, 1.9)
     body = _cat(_box(length, width, 0.7, z0=0.3), _box(length * 0.55, width * 0.9, 0.55, x=-0.1 * length, z0=1.0))
-    wheels = _cat(*(
-        trimesh.creation.cylinder(radius=0.32, height=0.25, sections=8).apply_transform(
-            make_T(rot_x(np.pi / 2), [sx * length * 0.33, sy * width * 0.45, 0.32]))
-        for sx in (-1, 1) for sy in (-1, 1)
-    ))
+    wheels = _cat(
+        *(
+            trimesh.creation.cylinder(radius=0.32, height=0.25, sections=8).apply_transform(
+                make_T(rot_x(np.pi / 2), [sx * length * 0.33, sy * width * 0.45, 0.32])
+            )
+            for sx in (-1, 1)
+            for sy in (-1, 1)
+        )
+    )
     colour = tuple(rng.uniform(0.1, 0.9, 3)) + (1.0,)
-    return [Part("body", body, colour, "paint", variation=ANY_HUE),
-            Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0), "metal")]
+    return [
+        Part("body", body, colour, "paint", variation=ANY_HUE),
+        Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0), "metal"),
+    ]
 
 
 @FAMILIES.register("lamp_post")
 def lamp_post(rng: np.random.Generator) -> list[Part]:
     h = rng.uniform(4.0, 6.0)
     head = _box(0.9, 0.3, 0.25, x=0.35, z0=h)
-    return [Part("pole", _cyl(0.08, h + 0.1, sections=6), METAL, "metal"),
-            Part("lamp", head, (0.95, 0.92, 0.7, 1.0), "paint")]
+    return [
+        Part("pole", _cyl(0.08, h + 0.1, sections=6), METAL, "metal"),
+        Part("lamp", head, (0.95, 0.92, 0.7, 1.0), "paint"),
+    ]
 
 
 @FAMILIES.register("bench")
@@ -204,4 +221,3 @@ def hay_bale(rng: np.random.Generator) -> list[Part]:
     m = trimesh.creation.cylinder(radius=r, height=rng.uniform(1.1, 1.5), sections=12)
     m.apply_transform(make_T(rot_x(np.pi / 2), [0.0, 0.0, r]))
     return [Part("body", m, (0.85, 0.75, 0.35, 1.0), "straw")]
-

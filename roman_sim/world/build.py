@@ -10,8 +10,8 @@ import numpy as np
 import trimesh
 
 from roman_sim.core.errors import WorldError
+from roman_sim.core.geometry import make_T, rot_z
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import make_T, rot_z
 from roman_sim.world.appearance import resolve_sun
 from roman_sim.world.assets import concat_meshes
 from roman_sim.world.catalog import Asset, family_assets
@@ -138,8 +138,7 @@ def generate(spec: WorldSpec, seed: int) -> World:
     roads = make_roads(spec.roads, spec.extent_m)
     placed, counts = _place_all(spec, seed, roads)
     objects = [
-        _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius))
-        for i, p in enumerate(placed)
+        _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius)) for i, p in enumerate(placed)
     ]
     ground = ground_texture(terrain, roads, spec.roads.width_m, child_rng(seed, "world", "ground"))
     sun = resolve_sun(spec.appearance.lighting, seed)
@@ -153,10 +152,18 @@ def generate(spec: WorldSpec, seed: int) -> World:
     except Exception as err:  # noqa: BLE001  (MuJoCo raises plain ValueError on compile failures)
         raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
     for obj in objects:
-        obj.geom_ids = [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}")
-                        for k in range(len(obj.mesh_names))]
-    meta = {"name": spec.name, "seed": seed, "base_z": base_z, "elevation": elevation, "knobs": list(spec.knobs()),
-            "placed_requested": counts, "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg}}
+        obj.geom_ids = [
+            mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))
+        ]
+    meta = {
+        "name": spec.name,
+        "seed": seed,
+        "base_z": base_z,
+        "elevation": elevation,
+        "knobs": list(spec.knobs()),
+        "placed_requested": counts,
+        "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg},
+    }
     truth = WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
     log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(objects), model.ngeom)
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)

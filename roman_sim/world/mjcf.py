@@ -56,8 +56,15 @@ def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec, sun: Sun) -> None:
 def _sky(mjs: mujoco.MjSpec, spec: WorldSpec) -> None:
     zenith = np.asarray(spec.appearance.lighting.sky)
     horizon = 1.0 - 0.22 * (1.0 - zenith)
-    mjs.add_texture(name="sky", type=mujoco.mjtTexture.mjTEXTURE_SKYBOX, builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
-                    width=64, height=64, rgb1=zenith.tolist(), rgb2=horizon.tolist())
+    mjs.add_texture(
+        name="sky",
+        type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
+        builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
+        width=64,
+        height=64,
+        rgb1=zenith.tolist(),
+        rgb2=horizon.tolist(),
+    )
 
 
 def add_terrain(
@@ -65,21 +72,33 @@ def add_terrain(
 ) -> None:
     """Add the hfield geom (geom 0) that reproduces ``terrain`` exactly, textured with ``ground``."""
     rows, cols = terrain.shape
-    tex = mjs.add_texture(name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D,
-                          width=ground.shape[1], height=ground.shape[0], nchannel=3)
+    tex = mjs.add_texture(
+        name=GROUND, type=mujoco.mjtTexture.mjTEXTURE_2D, width=ground.shape[1], height=ground.shape[0], nchannel=3
+    )
     tex.data = np.ascontiguousarray(ground).tobytes()
     mat = mjs.add_material(name=GROUND, specular=0.0)  # grass and dirt do not shine
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = tex.name
     mat.texrepeat = [1.0, 1.0]  # the image covers the hfield once (roads line up with truth)
     depth = max(1.0, 0.1 * elevation)
-    mjs.add_hfield(name="terrain", size=[terrain.size_x / 2, terrain.size_y / 2, elevation, depth],
-                   nrow=rows, ncol=cols, userdata=hfield_data(terrain, base_z, elevation).ravel().tolist())
-    mjs.worldbody.add_geom(name=TERRAIN_GEOM, type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain",
-                           pos=[0.0, 0.0, base_z], material=GROUND)
+    mjs.add_hfield(
+        name="terrain",
+        size=[terrain.size_x / 2, terrain.size_y / 2, elevation, depth],
+        nrow=rows,
+        ncol=cols,
+        userdata=hfield_data(terrain, base_z, elevation).ravel().tolist(),
+    )
+    mjs.worldbody.add_geom(
+        name=TERRAIN_GEOM,
+        type=mujoco.mjtGeom.mjGEOM_HFIELD,
+        hfieldname="terrain",
+        pos=[0.0, 0.0, base_z],
+        material=GROUND,
+    )
 
 
-def new_spec(spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8],
-             sun: Sun) -> mujoco.MjSpec:
+def new_spec(
+    spec: WorldSpec, terrain: Terrain, base_z: float, elevation: float, ground: NDArray[np.uint8], sun: Sun
+) -> mujoco.MjSpec:
     """An MjSpec holding the visuals, the sun and the terrain of a world."""
     mjs = mujoco.MjSpec()
     mjs.modelname = spec.name
@@ -106,8 +125,9 @@ class Looks:
         surface = SURFACES.get(kind)
         # MuJoCo takes a geom's rgba only when it differs from the default grey, else the
         # material's: the material is that grey too, so every instance shows its own colour
-        mat = mjs.add_material(name=name, specular=surface.specular, shininess=surface.shininess,
-                               rgba=[0.5, 0.5, 0.5, 1.0])
+        mat = mjs.add_material(
+            name=name, specular=surface.specular, shininess=surface.shininess, rgba=[0.5, 0.5, 0.5, 1.0]
+        )
         if self.spec.textures:
             n = self.spec.texture_px
             img = texture_image(kind, child_rng(self.seed, "world", "appearance", "texture", kind), n)
@@ -136,8 +156,9 @@ def _add_mesh(mjs: mujoco.MjSpec, name: str, part: Part, textured: bool) -> None
         m.userfacetexcoord = idx.tolist()
 
 
-def add_object_geoms(mjs: mujoco.MjSpec, obj: ObjectTruth, asset: Asset, meshes: dict[str, trimesh.Trimesh],
-                     looks: Looks) -> None:
+def add_object_geoms(
+    mjs: mujoco.MjSpec, obj: ObjectTruth, asset: Asset, meshes: dict[str, trimesh.Trimesh], looks: Looks
+) -> None:
     """Add one static mesh geom per part of ``obj`` (named ``obj{id}_{k}``), sharing meshes and materials."""
     pos = obj.T_world_obj[:3, 3]
     yaw = float(np.arctan2(obj.T_world_obj[1, 0], obj.T_world_obj[0, 0]))
@@ -148,6 +169,12 @@ def add_object_geoms(mjs: mujoco.MjSpec, obj: ObjectTruth, asset: Asset, meshes:
         if name not in meshes:
             meshes[name] = part.mesh
             _add_mesh(mjs, name, part, looks.spec.textures)
-        mjs.worldbody.add_geom(name=f"obj{obj.id}_{k}", type=mujoco.mjtGeom.mjGEOM_MESH, meshname=name,
-                               pos=pos.tolist(), quat=quat, rgba=looks.rgba(part, draws[k]).tolist(),
-                               material=looks.material(mjs, part.surface))
+        mjs.worldbody.add_geom(
+            name=f"obj{obj.id}_{k}",
+            type=mujoco.mjtGeom.mjGEOM_MESH,
+            meshname=name,
+            pos=pos.tolist(),
+            quat=quat,
+            rgba=looks.rgba(part, draws[k]).tolist(),
+            material=looks.material(mjs, part.surface),
+        )

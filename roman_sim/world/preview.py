@@ -33,8 +33,14 @@ def topdown_png(truth: WorldTruth, title: str = "", road_width_m: float = 0.0) -
     ax.imshow(t.heights, origin="lower", extent=ext, cmap="Greys", alpha=0.5)
     points_per_m = ax.get_window_extent().width / t.size_x * 72.0 / fig.dpi
     for road in truth.roads:
-        ax.plot(road[:, 0], road[:, 1], color="sienna", lw=max(1.0, road_width_m * points_per_m), alpha=0.5,
-                solid_capstyle="butt")
+        ax.plot(
+            road[:, 0],
+            road[:, 1],
+            color="sienna",
+            lw=max(1.0, road_width_m * points_per_m),
+            alpha=0.5,
+            solid_capstyle="butt",
+        )
     cmap = plt.get_cmap("tab20")
     for k, fam in enumerate(truth.families()):
         objs = [o for o in truth.objects if o.family == fam]
@@ -49,8 +55,14 @@ def topdown_png(truth: WorldTruth, title: str = "", road_width_m: float = 0.0) -
     return buf.getvalue()
 
 
-def render_view(world: World, width: int = 640, height: int = 480, azimuth_deg: float = 45.0,
-                elevation_deg: float = -25.0, distance_frac: float = 0.45) -> NDArray[np.uint8]:
+def render_view(
+    world: World,
+    width: int = 640,
+    height: int = 480,
+    azimuth_deg: float = 45.0,
+    elevation_deg: float = -25.0,
+    distance_frac: float = 0.45,
+) -> NDArray[np.uint8]:
     """(H, W, 3) RGB image from a free camera looking at the world centre."""
     model = world.model
     max_w, max_h = model.vis.global_.offwidth, model.vis.global_.offheight

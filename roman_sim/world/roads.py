@@ -29,8 +29,12 @@ def _loop(spec: RoadSpec, extent: tuple[float, float]) -> list[Polyline]:
     hy = extent[1] * (0.5 - spec.margin_frac)
     rc = 0.3 * min(hx, hy)
     pts: list[NDArray[np.float64]] = []
-    corners = [(hx - rc, hy - rc, 0.0), (-hx + rc, hy - rc, 0.5 * np.pi),
-               (-hx + rc, -hy + rc, np.pi), (hx - rc, -hy + rc, 1.5 * np.pi)]
+    corners = [
+        (hx - rc, hy - rc, 0.0),
+        (-hx + rc, hy - rc, 0.5 * np.pi),
+        (-hx + rc, -hy + rc, np.pi),
+        (hx - rc, -hy + rc, 1.5 * np.pi),
+    ]
     n_arc = max(4, int(np.ceil(0.5 * np.pi * rc / _STEP_M)))
     for cx, cy, a0 in corners:
         a = a0 + np.linspace(0.0, 0.5 * np.pi, n_arc)

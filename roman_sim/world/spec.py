@@ -144,7 +144,8 @@ class WorldSpec(StrictModel):
             )
         if self.roads.width_m >= 0.5 * min(self.extent_m):
             raise PydanticCustomError(
-                "road_too_wide", "roads.width_m: {w} m must be below half the smaller extent side",
+                "road_too_wide",
+                "roads.width_m: {w} m must be below half the smaller extent side",
                 {"w": self.roads.width_m},
             )
         return self

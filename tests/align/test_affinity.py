@@ -63,9 +63,16 @@ def test_gravity_uncertainty_widening() -> None:
 def _submap(volumes, shape, desc) -> Submap:
     n = len(volumes)
     return Submap(
-        robot="r", index=0, t=0.0, T_odom_submap=np.eye(4), segment_ids=np.arange(n),
-        centers=np.zeros((n, 3)), volumes=np.asarray(volumes, float), shape=np.asarray(shape, float),
-        descriptors=np.asarray(desc, np.float32), extents=np.ones((n, 3)),
+        robot="r",
+        index=0,
+        t=0.0,
+        T_odom_submap=np.eye(4),
+        segment_ids=np.arange(n),
+        centers=np.zeros((n, 3)),
+        volumes=np.asarray(volumes, float),
+        shape=np.asarray(shape, float),
+        descriptors=np.asarray(desc, np.float32),
+        extents=np.ones((n, 3)),
     )
 
 
@@ -78,7 +85,7 @@ def test_object_scores_hand_values() -> None:
     sem = AffinityParams(use_shape=False)
     np.testing.assert_allclose(object_scores(a, b, sem), [[(c - 0.85) / 0.15, 0.0]], rtol=1e-6)
     both = AffinityParams()
-    np.testing.assert_allclose(object_scores(a, b, both)[0, 0], np.sqrt(0.25 ** 0.25 * (c - 0.85) / 0.15), rtol=1e-6)
+    np.testing.assert_allclose(object_scores(a, b, both)[0, 0], np.sqrt(0.25**0.25 * (c - 0.85) / 0.15), rtol=1e-6)
     none = AffinityParams(use_shape=False, use_semantics=False)
     np.testing.assert_array_equal(object_scores(a, b, none), np.ones((1, 2)))
 

@@ -14,7 +14,7 @@ from roman_sim.align.aligners import GravityParams
 from roman_sim.align.clipper import _prepare, clique_density
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.errors import ConfigError
-from roman_sim.geometry import inv_T, pose_4dof, pose_error
+from roman_sim.core.geometry import inv_T, pose_4dof, pose_error
 
 FAST = {"ransac1m": {"iterations": 300_000}}
 
@@ -76,8 +76,9 @@ def test_geometry_only_is_fooled_by_some_repeated_layouts() -> None:
 
 # visual aligns submaps by their keyframes, which synthetic segment submaps do not have
 # (tests/align/visual covers it on rendered frames)
-@pytest.mark.parametrize("name", [n for n in ALIGNERS.names()
-                                  if (n != "kiss_matcher" or find_spec("kiss_matcher")) and n != "visual"])
+@pytest.mark.parametrize(
+    "name", [n for n in ALIGNERS.names() if (n != "kiss_matcher" or find_spec("kiss_matcher")) and n != "visual"]
+)
 def test_every_method_returns_a_valid_result(name: str) -> None:
     T = pose_4dof(3.0, 2.0, 0.2, np.deg2rad(30.0))
     a, b, truth = make_submap_pair(8, 12, 6, 6, T_a_b=T, noise_m=0.05, descriptor_dim=64)
@@ -103,8 +104,17 @@ def _bad_pairs() -> dict[str, tuple]:
     zero_desc[1] = 0.0
     line = np.outer(np.arange(len(a), dtype=float), [1.0, 0.5, 0.1])
     return {
-        "two segments": (replace(a, centers=a.centers[:2], volumes=a.volumes[:2], shape=a.shape[:2],
-                                 descriptors=a.descriptors[:2], extents=a.extents[:2]), b),
+        "two segments": (
+            replace(
+                a,
+                centers=a.centers[:2],
+                volumes=a.volumes[:2],
+                shape=a.shape[:2],
+                descriptors=a.descriptors[:2],
+                extents=a.extents[:2],
+            ),
+            b,
+        ),
         "identical centres": (replace(a, centers=np.ones_like(a.centers)), b),
         "collinear centres": (replace(a, centers=line), b),
         "nan centre": (replace(a, centers=np.where(np.eye(len(a), 3, dtype=bool), np.nan, a.centers)), b),
@@ -140,7 +150,7 @@ def test_build_aligner_errors_and_user_classes() -> None:
     user = build_aligner("roman_sim.align.aligners:RomanAligner", {"sigma": 0.3})
     assert user.params.sigma == 0.3
     with pytest.raises(ConfigError, match="align"):
-        build_aligner("roman_sim.geometry:make_T")
+        build_aligner("roman_sim.core.geometry:make_T")
 
 
 def test_variant_defaults_follow_the_reference() -> None:
@@ -193,7 +203,7 @@ def test_same_input_same_result() -> None:
 
 
 def test_tilted_result_is_rejected_by_the_pruned_baseline() -> None:
-    from roman_sim.geometry import make_T, rpy_to_R
+    from roman_sim.core.geometry import make_T, rpy_to_R
 
     T = make_T(rpy_to_R(np.deg2rad(10.0), 0.0, 0.5), [1.0, 2.0, 0.0])
     a, b, _ = make_submap_pair(6, 12, 4, 4, T_a_b=T, noise_m=0.02, descriptor_dim=64)

@@ -8,7 +8,7 @@ import pytest
 from roman_sim.align.ransac import RansacParams, ransac_align
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.errors import ConfigError
-from roman_sim.geometry import pose_4dof, pose_error, transform_points
+from roman_sim.core.geometry import pose_4dof, pose_error, transform_points
 
 
 def test_synthetic_pair_ground_truth() -> None:

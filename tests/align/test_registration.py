@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.align.registration import degeneracy, estimate_transform, kabsch_batch, tilt_ok
-from roman_sim.geometry import arun, make_T, pose_4dof, pose_error, rpy_to_R, transform_points
+from roman_sim.core.geometry import arun, make_T, pose_4dof, pose_error, rpy_to_R, transform_points
 
 
 def test_recovers_6dof_and_4dof() -> None:

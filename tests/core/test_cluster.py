@@ -100,8 +100,9 @@ def closed_port() -> int:
 def local_cluster() -> Iterator[object]:
     from distributed import LocalCluster
 
-    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1",
-                           dashboard_address=":0")  # a free port: 8787 may be taken
+    cluster = LocalCluster(
+        n_workers=1, threads_per_worker=1, processes=False, protocol="tcp", host="127.0.0.1", dashboard_address=":0"
+    )  # a free port: 8787 may be taken
     yield cluster
     cluster.close()
 
@@ -115,8 +116,10 @@ def _fails(address: str, **kw: object) -> str:
 
 def test_a_port_that_never_answers(silent_port: int) -> None:
     msg = _fails(f"tcp://127.0.0.1:{silent_port}", timeout_s=T)
-    assert msg == (f"Dask scheduler 'tcp://127.0.0.1:{silent_port}': 127.0.0.1:{silent_port} accepted the "
-                   "connection but sent no Dask handshake within 1 s (not a Dask scheduler?)")
+    assert msg == (
+        f"Dask scheduler 'tcp://127.0.0.1:{silent_port}': 127.0.0.1:{silent_port} accepted the "
+        "connection but sent no Dask handshake within 1 s (not a Dask scheduler?)"
+    )
 
 
 def test_an_http_server(http_port: int) -> None:
@@ -141,14 +144,17 @@ def test_a_closed_port(closed_port: int) -> None:
     assert msg.endswith(f"nothing listens on 127.0.0.1:{closed_port} (connection refused)")
 
 
-@pytest.mark.parametrize(("address", "expect"), [
-    ("not-a-url", "not an address (expected tcp://host:port, e.g. tcp://10.0.0.5:8786): missing port number"),
-    ("http://127.0.0.1:8787", "unknown scheme 'http' (a dashboard URL?"),
-    ("tcp://127.0.0.1", "missing port number"),
-    ("tcp://127.0.0.1:0", "host and a port in 1..65535 needed"),
-    ("tcp://127.0.0.1:70000", "host and a port in 1..65535 needed"),
-    ("", "empty address"),
-])
+@pytest.mark.parametrize(
+    ("address", "expect"),
+    [
+        ("not-a-url", "not an address (expected tcp://host:port, e.g. tcp://10.0.0.5:8786): missing port number"),
+        ("http://127.0.0.1:8787", "unknown scheme 'http' (a dashboard URL?"),
+        ("tcp://127.0.0.1", "missing port number"),
+        ("tcp://127.0.0.1:0", "host and a port in 1..65535 needed"),
+        ("tcp://127.0.0.1:70000", "host and a port in 1..65535 needed"),
+        ("", "empty address"),
+    ],
+)
 def test_malformed_addresses(address: str, expect: str) -> None:
     with pytest.raises(ConfigError) as e:
         parse_scheduler_address(address)
@@ -175,8 +181,11 @@ def test_a_real_scheduler_connects_and_a_worker_is_refused(local_cluster) -> Non
 
 def test_sweep_cli_reports_a_bad_scheduler_in_one_line(tmp_path, silent_port: int, cli_fails) -> None:
     path = tmp_path / "sweep.yaml"
-    path.write_text(yaml.safe_dump({"name": "s", "scenario": "smoke", "seeds": [0],
-                                    "executor": {"kind": "dask", "connect_timeout_s": T}}))
+    path.write_text(
+        yaml.safe_dump(
+            {"name": "s", "scenario": "smoke", "seeds": [0], "executor": {"kind": "dask", "connect_timeout_s": T}}
+        )
+    )
     line = cli_fails("sweep", path, "--scheduler", "not-a-url", "--out", tmp_path / "o")
     assert "scheduler_address: Dask scheduler 'not-a-url': not an address" in line
     line = cli_fails("sweep", path, "--scheduler", f"tcp://127.0.0.1:{silent_port}", "--out", tmp_path / "o")

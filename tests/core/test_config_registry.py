@@ -9,11 +9,11 @@ from pydantic import Field
 from roman_sim.core import atomic
 from roman_sim.core.config import StrictModel, apply_overrides, load_model, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.geometry import make_T, rpy_to_R
 from roman_sim.core.registry import Registry, import_object
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum, write_tum
-from roman_sim.geometry import make_T, rpy_to_R
 
 
 class Inner(StrictModel):

@@ -37,11 +37,14 @@ def _err(data: dict) -> str:
     return str(e.value)
 
 
-@pytest.mark.parametrize(("text", "key", "first", "again"), [
-    ("seed: 0\nname: x\nseed: 1\n", "seed", 1, 3),
-    ("a:\n  b: 1\n  c: 2\n  b: 3\n", "b", 2, 4),
-    ("robots:\n  - {name: a, name: b}\n", "name", 2, 2),
-])
+@pytest.mark.parametrize(
+    ("text", "key", "first", "again"),
+    [
+        ("seed: 0\nname: x\nseed: 1\n", "seed", 1, 3),
+        ("a:\n  b: 1\n  c: 2\n  b: 3\n", "b", 2, 4),
+        ("robots:\n  - {name: a, name: b}\n", "name", 2, 2),
+    ],
+)
 def test_repeated_keys_are_an_error_naming_key_and_lines(text: str, key: str, first: int, again: int) -> None:
     with pytest.raises(ConfigError) as e:
         parse_yaml(text, "s.yaml")
@@ -54,16 +57,19 @@ def test_merge_keys_may_be_overridden_and_repeats_elsewhere_are_fine() -> None:
     assert data["d"] == {"x": 5, "y": 2} and data["e"] == {"x": 1}
 
 
-@pytest.mark.parametrize(("data", "field", "got"), [
-    ({"edges": [0.0, math.nan, 2.0]}, "edges.1", "nan"),
-    ({"edges": [0.0, math.inf]}, "edges.1", "inf"),
-    ({"leaves": [{}, {"x": -math.inf}]}, "leaves.1.x", "-inf"),
-    ({"leaves": [{"pair": [math.nan, 1.0]}]}, "leaves.0.pair.0", "nan"),
-    ({"either": {"x": math.nan}}, "either.x", "nan"),
-    ({"free": {"a": {"b": [1.0, math.nan]}}}, "free.a.b.1", "nan"),
-    ({"maybe": math.nan}, "maybe", "nan"),
-    ({"maybe": "nan"}, "maybe", "'nan'"),
-])
+@pytest.mark.parametrize(
+    ("data", "field", "got"),
+    [
+        ({"edges": [0.0, math.nan, 2.0]}, "edges.1", "nan"),
+        ({"edges": [0.0, math.inf]}, "edges.1", "inf"),
+        ({"leaves": [{}, {"x": -math.inf}]}, "leaves.1.x", "-inf"),
+        ({"leaves": [{"pair": [math.nan, 1.0]}]}, "leaves.0.pair.0", "nan"),
+        ({"either": {"x": math.nan}}, "either.x", "nan"),
+        ({"free": {"a": {"b": [1.0, math.nan]}}}, "free.a.b.1", "nan"),
+        ({"maybe": math.nan}, "maybe", "nan"),
+        ({"maybe": "nan"}, "maybe", "'nan'"),
+    ],
+)
 def test_non_finite_numbers_are_rejected_naming_the_field(data: dict, field: str, got: str) -> None:
     msg = _err(data)
     assert msg == f"t.yaml: {field}: must be a finite number (got {got})", msg
@@ -82,27 +88,47 @@ def test_a_union_field_reports_what_it_accepts() -> None:
     assert msg == "t.yaml: either: expected a string or a mapping of Leaf fields (got 5)"
 
 
-@pytest.mark.parametrize(("sets", "expect"), [
-    (["robots.5.drift=poor"], "--set robots.5.drift: position 5 out of range: robots has 2 entries (positions: 0..1)"),
-    (["robots.x.drift=poor"], "--set robots.x.drift: robots is a list of 2 entries, 'x' is not a position in it"),
-    (["robots.-1.drift=poor"], "'-1' is not a position in it (positions: 0..1)"),
-    (["seed.x=1"], "--set seed.x: seed is a number (0), not a mapping or list, so it has no 'x'"),
-    (["a..b=1"], "empty key or empty part in 'a..b'"),
-    (["noequals"], "--set 'noequals': expected key=value"),
-    (["x={a: 1, a: 2}"], "--set x: value '{a: 1, a: 2}': malformed YAML (line 1, column 8): duplicate key 'a'"),
-    (["robots.0.camera.bogus=1"], "robots.0.camera.bogus: unknown key (allowed: depth_noise, far_m, height, hfov_deg"),
-    (["evaluation.heading_bins_deg=[0, .nan, 180]"],
-     "evaluation.heading_bins_deg.1: must be a finite number (got nan)"),
-    (["mapping.obs_plane_extents_m=[3, .inf, 0.2]"],
-     "mapping.obs_plane_extents_m.1: must be a finite number (got inf)"),
-    (["robots.0.path.waypoints=[[0, .nan], [5, 5]]"], "robots.0.path.waypoints.0.1: must be a finite number (got nan)"),
-    (["world.overrides={extent_m: [.nan, 50]}"], "world.overrides.extent_m.0: must be a finite number (got nan)"),
-    (["aligners=[{method: roman, params: {sigma: .inf}}]"],
-     "aligners.0.params.sigma: must be a finite number (got inf)"),
-    (["robots.0.speed_mps=nan"], "robots.0.speed_mps: must be a finite number (got 'nan')"),
-    (["frontend.segmenter={miss_prob: 3}"],
-     "frontend.segmenter.params: miss_prob: Input should be less than or equal to 1 (got 3)"),
-])
+@pytest.mark.parametrize(
+    ("sets", "expect"),
+    [
+        (
+            ["robots.5.drift=poor"],
+            "--set robots.5.drift: position 5 out of range: robots has 2 entries (positions: 0..1)",
+        ),
+        (["robots.x.drift=poor"], "--set robots.x.drift: robots is a list of 2 entries, 'x' is not a position in it"),
+        (["robots.-1.drift=poor"], "'-1' is not a position in it (positions: 0..1)"),
+        (["seed.x=1"], "--set seed.x: seed is a number (0), not a mapping or list, so it has no 'x'"),
+        (["a..b=1"], "empty key or empty part in 'a..b'"),
+        (["noequals"], "--set 'noequals': expected key=value"),
+        (["x={a: 1, a: 2}"], "--set x: value '{a: 1, a: 2}': malformed YAML (line 1, column 8): duplicate key 'a'"),
+        (
+            ["robots.0.camera.bogus=1"],
+            "robots.0.camera.bogus: unknown key (allowed: depth_noise, far_m, height, hfov_deg",
+        ),
+        (
+            ["evaluation.heading_bins_deg=[0, .nan, 180]"],
+            "evaluation.heading_bins_deg.1: must be a finite number (got nan)",
+        ),
+        (
+            ["mapping.obs_plane_extents_m=[3, .inf, 0.2]"],
+            "mapping.obs_plane_extents_m.1: must be a finite number (got inf)",
+        ),
+        (
+            ["robots.0.path.waypoints=[[0, .nan], [5, 5]]"],
+            "robots.0.path.waypoints.0.1: must be a finite number (got nan)",
+        ),
+        (["world.overrides={extent_m: [.nan, 50]}"], "world.overrides.extent_m.0: must be a finite number (got nan)"),
+        (
+            ["aligners=[{method: roman, params: {sigma: .inf}}]"],
+            "aligners.0.params.sigma: must be a finite number (got inf)",
+        ),
+        (["robots.0.speed_mps=nan"], "robots.0.speed_mps: must be a finite number (got 'nan')"),
+        (
+            ["frontend.segmenter={miss_prob: 3}"],
+            "frontend.segmenter.params: miss_prob: Input should be less than or equal to 1 (got 3)",
+        ),
+    ],
+)
 def test_scenario_errors_name_the_field(sets: list[str], expect: str) -> None:
     with pytest.raises(ConfigError) as e:
         load_scenario("smoke", sets)
@@ -119,8 +145,10 @@ def test_nan_is_not_blamed_on_another_field() -> None:
 
 def test_overrides_keep_working_for_valid_paths() -> None:
     data = {"robots": [{"a": 1}, {"a": 2}], "m": {}}
-    assert apply_overrides(data, ["robots.1.a=3", "m.n.o=[1, 2]"]) == {"robots": [{"a": 1}, {"a": 3}],
-                                                                       "m": {"n": {"o": [1, 2]}}}
+    assert apply_overrides(data, ["robots.1.a=3", "m.n.o=[1, 2]"]) == {
+        "robots": [{"a": 1}, {"a": 3}],
+        "m": {"n": {"o": [1, 2]}},
+    }
 
 
 def test_a_directory_is_reported_as_a_directory(tmp_path) -> None:

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from roman_sim import geometry as g
+from roman_sim.core import geometry as g
 
 
 def test_inverse_and_compose():

@@ -19,9 +19,21 @@ from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall,
 
 def _score(i: int, method: str, correct: bool) -> PairScore:
     """A relevant pair at 30 deg heading difference: right with 10 associations, or wrong with 4."""
-    truth = PairTruth(a=f"a/{i}", b=f"b/{i}", robot_a="a", robot_b="b", index_a=i, index_b=i, T_a_b_true=np.eye(4),
-                      center_dist_m=5.0, heading_diff_deg=30.0, overlap=0.5, ambiguity=float("nan"), relevant=True,
-                      kind="inter")
+    truth = PairTruth(
+        a=f"a/{i}",
+        b=f"b/{i}",
+        robot_a="a",
+        robot_b="b",
+        index_a=i,
+        index_b=i,
+        T_a_b_true=np.eye(4),
+        center_dist_m=5.0,
+        heading_diff_deg=30.0,
+        overlap=0.5,
+        ambiguity=float("nan"),
+        relevant=True,
+        kind="inter",
+    )
     err = 0.1 if correct else 40.0
     return PairScore(truth, method, 10 if correct else 4, err, err, correct, 0.01)
 
@@ -30,9 +42,14 @@ def _score(i: int, method: str, correct: bool) -> PairScore:
 def run() -> RunResult:
     """roman aligns 3 of 4 relevant pairs (max recall 0.75), clipper 2 of 4; no pair lies in 120-180 deg."""
     scores = [_score(i, "roman", i < 3) for i in range(4)] + [_score(i, "clipper", i < 2) for i in range(4)]
-    ate = AteTable(["a"], ["a"], {
-        v: VariantAte(v, "joint", ["a"], {"se3": {"common": e, "all": e, "a": e}}, v)
-        for v, e in (("odometry", 1.0), ("roman", 0.5))})
+    ate = AteTable(
+        ["a"],
+        ["a"],
+        {
+            v: VariantAte(v, "joint", ["a"], {"se3": {"common": e, "all": e, "a": e}}, v)
+            for v, e in (("odometry", 1.0), ("roman", 0.5))
+        },
+    )
     return RunResult(Path("."), load_scenario("smoke"), summary(scores), ate, None)  # type: ignore[arg-type]
 
 
@@ -52,17 +69,20 @@ def test_figures_pass_and_fail_against_hand_computed_values(run: RunResult) -> N
     assert_ate_below(run, "roman")
 
 
-@pytest.mark.parametrize(("minimum", "expect"), [
-    (math.nan, "minimum: expected a finite number in [0, 1], got nan"),
-    (math.inf, "minimum: expected a finite number in [0, 1], got inf"),
-    (1.5, "minimum: expected a finite number in [0, 1], got 1.5"),
-    (-0.1, "minimum: expected a finite number in [0, 1], got -0.1"),
-    (True, "minimum: expected a number in [0, 1], got True"),
-    ("0.3", "minimum: expected a number in [0, 1], got '0.3'"),
-    ({"0-60": math.nan}, "minimum['0-60']: expected a finite number in [0, 1], got nan"),
-    ({}, "minimum: an empty mapping checks nothing"),
-    ({60: 0.2}, "minimum: heading bin labels are strings such as '0-60', got 60"),
-])
+@pytest.mark.parametrize(
+    ("minimum", "expect"),
+    [
+        (math.nan, "minimum: expected a finite number in [0, 1], got nan"),
+        (math.inf, "minimum: expected a finite number in [0, 1], got inf"),
+        (1.5, "minimum: expected a finite number in [0, 1], got 1.5"),
+        (-0.1, "minimum: expected a finite number in [0, 1], got -0.1"),
+        (True, "minimum: expected a number in [0, 1], got True"),
+        ("0.3", "minimum: expected a number in [0, 1], got '0.3'"),
+        ({"0-60": math.nan}, "minimum['0-60']: expected a finite number in [0, 1], got nan"),
+        ({}, "minimum: an empty mapping checks nothing"),
+        ({60: 0.2}, "minimum: heading bin labels are strings such as '0-60', got 60"),
+    ],
+)
 def test_bad_bounds_are_rejected(run: RunResult, minimum: object, expect: str) -> None:
     with pytest.raises(ConfigError) as e:
         assert_recall(run, "roman", minimum)  # type: ignore[arg-type]
@@ -70,8 +90,9 @@ def test_bad_bounds_are_rejected(run: RunResult, minimum: object, expect: str) -
 
 
 def test_unknown_names_list_the_valid_ones(run: RunResult) -> None:
-    with pytest.raises(ConfigError, match="key: unknown figure 'recall' .valid: max_recall, recall_at_precision_1, "
-                                          "best_f1, auc."):
+    with pytest.raises(
+        ConfigError, match="key: unknown figure 'recall' .valid: max_recall, recall_at_precision_1, best_f1, auc."
+    ):
         assert_recall(run, "roman", 0.1, key="recall")
     with pytest.raises(ConfigError, match="key: unknown figure 'f1'"):
         assert_not_worse(run, "roman", "clipper", key="f1")
@@ -89,13 +110,21 @@ def test_unknown_names_list_the_valid_ones(run: RunResult) -> None:
         assert_ate_below(run, "roman", alignment="sim3")
 
 
-@pytest.mark.parametrize(("kw", "expect"), [
-    ({"aligners": "roman"}, "aligners: expected a list of strings, got the string 'roman' (write aligners=['roman'])"),
-    ({"overrides": "seed=2"},
-     "overrides: expected a list of strings, got the string 'seed=2' (write overrides=['seed=2'])"),
-    ({"aligners": ["roman", 3]}, "aligners: every entry must be a string, got 3"),
-    ({"aligners": 5}, "aligners: expected a list of strings, got int"),
-])
+@pytest.mark.parametrize(
+    ("kw", "expect"),
+    [
+        (
+            {"aligners": "roman"},
+            "aligners: expected a list of strings, got the string 'roman' (write aligners=['roman'])",
+        ),
+        (
+            {"overrides": "seed=2"},
+            "overrides: expected a list of strings, got the string 'seed=2' (write overrides=['seed=2'])",
+        ),
+        ({"aligners": ["roman", 3]}, "aligners: every entry must be a string, got 3"),
+        ({"aligners": 5}, "aligners: expected a list of strings, got int"),
+    ],
+)
 def test_run_scenario_rejects_a_string_where_a_list_is_meant(tmp_path: Path, kw: dict, expect: str) -> None:
     with pytest.raises(ConfigError) as e:
         run_scenario("smoke", out=tmp_path, **kw)

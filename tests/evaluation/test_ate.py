@@ -7,10 +7,10 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import make_T, pose_4dof, rpy_to_R
 from roman_sim.core.trajectory import Trajectory, associate
 from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.evaluation.ate import align_4dof, align_se3, ate_rmse, multi_robot_ate
-from roman_sim.geometry import make_T, pose_4dof, rpy_to_R
 
 
 def _tr(t: np.ndarray, T: np.ndarray) -> Trajectory:
@@ -103,8 +103,7 @@ def test_association_by_timestamp():
 def test_multi_robot_uses_one_alignment_for_all():
     t, T = _trajectory()
     ref = {"a": _tr(t, T), "b": _tr(t, _moved(pose_4dof(30, 0, 0, 0), T))}
-    est = {"a": ref["a"].transformed(pose_4dof(1, 1, 0, 0.5)),
-           "b": ref["b"].transformed(pose_4dof(-4, 2, 0, -1.0))}
+    est = {"a": ref["a"].transformed(pose_4dof(1, 1, 0, 0.5)), "b": ref["b"].transformed(pose_4dof(-4, 2, 0, -1.0))}
     res = multi_robot_ate(est, ref, "se3")
     assert res["a"].rmse_m == pytest.approx(0.0, abs=1e-8)
     assert res["b"].rmse_m == pytest.approx(0.0, abs=1e-8)

@@ -39,15 +39,24 @@ def _kabsch_rmse(est: np.ndarray, ref: np.ndarray) -> float:
 def table() -> AteTable:
     odom = {"r1": _traj(LINE), "r2": _traj(P + V), "r3": _traj(P - V)}
     graph = {"r1": _traj(LINE), "r2": _traj(P)}  # r3 never connected
-    return ate_table(TRUTH, {"odometry": VariantEstimate(odom, "joint"),
-                             "odometry_no_prior": VariantEstimate(odom, "per_robot"),
-                             "graph": VariantEstimate(graph, "joint")}, ("se3",))
+    return ate_table(
+        TRUTH,
+        {
+            "odometry": VariantEstimate(odom, "joint"),
+            "odometry_no_prior": VariantEstimate(odom, "per_robot"),
+            "graph": VariantEstimate(graph, "joint"),
+        },
+        ("se3",),
+    )
 
 
 def test_every_row_covers_the_robots_every_row_placed(table):
     assert table.robots == ["r1", "r2", "r3"] and table.common == ["r1", "r2"]
     assert {k: v.connected for k, v in table.variants.items()} == {
-        "odometry": ["r1", "r2", "r3"], "odometry_no_prior": ["r1", "r2", "r3"], "graph": ["r1", "r2"]}
+        "odometry": ["r1", "r2", "r3"],
+        "odometry_no_prior": ["r1", "r2", "r3"],
+        "graph": ["r1", "r2"],
+    }
     # over the common robots r1, r2: odometry's r2 is 0.8 m up, one fit for both
     assert table.rmse("odometry") == pytest.approx(_kabsch_rmse(np.vstack([LINE, P + V]), np.vstack([LINE, P])))
     assert table.rmse("graph") == pytest.approx(0.0, abs=1e-9)

@@ -9,11 +9,11 @@ from typer.testing import CliRunner
 
 from roman_sim.cli import app
 from roman_sim.core.config import validate_model
-from roman_sim.evaluation.calibration import calibrate, render_calibration_frames
 from roman_sim.mapping.calibrate import fit_semantics
 from roman_sim.mapping.frontend import FrontEnd
 from roman_sim.mapping.semantics import SemanticConfig, expected_cosine, family_cosine
 from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.studies.calibration import calibrate, render_calibration_frames
 
 TRUE = SemanticConfig(instance_weight=0.12, view_weight=0.15, noise_energy=0.1, common_weight=0.2, group_weight=0.3)
 SEG = {"miss_prob": 0.1, "miss_far_prob": 0.3, "oversegment_prob": 0.3, "spurious_rate": 1.0, "boundary_noise_px": 1}

@@ -9,8 +9,8 @@ from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.evaluate import evaluate, save_evaluation
 from roman_sim.evaluation.metrics import EvalConfig
-from roman_sim.evaluation.report import write_report
 from roman_sim.evaluation.results import read_evaluation
+from roman_sim.report.markdown import write_report
 
 
 class IdentityAligner:
@@ -37,8 +37,12 @@ class NeverAligner:
 
 def test_evaluate_and_save(make_submap, tmp_path):
     ids = (1, 2, 3, 4)
-    subs = [make_submap("a", 0, 0.0, 0.0, 0.0, ids, True), make_submap("b", 0, 0.0, 0.0, 0.0, ids, True),
-            make_submap("b", 1, 3.0, 0.0, 0.0, ids, True), make_submap("b", 2, 60.0, 0.0, 0.0, ids, True)]
+    subs = [
+        make_submap("a", 0, 0.0, 0.0, 0.0, ids, True),
+        make_submap("b", 0, 0.0, 0.0, 0.0, ids, True),
+        make_submap("b", 1, 3.0, 0.0, 0.0, ids, True),
+        make_submap("b", 2, 60.0, 0.0, 0.0, ids, True),
+    ]
     ident = IdentityAligner()
     ev = evaluate(subs, [ident, NeverAligner()], EvalConfig(k_max=5), ambiguity_fn=lambda xy: 0.4)
     assert not ident.saw_truth

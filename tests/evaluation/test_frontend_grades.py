@@ -4,12 +4,13 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.frontend_grader import FrontEndGrader
-from roman_sim.evaluation.frontend_grades import FrontEndGrades, GradeConfig, plot_frontend_grades
-from roman_sim.geometry import R_FLU_RDF, make_T
+from roman_sim.core.geometry import R_FLU_RDF, make_T
+from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics
+from roman_sim.evaluation.frontend import FrontEndGrader
+from roman_sim.evaluation.frontend_types import FrontEndGrades, GradeConfig
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
-from roman_sim.mapping.segmenter import Mask
-from roman_sim.sensors import Frame, FrameTruth, Intrinsics
+from roman_sim.report.frontend import plot_frontend_grades
 
 H, W = 120, 160
 INTR = Intrinsics(W, H, 80.0, 80.0, (W - 1) / 2, (H - 1) / 2)
@@ -114,11 +115,13 @@ def test_descriptor_cosines_by_class_and_view():
 
 def test_reservoir_keeps_the_cap_and_is_seeded():
     ids, depth = scene()
+
     def run(seed):
         g = FrontEndGrader({}, cfg=GradeConfig(max_observations=10), seed=seed)
         for k in range(12):
             g.add(frame(ids, depth, k), truth_masks(ids), [(0, np.float32([1, k, 0])), (1, np.float32([0, 1, k]))])
         return g
+
     a, b = run(0), run(0)
     assert len(a._obs) == 10 and a._seen == 24
     assert [o.frame for o in a._obs] == [o.frame for o in b._obs]

@@ -10,16 +10,15 @@ import pytest
 
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, EvaluationError
+from roman_sim.core.geometry import make_T, pose_4dof, rot_x
 from roman_sim.evaluation.bins import bin_index, fine_edges, runtime_stats
 from roman_sim.evaluation.metrics import EvalConfig, auc, pr_curve, score_pair, summary
-from roman_sim.geometry import make_T, pose_4dof, rot_x
 
 
 @pytest.fixture
 def six(make_score):
     # (relevant, n_assoc, correct): 4 relevant pairs, 2 irrelevant (both wrong)
-    spec = [(True, 10, True), (True, 5, True), (True, 3, False), (True, 0, False),
-            (False, 8, False), (False, 2, False)]
+    spec = [(True, 10, True), (True, 5, True), (True, 3, False), (True, 0, False), (False, 8, False), (False, 2, False)]
     return [make_score(str(i), r, n, c) for i, (r, n, c) in enumerate(spec)]
 
 
@@ -81,8 +80,11 @@ def test_heading_bins_at_boundaries(make_score):
 
 
 def test_ambiguity_bins_skip_unknown_and_empty_bins_are_none(make_score):
-    scores = [make_score("0", True, 5, True, ambiguity=0.1), make_score("1", True, 5, False, ambiguity=1.0),
-              make_score("2", True, 5, True)]
+    scores = [
+        make_score("0", True, 5, True, ambiguity=0.1),
+        make_score("1", True, 5, False, ambiguity=1.0),
+        make_score("2", True, 5, True),
+    ]
     s = summary(scores).to_json()["methods"]["m"]["inter"]
     bins = s["ambiguity_bins"]
     assert [b["n_pairs"] for b in bins] == [1, 0, 0, 1]
@@ -136,11 +138,15 @@ def test_mixed_methods_and_config_errors(make_score):
 
 
 def test_summary_counts_distinct_pairs_across_methods(make_score):
-    scores = [make_score("0", True, 5, True, method="x"), make_score("0", True, 5, True, method="y"),
-              make_score("1", False, 5, False, method="y")]
+    scores = [
+        make_score("0", True, 5, True, method="x"),
+        make_score("0", True, 5, True, method="y"),
+        make_score("1", False, 5, False, method="y"),
+    ]
     out = summary(scores).to_json()
     assert (out["n_pairs"], out["n_relevant"]) == (2, 1)
-    only_irrelevant = summary([make_score("0", True, 5, True, method="x"),
-                               make_score("1", False, 5, False, method="y")])
+    only_irrelevant = summary(
+        [make_score("0", True, 5, True, method="x"), make_score("1", False, 5, False, method="y")]
+    )
     # y scored no relevant pair: its recall is undefined, not 0
     assert only_irrelevant.figure("y") is None and only_irrelevant.figure("x") == 1.0

@@ -91,13 +91,26 @@ def test_relevance_threshold_and_intra_kind_and_ambiguity_callable(make_submap):
 
 def test_world_ambiguity_fn_matches_place_ambiguity(make_submap):
     amb = pytest.importorskip("roman_sim.world.ambiguity")
+    from roman_sim.core.geometry import make_T
     from roman_sim.evaluation.pairs import world_ambiguity_fn
-    from roman_sim.geometry import make_T
     from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
-    objs = [ObjectTruth(i, "conifer" if i % 2 else "rock", make_T(None, [3.0 * i - 6, (i % 3) * 2.0, 0]),
-                        np.array([2.0, 1.0, 1.0]), 2.0, np.array([3.0 * i - 6, (i % 3) * 2.0, 1.0]), [i], [],
-                        np.eye(4), np.ones(3), 0.5) for i in range(6)]
+    objs = [
+        ObjectTruth(
+            i,
+            "conifer" if i % 2 else "rock",
+            make_T(None, [3.0 * i - 6, (i % 3) * 2.0, 0]),
+            np.array([2.0, 1.0, 1.0]),
+            2.0,
+            np.array([3.0 * i - 6, (i % 3) * 2.0, 1.0]),
+            [i],
+            [],
+            np.eye(4),
+            np.ones(3),
+            0.5,
+        )
+        for i in range(6)
+    ]
     world = WorldTruth(objs, Terrain(60.0, 60.0, np.zeros((5, 5))))
     t = pair_truth(make_submap("a", 0, 0.0, 0.0), make_submap("b", 0, 4.0, 2.0), world_ambiguity_fn(world, 10.0))
     expected = [amb.place_ambiguity(world, np.array(xy), radius_m=10.0) for xy in ([0.0, 0.0], [4.0, 2.0])]

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.examples import draw_examples, pick_examples, plot_alignment
-from roman_sim.evaluation.maskview import overlay, plot_masks
+from roman_sim.core.geometry import make_T, rot_z
 from roman_sim.evaluation.metrics import score_pair, summary
 from roman_sim.evaluation.pairs import pair_truth
-from roman_sim.evaluation.plots import plot_heading_recall, write_metric_plots
-from roman_sim.geometry import make_T, rot_z
+from roman_sim.report.examples import draw_examples, pick_examples, plot_alignment
+from roman_sim.report.maskview import overlay, plot_masks
+from roman_sim.report.plots import plot_heading_recall, write_metric_plots
 
 PNG = b"\x89PNG\r\n\x1a\n"
 
@@ -26,8 +26,7 @@ def metrics(make_score):
     scores = []
     for method, shift in (("roman", 0), ("ransac", 3)):
         for i, h in enumerate([10.0, 70.0, 150.0, 170.0]):
-            scores.append(make_score(str(i), True, 8 - shift - i, i < 2, method=method, heading=h,
-                                     ambiguity=0.2 * i))
+            scores.append(make_score(str(i), True, 8 - shift - i, i < 2, method=method, heading=h, ambiguity=0.2 * i))
         scores.append(make_score("9", False, 6, False, method=method))
     return summary(scores)
 
@@ -35,8 +34,13 @@ def metrics(make_score):
 def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
     paths, notes = write_metric_plots(metrics, tmp_path / "plots")
     # one ambiguity bin per pair here except the first: four bins with data; no association truth given
-    assert [p.name for p in paths] == ["precision_recall.png", "precision_recall_heading.png", "recall_heading.png",
-                                       "recall_heading_fine.png", "recall_ambiguity.png"]
+    assert [p.name for p in paths] == [
+        "precision_recall.png",
+        "precision_recall_heading.png",
+        "recall_heading.png",
+        "recall_heading_fine.png",
+        "recall_ambiguity.png",
+    ]
     assert notes == ["plot association_heading.png not drawn: it needs two heading bins with true correspondences"]
     assert all(_is_png(p) for p in paths)
     again = plot_heading_recall(metrics, tmp_path / "again.png")
@@ -89,7 +93,7 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
 
 
 def test_map_view_renders_points_and_boxes(make_submap, tmp_path):
-    from roman_sim.evaluation.mapview import render_map, write_map_view
+    from roman_sim.report.mapview import render_map, write_map_view
 
     pts = [make_submap("a", i, 4.0 * i, 0.0, 40.0 * i, object_ids=(1, 2, 3), with_points=True) for i in range(2)]
     boxes = [make_submap("b", 0, 2.0, 5.0, 180.0, object_ids=(4, 5))]

@@ -10,9 +10,9 @@ import pytest
 from roman_sim.align.base import AlignResult
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, EvaluationError
+from roman_sim.core.geometry import inv_T, pose_4dof
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import multi_robot_ate
-from roman_sim.geometry import inv_T, pose_4dof
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph import (
     LoopClosure,
@@ -23,8 +23,14 @@ from roman_sim.posegraph import (
 )
 from roman_sim.posegraph.synthetic import SyntheticGraphConfig, synthetic_scenario
 
-NO_DRIFT = dict(drift_yaw_deg=0.0, drift_yaw_bias_deg=0.0, drift_xyz_m=0.0, drift_scale=0.0,
-                closure_noise_m=0.0, closure_noise_deg=0.0)
+NO_DRIFT = dict(
+    drift_yaw_deg=0.0,
+    drift_yaw_bias_deg=0.0,
+    drift_xyz_m=0.0,
+    drift_scale=0.0,
+    closure_noise_m=0.0,
+    closure_noise_deg=0.0,
+)
 
 
 def _odom_in_world(sc):
@@ -96,8 +102,9 @@ def test_no_closures_returns_odometry():
 
 def test_weak_closures_are_not_used(drifting):
     weak = [replace(c, n_associations=3) for c in drifting.closures[:2]]
-    res = build_and_solve(drifting.odom, drifting.submap_nodes, weak + drifting.closures[2:],
-                          PoseGraphConfig(lc_association_thresh=4))
+    res = build_and_solve(
+        drifting.odom, drifting.submap_nodes, weak + drifting.closures[2:], PoseGraphConfig(lc_association_thresh=4)
+    )
     assert res.closure_weights[:2] == [None, None]
     assert all(w is not None for w in res.closure_weights[2:])
 
@@ -129,8 +136,18 @@ def test_bad_inputs_raise_clear_errors(drifting):
 
 def _submap(robot: str, index: int) -> Submap:
     z = np.zeros((0, 3))
-    return Submap(robot, index, float(index), pose_4dof(index, 0, 0, 0.1 * index), np.zeros(0, np.int64),
-                  z, np.zeros(0), z, np.zeros((0, 4), np.float32), z)
+    return Submap(
+        robot,
+        index,
+        float(index),
+        pose_4dof(index, 0, 0, 0.1 * index),
+        np.zeros(0, np.int64),
+        z,
+        np.zeros(0),
+        z,
+        np.zeros((0, 4), np.float32),
+        z,
+    )
 
 
 def test_submap_helpers():

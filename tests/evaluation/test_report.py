@@ -9,17 +9,19 @@ from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.atetable import VariantEstimate, ate_table
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import summary
-from roman_sim.evaluation.plots import write_metric_plots
-from roman_sim.evaluation.report import write_report
-from roman_sim.evaluation.tables import ate_rows, rate_cell, summary_rows
 from roman_sim.evaluation.types import MapStats
+from roman_sim.report.markdown import write_report
+from roman_sim.report.plots import write_metric_plots
+from roman_sim.report.tables import ate_rows, rate_cell, summary_rows
 
 
 @pytest.fixture
 def metrics(make_score):
-    scores = [make_score("0", True, 9, True, method="roman", heading=10.0, runtime=0.5),
-              make_score("1", True, 4, False, method="roman", heading=150.0, runtime=1.5),
-              make_score("2", False, 2, False, method="roman", heading=90.0, runtime=1.0)]
+    scores = [
+        make_score("0", True, 9, True, method="roman", heading=10.0, runtime=0.5),
+        make_score("1", True, 4, False, method="roman", heading=150.0, runtime=1.5),
+        make_score("2", False, 2, False, method="roman", heading=90.0, runtime=1.0),
+    ]
     return summary(scores, EvalConfig(min_relevant=1))
 
 
@@ -54,8 +56,16 @@ def test_report_has_header_tables_plots_and_statements(metrics, tmp_path):
     plots = [p.relative_to(tmp_path).as_posix() for p in write_metric_plots(metrics, tmp_path / "plots")[0]]
     truth = _truth()
     ate = ate_table(truth, {"odometry": VariantEstimate(truth), "roman": VariantEstimate({"r1": truth["r1"]})})
-    maps = MapStats(robots=2, segments=120, submaps=8, segments_per_submap=15.0, kb_per_submap=12.5,
-                    kb_per_submap_max=20.0, trajectory_km=0.5, mb_per_km=0.9)
+    maps = MapStats(
+        robots=2,
+        segments=120,
+        submaps=8,
+        segments_per_submap=15.0,
+        kb_per_submap=12.5,
+        kb_per_submap_max=20.0,
+        trajectory_km=0.5,
+        mb_per_km=0.9,
+    )
     p = write_report(tmp_path, "smoke", metrics, ate, maps, notes=["robot r2 never connected"], plots=plots)
     text = p.read_text()
     assert p.name == "report.md" and text.startswith("# Evaluation report: smoke")
@@ -99,11 +109,24 @@ def test_ate_rows_in_variant_order():
 
 
 def test_map_stats_keyframe_figures_are_optional():
-    base = dict(robots=2, segments=120, submaps=8, segments_per_submap=15.0, kb_per_submap=12.5,
-                kb_per_submap_max=20.0, trajectory_km=0.4, mb_per_km=0.25)
+    base = dict(
+        robots=2,
+        segments=120,
+        submaps=8,
+        segments_per_submap=15.0,
+        kb_per_submap=12.5,
+        kb_per_submap_max=20.0,
+        trajectory_km=0.4,
+        mb_per_km=0.25,
+    )
     old = MapStats(**base)
     assert "keyframe_kb_per_submap" not in old.to_json()
     assert MapStats.from_json(old.to_json()) == old  # files written before keyframes existed
-    new = MapStats(**base, keyframes_per_submap=9.0, keyframe_kb_per_submap=30.0, keyframe_kb_per_submap_max=60.0,
-                   keyframe_mb_per_km=3.0)
+    new = MapStats(
+        **base,
+        keyframes_per_submap=9.0,
+        keyframe_kb_per_submap=30.0,
+        keyframe_kb_per_submap_max=60.0,
+        keyframe_mb_per_km=3.0,
+    )
     assert MapStats.from_json(new.to_json()) == new and new.to_json()["keyframe_mb_per_km"] == 3.0

@@ -85,8 +85,9 @@ def test_missing_and_corrupt_files_raise_storage_error(scores, tmp_path):
 
 def test_numpy_scalars_are_written_as_plain_numbers(scores, tmp_path):
     s = scores[0]
-    t = type(s.truth)(**{**s.truth.__dict__, "center_dist_m": np.float64(2.5), "relevant": np.bool_(True),
-                         "index_b": np.int64(7)})
+    t = type(s.truth)(
+        **{**s.truth.__dict__, "center_dist_m": np.float64(2.5), "relevant": np.bool_(True), "index_b": np.int64(7)}
+    )
     p = write_pairs_csv(tmp_path / "pairs.csv", [type(s)(**{**s.__dict__, "truth": t})])
     assert "np." not in p.read_text()
     back = read_pairs_csv(p)[0].truth

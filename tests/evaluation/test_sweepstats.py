@@ -5,15 +5,17 @@ from __future__ import annotations
 import pytest
 
 from roman_sim.evaluation.intervals import wilson
-from roman_sim.evaluation.sweepstats import aggregate, cell, plot_sweep
+from roman_sim.evaluation.sweepstats import aggregate, cell
+from roman_sim.report.sweepplot import plot_sweep
 
 
 def _rows() -> list[dict]:
     out = []
     for knob, per_seed in ((0.0, [(6, 10), (8, 10), (7, 10)]), (1.0, [(2, 10), (0, 0), (4, 10)])):
         for seed, (h, n) in enumerate(per_seed):
-            out.append({"knob": knob, "seed": seed, "method": "roman", "kind": "inter", "bin": "all",
-                        "hits": h, "relevant": n})
+            out.append(
+                {"knob": knob, "seed": seed, "method": "roman", "kind": "inter", "bin": "all", "hits": h, "relevant": n}
+            )
     return out
 
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import make_T
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.trajplot import plot_trajectories
-from roman_sim.geometry import make_T
+from roman_sim.report.trajplot import plot_trajectories
 
 
 def _traj(offset: float) -> Trajectory:

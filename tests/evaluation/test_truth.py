@@ -70,13 +70,20 @@ def test_every_pair_by_default_and_a_cap_counts_what_it_skips(make_submap):
 
 
 def test_cross_and_same_robot_pairs_are_scored_apart(make_score):
-    scores = [make_score("0", True, 6, True, kind="inter"), make_score("1", True, 6, False, kind="inter"),
-              make_score("2", True, 6, True, kind="intra"), make_score("3", True, 6, True, kind="intra"),
-              make_score("4", True, 6, True, kind="intra")]
+    scores = [
+        make_score("0", True, 6, True, kind="inter"),
+        make_score("1", True, 6, False, kind="inter"),
+        make_score("2", True, 6, True, kind="intra"),
+        make_score("3", True, 6, True, kind="intra"),
+        make_score("4", True, 6, True, kind="intra"),
+    ]
     m = summary(scores, EvalConfig(min_relevant=3))
     assert m.headline == "inter"
-    assert m.pairs == {"inter": {"n_pairs": 2, "n_relevant": 2}, "intra": {"n_pairs": 3, "n_relevant": 3},
-                       "all": {"n_pairs": 5, "n_relevant": 5}}
+    assert m.pairs == {
+        "inter": {"n_pairs": 2, "n_relevant": 2},
+        "intra": {"n_pairs": 3, "n_relevant": 3},
+        "all": {"n_pairs": 5, "n_relevant": 5},
+    }
     inter, intra = (m.stats("m", kind=k) for k in ("inter", "intra"))
     assert (inter.max_hits, inter.n_relevant, inter.few) == (1, 2, True)
     assert (intra.max_hits, intra.n_relevant, intra.few) == (3, 3, False)

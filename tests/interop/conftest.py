@@ -14,13 +14,24 @@ from roman_sim.pipeline.scenario import Scenario
 TINY = {
     "name": "tiny_export",
     "seed": 0,
-    "world": {"preset": "tiny", "overrides": {"families.0.density": 180, "families.2.density": 120,
-                                               "families.3.density": 90}},
+    "world": {
+        "preset": "tiny",
+        "overrides": {"families.0.density": 180, "families.2.density": 120, "families.3.density": 90},
+    },
     "robots": [
-        {"name": "a", "path": {"kind": "road", "road_index": 0}, "camera": {"width": 160, "height": 120},
-         "max_duration_s": 3.0},
-        {"name": "b", "path": {"kind": "reverse_of", "of": "a"}, "camera": {"width": 64, "height": 48},
-         "max_duration_s": 1.0, "render_rgb": False},
+        {
+            "name": "a",
+            "path": {"kind": "road", "road_index": 0},
+            "camera": {"width": 160, "height": 120},
+            "max_duration_s": 3.0,
+        },
+        {
+            "name": "b",
+            "path": {"kind": "reverse_of", "of": "a"},
+            "camera": {"width": 64, "height": 48},
+            "max_duration_s": 1.0,
+            "render_rgb": False,
+        },
     ],
     "frontend": {"segmenter": "perfect"},
 }

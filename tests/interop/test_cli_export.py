@@ -17,8 +17,18 @@ def _scenario_file(tmp_path: Path) -> Path:
 
 
 def test_export_tum_one_robot(run_cli, tmp_path: Path) -> None:
-    code, out, err = run_cli("export", str(_scenario_file(tmp_path)), "--format", "tum", "--out", str(tmp_path / "o"),
-                             "--robots", "b", "--set", "robots.1.max_duration_s=0.5")
+    code, out, err = run_cli(
+        "export",
+        str(_scenario_file(tmp_path)),
+        "--format",
+        "tum",
+        "--out",
+        str(tmp_path / "o"),
+        "--robots",
+        "b",
+        "--set",
+        "robots.1.max_duration_s=0.5",
+    )
     assert code == 0, err
     assert "exported as tum" in out
     manifest = json.loads((tmp_path / "o" / "export.json").read_text())

@@ -55,8 +55,13 @@ def test_contents_match_the_frames(bag_export: Path, direct_frames: dict) -> Non
         if topic != "/tf_static":
             assert [s for s, _ in rows] == stamps, topic
     for f, (_, img), (_, depth), (_, info), (_, odom), (_, tf) in zip(
-            frames, msgs["/a/camera/color/image_raw"], msgs["/a/camera/depth/image"],
-            msgs["/a/camera/color/camera_info"], msgs["/a/odom"], msgs["/tf"]):
+        frames,
+        msgs["/a/camera/color/image_raw"],
+        msgs["/a/camera/depth/image"],
+        msgs["/a/camera/color/camera_info"],
+        msgs["/a/odom"],
+        msgs["/tf"],
+    ):
         assert (img.encoding, img.header.frame_id, img.step) == ("rgb8", "a/camera_optical_frame", 160 * 3)
         np.testing.assert_array_equal(np.asarray(img.data).reshape(120, 160, 3), f.rgb)
         assert (depth.encoding, depth.step) == ("32FC1", 160 * 4)
@@ -69,14 +74,16 @@ def test_contents_match_the_frames(bag_export: Path, direct_frames: dict) -> Non
         by_child = {x.child_frame_id: x for x in tf.transforms}
         truth = by_child["a/base_link_gt"]
         assert truth.header.frame_id == "world"
-        np.testing.assert_allclose(_pose(truth.transform.translation, truth.transform.rotation),
-                                   f.truth.T_world_body, atol=1e-9)
+        np.testing.assert_allclose(
+            _pose(truth.transform.translation, truth.transform.rotation), f.truth.T_world_body, atol=1e-9
+        )
         assert by_child["a/base_link"].header.frame_id == "a/odom"
-    (_, static), = msgs["/tf_static"]
+    ((_, static),) = msgs["/tf_static"]
     mount = static.transforms[0]
     assert (mount.header.frame_id, mount.child_frame_id) == ("a/base_link", "a/camera_optical_frame")
-    np.testing.assert_allclose(_pose(mount.transform.translation, mount.transform.rotation), frames[0].T_body_cam,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        _pose(mount.transform.translation, mount.transform.rotation), frames[0].T_body_cam, atol=1e-9
+    )
 
 
 def test_odometry_twist_is_the_pose_difference(bag_export: Path, direct_frames: dict) -> None:
@@ -104,8 +111,10 @@ def test_same_seed_same_bytes(bag_export: Path, tiny_scenario, tmp_path: Path) -
 
     export_scenario(tiny_scenario, "rosbag2", tmp_path / "again", robots=["b"])
     for name in ("bag/bag.mcap", "bag/metadata.yaml", "masks.txt"):
-        assert hashlib.sha256((tmp_path / "again" / "b" / name).read_bytes()).digest() == \
-            hashlib.sha256((bag_export / "b" / name).read_bytes()).digest(), name
+        assert (
+            hashlib.sha256((tmp_path / "again" / "b" / name).read_bytes()).digest()
+            == hashlib.sha256((bag_export / "b" / name).read_bytes()).digest()
+        ), name
 
 
 def test_sqlite3_storage(tiny_scenario, tmp_path: Path) -> None:

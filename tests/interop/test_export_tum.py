@@ -28,8 +28,11 @@ DEPTH_TOL_M = 0.5 / 5000 + 2e-6  # half a PNG unit + float32 rounding up to ~15 
 
 
 def _tree_digest(root: Path) -> dict[str, str]:
-    return {str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
-            for p in sorted(root.rglob("*")) if p.is_file()}
+    return {
+        str(p.relative_to(root)): hashlib.sha256(p.read_bytes()).hexdigest()
+        for p in sorted(root.rglob("*"))
+        if p.is_file()
+    }
 
 
 def test_layout_and_counts(tum_export: Path) -> None:

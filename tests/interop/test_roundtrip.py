@@ -25,8 +25,14 @@ from roman_sim.pipeline.scenario import Scenario
 
 from .conftest import TINY
 
-DENSE = {"families.0.density": 180, "families.1.density": 90, "families.2.density": 120,
-         "families.3.density": 90, "families.4.density": 60, "families.5.density": 60}
+DENSE = {
+    "families.0.density": 180,
+    "families.1.density": 90,
+    "families.2.density": 120,
+    "families.3.density": 90,
+    "families.4.density": 60,
+    "families.5.density": 60,
+}
 
 
 def roundtrip_scenario() -> Scenario:
@@ -68,11 +74,15 @@ def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scenario, Path]:
 
 def _map(sc: Scenario, families: dict[int, str], robot: str, frames) -> object:
     from roman_sim.mapping.mapper import Mapper
-    from roman_sim.mapping.segmenter import build_segmenter
+    from roman_sim.mapping.frontend import build_segmenter
     from roman_sim.mapping.semantics import SimulatedEncoder
 
-    mapper = Mapper(sc.mapping, build_segmenter(sc.frontend.segmenter, seed=sc.seed),
-                    SimulatedEncoder(sc.frontend.semantics, seed=sc.seed, families=families, robot=robot), seed=sc.seed)
+    mapper = Mapper(
+        sc.mapping,
+        build_segmenter(sc.frontend.segmenter, seed=sc.seed),
+        SimulatedEncoder(sc.frontend.semantics, seed=sc.seed, families=families, robot=robot),
+        seed=sc.seed,
+    )
     for f in frames:
         mapper.process(f)
     return mapper.finish()
@@ -123,8 +133,10 @@ def test_pipeline_on_imported_folders_matches_the_direct_run(exported, runs) -> 
     direct, imported = runs
     assert "world" not in json.loads((imported.run_dir / "timings.json").read_text())["stages"]
     for r in sc.robots:
-        assert_same_segment_map(load_segment_map(direct.run_dir / "maps" / f"{r.name}.npz"),
-                                load_segment_map(imported.run_dir / "maps" / f"{r.name}.npz"))
+        assert_same_segment_map(
+            load_segment_map(direct.run_dir / "maps" / f"{r.name}.npz"),
+            load_segment_map(imported.run_dir / "maps" / f"{r.name}.npz"),
+        )
         a = load_submaps(direct.run_dir / "submaps" / f"{r.name}.npz")
         b = load_submaps(imported.run_dir / "submaps" / f"{r.name}.npz")
         assert [s.name for s in b] == [s.name for s in a] and [len(s) for s in b] == [len(s) for s in a]
@@ -135,8 +147,10 @@ def test_pipeline_on_imported_folders_matches_the_direct_run(exported, runs) -> 
     pairs = {}
     for run in (direct, imported):
         with (run.run_dir / "pairs.csv").open() as fh:
-            pairs[run.scenario.name] = [(r["a"], r["b"], r["method"], r["relevant"],
-                                         round(float(r["center_dist_m"]), 4)) for r in csv.DictReader(fh)]
+            pairs[run.scenario.name] = [
+                (r["a"], r["b"], r["method"], r["relevant"], round(float(r["center_dist_m"]), 4))
+                for r in csv.DictReader(fh)
+            ]
     assert pairs["roundtrip_tum"] == pairs["roundtrip"] and pairs["roundtrip"]
     assert imported.recall("roman") == direct.recall("roman")
 

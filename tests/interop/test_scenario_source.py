@@ -46,9 +46,14 @@ def test_bad_sources_fail_before_any_work(folder: Path, tmp_path: Path) -> None:
     cases = [
         ([{"name": "a", "source": {"tum": "nowhere"}}], {}, "not a folder"),
         ([{"name": "a", "source": {"tum": str(folder / "a"), "depth_scael": 1}}], {}, "unknown key"),
-        ([{"name": "a", "source": {"tum": str(folder / "a")}},
-          {"name": "b", "path": {"kind": "reverse_of", "of": "a"}}],
-         {"world": {"preset": "tiny"}}, "robots.1.path.of"),
+        (
+            [
+                {"name": "a", "source": {"tum": str(folder / "a")}},
+                {"name": "b", "path": {"kind": "reverse_of", "of": "a"}},
+            ],
+            {"world": {"preset": "tiny"}},
+            "robots.1.path.of",
+        ),
     ]
     for robots, extra, message in cases:
         with pytest.raises(ConfigError, match=message):
@@ -56,8 +61,9 @@ def test_bad_sources_fail_before_any_work(folder: Path, tmp_path: Path) -> None:
     (folder / "groundtruth.txt").write_text("")  # not the sequence's own: it reads a/groundtruth.txt
     (folder / "a" / "groundtruth.txt").unlink()
     with pytest.raises(ConfigError, match="no groundtruth.txt"):
-        Experiment(load_scenario(_write(tmp_path / "g.yaml", [{"name": "a", "source": {"tum": "data/a"}}])),
-                   tmp_path / "g").validate()
+        Experiment(
+            load_scenario(_write(tmp_path / "g.yaml", [{"name": "a", "source": {"tum": "data/a"}}])), tmp_path / "g"
+        ).validate()
 
 
 def test_simulated_encoder_needs_the_object_table(folder: Path, tmp_path: Path) -> None:

@@ -11,9 +11,9 @@ import pytest
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import ConfigError, MappingError, StorageError
+from roman_sim.core.geometry import make_T, rot_z
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import format_tum, read_tum
-from roman_sim.geometry import make_T, rot_z
 from roman_sim.interop.associate import associate
 from roman_sim.interop.images import encode_png
 from roman_sim.interop.tum_reader import read_tum_sequence
@@ -48,8 +48,11 @@ def real_like(tmp_path_factory: pytest.TempPathFactory) -> Path:
     write_text(d / "rgb.txt", "# color images\n# file: 'x.bag'\n# timestamp filename\n" + "\n".join(rgb_rows) + "\n")
     write_text(d / "depth.txt", "# depth maps\n# x\n# timestamp filename\n" + "\n".join(depth_rows) + "\n")
     t_gt = T0 - 0.05 + np.arange(60) / 100.0
-    write_text(d / "groundtruth.txt", "# ground truth trajectory\n# timestamp tx ty tz qx qy qz qw\n"
-               + format_tum(Trajectory(t_gt, np.stack([_T_world_cam(t) for t in t_gt]))))
+    write_text(
+        d / "groundtruth.txt",
+        "# ground truth trajectory\n# timestamp tx ty tz qx qy qz qw\n"
+        + format_tum(Trajectory(t_gt, np.stack([_T_world_cam(t) for t in t_gt]))),
+    )
     write_text(d / "camera.txt", "# fx fy cx cy d0 d1 d2 d3 d4\n30.0 31.0 15.5 11.5 0 0 0 0 0\n")
     return d
 
@@ -174,7 +177,7 @@ class SideFileSegmenter:
 
     def segment(self, frame):  # the Segmenter protocol
         from roman_sim.interop.images import mask_to_ids, read_png
-        from roman_sim.mapping.segmenter import Mask
+        from roman_sim.mapping.mask import Mask
 
         ids = mask_to_ids(read_png(self.folder / self.files[frame.index]))
         return [Mask(ids == k) for k in np.unique(ids) if k >= 0 and np.count_nonzero(ids == k) >= 20]

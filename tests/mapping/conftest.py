@@ -17,6 +17,7 @@ def tiny_rgb_frames():
     from roman_sim.world import generate, load_world_spec
 
     world = generate(load_world_spec("tiny"), 0)
-    cfg = RobotConfig(name="a", camera=CameraConfig(width=160, height=120), drift="zero",
-                      render_rgb=True, max_duration_s=12.0)
+    cfg = RobotConfig(
+        name="a", camera=CameraConfig(width=160, height=120), drift="zero", render_rgb=True, max_duration_s=12.0
+    )
     return list(simulate_robot(world, cfg, 0))

@@ -7,7 +7,7 @@ import pytest
 from mapping_synth import INTR, drive, frame_at
 
 from roman_sim.core.errors import MappingError
-from roman_sim.evaluation.frontend_grader import FrontEndGrader
+from roman_sim.evaluation.frontend import FrontEndGrader
 from roman_sim.mapping.image_encoder import ImageEncoder, ImageEncoderConfig
 from roman_sim.mapping.image_segmenter import ImageSegmenter, ImageSegmenterConfig
 from roman_sim.mapping.mapper import Mapper
@@ -53,8 +53,7 @@ def test_segmenter_finds_each_object_from_pixels_only():
 
 def test_segmenter_splits_touching_objects_by_colour_and_depth():
     # Two spheres touching in the image at different depths, and two side by side of different colours.
-    spheres = [(np.array([4.0, 0.0, 0.5]), 0.5), (np.array([6.0, 0.5, 0.7]), 0.7),
-               (np.array([4.0, 1.02, 0.5]), 0.5)]
+    spheres = [(np.array([4.0, 0.0, 0.5]), 0.5), (np.array([6.0, 0.5, 0.7]), 0.7), (np.array([4.0, 1.02, 0.5]), 0.5)]
     f = coloured(frame_at(spheres, 0.0, 0.0, 0.0, 0.0, 0, intr=INTR))
     grader = FrontEndGrader({})
     grader.add(f, ImageSegmenter().segment(f.public()), [])
@@ -117,8 +116,11 @@ class Spy:
 
     def segment(self, frame):
         self.frames.append(frame)
-        return build_segmenter("perfect").segment(self._truth_frame) if self.reads_truth else \
-            ImageSegmenter().segment(frame)
+        return (
+            build_segmenter("perfect").segment(self._truth_frame)
+            if self.reads_truth
+            else ImageSegmenter().segment(frame)
+        )
 
     def encode_batch(self, rgb, masks, contexts):
         self.batches += 1
@@ -186,8 +188,9 @@ def test_uniform_lbp_matches_scikit_image(tiny_rgb_frames):
     from roman_sim.mapping.image_encoder import uniform_lbp
 
     rng = np.random.default_rng(0)
-    images = [rng.integers(0, 256, (int(rng.integers(1, 30)), int(rng.integers(1, 30)))).astype(np.uint8)
-              for _ in range(60)]
+    images = [
+        rng.integers(0, 256, (int(rng.integers(1, 30)), int(rng.integers(1, 30)))).astype(np.uint8) for _ in range(60)
+    ]
     images += [rng.integers(0, 3, (25, 31)).astype(np.uint8) for _ in range(10)]  # flat patches: ties
     images += [np.full((4, 6), 7, np.uint8), np.zeros((1, 1), np.uint8), np.full((3, 3), 255, np.uint8)]
     images += [cv2.cvtColor(f.rgb, cv2.COLOR_RGB2GRAY) for f in tiny_rgb_frames[::10]]

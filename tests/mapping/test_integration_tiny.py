@@ -5,7 +5,8 @@ import dataclasses
 import numpy as np
 import pytest
 
-from roman_sim.geometry import inv_T, pose_4dof, transform_points
+from roman_sim.core.geometry import inv_T, pose_4dof, transform_points
+from roman_sim.core.sensors import backproject
 from roman_sim.mapping.io import load_segment_map, packet_bytes, save_segment_map
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.segmenter import build_segmenter
@@ -13,7 +14,6 @@ from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sensors import backproject
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
 from roman_sim.world import generate, load_world_spec
@@ -22,8 +22,9 @@ from roman_sim.world import generate, load_world_spec
 @pytest.fixture(scope="module")
 def run():
     world = generate(load_world_spec("tiny"), 0)
-    cfg = RobotConfig(name="a", camera=CameraConfig(width=160, height=120), drift="zero",
-                      render_rgb=False, max_duration_s=20.0)
+    cfg = RobotConfig(
+        name="a", camera=CameraConfig(width=160, height=120), drift="zero", render_rgb=False, max_duration_s=20.0
+    )
     return world, list(simulate_robot(world, cfg, 0))
 
 
@@ -101,8 +102,9 @@ def test_fastsam_map_submaps_and_storage(run, tmp_path):
 
 def test_typical_drift_segments_follow_the_drifted_odometry(run):
     world, frames = run
-    cfg = RobotConfig(name="a", camera=CameraConfig(width=160, height=120), drift="typical",
-                      render_rgb=False, max_duration_s=20.0)
+    cfg = RobotConfig(
+        name="a", camera=CameraConfig(width=160, height=120), drift="typical", render_rgb=False, max_duration_s=20.0
+    )
     t, T_wb, T_ob = robot_trajectory(world, cfg, 0)
     np.testing.assert_allclose(T_wb, np.stack([f.truth.T_world_body for f in frames]), atol=1e-9)
     drifted = [dataclasses.replace(f, T_odom_body=T_ob[i]) for i, f in enumerate(frames)]

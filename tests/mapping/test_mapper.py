@@ -5,13 +5,14 @@ import pytest
 from mapping_synth import SPHERES, drive, frame_at
 
 from roman_sim.core.errors import MappingError
-from roman_sim.geometry import pose_4dof, transform_points
+from roman_sim.core.geometry import pose_4dof, transform_points
+from roman_sim.core.sensors import backproject
 from roman_sim.mapping.mapper import Mapper
-from roman_sim.mapping.segmenter import Mask, build_segmenter
+from roman_sim.mapping.mask import Mask
+from roman_sim.mapping.segmenter import build_segmenter
 from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
-from roman_sim.sensors import backproject
 
 
 def _run(frames, segmenter=None, encoder=None):
@@ -27,8 +28,9 @@ def _visible_centres(frames, n):
     for f in frames:
         for k in range(n):
             sel = (f.truth.object_ids == k) & (f.depth <= 7.5)
-            pts[k].append(transform_points(f.truth.T_world_body @ f.T_body_cam,
-                                           backproject(f.depth, f.intrinsics, sel)))
+            pts[k].append(
+                transform_points(f.truth.T_world_body @ f.T_body_cam, backproject(f.depth, f.intrinsics, sel))
+            )
     return {k: downsample(np.vstack(v), 0.05).mean(axis=0) for k, v in pts.items()}
 
 
@@ -69,7 +71,7 @@ class SplittingSegmenter:
         for m in masks:
             r0, r1, c0, c1 = m.bbox
             left = m.pixels.copy()
-            left[:, (c0 + c1) // 2:] = False
+            left[:, (c0 + c1) // 2 :] = False
             out += [Mask(left, m.object_ids), Mask(m.pixels & ~left, m.object_ids)]
         return out
 

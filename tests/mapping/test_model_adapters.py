@@ -16,9 +16,9 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.mapping.frontend import build_encoder, build_segmenter
 from roman_sim.mapping.image_segmenter import ImageSegmenter
 from roman_sim.mapping.mapper import Mapper
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.models.common import box_crops
 from roman_sim.mapping.models.config import ClipConfig, Dinov2Config, SamConfig
-from roman_sim.mapping.segmenter import Mask
 from roman_sim.mapping.tracker import MappingConfig
 
 

@@ -6,8 +6,9 @@ from mapping_synth import INTR, T_BODY_CAM
 from scipy import ndimage
 
 from roman_sim.core.errors import ConfigError, MappingError
-from roman_sim.mapping.segmenter import SEGMENTERS, Mask, Segmenter, SegmenterConfig, build_segmenter, ellipse_kernel
-from roman_sim.sensors import Frame, FrameTruth
+from roman_sim.core.sensors import Frame, FrameTruth
+from roman_sim.mapping.mask import Mask, Segmenter, ellipse_kernel
+from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig, build_segmenter
 
 
 def _frame(ids, depth=None, index=0):
@@ -17,9 +18,9 @@ def _frame(ids, depth=None, index=0):
 
 def _ids_boxes():
     ids = np.full((120, 160), -1)
-    ids[10:50, 10:60] = 0      # 2000 px: inside [19200/900, 19200/9] = [21.3, 2133]
-    ids[70:74, 100:104] = 1    # 16 px: below the area filter
-    ids[60:110, 20:60] = 2     # 2000 px, not touching 0
+    ids[10:50, 10:60] = 0  # 2000 px: inside [19200/900, 19200/9] = [21.3, 2133]
+    ids[70:74, 100:104] = 1  # 16 px: below the area filter
+    ids[60:110, 20:60] = 2  # 2000 px, not touching 0
     return ids
 
 
@@ -70,9 +71,9 @@ def _only(**kw):
 
 def test_missed_detections_likelier_for_small_and_far():
     ids = np.full((120, 160), -1)
-    ids[10:50, 10:50] = 0     # large, near
+    ids[10:50, 10:50] = 0  # large, near
     ids[90:100, 100:110] = 1  # small (100 px), near
-    ids[10:50, 90:130] = 2    # large, far
+    ids[10:50, 90:130] = 2  # large, far
     depth = np.full(ids.shape, 2.0, np.float32)
     depth[ids == 2] = 7.4
     seg = _only(miss_prob=0.02, miss_small_prob=0.6, miss_far_prob=0.6, erosion_px=0)
@@ -95,8 +96,8 @@ def test_oversegmentation_splits_large_objects():
 def test_undersegmentation_merges_touching_objects_only():
     ids = np.full((120, 160), -1)
     ids[10:40, 10:40] = 0
-    ids[10:40, 40:70] = 1      # touches 0 at the same depth
-    ids[70:100, 100:130] = 2   # apart
+    ids[10:40, 40:70] = 1  # touches 0 at the same depth
+    ids[70:100, 100:130] = 2  # apart
     masks = _only(undersegment_prob=1.0, erosion_px=0).segment(_frame(ids))
     assert sorted(m.object_ids for m in masks) == [(0, 1), (2,)]
     depth = np.full(ids.shape, 3.0, np.float32)

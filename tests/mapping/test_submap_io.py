@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import StorageError
-from roman_sim.geometry import make_T, pose_4dof, rpy_to_R, transform_points
+from roman_sim.core.geometry import make_T, pose_4dof, rpy_to_R, transform_points
 from roman_sim.mapping.io import (
     load_segment_map,
     load_submaps,
@@ -32,8 +32,13 @@ def _map():
     times = np.arange(0, 31.0)
     T_w = np.stack([pose_4dof(t, 0, 0, 0) for t in times])
     T_o = np.stack([make_T(rpy_to_R(0.02, -0.01, 0.3), [t, 1.0, 0]) for t in times])
-    segs = [_seg(0, [2, 3, 0], 0, 3), _seg(1, [12, -2, 1], 5, 14), _seg(2, [40, 0, 0], 28, 30),
-            _seg(3, [21, 0, 0], 19, 22), _seg(4, [5, 0, 0], 90, 95)]
+    segs = [
+        _seg(0, [2, 3, 0], 0, 3),
+        _seg(1, [12, -2, 1], 5, 14),
+        _seg(2, [40, 0, 0], 28, 30),
+        _seg(3, [21, 0, 0], 19, 22),
+        _seg(4, [5, 0, 0], 90, 95),
+    ]
     return SegmentMap("r", segs, times, T_o, T_w)
 
 
@@ -75,8 +80,14 @@ def test_segment_map_round_trip_is_exact(tmp_path):
     assert back.robot == "r" and len(back) == len(smap)
     np.testing.assert_array_equal(back.T_odom_body, smap.T_odom_body)
     for a, b in zip(smap.segments, back.segments):
-        assert (a.id, a.first_seen, a.last_seen, a.num_sightings, a.status, a.truth_counts) == \
-               (b.id, b.first_seen, b.last_seen, b.num_sightings, b.status, b.truth_counts)
+        assert (a.id, a.first_seen, a.last_seen, a.num_sightings, a.status, a.truth_counts) == (
+            b.id,
+            b.first_seen,
+            b.last_seen,
+            b.num_sightings,
+            b.status,
+            b.truth_counts,
+        )
         np.testing.assert_array_equal(a.points, b.points)
         assert (a.descriptor is None) == (b.descriptor is None)
         if a.descriptor is not None:
@@ -111,6 +122,7 @@ def test_corrupt_wrong_version_and_wrong_format_files(tmp_path):
     import json
 
     from roman_sim.core.atomic import write_npz
+
     hdr = np.frombuffer(json.dumps({"format": "roman_sim.submaps", "version": 99, "submaps": []}).encode(), np.uint8)
     write_npz(tmp_path / "v.npz", header=hdr)
     with pytest.raises(StorageError, match="version 99"):

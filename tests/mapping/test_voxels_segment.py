@@ -41,11 +41,14 @@ def _grid(nx, ny, nz, step=0.05):
     return g.reshape(-1, 3)
 
 
-@pytest.mark.parametrize("pts, dominant", [
-    (_grid(60, 1, 1), 0),   # line -> linearity
-    (_grid(30, 30, 1), 1),  # plane -> planarity
-    (np.random.default_rng(0).standard_normal((500, 3)), 2),  # blob -> scattering
-])
+@pytest.mark.parametrize(
+    "pts, dominant",
+    [
+        (_grid(60, 1, 1), 0),  # line -> linearity
+        (_grid(30, 30, 1), 1),  # plane -> planarity
+        (np.random.default_rng(0).standard_normal((500, 3)), 2),  # blob -> scattering
+    ],
+)
 def test_pca_features_of_lines_planes_blobs(pts, dominant):
     seg = Segment(0, pts, 0.0, 0.0)
     feats = seg.shape

@@ -9,14 +9,14 @@ import sys
 
 import numpy as np
 
-SCRIPT = r'''
+SCRIPT = r"""
 import json, sys
 import numpy as np
 from roman_sim.examples.depth_segmenter import DepthEdgeSegmenter, ShapeEncoder
-from roman_sim.geometry import make_T
+from roman_sim.core.geometry import make_T
 from roman_sim.mapping import Mapper, MappingConfig, SubmapConfig, build_submaps
 from roman_sim.mapping.synthetic import T_BODY_CAM, intrinsics, render
-from roman_sim.sensors import Frame
+from roman_sim.core.sensors import Frame
 
 spheres = [(np.array([4.0, 0.0, 0.4]), 0.4), (np.array([5.0, 1.5, 0.3]), 0.3), (np.array([6.0, -1.5, 0.35]), 0.35)]
 intr = intrinsics(160, 120)
@@ -30,12 +30,13 @@ subs = build_submaps(smap, SubmapConfig())
 print(json.dumps({"centers": [s.center.tolist() for s in smap.segments], "no_truth": smap.truth is None,
                   "submaps_without_truth": all(s.truth is None for s in subs), "n_submaps": len(subs),
                   "modules": sorted(m for m in ("mujoco", "gymnasium", "pyrender", "OpenGL") if m in sys.modules)}))
-'''
+"""
 
 
 def test_frames_without_truth_map_without_the_simulator(tmp_path):
-    out = subprocess.run([sys.executable, "-c", SCRIPT], cwd=tmp_path, capture_output=True, text=True,
-                         timeout=300, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, "-c", SCRIPT], cwd=tmp_path, capture_output=True, text=True, timeout=300, check=True
+    ).stdout
     res = json.loads(out)
     assert res["modules"] == []  # neither MuJoCo nor gymnasium (nor a renderer) was imported
     assert res["no_truth"] and res["submaps_without_truth"] and res["n_submaps"] >= 1
@@ -50,7 +51,9 @@ def test_frames_without_truth_map_without_the_simulator(tmp_path):
 
 
 def test_importing_the_mapper_does_not_import_the_simulator():
-    code = ("import sys, roman_sim.mapping.mapper, roman_sim.sensors; "
-            "print(sorted(m for m in ('mujoco', 'gymnasium') if m in sys.modules))")
+    code = (
+        "import sys, roman_sim.mapping.mapper, roman_sim.core.sensors; "
+        "print(sorted(m for m in ('mujoco', 'gymnasium') if m in sys.modules))"
+    )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert proc.stdout.strip() == "[]"

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
-from roman_sim.pipeline.claims import claims, claims_markdown, comparison
+from roman_sim.studies.claims import claims, claims_markdown, comparison
 
 
 def _rec(h: int, n: int) -> dict:
-    return {"max_recall": h / n if n else None, "max_hits": h, "n_relevant": n, "recall_ci": [0.0, 1.0] if n else None,
-            "few": n < 5}
+    return {
+        "max_recall": h / n if n else None,
+        "max_hits": h,
+        "n_relevant": n,
+        "recall_ci": [0.0, 1.0] if n else None,
+        "few": n < 5,
+    }
 
 
 def _method(bins: dict[str, tuple[int, int]], overall: tuple[int, int], runtime: float = 0.01) -> dict:
@@ -17,16 +22,31 @@ def _method(bins: dict[str, tuple[int, int]], overall: tuple[int, int], runtime:
 
 def _runs(roman_opp: tuple[int, int], ransac_opp: tuple[int, int]) -> dict:
     return {
-        "same_direction": {"methods": {"roman": _method({"0-60": (9, 10)}, (9, 10), 0.004),
-                                       "ransac1m": _method({"0-60": (8, 10)}, (8, 10), 0.04)}, "map": {}},
-        "opposite_direction": {"methods": {"roman": _method({"120-180": roman_opp}, roman_opp, 0.004),
-                                           "ransac1m": _method({"120-180": ransac_opp}, ransac_opp, 0.04)},
-                               "map": {}},
-        "multi_robot_tunnel": {"methods": {}, "map": {}, "ate_robots": {"robots": ["a", "b", "c"], "common": ["a"]},
-                               "ate": {"odometry": {"connected": 3, "common": 0.4, "all": 0.6},
-                                       "odometry_no_prior": {"connected": 3, "common": 0.3, "all": 0.35},
-                                       "roman": {"connected": 1, "common": 0.4, "all": None},
-                                       "oracle": {"connected": 3, "common": 0.3, "all": 0.4}}},
+        "same_direction": {
+            "methods": {
+                "roman": _method({"0-60": (9, 10)}, (9, 10), 0.004),
+                "ransac1m": _method({"0-60": (8, 10)}, (8, 10), 0.04),
+            },
+            "map": {},
+        },
+        "opposite_direction": {
+            "methods": {
+                "roman": _method({"120-180": roman_opp}, roman_opp, 0.004),
+                "ransac1m": _method({"120-180": ransac_opp}, ransac_opp, 0.04),
+            },
+            "map": {},
+        },
+        "multi_robot_tunnel": {
+            "methods": {},
+            "map": {},
+            "ate_robots": {"robots": ["a", "b", "c"], "common": ["a"]},
+            "ate": {
+                "odometry": {"connected": 3, "common": 0.4, "all": 0.6},
+                "odometry_no_prior": {"connected": 3, "common": 0.3, "all": 0.35},
+                "roman": {"connected": 1, "common": 0.4, "all": None},
+                "oracle": {"connected": 3, "common": 0.3, "all": 0.4},
+            },
+        },
     }
 
 

@@ -31,18 +31,27 @@ def _pem_pair(tmp: Path, name: str, issuer: tuple | None = None) -> tuple[Path, 
     subject = x509.Name([x509.NameAttribute(NameOID.COMMON_NAME, name)])
     ca_cert, ca_key = issuer if issuer else (None, key)
     now = datetime.datetime.now(datetime.UTC)
-    b = (x509.CertificateBuilder().subject_name(subject).issuer_name(ca_cert.subject if ca_cert else subject)
-         .public_key(key.public_key()).serial_number(x509.random_serial_number())
-         .not_valid_before(now - datetime.timedelta(minutes=5)).not_valid_after(now + datetime.timedelta(days=1))
-         .add_extension(x509.BasicConstraints(ca=issuer is None, path_length=None), critical=True))
+    b = (
+        x509.CertificateBuilder()
+        .subject_name(subject)
+        .issuer_name(ca_cert.subject if ca_cert else subject)
+        .public_key(key.public_key())
+        .serial_number(x509.random_serial_number())
+        .not_valid_before(now - datetime.timedelta(minutes=5))
+        .not_valid_after(now + datetime.timedelta(days=1))
+        .add_extension(x509.BasicConstraints(ca=issuer is None, path_length=None), critical=True)
+    )
     if issuer:
-        b = b.add_extension(x509.SubjectAlternativeName([x509.DNSName("localhost"),
-                                                         x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]), False)
+        b = b.add_extension(
+            x509.SubjectAlternativeName([x509.DNSName("localhost"), x509.IPAddress(ipaddress.ip_address("127.0.0.1"))]),
+            False,
+        )
     cert = b.sign(ca_key, hashes.SHA256())
     cert_path, key_path = tmp / f"{name}.pem", tmp / f"{name}.key"
     cert_path.write_bytes(cert.public_bytes(serialization.Encoding.PEM))
-    key_path.write_bytes(key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8,
-                                           serialization.NoEncryption()))
+    key_path.write_bytes(
+        key.private_bytes(serialization.Encoding.PEM, serialization.PrivateFormat.PKCS8, serialization.NoEncryption())
+    )
     return cert_path, key_path, cert, key
 
 
@@ -58,21 +67,47 @@ def tls_cluster(tmp_path_factory):
     client_pem, client_key, _, _ = _pem_pair(d, "client", (ca_cert, ca_key))
     rogue_ca_pem, _, rogue_ca, rogue_ca_key = _pem_pair(d, "rogue_ca")
     rogue_pem, rogue_key, _, _ = _pem_pair(d, "rogue", (rogue_ca, rogue_ca_key))
-    sec = Security(tls_ca_file=str(ca_pem), tls_scheduler_cert=str(node_pem), tls_scheduler_key=str(node_key),
-                   tls_worker_cert=str(node_pem), tls_worker_key=str(node_key), tls_client_cert=str(client_pem),
-                   tls_client_key=str(client_key), require_encryption=True)
-    cluster = LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1", protocol="tls://",
-                           security=sec, dashboard_address=None)
-    yield {"address": cluster.scheduler_address, "ca": ca_pem, "cert": client_pem, "key": client_key,
-           "rogue_cert": rogue_pem, "rogue_key": rogue_key, "rogue_ca": rogue_ca_pem}
+    sec = Security(
+        tls_ca_file=str(ca_pem),
+        tls_scheduler_cert=str(node_pem),
+        tls_scheduler_key=str(node_key),
+        tls_worker_cert=str(node_pem),
+        tls_worker_key=str(node_key),
+        tls_client_cert=str(client_pem),
+        tls_client_key=str(client_key),
+        require_encryption=True,
+    )
+    cluster = LocalCluster(
+        n_workers=1,
+        threads_per_worker=1,
+        processes=True,
+        host="127.0.0.1",
+        protocol="tls://",
+        security=sec,
+        dashboard_address=None,
+    )
+    yield {
+        "address": cluster.scheduler_address,
+        "ca": ca_pem,
+        "cert": client_pem,
+        "key": client_key,
+        "rogue_cert": rogue_pem,
+        "rogue_key": rogue_key,
+        "rogue_ca": rogue_ca_pem,
+    }
     cluster.close()
 
 
 @pytest.mark.slow
 def test_smoke_through_a_tls_cluster_gives_the_local_bytes(smoke_run, tls_cluster, tmp_path):
     assert tls_cluster["address"].startswith("tls://127.0.0.1:")
-    ex = ExecutorConfig(kind="dask", scheduler_address=tls_cluster["address"], tls_ca_file=str(tls_cluster["ca"]),
-                        tls_cert=str(tls_cluster["cert"]), tls_key=str(tls_cluster["key"]))
+    ex = ExecutorConfig(
+        kind="dask",
+        scheduler_address=tls_cluster["address"],
+        tls_ca_file=str(tls_cluster["ca"]),
+        tls_cert=str(tls_cluster["cert"]),
+        tls_key=str(tls_cluster["key"]),
+    )
     res = Experiment(load_scenario("smoke"), tmp_path / "tls", executor=ex).run()
     assert res.timings["evaluation"]["pairs"]["executor"] == "dask"
     assert_same_folder(smoke_run.run_dir, res.run_dir)
@@ -84,15 +119,29 @@ def test_clients_without_the_certificate_are_refused(tls_cluster):
     addr = tls_cluster["address"]
     with pytest.raises(ClusterError, match=f"Dask scheduler {addr}: cannot connect"):
         connect_client(addr, 5.0, None)  # no TLS at all
-    rogue = Security(tls_ca_file=str(tls_cluster["ca"]), tls_client_cert=str(tls_cluster["rogue_cert"]),
-                     tls_client_key=str(tls_cluster["rogue_key"]), require_encryption=True)
+    rogue = Security(
+        tls_ca_file=str(tls_cluster["ca"]),
+        tls_client_cert=str(tls_cluster["rogue_cert"]),
+        tls_client_key=str(tls_cluster["rogue_key"]),
+        require_encryption=True,
+    )
     with pytest.raises(ClusterError, match="cannot connect"):
         connect_client(addr, 5.0, rogue)  # a certificate the cluster's CA did not sign
     with pytest.raises(ConfigError, match="needs a CA and a client certificate"):
         DaskExecutor(ExecutorConfig(kind="dask", scheduler_address=addr))
-    ok = connect_client(addr, 10.0, security_for(ExecutorConfig(
-        kind="dask", scheduler_address=addr, tls_ca_file=str(tls_cluster["ca"]), tls_cert=str(tls_cluster["cert"]),
-        tls_key=str(tls_cluster["key"]))))
+    ok = connect_client(
+        addr,
+        10.0,
+        security_for(
+            ExecutorConfig(
+                kind="dask",
+                scheduler_address=addr,
+                tls_ca_file=str(tls_cluster["ca"]),
+                tls_cert=str(tls_cluster["cert"]),
+                tls_key=str(tls_cluster["key"]),
+            )
+        ),
+    )
     assert ok.submit(sum, [1, 2, 3]).result() == 6
     ok.close()
 
@@ -100,9 +149,13 @@ def test_clients_without_the_certificate_are_refused(tls_cluster):
 def test_certificates_from_dask_config(tls_cluster):
     import dask
 
-    with dask.config.set({"distributed.comm.tls.ca-file": str(tls_cluster["ca"]),
-                          "distributed.comm.tls.client.cert": str(tls_cluster["cert"]),
-                          "distributed.comm.tls.client.key": str(tls_cluster["key"])}):
+    with dask.config.set(
+        {
+            "distributed.comm.tls.ca-file": str(tls_cluster["ca"]),
+            "distributed.comm.tls.client.cert": str(tls_cluster["cert"]),
+            "distributed.comm.tls.client.key": str(tls_cluster["key"]),
+        }
+    ):
         sec = security_for(ExecutorConfig(kind="dask", scheduler_address=tls_cluster["address"]))
     assert sec.tls_ca_file == str(tls_cluster["ca"]) and sec.require_encryption
 
@@ -114,8 +167,9 @@ def test_addresses_not_on_loopback_need_tls_or_insecure(caplog):
     with pytest.raises(ConfigError, match="unauthenticated .* --insecure"):
         check_address("tcp://192.0.2.10:8786", cfg, None)
     with caplog.at_level(logging.WARNING):
-        assert check_address("192.0.2.10:8786", cfg.model_copy(update={"insecure": True}), None) == \
-            "tcp://192.0.2.10:8786"
+        assert (
+            check_address("192.0.2.10:8786", cfg.model_copy(update={"insecure": True}), None) == "tcp://192.0.2.10:8786"
+        )
     assert "unauthenticated" in caplog.text
     assert check_address("tcp://localhost:8786", cfg, None) == "tcp://localhost:8786"
     for bad in ("tcp://host", "http://127.0.0.1:8787", "tcp://127.0.0.1:0"):
@@ -162,8 +216,14 @@ def _dashboard(tmp_path, mode: str) -> list:
 
     script = tmp_path / "dash_probe.py"
     script.write_text(_DASHBOARD_PROBE)
-    out = subprocess.run([sys.executable, str(script), mode], capture_output=True, text=True, timeout=300,
-                         env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}, check=True).stdout
+    out = subprocess.run(
+        [sys.executable, str(script), mode],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)},
+        check=True,
+    ).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 
@@ -191,8 +251,11 @@ def test_local_cluster_is_loopback_only_and_plugins_must_be_importable_on_worker
         local.mkdir()
         (local / "w11_probe_plugin.py").write_text("NAME = 'probe'\n")
         monkeypatch.syspath_prepend(str(local))  # importable here, not on the running worker
-        with pytest.raises(PluginImportError, match=r"Dask worker tcp://127\.0\.0\.1:\d+ cannot import plug-in "
-                                                    r"module 'w11_probe_plugin'.*--upload w11_probe_plugin\.py"):
+        with pytest.raises(
+            PluginImportError,
+            match=r"Dask worker tcp://127\.0\.0\.1:\d+ cannot import plug-in "
+            r"module 'w11_probe_plugin'.*--upload w11_probe_plugin\.py",
+        ):
             ex.check_imports(["w11_probe_plugin"])
     shipped = tmp_path / "shipped" / "w11_uploaded_plugin.py"
     shipped.parent.mkdir()
@@ -212,11 +275,13 @@ def test_cli_refuses_insecure_and_incomplete_cluster_options_in_one_line(tmp_pat
 
     from roman_sim.cli import app
 
-    cases = [(["--scheduler", "tcp://192.0.2.10:8786"], "unauthenticated"),
-             (["--scheduler", "tls://127.0.0.1:1", "--tls-ca-file", str(tmp_path / "nope.pem")], "tls_ca_file"),
-             (["--scheduler", "tls://127.0.0.1:1"], "needs a CA and a client certificate"),
-             (["--executor", "dask", "--upload", str(tmp_path / "x.txt")], "executor.upload"),
-             (["--executor", "cluster"], "executor: kind: Input should be")]
+    cases = [
+        (["--scheduler", "tcp://192.0.2.10:8786"], "unauthenticated"),
+        (["--scheduler", "tls://127.0.0.1:1", "--tls-ca-file", str(tmp_path / "nope.pem")], "tls_ca_file"),
+        (["--scheduler", "tls://127.0.0.1:1"], "needs a CA and a client certificate"),
+        (["--executor", "dask", "--upload", str(tmp_path / "x.txt")], "executor.upload"),
+        (["--executor", "cluster"], "executor: kind: Input should be"),
+    ]
     for opts, msg in cases:
         res = CliRunner().invoke(app, ["run", "smoke", "--out", str(tmp_path / "run"), *opts])
         assert res.exit_code == 1, (opts, res.output)

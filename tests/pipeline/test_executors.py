@@ -12,7 +12,7 @@ from roman_sim.pipeline import pairwork
 from roman_sim.pipeline.executors import ExecutorConfig, LocalPoolExecutor, SerialExecutor, TaskError, open_executor
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
-from roman_sim.pipeline.stages import maps as maps_stage
+from roman_sim.pipeline import robot_mapping as maps_stage
 from roman_sim.testing import assert_same_run_folder as assert_same_folder
 
 
@@ -71,8 +71,11 @@ def test_smoke_on_local_pool_and_loopback_dask_cluster_gives_the_serial_bytes(sm
     assert pool.timings["evaluation"]["pairs"]["executor"] == "local"
     assert_same_folder(smoke_run.run_dir, pool.run_dir)
     dask = Experiment(sc, tmp_path / "dask", executor=ExecutorConfig(kind="dask", workers=2, chunk_pairs=50)).run()
-    assert dask.timings["evaluation"]["pairs"] == {**dask.timings["evaluation"]["pairs"], "executor": "dask",
-                                                   "workers": 2}
+    assert dask.timings["evaluation"]["pairs"] == {
+        **dask.timings["evaluation"]["pairs"],
+        "executor": "dask",
+        "workers": 2,
+    }
     assert_same_folder(smoke_run.run_dir, dask.run_dir)
 
 
@@ -144,7 +147,14 @@ def test_checkpoints_of_another_configuration_are_ignored(smoke_run, tmp_path, m
 
 
 def test_a_task_error_stops_the_run_with_one_line(tmp_path):
-    sc = load_scenario("smoke", ["robots.0.max_length_m=6", "robots.1.max_length_m=6",
-                                 "aligners=[roman, 'no_such_module_xyz:Aligner']", "posegraph_method=roman"])
+    sc = load_scenario(
+        "smoke",
+        [
+            "robots.0.max_length_m=6",
+            "robots.1.max_length_m=6",
+            "aligners=[roman, 'no_such_module_xyz:Aligner']",
+            "posegraph_method=roman",
+        ],
+    )
     with pytest.raises(RomanSimError, match="no_such_module_xyz"):
         Experiment(sc, tmp_path / "r", executor=ExecutorConfig(kind="local", workers=2)).run()

@@ -8,10 +8,10 @@ import shutil
 import numpy as np
 import pytest
 
+from roman_sim.align.gating import GATED_REASON, GatingConfig, gate_pairs, submap_descriptor
 from roman_sim.evaluation.pairs import enumerate_pairs
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.experiment import Experiment
-from roman_sim.pipeline.gating import GATED_REASON, GatingConfig, gate_pairs, submap_descriptor
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stages.submaps import SubmapsStage
 
@@ -20,10 +20,18 @@ def _submap(robot: str, index: int, desc: list[list[float]], volumes: list[float
     n = len(desc)
     d = np.asarray(desc, dtype=np.float32)
     d /= np.linalg.norm(d, axis=1, keepdims=True)
-    return Submap(robot=robot, index=index, t=float(index), T_odom_submap=np.eye(4),
-                  segment_ids=np.arange(n, dtype=np.int64), centers=np.zeros((n, 3)),
-                  volumes=np.asarray(volumes, dtype=np.float64), shape=np.tile([0.2, 0.3, 0.5], (n, 1)),
-                  descriptors=d, extents=np.ones((n, 3)))
+    return Submap(
+        robot=robot,
+        index=index,
+        t=float(index),
+        T_odom_submap=np.eye(4),
+        segment_ids=np.arange(n, dtype=np.int64),
+        centers=np.zeros((n, 3)),
+        volumes=np.asarray(volumes, dtype=np.float64),
+        shape=np.tile([0.2, 0.3, 0.5], (n, 1)),
+        descriptors=d,
+        extents=np.ones((n, 3)),
+    )
 
 
 def test_descriptor_is_unit_and_similar_submaps_score_higher():

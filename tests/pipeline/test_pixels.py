@@ -11,9 +11,15 @@ from roman_sim.mapping.semantics import expected_cosine
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 
-PIXELS = ["robots.0.render_rgb=true", "robots.1.render_rgb=true", "robots.0.max_length_m=25",
-          "robots.1.max_length_m=25", "frontend.segmenter=image", "frontend.encoder=image",
-          "world.overrides.appearance={textures: true}"]
+PIXELS = [
+    "robots.0.render_rgb=true",
+    "robots.1.render_rgb=true",
+    "robots.0.max_length_m=25",
+    "robots.1.max_length_m=25",
+    "frontend.segmenter=image",
+    "frontend.encoder=image",
+    "world.overrides.appearance={textures: true}",
+]
 
 
 def _never(*args, **kwargs):

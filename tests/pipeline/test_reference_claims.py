@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from roman_sim.evaluation.verify import compare, verify_run
-from roman_sim.pipeline.reference import README_BEGIN, README_END, readme_block, rederive, summary_markdown
+from roman_sim.studies.reference import README_BEGIN, README_END, readme_block, rederive, summary_markdown
 
 ROOT = Path(__file__).resolve().parents[2]
 REF = ROOT / "results" / "reference"

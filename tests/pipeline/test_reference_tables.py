@@ -2,15 +2,16 @@
 
 from __future__ import annotations
 
-from roman_sim.evaluation.summaries import frontend_summary
-from roman_sim.pipeline.claims import claims
-from roman_sim.pipeline.reference_tables import frontends, frontends_markdown, table1, table1_markdown
+from roman_sim.report.summaries import frontend_summary
+from roman_sim.studies.claims import claims
+from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
 
 
 def _ate(**rows: tuple[int, float | None]) -> dict:
     """Rows ``name=(robots placed, ATE over the common robots)``; over all robots: 10x that, if all 3 placed."""
-    return {v: {"connected": n, "common": c, "all": None if n < 3 or c is None else 10 * c}
-            for v, (n, c) in rows.items()}
+    return {
+        v: {"connected": n, "common": c, "all": None if n < 3 or c is None else 10 * c} for v, (n, c) in rows.items()
+    }
 
 
 def _multi(ate: dict, common: list[str]) -> dict:
@@ -19,10 +20,28 @@ def _multi(ate: dict, common: list[str]) -> dict:
 
 def _runs_ate() -> dict:
     # tunnel: combined lowest, ROMAN below visual; hybrid: visual placed 2 robots, combined above ROMAN
-    tunnel = _multi(_ate(odometry=(3, 0.5), odometry_no_prior=(3, 0.45), roman=(3, 0.3), visual=(3, 0.4),
-                         combined=(3, 0.25), oracle=(3, 0.2)), ["a", "b", "c"])
-    hybrid = _multi(_ate(odometry=(3, 0.6), odometry_no_prior=(3, 0.55), roman=(3, 0.35), visual=(2, 0.5),
-                         combined=(3, 0.4), oracle=(3, 0.3)), ["a", "c"])
+    tunnel = _multi(
+        _ate(
+            odometry=(3, 0.5),
+            odometry_no_prior=(3, 0.45),
+            roman=(3, 0.3),
+            visual=(3, 0.4),
+            combined=(3, 0.25),
+            oracle=(3, 0.2),
+        ),
+        ["a", "b", "c"],
+    )
+    hybrid = _multi(
+        _ate(
+            odometry=(3, 0.6),
+            odometry_no_prior=(3, 0.55),
+            roman=(3, 0.35),
+            visual=(2, 0.5),
+            combined=(3, 0.4),
+            oracle=(3, 0.3),
+        ),
+        ["a", "c"],
+    )
     return {"multi_robot_tunnel": tunnel, "multi_robot_hybrid": hybrid}
 
 
@@ -33,20 +52,27 @@ def test_table1_puts_every_row_next_to_the_paper():
     assert rows[1]["simulation"]["visual"] == {"ate_m": 0.5, "ate_all_m": None, "placed": 2}
     assert rows[1]["common"] == ["a", "c"] and rows[1]["robots"] == ["a", "b", "c"]
     lines = table1_markdown(rows).splitlines()
-    assert lines[-4] == ("| tunnel | 4.38 | 4.20 | 4.12 | 0.50 (3/3) | 0.45 (3/3) | 0.40 (3/3) | 0.30 (3/3) | "
-                         "0.25 (3/3) | 0.20 (3/3) | a, b, c of 3 |")
-    assert lines[-2] == ("| hybrid | 5.83 | 5.12 | 4.77 | 0.60 (3/3) | 0.55 (3/3) | 0.50 (2/3) | 0.35 (3/3) | "
-                         "0.40 (3/3) | 0.30 (3/3) | a, c of 3 |")
-    assert lines[-1] == ("| hybrid, all robots |  |  |  | 6.00 (3/3) | 5.50 (3/3) | n/a (2/3) | 3.50 (3/3) | "
-                         "4.00 (3/3) | 3.00 (3/3) | a, b, c |")
+    assert lines[-4] == (
+        "| tunnel | 4.38 | 4.20 | 4.12 | 0.50 (3/3) | 0.45 (3/3) | 0.40 (3/3) | 0.30 (3/3) | "
+        "0.25 (3/3) | 0.20 (3/3) | a, b, c of 3 |"
+    )
+    assert lines[-2] == (
+        "| hybrid | 5.83 | 5.12 | 4.77 | 0.60 (3/3) | 0.55 (3/3) | 0.50 (2/3) | 0.35 (3/3) | "
+        "0.40 (3/3) | 0.30 (3/3) | a, c of 3 |"
+    )
+    assert lines[-1] == (
+        "| hybrid, all robots |  |  |  | 6.00 (3/3) | 5.50 (3/3) | n/a (2/3) | 3.50 (3/3) | "
+        "4.00 (3/3) | 3.00 (3/3) | a, b, c |"
+    )
 
 
 def test_table1_marks_rows_a_run_does_not_have():
     runs = {"multi_robot_outdoor": _multi(_ate(odometry=(3, 0.5), roman=(2, None)), [])}
     row = table1(runs)[0]
     assert row["simulation"]["visual"] == {"ate_m": None, "ate_all_m": None, "placed": None}
-    assert table1_markdown([row]).splitlines()[-2] == ("| outdoor | 9.38 | 8.77 | 7.77 | 0.50 (3/3) | n/a | n/a | "
-                                                       "n/a (2/3) | n/a | n/a | none of 3 |")
+    assert table1_markdown([row]).splitlines()[-2] == (
+        "| outdoor | 9.38 | 8.77 | 7.77 | 0.50 (3/3) | n/a | n/a | n/a (2/3) | n/a | n/a | none of 3 |"
+    )
     assert table1_markdown([]) == ""
 
 
@@ -70,45 +96,84 @@ def test_table1_claims_follow_the_rows():
     runs["multi_robot_hybrid"]["ate"]["visual"]["common"] = 0.354  # ROMAN 0.35 is then not lower than visual
     assert not {c["id"]: c for c in claims(runs, [])}["roman_ate_below_visual"]["holds"]
     no_visual = {"multi_robot_tunnel": _multi(_ate(odometry=(3, 0.5), roman=(3, 0.3)), ["a"])}
-    assert not {c["id"] for c in claims(no_visual, [])} & {"roman_ate_below_visual", "combined_ate_lowest",
-                                                          "combined_all_robots_below_odometry"}
+    assert not {c["id"] for c in claims(no_visual, [])} & {
+        "roman_ate_below_visual",
+        "combined_ate_lowest",
+        "combined_all_robots_below_odometry",
+    }
 
 
 def _rec(h: int, n: int, ci: tuple[float, float] | None = (0.1, 0.9)) -> dict:
-    return {"max_recall": h / n if n else None, "max_hits": h, "n_relevant": n,
-            "recall_ci": list(ci) if n and ci else None, "few": n < 5}
+    return {
+        "max_recall": h / n if n else None,
+        "max_hits": h,
+        "n_relevant": n,
+        "recall_ci": list(ci) if n and ci else None,
+        "few": n < 5,
+    }
 
 
 def _opp(bins: dict[str, tuple[int, int]], frontend: dict | None) -> dict:
     hits, rel = sum(h for h, _ in bins.values()), sum(n for _, n in bins.values())
-    method = {"inter": {**_rec(hits, rel), "n_pairs": 100, "bins": {b: _rec(*v) for b, v in bins.items()}},
-              "intra": {**_rec(0, 0), "bins": {}}, "runtime_median_s": 0.01}
-    return {"methods": {"roman": method, "clipper": method, "visual": method}, "map": {}, "frontend": frontend,
-            "pairs": {"inter": {"n_pairs": 100, "n_relevant": 12}}}
+    method = {
+        "inter": {**_rec(hits, rel), "n_pairs": 100, "bins": {b: _rec(*v) for b, v in bins.items()}},
+        "intra": {**_rec(0, 0), "bins": {}},
+        "runtime_median_s": 0.01,
+    }
+    return {
+        "methods": {"roman": method, "clipper": method, "visual": method},
+        "map": {},
+        "frontend": frontend,
+        "pairs": {"inter": {"n_pairs": 100, "n_relevant": 12}},
+    }
 
 
-GRADES = {"segmenter": "image", "encoder": "image", "frames": 40, "objects": 300, "masks": 250, "precision": 0.6,
-          "recall": 0.5, "mean_iou": 0.7, "over_segmented": 7, "under_segmented": 3, "spurious": 11,
-          "cosine_same_instance": 0.9, "cosine_same_family": 0.8, "cosine_other_family": 0.625}
+GRADES = {
+    "segmenter": "image",
+    "encoder": "image",
+    "frames": 40,
+    "objects": 300,
+    "masks": 250,
+    "precision": 0.6,
+    "recall": 0.5,
+    "mean_iou": 0.7,
+    "over_segmented": 7,
+    "under_segmented": 3,
+    "spurious": 11,
+    "cosine_same_instance": 0.9,
+    "cosine_same_family": 0.8,
+    "cosine_other_family": 0.625,
+}
 
 
 def test_two_front_ends_share_pairs_and_show_grades():
     truth = {**GRADES, "segmenter": "fastsam", "encoder": "simulated", "precision": 1.0}
-    runs = {"opposite_direction": _opp({"60-120": (1, 2), "120-180": (6, 10)}, truth),
-            "opposite_direction_pixels": _opp({"60-120": (0, 2), "120-180": (3, 10)}, GRADES)}
+    runs = {
+        "opposite_direction": _opp({"60-120": (1, 2), "120-180": (6, 10)}, truth),
+        "opposite_direction_pixels": _opp({"60-120": (0, 2), "120-180": (3, 10)}, GRADES),
+    }
     t = frontends(runs)
     assert t["same_pairs"] and t["scenarios"] == ["opposite_direction", "opposite_direction_pixels"]
     assert [(r["scenario"], r["method"]) for r in t["recall"]] == [  # ROMAN first; visual uses no segments
-        ("opposite_direction", "roman"), ("opposite_direction_pixels", "roman"),
-        ("opposite_direction", "clipper"), ("opposite_direction_pixels", "clipper")]
+        ("opposite_direction", "roman"),
+        ("opposite_direction_pixels", "roman"),
+        ("opposite_direction", "clipper"),
+        ("opposite_direction_pixels", "clipper"),
+    ]
     lines = frontends_markdown(t).splitlines()
     assert "| front end | method | 60-120 deg | 120-180 deg | all |" in lines
-    assert ("| opposite_direction_pixels (image + image) | roman | n<5: 0/2 | 0.30 (3/10) [0.10, 0.90] | "
-            "0.25 (3/12) [0.10, 0.90] |") in lines
-    assert "| opposite_direction (fastsam + simulated) | clipper | n<5: 1/2 | 0.60 (6/10) [0.10, 0.90] | " \
-           "0.58 (7/12) [0.10, 0.90] |" in lines
-    assert lines[-1] == "| opposite_direction_pixels (image + image) | 40 | 0.60 | 0.50 | 0.70 | 7 | 3 | 0.90 | " \
-                        "0.80 | 0.62 |"
+    assert (
+        "| opposite_direction_pixels (image + image) | roman | n<5: 0/2 | 0.30 (3/10) [0.10, 0.90] | "
+        "0.25 (3/12) [0.10, 0.90] |"
+    ) in lines
+    assert (
+        "| opposite_direction (fastsam + simulated) | clipper | n<5: 1/2 | 0.60 (6/10) [0.10, 0.90] | "
+        "0.58 (7/12) [0.10, 0.90] |" in lines
+    )
+    assert (
+        lines[-1] == "| opposite_direction_pixels (image + image) | 40 | 0.60 | 0.50 | 0.70 | 7 | 3 | 0.90 | "
+        "0.80 | 0.62 |"
+    )
     assert "100 cross-robot pairs (12 relevant), the same pairs in every row" in frontends_markdown(t)
     runs["opposite_direction_pixels"]["pairs"] = {"inter": {"n_pairs": 99, "n_relevant": 12}}
     assert "NOT the same pair counts" in frontends_markdown(frontends(runs))
@@ -116,18 +181,35 @@ def test_two_front_ends_share_pairs_and_show_grades():
 
 
 def test_frontend_summary_weights_other_families_by_pairs():
-    cls = {"same_instance": {"pairs": 4, "mean": 0.9}, "same_family": {"pairs": 10, "mean": 0.8},
-           "same_group": {"pairs": 1, "mean": 0.7}, "other_group": {"pairs": 3, "mean": 0.5},
-           }
-    seg = {"frames": 2, "objects": 9, "masks": 8, "precision": 0.75, "recall": 0.5, "mean_iou": 0.6,
-           "over_segmented": 1, "under_segmented": 2, "spurious": 0}
-    s = frontend_summary({"segmenter": "image", "encoder": "image", "segmentation": seg,
-                          "descriptors": {"classes": cls}})
+    cls = {
+        "same_instance": {"pairs": 4, "mean": 0.9},
+        "same_family": {"pairs": 10, "mean": 0.8},
+        "same_group": {"pairs": 1, "mean": 0.7},
+        "other_group": {"pairs": 3, "mean": 0.5},
+    }
+    seg = {
+        "frames": 2,
+        "objects": 9,
+        "masks": 8,
+        "precision": 0.75,
+        "recall": 0.5,
+        "mean_iou": 0.6,
+        "over_segmented": 1,
+        "under_segmented": 2,
+        "spurious": 0,
+    }
+    s = frontend_summary(
+        {"segmenter": "image", "encoder": "image", "segmentation": seg, "descriptors": {"classes": cls}}
+    )
     assert s["cosine_other_family"] == (0.7 + 3 * 0.5) / 4 and s["cosine_same_instance"] == 0.9
     assert (s["precision"], s["over_segmented"], s["frames"]) == (0.75, 1, 2)
     cls["same_group"]["pairs"] = cls["other_group"]["pairs"] = 0
     no_desc = frontend_summary({"segmenter": "perfect", "encoder": None, "segmentation": seg, "descriptors": None})
     assert no_desc["cosine_same_family"] is None and no_desc["encoder"] is None
-    assert frontend_summary({"segmenter": "x", "segmentation": seg, "descriptors": {"classes": cls}})[
-        "cosine_other_family"] is None
+    assert (
+        frontend_summary({"segmenter": "x", "segmentation": seg, "descriptors": {"classes": cls}})[
+            "cosine_other_family"
+        ]
+        is None
+    )
     assert frontend_summary(None) is None

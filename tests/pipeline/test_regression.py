@@ -23,14 +23,26 @@ from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall
 # (was 5) at 60-120 deg; the hits did not change (11, 2, 9 for ROMAN; 7, 2, 5 for CLIPPER).
 PINNED_MAP = {"segments": (88, 6), "submaps": (18, 1)}
 PINNED_HITS = {  # method -> (pair set, heading bin or None) -> (max hits, relevant pairs)
-    "roman": {("inter", None): (11, 19), ("inter", "60-120"): (2, 4), ("inter", "120-180"): (9, 15),
-              ("intra", None): (0, 2)},
-    "clipper": {("inter", None): (7, 19), ("inter", "60-120"): (2, 4), ("inter", "120-180"): (5, 15),
-                ("intra", None): (0, 2)},
+    "roman": {
+        ("inter", None): (11, 19),
+        ("inter", "60-120"): (2, 4),
+        ("inter", "120-180"): (9, 15),
+        ("intra", None): (0, 2),
+    },
+    "clipper": {
+        ("inter", None): (7, 19),
+        ("inter", "60-120"): (2, 4),
+        ("inter", "120-180"): (5, 15),
+        ("intra", None): (0, 2),
+    },
 }
 PINNED_ASSOC = {"roman": (93, 190, 274), "clipper": (75, 305, 274)}  # cross-robot: correct, selected, available
-PINNED_ATE = {"odometry": (0.535, 0.05), "odometry_no_prior": (0.307, 0.05), "roman": (0.492, 0.08),
-              "oracle": (0.266, 0.08)}  # SE(3), over the robots every row placed (both)
+PINNED_ATE = {
+    "odometry": (0.535, 0.05),
+    "odometry_no_prior": (0.307, 0.05),
+    "roman": (0.492, 0.08),
+    "oracle": (0.266, 0.08),
+}  # SE(3), over the robots every row placed (both)
 
 
 def test_smoke_pinned_map_figures(smoke_run):
@@ -77,8 +89,11 @@ def test_opposite_direction_ordering(opposite_run):
 
 def _folder_bytes(d: Path) -> dict[str, bytes]:
     """Every file of a run folder but the wall-clock timings, by relative path."""
-    return {p.relative_to(d).as_posix(): p.read_bytes() for p in sorted(d.rglob("*"))
-            if p.is_file() and p.name != "timings.json"}
+    return {
+        p.relative_to(d).as_posix(): p.read_bytes()
+        for p in sorted(d.rglob("*"))
+        if p.is_file() and p.name != "timings.json"
+    }
 
 
 def test_two_fresh_runs_write_the_same_bytes(smoke_run, tmp_path):
@@ -86,8 +101,10 @@ def test_two_fresh_runs_write_the_same_bytes(smoke_run, tmp_path):
     elsewhere = tmp_path / "cwd"
     elsewhere.mkdir()
     env = {**os.environ, "PYTHONHASHSEED": "12345"}
-    code = ("from roman_sim.pipeline.experiment import Experiment; from roman_sim.pipeline.scenario import "
-            f"load_scenario; Experiment(load_scenario('smoke'), {str(tmp_path / 'again')!r}, fresh=True).run()")
+    code = (
+        "from roman_sim.pipeline.experiment import Experiment; from roman_sim.pipeline.scenario import "
+        f"load_scenario; Experiment(load_scenario('smoke'), {str(tmp_path / 'again')!r}, fresh=True).run()"
+    )
     subprocess.run([sys.executable, "-c", code], cwd=elsewhere, env=env, check=True, timeout=600)
     first, again = _folder_bytes(smoke_run.run_dir), _folder_bytes(tmp_path / "again")
     assert sorted(first) == sorted(again)
@@ -105,10 +122,12 @@ def test_cached_and_fresh_stages_write_the_same_bytes(smoke_run, tmp_path):
 
 
 def test_other_seed_differs(smoke_run, tmp_path):
-    other = Experiment(load_scenario("smoke", ["seed=1", "robots.0.max_length_m=15", "robots.1.max_length_m=15"]),
-                       tmp_path / "seed1").run()
-    same_len = Experiment(load_scenario("smoke", ["robots.0.max_length_m=15", "robots.1.max_length_m=15"]),
-                          tmp_path / "seed0").run()
+    other = Experiment(
+        load_scenario("smoke", ["seed=1", "robots.0.max_length_m=15", "robots.1.max_length_m=15"]), tmp_path / "seed1"
+    ).run()
+    same_len = Experiment(
+        load_scenario("smoke", ["robots.0.max_length_m=15", "robots.1.max_length_m=15"]), tmp_path / "seed0"
+    ).run()
     assert (other.run_dir / "maps" / "a.npz").read_bytes() != (same_len.run_dir / "maps" / "a.npz").read_bytes()
 
 

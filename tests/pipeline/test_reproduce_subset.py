@@ -15,7 +15,7 @@ import pytest
 from roman_sim.core.atomic import write_json
 from roman_sim.evaluation.verify import compare
 from roman_sim.pipeline import experiment, scenario
-from roman_sim.pipeline.reference import (
+from roman_sim.studies.reference import (
     AMBIGUITY_KEY,
     README_BEGIN,
     README_END,
@@ -47,8 +47,10 @@ def committed(smoke_run, tmp_path: Path) -> Path:
     for name in ("alpha", "beta"):
         collect(smoke_run.run_dir, out / name)
     collect(smoke_run.run_dir, out / "ambiguity_sweep" / "r0", trajectories=False, plots=False, alignments=False)
-    write_json(out / "ambiguity_sweep" / "sweep.json",
-               {"grid": [AMBIGUITY_KEY], "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}]})
+    write_json(
+        out / "ambiguity_sweep" / "sweep.json",
+        {"grid": [AMBIGUITY_KEY], "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}]},
+    )
     stale = {"pairs": {"stale": True}, "methods": {}, "map": {}}
     # gamma was listed once but its folder is gone; beta's entry is stale until it is re-run
     write_json(out / "summary.json", build_summary({"alpha": stale, "beta": stale, "gamma": stale}, []))

@@ -38,8 +38,7 @@ def test_changed_aligners_recompute_only_evaluation(smoke_run, tmp_path):
 
 
 def test_start_from_saved_submaps(smoke_run, tmp_path):
-    res = Experiment(load_scenario("smoke"), tmp_path / "from_submaps",
-                     submaps_dir=smoke_run.run_dir / "submaps").run()
+    res = Experiment(load_scenario("smoke"), tmp_path / "from_submaps", submaps_dir=smoke_run.run_dir / "submaps").run()
     assert res.metrics.figure("roman", key="n_relevant") == smoke_run.metrics.figure("roman", key="n_relevant")
     assert res.recall("roman") == smoke_run.recall("roman")
     assert any("pose graph skipped" in n for n in res.notes)
@@ -61,14 +60,31 @@ def test_user_aligner_runs_through_the_same_pipeline(smoke_run, monkeypatch, tmp
 
 def test_run_folder_contents(smoke_run):
     d = smoke_run.run_dir
-    for name in ("config.yaml", "manifest.json", "metrics.json", "pairs.csv", "alignments.json", "report.md",
-                 "ate.json", "posegraph.json", "map_stats.json", "timings.json"):
+    for name in (
+        "config.yaml",
+        "manifest.json",
+        "metrics.json",
+        "pairs.csv",
+        "alignments.json",
+        "report.md",
+        "ate.json",
+        "posegraph.json",
+        "map_stats.json",
+        "timings.json",
+    ):
         assert (d / name).is_file(), name
     for robot in ("a", "b"):
         for variant in ("truth", "odometry", "roman", "oracle"):
             assert (d / "trajectories" / f"{robot}.{variant}.tum").is_file()
-    for plot in ("trajectories", "segments_on_image", "recall_heading", "precision_recall_heading",
-                 "association_heading", "alignment_roman", "alignment_clipper"):
+    for plot in (
+        "trajectories",
+        "segments_on_image",
+        "recall_heading",
+        "precision_recall_heading",
+        "association_heading",
+        "alignment_roman",
+        "alignment_clipper",
+    ):
         assert (d / "plots" / f"{plot}.png").stat().st_size > 1000, plot
     assert not list(d.rglob("*.tmp"))
     stages = json.loads((d / "timings.json").read_text())["stages"]
@@ -169,7 +185,7 @@ def test_every_bundled_sweep_validates(path):
 
 def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
     from roman_sim.evaluation.verify import verify_run
-    from roman_sim.pipeline.reference import rederive, reproduce
+    from roman_sim.studies.reference import rederive, reproduce
 
     shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
     path = reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")
@@ -194,8 +210,9 @@ def test_record_command_stores_readable_frames(tmp_path):
     from roman_sim.sim.recording import read_recording, recording_info
 
     out = tmp_path / "rec"
-    res = runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "b",
-                              "--set", "robots.1.max_length_m=2.0"])
+    res = runner.invoke(
+        app, ["record", "smoke", "--out", str(out), "--robot", "b", "--set", "robots.1.max_length_m=2.0"]
+    )
     assert res.exit_code == 0, res.output
     assert not (out / "a").exists()
     info = recording_info(out / "b")
@@ -218,11 +235,13 @@ def test_from_stage_recomputes_later_stages_only(smoke_run, tmp_path):
 
 
 def test_sweep_markdown_table():
-    from roman_sim.pipeline.claims import sweep_markdown
+    from roman_sim.studies.claims import sweep_markdown
 
-    rows = [{"ambiguity": 0.0, "method": "roman", "recall": 0.7, "hits": 7, "relevant": 10, "ci": [0.4, 0.89]},
-            {"ambiguity": 0.0, "method": "clipper", "recall": 0.5, "hits": 1, "relevant": 2, "ci": [0.09, 0.91]},
-            {"ambiguity": 1.0, "method": "roman", "recall": None, "hits": 0, "relevant": 0, "ci": None}]
+    rows = [
+        {"ambiguity": 0.0, "method": "roman", "recall": 0.7, "hits": 7, "relevant": 10, "ci": [0.4, 0.89]},
+        {"ambiguity": 0.0, "method": "clipper", "recall": 0.5, "hits": 1, "relevant": 2, "ci": [0.09, 0.91]},
+        {"ambiguity": 1.0, "method": "roman", "recall": None, "hits": 0, "relevant": 0, "ci": None},
+    ]
     text = sweep_markdown(rows)
     assert "| ambiguity | clipper | roman |" in text
     assert "| 0 | n<5: 1/2 | 0.70 (7/10) [0.40, 0.89] |" in text and "| 1 | n/a | n/a |" in text
@@ -231,9 +250,12 @@ def test_sweep_markdown_table():
 
 def test_user_segmenter_and_encoder_run_through_the_pipeline(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(ROOT))
-    sets = ["robots.0.max_length_m=12", "robots.1.max_length_m=12",
-            "frontend.segmenter=examples.depth_segmenter:DepthEdgeSegmenter",
-            "frontend.encoder=examples.depth_segmenter:ShapeEncoder"]
+    sets = [
+        "robots.0.max_length_m=12",
+        "robots.1.max_length_m=12",
+        "frontend.segmenter=examples.depth_segmenter:DepthEdgeSegmenter",
+        "frontend.encoder=examples.depth_segmenter:ShapeEncoder",
+    ]
     res = Experiment(load_scenario("smoke", sets), tmp_path / "byo").run()
     assert res.map_stats.segments > 0
     from roman_sim.mapping.io import load_submaps
@@ -241,8 +263,11 @@ def test_user_segmenter_and_encoder_run_through_the_pipeline(tmp_path, monkeypat
     subs = load_submaps(tmp_path / "byo" / "submaps" / "a.npz")
     assert any(len(s) for s in subs)
     assert {s.descriptors.shape[1] for s in subs if len(s)} == {8}
-    line = _one_line_error(runner.invoke(app, ["run", "smoke", "--out", str(tmp_path / "x"),
-                                               "--set", "frontend.encoder=examples.nope:Enc"]))
+    line = _one_line_error(
+        runner.invoke(
+            app, ["run", "smoke", "--out", str(tmp_path / "x"), "--set", "frontend.encoder=examples.nope:Enc"]
+        )
+    )
     assert "examples.nope" in line
 
 

@@ -87,13 +87,17 @@ def test_keys_follow_the_configuration():
 def test_one_robot_rerun_in_a_two_robot_folder_reads_only_its_robot(smoke_run, tmp_path):
     run_dir = tmp_path / "copy"
     shutil.copytree(smoke_run.run_dir, run_dir)
-    robot_a = ("robots=[{name: a, path: {kind: road, road_index: 0}, camera: {width: 160, height: 120}, "
-               "render_rgb: false, max_length_m: 30}]")
+    robot_a = (
+        "robots=[{name: a, path: {kind: road, road_index: 0}, camera: {width: 160, height: 120}, "
+        "render_rgb: false, max_length_m: 30}]"
+    )
     res = Experiment(load_scenario("smoke", [robot_a]), run_dir).run()
     assert res.map_stats.robots == 1 and res.reused == []
     assert not (run_dir / "maps" / "b.npz").exists() and not (run_dir / "submaps" / "b.npz").exists()
-    assert all(s.truth.robot_a == s.truth.robot_b == "a" for s in EvaluationStage().load(
-        RunContext(res.scenario, run_dir), []).scores)
+    assert all(
+        s.truth.robot_a == s.truth.robot_b == "a"
+        for s in EvaluationStage().load(RunContext(res.scenario, run_dir), []).scores
+    )
     assert res.map_stats.trajectory_km == pytest.approx(0.03, abs=0.002)
     assert RunResult.load(run_dir).map_stats == res.map_stats
 

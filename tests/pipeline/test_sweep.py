@@ -30,7 +30,7 @@ def test_expand_grid_times_seeds():
     assert len(runs) == 3 * 2 * 2
     assert len({r.run_id for r in runs}) == len(runs)
     assert runs == expand(cfg)  # stable order and ids
-    assert 'a.b=1' in runs[0].overrides
+    assert "a.b=1" in runs[0].overrides
 
 
 def test_bad_sweeps(tmp_path):

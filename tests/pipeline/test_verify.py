@@ -46,7 +46,7 @@ def test_an_edited_pairs_table_or_trajectory_fails_verification(smoke_run, tmp_p
 
 
 def test_compressed_reference_folders_verify_from_the_cli(smoke_run, tmp_path):
-    from roman_sim.pipeline.reference import collect
+    from roman_sim.studies.reference import collect
 
     collect(smoke_run.run_dir, tmp_path / "ref")
     out = runner.invoke(app, ["report", str(tmp_path / "ref"), "--verify"])

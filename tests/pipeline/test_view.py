@@ -45,8 +45,9 @@ def test_maps_and_submaps(smoke_run, smoke_view) -> None:
         n_points = sum(len(s.points) for s in smap.segments)
         assert contents[f"/world/maps/{robot}/points"]["Points3D:positions"] == [n_points]
         subs = load_submaps(smoke_run.run_dir / "submaps" / f"{robot}.npz")
-        logged = sorted(int(e.rsplit("/", 1)[1]) for e in contents
-                        if e.startswith(f"/world/submaps/{robot}/") and e.count("/") == 4)
+        logged = sorted(
+            int(e.rsplit("/", 1)[1]) for e in contents if e.startswith(f"/world/submaps/{robot}/") and e.count("/") == 4
+        )
         assert logged == [s.index for s in subs]
         for s in subs:
             assert contents[f"/world/submaps/{robot}/{s.index}/segments"]["Points3D:positions"] == [len(s)]
@@ -56,11 +57,18 @@ def test_loop_closures_agree_with_the_pose_graph(smoke_run, smoke_view) -> None:
     result, contents = smoke_view
     sc = smoke_run.scenario
     rows = json.loads((smoke_run.run_dir / "alignments.json").read_text())["alignments"]
-    candidates = [r for r in rows if r["method"] == sc.posegraph_method and r["T_a_b"] is not None
-                  and r["n_associations"] >= sc.posegraph.lc_association_thresh]
+    candidates = [
+        r
+        for r in rows
+        if r["method"] == sc.posegraph_method
+        and r["T_a_b"] is not None
+        and r["n_associations"] >= sc.posegraph.lc_association_thresh
+    ]
     pg = json.loads((smoke_run.run_dir / "posegraph.json").read_text())[sc.posegraph_method]
-    n = {v: sum(contents.get(f"/world/loop_closures/{v}", {}).get("LineStrips3D:strips", [0])) for v in
-         ("correct", "wrong", "rejected")}
+    n = {
+        v: sum(contents.get(f"/world/loop_closures/{v}", {}).get("LineStrips3D:strips", [0]))
+        for v in ("correct", "wrong", "rejected")
+    }
     assert n == result.closures
     assert n["correct"] + n["wrong"] + n["rejected"] == len(candidates) == pg["closures_used"]
     assert n["correct"] + n["wrong"] == pg["inliers"]
@@ -74,8 +82,11 @@ def test_camera_images_on_the_timeline(smoke_view) -> None:
         cam = f"/world/robots/{robot}/camera"
         assert contents[cam]["Pinhole:image_from_camera"] == [1]
         assert len(contents[cam]["Transform3D:translation"]) == IMAGES
-        for child, comp in (("rgb", "Image:buffer"), ("depth", "DepthImage:buffer"),
-                            ("mask", "SegmentationImage:buffer")):
+        for child, comp in (
+            ("rgb", "Image:buffer"),
+            ("depth", "DepthImage:buffer"),
+            ("mask", "SegmentationImage:buffer"),
+        ):
             assert len(contents[f"{cam}/{child}"][comp]) == IMAGES
 
 

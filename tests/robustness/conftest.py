@@ -17,7 +17,7 @@ MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12
 PLUGINS = '''
 import numpy as np
 from roman_sim.align.base import AlignResult
-from roman_sim.mapping.segmenter import Mask
+from roman_sim.mapping.mask import Mask
 
 
 class RaisesInInit:

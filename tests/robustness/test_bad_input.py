@@ -58,8 +58,10 @@ CASES = [
     (["run", "{nan_waypoint}"], "robots.0.path.waypoints.1.0: must be a finite number (got nan)"),
     (["run", "{nan_world}"], "world.overrides.extent_m.0: must be a finite number (got nan)"),
     (["run", "{nan_params}"], "aligners.0.params.sigma: must be a finite number (got nan)"),
-    (["run", "{wrong_type}"],
-     "seed: Input should be a valid integer, unable to parse string as an integer (got 'three')"),
+    (
+        ["run", "{wrong_type}"],
+        "seed: Input should be a valid integer, unable to parse string as an integer (got 'three')",
+    ),
     (["run", "{robots_scalar}"], "robots: Input should be a valid list (got 5)"),
     (["run", "{robots_empty}"], "robots: List should have at least 1 item"),
     (["run", "{list_top}"], "expected a mapping at the top level"),
@@ -83,17 +85,31 @@ CASES = [
     (["run", "smoke", "--set", "robots.0.camera.width=2"], "robots.0.camera.width: Input should be greater than"),
     (["run", "smoke", "--set", "robots.0.drift=wobbly"], "unknown drift preset 'wobbly' (valid: good, poor, typical"),
     (["run", "smoke", "--set", "world.preset=jungle"], "unknown world preset 'jungle' (valid:"),
-    (["run", "smoke", "--set", "frontend.segmenter=magic"],
-     "unknown segmenter 'magic' (valid: fastsam, image, perfect, sam"),
+    (
+        ["run", "smoke", "--set", "frontend.segmenter=magic"],
+        "unknown segmenter 'magic' (valid: fastsam, image, perfect, sam",
+    ),
     (["run", "smoke", "--set", "frontend.segmenter=5"], "frontend.segmenter: expected a string or a mapping"),
     (["run", "smoke", "--set", "frontend.segmenter={miss_prob: 2}"], "frontend.segmenter.params: miss_prob:"),
     (["run", "smoke", "--set", "frontend.encoder=clap"], "frontend.encoder: unknown encoder 'clap'"),
     (["run", "smoke", "--set", "frontend.encoder=clip"], "frontend.encoder.params: weights: required"),
-    (["run", "smoke", "--set", "frontend.encoder={name: clip, params: {weights: /no/such}}",
-      "--set", "robots.0.render_rgb=true", "--set", "robots.1.render_rgb=true"],
-     "frontend.encoder.params.weights: no model folder at /no/such"),
-    (["run", "smoke", "--set", "frontend.encoder=image"],
-     "robots.a.render_rgb: the front end's encoder 'image' needs RGB"),
+    (
+        [
+            "run",
+            "smoke",
+            "--set",
+            "frontend.encoder={name: clip, params: {weights: /no/such}}",
+            "--set",
+            "robots.0.render_rgb=true",
+            "--set",
+            "robots.1.render_rgb=true",
+        ],
+        "frontend.encoder.params.weights: no model folder at /no/such",
+    ),
+    (
+        ["run", "smoke", "--set", "frontend.encoder=image"],
+        "robots.a.render_rgb: the front end's encoder 'image' needs RGB",
+    ),
     (["run", "smoke", "--set", "world.overrides={extent_m: [5, 5]}"], "extent_m: each side must be in [10, 2000] m"),
     (["run", "smoke", "--aligner", "ransack"], "unknown aligner 'ransack' (valid:"),
     (["run", "smoke", "--from", "mapping"], "from_stage: unknown stage 'mapping' (valid: world, maps, submaps"),
@@ -156,8 +172,10 @@ def inputs(tmp_path_factory: pytest.TempPathFactory, tiny_exported: Path) -> dic
     (d / "taken").write_text("a file the user wants kept")
     (d / "folder.png").mkdir()
     paths["taken"] = str(d / "taken")
-    for name, corrupt in (("world_bad_json", ("truth.json", '{"objects": [')),
-                          ("world_bad_xml", ("world.xml", "<mujoco><worldbody>"))):
+    for name, corrupt in (
+        ("world_bad_json", ("truth.json", '{"objects": [')),
+        ("world_bad_xml", ("world.xml", "<mujoco><worldbody>")),
+    ):
         shutil.copytree(tiny_exported, d / name)
         (d / name / corrupt[0]).write_text(corrupt[1])
         paths[name] = str(d / name)
@@ -186,8 +204,9 @@ def _fill(text: str, paths: dict[str, str]) -> str:
 
 
 @pytest.mark.parametrize(("args", "expect"), CASES, ids=[" ".join(a)[:60] for a, _ in CASES])
-def test_bad_input_is_one_line_and_exit_code_1(home: Path, inputs: dict[str, str], cli_fails, args: list[str],
-                                               expect: str) -> None:
+def test_bad_input_is_one_line_and_exit_code_1(
+    home: Path, inputs: dict[str, str], cli_fails, args: list[str], expect: str
+) -> None:
     args = [_fill(a, inputs) for a in args]
     if args[0] == "run" and "--out" not in args:
         args += ["--out", f"{inputs['dir']}/out"]

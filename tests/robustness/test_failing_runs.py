@@ -47,8 +47,10 @@ def test_aligner_failing_on_a_real_pair_names_it_and_keeps_the_front_end(home: P
     assert lines[-1].endswith(f"KeyError: 'segment 17' (completed stages kept in {out}: maps, submaps)")
     assert _stages(out) == ["maps", "submaps"]
     code, _, err = _invoke("report", out)  # not reported as finished
-    assert code == 1 and err.strip() == (f"error: {out}: the run did not complete (stages missing: evaluation, "
-                                         "posegraph, report); run it again to finish it")
+    assert code == 1 and err.strip() == (
+        f"error: {out}: the run did not complete (stages missing: evaluation, "
+        "posegraph, report); run it again to finish it"
+    )
     code, _, err = _invoke("run", "smoke", *MICRO, "--out", out)  # without the plug-in: the front end is reused
     assert code == 0, err
     timings = json.loads((out / "timings.json").read_text())["stages"]
@@ -56,18 +58,38 @@ def test_aligner_failing_on_a_real_pair_names_it_and_keeps_the_front_end(home: P
 
 
 def test_segmenter_failing_on_a_later_frame_names_the_frame(home: Path, tmp_path: Path, cli_fails) -> None:
-    line = cli_fails("run", "smoke", *MICRO, "--set", "frontend.segmenter=user_plugins:FailsOnLaterFrames",
-                     "--out", tmp_path / "run", allow_progress=True)
-    assert line == ("error: segmenter 'user_plugins:FailsOnLaterFrames' failed on frame 3 of robot a: "
-                    f"MemoryError: CUDA out of memory (no stage completed in {tmp_path / 'run'})")
+    line = cli_fails(
+        "run",
+        "smoke",
+        *MICRO,
+        "--set",
+        "frontend.segmenter=user_plugins:FailsOnLaterFrames",
+        "--out",
+        tmp_path / "run",
+        allow_progress=True,
+    )
+    assert line == (
+        "error: segmenter 'user_plugins:FailsOnLaterFrames' failed on frame 3 of robot a: "
+        f"MemoryError: CUDA out of memory (no stage completed in {tmp_path / 'run'})"
+    )
 
 
 def test_a_failing_sweep_cell_is_recorded_and_the_sweep_exits_1(home: Path, tmp_path: Path) -> None:
     sweep = tmp_path / "sweep.yaml"
-    sweep.write_text(yaml.safe_dump({
-        "name": "mixed", "scenario": "smoke", "seeds": [0],
-        "grid": {"frontend.segmenter": ["perfect", "user_plugins:FailsOnLaterFrames"],
-                 "robots.0.max_length_m": [12.0], "robots.1.max_length_m": [12.0]}}))
+    sweep.write_text(
+        yaml.safe_dump(
+            {
+                "name": "mixed",
+                "scenario": "smoke",
+                "seeds": [0],
+                "grid": {
+                    "frontend.segmenter": ["perfect", "user_plugins:FailsOnLaterFrames"],
+                    "robots.0.max_length_m": [12.0],
+                    "robots.1.max_length_m": [12.0],
+                },
+            }
+        )
+    )
     code, out, err = _invoke("sweep", sweep, "--out", tmp_path / "sw")
     assert code == 1 and "Traceback" not in err
     rows = list(csv.DictReader((tmp_path / "sw" / "sweep.csv").open()))
@@ -75,8 +97,9 @@ def test_a_failing_sweep_cell_is_recorded_and_the_sweep_exits_1(home: Path, tmp_
     failed = [r for r in rows if r["status"] == "failed"]
     assert {r["method"] for r in ok} == {"roman", "clipper"} and {r["frontend.segmenter"] for r in ok} == {"perfect"}
     assert len(failed) == 1 and failed[0]["frontend.segmenter"] == "user_plugins:FailsOnLaterFrames"
-    assert failed[0]["error"].startswith("segmenter 'user_plugins:FailsOnLaterFrames' failed on frame 3 of robot a: "
-                                         "MemoryError: CUDA out of memory")
+    assert failed[0]["error"].startswith(
+        "segmenter 'user_plugins:FailsOnLaterFrames' failed on frame 3 of robot a: MemoryError: CUDA out of memory"
+    )
     assert "1 sweep run(s) failed" in err and failed[0]["run_id"] in err
     assert "sweep mixed: 2/2 runs done" in err and "sweep table:" in out
 
@@ -101,16 +124,34 @@ def test_any_exception_in_a_cell_is_that_cells_failure(tmp_path: Path, monkeypat
     assert len(calls) == 2
     assert [(r["seed"], r["status"], r["error"]) for r in failed] == [
         ("0", "failed", "RecursionError: maximum recursion depth exceeded"),
-        ("1", "failed", "ZeroDivisionError: division by zero")]
+        ("1", "failed", "ZeroDivisionError: division by zero"),
+    ]
 
 
 def test_ctrl_c_keeps_completed_stages_and_exits_130(plugin_home: Path, tmp_path: Path) -> None:
     out = tmp_path / "run"
-    cmd = [sys.executable, "-m", "roman_sim.cli", "run", "smoke", *MICRO, "--aligner", "user_plugins:SlowOnRealPairs",
-           "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "roman_sim.cli",
+        "run",
+        "smoke",
+        *MICRO,
+        "--aligner",
+        "user_plugins:SlowOnRealPairs",
+        "--out",
+        str(out),
+    ]
     env = {"PYTHONPATH": str(ROOT), "PATH": "", "MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env, cwd=plugin_home,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    proc = subprocess.Popen(
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        cwd=plugin_home,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
     seen = []
     assert proc.stderr is not None
     for line in proc.stderr:  # interrupt in the evaluation, where every pair takes 2 s
@@ -122,7 +163,8 @@ def test_ctrl_c_keeps_completed_stages_and_exits_130(plugin_home: Path, tmp_path
     err = "".join(seen) + rest
     assert proc.returncode == 130, err
     assert "Traceback" not in err
-    assert err.strip().splitlines()[-1] == (f"interrupted: completed stages kept in {out}: maps, submaps; "
-                                            "run the same command again to resume")
+    assert err.strip().splitlines()[-1] == (
+        f"interrupted: completed stages kept in {out}: maps, submaps; run the same command again to resume"
+    )
     man = json.loads((out / "manifest.json").read_text())
     assert not man["complete"] and sorted(man["stages"]) == ["maps", "submaps"]

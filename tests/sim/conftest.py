@@ -7,11 +7,12 @@ from dataclasses import dataclass
 # isort: off
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import mujoco
+
 # isort: on
 import numpy as np
 import pytest
 
-from roman_sim.geometry import make_T
+from roman_sim.core.geometry import make_T
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
 BOX_CENTER = np.array([5.0, 0.0, 0.5])
@@ -39,8 +40,17 @@ def build_plane_box_world() -> FixtureWorld:
     model = spec.compile()
     T = make_T(t=BOX_CENTER - [0, 0, 0.5])
     obj = ObjectTruth(
-        id=0, family="box", T_world_obj=T, extents=2 * BOX_HALF, volume=1.0, centroid=BOX_CENTER.copy(),
-        geom_ids=[1], mesh_names=[], obb_T_world=make_T(t=BOX_CENTER), obb_extents=2 * BOX_HALF, radius=0.71,
+        id=0,
+        family="box",
+        T_world_obj=T,
+        extents=2 * BOX_HALF,
+        volume=1.0,
+        centroid=BOX_CENTER.copy(),
+        geom_ids=[1],
+        mesh_names=[],
+        obb_T_world=make_T(t=BOX_CENTER),
+        obb_extents=2 * BOX_HALF,
+        radius=0.71,
     )
     terrain = Terrain(size_x=40.0, size_y=40.0, heights=np.zeros((5, 5)))
     return FixtureWorld(model=model, truth=WorldTruth(objects=[obj], terrain=terrain))

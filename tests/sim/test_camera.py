@@ -7,8 +7,8 @@ import pytest
 
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.geometry import transform_points
-from roman_sim.sensors import Intrinsics, backproject, check_intrinsics, project
+from roman_sim.core.geometry import transform_points
+from roman_sim.core.sensors import Intrinsics, backproject, check_intrinsics, project
 from roman_sim.sim.camera import CameraConfig
 
 
@@ -61,8 +61,12 @@ def test_mount_is_flu_to_rdf_with_pitch_down() -> None:
 
 @pytest.mark.parametrize(
     "data, field",
-    [({"width": 0}, "width"), ({"hfov_deg": 200}, "hfov_deg"), ({"max_depth_m": -1}, "max_depth_m"),
-     ({"fov": 3}, "fov")],
+    [
+        ({"width": 0}, "width"),
+        ({"hfov_deg": 200}, "hfov_deg"),
+        ({"max_depth_m": -1}, "max_depth_m"),
+        ({"fov": 3}, "fov"),
+    ],
 )
 def test_invalid_camera_config(data: dict, field: str) -> None:
     with pytest.raises(ConfigError, match=field):

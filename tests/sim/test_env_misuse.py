@@ -28,22 +28,28 @@ def env(tiny_world):
     e.close()
 
 
-@pytest.mark.parametrize(("kwargs", "expect"), [
-    ({"rate_hz": 0}, "rate_hz must be a finite number > 0, got 0"),
-    ({"rate_hz": math.nan}, "rate_hz must be a finite number > 0, got nan"),
-    ({"max_steps": -1}, "max_steps must be an integer >= 1, got -1"),
-    ({"max_steps": 2.5}, "max_steps must be an integer >= 1, got 2.5"),
-    ({"max_speed_mps": -2.0}, "max_speed_mps must be a finite number > 0, got -2.0"),
-    ({"max_yaw_rate": math.inf}, "max_yaw_rate must be a finite number > 0, got inf"),
-    ({"body_height_m": "low"}, "body_height_m must be a number, got 'low'"),
-    ({"clearance_m": -0.5}, "clearance_m must be a finite number >= 0, got -0.5"),
-    ({"start": (100.0, 0.0, 0.0)}, "start (100, 0) lies outside the world (x in [-20, 20], y in [-20, 20])"),
-    ({"start": (math.nan, 0.0, 0.0)}, "start must be finite, got (nan, 0.0, 0.0)"),
-    ({"start": (1.0, 2.0)}, "start must be (x, y, heading rad), got (1.0, 2.0)"),
-    ({"clearance_m": 8.0}, "clearance_m=8 is impossible in this 40 x 40 m world: no start pose is 17 m from the edge"),
-    ({"clearance_m": 40.0}, "(the world is too small for that margin)"),
-    ({"render_mode": "human"}, "render_mode 'human' unknown (valid: None, rgb_array)"),
-])
+@pytest.mark.parametrize(
+    ("kwargs", "expect"),
+    [
+        ({"rate_hz": 0}, "rate_hz must be a finite number > 0, got 0"),
+        ({"rate_hz": math.nan}, "rate_hz must be a finite number > 0, got nan"),
+        ({"max_steps": -1}, "max_steps must be an integer >= 1, got -1"),
+        ({"max_steps": 2.5}, "max_steps must be an integer >= 1, got 2.5"),
+        ({"max_speed_mps": -2.0}, "max_speed_mps must be a finite number > 0, got -2.0"),
+        ({"max_yaw_rate": math.inf}, "max_yaw_rate must be a finite number > 0, got inf"),
+        ({"body_height_m": "low"}, "body_height_m must be a number, got 'low'"),
+        ({"clearance_m": -0.5}, "clearance_m must be a finite number >= 0, got -0.5"),
+        ({"start": (100.0, 0.0, 0.0)}, "start (100, 0) lies outside the world (x in [-20, 20], y in [-20, 20])"),
+        ({"start": (math.nan, 0.0, 0.0)}, "start must be finite, got (nan, 0.0, 0.0)"),
+        ({"start": (1.0, 2.0)}, "start must be (x, y, heading rad), got (1.0, 2.0)"),
+        (
+            {"clearance_m": 8.0},
+            "clearance_m=8 is impossible in this 40 x 40 m world: no start pose is 17 m from the edge",
+        ),
+        ({"clearance_m": 40.0}, "(the world is too small for that margin)"),
+        ({"render_mode": "human"}, "render_mode 'human' unknown (valid: None, rgb_array)"),
+    ],
+)
 def test_bad_constructor_arguments_are_named(tiny_world, kwargs: dict, expect: str) -> None:
     with pytest.raises(SimError) as e:
         GroundRobotEnv(world=tiny_world, camera=SMALL, **kwargs)
@@ -86,15 +92,18 @@ def test_leaving_the_world_ends_the_episode(tiny_world) -> None:
         e.close()
 
 
-@pytest.mark.parametrize(("action", "expect"), [
-    ([math.nan, 0.0], "action must be finite, got [nan, 0.0] (the episode is unchanged)"),
-    ([1.0, math.inf], "action must be finite, got [1.0, inf]"),
-    ([1.0, 0.0, 0.0], "action must hold 2 numbers (speed m/s, yaw rate rad/s), got shape (3,)"),
-    ([[1.0]], "got shape (1, 1)"),
-    ("fast", "action must be 2 numbers (speed m/s, yaw rate rad/s), got 'fast'"),
-    (None, "action must hold 2 numbers (speed m/s, yaw rate rad/s), got shape ()"),
-    ([None, 1.0], "action must be finite, got [nan, 1.0]"),
-])
+@pytest.mark.parametrize(
+    ("action", "expect"),
+    [
+        ([math.nan, 0.0], "action must be finite, got [nan, 0.0] (the episode is unchanged)"),
+        ([1.0, math.inf], "action must be finite, got [1.0, inf]"),
+        ([1.0, 0.0, 0.0], "action must hold 2 numbers (speed m/s, yaw rate rad/s), got shape (3,)"),
+        ([[1.0]], "got shape (1, 1)"),
+        ("fast", "action must be 2 numbers (speed m/s, yaw rate rad/s), got 'fast'"),
+        (None, "action must hold 2 numbers (speed m/s, yaw rate rad/s), got shape ()"),
+        ([None, 1.0], "action must be finite, got [nan, 1.0]"),
+    ],
+)
 def test_bad_actions_do_not_poison_the_env(env: GroundRobotEnv, action: object, expect: str) -> None:
     env.reset(seed=0)
     _, info0 = env.reset(seed=0)
@@ -123,13 +132,15 @@ def _python(code: str) -> subprocess.CompletedProcess[str]:
 
 
 def test_import_roman_sim_registers_the_env_without_importing_gymnasium_or_mujoco() -> None:
-    code = ("import sys, roman_sim, roman_sim.mapping\n"
-            "assert 'gymnasium' not in sys.modules and 'mujoco' not in sys.modules, 'imported early'\n"
-            "import gymnasium as gym\n"
-            "assert 'roman_sim/GroundRobot-v0' in gym.registry\n"
-            "assert 'mujoco' not in sys.modules\n"
-            "assert type(gym.__spec__.loader).__name__ == 'SourceFileLoader'\n"
-            "print('ok')")
+    code = (
+        "import sys, roman_sim, roman_sim.mapping\n"
+        "assert 'gymnasium' not in sys.modules and 'mujoco' not in sys.modules, 'imported early'\n"
+        "import gymnasium as gym\n"
+        "assert 'roman_sim/GroundRobot-v0' in gym.registry\n"
+        "assert 'mujoco' not in sys.modules\n"
+        "assert type(gym.__spec__.loader).__name__ == 'SourceFileLoader'\n"
+        "print('ok')"
+    )
     out = _python(code)
     assert out.returncode == 0 and out.stdout.strip() == "ok", out.stderr
     out = _python("import gymnasium as gym, roman_sim; print('roman_sim/GroundRobot-v0' in gym.registry)")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import SimError
-from roman_sim.geometry import make_T, wrap_angle
+from roman_sim.core.geometry import make_T, wrap_angle
 from roman_sim.sim.paths import PathConfig, crossing_path, make_path, path_from_points, reversed_path
 from roman_sim.sim.planner import Obstacles
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
@@ -36,8 +36,9 @@ def _check(path, truth: WorldTruth, clearance: float = 0.6) -> None:
 
 @pytest.mark.parametrize("kind", ["loop", "out_and_back", "lawnmower", "waypoints"])
 def test_generated_paths_are_valid(field: WorldTruth, kind: str) -> None:
-    cfg = PathConfig(kind=kind, radius_m=7.0, length_m=18.0, width_m=12.0, height_m=8.0,
-                     waypoints=[(-15.0, -15.0), (15.0, 14.0)])
+    cfg = PathConfig(
+        kind=kind, radius_m=7.0, length_m=18.0, width_m=12.0, height_m=8.0, waypoints=[(-15.0, -15.0), (15.0, 14.0)]
+    )
     path = make_path(cfg, field, np.random.default_rng(0), "r1")
     _check(path, field)
     assert path.length > 10.0
@@ -62,8 +63,13 @@ def test_reversed_and_crossing(field: WorldTruth) -> None:
     x, y, h = base.at(0.5 * base.length)
     assert np.min(np.linalg.norm(cross.xy - [x, y], axis=1)) < 0.05
     assert abs(wrap_angle(cross.heading[0] - h - np.pi / 2)) < 1e-6
-    made = make_path(PathConfig(kind="cross", of="a", heading_offset_deg=120.0, length_m=20.0), field,
-                     np.random.default_rng(0), "b", {"a": base})
+    made = make_path(
+        PathConfig(kind="cross", of="a", heading_offset_deg=120.0, length_m=20.0),
+        field,
+        np.random.default_rng(0),
+        "b",
+        {"a": base},
+    )
     _check(made, field)
     again = make_path(PathConfig(kind="reverse_of", of="a"), field, np.random.default_rng(0), "b", {"a": base})
     np.testing.assert_allclose(again.xy[0], base.xy[-1])
@@ -80,13 +86,20 @@ def test_path_leaving_the_world_names_the_robot(field: WorldTruth) -> None:
     with pytest.raises(SimError, match="robot 'scout'.*outside the world"):
         make_path(PathConfig(kind="waypoints", waypoints=[(0, 0), (30, 0)]), field, np.random.default_rng(0), "scout")
     with pytest.raises(SimError, match="'scout'.*leaves the world"):
-        make_path(PathConfig(kind="reverse_of", of="a"), field, np.random.default_rng(0), "scout",
-                  {"a": path_from_points(np.array([[0.0, 0.0], [25.0, 0.0]]), 0.1)})
+        make_path(
+            PathConfig(kind="reverse_of", of="a"),
+            field,
+            np.random.default_rng(0),
+            "scout",
+            {"a": path_from_points(np.array([[0.0, 0.0], [25.0, 0.0]]), 0.1)},
+        )
 
 
 def test_blocked_and_unknown_references(field: WorldTruth) -> None:
-    walled = WorldTruth([_disc(i, 0.0, y, 1.0) for i, y in enumerate(np.arange(-14.0, 14.5, 1.0))],
-                        Terrain(30.0, 30.0, np.zeros((3, 3))))
+    walled = WorldTruth(
+        [_disc(i, 0.0, y, 1.0) for i, y in enumerate(np.arange(-14.0, 14.5, 1.0))],
+        Terrain(30.0, 30.0, np.zeros((3, 3))),
+    )
     with pytest.raises(SimError, match="no free route"):
         make_path(PathConfig(kind="waypoints", waypoints=[(-8, 0), (8, 0)]), walled, np.random.default_rng(0), "r")
     with pytest.raises(SimError, match="path.of='ghost'"):
@@ -94,9 +107,20 @@ def test_blocked_and_unknown_references(field: WorldTruth) -> None:
     with pytest.raises(SimError, match="road_index 3"):
         make_path(PathConfig(kind="road", road_index=3), field, np.random.default_rng(0), "r")
     with pytest.raises(SimError, match="path passes .* from an object"):
-        make_path(PathConfig(kind="reverse_of", of="a"), field, np.random.default_rng(0), "r",
-                  {"a": path_from_points(np.array([field.objects[0].T_world_obj[:2, 3] - [3, 0],
-                                                   field.objects[0].T_world_obj[:2, 3] + [3, 0]]), 0.1)})
+        make_path(
+            PathConfig(kind="reverse_of", of="a"),
+            field,
+            np.random.default_rng(0),
+            "r",
+            {
+                "a": path_from_points(
+                    np.array(
+                        [field.objects[0].T_world_obj[:2, 3] - [3, 0], field.objects[0].T_world_obj[:2, 3] + [3, 0]]
+                    ),
+                    0.1,
+                )
+            },
+        )
 
 
 def test_road_following_on_a_world(tiny_world) -> None:

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import RecordingError
+from roman_sim.core.geometry import make_T, rot_z
+from roman_sim.core.sensors import Frame, FrameTruth
 from roman_sim.core.tum import read_tum
-from roman_sim.geometry import make_T, rot_z
-from roman_sim.sensors import Frame, FrameTruth
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.recording import read_recording, recording_info, write_recording
 
@@ -28,8 +28,9 @@ def _frames(n: int, rgb: bool = True, robot: str = "r1") -> list[Frame]:
         img = rng.integers(0, 256, (12, 16, 3)).astype(np.uint8) if rgb else None
         T_wb = make_T(rot_z(0.1 * i), [i * 0.2, 1.0, 0.3])
         T_ob = make_T(rot_z(0.1 * i + 0.01), [i * 0.21, 0.0, 0.0])
-        out.append(Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(),
-                         FrameTruth(ids, T_wb)))
+        out.append(
+            Frame(robot, i, i / 6.0, img, depth, T_ob, CAM.T_body_cam(), CAM.intrinsics(), FrameTruth(ids, T_wb))
+        )
     return out
 
 
@@ -115,8 +116,13 @@ def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
     from roman_sim.sim.paths import PathConfig
     from roman_sim.sim.robot import RobotConfig, record_robot, simulate_robot
 
-    cfg = RobotConfig(name="a", path=PathConfig(kind="loop", radius_m=5.0), camera=CameraConfig(width=64, height=48),
-                      max_duration_s=1.0, render_rgb=False)
+    cfg = RobotConfig(
+        name="a",
+        path=PathConfig(kind="loop", radius_m=5.0),
+        camera=CameraConfig(width=64, height=48),
+        max_duration_s=1.0,
+        render_rgb=False,
+    )
     rec = record_robot(tiny_world, cfg, 0, tmp_path / "run")
     assert recording_info(rec)["extra"]["robot_config"]["name"] == "a"
     frames = list(read_recording(rec))

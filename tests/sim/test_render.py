@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import SimError
-from roman_sim.geometry import R_FLU_RDF, inv_T, make_T, rot_x, rot_y, rot_z, transform_points
-from roman_sim.sensors import backproject
+from roman_sim.core.geometry import R_FLU_RDF, inv_T, make_T, rot_x, rot_y, rot_z, transform_points
+from roman_sim.core.sensors import backproject
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain
 from roman_sim.sim.render import SensorRenderer

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import SimError
-from roman_sim.geometry import make_T, wrap_angle
+from roman_sim.core.geometry import make_T, wrap_angle
 from roman_sim.sim.paths import PathConfig, make_path
 from roman_sim.sim.planner import Obstacles
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
@@ -21,8 +21,9 @@ def _post(i: int, x: float, y: float) -> ObjectTruth:
 def world_and_loop():
     objs = [_post(0, 0.0, 0.0), _post(1, 3.0, -2.0), _post(2, -4.0, 3.0)]  # inside the loop
     truth = WorldTruth(objs, Terrain(40.0, 40.0, np.zeros((5, 5))))
-    loop = make_path(PathConfig(kind="loop", center=(0.0, 0.0), radius_m=12.0, aspect=0.8), truth,
-                     np.random.default_rng(0), "a")
+    loop = make_path(
+        PathConfig(kind="loop", center=(0.0, 0.0), radius_m=12.0, aspect=0.8), truth, np.random.default_rng(0), "a"
+    )
     return truth, loop
 
 
@@ -48,8 +49,13 @@ def test_half_along_half_against(world_and_loop):
 def test_bad_pieces_name_the_robot(world_and_loop):
     truth, loop = world_and_loop
     with pytest.raises(SimError, match=r"robot 'b': path.pieces\[1\]"):
-        make_path(PathConfig(kind="retrace", of="a", pieces=[(0.0, 0.5), (0.5, 0.5)]), truth,
-                  np.random.default_rng(0), "b", {"a": loop})
+        make_path(
+            PathConfig(kind="retrace", of="a", pieces=[(0.0, 0.5), (0.5, 0.5)]),
+            truth,
+            np.random.default_rng(0),
+            "b",
+            {"a": loop},
+        )
     with pytest.raises(SimError, match="not an earlier robot"):
         make_path(PathConfig(kind="retrace", of="zz"), truth, np.random.default_rng(0), "b", {"a": loop})
 
@@ -59,8 +65,13 @@ def test_u_turn_is_driven_on_the_spot(world_and_loop):
     from roman_sim.sim.kinematics import PathFollower, PlanarState, integrate_unicycle
 
     truth, loop = world_and_loop
-    b = make_path(PathConfig(kind="retrace", of="a", pieces=[(0.0, 0.3), (0.3, 0.1)]), truth,
-                  np.random.default_rng(0), "b", {"a": loop})
+    b = make_path(
+        PathConfig(kind="retrace", of="a", pieces=[(0.0, 0.3), (0.3, 0.1)]),
+        truth,
+        np.random.default_rng(0),
+        "b",
+        {"a": loop},
+    )
     follower = PathFollower(b, 1.0, 0.6, 1.5)
     st = PlanarState(float(b.xy[0, 0]), float(b.xy[0, 1]), float(b.heading[0]))
     worst = 0.0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.geometry import gravity_aligned, inv_T
+from roman_sim.core.geometry import gravity_aligned, inv_T
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.paths import PathConfig

@@ -7,8 +7,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from roman_sim.geometry import make_T
-from roman_sim.sensors import Frame, FrameTruth
+from roman_sim.core.geometry import make_T
+from roman_sim.core.sensors import Frame, FrameTruth
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.recording import write_recording
 from roman_sim.sim.robot import RobotConfig
@@ -18,9 +18,20 @@ CAM = CameraConfig(width=16, height=12)
 
 
 def _frames(n: int) -> list[Frame]:
-    return [Frame("r", i, i / 6.0, np.full((12, 16, 3), i, np.uint8), np.full((12, 16), 2.0, np.float32),
-                  make_T(t=[0.1 * i, 0, 0]), CAM.T_body_cam(), CAM.intrinsics(),
-                  FrameTruth(np.full((12, 16), i % 3, np.int32), make_T(t=[0.1 * i, 1, 0]))) for i in range(n)]
+    return [
+        Frame(
+            "r",
+            i,
+            i / 6.0,
+            np.full((12, 16, 3), i, np.uint8),
+            np.full((12, 16), 2.0, np.float32),
+            make_T(t=[0.1 * i, 0, 0]),
+            CAM.T_body_cam(),
+            CAM.intrinsics(),
+            FrameTruth(np.full((12, 16), i % 3, np.int32), make_T(t=[0.1 * i, 1, 0])),
+        )
+        for i in range(n)
+    ]
 
 
 def test_subsample() -> None:

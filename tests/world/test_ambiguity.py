@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import WorldError
-from roman_sim.geometry import make_T
+from roman_sim.core.geometry import make_T
 from roman_sim.world import generate
 from roman_sim.world.ambiguity import ambiguity_index, place_ambiguity
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
@@ -16,8 +16,9 @@ def _truth(xy: np.ndarray, families: list[str], sizes: np.ndarray) -> WorldTruth
     objs = []
     for i, ((x, y), f, s) in enumerate(zip(xy, families, sizes)):
         ext = np.array([s, s / 2, s / 3])
-        objs.append(ObjectTruth(i, f, make_T(None, [x, y, 0]), ext, 1.0, np.array([x, y, 0]), [], [],
-                                np.eye(4), ext, 1.0))
+        objs.append(
+            ObjectTruth(i, f, make_T(None, [x, y, 0]), ext, 1.0, np.array([x, y, 0]), [], [], np.eye(4), ext, 1.0)
+        )
     return WorldTruth(objs, Terrain(200.0, 200.0, np.zeros((3, 3))))
 
 
@@ -49,13 +50,16 @@ def test_too_few_objects_and_bad_arguments() -> None:
 
 
 def test_presets_order_orchard_forest_park(small_spec) -> None:
-    values = {p: ambiguity_index(generate(small_spec(p, 100.0), 0).truth, n_places=30)
-              for p in ("orchard", "forest", "park")}
+    values = {
+        p: ambiguity_index(generate(small_spec(p, 100.0), 0).truth, n_places=30) for p in ("orchard", "forest", "park")
+    }
     assert values["orchard"] > values["forest"] > values["park"]
     assert values["orchard"] > 0.5
 
 
 def test_index_rises_with_the_ambiguity_knob(small_spec) -> None:
-    values = [ambiguity_index(generate(small_spec("forest", 70.0, ambiguity=a), 0).truth, n_places=25)
-              for a in (0.0, 0.5, 1.0)]
+    values = [
+        ambiguity_index(generate(small_spec("forest", 70.0, ambiguity=a), 0).truth, n_places=25)
+        for a in (0.0, 0.5, 1.0)
+    ]
     assert values[0] < values[1] < values[2]

@@ -13,7 +13,7 @@ from scipy.ndimage import binary_erosion, laplace
 
 from roman_sim.core.config import apply_overrides, validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.sensors import backproject
+from roman_sim.core.sensors import backproject
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.render import SensorRenderer
 from roman_sim.world import World, WorldSpec, export_world, generate, load_world
@@ -28,12 +28,22 @@ FLAT = {"sun": 0.0, "headlight": 0.0, "ambient": 1.0, "colour": [1.0, 1.0, 1.0]}
 
 def _spec(**appearance: object) -> WorldSpec:
     """A 30 x 30 m flat world of about a dozen well-separated bushes, boulders and conifers."""
-    return validate_model(WorldSpec, {
-        "name": "look", "extent_m": [30.0, 30.0], "terrain": {"amplitude_m": 0.0},
-        "families": [{"name": "bush", "density": 40}, {"name": "boulder", "density": 40},
-                     {"name": "conifer", "density": 30}],
-        "layout": {"min_gap_m": 2.0}, "roads": {"style": "loop", "width_m": 3.0}, "appearance": appearance,
-    })
+    return validate_model(
+        WorldSpec,
+        {
+            "name": "look",
+            "extent_m": [30.0, 30.0],
+            "terrain": {"amplitude_m": 0.0},
+            "families": [
+                {"name": "bush", "density": 40},
+                {"name": "boulder", "density": 40},
+                {"name": "conifer", "density": 30},
+            ],
+            "layout": {"min_gap_m": 2.0},
+            "roads": {"style": "loop", "width_m": 3.0},
+            "appearance": appearance,
+        },
+    )
 
 
 def _topdown(x: float, y: float, z: float) -> np.ndarray:
@@ -73,6 +83,7 @@ def gen() -> Callable[..., World]:
 
 # --- configuration -------------------------------------------------------------------------
 
+
 def test_defaults_and_presets_resolve() -> None:
     app = _spec().appearance
     assert (app.textures, app.shadows, app.instance_variation) == (False, False, 0.5)
@@ -83,16 +94,19 @@ def test_defaults_and_presets_resolve() -> None:
     assert set(LIGHTING.names()) >= {"noon", "morning", "evening", "overcast", "random"}
 
 
-@pytest.mark.parametrize(("appearance", "field", "hint"), [
-    ({"lighting": "dusk"}, "appearance.lighting", "valid: evening, morning, noon, overcast, random"),
-    ({"lighting": {"preset": "dusk"}}, "appearance.lighting", "unknown lighting preset 'dusk'"),
-    ({"lighting": {"azimuth": 3}}, "appearance.lighting.azimuth", "unknown key"),
-    ({"lighting": {"elevation_deg": 95}}, "appearance.lighting.elevation_deg", "less than or equal to 90"),
-    ({"lighting": {"colour": [1.2, 1, 1]}}, "appearance.lighting.colour", "each channel must be in [0, 1]"),
-    ({"instance_variation": 1.5}, "appearance.instance_variation", "less than or equal to 1"),
-    ({"textures": "sometimes"}, "appearance.textures", "valid boolean"),
-    ({"shine": True}, "appearance.shine", "unknown key"),
-])
+@pytest.mark.parametrize(
+    ("appearance", "field", "hint"),
+    [
+        ({"lighting": "dusk"}, "appearance.lighting", "valid: evening, morning, noon, overcast, random"),
+        ({"lighting": {"preset": "dusk"}}, "appearance.lighting", "unknown lighting preset 'dusk'"),
+        ({"lighting": {"azimuth": 3}}, "appearance.lighting.azimuth", "unknown key"),
+        ({"lighting": {"elevation_deg": 95}}, "appearance.lighting.elevation_deg", "less than or equal to 90"),
+        ({"lighting": {"colour": [1.2, 1, 1]}}, "appearance.lighting.colour", "each channel must be in [0, 1]"),
+        ({"instance_variation": 1.5}, "appearance.instance_variation", "less than or equal to 1"),
+        ({"textures": "sometimes"}, "appearance.textures", "valid boolean"),
+        ({"shine": True}, "appearance.shine", "unknown key"),
+    ],
+)
 def test_bad_appearance_is_one_line_naming_the_field(appearance: dict, field: str, hint: str) -> None:
     with pytest.raises(ConfigError) as err:
         _spec(**appearance)
@@ -108,6 +122,7 @@ def test_every_family_part_has_a_known_surface() -> None:
 
 # --- per-instance colour ---------------------------------------------------------------------
 
+
 def _hsv(rgb: np.ndarray) -> tuple[float, float, float]:
     h, s, v = colorsys.rgb_to_hsv(*(np.asarray(rgb, dtype=np.float64) / 255.0))
     return 360.0 * h, s, v
@@ -119,8 +134,11 @@ def test_instance_colours_are_the_seeded_draws_within_the_family_range(gen: Call
     world = gen(lighting=FLAT, instance_variation=amount)
     ids = _of(world, "bush") + _of(world, "boulder")
     assert len(ids) >= 6
-    bases = {a.mesh_name(a.parts[0]): a.parts[0].rgba for f in world.spec.families
-             for a in family_assets(0, f, world.spec.knobs()[1])}
+    bases = {
+        a.mesh_name(a.parts[0]): a.parts[0].rgba
+        for f in world.spec.families
+        for a in family_assets(0, f, world.spec.knobs()[1])
+    }
     for obj_id, (rgb, _, seg) in zip(ids, _render(world, [_view_of(world, i) for i in ids])):
         obj = world.truth.objects[obj_id]
         mask = seg == obj_id
@@ -157,6 +175,7 @@ def test_two_instances_of_one_shape_differ_by_their_draws(gen: Callable[..., Wor
 
 
 # --- textures --------------------------------------------------------------------------------
+
 
 def _masked_laplacian_var(rgb: np.ndarray, mask: np.ndarray) -> float:
     inner = binary_erosion(mask, iterations=2)  # object edges are not texture
@@ -201,6 +220,7 @@ def test_surface_textures_tile_and_have_their_grain() -> None:
 
 
 # --- lighting and shadows --------------------------------------------------------------------
+
 
 def _east_west(rgb: np.ndarray, mask: np.ndarray) -> tuple[float, float]:
     """Mean brightness of the east and west halves of a top-down object mask."""
@@ -263,6 +283,7 @@ def test_random_lighting_is_seeded() -> None:
 
 # --- what appearance must not change -------------------------------------------------------
 
+
 def test_depth_and_ids_do_not_depend_on_appearance(gen: Callable[..., World]) -> None:
     plain = gen()
     fancy = gen(textures=True, instance_variation=1.0, lighting="evening", shadows=True)
@@ -307,8 +328,10 @@ def test_textured_world_exports_and_reloads_in_plain_mujoco(gen: Callable[..., W
 
 
 def test_appearance_takes_dotted_overrides() -> None:
-    data = apply_overrides(_spec().model_dump(mode="json"),
-                           ["appearance.lighting=evening", "appearance.shadows=true", "appearance.textures=true"])
+    data = apply_overrides(
+        _spec().model_dump(mode="json"),
+        ["appearance.lighting=evening", "appearance.shadows=true", "appearance.textures=true"],
+    )
     app = validate_model(WorldSpec, data).appearance
     assert app.lighting == LIGHTING.get("evening") and app.shadows and app.textures
     data = apply_overrides(_spec().model_dump(mode="json"), ["appearance.lighting.azimuth_deg=90"])

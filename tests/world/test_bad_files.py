@@ -29,6 +29,7 @@ def _edit_truth(fn: Callable[[dict], None]) -> Callable[[Path], None]:
         doc = json.loads((d / "truth.json").read_text())
         fn(doc)
         (d / "truth.json").write_text(json.dumps(doc))
+
     return edit
 
 
@@ -37,22 +38,32 @@ def _truncate_mesh(d: Path) -> None:
     mesh.write_bytes(mesh.read_bytes()[:100])
 
 
-@pytest.mark.parametrize(("corrupt", "file", "expect"), [
-    (_corrupt_json('{"version": 1, "objects": ['), "truth.json", "not valid JSON (line 1, column 28"),
-    (_corrupt_json("[1, 2]"), "truth.json", "expected a JSON object, got list"),
-    (_corrupt_json(""), "truth.json", "not valid JSON (line 1, column 1"),
-    (_edit_truth(lambda d: d.pop("objects")), "truth.json", "corrupt: missing key 'objects'"),
-    (_edit_truth(lambda d: d.update(version=99)), "truth.json", "version 99, expected 1"),
-    (_edit_truth(lambda d: d["objects"][0].update(T_world_obj="x")), "truth.json", "corrupt: ValueError"),
-    (lambda d: (d / "world.xml").write_text("<mujoco><worldbody><geom"), "world.xml",
-     "MuJoCo cannot load it: XML parse"),
-    (lambda d: (d / "spec.yaml").write_text("extent_m: [10, 10]\nextent_m: [20, 20]\n"), "spec.yaml",
-     "duplicate key 'extent_m'"),
-    (_truncate_mesh, "world.xml", "unexpected file size in MSH file"),
-    (lambda d: (d / "spec.yaml").unlink(), "", "missing spec.yaml (not an exported world folder)"),
-])
-def test_corrupt_world_folder_names_the_file(exported: Path, tmp_path: Path, corrupt, file: str, expect: str,
-                                             cli_fails) -> None:
+@pytest.mark.parametrize(
+    ("corrupt", "file", "expect"),
+    [
+        (_corrupt_json('{"version": 1, "objects": ['), "truth.json", "not valid JSON (line 1, column 28"),
+        (_corrupt_json("[1, 2]"), "truth.json", "expected a JSON object, got list"),
+        (_corrupt_json(""), "truth.json", "not valid JSON (line 1, column 1"),
+        (_edit_truth(lambda d: d.pop("objects")), "truth.json", "corrupt: missing key 'objects'"),
+        (_edit_truth(lambda d: d.update(version=99)), "truth.json", "version 99, expected 1"),
+        (_edit_truth(lambda d: d["objects"][0].update(T_world_obj="x")), "truth.json", "corrupt: ValueError"),
+        (
+            lambda d: (d / "world.xml").write_text("<mujoco><worldbody><geom"),
+            "world.xml",
+            "MuJoCo cannot load it: XML parse",
+        ),
+        (
+            lambda d: (d / "spec.yaml").write_text("extent_m: [10, 10]\nextent_m: [20, 20]\n"),
+            "spec.yaml",
+            "duplicate key 'extent_m'",
+        ),
+        (_truncate_mesh, "world.xml", "unexpected file size in MSH file"),
+        (lambda d: (d / "spec.yaml").unlink(), "", "missing spec.yaml (not an exported world folder)"),
+    ],
+)
+def test_corrupt_world_folder_names_the_file(
+    exported: Path, tmp_path: Path, corrupt, file: str, expect: str, cli_fails
+) -> None:
     d = tmp_path / "w"
     shutil.copytree(exported, d)
     corrupt(d)
@@ -76,9 +87,11 @@ def test_out_onto_an_existing_file(tmp_path: Path, cli_fails) -> None:
     f = tmp_path / "taken"
     f.write_text("keep me")
     assert cli_fails("world", "generate", "tiny", "--out", f) == (
-        f"error: --out {f}: is an existing file, not a folder (choose a folder path)")
+        f"error: --out {f}: is an existing file, not a folder (choose a folder path)"
+    )
     assert cli_fails("world", "preview", "tiny", "--out", f, "--width", "32", "--height", "24") == (
-        f"error: --out {f}: is an existing file, not a folder (choose a folder path)")
+        f"error: --out {f}: is an existing file, not a folder (choose a folder path)"
+    )
     line = cli_fails("world", "preview", "tiny", "--out", f / "map.png", "--width", "32", "--height", "24")
     assert line == f"error: --out {f}: is an existing file, not a folder (choose a folder path)"
     (tmp_path / "dir.png").mkdir()

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import WorldError
-from roman_sim.geometry import make_T
+from roman_sim.core.geometry import make_T
 from roman_sim.world import World
 from roman_sim.world.query import clearance, is_free, road_distance
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth

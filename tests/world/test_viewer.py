@@ -34,14 +34,16 @@ def test_export_opens_in_mujoco_viewer(tmp_path):
     export_world(generate(load_world_spec("tiny"), 0), tmp_path / "w")
     xml = tmp_path / "w" / "world.xml"
     display = f":{90 + os.getpid() % 9}"
-    xvfb = subprocess.Popen(["Xvfb", display, "-screen", "0", "800x600x24"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    xvfb = subprocess.Popen(
+        ["Xvfb", display, "-screen", "0", "800x600x24"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+    )
     try:
         time.sleep(1.0)
         env = {**os.environ, "DISPLAY": display, "MUJOCO_GL": "glfw"}
         env.pop("PYOPENGL_PLATFORM", None)
-        proc = subprocess.run([sys.executable, "-c", VIEWER_SCRIPT, str(xml)], env=env,
-                              capture_output=True, text=True, timeout=60)
+        proc = subprocess.run(
+            [sys.executable, "-c", VIEWER_SCRIPT, str(xml)], env=env, capture_output=True, text=True, timeout=60
+        )
         assert proc.returncode == 0, proc.stderr[-2000:]
         assert proc.stdout.split()[-2:] == ["viewer", "ran"], proc.stdout
     finally:

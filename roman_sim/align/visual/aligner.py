@@ -26,7 +26,7 @@ from roman_sim.align.base import ALIGNERS, AlignResult
 from roman_sim.align.visual.bow import BowVector, score_matrix
 from roman_sim.align.visual.verify import VerifyParams, verify_pair
 from roman_sim.core.config import StrictModel, validate_model
-from roman_sim.geometry import inv_T
+from roman_sim.core.geometry import inv_T
 from roman_sim.mapping.types import KeyframeSet, Submap
 
 
@@ -98,8 +98,12 @@ class VisualAligner:
         ka, kb = a.keyframes, b.keyframes
         assert ka is not None and kb is not None
         cands, best = candidates(ka, kb, self.params)
-        info: dict[str, Any] = {"n_putative": len(ka) * len(kb), "best_normalised_score": best,
-                                "n_candidates": len(cands), "association_kind": "keyframe_features"}
+        info: dict[str, Any] = {
+            "n_putative": len(ka) * len(kb),
+            "best_normalised_score": best,
+            "n_candidates": len(cands),
+            "association_kind": "keyframe_features",
+        }
         if not cands:
             why = f"no keyframe pair above alpha = {self.params.alpha:g}"
             return AlignResult.failure(self.name, why, time.perf_counter() - t0, **info)
@@ -107,8 +111,18 @@ class VisualAligner:
         for q, c, score in cands:
             uq, dq, pq = ka.features(q)
             uc, dc, pc = kb.features(c)
-            out = verify_pair(dq, pq, dc, pc, self.params.verify, (a.name, b.name, q, c), uq, _K(ka.intrinsics[q]),
-                              uc, _K(kb.intrinsics[c]))
+            out = verify_pair(
+                dq,
+                pq,
+                dc,
+                pc,
+                self.params.verify,
+                (a.name, b.name, q, c),
+                uq,
+                _K(ka.intrinsics[q]),
+                uc,
+                _K(kb.intrinsics[c]),
+            )
             if winner is None or len(out.inliers) > len(winner[0].inliers):
                 winner = (out, q, c, score)
         assert winner is not None
@@ -117,8 +131,9 @@ class VisualAligner:
         T = None
         if out.T_q_c is not None:
             T = ka.T_submap_cam[q] @ out.T_q_c @ inv_T(kb.T_submap_cam[c])
-        return AlignResult(self.name, T, out.inliers, np.ones(len(out.inliers)), time.perf_counter() - t0,
-                           out.reason, info)
+        return AlignResult(
+            self.name, T, out.inliers, np.ones(len(out.inliers)), time.perf_counter() - t0, out.reason, info
+        )
 
 
 ALIGNERS.register("visual", VisualAligner)

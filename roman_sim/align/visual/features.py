@@ -28,7 +28,7 @@ from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError
-from roman_sim.sensors import Intrinsics, backproject_pixels
+from roman_sim.core.sensors import Intrinsics, backproject_pixels
 
 #: Bytes of one ORB descriptor (256 bits).
 DESCRIPTOR_BYTES = 32
@@ -68,8 +68,13 @@ def make_orb(params: OrbParams | None = None) -> Any:
     """An OpenCV ORB detector with ``params``."""
     p = params or OrbParams()
     return cv2.ORB_create(  # type: ignore[attr-defined]
-        nfeatures=p.n_features, scaleFactor=p.scale_factor, nlevels=p.n_levels,
-        edgeThreshold=p.edge_threshold, patchSize=31, fastThreshold=p.fast_threshold)
+        nfeatures=p.n_features,
+        scaleFactor=p.scale_factor,
+        nlevels=p.n_levels,
+        edgeThreshold=p.edge_threshold,
+        patchSize=31,
+        fastThreshold=p.fast_threshold,
+    )
 
 
 def to_gray(rgb: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -91,8 +96,9 @@ def depth_mask(depth: NDArray[np.floating], erode_px: int) -> NDArray[np.uint8]:
     return np.asarray(cv2.erode(m, kernel), dtype=np.uint8)
 
 
-def orb_descriptors(image: NDArray[np.uint8], orb: Any, mask: NDArray[np.uint8] | None = None
-                    ) -> tuple[NDArray[np.float32], NDArray[np.uint8]]:
+def orb_descriptors(
+    image: NDArray[np.uint8], orb: Any, mask: NDArray[np.uint8] | None = None
+) -> tuple[NDArray[np.float32], NDArray[np.uint8]]:
     """Keypoint pixels (n, 2) and descriptors (n, 32) of an image (inside ``mask`` when given)."""
     kps, desc = orb.detectAndCompute(to_gray(image), mask)
     if desc is None or not kps:
@@ -101,8 +107,13 @@ def orb_descriptors(image: NDArray[np.uint8], orb: Any, mask: NDArray[np.uint8] 
     return uv, np.ascontiguousarray(desc, dtype=np.uint8)
 
 
-def extract_features(rgb: NDArray[np.uint8], depth: NDArray[np.floating], intrinsics: Intrinsics,
-                     orb: Any, params: OrbParams | None = None) -> KeyframeFeatures:
+def extract_features(
+    rgb: NDArray[np.uint8],
+    depth: NDArray[np.floating],
+    intrinsics: Intrinsics,
+    orb: Any,
+    params: OrbParams | None = None,
+) -> KeyframeFeatures:
     """ORB features of one RGB-D keyframe, keeping those with valid depth.
 
     Args:

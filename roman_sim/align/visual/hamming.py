@@ -40,8 +40,8 @@ def hamming_matrix(a: NDArray[np.uint8], b: NDArray[np.uint8], block: int = 8192
     wa, wb = _as_words(a), _as_words(b)
     out = np.empty((len(wa), len(wb)), dtype=np.int32)
     for s in range(0, len(wa), block):
-        x = np.bitwise_xor(wa[s:s + block, None, :], wb[None, :, :])
-        out[s:s + block] = popcount(x).sum(axis=-1, dtype=np.int32)
+        x = np.bitwise_xor(wa[s : s + block, None, :], wb[None, :, :])
+        out[s : s + block] = popcount(x).sum(axis=-1, dtype=np.int32)
     return out
 
 
@@ -56,8 +56,9 @@ def majority(d: NDArray[np.uint8]) -> NDArray[np.uint8]:
     return np.packbits((2 * counts >= len(d)).astype(np.uint8))
 
 
-def majority_by_label(d: NDArray[np.uint8], labels: NDArray[np.int64], k: int
-                      ) -> tuple[NDArray[np.uint8], NDArray[np.bool_]]:
+def majority_by_label(
+    d: NDArray[np.uint8], labels: NDArray[np.int64], k: int
+) -> tuple[NDArray[np.uint8], NDArray[np.bool_]]:
     """Bitwise majority of the descriptors of each label 0..k-1 -> (k, 32) and a (k,) non-empty mask."""
     order = np.argsort(labels, kind="stable")
     lab = labels[order]

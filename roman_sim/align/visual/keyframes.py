@@ -28,9 +28,9 @@ from roman_sim.align.visual.features import (
 from roman_sim.align.visual.vocabulary import Vocabulary
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError
-from roman_sim.geometry import inv_T, rotation_angle
+from roman_sim.core.geometry import inv_T, rotation_angle
+from roman_sim.core.sensors import Frame
 from roman_sim.mapping.types import KeyframeSet, Submap
-from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
 
@@ -84,8 +84,13 @@ class KeyframeExtractor:
         self._last = (frame.t, np.array(T, dtype=np.float64))
         k = frame.intrinsics
         feats = extract_features(frame.rgb, frame.depth, k, self._orb, self.params.orb)
-        kf = Keyframe(float(frame.t), frame.T_odom_cam, np.array([k.fx, k.fy, k.cx, k.cy]), feats,
-                      self.vocabulary.transform(feats.descriptors))
+        kf = Keyframe(
+            float(frame.t),
+            frame.T_odom_cam,
+            np.array([k.fx, k.fy, k.cx, k.cy]),
+            feats,
+            self.vocabulary.transform(feats.descriptors),
+        )
         self.keyframes.append(kf)
         return kf
 
@@ -125,11 +130,17 @@ def select_keyframes(kf: KeyframeSet, idx: NDArray[np.int64], T_new_old: NDArray
     fi = np.concatenate(f).astype(np.int64) if f else np.zeros(0, np.int64)
     wi = np.concatenate(w).astype(np.int64) if w else np.zeros(0, np.int64)
     return KeyframeSet(
-        t=kf.t[idx], T_submap_cam=np.einsum("ij,njk->nik", T_new_old, kf.T_submap_cam[idx]).reshape(-1, 4, 4),
-        intrinsics=kf.intrinsics[idx], bow_offsets=np.cumsum([0] + [len(x) for x in w]).astype(np.int64),
-        bow_words=kf.bow_words[wi], bow_values=kf.bow_values[wi],
+        t=kf.t[idx],
+        T_submap_cam=np.einsum("ij,njk->nik", T_new_old, kf.T_submap_cam[idx]).reshape(-1, 4, 4),
+        intrinsics=kf.intrinsics[idx],
+        bow_offsets=np.cumsum([0] + [len(x) for x in w]).astype(np.int64),
+        bow_words=kf.bow_words[wi],
+        bow_values=kf.bow_values[wi],
         feat_offsets=np.cumsum([0] + [len(x) for x in f]).astype(np.int64),
-        uv=kf.uv[fi], descriptors=kf.descriptors[fi], points=kf.points[fi])
+        uv=kf.uv[fi],
+        descriptors=kf.descriptors[fi],
+        points=kf.points[fi],
+    )
 
 
 def attach_keyframes(submaps: list[Submap], keyframes: KeyframeSet | list[Keyframe]) -> list[Submap]:
@@ -145,5 +156,7 @@ def attach_keyframes(submaps: list[Submap], keyframes: KeyframeSet | list[Keyfra
         return []
     centre_t = np.array([s.t for s in submaps])
     owner = np.argmin(np.abs(centre_t[None, :] - kf.t[:, None]), axis=1) if len(kf) else np.zeros(0, np.int64)
-    return [replace(s, keyframes=select_keyframes(kf, np.flatnonzero(owner == i), inv_T(s.T_odom_submap)))
-            for i, s in enumerate(submaps)]
+    return [
+        replace(s, keyframes=select_keyframes(kf, np.flatnonzero(owner == i), inv_T(s.T_odom_submap)))
+        for i, s in enumerate(submaps)
+    ]

@@ -31,8 +31,8 @@ from pydantic import Field
 
 from roman_sim.align.registration import kabsch_batch
 from roman_sim.core.config import StrictModel
+from roman_sim.core.geometry import arun, make_T, transform_points
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import arun, make_T, transform_points
 
 
 class VerifyParams(StrictModel):
@@ -79,8 +79,9 @@ def _inliers(T: NDArray, src: NDArray, dst: NDArray, thr: float) -> NDArray[np.b
     return np.linalg.norm(transform_points(T, src) - dst, axis=1) <= thr
 
 
-def ransac_rigid(src: NDArray, dst: NDArray, p: VerifyParams, rng: np.random.Generator
-                 ) -> tuple[NDArray[np.float64] | None, NDArray[np.bool_]]:
+def ransac_rigid(
+    src: NDArray, dst: NDArray, p: VerifyParams, rng: np.random.Generator
+) -> tuple[NDArray[np.float64] | None, NDArray[np.bool_]]:
     """Best rigid ``T`` with ``dst ~ T src`` over (n, 3) correspondences and its inlier mask.
 
     Hypotheses are ranked by the truncated quadratic cost (MSAC: sum of min(d^2, thr^2)).
@@ -94,7 +95,7 @@ def ransac_rigid(src: NDArray, dst: NDArray, p: VerifyParams, rng: np.random.Gen
     idx = np.argsort(rng.random((p.ransac_iterations, n)), axis=1)[:, :3]
     Ts = kabsch_batch(src[idx], dst[idx])
     moved = np.einsum("kij,nj->kni", Ts[:, :3, :3], src) + Ts[:, None, :3, 3]
-    thr2 = p.inlier_threshold_m ** 2
+    thr2 = p.inlier_threshold_m**2
     cost = np.minimum(np.sum((moved - dst[None]) ** 2, axis=-1), thr2).sum(axis=1)
     T = Ts[int(np.argmin(cost))]
     for _ in range(p.refine_rounds):
@@ -114,8 +115,9 @@ def refine_reprojection(T_q_c: NDArray, pc: NDArray, uv_q: NDArray, K_q: NDArray
     rvec: Any = cv2.Rodrigues(np.asarray(T_q_c[:3, :3], np.float64))[0]
     tvec: Any = np.asarray(T_q_c[:3, 3], np.float64).reshape(3, 1)
     try:
-        rvec, tvec = cv2.solvePnPRefineLM(np.asarray(pc, np.float64), np.asarray(uv_q, np.float64),
-                                          np.asarray(K_q, np.float64), None, rvec, tvec)
+        rvec, tvec = cv2.solvePnPRefineLM(
+            np.asarray(pc, np.float64), np.asarray(uv_q, np.float64), np.asarray(K_q, np.float64), None, rvec, tvec
+        )
     except cv2.error:
         return np.asarray(T_q_c, np.float64)
     if not (np.all(np.isfinite(rvec)) and np.all(np.isfinite(tvec))):
@@ -146,10 +148,18 @@ def mono_inliers(uv_q: NDArray, K_q: NDArray, uv_c: NDArray, K_c: NDArray, thres
     return np.asarray(mask, dtype=bool).reshape(-1)
 
 
-def verify_pair(dq: NDArray[np.uint8], pq: NDArray, dc: NDArray[np.uint8], pc: NDArray,
-                p: VerifyParams, stream: tuple[str | int, ...] = (), uv_q: NDArray | None = None,
-                K_q: NDArray | None = None, uv_c: NDArray | None = None, K_c: NDArray | None = None
-                ) -> VerifyOutcome:
+def verify_pair(
+    dq: NDArray[np.uint8],
+    pq: NDArray,
+    dc: NDArray[np.uint8],
+    pc: NDArray,
+    p: VerifyParams,
+    stream: tuple[str | int, ...] = (),
+    uv_q: NDArray | None = None,
+    K_q: NDArray | None = None,
+    uv_c: NDArray | None = None,
+    K_c: NDArray | None = None,
+) -> VerifyOutcome:
     """Match keyframe q's features to c's and verify them in 3D.
 
     Args:

@@ -112,10 +112,21 @@ class Vocabulary:
 
     def save(self, path: str | Path) -> None:
         """Write the vocabulary atomically as an ``.npz`` (packed uint8 centres + weights)."""
-        header = {"format": VOCABULARY_FORMAT, "version": VOCABULARY_VERSION, "k": self.k, "L": self.L,
-                  "meta": self.meta}
-        write_npz(path, header=np.frombuffer(json.dumps(header, sort_keys=True).encode(), dtype=np.uint8),
-                  centers=self.centers, parent=self.parent, word_of_node=self.word_of_node, weights=self.weights)
+        header = {
+            "format": VOCABULARY_FORMAT,
+            "version": VOCABULARY_VERSION,
+            "k": self.k,
+            "L": self.L,
+            "meta": self.meta,
+        }
+        write_npz(
+            path,
+            header=np.frombuffer(json.dumps(header, sort_keys=True).encode(), dtype=np.uint8),
+            centers=self.centers,
+            parent=self.parent,
+            word_of_node=self.word_of_node,
+            weights=self.weights,
+        )
 
     @classmethod
     def load(cls, path: str | Path) -> Vocabulary:
@@ -133,8 +144,15 @@ class Vocabulary:
             h = json.loads(a.pop("header").tobytes().decode())
             if h.get("format") != VOCABULARY_FORMAT or h.get("version") != VOCABULARY_VERSION:
                 raise StorageError(f"{path}: not a version-{VOCABULARY_VERSION} ORB vocabulary")
-            return cls(int(h["k"]), int(h["L"]), a["centers"], a["parent"], a["word_of_node"], a["weights"],
-                       dict(h.get("meta", {})))
+            return cls(
+                int(h["k"]),
+                int(h["L"]),
+                a["centers"],
+                a["parent"],
+                a["word_of_node"],
+                a["weights"],
+                dict(h.get("meta", {})),
+            )
         except (OSError, ValueError, KeyError, EOFError, UnicodeDecodeError) as err:
             raise StorageError(f"{path}: not a readable vocabulary ({type(err).__name__})") from None
 
@@ -171,8 +189,9 @@ def _kmajority(x: NDArray[np.uint8], k: int, rng: np.random.Generator, max_iter:
     return centers[used], labels.reshape(-1)
 
 
-def train_vocabulary(images: list[NDArray[np.uint8]], k: int = 10, L: int = 4, seed: int = 0,
-                     max_iterations: int = 10) -> Vocabulary:
+def train_vocabulary(
+    images: list[NDArray[np.uint8]], k: int = 10, L: int = 4, seed: int = 0, max_iterations: int = 10
+) -> Vocabulary:
     """Train a vocabulary on the ORB descriptors of ``images`` (one (n_i, 32) array each).
 
     Raises:
@@ -180,8 +199,11 @@ def train_vocabulary(images: list[NDArray[np.uint8]], k: int = 10, L: int = 4, s
     """
     if not 2 <= k <= 64 or not 1 <= L <= 8:
         raise ConfigError(f"vocabulary: k must be in [2, 64] and L in [1, 8], got k={k}, L={L}")
-    x = np.concatenate([np.asarray(d, np.uint8).reshape(-1, 32) for d in images]) if images \
+    x = (
+        np.concatenate([np.asarray(d, np.uint8).reshape(-1, 32) for d in images])
+        if images
         else np.zeros((0, 32), np.uint8)
+    )
     if len(x) == 0:
         raise ConfigError("vocabulary: no training descriptors")
     centers, parent, level = [np.zeros(32, np.uint8)], [-1], [0]
@@ -201,8 +223,15 @@ def train_vocabulary(images: list[NDArray[np.uint8]], k: int = 10, L: int = 4, s
     word_of_node = np.full(len(parent), -1, dtype=np.int32)
     word_of_node[np.array(sorted(leaves))] = np.arange(len(leaves), dtype=np.int32)
     meta = {"seed": seed, "max_iterations": max_iterations, "n_images": len(images), "n_descriptors": len(x)}
-    voc = Vocabulary(k, L, np.stack(centers).astype(np.uint8), np.asarray(parent, np.int32), word_of_node,
-                     np.zeros(len(leaves), np.float32), meta)
+    voc = Vocabulary(
+        k,
+        L,
+        np.stack(centers).astype(np.uint8),
+        np.asarray(parent, np.int32),
+        word_of_node,
+        np.zeros(len(leaves), np.float32),
+        meta,
+    )
     voc.weights = idf_weights(voc, images)
     log.info("vocabulary: %d words from %d descriptors of %d images", voc.n_words, len(x), len(images))
     return voc

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.models.common import (
     box_crops,
     load_libraries,
@@ -23,7 +24,6 @@ from roman_sim.mapping.models.common import (
     weights_dir,
 )
 from roman_sim.mapping.models.config import ClipConfig
-from roman_sim.mapping.segmenter import Mask
 
 FIELD = "frontend.encoder.params.weights"
 
@@ -47,11 +47,11 @@ class ClipEncoder:
         """(N, dim) unit embeddings of RGB crops, ``batch_size`` at a time."""
         out = np.zeros((len(crops), self.dim), dtype=np.float32)
         for k in range(0, len(crops), self.cfg.batch_size):
-            chunk = crops[k:k + self.cfg.batch_size]
+            chunk = crops[k : k + self.cfg.batch_size]
             inputs = self.processor(images=chunk, return_tensors="pt", input_data_format="channels_last")
             with self._torch.inference_mode():
                 emb = self.model(pixel_values=inputs["pixel_values"]).image_embeds
-            out[k:k + len(chunk)] = unit_rows(emb.float().numpy())
+            out[k : k + len(chunk)] = unit_rows(emb.float().numpy())
         return out
 
     def encode(self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_], context: Any) -> NDArray[np.float32]:
@@ -61,8 +61,9 @@ class ClipEncoder:
         whole = Mask(np.ones(rgb_crop.shape[:2], dtype=bool))
         return self.embed_crops(box_crops(rgb_crop, [whole], self.cfg.min_crop_px))[0]
 
-    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask],
-                     contexts: list[Any]) -> NDArray[np.float32]:
+    def encode_batch(
+        self, rgb: NDArray[np.uint8] | None, masks: list[Mask], contexts: list[Any]
+    ) -> NDArray[np.float32]:
         """(N, dim) unit embeddings of every mask's box crop of one frame."""
         if rgb is None:
             raise _no_rgb()

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
-from roman_sim.mapping.segmenter import Mask
+from roman_sim.mapping.mask import Mask
 
 
 def load_libraries(component: str) -> tuple[Any, Any]:
@@ -23,8 +23,10 @@ def load_libraries(component: str) -> tuple[Any, Any]:
         torch = importlib.import_module("torch")
         transformers = importlib.import_module("transformers")
     except ImportError as err:
-        raise ConfigError(f"{component} needs PyTorch and transformers ({err}); install the optional extra: "
-                          "pip install 'roman_sim[models]'") from None
+        raise ConfigError(
+            f"{component} needs PyTorch and transformers ({err}); install the optional extra: "
+            "pip install 'roman_sim[models]'"
+        ) from None
     transformers.utils.logging.disable_progress_bar()  # loading logs belong to the caller, not tqdm
     return torch, transformers
 
@@ -36,8 +38,9 @@ def weights_dir(path: Path, field: str, model_types: tuple[str, ...] = ()) -> Pa
     """
     p = Path(path).expanduser()
     if not p.is_dir():
-        raise ConfigError(f"{field}: no model folder at {p} (give a local folder saved with save_pretrained; "
-                          "nothing is downloaded)")
+        raise ConfigError(
+            f"{field}: no model folder at {p} (give a local folder saved with save_pretrained; nothing is downloaded)"
+        )
     if not (p / "config.json").is_file():
         raise ConfigError(f"{field}: {p} has no config.json (expected a folder saved with save_pretrained)")
     if model_types:

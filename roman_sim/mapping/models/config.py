@@ -27,8 +27,9 @@ class ClipConfig(ModelConfig):
 class Dinov2Config(ModelConfig):
     """DINOv2 patch features averaged over the mask (the current reference: DINOv2-base, 768-d)."""
 
-    short_side_patches: int = Field(16, ge=1, le=128, description="patches along the image's shorter side "
-                                    "(16 x 14 = 224 px for DINOv2)")
+    short_side_patches: int = Field(
+        16, ge=1, le=128, description="patches along the image's shorter side (16 x 14 = 224 px for DINOv2)"
+    )
 
 
 class SamConfig(ModelConfig, MaskFilterConfig):

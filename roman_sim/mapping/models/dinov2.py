@@ -18,9 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.models.common import load_libraries, load_pretrained, set_threads, unit_rows, weights_dir
 from roman_sim.mapping.models.config import Dinov2Config
-from roman_sim.mapping.segmenter import Mask
 
 FIELD = "frontend.encoder.params.weights"
 
@@ -50,13 +50,17 @@ class Dinov2Encoder:
     def patch_features(self, rgb: NDArray[np.uint8]) -> NDArray[np.float32]:
         """(rows, cols, dim) patch tokens of one image."""
         gh, gw = self.grid(rgb.shape[:2])
-        inputs = self.processor(images=[np.ascontiguousarray(rgb)], return_tensors="pt", do_center_crop=False,
-                                size={"height": gh * self.patch, "width": gw * self.patch},
-                                input_data_format="channels_last")
+        inputs = self.processor(
+            images=[np.ascontiguousarray(rgb)],
+            return_tensors="pt",
+            do_center_crop=False,
+            size={"height": gh * self.patch, "width": gw * self.patch},
+            input_data_format="channels_last",
+        )
         with self._torch.inference_mode():
             tokens = self.model(pixel_values=inputs["pixel_values"]).last_hidden_state[0]
         n_reg = int(getattr(self.model.config, "num_register_tokens", 0) or 0)
-        patches = tokens[1 + n_reg:].float().numpy()
+        patches = tokens[1 + n_reg :].float().numpy()
         return patches.reshape(gh, gw, self.dim)
 
     def cell_weights(self, pixels: NDArray[np.bool_], grid: tuple[int, int]) -> NDArray[np.float64]:
@@ -64,8 +68,9 @@ class Dinov2Encoder:
         share = cv2.resize(pixels.astype(np.float32), (grid[1], grid[0]), interpolation=cv2.INTER_AREA)
         return share.astype(np.float64)
 
-    def encode_batch(self, rgb: NDArray[np.uint8] | None, masks: list[Mask],
-                     contexts: list[Any]) -> NDArray[np.float32]:
+    def encode_batch(
+        self, rgb: NDArray[np.uint8] | None, masks: list[Mask], contexts: list[Any]
+    ) -> NDArray[np.float32]:
         """(N, dim) unit mask-averaged features of one frame (one forward pass)."""
         if rgb is None:
             raise MappingError("encoder 'dinov2': the frame has no RGB (set render_rgb: true)")

@@ -18,11 +18,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import MappingError
+from roman_sim.core.sensors import Frame
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import filter_masks
 from roman_sim.mapping.models.common import load_libraries, load_pretrained, set_threads, weights_dir
 from roman_sim.mapping.models.config import SamConfig
-from roman_sim.mapping.segmenter import Mask
-from roman_sim.sensors import Frame
 
 FIELD = "frontend.segmenter.params.weights"
 
@@ -44,8 +44,9 @@ class SamSegmenter:
     def segment(self, frame: Frame) -> list[Mask]:
         """Filtered masks of one frame (``frame.rgb`` required)."""
         if frame.rgb is None:
-            raise MappingError(f"segmenter 'sam': frame {frame.index} of robot {frame.robot} has no RGB "
-                               "(set render_rgb: true)")
+            raise MappingError(
+                f"segmenter 'sam': frame {frame.index} of robot {frame.robot} has no RGB (set render_rgb: true)"
+            )
         masks, scores = self.candidates(np.asarray(frame.rgb))
         if not masks:
             return []
@@ -68,8 +69,9 @@ class SamSegmenter:
         before the next, so memory stays at one batch of logits.
         """
         torch = self._torch
-        inputs = self.processor(images=[np.ascontiguousarray(rgb)], return_tensors="pt",
-                                input_data_format="channels_last")
+        inputs = self.processor(
+            images=[np.ascontiguousarray(rgb)], return_tensors="pt", input_data_format="channels_last"
+        )
         orig, resized = inputs["original_sizes"], inputs["reshaped_input_sizes"]
         scale = np.array([float(resized[0][1]) / rgb.shape[1], float(resized[0][0]) / rgb.shape[0]])
         pts = self.points(rgb.shape[:2]) * scale
@@ -78,7 +80,7 @@ class SamSegmenter:
         with torch.inference_mode():
             emb = self.model.get_image_embeddings(inputs["pixel_values"])
             for k in range(0, len(pts), self.cfg.batch_size):
-                chunk = torch.as_tensor(pts[k:k + self.cfg.batch_size], dtype=torch.float32)[None, :, None, :]
+                chunk = torch.as_tensor(pts[k : k + self.cfg.batch_size], dtype=torch.float32)[None, :, None, :]
                 labels = torch.ones(chunk.shape[:3], dtype=torch.long)
                 out = self.model(image_embeddings=emb, input_points=chunk, input_labels=labels, multimask_output=True)
                 up = self.processor.post_process_masks(out.pred_masks, orig, resized, binarize=False)[0]

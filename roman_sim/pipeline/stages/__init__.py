@@ -14,9 +14,24 @@ from roman_sim.pipeline.stages.submaps import Submaps, SubmapsStage
 from roman_sim.pipeline.stages.world import WorldOutput, WorldStage
 
 #: The stage table (order = execution order; every stage's inputs come earlier).
-STAGES: tuple[Stage, ...] = (WorldStage(), MapsStage(), SubmapsStage(), EvaluationStage(), PoseGraphStage(),
-                             ReportStage())
+STAGES: tuple[Stage, ...] = (
+    WorldStage(),
+    MapsStage(),
+    SubmapsStage(),
+    EvaluationStage(),
+    PoseGraphStage(),
+    ReportStage(),
+)
 STAGE_NAMES: tuple[str, ...] = tuple(s.name for s in STAGES)
 
-__all__ = ["STAGES", "STAGE_NAMES", "EvaluationOutput", "Maps", "PoseGraphOutput", "ReportOutput", "Stage",
-           "Submaps", "WorldOutput"]
+__all__ = [
+    "STAGES",
+    "STAGE_NAMES",
+    "EvaluationOutput",
+    "Maps",
+    "PoseGraphOutput",
+    "ReportOutput",
+    "Stage",
+    "Submaps",
+    "WorldOutput",
+]

@@ -72,7 +72,7 @@ def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[
     """
     import time
 
-    from roman_sim.pipeline.gating import GATED_REASON, gate_pairs
+    from roman_sim.align.gating import GATED_REASON, gate_pairs
     from roman_sim.pipeline.pairwork import align_pairs as run_chunks
 
     t0 = time.perf_counter()
@@ -83,9 +83,14 @@ def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[
     t1 = time.perf_counter()
     results = run_chunks(ctx, kept)
     ctx.progress.end("evaluation:pairs")
-    ctx.timings["pairs"] = {"candidates": len(pairs), "aligned": len(kept), "gating_s": round(gating_s, 4),
-                            "alignment_wall_s": round(time.perf_counter() - t1, 3),
-                            "workers": ctx.tasks().workers, "executor": ctx.tasks().kind}
+    ctx.timings["pairs"] = {
+        "candidates": len(pairs),
+        "aligned": len(kept),
+        "gating_s": round(gating_s, 4),
+        "alignment_wall_s": round(time.perf_counter() - t1, 3),
+        "workers": ctx.tasks().workers,
+        "executor": ctx.tasks().kind,
+    }
     for (a, b), k in zip(pairs, keep):
         if not k:
             for e in ctx.scenario.aligners:
@@ -96,16 +101,29 @@ def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[
 def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
     """Records of every result; associations kept only where they index segments (drawn and graded)."""
     empty = np.zeros((0, 2), np.int64)
-    return [AlignmentRecord(a, b, method, r.n_associations, r.T_a_b,
-                            np.asarray(r.associations, np.int64).reshape(-1, 2) if segment_associations(r) else empty)
-            for (a, b, method), r in sorted(results.items())]
+    return [
+        AlignmentRecord(
+            a,
+            b,
+            method,
+            r.n_associations,
+            r.T_a_b,
+            np.asarray(r.associations, np.int64).reshape(-1, 2) if segment_associations(r) else empty,
+        )
+        for (a, b, method), r in sorted(results.items())
+    ]
 
 
 def _runtimes(scores: list[PairScore]) -> dict[str, Any]:
     """Per method: runtime statistics and the per-pair runtimes in ``pairs.csv`` order (s)."""
     methods = sorted({s.method for s in scores})
-    return {m: {**runtime_stats([s.runtime_s for s in scores if s.method == m]),
-                "per_pair_s": [s.runtime_s for s in scores if s.method == m]} for m in methods}
+    return {
+        m: {
+            **runtime_stats([s.runtime_s for s in scores if s.method == m]),
+            "per_pair_s": [s.runtime_s for s in scores if s.method == m],
+        }
+        for m in methods
+    }
 
 
 class EvaluationStage(Stage[EvaluationOutput]):
@@ -118,8 +136,14 @@ class EvaluationStage(Stage[EvaluationOutput]):
         sc = ctx.scenario.model_dump(mode="json")
         return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"], sc["gating"]]
 
-    def run(self, ctx: RunContext, world: WorldOutput | None = None, maps: Maps | None = None,
-            submaps: Submaps | None = None, **_: Any) -> EvaluationOutput:
+    def run(
+        self,
+        ctx: RunContext,
+        world: WorldOutput | None = None,
+        maps: Maps | None = None,
+        submaps: Submaps | None = None,
+        **_: Any,
+    ) -> EvaluationOutput:
         assert submaps is not None, "the evaluation stage needs the submaps"
         all_subs = submaps.all()
         ec = ctx.scenario.evaluation
@@ -137,8 +161,10 @@ class EvaluationStage(Stage[EvaluationOutput]):
         return EvaluationOutput(ev.scores, _records(ev.results), ev.metrics, list(ev.notes), written)
 
     def save(self, out: EvaluationOutput, ctx: RunContext) -> list[str]:
-        write_json(ctx.run_dir / ALIGNMENTS_JSON, {"schema": ALIGNMENTS_SCHEMA, "notes": out.notes,
-                                                   "alignments": [r.to_json() for r in out.alignments]})
+        write_json(
+            ctx.run_dir / ALIGNMENTS_JSON,
+            {"schema": ALIGNMENTS_SCHEMA, "notes": out.notes, "alignments": [r.to_json() for r in out.alignments]},
+        )
         return [*out.written, ALIGNMENTS_JSON]
 
     def load(self, ctx: RunContext, files: list[str]) -> EvaluationOutput:
@@ -153,4 +179,3 @@ class EvaluationStage(Stage[EvaluationOutput]):
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
         return EvaluationOutput(scores, records, metrics, notes, [f for f in files if f != ALIGNMENTS_JSON])
-

@@ -12,31 +12,26 @@ from __future__ import annotations
 
 import json
 import logging
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
 from roman_sim.core.atomic import write_json
-from roman_sim.core.config import stable_hash
-from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
-from roman_sim.core.plugin_guard import guard_frontend
-from roman_sim.evaluation.frontend_grader import FrontEndGrader, GraderPart
-from roman_sim.evaluation.frontend_grades import FrontEndGrades, plot_frontend_grades
-from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+from roman_sim.core.errors import StorageError
+from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
+from roman_sim.evaluation.frontend_types import FrontEndGrades
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
-from roman_sim.mapping.mapper import Mapper, SegmentMap
+from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.robot_mapping import RobotMapping, map_one
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.sensors import Frame
+from roman_sim.report.frontend import plot_frontend_grades
 
 log = logging.getLogger(__name__)
-MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
 
 
 FRONTEND_JSON = "maps/frontend.json"
@@ -60,135 +55,9 @@ class Maps:
     written: list[str] = field(default_factory=list)
 
 
-def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
-    """The scenario's segmenter for ``robot`` (built-in or user class, with its params)."""
-    return build_segmenter(ctx.scenario.frontend, seed=ctx.scenario.seed, robot=robot)
-
-
-def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
-    """The scenario's semantic encoder for ``robot``; only a truth-driven one gets ``families``.
-
-    ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
-    simulated encoder. Its prototypes are shared by all robots (same seed); its observation
-    noise is per robot.
-    """
-    fe = ctx.scenario.frontend
-    if encoder_spec(fe.encoder).reads_truth and families is None:
-        raise ConfigError(f"robot {robot}: the {fe.encoder.name} encoder needs the objects' families (no world, "
-                          "no object table); use an image encoder (image, clip, dinov2 or package.module:Class)")
-    return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
-
-
-def _recording_key(ctx: RunContext, cfg: Any) -> str:
-    """What a robot's rendered frames depend on: seed, world, every robot (paths may refer to others)."""
-    sc = ctx.scenario.model_dump(mode="json")
-    return stable_hash(sc["seed"], sc["world"], sc["robots"], cfg.name)
-
-
-def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[Frame]:
-    """Rendered frames of one robot (from the run's recording when ``record_frames`` and it matches)."""
-    from roman_sim.sim.recording import read_recording, recording_info, write_recording
-    from roman_sim.sim.robot import render_trajectory
-
-    sc = ctx.scenario
-    rec_dir = ctx.run_dir / "recordings" / cfg.name
-    key = _recording_key(ctx, cfg)
-    if sc.record_frames and not ctx.fresh:
-        try:
-            if recording_info(rec_dir).get("extra", {}).get("key") == key:
-                return read_recording(rec_dir)
-        except RomanSimError:
-            pass
-    frames = render_trajectory(world, cfg, sc.seed, trajectory)
-    if not sc.record_frames:
-        return frames
-    write_recording(frames, rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
-    return read_recording(rec_dir)
-
-
-def _map_frames(ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None,
-                grader: Any = None) -> MapAndKeyframes:
-    sc = ctx.scenario
-    stage = f"maps:{name}"
-    ctx.progress.start(stage, n)
-    # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
-    fe = sc.frontend
-    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name,
-                                        build_encoder_for(ctx, name, families), fe.encoder.name)
-    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
-    extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
-    for frame in frames:
-        mapper.process(frame)
-        if extractor is not None:
-            extractor.offer(frame.public())
-        ctx.progress.advance(stage)
-    ctx.progress.end(stage)
-    smap = mapper.finish()
-    log.info("robot %s: %d segments%s", name, len(smap),
-             "" if extractor is None else f", {len(extractor.keyframes)} keyframes")
-    return smap, None if extractor is None else extractor.keyframe_set()
-
-
-class _Grader:
-    """Grades every frame that has instance truth (a real sequence may have none) against it.
-
-    The families of the robot being mapped (the world's, or a sequence's object table)
-    label the descriptors; nothing here is visible to the segmenter or the encoder.
-    """
-
-    def __init__(self, group_of: Any, seed: int, robot: str | None = None) -> None:
-        self.inner = FrontEndGrader({}, group_of, seed=seed, stream=robot)
-
-    def use(self, families: dict[int, str] | None) -> FrontEndGrader:
-        self.inner.families.update(families or {})
-        return self.inner
-
-    def add(self, frame: Frame, masks: Any, observed: Any) -> None:
-        if frame.truth is not None and frame.truth.object_ids is not None:
-            self.inner.add(frame, masks, observed)
-
-    def part(self) -> GraderPart | None:
-        """This robot's share of the grades (None when no frame had instance truth)."""
-        return self.inner.part() if self.inner.seg.frames else None
-
-
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> MapAndKeyframes:
-    """Render and map one robot along its planned path (graded by ``grader``; keyframes when the
-    visual method runs)."""
-    from roman_sim.sim.robot import trajectory_along
-
-    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
-    families = {o.id: o.family for o in world.truth.objects}
-    if grader is not None:
-        grader.use(families)
-    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]),
-                       families, grader)
-
-
-def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> MapAndKeyframes:
-    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
-    from roman_sim.pipeline.sources import open_sequence, sequence_families
-
-    seq = open_sequence(cfg, ctx.scenario.seed)
-    families = sequence_families(cfg.source)
-    if grader is not None:
-        grader.use(families)
-    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
-
-
-#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
-RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
-
-
-def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> RobotMapping:
-    """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
-    grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
-    smap, kf = map_sequence(ctx, cfg, grader) if cfg.source is not None else map_robot(ctx, world, cfg, path, grader)
-    return smap, kf, grader.part()
-
-
-def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]
-               ) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart]]:
+def map_robots(
+    ctx: RunContext, world: Any, paths: dict[str, Any]
+) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart]]:
     """Every robot, one ``map_one`` task per robot on the run's executor (scenario order).
 
     Each finished robot's map (and keyframes) is written to ``maps/<robot>.npz``
@@ -221,11 +90,14 @@ def map_robots(ctx: RunContext, world: Any, paths: dict[str, Any]
         rec = done.get(name)
         if rec is None or not files[name].is_file() or rec.get("sha256") != _sha256(files[name]):
             continue
-        ok = all(rec.get(k) is None or (f.is_file() and rec.get(k) == _sha256(f))
-                 for k, f in (("keyframes_sha256", kf_files[name]), ("grades_sha256", part_files[name])))
+        ok = all(
+            rec.get(k) is None or (f.is_file() and rec.get(k) == _sha256(f))
+            for k, f in (("keyframes_sha256", kf_files[name]), ("grades_sha256", part_files[name]))
+        )
         if ok:
-            results[name] = read_back(name, rec.get("keyframes_sha256") is not None,
-                                      rec.get("grades_sha256") is not None)
+            results[name] = read_back(
+                name, rec.get("keyframes_sha256") is not None, rec.get("grades_sha256") is not None
+            )
             log.info("robot %s: reusing the map of an interrupted run", name)
     todo = [r for r in ctx.scenario.robots if r.name not in results]
     sc_json = ctx.scenario.model_dump_json()
@@ -278,8 +150,13 @@ class MapsStage(Stage[Maps]):
 
         sc = ctx.scenario.model_dump(mode="json")
         sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
-        return [sc["robots"], sc["frontend"], sc["mapping"], *([sequences] if sequences else []),
-                *(["visual"] if ctx.scenario.uses_visual else [])]
+        return [
+            sc["robots"],
+            sc["frontend"],
+            sc["mapping"],
+            *([sequences] if sequences else []),
+            *(["visual"] if ctx.scenario.uses_visual else []),
+        ]
 
     def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
         from roman_sim.sim.robot import plan_paths
@@ -326,7 +203,8 @@ def _rgb_notes(ctx: RunContext) -> list[str]:
     notes = []
     for r in ctx.scenario.robots:
         if users and not r.render_rgb:
-            notes.append(f"robot {r.name} renders no RGB (render_rgb: false): the user {' and '.join(users)} "
-                         "got rgb=None")
+            notes.append(
+                f"robot {r.name} renders no RGB (render_rgb: false): the user {' and '.join(users)} got rgb=None"
+            )
             log.warning(notes[-1])
     return notes

@@ -28,8 +28,9 @@ def read_notes(path: Path) -> list[str]:
         raise StorageError(f"{path}: unreadable notes ({type(err).__name__})") from None
 
 
-def save_per_robot(ctx: RunContext, folder: str, items: dict[str, T], writer: Callable[[Path, T], None],
-                   notes: list[str]) -> list[str]:
+def save_per_robot(
+    ctx: RunContext, folder: str, items: dict[str, T], writer: Callable[[Path, T], None], notes: list[str]
+) -> list[str]:
     """``writer(<folder>/<robot>.npz, item)`` per robot and the notes; the relative paths written."""
     files = []
     for robot, item in items.items():

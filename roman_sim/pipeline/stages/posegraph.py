@@ -39,12 +39,11 @@ import numpy as np
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.geometry import gravity_aligned, pose_error
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.evaluation.ate import multi_robot_ate
 from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
-from roman_sim.evaluation.trajplot import plot_trajectories
-from roman_sim.geometry import gravity_aligned, pose_error
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.scenario import VISUAL_METHODS
 from roman_sim.pipeline.stages.base import Stage
@@ -52,6 +51,7 @@ from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.posegraph import LoopClosure, build_and_solve, submap_nodes_from
+from roman_sim.report.trajplot import plot_trajectories
 
 log = logging.getLogger(__name__)
 
@@ -98,8 +98,17 @@ def method_closures(submaps: Submaps, evaluation: EvaluationOutput, method: str)
         if r.method != method or r.T_a_b is None:
             continue
         a, b = subs[r.a], subs[r.b]
-        out.append(LoopClosure(a.robot, a.index, b.robot, b.index, np.asarray(r.T_a_b, dtype=np.float64),
-                               n_associations=r.n_associations, source=method))
+        out.append(
+            LoopClosure(
+                a.robot,
+                a.index,
+                b.robot,
+                b.index,
+                np.asarray(r.T_a_b, dtype=np.float64),
+                n_associations=r.n_associations,
+                source=method,
+            )
+        )
     return out
 
 
@@ -110,8 +119,17 @@ def oracle_closures(submaps: Submaps, evaluation: EvaluationOutput) -> list[Loop
     for (a_name, b_name), t in sorted(evaluation.truths().items()):
         if t.relevant:
             a, b = subs[a_name], subs[b_name]
-            out.append(LoopClosure(a.robot, a.index, b.robot, b.index, np.asarray(t.T_a_b_true),
-                                   n_associations=ORACLE_ASSOCIATIONS, source="oracle"))
+            out.append(
+                LoopClosure(
+                    a.robot,
+                    a.index,
+                    b.robot,
+                    b.index,
+                    np.asarray(t.T_a_b_true),
+                    n_associations=ORACLE_ASSOCIATIONS,
+                    source="oracle",
+                )
+            )
     return out
 
 
@@ -134,8 +152,9 @@ def graph_variants(ctx: RunContext) -> list[GraphVariant]:
     method = ctx.scenario.posegraph_method
     assert method is not None
     thresh = ctx.scenario.posegraph.lc_association_thresh
-    out = [GraphVariant(method, f"pose graph with {method}'s loop closures",
-                        lambda s, e: method_closures(s, e, method))]
+    out = [
+        GraphVariant(method, f"pose graph with {method}'s loop closures", lambda s, e: method_closures(s, e, method))
+    ]
     visual = next((a.name for a in ctx.scenario.aligners if a.method in VISUAL_METHODS), None)
     if visual is not None and visual != method:
         vis = visual
@@ -144,11 +163,13 @@ def graph_variants(ctx: RunContext) -> list[GraphVariant]:
             own = [c for c in method_closures(s, e, method) if c.n_associations >= thresh]
             return own + method_closures(s, e, vis)
 
-        out += [GraphVariant(vis, f"pose graph with {vis}'s visual loop closures",
-                             lambda s, e: method_closures(s, e, vis), 0),
-                GraphVariant("combined", f"pose graph with {method}'s and {vis}'s loop closures", combined, 0)]
-    out.append(GraphVariant("oracle", "pose graph with the true relative pose of every relevant pair",
-                            oracle_closures))
+        out += [
+            GraphVariant(
+                vis, f"pose graph with {vis}'s visual loop closures", lambda s, e: method_closures(s, e, vis), 0
+            ),
+            GraphVariant("combined", f"pose graph with {method}'s and {vis}'s loop closures", combined, 0),
+        ]
+    out.append(GraphVariant("oracle", "pose graph with the true relative pose of every relevant pair", oracle_closures))
     return out
 
 
@@ -204,24 +225,36 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
         sc = ctx.scenario.model_dump(mode="json")
         return [sc["posegraph"], sc["posegraph_method"], sc["evaluation"]]
 
-    def run(self, ctx: RunContext, maps: Maps | None = None, submaps: Submaps | None = None,
-            evaluation: EvaluationOutput | None = None, **_: Any) -> PoseGraphOutput:
+    def run(
+        self,
+        ctx: RunContext,
+        maps: Maps | None = None,
+        submaps: Submaps | None = None,
+        evaluation: EvaluationOutput | None = None,
+        **_: Any,
+    ) -> PoseGraphOutput:
         assert submaps is not None and evaluation is not None
         method = ctx.scenario.posegraph_method
         if method is None:
             return PoseGraphOutput(AteTable(), {}, ["pose graph skipped: no posegraph_method"])
         if maps is None:
-            return PoseGraphOutput(AteTable(), {},
-                                   ["pose graph skipped: no trajectories (run started from saved submaps)"])
+            return PoseGraphOutput(
+                AteTable(), {}, ["pose graph skipped: no trajectories (run started from saved submaps)"]
+            )
         truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
         odom = {r: m.odometry for r, m in maps.maps.items()}
         placed = {r: odom[r].transformed(gravity_aligned(truth[r].T[0])) for r in truth}
         nodes = submap_nodes_from(submaps.all())
         nodes = {r: nodes.get(r, []) for r in maps.maps}
         trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed}
-        describe = {"odometry": ("odometry, each robot placed with its true start pose", "joint", "odometry"),
-                    "odometry_no_prior": ("odometry without start poses, each robot aligned on its own", "per_robot",
-                                          "odometry")}
+        describe = {
+            "odometry": ("odometry, each robot placed with its true start pose", "joint", "odometry"),
+            "odometry_no_prior": (
+                "odometry without start poses, each robot aligned on its own",
+                "per_robot",
+                "odometry",
+            ),
+        }
         graphs, notes, seconds = {}, [], {}
         lines, est_world = [], {}
         for gv in graph_variants(ctx):
@@ -237,8 +270,10 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
             trajectories[gv.name] = res.trajectories
             describe[gv.name] = (gv.description, "joint", gv.name)
             if res.unconnected:
-                notes.append(f"{gv.name} pose graph: robot(s) {', '.join(res.unconnected)} never connected to the "
-                             f"first robot: placed {len(res.trajectories)} of {len(odom)} robots")
+                notes.append(
+                    f"{gv.name} pose graph: robot(s) {', '.join(res.unconnected)} never connected to the "
+                    f"first robot: placed {len(res.trajectories)} of {len(odom)} robots"
+                )
             if not used:
                 notes.append(f"{gv.name} pose graph: no loop closure accepted")
             if gv.name == method:
@@ -246,12 +281,20 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
                 est_world = _aligned(res.trajectories, truth)
         ctx.timings["posegraph_s"] = seconds
         back, written = _round_trip(ctx, trajectories)
-        estimates = {v: VariantEstimate(back[src], fit, text, src)  # type: ignore[arg-type]
-                     for v, (text, fit, src) in describe.items()}
+        estimates = {
+            v: VariantEstimate(back[src], fit, text, src)  # type: ignore[arg-type]
+            for v, (text, fit, src) in describe.items()
+        }
         table = ate_table(back["truth"], estimates)
         try:
-            plot_trajectories(ctx.run_dir / PLOT, truth, est=est_world or None, odom=placed, closures=lines,
-                              title=f"{ctx.scenario.name}: truth, odometry and {method} pose graph")
+            plot_trajectories(
+                ctx.run_dir / PLOT,
+                truth,
+                est=est_world or None,
+                odom=placed,
+                closures=lines,
+                title=f"{ctx.scenario.name}: truth, odometry and {method} pose graph",
+            )
             written.append(PLOT)
         except EvaluationError as err:
             notes.append(f"trajectory plot not drawn: {err}")
@@ -270,5 +313,9 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
             notes = [str(n) for n in ate_data["notes"]]
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{ctx.run_dir}: unreadable pose-graph results ({type(err).__name__}: {err})") from None
-        return PoseGraphOutput(AteTable.from_json(ate_data, str(ctx.run_dir / ATE_JSON)), info, notes,
-                               [f for f in files if f not in (ATE_JSON, POSEGRAPH_JSON)])
+        return PoseGraphOutput(
+            AteTable.from_json(ate_data, str(ctx.run_dir / ATE_JSON)),
+            info,
+            notes,
+            [f for f in files if f not in (ATE_JSON, POSEGRAPH_JSON)],
+        )

@@ -18,21 +18,22 @@ import numpy as np
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import EvaluationError, RomanSimError, StorageError
-from roman_sim.evaluation.examples import draw_examples
-from roman_sim.evaluation.mapview import write_map_view
-from roman_sim.evaluation.maskview import plot_masks
-from roman_sim.evaluation.plots import write_metric_plots
-from roman_sim.evaluation.report import REPORT_MD, write_report
 from roman_sim.evaluation.types import MapStats
 from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.robot_mapping import build_segmenter_for
 from roman_sim.pipeline.stages.base import Stage
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
-from roman_sim.pipeline.stages.maps import Maps, build_segmenter_for
+from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.posegraph import PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
+from roman_sim.report.examples import draw_examples
+from roman_sim.report.mapview import write_map_view
+from roman_sim.report.markdown import REPORT_MD, write_report
+from roman_sim.report.maskview import plot_masks
+from roman_sim.report.plots import write_metric_plots
 
 MAP_STATS_JSON = "map_stats.json"
 SNAPSHOT = "plots/segments_on_image.png"
@@ -94,9 +95,10 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
         raise StorageError(f"robot {cfg.name} has no true trajectory to render from")
     t = max(subs, key=lambda s: (len(s), -s.index)).t if subs else float(smap.times[len(smap.times) // 2])
     i = int(np.argmin(np.abs(smap.times - t)))
-    run = DrivenRun(smap.times[i:i + 1], smap.T_world_body[i:i + 1], smap.T_odom_body[i:i + 1])
-    frame = next(iter(render_trajectory(world.world, cfg.model_copy(update={"render_rgb": True}), ctx.scenario.seed,
-                                        run)))
+    run = DrivenRun(smap.times[i : i + 1], smap.T_world_body[i : i + 1], smap.T_odom_body[i : i + 1])
+    frame = next(
+        iter(render_trajectory(world.world, cfg.model_copy(update={"render_rgb": True}), ctx.scenario.seed, run))
+    )
     if frame.rgb is None:
         raise StorageError(f"robot {cfg.name}: the renderer gave no colour image")
     segmenter = build_segmenter_for(ctx, cfg.name)
@@ -104,8 +106,10 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
     ids = frame.truth.object_ids if frame.truth is not None else None
     labels = [None if ids is None else _majority(ids, m.pixels) for m in masks]
     seg = ctx.scenario.frontend.segmenter
-    title = (f"robot {cfg.name} at t = {frame.t:.1f} s: {len(masks)} masks of the "
-             f"{seg if isinstance(seg, str) else 'configured'} segmenter (numbers: majority true object)")
+    title = (
+        f"robot {cfg.name} at t = {frame.t:.1f} s: {len(masks)} masks of the "
+        f"{seg if isinstance(seg, str) else 'configured'} segmenter (numbers: majority true object)"
+    )
     plot_masks(frame.rgb, [m.pixels for m in masks], ctx.run_dir / SNAPSHOT, title, labels)
     return SNAPSHOT
 
@@ -129,9 +133,16 @@ class ReportStage(Stage[ReportOutput]):
     name = "report"
     inputs = ("world", "maps", "submaps", "evaluation", "posegraph")
 
-    def run(self, ctx: RunContext, world: WorldOutput | None = None, maps: Maps | None = None,
-            submaps: Submaps | None = None, evaluation: EvaluationOutput | None = None,
-            posegraph: PoseGraphOutput | None = None, **_: Any) -> ReportOutput:
+    def run(
+        self,
+        ctx: RunContext,
+        world: WorldOutput | None = None,
+        maps: Maps | None = None,
+        submaps: Submaps | None = None,
+        evaluation: EvaluationOutput | None = None,
+        posegraph: PoseGraphOutput | None = None,
+        **_: Any,
+    ) -> ReportOutput:
         assert submaps is not None and evaluation is not None and posegraph is not None
         notes: list[str] = []
         for out in (maps, submaps, evaluation, posegraph):

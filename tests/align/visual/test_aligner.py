@@ -18,10 +18,10 @@ from roman_sim.align.visual.aligner import VisualParams, candidates, neighbour_s
 from roman_sim.align.visual.bow import BowVector
 from roman_sim.align.visual.keyframes import keyframe_set
 from roman_sim.core.errors import ConfigError, MappingError
-from roman_sim.geometry import gravity_aligned, inv_T, pose_4dof, pose_error
+from roman_sim.core.geometry import gravity_aligned, inv_T, pose_4dof, pose_error
+from roman_sim.core.sensors import Frame
 from roman_sim.mapping.submap import SubmapConfig, make_submap
 from roman_sim.mapping.types import KeyframeSet
-from roman_sim.sensors import Frame
 
 from .conftest import CAM
 
@@ -97,8 +97,9 @@ def _set(vectors: list[dict[int, float]]) -> KeyframeSet:
     for v in vectors:
         w = np.array(sorted(v), np.int32)
         vals = np.array([v[i] for i in w], np.float32)
-        feats = KeyframeFeatures(np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8),
-                                 np.zeros((0, 3), np.float32))
+        feats = KeyframeFeatures(
+            np.zeros((0, 2), np.float32), np.zeros((0, 32), np.uint8), np.zeros((0, 3), np.float32)
+        )
         kfs.append(Keyframe(0.0, np.eye(4), np.ones(4), feats, BowVector(w, vals / vals.sum())))
     return keyframe_set(kfs, np.eye(4))
 
@@ -122,8 +123,10 @@ def test_extractor_needs_rgb_and_spaces_keyframes_by_odometry(shooter) -> None:
     _, rgb, depth = shooter.frame(0.0, 0.0, 0.0)
     with pytest.raises(MappingError, match="render_rgb"):
         ex.offer(Frame("r", 0, 0.0, None, depth, np.eye(4), np.eye(4), shooter.K))
-    due = [ex.offer(Frame("r", i, float(i), rgb, depth, pose_4dof(0.4 * i, 0, 0, 0), np.eye(4), shooter.K))
-           is not None for i in range(6)]
+    due = [
+        ex.offer(Frame("r", i, float(i), rgb, depth, pose_4dof(0.4 * i, 0, 0, 0), np.eye(4), shooter.K)) is not None
+        for i in range(6)
+    ]
     assert due == [True, False, False, True, False, False]  # 0, 1.2 m; 2.0 m is 0.8 m past the last
     turned = ex.offer(Frame("r", 6, 6.0, rgb, depth, pose_4dof(1.2, 0, 0, np.radians(20)), np.eye(4), shooter.K))
     assert turned is not None and len(ex.keyframes) == 3

@@ -13,7 +13,7 @@ from roman_sim.align.visual.bow import BowVector
 from roman_sim.align.visual.features import KeyframeFeatures
 from roman_sim.align.visual.keyframes import Keyframe, keyframe_set
 from roman_sim.core.errors import StorageError
-from roman_sim.geometry import pose_4dof
+from roman_sim.core.geometry import pose_4dof
 from roman_sim.mapping.io import (
     FORMAT_VERSION,
     keyframe_packet_bytes,
@@ -29,13 +29,22 @@ def _keyframes(seed: int, n: int = 3, feats: int = 200) -> list[Keyframe]:
     rng = np.random.default_rng(seed)
     out = []
     for i in range(n):
-        f = KeyframeFeatures(rng.uniform(0, 640, (feats, 2)).astype(np.float32),
-                             rng.integers(0, 256, (feats, 32), dtype=np.uint8),
-                             rng.uniform(0.5, 7.5, (feats, 3)).astype(np.float32))
+        f = KeyframeFeatures(
+            rng.uniform(0, 640, (feats, 2)).astype(np.float32),
+            rng.integers(0, 256, (feats, 32), dtype=np.uint8),
+            rng.uniform(0.5, 7.5, (feats, 3)).astype(np.float32),
+        )
         words = np.unique(rng.integers(0, 9000, 150)).astype(np.int32)
         v = rng.random(len(words)).astype(np.float32)
-        out.append(Keyframe(float(i), pose_4dof(i, 0, 0.4, 0.1 * i), np.array([300.0, 400.0, 319.5, 239.5]), f,
-                            BowVector(words, v / v.sum())))
+        out.append(
+            Keyframe(
+                float(i),
+                pose_4dof(i, 0, 0.4, 0.1 * i),
+                np.array([300.0, 400.0, 319.5, 239.5]),
+                f,
+                BowVector(words, v / v.sum()),
+            )
+        )
     return out
 
 
@@ -105,8 +114,10 @@ def test_keyframe_file_round_trip_and_split_between_submaps(tmp_path) -> None:
         np.testing.assert_array_equal(getattr(odom, f), getattr(back, f))
     with pytest.raises(StorageError, match="expected format"):
         load_submaps(tmp_path / "k.npz")
-    subs = [make_submap("r", i, t, pose_4dof(x, 1.0, 0, 0.3), None, [], SubmapConfig())
-            for i, (t, x) in enumerate([(0.0, 0.0), (3.0, 3.0)])]
+    subs = [
+        make_submap("r", i, t, pose_4dof(x, 1.0, 0, 0.3), None, [], SubmapConfig())
+        for i, (t, x) in enumerate([(0.0, 0.0), (3.0, 3.0)])
+    ]
     parts = attach_keyframes(subs, back)
     np.testing.assert_array_equal(parts[0].keyframes.t, [0.0, 1.0])  # t = 2 is nearer the centre at 3 s
     np.testing.assert_array_equal(parts[1].keyframes.t, [2.0, 3.0, 4.0])

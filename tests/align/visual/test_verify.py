@@ -13,8 +13,8 @@ from roman_sim.align.visual.verify import (
     verify_pair,
 )
 from roman_sim.core.errors import MappingError
+from roman_sim.core.geometry import inv_T, make_T, pose_error, rpy_to_R, transform_points
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import inv_T, make_T, pose_error, rpy_to_R, transform_points
 
 P = VerifyParams()
 

@@ -12,12 +12,13 @@ from dataclasses import dataclass
 # isort: off
 import roman_sim  # noqa: F401  (sets MUJOCO_GL=egl before mujoco is imported)
 import mujoco
+
 # isort: on
 import cv2
 import numpy as np
 
+from roman_sim.core.geometry import R_FLU_RDF, make_T, rot_z
 from roman_sim.core.seeding import child_rng
-from roman_sim.geometry import R_FLU_RDF, make_T, rot_z
 from roman_sim.world.truth import Terrain, WorldTruth
 
 N_PANELS = 8
@@ -52,8 +53,9 @@ def blob_texture(rng: np.random.Generator, size: int = 256, shapes: int = 60) ->
 
 
 def _texture(spec: mujoco.MjSpec, name: str, img: np.ndarray, repeat: float = 1.0) -> str:
-    tex = spec.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=img.shape[1], height=img.shape[0],
-                           nchannel=3)
+    tex = spec.add_texture(
+        name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=img.shape[1], height=img.shape[0], nchannel=3
+    )
     tex.data = np.ascontiguousarray(img).tobytes()
     mat = spec.add_material(name=name)
     mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
@@ -80,8 +82,7 @@ def build_textured_world(seed: int = 0, size_px: int = 320) -> TexturedWorld:
             quat = np.zeros(4)
             mujoco.mju_mat2Quat(quat, rot_z(yaw).ravel())
             pos = [r * np.cos(yaw), r * np.sin(yaw), 1.2]
-            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 1.5, 1.2], pos=pos,
-                          quat=quat, material=mat)
+            body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 1.5, 1.2], pos=pos, quat=quat, material=mat)
     body.add_light(type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL, dir=[0.3, 0.2, -1], pos=[0, 0, 10])
     terrain = Terrain(size_x=40.0, size_y=40.0, heights=np.zeros((5, 5)))
     return TexturedWorld(spec.compile(), WorldTruth(objects=[], terrain=terrain))

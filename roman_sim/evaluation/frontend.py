@@ -1,6 +1,6 @@
 """``FrontEndGrader``: grades a front end frame by frame against the frame's truth.
 
-Definitions are in ``roman_sim.evaluation.frontend_grades``. ``add(frame, masks, observed)``
+Definitions are in ``roman_sim.evaluation.frontend_types``. ``add(frame, masks, observed)``
 has the signature of the mapper's ``on_frame`` hook, so grading runs during mapping for
 whatever segmenter and encoder ran; nothing else in front-end grading reads truth.
 
@@ -23,7 +23,8 @@ from scipy.optimize import linear_sum_assignment
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.seeding import child_rng
-from roman_sim.evaluation.frontend_grades import (
+from roman_sim.core.sensors import Frame, backproject
+from roman_sim.evaluation.frontend_types import (
     CLASSES,
     CosineStats,
     DescriptorGrades,
@@ -31,9 +32,8 @@ from roman_sim.evaluation.frontend_grades import (
     GradeConfig,
     SegmentationGrades,
 )
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import masks_from_labels
-from roman_sim.mapping.segmenter import Mask
-from roman_sim.sensors import Frame, backproject
 
 
 @dataclass
@@ -68,7 +68,8 @@ class GraderPart:
             "yaw": np.array([o.yaw for o in self.obs], dtype=np.float64),
             "frame_robot": np.array([o.frame[0] for o in self.obs], dtype=str),
             "frame_index": np.array([o.frame[1] for o in self.obs], dtype=np.int64),
-            "desc": np.stack([o.desc for o in self.obs]).astype(np.float32) if self.obs
+            "desc": np.stack([o.desc for o in self.obs]).astype(np.float32)
+            if self.obs
             else np.zeros((0, dim), np.float32),
         }
 
@@ -78,14 +79,25 @@ class GraderPart:
         import json
 
         seg = SegmentationGrades.from_json(json.loads(bytes(np.asarray(d["seg"], dtype=np.uint8)).decode()))
-        obs = [_Obs(int(o), str(f), float(y), (str(r), int(i)), np.asarray(v, dtype=np.float32))
-               for o, f, y, r, i, v in zip(d["oid"], d["family"], d["yaw"], d["frame_robot"], d["frame_index"],
-                                           d["desc"])]
+        obs = [
+            _Obs(int(o), str(f), float(y), (str(r), int(i)), np.asarray(v, dtype=np.float32))
+            for o, f, y, r, i, v in zip(d["oid"], d["family"], d["yaw"], d["frame_robot"], d["frame_index"], d["desc"])
+        ]
         return cls(seg, obs, int(np.asarray(d["seen"])[0]))
 
 
-_COUNTS = ("frames", "masks", "graded_masks", "matched", "iou_sum", "objects", "spurious", "over_segmented",
-           "under_segmented", "touching_pairs")
+_COUNTS = (
+    "frames",
+    "masks",
+    "graded_masks",
+    "matched",
+    "iou_sum",
+    "objects",
+    "spurious",
+    "over_segmented",
+    "under_segmented",
+    "touching_pairs",
+)
 _TABLES = ("table_objects", "table_detected", "table_matched", "table_over")
 
 
@@ -99,8 +111,14 @@ class FrontEndGrader:
         seed: seeds the reservoir sampling of observations.
     """
 
-    def __init__(self, families: Mapping[int, str], group_of: Callable[[str], str] | None = None,
-                 cfg: GradeConfig | None = None, seed: int = 0, stream: str | None = None) -> None:
+    def __init__(
+        self,
+        families: Mapping[int, str],
+        group_of: Callable[[str], str] | None = None,
+        cfg: GradeConfig | None = None,
+        seed: int = 0,
+        stream: str | None = None,
+    ) -> None:
         self.cfg = cfg or GradeConfig()
         self.families = dict(families)
         self.group_of = group_of or (lambda f: f)
@@ -109,9 +127,14 @@ class FrontEndGrader:
         def zeros() -> list[list[int]]:
             return [[0] * n_d for _ in range(n_a)]
 
-        self.seg = SegmentationGrades(distance_edges_m=list(self.cfg.distance_edges_m),
-                                      area_edges_frac=list(self.cfg.area_edges_frac), table_objects=zeros(),
-                                      table_detected=zeros(), table_matched=zeros(), table_over=zeros())
+        self.seg = SegmentationGrades(
+            distance_edges_m=list(self.cfg.distance_edges_m),
+            area_edges_frac=list(self.cfg.area_edges_frac),
+            table_objects=zeros(),
+            table_detected=zeros(),
+            table_matched=zeros(),
+            table_over=zeros(),
+        )
         self._obs: list[_Obs] = []
         self._seen = 0
         self._seed = seed
@@ -122,8 +145,13 @@ class FrontEndGrader:
         return GraderPart(self.seg, list(self._obs), self._seen)
 
     @classmethod
-    def from_parts(cls, parts: list[GraderPart], group_of: Callable[[str], str] | None = None,
-                   cfg: GradeConfig | None = None, seed: int = 0) -> FrontEndGrader:
+    def from_parts(
+        cls,
+        parts: list[GraderPart],
+        group_of: Callable[[str], str] | None = None,
+        cfg: GradeConfig | None = None,
+        seed: int = 0,
+    ) -> FrontEndGrader:
         """A grader holding the sum of ``parts`` (in the given order; see the module docstring)."""
         out = cls({}, group_of, cfg, seed)
         s = out.seg
@@ -209,8 +237,15 @@ class FrontEndGrader:
         self._tables(frame, ids, objs, counts, n_belong, matched)
         return owner
 
-    def _tables(self, frame: Frame, ids: NDArray[np.int32], objs: list[int], counts: NDArray[np.int64],
-                n_belong: NDArray[np.int64], matched: NDArray[np.bool_]) -> None:
+    def _tables(
+        self,
+        frame: Frame,
+        ids: NDArray[np.int32],
+        objs: list[int],
+        counts: NDArray[np.int64],
+        n_belong: NDArray[np.int64],
+        matched: NDArray[np.bool_],
+    ) -> None:
         from roman_sim.mapping.mask_noise import adjacent_pairs
 
         depth = np.asarray(frame.depth)
@@ -220,16 +255,21 @@ class FrontEndGrader:
             d = depth[(ids == o) & (depth > 0)]
             dist = float(np.median(d)) if len(d) else np.inf
             di = int(np.searchsorted(self.cfg.distance_edges_m, dist, side="right")) - 1
-            ai = min(int(np.searchsorted(self.cfg.area_edges_frac, counts[o + 1] / A, side="right")) - 1,
-                     len(self.cfg.area_edges_frac) - 2)
+            ai = min(
+                int(np.searchsorted(self.cfg.area_edges_frac, counts[o + 1] / A, side="right")) - 1,
+                len(self.cfg.area_edges_frac) - 2,
+            )
             di = min(max(di, 0), len(self.cfg.distance_edges_m) - 1)
             s.table_objects[ai][di] += 1
             s.table_detected[ai][di] += int(n_belong[j] >= 1)
             s.table_matched[ai][di] += int(matched[j])
             s.table_over[ai][di] += int(n_belong[j] >= 2)
         counted = set(objs)
-        s.touching_pairs += sum(1 for a, b in adjacent_pairs(ids, depth.astype(np.float32), self.cfg.touch_depth_m)
-                                if a in counted and b in counted)
+        s.touching_pairs += sum(
+            1
+            for a, b in adjacent_pairs(ids, depth.astype(np.float32), self.cfg.touch_depth_m)
+            if a in counted and b in counted
+        )
 
     def _keep(self, frame: Frame, m: Mask, oid: int, desc: NDArray[np.float32]) -> None:
         assert frame.truth is not None
@@ -238,8 +278,13 @@ class FrontEndGrader:
         if len(pts) == 0:
             return
         centre = T_world_cam[:3, :3] @ pts.mean(axis=0)
-        obs = _Obs(oid, self.families.get(oid, "unknown"), float(np.arctan2(centre[1], centre[0])),
-                   (frame.robot, int(frame.index)), np.asarray(desc, dtype=np.float32))
+        obs = _Obs(
+            oid,
+            self.families.get(oid, "unknown"),
+            float(np.arctan2(centre[1], centre[0])),
+            (frame.robot, int(frame.index)),
+            np.asarray(desc, dtype=np.float32),
+        )
         self._seen += 1
         if len(self._obs) < self.cfg.max_observations:
             self._obs.append(obs)
@@ -269,8 +314,9 @@ class FrontEndGrader:
         same_f = ~same_i & (fam[i] == fam[j])
         same_g = ~same_i & ~same_f & (grp[i] == grp[j])
         other = ~same_i & ~same_f & ~same_g
-        classes = {name: CosineStats.of(cos[sel], c.cos_bins)
-                   for name, sel in zip(CLASSES, (same_i, same_f, same_g, other))}
+        classes = {
+            name: CosineStats.of(cos[sel], c.cos_bins) for name, sel in zip(CLASSES, (same_i, same_f, same_g, other))
+        }
         dview = np.degrees(np.abs(np.angle(np.exp(1j * (yaw[i] - yaw[j])))))[same_i]
         edges = np.arange(0.0, 180.0 + c.view_step_deg / 2, c.view_step_deg)
         edges[-1] = 180.0

@@ -93,8 +93,10 @@ def _draw_closures(ax: Any, closures: Sequence[ClosureLine]) -> set[str]:
 
 def _legend(ax: Any, robots: dict[str, Any], layers: list[str], closure_kinds: set[str]) -> None:
     handles = [Line2D([], [], color=c, linewidth=2, label=r) for r, c in robots.items()]
-    handles += [Line2D([], [], color="0.3", label=name, **{k: v for k, v in LAYERS[name].items() if k != "alpha"})
-                for name in layers]
+    handles += [
+        Line2D([], [], color="0.3", label=name, **{k: v for k, v in LAYERS[name].items() if k != "alpha"})
+        for name in layers
+    ]
     names = {"intra": "intra-robot closure", "inter": "inter-robot closure"}
     handles += [Line2D([], [], color=c, label=names[k]) for k, c in CLOSURE_COLOURS.items() if k in closure_kinds]
     if "wrong" in closure_kinds:

@@ -10,17 +10,29 @@ from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats
 
 def _stats(s: CurveStats) -> dict[str, Any]:
     """A recall with its count, interval and small-set flag."""
-    return {"max_recall": s.max_recall, "max_hits": s.max_hits, "n_relevant": s.n_relevant,
-            "recall_ci": None if s.recall_ci is None else list(s.recall_ci), "few": s.few}
+    return {
+        "max_recall": s.max_recall,
+        "max_hits": s.max_hits,
+        "n_relevant": s.n_relevant,
+        "recall_ci": None if s.recall_ci is None else list(s.recall_ci),
+        "few": s.few,
+    }
 
 
 def _set(metrics: EvaluationMetrics, method: str, kind: str) -> dict[str, Any]:
     ps = metrics.method(method).set(kind)
     o = ps.overall
-    return {**_stats(o), "n_pairs": o.n_pairs, "recall_at_precision_1": o.recall_at_precision_1,
-            "hits_at_precision_1": o.hits_at_precision_1, "best_f1": o.best_f1, "auc": o.auc,
-            "assoc_precision": o.assoc_precision, "assoc_recall": o.assoc_recall,
-            "bins": {b.label: _stats(b.stats) for b in ps.heading_bins}}
+    return {
+        **_stats(o),
+        "n_pairs": o.n_pairs,
+        "recall_at_precision_1": o.recall_at_precision_1,
+        "hits_at_precision_1": o.hits_at_precision_1,
+        "best_f1": o.best_f1,
+        "auc": o.auc,
+        "assoc_precision": o.assoc_precision,
+        "assoc_recall": o.assoc_recall,
+        "bins": {b.label: _stats(b.stats) for b in ps.heading_bins},
+    }
 
 
 def _weighted_mean(classes: dict[str, Any], names: tuple[str, ...]) -> float | None:
@@ -41,17 +53,30 @@ def frontend_summary(grades: dict[str, Any] | None) -> dict[str, Any] | None:
         return None
     s = grades["segmentation"]
     classes = (grades.get("descriptors") or {}).get("classes") or {}
-    return {"segmenter": grades["segmenter"], "encoder": grades.get("encoder"), "frames": s["frames"],
-            "objects": s["objects"], "masks": s["masks"], "precision": s.get("precision"), "recall": s.get("recall"),
-            "mean_iou": s.get("mean_iou"), "over_segmented": s["over_segmented"],
-            "under_segmented": s["under_segmented"], "spurious": s["spurious"],
-            "cosine_same_instance": _weighted_mean(classes, ("same_instance",)),
-            "cosine_same_family": _weighted_mean(classes, ("same_family",)),
-            "cosine_other_family": _weighted_mean(classes, ("same_group", "other_group"))}
+    return {
+        "segmenter": grades["segmenter"],
+        "encoder": grades.get("encoder"),
+        "frames": s["frames"],
+        "objects": s["objects"],
+        "masks": s["masks"],
+        "precision": s.get("precision"),
+        "recall": s.get("recall"),
+        "mean_iou": s.get("mean_iou"),
+        "over_segmented": s["over_segmented"],
+        "under_segmented": s["under_segmented"],
+        "spurious": s["spurious"],
+        "cosine_same_instance": _weighted_mean(classes, ("same_instance",)),
+        "cosine_same_family": _weighted_mean(classes, ("same_family",)),
+        "cosine_other_family": _weighted_mean(classes, ("same_group", "other_group")),
+    }
 
 
-def compact_summary(metrics: EvaluationMetrics, ate: AteTable | None, map_stats: MapStats | None,
-                    runtimes: dict[str, float | None] | None = None) -> dict[str, Any]:
+def compact_summary(
+    metrics: EvaluationMetrics,
+    ate: AteTable | None,
+    map_stats: MapStats | None,
+    runtimes: dict[str, float | None] | None = None,
+) -> dict[str, Any]:
     """JSON-ready summary of a run.
 
     ``methods[name]`` holds, per pair set (``inter`` cross-robot, ``intra`` same-robot),
@@ -62,15 +87,28 @@ def compact_summary(metrics: EvaluationMetrics, ate: AteTable | None, map_stats:
     front end's grades against truth when the run graded it (``frontend_summary``). Undefined
     values are None.
     """
-    out: dict[str, Any] = {"headline": metrics.headline, "pairs": metrics.pairs, "n_skipped": metrics.n_skipped,
-                           "methods": {}, "ate": {}, "ate_robots": {}, "map": map_stats.to_json() if map_stats else {},
-                           "frontend": frontend_summary(metrics.frontend)}
+    out: dict[str, Any] = {
+        "headline": metrics.headline,
+        "pairs": metrics.pairs,
+        "n_skipped": metrics.n_skipped,
+        "methods": {},
+        "ate": {},
+        "ate_robots": {},
+        "map": map_stats.to_json() if map_stats else {},
+        "frontend": frontend_summary(metrics.frontend),
+    }
     for name in metrics.methods:
-        out["methods"][name] = {"inter": _set(metrics, name, "inter"), "intra": _set(metrics, name, "intra"),
-                                "runtime_median_s": (runtimes or {}).get(name)}
+        out["methods"][name] = {
+            "inter": _set(metrics, name, "inter"),
+            "intra": _set(metrics, name, "intra"),
+            "runtime_median_s": (runtimes or {}).get(name),
+        }
     if ate is not None and ate.variants:
         out["ate_robots"] = {"robots": list(ate.robots), "common": list(ate.common)}
         for variant, row in ate.variants.items():
-            out["ate"][variant] = {"connected": len(row.connected), "common": ate.rmse(variant, "se3", COMMON),
-                                   "all": ate.rmse(variant, "se3", ALL)}
+            out["ate"][variant] = {
+                "connected": len(row.connected),
+                "common": ate.rmse(variant, "se3", COMMON),
+                "all": ate.rmse(variant, "se3", ALL),
+            }
     return out

@@ -1,4 +1,4 @@
-"""Re-train the shipped ORB vocabulary: ``python -m roman_sim.align.visual.train [--out PATH] [--check]``.
+"""Re-train the shipped ORB vocabulary: ``python -m roman_sim.studies.vocabulary [--out PATH] [--check]``.
 
 Training frames come from worlds no evaluation uses: every world preset at its own seed
 (9101 + preset index, far from the scenarios' seeds), textured, each under another
@@ -35,8 +35,12 @@ log = logging.getLogger(__name__)
 
 #: (preset, seed, lighting preset) of the training worlds.
 TRAINING_WORLDS: tuple[tuple[str, int, str], ...] = (
-    ("forest", 9101, "noon"), ("orchard", 9102, "morning"), ("park", 9103, "evening"), ("suburb", 9104, "overcast"),
-    ("offroad", 9105, "random"), ("parking", 9106, "noon"),
+    ("forest", 9101, "noon"),
+    ("orchard", 9102, "morning"),
+    ("park", 9103, "evening"),
+    ("suburb", 9104, "overcast"),
+    ("offroad", 9105, "random"),
+    ("parking", 9106, "noon"),
 )
 K, L, SEED = 10, 4, 0
 
@@ -55,8 +59,11 @@ def training_images(frames_per_world: int = 60, frame_every: int = 6) -> list[ND
         spec = load_world_spec(preset)
         spec = spec.model_copy(update={"appearance": AppearanceSpec(textures=True, lighting=lighting)})
         world = generate(spec, seed)
-        cfg = RobotConfig(name="vocabulary", path=PathConfig(kind="loop", radius_m=12.0),
-                          max_length_m=frames_per_world * frame_every / 6.0 + 1.0)
+        cfg = RobotConfig(
+            name="vocabulary",
+            path=PathConfig(kind="loop", radius_m=12.0),
+            max_length_m=frames_per_world * frame_every / 6.0 + 1.0,
+        )
         traj = robot_trajectory(world, cfg, seed)
         taken = 0
         for i, frame in enumerate(render_trajectory(world, cfg, seed, traj)):

@@ -24,8 +24,8 @@ from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_bytes
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import make_T, transform_points
 from roman_sim.core.glrender import offscreen_renderer
-from roman_sim.geometry import make_T, transform_points
 from roman_sim.mapping.types import Submap
 
 log = logging.getLogger(__name__)
@@ -105,8 +105,12 @@ def _camera_pose(points: NDArray[np.float64], elevation_deg: float, fov: float) 
 
 
 def render_map(
-    submaps: list[Submap], frame: MapFrame = "world", width: int = 640, height: int = 480,
-    elevation_deg: float = 60.0, max_points_per_segment: int = 100,
+    submaps: list[Submap],
+    frame: MapFrame = "world",
+    width: int = 640,
+    height: int = 480,
+    elevation_deg: float = 60.0,
+    max_points_per_segment: int = 100,
 ) -> NDArray[np.uint8]:
     """Render the segments of ``submaps`` to an (height, width, 3) RGB image.
 

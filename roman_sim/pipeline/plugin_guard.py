@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from roman_sim.core.errors import PluginError
-from roman_sim.core.plugins import check_result
 from roman_sim.core.registry import one_line
+from roman_sim.pipeline.plugins import check_result
 
 
 def is_plugin(name: Any) -> bool:

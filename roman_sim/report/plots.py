@@ -90,8 +90,7 @@ def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None
     fig = figure(4.2 * len(bins), 4.0, ncols=len(bins))
     for ax, i in zip(fig.axes, bins):
         b = first.heading_bins[i]  # type: ignore[union-attr]
-        _pr_axes(ax, {m: s.heading_pr[i] for m, s in sets.items()},
-                 f"{b.label} deg ({b.stats.n_relevant} relevant)")
+        _pr_axes(ax, {m: s.heading_pr[i] for m, s in sets.items()}, f"{b.label} deg ({b.stats.n_relevant} relevant)")
     fig.suptitle(f"Precision-recall over k per heading bin, {PAIR_SET_LABELS[kind]} pairs", fontsize=10)
     return save_png(fig, path)
 
@@ -130,8 +129,15 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
             if ci is not None and not small:
                 ax.errorbar(p, v, yerr=[[v - ci[0]], [ci[1] - v]], fmt="none", ecolor="black", capsize=2, lw=0.8)
             top = v if ci is None or small else ci[1]
-            ax.text(p, top + 0.03, f"{k}/{n}" + (f" n<{min_n}" if small else ""), ha="center", va="bottom",
-                    fontsize=6, rotation=90)
+            ax.text(
+                p,
+                top + 0.03,
+                f"{k}/{n}" + (f" n<{min_n}" if small else ""),
+                ha="center",
+                va="bottom",
+                fontsize=6,
+                rotation=90,
+            )
     ax.set_xticks(x, labels)
     ax.set_xlim(-0.5, len(labels) - 0.5)
     ax.set_ylim(0, 1.35)
@@ -139,8 +145,13 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
     ax.set_ylabel(ylabel)
     ax.grid(axis="y", alpha=0.3)
     if names:
-        ax.legend([Patch(color=f"C{i}") for i in range(len(names))], names, fontsize=7, loc="upper left",
-                  ncols=min(len(names), 4))
+        ax.legend(
+            [Patch(color=f"C{i}") for i in range(len(names))],
+            names,
+            fontsize=7,
+            loc="upper left",
+            ncols=min(len(names), 4),
+        )
 
 
 def _with_data(rows: dict[str, list[BinStats]], get: Getter) -> int:
@@ -159,8 +170,11 @@ def plot_heading_recall(metrics: EvaluationMetrics, path: str | Path, fine: bool
         return None
     n_bins = len(next(iter(per_kind[kinds[0]].values())))
     fig = figure(max(6.0, 0.35 * n_bins * len(metrics.methods) + 2.0), 3.8 * len(kinds), nrows=len(kinds))
-    fig.suptitle(f"Max recall per heading bin (95 % Wilson intervals; hatched: fewer than "
-                 f"{metrics.config['min_relevant']} relevant pairs)", fontsize=9)
+    fig.suptitle(
+        f"Max recall per heading bin (95 % Wilson intervals; hatched: fewer than "
+        f"{metrics.config['min_relevant']} relevant pairs)",
+        fontsize=9,
+    )
     for ax, k in zip(fig.axes, kinds):
         _bars(ax, per_kind[k], _recall, int(metrics.config["min_relevant"]), "max recall")
         ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[k]} pairs: max recall, hits/relevant")
@@ -184,11 +198,19 @@ def plot_ambiguity_recall(metrics: EvaluationMetrics, path: str | Path) -> Path 
             err = np.array([[v - s.recall_ci[0], s.recall_ci[1] - v] for v, (_, s) in zip(y, big)]).T  # type: ignore[index]
             ax.errorbar([x for x, _ in big], y, yerr=err, marker="o", capsize=2, color=f"C{i}", label=name)
         small = [(x, s) for x, s in pts if s.few]
-        ax.scatter([x for x, _ in small], [float(s.max_recall or 0.0) for _, s in small], facecolors="none",
-                   edgecolors=f"C{i}",
-                   label=f"{name}, < {min_n} relevant" if small else None)
-    ax.set(xlabel="place ambiguity", ylabel="max recall", ylim=(0, 1.05),
-           title=f"Recall against ambiguity, {PAIR_SET_LABELS[kind]} (95 % Wilson)")
+        ax.scatter(
+            [x for x, _ in small],
+            [float(s.max_recall or 0.0) for _, s in small],
+            facecolors="none",
+            edgecolors=f"C{i}",
+            label=f"{name}, < {min_n} relevant" if small else None,
+        )
+    ax.set(
+        xlabel="place ambiguity",
+        ylabel="max recall",
+        ylim=(0, 1.05),
+        title=f"Recall against ambiguity, {PAIR_SET_LABELS[kind]} (95 % Wilson)",
+    )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
     return save_png(fig, path)
@@ -201,8 +223,10 @@ def plot_association(metrics: EvaluationMetrics, path: str | Path) -> Path | Non
     if _with_data(rows, _assoc_recall) < 2:
         return None
     fig = figure(max(6.0, 0.35 * 3 * len(rows) + 2.0) * 2, 4.0, ncols=2)
-    for ax, get, what in ((fig.axes[0], _assoc_precision, "precision (correct/selected)"),
-                          (fig.axes[1], _assoc_recall, "recall (recovered/available)")):
+    for ax, get, what in (
+        (fig.axes[0], _assoc_precision, "precision (correct/selected)"),
+        (fig.axes[1], _assoc_recall, "recall (recovered/available)"),
+    ):
         _bars(ax, rows, get, 1, f"association {what.split()[0]}")
         ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[kind]}: association {what}")
     return save_png(fig, path)
@@ -213,8 +237,10 @@ METRIC_PLOTS: dict[str, tuple[Callable[[EvaluationMetrics, Path], Path | None], 
     "precision_recall.png": (plot_pr, "a precision-recall curve with two points"),
     "precision_recall_heading.png": (plot_pr_heading, "two heading bins with relevant pairs"),
     "recall_heading.png": (plot_heading_recall, "two heading bins with relevant pairs"),
-    "recall_heading_fine.png": (lambda m, p: plot_heading_recall(m, p, fine=True),
-                                "two fine heading bins with relevant pairs"),
+    "recall_heading_fine.png": (
+        lambda m, p: plot_heading_recall(m, p, fine=True),
+        "two fine heading bins with relevant pairs",
+    ),
     "recall_ambiguity.png": (plot_ambiguity_recall, "two ambiguity bins with relevant pairs"),
     "association_heading.png": (plot_association, "two heading bins with true correspondences"),
 }

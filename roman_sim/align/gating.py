@@ -67,8 +67,10 @@ def gate_pairs(pairs: list[tuple[Submap, Submap]], cfg: GatingConfig) -> tuple[l
         return [True] * len(pairs), [float("nan")] * len(pairs)
     names = sorted({s.name for ab in pairs for s in ab})
     subs = {s.name: s for ab in pairs for s in ab}
-    dim = max((subs[n].descriptors.shape[1] for n in names if subs[n].descriptors.ndim == 2
-               and len(subs[n].segment_ids)), default=0)
+    dim = max(
+        (subs[n].descriptors.shape[1] for n in names if subs[n].descriptors.ndim == 2 and len(subs[n].segment_ids)),
+        default=0,
+    )
     desc = {n: submap_descriptor(subs[n], cfg, dim) for n in names}
     sims = [float(np.dot(desc[a.name], desc[b.name])) for a, b in pairs]
     keep = [cfg.min_similarity is not None and s >= cfg.min_similarity for s in sims]

@@ -31,8 +31,15 @@ def fmt(v: Any, digits: int = 3) -> str:
     return str(v)
 
 
-def rate_cell(rate: float | None, k: int, n: int, ci: tuple[float, float] | None, min_n: int = 1,
-              digits: int = 2, interval: bool = True) -> str:
+def rate_cell(
+    rate: float | None,
+    k: int,
+    n: int,
+    ci: tuple[float, float] | None,
+    min_n: int = 1,
+    digits: int = 2,
+    interval: bool = True,
+) -> str:
     """``rate (k/n) [lo, hi]``; ``n<min_n: k/n`` for small sets; ``n/a`` when ``n == 0``."""
     if n == 0 or rate is None:
         return NA
@@ -57,11 +64,22 @@ def summary_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -
         ps = m.set(kind)
         o = ps.overall
         f1 = fmt(o.best_f1) + (f" (k={o.best_f1_k})" if o.best_f1_k is not None else "")
-        row = {"method": name, "pairs": fmt(o.n_pairs), "relevant": fmt(o.n_relevant),
-               "max recall": recall_cell(o, min_n, interval),
-               "recall@P=1": rate_cell(o.recall_at_precision_1, o.hits_at_precision_1, o.n_relevant,
-                                       o.recall_at_precision_1_ci, min_n, interval=interval),
-               "best F1": f1, "AUC": fmt(o.auc)}
+        row = {
+            "method": name,
+            "pairs": fmt(o.n_pairs),
+            "relevant": fmt(o.n_relevant),
+            "max recall": recall_cell(o, min_n, interval),
+            "recall@P=1": rate_cell(
+                o.recall_at_precision_1,
+                o.hits_at_precision_1,
+                o.n_relevant,
+                o.recall_at_precision_1_ci,
+                min_n,
+                interval=interval,
+            ),
+            "best F1": f1,
+            "AUC": fmt(o.auc),
+        }
         for b in ps.heading_bins:
             row[f"{b.label} deg"] = recall_cell(b.stats, min_n, interval)
         rows.append(row)
@@ -71,8 +89,10 @@ def summary_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -
 def bin_rows(metrics: EvaluationMetrics, kind: str, table: str) -> list[dict[str, str]]:
     """Max recall per bin (``heading_bins_fine`` or ``ambiguity_bins``) per method, with counts."""
     min_n = int(metrics.config.get("min_relevant", 5))
-    return [{"method": name, **{b.label: recall_cell(b.stats, min_n, interval=False)
-                                for b in getattr(m.set(kind), table)}} for name, m in metrics.methods.items()]
+    return [
+        {"method": name, **{b.label: recall_cell(b.stats, min_n, interval=False) for b in getattr(m.set(kind), table)}}
+        for name, m in metrics.methods.items()
+    ]
 
 
 def association_rows(metrics: EvaluationMetrics, kind: str) -> list[dict[str, str]]:
@@ -97,9 +117,12 @@ def ate_rows(ate: AteTable, alignment: str = "se3") -> list[dict[str, str]]:
     rows = []
     for name, v in ate.variants.items():
         cells = v.rmse.get(alignment, {})
-        row = {"trajectory": name, "robots placed": f"{len(v.connected)}/{n}",
-               f"ATE {common} (common)": fmt(cells.get(COMMON)),
-               f"ATE over all {n} robots": fmt(cells.get(ALL)) if len(v.connected) == n else NOT_CONNECTED}
+        row = {
+            "trajectory": name,
+            "robots placed": f"{len(v.connected)}/{n}",
+            f"ATE {common} (common)": fmt(cells.get(COMMON)),
+            f"ATE over all {n} robots": fmt(cells.get(ALL)) if len(v.connected) == n else NOT_CONNECTED,
+        }
         for r in ate.robots:
             row[r] = fmt(cells.get(r)) if r in v.connected else NOT_CONNECTED
         rows.append(row)

@@ -17,15 +17,15 @@ import pytest
 from roman_sim.align.base import AlignResult
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.errors import ConfigError, PluginError
-from roman_sim.core.plugin_guard import guard_aligner, guard_frontend
-from roman_sim.core.plugins import load_plugin
 from roman_sim.mapping import synthetic
+from roman_sim.pipeline.plugin_guard import guard_aligner, guard_frontend
+from roman_sim.pipeline.plugins import load_plugin
 
 MODULE = "roman_user_plugins_t"
-SOURCE = '''
+SOURCE = """
 import numpy as np
 from roman_sim.align.base import AlignResult
-from roman_sim.mapping.segmenter import Mask
+from roman_sim.mapping.mask import Mask
 
 class RaisesInInit:
     name = "x"
@@ -111,7 +111,7 @@ class GrowingEncoder:
     def encode(self, crop, mask, ctx):
         self.n += 1
         return np.ones(self.n) / np.sqrt(self.n)
-'''
+"""
 
 
 @pytest.fixture(scope="module")
@@ -134,36 +134,54 @@ def _fails(path: str, kind: str, **kw: object) -> str:
     return msg
 
 
-@pytest.mark.parametrize(("name", "kind", "expect"), [
-    ("plug_syntax:X", "aligner", "aligner 'plug_syntax:X': importing 'plug_syntax' raised SyntaxError: invalid syntax"),
-    ("plug_raises:X", "segmenter", "importing 'plug_raises' raised RuntimeError: boom while importing"),
-    ("plug_missing_dep:X", "encoder", "cannot import 'plug_missing_dep': No module named 'no_such_dependency_xyz'"),
-    ("no_such_plugin_pkg:X", "aligner", "cannot import 'no_such_plugin_pkg'"),
-    (f"{MODULE}:Nope", "aligner", f"{MODULE!r} has no attribute 'Nope'"),
-    (MODULE, "aligner", "expected package.module:Name"),
-    (f"{MODULE}:RaisesInInit", "aligner", "RaisesInInit() raised RuntimeError: no GPU here"),
-    (f"{MODULE}:NoAlign", "aligner", "NoAlign has no method 'align'; an aligner has a 'name' and align(a, b)"),
-    (f"{MODULE}:NoName", "aligner", "needs a non-empty string attribute 'name' (got None)"),
-    (f"{MODULE}:ReturnsNone", "aligner", "align(a, b) returned None, expected an AlignResult"),
-    (f"{MODULE}:ReturnsDict", "aligner", "align(a, b) returned a dict, expected an AlignResult"),
-    (f"{MODULE}:ReturnsStr", "aligner", "align(a, b) returned a str ('fine'), expected an AlignResult"),
-    (f"{MODULE}:Divides", "aligner", "the check on two synthetic submaps raised ZeroDivisionError: division by zero"),
-    (f"{MODULE}:NanPose", "aligner", "AlignResult.T_a_b is a float64 array of shape (4, 4), expected None or a finite"),
-    (f"{MODULE}:OutOfRange", "aligner", "associations index segments outside the submaps"),
-    (f"{MODULE}:ReturnsNone", "segmenter", "segment(frame) returned None, expected a list of Mask"),
-    (f"{MODULE}:ReturnsDict", "segmenter", "segment(frame) returned a dict, expected a list of Mask"),
-    (f"{MODULE}:ReturnsStr", "segmenter", "segment(frame) returned a str ('fine'), expected a list of Mask"),
-    (f"{MODULE}:ArraySegmenter", "segmenter", "item 0 is a bool array of shape (48, 64), expected a Mask"),
-    (f"{MODULE}:WrongShape", "segmenter",
-     "mask 0 is a bool array of shape (3, 3), expected a bool array of the frame's"),
-    (f"{MODULE}:Divides", "segmenter", "the check on a synthetic 64 x 48 frame raised ZeroDivisionError"),
-    (f"{MODULE}:ReturnsNone", "encoder", "encode(...) returned None, expected a unit float vector"),
-    (f"{MODULE}:ReturnsDict", "encoder", "encode(...) returned a dict, expected a unit float vector"),
-    (f"{MODULE}:ReturnsStr", "encoder", "encode(...) returned a str ('fine'), expected a unit float vector"),
-    (f"{MODULE}:NotUnit", "encoder", "returned a vector of norm 2.828, expected a unit vector"),
-    (f"{MODULE}:NanVector", "encoder", "returned a vector with NaN or infinite entries"),
-    (f"{MODULE}:Good", "planner", "plug-in kind 'planner' unknown (valid: aligner, segmenter, encoder)"),
-])
+@pytest.mark.parametrize(
+    ("name", "kind", "expect"),
+    [
+        (
+            "plug_syntax:X",
+            "aligner",
+            "aligner 'plug_syntax:X': importing 'plug_syntax' raised SyntaxError: invalid syntax",
+        ),
+        ("plug_raises:X", "segmenter", "importing 'plug_raises' raised RuntimeError: boom while importing"),
+        ("plug_missing_dep:X", "encoder", "cannot import 'plug_missing_dep': No module named 'no_such_dependency_xyz'"),
+        ("no_such_plugin_pkg:X", "aligner", "cannot import 'no_such_plugin_pkg'"),
+        (f"{MODULE}:Nope", "aligner", f"{MODULE!r} has no attribute 'Nope'"),
+        (MODULE, "aligner", "expected package.module:Name"),
+        (f"{MODULE}:RaisesInInit", "aligner", "RaisesInInit() raised RuntimeError: no GPU here"),
+        (f"{MODULE}:NoAlign", "aligner", "NoAlign has no method 'align'; an aligner has a 'name' and align(a, b)"),
+        (f"{MODULE}:NoName", "aligner", "needs a non-empty string attribute 'name' (got None)"),
+        (f"{MODULE}:ReturnsNone", "aligner", "align(a, b) returned None, expected an AlignResult"),
+        (f"{MODULE}:ReturnsDict", "aligner", "align(a, b) returned a dict, expected an AlignResult"),
+        (f"{MODULE}:ReturnsStr", "aligner", "align(a, b) returned a str ('fine'), expected an AlignResult"),
+        (
+            f"{MODULE}:Divides",
+            "aligner",
+            "the check on two synthetic submaps raised ZeroDivisionError: division by zero",
+        ),
+        (
+            f"{MODULE}:NanPose",
+            "aligner",
+            "AlignResult.T_a_b is a float64 array of shape (4, 4), expected None or a finite",
+        ),
+        (f"{MODULE}:OutOfRange", "aligner", "associations index segments outside the submaps"),
+        (f"{MODULE}:ReturnsNone", "segmenter", "segment(frame) returned None, expected a list of Mask"),
+        (f"{MODULE}:ReturnsDict", "segmenter", "segment(frame) returned a dict, expected a list of Mask"),
+        (f"{MODULE}:ReturnsStr", "segmenter", "segment(frame) returned a str ('fine'), expected a list of Mask"),
+        (f"{MODULE}:ArraySegmenter", "segmenter", "item 0 is a bool array of shape (48, 64), expected a Mask"),
+        (
+            f"{MODULE}:WrongShape",
+            "segmenter",
+            "mask 0 is a bool array of shape (3, 3), expected a bool array of the frame's",
+        ),
+        (f"{MODULE}:Divides", "segmenter", "the check on a synthetic 64 x 48 frame raised ZeroDivisionError"),
+        (f"{MODULE}:ReturnsNone", "encoder", "encode(...) returned None, expected a unit float vector"),
+        (f"{MODULE}:ReturnsDict", "encoder", "encode(...) returned a dict, expected a unit float vector"),
+        (f"{MODULE}:ReturnsStr", "encoder", "encode(...) returned a str ('fine'), expected a unit float vector"),
+        (f"{MODULE}:NotUnit", "encoder", "returned a vector of norm 2.828, expected a unit vector"),
+        (f"{MODULE}:NanVector", "encoder", "returned a vector with NaN or infinite entries"),
+        (f"{MODULE}:Good", "planner", "plug-in kind 'planner' unknown (valid: aligner, segmenter, encoder)"),
+    ],
+)
 def test_broken_plugins_fail_in_one_line(plugin_dir: Path, name: str, kind: str, expect: str) -> None:
     msg = _fails(name, kind)
     assert expect in msg, msg
@@ -184,12 +202,15 @@ def test_rgb_free_runs_are_checked_like_the_run(plugin_dir: Path) -> None:
     assert "raised AttributeError" in msg
 
 
-@pytest.mark.parametrize(("name", "kind"), [
-    ("examples.mutual_nn_aligner:MutualNNAligner", "aligner"),
-    ("roman_sim.examples.depth_segmenter:DepthEdgeSegmenter", "segmenter"),
-    ("roman_sim.examples.depth_segmenter:ShapeEncoder", "encoder"),
-    (f"{MODULE}:GoodSegmenter", "segmenter"),
-])
+@pytest.mark.parametrize(
+    ("name", "kind"),
+    [
+        ("examples.mutual_nn_aligner:MutualNNAligner", "aligner"),
+        ("roman_sim.examples.depth_segmenter:DepthEdgeSegmenter", "segmenter"),
+        ("roman_sim.examples.depth_segmenter:ShapeEncoder", "encoder"),
+        (f"{MODULE}:GoodSegmenter", "segmenter"),
+    ],
+)
 def test_working_plugins_pass(plugin_dir: Path, monkeypatch: pytest.MonkeyPatch, name: str, kind: str) -> None:
     monkeypatch.chdir(Path(__file__).resolve().parents[2])  # the repository root: examples/ links the package's
     assert hasattr(load_plugin(name, kind), {"aligner": "align", "segmenter": "segment", "encoder": "encode"}[kind])
@@ -232,28 +253,34 @@ def test_guarded_frontend_names_the_frame(plugin_dir: Path) -> None:
     seg, enc = guard_frontend(build_segmenter("perfect"), "perfect", Divides(), "m:Divides")
     with pytest.raises(PluginError) as e:
         Mapper(MappingConfig(), seg, enc).process(frames[0])
-    assert str(e.value) == ("encoder 'm:Divides' failed on a mask of frame 0 of robot a: "
-                            "ZeroDivisionError: division by zero")
+    assert str(e.value) == (
+        "encoder 'm:Divides' failed on a mask of frame 0 of robot a: ZeroDivisionError: division by zero"
+    )
     seg, enc = guard_frontend(Divides(), "m:Divides", None, "simulated")
     with pytest.raises(PluginError, match="segmenter 'm:Divides' failed on frame 0 of robot a: ZeroDivisionError"):
         Mapper(MappingConfig(), seg, enc).process(frames[0])
     seg, enc = guard_frontend(build_segmenter("perfect"), "perfect", GrowingEncoder(), "m:Growing")
-    with pytest.raises(PluginError, match="on a mask of frame 0 of robot a: encode.* returned 6 values, earlier "
-                                          "descriptors had 5"):
+    with pytest.raises(
+        PluginError, match="on a mask of frame 0 of robot a: encode.* returned 6 values, earlier descriptors had 5"
+    ):
         Mapper(MappingConfig(), seg, enc).process(frames[0])
 
 
 def test_module_resolves_from_the_current_folder(tmp_path: Path) -> None:
     """``module:Class`` works from the folder holding the module, without PYTHONPATH or '' on sys.path."""
-    (tmp_path / "my_local_plugin.py").write_text(textwrap.dedent('''
+    (tmp_path / "my_local_plugin.py").write_text(
+        textwrap.dedent("""
         from roman_sim.align.base import AlignResult
         class Local:
             name = "local"
             def align(self, a, b):
                 return AlignResult.failure("local", "no")
-    '''))
-    code = ("import sys; from roman_sim.core.plugins import load_plugin; "
-            "assert '' not in sys.path; print(type(load_plugin('my_local_plugin:Local', 'aligner')).__name__)")
+    """)
+    )
+    code = (
+        "import sys; from roman_sim.pipeline.plugins import load_plugin; "
+        "assert '' not in sys.path; print(type(load_plugin('my_local_plugin:Local', 'aligner')).__name__)"
+    )
     env = {"PYTHONPATH": str(Path(__file__).resolve().parents[2]), "PATH": "", "MUJOCO_GL": "egl"}
     out = subprocess.run([sys.executable, "-P", "-c", code], cwd=tmp_path, env=env, capture_output=True, text=True)
     assert out.returncode == 0, out.stderr
@@ -261,7 +288,7 @@ def test_module_resolves_from_the_current_folder(tmp_path: Path) -> None:
 
 
 def test_dry_inputs_are_small_and_public() -> None:
-    from roman_sim.core.plugins import _dry_frame, _dry_submaps
+    from roman_sim.pipeline.plugins import _dry_frame, _dry_submaps
 
     a, b = _dry_submaps(16)
     assert a.truth is None and b.truth is None and a.descriptors.shape[1] == 16

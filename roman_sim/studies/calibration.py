@@ -18,15 +18,15 @@ from typing import Any
 
 import yaml
 
-from roman_sim.evaluation.frontend_grader import FrontEndGrader
-from roman_sim.evaluation.frontend_grades import DescriptorGrades, GradeConfig, SegmentationGrades
+from roman_sim.core.sensors import Frame
+from roman_sim.evaluation.frontend import FrontEndGrader
+from roman_sim.evaluation.frontend_types import DescriptorGrades, GradeConfig, SegmentationGrades
 from roman_sim.mapping.calibrate import fit_segmenter, fit_semantics
 from roman_sim.mapping.frontend import FrontEnd, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.observation import observe_indexed
 from roman_sim.mapping.segmenter import SegmenterConfig, SimulatedSegmenter
 from roman_sim.mapping.semantics import SemanticConfig
 from roman_sim.mapping.tracker import MappingConfig
-from roman_sim.sensors import Frame
 
 log = logging.getLogger(__name__)
 
@@ -69,8 +69,9 @@ def grade_segmenter(data: CalibrationFrames, segmenter: Any, cfg: GradeConfig | 
     return grader.seg
 
 
-def grade_encoder(data: CalibrationFrames, encoder: Any, semantics: SemanticConfig,
-                  cfg: GradeConfig | None = None) -> DescriptorGrades | None:
+def grade_encoder(
+    data: CalibrationFrames, encoder: Any, semantics: SemanticConfig, cfg: GradeConfig | None = None
+) -> DescriptorGrades | None:
     """Descriptor grades of ``encoder`` on the true instance masks of the frames."""
     grader = FrontEndGrader(data.families, semantics.group_of, cfg=cfg, seed=data.seed)
     perfect = build_segmenter("perfect", data.seed)
@@ -111,10 +112,17 @@ class Calibration:
         return out
 
 
-def calibrate(data: CalibrationFrames, frontend: FrontEnd, encoder: bool = True, segmenter: bool = True,
-              iterations: int = 4, prior_semantics: SemanticConfig | None = None,
-              prior_segmenter: SegmenterConfig | None = None, target_encoder: Any = None,
-              target_segmenter: Any = None) -> Calibration:
+def calibrate(
+    data: CalibrationFrames,
+    frontend: FrontEnd,
+    encoder: bool = True,
+    segmenter: bool = True,
+    iterations: int = 4,
+    prior_semantics: SemanticConfig | None = None,
+    prior_segmenter: SegmenterConfig | None = None,
+    target_encoder: Any = None,
+    target_segmenter: Any = None,
+) -> Calibration:
     """Measure ``frontend``'s encoder and/or segmenter on ``data`` and fit the simulated ones to them.
 
     Args:
@@ -133,8 +141,9 @@ def calibrate(data: CalibrationFrames, frontend: FrontEnd, encoder: bool = True,
     out = Calibration()
     seed = data.seed
     if encoder:
-        target = target_encoder or build_encoder(frontend, seed, "calibration",
-                                                 data.families if encoder_spec(frontend.encoder).reads_truth else None)
+        target = target_encoder or build_encoder(
+            frontend, seed, "calibration", data.families if encoder_spec(frontend.encoder).reads_truth else None
+        )
         out.measured_descriptors = grade_encoder(data, target, frontend.semantics)
         if out.measured_descriptors is not None:
             prior = prior_semantics or SemanticConfig(groups=frontend.semantics.groups)
@@ -148,8 +157,9 @@ def calibrate(data: CalibrationFrames, frontend: FrontEnd, encoder: bool = True,
         def grade(cfg: SegmenterConfig) -> SegmentationGrades:
             return grade_segmenter(data, SimulatedSegmenter(cfg, seed + 1))
 
-        out.segmenter = fit_segmenter(out.measured_segmentation, grade, prior_segmenter or _prior(frontend.segmenter),
-                                      iterations)
+        out.segmenter = fit_segmenter(
+            out.measured_segmentation, grade, prior_segmenter or _prior(frontend.segmenter), iterations
+        )
         out.fitted_segmentation = grade(out.segmenter)
     return out
 

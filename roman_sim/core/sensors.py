@@ -107,8 +107,9 @@ def check_frame(frame: Frame) -> None:
     if depth.shape != shape:
         raise MappingError(f"frame {frame.index}: depth shape {depth.shape} does not match intrinsics {shape}")
     if frame.rgb is not None and np.asarray(frame.rgb).shape != (*shape, 3):
-        raise MappingError(f"frame {frame.index}: rgb shape {np.asarray(frame.rgb).shape} does not match "
-                           f"intrinsics {shape} x 3")
+        raise MappingError(
+            f"frame {frame.index}: rgb shape {np.asarray(frame.rgb).shape} does not match intrinsics {shape} x 3"
+        )
     poses = {"T_odom_body": frame.T_odom_body, "T_body_cam": frame.T_body_cam}
     if frame.truth is not None:
         if frame.truth.object_ids is not None and np.asarray(frame.truth.object_ids).shape != shape:
@@ -158,9 +159,7 @@ def project(K: ArrayLike, pts_cam: ArrayLike) -> tuple[NDArray[np.float64], NDAr
     return uv, front
 
 
-def backproject(
-    depth: ArrayLike, intrinsics: Intrinsics, mask: ArrayLike | None = None
-) -> NDArray[np.float64]:
+def backproject(depth: ArrayLike, intrinsics: Intrinsics, mask: ArrayLike | None = None) -> NDArray[np.float64]:
     """Back-project valid depth pixels (depth > 0, and inside ``mask``) to camera points.
 
     Args:
@@ -188,9 +187,7 @@ def backproject(
     return np.column_stack([x, y, z])
 
 
-def backproject_pixels(
-    uv: ArrayLike, z: ArrayLike, intrinsics: Intrinsics
-) -> NDArray[np.float64]:
+def backproject_pixels(uv: ArrayLike, z: ArrayLike, intrinsics: Intrinsics) -> NDArray[np.float64]:
     """Back-project pixels ``uv`` (N, 2) (column, row; any sub-pixel position) at depths ``z`` (N,).
 
     Same convention as ``backproject``: ``x = (u - cx) z / fx``, ``y = (v - cy) z / fy``.

@@ -26,14 +26,19 @@ from typing import Any
 
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
-from roman_sim.pipeline.claims import PAPER, claims, claims_markdown, comparison, sweep_markdown, table_markdown
-from roman_sim.pipeline.reference_tables import frontends, frontends_markdown, table1, table1_markdown
+from roman_sim.studies.claims import PAPER, claims, claims_markdown, comparison, sweep_markdown, table_markdown
+from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
 
 log = logging.getLogger(__name__)
 
 PAPER_SCENARIOS = [
-    "same_direction", "partial_opposite", "opposite_direction", "heading_sweep",
-    "multi_robot_tunnel", "multi_robot_hybrid", "multi_robot_outdoor",
+    "same_direction",
+    "partial_opposite",
+    "opposite_direction",
+    "heading_sweep",
+    "multi_robot_tunnel",
+    "multi_robot_hybrid",
+    "multi_robot_outdoor",
     "opposite_direction_pixels",  # the opposite-direction scenario with the image front end
 ]
 #: Paper-sized multi-robot scenarios (6-8 robots, about 1 km each; tens of minutes each), run on request:
@@ -43,8 +48,15 @@ SMALL_FILES = ("ate.json", "report.md", "config.yaml", "posegraph.json", "map_st
 #: Raw data kept compressed (the pairs table, each method's estimates).
 RAW_FILES = ("pairs.csv", "alignments.json")
 #: Plots kept (with the pose graph method's example alignments); the others are redrawn by any run.
-KEPT_PLOTS = ("recall_heading.png", "precision_recall.png", "precision_recall_heading.png", "association_heading.png",
-              "recall_ambiguity.png", "trajectories.png", "segments_on_image.png")
+KEPT_PLOTS = (
+    "recall_heading.png",
+    "precision_recall.png",
+    "precision_recall_heading.png",
+    "association_heading.png",
+    "recall_ambiguity.png",
+    "trajectories.png",
+    "segments_on_image.png",
+)
 #: The sweep run with the paper's scenarios: recall against the ambiguity knob.
 AMBIGUITY_SWEEP = "sweeps/ambiguity_sweep.yaml"
 AMBIGUITY_KEY = "world.overrides.ambiguity"
@@ -72,8 +84,7 @@ def _report_without(text: str, missing: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True,
-            alignments: bool = True) -> None:
+def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True, alignments: bool = True) -> None:
     """Copy a run's small results and its raw data (gzip) into ``dest``.
 
     ``metrics.json`` is written without indentation; ``timings.json`` without its per-pair
@@ -85,8 +96,9 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
     for name in SMALL_FILES:
         if (run_dir / name).is_file() and name != "report.md":
             shutil.copyfile(run_dir / name, dest / name)
-    write_text(dest / "metrics.json", json.dumps(_json(run_dir / "metrics.json"), sort_keys=True,
-                                                 separators=(",", ":")) + "\n")
+    write_text(
+        dest / "metrics.json", json.dumps(_json(run_dir / "metrics.json"), sort_keys=True, separators=(",", ":")) + "\n"
+    )
     if (run_dir / "timings.json").is_file():
         write_json(dest / "timings.json", _timings_summary(run_dir / "timings.json"))
     for name in RAW_FILES:
@@ -160,10 +172,19 @@ def reproduce(
 
 def _sweep_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """Cross-robot overall rows of a sweep summary, per ambiguity knob and method."""
-    return [{"ambiguity": float(r[AMBIGUITY_KEY]), "method": r["method"], "recall": r["pooled_recall"],
-             "hits": r["hits"], "relevant": r["relevant"],
-             "ci": None if r["wilson_low"] is None else [r["wilson_low"], r["wilson_high"]], "n_seeds": r["n_seeds"]}
-            for r in rows if r["kind"] == "inter" and r["bin"] == "all"]
+    return [
+        {
+            "ambiguity": float(r[AMBIGUITY_KEY]),
+            "method": r["method"],
+            "recall": r["pooled_recall"],
+            "hits": r["hits"],
+            "relevant": r["relevant"],
+            "ci": None if r["wilson_low"] is None else [r["wilson_low"], r["wilson_high"]],
+            "n_seeds": r["n_seeds"],
+        }
+        for r in rows
+        if r["kind"] == "inter" and r["bin"] == "all"
+    ]
 
 
 def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> list[dict[str, Any]]:
@@ -227,8 +248,15 @@ def _committed_sweep(d: Path) -> list[dict[str, Any]]:
 def build_summary(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> dict[str, Any]:
     """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the claims,
     the sweep rows."""
-    return {"runs": runs, "comparison": comparison(runs), "table1": table1(runs), "frontends": frontends(runs),
-            "claims": claims(runs, sweep), "ambiguity_sweep": sweep, "paper": PAPER}
+    return {
+        "runs": runs,
+        "comparison": comparison(runs),
+        "table1": table1(runs),
+        "frontends": frontends(runs),
+        "claims": claims(runs, sweep),
+        "ambiguity_sweep": sweep,
+        "paper": PAPER,
+    }
 
 
 def _tables_markdown(summary: dict[str, Any]) -> str:
@@ -237,18 +265,29 @@ def _tables_markdown(summary: dict[str, Any]) -> str:
 
 def summary_markdown(summary: dict[str, Any]) -> str:
     """``summary.md``: the comparison table, the claims and the ambiguity sweep."""
-    return ("# Reference results next to the paper\n\n"
-            "Recall cells: cross-robot (or same-robot) max recall over the association threshold k, "
-            "(hits/relevant) [95 % Wilson interval]; 'n<5' marks fewer than 5 relevant pairs. "
-            "Every pair of submaps is aligned and scored.\n\n"
-            + table_markdown(summary["comparison"]) + _tables_markdown(summary) + "\n"
-            + claims_markdown(summary["claims"]) + sweep_markdown(summary["ambiguity_sweep"]))
+    return (
+        "# Reference results next to the paper\n\n"
+        "Recall cells: cross-robot (or same-robot) max recall over the association threshold k, "
+        "(hits/relevant) [95 % Wilson interval]; 'n<5' marks fewer than 5 relevant pairs. "
+        "Every pair of submaps is aligned and scored.\n\n"
+        + table_markdown(summary["comparison"])
+        + _tables_markdown(summary)
+        + "\n"
+        + claims_markdown(summary["claims"])
+        + sweep_markdown(summary["ambiguity_sweep"])
+    )
 
 
 def readme_block(summary: dict[str, Any]) -> str:
     """The README's generated results block (between the reference-results markers)."""
-    return (f"{README_BEGIN}\n" + table_markdown(summary["comparison"]) + _tables_markdown(summary) + "\n"
-            + claims_markdown(summary["claims"]) + f"{README_END}")
+    return (
+        f"{README_BEGIN}\n"
+        + table_markdown(summary["comparison"])
+        + _tables_markdown(summary)
+        + "\n"
+        + claims_markdown(summary["claims"])
+        + f"{README_END}"
+    )
 
 
 def update_readme(readme: str | Path, summary: dict[str, Any]) -> bool:
@@ -265,8 +304,8 @@ def update_readme(readme: str | Path, summary: dict[str, Any]) -> bool:
 def _run_summary(d: Path) -> dict[str, Any]:
     """A run's compact summary recomputed from its committed raw files."""
     from roman_sim.evaluation.records import MapStats
-    from roman_sim.evaluation.summaries import compact_summary
     from roman_sim.evaluation.verify import recompute_ate, recompute_metrics
+    from roman_sim.report.summaries import compact_summary
 
     metrics, _ = recompute_metrics(d, "pairs.csv.gz")
     ate = recompute_ate(d, ".gz") if (d / "ate.json").is_file() and (d / "trajectories").is_dir() else None

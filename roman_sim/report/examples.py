@@ -20,10 +20,10 @@ from matplotlib.axes import Axes
 
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import transform_points
 from roman_sim.evaluation.metrics import PairScore
-from roman_sim.evaluation.plots import figure, save_png
-from roman_sim.geometry import transform_points
 from roman_sim.mapping.types import Submap
+from roman_sim.report.plots import figure, save_png
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +46,9 @@ def assoc_colours(a: Submap, b: Submap, assoc: np.ndarray) -> list[str]:
     return ["tab:green" if x == y and x >= 0 else "tab:red" for x, y in zip(ia, ib)]
 
 
-def _panel(ax: Axes, a: Submap, b: Submap, T_a_b: np.ndarray, assoc: np.ndarray, colours: list[str],
-           title: str) -> None:
+def _panel(
+    ax: Axes, a: Submap, b: Submap, T_a_b: np.ndarray, assoc: np.ndarray, colours: list[str], title: str
+) -> None:
     pa, pb = _cloud(a), transform_points(T_a_b, _cloud(b))
     ax.scatter(pa[:, 0], pa[:, 1], s=3, c="tab:blue", label=a.name)
     ax.scatter(pb[:, 0], pb[:, 1], s=3, c="tab:orange", label=b.name)
@@ -71,8 +72,9 @@ def _check(a: Submap, b: Submap, result: AlignResult) -> np.ndarray:
     return assoc
 
 
-def _row(axes: list[Axes], a: Submap, b: Submap, result: AlignResult, T_a_b_true: np.ndarray | None,
-         title: str) -> None:
+def _row(
+    axes: list[Axes], a: Submap, b: Submap, result: AlignResult, T_a_b_true: np.ndarray | None, title: str
+) -> None:
     assoc = _check(a, b, result)
     T_est = result.T_a_b
     assert T_est is not None  # _check rejects a result without an estimate
@@ -98,7 +100,7 @@ def plot_examples(rows: list[Example], path: str | Path, suptitle: str = "") -> 
         _check(a, b, res)
     fig = figure(11.0, 5.2 * len(rows), ncols=2, nrows=len(rows))
     for i, (a, b, res, T_true, title) in enumerate(rows):
-        _row(fig.axes[2 * i: 2 * i + 2], a, b, res, T_true, title)
+        _row(fig.axes[2 * i : 2 * i + 2], a, b, res, T_true, title)
         if T_true is None:
             fig.axes[2 * i + 1].set_axis_off()
     if suptitle:
@@ -106,8 +108,14 @@ def plot_examples(rows: list[Example], path: str | Path, suptitle: str = "") -> 
     return save_png(fig, path)
 
 
-def plot_alignment(a: Submap, b: Submap, result: AlignResult, path: str | Path,
-                   T_a_b_true: np.ndarray | None = None, title: str | None = None) -> Path:
+def plot_alignment(
+    a: Submap,
+    b: Submap,
+    result: AlignResult,
+    path: str | Path,
+    T_a_b_true: np.ndarray | None = None,
+    title: str | None = None,
+) -> Path:
     """One pair: b placed by the estimate (left) and by the truth (right, when given)."""
     return plot_examples([(a, b, result, T_a_b_true, title or f"{result.method}: {a.name} | {b.name}")], path)
 
@@ -131,8 +139,10 @@ def _slug(method: str) -> str:
 
 def _caption(tag: str, s: PairScore) -> str:
     t = s.truth
-    return (f"{tag}: {t.a} | {t.b}, {t.kind}, {t.center_dist_m:.1f} m, {t.heading_diff_deg:.0f} deg\n"
-            f"error {s.rot_err_deg:.1f} deg / {s.trans_err_m:.2f} m, {t.true_correspondences} true correspondences")
+    return (
+        f"{tag}: {t.a} | {t.b}, {t.kind}, {t.center_dist_m:.1f} m, {t.heading_diff_deg:.0f} deg\n"
+        f"error {s.rot_err_deg:.1f} deg / {s.trans_err_m:.2f} m, {t.true_correspondences} true correspondences"
+    )
 
 
 def draw_examples(
@@ -160,6 +170,11 @@ def draw_examples(
                 raise EvaluationError(f"no submaps/result for example pair {s.truth.a}|{s.truth.b} ({s.method})")
             rows.append((submaps[s.truth.a], submaps[s.truth.b], results[key], s.truth.T_a_b_true, _caption(tag, s)))
         if rows:
-            out.append(plot_examples(rows, Path(plots_dir) / f"alignment_{_slug(method)}.png",
-                                     f"{method}: a correct alignment and the worst false positive"))
+            out.append(
+                plot_examples(
+                    rows,
+                    Path(plots_dir) / f"alignment_{_slug(method)}.png",
+                    f"{method}: a correct alignment and the worst false positive",
+                )
+            )
     return out

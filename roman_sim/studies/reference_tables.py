@@ -17,18 +17,30 @@ from __future__ import annotations
 
 from typing import Any
 
-from roman_sim.pipeline.claims import PAPER, _get, num, rcell
+from roman_sim.studies.claims import PAPER, _get, num, rcell
 
 #: Rows of the simulation's ATE table shown next to the paper's, with their column titles.
-ATE_ROWS = {"odometry": "odometry", "odometry_no_prior": "odometry (no prior)", "visual": "visual",
-            "roman": "ROMAN", "combined": "combined", "oracle": "oracle"}
+ATE_ROWS = {
+    "odometry": "odometry",
+    "odometry_no_prior": "odometry (no prior)",
+    "visual": "visual",
+    "roman": "ROMAN",
+    "combined": "combined",
+    "oracle": "oracle",
+}
 PAPER_ROWS = ("visual", "roman", "combined")
 #: The opposite-direction scenario with each front end (truth-driven first).
 FRONTEND_SCENARIOS = ("opposite_direction", "opposite_direction_pixels")
-GRADE_COLUMNS = {"precision": "seg. precision", "recall": "seg. recall", "mean_iou": "mean IoU",
-                 "over_segmented": "over-seg.", "under_segmented": "under-seg.",
-                 "cosine_same_instance": "cos same instance", "cosine_same_family": "cos same family",
-                 "cosine_other_family": "cos other family"}
+GRADE_COLUMNS = {
+    "precision": "seg. precision",
+    "recall": "seg. recall",
+    "mean_iou": "mean IoU",
+    "over_segmented": "over-seg.",
+    "under_segmented": "under-seg.",
+    "cosine_same_instance": "cos same instance",
+    "cosine_same_family": "cos same family",
+    "cosine_other_family": "cos other family",
+}
 
 
 def table1(runs: dict[str, Any]) -> list[dict[str, Any]]:
@@ -45,12 +57,23 @@ def table1(runs: dict[str, Any]) -> list[dict[str, Any]]:
             if scen not in runs:
                 continue
             ate = _get(runs, scen, "ate") or {}
-            out.append({"environment": label, "scenario": scen,
-                        "robots": list(_get(runs, scen, "ate_robots", "robots") or []),
-                        "common": list(_get(runs, scen, "ate_robots", "common") or []),
-                        "paper": dict(zip(PAPER_ROWS, paper)),
-                        "simulation": {v: {"ate_m": _get(ate, v, "common"), "ate_all_m": _get(ate, v, "all"),
-                                           "placed": _get(ate, v, "connected")} for v in ATE_ROWS}})
+            out.append(
+                {
+                    "environment": label,
+                    "scenario": scen,
+                    "robots": list(_get(runs, scen, "ate_robots", "robots") or []),
+                    "common": list(_get(runs, scen, "ate_robots", "common") or []),
+                    "paper": dict(zip(PAPER_ROWS, paper)),
+                    "simulation": {
+                        v: {
+                            "ate_m": _get(ate, v, "common"),
+                            "ate_all_m": _get(ate, v, "all"),
+                            "placed": _get(ate, v, "connected"),
+                        }
+                        for v in ATE_ROWS
+                    },
+                }
+            )
     return out
 
 
@@ -64,19 +87,24 @@ def table1_markdown(rows: list[dict[str, Any]]) -> str:
     """Table I as markdown (empty without rows)."""
     if not rows:
         return ""
-    lines = ["", "## Table I: multi-robot ATE RMSE (m), the paper and the simulation", "",
-             "Simulation cells: ATE RMSE (robots this row placed / robots), first over the robots that every row "
-             "placed (last column), then over all robots (n/a for a row that did not place them all). The paper's "
-             "sequences are kilometres long and these worlds 100-120 m wide: compare the orderings, not the "
-             "metres.", "",
-             "| environment | paper visual | paper ROMAN | paper combined | "
-             + " | ".join(ATE_ROWS.values()) + " | robots compared |",
-             "|---" * (len(PAPER_ROWS) + len(ATE_ROWS) + 2) + "|"]
+    lines = [
+        "",
+        "## Table I: multi-robot ATE RMSE (m), the paper and the simulation",
+        "",
+        "Simulation cells: ATE RMSE (robots this row placed / robots), first over the robots that every row "
+        "placed (last column), then over all robots (n/a for a row that did not place them all). The paper's "
+        "sequences are kilometres long and these worlds 100-120 m wide: compare the orderings, not the "
+        "metres.",
+        "",
+        "| environment | paper visual | paper ROMAN | paper combined | "
+        + " | ".join(ATE_ROWS.values())
+        + " | robots compared |",
+        "|---" * (len(PAPER_ROWS) + len(ATE_ROWS) + 2) + "|",
+    ]
     for r in rows:
         n = len(r["robots"])
         cells = [num(r["paper"][k]) for k in PAPER_ROWS] + [_ate_cell(r["simulation"][v], n, "ate_m") for v in ATE_ROWS]
-        lines.append(f"| {r['environment']} | " + " | ".join(cells)
-                     + f" | {', '.join(r['common']) or 'none'} of {n} |")
+        lines.append(f"| {r['environment']} | " + " | ".join(cells) + f" | {', '.join(r['common']) or 'none'} of {n} |")
         cells = [""] * len(PAPER_ROWS) + [_ate_cell(r["simulation"][v], n, "ate_all_m") for v in ATE_ROWS]
         lines.append(f"| {r['environment']}, all robots | " + " | ".join(cells) + f" | {', '.join(r['robots'])} |")
     return "\n".join(lines) + "\n"
@@ -103,15 +131,30 @@ def frontends(runs: dict[str, Any]) -> dict[str, Any]:
         return {}
     methods = set.intersection(*(set(_get(runs, s, "methods") or {}) for s in scens)) - VISUAL_METHODS
     order = sorted(methods, key=lambda m: (m != "roman", m))
-    recall = [{"scenario": s, "frontend": _label(runs, s), "method": m,
-               "bins": dict(_get(runs, s, "methods", m, "inter", "bins") or {}),
-               "all": {k: v for k, v in (_get(runs, s, "methods", m, "inter") or {}).items()
-                       if k in ("max_recall", "max_hits", "n_relevant", "recall_ci", "few")}}
-              for m in order for s in scens]
+    recall = [
+        {
+            "scenario": s,
+            "frontend": _label(runs, s),
+            "method": m,
+            "bins": dict(_get(runs, s, "methods", m, "inter", "bins") or {}),
+            "all": {
+                k: v
+                for k, v in (_get(runs, s, "methods", m, "inter") or {}).items()
+                if k in ("max_recall", "max_hits", "n_relevant", "recall_ci", "few")
+            },
+        }
+        for m in order
+        for s in scens
+    ]
     pairs = [_get(runs, s, "pairs") for s in scens]
-    return {"scenarios": scens, "labels": {s: _label(runs, s) for s in scens}, "recall": recall,
-            "grades": {s: _get(runs, s, "frontend") for s in scens},
-            "pairs": dict(zip(scens, pairs)), "same_pairs": all(p == pairs[0] for p in pairs)}
+    return {
+        "scenarios": scens,
+        "labels": {s: _label(runs, s) for s in scens},
+        "recall": recall,
+        "grades": {s: _get(runs, s, "frontend") for s in scens},
+        "pairs": dict(zip(scens, pairs)),
+        "same_pairs": all(p == pairs[0] for p in pairs),
+    }
 
 
 def frontends_markdown(table: dict[str, Any]) -> str:
@@ -120,26 +163,40 @@ def frontends_markdown(table: dict[str, Any]) -> str:
         return ""
     bins = sorted({b for r in table["recall"] for b in r["bins"]}, key=lambda b: float(b.split("-")[0]))
     pairs = table["pairs"][table["scenarios"][0]] or {}
-    same = ("the same pairs in every row" if table["same_pairs"]
-            else "NOT the same pair counts in every row: " + "; ".join(f"{s} {p}" for s, p in table["pairs"].items()))
-    lines = ["", "## Two front ends on the opposite-direction scenario", "",
-             "`fastsam` + `simulated` cut masks from the renderer's instance image and draw descriptors from the "
-             "true family (truth-driven); `image` + `image` see only the RGB-D pixels. Same world, robots, pairs "
-             f"and thresholds: {_get(pairs, 'inter', 'n_pairs')} cross-robot pairs "
-             f"({_get(pairs, 'inter', 'n_relevant')} relevant), {same}. Cells: cross-robot max recall "
-             "(hits/relevant) [95 % Wilson interval].", "",
-             "| front end | method | " + " | ".join(f"{b} deg" for b in bins) + " | all |",
-             "|---" * (len(bins) + 3) + "|"]
+    same = (
+        "the same pairs in every row"
+        if table["same_pairs"]
+        else "NOT the same pair counts in every row: " + "; ".join(f"{s} {p}" for s, p in table["pairs"].items())
+    )
+    lines = [
+        "",
+        "## Two front ends on the opposite-direction scenario",
+        "",
+        "`fastsam` + `simulated` cut masks from the renderer's instance image and draw descriptors from the "
+        "true family (truth-driven); `image` + `image` see only the RGB-D pixels. Same world, robots, pairs "
+        f"and thresholds: {_get(pairs, 'inter', 'n_pairs')} cross-robot pairs "
+        f"({_get(pairs, 'inter', 'n_relevant')} relevant), {same}. Cells: cross-robot max recall "
+        "(hits/relevant) [95 % Wilson interval].",
+        "",
+        "| front end | method | " + " | ".join(f"{b} deg" for b in bins) + " | all |",
+        "|---" * (len(bins) + 3) + "|",
+    ]
     for r in table["recall"]:
-        lines.append(f"| {r['frontend']} | {r['method']} | " + " | ".join(rcell(r["bins"].get(b)) for b in bins)
-                     + f" | {rcell(r['all'])} |")
-    lines += ["", "Front-end grades against truth (segmentation over every graded frame; descriptor cosine means; "
-              "other family: same group and other groups, weighted by pairs):", "",
-              "| front end | frames | " + " | ".join(GRADE_COLUMNS.values()) + " |",
-              "|---" * (len(GRADE_COLUMNS) + 2) + "|"]
+        lines.append(
+            f"| {r['frontend']} | {r['method']} | "
+            + " | ".join(rcell(r["bins"].get(b)) for b in bins)
+            + f" | {rcell(r['all'])} |"
+        )
+    lines += [
+        "",
+        "Front-end grades against truth (segmentation over every graded frame; descriptor cosine means; "
+        "other family: same group and other groups, weighted by pairs):",
+        "",
+        "| front end | frames | " + " | ".join(GRADE_COLUMNS.values()) + " |",
+        "|---" * (len(GRADE_COLUMNS) + 2) + "|",
+    ]
     for s in table["scenarios"]:
         g = table["grades"][s]
-        cells = ["n/a"] * (len(GRADE_COLUMNS) + 1) if not g else [num(g["frames"])] + [num(g[k])
-                                                                                        for k in GRADE_COLUMNS]
+        cells = ["n/a"] * (len(GRADE_COLUMNS) + 1) if not g else [num(g["frames"])] + [num(g[k]) for k in GRADE_COLUMNS]
         lines.append(f"| {table['labels'][s]} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.evaluation.plots import figure, save_png
+from roman_sim.report.plots import figure, save_png
 
 log = logging.getLogger(__name__)
 
@@ -46,8 +46,13 @@ def overlay(rgb: NDArray[np.uint8], masks: Sequence[NDArray[np.bool_]], alpha: f
     return out
 
 
-def plot_masks(rgb: NDArray[np.uint8], masks: Sequence[NDArray[np.bool_]], path: str | Path, title: str,
-               labels: Sequence[str | None] | None = None) -> Path:
+def plot_masks(
+    rgb: NDArray[np.uint8],
+    masks: Sequence[NDArray[np.bool_]],
+    path: str | Path,
+    title: str,
+    labels: Sequence[str | None] | None = None,
+) -> Path:
     """Write the image with the masks over it (labels at each mask's centroid when given)."""
     img = overlay(rgb, masks)
     h, w = img.shape[:2]
@@ -57,8 +62,16 @@ def plot_masks(rgb: NDArray[np.uint8], masks: Sequence[NDArray[np.bool_]], path:
     for m, lab in zip(masks, labels or []):
         if lab:
             r, c = np.argwhere(m).mean(axis=0)
-            ax.text(c, r, lab, color="black", fontsize=6, ha="center", va="center",
-                    bbox={"boxstyle": "round,pad=0.1", "fc": "white", "alpha": 0.7, "lw": 0})
+            ax.text(
+                c,
+                r,
+                lab,
+                color="black",
+                fontsize=6,
+                ha="center",
+                va="center",
+                bbox={"boxstyle": "round,pad=0.1", "fc": "white", "alpha": 0.7, "lw": 0},
+            )
     ax.set_axis_off()
     ax.set_title(title, fontsize=8)
     return save_png(fig, path)

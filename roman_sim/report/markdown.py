@@ -17,8 +17,10 @@ from pathlib import Path
 from roman_sim.core.atomic import write_text
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.frontend_grades import FrontEndGrades, frontend_report_lines
-from roman_sim.evaluation.tables import (
+from roman_sim.evaluation.frontend_types import FrontEndGrades
+from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
+from roman_sim.report.frontend import frontend_report_lines
+from roman_sim.report.tables import (
     NA,
     association_rows,
     ate_rows,
@@ -27,7 +29,6 @@ from roman_sim.evaluation.tables import (
     markdown_table,
     summary_rows,
 )
-from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
 
 log = logging.getLogger(__name__)
 
@@ -48,10 +49,14 @@ PLOT_CAPTIONS = {
 }
 
 MAP_LABELS = {
-    "segments": "segments", "submaps": "submaps", "kb_per_submap": "KB per submap",
+    "segments": "segments",
+    "submaps": "submaps",
+    "kb_per_submap": "KB per submap",
     "mb_per_km": "MB per km",
-    "keyframes_per_submap": "visual keyframes per submap", "keyframe_kb_per_submap": "visual KB per submap",
-    "keyframe_kb_per_submap_max": "largest visual packet (KB)", "keyframe_mb_per_km": "visual MB per km",
+    "keyframes_per_submap": "visual keyframes per submap",
+    "keyframe_kb_per_submap": "visual KB per submap",
+    "keyframe_kb_per_submap_max": "largest visual packet (KB)",
+    "keyframe_mb_per_km": "visual MB per km",
 }
 
 #: How the ATE table treats robots a variant could not place (the report's policy text).
@@ -71,13 +76,17 @@ ATE_POLICY = (
 def _header(metrics: EvaluationMetrics) -> list[str]:
     cfg = EvalConfig.model_validate(metrics.config)
     p = metrics.pairs
-    scored = (f"{metrics.n_pairs} pairs scored (every cross-robot pair and every same-robot pair at least "
-              f"{cfg.intra_min_gap} submaps apart)")
+    scored = (
+        f"{metrics.n_pairs} pairs scored (every cross-robot pair and every same-robot pair at least "
+        f"{cfg.intra_min_gap} submaps apart)"
+    )
     if cfg.max_pair_dist_m is None:
         cap = "no distance cap: every such pair was aligned and scored."
     else:
-        cap = (f"distance cap {cfg.max_pair_dist_m:g} m on the true centre distance (relevant pairs kept): "
-               f"{metrics.n_skipped} of {metrics.n_candidates} candidate pairs skipped, neither aligned nor scored.")
+        cap = (
+            f"distance cap {cfg.max_pair_dist_m:g} m on the true centre distance (relevant pairs kept): "
+            f"{metrics.n_skipped} of {metrics.n_candidates} candidate pairs skipped, neither aligned nor scored."
+        )
     head = PAIR_SET_LABELS[metrics.headline]
     return [
         f"- Pairs: {scored}; {cap}",
@@ -98,23 +107,47 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
     if not metrics.pairs[kind]["n_pairs"]:
         return [title, "", f"No {label} pairs in this run.", ""]
     lines = [title, "", *markdown_table(summary_rows(metrics, kind)), ""]
-    lines += [f"### Max recall per heading bin, {label}, fine bins", "",
-              *markdown_table(bin_rows(metrics, kind, "heading_bins_fine")), ""]
-    lines += [f"### Max recall against place ambiguity, {label}", "",
-              *markdown_table(bin_rows(metrics, kind, "ambiguity_bins")), ""]
-    lines += [f"### Association truth, {label}", "",
-              "Precision: selected associations joining segments of the same true object (correct/selected); "
-              "recall: true correspondences recovered one-to-one (recovered/available).", "",
-              *markdown_table(association_rows(metrics, kind)), ""]
+    lines += [
+        f"### Max recall per heading bin, {label}, fine bins",
+        "",
+        *markdown_table(bin_rows(metrics, kind, "heading_bins_fine")),
+        "",
+    ]
+    lines += [
+        f"### Max recall against place ambiguity, {label}",
+        "",
+        *markdown_table(bin_rows(metrics, kind, "ambiguity_bins")),
+        "",
+    ]
+    lines += [
+        f"### Association truth, {label}",
+        "",
+        "Precision: selected associations joining segments of the same true object (correct/selected); "
+        "recall: true correspondences recovered one-to-one (recovered/available).",
+        "",
+        *markdown_table(association_rows(metrics, kind)),
+        "",
+    ]
     return lines
 
 
 def _section_ate(ate: AteTable | None) -> list[str]:
     if ate is None or not ate.variants:
         return ["## Trajectory error (ATE RMSE, m)", "", "No trajectory error was computed for this run.", ""]
-    lines = ["## Trajectory error (ATE RMSE, m)", "", ATE_POLICY, "", "SE(3) alignment:", "",
-             *markdown_table(ate_rows(ate, "se3")), "", "4-DoF alignment (yaw and translation):", "",
-             *markdown_table(ate_rows(ate, "4dof")), ""]
+    lines = [
+        "## Trajectory error (ATE RMSE, m)",
+        "",
+        ATE_POLICY,
+        "",
+        "SE(3) alignment:",
+        "",
+        *markdown_table(ate_rows(ate, "se3")),
+        "",
+        "4-DoF alignment (yaw and translation):",
+        "",
+        *markdown_table(ate_rows(ate, "4dof")),
+        "",
+    ]
     return lines
 
 
@@ -126,7 +159,7 @@ def _section_plots(plots: list[str]) -> list[str]:
         name = Path(p).name
         caption = PLOT_CAPTIONS.get(name, Path(p).stem.replace("_", " "))
         if name.startswith("alignment_"):
-            caption = f"{name[len('alignment_'):-len('.png')]}: a correct alignment and the worst false positive"
+            caption = f"{name[len('alignment_') : -len('.png')]}: a correct alignment and the worst false positive"
         lines += [f"![{caption}]({p})", ""]
     return lines
 
@@ -163,8 +196,10 @@ def write_report(
         for kind in kinds:
             lines += _section_pairs(metrics, kind)
     lines += _section_ate(ate_table)
-    map_rows = [{"quantity": MAP_LABELS.get(k, k), "value": fmt(v)}
-                for k, v in (map_stats.to_json() if map_stats else {}).items()]
+    map_rows = [
+        {"quantity": MAP_LABELS.get(k, k), "value": fmt(v)}
+        for k, v in (map_stats.to_json() if map_stats else {}).items()
+    ]
     lines += ["## Map size", "", *(markdown_table(map_rows) or ["No map statistics were given."]), ""]
     if metrics.frontend is not None:
         lines += frontend_report_lines(FrontEndGrades.from_json(metrics.frontend))

@@ -1,0 +1,59 @@
+"""A segmentation mask, the segmenter protocol and mask helpers shared by every front end."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.core.sensors import Frame
+
+
+@dataclass
+class Mask:
+    """One segmentation mask.
+
+    Attributes:
+        pixels: (H, W) bool mask.
+        object_ids: evaluation only: true object id(s) under the mask (empty for terrain).
+        bbox: (row0, row1, col0, col1) half-open bounding box of ``pixels``.
+    """
+
+    pixels: NDArray[np.bool_]
+    object_ids: tuple[int, ...] = ()
+    bbox: tuple[int, int, int, int] | None = None
+
+    def __post_init__(self) -> None:
+        if self.bbox is None:
+            self.bbox = mask_bbox(self.pixels)
+
+    @property
+    def area(self) -> int:
+        """Number of mask pixels."""
+        r0, r1, c0, c1 = self.bbox  # type: ignore[misc]
+        return int(self.pixels[r0:r1, c0:c1].sum())
+
+
+def mask_bbox(pixels: NDArray[np.bool_]) -> tuple[int, int, int, int]:
+    """Half-open bounding box (row0, row1, col0, col1); (0, 0, 0, 0) when empty."""
+    rows, cols = np.flatnonzero(pixels.any(axis=1)), np.flatnonzero(pixels.any(axis=0))
+    if len(rows) == 0:
+        return (0, 0, 0, 0)
+    return (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
+
+
+@runtime_checkable
+class Segmenter(Protocol):
+    """Anything that turns a frame into masks (an image model never reads ``frame.truth``)."""
+
+    def segment(self, frame: Frame) -> list[Mask]:
+        """Masks of one frame."""
+        ...
+
+
+def ellipse_kernel(radius: int) -> NDArray[np.bool_]:
+    """Elliptical (disk) structuring element of size 2*radius+1."""
+    yy, xx = np.mgrid[-radius : radius + 1, -radius : radius + 1]
+    return (xx**2 + yy**2) <= radius**2 + radius * 0.5

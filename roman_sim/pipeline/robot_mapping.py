@@ -1,0 +1,160 @@
+"""Mapping one robot: render (or read) its frames and map them into a ``SegmentMap``, graded on its own.
+
+The maps stage runs ``map_one`` per robot, in this process or as a worker task
+(``roman_sim.pipeline.tasks.map_robot_task``). When a scenario lists the ``visual`` method,
+the same frames also give the robot's visual keyframes.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable
+from typing import Any
+
+from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
+from roman_sim.core.config import stable_hash
+from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.sensors import Frame
+from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
+from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+from roman_sim.mapping.mapper import Mapper, SegmentMap
+from roman_sim.mapping.types import KeyframeSet
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.plugin_guard import guard_frontend
+
+log = logging.getLogger(__name__)
+MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
+
+
+def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
+    """The scenario's segmenter for ``robot`` (built-in or user class, with its params)."""
+    return build_segmenter(ctx.scenario.frontend, seed=ctx.scenario.seed, robot=robot)
+
+
+def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
+    """The scenario's semantic encoder for ``robot``; only a truth-driven one gets ``families``.
+
+    ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
+    simulated encoder. Its prototypes are shared by all robots (same seed); its observation
+    noise is per robot.
+    """
+    fe = ctx.scenario.frontend
+    if encoder_spec(fe.encoder).reads_truth and families is None:
+        raise ConfigError(
+            f"robot {robot}: the {fe.encoder.name} encoder needs the objects' families (no world, "
+            "no object table); use an image encoder (image, clip, dinov2 or package.module:Class)"
+        )
+    return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
+
+
+def _recording_key(ctx: RunContext, cfg: Any) -> str:
+    """What a robot's rendered frames depend on: seed, world, every robot (paths may refer to others)."""
+    sc = ctx.scenario.model_dump(mode="json")
+    return stable_hash(sc["seed"], sc["world"], sc["robots"], cfg.name)
+
+
+def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[Frame]:
+    """Rendered frames of one robot (from the run's recording when ``record_frames`` and it matches)."""
+    from roman_sim.sim.recording import read_recording, recording_info, write_recording
+    from roman_sim.sim.robot import render_trajectory
+
+    sc = ctx.scenario
+    rec_dir = ctx.run_dir / "recordings" / cfg.name
+    key = _recording_key(ctx, cfg)
+    if sc.record_frames and not ctx.fresh:
+        try:
+            if recording_info(rec_dir).get("extra", {}).get("key") == key:
+                return read_recording(rec_dir)
+        except RomanSimError:
+            pass
+    frames = render_trajectory(world, cfg, sc.seed, trajectory)
+    if not sc.record_frames:
+        return frames
+    write_recording(frames, rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
+    return read_recording(rec_dir)
+
+
+def _map_frames(
+    ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None, grader: Any = None
+) -> MapAndKeyframes:
+    sc = ctx.scenario
+    stage = f"maps:{name}"
+    ctx.progress.start(stage, n)
+    # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
+    fe = sc.frontend
+    segmenter, encoder = guard_frontend(
+        build_segmenter_for(ctx, name), fe.segmenter.name, build_encoder_for(ctx, name, families), fe.encoder.name
+    )
+    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
+    extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
+    for frame in frames:
+        mapper.process(frame)
+        if extractor is not None:
+            extractor.offer(frame.public())
+        ctx.progress.advance(stage)
+    ctx.progress.end(stage)
+    smap = mapper.finish()
+    log.info(
+        "robot %s: %d segments%s",
+        name,
+        len(smap),
+        "" if extractor is None else f", {len(extractor.keyframes)} keyframes",
+    )
+    return smap, None if extractor is None else extractor.keyframe_set()
+
+
+class _Grader:
+    """Grades every frame that has instance truth (a real sequence may have none) against it.
+
+    The families of the robot being mapped (the world's, or a sequence's object table)
+    label the descriptors; nothing here is visible to the segmenter or the encoder.
+    """
+
+    def __init__(self, group_of: Any, seed: int, robot: str | None = None) -> None:
+        self.inner = FrontEndGrader({}, group_of, seed=seed, stream=robot)
+
+    def use(self, families: dict[int, str] | None) -> FrontEndGrader:
+        self.inner.families.update(families or {})
+        return self.inner
+
+    def add(self, frame: Frame, masks: Any, observed: Any) -> None:
+        if frame.truth is not None and frame.truth.object_ids is not None:
+            self.inner.add(frame, masks, observed)
+
+    def part(self) -> GraderPart | None:
+        """This robot's share of the grades (None when no frame had instance truth)."""
+        return self.inner.part() if self.inner.seg.frames else None
+
+
+def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+    """Render and map one robot along its planned path (graded by ``grader``; keyframes when the
+    visual method runs)."""
+    from roman_sim.sim.robot import trajectory_along
+
+    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
+    families = {o.id: o.family for o in world.truth.objects}
+    if grader is not None:
+        grader.use(families)
+    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]), families, grader)
+
+
+def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
+    from roman_sim.pipeline.sources import open_sequence, sequence_families
+
+    seq = open_sequence(cfg, ctx.scenario.seed)
+    families = sequence_families(cfg.source)
+    if grader is not None:
+        grader.use(families)
+    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
+
+
+#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
+RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
+
+
+def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> RobotMapping:
+    """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
+    grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
+    smap, kf = map_sequence(ctx, cfg, grader) if cfg.source is not None else map_robot(ctx, world, cfg, path, grader)
+    return smap, kf, grader.part()

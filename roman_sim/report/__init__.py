@@ -1,0 +1,1 @@
+"""What a person reads: plots, tables and the markdown report of a run."""
