@@ -119,10 +119,10 @@ def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
     estimates = {
         v: VariantEstimate(
             {r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected},
-            row.fit,
+            row.fit,  # type: ignore[arg-type]
             row.description,
             row.source,
-        )  # type: ignore[arg-type]
+        )
         for v, row in stored.variants.items()
     }
     return ate_table(truth, estimates, tuple(next(iter(stored.variants.values())).rmse) if stored.variants else ())
