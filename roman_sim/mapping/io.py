@@ -259,19 +259,28 @@ def packet_bytes(submap: Submap, part: PacketPart = "segments") -> int:
         raise StorageError(f"packet part {part!r}: expected segments, keyframes or all")
     if part == "keyframes":
         return keyframe_packet_bytes(submap)
-    s = submap.public()
-    seg = _compressed_size(
-        T_odom_submap=s.T_odom_submap,
-        t=np.float64(s.t),
-        index=np.int32(s.index),
-        segment_ids=s.segment_ids.astype(np.int32),
-        centers=s.centers.astype(np.float32),
-        volumes=s.volumes.astype(np.float32),
-        shape=s.shape.astype(np.float32),
-        extents=s.extents.astype(np.float32),
-        descriptors=np.asarray(s.descriptors).astype(np.float16),
-    )
+    seg = _compressed_size(**packet_arrays(submap))
     return seg + (keyframe_packet_bytes(submap) if part == "all" else 0)
+
+
+def packet_arrays(submap: Submap) -> dict[str, np.ndarray]:
+    """The arrays of ``submap``'s segment packet, in the dtypes a robot sends (public fields only).
+
+    Pose and time float64, index and segment ids int32, centres, volumes, shape and extents
+    float32, descriptors float16; ``packet_bytes`` is the size of their compressed archive.
+    """
+    s = submap.public()
+    return {
+        "T_odom_submap": np.asarray(s.T_odom_submap, dtype=np.float64),
+        "t": np.asarray(s.t, dtype=np.float64),
+        "index": np.asarray(s.index, dtype=np.int32),
+        "segment_ids": s.segment_ids.astype(np.int32),
+        "centers": s.centers.astype(np.float32),
+        "volumes": s.volumes.astype(np.float32),
+        "shape": s.shape.astype(np.float32),
+        "extents": s.extents.astype(np.float32),
+        "descriptors": np.asarray(s.descriptors).astype(np.float16),
+    }
 
 
 def mb_per_km(total_bytes: int | float, length_m: float) -> float:

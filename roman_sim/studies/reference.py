@@ -3,8 +3,11 @@
 ``reproduce`` runs each scenario (cached in a work folder) and copies into
 ``out_dir/<scenario>/`` the small results (``metrics.json``, ``ate.json``, ``report.md``,
 configuration, manifest, timings, the main plots) and the raw data, gzip-compressed:
-``pairs.csv.gz``, ``alignments.json.gz`` and ``trajectories/*.tum.gz``. The ambiguity
-sweep keeps ``sweep.json``, ``sweep_summary.csv`` and each run's pairs table. Then it writes
+``pairs.csv.gz``, ``alignments.json.gz``, ``runtimes.csv.gz`` (per-pair runtimes) and
+``trajectories/*.tum.gz``, with the submap packets in ``packets/<robot>.npz``
+(``roman_sim.studies.raw_data``). The ambiguity sweep keeps ``sweep.json``,
+``sweep_summary.csv`` and each run's pairs table and estimates. The independent scorer
+(``roman_sim.studies.scorer``) re-derives the summary's figures and claims from these files. Then it writes
 ``summary.json`` (every run's compact summary, the comparison with the paper, the claims)
 and ``summary.md``; the README's results block is rendered from the same summary
 (``readme_block``).
@@ -27,6 +30,7 @@ from typing import Any
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.studies.claims import PAPER, claims, claims_markdown, comparison, sweep_markdown, table_markdown
+from roman_sim.studies.raw_data import write_packets, write_runtimes
 from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
 
 log = logging.getLogger(__name__)
@@ -84,7 +88,7 @@ def _report_without(text: str, missing: list[str]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True, alignments: bool = True) -> None:
+def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True, packets: bool = True) -> None:
     """Copy a run's small results and its raw data (gzip) into ``dest``.
 
     ``metrics.json`` is written without indentation; ``timings.json`` without its per-pair
@@ -102,8 +106,14 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
     if (run_dir / "timings.json").is_file():
         write_json(dest / "timings.json", _timings_summary(run_dir / "timings.json"))
     for name in RAW_FILES:
-        if (run_dir / name).is_file() and (alignments or name != "alignments.json"):
+        if (run_dir / name).is_file():
             _gzip_copy(run_dir / name, dest / f"{name}.gz")
+    if packets:
+        write_packets(run_dir, dest)
+    runtimes = write_runtimes(run_dir, dest)
+    if runtimes is not None:
+        _gzip_copy(runtimes, dest / f"{runtimes.name}.gz")
+        runtimes.unlink()
     if trajectories and (run_dir / "trajectories").is_dir():
         for p in sorted((run_dir / "trajectories").glob("*.tum")):
             _gzip_copy(p, dest / "trajectories" / f"{p.name}.gz")
@@ -204,7 +214,7 @@ def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> li
             (dest / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(work / name, dest / name)
     for r in json.loads((work / SWEEP_JSON).read_text(encoding="utf-8"))["runs"]:
-        collect(work / r["run_id"], dest / r["run_id"], trajectories=False, plots=False, alignments=False)
+        collect(work / r["run_id"], dest / r["run_id"], trajectories=False, plots=False, packets=False)
     return _sweep_rows(sweep_summary(work)[1])
 
 
@@ -304,8 +314,8 @@ def update_readme(readme: str | Path, summary: dict[str, Any]) -> bool:
 def _run_summary(d: Path) -> dict[str, Any]:
     """A run's compact summary recomputed from its committed raw files."""
     from roman_sim.evaluation.records import MapStats
-    from roman_sim.evaluation.verify import recompute_ate, recompute_metrics
     from roman_sim.report.summaries import compact_summary
+    from roman_sim.studies.verify import recompute_ate, recompute_metrics
 
     metrics, _ = recompute_metrics(d, "pairs.csv.gz")
     ate = recompute_ate(d, ".gz") if (d / "ate.json").is_file() and (d / "trajectories").is_dir() else None

@@ -13,7 +13,6 @@ from pathlib import Path
 import pytest
 
 from roman_sim.core.atomic import write_json
-from roman_sim.evaluation.verify import compare
 from roman_sim.pipeline import experiment, scenario
 from roman_sim.studies.reference import (
     AMBIGUITY_KEY,
@@ -25,6 +24,7 @@ from roman_sim.studies.reference import (
     rederive,
     reproduce,
 )
+from roman_sim.studies.verify import compare
 
 
 class _Replay:

@@ -1,4 +1,6 @@
-"""Independent check of a finished run: recompute its figures from the raw files and compare.
+"""Check of a finished run: recompute its figures from the raw files and compare.
+
+Two checks, the second independent of the first:
 
 - ``metrics.json`` from ``pairs.csv`` and the evaluation settings in ``config.yaml``: every
   pair's relevance and correctness are re-derived from its true distance, shared objects and
@@ -6,6 +8,11 @@
   distance cap skipped is not in ``pairs.csv``; it is taken from ``metrics.json``.
 - ``ate.json`` from ``trajectories/*.tum``: for each variant, the trajectories of the robots
   it placed (and the truth) are read and the table is recomputed (``atetable.ate_table``).
+
+- the figures of the run's compact summary (recall, hits, relevant pairs and intervals per
+  method, pair set and heading bin, recall at precision 1, runtime medians, ATE per variant,
+  packet sizes where the packets were kept) against ``roman_sim.studies.scorer``, which
+  re-scores the raw files with code of its own (nothing from ``roman_sim.evaluation``).
 
 ``verify_run`` returns the list of differences (empty: everything matches). Numbers match
 when they agree within ``rel_tol`` (the recomputation is the same arithmetic, so a run
@@ -132,6 +139,35 @@ def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
     return run_dir / "trajectories" / f"{robot}.{variant}.tum{suffix}"
 
 
+def stored_summary(run_dir: Path) -> dict[str, Any]:
+    """The run's compact summary as its stored files give it (metrics, ATE, map statistics, timings)."""
+    from roman_sim.evaluation.records import MapStats
+    from roman_sim.report.summaries import compact_summary
+
+    metrics = read_metrics_json(run_dir / METRICS_JSON)
+    ate = None
+    if (run_dir / ATE_JSON).is_file():
+        ate = AteTable.from_json(json.loads((run_dir / ATE_JSON).read_text(encoding="utf-8")), str(run_dir / ATE_JSON))
+    stats = None
+    if (run_dir / "map_stats.json").is_file():
+        raw = json.loads((run_dir / "map_stats.json").read_text(encoding="utf-8"))
+        stats = MapStats.from_json({k: v for k, v in raw.items() if k != "notes"})
+    try:
+        timings = json.loads((run_dir / "timings.json").read_text(encoding="utf-8"))
+        alignment = timings["stages"]["evaluation"]["alignment"]
+    except (OSError, ValueError, KeyError, TypeError):
+        alignment = {}
+    runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
+    return json.loads(json.dumps(compact_summary(metrics, ate, stats, runtimes)))
+
+
+def independent_check(run_dir: Path) -> list[str]:
+    """Where the independent scorer's figures differ from the run's stored compact summary."""
+    from roman_sim.studies.scorer import agreement, score_run
+
+    return agreement(stored_summary(run_dir), score_run(run_dir))
+
+
 def verify_run(
     run_dir: str | Path, rel_tol: float = REL_TOL, pairs_file: str = PAIRS_CSV, tum_suffix: str = ""
 ) -> Verification:
@@ -152,4 +188,10 @@ def verify_run(
             stored_ate = json.loads((d / ATE_JSON).read_text(encoding="utf-8"))
             stored_ate.pop("notes", None)
             out.differences += compare(stored_ate, table.to_json(), "ate.json", max(rel_tol, 1e-7), 1e-9)
+    try:
+        out.differences += [f"independent scorer: {x}" for x in independent_check(d)]
+    except RomanSimError as err:
+        out.differences.append(f"independent scorer: cannot score ({err})")
+    else:
+        out.checked.append("the summary's figures against the independent scorer")
     return out

@@ -1,0 +1,557 @@
+"""An independent scorer of finished runs: the summary figures recomputed from the raw files alone.
+
+The claims of the reference results must not be checked with the code that produced them.
+This module therefore imports nothing from ``roman_sim.evaluation``, ``roman_sim.report`` or
+``roman_sim.pipeline``: it reads the raw files with the standard library and numpy, and
+applies the evaluation's definitions, written out again here:
+
+- a pair is *relevant* when its true submap centres are at most ``relevant_dist_m`` apart
+  (or, with ``relevance: shared_objects``, when it shares at least ``min_shared_objects``
+  true objects);
+- an estimate ``T_a_b`` is *correct* when the rotation angle of ``inv(T_true) @ T_est`` is at
+  most ``rot_tol_deg`` and ``|t_est - t_true|`` at most ``trans_tol_m``; the true pose of a
+  pair is its gravity-aligned relative pose (translation ``true_x/y/z_m``, yaw
+  ``true_yaw_rad``), re-read from ``pairs.csv``; the estimate from ``alignments.json``;
+- at threshold k a pair is *positive* when the method accepted at least k associations;
+  TP(k) = relevant, positive and correct; FP(k) = positive and not correct;
+  max hits = max over k of TP(k); hits at precision 1 = the largest TP(k) among the k with
+  TP(k) > 0 and FP(k) = 0 (0 when there is none); recall = hits / relevant, with a Wilson
+  score interval;
+- heading bins are ``[lo, hi)``, the last one closed;
+- the ATE is the RMSE of position errors after the least-squares rigid alignment (Umeyama
+  without scale) of the estimate onto the truth, over poses matched by timestamp; "joint"
+  variants align all their robots at once, "per_robot" ones each robot on its own and pool
+  the squared errors; ``common`` is over the robots every variant placed, ``all`` over every
+  robot for the variants that placed them all;
+- runtimes are the medians of the per-pair runtimes (``runtimes.csv``);
+- a submap packet is the compressed archive of its public fields (pose, time, index,
+  segment ids, float32 centres, volumes, shape and extents, float16 descriptors), rebuilt
+  from the saved packets (``packets/<robot>.npz``) and compressed again here.
+
+``score_run`` gives, for one run folder, the figures of its compact summary that the
+reference claims use, in the same JSON shape; ``agreement`` compares them with a committed
+summary. Association precision/recall, F1 and AUC are not recomputed (no claim uses them).
+"""
+
+from __future__ import annotations
+
+import csv
+import gzip
+import io
+import json
+import math
+import statistics
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.core.errors import StorageError
+from roman_sim.core.yamlio import read_yaml
+
+F64 = NDArray[np.float64]
+#: A JSON-ready value (the summary's shape).
+JSONValue = object
+#: Fields of ``pairs.csv`` the scorer reads.
+PAIR_FIELDS = (
+    "a",
+    "b",
+    "kind",
+    "center_dist_m",
+    "heading_diff_deg",
+    "shared_objects",
+    "true_x_m",
+    "true_y_m",
+    "true_z_m",
+    "true_yaw_rad",
+    "method",
+    "n_assoc",
+)
+TIME_DECIMALS = 6
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The evaluation settings of a run, read from its ``config.yaml``."""
+
+    relevance: str
+    relevant_dist_m: float
+    min_shared_objects: int
+    rot_tol_deg: float
+    trans_tol_m: float
+    k_min: int
+    k_max: int
+    heading_bins_deg: tuple[float, ...]
+    min_relevant: int
+    interval_level: float
+
+
+@dataclass(frozen=True)
+class Pair:
+    """One method's result on one pair: what the scorer needs, nothing derived."""
+
+    a: str
+    b: str
+    kind: str
+    center_dist_m: float
+    heading_diff_deg: float
+    shared_objects: int
+    T_true: F64
+    method: str
+    n_assoc: int
+
+
+def _open_text(path: Path) -> io.TextIOBase:
+    if not path.is_file():
+        raise StorageError(f"{path}: missing")
+    if path.suffix == ".gz":
+        return io.TextIOWrapper(gzip.open(path, "rb"), encoding="utf-8")
+    return io.TextIOWrapper(path.open("rb"), encoding="utf-8")
+
+
+def _raw(run_dir: Path, name: str) -> Path:
+    """``name`` in the run folder, or its gzip copy (reference results keep raw files compressed)."""
+    plain = run_dir / name
+    return plain if plain.is_file() else run_dir / f"{name}.gz"
+
+
+def read_settings(run_dir: Path) -> Settings:
+    """The ``evaluation`` section of the run's resolved ``config.yaml``."""
+    data = read_yaml(run_dir / "config.yaml")
+    ev = data.get("evaluation") if isinstance(data, dict) else None
+    if not isinstance(ev, dict):
+        raise StorageError(f"{run_dir / 'config.yaml'}: no evaluation section")
+    try:
+        return Settings(
+            str(ev["relevance"]),
+            float(ev["relevant_dist_m"]),
+            int(ev["min_shared_objects"]),
+            float(ev["rot_tol_deg"]),
+            float(ev["trans_tol_m"]),
+            int(ev["k_min"]),
+            int(ev["k_max"]),
+            tuple(float(x) for x in ev["heading_bins_deg"]),
+            int(ev["min_relevant"]),
+            float(ev["interval_level"]),
+        )
+    except (KeyError, TypeError, ValueError) as err:
+        raise StorageError(f"{run_dir / 'config.yaml'}: evaluation section lacks {err}") from None
+
+
+def pose_4dof(x: float, y: float, z: float, yaw: float) -> F64:
+    """The 4x4 pose with translation (x, y, z) and a rotation of ``yaw`` about z."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0, x], [s, c, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]])
+
+
+def read_pairs(path: Path) -> list[Pair]:
+    """Every row of a ``pairs.csv`` (plain or gzip)."""
+    with _open_text(path) as fh:
+        reader = csv.DictReader(fh)
+        missing = [f for f in PAIR_FIELDS if f not in (reader.fieldnames or [])]
+        if missing:
+            raise StorageError(f"{path}: columns missing: {', '.join(missing)}")
+        return [
+            Pair(
+                r["a"],
+                r["b"],
+                r["kind"],
+                float(r["center_dist_m"]),
+                float(r["heading_diff_deg"]),
+                int(r["shared_objects"]),
+                pose_4dof(float(r["true_x_m"]), float(r["true_y_m"]), float(r["true_z_m"]), float(r["true_yaw_rad"])),
+                r["method"],
+                int(r["n_assoc"]),
+            )
+            for r in reader
+        ]
+
+
+def read_estimates(path: Path) -> dict[tuple[str, str, str], F64 | None]:
+    """``(a, b, method) -> T_a_b`` (None where the method gave no estimate) from ``alignments.json``."""
+    with _open_text(path) as fh:
+        data = json.load(fh)
+    out: dict[tuple[str, str, str], F64 | None] = {}
+    for rec in data["alignments"]:
+        T = rec["T_a_b"]
+        out[(rec["a"], rec["b"], rec["method"])] = None if T is None else np.asarray(T, dtype=np.float64)
+    return out
+
+
+def pose_errors(T_est: F64, T_true: F64) -> tuple[float, float]:
+    """(rotation error deg, translation error m) of an estimate against the truth."""
+    R = T_true[:3, :3].T @ T_est[:3, :3]
+    cos = min(1.0, max(-1.0, (float(np.trace(R)) - 1.0) / 2.0))
+    return math.degrees(math.acos(cos)), float(np.linalg.norm(T_est[:3, 3] - T_true[:3, 3]))
+
+
+def wilson_interval(k: int, n: int, level: float) -> list[float] | None:
+    """Wilson score interval of k successes in n trials (no continuity correction); None for n = 0."""
+    if n == 0:
+        return None
+    z = statistics.NormalDist().inv_cdf(0.5 + level / 2.0)
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z / (1 + z * z / n) * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n))
+    return [max(0.0, centre - half), min(1.0, centre + half)]
+
+
+@dataclass(frozen=True)
+class Judged:
+    """One scored row: relevance, correctness, association count and heading."""
+
+    relevant: bool
+    correct: bool
+    n_assoc: int
+    heading_diff_deg: float
+
+
+def judge(pairs: Sequence[Pair], estimates: Mapping[tuple[str, str, str], F64 | None], cfg: Settings) -> list[Judged]:
+    """Relevance and correctness of every row, from the truth columns and the saved estimates."""
+    out = []
+    for p in pairs:
+        if cfg.relevance == "shared_objects":
+            relevant = p.shared_objects >= cfg.min_shared_objects
+        else:
+            relevant = p.center_dist_m <= cfg.relevant_dist_m
+        T = estimates.get((p.a, p.b, p.method))
+        correct = False
+        if T is not None:
+            rot, trans = pose_errors(T, p.T_true)
+            correct = rot <= cfg.rot_tol_deg and trans <= cfg.trans_tol_m
+        out.append(Judged(relevant, correct, p.n_assoc, p.heading_diff_deg))
+    return out
+
+
+def recall_record(rows: Sequence[Judged], cfg: Settings) -> dict[str, JSONValue]:
+    """max recall, its hits and relevant count, interval, small-set flag, and hits at precision 1."""
+    n_rel = sum(r.relevant for r in rows)
+    best, best_p1 = _hits(rows, cfg)
+    return {
+        "max_recall": best / n_rel if n_rel else None,
+        "max_hits": best,
+        "n_relevant": n_rel,
+        "recall_ci": wilson_interval(best, n_rel, cfg.interval_level),
+        "few": n_rel < cfg.min_relevant,
+        "recall_at_precision_1": best_p1 / n_rel if n_rel else None,
+        "hits_at_precision_1": best_p1,
+    }
+
+
+def _hits(rows: Sequence[Judged], cfg: Settings) -> tuple[int, int]:
+    """(max over k of TP(k), max TP(k) over the k where TP(k) > 0 and FP(k) = 0)."""
+    best, best_p1 = 0, 0
+    for k in range(cfg.k_min, cfg.k_max + 1):
+        pos = [r for r in rows if r.n_assoc >= k]
+        tp = sum(r.relevant and r.correct for r in pos)
+        fp = sum(not r.correct for r in pos)
+        best = max(best, tp)
+        if fp == 0 and tp > 0:
+            best_p1 = max(best_p1, tp)
+    return best, best_p1
+
+
+def _max_hits(rows: Sequence[Judged], cfg: Settings) -> int:
+    return _hits(rows, cfg)[0]
+
+
+def heading_bin(value: float, edges: Sequence[float]) -> int:
+    """Bin of a heading difference: ``[lo, hi)``, the last bin closed; -1 outside or NaN."""
+    if math.isnan(value) or value < edges[0] or value > edges[-1]:
+        return -1
+    for i in range(len(edges) - 1):
+        if value < edges[i + 1] or (i == len(edges) - 2 and value == edges[-1]):
+            return i
+    return -1
+
+
+def _label(lo: float, hi: float) -> str:
+    return f"{lo:g}-{hi:g}"
+
+
+def method_figures(rows: Sequence[Judged], kinds: Sequence[str], cfg: Settings) -> dict[str, JSONValue]:
+    """Per pair set (``inter``, ``intra``): the recall record, pair count and coarse heading bins."""
+    out: dict[str, JSONValue] = {}
+    for kind in ("inter", "intra"):
+        mine = [r for r, k in zip(rows, kinds) if k == kind]
+        rec = recall_record(mine, cfg)
+        rec["n_pairs"] = len(mine)
+        edges = cfg.heading_bins_deg
+        bins: dict[str, JSONValue] = {}
+        for i, (lo, hi) in enumerate(zip(edges, edges[1:])):
+            in_bin = [r for r in mine if heading_bin(r.heading_diff_deg, edges) == i]
+            full = recall_record(in_bin, cfg)
+            bins[_label(lo, hi)] = {k: full[k] for k in ("max_recall", "max_hits", "n_relevant", "recall_ci", "few")}
+        rec["bins"] = bins
+        out[kind] = rec
+    return out
+
+
+def read_runtimes(path: Path) -> dict[str, list[float]]:
+    """method -> per-pair alignment runtimes (s) from ``runtimes.csv`` (plain or gzip)."""
+    out: dict[str, list[float]] = {}
+    with _open_text(path) as fh:
+        for r in csv.DictReader(fh):
+            v = float(r["runtime_s"])
+            if math.isfinite(v):
+                out.setdefault(r["method"], []).append(v)
+    return out
+
+
+def _timings(run_dir: Path) -> dict[str, list[float]]:
+    """method -> per-pair runtimes from a run folder's ``timings.json`` (empty when it has none)."""
+    try:
+        data = json.loads((run_dir / "timings.json").read_text(encoding="utf-8"))
+        alignment = data["stages"]["evaluation"]["alignment"]
+        return {
+            m: [float(v) for v in rec["per_pair_s"] if math.isfinite(float(v))]
+            for m, rec in alignment.items()
+            if rec.get("per_pair_s")
+        }
+    except (OSError, ValueError, KeyError, TypeError):
+        return {}
+
+
+# -- trajectories ----------------------------------------------------------------------------
+def read_tum_positions(path: Path) -> dict[float, F64]:
+    """Timestamp (rounded to 1 us) -> position, from a TUM file (plain or gzip)."""
+    out: dict[float, F64] = {}
+    with _open_text(path) as fh:
+        for line in fh:
+            parts = line.split()
+            if not parts or parts[0].startswith("#"):
+                continue
+            out[round(float(parts[0]), TIME_DECIMALS)] = np.array([float(v) for v in parts[1:4]])
+    return out
+
+
+def umeyama_residuals(est: F64, ref: F64) -> F64:
+    """Position errors after the rigid transform (no scale) that best maps ``est`` onto ``ref``."""
+    ce, cr = est.mean(axis=0), ref.mean(axis=0)
+    H = (est - ce).T @ (ref - cr)
+    U, _, Vt = np.linalg.svd(H)
+    S = np.diag([1.0, 1.0, 1.0 if np.linalg.det(Vt.T @ U.T) >= 0 else -1.0])
+    R = Vt.T @ S @ U.T
+    return np.linalg.norm(ref - (est @ R.T + (cr - R @ ce)), axis=1)
+
+
+def _matched(est: dict[float, F64], ref: dict[float, F64]) -> tuple[F64, F64]:
+    times = sorted(set(est) & set(ref))
+    return np.array([est[t] for t in times]).reshape(-1, 3), np.array([ref[t] for t in times]).reshape(-1, 3)
+
+
+def ate_rmse(
+    est: Mapping[str, dict[float, F64]], ref: Mapping[str, dict[float, F64]], robots: Sequence[str], fit: str
+) -> float | None:
+    """SE(3) ATE RMSE over ``robots`` (joint alignment, or per robot with pooled squared errors)."""
+    if not robots:
+        return None
+    pairs = [_matched(est[r], ref[r]) for r in robots]
+    if any(len(e) < 3 for e, _ in pairs):
+        return None
+    if fit == "per_robot":
+        sq = np.concatenate([umeyama_residuals(e, r) ** 2 for e, r in pairs])
+    else:
+        sq = umeyama_residuals(np.vstack([e for e, _ in pairs]), np.vstack([r for _, r in pairs])) ** 2
+    return float(math.sqrt(float(np.mean(sq))))
+
+
+def ate_figures(run_dir: Path) -> tuple[dict[str, JSONValue], dict[str, JSONValue]]:
+    """(``ate`` per variant: connected, common, all; ``ate_robots``) recomputed from the TUM files.
+
+    Which robots each variant placed is read from ``posegraph.json`` (robots not
+    ``unconnected``; odometry places every robot); the variant names, their sources and fits
+    from ``ate.json``'s rows, whose figures are not read.
+    """
+    with _open_text(run_dir / "ate.json") as fh:
+        table = json.load(fh)
+    with _open_text(_raw(run_dir, "posegraph.json")) as fh:
+        graphs = json.load(fh)
+    robots = list(table["robots"])
+    placed = {}
+    for row in table["variants"]:
+        unconnected = set((graphs.get(row["source"]) or {}).get("unconnected", []))
+        placed[row["name"]] = [r for r in robots if r not in unconnected]
+    common = [r for r in robots if all(r in p for p in placed.values())]
+    traj_dir = run_dir / "trajectories"
+
+    def tum(variant: str, robot: str) -> dict[float, F64]:
+        return read_tum_positions(_raw(traj_dir, f"{robot}.{variant}.tum"))
+
+    truth = {r: tum("truth", r) for r in robots}
+    ate: dict[str, JSONValue] = {}
+    for row in table["variants"]:
+        est = {r: tum(row["source"], r) for r in placed[row["name"]]}
+        every = len(placed[row["name"]]) == len(robots)
+        ate[row["name"]] = {
+            "connected": len(placed[row["name"]]),
+            "common": ate_rmse(est, truth, common, row["fit"]),
+            "all": ate_rmse(est, truth, robots, row["fit"]) if every else None,
+        }
+    return ate, {"robots": robots, "common": common}
+
+
+# -- packets ---------------------------------------------------------------------------------
+PACKET_FIELDS = ("T_odom_submap", "t", "index", "segment_ids", "centers", "volumes", "shape", "extents", "descriptors")
+
+
+def packet_sizes(path: Path) -> list[int]:
+    """Compressed bytes of each submap packet saved in one robot's ``packets/<robot>.npz``.
+
+    The file holds, per submap k, the arrays ``s<k>_<field>`` of ``PACKET_FIELDS`` but the
+    descriptors, which are stored once per segment (``descriptor_ids``, ``descriptor_table``);
+    each packet is rebuilt (its descriptors looked up by its segment ids) and compressed
+    again here, on its own.
+    """
+    with np.load(path, allow_pickle=False) as z:
+        names = set(z.files)
+        row = {int(sid): i for i, sid in enumerate(z["descriptor_ids"])}
+        table = z["descriptor_table"]
+        k, sizes = 0, []
+        while f"s{k}_centers" in names:
+            arrays = {f: z[f"s{k}_{f}"] for f in PACKET_FIELDS if f != "descriptors"}
+            ids = arrays["segment_ids"]
+            arrays["descriptors"] = table[[row[int(i)] for i in ids]] if len(ids) else table[:0]
+            buf = io.BytesIO()
+            np.savez_compressed(buf, **{f: arrays[f] for f in PACKET_FIELDS})
+            sizes.append(len(buf.getvalue()))
+            k += 1
+    return sizes
+
+
+def map_figures(run_dir: Path) -> dict[str, JSONValue] | None:
+    """Largest and mean packet (KB) and MB per km, from the saved packets; None without them.
+
+    The trajectory length is the run's (``map_stats.json``'s ``trajectory_km``: it is a fact of
+    the robots' paths, not a figure derived by the scoring).
+    """
+    folder = run_dir / "packets"
+    if not folder.is_dir():
+        return None
+    sizes = [s for p in sorted(folder.glob("*.npz")) for s in packet_sizes(p)]
+    with _open_text(run_dir / "map_stats.json") as fh:
+        km = json.load(fh).get("trajectory_km")
+    if not sizes:
+        return None
+    return {
+        "kb_per_submap": float(np.mean(sizes)) / 1000.0,
+        "kb_per_submap_max": float(max(sizes)) / 1000.0,
+        "mb_per_km": (sum(sizes) / 1e6) / km if km else None,
+        "submaps": len(sizes),
+    }
+
+
+# -- a run -----------------------------------------------------------------------------------
+def judged_rows(run_dir: Path) -> tuple[Settings, list[Pair], list[Judged]]:
+    """A run's settings, its pairs table and every row judged (relevance, correctness)."""
+    cfg = read_settings(run_dir)
+    pairs = read_pairs(_raw(run_dir, "pairs.csv"))
+    return cfg, pairs, judge(pairs, read_estimates(_raw(run_dir, "alignments.json")), cfg)
+
+
+def score_run(run_dir: str | Path) -> dict[str, JSONValue]:
+    """The figures of a run's compact summary that the claims use, recomputed from its raw files."""
+    d = Path(run_dir)
+    cfg, pairs, judged = judged_rows(d)
+    methods: dict[str, JSONValue] = {}
+    runtimes = read_runtimes(_raw(d, "runtimes.csv")) if _raw(d, "runtimes.csv").is_file() else _timings(d)
+    for m in sorted({p.method for p in pairs}):
+        idx = [i for i, p in enumerate(pairs) if p.method == m]
+        figures = method_figures([judged[i] for i in idx], [pairs[i].kind for i in idx], cfg)
+        if runtimes:
+            figures["runtime_median_s"] = statistics.median(runtimes[m]) if runtimes.get(m) else None
+        methods[m] = figures
+    out: dict[str, JSONValue] = {"methods": methods, "pairs": _pair_counts(pairs, judged)}
+    if (d / "ate.json").is_file() and (d / "trajectories").is_dir():
+        out["ate"], out["ate_robots"] = ate_figures(d)
+    packets = map_figures(d)
+    if packets is not None:
+        out["map"] = packets
+    return out
+
+
+def sweep_rows(folder: str | Path) -> list[dict[str, JSONValue]]:
+    """Cross-robot rows of a one-knob sweep: per knob value and method, hits and relevant pairs pooled
+    over the seeds, the pooled recall, its Wilson interval and the number of seeds.
+
+    Reads ``sweep.json`` (its grid and runs) and scores each run folder under ``folder``.
+    """
+    d = Path(folder)
+    with _open_text(d / "sweep.json") as fh:
+        spec = json.load(fh)
+    if len(spec["grid"]) != 1:
+        raise StorageError(f"{d / 'sweep.json'}: a one-knob sweep expected, grid has {len(spec['grid'])} keys")
+    key = spec["grid"][0]
+    pooled: dict[tuple[float, str], list[int]] = {}
+    level = 0.95
+    for run in spec["runs"]:
+        cfg, pairs, judged = judged_rows(d / run["run_id"])
+        level = cfg.interval_level
+        for m in sorted({p.method for p in pairs}):
+            rows = [j for p, j in zip(pairs, judged) if p.method == m and p.kind == "inter"]
+            hits = _max_hits(rows, cfg)
+            acc = pooled.setdefault((float(run["params"][key]), m), [0, 0, 0])
+            acc[0] += hits
+            acc[1] += sum(r.relevant for r in rows)
+            acc[2] += 1
+    return [
+        {
+            "ambiguity": knob,
+            "method": method,
+            "recall": hits / rel if rel else None,
+            "hits": hits,
+            "relevant": rel,
+            "ci": wilson_interval(hits, rel, level),
+            "n_seeds": seeds,
+        }
+        for (knob, method), (hits, rel, seeds) in sorted(pooled.items())
+    ]
+
+
+def _pair_counts(pairs: Sequence[Pair], judged: Sequence[Judged]) -> dict[str, JSONValue]:
+    seen: dict[tuple[str, str], tuple[str, bool]] = {}
+    for p, j in zip(pairs, judged):
+        seen[(p.a, p.b)] = (p.kind, j.relevant)
+    return {
+        k: {
+            "n_pairs": sum(1 for kind, _ in seen.values() if k == "all" or kind == k),
+            "n_relevant": sum(1 for kind, rel in seen.values() if (k == "all" or kind == k) and rel),
+        }
+        for k in ("inter", "intra", "all")
+    }
+
+
+def _walk(expected: JSONValue, got: JSONValue, where: str, rel_tol: float, map_rel_tol: float) -> Iterator[str]:
+    if isinstance(got, dict):
+        if not isinstance(expected, dict):
+            yield f"{where}: summary has {expected!r}, the scorer a mapping"
+            return
+        for k, v in got.items():
+            if k not in expected:
+                yield f"{where}/{k}: not in the summary"
+            else:
+                yield from _walk(expected[k], v, f"{where}/{k}", rel_tol, map_rel_tol)
+    elif isinstance(got, list):
+        if not isinstance(expected, list) or len(expected) != len(got):
+            yield f"{where}: summary has {expected!r}, the scorer {got!r}"
+            return
+        for i, (e, g) in enumerate(zip(expected, got)):
+            yield from _walk(e, g, f"{where}[{i}]", rel_tol, map_rel_tol)
+    elif isinstance(got, float) and isinstance(expected, (int, float)) and not isinstance(expected, bool):
+        tol = map_rel_tol if where.startswith("/map/") else rel_tol
+        if not math.isclose(got, float(expected), rel_tol=tol, abs_tol=1e-12):
+            yield f"{where}: summary has {expected!r}, the scorer {got!r}"
+    elif expected != got:
+        yield f"{where}: summary has {expected!r}, the scorer {got!r}"
+
+
+def agreement(summary_run: JSONValue, scored: JSONValue, rel_tol: float = 1e-6, map_rel_tol: float = 0.02) -> list[str]:
+    """Every place where the scorer's figures differ from a committed run summary (empty: all agree).
+
+    Only the scorer's keys are compared. Numbers agree within ``rel_tol`` (SVDs and sums may
+    differ in their last bits between machines); packet sizes within ``map_rel_tol``, since
+    another zlib may compress the same arrays to a few bytes more or less.
+    """
+    return list(_walk(summary_run, scored, "", rel_tol, map_rel_tol))
