@@ -1,0 +1,77 @@
+"""What the README and the docs pages say about the bundled scenarios, presets and methods holds.
+
+Each statement is parsed from the page and checked against the registries (what
+``roman-sim list`` shows) and the bundled scenario files, so a page that falls behind the
+code fails here.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+from roman_sim.cli.run import LISTINGS
+from roman_sim.pipeline.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _flat(path: str) -> str:
+    return " ".join((ROOT / path).read_text(encoding="utf-8").split())
+
+
+def _table_names(path: str, heading: str) -> set[str]:
+    """Back-quoted names in the first column of the table under ``heading``."""
+    text = (ROOT / path).read_text(encoding="utf-8")
+    section = text[text.index(heading) :].split("\n## ")[0]
+    rows = [ln for ln in section.splitlines() if ln.startswith("| `")]
+    return {n for ln in rows for n in re.findall(r"`([\w/.]+)`", ln.split("|")[1])}
+
+
+def test_scenario_table_lists_every_bundled_scenario():
+    listed = _table_names("docs/scenarios.md", "## Bundled scenarios") - {"sweeps/ambiguity_sweep.yaml"}
+    assert listed == set(LISTINGS["scenarios"]())
+
+
+def test_world_presets_are_the_registered_ones():
+    for page in ("docs/scenarios.md", "docs/index.md"):
+        text = _flat(page)
+        m = re.search(r"((?:`\w+`(?:, | and | or )){4,}`\w+`)", text[text.index("presets") :])
+        assert m, page
+        assert set(re.findall(r"`(\w+)`", m.group(1))) == set(LISTINGS["worlds"]()), page
+
+
+def test_overview_names_every_method_segmenter_encoder_and_drift_preset():
+    row = {
+        ln.split("|")[1].strip(): ln for ln in (ROOT / "docs/index.md").read_text().splitlines() if ln.count("|") > 3
+    }
+    named = {k: set(re.findall(r"`(\w+)`", v)) for k, v in row.items()}
+    assert set(LISTINGS["aligners"]()) <= named["alignment"]
+    assert set(LISTINGS["segmenters"]()) | set(LISTINGS["encoders"]()) <= named["mapping"]
+    assert set(LISTINGS["drift"]()) <= named["robots"]
+
+
+def test_readme_describes_the_demo():
+    text = _flat("README.md")
+    sc = load_scenario("demo")
+    m = re.search(r"two robots drive an (\d+) x (\d+) m off-road loop in opposite directions at (\d+) x (\d+)", text)
+    assert m, "README describes the demo"
+    assert sc.world.preset == "offroad" and list(sc.world.overrides["extent_m"]) == [float(m[1]), float(m[2])]
+    assert {(r.camera.width, r.camera.height) for r in sc.robots} == {(int(m[3]), int(m[4]))}
+    assert [r.path.kind for r in sc.robots] == ["road", "reverse_of"]
+    assert [a.method for a in sc.aligners] == ["roman", "clipper", "clipper_prune", "ransac100k", "visual"]
+    assert "ROMAN is compared with CLIPPER, pruned CLIPPER, RANSAC-100K and visual features" in text
+    assert f"`results/demo/seed{sc.seed}-<hash>/`" in text
+
+
+def test_paper_scale_page_describes_the_kimera_scenarios():
+    m = re.search(
+        r"(\d+)-(\d+) robots on their own routes of [\d.]+-[\d.]+ km through a (\d+) x (\d+) m world",
+        _flat("docs/paper_scale.md"),
+    )
+    assert m
+    scens = [load_scenario(f"kimera_{env}") for env in ("tunnel", "hybrid", "outdoor")]
+    assert (min(len(s.robots) for s in scens), max(len(s.robots) for s in scens)) == (int(m[1]), int(m[2]))
+    assert {tuple(s.world.overrides["extent_m"]) for s in scens} == {(float(m[3]), float(m[4]))}
+    assert {s.evaluation.max_pair_dist_m for s in scens} == {30.0}  # "the submap pairs within ... (30 m)"
+    assert "`evaluation.max_pair_dist_m` (30 m)" in _flat("docs/paper_scale.md")
