@@ -75,3 +75,51 @@ def test_paper_scale_page_describes_the_kimera_scenarios():
     assert {tuple(s.world.overrides["extent_m"]) for s in scens} == {(float(m[3]), float(m[4]))}
     assert {s.evaluation.max_pair_dist_m for s in scens} == {30.0}  # "the submap pairs within ... (30 m)"
     assert "`evaluation.max_pair_dist_m` (30 m)" in _flat("docs/paper_scale.md")
+
+
+def test_visual_page_states_the_shipped_vocabulary():
+    import json
+
+    import numpy as np
+
+    path = ROOT / "roman_sim" / "align" / "visual" / "data" / "orb_vocabulary.npz"
+    m = re.search(
+        r"orb_vocabulary.npz`, (\d+) KB: (\d+) words, .*?; k = (\d+), L = (\d+)\)\. Trained on (\d+) frames \((\d+) "
+        r"per world\) of (\w+) worlds no scenario uses \(six presets at seeds (\d+)-(\d+), textured, under the "
+        r"five lighting presets, noon twice\), ([\d,]+) descriptors",
+        _flat("docs/visual.md"),
+    )
+    assert m, "docs/visual.md describes the shipped vocabulary"
+    with np.load(path, allow_pickle=False) as d:
+        header, words = json.loads(bytes(d["header"]).decode()), len(d["weights"])
+    meta = header["meta"]
+    assert round(path.stat().st_size / 1000) == int(m[1]) and words == int(m[2])
+    assert (header["k"], header["L"]) == (int(m[3]), int(m[4]))
+    worlds = meta["worlds"]
+    assert meta["n_images"] == int(m[5]) == int(m[6]) * len(worlds) and m[7] == "six" and len(worlds) == 6
+    assert len({w[0] for w in worlds}) == 6  # six presets
+    assert sorted(w[2] for w in worlds) == ["evening", "morning", "noon", "noon", "overcast", "random"]
+    assert [w[1] for w in worlds] == list(range(int(m[8]), int(m[9]) + 1))
+    assert meta["n_descriptors"] == int(m[10].replace(",", ""))
+
+
+def test_visual_page_states_what_the_visual_test_asserts():
+    page, test = _flat("docs/visual.md"), (ROOT / "tests" / "pipeline" / "test_visual.py").read_text()
+    assert "visual max recall at 120-180 deg is at most 0.05, and ROMAN's is at least 0.2 higher" in page
+    assert 'visual_run.recall("visual", "120-180") <= 0.05' in test
+    assert 'visual_run.recall("roman", "120-180") >= visual_run.recall("visual", "120-180") + 0.2' in test
+    assert "visual max recall at 0-60 deg is at least 0.4" in page and '{"0-60": 0.4}' in test
+    assert "at most 2 cm above ROMAN's, and below the visual graph's" in page
+    assert 'ate["combined"] <= ate["roman"] + 0.02' in test and 'ate["combined"] < ate["visual"]' in test
+
+
+def test_visual_page_states_the_heading_sweep_recall():
+    import json
+
+    m = re.search(
+        r"in `heading_sweep` visual max recall at 0-60 deg is only (\d\.\d\d) \((\d+)/(\d+)\)", _flat("docs/visual.md")
+    )
+    assert m
+    summary = json.loads((ROOT / "results" / "reference" / "summary.json").read_text(encoding="utf-8"))
+    cell = summary["runs"]["heading_sweep"]["methods"]["visual"]["inter"]["bins"]["0-60"]
+    assert (round(cell["max_recall"], 2), cell["max_hits"], cell["n_relevant"]) == (float(m[1]), int(m[2]), int(m[3]))
