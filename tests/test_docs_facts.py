@@ -123,3 +123,30 @@ def test_visual_page_states_the_heading_sweep_recall():
     summary = json.loads((ROOT / "results" / "reference" / "summary.json").read_text(encoding="utf-8"))
     cell = summary["runs"]["heading_sweep"]["methods"]["visual"]["inter"]["bins"]["0-60"]
     assert (round(cell["max_recall"], 2), cell["max_hits"], cell["n_relevant"]) == (float(m[1]), int(m[2]), int(m[3]))
+
+
+def test_evaluation_page_states_the_defaults():
+    from roman_sim.evaluation.config import EvalConfig
+
+    page, cfg = _flat("docs/evaluation.md"), EvalConfig()
+    m = re.search(r"intra-robot pair at least (\w+) submaps apart", page)
+    assert m and {"two": 2, "three": 3}[m[1]] == cfg.intra_min_gap
+    m = re.search(r"relevant when its true centres are within (\d+) m", page)
+    assert m and float(m[1]) == cfg.relevant_dist_m
+    m = re.search(r"correct within (\d+) deg and (\d+) m of the true relative pose", page)
+    assert m and (float(m[1]), float(m[2])) == (cfg.rot_tol_deg, cfg.trans_tol_m)
+    m = re.search(r"hits/relevant with a (\d+) % Wilson interval, and a bin with fewer than (\d+) relevant pairs", page)
+    assert m and (int(m[1]) / 100, int(m[2])) == (cfg.interval_level, cfg.min_relevant)
+    assert cfg.heading_bins_deg == [0.0, 60.0, 120.0, 180.0] and "0-60, 60-120 and 120-180 deg" in _flat(
+        "docs/benchmark.md"
+    )
+    assert cfg.fine_heading_bin_deg == 30.0 and "fine 30 deg bins" in _flat("docs/benchmark.md")
+
+
+def test_cluster_pages_state_the_connect_timeout():
+    from roman_sim.pipeline.executor_base import ExecutorConfig
+
+    timeout = ExecutorConfig().connect_timeout_s
+    for page in ("docs/tls.md", "docs/robustness.md"):
+        m = re.search(r"`executor.connect_timeout_s` \(default (\d+) s\)", _flat(page))
+        assert m and float(m[1]) == timeout, page
