@@ -1,12 +1,12 @@
-"""The README's paper-scale block, rendered from committed files only.
+"""The paper-scale page's generated block (``docs/paper_scale.md``), rendered from committed files only.
 
 Sources: the paper-scale reference runs ``results/reference/kimera_*/`` (``timings.json``,
 ``map_stats.json``, ``metrics.json``; written by ``roman-sim reproduce --scenario kimera_...``)
 and ``benchmarks/out/scale.json`` (``python benchmarks/bench_scale.py ...``: the per-km probes,
 gated against all pairs, one worker against two). ``python benchmarks/readme_scale.py``
-rewrites the block between the ``paper-scale`` markers of README.md; a test checks that the
-README holds exactly what ``render`` gives, so a figure that stops following from the files
-fails CI.
+rewrites the block between the ``paper-scale`` markers of ``docs/paper_scale.md``; a test
+checks that the page holds exactly what ``render`` gives, so a figure that stops following
+from the files fails CI.
 
 The cost model is ``T(N) = km * m / min(N, robots) + pairs * a / N`` on N workers, with
 ``m`` the mapping seconds per km of trajectory and ``a`` the alignment seconds per pair of
@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
+PAGE = Path("docs") / "paper_scale.md"
 BEGIN, END = "<!-- paper-scale:begin -->", "<!-- paper-scale:end -->"
 SCENARIOS = ("kimera_tunnel", "kimera_hybrid", "kimera_outdoor")
 STAGES = ("world", "maps", "submaps", "evaluation", "posegraph", "report")
@@ -160,8 +161,7 @@ def _workers(scale: dict[str, Any]) -> list[str]:
         if number is not None and "ratio" in target:  # a time ratio target: its speed-up is the inverse
             number = 1.0 / number
         verdict = "" if number is None else (" met" if speed >= number else " missed")
-        load = v.get("load_before") or [None]
-        rows.append(f"`{key}` {speed:.2f}x (target {_f(number, 2)}x{verdict}; load average {_f(load[0], 1)} before)")
+        rows.append(f"`{key}` {speed:.2f}x (target {_f(number, 2)}x{verdict})")
     if not rows:
         return []
     return [
@@ -187,7 +187,7 @@ def render(root: Path = ROOT) -> str:
         ]
     else:
         lines += [
-            "Paper-scale reference runs (seed 0; wall times on this shared 2-core machine, upper bounds):",
+            "Paper-scale reference runs (seed 0; wall times on a shared 2-core machine, upper bounds):",
             "",
             *_runs_table(runs),
             "",
@@ -205,13 +205,14 @@ def render(root: Path = ROOT) -> str:
     return "\n".join(lines + [END])
 
 
-def update(readme: Path = ROOT / "README.md") -> None:
-    """Rewrite the README's paper-scale block."""
-    text = readme.read_text(encoding="utf-8")
+def update(root: Path = ROOT) -> None:
+    """Rewrite the paper-scale block of ``root / PAGE`` from the files under ``root``."""
+    page = root / PAGE
+    text = page.read_text(encoding="utf-8")
     start, end = text.index(BEGIN), text.index(END) + len(END)
-    readme.write_text(text[:start] + render(readme.parent) + text[end:], encoding="utf-8")
+    page.write_text(text[:start] + render(root) + text[end:], encoding="utf-8")
 
 
 if __name__ == "__main__":
-    update(Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "README.md")
+    update(Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT)
     print(render())

@@ -79,7 +79,8 @@ def pairwise_consistency(va: NDArray, vb: NDArray, params: AffinityParams) -> ND
     """s_a for associations whose object differences are ``va = a_i - a_j``, ``vb = b_i - b_j``.
 
     Args:
-        va, vb: (..., 3) difference vectors in each submap's (gravity-aligned) frame.
+        va: (..., 3) difference vectors in submap a's (gravity-aligned) frame.
+        vb: (..., 3) difference vectors in submap b's frame.
         params: sigma, epsilon, mindist, gravity, gravity_uncertainty_deg are used.
 
     Returns: (...,) scores in [0, 1]; 0 when a length is below ``mindist`` or a gate fails.

@@ -46,7 +46,8 @@ def estimate_transform(
     """``T`` with ``dst ~ T @ src`` from corresponding centres.
 
     Args:
-        src, dst: (N, 3) corresponding points.
+        src: (N, 3) points.
+        dst: (N, 3) their corresponding points.
         weights: optional (N,) non-negative weights (all-zero weights fall back to uniform).
         dof: 6 (Arun/Kabsch) or 4 (yaw + translation, for gravity-aligned frames).
 

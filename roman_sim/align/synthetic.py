@@ -110,7 +110,8 @@ def make_submap_pair(
     Args:
         seed: scenario seed (all randomness via ``child_rng``).
         n_inliers: objects seen by both submaps.
-        n_outliers_a, n_outliers_b: objects seen by one submap only.
+        n_outliers_a: objects seen by submap a only.
+        n_outliers_b: objects seen by submap b only.
         T_a_b: 4x4 pose of b in a (maps b's points into a); default a 4-DoF pose.
         noise_m: std of the per-axis centre noise of each observation.
         descriptor_dim: semantic descriptor size.

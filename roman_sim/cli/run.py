@@ -461,8 +461,10 @@ def reproduce_cmd(
         help="only these (default: the paper's); the summary keeps the other committed scenarios and the sweep",
     ),
     from_stage: str | None = typer.Option(None, "--from", help="recompute from this stage on"),
-    readme: Path | None = typer.Option(
-        Path("README.md"), "--readme", help="README whose reference-results block is rewritten (when it exists)"
+    pages: Path | None = typer.Option(
+        Path("."),
+        "--pages",
+        help="repository whose generated pages are rewritten: docs/results.md, the README's demo excerpt and figure",
     ),
     executor: str | None = X.EXECUTOR,
     workers: int | None = X.WORKERS,
@@ -499,7 +501,7 @@ def reproduce_cmd(
         work,
         on_start=lambda n: console.print(f"running {n} ..."),
         from_stage=from_stage,
-        readme=readme,
+        root=pages,
         executor=ex,
     )
     Console().print(path.read_text())

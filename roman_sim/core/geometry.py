@@ -120,7 +120,8 @@ def arun(src: ArrayLike, dst: ArrayLike, weights: ArrayLike | None = None) -> F6
     """Least-squares rigid transform ``T`` with ``dst ~ T @ src`` (Arun/Kabsch SVD).
 
     Args:
-        src, dst: (N, 3) corresponding points, N >= 3 and not collinear.
+        src: (N, 3) points, N >= 3 and not collinear.
+        dst: (N, 3) their corresponding points.
         weights: optional (N,) non-negative weights.
 
     Returns: 4x4 transform; reflections are fixed (det R = +1).

@@ -138,7 +138,8 @@ def ate_rmse(
     """ATE of an estimated trajectory against a reference (truth).
 
     Args:
-        est, ref: the estimate and the reference.
+        est: the estimate.
+        ref: the reference.
         alignment: ``se3``, ``4dof`` or ``none``.
         max_diff_s: timestamp association tolerance.
 

@@ -60,7 +60,7 @@ class GradeConfig(MaskFilterConfig):
 
 @dataclass
 class SegmentationGrades:
-    """Accumulated segmentation counts; rates are properties. Tables are [area bin][distance bin]."""
+    """Accumulated segmentation counts; rates are properties. Tables are indexed by area bin, then distance bin."""
 
     frames: int = 0
     masks: int = 0

@@ -132,7 +132,8 @@ def pair_truth(
     """Ground truth of the pair ``(a, b)``.
 
     Args:
-        a, b: submaps with truth.
+        a: a submap with truth.
+        b: the other submap, with truth.
         ambiguity_fn: optional ground-truth ambiguity of a place, called with the (2,) true
             centre of each submap; the pair's is the mean. NaN when not given.
         cfg: relevance settings (defaults: centres within 10 m).

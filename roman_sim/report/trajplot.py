@@ -117,8 +117,10 @@ def plot_trajectories(
 
     Args:
         path_png: output file (written atomically).
-        truth, est, odom: robot -> ``Trajectory`` (or ``T (N,4,4)`` or ``xyz (N,3)``), all in
-            the same frame (e.g. the world, or after alignment); ``est``/``odom`` optional.
+        truth: robot -> ``Trajectory`` (or ``T (N,4,4)`` or ``xyz (N,3)``), all in the same
+            frame (e.g. the world, or after alignment).
+        est: optional estimates, as ``truth``.
+        odom: optional odometry, as ``truth``.
         closures: ``(xyz_a, xyz_b, kind, correct)`` per closure line.
         title: figure title.
         dpi: resolution.

@@ -78,7 +78,8 @@ class GroundRobotEnv(gym.Env):
         camera: camera configuration (or a dict of its fields).
         drift: drift preset name or ``DriftConfig``.
         rate_hz: control and sensor rate.
-        max_speed_mps, max_yaw_rate: action limits.
+        max_speed_mps: speed limit of the action.
+        max_yaw_rate: yaw-rate limit of the action (rad/s).
         body_height_m: body origin above the terrain.
         clearance_m: a start pose keeps this distance from objects.
         max_steps: truncation horizon.

@@ -129,14 +129,16 @@ def calibrate(
         data: rendered frames (``render_calibration_frames``).
         frontend: the components to measure (``frontend.semantics`` parameterises a
             ``simulated`` target and supplies the family groups).
-        encoder, segmenter: which of the two to calibrate.
+        encoder: calibrate the encoder.
+        segmenter: calibrate the segmenter.
         iterations: correction rounds of the segmenter fit.
         prior_semantics: starting point of the semantic fit for classes without pairs
             (default: the default ``SemanticConfig`` with ``frontend.semantics``' groups).
         prior_segmenter: starting point of the segmenter fit (default: the ``fastsam``
             preset with the target's mask-filter fields).
-        target_encoder, target_segmenter: already built targets (default: built from
-            ``frontend``; build truth-free ones before rendering to fail early on bad weights).
+        target_encoder: an already built encoder (default: built from ``frontend``; build
+            truth-free ones before rendering to fail early on bad weights).
+        target_segmenter: an already built segmenter, as ``target_encoder``.
     """
     out = Calibration()
     seed = data.seed

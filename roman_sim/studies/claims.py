@@ -2,9 +2,10 @@
 
 Everything here is a pure function of ``summary.json``'s ``runs`` (one ``compact_summary``
 per scenario) and ``ambiguity_sweep`` (sweep summary rows), so the table, the claims and
-their wording in ``summary.md`` and the README can be re-derived from the committed raw
-files by a test. A claim carries its wording (numbers filled in from the data) and whether
-it holds; the README lists the claims that hold and, separately, those that do not.
+their wording in ``summary.md`` and the results page (``docs/results.md``) can be re-derived
+from the committed raw files by a test. A claim carries its wording (numbers filled in from
+the data) and whether it holds; the page lists the claims that hold and, separately, those
+that do not.
 """
 
 from __future__ import annotations
@@ -72,7 +73,7 @@ def _ate(runs: dict[str, Any], scen: str) -> dict[str, Any]:
 
 
 def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
-    """Rows ``figure, paper, cross-robot, same-robot`` for the README and summary.md (recall, runtime, size;
+    """Rows ``figure, paper, cross-robot, same-robot`` for the results page and summary.md (recall, runtime, size;
     the ATE figures are Table I, ``reference_tables.table1``)."""
     rows = []
     for scen in ("same_direction", "opposite_direction"):
@@ -375,7 +376,7 @@ def _paper_scale_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def claims(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Every claim the README makes, with its wording and whether the data supports it."""
+    """Every claim the results page makes, with its wording and whether the data supports it."""
     return [
         _opposite_harder(runs),
         _roman_per_bin(runs),

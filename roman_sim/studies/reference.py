@@ -9,8 +9,9 @@ configuration, manifest, timings, the main plots) and the raw data, gzip-compres
 ``sweep_summary.csv`` and each run's pairs table and estimates. The independent scorer
 (``roman_sim.studies.scorer``) re-derives the summary's figures and claims from these files. Then it writes
 ``summary.json`` (every run's compact summary, the comparison with the paper, the claims)
-and ``summary.md``; the README's results block is rendered from the same summary
-(``readme_block``).
+and ``summary.md``. The demo's run is collected too (``out_dir/demo``, outside the summary).
+``write_pages`` renders the documentation's generated blocks from the same files
+(``roman_sim.studies.pages``): the results page, the README's demo excerpt and its figure.
 
 ``rederive`` recomputes ``summary.json`` from the committed raw files alone (metrics from
 the pairs tables, ATE from the trajectories, runtimes from the timings, map sizes from the
@@ -29,6 +30,7 @@ from typing import Any
 
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.studies import pages
 from roman_sim.studies.claims import PAPER, claims, claims_markdown, comparison, sweep_markdown, table_markdown
 from roman_sim.studies.raw_data import write_packets, write_runtimes
 from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
@@ -64,7 +66,10 @@ KEPT_PLOTS = (
 #: The sweep run with the paper's scenarios: recall against the ambiguity knob.
 AMBIGUITY_SWEEP = "sweeps/ambiguity_sweep.yaml"
 AMBIGUITY_KEY = "world.overrides.ambiguity"
-README_BEGIN, README_END = "<!-- reference-results:begin -->", "<!-- reference-results:end -->"
+#: The demo scenario, collected next to the reference runs for the README's excerpt (not in the summary).
+DEMO = "demo"
+#: Pages with generated blocks, relative to the repository root.
+RESULTS_PAGE, FIGURE_PNG, README = Path("docs/results.md"), Path("docs/recall_heading.png"), Path("README.md")
 
 
 def _gzip_copy(src: Path, dest: Path) -> None:
@@ -141,30 +146,32 @@ def reproduce(
     work_dir: str | Path = "results/work",
     on_start: Callable[[str], None] | None = None,
     from_stage: str | None = None,
-    readme: str | Path | None = None,
+    root: str | Path | None = None,
     executor: Any = None,
 ) -> Path:
-    """Run ``scenarios`` (default: the paper's and the ambiguity sweep), collect, write the summary.
+    """Run ``scenarios`` (default: the paper's, the demo and the ambiguity sweep), collect, write the summary.
 
-    ``readme``: a README whose results block (between the reference-results markers) is
-    rewritten from the new summary. A run of some scenarios only updates the summary already
-    in ``out_dir`` (``merge_committed``): the other scenarios and the sweep stay as committed.
-    ``executor`` (an ``ExecutorConfig``) spreads each run's robots and pairs over workers (the
-    results do not depend on it).
+    ``root``: a repository whose generated documentation blocks are rewritten from the new
+    summary (``write_pages``). A run of some scenarios only updates the summary already in
+    ``out_dir`` (``merge_committed``): the other scenarios and the sweep stay as committed.
+    ``DEMO`` among ``scenarios`` re-collects the demo only. ``executor`` (an
+    ``ExecutorConfig``) spreads each run's robots and pairs over workers (the results do not
+    depend on it).
     """
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
     out, work = Path(out_dir), Path(work_dir)
     runs: dict[str, Any] = {}
-    for name in scenarios or PAPER_SCENARIOS:
+    for name in scenarios or [*PAPER_SCENARIOS, DEMO]:
         if on_start:
             on_start(name)
         res = Experiment(load_scenario(name), work / name, from_stage=from_stage, executor=executor).run()
         if (out / name).is_dir():
             shutil.rmtree(out / name)
-        collect(res.run_dir, out / name)
-        runs[name] = res.metrics_summary()
+        collect(res.run_dir, out / name, plots=name != DEMO)
+        if name != DEMO:
+            runs[name] = res.metrics_summary()
     sweep: list[dict[str, Any]] = []
     if scenarios is None:
         if on_start:
@@ -175,9 +182,31 @@ def reproduce(
     summary = build_summary(runs, sweep)
     write_json(out / "summary.json", summary)
     write_text(out / "summary.md", summary_markdown(summary))
-    if readme is not None and Path(readme).is_file() and not update_readme(readme, summary):
-        log.warning("%s has no %s / %s markers: its results block was not updated", readme, README_BEGIN, README_END)
+    if root is not None:
+        write_pages(Path(root), out, summary)
     return out / "summary.md"
+
+
+def write_pages(root: Path, ref_dir: Path, summary: dict[str, Any]) -> None:
+    """Rewrite the generated documentation blocks under ``root`` from the reference results.
+
+    The results page's block from ``summary``, the README's figure, and the README's demo
+    excerpt from the demo's committed run (when ``ref_dir / DEMO`` holds one). A page
+    without its markers is left as it is, with a warning.
+    """
+    targets = [(root / RESULTS_PAGE, pages.RESULTS_MARKERS, pages.results_block(summary))]
+    if (ref_dir / DEMO / "pairs.csv.gz").is_file():
+        targets.append((root / README, pages.DEMO_MARKERS, pages.demo_block(demo_summary(ref_dir))))
+    for path, markers, block in targets:
+        if not path.is_file() or not pages.update_block(path, markers, block):
+            log.warning("%s has no %s / %s markers: its generated block was not updated", path, *markers)
+    if (root / FIGURE_PNG).parent.is_dir() and pages.figure_data(summary)["methods"]:
+        pages.write_figure(summary, root / FIGURE_PNG)
+
+
+def demo_summary(ref_dir: str | Path) -> dict[str, Any]:
+    """The committed demo run's compact summary, recomputed from its raw files."""
+    return _run_summary(Path(ref_dir) / DEMO)
 
 
 def _sweep_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -286,29 +315,6 @@ def summary_markdown(summary: dict[str, Any]) -> str:
         + claims_markdown(summary["claims"])
         + sweep_markdown(summary["ambiguity_sweep"])
     )
-
-
-def readme_block(summary: dict[str, Any]) -> str:
-    """The README's generated results block (between the reference-results markers)."""
-    return (
-        f"{README_BEGIN}\n"
-        + table_markdown(summary["comparison"])
-        + _tables_markdown(summary)
-        + "\n"
-        + claims_markdown(summary["claims"])
-        + f"{README_END}"
-    )
-
-
-def update_readme(readme: str | Path, summary: dict[str, Any]) -> bool:
-    """Replace the README's results block with ``readme_block(summary)``; False when it has no markers."""
-    path = Path(readme)
-    text = path.read_text(encoding="utf-8")
-    if README_BEGIN not in text or README_END not in text:
-        return False
-    start, end = text.index(README_BEGIN), text.index(README_END) + len(README_END)
-    write_text(path, text[:start] + readme_block(summary) + text[end:])
-    return True
 
 
 def _run_summary(d: Path) -> dict[str, Any]:

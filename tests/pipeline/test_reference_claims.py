@@ -3,8 +3,9 @@
 Driven by ``results/reference/summary.json`` (whatever scenarios and claims it holds, so a
 later regeneration needs no change here): each run's ``metrics.json`` and ``ate.json`` are
 recomputed from its compressed pairs table and trajectories; the whole summary is re-derived
-from the raw files; ``summary.md`` and the README's results block must be exactly what that
-summary renders to. A claim that does not hold on the data cannot be listed as holding.
+from the raw files; ``summary.md`` must be exactly what that summary renders to (the pages
+rendered from it are checked in ``tests/test_docs_results.py``). A claim that does not hold on
+the data cannot be listed as holding.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from roman_sim.studies.reference import README_BEGIN, README_END, readme_block, rederive, summary_markdown
+from roman_sim.studies.reference import rederive, summary_markdown
 from roman_sim.studies.verify import compare, verify_run
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -60,24 +61,6 @@ def test_claims_are_listed_as_the_data_says():
 
 def test_summary_md_is_rendered_from_the_summary():
     assert (REF / "summary.md").read_text(encoding="utf-8") == summary_markdown(_summary())
-
-
-def test_readme_results_block_is_rendered_from_the_summary():
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
-    assert readme[start:end] == readme_block(_summary())
-
-
-def test_readme_states_the_committed_size():
-    import re
-
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    m = re.search(r"([\d.]+) MB in all, ([\d.]+) MB of it\s+the three paper-scale runs", readme)
-    assert m, "the README states the size of the reference results"
-    files = [p for p in REF.rglob("*") if p.is_file()]
-    total = sum(p.stat().st_size for p in files) / 1e6
-    big = sum(p.stat().st_size for p in files if p.relative_to(REF).parts[0].startswith("kimera_")) / 1e6
-    assert abs(float(m.group(1)) - total) < 0.15 and abs(float(m.group(2)) - big) < 0.15, (total, big)
 
 
 def test_reference_results_keep_raw_data_and_stay_small():

@@ -14,13 +14,12 @@ import pytest
 
 from roman_sim.core.atomic import write_json
 from roman_sim.pipeline import experiment, scenario
+from roman_sim.studies.pages import RESULTS_MARKERS, results_block
 from roman_sim.studies.reference import (
     AMBIGUITY_KEY,
-    README_BEGIN,
-    README_END,
+    RESULTS_PAGE,
     build_summary,
     collect,
-    readme_block,
     rederive,
     reproduce,
 )
@@ -61,10 +60,11 @@ def test_subset_run_keeps_the_other_scenarios_and_the_sweep(committed, smoke_run
     replay = _Replay(smoke_run)
     monkeypatch.setattr(experiment, "Experiment", replay)
     monkeypatch.setattr(scenario, "load_scenario", lambda name: name)
-    readme = tmp_path / "README.md"
-    readme.write_text(f"intro\n{README_BEGIN}\nold block\n{README_END}\noutro\n", encoding="utf-8")
+    page = tmp_path / "repo" / RESULTS_PAGE
+    page.parent.mkdir(parents=True)
+    page.write_text(f"intro\n{RESULTS_MARKERS[0]}\nold block\n{RESULTS_MARKERS[1]}\noutro\n", encoding="utf-8")
 
-    reproduce(committed, ["beta", "delta"], tmp_path / "work", readme=readme)
+    reproduce(committed, ["beta", "delta"], tmp_path / "work", root=tmp_path / "repo")
 
     assert replay.ran == ["beta", "delta"]
     summary = json.loads((committed / "summary.json").read_text(encoding="utf-8"))
@@ -76,7 +76,7 @@ def test_subset_run_keeps_the_other_scenarios_and_the_sweep(committed, smoke_run
     assert {r["method"] for r in summary["ambiguity_sweep"]} == set(fresh["methods"])
     again = json.loads(json.dumps(rederive(committed), sort_keys=True))
     assert not compare(summary, again, "summary.json", rel_tol=1e-6, abs_tol=1e-9)
-    assert readme.read_text(encoding="utf-8") == f"intro\n{readme_block(summary)}\noutro\n"
+    assert page.read_text(encoding="utf-8") == f"intro\n{results_block(summary)}\noutro\n"
 
 
 def test_subset_run_into_an_empty_folder_writes_only_its_scenarios(smoke_run, monkeypatch, tmp_path):

@@ -163,13 +163,17 @@ def verify_pair(
     """Match keyframe q's features to c's and verify them in 3D.
 
     Args:
-        dq, dc: (n, 32) uint8 ORB descriptors of keyframes q and c.
-        pq, pc: (n, 3) their 3D points, each in its own camera frame.
+        dq: (n, 32) uint8 ORB descriptors of keyframe q.
+        dc: (n, 32) uint8 ORB descriptors of keyframe c.
+        pq: (n, 3) q's 3D points in its camera frame.
+        pc: (n, 3) c's 3D points in its camera frame.
         p: settings.
         stream: extra names of the sampler's random stream (e.g. the pair), for independence.
-        uv_q, K_q: q's keypoint pixels (n, 2) and 3x3 camera matrix, for the reprojection
-            refinement (skipped when either is None).
-        uv_c, K_c: c's, for the 2D-2D check (skipped unless all four are given).
+        uv_q: q's keypoint pixels (n, 2), for the reprojection refinement (skipped when it or
+            ``K_q`` is None).
+        K_q: q's 3x3 camera matrix.
+        uv_c: c's keypoint pixels, for the 2D-2D check (skipped unless all four are given).
+        K_c: c's 3x3 camera matrix.
     """
     m = match_descriptors(dq, dc, p.lowe_ratio)
     if len(m) < p.min_inliers:

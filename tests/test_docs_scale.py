@@ -1,4 +1,4 @@
-"""The README's paper-scale block follows from the committed reference runs and benchmark figures."""
+"""The paper-scale page's generated block follows from the committed reference runs and benchmark figures."""
 
 from __future__ import annotations
 
@@ -18,9 +18,9 @@ def _module():
     return mod
 
 
-def test_readme_block_is_rendered_from_the_committed_files():
+def test_page_block_is_rendered_from_the_committed_files():
     mod = _module()
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    text = (ROOT / mod.PAGE).read_text(encoding="utf-8")
     block = text[text.index(mod.BEGIN) : text.index(mod.END) + len(mod.END)]
     assert block == mod.render(ROOT), "run: python benchmarks/readme_scale.py"
 
@@ -78,9 +78,10 @@ def test_update_rewrites_only_the_block(tmp_path):
     )
     (tmp_path / "benchmarks" / "out").mkdir(parents=True)
     shutil.copyfile(ROOT / "benchmarks" / "out" / "scale.json", tmp_path / "benchmarks" / "out" / "scale.json")
-    readme = tmp_path / "README.md"
-    readme.write_text(f"before\n{mod.BEGIN}\nstale\n{mod.END}\nafter\n")
-    mod.update(readme)
-    text = readme.read_text()
+    page = tmp_path / mod.PAGE
+    page.parent.mkdir()
+    page.write_text(f"before\n{mod.BEGIN}\nstale\n{mod.END}\nafter\n")
+    mod.update(tmp_path)
+    text = page.read_text()
     assert text.startswith("before\n") and text.endswith("\nafter\n") and "stale" not in text
     assert mod.render(tmp_path) in text

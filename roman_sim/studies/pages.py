@@ -1,0 +1,191 @@
+"""Generated blocks of the documentation: the reference results, the demo excerpt, the figure.
+
+Each block sits between two HTML comment markers in a markdown page and is a pure function
+of committed data, so a test re-renders it from those files and compares:
+
+- the results page (``docs/results.md``, ``RESULTS_MARKERS``): the comparison with the
+  paper, Table I, the two front ends, the ambiguity sweep and the claims, from
+  ``summary.json``;
+- the README's demo excerpt (``DEMO_MARKERS``): the demo's cross-robot recall and ATE, from
+  the compact summary of its committed run (``results/reference/demo``);
+- the README's results figure (``docs/recall_heading.png``): cross-robot max recall per
+  heading bin of the heading sweep with Wilson intervals. The plotted numbers are stored in
+  the PNG's ``roman_sim`` text chunk, so a test compares them with the summary without
+  comparing pixels (which differ between matplotlib builds).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, TypedDict
+
+from roman_sim.core.atomic import write_bytes, write_text
+from roman_sim.studies.claims import claims_markdown, num, rcell, sweep_markdown, table_markdown
+from roman_sim.studies.reference_tables import frontends_markdown, table1_markdown
+
+RESULTS_MARKERS = ("<!-- reference-results:begin -->", "<!-- reference-results:end -->")
+DEMO_MARKERS = ("<!-- demo-excerpt:begin -->", "<!-- demo-excerpt:end -->")
+#: The scenario whose heading bins the README's figure shows, and the PNG chunk of its data.
+FIGURE_SCENARIO = "heading_sweep"
+FIGURE_KEY = "roman_sim"
+#: Methods of the demo excerpt's table, in its row order (those the demo ran).
+DEMO_ATE_ROWS = ("odometry", "odometry_no_prior", "roman", "visual", "combined", "oracle")
+
+Summary = Mapping[str, Any]
+
+
+class BinPoint(TypedDict):
+    """One heading bin of one method in the figure: max recall, its counts and Wilson interval."""
+
+    bin: str
+    recall: float | None
+    hits: int
+    relevant: int
+    ci: list[float] | None
+
+
+class FigureData(TypedDict):
+    """What the README's figure shows: per method (ROMAN first), its heading bins in order."""
+
+    scenario: str
+    methods: dict[str, list[BinPoint]]
+
+
+def results_block(summary: Summary) -> str:
+    """The results page's generated block (markers included)."""
+    begin, end = RESULTS_MARKERS
+    return (
+        f"{begin}\n"
+        + table_markdown(summary["comparison"])
+        + table1_markdown(summary.get("table1") or [])
+        + frontends_markdown(summary.get("frontends") or {})
+        + sweep_markdown(summary.get("ambiguity_sweep") or [])
+        + "\n"
+        + claims_markdown(summary["claims"])
+        + end
+    )
+
+
+def demo_block(run: Summary) -> str:
+    """The README's demo excerpt (markers included) from the demo's compact run summary.
+
+    Cross-robot max recall per method, overall and per heading bin with relevant pairs, and
+    the ATE of each pose graph over all robots.
+    """
+    begin, end = DEMO_MARKERS
+    methods = sorted(run["methods"], key=lambda m: (m != "roman", m))
+    held = {b for m in methods for b, r in run["methods"][m]["inter"]["bins"].items() if r["n_relevant"]}
+    bins = sorted(held, key=lambda b: float(b.split("-")[0]))
+    lines = [
+        begin,
+        "| method | cross-robot max recall | " + " | ".join(f"{b} deg" for b in bins) + " |",
+        "|---" * (len(bins) + 2) + "|",
+    ]
+    for m in methods:
+        inter = run["methods"][m]["inter"]
+        lines.append(f"| {m} | {rcell(inter)} | " + " | ".join(rcell(inter["bins"].get(b)) for b in bins) + " |")
+    ate = run.get("ate") or {}
+    rows = [f"{v} {num(ate[v]['all'])}" for v in DEMO_ATE_ROWS if v in ate and ate[v]["all"] is not None]
+    if rows:
+        lines += ["", "ATE RMSE over both robots (m, SE(3) aligned): " + ", ".join(rows) + "."]
+    return "\n".join(lines + [end])
+
+
+def replace_block(text: str, markers: tuple[str, str], block: str) -> str | None:
+    """``text`` with the block between ``markers`` (markers included) replaced; None without them."""
+    begin, end = markers
+    if begin not in text or end not in text:
+        return None
+    start, stop = text.index(begin), text.index(end) + len(end)
+    return text[:start] + block + text[stop:]
+
+
+def current_block(text: str, markers: tuple[str, str]) -> str | None:
+    """The block between ``markers`` (markers included) as ``text`` holds it; None without them."""
+    begin, end = markers
+    if begin not in text or end not in text:
+        return None
+    return text[text.index(begin) : text.index(end) + len(end)]
+
+
+def update_block(path: str | Path, markers: tuple[str, str], block: str) -> bool:
+    """Rewrite the block of the page at ``path`` (atomically); False when it has no markers."""
+    p = Path(path)
+    new = replace_block(p.read_text(encoding="utf-8"), markers, block)
+    if new is None:
+        return False
+    write_text(p, new)
+    return True
+
+
+def figure_data(summary: Summary, scenario: str = FIGURE_SCENARIO) -> FigureData:
+    """Per method: cross-robot max recall, hits, relevant pairs and Wilson interval per heading bin."""
+    methods = (summary["runs"].get(scenario) or {}).get("methods") or {}
+    out: FigureData = {"scenario": scenario, "methods": {}}
+    for m in sorted(methods, key=lambda m: (m != "roman", m)):
+        bins = methods[m]["inter"]["bins"]
+        out["methods"][m] = [
+            BinPoint(
+                bin=b,
+                recall=bins[b]["max_recall"],
+                hits=bins[b]["max_hits"],
+                relevant=bins[b]["n_relevant"],
+                ci=bins[b]["recall_ci"],
+            )
+            for b in sorted(bins, key=lambda b: float(b.split("-")[0]))
+        ]
+    return out
+
+
+def write_figure(summary: Summary, path: str | Path, scenario: str = FIGURE_SCENARIO) -> Path:
+    """Draw ``figure_data`` as recall against heading with 95 % intervals; write the PNG atomically."""
+    from roman_sim.report.plots import figure
+
+    data = figure_data(summary, scenario)
+    fig = figure(6.4, 3.6)
+    ax = fig.axes[0]
+    for i, (m, rows) in enumerate(data["methods"].items()):
+        pts = [(r["bin"], r["recall"], r["ci"]) for r in rows if r["relevant"]]
+        shown = [(b, v, ci) for b, v, ci in pts if v is not None and ci is not None]
+        x = [_centre(b) + 2.0 * (i - 2) for b, _, _ in shown]
+        y = [v for _, v, _ in shown]
+        err = [[v - ci[0] for _, v, ci in shown], [ci[1] - v for _, v, ci in shown]]
+        ax.errorbar(
+            x, y, yerr=err, marker="o", ms=4, capsize=3, color=f"C{i}", label=m, lw=2.0 if m == "roman" else 1.0
+        )
+    first: list[BinPoint] = next(iter(data["methods"].values()), [])
+    ax.set_xticks([_centre(r["bin"]) for r in first], [f"{r['bin']} deg" for r in first])
+    ax.set_xlim(0, 180)
+    ax.set_ylim(0, 1.05)
+    ax.set_xlabel("heading difference (relevant cross-robot pairs per bin: " + _relevant(first) + ")")
+    ax.set_ylabel("max recall")
+    ax.set_title(f"{scenario}: cross-robot max recall with 95 % Wilson intervals", fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncols=len(data["methods"]), loc="upper center")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None, FIGURE_KEY: json.dumps(data, sort_keys=True)})
+    write_bytes(path, buf.getvalue())
+    return Path(path)
+
+
+def _centre(label: str) -> float:
+    """The middle of a ``lo-hi`` bin label."""
+    lo, hi = (float(v) for v in label.split("-"))
+    return (lo + hi) / 2
+
+
+def _relevant(rows: list[BinPoint]) -> str:
+    return ", ".join(str(r["relevant"]) for r in rows)
+
+
+def read_figure_data(path: str | Path) -> FigureData:
+    """The data a figure written by ``write_figure`` was drawn from (its PNG text chunk)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        data: FigureData = json.loads(im.info[FIGURE_KEY])
+    return data

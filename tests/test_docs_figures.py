@@ -1,0 +1,57 @@
+"""The figures the docs pages state in prose follow from the committed benchmark figures."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _page(name: str) -> str:
+    return " ".join((ROOT / "docs" / name).read_text(encoding="utf-8").split())
+
+
+def _bench(name: str) -> dict:
+    return json.loads((ROOT / "benchmarks" / "out" / name).read_text(encoding="utf-8"))
+
+
+def test_image_front_end_cost_matches_the_benchmark():
+    bench = _bench("pixels.json")
+    m = re.search(
+        r"`demo_pixels` takes (\d+\.\d\d)x the CPU time of the demo .*? the (\d+) alternating pairs "
+        r"of runs give (\d+\.\d\d)x to (\d+\.\d\d)x; .*? the target is (\d+(?:\.\d+)?)x",
+        _page("performance.md"),
+    )
+    assert m, "docs/performance.md no longer states the image front end's cost"
+    per_pair = bench["ratio_cpu_per_repeat"]
+    assert float(m.group(1)) == round(bench["ratio_cpu"], 2)
+    assert int(m.group(2)) == bench["repeats"] == len(per_pair)
+    assert (float(m.group(3)), float(m.group(4))) == (round(min(per_pair), 2), round(max(per_pair), 2))
+    assert float(m.group(5)) == bench["target_ratio"]
+    # the fastest demo_pixels run against the fastest demo run, both recorded per pair
+    runs = bench["runs"]
+    assert bench["ratio_cpu"] == runs["demo_pixels"]["cpu_seconds"] / runs["demo"]["cpu_seconds"]
+    assert runs["demo"]["cpu_seconds"] == min(r["cpu_seconds"] for r in runs["demo"]["repeats"])
+    assert runs["demo_pixels"]["cpu_seconds"] == min(r["cpu_seconds"] for r in runs["demo_pixels"]["repeats"])
+    assert per_pair == [
+        p["cpu_seconds"] / d["cpu_seconds"] for d, p in zip(runs["demo"]["repeats"], runs["demo_pixels"]["repeats"])
+    ]
+
+
+def test_appearance_cost_matches_the_benchmark():
+    per = _bench("sim.json")["appearance"]["per_option"]
+    m = re.search(
+        r"Shadows cost (\d+\.\d\d)x at 320 x 240 and (\d+\.\d\d)x at 640 x 480 \((\d+\.\d\d)x and (\d+\.\d\d)x with "
+        r"`shadow_px: 2048`\); every option without shadows costs (\d+\.\d\d)x to (\d+\.\d\d)x of the default",
+        _page("performance.md"),
+    )
+    assert m, "docs/performance.md no longer states the appearance options' cost"
+    got = [float(g) for g in m.groups()]
+    key = "cpu_ratio_to_default_{}"
+    sizes = ("320x240", "640x480")
+    assert got[:2] == [per["shadows"][key.format(s)] for s in sizes]
+    assert got[2:4] == [per["shadows_2048"][key.format(s)] for s in sizes]
+    others = [v[key.format(s)] for name, v in per.items() if "shadows" not in name for s in sizes]
+    assert got[4:] == [min(others), max(others)]

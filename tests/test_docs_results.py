@@ -1,0 +1,79 @@
+"""The reference results page: its generated block, and every figure of its prose, from committed files.
+
+The block must be exactly what ``results/reference/summary.json`` renders to (that file is
+re-derived from the raw data in ``tests/pipeline/test_reference_claims.py``); the prose's
+figures are recomputed here from the committed files and the bundled scenarios.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import pytest
+
+from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.posegraph.types import PoseGraphConfig
+from roman_sim.studies import pages
+
+ROOT = Path(__file__).resolve().parent.parent
+REF = ROOT / "results" / "reference"
+PAGE = ROOT / "docs" / "results.md"
+
+pytestmark = pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
+
+
+def _text() -> str:
+    return PAGE.read_text(encoding="utf-8")
+
+
+def _flat() -> str:
+    return " ".join(_text().split())
+
+
+def _summary() -> dict:
+    return json.loads((REF / "summary.json").read_text(encoding="utf-8"))
+
+
+def test_results_block_is_rendered_from_the_summary():
+    assert pages.current_block(_text(), pages.RESULTS_MARKERS) == pages.results_block(_summary())
+
+
+def test_page_states_the_committed_size():
+    m = re.search(r"([\d.]+) MB in all, ([\d.]+) MB of it the three paper-scale runs", _flat())
+    assert m, "docs/results.md states the size of the reference results"
+    files = [p for p in REF.rglob("*") if p.is_file()]
+    total = sum(p.stat().st_size for p in files) / 1e6
+    big = sum(p.stat().st_size for p in files if p.relative_to(REF).parts[0].startswith("kimera_")) / 1e6
+    assert abs(float(m.group(1)) - total) < 0.15 and abs(float(m.group(2)) - big) < 0.15, (total, big)
+
+
+def test_acceptance_thresholds_are_the_scenarios():
+    m = re.search(r"accept closures at the ROS node's k = (\d+); with the paper's k = (\d+)", _flat())
+    assert m, "docs/results.md states the acceptance thresholds"
+    multi = [load_scenario(f"multi_robot_{env}") for env in ("tunnel", "hybrid", "outdoor")]
+    assert {s.posegraph.lc_association_thresh for s in multi} == {int(m.group(1))}
+    assert PoseGraphConfig().lc_association_thresh == int(m.group(2))  # the library default is the paper's
+
+
+def test_paper_scale_runs_are_as_described():
+    m = re.search(r"paper-scale `kimera_\*` runs \((\d+(?:\.\d+)?)-(\d+(?:\.\d+)?) km per robot\)", _flat())
+    assert m, "docs/results.md states the paper-scale runs' length"
+    lo, hi = float(m.group(1)), float(m.group(2))
+    for name in ("kimera_tunnel", "kimera_hybrid", "kimera_outdoor"):
+        stats = json.loads((REF / name / "map_stats.json").read_text(encoding="utf-8"))
+        assert lo <= stats["trajectory_km"] / stats["robots"] <= hi, name
+        # "their robots render no RGB, so they have no visual or combined rows"
+        assert "their robots render no RGB" in _flat()
+        assert not any(r.render_rgb for r in load_scenario(name).robots), name
+        assert "visual" not in _summary()["runs"][name]["ate"]
+
+
+def test_small_multi_robot_runs_are_as_described():
+    m = re.search(r"their robots drive about (\d+)-(\d+) m each", _flat())
+    assert m, "docs/results.md states the small multi-robot runs' length"
+    lo, hi = int(m.group(1)), int(m.group(2))
+    for env in ("tunnel", "hybrid", "outdoor"):
+        stats = json.loads((REF / f"multi_robot_{env}" / "map_stats.json").read_text(encoding="utf-8"))
+        assert 0.9 * lo <= 1000 * stats["trajectory_km"] / stats["robots"] <= 1.1 * hi, env  # "about"

@@ -1,0 +1,101 @@
+"""The README: short, its two commands where CI reads them, its excerpt and figure from committed data."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from roman_sim.studies import pages
+from roman_sim.studies.reference import DEMO, FIGURE_PNG, demo_summary
+from roman_sim.studies.verify import verify_run
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+REF = ROOT / "results" / "reference"
+BEGIN, END = "<!-- ci:test-command:begin -->", "<!-- ci:test-command:end -->"
+
+
+def _text() -> str:
+    return README.read_text(encoding="utf-8")
+
+
+def _commands(text: str) -> list[str]:
+    """The command lines of the README's shell code blocks, in order."""
+    blocks = re.findall(r"^```bash\n(.*?)^```", text, flags=re.S | re.M)
+    return [ln.strip() for b in blocks for ln in b.splitlines() if ln.strip()]
+
+
+def test_readme_is_short():
+    assert len(_text().splitlines()) <= 200
+
+
+def test_readme_starts_with_the_demo_and_the_test_command():
+    text = _text()
+    first_two = _commands(text[: text.index("## ")])
+    assert first_two == [
+        "pip install -e . && roman-sim demo",
+        'pip install -e ".[test]" && python -m pytest -q -n auto --dist loadfile',
+    ]
+    # the test command is the one command between the markers
+    assert text.count(BEGIN) == 1 and text.count(END) == 1
+    assert _commands(text[text.index(BEGIN) : text.index(END)]) == first_two[1:]
+
+
+def test_ci_reads_the_test_command_between_the_markers(tmp_path):
+    """The extraction line of ``.ci/run``, run on the README, gives the README's second command."""
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    line = next(ln for ln in ci.splitlines() if ln.startswith("test_cmd=$("))
+    assert BEGIN in line and END in line
+    out = subprocess.run(
+        ["bash", "-c", f'{line}\nprintf "%s" "$test_cmd"'], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    assert out.stdout == _commands(_text())[1]
+    # a README without the markers gives nothing, which .ci/run refuses
+    (tmp_path / "README.md").write_text("```bash\npip install -e . && roman-sim demo\npython -m pytest\n```\n")
+    out = subprocess.run(
+        ["bash", "-c", f'{line}\nprintf "%s" "$test_cmd"'], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert out.stdout == ""
+
+
+def test_readme_links_resolve():
+    for target in re.findall(r"\]\(([^)#]+)(?:#[^)]*)?\)", _text()):
+        if not target.startswith("http"):
+            assert (ROOT / target).exists(), target
+
+
+@pytest.mark.skipif(not (REF / DEMO / "pairs.csv.gz").is_file(), reason="no committed demo run")
+def test_demo_excerpt_follows_from_the_demo_run():
+    res = verify_run(REF / DEMO, rel_tol=1e-6, pairs_file="pairs.csv.gz", tum_suffix=".gz")
+    assert res.ok, res.differences[:10]
+    assert pages.current_block(_text(), pages.DEMO_MARKERS) == pages.demo_block(demo_summary(REF))
+
+
+@pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
+def test_figure_shows_the_committed_summary():
+    """The PNG carries the numbers it was drawn from; they are the summary's (re-derived elsewhere)."""
+    summary = json.loads((REF / "summary.json").read_text(encoding="utf-8"))
+    assert f"]({FIGURE_PNG.as_posix()})" in _text()
+    assert pages.read_figure_data(ROOT / FIGURE_PNG) == json.loads(json.dumps(pages.figure_data(summary)))
+
+
+def test_figure_data_by_hand(tmp_path):
+    """Bins in heading order, ROMAN first, every count and interval carried over."""
+
+    def rec(h: int, n: int) -> dict:
+        return {"max_recall": h / n, "max_hits": h, "n_relevant": n, "recall_ci": [0.1, 0.9], "few": n < 5}
+
+    method = {"inter": {"bins": {"120-180": rec(3, 6), "0-60": rec(1, 5)}}}
+    summary = {"runs": {"heading_sweep": {"methods": {"clipper": method, "roman": method}}}}
+    data = pages.figure_data(summary)
+    assert list(data["methods"]) == ["roman", "clipper"]
+    assert data["methods"]["roman"] == [
+        {"bin": "0-60", "recall": 0.2, "hits": 1, "relevant": 5, "ci": [0.1, 0.9]},
+        {"bin": "120-180", "recall": 0.5, "hits": 3, "relevant": 6, "ci": [0.1, 0.9]},
+    ]
+    png = pages.write_figure(summary, tmp_path / "f.png")
+    assert pages.read_figure_data(png) == data
