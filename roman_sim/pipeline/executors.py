@@ -34,7 +34,14 @@ from roman_sim.pipeline.executor_base import (
     guarded,
     worker_name,
 )
-from roman_sim.pipeline.lifeline import Lifeline, end_processes, sigint_ignored, signals_deferred, worker_init
+from roman_sim.pipeline.lifeline import (
+    Lifeline,
+    end_processes,
+    parent_sys_path,
+    sigint_ignored,
+    signals_deferred,
+    worker_init,
+)
 
 log = logging.getLogger(__name__)
 
@@ -73,7 +80,7 @@ class LocalPoolExecutor(Executor):
         if self._pool is None:
             ctx = multiprocessing.get_context("forkserver")
             ctx.set_forkserver_preload(["roman_sim.pipeline.tasks"])
-            with sigint_ignored():  # the forkserver imports with Ctrl-C ignored (workers get SIGINT ignored too)
+            with sigint_ignored(), parent_sys_path():  # Ctrl-C ignored while it imports; this process's modules
                 forkserver.ensure_running()
             self._lifeline = Lifeline(ctx)
             self._pool = ProcessPoolExecutor(

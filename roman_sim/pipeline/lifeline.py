@@ -131,6 +131,27 @@ def sigint_ignored() -> Iterator[None]:
         signal.signal(signal.SIGINT, old)
 
 
+@contextmanager
+def parent_sys_path() -> Iterator[None]:
+    """``PYTHONPATH`` set to this process's ``sys.path`` inside the block, for a forkserver started there.
+
+    Python 3.11's forkserver ignores the ``sys_path`` it is given and imports its preload
+    modules with the default path of a new interpreter, whose first entry is the current
+    folder: after a ``chdir`` (or with a checkout that is not the installed copy) the workers
+    would run another copy of the package than this process. With the environment variable
+    the forkserver resolves modules in the same order as this process.
+    """
+    old = os.environ.get("PYTHONPATH")
+    os.environ["PYTHONPATH"] = os.pathsep.join(os.path.abspath(p) if p else os.getcwd() for p in sys.path)
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop("PYTHONPATH", None)
+        else:
+            os.environ["PYTHONPATH"] = old
+
+
 def end_processes(procs: Sequence[Stoppable], hard: bool) -> None:
     """Send SIGTERM (``hard``: SIGKILL) to every process of ``procs`` (those already gone are skipped)."""
     for p in procs:
@@ -144,6 +165,7 @@ __all__ = [
     "STOP_SIGNALS",
     "Lifeline",
     "end_processes",
+    "parent_sys_path",
     "set_parent_death_signal",
     "sigint_ignored",
     "signals_deferred",

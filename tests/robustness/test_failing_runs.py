@@ -22,7 +22,6 @@ from .processes import cli, start, tagged, tagged_env, wait_gone
 
 pytestmark = pytest.mark.timeout(300)
 MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _invoke(*args: object) -> tuple[int, str, str]:
