@@ -42,6 +42,31 @@ class LineProgress:
         stream.flush()
 
 
+class StageTracker:
+    """A ``Progress`` that passes every call on to ``inner`` and remembers the stage running (``running``)."""
+
+    def __init__(self, inner: Any) -> None:
+        self.inner = inner
+        self.running: str | None = None
+
+    def start(self, stage: str, total: int | None = None) -> None:
+        if ":" not in stage:  # a stage; "maps:a" is a robot of the maps stage
+            self.running = stage
+        self.inner.start(stage, total)
+
+    def advance(self, stage: str, n: int = 1) -> None:
+        self.inner.advance(stage, n)
+
+    def end(self, stage: str) -> None:
+        self.inner.end(stage)
+        if stage == self.running:
+            self.running = None
+
+    def where(self) -> str:
+        """``in stage maps`` (``while no stage ran`` before the first stage or between two)."""
+        return f"in stage {self.running}" if self.running else "while no stage ran"
+
+
 def interactive(stream: Any = None) -> bool:
     """Whether ``stream`` (default stderr) is a terminal, i.e. progress bars can be drawn."""
     stream = stream or sys.stderr

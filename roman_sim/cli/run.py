@@ -12,10 +12,11 @@ from rich.progress import Progress
 from rich.table import Table
 
 from roman_sim.cli import _executor as X
+from roman_sim.cli import _signals as S
 from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
-from roman_sim.cli.progress import LineProgress, interactive, rich_progress
-from roman_sim.core.errors import RomanSimError
+from roman_sim.cli.progress import LineProgress, StageTracker, interactive, rich_progress
+from roman_sim.core.errors import RomanSimError, StorageError
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -163,21 +164,34 @@ def _run(
         sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage, executor=executor
     )
     exp.validate()
+    tracker = StageTracker(LineProgress())
     try:
         if interactive():
             with _progress() as p:
-                exp.progress = RichProgress(p)
+                exp.progress = tracker = StageTracker(RichProgress(p))
                 result = exp.run()
         else:  # CI, nohup, a pipe: one line per finished stage, so a killed run leaves a log
-            exp.progress = LineProgress()
+            exp.progress = tracker
             result = exp.run()
-    except KeyboardInterrupt:
-        typer.echo(f"interrupted: {_kept(exp.run_dir)}; run the same command again to resume", err=True)
-        raise typer.Exit(130) from None
+    except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: the executor has ended its workers
+        typer.echo(f"{S.stop_word(err)}: {_kept(exp.run_dir)}; run the same command again to resume", err=True)
+        raise typer.Exit(S.stop_code(err)) from None
     except RomanSimError as err:
-        err.args = (f"{err} ({_kept(exp.run_dir)})",)  # one line: what failed, and what was kept
+        note = S.memory_limit_note()
+        err.args = (f"{err} ({_kept(exp.run_dir)}{'; ' + note if note else ''})",)  # what failed, what was kept
         raise
+    except Exception as err:
+        raise _limit_error(err, tracker, exp.run_dir) from None
     print_summary(result)
+
+
+def _limit_error(err: Exception, tracker: StageTracker, run_dir: Path) -> Exception:
+    """``err`` as one line when it is a limit (no memory, a full disk, anything under a memory rlimit), else ``err``."""
+    if isinstance(err, OSError) and S.is_disk_full(err):
+        return StorageError(f"{S.disk_full_line(err, str(run_dir))} ({_kept(run_dir)})")
+    if isinstance(err, MemoryError) or S.memory_limit_note() is not None:
+        return RomanSimError(f"{S.limit_line(err, tracker.where())} ({_kept(run_dir)})")
+    return err
 
 
 def _kept(run_dir: Path) -> str:

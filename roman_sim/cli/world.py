@@ -74,11 +74,25 @@ def preview_cmd(
     from roman_sim.world.preview import preview_paths, write_preview
 
     src = Path(source)
-    spec = None if src.is_dir() else _spec(source, None)
+    spec = None if src.is_dir() else _spec(_missing_folder(source), None)
     preview_paths(out, "--out")
     world = load_world(src) if spec is None else generate(spec, seed)
     paths = write_preview(world, out, width, height)
     Console().print("wrote " + ", ".join(str(p) for p in paths))
+
+
+def _missing_folder(source: str) -> str:
+    """``source`` when it can name a preset or a world YAML, else a ``ConfigError``: no folder is there."""
+    from roman_sim.core.errors import ConfigError
+    from roman_sim.world import WORLD_PRESETS
+
+    p = Path(source)
+    if source in WORLD_PRESETS or p.suffix in (".yaml", ".yml") or p.is_file():
+        return source
+    raise ConfigError(
+        f"world preview {source}: no such folder (an exported world folder holds world.xml, truth.json "
+        f"and spec.yaml; or give a world YAML or a preset: {', '.join(WORLD_PRESETS.names())})"
+    )
 
 
 @world_app.command("ambiguity")

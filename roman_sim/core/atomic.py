@@ -4,13 +4,17 @@ An interrupted process therefore never leaves a half-written result behind. File
 mode an ordinary ``open()`` would give them (0666 minus the umask, usually 0644), not the
 0600 of the temporary file. ``output_folder`` and ``output_file`` check an output location
 before any work, so a file where a folder is meant (or the reverse) is a one-line error.
+A full disk or an exhausted quota (ENOSPC, EDQUOT) is a ``StorageError`` naming the file and
+the free space left, and the temporary file is removed.
 """
 
 from __future__ import annotations
 
+import errno
 import io
 import json
 import os
+import shutil
 import tempfile
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
@@ -30,7 +34,7 @@ def atomic_open(path: str | Path, mode: str = "wb") -> Iterator[Any]:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     except OSError as err:
-        raise StorageError(f"{path}: cannot write ({err.strerror or err})") from None
+        raise write_error(path, err) from None
     try:
         os.fchmod(fd, 0o666 & ~current_umask())
         with os.fdopen(fd, mode) as fh:
@@ -38,10 +42,38 @@ def atomic_open(path: str | Path, mode: str = "wb") -> Iterator[Any]:
             fh.flush()
             os.fsync(fh.fileno())
         _replace(tmp, path)
-    except BaseException:
+    except BaseException as err:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(err, OSError) and err.errno in DISK_FULL:  # after the unlink: the free space it leaves
+            raise write_error(path, err) from None
         raise
+
+
+#: errno values of a full disk and of an exhausted quota.
+DISK_FULL = (errno.ENOSPC, errno.EDQUOT)
+
+
+def write_error(path: str | Path, err: OSError) -> StorageError:
+    """The one-line ``StorageError`` for an ``OSError`` writing ``path`` (naming the free space on a full disk)."""
+    if err.errno in DISK_FULL:
+        why = "no space left on device" if err.errno == errno.ENOSPC else "disk quota exceeded"
+        return StorageError(f"{path}: cannot write: {why} ({free_space(Path(path).parent)} free there)")
+    return StorageError(f"{path}: cannot write ({err.strerror or err})")
+
+
+def free_space(folder: str | Path) -> str:
+    """The space left on the file system of ``folder`` (or its nearest existing parent), e.g. ``12.0 KB``."""
+    where = Path(folder).absolute()
+    existing = next((p for p in [where, *where.parents] if p.exists()), where.anchor)
+    try:
+        free = float(shutil.disk_usage(existing).free)
+    except OSError:
+        return "unknown space"
+    units, i = ("B", "KB", "MB", "GB", "TB"), 0
+    while free >= 1024 and i < len(units) - 1:
+        free, i = free / 1024, i + 1
+    return f"{free:.0f} B" if i == 0 else f"{free:.1f} {units[i]}"
 
 
 def _replace(tmp: str, path: Path) -> None:
@@ -50,7 +82,7 @@ def _replace(tmp: str, path: Path) -> None:
     except IsADirectoryError:
         raise StorageError(f"{path}: is an existing folder, cannot write a file there") from None
     except OSError as err:
-        raise StorageError(f"{path}: cannot write ({err.strerror or err})") from None
+        raise write_error(path, err) from None
 
 
 def current_umask() -> int:

@@ -3,7 +3,9 @@
 Dotted parts index mappings by key and lists by position (``robots.1.drift=poor``); the
 value is parsed as YAML (strictly: a repeated key is an error). A missing mapping key is
 created (the model's validation then names it if it is unknown); a list position out of
-range, a non-numeric position or a path through a scalar is a ``ConfigError`` that says so.
+range, a non-numeric position or a path through a scalar is a ``ConfigError`` that says so,
+naming the override as the user wrote it (``--set robots.1.drift`` on the command line,
+``world.overrides (tiny): families.9.density`` in a scenario file: see ``source``).
 """
 
 from __future__ import annotations
@@ -15,18 +17,24 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.core.yamlio import parse_yaml
 
 
-def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
-    """Apply ``key.sub=value`` overrides (values parsed as YAML) to a nested copy of ``data``."""
+def apply_overrides(data: dict[str, Any], overrides: list[str], source: str = "--set") -> dict[str, Any]:
+    """Apply ``key.sub=value`` overrides (values parsed as YAML) to a nested copy of ``data``.
+
+    ``source`` says where the overrides come from in error messages: ``--set`` (``--set
+    a.b: ...``) or a field of a file (``world.overrides (tiny)`` gives ``world.overrides
+    (tiny): a.b: ...``).
+    """
     out = copy.deepcopy(data)
     for item in overrides:
-        key, value = _parse(item)
+        key, value = _parse(item, source)
+        label = _label(source, key)
         parts = key.split(".")
         node: Any = out
         for depth, part in enumerate(parts):
             last = depth == len(parts) - 1
             here = ".".join(parts[:depth]) or "<root>"
             if isinstance(node, list):
-                idx = _index(key, here, part, node)
+                idx = _index(label, here, part, node)
                 if last:
                     node[idx] = value
                 else:
@@ -38,31 +46,36 @@ def apply_overrides(data: dict[str, Any], overrides: list[str]) -> dict[str, Any
                     node = node.setdefault(part, {})
             else:
                 raise ConfigError(
-                    f"--set {key}: {here} is {_kind(node)} ({node!r}), not a mapping or list, so it has no {part!r}"
+                    f"{label}: {here} is {_kind(node)} ({node!r}), not a mapping or list, so it has no {part!r}"
                 )
     return out
 
 
-def _parse(item: str) -> tuple[str, Any]:
+def _label(source: str, key: str) -> str:
+    """How an override is named in messages: ``--set a.b`` or ``world.overrides (tiny): a.b``."""
+    return f"{source} {key}" if source.startswith("-") else f"{source}: {key}"
+
+
+def _parse(item: str, source: str) -> tuple[str, Any]:
     if "=" not in item:
-        raise ConfigError(f"--set {item!r}: expected key=value")
+        raise ConfigError(f"{_label(source, repr(item))}: expected key=value")
     key, raw = item.split("=", 1)
     key = key.strip()
     if not key or any(not p for p in key.split(".")):
-        raise ConfigError(f"--set {item!r}: empty key or empty part in {key!r} (use a.b.c=value)")
-    return key, parse_yaml(raw, f"--set {key}: value {raw!r}")
+        raise ConfigError(f"{_label(source, repr(item))}: empty key or empty part in {key!r} (use a.b.c=value)")
+    return key, parse_yaml(raw, f"{_label(source, key)}: value {raw!r}")
 
 
-def _index(key: str, here: str, part: str, node: list[Any]) -> int:
+def _index(label: str, here: str, part: str, node: list[Any]) -> int:
     n = len(node)
     valid = f"0..{n - 1}" if n else "none: the list is empty"
     if not part.isdigit():
         raise ConfigError(
-            f"--set {key}: {here} is a list of {n} entries, {part!r} is not a position in it (positions: {valid})"
+            f"{label}: {here} is a list of {n} entries, {part!r} is not a position in it (positions: {valid})"
         )
     idx = int(part)
     if idx >= n:
-        raise ConfigError(f"--set {key}: position {idx} out of range: {here} has {n} entries (positions: {valid})")
+        raise ConfigError(f"{label}: position {idx} out of range: {here} has {n} entries (positions: {valid})")
     return idx
 
 

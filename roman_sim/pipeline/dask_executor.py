@@ -4,6 +4,12 @@ A local cluster (no ``scheduler_address``) listens on 127.0.0.1 only, one single
 worker process per worker, with no dashboard unless ``dashboard`` is set (then on
 127.0.0.1, a free port). Results come back to this process, which writes every file, so
 workers need no access to the run folder.
+
+The local cluster's worker processes die with this process however it ends: ``distributed``
+starts each with a pipe to its parent and the worker exits when that pipe closes. ``close``
+is bounded (``close_timeout_s`` for the client, then for the cluster, whose nannies end
+workers that do not stop) and runs with SIGINT and SIGTERM held back, so a second Ctrl-C
+does not leave it half done.
 """
 
 from __future__ import annotations
@@ -65,21 +71,24 @@ class DaskExecutor(Executor):
     """Tasks on a Dask cluster (see the module docstring)."""
 
     kind = "dask"
+    #: Bound on closing the client, then the local cluster (s).
+    close_timeout_s = 10.0
 
     def __init__(self, cfg: ExecutorConfig) -> None:
         from roman_sim.pipeline import dask_security as sec
+        from roman_sim.pipeline.lifeline import signals_deferred
 
         self.cfg = cfg
         self.cluster: Any = None
+        self.client: Any = None
         security = sec.security_for(cfg)
-        if cfg.scheduler_address:
-            address = sec.check_address(cfg.scheduler_address, cfg, security)
-            self.client = connect_client(address, cfg.connect_timeout_s, security)
-        else:
-            self.cluster = sec.local_cluster(cfg, security)
-            self.client = connect_client(self.cluster.scheduler_address, cfg.connect_timeout_s, security)
-        self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
+        address = sec.check_address(cfg.scheduler_address, cfg, security) if cfg.scheduler_address else None
+        if address is None:
+            with signals_deferred():  # an interrupt now would leave a cluster nobody can close
+                self.cluster = sec.local_cluster(cfg, security)
         try:
+            self.client = connect_client(address or self.cluster.scheduler_address, cfg.connect_timeout_s, security)
+            self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             for path in cfg.upload:
                 sec.upload(self.client, path)
         except BaseException:
@@ -113,12 +122,26 @@ class DaskExecutor(Executor):
         sec.check_worker_imports(self.client, list(modules))
 
     def close(self) -> None:
-        try:
-            self.client.close()
-        finally:
-            if self.cluster is not None:
-                self.cluster.close()
-                self.cluster = None
+        from roman_sim.pipeline.lifeline import signals_deferred
+
+        cluster, client, self.cluster, self.client = self.cluster, self.client, None, None
+        with signals_deferred():
+            try:
+                if client is not None:
+                    client.close(timeout=self.close_timeout_s)
+            except Exception as err:  # a scheduler already gone, a timeout: the cluster is still closed below
+                log.warning("Dask client did not close cleanly: %s: %s", type(err).__name__, err)
+            finally:
+                if cluster is not None:
+                    _close_cluster(cluster, self.close_timeout_s)
+
+
+def _close_cluster(cluster: Any, timeout_s: float) -> None:
+    """Close a local cluster within about ``timeout_s``; its workers die with this process if that fails."""
+    try:
+        cluster.close(timeout=timeout_s)
+    except Exception as err:  # a timeout or a nanny's own error while stopping
+        log.warning("Dask local cluster did not close in time: %s: %s", type(err).__name__, err)
 
 
 def require_dask() -> None:

@@ -18,7 +18,12 @@ plug-in's own error) becomes a ``TaskError`` naming the task.
 from __future__ import annotations
 
 import logging
+import multiprocessing
+import threading
 from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from multiprocessing import forkserver
 from typing import Any
 
 from roman_sim.pipeline.executor_base import (
@@ -28,6 +33,14 @@ from roman_sim.pipeline.executor_base import (
     collect,
     guarded,
     worker_name,
+)
+from roman_sim.pipeline.lifeline import (
+    Lifeline,
+    end_processes,
+    parent_sys_path,
+    sigint_ignored,
+    signals_deferred,
+    worker_init,
 )
 
 log = logging.getLogger(__name__)
@@ -44,35 +57,47 @@ class SerialExecutor(Executor):
 
 
 class LocalPoolExecutor(Executor):
-    """A pool of worker processes on this machine (``forkserver``: no threads or GL state are forked)."""
+    """A pool of worker processes on this machine (``forkserver``: no threads or GL state are forked).
+
+    Workers die with the main process however it ends (``roman_sim.pipeline.lifeline``). An
+    interrupt (or the caller abandoning ``run_tasks``) cancels the pending tasks and ends the
+    running ones at once; ``close`` ends workers still alive ``stop_grace_s`` after the pool
+    was asked to stop (a worker that never started or never answers), so stopping is bounded.
+    """
 
     kind = "local"
+    #: Bound on an orderly stop (s): workers still alive then are sent SIGTERM.
+    stop_grace_s = 5.0
+    #: Bound after SIGTERM (s): workers still alive then are sent SIGKILL.
+    kill_after_s = 2.0
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
-        self._pool: Any = None
+        self._pool: ProcessPoolExecutor | None = None
+        self._lifeline: Lifeline | None = None
 
-    def _get_pool(self) -> Any:
+    def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor
-
             ctx = multiprocessing.get_context("forkserver")
             ctx.set_forkserver_preload(["roman_sim.pipeline.tasks"])
-            self._pool = ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+            with sigint_ignored(), parent_sys_path():  # Ctrl-C ignored while it imports; this process's modules
+                forkserver.ensure_running()
+            self._lifeline = Lifeline(ctx)
+            self._pool = ProcessPoolExecutor(
+                max_workers=self.workers, mp_context=ctx, initializer=worker_init, initargs=(self._lifeline.reader,)
+            )
         return self._pool
 
     def run_tasks(
         self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
     ) -> Iterator[tuple[int, Any]]:
-        from concurrent.futures import as_completed
-        from concurrent.futures.process import BrokenProcessPool
-
         if not args:
             return
-        pool = self._get_pool()
-        futures = {pool.submit(guarded, fn, labels[i], False, *a): i for i, a in enumerate(args)}
+        futures: dict[Future[Any], int] = {}
         try:
+            with signals_deferred():  # workers start here: none is left half-started by an interrupt
+                pool = self._get_pool()
+                futures.update((pool.submit(guarded, fn, labels[i], False, *a), i) for i, a in enumerate(args))
             yield from collect(
                 futures,
                 labels,
@@ -81,14 +106,52 @@ class LocalPoolExecutor(Executor):
                 lambda fs: [f.cancel() for f in fs],
                 BrokenProcessPool,
             )
+        except BaseException as err:
+            if not isinstance(err, Exception):  # Ctrl-C, SIGTERM, the caller stopped: end the running tasks now
+                self._stop(graceful=False)
+            raise
         finally:
             for fut in futures:
                 fut.cancel()
 
     def close(self) -> None:
-        if self._pool is not None:
-            self._pool.shutdown(wait=True, cancel_futures=True)
-            self._pool = None
+        self._stop(graceful=True)
+
+    def _stop(self, graceful: bool) -> None:
+        """Stop the pool within ``stop_grace_s + 2 kill_after_s`` s (``graceful``: idle workers exit by themselves)."""
+        pool, lifeline, self._pool, self._lifeline = self._pool, self._lifeline, None, None
+        if pool is None or lifeline is None:
+            return
+        with signals_deferred():  # a second Ctrl-C must not leave the stop half done
+            procs = list(pool._processes.values()) if pool._processes else []  # shutdown() drops them
+            manager: threading.Thread | None = getattr(pool, "_executor_manager_thread", None)  # typeshed mistypes it
+            calls = getattr(pool, "_call_queue", None)
+            pool.shutdown(wait=False, cancel_futures=True)
+            if not graceful:
+                lifeline.cut()
+                end_processes(procs, hard=False)
+            if manager is not None:
+                manager.join(self.stop_grace_s if graceful else self.kill_after_s)
+            for hard in (False, True):
+                if manager is None or not manager.is_alive():
+                    break
+                log.warning("local pool: workers did not stop in time, sending %s", "SIGKILL" if hard else "SIGTERM")
+                _unblock(calls)
+                end_processes(procs, hard=hard)
+                manager.join(self.kill_after_s)
+            lifeline.cut()
+
+
+def _unblock(calls: Any) -> None:
+    """Close the reading end of the pool's call queue, so its feeder thread stops writing to workers that are gone.
+
+    What the standard library's own ``terminate_broken`` does; without it the pool's manager
+    thread (joined at exit) waits for ever on a pipe nobody reads.
+    """
+    try:
+        calls._reader.close()
+    except (AttributeError, OSError):
+        pass
 
 
 def open_executor(cfg: ExecutorConfig | None) -> Executor:

@@ -65,6 +65,11 @@ class RunResult:
             raise StorageError(
                 f"{d}: the run did not complete (stages missing: {', '.join(man.missing)}); run it again to finish it"
             )
+        if not (d / "config.yaml").is_file():
+            raise StorageError(
+                f"{d}: the run's config.yaml is missing (deleted after the run?); "
+                "run the scenario into this folder again to rewrite it"
+            )
         sc = load_scenario(d / "config.yaml")
         if sc.config_hash() != man.config_hash:
             raise StorageError(f"{d}: config.yaml does not match the run's outputs (edited after the run?)")

@@ -46,8 +46,9 @@ class WorldRef(StrictModel):
         if not self.overrides:
             return base
         data = base.model_dump(mode="json")
-        data = apply_overrides(data, [f"{k}={_yaml_scalar(v)}" for k, v in self.overrides.items()])
-        return validate_model(WorldSpec, data, source=f"world.overrides ({self.preset})")
+        where = f"world.overrides ({self.preset})"
+        data = apply_overrides(data, [f"{k}={_yaml_scalar(v)}" for k, v in self.overrides.items()], source=where)
+        return validate_model(WorldSpec, data, source=where)
 
 
 def _yaml_scalar(v: Any) -> str:

@@ -12,13 +12,14 @@ Misuse is an error that leaves the environment usable: a NaN, infinite or wrongl
 action raises ``SimError`` before any state changes; ``step`` before ``reset`` or after the
 episode ended raises ``EnvResetNeeded`` (a ``gymnasium.error.ResetNeeded``), any call after
 ``close`` raises ``EnvClosed`` (a ``gymnasium.error.ClosedEnvironmentError``). Constructor
-arguments are checked up front and a bad one is named.
+arguments and ``reset`` options (only ``start``) are checked up front and a bad one is named.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from typing import Any
 
 import gymnasium as gym
@@ -39,6 +40,8 @@ log = logging.getLogger(__name__)
 
 ObsDict = dict[str, np.ndarray]
 _ACTION = "speed m/s, yaw rate rad/s"
+#: Keys ``GroundRobotEnv.reset(options=...)`` accepts.
+RESET_OPTIONS = ("start",)
 
 
 class EnvResetNeeded(SimError, ResetNeeded):
@@ -207,12 +210,19 @@ class GroundRobotEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[ObsDict, dict[str, Any]]:
-        """Start a new episode; the same ``seed`` gives the same episode."""
+        """Start a new episode; the same ``seed`` gives the same episode.
+
+        ``options`` (a dict, or None): ``start``, the start (x, y, heading rad) of this
+        episode (None: a random free pose) instead of the constructor's ``start``. Anything
+        else (an unknown key, options that are not a dict) is a ``SimError`` and the
+        environment is unchanged.
+        """
         self._check_open("reset")
+        start = self._reset_start(options)
         super().reset(seed=seed)
         base = int(self.np_random.integers(0, 2**31 - 1))
-        if self.start is not None:
-            self._state = PlanarState(*self.start)
+        if start is not None:
+            self._state = PlanarState(*start)
         else:
             self._state = self._random_start(child_rng(base, "env", "start"))
         self._drift = DriftModel(self.drift_cfg, child_rng(base, "env", "drift"))
@@ -220,6 +230,23 @@ class GroundRobotEnv(gym.Env):
         self._steps = 0
         self._needs_reset = None
         return self._observe()
+
+    def _reset_start(self, options: Any) -> tuple[float, float, float] | None:
+        """The start pose ``reset(options=...)`` asks for (checked like the constructor's ``start``)."""
+        if options is None:
+            return self.start
+        if not isinstance(options, Mapping):
+            raise SimError(
+                f"GroundRobotEnv: reset options must be a dict (keys: {', '.join(RESET_OPTIONS)}), "
+                f"got {type(options).__name__} {options!r}"
+            )
+        unknown = [k for k in options if k not in RESET_OPTIONS]
+        if unknown:
+            raise SimError(
+                f"GroundRobotEnv: unknown reset option {', '.join(map(repr, unknown))} "
+                f"(valid: {', '.join(RESET_OPTIONS)})"
+            )
+        return self._check_start(options["start"]) if "start" in options else self.start
 
     def _check_open(self, what: str) -> None:
         if self._renderer is None:

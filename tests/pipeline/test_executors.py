@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import sys
 
 import pytest
 
@@ -158,3 +159,130 @@ def test_a_task_error_stops_the_run_with_one_line(tmp_path):
     )
     with pytest.raises(RomanSimError, match="no_such_module_xyz"):
         Experiment(sc, tmp_path / "r", executor=ExecutorConfig(kind="local", workers=2)).run()
+
+
+# -- workers die with their run, and a stop is bounded -------------------------------------------
+
+
+def _worker_state(_: int) -> tuple[int, object, int]:
+    """(pid, SIGINT disposition, parent-death signal) as a pool worker sees them."""
+    import ctypes
+    import signal
+
+    sig = ctypes.c_int(0)
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(2, ctypes.byref(sig), 0, 0, 0)  # PR_GET_PDEATHSIG
+    return os.getpid(), signal.getsignal(signal.SIGINT), sig.value
+
+
+def _stubborn(marker: str) -> None:
+    """Ignore SIGTERM, say so in ``marker`` (with this pid), then never return."""
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    with open(marker, "w") as fh:
+        fh.write(str(os.getpid()))
+    time.sleep(3600)
+
+
+def _never_starts(lifeline: object, marker: str) -> None:
+    """A worker initialiser that ignores SIGTERM, says so in ``marker`` and never returns: a worker never started."""
+    import signal
+    import time
+
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    with open(marker, "w") as fh:
+        fh.write(str(os.getpid()))
+    time.sleep(3600)
+
+
+def _gone(pid: int) -> bool:
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() == psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return True
+
+
+def _wait(cond, timeout_s: float = 10.0) -> bool:
+    import time
+
+    deadline = time.monotonic() + timeout_s
+    while not cond() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    return cond()
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="PR_SET_PDEATHSIG is Linux's")
+def test_pool_workers_ignore_sigint_die_with_their_parent_and_when_the_lifeline_is_cut():
+    import signal
+
+    ex = LocalPoolExecutor(2)
+    states = ex.map(_worker_state, [(i,) for i in range(4)], ["state"] * 4)
+    assert {(s[1], s[2]) for s in states} == {(signal.SIG_IGN, signal.SIGKILL)}
+    pids = {s[0] for s in states}
+    assert ex._lifeline is not None
+    ex._lifeline.cut()  # what the kernel does when this process dies: every worker kills itself
+    assert _wait(lambda: all(_gone(p) for p in pids)), pids
+    ex.close()  # the pool sees its workers gone and stops at once
+
+
+def test_close_ends_a_worker_that_never_answers_within_its_bound(tmp_path):
+    import time
+
+    ex = LocalPoolExecutor(1)
+    ex.stop_grace_s, ex.kill_after_s = 0.5, 0.5
+    marker = tmp_path / "pid"
+    fut = ex._get_pool().submit(_stubborn, str(marker))
+    assert _wait(lambda: marker.is_file() and marker.read_text() != "")
+    pid = int(marker.read_text())
+    t0 = time.monotonic()
+    ex.close()
+    took = time.monotonic() - t0
+    assert 0.5 + 0.5 <= took < 0.5 + 2 * 0.5 + 3.0  # grace, SIGTERM (ignored), SIGKILL, with slack for a busy CPU
+    assert _wait(lambda: _gone(pid), 5.0)
+    assert fut.done()
+
+
+def test_close_ends_a_worker_that_never_started_within_its_bound(monkeypatch, tmp_path):
+    import functools
+    import time
+
+    from roman_sim.pipeline import executors
+
+    marker = tmp_path / "pid"
+    monkeypatch.setattr(executors, "worker_init", functools.partial(_never_starts, marker=str(marker)))
+    ex = LocalPoolExecutor(1)
+    ex.stop_grace_s, ex.kill_after_s = 0.5, 0.5
+    fut = ex._get_pool().submit(abs, -1)
+    assert _wait(lambda: marker.is_file() and marker.read_text() != "")  # stuck in its initialiser
+    pid = int(marker.read_text())
+    t0 = time.monotonic()
+    ex.close()
+    took = time.monotonic() - t0
+    assert 0.5 + 0.5 <= took < 0.5 + 2 * 0.5 + 3.0  # grace, SIGTERM (ignored) and its wait, then SIGKILL
+    assert _wait(lambda: _gone(pid), 5.0)
+    assert not fut.done() or fut.exception() is not None
+
+
+def test_signals_are_held_back_inside_signals_deferred_and_delivered_after():
+    import signal
+    import threading
+    import time
+
+    from roman_sim.pipeline.lifeline import signals_deferred
+
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals reach the main thread only")
+    if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        pytest.skip("SIGINT is not the default handler here")
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with signals_deferred():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.1)  # the handler would run here
+            reached.append(True)
+    assert reached == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -10,8 +10,6 @@ from __future__ import annotations
 import csv
 import json
 import signal
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -20,9 +18,10 @@ from typer.testing import CliRunner
 
 from roman_sim.cli import app
 
+from .processes import cli, start, tagged, tagged_env, wait_gone
+
 pytestmark = pytest.mark.timeout(300)
 MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]
-ROOT = Path(__file__).resolve().parents[2]
 
 
 def _invoke(*args: object) -> tuple[int, str, str]:
@@ -130,28 +129,9 @@ def test_any_exception_in_a_cell_is_that_cells_failure(tmp_path: Path, monkeypat
 
 def test_ctrl_c_keeps_completed_stages_and_exits_130(plugin_home: Path, tmp_path: Path) -> None:
     out = tmp_path / "run"
-    cmd = [
-        sys.executable,
-        "-m",
-        "roman_sim.cli",
-        "run",
-        "smoke",
-        *MICRO,
-        "--aligner",
-        "user_plugins:SlowOnRealPairs",
-        "--out",
-        str(out),
-    ]
-    env = {"PYTHONPATH": str(ROOT), "PATH": "", "MUJOCO_GL": "egl", "PYOPENGL_PLATFORM": "egl"}
-    proc = subprocess.Popen(
-        cmd,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=env,
-        cwd=plugin_home,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
+    env, tag = tagged_env(PATH="")
+    cmd = cli("run", "smoke", *MICRO, "--aligner", "user_plugins:SlowOnRealPairs", "--out", str(out))
+    proc = start(cmd, env, plugin_home)
     seen = []
     assert proc.stderr is not None
     for line in proc.stderr:  # interrupt in the evaluation, where every pair takes 2 s
@@ -168,3 +148,4 @@ def test_ctrl_c_keeps_completed_stages_and_exits_130(plugin_home: Path, tmp_path
     )
     man = json.loads((out / "manifest.json").read_text())
     assert not man["complete"] and sorted(man["stages"]) == ["maps", "submaps"]
+    assert not wait_gone(lambda: tagged(tag))  # the pool's workers were ended with their 2 s pairs

@@ -21,7 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
@@ -66,6 +65,8 @@ class KeyframeFeatures:
 
 def make_orb(params: OrbParams | None = None) -> Any:
     """An OpenCV ORB detector with ``params``."""
+    import cv2  # OpenCV loads when the visual method runs, not with the package
+
     p = params or OrbParams()
     return cv2.ORB_create(  # type: ignore[attr-defined]
         nfeatures=p.n_features,
@@ -82,6 +83,8 @@ def to_gray(rgb: NDArray[np.uint8]) -> NDArray[np.uint8]:
     img = np.asarray(rgb)
     if img.dtype != np.uint8 or img.ndim not in (2, 3) or (img.ndim == 3 and img.shape[2] != 3):
         raise MappingError(f"ORB needs an (H, W, 3) or (H, W) uint8 image, got {img.dtype} {img.shape}")
+    import cv2
+
     gray = img if img.ndim == 2 else cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
     return np.asarray(gray, dtype=np.uint8)
 
@@ -92,6 +95,8 @@ def depth_mask(depth: NDArray[np.floating], erode_px: int) -> NDArray[np.uint8]:
     m = (np.isfinite(d) & (d > 0)).astype(np.uint8) * 255
     if erode_px <= 0:
         return m
+    import cv2
+
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * erode_px + 1, 2 * erode_px + 1))
     return np.asarray(cv2.erode(m, kernel), dtype=np.uint8)
 

@@ -24,7 +24,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
@@ -70,6 +69,8 @@ def match_descriptors(dq: NDArray[np.uint8], dc: NDArray[np.uint8], ratio: float
     """Ratio-test matches (n, 2) of query descriptors ``dq`` to candidate descriptors ``dc``."""
     if len(dq) == 0 or len(dc) < 2:
         return np.zeros((0, 2), dtype=np.int64)
+    import cv2  # OpenCV loads when the visual method runs, not with the package
+
     knn = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(dq, dc, k=2)
     pairs = [(m[0].queryIdx, m[0].trainIdx) for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
@@ -112,6 +113,8 @@ def refine_reprojection(T_q_c: NDArray, pc: NDArray, uv_q: NDArray, K_q: NDArray
 
     Returns the input pose when OpenCV fails or gives a non-finite result.
     """
+    import cv2
+
     rvec: Any = cv2.Rodrigues(np.asarray(T_q_c[:3, :3], np.float64))[0]
     tvec: Any = np.asarray(T_q_c[:3, 3], np.float64).reshape(3, 1)
     try:
@@ -136,6 +139,8 @@ def mono_inliers(uv_q: NDArray, K_q: NDArray, uv_c: NDArray, K_c: NDArray, thres
 
     def _norm(uv: NDArray, K: NDArray) -> NDArray:
         return np.column_stack([(uv[:, 0] - K[0, 2]) / K[0, 0], (uv[:, 1] - K[1, 2]) / K[1, 1]])
+
+    import cv2
 
     f = float(np.sqrt(K_q[0, 0] * K_q[1, 1]))
     try:

@@ -306,13 +306,15 @@ class PoseGraphStage(Stage[PoseGraphOutput]):
         return [ATE_JSON, POSEGRAPH_JSON, *out.written]
 
     def load(self, ctx: RunContext, files: list[str]) -> PoseGraphOutput:
+        path = ctx.run_dir / ATE_JSON  # the file being read, named by the error
         try:
-            ate_data = json.loads((ctx.run_dir / ATE_JSON).read_text(encoding="utf-8"))
-            graphs = json.loads((ctx.run_dir / POSEGRAPH_JSON).read_text(encoding="utf-8"))
-            info = {k: GraphInfo(**v) for k, v in graphs.items()}
+            ate_data = json.loads(path.read_text(encoding="utf-8"))
             notes = [str(n) for n in ate_data["notes"]]
+            path = ctx.run_dir / POSEGRAPH_JSON
+            graphs = json.loads(path.read_text(encoding="utf-8"))
+            info = {k: GraphInfo(**v) for k, v in graphs.items()}
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-            raise StorageError(f"{ctx.run_dir}: unreadable pose-graph results ({type(err).__name__}: {err})") from None
+            raise StorageError(f"{path}: unreadable pose-graph results ({type(err).__name__}: {err})") from None
         return PoseGraphOutput(
             AteTable.from_json(ate_data, str(ctx.run_dir / ATE_JSON)),
             info,
