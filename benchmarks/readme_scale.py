@@ -25,7 +25,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 BEGIN, END = "<!-- paper-scale:begin -->", "<!-- paper-scale:end -->"
 SCENARIOS = ("kimera_tunnel", "kimera_hybrid", "kimera_outdoor")
-STAGES = ("world", "maps", "submaps", "evaluation", "posegraph", "report")
+STAGES = ("world", "maps", "submaps", "evaluation", "posegraph", "ate", "report")
 
 
 def _json(path: Path) -> Any:

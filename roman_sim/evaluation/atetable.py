@@ -33,6 +33,7 @@ from roman_sim.evaluation.ate import AteResult, multi_robot_ate
 #: Schema tag of ``ate.json``.
 ATE_SCHEMA = "roman_sim.ate/2"
 Fit = Literal["joint", "per_robot"]
+FITS: tuple[Fit, ...] = ("joint", "per_robot")
 ALIGNMENTS = ("se3", "4dof")
 #: Row keys for the concatenated trajectories (robot names may not take them).
 COMMON, ALL = "common", "all"
@@ -65,7 +66,7 @@ class VariantAte:
     """
 
     description: str
-    fit: str
+    fit: Fit
     connected: list[str]
     rmse: dict[str, dict[str, float | None]] = field(default_factory=dict)
     source: str = ""
@@ -82,10 +83,13 @@ class VariantAte:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "VariantAte":
-        """Inverse of ``to_json``."""
+        """Inverse of ``to_json`` (ValueError for an unknown fit)."""
+        fit = d["fit"]
+        if fit not in FITS:
+            raise ValueError(f"fit {fit!r} unknown (valid: {', '.join(FITS)})")
         return cls(
             str(d["description"]),
-            str(d["fit"]),
+            fit,
             [str(r) for r in d["connected"]],
             {
                 str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}

@@ -9,21 +9,29 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
 from roman_sim.core.config import stable_hash
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.types import KeyframeSet
+from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.plugin_guard import guard_frontend
 
 log = logging.getLogger(__name__)
 MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
+#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
+RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
 
 
 def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
@@ -149,12 +157,46 @@ def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> Ma
     return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
 
 
-#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
-RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
-
-
 def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> RobotMapping:
     """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
     grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
     smap, kf = map_sequence(ctx, cfg, grader) if cfg.source is not None else map_robot(ctx, world, cfg, path, grader)
     return smap, kf, grader.part()
+
+
+class RobotMappingCodec:
+    """Checkpoint codec of a robot's mapping (``TaskCodec``): ``<stem>.map.npz``, ``.keyframes.npz``, ``.grades.npz``.
+
+    The map and keyframes go through the same writers as the maps stage's own files, the
+    grade part through its arrays, so what is read back is what the stage saves.
+    """
+
+    def write(self, value: RobotMapping, stem: Path) -> Kept:
+        """Write the map, the keyframes and the grade part that exist."""
+        from roman_sim.core.atomic import write_arrays
+
+        smap, kf, part = value
+        files = [_part(stem, "map")]
+        save_segment_map(files[0], smap)
+        if kf is not None:
+            files.append(_part(stem, "keyframes"))
+            save_keyframes(files[-1], kf)
+        if part is not None:
+            files.append(_part(stem, "grades"))
+            write_arrays(files[-1], part.arrays())
+        return Kept({"keyframes": kf is not None, "grades": part is not None}, files)
+
+    def read(self, data: JSON, stem: Path) -> RobotMapping:
+        """The map, keyframes and grade part ``write`` kept."""
+        if not isinstance(data, dict):
+            raise StorageError(f"{stem}: malformed mapping checkpoint")
+        part = None
+        if data.get("grades"):
+            with np.load(_part(stem, "grades"), allow_pickle=False) as z:
+                part = GraderPart.from_arrays(z)
+        kf = load_keyframes(_part(stem, "keyframes")) if data.get("keyframes") else None
+        return load_segment_map(_part(stem, "map")), kf, part
+
+
+def _part(stem: Path, name: str) -> Path:
+    return stem.with_name(f"{stem.name}.{name}.npz")

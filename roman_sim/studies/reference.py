@@ -312,7 +312,7 @@ def _run_summary(d: Path) -> dict[str, Any]:
     stats = MapStats.from_json({k: v for k, v in _json(d / "map_stats.json").items() if k != "notes"})
     alignment = (_json(d / "timings.json").get("stages", {}).get("evaluation") or {}).get("alignment") or {}
     runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
-    return compact_summary(metrics, ate, stats, runtimes)
+    return compact_summary(metrics, ate, stats, runtimes).to_json()
 
 
 def _json(path: Path) -> Any:
