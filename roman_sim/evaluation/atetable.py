@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import AteResult, multi_robot_ate
 
@@ -71,7 +72,7 @@ class VariantAte:
     rmse: dict[str, dict[str, float | None]] = field(default_factory=dict)
     source: str = ""
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {
             "description": self.description,
@@ -124,7 +125,7 @@ class AteTable:
             raise EvaluationError(f"ATE robot {robot!r} unknown (valid: {COMMON}, {ALL}, {', '.join(self.robots)})")
         return table[alignment][robot]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (variants as a list, so their order survives sorted keys)."""
         return {
             "schema": ATE_SCHEMA,
@@ -134,7 +135,7 @@ class AteTable:
         }
 
     @classmethod
-    def from_json(cls, d: Any, source: str = "ate") -> "AteTable":
+    def from_json(cls, d: object, source: str = "ate") -> "AteTable":
         """Inverse of ``to_json``; StorageError names ``source`` when the data is not valid."""
         if not isinstance(d, dict) or d.get("schema") != ATE_SCHEMA:
             raise StorageError(f"{source}: not an ATE table of schema {ATE_SCHEMA}")

@@ -10,15 +10,21 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar, cast
 
 from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
 from roman_sim.pipeline.executor_base import Executor, ExecutorConfig, TaskError, collect, guarded
 
+if TYPE_CHECKING:
+    from distributed import Client, Future, LocalCluster
+    from distributed.security import Security
+
 log = logging.getLogger(__name__)
 
+T = TypeVar("T")
 
-def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
+
+def connect_client(address: str, timeout_s: float, security: Security | None = None) -> Client:
     """A ``distributed.Client`` connected to ``address`` within ``timeout_s`` (one-line error otherwise).
 
     Plain ``tcp://`` goes through ``roman_sim.pipeline.cluster.connect`` (a bounded handshake
@@ -38,7 +44,7 @@ def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
         raise ClusterError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None
 
 
-def _result(fut: Any) -> Any:
+def _result(fut: Future) -> object:
     """A future's result; errors of the cluster itself (a lost worker, an unpicklable result) as ``TaskError``."""
     try:
         return fut.result()
@@ -70,7 +76,7 @@ class DaskExecutor(Executor):
         from roman_sim.pipeline import dask_security as sec
 
         self.cfg = cfg
-        self.cluster: Any = None
+        self.cluster: LocalCluster | None = None
         security = sec.security_for(cfg)
         if cfg.scheduler_address:
             address = sec.check_address(cfg.scheduler_address, cfg, security)
@@ -85,25 +91,26 @@ class DaskExecutor(Executor):
         except BaseException:
             self.close()
             raise
-        log.info("Dask executor: %s, %d worker(s)", self.client.scheduler.address, self.workers)
+        log.info("Dask executor: %s, %d worker(s)", self.address, self.workers)
 
     @property
     def address(self) -> str:
         """The scheduler's address."""
-        return str(self.client.scheduler.address)
+        return str(self.client.scheduler.address)  # type: ignore[union-attr]  # a connected client has one
 
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         from distributed import as_completed
 
         if not args:
             return
         futures = {self.client.submit(guarded, fn, labels[i], True, *a, pure=False): i for i, a in enumerate(args)}
         try:
-            yield from collect(
+            done = collect(
                 futures, labels, as_completed(list(futures), loop=self.client.loop), _result, self.client.cancel, _LOST
             )
+            yield from cast(Iterator[tuple[int, T]], done)  # each future holds its task's T
         finally:
             self.client.cancel([f for f in futures if not f.done()])
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar
 
 from roman_sim.pipeline.executor_base import (
     Executor,
@@ -30,15 +30,20 @@ from roman_sim.pipeline.executor_base import (
     worker_name,
 )
 
+if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
+
 log = logging.getLogger(__name__)
+
+T = TypeVar("T")
 
 
 class SerialExecutor(Executor):
     """Every task in this process, one after the other (errors unchanged)."""
 
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         for i, a in enumerate(args):
             yield i, fn(*a)
 
@@ -50,9 +55,9 @@ class LocalPoolExecutor(Executor):
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
-        self._pool: Any = None
+        self._pool: ProcessPoolExecutor | None = None
 
-    def _get_pool(self) -> Any:
+    def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
             import multiprocessing
             from concurrent.futures import ProcessPoolExecutor
@@ -63,8 +68,8 @@ class LocalPoolExecutor(Executor):
         return self._pool
 
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         from concurrent.futures import as_completed
         from concurrent.futures.process import BrokenProcessPool
 

@@ -25,7 +25,9 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Sized
 from pathlib import Path
+from typing import cast
 
 from roman_sim import __version__
 from roman_sim.core.atomic import write_json, write_text
@@ -125,7 +127,8 @@ class Experiment:
                 dry_call(seg, fe.segmenter.name, "segmenter", with_rgb=with_rgb)
             if is_plugin(fe.encoder.name):
                 enc = instantiate_plugin(fe.encoder.name, "encoder", fe.encoder.params)
-                dim = len(dry_call(enc, fe.encoder.name, "encoder", with_rgb=with_rgb))
+                # the dry call checked that the encoder returns a 1-d vector
+                dim = len(cast(Sized, dry_call(enc, fe.encoder.name, "encoder", with_rgb=with_rgb)))
         for entry in sc.aligners:
             aligner = build_aligner(entry.method, entry.params)
             if is_plugin(entry.method):

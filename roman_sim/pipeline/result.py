@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TypeVar
 
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSONObject
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.manifest import read_manifest
@@ -116,7 +116,7 @@ class RunResult:
         runtimes = {m: self.runtime_median_s(m) for m in self.metrics.methods}
         return compact_summary(self.metrics, self.ate, self.map_stats, runtimes)
 
-    def metrics_summary(self) -> JSONObject:
+    def metrics_summary(self) -> dict[str, JSONLike]:
         """``summary()`` as JSON (what ``summary.json`` holds per run)."""
         return self.summary().to_json()
 

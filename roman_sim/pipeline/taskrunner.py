@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator, Sequence
-from typing import TypeVar, cast
+from typing import TypeVar
 
 from roman_sim.pipeline.checkpoint import Checkpoint, TaskCodec
 from roman_sim.pipeline.executor_base import Executor
@@ -78,9 +78,8 @@ class TaskRunner:
             log.info("%s: reusing the result of an interrupted run", labels[i])
             yield i, kept
         tasks = self.executor.run_tasks(fn, [args[i] for i in todo], [labels[i] for i in todo])
-        for j, raw in tasks:
+        for j, value in tasks:
             i = todo[j]
-            value = cast(T, raw)
             if self.checkpoint is not None:
                 self.checkpoint.put(items[i], value, codec)
                 back = self.checkpoint.get(items[i], codec)

@@ -11,36 +11,36 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSON, JSONObject
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.atetable import ALL, COMMON, AteTable
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats
 
 
-def _f(v: JSON) -> float | None:
+def _f(v: JSONLike) -> float | None:
     """A number or None, unchanged (an int stays an int, so the JSON written back is the same)."""
     if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)):
         return v
     raise ValueError(f"expected a number, got {v!r}")
 
 
-def _i(v: JSON) -> int:
+def _i(v: JSONLike) -> int:
     if isinstance(v, int) and not isinstance(v, bool):
         return v
     raise ValueError(f"expected an integer, got {v!r}")
 
 
-def _pair(v: JSON) -> tuple[float, float] | None:
+def _pair(v: JSONLike) -> tuple[float, float] | None:
     if v is None:
         return None
-    if isinstance(v, list) and len(v) == 2:
+    if isinstance(v, (list, tuple)) and len(v) == 2:
         lo, hi = _f(v[0]), _f(v[1])
         if lo is not None and hi is not None:
             return lo, hi
     raise ValueError(f"expected an interval [lo, hi], got {v!r}")
 
 
-def _obj(v: JSON, what: str) -> JSONObject:
-    if not isinstance(v, dict):
+def _obj(v: JSONLike, what: str) -> Mapping[str, JSONLike]:
+    if not isinstance(v, Mapping):
         raise StorageError(f"run summary: {what} is not an object")
     return v
 
@@ -61,7 +61,7 @@ class RecallSummary:
         ci = None if s.recall_ci is None else (s.recall_ci[0], s.recall_ci[1])
         return cls(s.max_recall, s.max_hits, s.n_relevant, ci, s.few)
 
-    def to_json(self) -> JSONObject:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {
             "max_recall": self.max_recall,
@@ -72,11 +72,11 @@ class RecallSummary:
         }
 
     @staticmethod
-    def _fields(d: JSONObject) -> tuple[float | None, int, int, tuple[float, float] | None, bool]:
+    def _fields(d: Mapping[str, JSONLike]) -> tuple[float | None, int, int, tuple[float, float] | None, bool]:
         return _f(d["max_recall"]), _i(d["max_hits"]), _i(d["n_relevant"]), _pair(d["recall_ci"]), bool(d["few"])
 
     @classmethod
-    def from_json(cls, d: JSON) -> RecallSummary:
+    def from_json(cls, d: JSONLike) -> RecallSummary:
         """Inverse of ``to_json``."""
         return cls(*cls._fields(_obj(d, "recall")))
 
@@ -95,7 +95,7 @@ class SetSummary(RecallSummary):
     assoc_recall: float | None = None
     bins: dict[str, RecallSummary] = field(default_factory=dict)
 
-    def to_json(self) -> JSONObject:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {
             **super().to_json(),
@@ -110,7 +110,7 @@ class SetSummary(RecallSummary):
         }
 
     @classmethod
-    def from_json(cls, d: JSON) -> SetSummary:
+    def from_json(cls, d: JSONLike) -> SetSummary:
         """Inverse of ``to_json``."""
         o = _obj(d, "pair set")
         return cls(
@@ -161,12 +161,12 @@ class MethodSummary:
             raise StorageError(f"pair set {kind!r} unknown (valid: inter, intra)")
         return self.inter if kind == "inter" else self.intra
 
-    def to_json(self) -> JSONObject:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {"inter": self.inter.to_json(), "intra": self.intra.to_json(), "runtime_median_s": self.runtime_median_s}
 
     @classmethod
-    def from_json(cls, d: JSON) -> MethodSummary:
+    def from_json(cls, d: JSONLike) -> MethodSummary:
         """Inverse of ``to_json``."""
         o = _obj(d, "method")
         return cls(SetSummary.from_json(o["inter"]), SetSummary.from_json(o["intra"]), _f(o["runtime_median_s"]))
@@ -180,12 +180,12 @@ class AteSummary:
     common: float | None
     all: float | None
 
-    def to_json(self) -> JSONObject:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {"connected": self.connected, "common": self.common, "all": self.all}
 
     @classmethod
-    def from_json(cls, d: JSON) -> AteSummary:
+    def from_json(cls, d: JSONLike) -> AteSummary:
         """Inverse of ``to_json``."""
         o = _obj(d, "ATE row")
         return cls(_i(o["connected"]), _f(o["common"]), _f(o["all"]))
@@ -210,12 +210,12 @@ class FrontEndSummary:
     cosine_same_family: float | None
     cosine_other_family: float | None
 
-    def to_json(self) -> JSONObject:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (field order)."""
         return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
     @classmethod
-    def from_json(cls, d: JSON) -> FrontEndSummary:
+    def from_json(cls, d: JSONLike) -> FrontEndSummary:
         """Inverse of ``to_json``."""
         o = _obj(d, "front end")
         return cls(
@@ -228,12 +228,12 @@ class FrontEndSummary:
         )
 
 
-def _weighted_mean(classes: JSONObject, names: tuple[str, ...]) -> float | None:
+def _weighted_mean(classes: Mapping[str, JSONLike], names: tuple[str, ...]) -> float | None:
     """Pair-weighted mean cosine of the descriptor classes ``names`` (None without pairs)."""
     got = []
     for n in names:
         c = classes.get(n)
-        if isinstance(c, dict) and c["pairs"]:
+        if isinstance(c, Mapping) and c["pairs"]:
             pairs, mean = _f(c["pairs"]), _f(c["mean"])
             if pairs is not None and mean is not None:
                 got.append((pairs, mean))
@@ -241,7 +241,7 @@ def _weighted_mean(classes: JSONObject, names: tuple[str, ...]) -> float | None:
     return sum(n * m for n, m in got) / total if total else None
 
 
-def frontend_summary(grades: Mapping[str, JSON] | None) -> FrontEndSummary | None:
+def frontend_summary(grades: Mapping[str, JSONLike] | None) -> FrontEndSummary | None:
     """The front end's grades in short (from metrics.json's ``frontend`` section; None when not graded).
 
     Segmentation precision, recall, mean IoU, over- / under-segmented and spurious counts over
@@ -252,8 +252,8 @@ def frontend_summary(grades: Mapping[str, JSON] | None) -> FrontEndSummary | Non
         return None
     s = _obj(grades["segmentation"], "segmentation")
     descriptors = grades.get("descriptors")
-    classes = descriptors.get("classes") if isinstance(descriptors, dict) else None
-    cls: JSONObject = classes if isinstance(classes, dict) else {}
+    classes = descriptors.get("classes") if isinstance(descriptors, Mapping) else None
+    cls: Mapping[str, JSONLike] = classes if isinstance(classes, Mapping) else {}
     encoder = grades.get("encoder")
     return FrontEndSummary(
         segmenter=str(grades["segmenter"]),
@@ -297,9 +297,9 @@ class RunSummary:
     map: MapStats | None = None
     frontend: FrontEndSummary | None = None
 
-    def to_json(self) -> JSONObject:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (the layout ``summary.json`` has always had)."""
-        robots: JSONObject = {}
+        robots: dict[str, JSONLike] = {}
         if self.ate_robots is not None:
             robots = {"robots": list(self.ate_robots[0]), "common": list(self.ate_robots[1])}
         return {
@@ -314,7 +314,7 @@ class RunSummary:
         }
 
     @classmethod
-    def from_json(cls, d: JSON) -> RunSummary:
+    def from_json(cls, d: JSONLike) -> RunSummary:
         """Inverse of ``to_json`` (StorageError when ``d`` is not a run summary)."""
         try:
             o = _obj(d, "run")
@@ -338,8 +338,8 @@ class RunSummary:
             raise StorageError(f"run summary: malformed ({type(err).__name__}: {err})") from None
 
 
-def _names(v: JSON) -> list[str]:
-    if not isinstance(v, list):
+def _names(v: JSONLike) -> list[str]:
+    if not isinstance(v, (list, tuple)):
         raise ValueError(f"expected a list of names, got {v!r}")
     return [str(x) for x in v]
 

@@ -36,7 +36,6 @@ from __future__ import annotations
 import dataclasses
 from abc import ABC, abstractmethod
 from collections.abc import Mapping
-from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
 
 from roman_sim import __version__
@@ -124,8 +123,3 @@ class Stage(ABC, Generic[InputsT, OutputT]):
     def load(self, ctx: RunContext, files: list[str]) -> OutputT:
         """Read the output back from ``files`` (those ``save`` returned)."""
         raise NotImplementedError(f"stage {self.name} is not cached")
-
-
-def rel(ctx: RunContext, path: Path) -> str:
-    """``path`` relative to the run folder, with forward slashes."""
-    return path.relative_to(ctx.run_dir).as_posix()

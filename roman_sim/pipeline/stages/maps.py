@@ -6,6 +6,16 @@ TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same wa
 When a scenario lists the ``visual`` method, the same frames also give each robot's visual
 keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
 ``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
+
+``run`` hands one task per robot to its ``TaskRunner`` (checkpointed per robot) and writes
+nothing; ``save`` writes ``maps/``, ``keyframes/``, ``maps/frontend.json`` and
+``plots/frontend.png``. With ``record_frames``, the rendered frames are a cache, not an
+output of the stage: the mapping task (``roman_sim.pipeline.robot_mapping``) streams them
+into ``recordings/<robot>/`` as it renders (holding a robot's frames in memory until
+``save`` would cost gigabytes at paper scale) and reads them back, under a key of what they
+depend on (seed, world, robots), so a later run with other mapping settings maps them
+again without rendering. They are not in the manifest and survive a stage's completion,
+unlike the checkpoints under ``partial/``.
 """
 
 from __future__ import annotations

@@ -36,7 +36,6 @@ import logging
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TypedDict
 
 import numpy as np
 
@@ -46,10 +45,17 @@ from roman_sim.core.geometry import gravity_aligned
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum, write_tum
-from roman_sim.evaluation.atetable import FITS, Fit
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.scenario import VISUAL_METHODS
 from roman_sim.pipeline.stages.base import Stage, Timings
+from roman_sim.pipeline.stages.estimates import (
+    ESTIMATES_JSON,
+    ESTIMATES_SCHEMA,
+    GraphInfo,
+    Variant,
+    variant_from_json,
+    variant_json,
+)
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
@@ -59,8 +65,6 @@ from roman_sim.posegraph import LoopClosure, build_and_solve, submap_nodes_from
 log = logging.getLogger(__name__)
 
 POSEGRAPH_JSON = "posegraph.json"
-ESTIMATES_JSON = "posegraph_estimates.json"
-ESTIMATES_SCHEMA = "roman_sim.posegraph_estimates/1"
 #: Name of the true trajectories among the variants' trajectory files.
 TRUTH = "truth"
 ORACLE_ASSOCIATIONS = 1_000_000
@@ -69,38 +73,6 @@ ORACLE_ASSOCIATIONS = 1_000_000
 def tum_path(variant: str, robot: str) -> str:
     """Relative path of a variant's trajectory of one robot (``truth`` for the true trajectory)."""
     return f"trajectories/{robot}.{variant}.tum"
-
-
-@dataclass(frozen=True)
-class GraphInfo:
-    """What one pose graph used: closures given, closures above the threshold, GNC inliers,
-    robots no closure chain ties to the first robot."""
-
-    closures: int
-    closures_used: int
-    inliers: int
-    unconnected: list[str]
-
-
-@dataclass
-class Variant:
-    """One trajectory variant: what it is, how it is fitted to the truth, where its trajectories are.
-
-    Attributes:
-        description: what the variant is (the ATE table's text).
-        fit: ``joint`` or ``per_robot`` (``roman_sim.evaluation.atetable``).
-        source: the variant whose trajectories it is scored from (``odometry_no_prior``
-            uses ``odometry``'s).
-        closures: the loop closures its pose graph was given (none for odometry).
-        weights: per closure, its GNC weight (about 1 inlier, about 0 outlier), or None when
-            the graph did not use it (below the association threshold or degenerate).
-    """
-
-    description: str
-    fit: Fit
-    source: str
-    closures: list[LoopClosure] = field(default_factory=list)
-    weights: list[float | None] = field(default_factory=list)
 
 
 @dataclass
@@ -258,75 +230,6 @@ def solve_graphs(
     return out, seconds
 
 
-class ClosureJSON(TypedDict):
-    """A loop closure and its weight in ``posegraph_estimates.json``."""
-
-    robot_a: str
-    submap_a: int
-    robot_b: str
-    submap_b: int
-    T_a_b: list[list[float]]
-    n_associations: int
-    sigma_m: float | None
-    sigma_deg: float | None
-    source: str
-    weight: float | None
-
-
-def _closure_json(c: LoopClosure, w: float | None) -> ClosureJSON:
-    return {
-        "robot_a": c.robot_a,
-        "submap_a": int(c.submap_a),
-        "robot_b": c.robot_b,
-        "submap_b": int(c.submap_b),
-        "T_a_b": np.asarray(c.T_a_b, dtype=np.float64).tolist(),
-        "n_associations": int(c.n_associations),
-        "sigma_m": c.sigma_m,
-        "sigma_deg": c.sigma_deg,
-        "source": c.source,
-        "weight": w,
-    }
-
-
-def _closure_from_json(d: ClosureJSON) -> tuple[LoopClosure, float | None]:
-    c = LoopClosure(
-        str(d["robot_a"]),
-        int(d["submap_a"]),
-        str(d["robot_b"]),
-        int(d["submap_b"]),
-        np.asarray(d["T_a_b"], dtype=np.float64),
-        int(d["n_associations"]),
-        None if d["sigma_m"] is None else float(d["sigma_m"]),
-        None if d["sigma_deg"] is None else float(d["sigma_deg"]),
-        str(d["source"]),
-    )
-    return c, None if d["weight"] is None else float(d["weight"])
-
-
-class VariantJSON(TypedDict):
-    """A trajectory variant in ``posegraph_estimates.json``."""
-
-    name: str
-    description: str
-    fit: Fit
-    source: str
-    closures: list[ClosureJSON]
-
-
-def _variant_json(name: str, v: Variant) -> VariantJSON:
-    closures = [_closure_json(c, w) for c, w in zip(v.closures, v.weights)]
-    return {"name": name, "description": v.description, "fit": v.fit, "source": v.source, "closures": closures}
-
-
-def _variant_from_json(d: VariantJSON) -> tuple[str, Variant]:
-    if d["fit"] not in FITS:
-        raise ValueError(f"fit {d['fit']!r}")
-    pairs = [_closure_from_json(c) for c in d["closures"]]
-    return str(d["name"]), Variant(
-        str(d["description"]), d["fit"], str(d["source"]), [c for c, _ in pairs], [w for _, w in pairs]
-    )
-
-
 class PoseGraphStage(Stage[PoseGraphInputs, PoseGraphOutput]):
     """Solve the run's pose graphs (method, visual, combined, oracle); every variant's trajectories."""
 
@@ -355,7 +258,7 @@ class PoseGraphStage(Stage[PoseGraphInputs, PoseGraphOutput]):
                 write_tum(ctx.run_dir / tum_path(variant, robot), tr)
                 written.append(tum_path(variant, robot))
         write_json(ctx.run_dir / POSEGRAPH_JSON, {k: vars(v) for k, v in out.graphs.items()})
-        estimates = [_variant_json(k, v) for k, v in out.variants.items()]
+        estimates = [variant_json(k, v) for k, v in out.variants.items()]
         write_json(
             ctx.run_dir / ESTIMATES_JSON, {"schema": ESTIMATES_SCHEMA, "notes": out.notes, "variants": estimates}
         )
@@ -368,7 +271,7 @@ class PoseGraphStage(Stage[PoseGraphInputs, PoseGraphOutput]):
                 raise ValueError(f"schema {est.get('schema')!r}")
             graphs = json.loads((ctx.run_dir / POSEGRAPH_JSON).read_text(encoding="utf-8"))
             info = {k: GraphInfo(**v) for k, v in graphs.items()}
-            variants = dict(_variant_from_json(v) for v in est["variants"])
+            variants = dict(variant_from_json(v) for v in est["variants"])
             notes = [str(n) for n in est["notes"]]
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{ctx.run_dir}: unreadable pose-graph results ({type(err).__name__}: {err})") from None
