@@ -77,7 +77,8 @@ class RunResult:
 
         Raises:
             StorageError: not a run folder, a run that did not complete (naming the missing
-                stages), a configuration that does not match the outputs, or unreadable files.
+                stages), a folder of an older stage table, a configuration that does not match
+                the outputs, or unreadable files.
         """
         d = Path(run_dir)
         man = read_manifest(d)
@@ -88,6 +89,11 @@ class RunResult:
         sc = load_scenario(d / "config.yaml")
         if sc.config_hash() != man.config_hash:
             raise StorageError(f"{d}: config.yaml does not match the run's outputs (edited after the run?)")
+        never = [s for s in RESULT_STAGES if s not in man.stages]
+        if never:
+            raise StorageError(
+                f"{d}: written by an older version without the {', '.join(never)} stage(s); run it again to update it"
+            )
         ctx = RunContext(sc, d)
         outputs = {
             s.name: s.load(ctx, man.stages[s.name].files)

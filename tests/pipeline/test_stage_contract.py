@@ -180,3 +180,22 @@ def test_inputs_are_a_dataclass_of_earlier_outputs(stage):
         assert names.index(field.name) < names.index(stage.name), field.name
         assert field.name in stage.required() or field.default is None
         assert "Output" in str(hints[field.name]) or field.name in ("maps", "submaps"), hints[field.name]
+
+
+def test_a_folder_without_the_ate_stage_says_so_and_a_rerun_updates_it(smoke_run, tmp_path):
+    import json
+
+    from roman_sim.core.errors import StorageError
+    from roman_sim.pipeline.result import RunResult
+
+    run_dir = tmp_path / "old"
+    shutil.copytree(smoke_run.run_dir, run_dir)
+    man = json.loads((run_dir / "manifest.json").read_text())
+    del man["stages"]["ate"]
+    man["expected"].remove("ate")
+    (run_dir / "manifest.json").write_text(json.dumps(man))
+    with pytest.raises(StorageError, match=r"older version without the ate stage\(s\); run it again"):
+        RunResult.load(run_dir)
+    res = Experiment(load_scenario("smoke"), run_dir).run()
+    assert "ate" not in res.reused and {"maps", "submaps", "evaluation", "posegraph"} <= set(res.reused)
+    assert RunResult.load(run_dir).ate.rmse("roman") == smoke_run.ate.rmse("roman")
