@@ -26,7 +26,7 @@ ROOT = Path(__file__).resolve().parent.parent
 PAGE = Path("docs") / "paper_scale.md"
 BEGIN, END = "<!-- paper-scale:begin -->", "<!-- paper-scale:end -->"
 SCENARIOS = ("kimera_tunnel", "kimera_hybrid", "kimera_outdoor")
-STAGES = ("world", "maps", "submaps", "evaluation", "posegraph", "report")
+STAGES = ("world", "maps", "submaps", "evaluation", "posegraph", "ate", "report")
 
 
 def _json(path: Path) -> Any:

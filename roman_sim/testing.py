@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import cast
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
@@ -32,27 +32,27 @@ from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligne
 FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
 
 
-def names_list(value: Any, what: str) -> list[str]:
+def names_list(value: object, what: str) -> list[str]:
     """``value`` as a list of strings; ``ConfigError`` for a bare string (a list is meant) or non-strings."""
     if isinstance(value, (str, bytes)):
         raise ConfigError(f"{what}: expected a list of strings, got the string {value!r} (write {what}=[{value!r}])")
     try:
-        items = list(value)
+        items = list(cast(Iterable[object], value))  # a non-iterable raises TypeError here
     except TypeError:
         raise ConfigError(f"{what}: expected a list of strings, got {type(value).__name__}") from None
     bad = [x for x in items if not isinstance(x, str)]
     if bad:
         raise ConfigError(f"{what}: every entry must be a string, got {bad[0]!r}")
-    return items
+    return [str(x) for x in items]
 
 
-def _check_key(key: Any) -> str:
+def _check_key(key: object) -> str:
     if key not in FIGURES:
         raise ConfigError(f"key: unknown figure {key!r} (valid: {', '.join(FIGURES)})")
     return str(key)
 
 
-def _fraction(value: Any, what: str) -> float:
+def _fraction(value: object, what: str) -> float:
     """A finite number in [0, 1] (booleans are not numbers here); ``ConfigError`` naming ``what``."""
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise ConfigError(f"{what}: expected a number in [0, 1], got {value!r}")
@@ -106,7 +106,7 @@ def assert_recall(
     assert not failures, "; ".join(failures)
 
 
-def _bounds(minimum: Any) -> dict[str | None, float]:
+def _bounds(minimum: object) -> dict[str | None, float]:
     """``{None: bound}`` or ``{bin label: bound}``, every bound a finite fraction."""
     if isinstance(minimum, Mapping):
         if not minimum:

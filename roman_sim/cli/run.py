@@ -216,7 +216,7 @@ def run_cmd(
         None, "--aligner", "-a", help="add an aligner (name or package.module:Class)"
     ),
     from_stage: str | None = typer.Option(
-        None, "--from", help="recompute from this stage on (maps, submaps, evaluation, posegraph, report)"
+        None, "--from", help="recompute from this stage on (maps, submaps, evaluation, posegraph, ate, report)"
     ),
     executor: str | None = X.EXECUTOR,
     workers: int | None = X.WORKERS,

@@ -10,9 +10,13 @@ from __future__ import annotations
 
 import types
 from collections.abc import Mapping, Sequence
-from typing import Annotated, Any, Union, get_args, get_origin
+from typing import Annotated, TypeGuard, Union, get_args, get_origin
 
 from pydantic import BaseModel, ValidationError
+from pydantic_core import ErrorDetails
+
+#: A location inside the validated data: keys and list indices.
+Loc = tuple[int | str, ...]
 
 _MAX_GOT = 40  # longest repr of a bad value quoted in a message
 
@@ -34,7 +38,7 @@ def format_validation_error(err: ValidationError, source: str = "", model: type[
 class _Entry:
     """One pydantic error with its location cleaned of union tags."""
 
-    def __init__(self, e: Any, model: type[BaseModel] | None) -> None:
+    def __init__(self, e: ErrorDetails, model: type[BaseModel] | None) -> None:
         self.raw = e
         self.loc, self.union_at, self.depth_below_union, self.parent = _walk(model, tuple(e["loc"]))
         self.alternatives: list[str] = []
@@ -84,7 +88,7 @@ class _Entry:
         return msg
 
 
-def _got(value: Any) -> str:
+def _got(value: object) -> str:
     if isinstance(value, (dict, list, tuple, set)):
         return f" (got a {type(value).__name__})"
     text = repr(value)
@@ -93,7 +97,7 @@ def _got(value: Any) -> str:
 
 def _drop_union_alternatives(entries: list[_Entry]) -> list[_Entry]:
     """Per union field: keep the deep errors of the member the input was meant for, else one summary."""
-    by_field: dict[tuple[Any, ...], list[_Entry]] = {}
+    by_field: dict[Loc, list[_Entry]] = {}
     for e in entries:
         if e.union_at is not None:
             by_field.setdefault(e.union_at, []).append(e)
@@ -109,7 +113,7 @@ def _drop_union_alternatives(entries: list[_Entry]) -> list[_Entry]:
     return out
 
 
-def _describe(e: Any) -> str:
+def _describe(e: ErrorDetails) -> str:
     """What one union member accepts, from its type error (``a valid string`` -> ``a string``)."""
     msg: str = e["msg"]
     if e["type"] == "model_type":
@@ -121,24 +125,26 @@ def _describe(e: Any) -> str:
     return msg
 
 
-def _unwrap(ann: Any) -> Any:
+def _unwrap(ann: object) -> object:
     while get_origin(ann) is Annotated:
         ann = get_args(ann)[0]
     return ann
 
 
-def _is_model(ann: Any) -> bool:
+def _is_model(ann: object) -> TypeGuard[type[BaseModel]]:
     return isinstance(ann, type) and issubclass(ann, BaseModel)
 
 
-def _tag(member: Any) -> str:
+def _tag(member: object) -> str:
     return member.__name__ if isinstance(member, type) else str(member)
 
 
-def _walk(model: Any, loc: tuple[Any, ...]) -> tuple[list[Any], tuple[Any, ...] | None, int, Any]:
+def _walk(model: object, loc: Loc) -> tuple[list[int | str], Loc | None, int, object]:
     """(location without union tags, location of the union field or None, depth below it, parent annotation)."""
-    clean: list[Any] = []
-    ann, union_at, depth, parent = model, None, 0, None
+    clean: list[int | str] = []
+    ann: object = model
+    union_at: Loc | None = None
+    depth, parent = 0, None
     for key in loc:
         ann = _unwrap(ann)
         if get_origin(ann) in (Union, types.UnionType):
@@ -156,10 +162,10 @@ def _walk(model: Any, loc: tuple[Any, ...]) -> tuple[list[Any], tuple[Any, ...] 
     return clean, union_at, depth, parent
 
 
-def _child(ann: Any, key: Any) -> Any:
+def _child(ann: object, key: int | str) -> object:
     """Annotation of ``ann[key]`` (a field of a model, an item of a list or tuple, a mapping value)."""
     if _is_model(ann):
-        field = ann.model_fields.get(key)
+        field = ann.model_fields.get(key) if isinstance(key, str) else None
         return None if field is None else field.annotation
     origin, args = get_origin(ann), get_args(ann)
     if origin is tuple and args and args[-1] is not Ellipsis:
@@ -171,6 +177,6 @@ def _child(ann: Any, key: Any) -> Any:
     return None
 
 
-def _fields(ann: Any) -> list[str]:
+def _fields(ann: object) -> list[str]:
     ann = _unwrap(ann)
     return sorted(ann.model_fields) if _is_model(ann) else []

@@ -190,3 +190,17 @@ def multi_robot_ate(
         ref_all.append(r)
     out[ALL] = _stats(np.concatenate(est_all), np.concatenate(ref_all), alignment) if est_all else None
     return out
+
+
+def aligned_to_truth(est: Mapping[str, Trajectory], truth: Mapping[str, Trajectory]) -> dict[str, Trajectory]:
+    """``est`` moved onto ``truth`` by one SE(3) fit of the concatenated robots (empty when not computable).
+
+    Every robot of ``est`` must have a true trajectory in ``truth``.
+    """
+    if not est:
+        return {}
+    try:
+        res = multi_robot_ate(est, {r: truth[r] for r in est}, "se3")[ALL]
+    except EvaluationError:
+        return {}
+    return {} if res is None else {r: tr.transformed(res.T_align) for r, tr in est.items()}

@@ -27,12 +27,14 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import AteResult, multi_robot_ate
 
 #: Schema tag of ``ate.json``.
 ATE_SCHEMA = "roman_sim.ate/2"
 Fit = Literal["joint", "per_robot"]
+FITS: tuple[Fit, ...] = ("joint", "per_robot")
 ALIGNMENTS = ("se3", "4dof")
 #: Row keys for the concatenated trajectories (robot names may not take them).
 COMMON, ALL = "common", "all"
@@ -65,12 +67,12 @@ class VariantAte:
     """
 
     description: str
-    fit: str
+    fit: Fit
     connected: list[str]
     rmse: dict[str, dict[str, float | None]] = field(default_factory=dict)
     source: str = ""
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {
             "description": self.description,
@@ -82,10 +84,13 @@ class VariantAte:
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "VariantAte":
-        """Inverse of ``to_json``."""
+        """Inverse of ``to_json`` (ValueError for an unknown fit)."""
+        fit = d["fit"]
+        if fit not in FITS:
+            raise ValueError(f"fit {fit!r} unknown (valid: {', '.join(FITS)})")
         return cls(
             str(d["description"]),
-            str(d["fit"]),
+            fit,
             [str(r) for r in d["connected"]],
             {
                 str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}
@@ -120,7 +125,7 @@ class AteTable:
             raise EvaluationError(f"ATE robot {robot!r} unknown (valid: {COMMON}, {ALL}, {', '.join(self.robots)})")
         return table[alignment][robot]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (variants as a list, so their order survives sorted keys)."""
         return {
             "schema": ATE_SCHEMA,
@@ -130,7 +135,7 @@ class AteTable:
         }
 
     @classmethod
-    def from_json(cls, d: Any, source: str = "ate") -> "AteTable":
+    def from_json(cls, d: object, source: str = "ate") -> "AteTable":
         """Inverse of ``to_json``; StorageError names ``source`` when the data is not valid."""
         if not isinstance(d, dict) or d.get("schema") != ATE_SCHEMA:
             raise StorageError(f"{source}: not an ATE table of schema {ATE_SCHEMA}")

@@ -34,6 +34,7 @@ from numpy.typing import NDArray
 from pydantic import Field
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.mapping.mask_filter import MaskFilterConfig
 
 CLASSES = ("same_instance", "same_family", "same_group", "other_group")
@@ -114,7 +115,7 @@ class SegmentationGrades:
             for i in range(len(obj))
         ]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """Counts, tables and the derived rates."""
         out = asdict(self)
         out.update(precision=self.precision, recall=self.recall, mean_iou=self.mean_iou, by_distance=self.by_distance())
@@ -157,7 +158,7 @@ class DescriptorGrades:
     view_mean: list[float | None]
     view_pairs: list[int]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return asdict(self)
 
@@ -178,7 +179,7 @@ class FrontEndGrades:
     segmentation: SegmentationGrades
     descriptors: DescriptorGrades | None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (the ``frontend`` section of metrics.json)."""
         return {
             "segmenter": self.segmenter,

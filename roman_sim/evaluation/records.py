@@ -10,6 +10,7 @@ from numpy.typing import NDArray
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSONLike
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,7 @@ class MapStats:
     keyframe_kb_per_submap_max: float | None = None
     keyframe_mb_per_km: float | None = None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (keyframe figures only when there are keyframes)."""
         d = asdict(self)
         return (
@@ -81,7 +82,7 @@ class AlignmentRecord:
     T_a_b: NDArray[np.float64] | None
     associations: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 2), np.int64), compare=False)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {
             "a": self.a,

@@ -56,17 +56,17 @@ def seed_rows(params: dict[str, Any], seed: int, summary: dict[str, Any]) -> lis
     return out
 
 
-def _key(row: dict[str, Any], param_keys: list[str]) -> tuple[Any, ...]:
+def _key(row: dict[str, Any], param_keys: list[str]) -> tuple[object, ...]:
     return (*(_hashable(row[p]) for p in param_keys), row["method"], row["kind"], row["bin"])
 
 
-def _hashable(v: Any) -> Any:
+def _hashable(v: object) -> object:
     return repr(v) if isinstance(v, (dict, list)) else v
 
 
 def aggregate(rows: Iterable[dict[str, Any]], param_keys: list[str], level: float = 0.95) -> list[dict[str, Any]]:
     """Summary rows (parameters, then ``SUMMARY_FIELDS``) in first-seen order."""
-    groups: dict[tuple[Any, ...], list[dict[str, Any]]] = {}
+    groups: dict[tuple[object, ...], list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(_key(r, param_keys), []).append(r)
     out = []

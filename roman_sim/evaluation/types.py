@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, VariantAte
 from roman_sim.evaluation.records import AlignmentRecord, MapStats
 
@@ -118,7 +119,7 @@ class CurveStats:
     assoc_recall: float | None = None
     assoc_recall_ci: Interval = None
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (intervals as [low, high] lists)."""
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
 
@@ -140,7 +141,7 @@ class BinStats:
     hi: float
     stats: CurveStats
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """Flat JSON: ``label``, ``lo``, ``hi`` and the stats' fields."""
         return {"label": self.label, "lo": self.lo, "hi": self.hi, **self.stats.to_json()}
 
@@ -162,7 +163,7 @@ class PRCurve:
     recall: NDArray[np.float64]
     f1: NDArray[np.float64]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-friendly lists; undefined values are ``None``."""
         return {
             "k": self.k.tolist(),
@@ -188,7 +189,7 @@ class PRCurve:
         )
 
 
-def _bins(rows: list[BinStats]) -> list[dict[str, Any]]:
+def _bins(rows: list[BinStats]) -> list[dict[str, JSONLike]]:
     return [b.to_json() for b in rows]
 
 
@@ -225,7 +226,7 @@ class PairSetMetrics:
         labels = [b.label for b in self.heading_bins + self.heading_bins_fine]
         raise EvaluationError(f"heading bin {label!r} unknown (bins: {', '.join(labels)})")
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON: the overall stats' fields at the top level, then curve and bins."""
         return {
             **self.overall.to_json(),
@@ -269,7 +270,7 @@ class MethodMetrics:
             raise EvaluationError(f"pair set {kind!r} unknown (sets: {', '.join(self.sets)})")
         return self.sets[kind]
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON: ``n_failed`` and one object per pair set."""
         return {"n_failed": self.n_failed, **{k: v.to_json() for k, v in self.sets.items()}}
 
@@ -305,7 +306,7 @@ class EvaluationMetrics:
     n_skipped: int
     methods: dict[str, MethodMetrics]
     notes: list[str] = field(default_factory=list)
-    frontend: dict[str, Any] | None = None
+    frontend: dict[str, JSONLike] | None = None
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -329,7 +330,7 @@ class EvaluationMetrics:
             raise EvaluationError(f"figure {key!r} unknown (valid: {', '.join(f.name for f in fields(CurveStats))})")
         return getattr(self.stats(method, heading_bin, kind), key)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict with the schema tag (``frontend`` only when the run graded its front end)."""
         return {
             "schema": METRICS_SCHEMA,
@@ -346,7 +347,7 @@ class EvaluationMetrics:
         }
 
     @classmethod
-    def from_json(cls, d: Any, source: str = "metrics") -> "EvaluationMetrics":
+    def from_json(cls, d: object, source: str = "metrics") -> "EvaluationMetrics":
         """Inverse of ``to_json``; StorageError names ``source`` when the data is not valid."""
         if not isinstance(d, dict) or d.get("schema") != METRICS_SCHEMA:
             found = d.get("schema") if isinstance(d, dict) else type(d).__name__

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,6 +20,9 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_trajectory, trajectory_along
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 
 @dataclass
@@ -34,7 +37,7 @@ class RobotStream:
     """
 
     cfg: RobotConfig
-    world: Any
+    world: World
     seed: int
     trajectory: DrivenRun
 

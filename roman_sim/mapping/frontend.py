@@ -15,14 +15,30 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol, cast
 
 from pydantic import Field, model_validator
 
 from roman_sim.core.config import StrictModel, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.registry import Registry, import_object
-from roman_sim.mapping.semantics import SemanticConfig
+from roman_sim.mapping.mask import Segmenter
+from roman_sim.mapping.semantics import SemanticConfig, SemanticEncoder
+
+if TYPE_CHECKING:
+    from roman_sim.mapping.image_encoder import ImageEncoderConfig
+    from roman_sim.mapping.image_segmenter import ImageSegmenterConfig
+    from roman_sim.mapping.models.config import ClipConfig, Dinov2Config, ModelConfig, SamConfig
+
+
+class RobotRGB(Protocol):
+    """What ``check_robots`` reads of a robot."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def render_rgb(self) -> bool: ...
 
 
 @dataclass(frozen=True)
@@ -49,7 +65,8 @@ class ComponentSpec:
             (a model folder that is not there), without building the component.
     """
 
-    build: Callable[[Any, BuildContext], Any]
+    # the factory's first argument is its own parameter model (a user class: the raw dict)
+    build: Callable[[Any, BuildContext], object]
     params_model: type[StrictModel]
     needs_rgb: bool
     reads_truth: bool
@@ -71,11 +88,11 @@ class ComponentEntry(StrictModel):
     """A named component and its parameters; a bare string is read as ``{name: string}``."""
 
     name: str = Field(..., min_length=1)
-    params: dict[str, Any] = Field(default_factory=dict)
+    params: dict[str, object] = Field(default_factory=dict)
 
     @model_validator(mode="before")
     @classmethod
-    def _bare_name(cls, v: Any) -> Any:
+    def _bare_name(cls, v: object) -> object:
         if isinstance(v, str):
             return {"name": v}
         if not isinstance(v, dict):
@@ -90,7 +107,7 @@ class SegmenterEntry(ComponentEntry):
 
     @model_validator(mode="before")
     @classmethod
-    def _error_model_fields(cls, v: Any) -> Any:
+    def _error_model_fields(cls, v: object) -> object:
         """A mapping of ``SegmenterConfig`` fields alone (the older form) is the fastsam model's params."""
         if isinstance(v, dict) and v and not ({"name", "params"} & set(v)):
             return {"name": "fastsam", "params": v}
@@ -150,7 +167,7 @@ def _user_spec(name: str, kind: str) -> ComponentSpec:
     if not callable(cls):
         raise ConfigError(f"{kind} {name!r}: not callable")
 
-    def build(params: dict[str, Any], ctx: BuildContext) -> Any:
+    def build(params: dict[str, object], ctx: BuildContext) -> object:
         try:
             return cls(**params)
         except TypeError as err:
@@ -173,7 +190,7 @@ def encoder_spec(entry: ComponentEntry | str) -> ComponentSpec:
     return _user_spec(name, "semantic encoder") if ":" in name else ENCODER_TYPES.get(name)
 
 
-def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field: str) -> Any:
+def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field: str) -> object:
     if spec.params_model is NoParams and ":" in entry.name:
         return spec.build(dict(entry.params), ctx)
     params = validate_model(spec.params_model, entry.params, source=f"{field}.params")
@@ -181,7 +198,7 @@ def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field:
 
 
 def _entry(
-    cfg: FrontEnd | ComponentEntry | str | dict[str, Any], cls: type[ComponentEntry], field: str
+    cfg: FrontEnd | ComponentEntry | str | dict[str, object], cls: type[ComponentEntry], field: str
 ) -> ComponentEntry:
     if isinstance(cfg, FrontEnd):
         return getattr(cfg, field.rsplit(".", 1)[-1])
@@ -190,22 +207,24 @@ def _entry(
     return validate_model(cls, {"name": cfg} if isinstance(cfg, str) else cfg, source=field)
 
 
-def build_segmenter(cfg: FrontEnd | ComponentEntry | str | dict[str, Any], seed: int = 0, robot: str = "") -> Any:
+def build_segmenter(
+    cfg: FrontEnd | ComponentEntry | str | dict[str, object], seed: int = 0, robot: str = ""
+) -> Segmenter:
     """The configured segmenter of ``robot`` (any object with ``segment(frame) -> list[Mask]``).
 
     ``cfg`` is a front end, an entry, a name or an entry's dict.
     """
     entry = _entry(cfg, SegmenterEntry, "frontend.segmenter")
     ctx = BuildContext(seed, robot, None, SemanticConfig())
-    return _build(segmenter_spec(entry), entry, ctx, "frontend.segmenter")
+    return cast(Segmenter, _build(segmenter_spec(entry), entry, ctx, "frontend.segmenter"))
 
 
 def build_encoder(
-    cfg: FrontEnd | ComponentEntry | str | dict[str, Any],
+    cfg: FrontEnd | ComponentEntry | str | dict[str, object],
     seed: int = 0,
     robot: str = "",
     families: Mapping[int, str] | None = None,
-) -> Any:
+) -> SemanticEncoder:
     """The configured semantic encoder of ``robot``.
 
     Args:
@@ -219,10 +238,10 @@ def build_encoder(
     entry = _entry(cfg, EncoderEntry, "frontend.encoder")
     spec = encoder_spec(entry)
     ctx = BuildContext(seed, robot, families if spec.reads_truth else None, semantics)
-    return _build(spec, entry, ctx, "frontend.encoder")
+    return cast(SemanticEncoder, _build(spec, entry, ctx, "frontend.encoder"))
 
 
-def check_robots(frontend: FrontEnd, robots: Iterable[Any]) -> None:
+def check_robots(frontend: FrontEnd, robots: Iterable[RobotRGB]) -> None:
     """Raise ``ConfigError`` naming the first robot (``.name``, ``.render_rgb``) without the RGB the front end needs."""
     if not frontend.needs_rgb:
         return
@@ -238,7 +257,7 @@ def check_robots(frontend: FrontEnd, robots: Iterable[Any]) -> None:
             )
 
 
-def check_frontend(frontend: FrontEnd, robots: Iterable[Any]) -> None:
+def check_frontend(frontend: FrontEnd, robots: Iterable[RobotRGB]) -> None:
     """``check_robots``, then each built-in component's own check (model folders), building nothing."""
     check_robots(frontend, robots)
     for entry, spec, field in (
@@ -249,7 +268,7 @@ def check_frontend(frontend: FrontEnd, robots: Iterable[Any]) -> None:
             spec.check(validate_model(spec.params_model, entry.params, source=f"{field}.params"))
 
 
-def reads_truth(component: Any) -> bool:
+def reads_truth(component: object) -> bool:
     """Whether a built component reads ground truth (its ``reads_truth`` attribute; False when absent)."""
     return bool(getattr(component, "reads_truth", False))
 
@@ -258,8 +277,8 @@ def reads_truth(component: Any) -> bool:
 # never imports an optional model library.
 
 
-def _simulated_segmenter(preset: str) -> Callable[[Any, BuildContext], Any]:
-    def build(params: Any, ctx: BuildContext) -> Any:
+def _simulated_segmenter(preset: str) -> Callable[[StrictModel, BuildContext], Segmenter]:
+    def build(params: StrictModel, ctx: BuildContext) -> Segmenter:
         from roman_sim.mapping.segmenter import SEGMENTERS, SegmenterConfig, SimulatedSegmenter
 
         base = SEGMENTERS.get(preset).model_dump()
@@ -269,44 +288,44 @@ def _simulated_segmenter(preset: str) -> Callable[[Any, BuildContext], Any]:
     return build
 
 
-def _image_segmenter(params: Any, ctx: BuildContext) -> Any:
+def _image_segmenter(params: ImageSegmenterConfig, ctx: BuildContext) -> Segmenter:
     from roman_sim.mapping.image_segmenter import ImageSegmenter
 
     return ImageSegmenter(params)
 
 
-def _sam_segmenter(params: Any, ctx: BuildContext) -> Any:
+def _sam_segmenter(params: SamConfig, ctx: BuildContext) -> Segmenter:
     from roman_sim.mapping.models.sam import SamSegmenter
 
     return SamSegmenter(params)
 
 
-def _simulated_encoder(params: Any, ctx: BuildContext) -> Any:
+def _simulated_encoder(params: StrictModel, ctx: BuildContext) -> SemanticEncoder:
     from roman_sim.mapping.semantics import SimulatedEncoder
 
     return SimulatedEncoder(ctx.semantics, seed=ctx.seed, families=ctx.families, robot=ctx.robot)
 
 
-def _image_encoder(params: Any, ctx: BuildContext) -> Any:
+def _image_encoder(params: ImageEncoderConfig, ctx: BuildContext) -> SemanticEncoder:
     from roman_sim.mapping.image_encoder import ImageEncoder
 
     return ImageEncoder(params)
 
 
-def _clip_encoder(params: Any, ctx: BuildContext) -> Any:
+def _clip_encoder(params: ClipConfig, ctx: BuildContext) -> SemanticEncoder:
     from roman_sim.mapping.models.clip import ClipEncoder
 
     return ClipEncoder(params)
 
 
-def _dinov2_encoder(params: Any, ctx: BuildContext) -> Any:
+def _dinov2_encoder(params: Dinov2Config, ctx: BuildContext) -> SemanticEncoder:
     from roman_sim.mapping.models.dinov2 import Dinov2Encoder
 
     return Dinov2Encoder(params)
 
 
-def _weights_check(field: str, model_types: tuple[str, ...]) -> Callable[[Any], None]:
-    def check(params: Any) -> None:
+def _weights_check(field: str, model_types: tuple[str, ...]) -> Callable[[ModelConfig], None]:
+    def check(params: ModelConfig) -> None:
         from roman_sim.mapping.models.common import weights_dir
 
         weights_dir(params.weights, field, model_types)

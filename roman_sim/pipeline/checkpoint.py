@@ -1,54 +1,99 @@
 """Task-level checkpoints: what an interrupted stage already finished (a robot, a chunk of pairs).
 
-A stage that runs many tasks records each finished one in ``partial/<stage>/<item>.json``
-with the stage's cache key, so a re-run of an interrupted stage skips the finished tasks
-(a record under another key is ignored and overwritten). Records are written atomically;
+The experiment gives each stage that runs many tasks a ``Checkpoint`` under the stage's
+cache key (through ``roman_sim.pipeline.taskrunner.TaskRunner``); stage code never touches
+it. Each finished task is kept as ``partial/<stage>/<item>.json`` (the record: schema, key,
+the codec's JSON data and the SHA-256 of each payload file) beside the payload files the
+task's ``TaskCodec`` wrote (``partial/<stage>/<item>.<part>``). A re-run of an interrupted
+stage reads back the tasks whose record has the same key and whose payload files are intact
+(anything else is ignored and overwritten). Records and payloads are written atomically;
 once the stage completes (the manifest records it) its ``partial/<stage>`` folder is
 removed, so a finished run folder holds no checkpoints.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import logging
 import shutil
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Protocol, TypeVar
 
 from roman_sim.core.atomic import write_json
+from roman_sim.core.jsontypes import JSON
 
 log = logging.getLogger(__name__)
 
 PARTIAL_DIR = "partial"
-CHECKPOINT_SCHEMA = "roman_sim.checkpoint/1"
+CHECKPOINT_SCHEMA = "roman_sim.checkpoint/2"
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Kept:
+    """What a codec kept of one task's result: JSON data for the record and the payload files it wrote."""
+
+    data: JSON
+    files: list[Path] = field(default_factory=list)
+
+
+class TaskCodec(Protocol[T]):
+    """How one kind of task result is kept in a checkpoint and read back."""
+
+    def write(self, value: T, stem: Path) -> Kept:
+        """Write the payload of ``value`` to files named ``<stem>.<part>``; the record's data and those files."""
+        ...
+
+    def read(self, data: JSON, stem: Path) -> T:
+        """The value ``write`` kept (``data`` is the record's, read back from its JSON file)."""
+        ...
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 class Checkpoint:
-    """Finished tasks of one stage under one cache key (``key`` None: nothing is kept)."""
+    """Finished tasks of one stage under one cache key."""
 
-    def __init__(self, run_dir: Path, stage: str, key: str | None) -> None:
+    def __init__(self, run_dir: Path, stage: str, key: str) -> None:
         self.folder = run_dir / PARTIAL_DIR / stage
         self.key = key
 
-    def _path(self, item: str) -> Path:
+    def stem(self, item: str) -> Path:
+        """Where ``item``'s payload files go (``<stem>.<part>``)."""
+        return self.folder / item
+
+    def _record(self, item: str) -> Path:
         return self.folder / f"{item}.json"
 
-    def get(self, item: str) -> Any | None:
-        """The data recorded for ``item`` under this key, or None (absent, other key, unreadable)."""
-        if self.key is None:
-            return None
+    def get(self, item: str, codec: TaskCodec[T]) -> T | None:
+        """The result recorded for ``item`` under this key, or None (absent, other key, damaged)."""
         try:
-            d = json.loads(self._path(item).read_text(encoding="utf-8"))
+            d = json.loads(self._record(item).read_text(encoding="utf-8"))
         except (OSError, ValueError):
             return None
         if not isinstance(d, dict) or d.get("schema") != CHECKPOINT_SCHEMA or d.get("key") != self.key:
             return None
-        return d.get("data")
+        files = d.get("files")
+        if not isinstance(files, dict):
+            return None
+        for name, digest in files.items():
+            path = self.folder / str(name)
+            if not path.is_file() or _sha256(path) != digest:
+                log.info("checkpoint %s: payload %s missing or changed; recomputing", item, name)
+                return None
+        return codec.read(d.get("data"), self.stem(item))
 
-    def put(self, item: str, data: Any) -> None:
-        """Record ``item`` as finished with ``data`` (JSON-ready)."""
-        if self.key is not None:
-            write_json(self._path(item), {"schema": CHECKPOINT_SCHEMA, "key": self.key, "data": data}, indent=0)
+    def put(self, item: str, value: T, codec: TaskCodec[T]) -> None:
+        """Record ``item`` as finished with ``value`` (payload first, then the record that names it)."""
+        kept = codec.write(value, self.stem(item))
+        files = {p.relative_to(self.folder).as_posix(): _sha256(p) for p in kept.files}
+        record = {"schema": CHECKPOINT_SCHEMA, "key": self.key, "data": kept.data, "files": files}
+        write_json(self._record(item), record, indent=0)
 
 
 def clear_checkpoints(run_dir: Path, stage: str | None = None) -> None:

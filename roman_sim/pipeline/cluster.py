@@ -18,7 +18,7 @@ import logging
 import socket
 import struct
 import time
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ClusterError, ConfigError
 
@@ -110,7 +110,7 @@ def server_type(address: str, timeout_s: float) -> str:
 
     from distributed.core import rpc
 
-    async def identity() -> Any:
+    async def identity() -> object:
         async with rpc(address, timeout=timeout_s) as remote:
             return await asyncio.wait_for(remote.identity(), timeout_s)
 

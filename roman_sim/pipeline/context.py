@@ -1,10 +1,15 @@
-"""What a stage sees of a run: the scenario, the run folder, progress and where inputs come from."""
+"""What a stage sees of a run: the scenario, the run folder, progress and where inputs come from.
+
+The context is the same for every stage of a run and no stage changes it: what a stage
+produces (its output, notes and timings) is returned, and where its tasks run comes with
+its ``TaskRunner``.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Protocol
+from typing import Protocol
 
 from roman_sim.pipeline.scenario import Scenario
 
@@ -32,21 +37,17 @@ class NullProgress:
         pass
 
 
-@dataclass
+@dataclass(frozen=True)
 class RunContext:
     """The run a stage works for.
 
     Attributes:
         scenario: the validated scenario.
-        run_dir: the run folder (stages write their outputs here).
+        run_dir: the run folder (stages' ``save`` writes their outputs here).
         progress: progress sink.
         fresh: ignore every cached output (recordings included).
         submaps_dir: start from the user's saved submaps (``<robot>.npz``) instead of
             simulating and mapping.
-        timings: wall-clock figures stages report (seconds), kept out of the
-            reproducible outputs and written to ``timings.json``.
-        executor: where independent tasks run (``roman_sim.pipeline.executors``; None: here).
-        stage_key: cache key of the running stage (checkpoints of finished tasks are kept under it).
         chunk_pairs: submap pairs per alignment task.
     """
 
@@ -55,15 +56,4 @@ class RunContext:
     progress: Progress = field(default_factory=NullProgress)
     fresh: bool = False
     submaps_dir: Path | None = None
-    timings: dict[str, object] = field(default_factory=dict)
-    executor: Any = None
-    stage_key: str | None = None
     chunk_pairs: int = 32
-
-    def tasks(self) -> Any:
-        """The run's executor (a serial one when none was given)."""
-        from roman_sim.pipeline.executors import SerialExecutor
-
-        if self.executor is None:
-            self.executor = SerialExecutor()
-        return self.executor

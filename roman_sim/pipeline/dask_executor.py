@@ -16,15 +16,21 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, TypeVar, cast
 
 from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
 from roman_sim.pipeline.executor_base import Executor, ExecutorConfig, TaskError, collect, guarded
 
+if TYPE_CHECKING:
+    from distributed import Client, Future, LocalCluster
+    from distributed.security import Security
+
 log = logging.getLogger(__name__)
 
+T = TypeVar("T")
 
-def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
+
+def connect_client(address: str, timeout_s: float, security: Security | None = None) -> Client:
     """A ``distributed.Client`` connected to ``address`` within ``timeout_s`` (one-line error otherwise).
 
     Plain ``tcp://`` goes through ``roman_sim.pipeline.cluster.connect`` (a bounded handshake
@@ -44,7 +50,7 @@ def connect_client(address: str, timeout_s: float, security: Any = None) -> Any:
         raise ClusterError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None
 
 
-def _result(fut: Any) -> Any:
+def _result(fut: Future) -> object:
     """A future's result; errors of the cluster itself (a lost worker, an unpicklable result) as ``TaskError``."""
     try:
         return fut.result()
@@ -79,47 +85,56 @@ class DaskExecutor(Executor):
         from roman_sim.pipeline.lifeline import signals_deferred
 
         self.cfg = cfg
-        self.cluster: Any = None
-        self.client: Any = None
+        self.cluster: LocalCluster | None = None
+        self.client: Client | None = None
         security = sec.security_for(cfg)
         address = sec.check_address(cfg.scheduler_address, cfg, security) if cfg.scheduler_address else None
         if address is None:
             with signals_deferred():  # an interrupt now would leave a cluster nobody can close
                 self.cluster = sec.local_cluster(cfg, security)
         try:
-            self.client = connect_client(address or self.cluster.scheduler_address, cfg.connect_timeout_s, security)
+            target = address if address is not None else str(cast("LocalCluster", self.cluster).scheduler_address)
+            self.client = connect_client(target, cfg.connect_timeout_s, security)
             self.workers = max(1, len(self.client.scheduler_info().get("workers", {})))
             for path in cfg.upload:
                 sec.upload(self.client, path)
         except BaseException:
             self.close()
             raise
-        log.info("Dask executor: %s, %d worker(s)", self.client.scheduler.address, self.workers)
+        log.info("Dask executor: %s, %d worker(s)", self.address, self.workers)
 
     @property
     def address(self) -> str:
         """The scheduler's address."""
-        return str(self.client.scheduler.address)
+        return str(self._connected().scheduler.address)  # type: ignore[union-attr]  # a connected client has one
+
+    def _connected(self) -> Client:
+        """The client (``ClusterError`` once the executor is closed)."""
+        if self.client is None:
+            raise ClusterError("the Dask executor is closed")
+        return self.client
 
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         from distributed import as_completed
 
         if not args:
             return
-        futures = {self.client.submit(guarded, fn, labels[i], True, *a, pure=False): i for i, a in enumerate(args)}
+        client = self._connected()
+        futures = {client.submit(guarded, fn, labels[i], True, *a, pure=False): i for i, a in enumerate(args)}
         try:
-            yield from collect(
-                futures, labels, as_completed(list(futures), loop=self.client.loop), _result, self.client.cancel, _LOST
+            done = collect(
+                futures, labels, as_completed(list(futures), loop=client.loop), _result, client.cancel, _LOST
             )
+            yield from cast(Iterator[tuple[int, T]], done)  # each future holds its task's T
         finally:
-            self.client.cancel([f for f in futures if not f.done()])
+            client.cancel([f for f in futures if not f.done()])
 
     def check_imports(self, modules: Sequence[str]) -> None:
         from roman_sim.pipeline import dask_security as sec
 
-        sec.check_worker_imports(self.client, list(modules))
+        sec.check_worker_imports(self._connected(), list(modules))
 
     def close(self) -> None:
         from roman_sim.pipeline.lifeline import signals_deferred
@@ -136,7 +151,7 @@ class DaskExecutor(Executor):
                     _close_cluster(cluster, self.close_timeout_s)
 
 
-def _close_cluster(cluster: Any, timeout_s: float) -> None:
+def _close_cluster(cluster: LocalCluster, timeout_s: float) -> None:
     """Close a local cluster within about ``timeout_s``; its workers die with this process if that fails."""
     try:
         cluster.close(timeout=timeout_s)

@@ -24,10 +24,16 @@ import ipaddress
 import logging
 import socket
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.pipeline.executor_base import ExecutorConfig
+
+if TYPE_CHECKING:
+    from distributed import Client, LocalCluster
+    from distributed.security import Security
+
+    from roman_sim.pipeline.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -57,7 +63,7 @@ def _from_dask_config() -> dict[str, str | None]:
     }
 
 
-def security_for(cfg: ExecutorConfig) -> Any:
+def security_for(cfg: ExecutorConfig) -> Security | None:
     """The ``Security`` for ``cfg`` (None: plain tcp to loopback or an explicitly insecure address)."""
     from distributed.security import Security
 
@@ -101,7 +107,7 @@ def is_loopback(host: str) -> bool:
     return bool(infos) and all(ipaddress.ip_address(str(i[4][0]).split("%")[0]).is_loopback for i in infos)
 
 
-def check_address(address: str, cfg: ExecutorConfig, security: Any) -> str:
+def check_address(address: str, cfg: ExecutorConfig, security: Security | None) -> str:
     """``address`` normalised; ConfigError for a malformed one or an unauthenticated non-loopback one."""
     from distributed.comm.addressing import parse_address, parse_host_port
 
@@ -126,7 +132,7 @@ def check_address(address: str, cfg: ExecutorConfig, security: Any) -> str:
     return addr
 
 
-def local_cluster(cfg: ExecutorConfig, security: Any) -> Any:
+def local_cluster(cfg: ExecutorConfig, security: Security | None) -> LocalCluster:
     """A ``LocalCluster`` on 127.0.0.1: one single-threaded process per worker, dashboard off unless asked.
 
     The scheduler always serves HTTP (health and metrics); it is bound to 127.0.0.1 on a free
@@ -149,7 +155,7 @@ def local_cluster(cfg: ExecutorConfig, security: Any) -> Any:
     )
 
 
-def upload(client: Any, path: str) -> None:
+def upload(client: Client, path: str) -> None:
     """Send a plug-in file (.py, .zip, .egg) to every worker; ConfigError when it is missing or fails."""
     p = Path(path)
     if not p.is_file() or p.suffix not in (".py", ".zip", ".egg"):
@@ -176,7 +182,7 @@ def _try_imports(modules: list[str]) -> dict[str, str]:
     return failed
 
 
-def check_worker_imports(client: Any, modules: list[str]) -> None:
+def check_worker_imports(client: Client, modules: list[str]) -> None:
     """PluginImportError naming the first worker and module that cannot be imported."""
     if not modules:
         return
@@ -189,9 +195,9 @@ def check_worker_imports(client: Any, modules: list[str]) -> None:
             )
 
 
-def plugin_modules(scenario: Any) -> list[str]:
+def plugin_modules(scenario: Scenario) -> list[str]:
     """The ``package.module`` part of every ``module:Class`` plug-in a scenario names."""
     names = [a.method for a in scenario.aligners]
     fe = scenario.frontend
-    names += [n for n in (fe.segmenter, fe.encoder) if isinstance(n, str)]
+    names += [entry.name for entry in (fe.segmenter, fe.encoder)]
     return sorted({n.split(":", 1)[0] for n in names if ":" in n})

@@ -13,7 +13,7 @@ import socket
 import traceback
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterator, Sequence
-from typing import Any, Literal
+from typing import Literal, TypeVar
 
 from pydantic import Field, field_validator
 
@@ -21,6 +21,9 @@ from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, RomanSimError
 
 log = logging.getLogger(__name__)
+
+T = TypeVar("T")
+F = TypeVar("F")
 
 ExecutorKind = Literal["serial", "local", "dask"]
 
@@ -77,7 +80,7 @@ def worker_name() -> str:
         return f"{socket.gethostname()}:pid{os.getpid()}"
 
 
-def guarded(fn: Callable[..., Any], label: str, name_worker: bool, *args: Any) -> Any:
+def guarded(fn: Callable[..., T], label: str, name_worker: bool, *args: object) -> T:
     """Run ``fn(*args)`` on a worker: errors become picklable one-liners (see the module docstring)."""
     try:
         return fn(*args)
@@ -94,13 +97,13 @@ def guarded(fn: Callable[..., Any], label: str, name_worker: bool, *args: Any) -
 
 
 def collect(
-    futures: dict[Any, int],
+    futures: dict[F, int],
     labels: Sequence[str],
-    completed: Iterator[Any],
-    result: Callable[[Any], Any],
-    cancel: Callable[[list[Any]], object],
+    completed: Iterator[F],
+    result: Callable[[F], T],
+    cancel: Callable[[list[F]], object],
     lost: type[BaseException] | tuple[type[BaseException], ...],
-) -> Iterator[tuple[int, Any]]:
+) -> Iterator[tuple[int, T]]:
     """Yield ``(index, result)`` of finished futures; after a failure cancel the pending ones and,
     once the running ones are done, raise the error of the lowest failed index."""
     failed: dict[int, BaseException] = {}
@@ -132,13 +135,13 @@ class Executor(ABC):
 
     @abstractmethod
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         """Run ``fn(*args[i])`` for every i; yield ``(i, result)`` as each finishes."""
 
-    def map(self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]) -> list[Any]:
+    def map(self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]) -> list[T]:
         """The results of every task, in task order."""
-        out: dict[int, Any] = dict(self.run_tasks(fn, args, labels))
+        out: dict[int, T] = dict(self.run_tasks(fn, args, labels))
         return [out[i] for i in range(len(args))]
 
     def check_imports(self, modules: Sequence[str]) -> None:  # noqa: B027 (optional hook: workers share this process's imports)

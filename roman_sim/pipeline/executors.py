@@ -24,7 +24,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from multiprocessing import forkserver
-from typing import Any
+from typing import TypeVar
 
 from roman_sim.pipeline.executor_base import (
     Executor,
@@ -45,13 +45,15 @@ from roman_sim.pipeline.lifeline import (
 
 log = logging.getLogger(__name__)
 
+T = TypeVar("T")
+
 
 class SerialExecutor(Executor):
     """Every task in this process, one after the other (errors unchanged)."""
 
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         for i, a in enumerate(args):
             yield i, fn(*a)
 
@@ -89,11 +91,11 @@ class LocalPoolExecutor(Executor):
         return self._pool
 
     def run_tasks(
-        self, fn: Callable[..., Any], args: Sequence[tuple[Any, ...]], labels: Sequence[str]
-    ) -> Iterator[tuple[int, Any]]:
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
         if not args:
             return
-        futures: dict[Future[Any], int] = {}
+        futures: dict[Future[T], int] = {}
         try:
             with signals_deferred():  # workers start here: none is left half-started by an interrupt
                 pool = self._get_pool()
@@ -142,14 +144,14 @@ class LocalPoolExecutor(Executor):
             lifeline.cut()
 
 
-def _unblock(calls: Any) -> None:
+def _unblock(calls: object) -> None:
     """Close the reading end of the pool's call queue, so its feeder thread stops writing to workers that are gone.
 
     What the standard library's own ``terminate_broken`` does; without it the pool's manager
     thread (joined at exit) waits for ever on a pipe nobody reads.
     """
     try:
-        calls._reader.close()
+        getattr(calls, "_reader").close()  # noqa: B009 (a private attribute of the pool's queue)
     except (AttributeError, OSError):
         pass
 

@@ -10,10 +10,14 @@ cached stage give the same bytes downstream. A cached stage is loaded only when 
 runs needs its output. Wall-clock
 figures (per stage and per pair) go to ``timings.json``, never into the other outputs.
 
-Independent tasks (one per robot to map, one per chunk of pairs to align) run on the
-executor ``executor`` describes (this process by default; a local pool or Dask). Each
-finished task is checkpointed, so an interrupted stage resumes with the unfinished tasks;
-the checkpoints are removed once the stage completes.
+Each stage gets its inputs as the dataclass it declares (built from the upstream outputs)
+and a ``TaskRunner``: independent tasks (one per robot to map, one per chunk of pairs to
+align) run on the executor ``executor`` describes (this process by default; a local pool or
+Dask), and each finished task is checkpointed under ``partial/<stage>/`` with the stage's
+cache key, so an interrupted stage resumes with the unfinished tasks; the checkpoints are
+removed once the stage completes. A stage's ``run`` writes nothing; the experiment calls its
+``save`` and records its files. The wall-clock figures a stage returns in its output
+(``timings``) go to ``timings.json`` with the stage's time and peak memory.
 """
 
 from __future__ import annotations
@@ -21,26 +25,26 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Sized
 from pathlib import Path
-from typing import Any
+from typing import cast
 
 from roman_sim import __version__
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
-from roman_sim.pipeline.checkpoint import clear_checkpoints
+from roman_sim.pipeline.checkpoint import Checkpoint, clear_checkpoints
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
 from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
 from roman_sim.pipeline.manifest import Manifest, StageRecord, existing_manifest
-from roman_sim.pipeline.result import TIMINGS_JSON, RunResult
+from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
-from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, Stage
+from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, Stage, StageOutput
+from roman_sim.pipeline.stages.base import Timings
+from roman_sim.pipeline.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
-
-#: Stage outputs the run's result is made of (loaded even when every stage is cached).
-RESULT_STAGES = ("evaluation", "posegraph", "report")
 
 
 class Experiment:
@@ -123,7 +127,8 @@ class Experiment:
                 dry_call(seg, fe.segmenter.name, "segmenter", with_rgb=with_rgb)
             if is_plugin(fe.encoder.name):
                 enc = instantiate_plugin(fe.encoder.name, "encoder", fe.encoder.params)
-                dim = len(dry_call(enc, fe.encoder.name, "encoder", with_rgb=with_rgb))
+                # the dry call checked that the encoder returns a 1-d vector
+                dim = len(cast(Sized, dry_call(enc, fe.encoder.name, "encoder", with_rgb=with_rgb)))
         for entry in sc.aligners:
             aligner = build_aligner(entry.method, entry.params)
             if is_plugin(entry.method):
@@ -187,7 +192,6 @@ class Experiment:
 
         ex.check_imports(plugin_modules(self.scenario))
         ctx = self.context()
-        ctx.executor = ex
         if self.fresh:
             clear_checkpoints(self.run_dir)
         active = [s for s in STAGES if s.applies(ctx)]
@@ -197,7 +201,7 @@ class Experiment:
         manifest = self._start_manifest(old, keys, reuse, active)
         needed = {i for s in active if s.name not in reuse for i in s.inputs} | set(RESULT_STAGES)
         timings = self._old_timings(reuse)
-        outputs: dict[str, Any] = {}
+        outputs: dict[str, StageOutput] = {}
         for stage in active:
             if stage.name in reuse:
                 if stage.name in needed:
@@ -205,7 +209,7 @@ class Experiment:
                 continue
             if not stage.cached and stage.name not in needed:
                 continue
-            outputs[stage.name], timings[stage.name] = self._run_stage(stage, ctx, outputs, manifest, keys)
+            outputs[stage.name], timings[stage.name] = self._run_stage(stage, ctx, outputs, manifest, keys, ex)
         write_json(self.run_dir / TIMINGS_JSON, {"stages": timings})
         log.info(
             "run %s complete in %s (reused: %s)", self.scenario.name, self.run_dir, ", ".join(sorted(reuse)) or "none"
@@ -215,16 +219,23 @@ class Experiment:
         )
 
     def _run_stage(
-        self, stage: Stage, ctx: RunContext, outputs: dict[str, Any], manifest: Manifest, keys: dict[str, str]
-    ) -> tuple[Any, dict[str, Any]]:
+        self,
+        stage: Stage,
+        ctx: RunContext,
+        outputs: dict[str, StageOutput],
+        manifest: Manifest,
+        keys: dict[str, str],
+        ex: Executor,
+    ) -> tuple[StageOutput, Timings]:
         reset_peak_rss()
         t0 = time.perf_counter()
-        ctx.timings = {}
-        ctx.stage_key = keys.get(stage.name)
         self.progress.start(stage.name)
-        out = stage.run(ctx, **{i: outputs.get(i) for i in stage.inputs})
-        files = stage.save(out, ctx) if stage.cached else []
+        inputs = stage.build_inputs(outputs)
+        tasks = TaskRunner(ex, Checkpoint(self.run_dir, stage.name, keys[stage.name]) if stage.cached else None)
+        out: StageOutput = stage.run(ctx, inputs, tasks)
+        own = dict(out.timings)
         if stage.cached:
+            files = stage.save(out, ctx)
             manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
             manifest.save(self.run_dir)
             clear_checkpoints(self.run_dir, stage.name)
@@ -239,10 +250,10 @@ class Experiment:
             "seconds": round(seconds, 3),
             "peak_rss_mb": None if peak is None else round(peak, 1),
             "reused": False,
-            **ctx.timings,
+            **own,
         }
 
-    def _load(self, stage: Stage, ctx: RunContext, files: list[str]) -> Any:
+    def _load(self, stage: Stage, ctx: RunContext, files: list[str]) -> StageOutput:
         log.info("stage %s: reusing cached results", stage.name)
         try:
             return stage.load(ctx, files)
@@ -251,7 +262,7 @@ class Experiment:
                 f"cached stage {stage.name!r} in {self.run_dir} is unusable: {err} (re-run with --fresh)"
             ) from None
 
-    def _old_timings(self, reuse: set[str]) -> dict[str, Any]:
+    def _old_timings(self, reuse: set[str]) -> dict[str, Timings]:
         """Timings of the reused stages, from the previous run's ``timings.json``."""
         try:
             old = json.loads((self.run_dir / TIMINGS_JSON).read_text(encoding="utf-8"))["stages"]

@@ -14,10 +14,10 @@ import json
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSONLike
 
 log = logging.getLogger(__name__)
 
@@ -59,7 +59,7 @@ class Manifest:
         rec = self.stages.get(stage)
         return bool(rec and rec.key == key and all((run_dir / f).is_file() for f in rec.files))
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""
         return {
             "schema": MANIFEST_SCHEMA,
@@ -73,7 +73,7 @@ class Manifest:
         }
 
     @classmethod
-    def from_json(cls, d: Any, source: str) -> "Manifest":
+    def from_json(cls, d: object, source: str) -> "Manifest":
         """Inverse of ``to_json``; StorageError names ``source`` when invalid."""
         if not isinstance(d, dict) or d.get("schema") != MANIFEST_SCHEMA:
             raise StorageError(f"{source}: not a run manifest of schema {MANIFEST_SCHEMA}")

@@ -2,11 +2,12 @@
 
 This is only *how* the aligners run; what is scored is the evaluation's business. Pairs
 are cut into chunks of ``ctx.chunk_pairs`` in pair order; each chunk is one task that runs
-every aligner on its pairs (with truth stripped) and returns JSON-ready results. Each
-finished chunk is checkpointed under the stage key and a hash of its pair names, so an
-interrupted evaluation re-aligns only the unfinished chunks. Every result, fresh or
-resumed, goes through the same JSON round trip, so the outputs are byte-identical
-whatever the executor, the worker count or the interruption.
+every aligner on its pairs (with truth stripped) and returns JSON-ready results. The
+stage's ``TaskRunner`` checkpoints each finished chunk (``ChunkCodec``: the records are the
+checkpoint's JSON data) under a hash of its pair names, so an interrupted evaluation
+re-aligns only the unfinished chunks. Every result, fresh or resumed, goes through the same
+JSON round trip, so the outputs are byte-identical whatever the executor, the worker count
+or the interruption.
 
 ``Replay`` then hands the results to the evaluation as aligners that look them up.
 """
@@ -16,14 +17,17 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-from typing import Any
+from pathlib import Path
+from typing import cast
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.types import Submap
-from roman_sim.pipeline.checkpoint import Checkpoint
+from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.tasks import align_chunk_task, result_from_json
+from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.pipeline.tasks import ChunkRecord, align_chunk_task, result_from_json
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +45,21 @@ def _chunk_id(pairs: list[tuple[str, str]]) -> str:
     return hashlib.sha256(json.dumps(pairs).encode()).hexdigest()[:16]
 
 
-def align_pairs(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[ResultKey, AlignResult]:
+class ChunkCodec:
+    """Checkpoint codec of a chunk's results (``TaskCodec``): the JSON records themselves, no payload file."""
+
+    def write(self, value: list[ChunkRecord], stem: Path) -> Kept:
+        """The records as the checkpoint's data."""
+        return Kept(cast(JSON, value))
+
+    def read(self, data: JSON, stem: Path) -> list[ChunkRecord]:
+        """The records back (a list of JSON objects)."""
+        if not isinstance(data, list) or not all(isinstance(r, dict) for r in data):
+            raise EvaluationError(f"{stem}: malformed chunk checkpoint")
+        return cast(list[ChunkRecord], data)
+
+
+def align_pairs(ctx: RunContext, pairs: list[tuple[Submap, Submap]], tasks: TaskRunner) -> dict[ResultKey, AlignResult]:
     """Every scenario aligner on every pair: ``(a name, b name, label) -> AlignResult``.
 
     Progress advances by the pairs of each finished chunk (``evaluation:pairs``).
@@ -50,28 +68,17 @@ def align_pairs(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[Res
     names = [(a.name, b.name) for a, b in pairs]
     chunks = [names[i : i + size] for i in range(0, len(names), size)]
     public = {s.name: s.public() for ab in pairs for s in ab}
-    done = Checkpoint(ctx.run_dir, "evaluation", None if ctx.fresh else ctx.stage_key)
-    records: dict[int, list[dict[str, Any]]] = {}
-    for i, chunk in enumerate(chunks):
-        rec = done.get(_chunk_id(chunk))
-        if rec is not None:
-            records[i] = rec
-            ctx.progress.advance("evaluation:pairs", len(chunk))
-    todo = [i for i in range(len(chunks)) if i not in records]
-    if len(todo) < len(chunks):
-        log.info("evaluation: %d of %d chunks reused from an interrupted run", len(chunks) - len(todo), len(chunks))
     spec = aligners_json(ctx)
-    args = [(spec, {n: public[n] for ab in chunks[i] for n in ab}, chunks[i]) for i in todo]
-    labels = [f"aligning pairs {i * size}..{i * size + len(chunks[i]) - 1}" for i in todo]
-    for j, rec in ctx.tasks().run_tasks(align_chunk_task, args, labels):
-        i = todo[j]
-        done.put(_chunk_id(chunks[i]), rec)
-        records[i] = json.loads(json.dumps(rec))  # the checkpoint's round trip, for fresh chunks too
+    args = [(spec, {n: public[n] for ab in chunk for n in ab}, chunk) for chunk in chunks]
+    labels = [f"aligning pairs {i * size}..{i * size + len(c) - 1}" for i, c in enumerate(chunks)]
+    records: dict[int, list[ChunkRecord]] = {}
+    for i, rec in tasks.run(align_chunk_task, args, labels, [_chunk_id(c) for c in chunks], ChunkCodec()):
+        records[i] = rec
         ctx.progress.advance("evaluation:pairs", len(chunks[i]))
     out: dict[ResultKey, AlignResult] = {}
     for i in range(len(chunks)):
         for r in records[i]:
-            out[(r["a"], r["b"], r["method"])] = result_from_json(r)
+            out[(str(r["a"]), str(r["b"]), str(r["method"]))] = result_from_json(r)
     return out
 
 

@@ -10,16 +10,22 @@ the package's own errors). Typical use in the stages that call plug-ins::
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import NDArray
 
+from roman_sim.align.base import Aligner, AlignResult
 from roman_sim.core.errors import PluginError
 from roman_sim.core.registry import one_line
+from roman_sim.core.sensors import Frame
+from roman_sim.mapping.mask import Mask, Segmenter
+from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
+from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.plugins import check_result
 
 
-def is_plugin(name: Any) -> bool:
+def is_plugin(name: object) -> bool:
     """Whether a configured name is a user plug-in (``package.module:Class``)."""
     return isinstance(name, str) and ":" in name
 
@@ -33,11 +39,11 @@ def _fail(kind: str, path: str, where: str, err: BaseException) -> PluginError:
 class GuardedAligner:
     """An aligner plug-in whose failures inside ``align`` name the plug-in and the pair."""
 
-    def __init__(self, inner: Any, path: str) -> None:
+    def __init__(self, inner: Aligner, path: str) -> None:
         self.inner, self.path = inner, path
         self.name = inner.name
 
-    def align(self, a: Any, b: Any) -> Any:
+    def align(self, a: Submap, b: Submap) -> AlignResult:
         where = f"pair {a.name} - {b.name}"
         try:
             out = self.inner.align(a, b)
@@ -52,13 +58,13 @@ class GuardedAligner:
 class GuardedSegmenter:
     """A segmenter that remembers the frame it works on; for a plug-in, failures name that frame."""
 
-    def __init__(self, inner: Any, path: str | None) -> None:
+    def __init__(self, inner: Segmenter, path: str | None) -> None:
         self.inner, self.path = inner, path
         self.frame: str = "no frame yet"
         # What the wrapped component declares decides which frames it gets (truth or not).
         self.reads_truth = bool(getattr(inner, "reads_truth", False))
 
-    def segment(self, frame: Any) -> Any:
+    def segment(self, frame: Frame) -> list[Mask]:
         self.frame = f"frame {frame.index} of robot {frame.robot}"
         if self.path is None:
             return self.inner.segment(frame)
@@ -75,17 +81,24 @@ class GuardedSegmenter:
 class GuardedEncoder:
     """An encoder plug-in whose failures name the frame (from ``frames``) and whose descriptors keep one size."""
 
-    def __init__(self, inner: Any, path: str, frames: GuardedSegmenter | None = None) -> None:
+    def __init__(self, inner: SemanticEncoder, path: str, frames: Segmenter | None = None) -> None:
         self.inner, self.path, self.frames = inner, path, frames
         self.dim: int | None = None
         self.reads_truth = bool(getattr(inner, "reads_truth", False))
         if callable(getattr(inner, "encode_batch", None)):
             self.encode_batch = self._encode_batch  # the mapper uses the batch call when there is one
 
-    def _encode_batch(self, rgb: Any, masks: Any, contexts: Any) -> Any:
-        where = "the masks of " + (self.frames.frame if self.frames is not None else "a frame")
+    def _where(self, what: str) -> str:
+        frame = self.frames.frame if isinstance(self.frames, GuardedSegmenter) else "a frame"
+        return f"{what} {frame}"
+
+    def _encode_batch(
+        self, rgb: NDArray[np.uint8] | None, masks: Sequence[Mask], contexts: Sequence[EncodeContext]
+    ) -> NDArray[np.float32]:
+        where = self._where("the masks of")
+        batch = self.inner.encode_batch  # type: ignore[attr-defined]  # only set when the plug-in has it
         try:
-            out = np.asarray(self.inner.encode_batch(rgb, masks, contexts))
+            out = np.asarray(batch(rgb, masks, contexts))
         except Exception as err:  # anything the user's code raises
             raise _fail("encoder", self.path, where, err) from None
         for row in out if out.ndim == 2 else [out]:
@@ -94,8 +107,10 @@ class GuardedEncoder:
                 raise PluginError(f"encoder {self.path!r} on {where}: encode_batch: {problem}", self.path, "encoder")
         return out
 
-    def encode(self, rgb_crop: Any, mask: Any, context: Any) -> Any:
-        where = "a mask of " + (self.frames.frame if self.frames is not None else "a frame")
+    def encode(
+        self, rgb_crop: NDArray[np.uint8] | None, mask: NDArray[np.bool_], context: EncodeContext
+    ) -> NDArray[np.float32]:
+        where = self._where("a mask of")
         try:
             out = self.inner.encode(rgb_crop, mask, context)
         except Exception as err:  # anything the user's code raises
@@ -111,12 +126,14 @@ class GuardedEncoder:
         return out
 
 
-def guard_aligner(aligner: Any, method: str) -> Any:
+def guard_aligner(aligner: Aligner, method: str) -> Aligner:
     """``aligner`` guarded when ``method`` names a plug-in, else itself."""
     return GuardedAligner(aligner, method) if is_plugin(method) else aligner
 
 
-def guard_frontend(segmenter: Any, segmenter_name: Any, encoder: Any, encoder_name: Any) -> tuple[Any, Any]:
+def guard_frontend(
+    segmenter: Segmenter, segmenter_name: str, encoder: SemanticEncoder, encoder_name: str
+) -> tuple[Segmenter, SemanticEncoder]:
     """(segmenter, encoder) with every plug-in guarded; the segmenter tracks frames for the encoder's messages."""
     seg_plugin, enc_plugin = is_plugin(segmenter_name), is_plugin(encoder_name)
     if seg_plugin or enc_plugin:

@@ -12,20 +12,26 @@ check, shared with the run-time guards of ``roman_sim.pipeline.plugin_guard``.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Sized
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
+from numpy.typing import NDArray
 
 from roman_sim.core.errors import PluginError
 from roman_sim.core.plugins import describe, instantiate_plugin
 from roman_sim.core.registry import one_line
 
+if TYPE_CHECKING:
+    from roman_sim.core.sensors import Frame
+    from roman_sim.mapping.semantics import EncodeContext
+    from roman_sim.mapping.types import Submap
+
 UNIT_TOL = 1e-3  # |norm - 1| allowed of an encoder's descriptor (float32 rounding is ~1e-7)
 
 
 def load_plugin(
-    path: str, kind: str, params: dict[str, Any] | None = None, *, descriptor_dim: int = 768, with_rgb: bool = True
+    path: str, kind: str, params: dict[str, object] | None = None, *, descriptor_dim: int = 768, with_rgb: bool = True
 ) -> object:
     """Import, build, check and dry-run the plug-in ``path``; returns the built instance.
 
@@ -46,9 +52,10 @@ def load_plugin(
     return obj
 
 
-def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_rgb: bool = True) -> Any:
+def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_rgb: bool = True) -> object:
     """Call ``obj`` once on a tiny synthetic input, check and return what it returned (``PluginError``)."""
-    args: tuple[Any, ...]
+    args: tuple[object, ...]
+    call: Callable[..., object]
     if kind == "aligner":
         a, b = _dry_submaps(descriptor_dim)
         call, where, args = obj.align, "two synthetic submaps", (a, b)
@@ -70,17 +77,17 @@ def dry_call(obj: Any, path: str, kind: str, *, descriptor_dim: int = 768, with_
     return out
 
 
-def check_result(kind: str, out: Any, args: tuple[Any, ...]) -> str | None:
+def check_result(kind: str, out: object, args: tuple[object, ...]) -> str | None:
     """What is wrong with the value ``out`` a plug-in returned for ``args`` (None when it is fine)."""
     return _CHECKS[kind](out, args)
 
 
-def _check_align(out: Any, args: tuple[Any, ...]) -> str | None:
+def _check_align(out: object, args: tuple[object, ...]) -> str | None:
     from roman_sim.align.base import AlignResult
 
     if not isinstance(out, AlignResult):
         return f"align(a, b) returned {describe(out)}, expected an AlignResult (roman_sim.align.base)"
-    a, b = args
+    a, b = cast(tuple[Sized, Sized], args)
     if out.T_a_b is not None:
         T = np.asarray(out.T_a_b)
         if T.shape != (4, 4) or not np.issubdtype(T.dtype, np.number) or not np.all(np.isfinite(T)):
@@ -95,12 +102,12 @@ def _check_align(out: Any, args: tuple[Any, ...]) -> str | None:
     return None
 
 
-def _check_segment(out: Any, args: tuple[Any, ...]) -> str | None:
+def _check_segment(out: object, args: tuple[object, ...]) -> str | None:
     from roman_sim.mapping.mask import Mask
 
     if not isinstance(out, (list, tuple)):
         return f"segment(frame) returned {describe(out)}, expected a list of Mask (roman_sim.mapping.segmenter)"
-    shape = np.asarray(args[0].depth).shape
+    shape = np.asarray(cast("Frame", args[0]).depth).shape
     for k, m in enumerate(out):
         if not isinstance(m, Mask):
             return f"segment(frame) returned a list whose item {k} is {describe(m)}, expected a Mask"
@@ -110,7 +117,7 @@ def _check_segment(out: Any, args: tuple[Any, ...]) -> str | None:
     return None
 
 
-def _check_encode(out: Any, args: tuple[Any, ...]) -> str | None:
+def _check_encode(out: object, args: tuple[object, ...]) -> str | None:
     if out is None or isinstance(out, (str, bytes, dict)):
         return f"encode(...) returned {describe(out)}, expected a unit float vector"
     try:
@@ -127,21 +134,21 @@ def _check_encode(out: Any, args: tuple[Any, ...]) -> str | None:
     return None
 
 
-_CHECKS: dict[str, Callable[[Any, tuple[Any, ...]], str | None]] = {
+_CHECKS: dict[str, Callable[[object, tuple[object, ...]], str | None]] = {
     "aligner": _check_align,
     "segmenter": _check_segment,
     "encoder": _check_encode,
 }
 
 
-def _dry_submaps(descriptor_dim: int) -> tuple[Any, Any]:
+def _dry_submaps(descriptor_dim: int) -> tuple[Submap, Submap]:
     from roman_sim.align.synthetic import make_submap_pair
 
     a, b, _ = make_submap_pair(seed=0, n_inliers=8, n_outliers_a=3, n_outliers_b=3, descriptor_dim=descriptor_dim)
     return a.public(), b.public()
 
 
-def _dry_frame(with_rgb: bool) -> tuple[Any, Any, Any, Any]:
+def _dry_frame(with_rgb: bool) -> tuple[Frame, NDArray[np.bool_], NDArray[np.uint8] | None, EncodeContext]:
     """A 64 x 48 frame of four spheres (RGB coloured by object), one sphere's mask, its crop and context."""
     from dataclasses import replace
 

@@ -3,18 +3,33 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TypeVar
 
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.manifest import read_manifest
 from roman_sim.pipeline.scenario import Scenario, load_scenario
-from roman_sim.report.summaries import compact_summary
+from roman_sim.pipeline.stages import STAGES, AteOutput, EvaluationOutput, ReportOutput, StageOutput
+from roman_sim.pipeline.stages.base import Timings
+from roman_sim.report.summaries import RunSummary, compact_summary
 
 TIMINGS_JSON = "timings.json"
+#: The stages whose outputs a result is made of.
+RESULT_STAGES = ("evaluation", "ate", "report")
+
+OutT = TypeVar("OutT")
+
+
+def _output(outputs: Mapping[str, StageOutput], name: str, kind: type[OutT]) -> OutT:
+    out = outputs.get(name)
+    if not isinstance(out, kind):
+        raise StorageError(f"the run has no {name} output (stage missing or of another kind)")
+    return out
 
 
 @dataclass
@@ -38,16 +53,23 @@ class RunResult:
     ate: AteTable
     map_stats: MapStats
     notes: list[str] = field(default_factory=list)
-    timings: dict[str, Any] = field(default_factory=dict)
+    timings: dict[str, Timings] = field(default_factory=dict)
     reused: list[str] = field(default_factory=list)
 
     @classmethod
     def from_outputs(
-        cls, run_dir: Path, scenario: Scenario, outputs: dict[str, Any], timings: dict[str, Any], reused: list[str]
+        cls,
+        run_dir: Path,
+        scenario: Scenario,
+        outputs: Mapping[str, StageOutput],
+        timings: dict[str, Timings],
+        reused: list[str],
     ) -> "RunResult":
-        """The result of a run from its stage outputs."""
-        ev, pg, rep = outputs["evaluation"], outputs["posegraph"], outputs["report"]
-        return cls(run_dir, scenario, ev.metrics, pg.ate, rep.map_stats, list(rep.notes), timings, reused)
+        """The result of a run from its stage outputs (those of ``RESULT_STAGES``)."""
+        ev = _output(outputs, "evaluation", EvaluationOutput)
+        ate = _output(outputs, "ate", AteOutput)
+        rep = _output(outputs, "report", ReportOutput)
+        return cls(run_dir, scenario, ev.metrics, ate.ate, rep.map_stats, list(rep.notes), timings, reused)
 
     @classmethod
     def load(cls, run_dir: str | Path) -> "RunResult":
@@ -55,10 +77,9 @@ class RunResult:
 
         Raises:
             StorageError: not a run folder, a run that did not complete (naming the missing
-                stages), a configuration that does not match the outputs, or unreadable files.
+                stages), a folder of an older stage table, a configuration that does not match
+                the outputs, or unreadable files.
         """
-        from roman_sim.pipeline.stages import STAGES
-
         d = Path(run_dir)
         man = read_manifest(d)
         if not man.complete:
@@ -73,11 +94,16 @@ class RunResult:
         sc = load_scenario(d / "config.yaml")
         if sc.config_hash() != man.config_hash:
             raise StorageError(f"{d}: config.yaml does not match the run's outputs (edited after the run?)")
+        never = [s for s in RESULT_STAGES if s not in man.stages]
+        if never:
+            raise StorageError(
+                f"{d}: written by an older version without the {', '.join(never)} stage(s); run it again to update it"
+            )
         ctx = RunContext(sc, d)
         outputs = {
             s.name: s.load(ctx, man.stages[s.name].files)
             for s in STAGES
-            if s.name in man.stages and s.name in ("evaluation", "posegraph", "report")
+            if s.name in man.stages and s.name in RESULT_STAGES
         }
         return cls.from_outputs(d, sc, outputs, read_timings(d), [])
 
@@ -91,16 +117,22 @@ class RunResult:
 
     def runtime_median_s(self, method: str) -> float | None:
         """Median alignment time per pair of ``method`` (s), from the timings; None if unknown."""
-        alignment = (self.timings.get("evaluation") or {}).get("alignment") or {}
-        return (alignment.get(method) or {}).get("median")
+        alignment = self.timings.get("evaluation", {}).get("alignment")
+        per = alignment.get(method) if isinstance(alignment, dict) else None
+        median = per.get("median") if isinstance(per, dict) else None
+        return float(median) if isinstance(median, (int, float)) else None
 
-    def metrics_summary(self) -> dict[str, Any]:
-        """A compact JSON-ready summary (per method recall, runtime; ATE; map size)."""
+    def summary(self) -> RunSummary:
+        """The run in short (per method recall, runtime; ATE; map size): ``compact_summary``."""
         runtimes = {m: self.runtime_median_s(m) for m in self.metrics.methods}
         return compact_summary(self.metrics, self.ate, self.map_stats, runtimes)
 
+    def metrics_summary(self) -> dict[str, JSONLike]:
+        """``summary()`` as JSON (what ``summary.json`` holds per run)."""
+        return self.summary().to_json()
 
-def read_timings(run_dir: Path) -> dict[str, Any]:
+
+def read_timings(run_dir: Path) -> dict[str, Timings]:
     """The per-stage timings of a run folder (empty when absent or unreadable)."""
     try:
         data = json.loads((run_dir / TIMINGS_JSON).read_text(encoding="utf-8"))

@@ -8,30 +8,48 @@ the same frames also give the robot's visual keyframes.
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
 from roman_sim.core.config import stable_hash
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
+from roman_sim.mapping.mask import Mask, Segmenter
+from roman_sim.mapping.semantics import SemanticEncoder
 from roman_sim.mapping.types import KeyframeSet
+from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.plugin_guard import guard_frontend
 
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
+
+    from roman_sim.pipeline.scenario import ScenarioRobot
+    from roman_sim.sim.paths import Path2D
+    from roman_sim.sim.robot import DrivenRun
+    from roman_sim.world import World
+
 log = logging.getLogger(__name__)
 MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
+#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
+RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
 
 
-def build_segmenter_for(ctx: RunContext, robot: str) -> Any:
+def build_segmenter_for(ctx: RunContext, robot: str) -> Segmenter:
     """The scenario's segmenter for ``robot`` (built-in or user class, with its params)."""
     return build_segmenter(ctx.scenario.frontend, seed=ctx.scenario.seed, robot=robot)
 
 
-def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> Any:
+def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> SemanticEncoder:
     """The scenario's semantic encoder for ``robot``; only a truth-driven one gets ``families``.
 
     ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
@@ -47,13 +65,13 @@ def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | No
     return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
 
 
-def _recording_key(ctx: RunContext, cfg: Any) -> str:
+def _recording_key(ctx: RunContext, cfg: ScenarioRobot) -> str:
     """What a robot's rendered frames depend on: seed, world, every robot (paths may refer to others)."""
     sc = ctx.scenario.model_dump(mode="json")
     return stable_hash(sc["seed"], sc["world"], sc["robots"], cfg.name)
 
 
-def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[Frame]:
+def _frames(ctx: RunContext, world: World, cfg: ScenarioRobot, trajectory: DrivenRun) -> Iterable[Frame]:
     """Rendered frames of one robot (from the run's recording when ``record_frames`` and it matches)."""
     from roman_sim.sim.recording import read_recording, recording_info, write_recording
     from roman_sim.sim.robot import render_trajectory
@@ -75,7 +93,12 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
 
 
 def _map_frames(
-    ctx: RunContext, name: str, frames: Iterable[Frame], n: int, families: dict[int, str] | None, grader: Any = None
+    ctx: RunContext,
+    name: str,
+    frames: Iterable[Frame],
+    n: int,
+    families: dict[int, str] | None,
+    grader: _Grader | None = None,
 ) -> MapAndKeyframes:
     sc = ctx.scenario
     stage = f"maps:{name}"
@@ -110,14 +133,14 @@ class _Grader:
     label the descriptors; nothing here is visible to the segmenter or the encoder.
     """
 
-    def __init__(self, group_of: Any, seed: int, robot: str | None = None) -> None:
+    def __init__(self, group_of: Callable[[str], str], seed: int, robot: str | None = None) -> None:
         self.inner = FrontEndGrader({}, group_of, seed=seed, stream=robot)
 
     def use(self, families: dict[int, str] | None) -> FrontEndGrader:
         self.inner.families.update(families or {})
         return self.inner
 
-    def add(self, frame: Frame, masks: Any, observed: Any) -> None:
+    def add(self, frame: Frame, masks: list[Mask], observed: list[tuple[int, NDArray[np.float32] | None]]) -> None:
         if frame.truth is not None and frame.truth.object_ids is not None:
             self.inner.add(frame, masks, observed)
 
@@ -126,7 +149,9 @@ class _Grader:
         return self.inner.part() if self.inner.seg.frames else None
 
 
-def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+def map_robot(
+    ctx: RunContext, world: World, cfg: ScenarioRobot, path: Path2D, grader: _Grader | None = None
+) -> MapAndKeyframes:
     """Render and map one robot along its planned path (graded by ``grader``; keyframes when the
     visual method runs)."""
     from roman_sim.sim.robot import trajectory_along
@@ -138,10 +163,12 @@ def map_robot(ctx: RunContext, world: Any, cfg: Any, path: Any, grader: _Grader 
     return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]), families, grader)
 
 
-def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> MapAndKeyframes:
+def map_sequence(ctx: RunContext, cfg: ScenarioRobot, grader: _Grader | None = None) -> MapAndKeyframes:
     """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
     from roman_sim.pipeline.sources import open_sequence, sequence_families
 
+    if cfg.source is None:
+        raise ConfigError(f"robot {cfg.name}: no source to read")
     seq = open_sequence(cfg, ctx.scenario.seed)
     families = sequence_families(cfg.source)
     if grader is not None:
@@ -149,12 +176,51 @@ def map_sequence(ctx: RunContext, cfg: Any, grader: _Grader | None = None) -> Ma
     return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
 
 
-#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
-RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
-
-
-def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> RobotMapping:
+def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot, path: Path2D | None) -> RobotMapping:
     """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
     grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
-    smap, kf = map_sequence(ctx, cfg, grader) if cfg.source is not None else map_robot(ctx, world, cfg, path, grader)
+    if cfg.source is not None:
+        smap, kf = map_sequence(ctx, cfg, grader)
+    elif world is None or path is None:
+        raise ConfigError(f"robot {cfg.name}: a simulated robot needs the world and its planned path")
+    else:
+        smap, kf = map_robot(ctx, world, cfg, path, grader)
     return smap, kf, grader.part()
+
+
+class RobotMappingCodec:
+    """Checkpoint codec of a robot's mapping (``TaskCodec``): ``<stem>.map.npz``, ``.keyframes.npz``, ``.grades.npz``.
+
+    The map and keyframes go through the same writers as the maps stage's own files, the
+    grade part through its arrays, so what is read back is what the stage saves.
+    """
+
+    def write(self, value: RobotMapping, stem: Path) -> Kept:
+        """Write the map, the keyframes and the grade part that exist."""
+        from roman_sim.core.atomic import write_arrays
+
+        smap, kf, part = value
+        files = [_part(stem, "map")]
+        save_segment_map(files[0], smap)
+        if kf is not None:
+            files.append(_part(stem, "keyframes"))
+            save_keyframes(files[-1], kf)
+        if part is not None:
+            files.append(_part(stem, "grades"))
+            write_arrays(files[-1], part.arrays())
+        return Kept({"keyframes": kf is not None, "grades": part is not None}, files)
+
+    def read(self, data: JSON, stem: Path) -> RobotMapping:
+        """The map, keyframes and grade part ``write`` kept."""
+        if not isinstance(data, dict):
+            raise StorageError(f"{stem}: malformed mapping checkpoint")
+        part = None
+        if data.get("grades"):
+            with np.load(_part(stem, "grades"), allow_pickle=False) as z:
+                part = GraderPart.from_arrays(z)
+        kf = load_keyframes(_part(stem, "keyframes")) if data.get("keyframes") else None
+        return load_segment_map(_part(stem, "map")), kf, part
+
+
+def _part(stem: Path, name: str) -> Path:
+    return stem.with_name(f"{stem.name}.{name}.npz")

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from pydantic import Field, field_validator, model_validator
 
@@ -24,6 +24,9 @@ from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.posegraph import PoseGraphConfig
 from roman_sim.sim.robot import RobotConfig
 
+if TYPE_CHECKING:
+    from roman_sim.world import WorldSpec
+
 log = logging.getLogger(__name__)
 
 #: Folder of the bundled scenarios (package data; the repository root links to it).
@@ -38,7 +41,7 @@ class WorldRef(StrictModel):
     preset: str = "offroad"
     overrides: dict[str, FiniteTree] = Field(default_factory=dict)
 
-    def spec(self) -> Any:
+    def spec(self) -> WorldSpec:
         """The resolved ``WorldSpec`` (overrides validated like the preset itself)."""
         from roman_sim.world import WorldSpec, load_world_spec
 
@@ -51,7 +54,7 @@ class WorldRef(StrictModel):
         return validate_model(WorldSpec, data, source=where)
 
 
-def _yaml_scalar(v: Any) -> str:
+def _yaml_scalar(v: object) -> str:
     import json
 
     return json.dumps(v)
@@ -139,7 +142,7 @@ class Scenario(StrictModel):
 
     @field_validator("aligners", mode="before")
     @classmethod
-    def _names_to_entries(cls, v: Any) -> Any:
+    def _names_to_entries(cls, v: object) -> object:
         if isinstance(v, list):
             return [{"method": x} if isinstance(x, str) else x for x in v]
         return v

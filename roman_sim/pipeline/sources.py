@@ -13,18 +13,23 @@ from __future__ import annotations
 
 import hashlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.interop.objects import OBJECTS_JSON, read_object_table
 from roman_sim.interop.tum_reader import TumSequence, TumSourceConfig
 from roman_sim.mapping.frontend import encoder_spec
 
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import Scenario, ScenarioRobot
+
 _TEXT_SUFFIXES = (".txt", ".yaml", ".json")
 
 
-def open_sequence(cfg: Any, seed: int) -> TumSequence:
+def open_sequence(cfg: ScenarioRobot, seed: int) -> TumSequence:
     """The robot's associated sequence (ConfigError when it has no ground truth to score against)."""
+    if cfg.source is None:
+        raise ConfigError(f"robot {cfg.name}: not read from a sequence (no source)")
     seq = TumSequence(cfg.source, robot=cfg.name, seed=seed)
     if seq.T_world_body is None:
         raise ConfigError(
@@ -65,7 +70,7 @@ def fingerprint(source: TumSourceConfig) -> dict[str, str]:
     return out
 
 
-def check_sources(scenario: Any) -> None:
+def check_sources(scenario: Scenario) -> None:
     """Open every recorded robot's sequence once, so bad folders fail before any work."""
     for cfg in scenario.robots:
         if cfg.source is None:

@@ -137,12 +137,12 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, st
             rows.append({**base, "status": "failed", "error": failures[r.run_id]})
             continue
         try:
-            summary = RunResult.load(out_dir / r.run_id).metrics_summary()
+            summary = RunResult.load(out_dir / r.run_id).summary()
         except RomanSimError as err:
             rows.append({**base, "status": "missing", "error": str(err)})
             continue
-        for method, m in sorted(summary["methods"].items()):
-            rows.append({**base, "status": "ok", "method": method, **_flatten(m)})
+        for method, m in sorted(summary.methods.items()):
+            rows.append({**base, "status": "ok", "method": method, **_flatten(m.to_json())})
     cols: list[str] = []
     for row in rows:
         cols.extend(k for k in row if k not in cols)

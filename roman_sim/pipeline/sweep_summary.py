@@ -18,6 +18,8 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import RomanSimError, StorageError
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
     from roman_sim.pipeline.sweep_spec import RunSpec, SweepConfig
 
 log = logging.getLogger(__name__)
@@ -93,7 +95,7 @@ def write_sweep_summary(out_dir: Path) -> Path:
     return path
 
 
-def print_sweep_summary(out_dir: Path, console: Any) -> None:
+def print_sweep_summary(out_dir: Path, console: Console) -> None:
     """Print the sweep's summary: one table per pair set with relevant pairs (rich console)."""
     from rich.table import Table
 

@@ -11,31 +11,60 @@ from __future__ import annotations
 import logging
 from functools import lru_cache
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 
-from roman_sim.align.base import AlignResult
+from roman_sim.align.base import Aligner, AlignResult
+from roman_sim.core.jsontypes import JSON
+from roman_sim.mapping.types import Submap
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.robot_mapping import RobotMapping
+    from roman_sim.pipeline.scenario import Scenario
+    from roman_sim.sim.paths import Path2D
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
 
+class ResultJSON(TypedDict):
+    """An ``AlignResult`` as JSON (``result_to_json``)."""
+
+    method: str
+    T_a_b: list[list[float]] | None
+    associations: list[list[int]]
+    scores: list[float]
+    runtime_s: float
+    reason: str | None
+    info: dict[str, JSON]
+
+
+class ChunkRecord(ResultJSON):
+    """One aligner's result on one pair of a chunk: the pair's submap names and the result."""
+
+    a: str
+    b: str
+
+
 @lru_cache(maxsize=2)
-def _scenario(scenario_json: str) -> Any:
+def _scenario(scenario_json: str) -> Scenario:
     from roman_sim.pipeline.scenario import Scenario
 
     return Scenario.model_validate_json(scenario_json)
 
 
 @lru_cache(maxsize=1)
-def _world(world_json: str, seed: int) -> Any:
+def _world(world_json: str, seed: int) -> World:
     from roman_sim.pipeline.scenario import WorldRef
     from roman_sim.world import generate
 
     return generate(WorldRef.model_validate_json(world_json).spec(), seed)
 
 
-def map_robot_task(scenario_json: str, robot: str, path: Any, run_dir: str, world: Any = None) -> Any:
+def map_robot_task(
+    scenario_json: str, robot: str, path: Path2D | None, run_dir: str, world: World | None = None
+) -> RobotMapping:
     """Map ``robot``: rendered along its planned ``path``, or read from its ``source``; its ``SegmentMap``.
 
     ``world`` is passed in-process; workers regenerate it from the scenario (same bytes). A
@@ -52,7 +81,7 @@ def map_robot_task(scenario_json: str, robot: str, path: Any, run_dir: str, worl
 
 
 @lru_cache(maxsize=4)
-def _aligners(aligners_json: str) -> list[Any]:
+def _aligners(aligners_json: str) -> list[tuple[str, Aligner]]:
     import json
 
     from roman_sim.align import build_aligner
@@ -64,13 +93,13 @@ def _aligners(aligners_json: str) -> list[Any]:
     ]
 
 
-def align_chunk_task(aligners_json: str, submaps: dict[str, Any], pairs: list[tuple[str, str]]) -> list[dict[str, Any]]:
+def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list[tuple[str, str]]) -> list[ChunkRecord]:
     """Every aligner on every pair of the chunk (submaps already public); JSON-ready results in order.
 
     Returns one record per (pair, aligner), pair-major: ``result_to_json`` of the result
     under the aligner's label.
     """
-    out = []
+    out: list[ChunkRecord] = []
     labelled = _aligners(aligners_json)
     for a, b in pairs:
         for label, aligner in labelled:
@@ -80,12 +109,12 @@ def align_chunk_task(aligners_json: str, submaps: dict[str, Any], pairs: list[tu
     return out
 
 
-def _plain(v: Any) -> Any:
+def _plain(v: object) -> JSON:
     """``v`` with numpy values turned into JSON types (lists, floats, ints, bools)."""
     if isinstance(v, np.ndarray):
-        return v.tolist()
+        return _plain(v.tolist())
     if isinstance(v, np.generic):
-        return v.item()
+        return _plain(v.item())
     if isinstance(v, dict):
         return {str(k): _plain(x) for k, x in v.items()}
     if isinstance(v, (list, tuple)):
@@ -95,7 +124,7 @@ def _plain(v: Any) -> Any:
     return str(v)
 
 
-def result_to_json(res: AlignResult) -> dict[str, Any]:
+def result_to_json(res: AlignResult) -> ResultJSON:
     """JSON-ready ``AlignResult`` (floats round-trip exactly through JSON)."""
     return {
         "method": res.method,
@@ -104,11 +133,11 @@ def result_to_json(res: AlignResult) -> dict[str, Any]:
         "scores": np.asarray(res.scores, dtype=np.float64).tolist(),
         "runtime_s": float(res.runtime_s),
         "reason": res.reason,
-        "info": _plain(res.info),
+        "info": {str(k): _plain(x) for k, x in res.info.items()},
     }
 
 
-def result_from_json(d: dict[str, Any]) -> AlignResult:
+def result_from_json(d: ResultJSON) -> AlignResult:
     """Inverse of ``result_to_json``."""
     T = None if d["T_a_b"] is None else np.asarray(d["T_a_b"], dtype=np.float64)
     return AlignResult(

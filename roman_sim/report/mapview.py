@@ -156,13 +156,18 @@ def _render(clouds: list, boxes: list, cam_pose: NDArray[np.float64], width: int
     return np.ascontiguousarray(color[..., :3], dtype=np.uint8)
 
 
-def write_map_view(path: str | Path, submaps: list[Submap], **kwargs: object) -> Path:
-    """Render the map view (see ``render_map`` for options) and write it as a PNG atomically."""
-    path = Path(path)
+def map_view_png(submaps: list[Submap], **kwargs: object) -> bytes:
+    """Render the map view (see ``render_map`` for options) as PNG bytes."""
     img = render_map(submaps, **kwargs)  # type: ignore[arg-type]
     buf = io.BytesIO()
     # None leaves the Software key out (same bytes everywhere); matplotlib's stub allows str only
     imsave(buf, img, format="png", metadata={"Software": None})  # type: ignore[dict-item]
-    write_bytes(path, buf.getvalue())
+    return buf.getvalue()
+
+
+def write_map_view(path: str | Path, submaps: list[Submap], **kwargs: object) -> Path:
+    """Render the map view (see ``render_map`` for options) and write it as a PNG atomically."""
+    path = Path(path)
+    write_bytes(path, map_view_png(submaps, **kwargs))
     log.info("wrote map view %s", path)
     return path

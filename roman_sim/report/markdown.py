@@ -14,7 +14,6 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-from roman_sim.core.atomic import write_text
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.frontend_types import FrontEndGrades
@@ -164,27 +163,24 @@ def _section_plots(plots: list[str]) -> list[str]:
     return lines
 
 
-def write_report(
-    out_dir: str | Path,
+def report_markdown(
     scenario_name: str,
     metrics: EvaluationMetrics,
     ate_table: AteTable | None = None,
     map_stats: MapStats | None = None,
     notes: list[str] | None = None,
     plots: list[str] | None = None,
-) -> Path:
-    """Write ``out_dir/report.md`` and return its path.
+) -> str:
+    """The text of ``report.md``.
 
     Args:
-        out_dir: the run folder.
         scenario_name: shown in the title.
         metrics: the evaluation's metrics.
         ate_table: ATE RMSE per trajectory variant (odometry, the method, oracle, ...).
         map_stats: map and packet sizes.
         notes: statements to show (no loop closures, a robot never connected, ...).
-        plots: plot files to show, relative to ``out_dir`` (e.g. ``plots/recall_heading.png``).
+        plots: plot files to show, relative to the run folder (e.g. ``plots/recall_heading.png``).
     """
-    out = Path(out_dir)
     lines = [f"# Evaluation report: {scenario_name}", "", *_header(metrics)]
     all_notes = list(dict.fromkeys(list(metrics.notes) + list(notes or [])))
     if all_notes:
@@ -205,7 +201,4 @@ def write_report(
         lines += frontend_report_lines(FrontEndGrades.from_json(metrics.frontend))
     lines += ["Runtimes per pair and per stage: timings.json.", ""]
     lines += _section_plots(list(plots or []))
-    path = out / REPORT_MD
-    write_text(path, "\n".join(lines))
-    log.info("wrote %s", path)
-    return path
+    return "\n".join(lines)

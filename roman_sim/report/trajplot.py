@@ -1,4 +1,4 @@
-"""Top-down trajectory plot with loop-closure lines (matplotlib Agg, written atomically).
+"""Top-down trajectory plot with loop-closure lines (matplotlib Agg, rendered to PNG bytes in memory).
 
 Truth is drawn solid, the estimate dashed and odometry dotted, one colour per robot;
 loop closures are lines between the two submap centres: intra-robot blue, inter-robot
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import io
 import logging
+import math
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,15 +19,19 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike, NDArray
 
-from roman_sim.core.atomic import write_bytes
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.geometry import pose_error
 from roman_sim.core.trajectory import Trajectory
+from roman_sim.mapping.types import Submap
+from roman_sim.posegraph.types import LoopClosure
 
 log = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
 #: (xyz_a, xyz_b, kind "intra" | "inter", correct True | False | None)
 ClosureLine = tuple[ArrayLike, ArrayLike, str, bool | None]
+#: What a trajectory layer takes per robot: a ``Trajectory``, poses ``T (N,4,4)`` or positions ``xyz (N,3)``.
+TrajectoryLike = Trajectory | ArrayLike
 
 CLOSURE_COLOURS = {"intra": "tab:blue", "inter": "tab:green"}
 #: tab10 entries for robots: blue, green and red are left to the closure lines.
@@ -104,16 +108,43 @@ def _legend(ax: Any, robots: dict[str, Any], layers: list[str], closure_kinds: s
     ax.legend(handles=handles, loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=7, framealpha=0.8)
 
 
-def plot_trajectories(
-    path_png: str | Path,
-    truth: Mapping[str, Any],
-    est: Mapping[str, Any] | None = None,
-    odom: Mapping[str, Any] | None = None,
+def closure_lines(
+    closures: Sequence[LoopClosure],
+    weights: Sequence[float | None],
+    submaps: Mapping[str, Submap],
+    association_thresh: int,
+    rot_tol_deg: float,
+    trans_tol_m: float,
+) -> list[ClosureLine]:
+    """Lines of the closures a pose graph used, between the true submap centres, marked correct or wrong.
+
+    A closure is drawn when the graph used it (its weight is not None) and it has at least
+    ``association_thresh`` associations; it is correct when its relative pose is within the
+    tolerances of the true one.
+    """
+    lines: list[ClosureLine] = []
+    for c, w in zip(closures, weights):
+        if w is None or c.n_associations < association_thresh:
+            continue
+        a, b = submaps[f"{c.robot_a}/{c.submap_a}"], submaps[f"{c.robot_b}/{c.submap_b}"]
+        if a.truth is None or b.truth is None:
+            raise EvaluationError(f"trajectory plot: closure {a.name}|{b.name} joins submaps without truth")
+        Ta, Tb = a.truth.T_world_submap, b.truth.T_world_submap
+        rot, trans = pose_error(c.T_a_b, np.linalg.inv(Ta) @ Tb)
+        ok = math.degrees(rot) <= rot_tol_deg and trans <= trans_tol_m
+        lines.append((Ta[:3, 3], Tb[:3, 3], "inter" if c.inter else "intra", bool(ok)))
+    return lines
+
+
+def trajectory_png(
+    truth: Mapping[str, TrajectoryLike],
+    est: Mapping[str, TrajectoryLike] | None = None,
+    odom: Mapping[str, TrajectoryLike] | None = None,
     closures: Sequence[ClosureLine] = (),
     title: str = "",
     dpi: int = 120,
-) -> Path:
-    """Draw robots' trajectories top-down (x right, y up, metres) with loop-closure lines.
+) -> bytes:
+    """Robots' trajectories drawn top-down (x right, y up, metres) with loop-closure lines, as PNG bytes.
 
     Args:
         path_png: output file (written atomically).
@@ -125,7 +156,8 @@ def plot_trajectories(
         title: figure title.
         dpi: resolution.
 
-    Returns: the written path.
+    Raises:
+        EvaluationError: nothing to draw, a malformed trajectory or closure line.
     """
     robots = list(dict.fromkeys([*truth, *(est or {}), *(odom or {})]))
     if not robots:
@@ -145,6 +177,4 @@ def plot_trajectories(
         ax.set_title(title)
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    write_bytes(path_png, buf.getvalue())
-    log.info("wrote %s", path_png)
-    return Path(path_png)
+    return buf.getvalue()

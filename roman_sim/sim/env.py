@@ -20,7 +20,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 import numpy as np
@@ -35,6 +35,9 @@ from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrat
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DriftConfig, DriftModel, resolve_drift
 from roman_sim.sim.planner import Obstacles
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -63,7 +66,7 @@ def _positive(name: str, value: Any, allow_zero: bool = False) -> float:
     return v
 
 
-def _load_world(world: Any, preset: str, world_seed: int) -> Any:
+def _load_world(world: World | None, preset: str, world_seed: int) -> World:
     if world is not None:
         return world
     from roman_sim.world import generate, load_world_spec
@@ -94,7 +97,7 @@ class GroundRobotEnv(gym.Env):
 
     def __init__(
         self,
-        world: Any = None,
+        world: World | None = None,
         preset: str = "tiny",
         world_seed: int = 0,
         camera: CameraConfig | dict[str, Any] | None = None,

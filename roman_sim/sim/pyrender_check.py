@@ -8,7 +8,7 @@ and export bugs: the two depth images must agree.
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 import trimesh
@@ -17,6 +17,9 @@ from numpy.typing import NDArray
 from roman_sim.core.glrender import offscreen_renderer
 from roman_sim.core.sensors import Intrinsics
 from roman_sim.world.truth import Terrain
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -44,7 +47,7 @@ def terrain_mesh(terrain: Terrain) -> trimesh.Trimesh:
     return trimesh.Trimesh(verts, faces, process=False)
 
 
-def world_meshes(world: Any) -> list[trimesh.Trimesh]:
+def world_meshes(world: World) -> list[trimesh.Trimesh]:
     """World-frame meshes of every object plus the terrain."""
     meshes = [world.object_mesh_world(o.id) for o in world.truth.objects]
     return meshes + [terrain_mesh(world.truth.terrain)]

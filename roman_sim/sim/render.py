@@ -9,7 +9,7 @@ depth buffer and the id colours are read together); RGB is a second pass when as
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import TYPE_CHECKING
 
 import mujoco
 import numpy as np
@@ -18,6 +18,9 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import SimError
 from roman_sim.core.sensors import Intrinsics
 from roman_sim.sim.camera import CameraConfig
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -34,7 +37,7 @@ class SensorRenderer:
         rgb: whether ``render`` also returns an RGB image (costs one more pass).
     """
 
-    def __init__(self, world: Any, camera_cfg: CameraConfig, rgb: bool = True) -> None:
+    def __init__(self, world: World, camera_cfg: CameraConfig, rgb: bool = True) -> None:
         self.cfg = camera_cfg
         self.intrinsics: Intrinsics = camera_cfg.intrinsics()
         self.rgb = rgb

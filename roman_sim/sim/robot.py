@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
-from typing import Any, NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -27,6 +27,9 @@ from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, DriftModel, resolve_drift
 from roman_sim.sim.paths import Path2D, PathConfig, make_path
 from roman_sim.sim.planner import Obstacles
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -60,12 +63,12 @@ class RobotConfig(StrictModel):
         return resolve_drift(self.drift)
 
 
-def robot_path(world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
+def robot_path(world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
     """The robot's validated path (seeded by ``seed`` and the robot name)."""
     return make_path(cfg.path, world.truth, child_rng(seed, "path", cfg.name), cfg.name, paths_by_name)
 
 
-def plan_paths(world: Any, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:
+def plan_paths(world: World, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:
     """Every robot's path, in order, so ``reverse_of`` / ``cross`` can refer to earlier robots.
 
     Raises: SimError for duplicate robot names or a reference to a later/unknown robot.
@@ -78,7 +81,7 @@ def plan_paths(world: Any, robots: Sequence[RobotConfig], seed: int) -> dict[str
     return paths
 
 
-def drive(world: Any, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def drive(world: World, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Drive the path with pure pursuit; returns times (N,) and true ``T_world_body`` (N, 4, 4).
 
     One pose per sensor step (``rate_hz``); the kinematics integrate ``substeps`` times per step.
@@ -107,7 +110,7 @@ def drive(world: Any, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float6
     return np.asarray(times), np.stack(poses)
 
 
-def _check_driven_clearance(world: Any, cfg: RobotConfig, T_wb: NDArray[np.float64]) -> None:
+def _check_driven_clearance(world: World, cfg: RobotConfig, T_wb: NDArray[np.float64]) -> None:
     """The path is clear by construction; the controller may cut corners slightly."""
     clear = Obstacles(world.truth).clearance(T_wb[:, :2, 3])
     i = int(np.argmin(clear)) if len(clear) else 0
@@ -144,13 +147,13 @@ class DrivenRun(NamedTuple):
 
 
 def robot_trajectory(
-    world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
+    world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
 ) -> DrivenRun:
     """Times (N,), true ``T_world_body`` (N, 4, 4) and drifted ``T_odom_body`` (N, 4, 4); no rendering."""
     return trajectory_along(world, cfg, seed, robot_path(world, cfg, seed, paths_by_name))
 
 
-def trajectory_along(world: Any, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
+def trajectory_along(world: World, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
     """``robot_trajectory`` for an already planned ``path`` (e.g. from ``plan_paths``)."""
     t, T_wb = drive(world, cfg, path)
     _check_driven_clearance(world, cfg, T_wb)
@@ -159,7 +162,7 @@ def trajectory_along(world: Any, cfg: RobotConfig, seed: int, path: Path2D) -> D
 
 
 def simulate_robot(
-    world: Any, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
+    world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
 ) -> Iterator[Frame]:
     """The scripted run as a stream of rendered ``Frame`` objects (noisy depth, true ids).
 
@@ -168,7 +171,7 @@ def simulate_robot(
     yield from render_trajectory(world, cfg, seed, robot_trajectory(world, cfg, seed, paths_by_name))
 
 
-def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: DrivenRun) -> Iterator[Frame]:
+def render_trajectory(world: World, cfg: RobotConfig, seed: int, trajectory: DrivenRun) -> Iterator[Frame]:
     """Rendered ``Frame`` objects along a trajectory from ``robot_trajectory`` / ``trajectory_along``."""
     from roman_sim.sim.render import SensorRenderer  # the renderer needs an OpenGL context
 
@@ -188,7 +191,7 @@ def render_trajectory(world: Any, cfg: RobotConfig, seed: int, trajectory: Drive
 
 
 def record_robot(
-    world: Any,
+    world: World,
     cfg: RobotConfig,
     seed: int,
     out_dir: str | Path,

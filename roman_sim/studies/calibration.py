@@ -18,6 +18,7 @@ from typing import Any
 
 import yaml
 
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader
 from roman_sim.evaluation.frontend_types import DescriptorGrades, GradeConfig, SegmentationGrades
@@ -103,7 +104,7 @@ class Calibration:
             fe["segmenter"] = {"name": "fastsam", "params": self.segmenter.model_dump(mode="json")}
         return yaml.safe_dump({"frontend": fe}, sort_keys=False)
 
-    def to_json(self) -> dict[str, Any]:
+    def to_json(self) -> dict[str, JSONLike]:
         """Everything measured and fitted, JSON-ready."""
         out: dict[str, Any] = {"frontend": yaml.safe_load(self.frontend_yaml())["frontend"]}
         for name in ("measured_descriptors", "fitted_descriptors", "measured_segmentation", "fitted_segmentation"):

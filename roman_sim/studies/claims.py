@@ -10,75 +10,134 @@ that do not.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TypedDict
+
+from roman_sim.core.jsontypes import JSONLike
+from roman_sim.report.summaries import AteSummary, RecallSummary, RunSummary, SetSummary
 
 #: The paper's figures (Kimera-Multi outdoor and the off-road Jackal experiment).
-PAPER: dict[str, Any] = {
+PAPER_FIGURES: dict[str, float] = {
     "max_recall_same_direction": 0.67,
     "max_recall_opposite_direction": 0.26,
     "ransac1m_over_roman_runtime": 4.5,
     "kb_per_submap_max": 250.0,
     "mb_per_km_max": 24.0,
-    "ate_table": {"tunnel": (4.38, 4.20, 4.12), "hybrid": (5.83, 5.12, 4.77), "outdoor": (9.38, 8.77, 7.77)},
 }
+#: The paper's Table I: environment -> multi-robot ATE (m) of the visual, ROMAN and combined back ends.
+PAPER_ATE: dict[str, tuple[float, float, float]] = {
+    "tunnel": (4.38, 4.20, 4.12),
+    "hybrid": (5.83, 5.12, 4.77),
+    "outdoor": (9.38, 8.77, 7.77),
+}
+#: Both, as ``summary.json`` shows them.
+PAPER: dict[str, float | dict[str, tuple[float, float, float]]] = {**PAPER_FIGURES, "ate_table": PAPER_ATE}
 BASELINES = ("clipper", "clipper_prune", "ransac100k", "ransac1m")
 MIN_RELEVANT = 5
 #: ATE differences below half a centimetre (the tables' precision) are ties.
 ATE_TIE_M = 0.005
 
-
-def _get(node: Any, *keys: Any) -> Any:
-    for k in keys:
-        if not isinstance(node, dict):
-            return None
-        node = node.get(k)
-    return node
+#: Run summaries by scenario name (``summary.json``'s ``runs``, as ``RunSummary``).
+Runs = Mapping[str, RunSummary]
 
 
-def recall(runs: dict[str, Any], scen: str, method: str, kind: str = "inter", bin_: str | None = None) -> Any:
-    """The compact recall record (max_recall, max_hits, n_relevant, recall_ci, few) or None."""
-    m = _get(runs, scen, "methods", method, kind)
-    return None if m is None else (m if bin_ is None else _get(m, "bins", bin_))
+class Claim(TypedDict):
+    """A claim: its id, its wording with the numbers filled in, and whether the data supports it."""
+
+    id: str
+    text: str
+    holds: bool
 
 
-def rcell(r: Any) -> str:
+class SweepRow(TypedDict):
+    """One row of the ambiguity sweep: cross-robot pooled recall of one method at one knob value."""
+
+    ambiguity: float
+    method: str
+    recall: float | None
+    hits: int
+    relevant: int
+    ci: list[float] | None
+    n_seeds: int
+
+
+def recall(runs: Runs, scen: str, method: str, kind: str = "inter", bin_: str | None = None) -> RecallSummary | None:
+    """The recall record (max_recall, max_hits, n_relevant, recall_ci, few) or None."""
+    run = runs.get(scen)
+    m = None if run is None else run.methods.get(method)
+    if m is None:
+        return None
+    s = m.set(kind)
+    return s if bin_ is None else s.bins.get(bin_)
+
+
+def rcell(r: RecallSummary | None) -> str:
     """``0.77 (33/43) [0.62, 0.87]``, ``n<5: 1/2`` or ``n/a``."""
-    if not r or not r.get("n_relevant") or r.get("max_recall") is None:
+    if r is None or not r.n_relevant or r.max_recall is None:
         return "n/a"
-    if r["n_relevant"] < MIN_RELEVANT:
-        return f"n<{MIN_RELEVANT}: {r['max_hits']}/{r['n_relevant']}"
-    ci = r.get("recall_ci")
-    return f"{r['max_recall']:.2f} ({r['max_hits']}/{r['n_relevant']})" + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "")
+    if r.n_relevant < MIN_RELEVANT:
+        return f"n<{MIN_RELEVANT}: {r.max_hits}/{r.n_relevant}"
+    ci = r.recall_ci
+    return f"{r.max_recall:.2f} ({r.max_hits}/{r.n_relevant})" + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "")
 
 
-def num(v: Any, digits: int = 2) -> str:
+def num(v: JSONLike, digits: int = 2) -> str:
     """A number cell (``n/a`` for None)."""
     if isinstance(v, (tuple, list)):
         return " / ".join(num(x, digits) for x in v)
     return "n/a" if v is None else (f"{v:.{digits}f}" if isinstance(v, float) else str(v))
 
 
-def _ratio(runs: dict[str, Any]) -> tuple[float | None, str | None]:
+def _runtime(runs: Runs, scen: str, method: str) -> float | None:
+    run = runs.get(scen)
+    m = None if run is None else run.methods.get(method)
+    return None if m is None else m.runtime_median_s
+
+
+def _ratio(runs: Runs) -> tuple[float | None, str | None]:
     best: tuple[float | None, str | None] = (None, None)
     for scen in ("same_direction", "partial_opposite", "opposite_direction"):
-        r1m = _get(runs, scen, "methods", "ransac1m", "runtime_median_s")
-        ro = _get(runs, scen, "methods", "roman", "runtime_median_s")
+        r1m = _runtime(runs, scen, "ransac1m")
+        ro = _runtime(runs, scen, "roman")
         if r1m and ro and (best[0] is None or r1m / ro > best[0]):
             best = (r1m / ro, f"{scen}: {1000 * r1m:.1f} ms vs {1000 * ro:.1f} ms median")
     return best
 
 
-def _ate(runs: dict[str, Any], scen: str) -> dict[str, Any]:
-    return _get(runs, scen, "ate") or {}
+def _ate(runs: Runs, scen: str) -> dict[str, AteSummary]:
+    run = runs.get(scen)
+    return {} if run is None else run.ate
 
 
-def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
+def _ate_cell(ate: Mapping[str, AteSummary], variant: str, key: str) -> float | int | None:
+    """``common`` / ``all`` ATE or ``connected`` count of one row (None when the run has no such row)."""
+    row = ate.get(variant)
+    return None if row is None else {"common": row.common, "all": row.all, "connected": row.connected}[key]
+
+
+def _robots(runs: Runs, scen: str) -> tuple[list[str], list[str]]:
+    """Every robot and the common robots of a run's ATE table (empty without one)."""
+    run = runs.get(scen)
+    return ([], []) if run is None or run.ate_robots is None else run.ate_robots
+
+
+def _map_values(runs: Runs, key: str) -> list[float]:
+    """``key`` of every run's map statistics that has it."""
+    out = []
+    for run in runs.values():
+        v = None if run.map is None else getattr(run.map, key)
+        if v is not None:
+            out.append(v)
+    return out
+
+
+def comparison(runs: Runs) -> list[dict[str, str]]:
     """Rows ``figure, paper, cross-robot, same-robot`` for the results page and summary.md (recall, runtime, size;
     the ATE figures are Table I, ``reference_tables.table1``)."""
     rows = []
     for scen in ("same_direction", "opposite_direction"):
         for method in ("roman", "clipper", "ransac1m"):
-            paper = PAPER.get(f"max_recall_{scen}") if method == "roman" else None
+            paper = PAPER_FIGURES.get(f"max_recall_{scen}") if method == "roman" else None
             rows.append(
                 {
                     "figure": f"{method} max recall, {scen.replace('_', ' ')}",
@@ -88,7 +147,8 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
                 }
             )
     for method in ("roman", "clipper", "ransac100k", "visual"):
-        bins = _get(runs, "heading_sweep", "methods", method, "inter", "bins") or {}
+        inter = recall(runs, "heading_sweep", method)
+        bins = inter.bins if isinstance(inter, SetSummary) else {}
         if bins:
             rows.append(
                 {
@@ -102,17 +162,16 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
     rows.append(
         {
             "figure": "RANSAC-1M / ROMAN runtime per pair",
-            "paper": num(PAPER["ransac1m_over_roman_runtime"]),
+            "paper": num(PAPER_FIGURES["ransac1m_over_roman_runtime"]),
             "cross-robot": f"{num(ratio, 1)} ({how})" if ratio else "n/a",
             "same-robot": "",
         }
     )
-    kb = [v for v in (_get(runs, s, "map", "kb_per_submap_max") for s in runs) if v is not None]
-    mb = [v for v in (_get(runs, s, "map", "mb_per_km") for s in runs) if v is not None]
+    kb, mb = _map_values(runs, "kb_per_submap_max"), _map_values(runs, "mb_per_km")
     rows.append(
         {
             "figure": "largest submap packet (KB)",
-            "paper": f"< {PAPER['kb_per_submap_max']:g}",
+            "paper": f"< {PAPER_FIGURES['kb_per_submap_max']:g}",
             "cross-robot": num(max(kb) if kb else None, 1),
             "same-robot": "",
         }
@@ -120,7 +179,7 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
     rows.append(
         {
             "figure": "map size (MB per km)",
-            "paper": f"< {PAPER['mb_per_km_max']:g}",
+            "paper": f"< {PAPER_FIGURES['mb_per_km_max']:g}",
             "cross-robot": num(max(mb) if mb else None),
             "same-robot": "",
         }
@@ -128,20 +187,27 @@ def comparison(runs: dict[str, Any]) -> list[dict[str, str]]:
     return rows
 
 
-def _claim(cid: str, text: str, holds: bool) -> dict[str, Any]:
+def _claim(cid: str, text: str, holds: bool) -> Claim:
     return {"id": cid, "text": text, "holds": bool(holds)}
 
 
-def _opposite_harder(runs: dict[str, Any]) -> dict[str, Any]:
+def _methods(runs: Runs, scen: str) -> set[str]:
+    run = runs.get(scen)
+    return set() if run is None else set(run.methods)
+
+
+def _bins(runs: Runs, scen: str, method: str) -> dict[str, RecallSummary]:
+    inter = recall(runs, scen, method)
+    return inter.bins if isinstance(inter, SetSummary) else {}
+
+
+def _opposite_harder(runs: Runs) -> Claim:
     parts, ok = [], True
-    methods = sorted(
-        set(_get(runs, "same_direction", "methods") or {}) & set(_get(runs, "opposite_direction", "methods") or {})
-    )
-    for m in methods:
+    for m in sorted(_methods(runs, "same_direction") & _methods(runs, "opposite_direction")):
         s, o = recall(runs, "same_direction", m), recall(runs, "opposite_direction", m)
-        if s and o and s["max_recall"] is not None and o["max_recall"] is not None:
-            ok &= o["max_recall"] < s["max_recall"]
-            parts.append(f"{m} {s['max_recall']:.2f} -> {o['max_recall']:.2f}")
+        if s and o and s.max_recall is not None and o.max_recall is not None:
+            ok &= o.max_recall < s.max_recall
+            parts.append(f"{m} {s.max_recall:.2f} -> {o.max_recall:.2f}")
     return _claim(
         "opposite_harder",
         "Opposite-direction revisits are harder than same-direction ones for every "
@@ -150,20 +216,20 @@ def _opposite_harder(runs: dict[str, Any]) -> dict[str, Any]:
     )
 
 
-def _roman_per_bin(runs: dict[str, Any]) -> dict[str, Any]:
+def _roman_per_bin(runs: Runs) -> Claim:
     worse, overlap, total = [], 0, 0
     for scen in sorted(runs):
         for m in BASELINES:
             if recall(runs, scen, m) is None or recall(runs, scen, "roman") is None:
                 continue
-            for b, rb in (_get(runs, scen, "methods", "roman", "inter", "bins") or {}).items():
+            for b, rb in _bins(runs, scen, "roman").items():
                 mb = recall(runs, scen, m, "inter", b)
-                if not rb["n_relevant"] or rb["n_relevant"] < MIN_RELEVANT or mb is None:
+                if not rb.n_relevant or rb.n_relevant < MIN_RELEVANT or mb is None:
                     continue
                 total += 1
-                if rb["max_recall"] < mb["max_recall"]:
+                if rb.max_recall is not None and mb.max_recall is not None and rb.max_recall < mb.max_recall:
                     worse.append(f"{scen} {b} deg: roman {rcell(rb)} < {m} {rcell(mb)}")
-                if rb["recall_ci"] and mb["recall_ci"] and rb["recall_ci"][0] <= mb["recall_ci"][1]:
+                if rb.recall_ci and mb.recall_ci and rb.recall_ci[0] <= mb.recall_ci[1]:
                     overlap += 1
     text = (
         f"ROMAN's cross-robot max recall is at or above every baseline's in every heading bin with at least "
@@ -174,13 +240,13 @@ def _roman_per_bin(runs: dict[str, Any]) -> dict[str, Any]:
     return _claim("roman_at_or_above_every_baseline", text, not worse and total > 0)
 
 
-def _lead_at_opposite(runs: dict[str, Any]) -> dict[str, Any]:
+def _lead_at_opposite(runs: Runs) -> Claim:
     leads = {}
-    for b, rb in (_get(runs, "heading_sweep", "methods", "roman", "inter", "bins") or {}).items():
-        others = [recall(runs, "heading_sweep", m, "inter", b) for m in BASELINES]
-        others = [o for o in others if o and o["max_recall"] is not None]
-        if rb["n_relevant"] >= MIN_RELEVANT and others:
-            leads[b] = rb["max_recall"] - max(o["max_recall"] for o in others)
+    for b, rb in _bins(runs, "heading_sweep", "roman").items():
+        found = [recall(runs, "heading_sweep", m, "inter", b) for m in BASELINES]
+        others = [o.max_recall for o in found if o is not None and o.max_recall is not None]
+        if rb.n_relevant >= MIN_RELEVANT and others and rb.max_recall is not None:
+            leads[b] = rb.max_recall - max(others)
     top = max(leads, key=lambda k: leads[k]) if leads else None
     text = (
         "In the heading sweep, ROMAN's lead over the best baseline is largest at 120-180 deg (lead per bin: "
@@ -190,7 +256,7 @@ def _lead_at_opposite(runs: dict[str, Any]) -> dict[str, Any]:
     return _claim("lead_largest_opposite", text, top == "120-180")
 
 
-def _speed(runs: dict[str, Any]) -> dict[str, Any]:
+def _speed(runs: Runs) -> Claim:
     ratio, how = _ratio(runs)
     return _claim(
         "roman_faster_than_ransac1m",
@@ -199,9 +265,9 @@ def _speed(runs: dict[str, Any]) -> dict[str, Any]:
     )
 
 
-def _packets(runs: dict[str, Any]) -> dict[str, Any]:
-    kb = max((v for v in (_get(runs, s, "map", "kb_per_submap_max") for s in runs) if v is not None), default=None)
-    mb = max((v for v in (_get(runs, s, "map", "mb_per_km") for s in runs) if v is not None), default=None)
+def _packets(runs: Runs) -> Claim:
+    kb = max(_map_values(runs, "kb_per_submap_max"), default=None)
+    mb = max(_map_values(runs, "mb_per_km"), default=None)
     return _claim(
         "packets_below_bound",
         f"Submap packets stay below the paper's bounds (largest {num(kb, 1)} KB < 250 KB; {num(mb)} MB per km < 24).",
@@ -209,24 +275,24 @@ def _packets(runs: dict[str, Any]) -> dict[str, Any]:
     )
 
 
-def _ate_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
+def _lt(a: float | None, b: float | None) -> bool:
+    """``a < b``, False when either is undefined."""
+    return a is not None and b is not None and a < b
+
+
+def _ate_claims(runs: Runs) -> list[Claim]:
     out = []
     scens = [s for s in sorted(runs) if s.startswith("multi_robot_") and _ate(runs, s)]
     below, placed, bound = [], [], []
     for s in scens:
         a = _ate(runs, s)
-        n = len(_get(runs, s, "ate_robots", "robots") or [])
-        r, o, npr, orc = (_get(a, v, "common") for v in ("roman", "odometry", "odometry_no_prior", "oracle"))
-        common = len(_get(runs, s, "ate_robots", "common") or [])
-        below.append(
-            (
-                s,
-                r is not None and o is not None and r < o,
-                f"{s}: {num(r)} vs {num(o)} m (no prior {num(npr)} m) over {common}/{n} robots",
-            )
-        )
-        placed.append((s, _get(a, "roman", "connected") == n, f"{s} {num(_get(a, 'roman', 'connected'))}/{n}"))
-        bound.append((s, r is not None and orc is not None and orc <= r, f"{s} oracle {num(orc)} vs ROMAN {num(r)} m"))
+        robots, common_robots = _robots(runs, s)
+        n, common = len(robots), len(common_robots)
+        r, o, npr, orc = (_ate_cell(a, v, "common") for v in ("roman", "odometry", "odometry_no_prior", "oracle"))
+        below.append((s, _lt(r, o), f"{s}: {num(r)} vs {num(o)} m (no prior {num(npr)} m) over {common}/{n} robots"))
+        connected = _ate_cell(a, "roman", "connected")
+        placed.append((s, connected == n, f"{s} {num(connected)}/{n}"))
+        bound.append((s, not _lt(r, orc) and None not in (r, orc), f"{s} oracle {num(orc)} vs ROMAN {num(r)} m"))
     out.append(
         _claim(
             "roman_ate_below_odometry",
@@ -253,7 +319,7 @@ def _ate_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
-def _table1_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
+def _table1_claims(runs: Runs) -> list[Claim]:
     """Table I's orderings (ROMAN below visual; combined at or below both) in every multi-robot scenario
     that has the three rows, over the robots every row placed, differences within ``ATE_TIE_M``
     being ties; and the combined graph over all robots against odometry. None when no scenario
@@ -264,17 +330,18 @@ def _table1_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
     below, lowest, whole = [], [], []
     for s in scens:
         a = _ate(runs, s)
-        n = len(_get(runs, s, "ate_robots", "robots") or [])
-        ca, oa = _get(a, "combined", "all"), _get(a, "odometry", "all")
+        robots, common = _robots(runs, s)
+        n = len(robots)
+        ca, oa = _ate_cell(a, "combined", "all"), _ate_cell(a, "odometry", "all")
         whole.append(
             (
-                ca is not None and oa is not None and ca < oa,
-                f"{s}: combined {num(ca)} m ({num(_get(a, 'combined', 'connected'))}/{n} robots placed) vs "
+                _lt(ca, oa),
+                f"{s}: combined {num(ca)} m ({num(_ate_cell(a, 'combined', 'connected'))}/{n} robots placed) vs "
                 f"odometry {num(oa)} m",
             )
         )
-        v, r, c = (_get(a, k, "common") for k in ("visual", "roman", "combined"))
-        over = f"{len(_get(runs, s, 'ate_robots', 'common') or [])}/{len(_get(runs, s, 'ate_robots', 'robots') or [])}"
+        v, r, c = (_ate_cell(a, k, "common") for k in ("visual", "roman", "combined"))
+        over = f"{len(common)}/{n}"
         below.append(
             (
                 r is not None and v is not None and r < v - ATE_TIE_M,
@@ -283,11 +350,11 @@ def _table1_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
         )
         lowest.append(
             (
-                None not in (v, r, c) and c <= min(v, r) + ATE_TIE_M,
+                v is not None and r is not None and c is not None and c <= min(v, r) + ATE_TIE_M,
                 f"{s}: combined {num(c)}, visual {num(v)}, ROMAN {num(r)} m over {over} robots",
             )
         )
-    paper = "; ".join(f"{env} {num(p)}" for env, p in PAPER["ate_table"].items())
+    paper = "; ".join(f"{env} {num(p)}" for env, p in PAPER_ATE.items())
     tie = f"{1000 * ATE_TIE_M:g} mm"
     return [
         _claim(
@@ -315,17 +382,17 @@ def _table1_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
     ]
 
 
-def _ambiguity(sweep: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _ambiguity(sweep: list[SweepRow]) -> list[Claim]:
     rows = {(r["ambiguity"], r["method"]): r for r in sweep}
     knobs = sorted({r["ambiguity"] for r in sweep})
     if len(knobs) < 2 or ("roman" not in {r["method"] for r in sweep}):
         return []
     lo, hi = knobs[0], knobs[-1]
-    drops = {
-        m: (rows[(lo, m)]["recall"], rows[(hi, m)]["recall"])
-        for m in ("roman", "clipper")
-        if (lo, m) in rows and (hi, m) in rows and None not in (rows[(lo, m)]["recall"], rows[(hi, m)]["recall"])
-    }
+    drops: dict[str, tuple[float, float]] = {}
+    for m in ("roman", "clipper"):
+        a, b = rows.get((lo, m)), rows.get((hi, m))
+        if a is not None and b is not None and a["recall"] is not None and b["recall"] is not None:
+            drops[m] = (a["recall"], b["recall"])
     if len(drops) < 2:
         return []
     text = (
@@ -337,7 +404,7 @@ def _ambiguity(sweep: list[dict[str, Any]]) -> list[dict[str, Any]]:
     return [_claim("roman_robust_to_ambiguity", text, held)]
 
 
-def _paper_scale_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
+def _paper_scale_claims(runs: Runs) -> list[Claim]:
     """At paper scale: where ROMAN places every robot, its ATE is below the odometry aligned without
     start poses (the fair baseline); and how many of the runs it places every robot in."""
     scens = [s for s in sorted(runs) if s.startswith("kimera_") and _ate(runs, s)]
@@ -346,14 +413,14 @@ def _paper_scale_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
     full, parts = [], []
     for s in scens:
         a = _ate(runs, s)
-        n = len(_get(runs, s, "ate_robots", "robots") or [])
-        placed = _get(a, "roman", "connected")
+        n = len(_robots(runs, s)[0])
+        placed = _ate_cell(a, "roman", "connected")
         parts.append(f"{s} {num(placed)}/{n}")
         if placed == n:
-            r, npr = _get(a, "roman", "common"), _get(a, "odometry_no_prior", "common")
+            r, npr = _ate_cell(a, "roman", "common"), _ate_cell(a, "odometry_no_prior", "common")
             full.append(
                 (
-                    r is not None and npr is not None and r < npr,
+                    _lt(r, npr),
                     f"{s}: ROMAN {num(r)} vs odometry without start poses {num(npr)} m over {n} robots",
                 )
             )
@@ -375,7 +442,7 @@ def _paper_scale_claims(runs: dict[str, Any]) -> list[dict[str, Any]]:
     ]
 
 
-def claims(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def claims(runs: Runs, sweep: list[SweepRow]) -> list[Claim]:
     """Every claim the results page makes, with its wording and whether the data supports it."""
     return [
         _opposite_harder(runs),
@@ -390,7 +457,7 @@ def claims(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> list[dict[str, 
     ]
 
 
-def sweep_markdown(rows: list[dict[str, Any]]) -> str:
+def sweep_markdown(rows: list[SweepRow]) -> str:
     """Cross-robot max recall per ambiguity knob (rows) and method (columns), with counts."""
     if not rows:
         return ""
@@ -408,18 +475,7 @@ def sweep_markdown(rows: list[dict[str, Any]]) -> str:
         cells = []
         for m in methods:
             r = cell.get((k, m))
-            cells.append(
-                "n/a"
-                if r is None
-                else rcell(
-                    {
-                        "max_recall": r["recall"],
-                        "max_hits": r["hits"],
-                        "n_relevant": r["relevant"],
-                        "recall_ci": r["ci"],
-                    }
-                )
-            )
+            cells.append("n/a" if r is None else rcell(_sweep_recall(r)))
         lines.append(f"| {k:g} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
@@ -431,7 +487,13 @@ def table_markdown(rows: list[dict[str, str]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def claims_markdown(items: list[dict[str, Any]]) -> str:
+def _sweep_recall(r: SweepRow) -> RecallSummary:
+    ci = r["ci"]
+    interval = None if ci is None else (ci[0], ci[1])
+    return RecallSummary(r["recall"], r["hits"], r["relevant"], interval, r["relevant"] < MIN_RELEVANT)
+
+
+def claims_markdown(items: list[Claim]) -> str:
     """The claims, split into those the data supports and those it does not."""
     held = [c for c in items if c["holds"]]
     failed = [c for c in items if not c["holds"]]

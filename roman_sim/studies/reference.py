@@ -26,14 +26,36 @@ import logging
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSON, JSONLike
+from roman_sim.report.summaries import RunSummary
 from roman_sim.studies import pages
-from roman_sim.studies.claims import PAPER, claims, claims_markdown, comparison, sweep_markdown, table_markdown
+from roman_sim.studies.claims import (
+    PAPER,
+    Claim,
+    Runs,
+    SweepRow,
+    claims,
+    claims_markdown,
+    comparison,
+    sweep_markdown,
+    table_markdown,
+)
 from roman_sim.studies.raw_data import write_packets, write_runtimes
-from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
+from roman_sim.studies.reference_tables import (
+    FrontEndTable,
+    Table1Row,
+    frontends,
+    frontends_markdown,
+    table1,
+    table1_markdown,
+)
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.executor_base import ExecutorConfig
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +98,7 @@ def _gzip_copy(src: Path, dest: Path) -> None:
     write_bytes(dest, gzip.compress(src.read_bytes(), compresslevel=9, mtime=0))
 
 
-def _timings_summary(path: Path) -> dict[str, Any]:
+def _timings_summary(path: Path) -> JSON:
     """``timings.json`` without the per-pair runtime lists (the statistics are kept)."""
     data = _json(path)
     for stage in data.get("stages", {}).values():
@@ -133,7 +155,7 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
         write_text(dest / "report.md", _report_without(text, [n for n in drawn if n not in keep]))
 
 
-def _config_value(run_dir: Path, key: str) -> Any:
+def _config_value(run_dir: Path, key: str) -> JSON:
     from roman_sim.core.config import read_yaml
 
     data = read_yaml(run_dir / "config.yaml") if (run_dir / "config.yaml").is_file() else {}
@@ -147,7 +169,7 @@ def reproduce(
     on_start: Callable[[str], None] | None = None,
     from_stage: str | None = None,
     root: str | Path | None = None,
-    executor: Any = None,
+    executor: ExecutorConfig | None = None,
 ) -> Path:
     """Run ``scenarios`` (default: the paper's, the demo and the ambiguity sweep), collect, write the summary.
 
@@ -162,7 +184,7 @@ def reproduce(
     from roman_sim.pipeline.scenario import load_scenario
 
     out, work = Path(out_dir), Path(work_dir)
-    runs: dict[str, Any] = {}
+    runs: dict[str, RunSummary] = {}
     for name in scenarios or [*PAPER_SCENARIOS, DEMO]:
         if on_start:
             on_start(name)
@@ -171,8 +193,8 @@ def reproduce(
             shutil.rmtree(out / name)
         collect(res.run_dir, out / name, plots=name != DEMO)
         if name != DEMO:
-            runs[name] = res.metrics_summary()
-    sweep: list[dict[str, Any]] = []
+            runs[name] = res.summary()
+    sweep: list[SweepRow] = []
     if scenarios is None:
         if on_start:
             on_start("ambiguity_sweep")
@@ -187,7 +209,7 @@ def reproduce(
     return out / "summary.md"
 
 
-def write_pages(root: Path, ref_dir: Path, summary: dict[str, Any]) -> None:
+def write_pages(root: Path, ref_dir: Path, summary: ReferenceSummary) -> None:
     """Rewrite the generated documentation blocks under ``root`` from the reference results.
 
     The results page's block from ``summary``, the README's figure, and the README's demo
@@ -204,12 +226,12 @@ def write_pages(root: Path, ref_dir: Path, summary: dict[str, Any]) -> None:
         pages.write_figure(summary, root / FIGURE_PNG)
 
 
-def demo_summary(ref_dir: str | Path) -> dict[str, Any]:
+def demo_summary(ref_dir: str | Path) -> dict[str, JSONLike]:
     """The committed demo run's compact summary, recomputed from its raw files."""
-    return _run_summary(Path(ref_dir) / DEMO)
+    return _run_summary(Path(ref_dir) / DEMO).to_json()
 
 
-def _sweep_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
+def _sweep_rows(rows: list[dict[str, Any]]) -> list[SweepRow]:
     """Cross-robot overall rows of a sweep summary, per ambiguity knob and method."""
     return [
         {
@@ -226,7 +248,7 @@ def _sweep_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
     ]
 
 
-def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> list[dict[str, Any]]:
+def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> list[SweepRow]:
     """Run (or resume) the ambiguity sweep; keep its summary and each run's raw pairs table."""
     from roman_sim.pipeline.scenario import SCENARIO_DIR
     from roman_sim.pipeline.sweep import load_sweep, run_sweep
@@ -247,7 +269,7 @@ def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> li
     return _sweep_rows(sweep_summary(work)[1])
 
 
-def merge_committed(out: Path, runs: dict[str, Any]) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+def merge_committed(out: Path, runs: dict[str, RunSummary]) -> tuple[dict[str, RunSummary], list[SweepRow]]:
     """The runs of a subset run together with the results already in ``out``, and the sweep rows.
 
     Every scenario of ``out/summary.json`` that was not re-run keeps its committed results; its
@@ -258,7 +280,7 @@ def merge_committed(out: Path, runs: dict[str, Any]) -> tuple[dict[str, Any], li
     """
     if not (out / "summary.json").is_file():
         return runs, []
-    merged: dict[str, Any] = {}
+    merged: dict[str, RunSummary] = {}
     for name in _json(out / "summary.json").get("runs", {}):
         if name in runs:
             merged[name] = runs[name]
@@ -270,7 +292,7 @@ def merge_committed(out: Path, runs: dict[str, Any]) -> tuple[dict[str, Any], li
     return merged, _committed_sweep(out)
 
 
-def _committed_sweep(d: Path) -> list[dict[str, Any]]:
+def _committed_sweep(d: Path) -> list[SweepRow]:
     """The ambiguity sweep's rows recomputed from its committed raw files ([] without a sweep)."""
     from roman_sim.evaluation.sweepstats import aggregate, seed_rows
 
@@ -280,15 +302,27 @@ def _committed_sweep(d: Path) -> list[dict[str, Any]]:
     rows = []
     for r in spec["runs"]:
         s = _run_summary(d / "ambiguity_sweep" / r["run_id"])
-        rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s)
+        rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s.to_json())
     return _sweep_rows(aggregate(rows, list(spec["grid"])))
 
 
-def build_summary(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> dict[str, Any]:
+class ReferenceSummary(TypedDict):
+    """``summary.json``."""
+
+    runs: dict[str, dict[str, JSONLike]]
+    comparison: list[dict[str, str]]
+    table1: list[Table1Row]
+    frontends: FrontEndTable
+    claims: list[Claim]
+    ambiguity_sweep: list[SweepRow]
+    paper: dict[str, float | dict[str, tuple[float, float, float]]]
+
+
+def build_summary(runs: Runs, sweep: list[SweepRow]) -> ReferenceSummary:
     """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the claims,
     the sweep rows."""
     return {
-        "runs": runs,
+        "runs": {name: s.to_json() for name, s in runs.items()},
         "comparison": comparison(runs),
         "table1": table1(runs),
         "frontends": frontends(runs),
@@ -298,11 +332,11 @@ def build_summary(runs: dict[str, Any], sweep: list[dict[str, Any]]) -> dict[str
     }
 
 
-def _tables_markdown(summary: dict[str, Any]) -> str:
+def _tables_markdown(summary: ReferenceSummary) -> str:
     return table1_markdown(summary.get("table1") or []) + frontends_markdown(summary.get("frontends") or {})
 
 
-def summary_markdown(summary: dict[str, Any]) -> str:
+def summary_markdown(summary: ReferenceSummary) -> str:
     """``summary.md``: the comparison table, the claims and the ambiguity sweep."""
     return (
         "# Reference results next to the paper\n\n"
@@ -317,7 +351,7 @@ def summary_markdown(summary: dict[str, Any]) -> str:
     )
 
 
-def _run_summary(d: Path) -> dict[str, Any]:
+def _run_summary(d: Path) -> RunSummary:
     """A run's compact summary recomputed from its committed raw files."""
     from roman_sim.evaluation.records import MapStats
     from roman_sim.report.summaries import compact_summary
@@ -338,7 +372,7 @@ def _json(path: Path) -> Any:
         raise StorageError(f"{path}: unreadable ({type(err).__name__})") from None
 
 
-def rederive(ref_dir: str | Path) -> dict[str, Any]:
+def rederive(ref_dir: str | Path) -> ReferenceSummary:
     """``summary.json`` recomputed from the raw files under ``ref_dir`` (scenarios as committed)."""
     d = Path(ref_dir)
     committed = _json(d / "summary.json")

@@ -15,9 +15,11 @@ of the summary.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TypedDict
 
-from roman_sim.studies.claims import PAPER, _get, num, rcell
+from roman_sim.core.jsontypes import JSONLike
+from roman_sim.report.summaries import RecallSummary
+from roman_sim.studies.claims import PAPER_ATE, Runs, _ate_cell, _robots, num, rcell
 
 #: Rows of the simulation's ATE table shown next to the paper's, with their column titles.
 ATE_ROWS = {
@@ -43,7 +45,26 @@ GRADE_COLUMNS = {
 }
 
 
-def table1(runs: dict[str, Any]) -> list[dict[str, Any]]:
+class AteCell(TypedDict):
+    """One simulation cell of Table I."""
+
+    ate_m: float | None
+    ate_all_m: float | None
+    placed: int | None
+
+
+class Table1Row(TypedDict):
+    """One environment of Table I: the paper's three rows and the simulation's."""
+
+    environment: str
+    scenario: str
+    robots: list[str]
+    common: list[str]
+    paper: dict[str, float]
+    simulation: dict[str, AteCell]
+
+
+def table1(runs: Runs) -> list[Table1Row]:
     """One row per environment of the paper's Table I whose ``multi_robot_<env>`` scenario ran, and one
     per paper-scale ``kimera_<env>`` run present (without visual rows: those robots render no RGB).
 
@@ -51,24 +72,25 @@ def table1(runs: dict[str, Any]) -> list[dict[str, Any]]:
     row placed), ``ate_all_m`` (over all robots, defined only when the row placed them all) and
     ``placed`` (robots the row placed); None when undefined or when the run has no such row.
     """
-    out = []
-    for env, paper in PAPER["ate_table"].items():
+    out: list[Table1Row] = []
+    for env, paper in PAPER_ATE.items():
         for scen, label in ((f"multi_robot_{env}", env), (f"kimera_{env}", f"{env}, paper scale (kimera_{env})")):
             if scen not in runs:
                 continue
-            ate = _get(runs, scen, "ate") or {}
+            ate = runs[scen].ate
+            robots, common = _robots(runs, scen)
             out.append(
                 {
                     "environment": label,
                     "scenario": scen,
-                    "robots": list(_get(runs, scen, "ate_robots", "robots") or []),
-                    "common": list(_get(runs, scen, "ate_robots", "common") or []),
+                    "robots": list(robots),
+                    "common": list(common),
                     "paper": dict(zip(PAPER_ROWS, paper)),
                     "simulation": {
                         v: {
-                            "ate_m": _get(ate, v, "common"),
-                            "ate_all_m": _get(ate, v, "all"),
-                            "placed": _get(ate, v, "connected"),
+                            "ate_m": _ate_cell(ate, v, "common"),
+                            "ate_all_m": _ate_cell(ate, v, "all"),
+                            "placed": None if v not in ate else ate[v].connected,
                         }
                         for v in ATE_ROWS
                     },
@@ -77,13 +99,13 @@ def table1(runs: dict[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
-def _ate_cell(cell: dict[str, Any], n: int, key: str) -> str:
+def _table_cell(cell: AteCell, n: int, all_robots: bool) -> str:
     if cell["placed"] is None:
         return "n/a"
-    return f"{num(cell[key])} ({cell['placed']}/{n})"
+    return f"{num(cell['ate_all_m'] if all_robots else cell['ate_m'])} ({cell['placed']}/{n})"
 
 
-def table1_markdown(rows: list[dict[str, Any]]) -> str:
+def table1_markdown(rows: list[Table1Row]) -> str:
     """Table I as markdown (empty without rows)."""
     if not rows:
         return ""
@@ -103,19 +125,40 @@ def table1_markdown(rows: list[dict[str, Any]]) -> str:
     ]
     for r in rows:
         n = len(r["robots"])
-        cells = [num(r["paper"][k]) for k in PAPER_ROWS] + [_ate_cell(r["simulation"][v], n, "ate_m") for v in ATE_ROWS]
+        cells = [num(r["paper"][k]) for k in PAPER_ROWS] + [_table_cell(r["simulation"][v], n, False) for v in ATE_ROWS]
         lines.append(f"| {r['environment']} | " + " | ".join(cells) + f" | {', '.join(r['common']) or 'none'} of {n} |")
-        cells = [""] * len(PAPER_ROWS) + [_ate_cell(r["simulation"][v], n, "ate_all_m") for v in ATE_ROWS]
+        cells = [""] * len(PAPER_ROWS) + [_table_cell(r["simulation"][v], n, True) for v in ATE_ROWS]
         lines.append(f"| {r['environment']}, all robots | " + " | ".join(cells) + f" | {', '.join(r['robots'])} |")
     return "\n".join(lines) + "\n"
 
 
-def _label(runs: dict[str, Any], scen: str) -> str:
-    fe = _get(runs, scen, "frontend") or {}
-    return f"{scen} ({fe.get('segmenter', '?')} + {fe.get('encoder') or 'none'})" if fe else scen
+def _label(runs: Runs, scen: str) -> str:
+    fe = runs[scen].frontend if scen in runs else None
+    return f"{scen} ({fe.segmenter} + {fe.encoder or 'none'})" if fe else scen
 
 
-def frontends(runs: dict[str, Any]) -> dict[str, Any]:
+class RecallRow(TypedDict):
+    """One front end and method: cross-robot max recall per heading bin and overall (``RecallSummary`` JSON)."""
+
+    scenario: str
+    frontend: str
+    method: str
+    bins: dict[str, dict[str, JSONLike]]
+    all: dict[str, JSONLike]
+
+
+class FrontEndTable(TypedDict, total=False):
+    """The two front ends side by side (empty when neither ran)."""
+
+    scenarios: list[str]
+    labels: dict[str, str]
+    recall: list[RecallRow]
+    grades: dict[str, dict[str, JSONLike] | None]
+    pairs: dict[str, dict[str, dict[str, int]]]
+    same_pairs: bool
+
+
+def frontends(runs: Runs) -> FrontEndTable:
     """The two front ends on the opposite-direction scenario (empty when neither ran).
 
     ``recall``: one row per front end and segment-based method run by every front end's
@@ -129,40 +172,43 @@ def frontends(runs: dict[str, Any]) -> dict[str, Any]:
     scens = [s for s in FRONTEND_SCENARIOS if s in runs]
     if not scens:
         return {}
-    methods = set.intersection(*(set(_get(runs, s, "methods") or {}) for s in scens)) - VISUAL_METHODS
+    methods = set.intersection(*(set(runs[s].methods) for s in scens)) - VISUAL_METHODS
     order = sorted(methods, key=lambda m: (m != "roman", m))
-    recall = [
+    recall: list[RecallRow] = [
         {
             "scenario": s,
             "frontend": _label(runs, s),
             "method": m,
-            "bins": dict(_get(runs, s, "methods", m, "inter", "bins") or {}),
-            "all": {
-                k: v
-                for k, v in (_get(runs, s, "methods", m, "inter") or {}).items()
-                if k in ("max_recall", "max_hits", "n_relevant", "recall_ci", "few")
-            },
+            "bins": {b: r.to_json() for b, r in runs[s].methods[m].inter.bins.items()},
+            "all": RecallSummary.to_json(runs[s].methods[m].inter),
         }
         for m in order
         for s in scens
     ]
-    pairs = [_get(runs, s, "pairs") for s in scens]
+    pairs = [runs[s].pairs for s in scens]
+    grades = {s: None if (fe := runs[s].frontend) is None else fe.to_json() for s in scens}
     return {
         "scenarios": scens,
         "labels": {s: _label(runs, s) for s in scens},
         "recall": recall,
-        "grades": {s: _get(runs, s, "frontend") for s in scens},
+        "grades": grades,
         "pairs": dict(zip(scens, pairs)),
         "same_pairs": all(p == pairs[0] for p in pairs),
     }
 
 
-def frontends_markdown(table: dict[str, Any]) -> str:
+def _recall(d: JSONLike) -> RecallSummary | None:
+    """A ``RecallSummary`` from its JSON (None for None)."""
+    return None if d is None else RecallSummary.from_json(d)
+
+
+def frontends_markdown(table: FrontEndTable) -> str:
     """The two-front-end tables as markdown (empty without data)."""
     if not table:
         return ""
     bins = sorted({b for r in table["recall"] for b in r["bins"]}, key=lambda b: float(b.split("-")[0]))
     pairs = table["pairs"][table["scenarios"][0]] or {}
+    inter = pairs.get("inter") or {}
     same = (
         "the same pairs in every row"
         if table["same_pairs"]
@@ -174,8 +220,8 @@ def frontends_markdown(table: dict[str, Any]) -> str:
         "",
         "`fastsam` + `simulated` cut masks from the renderer's instance image and draw descriptors from the "
         "true family (truth-driven); `image` + `image` see only the RGB-D pixels. Same world, robots, pairs "
-        f"and thresholds: {_get(pairs, 'inter', 'n_pairs')} cross-robot pairs "
-        f"({_get(pairs, 'inter', 'n_relevant')} relevant), {same}. Cells: cross-robot max recall "
+        f"and thresholds: {inter.get('n_pairs')} cross-robot pairs "
+        f"({inter.get('n_relevant')} relevant), {same}. Cells: cross-robot max recall "
         "(hits/relevant) [95 % Wilson interval].",
         "",
         "| front end | method | " + " | ".join(f"{b} deg" for b in bins) + " | all |",
@@ -184,8 +230,8 @@ def frontends_markdown(table: dict[str, Any]) -> str:
     for r in table["recall"]:
         lines.append(
             f"| {r['frontend']} | {r['method']} | "
-            + " | ".join(rcell(r["bins"].get(b)) for b in bins)
-            + f" | {rcell(r['all'])} |"
+            + " | ".join(rcell(_recall(r["bins"].get(b))) for b in bins)
+            + f" | {rcell(_recall(r['all']))} |"
         )
     lines += [
         "",

@@ -12,11 +12,14 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from roman_sim.core.sensors import Frame
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +49,7 @@ def _sequence(cfg: Any, seed: int, max_images: int) -> Iterator[Frame]:
     yield from seq.frames(subsample(len(seq), max_images).tolist())
 
 
-def _rendered(world: Any, scenario: Any, cfg: Any, paths: dict[str, Any], max_images: int) -> Iterator[Frame]:
+def _rendered(world: World, scenario: Any, cfg: Any, paths: dict[str, Any], max_images: int) -> Iterator[Frame]:
     from dataclasses import replace
 
     from roman_sim.sim.robot import DrivenRun, render_trajectory, trajectory_along
@@ -58,7 +61,7 @@ def _rendered(world: Any, scenario: Any, cfg: Any, paths: dict[str, Any], max_im
         yield replace(frame, index=int(k))
 
 
-def camera_frames(run_dir: Path, scenario: Any, world: Any | None, max_images: int) -> dict[str, Iterator[Frame]]:
+def camera_frames(run_dir: Path, scenario: Any, world: World | None, max_images: int) -> dict[str, Iterator[Frame]]:
     """Per robot, a lazy stream of at most ``max_images`` frames (recorded or re-rendered).
 
     Robots without a recording are re-rendered only when ``world`` is given.

@@ -16,7 +16,7 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -24,6 +24,9 @@ from roman_sim.core.errors import RomanSimError, StorageError
 from roman_sim.core.geometry import gravity_aligned
 from roman_sim.viz import rerun_log as rl
 from roman_sim.viz.run_folder import RunFolder, load_run_folder
+
+if TYPE_CHECKING:
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -93,7 +96,7 @@ def _world(rf: RunFolder, notes: list[str]) -> Any:
         return None
 
 
-def _object_rows(rf: RunFolder, world: Any) -> list[dict[str, Any]]:
+def _object_rows(rf: RunFolder, world: World) -> list[dict[str, Any]]:
     """The world's objects, else those of the recorded sequences' object tables (first one found)."""
     from roman_sim.interop.objects import object_rows, read_object_table
     from roman_sim.pipeline.sources import object_table_path
@@ -106,7 +109,7 @@ def _object_rows(rf: RunFolder, world: Any) -> list[dict[str, Any]]:
     return read_object_table(tables[0]) if tables else []
 
 
-def _log_images(rec: Any, rf: RunFolder, world: Any, max_images: int, T_wo: dict[str, np.ndarray]) -> dict[str, int]:
+def _log_images(rec: Any, rf: RunFolder, world: World, max_images: int, T_wo: dict[str, np.ndarray]) -> dict[str, int]:
     from roman_sim.viz.camera_frames import camera_frames
 
     counts = {}

@@ -10,7 +10,7 @@ from roman_sim.evaluation.atetable import VariantEstimate, ate_table
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import summary
 from roman_sim.evaluation.types import MapStats
-from roman_sim.report.markdown import write_report
+from roman_sim.report.markdown import report_markdown
 from roman_sim.report.plots import write_metric_plots
 from roman_sim.report.tables import ate_rows, rate_cell, summary_rows
 
@@ -66,9 +66,8 @@ def test_report_has_header_tables_plots_and_statements(metrics, tmp_path):
         trajectory_km=0.5,
         mb_per_km=0.9,
     )
-    p = write_report(tmp_path, "smoke", metrics, ate, maps, notes=["robot r2 never connected"], plots=plots)
-    text = p.read_text()
-    assert p.name == "report.md" and text.startswith("# Evaluation report: smoke")
+    text = report_markdown("smoke", metrics, ate, maps, notes=["robot r2 never connected"], plots=plots)
+    assert text.startswith("# Evaluation report: smoke")
     assert "no distance cap" in text and "Headline figures: cross-robot pairs" in text
     assert "true submap centres within 10 m" in text and "rotation error <= 5 deg" in text
     assert "## Alignment, cross-robot pairs (headline)" in text and "## Alignment, same-robot pairs" in text
@@ -85,18 +84,18 @@ def test_report_has_header_tables_plots_and_statements(metrics, tmp_path):
 
 def test_report_names_a_distance_cap_and_what_it_skipped(make_score, tmp_path):
     m = summary([make_score("0", True, 3, True)], EvalConfig(max_pair_dist_m=40.0), n_skipped=7)
-    text = write_report(tmp_path, "capped", m).read_text()
+    text = report_markdown("capped", m)
     assert "distance cap 40 m on the true centre distance (relevant pairs kept): 7 of 8 candidate pairs skipped" in text
 
 
 def test_report_without_relevant_pairs_or_extras(make_score, tmp_path):
     m = summary([make_score("0", False, 3, False)])
-    text = write_report(tmp_path, "empty", m).read_text()
+    text = report_markdown("empty", m)
     assert "no relevant cross-robot pairs" in text
     assert "| m | 1 | 0 | n/a | n/a |" in text
     assert "No trajectory error was computed" in text and "No map statistics" in text
     assert "No plots were written" in text
-    assert "No method was evaluated" in write_report(tmp_path, "none", summary([])).read_text()
+    assert "No method was evaluated" in report_markdown("none", summary([]))
 
 
 def test_ate_rows_in_variant_order():

@@ -50,23 +50,23 @@ def _runs(roman_opp: tuple[int, int], ransac_opp: tuple[int, int]) -> dict:
     }
 
 
-def test_claims_follow_the_numbers():
-    by_id = {c["id"]: c for c in claims(_runs((6, 10), (5, 10)), [])}
+def test_claims_follow_the_numbers(as_summaries):
+    by_id = {c["id"]: c for c in claims(as_summaries(_runs((6, 10), (5, 10))), [])}
     assert by_id["opposite_harder"]["holds"]
     assert by_id["roman_at_or_above_every_baseline"]["holds"]
     assert by_id["roman_faster_than_ransac1m"]["holds"] and "10.0x" in by_id["roman_faster_than_ransac1m"]["text"]
     # ROMAN placed 1 of 3 robots and equals odometry over that robot: neither ATE claim holds
     assert not by_id["roman_ate_below_odometry"]["holds"] and not by_id["roman_places_every_robot"]["holds"]
     assert "multi_robot_tunnel 1/3" in by_id["roman_places_every_robot"]["text"]
-    worse = {c["id"]: c for c in claims(_runs((6, 10), (7, 10)), [])}["roman_at_or_above_every_baseline"]
+    worse = {c["id"]: c for c in claims(as_summaries(_runs((6, 10), (7, 10))), [])}["roman_at_or_above_every_baseline"]
     assert not worse["holds"] and "opposite_direction 120-180 deg: roman 0.60 (6/10)" in worse["text"]
-    text = claims_markdown(claims(_runs((6, 10), (7, 10)), []))
+    text = claims_markdown(claims(as_summaries(_runs((6, 10), (7, 10))), []))
     assert text.index(worse["text"]) > text.index("Where it does not:")
 
 
-def test_small_bins_are_not_compared_and_cells_carry_counts():
-    by_id = {c["id"]: c for c in claims(_runs((1, 2), (2, 2)), [])}
+def test_small_bins_are_not_compared_and_cells_carry_counts(as_summaries):
+    by_id = {c["id"]: c for c in claims(as_summaries(_runs((1, 2), (2, 2))), [])}
     assert "(1 comparisons" in by_id["roman_at_or_above_every_baseline"]["text"]  # only the 10-pair bin counts
-    rows = {r["figure"]: r for r in comparison(_runs((1, 2), (2, 2)))}
+    rows = {r["figure"]: r for r in comparison(as_summaries(_runs((1, 2), (2, 2))))}
     assert rows["roman max recall, opposite direction"]["cross-robot"] == "n<5: 1/2"
     assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.00, 1.00]"

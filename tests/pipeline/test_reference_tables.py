@@ -45,8 +45,8 @@ def _runs_ate() -> dict:
     return {"multi_robot_tunnel": tunnel, "multi_robot_hybrid": hybrid}
 
 
-def test_table1_puts_every_row_next_to_the_paper():
-    rows = table1(_runs_ate())
+def test_table1_puts_every_row_next_to_the_paper(as_summaries):
+    rows = table1(as_summaries(_runs_ate()))
     assert [r["environment"] for r in rows] == ["tunnel", "hybrid"]  # the paper's order; outdoor did not run
     assert rows[0]["paper"] == {"visual": 4.38, "roman": 4.20, "combined": 4.12}
     assert rows[1]["simulation"]["visual"] == {"ate_m": 0.5, "ate_all_m": None, "placed": 2}
@@ -66,9 +66,9 @@ def test_table1_puts_every_row_next_to_the_paper():
     )
 
 
-def test_table1_marks_rows_a_run_does_not_have():
+def test_table1_marks_rows_a_run_does_not_have(as_summaries):
     runs = {"multi_robot_outdoor": _multi(_ate(odometry=(3, 0.5), roman=(2, None)), [])}
-    row = table1(runs)[0]
+    row = table1(as_summaries(runs))[0]
     assert row["simulation"]["visual"] == {"ate_m": None, "ate_all_m": None, "placed": None}
     assert table1_markdown([row]).splitlines()[-2] == (
         "| outdoor | 9.38 | 8.77 | 7.77 | 0.50 (3/3) | n/a | n/a | n/a (2/3) | n/a | n/a | none of 3 |"
@@ -76,8 +76,8 @@ def test_table1_marks_rows_a_run_does_not_have():
     assert table1_markdown([]) == ""
 
 
-def test_table1_claims_follow_the_rows():
-    by_id = {c["id"]: c for c in claims(_runs_ate(), [])}
+def test_table1_claims_follow_the_rows(as_summaries):
+    by_id = {c["id"]: c for c in claims(as_summaries(_runs_ate()), [])}
     below, lowest = by_id["roman_ate_below_visual"], by_id["combined_ate_lowest"]
     assert below["holds"]  # 0.30 < 0.40 and 0.35 < 0.50
     assert "multi_robot_hybrid: ROMAN 0.35 vs visual 0.50 m over 2/3 robots" in below["text"]
@@ -89,14 +89,14 @@ def test_table1_claims_follow_the_rows():
     assert "multi_robot_tunnel: combined 2.50 m (3/3 robots placed) vs odometry 5.00 m" in whole["text"]
     runs = _runs_ate()
     runs["multi_robot_tunnel"]["ate"]["combined"].update(connected=2, all=None)  # a robot left out: no all-robot ATE
-    assert not {c["id"]: c for c in claims(runs, [])}["combined_all_robots_below_odometry"]["holds"]
+    assert not {c["id"]: c for c in claims(as_summaries(runs), [])}["combined_all_robots_below_odometry"]["holds"]
     runs = _runs_ate()
     runs["multi_robot_hybrid"]["ate"]["combined"]["common"] = 0.354  # within 5 mm of ROMAN: a tie, "at or below"
-    assert {c["id"]: c for c in claims(runs, [])}["combined_ate_lowest"]["holds"]
+    assert {c["id"]: c for c in claims(as_summaries(runs), [])}["combined_ate_lowest"]["holds"]
     runs["multi_robot_hybrid"]["ate"]["visual"]["common"] = 0.354  # ROMAN 0.35 is then not lower than visual
-    assert not {c["id"]: c for c in claims(runs, [])}["roman_ate_below_visual"]["holds"]
+    assert not {c["id"]: c for c in claims(as_summaries(runs), [])}["roman_ate_below_visual"]["holds"]
     no_visual = {"multi_robot_tunnel": _multi(_ate(odometry=(3, 0.5), roman=(3, 0.3)), ["a"])}
-    assert not {c["id"] for c in claims(no_visual, [])} & {
+    assert not {c["id"] for c in claims(as_summaries(no_visual), [])} & {
         "roman_ate_below_visual",
         "combined_ate_lowest",
         "combined_all_robots_below_odometry",
@@ -146,13 +146,13 @@ GRADES = {
 }
 
 
-def test_two_front_ends_share_pairs_and_show_grades():
+def test_two_front_ends_share_pairs_and_show_grades(as_summaries):
     truth = {**GRADES, "segmenter": "fastsam", "encoder": "simulated", "precision": 1.0}
     runs = {
         "opposite_direction": _opp({"60-120": (1, 2), "120-180": (6, 10)}, truth),
         "opposite_direction_pixels": _opp({"60-120": (0, 2), "120-180": (3, 10)}, GRADES),
     }
-    t = frontends(runs)
+    t = frontends(as_summaries(runs))
     assert t["same_pairs"] and t["scenarios"] == ["opposite_direction", "opposite_direction_pixels"]
     assert [(r["scenario"], r["method"]) for r in t["recall"]] == [  # ROMAN first; visual uses no segments
         ("opposite_direction", "roman"),
@@ -176,8 +176,9 @@ def test_two_front_ends_share_pairs_and_show_grades():
     )
     assert "100 cross-robot pairs (12 relevant), the same pairs in every row" in frontends_markdown(t)
     runs["opposite_direction_pixels"]["pairs"] = {"inter": {"n_pairs": 99, "n_relevant": 12}}
-    assert "NOT the same pair counts" in frontends_markdown(frontends(runs))
-    assert frontends({"same_direction": runs["opposite_direction"]}) == {} and frontends_markdown({}) == ""
+    assert "NOT the same pair counts" in frontends_markdown(frontends(as_summaries(runs)))
+    assert frontends(as_summaries({"same_direction": runs["opposite_direction"]})) == {}
+    assert frontends_markdown({}) == ""
 
 
 def test_frontend_summary_weights_other_families_by_pairs():
@@ -201,15 +202,11 @@ def test_frontend_summary_weights_other_families_by_pairs():
     s = frontend_summary(
         {"segmenter": "image", "encoder": "image", "segmentation": seg, "descriptors": {"classes": cls}}
     )
-    assert s["cosine_other_family"] == (0.7 + 3 * 0.5) / 4 and s["cosine_same_instance"] == 0.9
-    assert (s["precision"], s["over_segmented"], s["frames"]) == (0.75, 1, 2)
+    assert s.cosine_other_family == (0.7 + 3 * 0.5) / 4 and s.cosine_same_instance == 0.9
+    assert (s.precision, s.over_segmented, s.frames) == (0.75, 1, 2)
     cls["same_group"]["pairs"] = cls["other_group"]["pairs"] = 0
     no_desc = frontend_summary({"segmenter": "perfect", "encoder": None, "segmentation": seg, "descriptors": None})
-    assert no_desc["cosine_same_family"] is None and no_desc["encoder"] is None
-    assert (
-        frontend_summary({"segmenter": "x", "segmentation": seg, "descriptors": {"classes": cls}})[
-            "cosine_other_family"
-        ]
-        is None
-    )
+    assert no_desc.cosine_same_family is None and no_desc.encoder is None
+    other = frontend_summary({"segmenter": "x", "segmentation": seg, "descriptors": {"classes": cls}})
+    assert other is not None and other.cosine_other_family is None
     assert frontend_summary(None) is None

@@ -14,6 +14,7 @@ import pytest
 
 from roman_sim.core.atomic import write_json
 from roman_sim.pipeline import experiment, scenario
+from roman_sim.report.summaries import RunSummary
 from roman_sim.studies.pages import RESULTS_MARKERS, results_block
 from roman_sim.studies.reference import (
     AMBIGUITY_KEY,
@@ -50,7 +51,7 @@ def committed(smoke_run, tmp_path: Path) -> Path:
         out / "ambiguity_sweep" / "sweep.json",
         {"grid": [AMBIGUITY_KEY], "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}]},
     )
-    stale = {"pairs": {"stale": True}, "methods": {}, "map": {}}
+    stale = RunSummary("inter", {"stale": {"n_pairs": 1}}, 0)
     # gamma was listed once but its folder is gone; beta's entry is stale until it is re-run
     write_json(out / "summary.json", build_summary({"alpha": stale, "beta": stale, "gamma": stale}, []))
     return out

@@ -21,7 +21,7 @@ runner = CliRunner()
 
 def test_rerun_reuses_cached_stages(smoke_run):
     again = Experiment(load_scenario("smoke"), smoke_run.run_dir).run()
-    assert set(again.reused) == {"maps", "submaps", "evaluation", "posegraph", "report"}
+    assert set(again.reused) == {"maps", "submaps", "evaluation", "posegraph", "ate", "report"}
     assert again.map_stats == smoke_run.map_stats
     assert again.metrics.to_json() == smoke_run.metrics.to_json()
     assert again.notes == smoke_run.notes
@@ -92,7 +92,7 @@ def test_run_folder_contents(smoke_run):
     assert stages["evaluation"]["alignment"]["roman"]["median"] > 0
     manifest = json.loads((d / "manifest.json").read_text())
     assert manifest["complete"]
-    assert sorted(manifest["stages"]) == ["evaluation", "maps", "posegraph", "report", "submaps"]
+    assert sorted(manifest["stages"]) == ["ate", "evaluation", "maps", "posegraph", "report", "submaps"]
     listed = {f for rec in manifest["stages"].values() for f in rec["files"]}
     assert {"maps/a.npz", "maps/b.npz", "submaps/a.npz", "plots/trajectories.png", "report.md"} <= listed
     assert all((d / f).is_file() for f in listed)
@@ -298,7 +298,7 @@ def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
         ALIGNERS._items.pop("interrupting", None)
     assert not list(run_dir.rglob("*.tmp"))  # no half-written file
     assert not (run_dir / "metrics.json").exists()  # the old configuration's results are gone with it
-    with pytest.raises(StorageError, match="stages missing: evaluation, posegraph, report"):
+    with pytest.raises(StorageError, match="stages missing: evaluation, posegraph, ate, report"):
         RunResult.load(run_dir)
     line = _one_line_error(runner.invoke(app, ["report", str(run_dir)]))
     assert "did not complete" in line

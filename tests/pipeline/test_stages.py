@@ -16,10 +16,13 @@ from roman_sim.pipeline.manifest import read_manifest
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES
-from roman_sim.pipeline.stages.evaluation import EvaluationStage
+from roman_sim.pipeline.stages.ate import AteStage
+from roman_sim.pipeline.stages.base import NoInputs
+from roman_sim.pipeline.stages.evaluation import EvaluationInputs, EvaluationStage
 from roman_sim.pipeline.stages.posegraph import PoseGraphStage
 from roman_sim.pipeline.stages.report import ReportStage
 from roman_sim.pipeline.stages.submaps import Submaps
+from roman_sim.pipeline.taskrunner import TaskRunner
 
 SHORT = ["robots.0.max_length_m=12", "robots.1.max_length_m=12"]
 
@@ -29,16 +32,23 @@ def _stage(name):
 
 
 def test_stage_table_orders_inputs_before_use():
-    assert STAGE_NAMES == ("world", "maps", "submaps", "evaluation", "posegraph", "report")
+    assert STAGE_NAMES == ("world", "maps", "submaps", "evaluation", "posegraph", "ate", "report")
     for k, stage in enumerate(STAGES):
         assert set(stage.inputs) <= set(STAGE_NAMES[:k]), stage.name
+        assert set(stage.required()) <= set(stage.inputs)
+    assert _stage("report").required() == ("submaps", "evaluation", "posegraph", "ate")
+
+
+def test_a_missing_required_input_is_one_clear_error():
+    with pytest.raises(ConfigError, match="stage posegraph needs the output of submaps, evaluation"):
+        _stage("posegraph").build_inputs({})
 
 
 def test_evaluation_stage_round_trips_its_output(tmp_path):
     a, b, truth = make_submap_pair(0, n_inliers=10, n_outliers_a=4, n_outliers_b=4, descriptor_dim=16)
     ctx = RunContext(load_scenario("smoke", ["aligners=[roman, clipper]"]), tmp_path)
     stage = EvaluationStage()
-    out = stage.run(ctx, world=None, submaps=Submaps({"a": [a], "b": [b]}))
+    out = stage.run(ctx, EvaluationInputs(Submaps({"a": [a], "b": [b]})), TaskRunner())
     got = [(s.truth.a, s.truth.b, s.method) for s in out.scores]
     assert got == [("a/0", "b/0", "roman"), ("a/0", "b/0", "clipper")]
     roman = next(s for s in out.scores if s.method == "roman")
@@ -48,26 +58,29 @@ def test_evaluation_stage_round_trips_its_output(tmp_path):
     back = stage.load(ctx, files)
     assert back.metrics.to_json() == out.metrics.to_json()
     assert [r.to_json() for r in back.alignments] == [r.to_json() for r in out.alignments]
-    assert back.notes == out.notes and back.written == out.written
-    assert "per_pair_s" in ctx.timings["alignment"]["roman"]  # runtimes go to the timings only
+    assert back.notes == out.notes and files == ["metrics.json", "pairs.csv", "alignments.json"]
+    assert "per_pair_s" in out.timings["alignment"]["roman"]  # runtimes go to the timings only
+    assert out.timings["pairs"]["aligned"] == 1 and back.timings == {}
     assert "runtime" not in (tmp_path / "pairs.csv").read_text().splitlines()[0]
 
 
 def test_downstream_stages_rerun_from_loaded_outputs(smoke_run, tmp_path):
-    """Posegraph and report recomputed from the saved stages give the saved bytes."""
+    """Posegraph, ATE and report recomputed from the saved stages give the saved bytes."""
     run_dir = tmp_path / "copy"
     shutil.copytree(smoke_run.run_dir, run_dir)
     ctx = RunContext(smoke_run.scenario, run_dir)
     man = read_manifest(run_dir)
     loaded = {n: _stage(n).load(ctx, man.stages[n].files) for n in ("maps", "submaps", "evaluation")}
-    loaded["world"] = _stage("world").run(ctx)  # the report's front-end snapshot renders from the world
-    before = {f: (run_dir / f).read_bytes() for f in ("ate.json", "posegraph.json", "report.md", "map_stats.json")}
-    pg = PoseGraphStage()
-    loaded["posegraph"] = pg.load(ctx, pg.save(pg.run(ctx, **loaded), ctx))
-    rep = ReportStage()
-    rep.save(rep.run(ctx, **loaded), ctx)
+    # the report's front-end snapshot renders from the world
+    loaded["world"] = _stage("world").run(ctx, NoInputs(), TaskRunner())
+    saved = [f for n in ("posegraph", "ate", "report") for f in man.stages[n].files]
+    assert {"ate.json", "posegraph.json", "report.md", "map_stats.json", "plots/trajectories.png"} <= set(saved)
+    before = {f: (run_dir / f).read_bytes() for f in saved}
+    for stage in (PoseGraphStage(), AteStage(), ReportStage()):
+        out = stage.run(ctx, stage.build_inputs(loaded), TaskRunner())
+        loaded[stage.name] = stage.load(ctx, stage.save(out, ctx))
     assert {f: (run_dir / f).read_bytes() for f in before} == before
-    assert loaded["posegraph"].ate.rmse("roman") == smoke_run.ate.rmse("roman")
+    assert loaded["ate"].ate.rmse("roman") == smoke_run.ate.rmse("roman")
 
 
 def test_keys_follow_the_configuration():
@@ -79,7 +92,9 @@ def test_keys_follow_the_configuration():
         return out
 
     base, pg = keys([]), keys(["posegraph.lc_sigma_m=3.0"])
-    assert [n for n in STAGE_NAMES if base[n] != pg[n]] == ["posegraph", "report"]
+    assert [n for n in STAGE_NAMES if base[n] != pg[n]] == ["posegraph", "ate", "report"]
+    renamed = keys(["name=smoke_renamed"])
+    assert [n for n in STAGE_NAMES if base[n] != renamed[n]] == ["report"]
     other_seed = keys(["seed=4"])
     assert all(base[n] != other_seed[n] for n in STAGE_NAMES)
 
@@ -133,7 +148,7 @@ def test_run_stopped_before_the_report_is_not_complete(smoke_run, tmp_path, monk
     assert not _is_done(run_dir, "smoke", (), 0)
     monkeypatch.undo()
     res = Experiment(load_scenario("smoke"), run_dir).run()
-    assert set(res.reused) == {"maps", "submaps", "evaluation", "posegraph"}
+    assert set(res.reused) == {"maps", "submaps", "evaluation", "posegraph", "ate"}
     assert _is_done(run_dir, "smoke", (), 0) and not _is_done(run_dir, "smoke", ("posegraph.lc_sigma_m=3.0",), 0)
 
 

@@ -48,7 +48,7 @@ def test_aligner_failing_on_a_real_pair_names_it_and_keeps_the_front_end(home: P
     code, _, err = _invoke("report", out)  # not reported as finished
     assert code == 1 and err.strip() == (
         f"error: {out}: the run did not complete (stages missing: evaluation, "
-        "posegraph, report); run it again to finish it"
+        "posegraph, ate, report); run it again to finish it"
     )
     code, _, err = _invoke("run", "smoke", *MICRO, "--out", out)  # without the plug-in: the front end is reused
     assert code == 0, err

@@ -183,10 +183,14 @@ def _overlay(base: object, new: object) -> object:
 
 @needs_reference
 def test_every_claim_follows_from_the_independent_figures():
+    from roman_sim.report.summaries import RunSummary
     from roman_sim.studies.claims import claims
 
     summary = _summary()
-    runs = {name: _overlay(copy.deepcopy(run), S.score_run(REF / name)) for name, run in summary["runs"].items()}
+    runs = {
+        name: RunSummary.from_json(_overlay(copy.deepcopy(run), S.score_run(REF / name)))
+        for name, run in summary["runs"].items()
+    }
     sweep = S.sweep_rows(REF / "ambiguity_sweep") if (REF / "ambiguity_sweep").is_dir() else []
     again = claims(runs, sweep)
     assert [(c["id"], c["holds"], c["text"]) for c in again] == [

@@ -1,11 +1,13 @@
-"""The pipeline's stages, in order: world -> maps -> submaps -> evaluation -> posegraph -> report.
+"""The pipeline's stages, in order: world -> maps -> submaps -> evaluation -> posegraph -> ate -> report.
 
-Adding a stage is one module (a ``Stage`` subclass with a typed output) plus one line here.
+Adding a stage is one module (its input dataclass, its output dataclass and a ``Stage``
+subclass; the contract is in ``roman_sim.pipeline.stages.base``) plus one line here.
 """
 
 from __future__ import annotations
 
-from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.ate import AteOutput, AteStage
+from roman_sim.pipeline.stages.base import Stage, StageOutput
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput, EvaluationStage
 from roman_sim.pipeline.stages.maps import Maps, MapsStage
 from roman_sim.pipeline.stages.posegraph import PoseGraphOutput, PoseGraphStage
@@ -20,6 +22,7 @@ STAGES: tuple[Stage, ...] = (
     SubmapsStage(),
     EvaluationStage(),
     PoseGraphStage(),
+    AteStage(),
     ReportStage(),
 )
 STAGE_NAMES: tuple[str, ...] = tuple(s.name for s in STAGES)
@@ -27,11 +30,13 @@ STAGE_NAMES: tuple[str, ...] = tuple(s.name for s in STAGES)
 __all__ = [
     "STAGES",
     "STAGE_NAMES",
+    "AteOutput",
     "EvaluationOutput",
     "Maps",
     "PoseGraphOutput",
     "ReportOutput",
     "Stage",
+    "StageOutput",
     "Submaps",
     "WorldOutput",
 ]

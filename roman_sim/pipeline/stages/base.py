@@ -1,49 +1,120 @@
-"""The stage contract: typed inputs and output, a cache key, save and load.
+"""The stage contract: typed inputs and output, a cache key, ``run`` that computes, ``save`` that writes.
 
-A stage names the stages whose outputs it takes (``inputs``; passed to ``run`` as keyword
-arguments, None when that stage does not apply to the run) and the scenario sections it
-depends on (``config_parts``). Its cache key hashes those sections, the package version
-and its inputs' keys, so a change anywhere upstream recomputes it. ``save`` writes the
-output atomically and returns the files written (relative to the run folder); ``load``
-reads exactly those files back. Outputs carry their own notes (statements for the report).
+A stage is a ``Stage[InputsT, OutputT]`` subclass:
+
+- ``name``: its name in the stage table, the manifest and ``--from-stage``.
+- ``input_type``: a dataclass whose fields are named after the stages whose outputs it
+  takes (typed with those stages' output classes). A field without a default is required;
+  one that defaults to None is optional (None when that stage does not apply to the run,
+  e.g. no world when the run starts from saved submaps). The experiment builds it from the
+  upstream outputs (``build_inputs``); ``inputs`` (the upstream stage names) is derived
+  from it.
+- ``config_parts``: the scenario sections (JSON-ready) its output depends on. The cache key
+  hashes them with the package version, the stage's name, its ``format`` and its inputs'
+  keys, so a change anywhere upstream recomputes it. Bump ``format`` when the files
+  ``save`` writes change, so run folders of the old layout recompute the stage instead of
+  failing to load it.
+- ``run(ctx, inputs, tasks)``: computes the output and returns it; it writes nothing.
+  Independent tasks (a robot to map, a chunk of pairs to align) go through ``tasks`` (a
+  ``TaskRunner``), which runs them on the run's executor and checkpoints each finished
+  one, so an interrupted stage resumes; the stage never sees the checkpoint files.
+- ``save(out, ctx)``: writes the output atomically into the run folder and returns the
+  files written (relative paths); ``load(ctx, files)`` reads exactly those files back.
+  What later stages receive is always the loaded output, so a fresh and a cached stage
+  give the same bytes downstream.
+
+Outputs carry their own ``notes`` (statements for the report) and ``timings`` (wall-clock
+figures for ``timings.json``; never saved with the output, empty when loaded).
+
+Adding a stage is one module (the input dataclass, the output dataclass and the
+``Stage`` subclass) plus one line in the table of ``roman_sim.pipeline.stages``, after
+every stage it takes inputs from.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from abc import ABC, abstractmethod
-from pathlib import Path
-from typing import Any, ClassVar, Generic, TypeVar
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
 
 from roman_sim import __version__
 from roman_sim.core.config import stable_hash
+from roman_sim.core.errors import ConfigError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.taskrunner import TaskRunner
 
-OutputT = TypeVar("OutputT")
+if TYPE_CHECKING:
+    from _typeshed import DataclassInstance
+
+#: Wall-clock figures a stage reports (``timings.json``): name -> JSON value.
+Timings = dict[str, JSON]
 
 
-class Stage(ABC, Generic[OutputT]):
+class StageOutput(Protocol):
+    """What every stage output has: notes for the report and wall-clock timings."""
+
+    notes: list[str]
+    timings: Timings
+
+
+InputsT = TypeVar("InputsT", bound="DataclassInstance")
+OutputT = TypeVar("OutputT", bound=StageOutput)
+
+
+@dataclasses.dataclass(frozen=True)
+class NoInputs:
+    """The inputs of a stage that takes no other stage's output."""
+
+
+class Stage(ABC, Generic[InputsT, OutputT]):
     """One step of the pipeline (see the module docstring)."""
 
     name: ClassVar[str]
-    inputs: ClassVar[tuple[str, ...]] = ()
+    input_type: type[InputsT]
     #: Whether the output is saved and reused (the world is cheap to regenerate: never cached).
     cached: ClassVar[bool] = True
+    #: Layout of the saved files (part of the cache key when set).
+    format: ClassVar[str | None] = None
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        """Names of the stages whose outputs this one takes."""
+        return tuple(f.name for f in dataclasses.fields(self.input_type))
+
+    def required(self) -> tuple[str, ...]:
+        """The inputs without which the stage cannot run."""
+        return tuple(
+            f.name
+            for f in dataclasses.fields(self.input_type)
+            if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+        )
+
+    def build_inputs(self, outputs: Mapping[str, StageOutput]) -> InputsT:
+        """The input dataclass from the upstream outputs (ConfigError when a required one is missing)."""
+        missing = [n for n in self.required() if outputs.get(n) is None]
+        if missing:
+            raise ConfigError(f"stage {self.name} needs the output of {', '.join(missing)}, which this run has not")
+        given = {n: outputs[n] for n in self.inputs if outputs.get(n) is not None}
+        return cast(InputsT, self.input_type(**given))
 
     def applies(self, ctx: RunContext) -> bool:
         """Whether the stage runs at all for this run (e.g. no simulation from saved submaps)."""
         return True
 
-    def config_parts(self, ctx: RunContext) -> list[Any]:
+    def config_parts(self, ctx: RunContext) -> list[JSON]:
         """The scenario sections (JSON-ready) the output depends on."""
         return []
 
     def key(self, ctx: RunContext, input_keys: dict[str, str | None]) -> str:
-        """Cache key: package version, stage name, its config sections, its inputs' keys."""
-        return stable_hash(__version__, self.name, self.config_parts(ctx), sorted(input_keys.items()))
+        """Cache key: package version, stage name, file layout, its config sections, its inputs' keys."""
+        own: list[JSON] = [self.name] if self.format is None else [self.name, self.format]
+        return stable_hash(__version__, *own, self.config_parts(ctx), sorted(input_keys.items()))
 
     @abstractmethod
-    def run(self, ctx: RunContext, **inputs: Any) -> OutputT:
-        """Compute the output from the inputs."""
+    def run(self, ctx: RunContext, inputs: InputsT, tasks: TaskRunner) -> OutputT:
+        """Compute the output from the inputs (writes nothing)."""
 
     def save(self, out: OutputT, ctx: RunContext) -> list[str]:
         """Write ``out`` into the run folder; the relative paths written."""
@@ -52,8 +123,3 @@ class Stage(ABC, Generic[OutputT]):
     def load(self, ctx: RunContext, files: list[str]) -> OutputT:
         """Read the output back from ``files`` (those ``save`` returned)."""
         raise NotImplementedError(f"stage {self.name} is not cached")
-
-
-def rel(ctx: RunContext, path: Path) -> str:
-    """``path`` relative to the run folder, with forward slashes."""
-    return path.relative_to(ctx.run_dir).as_posix()

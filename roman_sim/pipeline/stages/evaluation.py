@@ -1,43 +1,49 @@
 """Stage ``evaluation``: every aligner on every pair of submaps, scored against truth.
 
-The stage enumerates the pairs (every pair unless the scenario sets a distance cap), takes
-their truth, aligns them (one call, ``align_pairs``) and scores them (pure functions of the
-pair truths and the aligner results, in ``roman_sim.evaluation``). Writes ``pairs.csv``
-(one row per pair and method), ``alignments.json`` (each method's estimate and selected
-associations per pair: the pose graph's closures and the report's example drawings) and
-``metrics.json`` (with the front end's grades from the maps stage in its ``frontend``
-section); the report stage draws the plots. Per-pair runtimes go to the run's timings, not
-into these files.
+The evaluation is four steps, each a plain function:
 
-The aligners run through ``apply_aligners``: optional submap gating, then chunks of pairs on
-the run's executor (serial, process pool or Dask), resumable per chunk; the results are the
-same bytes whatever the executor.
+1. ``select_pairs`` (``roman_sim.evaluation.pairs``): every pair unless the scenario sets a
+   distance cap (and how many pairs that cap skipped);
+2. ``truths_for_pairs``: the ground truth of each pair;
+3. ``apply_aligners``: optional submap gating, then every aligner on every pair in chunks
+   on the run's executor (serial, process pool or Dask), resumable per chunk, on
+   ``public()`` copies (no truth) - the only step that runs the methods; the results are
+   the same bytes whatever the executor;
+4. ``score_pairs`` and ``metrics.summary``: pure functions of (pair truths, aligner results).
+
+``save`` writes ``pairs.csv`` (one row per pair and method), ``alignments.json`` (each
+method's estimate and selected associations per pair: the pose graph's closures and the
+report's example drawings) and ``metrics.json`` (with the front end's grades from the maps
+stage in its ``frontend`` section); the report stage draws the plots. Per-pair runtimes go
+to the run's timings (the output's ``timings``), not into these files.
 """
 
 from __future__ import annotations
 
 import json
 import logging
+import time
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
+from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.bins import runtime_stats
-from roman_sim.evaluation.evaluate import Evaluation, score_pairs
-from roman_sim.evaluation.metrics import PairScore, summary
+from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.metrics import PairScore, score_pair, summary
 from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
 from roman_sim.evaluation.results import read_evaluation, write_evaluation
 from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
+from roman_sim.pipeline.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
 
@@ -49,29 +55,41 @@ ALIGNMENTS_SCHEMA = "roman_sim.alignments/2"
 class EvaluationOutput:
     """Scores of every (pair, method), each method's estimates, the metrics and the notes.
 
-    ``written`` lists the files the run wrote besides ``alignments.json`` (the tables); it is
-    not persisted.
+    ``timings`` holds the gating and alignment wall times (``pairs``) and each method's
+    per-pair runtimes (``alignment``).
     """
 
     scores: list[PairScore]
     alignments: list[AlignmentRecord]
     metrics: EvaluationMetrics
     notes: list[str] = field(default_factory=list)
-    written: list[str] = field(default_factory=list, repr=False)
+    timings: Timings = field(default_factory=dict, repr=False, compare=False)
 
     def truths(self) -> dict[tuple[str, str], PairTruth]:
         """Truth of each scored pair, keyed by (a name, b name)."""
         return {(s.truth.a, s.truth.b): s.truth for s in self.scores}
 
 
-def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[tuple[str, str, str], AlignResult]:
-    """Every scenario aligner on every pair, ``(a name, b name, label) -> AlignResult``.
+@dataclass(frozen=True)
+class EvaluationInputs:
+    """The submaps; the world (for the ambiguity of places) and the maps (front-end grades) when the run has them."""
 
-    Gated (when ``gating.enabled``), then in chunks through the run's executor; pairs that
-    gating skipped get "no alignment" with the gating reason, so they count as misses.
+    submaps: Submaps
+    world: WorldOutput | None = None
+    maps: Maps | None = None
+
+
+ResultKey = tuple[str, str, str]
+
+
+def apply_aligners(
+    ctx: RunContext, pairs: list[tuple[Submap, Submap]], tasks: TaskRunner
+) -> tuple[dict[ResultKey, AlignResult], Timings]:
+    """Every scenario aligner on every pair, ``(a name, b name, label) -> AlignResult``, and the wall times.
+
+    Gated (when ``gating.enabled``), then in chunks through ``tasks``; pairs that gating
+    skipped get "no alignment" with the gating reason, so they count as misses.
     """
-    import time
-
     from roman_sim.align.gating import GATED_REASON, gate_pairs
     from roman_sim.pipeline.pairwork import align_pairs as run_chunks
 
@@ -81,24 +99,42 @@ def apply_aligners(ctx: RunContext, pairs: list[tuple[Submap, Submap]]) -> dict[
     gating_s = time.perf_counter() - t0
     ctx.progress.start("evaluation:pairs", len(kept))
     t1 = time.perf_counter()
-    results = run_chunks(ctx, kept)
+    results = run_chunks(ctx, kept, tasks)
     ctx.progress.end("evaluation:pairs")
-    ctx.timings["pairs"] = {
+    timings: Timings = {
         "candidates": len(pairs),
         "aligned": len(kept),
         "gating_s": round(gating_s, 4),
         "alignment_wall_s": round(time.perf_counter() - t1, 3),
-        "workers": ctx.tasks().workers,
-        "executor": ctx.tasks().kind,
+        "workers": tasks.workers,
+        "executor": tasks.kind,
     }
     for (a, b), k in zip(pairs, keep):
         if not k:
             for e in ctx.scenario.aligners:
                 results[(a.name, b.name, e.name)] = AlignResult.failure(e.name, GATED_REASON)
-    return results
+    return results, timings
 
 
-def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[AlignmentRecord]:
+def score_pairs(
+    truths: list[PairTruth], results: dict[ResultKey, AlignResult], methods: list[str], cfg: EvalConfig
+) -> list[PairScore]:
+    """Score each method's result on each pair (pair-major, methods in the given order).
+
+    Raises:
+        EvaluationError: a result is missing for a (pair, method).
+    """
+    out = []
+    for t in truths:
+        for m in methods:
+            res = results.get((t.a, t.b, m))
+            if res is None:
+                raise EvaluationError(f"no result of {m} for the pair {t.a}|{t.b}")
+            out.append(score_pair(t, res, cfg))
+    return out
+
+
+def _records(results: dict[ResultKey, AlignResult]) -> list[AlignmentRecord]:
     """Records of every result; associations kept only where they index segments (drawn and graded)."""
     empty = np.zeros((0, 2), np.int64)
     return [
@@ -114,7 +150,7 @@ def _records(results: dict[tuple[str, str, str], AlignResult]) -> list[Alignment
     ]
 
 
-def _runtimes(scores: list[PairScore]) -> dict[str, Any]:
+def _runtimes(scores: list[PairScore]) -> Timings:
     """Per method: runtime statistics and the per-pair runtimes in ``pairs.csv`` order (s)."""
     methods = sorted({s.method for s in scores})
     return {
@@ -126,46 +162,39 @@ def _runtimes(scores: list[PairScore]) -> dict[str, Any]:
     }
 
 
-class EvaluationStage(Stage[EvaluationOutput]):
+class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
     """Align and score every pair with every aligner of the scenario."""
 
     name = "evaluation"
-    inputs = ("world", "maps", "submaps")
+    input_type = EvaluationInputs
 
-    def config_parts(self, ctx: RunContext) -> list[Any]:
+    def config_parts(self, ctx: RunContext) -> list[JSON]:
         sc = ctx.scenario.model_dump(mode="json")
         return [sc["aligners"], sc["evaluation"], sc["submaps"]["submap_radius"], sc["gating"]]
 
-    def run(
-        self,
-        ctx: RunContext,
-        world: WorldOutput | None = None,
-        maps: Maps | None = None,
-        submaps: Submaps | None = None,
-        **_: Any,
-    ) -> EvaluationOutput:
-        assert submaps is not None, "the evaluation stage needs the submaps"
-        all_subs = submaps.all()
+    def run(self, ctx: RunContext, inputs: EvaluationInputs, tasks: TaskRunner) -> EvaluationOutput:
         ec = ctx.scenario.evaluation
-        sel = select_pairs(all_subs, ec)
+        sel = select_pairs(inputs.submaps.all(), ec)
+        world = inputs.world
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
         truths = truths_for_pairs(sel.pairs, ambiguity, ec)
-        results = apply_aligners(ctx, sel.pairs)
+        results, pair_timings = apply_aligners(ctx, sel.pairs, tasks)
         scores = score_pairs(truths, results, [e.name for e in ctx.scenario.aligners], ec)
-        ev = Evaluation(truths, scores, results, summary(scores, ec, sel.n_skipped))
+        metrics = summary(scores, ec, sel.n_skipped)
+        log.info("evaluated %d pairs (%d skipped by the distance cap)", len(truths), sel.n_skipped)
+        maps = inputs.maps
         if maps is not None and maps.frontend is not None:
-            ev.metrics.frontend = maps.frontend.to_json()
-        paths = write_evaluation(ctx.run_dir, ev.scores, ev.metrics)
-        ctx.timings["alignment"] = _runtimes(ev.scores)
-        written = sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values())
-        return EvaluationOutput(ev.scores, _records(ev.results), ev.metrics, list(ev.notes), written)
+            metrics.frontend = maps.frontend.to_json()
+        timings: Timings = {"pairs": pair_timings, "alignment": _runtimes(scores)}
+        return EvaluationOutput(scores, _records(results), metrics, [], timings)
 
     def save(self, out: EvaluationOutput, ctx: RunContext) -> list[str]:
+        paths = write_evaluation(ctx.run_dir, out.scores, out.metrics)
         write_json(
             ctx.run_dir / ALIGNMENTS_JSON,
             {"schema": ALIGNMENTS_SCHEMA, "notes": out.notes, "alignments": [r.to_json() for r in out.alignments]},
         )
-        return [*out.written, ALIGNMENTS_JSON]
+        return [*sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values()), ALIGNMENTS_JSON]
 
     def load(self, ctx: RunContext, files: list[str]) -> EvaluationOutput:
         scores, metrics = read_evaluation(ctx.run_dir)
@@ -178,4 +207,4 @@ class EvaluationStage(Stage[EvaluationOutput]):
             notes = [str(n) for n in data["notes"]]
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
-        return EvaluationOutput(scores, records, metrics, notes, [f for f in files if f != ALIGNMENTS_JSON])
+        return EvaluationOutput(scores, records, metrics, notes)

@@ -6,6 +6,16 @@ TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same wa
 When a scenario lists the ``visual`` method, the same frames also give each robot's visual
 keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
 ``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
+
+``run`` hands one task per robot to its ``TaskRunner`` (checkpointed per robot) and writes
+nothing; ``save`` writes ``maps/``, ``keyframes/``, ``maps/frontend.json`` and
+``plots/frontend.png``. With ``record_frames``, the rendered frames are a cache, not an
+output of the stage: the mapping task (``roman_sim.pipeline.robot_mapping``) streams them
+into ``recordings/<robot>/`` as it renders (holding a robot's frames in memory until
+``save`` would cost gigabytes at paper scale) and reads them back, under a key of what they
+depend on (seed, world, robots), so a later run with other mapping settings maps them
+again without rendering. They are not in the manifest and survive a stage's completion,
+unlike the checkpoints under ``partial/``.
 """
 
 from __future__ import annotations
@@ -13,23 +23,27 @@ from __future__ import annotations
 import json
 import logging
 from dataclasses import dataclass, field
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
+from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
 from roman_sim.evaluation.frontend_types import FrontEndGrades
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.robot_mapping import RobotMapping, map_one
-from roman_sim.pipeline.stages.base import Stage
-from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot
+from roman_sim.pipeline.robot_mapping import RobotMapping, RobotMappingCodec, map_one
+from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
+from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.world import WorldOutput
+from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.report.frontend import plot_frontend_grades
+
+if TYPE_CHECKING:
+    from roman_sim.sim.paths import Path2D
+    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
@@ -45,79 +59,56 @@ class Maps:
     odometry frame).
 
     ``frontend`` grades whatever segmenter and encoder ran against the frames' instance truth,
-    over every robot (None when no frame has instance truth); ``written`` lists the plot.
+    over every robot (None when no frame has instance truth); ``save`` then also draws
+    ``plots/frontend.png``.
     """
 
     maps: dict[str, SegmentMap]
     notes: list[str] = field(default_factory=list)
     keyframes: dict[str, KeyframeSet] = field(default_factory=dict)
     frontend: FrontEndGrades | None = None
-    written: list[str] = field(default_factory=list)
+    timings: Timings = field(default_factory=dict, repr=False, compare=False)
+
+    @property
+    def plots(self) -> list[str]:
+        """The plots among the stage's files (relative paths)."""
+        return [FRONTEND_PNG] if self.frontend is not None else []
+
+
+@dataclass(frozen=True)
+class MapsInputs:
+    """The world (None when every robot is read from a sequence)."""
+
+    world: WorldOutput | None = None
 
 
 def map_robots(
-    ctx: RunContext, world: Any, paths: dict[str, Any]
+    ctx: RunContext, world: World | None, paths: dict[str, Path2D], tasks: TaskRunner
 ) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart]]:
-    """Every robot, one ``map_one`` task per robot on the run's executor (scenario order).
+    """Every robot, one ``map_one`` task per robot through ``tasks`` (scenario order).
 
-    Each finished robot's map (and keyframes) is written to ``maps/<robot>.npz``
-    (``keyframes/<robot>.npz``) at once and checkpointed with its share of the front-end
-    grades, so an interrupted run maps only the robots that did not finish. What is returned
-    is what was written and read back, so fresh and resumed robots give the same bytes.
-    Returns the maps, the keyframes (robots that have them) and the grade parts (robots with
-    instance truth), in scenario order.
+    ``tasks`` checkpoints each finished robot (its map, keyframes and share of the front-end
+    grades), so an interrupted run maps only the robots that did not finish, and hands back
+    what it kept, so fresh and resumed robots give the same bytes. Returns the maps, the
+    keyframes (robots that have them) and the grade parts (robots with instance truth), in
+    scenario order.
     """
-    from roman_sim.core.atomic import write_arrays
-    from roman_sim.pipeline.checkpoint import Checkpoint
     from roman_sim.pipeline.tasks import map_robot_task
 
-    ex = ctx.tasks()
-    done = Checkpoint(ctx.run_dir, "maps", None if ctx.fresh else ctx.stage_key)
-    names = [r.name for r in ctx.scenario.robots]
-    files = {n: ctx.run_dir / "maps" / f"{n}.npz" for n in names}
-    kf_files = {n: ctx.run_dir / "keyframes" / f"{n}.npz" for n in names}
-    part_files = {n: done.folder / f"{n}.grades.npz" for n in names}
-    results: dict[str, tuple[SegmentMap, KeyframeSet | None, GraderPart | None]] = {}
-
-    def read_back(name: str, has_kf: bool, has_part: bool) -> RobotMapping:
-        part = None
-        if has_part:
-            with np.load(part_files[name], allow_pickle=False) as z:
-                part = GraderPart.from_arrays(z)
-        return (load_segment_map(files[name]), load_keyframes(kf_files[name]) if has_kf else None, part)
-
-    for name in names:
-        rec = done.get(name)
-        if rec is None or not files[name].is_file() or rec.get("sha256") != _sha256(files[name]):
-            continue
-        ok = all(
-            rec.get(k) is None or (f.is_file() and rec.get(k) == _sha256(f))
-            for k, f in (("keyframes_sha256", kf_files[name]), ("grades_sha256", part_files[name]))
-        )
-        if ok:
-            results[name] = read_back(
-                name, rec.get("keyframes_sha256") is not None, rec.get("grades_sha256") is not None
-            )
-            log.info("robot %s: reusing the map of an interrupted run", name)
-    todo = [r for r in ctx.scenario.robots if r.name not in results]
+    robots = ctx.scenario.robots
+    names = [r.name for r in robots]
     sc_json = ctx.scenario.model_dump_json()
-    local = ex.kind == "serial"
-    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), world if local else None) for r in todo]
-    fn = (lambda sc, name, path, d, w: map_one(ctx, w, _robot(ctx, name), path)) if local else map_robot_task
-    ctx.progress.start("maps:robots", len(files))
-    ctx.progress.advance("maps:robots", len(results))
-    for i, (smap, kf, part) in ex.run_tasks(fn, args, [f"mapping robot {r.name}" for r in todo]):
-        name = todo[i].name
-        save_segment_map(files[name], smap)
-        entry: dict[str, Any] = {"sha256": _sha256(files[name]), "keyframes_sha256": None, "grades_sha256": None}
-        if kf is not None:
-            save_keyframes(kf_files[name], kf)
-            entry["keyframes_sha256"] = _sha256(kf_files[name])
-        if part is not None:
-            write_arrays(part_files[name], part.arrays())
-            entry["grades_sha256"] = _sha256(part_files[name])
-        done.put(name, entry)
-        results[name] = read_back(name, kf is not None, part is not None)
+    local = tasks.in_process
+    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), world if local else None) for r in robots]
+
+    def here(sc: str, name: str, path: Path2D | None, run_dir: str, w: World | None) -> RobotMapping:
+        return map_one(ctx, w, next(r for r in robots if r.name == name), path)
+
+    fn = here if local else map_robot_task
+    results: dict[str, RobotMapping] = {}
+    ctx.progress.start("maps:robots", len(names))
+    for i, res in tasks.run(fn, args, [f"mapping robot {n}" for n in names], names, RobotMappingCodec()):
+        results[names[i]] = res
         ctx.progress.advance("maps:robots")
     ctx.progress.end("maps:robots")
     maps = {n: results[n][0] for n in names}
@@ -126,26 +117,16 @@ def map_robots(
     return maps, keyframes, parts
 
 
-def _robot(ctx: RunContext, name: str) -> Any:
-    return next(r for r in ctx.scenario.robots if r.name == name)
-
-
-def _sha256(path: Any) -> str:
-    import hashlib
-
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
-class MapsStage(Stage[Maps]):
+class MapsStage(Stage[MapsInputs, Maps]):
     """Render and map every robot of the scenario."""
 
     name = "maps"
-    inputs = ("world",)
+    input_type = MapsInputs
 
     def applies(self, ctx: RunContext) -> bool:
         return ctx.submaps_dir is None
 
-    def config_parts(self, ctx: RunContext) -> list[Any]:
+    def config_parts(self, ctx: RunContext) -> list[JSON]:
         from roman_sim.pipeline.sources import fingerprint
 
         sc = ctx.scenario.model_dump(mode="json")
@@ -158,14 +139,16 @@ class MapsStage(Stage[Maps]):
             *(["visual"] if ctx.scenario.uses_visual else []),
         ]
 
-    def run(self, ctx: RunContext, world: WorldOutput | None = None, **_: Any) -> Maps:
+    def run(self, ctx: RunContext, inputs: MapsInputs, tasks: TaskRunner) -> Maps:
         from roman_sim.sim.robot import plan_paths
 
         sc = ctx.scenario
         simulated = sc.simulated_robots()
-        assert world is not None or not simulated, "the maps stage needs the world for simulated robots"
-        paths = plan_paths(world.world, simulated, sc.seed) if world is not None and simulated else {}
-        maps, keyframes, parts = map_robots(ctx, None if world is None else world.world, paths)
+        world = None if inputs.world is None else inputs.world.world
+        if world is None and simulated:
+            raise ConfigError("the maps stage needs the world for simulated robots")
+        paths = plan_paths(world, simulated, sc.seed) if world is not None and simulated else {}
+        maps, keyframes, parts = map_robots(ctx, world, paths, tasks)
         grades = None
         if parts:
             grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)
@@ -192,7 +175,7 @@ class MapsStage(Stage[Maps]):
                 grades = FrontEndGrades.from_json(json.loads(path.read_text(encoding="utf-8")))
             except (OSError, ValueError) as err:
                 raise StorageError(f"{path}: unreadable front-end grades ({type(err).__name__})") from None
-        return Maps(maps, notes, keyframes, grades, [f for f in files if f.endswith(".png")])
+        return Maps(maps, notes, keyframes, grades)
 
 
 def _rgb_notes(ctx: RunContext) -> list[str]:

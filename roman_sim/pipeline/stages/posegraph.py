@@ -1,11 +1,11 @@
-"""Stage ``posegraph``: pose graphs of the run and their trajectory errors.
+"""Stage ``posegraph``: the run's pose graphs and the trajectory variants they give.
 
-The trajectory variants scored against the truth, in table order:
+The trajectory variants, in table order:
 
 - ``odometry``: the drifting odometry, each robot placed with its true initial pose;
 - ``odometry_no_prior``: the odometry with no start pose (each robot aligned by its own fit,
-  which does not depend on where the robot is placed: it is computed from the ``odometry``
-  files);
+  which does not depend on where the robot is placed: it is scored from the ``odometry``
+  trajectories);
 - one row per entry of ``graph_variants``: the multi-robot pose graph with the chosen
   aligner's loop closures, and ``oracle``, the same graph with the true relative pose of
   every relevant pair (what loop closures can give at best). Adding a variant (e.g. a
@@ -18,46 +18,55 @@ with Kimera-Multi's visual loop closures). Visual closures are those the visual 
 accepted (at least its ``min_inliers`` 3D-3D inliers); the method's keep
 ``lc_association_thresh``.
 
-Every row of the ATE table covers the same robots (``roman_sim.evaluation.atetable``).
-Writes ``ate.json`` (the table and the stage's notes), ``posegraph.json`` (closures used and
-robots placed per graph), ``trajectories/<robot>.<variant>.tum`` (the placed robots of every
-variant, and the truth) and ``plots/trajectories.png``. The table is computed from the TUM
-files as written, so ``roman-sim report --verify`` recomputes it exactly.
+The stage returns estimates only: every variant's trajectories (the robots it placed) and
+the truth, each graph's closures with their GNC weights, and what each graph used. The
+``ate`` stage scores them (``roman_sim.evaluation.atetable``) and the report stage draws
+them. ``save`` writes ``trajectories/<robot>.<variant>.tum`` (every placed robot of every
+variant, and the truth), ``posegraph.json`` (closures used and robots placed per graph) and
+``posegraph_estimates.json`` (the variants' descriptions, fits and trajectory sources, each
+graph's closures and weights, and the stage's notes). Later stages get the trajectories
+as read back from the TUM files, so ``roman-sim report --verify`` recomputes the ATE
+table exactly.
 """
 
 from __future__ import annotations
 
 import json
 import logging
-import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import EvaluationError, StorageError
-from roman_sim.core.geometry import gravity_aligned, pose_error
+from roman_sim.core.errors import StorageError
+from roman_sim.core.geometry import gravity_aligned
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum, write_tum
-from roman_sim.evaluation.ate import multi_robot_ate
-from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.scenario import VISUAL_METHODS
-from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.base import Stage, Timings
+from roman_sim.pipeline.stages.estimates import (
+    ESTIMATES_JSON,
+    ESTIMATES_SCHEMA,
+    GraphInfo,
+    Variant,
+    variant_from_json,
+    variant_json,
+)
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
+from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.posegraph import LoopClosure, build_and_solve, submap_nodes_from
-from roman_sim.report.trajplot import plot_trajectories
 
 log = logging.getLogger(__name__)
 
-ATE_JSON = "ate.json"
 POSEGRAPH_JSON = "posegraph.json"
-PLOT = "plots/trajectories.png"
+#: Name of the true trajectories among the variants' trajectory files.
+TRUTH = "truth"
 ORACLE_ASSOCIATIONS = 1_000_000
 
 
@@ -66,28 +75,33 @@ def tum_path(variant: str, robot: str) -> str:
     return f"trajectories/{robot}.{variant}.tum"
 
 
-@dataclass(frozen=True)
-class GraphInfo:
-    """What one pose graph used: closures given, closures above the threshold, GNC inliers,
-    robots no closure chain ties to the first robot."""
-
-    closures: int
-    closures_used: int
-    inliers: int
-    unconnected: list[str]
-
-
 @dataclass
 class PoseGraphOutput:
-    """ATE table, per-graph information, notes.
+    """Every variant's trajectories, the variants, per-graph information, notes.
 
-    ``written`` lists the trajectory files and plot the run wrote (not persisted).
+    Attributes:
+        trajectories: trajectory source (``truth``, ``odometry``, each graph) -> robot ->
+            trajectory, the placed robots only, in scenario order.
+        variants: variant name -> ``Variant``, in table order (empty when skipped).
+        graphs: graph name -> what it used.
+        notes: statements for the report.
+        timings: each graph's solve time (``posegraph_s``).
     """
 
-    ate: AteTable
+    trajectories: dict[str, dict[str, Trajectory]]
+    variants: dict[str, Variant]
     graphs: dict[str, GraphInfo]
     notes: list[str] = field(default_factory=list)
-    written: list[str] = field(default_factory=list, repr=False)
+    timings: Timings = field(default_factory=dict, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class PoseGraphInputs:
+    """The submaps and the evaluation's alignments; the maps (odometry, truth) unless the run started from submaps."""
+
+    submaps: Submaps
+    evaluation: EvaluationOutput
+    maps: Maps | None = None
 
 
 def method_closures(submaps: Submaps, evaluation: EvaluationOutput, method: str) -> list[LoopClosure]:
@@ -173,151 +187,104 @@ def graph_variants(ctx: RunContext) -> list[GraphVariant]:
     return out
 
 
-def _closure_lines(ctx: RunContext, submaps: Submaps, closures: list[LoopClosure], weights: list[Any]) -> list[Any]:
-    subs = submaps.by_name()
-    thresh = ctx.scenario.posegraph.lc_association_thresh
-    ev = ctx.scenario.evaluation
-    lines = []
-    for c, w in zip(closures, weights):
-        if w is None or c.n_associations < thresh:
-            continue
-        a, b = subs[f"{c.robot_a}/{c.submap_a}"], subs[f"{c.robot_b}/{c.submap_b}"]
-        assert a.truth is not None and b.truth is not None
-        Ta, Tb = a.truth.T_world_submap, b.truth.T_world_submap
-        rot, trans = pose_error(c.T_a_b, np.linalg.inv(Ta) @ Tb)
-        ok = math.degrees(rot) <= ev.rot_tol_deg and trans <= ev.trans_tol_m
-        lines.append((Ta[:3, 3], Tb[:3, 3], "inter" if c.inter else "intra", bool(ok)))
-    return lines
+def odometry_variants() -> dict[str, Variant]:
+    """The two odometry rows: placed with the true start pose, and aligned robot by robot."""
+    return {
+        "odometry": Variant("odometry, each robot placed with its true start pose", "joint", "odometry"),
+        "odometry_no_prior": Variant(
+            "odometry without start poses, each robot aligned on its own", "per_robot", "odometry"
+        ),
+    }
 
 
-def _aligned(est: dict[str, Trajectory], truth: dict[str, Trajectory]) -> dict[str, Trajectory]:
-    """The estimate moved onto the truth by the concatenated SE(3) alignment (empty if impossible)."""
-    if not est:
-        return {}
-    try:
-        res = multi_robot_ate(est, {r: truth[r] for r in est}, "se3")["all"]
-    except EvaluationError:
-        return {}
-    return {} if res is None else {r: tr.transformed(res.T_align) for r, tr in est.items()}
+def solve_graphs(
+    ctx: RunContext, inputs: PoseGraphInputs, maps: Maps, method: str
+) -> tuple[PoseGraphOutput, dict[str, float]]:
+    """Solve every graph variant on the maps' odometry; the output and each graph's solve time (s)."""
+    truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
+    odom = {r: m.odometry for r, m in maps.maps.items()}
+    placed = {r: odom[r].transformed(gravity_aligned(truth[r].T[0])) for r in truth}
+    nodes = submap_nodes_from(inputs.submaps.all())
+    nodes = {r: nodes.get(r, []) for r in maps.maps}
+    out = PoseGraphOutput({TRUTH: truth, "odometry": placed}, odometry_variants(), {})
+    seconds = {}
+    for gv in graph_variants(ctx):
+        closures = gv.closures(inputs.submaps, inputs.evaluation)
+        cfg = ctx.scenario.posegraph
+        if gv.association_thresh is not None:
+            cfg = cfg.model_copy(update={"lc_association_thresh": gv.association_thresh})
+        t0 = time.perf_counter()
+        res = build_and_solve(odom, nodes, closures, cfg)
+        seconds[gv.name] = time.perf_counter() - t0
+        used = [w for w in res.closure_weights if w is not None]
+        out.graphs[gv.name] = GraphInfo(len(closures), len(used), res.n_inliers, list(res.unconnected))
+        out.trajectories[gv.name] = res.trajectories
+        out.variants[gv.name] = Variant(gv.description, "joint", gv.name, closures, list(res.closure_weights))
+        if res.unconnected:
+            out.notes.append(
+                f"{gv.name} pose graph: robot(s) {', '.join(res.unconnected)} never connected to the "
+                f"first robot: placed {len(res.trajectories)} of {len(odom)} robots"
+            )
+        if not used:
+            out.notes.append(f"{gv.name} pose graph: no loop closure accepted")
+    return out, seconds
 
 
-def _round_trip(ctx: RunContext, trajectories: dict[str, dict[str, Trajectory]]) -> tuple[dict, list[str]]:
-    """Write every variant's trajectories as TUM and read them back (what the table is computed from)."""
-    back: dict[str, dict[str, Trajectory]] = {}
-    written = []
-    for variant, per in trajectories.items():
-        back[variant] = {}
-        for robot, tr in per.items():
-            path = tum_path(variant, robot)
-            write_tum(ctx.run_dir / path, tr)
-            back[variant][robot] = read_tum(ctx.run_dir / path)
-            written.append(path)
-    return back, written
-
-
-class PoseGraphStage(Stage[PoseGraphOutput]):
-    """Solve the run's pose graphs (method, visual, combined, oracle) and score every variant over the same robots."""
+class PoseGraphStage(Stage[PoseGraphInputs, PoseGraphOutput]):
+    """Solve the run's pose graphs (method, visual, combined, oracle); every variant's trajectories."""
 
     name = "posegraph"
-    inputs = ("maps", "submaps", "evaluation")
+    input_type = PoseGraphInputs
+    format = "estimates/1"
 
-    def config_parts(self, ctx: RunContext) -> list[Any]:
+    def config_parts(self, ctx: RunContext) -> list[JSON]:
         sc = ctx.scenario.model_dump(mode="json")
         return [sc["posegraph"], sc["posegraph_method"], sc["evaluation"]]
 
-    def run(
-        self,
-        ctx: RunContext,
-        maps: Maps | None = None,
-        submaps: Submaps | None = None,
-        evaluation: EvaluationOutput | None = None,
-        **_: Any,
-    ) -> PoseGraphOutput:
-        assert submaps is not None and evaluation is not None
+    def run(self, ctx: RunContext, inputs: PoseGraphInputs, tasks: TaskRunner) -> PoseGraphOutput:
         method = ctx.scenario.posegraph_method
         if method is None:
-            return PoseGraphOutput(AteTable(), {}, ["pose graph skipped: no posegraph_method"])
-        if maps is None:
-            return PoseGraphOutput(
-                AteTable(), {}, ["pose graph skipped: no trajectories (run started from saved submaps)"]
-            )
-        truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
-        odom = {r: m.odometry for r, m in maps.maps.items()}
-        placed = {r: odom[r].transformed(gravity_aligned(truth[r].T[0])) for r in truth}
-        nodes = submap_nodes_from(submaps.all())
-        nodes = {r: nodes.get(r, []) for r in maps.maps}
-        trajectories: dict[str, dict[str, Trajectory]] = {"truth": truth, "odometry": placed}
-        describe = {
-            "odometry": ("odometry, each robot placed with its true start pose", "joint", "odometry"),
-            "odometry_no_prior": (
-                "odometry without start poses, each robot aligned on its own",
-                "per_robot",
-                "odometry",
-            ),
-        }
-        graphs, notes, seconds = {}, [], {}
-        lines, est_world = [], {}
-        for gv in graph_variants(ctx):
-            closures = gv.closures(submaps, evaluation)
-            cfg = ctx.scenario.posegraph
-            if gv.association_thresh is not None:
-                cfg = cfg.model_copy(update={"lc_association_thresh": gv.association_thresh})
-            t0 = time.perf_counter()
-            res = build_and_solve(odom, nodes, closures, cfg)
-            seconds[gv.name] = time.perf_counter() - t0
-            used = [w for w in res.closure_weights if w is not None]
-            graphs[gv.name] = GraphInfo(len(closures), len(used), res.n_inliers, list(res.unconnected))
-            trajectories[gv.name] = res.trajectories
-            describe[gv.name] = (gv.description, "joint", gv.name)
-            if res.unconnected:
-                notes.append(
-                    f"{gv.name} pose graph: robot(s) {', '.join(res.unconnected)} never connected to the "
-                    f"first robot: placed {len(res.trajectories)} of {len(odom)} robots"
-                )
-            if not used:
-                notes.append(f"{gv.name} pose graph: no loop closure accepted")
-            if gv.name == method:
-                lines = _closure_lines(ctx, submaps, closures, res.closure_weights)
-                est_world = _aligned(res.trajectories, truth)
-        ctx.timings["posegraph_s"] = seconds
-        back, written = _round_trip(ctx, trajectories)
-        estimates = {
-            v: VariantEstimate(back[src], fit, text, src)  # type: ignore[arg-type]
-            for v, (text, fit, src) in describe.items()
-        }
-        table = ate_table(back["truth"], estimates)
-        try:
-            plot_trajectories(
-                ctx.run_dir / PLOT,
-                truth,
-                est=est_world or None,
-                odom=placed,
-                closures=lines,
-                title=f"{ctx.scenario.name}: truth, odometry and {method} pose graph",
-            )
-            written.append(PLOT)
-        except EvaluationError as err:
-            notes.append(f"trajectory plot not drawn: {err}")
-        return PoseGraphOutput(table, graphs, notes, sorted(written))
+            return PoseGraphOutput({}, {}, {}, ["pose graph skipped: no posegraph_method"])
+        if inputs.maps is None:
+            return PoseGraphOutput({}, {}, {}, ["pose graph skipped: no trajectories (run started from saved submaps)"])
+        out, seconds = solve_graphs(ctx, inputs, inputs.maps, method)
+        out.timings["posegraph_s"] = dict(seconds)
+        return out
 
     def save(self, out: PoseGraphOutput, ctx: RunContext) -> list[str]:
-        write_json(ctx.run_dir / ATE_JSON, {**out.ate.to_json(), "notes": out.notes})
+        written = []
+        for variant, per in out.trajectories.items():
+            for robot, tr in per.items():
+                write_tum(ctx.run_dir / tum_path(variant, robot), tr)
+                written.append(tum_path(variant, robot))
         write_json(ctx.run_dir / POSEGRAPH_JSON, {k: vars(v) for k, v in out.graphs.items()})
-        return [ATE_JSON, POSEGRAPH_JSON, *out.written]
+        estimates = [variant_json(k, v) for k, v in out.variants.items()]
+        write_json(
+            ctx.run_dir / ESTIMATES_JSON, {"schema": ESTIMATES_SCHEMA, "notes": out.notes, "variants": estimates}
+        )
+        return [POSEGRAPH_JSON, ESTIMATES_JSON, *sorted(written)]
 
     def load(self, ctx: RunContext, files: list[str]) -> PoseGraphOutput:
-        path = ctx.run_dir / ATE_JSON  # the file being read, named by the error
+        path = ctx.run_dir / ESTIMATES_JSON  # the file being read, named by the error
         try:
-            ate_data = json.loads(path.read_text(encoding="utf-8"))
-            notes = [str(n) for n in ate_data["notes"]]
+            est = json.loads(path.read_text(encoding="utf-8"))
+            if est.get("schema") != ESTIMATES_SCHEMA:
+                raise ValueError(f"schema {est.get('schema')!r}")
             path = ctx.run_dir / POSEGRAPH_JSON
             graphs = json.loads(path.read_text(encoding="utf-8"))
             info = {k: GraphInfo(**v) for k, v in graphs.items()}
+            variants = dict(variant_from_json(v) for v in est["variants"])
+            notes = [str(n) for n in est["notes"]]
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{path}: unreadable pose-graph results ({type(err).__name__}: {err})") from None
-        return PoseGraphOutput(
-            AteTable.from_json(ate_data, str(ctx.run_dir / ATE_JSON)),
-            info,
-            notes,
-            [f for f in files if f not in (ATE_JSON, POSEGRAPH_JSON)],
-        )
+        sources = list(dict.fromkeys([TRUTH] + [v.source for v in variants.values()])) if variants else []
+        listed = set(files)
+        trajectories = {
+            src: {
+                r.name: read_tum(ctx.run_dir / tum_path(src, r.name))
+                for r in ctx.scenario.robots
+                if tum_path(src, r.name) in listed
+            }
+            for src in sources
+        }
+        return PoseGraphOutput(trajectories, variants, info, notes)

@@ -1,51 +1,81 @@
 """Stage ``report``: map statistics, the plots and ``report.md`` from the other stages' outputs.
 
-Draws the metric plots (from the metrics), each method's example alignments (from the
-recorded estimates and associations over the submaps), the map view and a front-end
-snapshot: ``plots/segments_on_image.png`` renders one camera image of the first robot, at
-the centre of its submap with the most segments, runs the scenario's segmenter on it and
-draws the masks over it. A plot that cannot be drawn (no OpenGL context, no world when the
-run started from saved submaps, a single point) is noted and skipped.
+``run`` computes everything the report shows: the map statistics, the metric plots (from
+the metrics), each method's example alignments (from the recorded estimates and
+associations over the submaps), the map view, the trajectory plot (truth, odometry and the
+pose graph method's estimate moved onto the truth, with the closures that graph used) and
+a front-end snapshot: ``plots/segments_on_image.png`` renders one camera image of the first
+robot, at the centre of its submap with the most segments, runs the scenario's segmenter
+on it and draws the masks over it. Plots are rendered to PNG bytes and the report to text;
+``save`` writes them with ``map_stats.json``. A plot that cannot be drawn (no OpenGL
+context, no world when the run started from saved submaps, a single point) is noted and
+skipped. The report depends on the scenario's name (its title), so a renamed scenario
+rewrites it.
 """
 
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
-from roman_sim.core.atomic import write_json
+from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import EvaluationError, RomanSimError, StorageError
+from roman_sim.core.jsontypes import JSON
+from roman_sim.evaluation.ate import aligned_to_truth
 from roman_sim.evaluation.types import MapStats
 from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.robot_mapping import build_segmenter_for
-from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stages.ate import AteOutput
+from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
-from roman_sim.pipeline.stages.posegraph import PoseGraphOutput
+from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.report.examples import draw_examples
-from roman_sim.report.mapview import write_map_view
-from roman_sim.report.markdown import REPORT_MD, write_report
-from roman_sim.report.maskview import plot_masks
-from roman_sim.report.plots import write_metric_plots
+from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.report.mapview import map_view_png
+from roman_sim.report.markdown import REPORT_MD, report_markdown
+from roman_sim.report.render import example_pngs, masks_png, metric_plot_pngs
+from roman_sim.report.trajplot import closure_lines, trajectory_png
 
 MAP_STATS_JSON = "map_stats.json"
 SNAPSHOT = "plots/segments_on_image.png"
+TRAJECTORY_PLOT = "plots/trajectories.png"
+MAP_VIEW = "plots/map_view.png"
 
 
 @dataclass
 class ReportOutput:
-    """Map statistics and every note of the run, in stage order."""
+    """Map statistics and every note of the run, in stage order.
+
+    ``text`` (``report.md``) and ``plots`` (relative path -> PNG bytes) are what ``save``
+    writes; a loaded output has neither (nothing downstream reads them), ``written`` lists
+    the plot files either way.
+    """
 
     map_stats: MapStats
     notes: list[str] = field(default_factory=list)
+    text: str = field(default="", repr=False)
+    plots: dict[str, bytes] = field(default_factory=dict, repr=False)
     written: list[str] = field(default_factory=list, repr=False)
+    timings: Timings = field(default_factory=dict, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class ReportInputs:
+    """Every earlier stage's output (world and maps: None when the run started from saved submaps)."""
+
+    submaps: Submaps
+    evaluation: EvaluationOutput
+    posegraph: PoseGraphOutput
+    ate: AteOutput
+    world: WorldOutput | None = None
+    maps: Maps | None = None
 
 
 def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
@@ -71,15 +101,15 @@ def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
     )
 
 
-def _majority(object_ids: np.ndarray, pixels: np.ndarray) -> str | None:
+def _majority(object_ids: NDArray[np.signedinteger], pixels: NDArray[np.bool_]) -> str | None:
     """The most frequent true object id under a mask (None when it covers only terrain/sky)."""
     ids = object_ids[pixels]
     ids = ids[ids >= 0]
     return None if not len(ids) else str(int(np.bincount(ids).argmax()))
 
 
-def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> str:
-    """Render one frame of the first robot, segment it, draw the masks; the plot's relative path.
+def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> bytes:
+    """Render one frame of the first robot, segment it, draw the masks; the PNG.
 
     The segmenter sees the frame without truth unless it reads truth (as in the maps stage);
     the numbers drawn are each mask's majority true object, from the object-id render.
@@ -110,60 +140,81 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
         f"robot {cfg.name} at t = {frame.t:.1f} s: {len(masks)} masks of the "
         f"{seg if isinstance(seg, str) else 'configured'} segmenter (numbers: majority true object)"
     )
-    plot_masks(frame.rgb, [m.pixels for m in masks], ctx.run_dir / SNAPSHOT, title, labels)
-    return SNAPSHOT
+    return masks_png(frame.rgb, [m.pixels for m in masks], title, labels)
 
 
-def draw_plots(ctx: RunContext, evaluation: EvaluationOutput, submaps: Submaps) -> tuple[list[str], list[str]]:
-    """Metric plots, example alignments and the map view: (relative paths written, notes)."""
-    plots = ctx.run_dir / "plots"
-    written, notes = write_metric_plots(evaluation.metrics, plots)
-    results = {(r.a, r.b, r.method): r.result() for r in evaluation.alignments}
-    written += draw_examples(evaluation.scores, submaps.by_name(), results, plots)
+def trajectory_plot(ctx: RunContext, posegraph: PoseGraphOutput, submaps: Submaps) -> bytes | None:
+    """Truth, placed odometry and the method's pose graph moved onto the truth, with the closures it used.
+
+    None when no pose graph was solved. Raises EvaluationError when there is nothing to draw.
+    """
+    method = ctx.scenario.posegraph_method
+    if method is None or method not in posegraph.variants:
+        return None
+    truth = posegraph.trajectories[TRUTH]
+    graph = posegraph.variants[method]
+    ev, thresh = ctx.scenario.evaluation, ctx.scenario.posegraph.lc_association_thresh
+    lines = closure_lines(graph.closures, graph.weights, submaps.by_name(), thresh, ev.rot_tol_deg, ev.trans_tol_m)
+    return trajectory_png(
+        truth,
+        est=aligned_to_truth(posegraph.trajectories[graph.source], truth) or None,
+        odom=posegraph.trajectories["odometry"],
+        closures=lines,
+        title=f"{ctx.scenario.name}: truth, odometry and {method} pose graph",
+    )
+
+
+def draw_plots(ctx: RunContext, inputs: ReportInputs) -> tuple[dict[str, bytes], list[str]]:
+    """Metric plots, example alignments, the map view, the trajectories and the snapshot: (path -> PNG, notes)."""
+    ev, submaps = inputs.evaluation, inputs.submaps
+    metric, notes = metric_plot_pngs(ev.metrics)
+    results = {(r.a, r.b, r.method): r.result() for r in ev.alignments}
+    pngs = {f"plots/{k}": v for k, v in {**metric, **example_pngs(ev.scores, submaps.by_name(), results)}.items()}
     try:
-        written.append(write_map_view(plots / "map_view.png", submaps.all()))
+        pngs[MAP_VIEW] = map_view_png(submaps.all())
     except EvaluationError as err:
         notes.append(f"map view not rendered: {err}")
-    return [p.relative_to(ctx.run_dir).as_posix() for p in written], notes
+    try:
+        traj = trajectory_plot(ctx, inputs.posegraph, submaps)
+        if traj is not None:
+            pngs[TRAJECTORY_PLOT] = traj
+    except EvaluationError as err:
+        notes.append(f"trajectory plot not drawn: {err}")
+    if inputs.world is not None and inputs.maps is not None:
+        try:
+            pngs[SNAPSHOT] = snapshot(ctx, inputs.world, inputs.maps, submaps)
+        except (RomanSimError, RuntimeError, ImportError) as err:
+            notes.append(f"front-end snapshot not drawn: {err}")
+    return pngs, notes
 
 
-class ReportStage(Stage[ReportOutput]):
-    """Write ``map_stats.json``, the front-end snapshot and ``report.md``."""
+class ReportStage(Stage[ReportInputs, ReportOutput]):
+    """Write ``map_stats.json``, the plots and ``report.md``."""
 
     name = "report"
-    inputs = ("world", "maps", "submaps", "evaluation", "posegraph")
+    input_type = ReportInputs
 
-    def run(
-        self,
-        ctx: RunContext,
-        world: WorldOutput | None = None,
-        maps: Maps | None = None,
-        submaps: Submaps | None = None,
-        evaluation: EvaluationOutput | None = None,
-        posegraph: PoseGraphOutput | None = None,
-        **_: Any,
-    ) -> ReportOutput:
-        assert submaps is not None and evaluation is not None and posegraph is not None
+    def config_parts(self, ctx: RunContext) -> list[JSON]:
+        return [ctx.scenario.name]
+
+    def run(self, ctx: RunContext, inputs: ReportInputs, tasks: TaskRunner) -> ReportOutput:
         notes: list[str] = []
-        for out in (maps, submaps, evaluation, posegraph):
+        for out in (inputs.maps, inputs.submaps, inputs.evaluation, inputs.posegraph, inputs.ate):
             notes += [] if out is None else list(out.notes)
-        stats = map_stats(maps, submaps)
-        snap, plot_notes = draw_plots(ctx, evaluation, submaps)
-        notes += plot_notes
-        plots = [f for f in (maps.written if maps else []) + posegraph.written if f.endswith(".png")]
-        if world is not None and maps is not None:
-            try:
-                snap.append(snapshot(ctx, world, maps, submaps))
-            except (RomanSimError, RuntimeError, ImportError) as err:
-                notes.append(f"front-end snapshot not drawn: {err}")
-        plots += snap
-        ate = posegraph.ate if posegraph.ate.variants else None
-        write_report(ctx.run_dir, ctx.scenario.name, evaluation.metrics, ate, stats, list(dict.fromkeys(notes)), plots)
-        return ReportOutput(stats, list(dict.fromkeys(notes)), snap)
+        stats = map_stats(inputs.maps, inputs.submaps)
+        pngs, plot_notes = draw_plots(ctx, inputs)
+        notes = list(dict.fromkeys(notes + plot_notes))
+        upstream = inputs.maps.plots if inputs.maps else []
+        ate = inputs.ate.ate if inputs.ate.ate.variants else None
+        text = report_markdown(ctx.scenario.name, inputs.evaluation.metrics, ate, stats, notes, upstream + list(pngs))
+        return ReportOutput(stats, notes, text, pngs, list(pngs))
 
     def save(self, out: ReportOutput, ctx: RunContext) -> list[str]:
+        for name, png in out.plots.items():
+            write_bytes(ctx.run_dir / name, png)
+        write_text(ctx.run_dir / REPORT_MD, out.text)
         write_json(ctx.run_dir / MAP_STATS_JSON, {**out.map_stats.to_json(), "notes": out.notes})
-        return [MAP_STATS_JSON, REPORT_MD, *out.written]
+        return [MAP_STATS_JSON, REPORT_MD, *out.plots]
 
     def load(self, ctx: RunContext, files: list[str]) -> ReportOutput:
         path = ctx.run_dir / MAP_STATS_JSON
@@ -172,4 +223,5 @@ class ReportStage(Stage[ReportOutput]):
             notes = [str(n) for n in data.pop("notes")]
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
             raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
-        return ReportOutput(MapStats.from_json(data, str(path)), notes, [f for f in files if f.endswith(".png")])
+        written = [f for f in files if f.endswith(".png")]
+        return ReportOutput(MapStats.from_json(data, str(path)), notes, written=written)

@@ -12,17 +12,19 @@ from __future__ import annotations
 
 import hashlib
 from dataclasses import dataclass, field
-from typing import Any
+from pathlib import Path
 
 from roman_sim.align.visual import attach_keyframes
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.io import load_submaps, save_submaps
 from roman_sim.mapping.submap import build_submaps
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.stages.base import Stage
+from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
+from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.maps import Maps
-from roman_sim.pipeline.stages.notes import load_per_robot, save_per_robot
+from roman_sim.pipeline.taskrunner import TaskRunner
 
 
 @dataclass
@@ -31,6 +33,7 @@ class Submaps:
 
     submaps: dict[str, list[Submap]]
     notes: list[str] = field(default_factory=list)
+    timings: Timings = field(default_factory=dict, repr=False, compare=False)
 
     def all(self) -> list[Submap]:
         """Every submap, robot by robot."""
@@ -41,7 +44,14 @@ class Submaps:
         return {s.name: s for s in self.all()}
 
 
-def _user_files(ctx: RunContext) -> dict[str, Any]:
+@dataclass(frozen=True)
+class SubmapsInputs:
+    """The maps (None when the run starts from the user's saved submaps)."""
+
+    maps: Maps | None = None
+
+
+def _user_files(ctx: RunContext) -> dict[str, Path]:
     """``<robot>.npz`` of each scenario robot in the user's submaps folder (ConfigError if one is missing)."""
     d = ctx.submaps_dir
     assert d is not None
@@ -55,19 +65,19 @@ def _user_files(ctx: RunContext) -> dict[str, Any]:
     return files
 
 
-class SubmapsStage(Stage[Submaps]):
+class SubmapsStage(Stage[SubmapsInputs, Submaps]):
     """Build submaps from the maps (or load the user's)."""
 
     name = "submaps"
-    inputs = ("maps",)
+    input_type = SubmapsInputs
 
-    def config_parts(self, ctx: RunContext) -> list[Any]:
-        parts: list[Any] = [ctx.scenario.model_dump(mode="json")["submaps"]]
+    def config_parts(self, ctx: RunContext) -> list[JSON]:
+        parts: list[JSON] = [ctx.scenario.model_dump(mode="json")["submaps"]]
         if ctx.submaps_dir is not None:  # the user's files by content, not by path
             parts.append({r: hashlib.sha256(p.read_bytes()).hexdigest() for r, p in _user_files(ctx).items()})
         return parts
 
-    def run(self, ctx: RunContext, maps: Maps | None = None, **_: Any) -> Submaps:
+    def run(self, ctx: RunContext, inputs: SubmapsInputs, tasks: TaskRunner) -> Submaps:
         if ctx.submaps_dir is not None:
             out = {}
             for robot, path in _user_files(ctx).items():
@@ -77,7 +87,9 @@ class SubmapsStage(Stage[Submaps]):
                     raise ConfigError(f"--submaps {path}: holds submaps of robot(s) {', '.join(wrong)}, not {robot}")
                 out[robot] = subs
             return Submaps(out)
-        assert maps is not None, "the submaps stage needs the maps"
+        maps = inputs.maps
+        if maps is None:
+            raise ConfigError("the submaps stage needs the maps (or --submaps)")
         out = {}
         for name, smap in maps.maps.items():
             subs = build_submaps(smap, ctx.scenario.submaps)

@@ -1,11 +1,15 @@
-"""Per-robot stage folders (``<folder>/<robot>.npz`` + ``<folder>/notes.json``) and stage notes."""
+"""Per-robot stage folders (``<folder>/<robot>.npz`` + ``<folder>/notes.json``) and stage notes.
+
+The writers here are called from the stages' ``save`` only (stage code itself writes nothing
+outside ``save``; a test checks it), the readers from their ``load``.
+"""
 
 from __future__ import annotations
 
 import json
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
@@ -40,7 +44,7 @@ def save_per_robot(
     return [*files, f"{folder}/notes.json"]
 
 
-def load_per_robot(ctx: RunContext, folder: str, reader: Callable[[Path], Any]) -> tuple[dict[str, Any], list[str]]:
+def load_per_robot(ctx: RunContext, folder: str, reader: Callable[[Path], T]) -> tuple[dict[str, T], list[str]]:
     """The items of the scenario's robots (only theirs) and the notes, as ``save_per_robot`` wrote them."""
     items = {r.name: reader(ctx.run_dir / folder / f"{r.name}.npz") for r in ctx.scenario.robots}
     return items, read_notes(ctx.run_dir / folder / "notes.json")

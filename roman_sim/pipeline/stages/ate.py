@@ -1,0 +1,72 @@
+"""Stage ``ate``: the ATE table of the pose graph's trajectory variants, every row over the same robots.
+
+The table is computed by ``roman_sim.evaluation.atetable.ate_table`` from the variants the
+``posegraph`` stage returns, as read back from their TUM files (what ``roman-sim report
+--verify`` recomputes it from). ``save`` writes ``ate.json``: the table and the notes of the
+pose graphs it scores. A run without a pose graph gets an empty table.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+from roman_sim.core.atomic import write_json
+from roman_sim.core.errors import StorageError
+from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.stages.base import Stage, Timings
+from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
+from roman_sim.pipeline.taskrunner import TaskRunner
+
+ATE_JSON = "ate.json"
+
+
+@dataclass
+class AteOutput:
+    """The ATE table and the notes of the pose graphs it scores."""
+
+    ate: AteTable
+    notes: list[str] = field(default_factory=list)
+    timings: Timings = field(default_factory=dict, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class AteInputs:
+    """The pose graph's trajectory variants."""
+
+    posegraph: PoseGraphOutput
+
+
+def variant_table(posegraph: PoseGraphOutput) -> AteTable:
+    """Every variant of ``posegraph`` scored against its true trajectories (empty without variants)."""
+    if not posegraph.variants:
+        return AteTable()
+    estimates = {
+        name: VariantEstimate(posegraph.trajectories[v.source], v.fit, v.description, v.source)
+        for name, v in posegraph.variants.items()
+    }
+    return ate_table(posegraph.trajectories[TRUTH], estimates)
+
+
+class AteStage(Stage[AteInputs, AteOutput]):
+    """Score the pose graph's trajectory variants against the truth."""
+
+    name = "ate"
+    input_type = AteInputs
+
+    def run(self, ctx: RunContext, inputs: AteInputs, tasks: TaskRunner) -> AteOutput:
+        return AteOutput(variant_table(inputs.posegraph), list(inputs.posegraph.notes))
+
+    def save(self, out: AteOutput, ctx: RunContext) -> list[str]:
+        write_json(ctx.run_dir / ATE_JSON, {**out.ate.to_json(), "notes": out.notes})
+        return [ATE_JSON]
+
+    def load(self, ctx: RunContext, files: list[str]) -> AteOutput:
+        path = ctx.run_dir / ATE_JSON
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+            notes = [str(n) for n in data["notes"]]
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise StorageError(f"{path}: unreadable ATE table ({type(err).__name__}: {err})") from None
+        return AteOutput(AteTable.from_json(data, str(path)), notes)
