@@ -147,7 +147,6 @@ def trajectory_png(
     """Robots' trajectories drawn top-down (x right, y up, metres) with loop-closure lines, as PNG bytes.
 
     Args:
-        path_png: output file (written atomically).
         truth: robot -> ``Trajectory`` (or ``T (N,4,4)`` or ``xyz (N,3)``), all in the same
             frame (e.g. the world, or after alignment).
         est: optional estimates, as ``truth``.
