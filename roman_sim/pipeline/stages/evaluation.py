@@ -152,7 +152,8 @@ class EvaluationStage(Stage[EvaluationOutput]):
         truths = truths_for_pairs(sel.pairs, ambiguity, ec)
         results = apply_aligners(ctx, sel.pairs)
         scores = score_pairs(truths, results, [e.name for e in ctx.scenario.aligners], ec)
-        ev = Evaluation(truths, scores, results, summary(scores, ec, sel.n_skipped))
+        metrics = summary(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh)
+        ev = Evaluation(truths, scores, results, metrics)
         if maps is not None and maps.frontend is not None:
             ev.metrics.frontend = maps.frontend.to_json()
         paths = write_evaluation(ctx.run_dir, ev.scores, ev.metrics)
