@@ -75,7 +75,7 @@ def compare(expected: Any, got: Any, where: str = "", rel_tol: float = REL_TOL, 
     return [f"{where}: file has {expected!r}, recomputed {got!r}"]
 
 
-def _eval_config(run_dir: Path) -> tuple[EvalConfig, int]:
+def eval_settings(run_dir: Path) -> tuple[EvalConfig, int]:
     """The evaluation settings and the pose graph's acceptance threshold of a run's ``config.yaml``."""
     from roman_sim.posegraph import PoseGraphConfig
 
@@ -106,7 +106,7 @@ def rederive(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore],
 
 def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[EvaluationMetrics, list[str]]:
     """``metrics.json`` as recomputed from ``pairs_file`` and ``config.yaml``, and row-level differences."""
-    cfg, acceptance_k = _eval_config(run_dir)
+    cfg, acceptance_k = eval_settings(run_dir)
     scores, diffs = rederive(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
     metrics = summary(scores, cfg, stored.n_skipped, acceptance_k)

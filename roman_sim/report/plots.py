@@ -68,7 +68,8 @@ def _points(c: PRCurve) -> int:
 POINT_MARKERS = {"precision_90": "^", "acceptance": "s"}
 
 
-def _pr_axes(ax: Axes, curves: dict[str, PRCurve], title: str, stats: dict[str, CurveStats] | None = None) -> None:
+def pr_axes(ax: Axes, curves: dict[str, PRCurve], title: str, stats: dict[str, CurveStats] | None = None) -> None:
+    """Precision over recall, one line per method; with ``stats``, each method's operating points marked."""
     for i, (name, c) in enumerate(curves.items()):
         ax.plot(c.recall, c.precision, marker=".", label=name, color=f"C{i}")
         pts = (stats or {}).get(name)
@@ -89,7 +90,7 @@ def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
         return None
     fig = figure()
     rel = metrics.pairs[kind]["n_relevant"]
-    _pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
+    pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
     return save_png(fig, path)
 
 
@@ -104,7 +105,7 @@ def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None
     fig = figure(4.2 * len(bins), 4.0, ncols=len(bins))
     for ax, i in zip(fig.axes, bins):
         b = first.heading_bins[i]  # type: ignore[union-attr]
-        _pr_axes(
+        pr_axes(
             ax,
             {m: s.heading_pr[i] for m, s in sets.items()},
             f"{b.label} deg ({b.stats.n_relevant} relevant)",
