@@ -2,8 +2,10 @@
 
 Parts (each merges its figures into ``benchmarks/out/benchmark.json``; run with ``nice -n 10``):
 
-* ``quick [WORKERS]``: the quick suite fresh on the local pool (default 2 workers): wall
-  time, CPU time of this process and its workers, and the cells' stage times.
+* ``quick [WORKERS]``: the quick suite fresh: wall time, CPU time and the cells' stage
+  times. WORKERS 1 (default) runs it in this process, so the CPU time is complete; with more
+  the local pool's workers are children of its fork server, whose CPU time ``getrusage``
+  does not see until it exits, so only the wall time is meaningful then.
 * ``plan``: the standard suite planned (no rendering): per cell its relevant pairs per
   heading bin, pairs and kilometres of trajectory, and the CPU time of planning.
 * ``part [ROBOTS]``: one standard cell (level low, seed 0) with only ROBOTS robots (default
@@ -61,19 +63,19 @@ def _stages(folder: Path) -> dict[str, Any]:
     return out
 
 
-def quick(workers: int) -> None:
+def quick(workers: int = 1) -> None:
     from roman_sim.pipeline.executors import ExecutorConfig
     from roman_sim.studies.benchmark_run import BenchmarkJob
     from roman_sim.studies.benchmark_suites import load_suite
 
     folder = Path(tempfile.mkdtemp(prefix="bench-quick-"))
     load0, t0, c0 = _load(), time.perf_counter(), _cpu()
-    ex = ExecutorConfig(kind="local", workers=workers)
+    ex = ExecutorConfig(kind="serial") if workers == 1 else ExecutorConfig(kind="local", workers=workers)
     outcome = BenchmarkJob(load_suite("quick"), folder, executor=ex).run()
     wall, cpu = time.perf_counter() - t0, _cpu() - c0
     board = json.loads((folder / "leaderboard.json").read_text(encoding="utf-8"))
     _merge(
-        "quick",
+        "quick" if workers == 1 else f"quick_{workers}_workers",
         {
             "workers": workers,
             "wall_s": round(wall, 1),
@@ -182,7 +184,7 @@ def estimate() -> None:
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "quick"
     if what == "quick":
-        quick(int(sys.argv[2]) if len(sys.argv) > 2 else 2)
+        quick(int(sys.argv[2]) if len(sys.argv) > 2 else 1)
     elif what == "plan":
         plan()
     elif what == "part":

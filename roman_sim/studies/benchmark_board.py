@@ -11,8 +11,9 @@ are ranked by the intervals of max recall and of recall at precision >= 0.9
 (``evaluation.ranking``: tied unless the intervals separate). The bound of the standard
 suite, every interval at most +-0.1, is checked per cell over every method and point.
 
-``leaderboard.json`` holds all of it, ``leaderboard.md`` renders it, and ``plots/`` the
-figures (``report.benchmark_plots``). Runtimes come from ``runtimes.json`` per cell.
+``leaderboard.json`` holds all of it; ``leaderboard.md`` (``report.leaderboard``) and the
+figures in ``plots/`` (``report.benchmark_plots``) render it. Runtimes come from each cell's
+``runtimes.json``.
 """
 
 from __future__ import annotations
@@ -27,30 +28,37 @@ from typing import Any
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.evaluation.metrics import PairScore, summary
-from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES
+from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.ranking import rank_by_intervals
 from roman_sim.evaluation.results import read_pairs_csv
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
 from roman_sim.evaluation.verify import eval_settings, rederive
-from roman_sim.report.benchmark_plots import benchmark_figures, write_benchmark_plots
+from roman_sim.report.benchmark_plots import write_benchmark_plots
+from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
+from roman_sim.studies.benchmark_cells import (
+    BENCHMARK_JSON,
+    BENCHMARK_SCHEMA,
+    CELL_JSON,
+    CELLS_DIR,
+    PAIRS_GZ,
+    RUNTIMES_JSON,
+)
 
 log = logging.getLogger(__name__)
 
 LEADERBOARD_JSON = "leaderboard.json"
 LEADERBOARD_MD = "leaderboard.md"
 LEADERBOARD_SCHEMA = "roman_sim.leaderboard/1"
-#: The operating points methods are ranked by, in each cell.
-RANKED = ("max_recall", "precision_90")
 #: Widest interval half-width the standard suite promises in every cell.
 HALF_WIDTH_BOUND = 0.1
 
 
 def read_record(out: Path) -> dict[str, Any]:
     """``benchmark.json`` of a benchmark folder (StorageError when missing or unreadable)."""
-    path = out / "benchmark.json"
+    path = out / BENCHMARK_JSON
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        if data.get("schema") != "roman_sim.benchmark/1":
+        if data.get("schema") != BENCHMARK_SCHEMA:
             raise ValueError(f"schema {data.get('schema')!r}")
         return dict(data)
     except (OSError, ValueError, AttributeError) as err:
@@ -71,7 +79,7 @@ class Level:
 
 def _cell_status(out: Path, cell: str) -> dict[str, Any]:
     try:
-        return dict(json.loads((out / "cells" / cell / "cell.json").read_text(encoding="utf-8")))
+        return dict(json.loads((out / CELLS_DIR / cell / CELL_JSON).read_text(encoding="utf-8")))
     except (OSError, ValueError):
         return {"status": "pending"}
 
@@ -81,13 +89,13 @@ def load_levels(out: Path, record: dict[str, Any]) -> tuple[dict[str, Level], di
     levels = {lv["name"]: Level(lv["name"], float(lv["knob"])) for lv in record["levels"]}
     missing: dict[str, str] = {}
     for c in record["cells"]:
-        folder = out / "cells" / c["id"]
+        folder = out / CELLS_DIR / c["id"]
         st = _cell_status(out, c["id"])
         if st.get("status") != "ok":
             missing[c["id"]] = str(st.get("error") or st.get("status"))
             continue
         cfg, acceptance_k = eval_settings(folder)
-        scores, diffs = rederive(read_pairs_csv(folder / "pairs.csv.gz"), cfg)
+        scores, diffs = rederive(read_pairs_csv(folder / PAIRS_GZ), cfg)
         if diffs:
             log.warning("cell %s: %d rows re-derived differently (%s)", c["id"], len(diffs), diffs[0])
         lv = levels[c["level"]]
@@ -95,7 +103,7 @@ def load_levels(out: Path, record: dict[str, Any]) -> tuple[dict[str, Level], di
         lv.acceptance_k = acceptance_k
         lv.scores += [_prefixed(s, c["id"]) for s in scores]
         try:
-            lv.runtimes.append(json.loads((folder / "runtimes.json").read_text(encoding="utf-8")))
+            lv.runtimes.append(json.loads((folder / RUNTIMES_JSON).read_text(encoding="utf-8")))
         except (OSError, ValueError):
             pass
     return levels, missing
@@ -109,7 +117,7 @@ def _prefixed(s: PairScore, cell: str) -> PairScore:
 
 def level_metrics(out: Path, lv: Level, edges: list[float]) -> EvaluationMetrics:
     """The evaluation of one level's pooled pairs over the suite's heading bins."""
-    cfg, _ = eval_settings(out / "cells" / lv.cells[0])
+    cfg, _ = eval_settings(out / CELLS_DIR / lv.cells[0])
     cfg = cfg.model_copy(update={"heading_bins_deg": list(edges)})
     return summary(lv.scores, cfg, 0, lv.acceptance_k)
 
@@ -204,129 +212,6 @@ def leaderboard(out: str | Path) -> tuple[dict[str, Any], dict[str, EvaluationMe
     board["bound_met"] = bool(widths) and all(w is not None and w <= HALF_WIDTH_BOUND for w in widths) and not missing
     board["runtime"] = _runtime(levels)
     return board, metrics
-
-
-def _rate(p: dict[str, Any] | None) -> str:
-    if p is None or not p["n_relevant"]:
-        return "n/a"
-    if not p["reached"]:
-        return f"not reached (0/{p['n_relevant']})"
-    lo, hi = p["recall_ci"]
-    return f"{p['recall']:.2f} ({p['hits']}/{p['n_relevant']}) [{lo:.2f}, {hi:.2f}]"
-
-
-def _ranked_cell(cell: dict[str, Any], method: str, point: str) -> str:
-    p = cell["methods"][method][point]
-    r = cell["ranks"][point].get(method)
-    rank = "" if r is None else (f" tied {r['rank']}" if r["tied"] else f" #{r['rank']}")
-    return _rate(p) + rank
-
-
-def _rank_tables(board: dict[str, Any], point: str) -> list[str]:
-    lines = []
-    for e in board["levels"]:
-        name = e["name"]
-        if not e.get("bins"):
-            continue
-        cells = [*e["bins"], e["overall"]]
-        lines += [
-            f"**{name}** (knob {e['knob']:g}, measured ambiguity index {_num(e.get('ambiguity_index'))}):",
-            "",
-            "| method | " + " | ".join(f"{c['heading']} deg" if c["heading"] != "all" else "all" for c in cells) + " |",
-            "|---|" + "---|" * len(cells),
-        ]
-        for m in board["methods"]:
-            if m in e["overall"]["methods"]:
-                lines.append(f"| {m} | " + " | ".join(_ranked_cell(c, m, point) for c in cells) + " |")
-        lines.append("")
-    return lines
-
-
-def _num(v: float | None, digits: int = 2) -> str:
-    return "n/a" if v is None else f"{v:.{digits}f}"
-
-
-def leaderboard_markdown(board: dict[str, Any]) -> str:
-    """``leaderboard.md``: setup, ranked recall per cell, operating points, runtimes, failures, figures."""
-    lv0 = next((e for e in board["levels"] if e.get("bins")), None)
-    acc = None if lv0 is None else lv0.get("acceptance_k")
-    lines = [
-        f"# Benchmark `{board['suite']}`",
-        "",
-        board["description"] + ".",
-        "",
-        f"- Methods: {', '.join(board['methods'])}. Overrides: {', '.join(board['overrides']) or 'none'}.",
-        "- Cells: ambiguity level x heading difference (30 deg bins) of the cross-robot pairs, pooled over the "
-        "level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
-        "- Ranks: 1 + the number of methods whose interval lies wholly above; methods that share a rank have "
-        "overlapping intervals and are marked `tied`.",
-        f"- Operating points: max recall (at the highest k that keeps it); recall at the smallest k with precision "
-        f">= 0.9 (`not reached` when none has); recall at the pose graph's acceptance threshold k = {acc}.",
-        f"- Interval bound: every half-width at most {board['half_width_bound']:g}: "
-        + ("met in every cell." if board["bound_met"] else "**not met** in every cell (see the relevant counts)."),
-        "",
-    ]
-    for point in RANKED:
-        label = POINT_LABELS[point]
-        lines += [f"## {label[0].upper()}{label[1:]}, ranked", "", *_rank_tables(board, point)]
-    lines += ["## Relevant cross-robot pairs per cell", "", *_relevant_table(board), ""]
-    lines += ["## Operating points per level", "", *_points_table(board, acc), ""]
-    lines += ["## Runtime per pair", "", *_runtime_table(board), ""]
-    if board["failed_cells"]:
-        lines += ["## Cells that did not finish", ""]
-        lines += [f"- `{c}`: {err}" for c, err in sorted(board["failed_cells"].items())] + [""]
-    lines += ["## Figures", ""] + [f"![{cap}](plots/{name})" for name, cap in benchmark_figures(board).items()] + [""]
-    return "\n".join(lines)
-
-
-def _relevant_table(board: dict[str, Any]) -> list[str]:
-    named = [(e["name"], e) for e in board["levels"] if e.get("bins")]
-    if not named:
-        return ["No cell finished."]
-    heads = [b["heading"] for b in named[0][1]["bins"]]
-    out = [
-        "| level | " + " | ".join(f"{h} deg" for h in heads) + " | cross-robot pairs scored |",
-        "|---|" + "---|" * (len(heads) + 1),
-    ]
-    for n, e in named:
-        out.append(
-            f"| {n} | " + " | ".join(str(b["n_relevant"]) for b in e["bins"]) + f" | {e['overall']['n_pairs']} |"
-        )
-    return out
-
-
-def _points_table(board: dict[str, Any], acc: int | None) -> list[str]:
-    out = [
-        f"| level | method | max recall (precision) | {POINT_LABELS['precision_90']} (k) | "
-        f"{POINT_LABELS['precision_100']} (k) | recall at k = {acc} (precision) |",
-        "|---|---|---|---|---|---|",
-    ]
-    for e in board["levels"]:
-        n = e["name"]
-        for m, pts in (e.get("overall") or {}).get("methods", {}).items():
-            cells = []
-            for name in POINT_NAMES:
-                p = pts[name]
-                extra = ""
-                if p is not None and p["reached"]:
-                    extra = f" P={_num(p['precision'])}" if name in ("max_recall", "acceptance") else f" k={p['k']}"
-                cells.append(_rate(p) + extra)
-            out.append(f"| {n} | {m} | " + " | ".join(cells) + " |")
-    return out
-
-
-def _runtime_table(board: dict[str, Any]) -> list[str]:
-    rt = board["runtime"]
-    if not rt:
-        return ["No runtimes were recorded."]
-    out = ["| method | pairs timed | mean ms | median ms (cells) | p90 ms (cells) |", "|---|---|---|---|---|"]
-    for m, r in rt.items():
-        med = sorted(r["cell_medians_s"])
-        out.append(
-            f"| {m} | {r['n']} | {1000 * r['mean_s']:.1f} | {1000 * med[len(med) // 2]:.1f} | "
-            f"{1000 * max(r['cell_p90_s']):.1f} |"
-        )
-    return out
 
 
 def write_leaderboard(out: str | Path) -> list[Path]:

@@ -31,67 +31,33 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.core.atomic import write_bytes, write_json, write_text
-from roman_sim.core.config import dump_yaml, stable_hash, validate_model
+from roman_sim.core.config import dump_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.registry import one_line
-from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
 from roman_sim.pipeline.scenario import Scenario
-from roman_sim.studies.benchmark_plan import relevant_per_bin
-from roman_sim.studies.benchmark_scenes import CrossingScene, build_crossing
+from roman_sim.studies.benchmark_cells import (
+    BENCHMARK_JSON,
+    BENCHMARK_SCHEMA,
+    CELL_JSON,
+    CELLS_DIR,
+    PAIRS_GZ,
+    PLAN_JSON,
+    RUNTIMES_JSON,
+    SCENARIO_JSON,
+    WORK_DIR,
+    Cell,
+    CellExperiment,
+    plan_task,
+    planned_totals,
+    runtime_summary,
+)
 from roman_sim.studies.benchmark_suites import BenchmarkSuite, check_methods
 
 log = logging.getLogger(__name__)
 
-BENCHMARK_JSON = "benchmark.json"
-BENCHMARK_SCHEMA = "roman_sim.benchmark/1"
-PLAN_JSON = "plan.json"
-CELL_JSON = "cell.json"
-CELLS_DIR = "cells"
-WORK_DIR = "work"
-PAIRS_GZ = "pairs.csv.gz"
-RUNTIMES_JSON = "runtimes.json"
-SCENARIO_JSON = "scenario.json"
-
 #: ``progress(done, total, what)`` after each planned or finished cell.
 ProgressFn = Callable[[int, int, str], None]
-
-
-@dataclass(frozen=True)
-class Cell:
-    """One (ambiguity level, seed) of a suite and its scene."""
-
-    level: str
-    seed: int
-    scene: CrossingScene
-
-    @property
-    def id(self) -> str:
-        """``<level>-s<seed>``: the cell's folder name."""
-        return f"{self.level}-s{self.seed}"
-
-    def key(self) -> str:
-        """What the cell's results depend on: its scene (methods and overrides included) and seed."""
-        return stable_hash(self.scene.model_dump(mode="json"), self.seed)
-
-
-def plan_task(scene_json: str, seed: int, name: str, edges: list[float]) -> dict[str, Any]:
-    """Plan one cell (a top-level task): its scenario and relevant pairs per heading bin, or its error."""
-    try:
-        plan = build_crossing(CrossingScene.model_validate_json(scene_json), seed, name)
-    except RomanSimError as err:
-        return {"ok": False, "error": str(err)}
-    except Exception as err:  # a bug, or an override the generator did not foresee: this cell fails alone
-        return {"ok": False, "error": f"{type(err).__name__}: {one_line(err)}"}
-    subs = {t.a for t in plan.truths} | {t.b for t in plan.truths}
-    return {
-        "ok": True,
-        "scenario": plan.scenario.model_dump(mode="json"),
-        "relevant": relevant_per_bin(plan.truths, edges),
-        "pairs": len(plan.truths),
-        "submaps": len(subs),
-        "km": round(plan.trajectory_km, 4),
-    }
 
 
 @dataclass
@@ -211,7 +177,7 @@ class BenchmarkJob:
             self._plan_batch(ex, batch, plans)
             for c in batch:
                 chosen[c.level].append(c)
-                totals = _totals([plans[x.id] for x in chosen[c.level]], len(s.heading_edges()) - 1)
+                totals = planned_totals([plans[x.id] for x in chosen[c.level]], len(s.heading_edges()) - 1)
                 if min(totals) >= s.min_relevant_per_bin or len(chosen[c.level]) >= s.max_seeds:
                     open_levels.remove(c.level)
             seed += 1
@@ -228,22 +194,20 @@ class BenchmarkJob:
         return rec.get("status") == "ok" and rec.get("key") == c.key() and all(f.is_file() for f in files)
 
     def _run_cell(self, c: Cell, ex: Executor) -> None:
-        from roman_sim.pipeline.experiment import Experiment
-
         folder = self.out / CELLS_DIR / c.id
         try:
             data = json.loads((folder / SCENARIO_JSON).read_text(encoding="utf-8"))
         except (OSError, ValueError) as err:
             raise StorageError(f"{folder / SCENARIO_JSON}: unreadable ({type(err).__name__})") from None
         sc = validate_model(Scenario, data, source=str(folder / SCENARIO_JSON))
-        res = Experiment(sc, self.out / WORK_DIR / c.id, executor=ex).run()
+        chunk = self.executor.chunk_pairs if self.executor is not None else ExecutorConfig().chunk_pairs
+        res = CellExperiment(sc, self.out / WORK_DIR / c.id, executor=ex, chunk_pairs=chunk).run()
         raw = (res.run_dir / "pairs.csv").read_bytes()
         write_bytes(folder / PAIRS_GZ, gzip.compress(raw, mtime=0))
         write_text(folder / "config.yaml", dump_yaml(sc))
         alignment = (res.timings.get("evaluation") or {}).get("alignment") or {}
-        write_json(
-            folder / RUNTIMES_JSON, {m: _runtime(a.get("per_pair_s") or []) for m, a in sorted(alignment.items())}
-        )
+        runtimes = {m: runtime_summary(a.get("per_pair_s") or []) for m, a in sorted(alignment.items())}
+        write_json(folder / RUNTIMES_JSON, runtimes)
 
     def _finish(self, c: Cell, status: str, error: str | None = None) -> None:
         write_json(
@@ -300,22 +264,3 @@ class BenchmarkJob:
             self._finish(c, "failed", outcome.failures[c.id])
         else:
             self._finish(c, "ok")
-
-
-def _totals(plans: list[dict[str, Any]], n_bins: int) -> list[int]:
-    """Planned relevant pairs per bin summed over the plans that succeeded."""
-    out = [0] * n_bins
-    for p in plans:
-        for i, v in enumerate(p.get("relevant") or []):
-            out[i] += int(v)
-    return out
-
-
-def _runtime(per_pair: list[float]) -> dict[str, Any]:
-    """Runtime statistics of one method in one cell (s): n, mean, median, p90 and p10."""
-    import numpy as np
-
-    stats = runtime_stats(per_pair)
-    r = np.asarray([x for x in per_pair if x is not None and np.isfinite(x)], dtype=np.float64)
-    stats["p10"] = float(np.percentile(r, 10)) if len(r) else None
-    return stats

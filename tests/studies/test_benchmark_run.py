@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from roman_sim.cli import app
 from roman_sim.core.errors import ConfigError
+from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.studies.benchmark_board import leaderboard
 from roman_sim.studies.benchmark_run import BenchmarkJob
 from roman_sim.studies.benchmark_suites import load_suite
@@ -121,7 +122,7 @@ def _own_max_hits(path: Path) -> dict[str, tuple[int, int]]:
     return out
 
 
-def test_planned_relevant_pairs_are_the_run_s_and_the_board_follows_from_raw_pairs(failed_once: dict) -> None:
+def test_planned_relevant_pairs_are_the_run_s_and_the_board_follows_from_raw_pairs(failed_once: dict, by_hand) -> None:
     folder = failed_once["folder"]
     plan = json.loads((folder / "plan.json").read_text())["cells"]["distinct-s0"]
     board, _ = leaderboard(folder)
@@ -132,6 +133,18 @@ def test_planned_relevant_pairs_are_the_run_s_and_the_board_follows_from_raw_pai
         p = level["overall"]["methods"][m]["max_recall"]
         assert (p["hits"], p["n_relevant"]) == (hits, rel), m
     assert json.loads((folder / "leaderboard.json").read_text()) == json.loads(json.dumps(board))
+    block = readme_block(board, "plots/recall_heading.png")
+    assert block.startswith(README_BEGIN) and block.endswith(README_END)
+    p = level["overall"]["methods"]["roman"]["max_recall"]
+    assert "- max recall: roman ranks first alone in " in block and "distinct ambiguity (index 0." in block
+    assert p["hits"] <= p["n_relevant"]
+    hand = by_hand(folder)  # the scorer the committed standard results are checked with
+    for b in level["bins"]:
+        for m, pts in b["methods"].items():
+            assert hand.get(("distinct", b["heading"], m), (0, 0)) == (
+                pts["max_recall"]["hits"],
+                pts["max_recall"]["n_relevant"],
+            ), (b["heading"], m)
 
 
 def test_a_rerun_resumes_and_assert_benchmark_pins_cells(failed_once: dict, home: Path, monkeypatch) -> None:
