@@ -120,13 +120,13 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
         "",
     ]
     lines += [
-        f"### Max recall per heading bin, {label}, fine bins",
+        f"### Recall per heading bin, {label}, fine bins",
         "",
         *markdown_table(bin_rows(metrics, kind, "heading_bins_fine")),
         "",
     ]
     lines += [
-        f"### Max recall against place ambiguity, {label}",
+        f"### Recall against place ambiguity, {label}",
         "",
         *markdown_table(bin_rows(metrics, kind, "ambiguity_bins")),
         "",

@@ -67,8 +67,11 @@ def _precision_cell(p: OperatingPoint | None) -> str:
 
 
 def _point_rate(p: OperatingPoint | None, min_n: int, interval: bool) -> str:
+    """The recall cell of an operating point (``not reached (0/n)`` when no threshold met it)."""
     if p is None:
         return NA
+    if not p.reached and p.n_relevant:
+        return f"not reached (0/{p.n_relevant})"
     return rate_cell(p.recall, p.hits, p.n_relevant, p.recall_ci, min_n, interval=interval)
 
 
@@ -108,13 +111,28 @@ def summary_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -
     return rows
 
 
-def bin_rows(metrics: EvaluationMetrics, kind: str, table: str) -> list[dict[str, str]]:
-    """Max recall per bin (``heading_bins_fine`` or ``ambiguity_bins``) per method, with counts."""
+def bin_rows(
+    metrics: EvaluationMetrics,
+    kind: str,
+    table: str,
+    points: tuple[str, ...] = ("max_recall", "precision_90", "acceptance"),
+) -> list[dict[str, str]]:
+    """Recall per bin (``heading_bins_fine`` or ``ambiguity_bins``) per method, with counts: one row per
+    operating point of ``points`` (max recall, at precision >= 0.9, at the acceptance threshold)."""
     min_n = int(metrics.config.get("min_relevant", 5))
-    return [
-        {"method": name, **{b.label: recall_cell(b.stats, min_n, interval=False) for b in getattr(m.set(kind), table)}}
-        for name, m in metrics.methods.items()
-    ]
+    rows = []
+    for name, m in metrics.methods.items():
+        bins = getattr(m.set(kind), table)
+        for point in points:
+            label = POINT_LABELS[point] + (f" (k={metrics.acceptance_k})" if point == "acceptance" else "")
+            if point == "max_recall":
+                cells = {b.label: recall_cell(b.stats, min_n, interval=False) for b in bins}
+            elif not any(b.stats.operating_points.get(point) for b in bins):
+                continue  # a file written before the operating points, or no acceptance threshold
+            else:
+                cells = {b.label: _point_rate(b.stats.operating_points.get(point), min_n, False) for b in bins}
+            rows.append({"method": name, "figure": label, **cells})
+    return rows
 
 
 def association_rows(metrics: EvaluationMetrics, kind: str) -> list[dict[str, str]]:

@@ -11,7 +11,7 @@ from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import summary
 from roman_sim.evaluation.operating_points import POINT_NAMES, strip_absent_points
 from roman_sim.evaluation.types import EvaluationMetrics
-from roman_sim.report.tables import operating_point_rows, point_cell, summary_rows
+from roman_sim.report.tables import bin_rows, operating_point_rows, point_cell, summary_rows
 
 Z95 = 1.959963984540054
 
@@ -114,3 +114,11 @@ def test_tables_show_thresholds_and_precision(six):
     assert rows[0]["recall at acceptance (k=4)"].endswith("at k=4, P=0.67 (2/3)")
     s = summary_rows(m, "inter")[0]
     assert s["P at max recall"] == "0.67 (2/3) at k=5" and s["recall@accept (k=4)"].startswith("0.50 (2/4)")
+
+
+def test_bin_tables_give_each_operating_point(six):
+    rows = bin_rows(summary(six, EvalConfig(min_relevant=1), acceptance_k=4), "inter", "heading_bins_fine")
+    assert [r["figure"] for r in rows] == ["max recall", "recall at P>=0.9", "recall at acceptance (k=4)"]
+    assert rows[0]["0-30"] == "1.00 (1/1)" and rows[1]["0-30"] == "1.00 (1/1)" and rows[2]["0-30"] == "1.00 (1/1)"
+    assert rows[0]["150-180"] == "0.00 (0/2)" and rows[1]["150-180"] == "not reached (0/2)"  # both pairs wrong
+    assert rows[0]["90-120"] == "n/a"  # only an irrelevant pair there
