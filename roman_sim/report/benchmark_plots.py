@@ -142,7 +142,7 @@ def plot_runtime(board: dict[str, Any], path: Path) -> Path | None:
         )
     ax.set_xticks(x, names, fontsize=8)
     ax.set_yscale("log")
-    ax.set(ylabel="ms per pair", title="Runtime per pair (bar: mean over every pair)")
+    ax.set(ylabel="ms per pair", title="Runtime per pair, wall clock on the machine that ran it (bar: mean)")
     ax.grid(axis="y", alpha=0.3)
     ax.legend(fontsize=7)
     return save_png(fig, path)
