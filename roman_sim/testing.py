@@ -2,18 +2,25 @@
 
 Example (in a user's own test suite)::
 
-    from roman_sim.testing import assert_recall, run_scenario
+    from roman_sim.testing import assert_benchmark, assert_hits, assert_not_worse, run_scenario
 
     def test_my_aligner_keeps_recall(tmp_path_factory):
         run = run_scenario("smoke", aligners=["my_pkg.align:MyAligner"],
                            out=tmp_path_factory.getbasetemp() / "smoke")
-        assert_recall(run, "MyAligner", {"0-60": 0.2, "120-180": 0.1})
-        assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")
+        assert_hits(run, "MyAligner", {None: (11, 20), "120-180": (9, 15)})   # (hits, relevant)
+        assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")  # one-sided, 95 %
+
+    def test_my_aligner_on_the_quick_benchmark(tmp_path_factory):
+        assert_benchmark("my_pkg.align:MyAligner", "quick", pinned={"low/all": (14, 30), "high/all": (6, 33)},
+                         out=tmp_path_factory.getbasetemp() / "quick")
 
 Runs are cached in ``out``: several tests on the same scenario share one simulation. Figures
 refer to the run's headline pair set (cross-robot pairs when the run has them) unless
-``kind`` names the other (``inter`` or ``intra``). Prefer pinning counts
-(``assert_hits``): a recall of 2 relevant pairs moves by 0.5 when one pair flips.
+``kind`` names the other (``inter`` or ``intra``). Pins are counts, hits together with the
+relevant pairs they are out of, exact by default: a recall of 2 relevant pairs moves by 0.5
+when one pair flips, and a pin of hits alone would still pass when the relevant pairs grow.
+Every helper rejects a pin that cannot fail (empty, NaN, a boolean, a bare number where a
+count is meant) with a ``ConfigError`` naming the argument.
 """
 
 from __future__ import annotations
@@ -21,14 +28,18 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
+
+import numpy as np
 
 from roman_sim.core.errors import ConfigError
+from roman_sim.evaluation.operating_points import POINT_NAMES
+from roman_sim.evaluation.ranking import one_sided_bounds
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
 
-#: The figures ``assert_recall`` and ``assert_not_worse`` compare (all fractions in [0, 1]).
+#: The figures ``assert_recall`` bounds (all fractions in [0, 1]).
 FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
 
 
@@ -124,18 +135,106 @@ def _figure(run: RunResult, method: str, bin_label: str | None, key: str, kind: 
     return run.metrics.figure(method, bin_label, key, kind)
 
 
+def _count(value: Any, what: str) -> int:
+    """A non-negative integer (booleans and floats are not counts); ``ConfigError`` naming ``what``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        raise ConfigError(f"{what}: expected a non-negative integer count, got {value!r}")
+    if value < 0:
+        raise ConfigError(f"{what}: expected a non-negative integer count, got {value!r}")
+    return int(value)
+
+
+def _tolerance(value: Any) -> float:
+    """A finite non-negative number of hits (not a boolean)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ConfigError(f"tolerance: expected a finite number >= 0 of hits, got {value!r}")
+    if not math.isfinite(float(value)) or value < 0:
+        raise ConfigError(f"tolerance: expected a finite number >= 0 of hits, got {value!r}")
+    return float(value)
+
+
+def count_pins(pinned: Any, what: str = "pinned") -> dict[Any, tuple[int, int]]:
+    """``{cell: (hits, relevant)}`` validated: non-empty, integer counts, hits within relevant.
+
+    Raises:
+        ConfigError: an empty or non-mapping pin, a bare number (hits without relevant
+            pairs), NaN, a boolean, a negative count or more hits than relevant pairs.
+    """
+    if not isinstance(pinned, Mapping):
+        raise ConfigError(f"{what}: expected a mapping such as {{None: (11, 20)}}, got {type(pinned).__name__}")
+    if not pinned:
+        raise ConfigError(f"{what}: an empty pin checks nothing (give {{None: (hits, relevant)}} at least)")
+    out: dict[Any, tuple[int, int]] = {}
+    for cell, pin in pinned.items():
+        where = f"{what}[{cell!r}]"
+        if not isinstance(pin, (tuple, list)) or len(pin) != 2:
+            raise ConfigError(
+                f"{where}: expected (hits, relevant), got {pin!r} (a pin of hits alone still passes when the "
+                "relevant pairs change)"
+            )
+        hits, relevant = _count(pin[0], f"{where} hits"), _count(pin[1], f"{where} relevant")
+        if hits > relevant:
+            raise ConfigError(f"{where}: {hits} hits out of {relevant} relevant pairs")
+        out[cell] = (hits, relevant)
+    return out
+
+
+def check_counts(label: str, got: tuple[int, int], pin: tuple[int, int], tolerance: float) -> str | None:
+    """Why ``got`` (hits, relevant) does not match ``pin`` (None when it does)."""
+    (h, n), (ph, pn) = got, pin
+    if n != pn:
+        return f"{label}: relevant pairs changed: pinned {ph}/{pn}, now {h}/{n} (the scenario changed: re-pin)"
+    if abs(h - ph) > tolerance:
+        return f"{label}: {h}/{n} hits, pinned {ph}/{pn} +- {tolerance:g}"
+    return None
+
+
 def assert_hits(
-    run: RunResult, method: str, pinned: Mapping[str | None, int], tolerance: int = 1, kind: str | None = None
+    run: RunResult,
+    method: str,
+    pinned: Mapping[str | None, tuple[int, int]],
+    tolerance: float = 0,
+    kind: str | None = None,
 ) -> None:
-    """Assert ``method``'s max-recall hits per heading bin (None: overall) are within ``tolerance``."""
+    """Assert ``method``'s max-recall hits and relevant pairs per heading bin (None: overall).
+
+    Args:
+        run: a finished run.
+        method: aligner label (for ``package.module:Class`` the class name).
+        pinned: ``{None: (hits, relevant), "120-180": (hits, relevant)}``; the relevant count must
+            match exactly (it follows from the trajectories), the hits within ``tolerance``.
+        tolerance: allowed difference in hits (default 0: exact; a finite number >= 0).
+        kind: pair set (default: the run's headline set).
+    """
     method = method_label(method)
+    pins, tol = count_pins(pinned), _tolerance(tolerance)
+    for label in pins:
+        if label is not None and not isinstance(label, str):
+            raise ConfigError(f"pinned: heading bin labels are strings such as '0-60' or None, got {label!r}")
     failures = []
-    for bin_label, hits in pinned.items():
-        s = run.metrics.stats(method, bin_label, kind)
-        if abs(s.max_hits - hits) > tolerance:
-            where = "overall" if bin_label is None else f"heading {bin_label} deg"
-            failures.append(f"{method} hits {where}: {s.max_hits}/{s.n_relevant}, pinned {hits} +- {tolerance}")
+    for label, pin in pins.items():
+        s = run.metrics.stats(method, label, kind)
+        where = "overall" if label is None else f"heading {label} deg"
+        problem = check_counts(f"{method} hits {where}", (s.max_hits, s.n_relevant), pin, tol)
+        if problem:
+            failures.append(problem)
     assert not failures, "; ".join(failures)
+
+
+#: Figures ``assert_not_worse`` compares by interval: their (hits, relevant) counts.
+COUNTED = {
+    "max_recall": lambda s: (s.max_hits, s.n_relevant),
+    "recall_at_precision_1": lambda s: (s.hits_at_precision_1, s.n_relevant),
+    "recall_at_precision_90": lambda s: _point_counts(s, "precision_90"),
+    "recall_at_acceptance": lambda s: _point_counts(s, "acceptance"),
+}
+
+
+def _point_counts(s: Any, name: str) -> tuple[int, int]:
+    p = s.operating_points.get(name)
+    if p is None:
+        raise ConfigError(f"key: this run has no {name!r} operating point (written before they existed?)")
+    return p.hits, p.n_relevant
 
 
 def assert_not_worse(
@@ -144,17 +243,116 @@ def assert_not_worse(
     baseline: str,
     heading_bin: str | None = None,
     key: str = "max_recall",
-    tolerance: float = 0.0,
+    level: float = 0.95,
     kind: str | None = None,
 ) -> None:
-    """Assert ``method`` reaches at least ``baseline``'s figure (minus ``tolerance``)."""
-    method, baseline, key = method_label(method), method_label(baseline), _check_key(key)
-    tolerance = _fraction(tolerance, "tolerance")
+    """Assert ``method`` is not significantly worse than ``baseline`` (one-sided Wilson bounds at ``level``).
+
+    It fails only when ``method``'s upper bound lies below ``baseline``'s lower bound, each
+    one-sided at ``level``: a point estimate below the baseline's by chance passes, a method
+    whose recall fell clearly fails.
+
+    Args:
+        key: a counted figure: ``max_recall``, ``recall_at_precision_1``, ``recall_at_precision_90``,
+            ``recall_at_acceptance``.
+        level: one-sided confidence level of each bound, in [0.5, 1).
+    """
+    method, baseline = method_label(method), method_label(baseline)
+    if key not in COUNTED:
+        raise ConfigError(f"key: {key!r} cannot be compared by interval (valid: {', '.join(COUNTED)})")
+    if isinstance(level, bool) or not isinstance(level, (int, float)) or not 0.5 <= level < 1.0:
+        raise ConfigError(f"level: expected a one-sided confidence level in [0.5, 1), got {level!r}")
     if heading_bin is not None and not isinstance(heading_bin, str):
         raise ConfigError(f"heading_bin: expected a bin label such as '120-180' or None, got {heading_bin!r}")
-    got, ref = _figure(run, method, heading_bin, key, kind), _figure(run, baseline, heading_bin, key, kind)
-    assert got is not None and ref is not None, f"{key} undefined: {method}={got}, {baseline}={ref}"
-    assert got >= ref - tolerance, f"{method} {key} {heading_bin or 'overall'}: {got:.3f} < {baseline} {ref:.3f}"
+    (h, n), (hb, nb) = (COUNTED[key](run.metrics.stats(m, heading_bin, kind)) for m in (method, baseline))
+    where = heading_bin or "overall"
+    assert n and nb, f"{key} {where}: undefined (no relevant pairs): {method} {h}/{n}, {baseline} {hb}/{nb}"
+    upper, lower = one_sided_bounds(h, n, level)[1], one_sided_bounds(hb, nb, level)[0]  # type: ignore[index]
+    assert upper >= lower, (
+        f"{method} {key} {where}: {h}/{n} = {h / n:.3f}, its upper {level:.0%} bound {upper:.3f} lies below "
+        f"{baseline}'s {hb}/{nb} = {hb / nb:.3f}, lower bound {lower:.3f}"
+    )
+
+
+def benchmark_pins(board: Mapping[str, Any], method: str, point: str = "max_recall") -> dict[str, tuple[int, int]]:
+    """``{"<level>/<heading bin>": (hits, relevant)}`` of ``method`` in a leaderboard (``"<level>/all"`` too)."""
+    method = method_label(method)
+    out = {}
+    for e in board["levels"]:
+        for cell in [*e.get("bins", []), *([e["overall"]] if e.get("overall") else [])]:
+            p = cell["methods"].get(method, {}).get(point)
+            if p is not None:
+                out[f"{e['name']}/{cell['heading']}"] = (int(p["hits"]), int(p["n_relevant"]))
+    return out
+
+
+def check_benchmark(
+    board: Mapping[str, Any],
+    method: str,
+    pinned: Mapping[str, tuple[int, int]],
+    tolerance: float = 0,
+    point: str = "max_recall",
+) -> None:
+    """Assert ``method``'s leaderboard cells (``"<level>/<heading bin>"``) match ``pinned`` (hits, relevant)."""
+    pins, tol = count_pins(pinned), _tolerance(tolerance)
+    if point not in POINT_NAMES:
+        raise ConfigError(f"point: unknown operating point {point!r} (valid: {', '.join(POINT_NAMES)})")
+    have = benchmark_pins(board, method, point)
+    if not have:
+        raise ConfigError(
+            f"method {method_label(method)!r} is not in this leaderboard (methods: {', '.join(board['methods'])})"
+        )
+    failures = []
+    for cell, pin in pins.items():
+        if cell not in have:
+            raise ConfigError(f"pinned[{cell!r}]: no such cell (cells: {', '.join(have)})")
+        problem = check_counts(f"{method_label(method)} {point} {cell}", have[cell], pin, tol)
+        if problem:
+            failures.append(problem)
+    assert not failures, "; ".join(failures)
+
+
+def assert_benchmark(
+    method: str,
+    suite: str | Path = "quick",
+    *,
+    pinned: Mapping[str, tuple[int, int]],
+    tolerance: float = 0,
+    point: str = "max_recall",
+    out: str | Path | None = None,
+    executor: Any = None,
+) -> dict[str, Any]:
+    """Run (or reuse) benchmark ``suite`` with ``method`` alone and pin its leaderboard cells.
+
+    Args:
+        method: a registered method or ``package.module:Class``.
+        suite: ``quick``, ``standard`` or a suite YAML file.
+        pinned: ``{"<level>/<heading bin>": (hits, relevant)}``, e.g. ``{"high/150-180": (9, 31),
+            "low/all": (40, 90)}`` (``benchmark_pins`` lists a leaderboard's cells).
+        tolerance: allowed difference in hits (default 0).
+        point: the operating point pinned (``max_recall``, ``precision_90``, ``precision_100``,
+            ``acceptance``).
+        out: benchmark folder (cached: unchanged cells are not run again); default
+            ``results/benchmark/<suite>-<method label>``.
+        executor: an ``ExecutorConfig`` (default: this process).
+
+    Returns:
+        The leaderboard (``leaderboard.json``), to print or pin more cells from.
+    """
+    import json
+
+    from roman_sim.studies.benchmark_run import BenchmarkJob
+    from roman_sim.studies.benchmark_suites import load_suite
+
+    count_pins(pinned)
+    _tolerance(tolerance)
+    spec = load_suite(suite)
+    folder = Path(out) if out is not None else Path("results") / "benchmark" / f"{spec.name}-{method_label(method)}"
+    outcome = BenchmarkJob(spec, folder, [method], executor=executor).run()
+    assert not outcome.failures, f"benchmark {spec.name}: cells failed: {outcome.failures}"
+    board = json.loads((outcome.out_dir / "leaderboard.json").read_text(encoding="utf-8"))
+    check_benchmark(board, method, pinned, tolerance, point)
+    return dict(board)
 
 
 def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", alignment: str = "se3") -> None:

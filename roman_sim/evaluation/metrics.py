@@ -7,7 +7,10 @@ its translation error within ``trans_tol_m``; a pair is *positive* at threshold 
 aligner accepted at least k associations. TP = relevant, positive and correct; FP =
 positive and not correct; recall = TP / relevant; precision = TP / (TP + FP). Every recall
 comes with its count (hits / relevant) and a Wilson interval; a set with fewer than
-``min_relevant`` relevant pairs is flagged ``few``.
+``min_relevant`` relevant pairs is flagged ``few``. Next to max recall every set and bin
+has its operating points (``operating_points``): max recall with its precision, recall at
+precision >= 0.9 and 1 with their thresholds, and recall at the pose graph's acceptance
+threshold.
 
 Association truth (``assoc``): per pair, the true correspondences available and, of the
 method's selected associations, the correct and recovered ones; a pair set's association
@@ -38,6 +41,7 @@ from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
+from roman_sim.evaluation.operating_points import OperatingPoints, point_at, sweep_points
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
     PAIR_SET_LABELS,
@@ -52,7 +56,7 @@ from roman_sim.evaluation.types import (
 
 log = logging.getLogger(__name__)
 
-__all__ = ["EvalConfig", "PairScore", "auc", "curve_stats", "pr_curve", "score_pair", "summary"]
+__all__ = ["EvalConfig", "PairScore", "auc", "curve_stats", "operating_points", "pr_curve", "score_pair", "summary"]
 
 
 @dataclass(frozen=True)
@@ -185,8 +189,23 @@ def _assoc_stats(scores: list[PairScore], level: float) -> dict[str, object]:
     }
 
 
-def curve_stats(scores: list[PairScore], k_values: list[int], cfg: EvalConfig | None = None) -> CurveStats:
-    """Headline numbers of one method on a set of pairs (``None`` where undefined)."""
+def operating_points(scores: list[PairScore], c: PRCurve, acceptance_k: int | None, level: float) -> OperatingPoints:
+    """The operating points of ``scores`` (whose sweep is ``c``); acceptance at ``acceptance_k`` if given."""
+    points: OperatingPoints = dict(sweep_points(c.k, c.tp, c.fp, c.n_relevant, level))
+    points["acceptance"] = None
+    if acceptance_k is not None:
+        at = pr_curve(scores, [acceptance_k])
+        points["acceptance"] = point_at(acceptance_k, int(at.tp[0]), int(at.fp[0]), c.n_relevant, level)
+    return points
+
+
+def curve_stats(
+    scores: list[PairScore], k_values: list[int], cfg: EvalConfig | None = None, acceptance_k: int | None = None
+) -> CurveStats:
+    """Headline numbers of one method on a set of pairs (``None`` where undefined).
+
+    ``acceptance_k`` is the pose graph's acceptance threshold (the ``acceptance`` operating point).
+    """
     cfg = cfg or EvalConfig()
     c = pr_curve(scores, k_values)
     p1 = np.flatnonzero(c.precision == 1.0)
@@ -211,12 +230,13 @@ def curve_stats(scores: list[PairScore], k_values: list[int], cfg: EvalConfig | 
         best_f1_k=None if best is None else int(c.k[best]),
         auc=nan_to_none(auc(c)),
         **_assoc_stats(scores, cfg.interval_level),  # type: ignore[arg-type]
+        operating_points=operating_points(scores, c, acceptance_k, cfg.interval_level),
     )
 
 
-def _set_summary(scores: list[PairScore], cfg: EvalConfig) -> PairSetMetrics:
+def _set_summary(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | None) -> PairSetMetrics:
     ks = cfg.k_values()
-    stats = partial(curve_stats, cfg=cfg)
+    stats = partial(curve_stats, cfg=cfg, acceptance_k=acceptance_k)
     head = [s.truth.heading_diff_deg for s in scores]
     amb = [s.truth.ambiguity for s in scores]
     return PairSetMetrics(
@@ -232,8 +252,8 @@ def _set_summary(scores: list[PairScore], cfg: EvalConfig) -> PairSetMetrics:
     )
 
 
-def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> MethodMetrics:
-    sets = {k: _set_summary([s for s in scores if s.truth.kind == k], cfg) for k in PAIR_SETS}
+def _method_summary(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | None) -> MethodMetrics:
+    sets = {k: _set_summary([s for s in scores if s.truth.kind == k], cfg, acceptance_k) for k in PAIR_SETS}
     return MethodMetrics(sets, n_failed=sum(1 for s in scores if s.reason is not None))
 
 
@@ -248,13 +268,17 @@ def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
     }
 
 
-def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: int = 0) -> EvaluationMetrics:
+def summary(
+    scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: int = 0, acceptance_k: int | None = None
+) -> EvaluationMetrics:
     """Per-method metrics of ``scores`` (undefined figures are ``None`` and explained in ``notes``).
 
     Args:
         scores: scored pairs of every method.
         cfg: the evaluation settings.
         n_skipped: pairs a distance cap left out (reported, not scored).
+        acceptance_k: the pose graph's acceptance threshold (``lc_association_thresh``) for
+            the ``acceptance`` operating points; None: no such point.
     """
     cfg = cfg or EvalConfig()
     methods = sorted({s.method for s in scores})
@@ -268,7 +292,8 @@ def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: i
         pairs=counts,
         n_candidates=counts["all"]["n_pairs"] + n_skipped,
         n_skipped=n_skipped,
-        methods={m: _method_summary([s for s in scores if s.method == m], cfg) for m in methods},
+        methods={m: _method_summary([s for s in scores if s.method == m], cfg, acceptance_k) for m in methods},
+        acceptance_k=acceptance_k,
     )
     out.notes += _notes(out, cfg)
     return out

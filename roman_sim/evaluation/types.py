@@ -14,7 +14,7 @@ Wall-clock runtimes are not part of it (they differ between runs of the same see
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -23,6 +23,8 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, VariantAte
+from roman_sim.evaluation.intervals import Interval, interval_from_json
+from roman_sim.evaluation.operating_points import OperatingPoints, points_from_json, points_to_json
 from roman_sim.evaluation.records import AlignmentRecord, MapStats
 
 __all__ = [
@@ -64,12 +66,6 @@ PAIR_SETS = ("inter", "intra")
 #: How the pair sets are named in tables.
 PAIR_SET_LABELS = {"inter": "cross-robot", "intra": "same-robot", "all": "all pairs"}
 
-Interval = tuple[float, float] | None
-
-
-def _interval(v: Any) -> Interval:
-    return None if v is None else (float(v[0]), float(v[1]))
-
 
 @dataclass(frozen=True)
 class CurveStats:
@@ -95,6 +91,9 @@ class CurveStats:
         assoc_recall, assoc_recall_ci: recovered / available and its Wilson interval (the
             intervals treat associations as independent; they cluster by pair, so they
             understate the uncertainty).
+        operating_points: recall and precision at max recall, at precision >= 0.9 and 1, and
+            at the pose graph's acceptance threshold (``operating_points.POINT_NAMES``; empty
+            when read from a file written before they existed).
     """
 
     n_pairs: int
@@ -118,18 +117,28 @@ class CurveStats:
     assoc_precision_ci: Interval = None
     assoc_recall: float | None = None
     assoc_recall_ci: Interval = None
+    operating_points: OperatingPoints = field(default_factory=dict)
 
     def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (intervals as [low, high] lists)."""
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in asdict(self).items()}
+        """JSON-ready dict (intervals as [low, high] lists; operating points only when computed)."""
+        out: dict[str, JSONLike] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name != "operating_points":
+                out[f.name] = list(v) if isinstance(v, tuple) else v
+        if self.operating_points:
+            out["operating_points"] = points_to_json(self.operating_points)
+        return out
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> "CurveStats":
         """Inverse of ``to_json``."""
         values: dict[str, Any] = {
-            f.name: (_interval(d[f.name]) if f.name.endswith("_ci") else d[f.name]) for f in fields(cls)
+            f.name: (interval_from_json(d[f.name]) if f.name.endswith("_ci") else d[f.name])
+            for f in fields(cls)
+            if f.name != "operating_points"
         }
-        return cls(**values)
+        return cls(**values, operating_points=points_from_json(d.get("operating_points")))
 
 
 @dataclass(frozen=True)
@@ -295,6 +304,8 @@ class EvaluationMetrics:
         notes: statements for the report (undefined figures and why).
         frontend: the front end's grades against truth (``FrontEndGrades.to_json()``), or
             None when the run did not map (saved submaps).
+        acceptance_k: the pose graph's acceptance threshold the ``acceptance`` operating
+            points use (None: not given, no acceptance point).
     """
 
     config: dict[str, Any]
@@ -307,6 +318,7 @@ class EvaluationMetrics:
     methods: dict[str, MethodMetrics]
     notes: list[str] = field(default_factory=list)
     frontend: dict[str, JSONLike] | None = None
+    acceptance_k: int | None = None
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -344,6 +356,7 @@ class EvaluationMetrics:
             "methods": {k: v.to_json() for k, v in self.methods.items()},
             "notes": list(self.notes),
             **({} if self.frontend is None else {"frontend": self.frontend}),
+            "acceptance_k": self.acceptance_k,
         }
 
     @classmethod
@@ -364,6 +377,7 @@ class EvaluationMetrics:
                 {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()},
                 list(d.get("notes", [])),
                 d.get("frontend"),
+                None if d.get("acceptance_k") is None else int(d["acceptance_k"]),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

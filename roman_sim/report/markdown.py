@@ -26,6 +26,7 @@ from roman_sim.report.tables import (
     bin_rows,
     fmt,
     markdown_table,
+    operating_point_rows,
     summary_rows,
 )
 
@@ -40,6 +41,7 @@ PLOT_CAPTIONS = {
     "recall_heading.png": "Max recall per heading bin, with counts and 95 % intervals",
     "recall_heading_fine.png": "Max recall per heading bin (fine bins)",
     "recall_ambiguity.png": "Max recall against place ambiguity",
+    "recall_operating_points.png": "Recall at max recall, precision >= 0.9, precision 1 and the acceptance threshold",
     "association_heading.png": "Association precision and recall per heading bin",
     "segments_on_image.png": "Segment masks over a camera image",
     "map_view.png": "Segment maps (map view)",
@@ -96,6 +98,10 @@ def _header(metrics: EvaluationMetrics) -> list[str]:
         f"- Recall cells: max recall over k (hits/relevant) [{cfg.interval_level:.0%} Wilson interval]; "
         f"'n<{cfg.min_relevant}: h/n' marks a set with fewer than {cfg.min_relevant} relevant pairs (too few to give a "
         f"rate); {NA}: no relevant pair.",
+        "- Operating points: max recall with the precision at the highest k that keeps it; recall at the smallest "
+        "k whose precision is >= 0.9 and = 1 (`not reached` when no k is); recall at the pose graph's acceptance "
+        f"threshold k = {NA if metrics.acceptance_k is None else metrics.acceptance_k}. Precision = TP / (TP + FP) "
+        "with its count.",
         "",
     ]
 
@@ -107,13 +113,19 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
         return [title, "", f"No {label} pairs in this run.", ""]
     lines = [title, "", *markdown_table(summary_rows(metrics, kind)), ""]
     lines += [
-        f"### Max recall per heading bin, {label}, fine bins",
+        f"### Operating points per heading bin, {label}",
+        "",
+        *markdown_table(operating_point_rows(metrics, kind)),
+        "",
+    ]
+    lines += [
+        f"### Recall per heading bin, {label}, fine bins",
         "",
         *markdown_table(bin_rows(metrics, kind, "heading_bins_fine")),
         "",
     ]
     lines += [
-        f"### Max recall against place ambiguity, {label}",
+        f"### Recall against place ambiguity, {label}",
         "",
         *markdown_table(bin_rows(metrics, kind, "ambiguity_bins")),
         "",

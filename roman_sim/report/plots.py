@@ -5,7 +5,11 @@ Drawn from ``EvaluationMetrics`` (what ``metrics.json`` holds), for the headline
 where they have relevant pairs:
 
 - ``precision_recall.png``: precision over recall as the association threshold k rises;
-- ``precision_recall_heading.png``: the same per coarse heading bin;
+- ``precision_recall_heading.png``: the same per coarse heading bin, with each method's
+  operating points marked (triangle: precision >= 0.9, square: the acceptance threshold);
+- ``recall_operating_points.png``: per coarse heading bin, recall at max recall, at
+  precision >= 0.9, at precision 1 and at the pose graph's acceptance threshold, with
+  counts and intervals;
 - ``recall_heading.png`` / ``recall_heading_fine.png``: max recall per heading bin with its
   hits / relevant count and 95 % Wilson interval; bins with fewer than ``min_relevant``
   relevant pairs are hatched and marked ``n<N`` instead of showing a rate;
@@ -31,6 +35,7 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
 from roman_sim.core.atomic import write_bytes
+from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES
 from roman_sim.evaluation.types import PAIR_SET_LABELS, BinStats, CurveStats, EvaluationMetrics, PRCurve
 
 log = logging.getLogger(__name__)
@@ -59,9 +64,19 @@ def _points(c: PRCurve) -> int:
     return int(np.sum(~(np.isnan(c.recall) | np.isnan(c.precision))))
 
 
-def _pr_axes(ax: Axes, curves: dict[str, PRCurve], title: str) -> None:
-    for name, c in curves.items():
-        ax.plot(c.recall, c.precision, marker=".", label=name)
+#: Operating point -> marker drawn on precision-recall curves.
+POINT_MARKERS = {"precision_90": "^", "acceptance": "s"}
+
+
+def pr_axes(ax: Axes, curves: dict[str, PRCurve], title: str, stats: dict[str, CurveStats] | None = None) -> None:
+    """Precision over recall, one line per method; with ``stats``, each method's operating points marked."""
+    for i, (name, c) in enumerate(curves.items()):
+        ax.plot(c.recall, c.precision, marker=".", label=name, color=f"C{i}")
+        pts = (stats or {}).get(name)
+        for point, marker in POINT_MARKERS.items():
+            p = pts.operating_points.get(point) if pts is not None else None
+            if p is not None and p.reached and p.recall is not None and p.precision is not None:
+                ax.scatter([p.recall], [p.precision], marker=marker, s=40, color=f"C{i}", edgecolors="black", zorder=3)
     ax.set(xlabel="recall", ylabel="precision", xlim=(0, 1.02), ylim=(0, 1.05), title=title)
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize=7)
@@ -75,7 +90,7 @@ def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
         return None
     fig = figure()
     rel = metrics.pairs[kind]["n_relevant"]
-    _pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
+    pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
     return save_png(fig, path)
 
 
@@ -90,8 +105,17 @@ def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None
     fig = figure(4.2 * len(bins), 4.0, ncols=len(bins))
     for ax, i in zip(fig.axes, bins):
         b = first.heading_bins[i]  # type: ignore[union-attr]
-        _pr_axes(ax, {m: s.heading_pr[i] for m, s in sets.items()}, f"{b.label} deg ({b.stats.n_relevant} relevant)")
-    fig.suptitle(f"Precision-recall over k per heading bin, {PAIR_SET_LABELS[kind]} pairs", fontsize=10)
+        pr_axes(
+            ax,
+            {m: s.heading_pr[i] for m, s in sets.items()},
+            f"{b.label} deg ({b.stats.n_relevant} relevant)",
+            {m: s.heading_bins[i].stats for m, s in sets.items()},
+        )
+    fig.suptitle(
+        f"Precision-recall over k per heading bin, {PAIR_SET_LABELS[kind]} pairs "
+        "(triangle: precision >= 0.9, square: acceptance threshold)",
+        fontsize=10,
+    )
     return save_png(fig, path)
 
 
@@ -152,6 +176,36 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
             loc="upper left",
             ncols=min(len(names), 4),
         )
+
+
+def point_getter(name: str) -> Getter:
+    """Recall, hits, relevant and interval of operating point ``name`` (a point never reached: 0)."""
+
+    def get(s: CurveStats) -> tuple[float | None, int, int, tuple[float, float] | None]:
+        p = s.operating_points.get(name)
+        if p is None:
+            return None, 0, 0, None
+        return p.recall, p.hits, p.n_relevant, p.recall_ci
+
+    return get
+
+
+def plot_operating_points(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
+    """Recall at each operating point per coarse heading bin (headline set); None if < 2 bins have data."""
+    kind = metrics.headline
+    rows = {m: mm.set(kind).heading_bins for m, mm in metrics.methods.items()}
+    first = next(iter(rows.values()), [])
+    names = [n for n in POINT_NAMES if first and any(b.stats.operating_points.get(n) for b in first)]
+    if not names or _with_data(rows, point_getter(names[0])) < 2:
+        return None
+    min_n = int(metrics.config["min_relevant"])
+    fig = figure(max(6.0, 0.35 * len(first) * len(rows) + 2.0), 3.4 * len(names), nrows=len(names))
+    for ax, name in zip(fig.axes, names):
+        label = POINT_LABELS[name] + (f" (k={metrics.acceptance_k})" if name == "acceptance" else "")
+        _bars(ax, rows, point_getter(name), min_n, "recall")
+        ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[kind]} pairs: {label}, hits/relevant")
+    fig.suptitle("Recall at each operating point per heading bin (95 % Wilson intervals)", fontsize=9)
+    return save_png(fig, path)
 
 
 def _with_data(rows: dict[str, list[BinStats]], get: Getter) -> int:
@@ -242,6 +296,7 @@ METRIC_PLOTS: dict[str, tuple[Callable[[EvaluationMetrics, Path], Path | None], 
         "two fine heading bins with relevant pairs",
     ),
     "recall_ambiguity.png": (plot_ambiguity_recall, "two ambiguity bins with relevant pairs"),
+    "recall_operating_points.png": (plot_operating_points, "two heading bins with relevant pairs"),
     "association_heading.png": (plot_association, "two heading bins with true correspondences"),
 }
 

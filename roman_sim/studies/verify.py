@@ -4,8 +4,10 @@ Two checks, the second independent of the first:
 
 - ``metrics.json`` from ``pairs.csv`` and the evaluation settings in ``config.yaml``: every
   pair's relevance and correctness are re-derived from its true distance, shared objects and
-  errors, then every figure is recomputed (``metrics.summary``). The number of pairs a
-  distance cap skipped is not in ``pairs.csv``; it is taken from ``metrics.json``.
+  errors, then every figure is recomputed (``metrics.summary``, the acceptance operating
+  points at ``posegraph.lc_association_thresh``). The number of pairs a distance cap skipped
+  is not in ``pairs.csv``; it is taken from ``metrics.json``. A file written before the
+  operating points existed is compared without them (and the check says so).
 - ``ate.json`` from ``trajectories/*.tum``: for each variant, the trajectories of the robots
   it placed (and the truth) are read and the table is recomputed (``atetable.ate_table``).
 
@@ -34,6 +36,7 @@ from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, is_correct, summary
+from roman_sim.evaluation.operating_points import strip_absent_points
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
 from roman_sim.evaluation.types import EvaluationMetrics
 
@@ -43,10 +46,11 @@ REL_TOL = 1e-9
 
 @dataclass
 class Verification:
-    """What was checked and what differed."""
+    """What was checked, what differed, and what could not be compared (``notes``)."""
 
     checked: list[str] = field(default_factory=list)
     differences: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
@@ -78,10 +82,15 @@ def compare(expected: Any, got: Any, where: str = "", rel_tol: float = REL_TOL, 
     return [f"{where}: file has {expected!r}, recomputed {got!r}"]
 
 
-def _eval_config(run_dir: Path) -> EvalConfig:
+def eval_settings(run_dir: Path) -> tuple[EvalConfig, int]:
+    """The evaluation settings and the pose graph's acceptance threshold of a run's ``config.yaml``."""
+    from roman_sim.posegraph import PoseGraphConfig
+
     data = read_yaml(run_dir / "config.yaml")
-    section = data.get("evaluation", {}) if isinstance(data, dict) else {}
-    return validate_model(EvalConfig, section or {}, source=f"{run_dir / 'config.yaml'}: evaluation")
+    data = data if isinstance(data, dict) else {}
+    cfg = validate_model(EvalConfig, data.get("evaluation") or {}, source=f"{run_dir / 'config.yaml'}: evaluation")
+    pg = validate_model(PoseGraphConfig, data.get("posegraph") or {}, source=f"{run_dir / 'config.yaml'}: posegraph")
+    return cfg, pg.lc_association_thresh
 
 
 def rederive(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore], list[str]]:
@@ -104,10 +113,10 @@ def rederive(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore],
 
 def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[EvaluationMetrics, list[str]]:
     """``metrics.json`` as recomputed from ``pairs_file`` and ``config.yaml``, and row-level differences."""
-    cfg = _eval_config(run_dir)
+    cfg, acceptance_k = eval_settings(run_dir)
     scores, diffs = rederive(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
-    metrics = summary(scores, cfg, stored.n_skipped)
+    metrics = summary(scores, cfg, stored.n_skipped, acceptance_k)
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
     return metrics, diffs
 
@@ -177,7 +186,10 @@ def verify_run(
     metrics, rows = recompute_metrics(d, pairs_file)
     out.checked.append(f"metrics.json from {pairs_file}")
     stored = json.loads((d / METRICS_JSON).read_text(encoding="utf-8"))
-    out.differences += rows + compare(stored, metrics.to_json(), "metrics.json", rel_tol)
+    again = metrics.to_json()
+    if strip_absent_points(stored, again):
+        out.notes.append("metrics.json predates the operating points: compared without them")
+    out.differences += rows + compare(stored, again, "metrics.json", rel_tol)
     if (d / ATE_JSON).is_file():
         try:
             table = recompute_ate(d, tum_suffix)

@@ -14,7 +14,16 @@ from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
-from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall, names_list, run_scenario
+from roman_sim.testing import (
+    assert_ate_below,
+    assert_hits,
+    assert_not_worse,
+    assert_recall,
+    benchmark_pins,
+    check_benchmark,
+    names_list,
+    run_scenario,
+)
 
 
 def _score(i: int, method: str, correct: bool) -> PairScore:
@@ -63,9 +72,7 @@ def test_figures_pass_and_fail_against_hand_computed_values(run: RunResult) -> N
     with pytest.raises(AssertionError, match="roman max_recall heading 120-180 deg: undefined .no relevant pairs."):
         assert_recall(run, "roman", {"120-180": 0.1})
     assert_not_worse(run, "roman", "clipper")
-    with pytest.raises(AssertionError, match=r"clipper max_recall overall: 0\.500 < roman 0\.750"):
-        assert_not_worse(run, "clipper", "roman")
-    assert_not_worse(run, "clipper", "roman", tolerance=0.25)
+    assert_not_worse(run, "clipper", "roman")  # 2/4 against 3/4: the intervals cannot tell them apart
     assert_ate_below(run, "roman")
 
 
@@ -94,14 +101,17 @@ def test_unknown_names_list_the_valid_ones(run: RunResult) -> None:
         ConfigError, match="key: unknown figure 'recall' .valid: max_recall, recall_at_precision_1, best_f1, auc."
     ):
         assert_recall(run, "roman", 0.1, key="recall")
-    with pytest.raises(ConfigError, match="key: unknown figure 'f1'"):
+    with pytest.raises(ConfigError, match="key: 'f1' cannot be compared by interval .valid: max_recall, "):
         assert_not_worse(run, "roman", "clipper", key="f1")
+    with pytest.raises(ConfigError, match="key: 'best_f1' cannot be compared by interval"):
+        assert_not_worse(run, "roman", "clipper", key="best_f1")
     with pytest.raises(EvaluationError, match=r"method 'ransac' not in this run \(methods: clipper, roman\)"):
         assert_recall(run, "ransac", 0.1)
     with pytest.raises(EvaluationError, match=r"heading bin '50-70' unknown \(bins: 0-60, 60-120, 120-180"):
         assert_recall(run, "roman", {"50-70": 0.1})
-    with pytest.raises(ConfigError, match="tolerance: expected a finite number in"):
-        assert_not_worse(run, "roman", "clipper", tolerance=math.nan)
+    for bad in (math.nan, 1.0, 0.3, True):
+        with pytest.raises(ConfigError, match="level: expected a one-sided confidence level in"):
+            assert_not_worse(run, "roman", "clipper", level=bad)
     with pytest.raises(ConfigError, match="heading_bin: expected a bin label"):
         assert_not_worse(run, "roman", "clipper", heading_bin=120)  # type: ignore[arg-type]
     with pytest.raises(EvaluationError, match=r"ATE variant 'gnc' unknown \(variants: odometry, roman\)"):
@@ -136,3 +146,89 @@ def test_names_list_accepts_any_iterable_of_strings() -> None:
     assert names_list(("a", "b"), "x") == ["a", "b"]
     assert names_list((n for n in ["c"]), "x") == ["c"]
     assert names_list([], "x") == []
+
+
+def _run_of(hits: dict[str, int], n: int = 50) -> RunResult:
+    """Each method aligns ``hits[method]`` of ``n`` relevant pairs at 30 deg (10 associations each)."""
+    scores = [_score(i, m, i < h) for m, h in hits.items() for i in range(n)]
+    return RunResult(Path("."), load_scenario("smoke"), summary(scores, acceptance_k=4), AteTable([], [], {}), None)  # type: ignore[arg-type]
+
+
+def test_assert_not_worse_fails_a_degraded_method_by_interval() -> None:
+    run = _run_of({"roman": 45, "degraded": 20, "slightly": 41})
+    assert_not_worse(run, "slightly", "roman")  # 41/50 against 45/50: within the one-sided bounds
+    with pytest.raises(AssertionError) as e:
+        assert_not_worse(run, "degraded", "roman")
+    assert "degraded max_recall overall: 20/50 = 0.400, its upper 95% bound" in str(e.value)
+    assert "roman's 45/50 = 0.900, lower bound" in str(e.value)
+    with pytest.raises(AssertionError):
+        assert_not_worse(run, "degraded", "roman", heading_bin="0-60", key="recall_at_precision_90")
+    assert_not_worse(run, "roman", "degraded", key="recall_at_acceptance")
+
+
+def test_assert_hits_pins_hits_and_relevant_together(run: RunResult) -> None:
+    assert_hits(run, "roman", {None: (3, 4), "0-60": (3, 4)})
+    assert_hits(run, "roman", {None: (2, 4)}, tolerance=1)
+    with pytest.raises(AssertionError, match=r"roman hits overall: 3/4 hits, pinned 2/4 \+- 0"):
+        assert_hits(run, "roman", {None: (2, 4)})
+    with pytest.raises(AssertionError) as e:  # the relevant pairs grew: fails whatever the hits, with both numbers
+        assert_hits(run, "roman", {None: (3, 40)}, tolerance=5)
+    assert "relevant pairs changed: pinned 3/40, now 3/4" in str(e.value)
+
+
+@pytest.mark.parametrize(
+    ("pinned", "kw", "expect"),
+    [
+        ({}, {}, "pinned: an empty pin checks nothing"),
+        ([], {}, "pinned: expected a mapping"),
+        ({None: 3}, {}, "pinned[None]: expected (hits, relevant), got 3 (a pin of hits alone"),
+        ({None: (math.nan, 4)}, {}, "pinned[None] hits: expected a non-negative integer count, got nan"),
+        ({None: (True, 4)}, {}, "pinned[None] hits: expected a non-negative integer count, got True"),
+        ({None: (3.0, 4)}, {}, "pinned[None] hits: expected a non-negative integer count, got 3.0"),
+        ({None: (3, False)}, {}, "pinned[None] relevant: expected a non-negative integer count, got False"),
+        ({None: (-1, 4)}, {}, "pinned[None] hits: expected a non-negative integer count, got -1"),
+        ({None: (5, 4)}, {}, "pinned[None]: 5 hits out of 4 relevant pairs"),
+        ({None: (3, 4)}, {"tolerance": math.nan}, "tolerance: expected a finite number >= 0 of hits, got nan"),
+        ({None: (3, 4)}, {"tolerance": -1}, "tolerance: expected a finite number >= 0 of hits, got -1"),
+        ({None: (3, 4)}, {"tolerance": True}, "tolerance: expected a finite number >= 0 of hits, got True"),
+        ({60: (3, 4)}, {}, "pinned: heading bin labels are strings"),
+    ],
+)
+def test_assert_hits_rejects_pins_that_cannot_fail(run: RunResult, pinned: object, kw: dict, expect: str) -> None:
+    with pytest.raises(ConfigError) as e:
+        assert_hits(run, "roman", pinned, **kw)  # type: ignore[arg-type]
+    assert str(e.value).startswith(expect), str(e.value)
+
+
+def _board() -> dict:
+    """A leaderboard of two methods on one level: roman 9/20 and 30/60, degraded 4/20 and 30/60."""
+
+    def pt(h: int, n: int) -> dict:
+        return {"hits": h, "n_relevant": n}
+
+    bins = [{"heading": "0-30", "methods": {"roman": {"max_recall": pt(9, 20)}, "degraded": {"max_recall": pt(4, 20)}}}]
+    overall = {
+        "heading": "all",
+        "methods": {"roman": {"max_recall": pt(30, 60)}, "degraded": {"max_recall": pt(30, 60)}},
+    }
+    return {"methods": ["roman", "degraded"], "levels": [{"name": "low", "bins": bins, "overall": overall}]}
+
+
+def test_benchmark_pins_pass_for_the_method_and_fail_for_a_degraded_one() -> None:
+    board = _board()
+    pins = benchmark_pins(board, "roman")
+    assert pins == {"low/0-30": (9, 20), "low/all": (30, 60)}
+    check_benchmark(board, "roman", pins)
+    with pytest.raises(AssertionError, match=r"degraded max_recall low/0-30: 4/20 hits, pinned 9/20 \+- 0"):
+        check_benchmark(board, "degraded", pins)
+    check_benchmark(board, "degraded", pins, tolerance=5)
+    with pytest.raises(AssertionError, match="relevant pairs changed: pinned 9/21, now 9/20"):
+        check_benchmark(board, "roman", {"low/0-30": (9, 21)}, tolerance=3)
+    with pytest.raises(ConfigError, match=r"pinned\['low/90-120'\]: no such cell \(cells: low/0-30, low/all\)"):
+        check_benchmark(board, "roman", {"low/90-120": (1, 2)})
+    with pytest.raises(ConfigError, match="method 'visual' is not in this leaderboard"):
+        check_benchmark(board, "visual", pins)
+    with pytest.raises(ConfigError, match="pinned: an empty pin checks nothing"):
+        check_benchmark(board, "roman", {})
+    with pytest.raises(ConfigError, match="point: unknown operating point 'f1'"):
+        check_benchmark(board, "roman", pins, point="f1")

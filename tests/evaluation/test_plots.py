@@ -40,6 +40,7 @@ def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
         "recall_heading.png",
         "recall_heading_fine.png",
         "recall_ambiguity.png",
+        "recall_operating_points.png",
     ]
     assert notes == ["plot association_heading.png not drawn: it needs two heading bins with true correspondences"]
     assert all(_is_png(p) for p in paths)
@@ -52,7 +53,7 @@ def test_plots_carrying_one_point_are_not_drawn(make_score, tmp_path):
     scores = [make_score(str(i), True, 8 - i, i < 2, heading=10.0 + i, ambiguity=0.1) for i in range(4)]
     paths, notes = write_metric_plots(summary(scores), tmp_path)
     assert [p.name for p in paths] == ["precision_recall.png"]
-    assert len(notes) == 5 and all("not drawn" in n for n in notes)
+    assert len(notes) == 6 and all("not drawn" in n for n in notes)
     (tmp_path / "recall_heading.png").write_bytes(b"stale")
     write_metric_plots(summary(scores), tmp_path)  # a plot no longer drawn leaves no stale file behind
     assert not (tmp_path / "recall_heading.png").exists()
@@ -60,7 +61,7 @@ def test_plots_carrying_one_point_are_not_drawn(make_score, tmp_path):
 
 def test_plots_with_undefined_metrics(make_score, tmp_path):
     paths, notes = write_metric_plots(summary([make_score("0", False, 3, False)]), tmp_path)
-    assert paths == [] and len(notes) == 6
+    assert paths == [] and len(notes) == 7
     assert write_metric_plots(summary([]), tmp_path / "empty")[0] == []
 
 

@@ -180,7 +180,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         truths = truths_for_pairs(sel.pairs, ambiguity, ec)
         results, pair_timings = apply_aligners(ctx, sel.pairs, tasks)
         scores = score_pairs(truths, results, [e.name for e in ctx.scenario.aligners], ec)
-        metrics = summary(scores, ec, sel.n_skipped)
+        metrics = summary(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh)
         log.info("evaluated %d pairs (%d skipped by the distance cap)", len(truths), sel.n_skipped)
         maps = inputs.maps
         if maps is not None and maps.frontend is not None:

@@ -1,0 +1,126 @@
+"""``roman-sim benchmark [SUITE]``: the heading x ambiguity benchmark as one resumable job."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from roman_sim.cli import _executor as X
+from roman_sim.cli import app
+from roman_sim.cli.progress import LineProgress
+
+
+def _methods(values: list[str] | None) -> list[str] | None:
+    """``--methods a,b --methods c`` -> ``[a, b, c]`` (None: the suite's)."""
+    if not values:
+        return None
+    return [m.strip() for v in values for m in v.split(",") if m.strip()]
+
+
+def _plan_table(cells: list[Any], plans: dict[str, Any], edges: list[float]) -> Table:
+    labels = [f"{lo:g}-{hi:g}" for lo, hi in zip(edges, edges[1:])]
+    t = Table(title="planned relevant cross-robot pairs per heading bin (deg), before rendering")
+    for col in ["cell", *labels, "pairs", "submaps"]:
+        t.add_column(col, justify="right" if col != "cell" else "left")
+    totals: dict[str, list[int]] = {}
+    for c in cells:
+        p = plans.get(c.id, {})
+        if not p.get("ok"):
+            t.add_row(c.id, *(["-"] * len(labels)), "failed", p.get("error", ""))
+            continue
+        tot = totals.setdefault(c.level, [0] * len(labels))
+        for i, v in enumerate(p["relevant"]):
+            tot[i] += v
+        t.add_row(c.id, *map(str, p["relevant"]), str(p["pairs"]), str(p["submaps"]))
+    for level, tot in totals.items():
+        t.add_row(f"[bold]{level} (all seeds)", *map(str, tot), "", "")
+    return t
+
+
+def _board_table(board: dict[str, Any]) -> Table:
+    t = Table(title=f"benchmark {board['suite']}: max recall / recall at P>=0.9 over all heading bins, per level")
+    t.add_column("method")
+    levels = [e for e in board["levels"] if e.get("overall")]
+    for e in levels:
+        t.add_column(e["name"], justify="right")
+    for m in board["methods"]:
+        row = [m]
+        for e in levels:
+            pts = e["overall"]["methods"].get(m)
+            if pts is None:
+                row.append("failed")
+                continue
+            a, b = pts["max_recall"], pts["precision_90"]
+            row.append(f"{a['hits']}/{a['n_relevant']} / {b['hits']}/{b['n_relevant']}")
+        t.add_row(*row)
+    return t
+
+
+@app.command("benchmark")
+def benchmark_cmd(
+    suite: str = typer.Argument("standard", help="suite: quick, standard, or a suite YAML file"),
+    methods: list[str] | None = typer.Option(
+        None, "--methods", "-m", help="methods to score (comma-separated or repeated; package.module:Class plug-ins)"
+    ),
+    sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every cell (key=value)"),
+    out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/benchmark/<suite>)"),
+    plan: bool = typer.Option(False, "--plan", help="only plan the cells and print their relevant pairs"),
+    executor: str | None = X.EXECUTOR,
+    workers: int | None = X.WORKERS,
+    scheduler: str | None = X.SCHEDULER,
+    chunk_pairs: int | None = X.CHUNK,
+    tls: bool = X.TLS,
+    tls_ca_file: str | None = X.TLS_CA,
+    tls_cert: str | None = X.TLS_CERT,
+    tls_key: str | None = X.TLS_KEY,
+    insecure: bool = X.INSECURE,
+    dashboard: bool = X.DASHBOARD,
+    upload: list[str] | None = X.UPLOAD,
+) -> None:
+    """Run a benchmark suite (resumable); write leaderboard.json, leaderboard.md and plots; exit 1 if a cell failed."""
+    from roman_sim.studies.benchmark_board import LEADERBOARD_JSON, LEADERBOARD_MD
+    from roman_sim.studies.benchmark_run import BenchmarkJob
+    from roman_sim.studies.benchmark_suites import load_suite
+
+    spec = load_suite(suite)
+    ex = X.executor_config(
+        None,
+        executor,
+        workers,
+        scheduler,
+        chunk_pairs,
+        tls,
+        tls_ca_file,
+        tls_cert,
+        tls_key,
+        insecure,
+        dashboard,
+        upload,
+    )
+    lines = LineProgress()
+
+    def progress(done: int, total: int, what: str) -> None:
+        if total:
+            lines.line(f"benchmark {spec.name}: cell {what} done ({done}/{total})")
+        else:
+            lines.line(f"benchmark {spec.name}: {done} cells planned")
+
+    job = BenchmarkJob(spec, out or Path("results") / "benchmark" / spec.name, _methods(methods), sets, ex, progress)
+    if plan:
+        cells, plans = job.plan_only()
+        Console().print(_plan_table(cells, plans, spec.heading_edges()))
+        return
+    outcome = job.run()
+    board = json.loads((outcome.out_dir / LEADERBOARD_JSON).read_text(encoding="utf-8"))
+    Console().print(_board_table(board))
+    Console().print(f"leaderboard: {outcome.out_dir / LEADERBOARD_MD}")
+    if outcome.failures:
+        for c, err in outcome.failures.items():
+            typer.echo(f"cell {c} failed: {err}", err=True)
+        typer.echo(f"{len(outcome.failures)} cell(s) failed, the others ran; run the command again to retry", err=True)
+        raise typer.Exit(1)

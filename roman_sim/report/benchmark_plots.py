@@ -1,0 +1,169 @@
+"""Figures of a benchmark leaderboard (matplotlib, Agg canvas; same data, same bytes).
+
+- ``recall_heading.png``: recall against heading difference per method with its 95 % band,
+  one column per ambiguity level, at max recall (top) and at precision >= 0.9 (bottom);
+- ``pr_heading_<level>.png``: precision-recall over k per heading bin, one panel per bin,
+  operating points marked (triangle: precision >= 0.9, square: acceptance threshold);
+- ``heatmap.png``: heading x ambiguity, one panel per method, max recall in colour with
+  hits / relevant written in each cell;
+- ``runtime.png``: runtime per pair per method (mean over every pair; the cells' medians
+  and 90th percentiles as points), log scale.
+
+The drawing functions take the leaderboard as ``leaderboard.json`` holds it (and, for the
+PR curves, each level's ``EvaluationMetrics``).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roman_sim.evaluation.operating_points import POINT_LABELS
+from roman_sim.evaluation.types import EvaluationMetrics
+from roman_sim.report.plots import figure, pr_axes, save_png
+
+
+def benchmark_figures(board: dict[str, Any]) -> dict[str, str]:
+    """Figure file -> caption, for the levels that have results."""
+    levels = [e["name"] for e in board["levels"] if e.get("bins")]
+    out = {"recall_heading.png": "Recall against heading difference (95 % bands): max recall and at precision >= 0.9"}
+    for n in levels:
+        out[f"pr_heading_{n}.png"] = f"Precision-recall per heading bin, ambiguity level {n}"
+    out["heatmap.png"] = "Heading x ambiguity: max recall per method, hits / relevant in each cell"
+    out["runtime.png"] = "Runtime per pair"
+    return out
+
+
+def _centres(board: dict[str, Any]) -> np.ndarray:
+    e = np.asarray(board["heading_edges_deg"], dtype=float)
+    return (e[:-1] + e[1:]) / 2
+
+
+def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
+    """Recall per heading bin with bands, per method; columns: levels; rows: max recall, precision >= 0.9."""
+    levels = [(e["name"], e) for e in board["levels"] if e.get("bins")]
+    if not levels:
+        return None
+    x = _centres(board)
+    fig = figure(4.2 * len(levels), 7.0, ncols=len(levels), nrows=2)
+    for col, (name, e) in enumerate(levels):
+        for row, point in enumerate(("max_recall", "precision_90")):
+            ax = fig.axes[row * len(levels) + col]
+            for i, m in enumerate(board["methods"]):
+                pts = [b["methods"].get(m, {}).get(point) for b in e["bins"]]
+                y = np.array([np.nan if p is None or p["recall"] is None else p["recall"] for p in pts])
+                lo = np.array([np.nan if p is None or p["recall_ci"] is None else p["recall_ci"][0] for p in pts])
+                hi = np.array([np.nan if p is None or p["recall_ci"] is None else p["recall_ci"][1] for p in pts])
+                ax.plot(x, y, marker="o", color=f"C{i}", label=m)
+                ax.fill_between(x, lo, hi, color=f"C{i}", alpha=0.15, linewidth=0)
+            ax.set(xlim=(0, 180), ylim=(0, 1.02), xticks=board["heading_edges_deg"])
+            ax.set_title(f"{name} (index {_fmt(e.get('ambiguity_index'))}): {POINT_LABELS[point]}", fontsize=8)
+            ax.set_xlabel("heading difference (deg)", fontsize=8)
+            ax.grid(alpha=0.3)
+    fig.axes[0].set_ylabel("recall")
+    fig.axes[len(levels)].set_ylabel("recall")
+    fig.axes[0].legend(fontsize=7, loc="lower left")
+    return save_png(fig, path)
+
+
+def _fmt(v: float | None) -> str:
+    return "n/a" if v is None else f"{v:.2f}"
+
+
+def plot_pr_level(board: dict[str, Any], metrics: EvaluationMetrics, level: str, path: Path) -> Path | None:
+    """Precision-recall over k per heading bin of one level (one panel per bin), operating points marked."""
+    sets = {m: metrics.method(m).set("inter") for m in board["methods"] if m in metrics.methods}
+    if not sets:
+        return None
+    first = next(iter(sets.values()))
+    n = len(first.heading_bins)
+    fig = figure(3.4 * n, 3.6, ncols=n)
+    for i, ax in enumerate(fig.axes):
+        b = first.heading_bins[i]
+        pr_axes(
+            ax,
+            {m: s.heading_pr[i] for m, s in sets.items()},
+            f"{b.label} deg ({b.stats.n_relevant} relevant)",
+            {m: s.heading_bins[i].stats for m, s in sets.items()},
+        )
+    fig.suptitle(f"Precision-recall over k per heading bin, level {level} (triangle: P >= 0.9, square: acceptance)")
+    return save_png(fig, path)
+
+
+def plot_heatmap(board: dict[str, Any], path: Path) -> Path | None:
+    """Max recall per (level, heading bin), one panel per method, with hits / relevant in each cell."""
+    levels = [(e["name"], e) for e in board["levels"] if e.get("bins")]
+    if not levels:
+        return None
+    methods = list(board["methods"])
+    labels = [b["heading"] for b in levels[0][1]["bins"]]
+    ncols = min(3, len(methods))
+    nrows = int(np.ceil(len(methods) / ncols))
+    fig = figure(1.0 * len(labels) * ncols + 1.5, 0.9 * len(levels) * nrows + 1.2, ncols=ncols, nrows=nrows)
+    for ax in fig.axes[len(methods) :]:
+        ax.set_axis_off()
+    for ax, m in zip(fig.axes, methods):
+        grid = np.full((len(levels), len(labels)), np.nan)
+        for r, (_, e) in enumerate(levels):
+            for c, b in enumerate(e["bins"]):
+                p = b["methods"].get(m, {}).get("max_recall")
+                if p is not None and p["recall"] is not None:
+                    grid[r, c] = p["recall"]
+                text = (
+                    "n/a" if p is None or not p["n_relevant"] else f"{p['recall']:.2f}\n{p['hits']}/{p['n_relevant']}"
+                )
+                ax.text(c, r, text, ha="center", va="center", fontsize=6)
+        ax.imshow(grid, vmin=0.0, vmax=1.0, cmap="viridis", aspect="auto", alpha=0.85)
+        ax.set_xticks(range(len(labels)), labels, fontsize=6)
+        ax.set_yticks(range(len(levels)), [n for n, _ in levels], fontsize=7)
+        ax.set_title(m, fontsize=9)
+    fig.suptitle("Max recall: ambiguity level x heading difference (deg); hits / relevant per cell", fontsize=9)
+    return save_png(fig, path)
+
+
+def plot_runtime(board: dict[str, Any], path: Path) -> Path | None:
+    """Runtime per pair per method: the mean (bar), the cells' medians (dots) and 90th percentiles (crosses)."""
+    rt = board.get("runtime") or {}
+    if not rt:
+        return None
+    names = list(rt)
+    fig = figure(max(5.0, 0.9 * len(names) + 2.0), 3.6)
+    ax = fig.axes[0]
+    x = np.arange(len(names))
+    ax.bar(x, [1000 * rt[m]["mean_s"] for m in names], color=[f"C{i}" for i in range(len(names))], alpha=0.6)
+    for i, m in enumerate(names):
+        med = [1000 * v for v in rt[m]["cell_medians_s"]]
+        p90 = [1000 * v for v in rt[m]["cell_p90_s"]]
+        ax.scatter(np.full(len(med), i - 0.1), med, color="black", s=10, label="cell median" if i == 0 else None)
+        ax.scatter(
+            np.full(len(p90), i + 0.1), p90, color="black", marker="x", s=12, label="cell p90" if i == 0 else None
+        )
+    ax.set_xticks(x, names, fontsize=8)
+    ax.set_yscale("log")
+    ax.set(ylabel="ms per pair", title="Runtime per pair, wall clock on the machine that ran it (bar: mean)")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize=7)
+    return save_png(fig, path)
+
+
+def write_benchmark_plots(board: dict[str, Any], metrics: dict[str, EvaluationMetrics], plots_dir: Path) -> list[Path]:
+    """Every figure of ``benchmark_figures`` that has data, into ``plots_dir``; the paths written."""
+    out = []
+    for name in benchmark_figures(board):
+        path = plots_dir / name
+        if name == "recall_heading.png":
+            got = plot_recall_heading(board, path)
+        elif name == "heatmap.png":
+            got = plot_heatmap(board, path)
+        elif name == "runtime.png":
+            got = plot_runtime(board, path)
+        else:
+            level = name[len("pr_heading_") : -len(".png")]
+            got = plot_pr_level(board, metrics[level], level, path)
+        if got is None:
+            path.unlink(missing_ok=True)
+        else:
+            out.append(got)
+    return out

@@ -1,0 +1,190 @@
+"""``leaderboard.md``: a benchmark leaderboard (as ``leaderboard.json`` holds it) in markdown.
+
+Sections: the setup (methods, overrides, what a cell, a rank and an operating point are, and
+whether every interval meets the suite's bound), per operating point ranked in ``RANKED``
+one table per ambiguity level (methods x heading bins, each cell ``recall (hits/relevant)
+[95 % interval]`` and its rank, ``tied`` where intervals overlap), the relevant pairs per
+cell, every operating point per level, runtimes per pair, the cells that did not finish
+and the figures.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES
+from roman_sim.report.benchmark_plots import benchmark_figures
+
+#: The operating points methods are ranked by, in each cell.
+RANKED = ("max_recall", "precision_90")
+
+
+def _rate(p: dict[str, Any] | None) -> str:
+    if p is None or not p["n_relevant"]:
+        return "n/a"
+    if not p["reached"]:
+        return f"not reached (0/{p['n_relevant']})"
+    lo, hi = p["recall_ci"]
+    return f"{p['recall']:.2f} ({p['hits']}/{p['n_relevant']}) [{lo:.2f}, {hi:.2f}]"
+
+
+def _ranked_cell(cell: dict[str, Any], method: str, point: str) -> str:
+    p = cell["methods"][method][point]
+    r = cell["ranks"][point].get(method)
+    rank = "" if r is None else (f" tied {r['rank']}" if r["tied"] else f" #{r['rank']}")
+    return _rate(p) + rank
+
+
+def _rank_tables(board: dict[str, Any], point: str) -> list[str]:
+    lines = []
+    for e in board["levels"]:
+        name = e["name"]
+        if not e.get("bins"):
+            continue
+        cells = [*e["bins"], e["overall"]]
+        lines += [
+            f"**{name}** (knob {e['knob']:g}, measured ambiguity index {_num(e.get('ambiguity_index'))}):",
+            "",
+            "| method | " + " | ".join(f"{c['heading']} deg" if c["heading"] != "all" else "all" for c in cells) + " |",
+            "|---|" + "---|" * len(cells),
+        ]
+        for m in board["methods"]:
+            if m in e["overall"]["methods"]:
+                lines.append(f"| {m} | " + " | ".join(_ranked_cell(c, m, point) for c in cells) + " |")
+        lines.append("")
+    return lines
+
+
+def _num(v: float | None, digits: int = 2) -> str:
+    return "n/a" if v is None else f"{v:.{digits}f}"
+
+
+def leaderboard_markdown(board: dict[str, Any]) -> str:
+    """``leaderboard.md``: setup, ranked recall per cell, operating points, runtimes, failures, figures."""
+    lv0 = next((e for e in board["levels"] if e.get("bins")), None)
+    acc = None if lv0 is None else lv0.get("acceptance_k")
+    lines = [
+        f"# Benchmark `{board['suite']}`",
+        "",
+        board["description"] + ".",
+        "",
+        f"- Methods: {', '.join(board['methods'])}. Overrides: {', '.join(board['overrides']) or 'none'}.",
+        "- Cells: ambiguity level x heading difference (30 deg bins) of the cross-robot pairs, pooled over the "
+        "level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
+        "- Ranks: 1 + the number of methods whose interval lies wholly above; methods that share a rank have "
+        "overlapping intervals and are marked `tied`.",
+        f"- Operating points: max recall (at the highest k that keeps it); recall at the smallest k with precision "
+        f">= 0.9 (`not reached` when none has); recall at the pose graph's acceptance threshold k = {acc}.",
+        f"- Interval bound: every half-width at most {board['half_width_bound']:g}: "
+        + ("met in every cell." if board["bound_met"] else "**not met** in every cell (see the relevant counts)."),
+        "",
+    ]
+    for point in RANKED:
+        label = POINT_LABELS[point]
+        lines += [f"## {label[0].upper()}{label[1:]}, ranked", "", *_rank_tables(board, point)]
+    lines += ["## Relevant cross-robot pairs per cell", "", *_relevant_table(board), ""]
+    lines += ["## Operating points per level", "", *_points_table(board, acc), ""]
+    lines += ["## Runtime per pair", "", *_runtime_table(board), ""]
+    if board["failed_cells"]:
+        lines += ["## Cells that did not finish", ""]
+        lines += [f"- `{c}`: {err}" for c, err in sorted(board["failed_cells"].items())] + [""]
+    lines += ["## Figures", ""] + [f"![{cap}](plots/{name})" for name, cap in benchmark_figures(board).items()] + [""]
+    return "\n".join(lines)
+
+
+def _relevant_table(board: dict[str, Any]) -> list[str]:
+    named = [(e["name"], e) for e in board["levels"] if e.get("bins")]
+    if not named:
+        return ["No cell finished."]
+    heads = [b["heading"] for b in named[0][1]["bins"]]
+    out = [
+        "| level | " + " | ".join(f"{h} deg" for h in heads) + " | cross-robot pairs scored |",
+        "|---|" + "---|" * (len(heads) + 1),
+    ]
+    for n, e in named:
+        out.append(
+            f"| {n} | " + " | ".join(str(b["n_relevant"]) for b in e["bins"]) + f" | {e['overall']['n_pairs']} |"
+        )
+    return out
+
+
+def _points_table(board: dict[str, Any], acc: int | None) -> list[str]:
+    out = [
+        f"| level | method | max recall (precision) | {POINT_LABELS['precision_90']} (k) | "
+        f"{POINT_LABELS['precision_100']} (k) | recall at k = {acc} (precision) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for e in board["levels"]:
+        n = e["name"]
+        for m, pts in (e.get("overall") or {}).get("methods", {}).items():
+            cells = []
+            for name in POINT_NAMES:
+                p = pts[name]
+                extra = ""
+                if p is not None and p["reached"]:
+                    extra = f" P={_num(p['precision'])}" if name in ("max_recall", "acceptance") else f" k={p['k']}"
+                cells.append(_rate(p) + extra)
+            out.append(f"| {n} | {m} | " + " | ".join(cells) + " |")
+    return out
+
+
+def _runtime_table(board: dict[str, Any]) -> list[str]:
+    rt = board["runtime"]
+    if not rt:
+        return ["No runtimes were recorded."]
+    out = ["| method | pairs timed | mean ms | median ms (cells) | p90 ms (cells) |", "|---|---|---|---|---|"]
+    for m, r in rt.items():
+        med = sorted(r["cell_medians_s"])
+        out.append(
+            f"| {m} | {r['n']} | {1000 * r['mean_s']:.1f} | {1000 * med[len(med) // 2]:.1f} | "
+            f"{1000 * max(r['cell_p90_s']):.1f} |"
+        )
+    return out
+
+
+#: Markers of the README's benchmark block (``readme_block``).
+README_BEGIN, README_END = "<!-- benchmark:begin -->", "<!-- benchmark:end -->"
+
+
+def _first_alone(board: dict[str, Any], method: str, point: str) -> tuple[int, int, int]:
+    """(cells where ``method`` ranks first alone, first but tied, cells with a rank) over every level x bin."""
+    alone = tied = ranked = 0
+    for e in board["levels"]:
+        for b in e.get("bins", []):
+            r = b["ranks"][point].get(method)
+            if r is None:
+                continue
+            ranked += 1
+            alone += r["rank"] == 1 and not r["tied"]
+            tied += r["rank"] == 1 and r["tied"]
+    return alone, tied, ranked
+
+
+def readme_block(board: dict[str, Any], figure: str) -> str:
+    """The README's benchmark block: the recall-against-heading figure and statements read off ``board``.
+
+    Every number is the board's (a test renders this again from the committed raw pairs).
+    """
+    lines = [README_BEGIN, "", f"![{benchmark_figures(board)['recall_heading.png']}]({figure})", ""]
+    levels = [e for e in board["levels"] if e.get("bins")]
+    m = "roman" if "roman" in board["methods"] else board["methods"][0]
+    for e in levels:
+        pts = [(b["heading"], b["methods"][m]["max_recall"]) for b in e["bins"] if b["methods"].get(m)]
+        lo = min(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else 2.0)
+        hi = max(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else -1.0)
+        lines.append(
+            f"- {e['name']} ambiguity (index {_num(e.get('ambiguity_index'))}): {m} max recall from "
+            f"{_rate(lo[1])} at {lo[0]} deg to {_rate(hi[1])} at {hi[0]} deg."
+        )
+    for point in RANKED:
+        alone, tied, ranked = _first_alone(board, m, point)
+        lines.append(
+            f"- {POINT_LABELS[point]}: {m} ranks first alone in {alone} of {ranked} cells and is tied for first in "
+            f"{tied} (ranked only where 95 % intervals separate)."
+        )
+    lines += [
+        f"- Every interval half-width at most {board['half_width_bound']:g}: {'yes' if board['bound_met'] else 'no'}.",
+        "",
+        README_END,
+    ]
+    return "\n".join(lines)

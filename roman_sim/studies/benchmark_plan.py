@@ -1,0 +1,113 @@
+"""Relevant pairs of a scenario from its planned trajectories, before anything is rendered.
+
+Which submap pairs should align depends only on where the submap centres are: the
+pipeline places a centre whenever a robot's *odometry* has moved ``submap_center_dist``
+(or ``submap_center_time`` has passed) and scores the pair of two centres by their *true*
+poses. Both trajectories follow from the world, the paths and the seed alone (driving and
+drift, no rendering), so the planner here generates the world, plans and drives every
+robot, places the centres with the pipeline's own rule (``mapping.submap.center_indices``)
+and scores the pairs with the evaluation's own functions (``select_pairs``,
+``truths_for_pairs``) on submaps that carry only their truth. The counts are those of the
+finished run, to the pair, as long as relevance is by distance (the default): relevance by
+shared objects needs the maps, and is refused.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from roman_sim.core.errors import ConfigError
+from roman_sim.core.geometry import gravity_aligned
+from roman_sim.evaluation.bins import bin_groups, bin_label
+from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs
+from roman_sim.mapping.submap import SubmapConfig, center_indices
+from roman_sim.mapping.types import Submap, SubmapTruth
+from roman_sim.pipeline.scenario import Scenario
+from roman_sim.sim.robot import DrivenRun
+
+log = logging.getLogger(__name__)
+
+
+def _stub(robot: str, index: int, t: float, T_odom: np.ndarray, T_world: np.ndarray) -> Submap:
+    """A submap without segments: its centre poses only."""
+    return Submap(
+        robot=robot,
+        index=index,
+        t=float(t),
+        T_odom_submap=gravity_aligned(T_odom),
+        segment_ids=np.zeros(0, np.int64),
+        centers=np.zeros((0, 3)),
+        volumes=np.zeros(0),
+        shape=np.zeros((0, 3)),
+        descriptors=np.zeros((0, 0), np.float32),
+        extents=np.zeros((0, 3)),
+        truth=SubmapTruth(gravity_aligned(T_world), np.zeros(0, np.int64), np.zeros(0)),
+    )
+
+
+def submaps_along(runs: Mapping[str, DrivenRun], cfg: SubmapConfig) -> list[Submap]:
+    """The submaps (without segments) the pipeline places along each robot's driven run."""
+    out = []
+    for robot, (t, T_wb, T_ob) in runs.items():
+        for k, i in enumerate(center_indices(t, T_ob, cfg)):
+            out.append(_stub(robot, k, float(t[i]), T_ob[i], T_wb[i]))
+    return out
+
+
+def scored_pairs(subs: list[Submap], sc: Scenario) -> list[PairTruth]:
+    """The truth of every pair of ``subs`` the evaluation of ``sc`` scores (ambiguity not computed: NaN)."""
+    if sc.evaluation.relevance != "distance":
+        raise ConfigError(
+            f"evaluation.relevance: {sc.evaluation.relevance!r} needs the maps; pairs can be planned only "
+            "with relevance by distance"
+        )
+    return truths_for_pairs(select_pairs(subs, sc.evaluation).pairs, None, sc.evaluation)
+
+
+def planned_pairs(sc: Scenario) -> list[PairTruth]:
+    """The truth of every pair the run of ``sc`` will score, from its planned and driven trajectories."""
+    from roman_sim.sim.robot import plan_paths, trajectory_along
+    from roman_sim.world import generate
+
+    robots = sc.simulated_robots()
+    if len(robots) != len(sc.robots):
+        raise ConfigError("planning: every robot must be simulated (a recorded sequence has no planned path)")
+    world = generate(sc.world.spec(), sc.seed)
+    paths = plan_paths(world, robots, sc.seed)
+    runs = {cfg.name: trajectory_along(world, cfg, sc.seed, paths[cfg.name]) for cfg in robots}
+    return scored_pairs(submaps_along(runs, sc.submaps), sc)
+
+
+@dataclass(frozen=True)
+class PlannedCounts:
+    """Relevant cross-robot pairs per heading bin of one planned run.
+
+    Attributes:
+        labels: heading bin labels (``"0-30"``, ...).
+        relevant: relevant cross-robot pairs in each bin.
+        pairs: every scored pair (cross- and same-robot).
+        submaps: planned submaps.
+    """
+
+    labels: list[str]
+    relevant: list[int]
+    pairs: int
+    submaps: int
+
+
+def relevant_per_bin(truths: Sequence[PairTruth], edges: Sequence[float]) -> list[int]:
+    """Relevant cross-robot pairs whose heading difference falls in each bin of ``edges``."""
+    inter = [t for t in truths if t.kind == "inter"]
+    groups = bin_groups(inter, [t.heading_diff_deg for t in inter], edges)
+    return [sum(1 for t in g if t.relevant) for g in groups]
+
+
+def plan_counts(truths: Sequence[PairTruth], edges: Sequence[float]) -> PlannedCounts:
+    """``PlannedCounts`` of a run's planned pair truths over the heading ``edges``."""
+    labels = [bin_label(lo, hi) for lo, hi in zip(edges, edges[1:])]
+    subs = len({t.a for t in truths} | {t.b for t in truths})
+    return PlannedCounts(labels, relevant_per_bin(truths, edges), len(truths), subs)
