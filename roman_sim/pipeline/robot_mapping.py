@@ -12,6 +12,7 @@ from collections.abc import Iterable
 from typing import Any
 
 from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
+from roman_sim.align.visual.keyframes import keyframe_mask
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.core.sensors import Frame
@@ -20,7 +21,7 @@ from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_s
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.plugin_guard import guard_frontend
+from roman_sim.pipeline.plugin_guard import guard_frontend, is_plugin
 
 log = logging.getLogger(__name__)
 MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
@@ -67,11 +68,24 @@ def _frames(ctx: RunContext, world: Any, cfg: Any, trajectory: Any) -> Iterable[
                 return read_recording(rec_dir)
         except RomanSimError:
             pass
-    frames = render_trajectory(world, cfg, sc.seed, trajectory)
+    frames = render_trajectory(
+        world, cfg, sc.seed, trajectory, None if sc.record_frames else _rgb_frames(ctx, trajectory)
+    )
     if not sc.record_frames:
         return frames
     write_recording(frames, rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
     return read_recording(rec_dir)
+
+
+def _rgb_frames(ctx: RunContext, trajectory: Any) -> Any:
+    """Frames whose RGB is read (None: all): a plug-in or RGB front end reads all, the visual method keyframes."""
+    sc = ctx.scenario
+    fe = sc.frontend
+    if is_plugin(fe.segmenter.name) or is_plugin(fe.encoder.name) or fe.needs_rgb:
+        return None
+    if not sc.uses_visual:
+        return [False] * len(trajectory.t)
+    return keyframe_mask(trajectory.t, trajectory.T_odom_body, fe.keyframes)
 
 
 def _map_frames(
