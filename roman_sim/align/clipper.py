@@ -12,6 +12,11 @@ every selected node whose addition raises the clique density ``1^T M_S 1 / |S|``
 finally improved by single additions / one-for-one swaps while the density rises. The
 ascent itself is a local method: on small random weighted graphs it reaches the maximum
 density clique about 95 % of the time (tests/align/test_clipper.py).
+
+``solve_clipper`` runs the compiled solver (``roman_sim.align.clipper_jit``: the same
+arithmetic in the same order, so the same bits) when numba can build it, else the numpy
+path ``solve_clipper_numpy``; the fixed per-call costs of numpy on small vectors would
+otherwise dominate the small problems of most submap pairs.
 """
 
 from __future__ import annotations
@@ -19,6 +24,8 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -69,14 +76,20 @@ class ClipperSolution:
     iterations: int
 
 
-def _prepare(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
-    """Square, finite, non-negative CSR of ``M`` without its diagonal (entries assumed unique)."""
+def _as_csr(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
+    """``M`` as a square float64 CSR matrix (not copied when it is one)."""
     if isinstance(M, (sp.csr_matrix, sp.csr_array)) and M.dtype == np.float64:
         A = M
     else:
         A = sp.csr_matrix(M, dtype=np.float64)
     if A.shape[0] != A.shape[1]:
         raise AlignmentError(f"affinity matrix must be square, got shape {A.shape}")
+    return A
+
+
+def _prepare(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
+    """Square, finite, non-negative CSR of ``M`` without its diagonal (entries assumed unique)."""
+    A = _as_csr(M)
     if A.nnz and (not np.all(np.isfinite(A.data)) or A.data.min() < 0):
         raise AlignmentError("affinity matrix entries must be finite and >= 0")
     row = np.repeat(np.arange(A.shape[0], dtype=A.indices.dtype), np.diff(A.indptr))
@@ -173,6 +186,31 @@ def _ascend(
     return u, F, steps
 
 
+@lru_cache(maxsize=8)
+def _start_draws(seed: int, n: int) -> NDArray[np.float64]:
+    """The first ``n`` uniform draws of the start vector's stream (a stream's prefix is its shorter draw)."""
+    out = child_rng(seed, "clipper", "u0").random(n)
+    out.flags.writeable = False
+    return out
+
+
+def _start(seed: int, n: int) -> NDArray[np.float64]:
+    """``child_rng(seed, "clipper", "u0").random(n) + 0.5``, the draws cached in blocks of 4096."""
+    return _start_draws(seed, -(-n // 4096) * 4096)[:n] + 0.5
+
+
+@lru_cache(maxsize=1)
+def _compiled() -> tuple[Any, Any] | None:
+    """The compiled solver's modules (ascent, rounding), or None where they cannot run (numpy path)."""
+    try:
+        from roman_sim.align import clipper_jit, clipper_jit_rounding
+
+        return (clipper_jit, clipper_jit_rounding) if clipper_jit.usable() else None
+    except Exception as err:  # a failed build leaves the numpy path, which gives the same bits
+        log.warning("compiled CLIPPER unavailable (%s: %s); using the numpy solver", type(err).__name__, err)
+        return None
+
+
 def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams | None = None) -> ClipperSolution:
     """Densest clique of the weighted consistency graph ``M``.
 
@@ -180,15 +218,36 @@ def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams |
         M: (n, n) symmetric non-negative affinities; ``M[p, q] > 0`` marks an edge.
         params: solver settings (defaults when None).
 
-    Returns: the solution; an empty graph gives an empty selection.
+    Returns: the solution (the compiled solver's, bit for bit ``solve_clipper_numpy``'s);
+    an empty graph gives an empty selection.
     """
+    p = params or ClipperParams()
+    jit = _compiled()
+    if jit is None:
+        return solve_clipper_numpy(M, p)
+    asc, rnd = jit
+    A = _as_csr(M)
+    indptr, indices, data, ok = asc.strip(A.indptr, A.indices, A.data)
+    if not ok:
+        raise AlignmentError("affinity matrix entries must be finite and >= 0")
+    n = A.shape[0]
+    if n == 0 or len(data) == 0 or n >= 2**32:  # empty or edgeless: nothing to iterate
+        return solve_clipper_numpy(M, p)
+    prm = (p.tol_u, p.tol_F, float(p.maxiniters), float(p.maxlsiters), p.beta, p.eps)
+    u, F, steps = asc.ascent(indptr, indices, data, _start(p.seed, n), prm, p.maxoliters)
+    sel, density = rnd.round_and_score(indptr, indices, data, u, max(1, int(round(F))), p.eps)
+    return ClipperSolution(u, sel, float(F), float(density), int(steps))
+
+
+def solve_clipper_numpy(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams | None = None) -> ClipperSolution:
+    """``solve_clipper`` in numpy and scipy (the reference the compiled solver is tested against)."""
     p = params or ClipperParams()
     A = _prepare(M)
     n = A.shape[0]
     if n == 0:
         return ClipperSolution(np.zeros(0), np.zeros(0, dtype=np.int64), 0.0, 0.0, 0)
     pat = _Pattern(A)
-    u = child_rng(p.seed, "clipper", "u0").random(n) + 0.5
+    u = _start(p.seed, n)
     u = A @ u + u
     u /= np.linalg.norm(u)
     if A.nnz == 0:
