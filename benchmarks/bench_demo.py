@@ -13,7 +13,7 @@ time of ``roman-sim demo`` on 2 free cores is then estimated as
 the CPU time of it and its workers (meaningful on a quiet machine only).
 Writes ``benchmarks/out/demo.json``.
 
-Usage: python benchmarks/bench_demo.py [--wall] [--scenario demo]
+Usage: python benchmarks/bench_demo.py [--wall] [--scenario demo] [--set key=value ...] [--label NAME]
 """
 
 from __future__ import annotations
@@ -36,7 +36,8 @@ WORKER_START = (
     "import time; t = time.process_time(); "
     "from roman_sim.pipeline import tasks; from roman_sim.pipeline.scenario import load_scenario; "
     "from roman_sim.world import generate; sc = load_scenario({name!r}); generate(sc.world.spec(), sc.seed); "
-    "from roman_sim.align.clipper import _compiled; _compiled(); print(time.process_time() - t)"
+    "from roman_sim.align import clipper; getattr(clipper, '_compiled', lambda: None)(); "
+    "print(time.process_time() - t)"
 )
 
 
@@ -48,7 +49,7 @@ def _cpu(cmd: list[str]) -> float:
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def stage_cpu(name: str) -> dict[str, Any]:
+def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
     """CPU seconds of every stage (and of each robot's mapping) of a fresh serial run of ``name``."""
     from roman_sim.pipeline import experiment
     from roman_sim.pipeline.executor_base import ExecutorConfig
@@ -77,30 +78,32 @@ def stage_cpu(name: str) -> dict[str, Any]:
     maps.map_one = timed_robot  # the serial maps stage calls it by this name
     try:
         with tempfile.TemporaryDirectory() as d:
-            sc = load_scenario(name)
+            sc = load_scenario(name, sets)
             res = experiment.Experiment(sc, Path(d) / name, fresh=True, executor=ExecutorConfig(kind="serial")).run()
             summary = {"pairs": res.metrics.n_pairs, "segments": res.map_stats.segments}
+            summary["summary"] = res.metrics_summary()
     finally:
         experiment.Experiment._run_stage, maps.map_one = run_stage, map_one
     return {"stages_cpu_s": stages, "robots_cpu_s": robots, **summary}
 
 
-def estimate(name: str) -> dict[str, Any]:
+def estimate(name: str, sets: list[str]) -> dict[str, Any]:
     """Per-stage CPU, start-up costs and the 2-worker wall-time estimate."""
     py = sys.executable
-    startup = _cpu([py, "-c", "import roman_sim.cli"])
+    startup = _cpu([py, "-c", "import roman_sim.cli.run, roman_sim.pipeline.experiment, roman_sim.pipeline.stages"])
     worker = float(
         subprocess.run(
             [py, "-c", WORKER_START.format(name=name)], capture_output=True, text=True, check=True
         ).stdout.split()[-1]
     )
-    cpu = stage_cpu(name)
+    cpu = stage_cpu(name, sets)
     s, r = cpu["stages_cpu_s"], cpu["robots_cpu_s"]
     maps_wall = s["maps"] - sum(r.values()) + max(r.values()) if r else s.get("maps", 0.0)
     wall = startup + worker + maps_wall + s.get("evaluation", 0.0) / 2
     wall += sum(v for k, v in s.items() if k not in ("maps", "evaluation"))
     return {
         "scenario": name,
+        "overrides": sets,
         "cli_startup_cpu_s": startup,
         "worker_startup_cpu_s": worker,
         **cpu,
@@ -124,9 +127,10 @@ def main() -> None:
     ap.add_argument("--scenario", default="demo")
     ap.add_argument("--wall", action="store_true")
     ap.add_argument("--label", default="current")
+    ap.add_argument("--set", dest="sets", action="append", default=[], help="scenario override, e.g. seed=3")
     args = ap.parse_args()
     result = json.loads(OUT.read_text()) if OUT.is_file() else {}
-    entry = estimate(args.scenario)
+    entry = estimate(args.scenario, args.sets)
     if args.wall:
         entry["measured"] = measure_wall(args.scenario)
     entry["load_average"] = [round(x, 2) for x in os.getloadavg()]

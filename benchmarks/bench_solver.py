@@ -21,6 +21,7 @@ import argparse
 import importlib.util
 import os
 import platform
+import sys
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -62,6 +63,7 @@ def _load_baseline(root: Path) -> Callable[..., Any]:
     spec = importlib.util.spec_from_file_location("clipper_baseline", root / "roman_sim" / "align" / "clipper.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module  # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module.solve_clipper
 
