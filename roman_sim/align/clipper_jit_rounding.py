@@ -1,7 +1,7 @@
 """CLIPPER's rounding compiled with numba: greedy clique, extension, local search, density.
 
 The same decisions and sums, in the same order, as ``round_solution`` and ``clique_density``
-of ``roman_sim.align.clipper`` (see ``roman_sim.align.clipper_jit`` for how the bits are kept).
+of ``roman_sim.align.clipper_rounding`` (see ``roman_sim.align.clipper_jit`` for how the bits are kept).
 """
 
 from __future__ import annotations
