@@ -23,8 +23,14 @@ RGB on every frame, and ``mapping_over_render``: the front end's time over the r
 of the frames it needs (target at most 1.3). Writes ``benchmarks/out/frames.json``
 (``--label`` names the entry; ``baseline`` keeps the figures of an older checkout).
 
+``--dense DIR`` instead maps ``bench_mapping``'s dense synthetic frames (640 x 480 ray-cast,
+about 20 objects in range, fastsam + simulated encoder) with this checkout and with the one
+whose ``roman_sim/`` is in ``DIR`` (e.g. ``git archive <commit> roman_sim | tar -x -C DIR``),
+each in its own subprocess, alternating ``--repeats`` times, and records the CPU time per
+frame of the whole mapper and of its segmenter (the front-end engineer's part) for each.
+
 Usage: python benchmarks/bench_frames.py [--frames 400] [--repeats 2] [--label current]
-       [--scenarios demo kimera_outdoor demo_pixels]
+       [--scenarios demo kimera_outdoor demo_pixels] [--dense DIR]
 """
 
 from __future__ import annotations
@@ -202,6 +208,54 @@ def _summary(name: str, cfg: Any, n: int, n_run: int, best: dict[str, float], co
     }
 
 
+DENSE = """
+import json, sys, time
+sys.path.insert(0, {bench!r})
+import numpy as np
+from bench_mapping import _mapper
+from roman_sim.mapping import synthetic
+spheres = synthetic.sphere_field(300, 0, x_range=(2.0, 12.0), half_width=6.0, radius_range=(0.15, 0.35))
+frames = list(synthetic.drive(spheres, n=60, speed=0.5, intr=synthetic.intrinsics(640, 480, 87.0)))
+mapper, seg, enc = _mapper(0, {{k: "boulder" for k in range(len(spheres))}})
+inner, seg_cpu = seg.inner.segment, [0.0]
+def timed(frame):
+    t0 = time.process_time()
+    out = inner(frame)
+    seg_cpu[0] += time.process_time() - t0
+    return out
+seg.inner.segment = timed
+per = []
+for f in frames:
+    t0 = time.process_time()
+    mapper.process(f)
+    per.append(time.process_time() - t0)
+print(json.dumps({{"ms_median": 1e3 * float(np.median(per)), "ms_mean": 1e3 * float(np.mean(per)),
+                  "segmenter_ms_mean": 1e3 * seg_cpu[0] / len(per), "segments": len(mapper.finish())}}))
+"""
+
+
+def dense(baseline: Path, repeats: int) -> dict:
+    """CPU per frame of the dense synthetic mapping path: this checkout against ``baseline``."""
+    import sys
+
+    code = DENSE.format(bench=str(Path(__file__).resolve().parent))
+    roots = {"current": Path(__file__).resolve().parent.parent, "baseline": baseline}
+    runs: dict[str, list[dict]] = {k: [] for k in roots}
+    for _ in range(repeats):
+        for name, root in roots.items():
+            env = {**os.environ, "PYTHONPATH": str(root)}
+            out = subprocess.run([sys.executable, "-c", code], env=env, cwd=root, capture_output=True, text=True)
+            runs[name].append(json.loads(out.stdout.strip().splitlines()[-1]))
+    best = {k: min(v, key=lambda r: r["ms_mean"]) for k, v in runs.items()}
+    return {
+        "runs": runs,
+        "best": best,
+        "frontend_speedup_mean": best["baseline"]["ms_mean"] / best["current"]["ms_mean"],
+        "without_segmenter_speedup_mean": (best["baseline"]["ms_mean"] - best["baseline"]["segmenter_ms_mean"])
+        / (best["current"]["ms_mean"] - best["current"]["segmenter_ms_mean"]),
+    }
+
+
 def _machine() -> dict:
     try:
         commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
@@ -223,8 +277,14 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=2)
     ap.add_argument("--label", default="current")
     ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--dense", type=Path, default=None, help="older checkout to compare the dense path with")
     args = ap.parse_args()
     result = json.loads(args.out.read_text()) if args.out.is_file() else {}
+    if args.dense is not None:
+        result["dense_synthetic"] = {**dense(args.dense, args.repeats), "machine": _machine()}
+        write_json(args.out, result)
+        print(json.dumps(result["dense_synthetic"]["best"], indent=1))
+        return
     entry = result.get(args.label, {})
     entry["machine"] = _machine()
     for name in args.scenarios:

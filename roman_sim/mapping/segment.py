@@ -156,11 +156,18 @@ class Segment:
         self.points = points
         self._cache.clear()
 
+    def _merge_points(self, points: NDArray[np.float64], voxel: float) -> None:
+        """Downsample this segment's points with ``points`` (voxel keys kept for the next merge)."""
+        merged, keys = downsample_union(self.points, points, voxel, self._cache.get(("keys", voxel)))
+        self._set_downsampled(merged)
+        if keys is not None:
+            self._cache[("keys", voxel)] = keys
+
     def add_observation(
         self, points: NDArray[np.float64], t: float, descriptor: NDArray | None, truth: Counter, voxel: float
     ) -> None:
         """Fuse one observation (points in the odometry frame) into this segment."""
-        self._set_downsampled(downsample_union(self.points, points, voxel))
+        self._merge_points(points, voxel)
         self.first_seen = min(self.first_seen, t)
         self.last_seen = max(self.last_seen, t)
         self.num_sightings += 1
@@ -169,7 +176,7 @@ class Segment:
 
     def absorb(self, other: "Segment", voxel: float) -> None:
         """Merge ``other`` into this segment (this id is kept)."""
-        self._set_downsampled(downsample_union(self.points, other.points, voxel))
+        self._merge_points(other.points, voxel)
         self.first_seen = min(self.first_seen, other.first_seen)
         self.last_seen = max(self.last_seen, other.last_seen)
         self.num_sightings += other.num_sightings

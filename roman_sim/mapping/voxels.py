@@ -54,7 +54,9 @@ def downsample(points: NDArray[np.float64], voxel: float) -> NDArray[np.float64]
     return out / counts[:, None]
 
 
-def downsample_union(a: NDArray[np.float64], b: NDArray[np.float64], voxel: float) -> NDArray[np.float64]:
+def downsample_union(
+    a: NDArray[np.float64], b: NDArray[np.float64], voxel: float, keys_a: NDArray[np.int64] | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.int64] | None]:
     """``downsample(np.vstack([a, b]), voxel)`` of two downsampled clouds, by a merge instead of a sort.
 
     When the voxel keys of ``a`` and of ``b`` each strictly increase (one point per voxel, in
@@ -62,25 +64,37 @@ def downsample_union(a: NDArray[np.float64], b: NDArray[np.float64], voxel: floa
     each, and ``downsample`` gives ``(0 + p) / 1`` or ``((0 + p) + q) / 2`` (``np.bincount``'s
     running sums): the same bits are computed here directly. Otherwise (a mean rounded across a
     voxel border) ``downsample`` runs.
+
+    Args:
+        a, b: the clouds (N, 3) and (M, 3).
+        voxel: voxel size (m).
+        keys_a: ``hash_voxels(a, voxel)`` when the caller has it.
+
+    Returns: the points and, after a merge, their voxel keys (each merged point is the mean of
+    two points of one voxel, so it stays in that voxel), else None.
     """
     a = np.asarray(a, dtype=np.float64).reshape(-1, 3)
     b = np.asarray(b, dtype=np.float64).reshape(-1, 3)
     if len(a) == 0 or len(b) == 0:
-        return downsample(np.vstack([a, b]), voxel)
-    ka, kb = hash_voxels(a, voxel), hash_voxels(b, voxel)
+        return downsample(np.vstack([a, b]), voxel), None
+    ka = hash_voxels(a, voxel) if keys_a is None else keys_a
+    kb = hash_voxels(b, voxel)
     if not (np.all(ka[1:] > ka[:-1]) and np.all(kb[1:] > kb[:-1])):
-        return downsample(np.vstack([a, b]), voxel)
+        return downsample(np.vstack([a, b]), voxel), None
     pos = np.searchsorted(ka, kb)
     hit = pos < len(ka)
     hit[hit] = ka[pos[hit]] == kb[hit]
     kb_new = kb[~hit]
     at_a = np.arange(len(ka)) + np.searchsorted(kb_new, ka)  # output row of each point of a
+    at_b = np.searchsorted(ka, kb_new) + np.arange(len(kb_new))
     out = np.empty((len(ka) + len(kb_new), 3))
     out[at_a] = a + 0.0
-    out[np.searchsorted(ka, kb_new) + np.arange(len(kb_new))] = b[~hit] + 0.0
+    out[at_b] = b[~hit] + 0.0
     both = pos[hit]
     out[at_a[both]] = ((a[both] + 0.0) + b[hit]) / 2.0
-    return out
+    keys = np.empty(len(out), dtype=np.int64)
+    keys[at_a], keys[at_b] = ka, kb_new
+    return out, keys
 
 
 def pack_cells(cells: NDArray[np.int64]) -> NDArray[np.int64] | None:

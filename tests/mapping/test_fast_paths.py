@@ -52,17 +52,21 @@ def test_fast_and_reference_paths_make_the_same_map(demo_frames, tmp_path, monke
     calls = {"union": 0, "merged": 0}
     union = voxels.downsample_union
 
-    def counting_union(a, b, voxel):
-        out = union(a, b, voxel)
+    def counting_union(a, b, voxel, keys_a=None):
+        out, keys = union(a, b, voxel, keys_a)
         calls["union"] += 1
         calls["merged"] += len(out) < len(a) + len(b)  # some voxels held a point of each
-        return out
+        if keys is not None:  # the keys handed on are those of the merged points
+            np.testing.assert_array_equal(keys, voxels.hash_voxels(out, voxel))
+        return out, keys
 
     monkeypatch.setattr(segment_mod, "downsample_union", counting_union)
     fast = _map(sc, families, frames, tmp_path, "fast")
     assert calls["union"] > 100 and calls["merged"] > 50 and len(fast[1]) >= 10
     with monkeypatch.context() as m:  # every fast path replaced by what it replaces
-        m.setattr(segment_mod, "downsample_union", lambda a, b, v: voxels.downsample(np.vstack([a, b]), v))
+        m.setattr(
+            segment_mod, "downsample_union", lambda a, b, v, k=None: (voxels.downsample(np.vstack([a, b]), v), None)
+        )
         m.setattr(segment_mod, "largest_cluster", segment_mod.largest_cluster_reference)
         m.setattr(segment_mod, "oriented_extents", trimesh_extents)
         ref = _map(sc, families, frames, tmp_path, "reference")
@@ -81,9 +85,15 @@ def test_union_of_downsampled_clouds_is_the_downsample_of_both() -> None:
     for k in range(50):
         a = voxels.downsample(rng.uniform(-3, 3, (int(rng.integers(1, 800)), 3)) + 40.0, 0.05)
         b = voxels.downsample(np.vstack([a[: k * 3], rng.uniform(-3, 3, (200, 3)) + 40.0]), 0.05)
-        np.testing.assert_array_equal(voxels.downsample_union(a, b, 0.05), voxels.downsample(np.vstack([a, b]), 0.05))
+        out, keys = voxels.downsample_union(a, b, 0.05)
+        np.testing.assert_array_equal(out, voxels.downsample(np.vstack([a, b]), 0.05))
+        np.testing.assert_array_equal(keys, voxels.hash_voxels(out, 0.05))
+        again, _ = voxels.downsample_union(out, b, 0.05, keys)  # with the keys handed on
+        np.testing.assert_array_equal(again, voxels.downsample(np.vstack([out, b]), 0.05))
     raw = rng.uniform(0, 1, (300, 3))  # not downsampled: the general path
-    np.testing.assert_array_equal(voxels.downsample_union(raw, raw, 0.1), voxels.downsample(np.vstack([raw, raw]), 0.1))
+    out, keys = voxels.downsample_union(raw, raw, 0.1)
+    np.testing.assert_array_equal(out, voxels.downsample(np.vstack([raw, raw]), 0.1))
+    assert keys is None
 
 
 def test_largest_cluster_by_keys_is_the_k_d_tree_one() -> None:
