@@ -5,13 +5,19 @@ projected gradient ascent with a growing penalty ``d`` on non-edges.
 ``M`` is a symmetric scipy sparse matrix with unit diagonal (the diagonal is treated as 1
 whatever is stored). Everything per iteration is one sparse mat-vec plus O(n) work.
 
-Rounding: the reference keeps the top ``round(F)`` entries of ``u``. With weights below 1
-``F`` underestimates the clique size, and the top entries need not form a clique, so the
-selection is made a clique greedily (descending ``u``), extended by any node adjacent to
-every selected node whose addition raises the clique density ``1^T M_S 1 / |S|``, and
-finally improved by single additions / one-for-one swaps while the density rises. The
+Rounding (``roman_sim.align.clipper_rounding``): the reference keeps the top ``round(F)``
+entries of ``u``. With weights below 1 ``F`` underestimates the clique size, and the top
+entries need not form a clique, so the selection is made a clique greedily (descending
+``u``), extended by any node adjacent to every selected node whose addition raises the
+clique density ``1^T M_S 1 / |S|``, and finally improved by single additions / one-for-one
+swaps while the density rises. The
 ascent itself is a local method: on small random weighted graphs it reaches the maximum
 density clique about 95 % of the time (tests/align/test_clipper.py).
+
+``solve_clipper`` runs the compiled solver (``roman_sim.align.clipper_jit``: the same
+arithmetic in the same order, so the same bits) when numba can build it, else the numpy
+path ``solve_clipper_numpy``; the fixed per-call costs of numpy on small vectors would
+otherwise dominate the small problems of most submap pairs.
 """
 
 from __future__ import annotations
@@ -19,12 +25,15 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
 from numpy.typing import NDArray
 from pydantic import Field
 
+from roman_sim.align.clipper_rounding import clique_density, round_solution
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import AlignmentError
 from roman_sim.core.seeding import child_rng
@@ -69,14 +78,20 @@ class ClipperSolution:
     iterations: int
 
 
-def _prepare(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
-    """Square, finite, non-negative CSR of ``M`` without its diagonal (entries assumed unique)."""
+def _as_csr(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
+    """``M`` as a square float64 CSR matrix (not copied when it is one)."""
     if isinstance(M, (sp.csr_matrix, sp.csr_array)) and M.dtype == np.float64:
         A = M
     else:
         A = sp.csr_matrix(M, dtype=np.float64)
     if A.shape[0] != A.shape[1]:
         raise AlignmentError(f"affinity matrix must be square, got shape {A.shape}")
+    return A
+
+
+def _prepare(M: sp.spmatrix | NDArray[np.floating]) -> sp.csr_matrix:
+    """Square, finite, non-negative CSR of ``M`` without its diagonal (entries assumed unique)."""
+    A = _as_csr(M)
     if A.nnz and (not np.all(np.isfinite(A.data)) or A.data.min() < 0):
         raise AlignmentError("affinity matrix entries must be finite and >= 0")
     row = np.repeat(np.arange(A.shape[0], dtype=A.indices.dtype), np.diff(A.indptr))
@@ -173,6 +188,31 @@ def _ascend(
     return u, F, steps
 
 
+@lru_cache(maxsize=8)
+def _start_draws(seed: int, n: int) -> NDArray[np.float64]:
+    """The first ``n`` uniform draws of the start vector's stream (a stream's prefix is its shorter draw)."""
+    out = child_rng(seed, "clipper", "u0").random(n)
+    out.flags.writeable = False
+    return out
+
+
+def _start(seed: int, n: int) -> NDArray[np.float64]:
+    """``child_rng(seed, "clipper", "u0").random(n) + 0.5``, the draws cached in blocks of 4096."""
+    return _start_draws(seed, -(-n // 4096) * 4096)[:n] + 0.5
+
+
+@lru_cache(maxsize=1)
+def _compiled() -> tuple[Any, Any] | None:
+    """The compiled solver's modules (ascent, rounding), or None where they cannot run (numpy path)."""
+    try:
+        from roman_sim.align import clipper_jit, clipper_jit_rounding
+
+        return (clipper_jit, clipper_jit_rounding) if clipper_jit.usable() else None
+    except Exception as err:  # a failed build leaves the numpy path, which gives the same bits
+        log.warning("compiled CLIPPER unavailable (%s: %s); using the numpy solver", type(err).__name__, err)
+        return None
+
+
 def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams | None = None) -> ClipperSolution:
     """Densest clique of the weighted consistency graph ``M``.
 
@@ -180,15 +220,36 @@ def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams |
         M: (n, n) symmetric non-negative affinities; ``M[p, q] > 0`` marks an edge.
         params: solver settings (defaults when None).
 
-    Returns: the solution; an empty graph gives an empty selection.
+    Returns: the solution (the compiled solver's, bit for bit ``solve_clipper_numpy``'s);
+    an empty graph gives an empty selection.
     """
+    p = params or ClipperParams()
+    jit = _compiled()
+    if jit is None:
+        return solve_clipper_numpy(M, p)
+    asc, rnd = jit
+    A = _as_csr(M)
+    indptr, indices, data, ok = asc.strip(A.indptr, A.indices, A.data)
+    if not ok:
+        raise AlignmentError("affinity matrix entries must be finite and >= 0")
+    n = A.shape[0]
+    if n == 0 or len(data) == 0 or n >= 2**32:  # empty or edgeless: nothing to iterate
+        return solve_clipper_numpy(M, p)
+    prm = (p.tol_u, p.tol_F, float(p.maxiniters), float(p.maxlsiters), p.beta, p.eps)
+    u, F, steps = asc.ascent(indptr, indices, data, _start(p.seed, n), prm, p.maxoliters)
+    sel, density = rnd.round_and_score(indptr, indices, data, u, max(1, int(round(F))), p.eps)
+    return ClipperSolution(u, sel, float(F), float(density), int(steps))
+
+
+def solve_clipper_numpy(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams | None = None) -> ClipperSolution:
+    """``solve_clipper`` in numpy and scipy (the reference the compiled solver is tested against)."""
     p = params or ClipperParams()
     A = _prepare(M)
     n = A.shape[0]
     if n == 0:
         return ClipperSolution(np.zeros(0), np.zeros(0, dtype=np.int64), 0.0, 0.0, 0)
     pat = _Pattern(A)
-    u = child_rng(p.seed, "clipper", "u0").random(n) + 0.5
+    u = _start(p.seed, n)
     u = A @ u + u
     u /= np.linalg.norm(u)
     if A.nnz == 0:
@@ -209,118 +270,3 @@ def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams |
     F = float(u @ (A @ u + u))
     selected = round_solution(A, u, F, p.eps)
     return ClipperSolution(u, selected, F, clique_density(A, selected), total)
-
-
-def _sub_sum(A: sp.csr_matrix, idx: NDArray[np.int64] | list[int]) -> float:
-    """``A[idx][:, idx].sum()`` without fancy indexing (``idx`` unique).
-
-    scipy sums the submatrix's entries in canonical order (rows in ``idx`` order, columns by
-    their position in ``idx``); gathering them in that order gives the same bits.
-    """
-    idx = np.asarray(idx, dtype=np.int64)
-    pos = np.full(A.shape[1], -1, dtype=np.int64)
-    pos[idx] = np.arange(len(idx))
-    parts = []
-    for i in idx:
-        lo, hi = A.indptr[i], A.indptr[i + 1]
-        p = pos[A.indices[lo:hi]]
-        keep = p >= 0
-        parts.append(A.data[lo:hi][keep][np.argsort(p[keep], kind="stable")])
-    data = np.concatenate(parts) if parts else np.zeros(0)
-    return float(np.sum(data)) if len(data) else 0.0
-
-
-def clique_density(A: sp.csr_matrix, sel: NDArray[np.int64]) -> float:
-    """``1^T M_S 1 / |S|`` with unit diagonal (``A`` without diagonal)."""
-    if len(sel) == 0:
-        return 0.0
-    return float((_sub_sum(A, sel) + len(sel)) / len(sel))
-
-
-def round_solution(A: sp.csr_matrix, u: NDArray[np.float64], F: float, eps: float = 1e-9) -> NDArray[np.int64]:
-    """Top ``round(F)`` entries of ``u`` made a clique, then greedily extended (see module doc)."""
-    order = np.argsort(-u, kind="stable")
-    order = order[u[order] > eps]
-    k = max(1, int(round(F)))
-    chosen: list[int] = []
-    mask = np.zeros(A.shape[0], dtype=bool)
-    for i in order:
-        if len(chosen) >= k:
-            break
-        if _row_weights(A, int(i), mask, len(chosen)) is not None:
-            chosen.append(int(i))
-            mask[int(i)] = True
-    if not chosen:
-        return np.zeros(0, dtype=np.int64)
-    return _local_search(A, _extend(A, order, chosen, mask))
-
-
-def _row_weights(A: sp.csr_matrix, i: int, chosen_mask: NDArray[np.bool_], n_chosen: int) -> NDArray[np.float64] | None:
-    """Weights from node ``i`` to the chosen nodes (``chosen_mask``), or None if one is not a neighbour."""
-    lo, hi = A.indptr[i], A.indptr[i + 1]
-    hit = chosen_mask[A.indices[lo:hi]]
-    if int(hit.sum()) != n_chosen:
-        return None
-    return A.data[lo:hi][hit]
-
-
-def _extend(
-    A: sp.csr_matrix, order: NDArray[np.int64], chosen: list[int], mask: NDArray[np.bool_]
-) -> NDArray[np.int64]:
-    """Add nodes adjacent to all chosen ones while the clique density increases (``mask`` marks them)."""
-    total = _sub_sum(A, chosen) + len(chosen)
-    for i in order:
-        i = int(i)
-        if mask[i]:
-            continue
-        w = _row_weights(A, i, mask, len(chosen))
-        if w is None:
-            continue
-        gain = 2.0 * float(w.sum()) + 1.0
-        if (total + gain) / (len(chosen) + 1) > total / len(chosen):
-            chosen.append(i)
-            mask[i] = True
-            total += gain
-    return np.sort(np.asarray(chosen, dtype=np.int64))
-
-
-def _dense_rows(A: sp.csr_matrix, rows: NDArray[np.int64]) -> NDArray[np.float64]:
-    """``A[rows].toarray()`` without scipy's fancy-indexing overhead (a handful of rows per call)."""
-    out = np.zeros((len(rows), A.shape[1]))
-    for r, i in enumerate(rows):
-        lo, hi = A.indptr[i], A.indptr[i + 1]
-        out[r, A.indices[lo:hi]] = A.data[lo:hi]
-    return out
-
-
-def _local_search(A: sp.csr_matrix, sel: NDArray[np.int64], max_rounds: int = 50) -> NDArray[np.int64]:
-    """Improve the clique density by single additions or one-for-one swaps, best move first.
-
-    Every move keeps ``sel`` a clique of ``A > 0`` and strictly raises the density, so the
-    loop ends; it repairs most cases where the ascent stopped next to a denser clique.
-    """
-    sel = np.asarray(sel, dtype=np.int64)
-    for _ in range(max_rounds):
-        k = len(sel)
-        W = np.ascontiguousarray(_dense_rows(A, sel).T)  # A is symmetric: its columns sel are its rows sel
-        cnt, wsum = (W > 0).sum(axis=1), W.sum(axis=1)
-        inside = np.zeros(A.shape[0], dtype=bool)
-        inside[sel] = True
-        total = float(wsum[sel].sum())
-        base = (total + k) / k
-        add = np.where((cnt == k) & ~inside, (total + 2 * wsum + k + 1) / (k + 1), -np.inf)
-        swap = np.full(A.shape[0], -np.inf)
-        cand = np.flatnonzero((cnt == k - 1) & ~inside)
-        if len(cand):
-            missing = np.argmin(W[cand] > 0, axis=1)
-            r_out = wsum[sel[missing]]
-            swap[cand] = (total - 2 * r_out + 2 * wsum[cand] + k) / k
-        best_add, best_swap = int(np.argmax(add)), int(np.argmax(swap))
-        if max(add[best_add], swap[best_swap]) <= base + 1e-12:
-            break
-        if add[best_add] >= swap[best_swap]:
-            sel = np.sort(np.append(sel, best_add))
-        else:
-            drop = sel[np.argmin(W[best_swap] > 0)]
-            sel = np.sort(np.append(sel[sel != drop], best_swap))
-    return sel

@@ -72,6 +72,7 @@ class _Geometry:
     pts_cam: NDArray[np.float64]
     sel: NDArray[np.bool_]
     bbox: tuple[int, int, int, int]
+    labels: Counter[int] | None = None  # ``_labels``, once computed
 
 
 def _geometry(
@@ -99,9 +100,11 @@ def _labels(frame: Frame, geo: _Geometry) -> Counter[int]:
     """Evaluation-only label: true object ids of the observed pixels (empty without instance truth)."""
     if frame.truth is None or frame.truth.object_ids is None:  # a real sequence has poses but no labels
         return Counter()
-    r0, r1, c0, c1 = geo.bbox
-    uniq, counts = np.unique(np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][geo.sel], return_counts=True)
-    return Counter(dict(zip(uniq.tolist(), counts.tolist())))
+    if geo.labels is None:
+        r0, r1, c0, c1 = geo.bbox
+        uniq, counts = np.unique(np.asarray(frame.truth.object_ids)[r0:r1, c0:c1][geo.sel], return_counts=True)
+        geo.labels = Counter(dict(zip(uniq.tolist(), counts.tolist())))
+    return Counter(geo.labels)
 
 
 def _truth_context(frame: Frame, geo: _Geometry) -> EncodeContext:

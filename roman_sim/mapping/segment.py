@@ -13,15 +13,15 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 import numpy as np
-import trimesh
 from numpy.typing import NDArray
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from roman_sim.core.geometry import pca_shape_features
+from roman_sim.mapping.obb import oriented_extents
 from roman_sim.mapping.voxels import NEIGHBOUR_OFFSETS as _NEIGHBOUR_OFFSETS
-from roman_sim.mapping.voxels import downsample, hash_voxels, voxel_set
+from roman_sim.mapping.voxels import downsample, downsample_union, hash_voxels, neighbour_pairs, pack_cells, voxel_set
 
 log = logging.getLogger(__name__)
 
@@ -38,16 +38,15 @@ class Status(str, Enum):
 def obb_extents(points: NDArray[np.float64]) -> tuple[NDArray[np.float64], float]:
     """Oriented-box extents (sorted descending) and volume; volume 0 with <= 4 points.
 
-    Uses trimesh's minimum-volume oriented box; degenerate (flat) point sets fall back to
-    the PCA-aligned box.
+    Uses trimesh's minimum-volume oriented box (``roman_sim.mapping.obb``: the same bits in
+    fewer calls); degenerate (flat) point sets fall back to the PCA-aligned box.
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(pts) <= 4:
         ext = pca_extents(pts)
         return ext, 0.0
     try:
-        _, ext = trimesh.bounds.oriented_bounds(pts)
-        ext = np.sort(np.asarray(ext, dtype=np.float64))[::-1]
+        ext = np.sort(oriented_extents(pts))[::-1]
     except Exception:  # qhull fails on exactly flat or collinear sets
         ext = pca_extents(pts)
     return ext, float(np.prod(ext))
@@ -70,17 +69,39 @@ def largest_cluster(points: NDArray[np.float64], eps: float) -> NDArray[np.float
     Points are binned into voxels of size ``eps`` and clusters are the 26-connected
     components of the occupied voxels: points closer than ``eps`` always share a cluster
     (a slightly coarser cut than single-linkage on points, and far cheaper on dense clouds).
+    The voxels are packed int64 keys (sorted like the rows of ``np.unique(axis=0)``) and their
+    neighbours are found by key; ``largest_cluster_reference`` builds the same graph with a
+    k-d tree (ties between equal clusters go to the same one).
     """
     pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     if len(pts) < 2:
         return pts
+    packed = pack_cells(np.floor(pts / eps).astype(np.int64))
+    if packed is None:
+        return largest_cluster_reference(pts, eps)
+    keys, inv = np.unique(packed, return_inverse=True)
+    if len(keys) == 1:
+        return pts
+    return _largest(pts, inv.reshape(-1), len(keys), *neighbour_pairs(keys))
+
+
+def largest_cluster_reference(points: NDArray[np.float64], eps: float) -> NDArray[np.float64]:
+    """``largest_cluster`` with ``np.unique(axis=0)`` and ``cKDTree.query_pairs`` (any coordinates)."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    if len(pts) < 2:
+        return pts
     keys, inv = np.unique(np.floor(pts / eps).astype(np.int64), axis=0, return_inverse=True)
-    inv = inv.reshape(-1)
     if len(keys) == 1:
         return pts
     pairs = cKDTree(keys).query_pairs(np.sqrt(3.0) + 1e-6, output_type="ndarray")
-    n = len(keys)
-    graph = coo_matrix((np.ones(len(pairs)), (pairs[:, 0], pairs[:, 1])), shape=(n, n))
+    return _largest(pts, inv.reshape(-1), len(keys), pairs[:, 0], pairs[:, 1])
+
+
+def _largest(
+    pts: NDArray[np.float64], inv: NDArray[np.int64], n: int, i: NDArray[np.int64], j: NDArray[np.int64]
+) -> NDArray[np.float64]:
+    """The points of the largest connected component of the voxel graph (edges i-j)."""
+    graph = coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n))
     _, labels = connected_components(graph, directed=False)
     point_labels = labels[inv]
     counts = np.bincount(point_labels)
@@ -129,14 +150,24 @@ class Segment:
     # ---- updates -------------------------------------------------------------------
     def set_points(self, points: NDArray[np.float64], voxel: float) -> None:
         """Replace the points (voxel-downsampled at ``voxel``) and drop cached features."""
-        self.points = downsample(points, voxel)
+        self._set_downsampled(downsample(points, voxel))
+
+    def _set_downsampled(self, points: NDArray[np.float64]) -> None:
+        self.points = points
         self._cache.clear()
+
+    def _merge_points(self, points: NDArray[np.float64], voxel: float) -> None:
+        """Downsample this segment's points with ``points`` (voxel keys kept for the next merge)."""
+        merged, keys = downsample_union(self.points, points, voxel, self._cache.get(("keys", voxel)))
+        self._set_downsampled(merged)
+        if keys is not None:
+            self._cache[("keys", voxel)] = keys
 
     def add_observation(
         self, points: NDArray[np.float64], t: float, descriptor: NDArray | None, truth: Counter, voxel: float
     ) -> None:
         """Fuse one observation (points in the odometry frame) into this segment."""
-        self.set_points(np.vstack([self.points, points]), voxel)
+        self._merge_points(points, voxel)
         self.first_seen = min(self.first_seen, t)
         self.last_seen = max(self.last_seen, t)
         self.num_sightings += 1
@@ -145,7 +176,7 @@ class Segment:
 
     def absorb(self, other: "Segment", voxel: float) -> None:
         """Merge ``other`` into this segment (this id is kept)."""
-        self.set_points(np.vstack([self.points, other.points]), voxel)
+        self._merge_points(other.points, voxel)
         self.first_seen = min(self.first_seen, other.first_seen)
         self.last_seen = max(self.last_seen, other.last_seen)
         self.num_sightings += other.num_sightings
@@ -177,8 +208,10 @@ class Segment:
 
     @property
     def center(self) -> NDArray[np.float64]:
-        """Mean point (odometry frame)."""
-        return self.points.mean(axis=0) if len(self.points) else np.full(3, np.nan)
+        """Mean point (odometry frame; cached)."""
+        if "center" not in self._cache:
+            self._cache["center"] = self.points.mean(axis=0) if len(self.points) else np.full(3, np.nan)
+        return self._cache["center"]
 
     @property
     def bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
+from roman_sim.align.visual.keyframes import keyframe_mask
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.jsontypes import JSON
@@ -28,7 +29,7 @@ from roman_sim.mapping.semantics import SemanticEncoder
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.plugin_guard import guard_frontend
+from roman_sim.pipeline.plugin_guard import guard_frontend, is_plugin
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray
@@ -85,11 +86,24 @@ def _frames(ctx: RunContext, world: World, cfg: ScenarioRobot, trajectory: Drive
                 return read_recording(rec_dir)
         except RomanSimError:
             pass
-    frames = render_trajectory(world, cfg, sc.seed, trajectory)
+    frames = render_trajectory(
+        world, cfg, sc.seed, trajectory, None if sc.record_frames else _rgb_frames(ctx, trajectory)
+    )
     if not sc.record_frames:
         return frames
     write_recording(frames, rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
     return read_recording(rec_dir)
+
+
+def _rgb_frames(ctx: RunContext, trajectory: DrivenRun) -> NDArray[np.bool_] | list[bool] | None:
+    """Frames whose RGB is read (None: all): a plug-in or RGB front end reads all, the visual method keyframes."""
+    sc = ctx.scenario
+    fe = sc.frontend
+    if is_plugin(fe.segmenter.name) or is_plugin(fe.encoder.name) or fe.needs_rgb:
+        return None
+    if not sc.uses_visual:
+        return [False] * len(trajectory.t)
+    return keyframe_mask(trajectory.t, trajectory.T_odom_body, fe.keyframes)
 
 
 def _map_frames(

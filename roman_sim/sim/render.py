@@ -34,7 +34,8 @@ class SensorRenderer:
         world: anything with ``.model`` (compiled ``mujoco.MjModel``) and ``.truth``
             (``WorldTruth``, for the geom -> object id table).
         camera_cfg: camera configuration (intrinsics, near/far planes).
-        rgb: whether ``render`` also returns an RGB image (costs one more pass).
+        rgb: whether ``render`` also returns an RGB image by default (costs one more pass;
+            ``render(T, rgb=...)`` decides per frame).
     """
 
     def __init__(self, world: World, camera_cfg: CameraConfig, rgb: bool = True) -> None:
@@ -109,8 +110,12 @@ class SensorRenderer:
             cam.frustum_top = top
             cam.orthographic = 0
 
-    def render(self, T_world_cam: NDArray[np.float64]) -> RenderOutput:
+    def render(self, T_world_cam: NDArray[np.float64], rgb: bool | None = None) -> RenderOutput:
         """Render from a camera (RDF optical frame) pose.
+
+        Args:
+            T_world_cam: 4x4 camera pose.
+            rgb: draw the RGB pass for this frame (None: the renderer's default).
 
         Returns:
             rgb (H, W, 3) uint8 or None, noise-free depth (H, W) float32 in metres along
@@ -122,12 +127,11 @@ class SensorRenderer:
         self._gl.make_current()
         self._set_camera(T_world_cam)
         depth, ids = self._render_depth_ids()
-        rgb = None
-        if self.rgb:
-            mujoco.mjr_render(self._rect, self._scene, self._ctx)
-            mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
-            rgb = self._rgb_buf[::-1].copy()
-        return rgb, depth, ids
+        if not (self.rgb if rgb is None else rgb):
+            return None, depth, ids
+        mujoco.mjr_render(self._rect, self._scene, self._ctx)
+        mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
+        return self._rgb_buf[::-1].copy(), depth, ids
 
     def _render_depth_ids(self) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
         flags = self._scene.flags

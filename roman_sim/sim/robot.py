@@ -171,17 +171,36 @@ def simulate_robot(
     yield from render_trajectory(world, cfg, seed, robot_trajectory(world, cfg, seed, paths_by_name))
 
 
-def render_trajectory(world: World, cfg: RobotConfig, seed: int, trajectory: DrivenRun) -> Iterator[Frame]:
-    """Rendered ``Frame`` objects along a trajectory from ``robot_trajectory`` / ``trajectory_along``."""
+def render_trajectory(
+    world: World,
+    cfg: RobotConfig,
+    seed: int,
+    trajectory: DrivenRun,
+    rgb_frames: NDArray[np.bool_] | Sequence[bool] | None = None,
+) -> Iterator[Frame]:
+    """Rendered ``Frame`` objects along a trajectory from ``robot_trajectory`` / ``trajectory_along``.
+
+    Depth and ids are rendered for every frame (the depth noise stream does not depend on
+    ``rgb_frames``). RGB, when the robot renders it (``render_rgb``), is drawn on every frame, or
+    only where ``rgb_frames`` (one flag per frame) is true; the other frames have ``rgb`` None.
+
+    Raises: SimError when ``rgb_frames`` does not hold one flag per frame.
+    """
     from roman_sim.sim.render import SensorRenderer  # the renderer needs an OpenGL context
 
     t, T_wb, T_ob = trajectory
+    if rgb_frames is None:
+        with_rgb = np.full(len(t), cfg.render_rgb)
+    else:
+        with_rgb = np.asarray(rgb_frames, dtype=bool) & cfg.render_rgb
+        if with_rgb.shape != (len(t),):
+            raise SimError(f"robot {cfg.name!r}: rgb_frames has {with_rgb.size} flags for {len(t)} frames")
     T_bc = cfg.camera.T_body_cam()
     noise_rng = child_rng(seed, "depth_noise", cfg.name)
     renderer = SensorRenderer(world, cfg.camera, rgb=cfg.render_rgb)
     try:
         for i in range(len(t)):
-            rgb, depth, ids = renderer.render(T_wb[i] @ T_bc)
+            rgb, depth, ids = renderer.render(T_wb[i] @ T_bc, rgb=bool(with_rgb[i]))
             noisy = apply_depth_noise(depth, cfg.camera.depth_noise, cfg.camera.max_depth_m, noise_rng)
             yield Frame(
                 cfg.name, i, float(t[i]), rgb, noisy, T_ob[i], T_bc, renderer.intrinsics, truth=FrameTruth(ids, T_wb[i])

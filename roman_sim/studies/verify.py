@@ -167,7 +167,7 @@ def stored_summary(run_dir: Path) -> dict[str, Any]:
     except (OSError, ValueError, KeyError, TypeError):
         alignment = {}
     runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
-    return json.loads(json.dumps(compact_summary(metrics, ate, stats, runtimes)))
+    return json.loads(json.dumps(compact_summary(metrics, ate, stats, runtimes).to_json()))
 
 
 def independent_check(run_dir: Path) -> list[str]:

@@ -11,7 +11,8 @@ import pytest
 from roman_sim.align import ALIGNERS, AlignResult, build_aligner
 from roman_sim.align.affinity import build_affinity
 from roman_sim.align.aligners import GravityParams
-from roman_sim.align.clipper import _prepare, clique_density
+from roman_sim.align.clipper import _prepare
+from roman_sim.align.clipper_rounding import clique_density
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.geometry import inv_T, pose_4dof, pose_error

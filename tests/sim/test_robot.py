@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from roman_sim.core.errors import SimError
 from roman_sim.core.geometry import gravity_aligned, inv_T
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.planner import Obstacles
-from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
+from roman_sim.sim.robot import RobotConfig, render_trajectory, robot_trajectory, simulate_robot
 from roman_sim.world.truth import Terrain
 
 SMALL = CameraConfig(width=64, height=48)
@@ -93,3 +94,20 @@ def test_plan_paths_resolves_references_in_order(tiny_world) -> None:
         plan_paths(tiny_world, [b, a], seed=0)
     with pytest.raises(SimError, match="used twice"):
         plan_paths(tiny_world, [a, a], seed=0)
+
+
+def test_rgb_only_on_the_frames_asked_for_and_the_rest_unchanged(tiny_world) -> None:
+    cfg = _cfg(max_duration_s=0.5)
+    run = robot_trajectory(tiny_world, cfg, seed=1)
+    full = list(render_trajectory(tiny_world, cfg, 1, run))
+    part = list(render_trajectory(tiny_world, cfg, 1, run, [False, True, False, True]))
+    assert [f.rgb is not None for f in part] == [False, True, False, True]
+    for fa, fb in zip(full, part):  # same depth noise stream and ids whatever gets RGB
+        np.testing.assert_array_equal(fa.depth, fb.depth)
+        np.testing.assert_array_equal(fa.truth.object_ids, fb.truth.object_ids)
+        if fb.rgb is not None:
+            np.testing.assert_array_equal(fa.rgb, fb.rgb)
+    no_rgb = list(render_trajectory(tiny_world, cfg.model_copy(update={"render_rgb": False}), 1, run, [True] * 4))
+    assert all(f.rgb is None for f in no_rgb)  # a robot without RGB never renders it
+    with pytest.raises(SimError, match="rgb_frames has 3 flags for 4 frames"):
+        next(render_trajectory(tiny_world, cfg, 1, run, [True] * 3))

@@ -1,8 +1,10 @@
 """Robot side of the visual method: keyframe selection, features + BoW, and attaching them to submaps.
 
 A frame becomes a keyframe when the odometry has moved ``every_m`` or turned
-``every_deg`` since the last keyframe, or ``every_s`` has passed (the first frame with
-RGB always is one). Only robot data is used (RGB, depth, odometry), never truth. Each
+``every_deg`` since the last keyframe, or ``every_s`` has passed (the first frame always
+is one). The choice reads only times and odometry poses, so ``keyframe_mask`` knows the
+keyframes before any image is rendered: a simulated robot renders RGB only for them.
+Only robot data is used (RGB, depth, odometry), never truth. Each
 keyframe belongs to the submap whose centre time is nearest, so the keyframes of a
 robot are split between its submaps without overlap.
 """
@@ -65,22 +67,16 @@ class KeyframeExtractor:
         self._last: tuple[float, NDArray[np.float64]] | None = None
         self.keyframes: list[Keyframe] = []
 
-    def _due(self, t: float, T: NDArray[np.float64]) -> bool:
-        if self._last is None:
-            return True
-        t0, T0 = self._last
-        p = self.params
-        moved = float(np.linalg.norm(T[:3, 3] - T0[:3, 3]))
-        turned = np.degrees(rotation_angle(T0[:3, :3].T @ T[:3, :3]))
-        return moved >= p.every_m or turned >= p.every_deg or t - t0 >= p.every_s - 1e-9
-
     def offer(self, frame: Frame) -> Keyframe | None:
-        """Make ``frame`` a keyframe if it is due; returns it (or None)."""
+        """Make ``frame`` a keyframe if it is due; returns it (or None).
+
+        Raises: MappingError when a frame that is due has no RGB.
+        """
+        T = frame.T_odom_body
+        if not keyframe_due(self._last, frame.t, T, self.params):
+            return None
         if frame.rgb is None:
             raise MappingError(f"robot {frame.robot!r}: the visual method needs RGB frames (render_rgb: true)")
-        T = frame.T_odom_body
-        if not self._due(frame.t, T):
-            return None
         self._last = (frame.t, np.array(T, dtype=np.float64))
         k = frame.intrinsics
         feats = extract_features(frame.rgb, frame.depth, k, self._orb, self.params.orb)
@@ -97,6 +93,35 @@ class KeyframeExtractor:
     def keyframe_set(self) -> KeyframeSet:
         """The keyframes so far, camera poses in the odometry frame."""
         return keyframe_set(self.keyframes, np.eye(4))
+
+
+def keyframe_due(
+    last: tuple[float, NDArray[np.float64]] | None, t: float, T: NDArray[np.float64], params: KeyframeParams
+) -> bool:
+    """Whether a frame at time ``t`` and odometry pose ``T`` is a keyframe after the keyframe ``last`` (t, pose)."""
+    if last is None:
+        return True
+    t0, T0 = last
+    moved = float(np.linalg.norm(T[:3, 3] - T0[:3, 3]))
+    turned = np.degrees(rotation_angle(T0[:3, :3].T @ T[:3, :3]))
+    return moved >= params.every_m or turned >= params.every_deg or t - t0 >= params.every_s - 1e-9
+
+
+def keyframe_mask(
+    t: NDArray[np.float64], T_odom_body: NDArray[np.float64], params: KeyframeParams | None = None
+) -> NDArray[np.bool_]:
+    """Which of the frames (times ``t``, odometry poses ``T_odom_body``) ``KeyframeExtractor`` keeps.
+
+    The same decisions as offering every frame in order, made from the trajectory alone.
+    """
+    p = params or KeyframeParams()
+    out = np.zeros(len(t), dtype=bool)
+    last: tuple[float, NDArray[np.float64]] | None = None
+    for i in range(len(t)):
+        if keyframe_due(last, float(t[i]), T_odom_body[i], p):
+            out[i] = True
+            last = (float(t[i]), np.array(T_odom_body[i], dtype=np.float64))
+    return out
 
 
 def keyframe_set(keyframes: list[Keyframe], T_odom_submap: NDArray[np.float64]) -> KeyframeSet:
