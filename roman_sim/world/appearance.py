@@ -11,28 +11,38 @@ surface kind (or family part) defines in HSV:
 where ``a`` is ``appearance.instance_variation`` and ``(d_h, d_s, d_v)`` are uniform in
 [-1, 1], drawn per part from ``child_rng(seed, "world", "appearance", "instance", object_id)``.
 
+Textures (``textures: true``): with ``texture_scope: instance`` (the default) every object part
+has its own texture realisation of side ``texture_px``, so no two instances show the same
+patch; their memory, ``parts * texture_px^2 * 3`` bytes, must stay within
+``texture_memory_mb``. ``texture_scope: surface`` shares one texture per surface kind (every
+instance of a shape then looks the same up to its colour).
+
 Lighting: one directional sun (azimuth counter-clockwise from the world +x axis, i.e. 0 =
 east and 90 = north in an east-north-up world; elevation above the horizon), a uniform
 ambient term and a diffuse headlight at the camera. Presets name typical skies; angles left
-``null`` are drawn from ``child_rng(seed, "world", "appearance", "lighting")``.
+``null`` are drawn from ``child_rng(seed, "world", "appearance", "lighting")``. A robot may
+render under its own preset (``roman_sim.world.relight``).
 """
 
 from __future__ import annotations
 
 import colorsys
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import WorldError
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
 
 Colour = tuple[float, float, float]
 RANDOM_ELEVATION_DEG = (15.0, 75.0)
+MAX_TEXTURE_MEMORY_MB = 8192.0
+TEXTURE_BYTES_PER_PX = 3  # RGB, 8 bits each (MuJoCo's classic renderer uploads no 1-channel data)
 
 
 class LightingSpec(StrictModel):
@@ -81,7 +91,13 @@ class AppearanceSpec(StrictModel):
     """Textures, per-instance colour variation, lighting and shadows of a world's RGB images."""
 
     textures: bool = Field(False, description="procedural textures on objects (bark, foliage, rock, ...)")
-    texture_px: int = Field(256, ge=32, le=1024, description="side of each square surface texture")
+    texture_scope: Literal["instance", "surface"] = Field(
+        "instance", description="instance: every object part its own texture; surface: one per surface kind"
+    )
+    texture_px: int = Field(64, ge=32, le=1024, description="side of each square texture")
+    texture_memory_mb: float = Field(
+        512.0, gt=0.0, le=MAX_TEXTURE_MEMORY_MB, description="bound on the per-instance textures' memory"
+    )
     instance_variation: float = Field(0.5, ge=0.0, le=1.0, description="fraction of each family's colour range")
     lighting: LightingSpec = Field(default_factory=LightingSpec, description="a preset name or a mapping")
     shadows: bool = Field(False, description="the sun casts shadows (a frame costs about 2x)")
@@ -97,6 +113,25 @@ class AppearanceSpec(StrictModel):
             rest = {k: x for k, x in v.items() if k != "preset"}
             return {**_preset(str(v["preset"])).model_dump(), **rest}
         return v
+
+
+def texture_memory_mb(n_textures: int, texture_px: int) -> float:
+    """Memory (MiB) of ``n_textures`` square RGB textures of side ``texture_px``."""
+    return n_textures * texture_px**2 * TEXTURE_BYTES_PER_PX / 2**20
+
+
+def check_texture_memory(spec: AppearanceSpec, n_parts: int) -> None:
+    """``WorldError`` naming the fields when ``n_parts`` own textures exceed ``spec.texture_memory_mb``."""
+    need = texture_memory_mb(n_parts, spec.texture_px)
+    if need <= spec.texture_memory_mb:
+        return
+    fit = int(np.sqrt(spec.texture_memory_mb * 2**20 / (TEXTURE_BYTES_PER_PX * max(n_parts, 1))))
+    raise WorldError(
+        f"appearance.texture_memory_mb: {n_parts} object parts x {spec.texture_px}^2 px x "
+        f"{TEXTURE_BYTES_PER_PX} B = {need:.0f} MB of per-instance textures, over the bound of "
+        f"{spec.texture_memory_mb:g} MB; allowed: appearance.texture_px <= {fit} at this bound (>= 32), "
+        f"appearance.texture_memory_mb up to {MAX_TEXTURE_MEMORY_MB:g}, or appearance.texture_scope: surface"
+    )
 
 
 def _preset(name: str) -> LightingSpec:
@@ -119,9 +154,12 @@ class Sun:
         return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
 
 
-def resolve_sun(lighting: LightingSpec, seed: int) -> Sun:
-    """The sun angles of ``lighting``, drawing the ``null`` ones from the world seed."""
-    rng = child_rng(seed, "world", "appearance", "lighting")
+def resolve_sun(lighting: LightingSpec, seed: int, *stream: str | int) -> Sun:
+    """The sun angles of ``lighting``, drawing the ``null`` ones from ``child_rng(seed, *stream)``.
+
+    The stream defaults to the world's, ``("world", "appearance", "lighting")``.
+    """
+    rng = child_rng(seed, *(stream or ("world", "appearance", "lighting")))
     az, el = rng.uniform(0.0, 360.0), rng.uniform(*RANDOM_ELEVATION_DEG)  # drawn always: stable streams
     return Sun(
         azimuth_deg=float(az if lighting.azimuth_deg is None else lighting.azimuth_deg),

@@ -145,6 +145,7 @@ def generate(spec: WorldSpec, seed: int) -> World:
     mjs = new_spec(spec, terrain, base_z, elevation, ground, sun)
     meshes: dict[str, trimesh.Trimesh] = {}
     looks = Looks(spec.appearance, seed)
+    looks.add_instance_textures(mjs, [(obj.id, p.asset.parts) for obj, p in zip(objects, placed)])
     for obj, p in zip(objects, placed):
         add_object_geoms(mjs, obj, p.asset, meshes, looks)
     try:

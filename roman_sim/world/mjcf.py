@@ -3,6 +3,7 @@ their materials (``roman_sim.world.appearance`` says what each setting does)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import mujoco
@@ -11,12 +12,19 @@ import trimesh
 from numpy.typing import NDArray
 
 from roman_sim.core.seeding import child_rng
-from roman_sim.world.appearance import AppearanceSpec, Sun, instance_draws, vary_rgba
+from roman_sim.world.appearance import (
+    AppearanceSpec,
+    LightingSpec,
+    Sun,
+    check_texture_memory,
+    instance_draws,
+    vary_rgba,
+)
 from roman_sim.world.assets import Part
 from roman_sim.world.catalog import Asset
 from roman_sim.world.spec import WorldSpec
 from roman_sim.world.terrain import hfield_data
-from roman_sim.world.textures import SURFACES, TEXTURE_MEAN, box_uv, texture_image
+from roman_sim.world.textures import BATCH, SURFACES, TEXTURE_MEAN, box_uv, texture_image, texture_images
 from roman_sim.world.truth import ObjectTruth, Terrain
 
 OFF_WIDTH, OFF_HEIGHT = 1280, 960
@@ -24,7 +32,8 @@ TERRAIN_GEOM = "terrain"
 GROUND = "ground"
 NEAR_CLIP_M = 0.05
 SUN = "sun"
-MATERIAL_PREFIX = "surf_"  # material (and texture) of each surface kind: surf_bark, surf_rock, ...
+SKY = "sky"
+MATERIAL_PREFIX = "surf_"  # materials and textures: surf_bark (shared), surf_bark_12_0 (object 12, part 0)
 
 
 def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec, sun: Sun) -> None:
@@ -39,25 +48,35 @@ def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec, sun: Sun) -> None:
     mjs.visual.map.znear = NEAR_CLIP_M / mjs.stat.extent
     mjs.visual.map.zfar = 2.0 * max(spec.extent_m) / mjs.stat.extent
     mjs.stat.center = [0.0, 0.0, 0.0]
-    # a directional light's shadow map is an orthographic view from its position along dir,
-    # so the sun sits on its own side of the world, one world radius out
-    towards = sun.towards
     mjs.worldbody.add_light(
         name=SUN,
         type=mujoco.mjtLightType.mjLIGHT_DIRECTIONAL,
-        dir=(-towards).tolist(),
-        pos=(towards * 2.0 * mjs.stat.extent).tolist(),
-        diffuse=(light.sun * np.asarray(light.colour)).tolist(),
         ambient=[0.0, 0.0, 0.0],
         castshadow=app.shadows,
+        **sun_light(light, sun, mjs.stat.extent),
     )
 
 
-def _sky(mjs: mujoco.MjSpec, spec: WorldSpec) -> None:
-    zenith = np.asarray(spec.appearance.lighting.sky)
+def sun_light(light: LightingSpec, sun: Sun, extent: float) -> dict[str, list[float]]:
+    """Direction, position and diffuse colour of the sun light in a world of ``stat.extent`` ``extent``.
+
+    A directional light's shadow map is an orthographic view from its position along dir, so
+    the sun sits on its own side of the world, one world radius out.
+    """
+    towards = sun.towards
+    return {
+        "dir": (-towards).tolist(),
+        "pos": (towards * 2.0 * extent).tolist(),
+        "diffuse": (light.sun * np.asarray(light.colour)).tolist(),
+    }
+
+
+def add_sky(mjs: mujoco.MjSpec, light: LightingSpec) -> mujoco.MjsTexture:
+    """Add the skybox: a gradient from ``light.sky`` at the zenith to a paler horizon."""
+    zenith = np.asarray(light.sky)
     horizon = 1.0 - 0.22 * (1.0 - zenith)
-    mjs.add_texture(
-        name="sky",
+    return mjs.add_texture(
+        name=SKY,
         type=mujoco.mjtTexture.mjTEXTURE_SKYBOX,
         builtin=mujoco.mjtBuiltin.mjBUILTIN_GRADIENT,
         width=64,
@@ -104,37 +123,82 @@ def new_spec(
     mjs.modelname = spec.name
     mjs.compiler.degree = False
     _visuals(mjs, spec, sun)
-    _sky(mjs, spec)
+    add_sky(mjs, spec.appearance.lighting)
     add_terrain(mjs, terrain, base_z, elevation, ground)
     return mjs
 
 
 @dataclass
 class Looks:
-    """Adds surface materials (and their textures) to an MjSpec once each, and colours instances."""
+    """Materials and textures of a world's object parts, and the instance colours.
+
+    With ``texture_scope: instance`` every object part gets its own material and texture
+    realisation, drawn from ``child_rng(seed, "world", "appearance", "texture", object_id,
+    part_index)``; with ``surface`` (or without textures) the parts of one surface kind share
+    one material (its texture drawn from ``child_rng(seed, ..., "texture", kind)``).
+    """
 
     spec: AppearanceSpec
     seed: int
     added: set[str] = field(default_factory=set)
+    own: dict[tuple[int, int], str] = field(default_factory=dict)  # (object id, part index) -> material
 
-    def material(self, mjs: mujoco.MjSpec, kind: str) -> str:
-        """Name of the material of surface ``kind`` (created on first use)."""
-        name = f"{MATERIAL_PREFIX}{kind}"
-        if name in self.added:
-            return name
+    @property
+    def per_instance(self) -> bool:
+        """Whether every object part has its own texture."""
+        return self.spec.textures and self.spec.texture_scope == "instance"
+
+    def _add_material(self, mjs: mujoco.MjSpec, name: str, kind: str, img: NDArray[np.uint8] | None) -> None:
         surface = SURFACES.get(kind)
         # MuJoCo takes a geom's rgba only when it differs from the default grey, else the
         # material's: the material is that grey too, so every instance shows its own colour
         mat = mjs.add_material(
             name=name, specular=surface.specular, shininess=surface.shininess, rgba=[0.5, 0.5, 0.5, 1.0]
         )
-        if self.spec.textures:
-            n = self.spec.texture_px
-            img = texture_image(kind, child_rng(self.seed, "world", "appearance", "texture", kind), n)
-            tex = mjs.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=n, height=n, nchannel=3)
+        if img is not None:
+            tex = mjs.add_texture(
+                name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=img.shape[1], height=img.shape[0], nchannel=3
+            )
             tex.data = img.tobytes()
             mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
-        self.added.add(name)
+
+    def add_instance_textures(self, mjs: mujoco.MjSpec, parts: Sequence[tuple[int, Sequence[Part]]]) -> None:
+        """Give every part of every (object id, parts) its own material and texture (instance scope only).
+
+        Textures are drawn per surface kind in batches (``texture_images``), so the arrays
+        held at once stay small whatever the world's size.
+        """
+        if not self.per_instance:
+            return
+        check_texture_memory(self.spec, sum(len(p) for _, p in parts))
+        by_kind: dict[str, list[tuple[int, int]]] = {}
+        for obj_id, obj_parts in parts:
+            for k, part in enumerate(obj_parts):
+                by_kind.setdefault(part.surface, []).append((obj_id, k))
+        n = self.spec.texture_px
+        for kind in sorted(by_kind):
+            keys = by_kind[kind]
+            for lo in range(0, len(keys), BATCH):
+                batch = keys[lo : lo + BATCH]
+                rngs = [child_rng(self.seed, "world", "appearance", "texture", i, k) for i, k in batch]
+                for (i, k), img in zip(batch, texture_images(kind, rngs, n)):
+                    name = f"{MATERIAL_PREFIX}{kind}_{i}_{k}"
+                    self._add_material(mjs, name, kind, img)
+                    self.own[(i, k)] = name
+
+    def material(self, mjs: mujoco.MjSpec, part: Part, obj_id: int, k: int) -> str:
+        """Name of the material of part ``k`` of object ``obj_id`` (a shared one is created on first use)."""
+        if (obj_id, k) in self.own:
+            return self.own[(obj_id, k)]
+        kind = part.surface
+        name = f"{MATERIAL_PREFIX}{kind}"
+        if name not in self.added:
+            img = None
+            if self.spec.textures:
+                rng = child_rng(self.seed, "world", "appearance", "texture", kind)
+                img = texture_image(kind, rng, self.spec.texture_px)
+            self._add_material(mjs, name, kind, img)
+            self.added.add(name)
         return name
 
     def rgba(self, part: Part, draws: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -176,5 +240,5 @@ def add_object_geoms(
             pos=pos.tolist(),
             quat=quat,
             rgba=looks.rgba(part, draws[k]).tolist(),
-            material=looks.material(mjs, part.surface),
+            material=looks.material(mjs, part, obj.id, k),
         )
