@@ -11,11 +11,14 @@ surface kind (or family part) defines in HSV:
 where ``a`` is ``appearance.instance_variation`` and ``(d_h, d_s, d_v)`` are uniform in
 [-1, 1], drawn per part from ``child_rng(seed, "world", "appearance", "instance", object_id)``.
 
-Textures (``textures: true``): with ``texture_scope: instance`` (the default) every object part
-has its own texture realisation of side ``texture_px``, so no two instances show the same
-patch; their memory, ``parts * texture_px^2 * 3`` bytes, must stay within
-``texture_memory_mb``. ``texture_scope: surface`` shares one texture per surface kind (every
-instance of a shape then looks the same up to its colour).
+Textures (``textures: true``): ``texture_px`` pixels cover one tile of a surface (its
+``tile_m`` metres). With ``texture_scope: instance`` (the default) each surface kind's texture
+is an atlas of ``atlas_tiles`` x ``atlas_tiles`` tiles of one periodic realisation, and every
+object part looks at its own region of it, from a seeded offset and turned by a seeded
+symmetry of the tile grid, so two instances of one shape show different patterns. The
+atlases' memory, ``kinds * (texture_px * atlas_tiles)^2 * 3`` bytes, must stay within
+``texture_memory_mb``. ``texture_scope: surface`` gives each kind one tile that every
+instance shows alike (every instance of a shape then looks the same up to its colour).
 
 Lighting: one directional sun (azimuth counter-clockwise from the world +x axis, i.e. 0 =
 east and 90 = north in an east-north-up world; elevation above the horizon), a uniform
@@ -32,7 +35,7 @@ from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field, field_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import WorldError
@@ -42,6 +45,8 @@ from roman_sim.core.seeding import child_rng
 Colour = tuple[float, float, float]
 RANDOM_ELEVATION_DEG = (15.0, 75.0)
 MAX_TEXTURE_MEMORY_MB = 8192.0
+MIN_TEXTURE_PX = 32
+MAX_TEXTURE_SIDE_PX = 8192  # widest texture OpenGL implementations commonly take (Mesa's llvmpipe: 16384)
 TEXTURE_BYTES_PER_PX = 3  # RGB, 8 bits each (MuJoCo's classic renderer uploads no 1-channel data)
 
 
@@ -94,14 +99,31 @@ class AppearanceSpec(StrictModel):
     texture_scope: Literal["instance", "surface"] = Field(
         "instance", description="instance: every object part its own texture; surface: one per surface kind"
     )
-    texture_px: int = Field(64, ge=32, le=1024, description="side of each square texture")
+    texture_px: int = Field(64, ge=MIN_TEXTURE_PX, le=1024, description="texture pixels per tile of a surface")
+    atlas_tiles: int = Field(32, ge=2, le=256, description="tiles per side of each surface atlas (instance scope)")
     texture_memory_mb: float = Field(
-        512.0, gt=0.0, le=MAX_TEXTURE_MEMORY_MB, description="bound on the per-instance textures' memory"
+        512.0, gt=0.0, le=MAX_TEXTURE_MEMORY_MB, description="bound on the surface textures' memory"
     )
     instance_variation: float = Field(0.5, ge=0.0, le=1.0, description="fraction of each family's colour range")
     lighting: LightingSpec = Field(default_factory=LightingSpec, description="a preset name or a mapping")
     shadows: bool = Field(False, description="the sun casts shadows (a frame costs about 2x)")
     shadow_px: int = Field(4096, ge=256, le=8192, description="shadow map side")
+
+    @field_validator("atlas_tiles")
+    @classmethod
+    def _atlas_fits(cls, v: int, info: ValidationInfo) -> int:
+        px = info.data.get("texture_px")
+        if isinstance(px, int) and px * v > MAX_TEXTURE_SIDE_PX:
+            most = MAX_TEXTURE_SIDE_PX // px
+            raise ValueError(
+                f"an atlas of {v} tiles of texture_px={px} is {px * v} px wide, more than the "
+                f"{MAX_TEXTURE_SIDE_PX} px an OpenGL texture may be; allowed: atlas_tiles <= {most}"
+            )
+        return v
+
+    def texture_side_px(self) -> int:
+        """Side of each surface kind's texture: an atlas (instance scope) or one tile."""
+        return self.texture_px * (self.atlas_tiles if self.texture_scope == "instance" else 1)
 
     @field_validator("lighting", mode="before")
     @classmethod
@@ -115,22 +137,26 @@ class AppearanceSpec(StrictModel):
         return v
 
 
-def texture_memory_mb(n_textures: int, texture_px: int) -> float:
-    """Memory (MiB) of ``n_textures`` square RGB textures of side ``texture_px``."""
-    return n_textures * texture_px**2 * TEXTURE_BYTES_PER_PX / 2**20
+def texture_memory_mb(n_textures: int, side_px: int) -> float:
+    """Memory (MiB) of ``n_textures`` square RGB textures of side ``side_px``."""
+    return n_textures * side_px**2 * TEXTURE_BYTES_PER_PX / 2**20
 
 
-def check_texture_memory(spec: AppearanceSpec, n_parts: int) -> None:
-    """``WorldError`` naming the fields when ``n_parts`` own textures exceed ``spec.texture_memory_mb``."""
-    need = texture_memory_mb(n_parts, spec.texture_px)
+def check_texture_memory(spec: AppearanceSpec, n_kinds: int) -> None:
+    """``WorldError`` naming the fields when ``n_kinds`` surface textures exceed ``spec.texture_memory_mb``."""
+    side = spec.texture_side_px()
+    need = texture_memory_mb(n_kinds, side)
     if need <= spec.texture_memory_mb:
         return
-    fit = int(np.sqrt(spec.texture_memory_mb * 2**20 / (TEXTURE_BYTES_PER_PX * max(n_parts, 1))))
+    tiles = int(np.sqrt(spec.texture_memory_mb * 2**20 / (TEXTURE_BYTES_PER_PX * max(n_kinds, 1)))) // spec.texture_px
+    what = f"{n_kinds} surface atlases" if spec.texture_scope == "instance" else f"{n_kinds} surface textures"
+    atlas = spec.texture_scope == "instance" and tiles >= 2
+    fix = f"appearance.atlas_tiles <= {tiles} at this bound, " if atlas else ""
     raise WorldError(
-        f"appearance.texture_memory_mb: {n_parts} object parts x {spec.texture_px}^2 px x "
-        f"{TEXTURE_BYTES_PER_PX} B = {need:.0f} MB of per-instance textures, over the bound of "
-        f"{spec.texture_memory_mb:g} MB; allowed: appearance.texture_px <= {fit} at this bound (>= 32), "
-        f"appearance.texture_memory_mb up to {MAX_TEXTURE_MEMORY_MB:g}, or appearance.texture_scope: surface"
+        f"appearance.texture_memory_mb: {what} of {side} x {side} px x {TEXTURE_BYTES_PER_PX} B = {need:.3g} MB, "
+        f"over the bound of {spec.texture_memory_mb:g} MB; allowed: {fix}a smaller appearance.texture_px, "
+        f"appearance.texture_memory_mb >= {need:.3g} (at most {MAX_TEXTURE_MEMORY_MB:g}), or "
+        "appearance.texture_scope: surface"
     )
 
 

@@ -3,7 +3,6 @@ their materials (``roman_sim.world.appearance`` says what each setting does)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import mujoco
@@ -16,7 +15,6 @@ from roman_sim.world.appearance import (
     AppearanceSpec,
     LightingSpec,
     Sun,
-    check_texture_memory,
     instance_draws,
     vary_rgba,
 )
@@ -24,7 +22,7 @@ from roman_sim.world.assets import Part
 from roman_sim.world.catalog import Asset
 from roman_sim.world.spec import WorldSpec
 from roman_sim.world.terrain import hfield_data
-from roman_sim.world.textures import BATCH, SURFACES, TEXTURE_MEAN, box_uv, texture_image, texture_images
+from roman_sim.world.textures import SURFACES, TEXTURE_MEAN, box_uv, instance_uv, texture_image
 from roman_sim.world.truth import ObjectTruth, Terrain
 
 OFF_WIDTH, OFF_HEIGHT = 1280, 960
@@ -33,7 +31,8 @@ GROUND = "ground"
 NEAR_CLIP_M = 0.05
 SUN = "sun"
 SKY = "sky"
-MATERIAL_PREFIX = "surf_"  # materials and textures: surf_bark (shared), surf_bark_12_0 (object 12, part 0)
+MATERIAL_PREFIX = "surf_"  # material (and texture) of each surface kind: surf_bark, surf_rock, ...
+INSTANCE_MESH_SEP = "@"  # an instance's own mesh copy: conifer_v0_s1_crown@12 (object 12)
 
 
 def _visuals(mjs: mujoco.MjSpec, spec: WorldSpec, sun: Sun) -> None:
@@ -130,76 +129,53 @@ def new_spec(
 
 @dataclass
 class Looks:
-    """Materials and textures of a world's object parts, and the instance colours.
+    """Surface materials and textures of a world (one each per surface kind), and the instances'
+    colours and texture coordinates.
 
-    With ``texture_scope: instance`` every object part gets its own material and texture
-    realisation, drawn from ``child_rng(seed, "world", "appearance", "texture", object_id,
-    part_index)``; with ``surface`` (or without textures) the parts of one surface kind share
-    one material (its texture drawn from ``child_rng(seed, ..., "texture", kind)``).
+    With ``texture_scope: instance`` a kind's texture is an atlas of ``atlas_tiles`` x
+    ``atlas_tiles`` tiles and every object part looks at its own region of it (``instance_uv``,
+    drawn from ``child_rng(seed, "world", "appearance", "texture", object_id, part_index)``)
+    through its own copy of the mesh; with ``surface`` the texture is one tile that every
+    instance shows alike. A kind's texture is drawn from ``child_rng(seed, ..., "texture", kind)``.
     """
 
     spec: AppearanceSpec
     seed: int
     added: set[str] = field(default_factory=set)
-    own: dict[tuple[int, int], str] = field(default_factory=dict)  # (object id, part index) -> material
 
     @property
     def per_instance(self) -> bool:
-        """Whether every object part has its own texture."""
+        """Whether every object part has its own texture coordinates (and mesh copy)."""
         return self.spec.textures and self.spec.texture_scope == "instance"
 
-    def _add_material(self, mjs: mujoco.MjSpec, name: str, kind: str, img: NDArray[np.uint8] | None) -> None:
+    def material(self, mjs: mujoco.MjSpec, kind: str) -> str:
+        """Name of the material of surface ``kind`` (created on first use)."""
+        name = f"{MATERIAL_PREFIX}{kind}"
+        if name in self.added:
+            return name
         surface = SURFACES.get(kind)
         # MuJoCo takes a geom's rgba only when it differs from the default grey, else the
         # material's: the material is that grey too, so every instance shows its own colour
         mat = mjs.add_material(
             name=name, specular=surface.specular, shininess=surface.shininess, rgba=[0.5, 0.5, 0.5, 1.0]
         )
-        if img is not None:
-            tex = mjs.add_texture(
-                name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=img.shape[1], height=img.shape[0], nchannel=3
-            )
+        if self.spec.textures:
+            n = self.spec.texture_side_px()
+            rng = child_rng(self.seed, "world", "appearance", "texture", kind)
+            img = texture_image(kind, rng, n, self.spec.texture_px)
+            tex = mjs.add_texture(name=name, type=mujoco.mjtTexture.mjTEXTURE_2D, width=n, height=n, nchannel=3)
             tex.data = img.tobytes()
             mat.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = name
-
-    def add_instance_textures(self, mjs: mujoco.MjSpec, parts: Sequence[tuple[int, Sequence[Part]]]) -> None:
-        """Give every part of every (object id, parts) its own material and texture (instance scope only).
-
-        Textures are drawn per surface kind in batches (``texture_images``), so the arrays
-        held at once stay small whatever the world's size.
-        """
-        if not self.per_instance:
-            return
-        check_texture_memory(self.spec, sum(len(p) for _, p in parts))
-        by_kind: dict[str, list[tuple[int, int]]] = {}
-        for obj_id, obj_parts in parts:
-            for k, part in enumerate(obj_parts):
-                by_kind.setdefault(part.surface, []).append((obj_id, k))
-        n = self.spec.texture_px
-        for kind in sorted(by_kind):
-            keys = by_kind[kind]
-            for lo in range(0, len(keys), BATCH):
-                batch = keys[lo : lo + BATCH]
-                rngs = [child_rng(self.seed, "world", "appearance", "texture", i, k) for i, k in batch]
-                for (i, k), img in zip(batch, texture_images(kind, rngs, n)):
-                    name = f"{MATERIAL_PREFIX}{kind}_{i}_{k}"
-                    self._add_material(mjs, name, kind, img)
-                    self.own[(i, k)] = name
-
-    def material(self, mjs: mujoco.MjSpec, part: Part, obj_id: int, k: int) -> str:
-        """Name of the material of part ``k`` of object ``obj_id`` (a shared one is created on first use)."""
-        if (obj_id, k) in self.own:
-            return self.own[(obj_id, k)]
-        kind = part.surface
-        name = f"{MATERIAL_PREFIX}{kind}"
-        if name not in self.added:
-            img = None
-            if self.spec.textures:
-                rng = child_rng(self.seed, "world", "appearance", "texture", kind)
-                img = texture_image(kind, rng, self.spec.texture_px)
-            self._add_material(mjs, name, kind, img)
-            self.added.add(name)
+        self.added.add(name)
         return name
+
+    def uv(self, part: Part, obj_id: int, k: int) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
+        """Texture coordinates (3F, 2) of part ``k`` of object ``obj_id`` and their face indices (3F,)."""
+        uv, idx = box_uv(part.mesh, SURFACES.get(part.surface).tile_m, part.grain_axis)
+        if self.per_instance:
+            rng = child_rng(self.seed, "world", "appearance", "texture", obj_id, k)
+            uv = instance_uv(uv, part.surface, self.spec.atlas_tiles, rng)
+        return uv, idx
 
     def rgba(self, part: Part, draws: NDArray[np.float64]) -> NDArray[np.float64]:
         """The instance colour of ``part`` (brightened to offset the texture's mean when textured)."""
@@ -210,29 +186,44 @@ class Looks:
         return rgba
 
 
-def _add_mesh(mjs: mujoco.MjSpec, name: str, part: Part, textured: bool) -> None:
+def instance_mesh_name(shape: str, obj_id: int) -> str:
+    """MuJoCo mesh name of object ``obj_id``'s own copy of mesh ``shape``."""
+    return f"{shape}{INSTANCE_MESH_SEP}{obj_id}"
+
+
+def shape_of(mesh_name: str) -> str:
+    """The shape (``World.meshes`` key) of a MuJoCo mesh name (an instance copy's or a shared one)."""
+    return mesh_name.split(INSTANCE_MESH_SEP, 1)[0]
+
+
+def _add_mesh(mjs: mujoco.MjSpec, name: str, part: Part, uv: tuple[NDArray, NDArray] | None) -> None:
     m = mjs.add_mesh(name=name)
     m.uservert = np.asarray(part.mesh.vertices, dtype=np.float32).ravel().tolist()
     m.userface = np.asarray(part.mesh.faces, dtype=np.int32).ravel().tolist()
-    if textured:
-        uv, idx = box_uv(part.mesh, SURFACES.get(part.surface).tile_m, part.grain_axis)
-        m.usertexcoord = uv.ravel().tolist()
-        m.userfacetexcoord = idx.tolist()
+    if uv is not None:
+        m.usertexcoord = uv[0].ravel().tolist()
+        m.userfacetexcoord = uv[1].tolist()
 
 
 def add_object_geoms(
     mjs: mujoco.MjSpec, obj: ObjectTruth, asset: Asset, meshes: dict[str, trimesh.Trimesh], looks: Looks
 ) -> None:
-    """Add one static mesh geom per part of ``obj`` (named ``obj{id}_{k}``), sharing meshes and materials."""
+    """Add one static mesh geom per part of ``obj`` (named ``obj{id}_{k}``) with its material.
+
+    Untextured or with one texture per surface kind, instances share one MuJoCo mesh per
+    shape; with per-instance textures every part has its own copy (``instance_mesh_name``),
+    which differs only in its texture coordinates. ``meshes`` collects the shapes.
+    """
     pos = obj.T_world_obj[:3, 3]
     yaw = float(np.arctan2(obj.T_world_obj[1, 0], obj.T_world_obj[0, 0]))
     quat = [np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]
     draws = instance_draws(looks.seed, obj.id, len(asset.parts))
     for k, part in enumerate(asset.parts):
-        name = asset.mesh_name(part)
-        if name not in meshes:
-            meshes[name] = part.mesh
-            _add_mesh(mjs, name, part, looks.spec.textures)
+        shape = asset.mesh_name(part)
+        name = instance_mesh_name(shape, obj.id) if looks.per_instance else shape
+        if shape not in meshes or looks.per_instance:
+            meshes[shape] = part.mesh
+            _add_mesh(mjs, name, part, looks.uv(part, obj.id, k) if looks.spec.textures else None)
         mjs.worldbody.add_geom(
             name=f"obj{obj.id}_{k}",
             type=mujoco.mjtGeom.mjGEOM_MESH,
@@ -240,5 +231,5 @@ def add_object_geoms(
             pos=pos.tolist(),
             quat=quat,
             rgba=looks.rgba(part, draws[k]).tolist(),
-            material=looks.material(mjs, part, obj.id, k),
+            material=looks.material(mjs, part.surface),
         )
