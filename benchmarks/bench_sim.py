@@ -8,7 +8,12 @@ ids, noise, odometry; renderer start-up included).
 The ``appearance`` section prices each look option (``WorldSpec.appearance``: textures,
 instance colour variation, every lighting preset, shadows) as milliseconds per RGB + depth +
 ids frame at 320 x 240 and 640 x 480 on the same forest world, next to the default look
-measured in the same run (ratios are what to read: the machine is shared).
+measured in the same run (ratios are what to read: the machine is shared), with its memory:
+the model's texture bytes and whole buffer, and how much the process grows when a 640 x 480
+renderer uploads the world to OpenGL (Mesa keeps textures in process memory). The texture
+rows compare one shared texture per surface kind at 256 px (``textures_per_surface_256``,
+the look before per-instance textures) with every object part's own texture at 64 px
+(``textures``, the default) and 128 px.
 Writes ``benchmarks/out/sim.json``. Run: ``python benchmarks/bench_sim.py [--quick]``, or
 ``--appearance`` to measure only that section and merge it into the existing file.
 """
@@ -16,6 +21,7 @@ Writes ``benchmarks/out/sim.json``. Run: ``python benchmarks/bench_sim.py [--qui
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 import time
@@ -54,7 +60,9 @@ def _fps(renderer: SensorRenderer, poses: list, T_bc) -> float:
 
 APPEARANCE_OPTIONS: dict[str, dict[str, Any]] = {
     "default": {},
+    "textures_per_surface_256": {"textures": True, "texture_scope": "surface", "texture_px": 256},
     "textures": {"textures": True},
+    "textures_per_instance_128": {"textures": True, "texture_px": 128},
     "instance_variation_1": {"instance_variation": 1.0},
     "instance_variation_0": {"instance_variation": 0.0},
     **{f"lighting_{name}": {"lighting": name} for name in LIGHTING.names()},
@@ -64,6 +72,26 @@ APPEARANCE_OPTIONS: dict[str, dict[str, Any]] = {
     "default_again": {},  # the default look once more at the end of each round: the reference is their mean
 }
 SIZES = ((320, 240), (640, 480))
+
+
+def _rss_mb() -> float:
+    """The process's resident memory now (MiB), from /proc (0 where there is none)."""
+    try:
+        for line in Path("/proc/self/status").read_text(encoding="utf-8").splitlines():
+            if line.startswith("VmRSS:"):
+                return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return 0.0
+
+
+def _renderer_mb(world: Any, poses: list) -> float:
+    """How much the process grows (MiB) while a 640 x 480 RGB renderer of ``world`` is open."""
+    cam = CameraConfig()
+    before = _rss_mb()
+    with SensorRenderer(world, cam) as r:
+        r.render(poses[0] @ cam.T_body_cam())
+        return _rss_mb() - before
 
 
 def _frame_ms(world: Any, cam: CameraConfig, poses: list, rgb: bool = True) -> tuple[float, float]:
@@ -103,23 +131,28 @@ def appearance_costs(poses: list, quick: bool = False) -> dict[str, Any]:
     """
     base = load_world_spec("forest").model_dump(mode="json")
     poses, rounds = poses[: 6 if quick else 20], 1 if quick else 3
+    load_start = os.getloadavg()[0]
     table: dict[str, dict[str, Any]] = {}
     for _ in range(rounds):
         for key, app in APPEARANCE_OPTIONS.items():
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             world = generate(validate_model(WorldSpec, {**base, "appearance": app}), 0)
-            timed = {"generate_s": time.perf_counter() - t0, **_timed_row(world, poses, key == "default")}
+            timed = {"generate_s": time.perf_counter() - t0, "generate_cpu_s": time.process_time() - c0}
+            timed.update(_timed_row(world, poses, key == "default"))
             row = table.setdefault(
                 key,
                 {
                     "textures": int(world.model.ntex),
                     "texture_bytes": int(world.model.ntexdata),
+                    "texture_mb": round(world.model.ntexdata / 2**20, 1),
+                    "model_mb": round(world.model.nbuffer / 2**20, 1),
                     "meshes": int(world.model.nmesh),
                     "mesh_texcoords": int(world.model.nmeshtexcoord),
                 },
             )
+            timed["renderer_640x480_mb"] = _renderer_mb(world, poses)
             for k, v in timed.items():
-                row[k] = round(min(v, row.get(k, np.inf)), 2 if k == "generate_s" else 1)
+                row[k] = round(min(v, row.get(k, np.inf)), 2 if k.endswith("_s") else 1)
             del world
     for w, h in SIZES:
         ref = (table["default"][f"cpu_ms_{w}x{h}"] + table["default_again"][f"cpu_ms_{w}x{h}"]) / 2
@@ -130,8 +163,11 @@ def appearance_costs(poses: list, quick: bool = False) -> dict[str, Any]:
         "rounds": rounds,
         "options": APPEARANCE_OPTIONS,
         "per_option": table,
+        "load_average_1m": [round(load_start, 1), round(os.getloadavg()[0], 1)],
         "note": "min over rounds of the median per frame over robot poses on the forest loop; cpu_ms counts "
-        "all rendering threads of the process; the machine was shared with other jobs",
+        "all rendering threads of the process; generate_s is wall time and generate_cpu_s its CPU time; "
+        "renderer_640x480_mb is the smallest growth of the process over the rounds; the machine was "
+        "shared with other jobs",
     }
 
 

@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import SimError
 from roman_sim.core.sensors import Intrinsics
 from roman_sim.sim.camera import CameraConfig
+from roman_sim.world.relight import RobotLighting, apply_lighting
 
 if TYPE_CHECKING:
     from roman_sim.world import World
@@ -36,9 +37,12 @@ class SensorRenderer:
         camera_cfg: camera configuration (intrinsics, near/far planes).
         rgb: whether ``render`` also returns an RGB image by default (costs one more pass;
             ``render(T, rgb=...)`` decides per frame).
+        lighting: this camera's own lighting (``roman_sim.world.relight``); None: the world's.
     """
 
-    def __init__(self, world: World, camera_cfg: CameraConfig, rgb: bool = True) -> None:
+    def __init__(
+        self, world: World, camera_cfg: CameraConfig, rgb: bool = True, lighting: RobotLighting | None = None
+    ) -> None:
         self.cfg = camera_cfg
         self.intrinsics: Intrinsics = camera_cfg.intrinsics()
         self.rgb = rgb
@@ -66,6 +70,8 @@ class SensorRenderer:
         self._rect = mujoco.MjrRect(0, 0, w, h)
         self._scene = mujoco.MjvScene(model, maxgeom=max(1000, 2 * model.ngeom + 100))
         self._build_scene()
+        if lighting is not None:
+            apply_lighting(model, self._scene, self._ctx, lighting)
         self._seg_lut = self._segid_to_object(world.truth.geom_to_object(model.ngeom))
         self._rgb_buf = np.empty((h, w, 3), dtype=np.uint8)
         self._depth_buf = np.empty((h, w), dtype=np.float32)

@@ -27,6 +27,8 @@ from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, DriftModel, resolve_drift
 from roman_sim.sim.paths import Path2D, PathConfig, make_path
 from roman_sim.sim.planner import Obstacles
+from roman_sim.world.appearance import LIGHTING
+from roman_sim.world.relight import robot_lighting
 
 if TYPE_CHECKING:
     from roman_sim.world import World
@@ -48,6 +50,7 @@ class RobotConfig(StrictModel):
     camera: CameraConfig = Field(default_factory=CameraConfig)
     drift: str | DriftConfig = "typical"
     render_rgb: bool = True
+    lighting: str | None = Field(None, description="lighting preset of this robot's RGB (None: the world's)")
     max_duration_s: float | None = Field(None, gt=0.0)
     max_length_m: float | None = Field(None, gt=0.0)
 
@@ -56,6 +59,13 @@ class RobotConfig(StrictModel):
     def _known_preset(cls, v: str | DriftConfig) -> str | DriftConfig:
         if isinstance(v, str) and v not in DRIFT_PRESETS:
             raise ValueError(f"unknown drift preset {v!r} (valid: {', '.join(DRIFT_PRESETS.names())})")
+        return v
+
+    @field_validator("lighting")
+    @classmethod
+    def _known_lighting(cls, v: str | None) -> str | None:
+        if v is not None and v not in LIGHTING:
+            raise ValueError(f"unknown lighting preset {v!r} (valid: {', '.join(LIGHTING.names())}, or null)")
         return v
 
     def drift_config(self) -> DriftConfig:
@@ -197,7 +207,8 @@ def render_trajectory(
             raise SimError(f"robot {cfg.name!r}: rgb_frames has {with_rgb.size} flags for {len(t)} frames")
     T_bc = cfg.camera.T_body_cam()
     noise_rng = child_rng(seed, "depth_noise", cfg.name)
-    renderer = SensorRenderer(world, cfg.camera, rgb=cfg.render_rgb)
+    lighting = robot_lighting(cfg.lighting, seed, cfg.name)
+    renderer = SensorRenderer(world, cfg.camera, rgb=cfg.render_rgb, lighting=lighting)
     try:
         for i in range(len(t)):
             rgb, depth, ids = renderer.render(T_wb[i] @ T_bc, rgb=bool(with_rgb[i]))

@@ -11,28 +11,43 @@ surface kind (or family part) defines in HSV:
 where ``a`` is ``appearance.instance_variation`` and ``(d_h, d_s, d_v)`` are uniform in
 [-1, 1], drawn per part from ``child_rng(seed, "world", "appearance", "instance", object_id)``.
 
+Textures (``textures: true``): ``texture_px`` pixels cover one tile of a surface (its
+``tile_m`` metres). With ``texture_scope: instance`` (the default) each surface kind's texture
+is an atlas of ``atlas_tiles`` x ``atlas_tiles`` tiles of one periodic realisation, and every
+object part looks at its own region of it, from a seeded offset and turned by a seeded
+symmetry of the tile grid, so two instances of one shape show different patterns. The
+atlases' memory, ``kinds * (texture_px * atlas_tiles)^2 * 3`` bytes, must stay within
+``texture_memory_mb``. ``texture_scope: surface`` gives each kind one tile that every
+instance shows alike (every instance of a shape then looks the same up to its colour).
+
 Lighting: one directional sun (azimuth counter-clockwise from the world +x axis, i.e. 0 =
 east and 90 = north in an east-north-up world; elevation above the horizon), a uniform
 ambient term and a diffuse headlight at the camera. Presets name typical skies; angles left
-``null`` are drawn from ``child_rng(seed, "world", "appearance", "lighting")``.
+``null`` are drawn from ``child_rng(seed, "world", "appearance", "lighting")``. A robot may
+render under its own preset (``roman_sim.world.relight``).
 """
 
 from __future__ import annotations
 
 import colorsys
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field, field_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import WorldError
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
 
 Colour = tuple[float, float, float]
 RANDOM_ELEVATION_DEG = (15.0, 75.0)
+MAX_TEXTURE_MEMORY_MB = 8192.0
+MIN_TEXTURE_PX = 32
+MAX_TEXTURE_SIDE_PX = 8192  # widest texture OpenGL implementations commonly take (Mesa's llvmpipe: 16384)
+TEXTURE_BYTES_PER_PX = 3  # RGB, 8 bits each (MuJoCo's classic renderer uploads no 1-channel data)
 
 
 class LightingSpec(StrictModel):
@@ -81,11 +96,34 @@ class AppearanceSpec(StrictModel):
     """Textures, per-instance colour variation, lighting and shadows of a world's RGB images."""
 
     textures: bool = Field(False, description="procedural textures on objects (bark, foliage, rock, ...)")
-    texture_px: int = Field(256, ge=32, le=1024, description="side of each square surface texture")
+    texture_scope: Literal["instance", "surface"] = Field(
+        "instance", description="instance: every object part its own texture; surface: one per surface kind"
+    )
+    texture_px: int = Field(64, ge=MIN_TEXTURE_PX, le=1024, description="texture pixels per tile of a surface")
+    atlas_tiles: int = Field(32, ge=2, le=256, description="tiles per side of each surface atlas (instance scope)")
+    texture_memory_mb: float = Field(
+        512.0, gt=0.0, le=MAX_TEXTURE_MEMORY_MB, description="bound on the surface textures' memory"
+    )
     instance_variation: float = Field(0.5, ge=0.0, le=1.0, description="fraction of each family's colour range")
     lighting: LightingSpec = Field(default_factory=LightingSpec, description="a preset name or a mapping")
     shadows: bool = Field(False, description="the sun casts shadows (a frame costs about 2x)")
     shadow_px: int = Field(4096, ge=256, le=8192, description="shadow map side")
+
+    @field_validator("atlas_tiles")
+    @classmethod
+    def _atlas_fits(cls, v: int, info: ValidationInfo) -> int:
+        px = info.data.get("texture_px")
+        if isinstance(px, int) and px * v > MAX_TEXTURE_SIDE_PX:
+            most = MAX_TEXTURE_SIDE_PX // px
+            raise ValueError(
+                f"an atlas of {v} tiles of texture_px={px} is {px * v} px wide, more than the "
+                f"{MAX_TEXTURE_SIDE_PX} px an OpenGL texture may be; allowed: atlas_tiles <= {most}"
+            )
+        return v
+
+    def texture_side_px(self) -> int:
+        """Side of each surface kind's texture: an atlas (instance scope) or one tile."""
+        return self.texture_px * (self.atlas_tiles if self.texture_scope == "instance" else 1)
 
     @field_validator("lighting", mode="before")
     @classmethod
@@ -97,6 +135,29 @@ class AppearanceSpec(StrictModel):
             rest = {k: x for k, x in v.items() if k != "preset"}
             return {**_preset(str(v["preset"])).model_dump(), **rest}
         return v
+
+
+def texture_memory_mb(n_textures: int, side_px: int) -> float:
+    """Memory (MiB) of ``n_textures`` square RGB textures of side ``side_px``."""
+    return n_textures * side_px**2 * TEXTURE_BYTES_PER_PX / 2**20
+
+
+def check_texture_memory(spec: AppearanceSpec, n_kinds: int) -> None:
+    """``WorldError`` naming the fields when ``n_kinds`` surface textures exceed ``spec.texture_memory_mb``."""
+    side = spec.texture_side_px()
+    need = texture_memory_mb(n_kinds, side)
+    if need <= spec.texture_memory_mb:
+        return
+    tiles = int(np.sqrt(spec.texture_memory_mb * 2**20 / (TEXTURE_BYTES_PER_PX * max(n_kinds, 1)))) // spec.texture_px
+    what = f"{n_kinds} surface atlases" if spec.texture_scope == "instance" else f"{n_kinds} surface textures"
+    atlas = spec.texture_scope == "instance" and tiles >= 2
+    fix = f"appearance.atlas_tiles <= {tiles} at this bound, " if atlas else ""
+    raise WorldError(
+        f"appearance.texture_memory_mb: {what} of {side} x {side} px x {TEXTURE_BYTES_PER_PX} B = {need:.3g} MB, "
+        f"over the bound of {spec.texture_memory_mb:g} MB; allowed: {fix}a smaller appearance.texture_px, "
+        f"appearance.texture_memory_mb >= {need:.3g} (at most {MAX_TEXTURE_MEMORY_MB:g}), or "
+        "appearance.texture_scope: surface"
+    )
 
 
 def _preset(name: str) -> LightingSpec:
@@ -119,9 +180,12 @@ class Sun:
         return np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
 
 
-def resolve_sun(lighting: LightingSpec, seed: int) -> Sun:
-    """The sun angles of ``lighting``, drawing the ``null`` ones from the world seed."""
-    rng = child_rng(seed, "world", "appearance", "lighting")
+def resolve_sun(lighting: LightingSpec, seed: int, *stream: str | int) -> Sun:
+    """The sun angles of ``lighting``, drawing the ``null`` ones from ``child_rng(seed, *stream)``.
+
+    The stream defaults to the world's, ``("world", "appearance", "lighting")``.
+    """
+    rng = child_rng(seed, *(stream or ("world", "appearance", "lighting")))
     az, el = rng.uniform(0.0, 360.0), rng.uniform(*RANDOM_ELEVATION_DEG)  # drawn always: stable streams
     return Sun(
         azimuth_deg=float(az if lighting.azimuth_deg is None else lighting.azimuth_deg),

@@ -12,7 +12,7 @@ import trimesh
 from roman_sim.core.errors import WorldError
 from roman_sim.core.geometry import make_T, rot_z
 from roman_sim.core.seeding import child_rng
-from roman_sim.world.appearance import resolve_sun
+from roman_sim.world.appearance import check_texture_memory, resolve_sun
 from roman_sim.world.assets import concat_meshes
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
@@ -140,6 +140,8 @@ def generate(spec: WorldSpec, seed: int) -> World:
     objects = [
         _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius)) for i, p in enumerate(placed)
     ]
+    if spec.appearance.textures:
+        check_texture_memory(spec.appearance, len({part.surface for p in placed for part in p.asset.parts}))
     ground = ground_texture(terrain, roads, spec.roads.width_m, child_rng(seed, "world", "ground"))
     sun = resolve_sun(spec.appearance.lighting, seed)
     mjs = new_spec(spec, terrain, base_z, elevation, ground, sun)

@@ -4,8 +4,9 @@ Meshes are written in MuJoCo's binary ``.msh`` format, or as Wavefront ``.obj`` 
 carry texture coordinates (``.msh`` holds one texture coordinate per vertex, the box
 projection one per face corner); the terrain as a binary hfield file (``meshes/terrain.bin``),
 float32 exactly as compiled, and the ground and surface textures as PNG files, so the
-reloaded model equals the generated one. ``world.xml`` loads with plain
-``mujoco.MjModel.from_xml_path``.
+reloaded model equals the generated one. With per-instance textures every object part has its
+own mesh copy (``shape@object_id``, its own texture coordinates), written as its own file.
+``world.xml`` loads with plain ``mujoco.MjModel.from_xml_path``.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from roman_sim.core.atomic import output_folder, write_bytes, write_json, write_
 from roman_sim.core.config import dump_yaml, load_model
 from roman_sim.core.errors import WorldError
 from roman_sim.world.build import World
-from roman_sim.world.mjcf import GROUND, MATERIAL_PREFIX
+from roman_sim.world.mjcf import GROUND, MATERIAL_PREFIX, shape_of
 from roman_sim.world.spec import WorldSpec
 from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
@@ -136,8 +137,10 @@ def _texture_bytes(world: World, name: str) -> bytes:
     w, h = int(world.model.tex_width[tid]), int(world.model.tex_height[tid])
     adr = int(world.model.tex_adr[tid])
     rgb = np.asarray(world.model.tex_data[adr : adr + 3 * w * h], dtype=np.uint8).reshape(h, w, 3)
+    grey = bool(np.all(rgb[..., 0:1] == rgb[..., 1:]))  # the surface atlases: MuJoCo reads L as RGB
     buf = io.BytesIO()
-    Image.fromarray(rgb).save(buf, format="PNG")
+    # noise hardly compresses: the fastest zlib level writes a 2048 px atlas in a fraction of the time
+    Image.fromarray(rgb[..., 0] if grey else rgb).save(buf, format="PNG", compress_level=1)
     return buf.getvalue()
 
 
@@ -159,8 +162,8 @@ def export_world(world: World, out_dir: str | Path) -> Path:
     out = output_folder(out_dir, "out_dir")
     output_folder(out / MESH_DIR, "out_dir")
     mjs = _file_spec(world)  # checks the world has an MjSpec
-    for name, mesh in sorted(world.meshes.items()):
-        uv = _mesh_texcoords(world.model, name)
+    for name in sorted(m.name for m in mjs.meshes):  # shared shapes or instances' own copies
+        mesh, uv = world.meshes[shape_of(name)], _mesh_texcoords(world.model, name)
         if uv is None:
             write_bytes(out / MESH_DIR / f"{name}.msh", _msh_bytes(mesh))
         else:
@@ -207,9 +210,11 @@ def load_world(world_dir: str | Path) -> World:
         raise WorldError(f"{d / 'truth.json'}: corrupt: {type(err).__name__}: {err}") from None
     meshes = {}
     for m in mjs.meshes:
+        if shape_of(m.name) in meshes:
+            continue  # another instance's copy of a shape already read (copies differ in texture only)
         path = d / MESH_DIR / Path(m.file).name
         try:
-            meshes[m.name] = (_read_obj if path.suffix == ".obj" else _read_msh)(path)
+            meshes[shape_of(m.name)] = (_read_obj if path.suffix == ".obj" else _read_msh)(path)
         except (OSError, ValueError, TypeError, IndexError) as err:
             raise WorldError(f"{path}: corrupt mesh file: {err}") from None
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)

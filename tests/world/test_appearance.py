@@ -20,7 +20,7 @@ from roman_sim.world import World, WorldSpec, export_world, generate, load_world
 from roman_sim.world.appearance import LIGHTING, instance_draws, vary_rgba
 from roman_sim.world.assets import FAMILIES
 from roman_sim.world.catalog import family_assets
-from roman_sim.world.textures import SURFACES
+from roman_sim.world.textures import SURFACES, NoiseBatch
 
 CAM = CameraConfig(width=160, height=120, hfov_deg=60.0, vfov_deg=None, far_m=100.0)
 FLAT = {"sun": 0.0, "headlight": 0.0, "ambient": 1.0, "colour": [1.0, 1.0, 1.0]}  # lit colour = geom colour
@@ -206,8 +206,8 @@ def test_textured_colour_keeps_the_instance_hue(gen: Callable[..., World]) -> No
 
 def test_surface_textures_tile_and_have_their_grain() -> None:
     for kind in SURFACES.names():
-        img = SURFACES.get(kind).texture(np.random.default_rng(1), 128)
-        again = SURFACES.get(kind).texture(np.random.default_rng(1), 128)
+        img = SURFACES.get(kind).texture(NoiseBatch([np.random.default_rng(1)], 128))[0].astype(np.float64)
+        again = SURFACES.get(kind).texture(NoiseBatch([np.random.default_rng(1)], 128))[0]
         np.testing.assert_array_equal(img, again)
         steps_u = np.abs(np.diff(img, axis=1)).mean(axis=0)  # between neighbouring columns
         steps_v = np.abs(np.diff(img, axis=0)).mean(axis=1)  # between neighbouring rows

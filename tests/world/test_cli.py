@@ -76,6 +76,22 @@ def test_ambiguity_command(run_cli) -> None:
             ],
             "no object fits the extent",
         ),
+        (
+            [
+                "world",
+                "generate",
+                "tiny",
+                "--set",
+                "appearance.textures=true",
+                "--set",
+                "appearance.texture_memory_mb=0.01",
+            ],
+            "appearance.texture_memory_mb: ",
+        ),
+        (
+            ["world", "generate", "tiny", "--set", "appearance.texture_scope=world"],
+            "appearance.texture_scope: Input should be 'instance' or 'surface'",
+        ),
         (["world", "preview", "MISSING_DIR_FILE"], "missing truth.json"),
         (["list", "robots"], "unknown 'robots' (valid:"),
         (["world", "preview", "tiny", "--width", "4000"], "width must be in [16, 1280]"),
