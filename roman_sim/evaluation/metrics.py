@@ -38,6 +38,7 @@ from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
+from roman_sim.evaluation.overlap import robot_pair_counts
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
     PAIR_SET_LABELS,
@@ -237,8 +238,13 @@ def _method_summary(scores: list[PairScore], cfg: EvalConfig) -> MethodMetrics:
     return MethodMetrics(sets, n_failed=sum(1 for s in scores if s.reason is not None))
 
 
+def _distinct_truths(scores: list[PairScore]) -> list[PairTruth]:
+    """The truth of each distinct pair (scores hold one row per pair and method)."""
+    return list({(s.truth.a, s.truth.b): s.truth for s in scores}.values())
+
+
 def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
-    pairs = {(s.truth.a, s.truth.b): s.truth for s in scores}
+    pairs = {(t.a, t.b): t for t in _distinct_truths(scores)}
     return {
         k: {
             "n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
@@ -269,6 +275,7 @@ def summary(scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: i
         n_candidates=counts["all"]["n_pairs"] + n_skipped,
         n_skipped=n_skipped,
         methods={m: _method_summary([s for s in scores if s.method == m], cfg) for m in methods},
+        robot_pairs=robot_pair_counts((t.robot_a, t.robot_b, t.relevant) for t in _distinct_truths(scores)),
     )
     out.notes += _notes(out, cfg)
     return out

@@ -54,6 +54,12 @@ def nan_to_none(values: Any) -> Any:
     return [nan_to_none(v) for v in values]
 
 
+def _robot_pairs(d: Any) -> dict[str, dict[str, int]] | None:
+    if d is None:
+        return None
+    return {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d.items()}
+
+
 def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:
     return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
 
@@ -294,6 +300,9 @@ class EvaluationMetrics:
         notes: statements for the report (undefined figures and why).
         frontend: the front end's grades against truth (``FrontEndGrades.to_json()``), or
             None when the run did not map (saved submaps).
+        robot_pairs: cross-robot pairs scored and relevant per robot pair (``"a|b"`` ->
+            ``{"n_pairs": .., "n_relevant": ..}``, ``overlap.robot_pair_counts``); None in files
+            written before it was recorded.
     """
 
     config: dict[str, Any]
@@ -306,6 +315,7 @@ class EvaluationMetrics:
     methods: dict[str, MethodMetrics]
     notes: list[str] = field(default_factory=list)
     frontend: dict[str, Any] | None = None
+    robot_pairs: dict[str, dict[str, int]] | None = None
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -343,6 +353,7 @@ class EvaluationMetrics:
             "methods": {k: v.to_json() for k, v in self.methods.items()},
             "notes": list(self.notes),
             **({} if self.frontend is None else {"frontend": self.frontend}),
+            **({} if self.robot_pairs is None else {"robot_pairs": self.robot_pairs}),
         }
 
     @classmethod
@@ -363,6 +374,7 @@ class EvaluationMetrics:
                 {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()},
                 list(d.get("notes", [])),
                 d.get("frontend"),
+                _robot_pairs(d.get("robot_pairs")),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

@@ -102,6 +102,8 @@ def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[Evalu
     stored = read_metrics_json(run_dir / METRICS_JSON)
     metrics = summary(scores, cfg, stored.n_skipped)
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
+    if stored.robot_pairs is None:  # written before the per-robot-pair counts were recorded
+        metrics.robot_pairs = None
     return metrics, diffs
 
 
@@ -119,10 +121,10 @@ def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
     estimates = {
         v: VariantEstimate(
             {r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected},
-            row.fit,
+            row.fit,  # type: ignore[arg-type]
             row.description,
             row.source,
-        )  # type: ignore[arg-type]
+        )
         for v, row in stored.variants.items()
     }
     return ate_table(truth, estimates, tuple(next(iter(stored.variants.values())).rmse) if stored.variants else ())

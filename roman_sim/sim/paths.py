@@ -108,11 +108,12 @@ class Path2D:
 
     def at(self, s: float) -> tuple[float, float, float]:
         """(x, y, heading) at arc length ``s`` (clamped to the path)."""
-        s = float(np.clip(s, 0.0, self.length))
-        i = int(np.clip(np.searchsorted(self.s, s) - 1, 0, len(self.s) - 2))
-        a = (s - self.s[i]) / max(self.s[i + 1] - self.s[i], 1e-12)
-        x, y = self.xy[i] + a * (self.xy[i + 1] - self.xy[i])
-        return float(x), float(y), float(self.heading[i])
+        s = min(max(float(s), 0.0), self.length)
+        i = min(max(int(np.searchsorted(self.s, s)) - 1, 0), len(self.s) - 2)
+        s0, s1 = float(self.s[i]), float(self.s[i + 1])
+        a = (s - s0) / max(s1 - s0, 1e-12)
+        (x0, y0), (x1, y1) = self.xy[i].tolist(), self.xy[i + 1].tolist()
+        return x0 + a * (x1 - x0), y0 + a * (y1 - y0), float(self.heading[i])
 
 
 def path_from_points(pts: NDArray[np.float64], step_m: float) -> Path2D:
