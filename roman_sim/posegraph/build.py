@@ -201,14 +201,19 @@ def _place(
     """
     parts.first = robots[0]
     inter = [e for e in edges if e.robot_a != e.robot_b]
+    cache: dict[str, tuple[tuple[int, ...], Placement]] = {}  # a candidate's frame is fixed once its robot is
     while len(parts.root) < len(robots):
         best: tuple[int, str, Placement] | None = None
         for r in robots:
             cands = [] if r in parts.root else _candidates(r, inter, chains, parts)
-            if cands:
-                pl = place_robot(cands, noise)
-                if best is None or len(pl.support) > best[0]:
-                    best = (len(pl.support), r, pl)
+            if not cands:
+                continue
+            ids = tuple(c.closure for c in cands)
+            if r not in cache or cache[r][0] != ids:
+                cache[r] = (ids, place_robot(cands, noise))
+            pl = cache[r][1]
+            if best is None or len(pl.support) > best[0]:
+                best = (len(pl.support), r, pl)
         if best is None:
             new = next(r for r in robots if r not in parts.root)
             parts.root[new], parts.T_root_odom[new] = new, np.eye(4)

@@ -5,7 +5,7 @@ pose of r's odometry frame in p's root frame, ``H = M @ inv(T_odom_node_r)``, wh
 the pose of r's closure keyframe that p's placed keyframe and the measurement give.
 Placement is robust to wrong closures, whatever their association or inlier counts:
 
-1. *Consensus* (exhaustive RANSAC over the few implied frames): a closure supports a
+1. *Consensus* (RANSAC over the implied frames, exhaustive up to ``MAX_HYPOTHESES``): a closure supports a
    hypothesis ``H`` when ``H`` predicts r's pose at the closure's own keyframe within the
    pose graph's inlier cost threshold, ``0.5 |w|^2 <= inlier_cost_threshold``, where ``w``
    is the 6-D residual (rotation vector, translation) whitened by the closure's sigmas and
@@ -32,12 +32,15 @@ from dataclasses import dataclass, field
 import gtsam
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 from roman_sim.core.geometry import inv_T
 
 log = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
+#: Frame hypotheses the consensus tries at most (every candidate votes on each).
+MAX_HYPOTHESES = 200
 
 
 @dataclass(frozen=True)
@@ -92,44 +95,72 @@ class Placement:
     rejected: list[int] = field(default_factory=list)
 
 
-def _sigmas(c: Candidate, d_m: float, noise: NoiseModel) -> tuple[float, float]:
-    """(rotation rad, translation m) sigma of ``c`` seen from a keyframe ``d_m`` away along r's chain."""
+def _sigmas(
+    sigma_rad: F64, sigma_m: F64, d_m: F64, noise: NoiseModel
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """(rotation rad, translation m) sigmas of closures seen from keyframes ``d_m`` away along r's chain."""
     per_m = 1.0 / noise.odom_ref_edge_m
-    rot2 = c.sigma_rad**2 + noise.odom_sigma_rad**2 * d_m * per_m
-    trans2 = c.sigma_m**2 + noise.odom_sigma_m**2 * d_m * per_m + noise.odom_sigma_rad**2 * d_m**3 * per_m / 3.0
-    return float(np.sqrt(rot2)), float(np.sqrt(trans2))
+    rot2 = sigma_rad**2 + noise.odom_sigma_rad**2 * d_m * per_m
+    trans2 = sigma_m**2 + noise.odom_sigma_m**2 * d_m * per_m + noise.odom_sigma_rad**2 * d_m**3 * per_m / 3.0
+    return np.sqrt(rot2), np.sqrt(trans2)
 
 
-def residual_cost(H: F64, c: Candidate, ref_dist_m: float, noise: NoiseModel) -> float:
-    """``0.5 |w|^2`` of candidate ``c`` under the frame hypothesis ``H`` (see the module docstring)."""
-    E = inv_T(c.M) @ H @ c.T_node
-    rot = gtsam.Rot3.Logmap(gtsam.Rot3(E[:3, :3]))
-    s_rot, s_trans = _sigmas(c, abs(c.dist_m - ref_dist_m), noise)
-    return 0.5 * float(np.sum((rot / s_rot) ** 2) + np.sum((E[:3, 3] / s_trans) ** 2))
+@dataclass(frozen=True)
+class _Stack:
+    """The candidates as arrays: inv(M) (K, 4, 4), keyframe poses (K, 4, 4), distances and sigmas (K,)."""
+
+    M_inv: F64
+    T_node: F64
+    dist: F64
+    sigma_m: F64
+    sigma_rad: F64
+
+    @classmethod
+    def of(cls, cands: list[Candidate]) -> "_Stack":
+        return cls(
+            np.stack([inv_T(c.M) for c in cands]),
+            np.stack([c.T_node for c in cands]),
+            np.array([c.dist_m for c in cands]),
+            np.array([c.sigma_m for c in cands]),
+            np.array([c.sigma_rad for c in cands]),
+        )
+
+
+def residual_costs(H: F64, st: _Stack, ref_dist_m: float, noise: NoiseModel) -> F64:
+    """``0.5 |w|^2`` of every candidate under the frame hypothesis ``H`` (see the module docstring)."""
+    E = st.M_inv @ H @ st.T_node
+    rot = Rotation.from_matrix(E[:, :3, :3]).as_rotvec()
+    s_rot, s_trans = _sigmas(st.sigma_rad, st.sigma_m, np.abs(st.dist - ref_dist_m), noise)
+    return 0.5 * (np.sum((rot / s_rot[:, None]) ** 2, axis=1) + np.sum((E[:, :3, 3] / s_trans[:, None]) ** 2, axis=1))
 
 
 def consensus(cands: list[Candidate], noise: NoiseModel) -> tuple[int, list[int]]:
-    """(winning candidate position, positions supporting it): most support, then lowest summed cost."""
+    """(winning candidate position, positions supporting it): most support, then lowest summed cost.
+
+    Every candidate is a hypothesis up to ``MAX_HYPOTHESES``; beyond, that many evenly spread ones
+    (in closure order) are tried, and every candidate still votes.
+    """
+    st = _Stack.of(cands)
+    hyps = np.unique(np.linspace(0, len(cands) - 1, min(len(cands), MAX_HYPOTHESES)).round().astype(int))
     best_key: tuple[int, float, int] | None = None
     best_support: list[int] = []
-    for h, hyp in enumerate(cands):
-        H = hyp.frame
-        costs = [residual_cost(H, c, hyp.dist_m, noise) for c in cands]
-        support = [k for k, cost in enumerate(costs) if cost <= noise.inlier_cost_threshold]
-        key = (-len(support), float(sum(costs[k] for k in support)), h)
+    for h in hyps.tolist():
+        costs = residual_costs(cands[h].frame, st, cands[h].dist_m, noise)
+        inl = costs <= noise.inlier_cost_threshold
+        key = (-int(inl.sum()), float(costs[inl].sum()), h)
         if best_key is None or key < best_key:
-            best_key, best_support = key, support
+            best_key, best_support = key, np.flatnonzero(inl).tolist()
     assert best_key is not None, "consensus needs at least one candidate"
     return best_key[2], best_support
 
 
 def _refine(cands: list[Candidate], winner: int, support: list[int], noise: NoiseModel) -> tuple[F64, list[int]]:
     """GNC-TLS pose averaging of the implied frames from the winner; returns (frame, rejected positions)."""
-    ref = cands[winner].dist_m
+    st = _Stack.of(cands)
+    s_rot, s_trans = _sigmas(st.sigma_rad, st.sigma_m, np.abs(st.dist - cands[winner].dist_m), noise)
     graph = gtsam.NonlinearFactorGraph()
-    for c in cands:
-        s_rot, s_trans = _sigmas(c, abs(c.dist_m - ref), noise)
-        cov_node = np.diag([s_rot**2] * 3 + [s_trans**2] * 3)
+    for k, c in enumerate(cands):
+        cov_node = np.diag([s_rot[k] ** 2] * 3 + [s_trans[k] ** 2] * 3)
         ad = gtsam.Pose3(c.T_node).AdjointMap()
         cov = ad @ cov_node @ ad.T
         graph.add(gtsam.PriorFactorPose3(0, gtsam.Pose3(c.frame), gtsam.noiseModel.Gaussian.Covariance(cov)))
