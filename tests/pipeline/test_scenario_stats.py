@@ -13,6 +13,8 @@ from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.scenario_stats import scenario_stats
 
 MULTI_ROBOT = ["multi_robot_hybrid", "multi_robot_outdoor", "multi_robot_tunnel"]
+#: Paper-scale scenarios: about 20 s each to generate and drive.
+PAPER_SCALE = ["kimera_hybrid", "kimera_outdoor", "kimera_tunnel"]
 
 
 @pytest.mark.parametrize("name", MULTI_ROBOT)
@@ -22,6 +24,14 @@ def test_multi_robot_scenarios_meet(name):
     assert st.graph.connected, st.graph.describe()
     assert len(st.centres) == 3 and min(st.counts.values()) >= 10, st.counts
     assert all(abs(o) >= 0.3 for o in st.offset_m.values())  # each drives its own side of the track
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", PAPER_SCALE)
+def test_paper_scale_robots_meet(name):
+    st = scenario_stats(load_scenario(name))
+    assert st.graph.connected, st.graph.describe()
+    assert len(st.graph.edges) >= len(st.centres)  # more than a chain: robots meet several others
 
 
 def test_stats_count_the_pairs_a_run_scores(smoke_run):
