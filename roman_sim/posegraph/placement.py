@@ -5,16 +5,17 @@ pose of r's odometry frame in p's root frame, ``H = M @ inv(T_odom_node_r)``, wh
 the pose of r's closure keyframe that p's placed keyframe and the measurement give.
 Placement is robust to wrong closures, whatever their association or inlier counts:
 
-1. *Consensus* (RANSAC over the implied frames, exhaustive up to ``MAX_HYPOTHESES``): a closure supports a
-   hypothesis ``H`` when ``H`` predicts r's pose at the closure's own keyframe within the
-   pose graph's inlier cost threshold, ``0.5 |w|^2 <= inlier_cost_threshold``, where ``w``
-   is the 6-D residual (rotation vector, translation) whitened by the closure's sigmas and
-   the odometry drift along r's chain between the two keyframes (``sigma^2`` grows with the
-   distance ``d`` travelled: ``odom_sigma^2 * d / odom_ref_edge_m`` for rotation and
-   translation, plus the lever arm of the heading drift, ``odom_sigma_rad^2 * d^3 / (3 *
-   odom_ref_edge_m)``, for translation). The hypothesis with the most support wins (ties:
-   lower summed cost, then the earlier closure). Counts are closures, so one method's
-   inlier counts are never ranked against another's association counts.
+1. *Consensus* (RANSAC over the implied frames, exhaustive up to ``MAX_HYPOTHESES``): a
+   closure supports a hypothesis ``H`` when ``H`` predicts r's pose at the closure's own
+   keyframe within the pose graph's inlier cost threshold, ``0.5 |w|^2 <=
+   inlier_cost_threshold``, where ``w`` is the 6-D residual (rotation vector, translation)
+   whitened by the closure's sigmas and the odometry drift along r's chain between the two
+   keyframes (``sigma^2`` grows with the distance ``d`` travelled: ``odom_sigma^2 * d /
+   odom_ref_edge_m`` for rotation and translation, plus the lever arm of the heading drift,
+   ``odom_sigma_rad^2 * d^3 / (3 * odom_ref_edge_m)``, for translation). The hypothesis
+   with the most support wins (ties: lower summed cost, then the earlier closure). Counts
+   are closures, so one method's inlier counts are never ranked against another's
+   association counts.
 2. *GNC refinement* (gtsam, truncated least squares): pose averaging over every implied
    frame, started at the winner, with the winner's supporters as known inliers; each
    frame's covariance is its keyframe-level noise moved to the odometry origin by the
