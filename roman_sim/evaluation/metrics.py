@@ -42,6 +42,7 @@ from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.evaluation.operating_points import OperatingPoints, point_at, sweep_points
+from roman_sim.evaluation.overlap import robot_pair_counts
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
     PAIR_SET_LABELS,
@@ -257,8 +258,13 @@ def _method_summary(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int 
     return MethodMetrics(sets, n_failed=sum(1 for s in scores if s.reason is not None))
 
 
+def _distinct_truths(scores: list[PairScore]) -> list[PairTruth]:
+    """The truth of each distinct pair (scores hold one row per pair and method)."""
+    return list({(s.truth.a, s.truth.b): s.truth for s in scores}.values())
+
+
 def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
-    pairs = {(s.truth.a, s.truth.b): s.truth for s in scores}
+    pairs = {(t.a, t.b): t for t in _distinct_truths(scores)}
     return {
         k: {
             "n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
@@ -294,6 +300,7 @@ def summary(
         n_skipped=n_skipped,
         methods={m: _method_summary([s for s in scores if s.method == m], cfg, acceptance_k) for m in methods},
         acceptance_k=acceptance_k,
+        robot_pairs=robot_pair_counts((t.robot_a, t.robot_b, t.relevant) for t in _distinct_truths(scores)),
     )
     out.notes += _notes(out, cfg)
     return out

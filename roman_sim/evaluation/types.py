@@ -57,6 +57,12 @@ def nan_to_none(values: Any) -> Any:
     return [nan_to_none(v) for v in values]
 
 
+def _robot_pairs(d: Any) -> dict[str, dict[str, int]] | None:
+    if d is None:
+        return None
+    return {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d.items()}
+
+
 def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:
     return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
 
@@ -306,6 +312,9 @@ class EvaluationMetrics:
             None when the run did not map (saved submaps).
         acceptance_k: the pose graph's acceptance threshold the ``acceptance`` operating
             points use (None: not given, no acceptance point).
+        robot_pairs: cross-robot pairs scored and relevant per robot pair (``"a|b"`` ->
+            ``{"n_pairs": .., "n_relevant": ..}``, ``overlap.robot_pair_counts``); None in files
+            written before it was recorded.
     """
 
     config: dict[str, Any]
@@ -319,6 +328,7 @@ class EvaluationMetrics:
     notes: list[str] = field(default_factory=list)
     frontend: dict[str, JSONLike] | None = None
     acceptance_k: int | None = None
+    robot_pairs: dict[str, dict[str, int]] | None = None
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -357,6 +367,7 @@ class EvaluationMetrics:
             "notes": list(self.notes),
             **({} if self.frontend is None else {"frontend": self.frontend}),
             "acceptance_k": self.acceptance_k,
+            **({} if self.robot_pairs is None else {"robot_pairs": self.robot_pairs}),
         }
 
     @classmethod
@@ -378,6 +389,7 @@ class EvaluationMetrics:
                 list(d.get("notes", [])),
                 d.get("frontend"),
                 None if d.get("acceptance_k") is None else int(d["acceptance_k"]),
+                _robot_pairs(d.get("robot_pairs")),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

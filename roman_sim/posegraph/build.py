@@ -1,5 +1,5 @@
 """Factor-graph construction for ``roman_sim.posegraph``: keyframe chains, closure factors,
-and the placement of robots by a spanning tree of their strongest inter-robot closures.
+and the robust placement of each robot from all of its inter-robot closures (``placement``).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import inv_T
 from roman_sim.core.trajectory import Trajectory
+from roman_sim.posegraph.placement import Candidate, NoiseModel, Placement, place_robot
 
 if TYPE_CHECKING:
     from roman_sim.posegraph.types import LoopClosure, PoseGraphConfig
@@ -28,16 +29,18 @@ TIME_TOLERANCE_S = 1.0
 
 @dataclass
 class Chain:
-    """One robot's keyframes: gtsam keys, sample indices and odometry poses (K, 4, 4)."""
+    """One robot's keyframes: gtsam keys, sample indices, odometry poses (K, 4, 4) and the
+    distance travelled at each (K,)."""
 
     keys: list[int]
     idx: NDArray[np.int64]
     T_odom_kf: F64
+    dist_m: F64
 
 
 @dataclass
 class Edge:
-    """An accepted closure between keyframe nodes: ``Z`` is T_nodeA_nodeB."""
+    """An accepted closure between keyframe nodes: ``Z`` is T_nodeA_nodeB, with its noise (m, deg)."""
 
     closure: int
     robot_a: str
@@ -45,7 +48,8 @@ class Edge:
     robot_b: str
     pos_b: int
     Z: F64
-    strength: int
+    sigma_m: float
+    sigma_deg: float
 
 
 @dataclass
@@ -59,6 +63,7 @@ class GraphParts:
     first: str = ""
     root: dict[str, str] = field(default_factory=dict)
     T_root_odom: dict[str, F64] = field(default_factory=dict)
+    placements: dict[str, Placement] = field(default_factory=dict)
 
 
 def _sigmas(sigma_m: float, sigma_deg: float) -> gtsam.noiseModel.Diagonal:
@@ -109,11 +114,11 @@ def _chains(
         nodes = submap_nodes.get(robot, [])
         sample = _submap_samples(robot, t, nodes)
         idx = _keyframe_indices(T, sample, cfg.keyframe_spacing_m)
-        chain = Chain(keys=list(range(key, key + len(idx))), idx=idx, T_odom_kf=T[idx])
-        key += len(idx)
-        chains[robot] = chain
         steps = np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1)
         dist = np.concatenate([[0.0], np.cumsum(steps)])
+        chain = Chain(keys=list(range(key, key + len(idx))), idx=idx, T_odom_kf=T[idx], dist_m=dist[idx])
+        key += len(idx)
+        chains[robot] = chain
         for k in range(len(idx) - 1):
             length = max(dist[idx[k + 1]] - dist[idx[k]], cfg.odom_min_edge_m)
             scale = np.sqrt(length / cfg.odom_ref_edge_m)
@@ -136,8 +141,8 @@ def _chains(
     return chains, anchors, odom_factors
 
 
-def _edges(closures: list["LoopClosure"], anchors: dict, chains: dict, thresh: int) -> list[Edge]:
-    """Accepted closures as keyframe-to-keyframe measurements."""
+def _edges(closures: list["LoopClosure"], anchors: dict, chains: dict, cfg: "PoseGraphConfig") -> list[Edge]:
+    """Accepted closures (at least ``lc_association_thresh`` associations) as keyframe-to-keyframe measurements."""
     edges = []
     for ci, lc in enumerate(closures):
         for robot, sub in ((lc.robot_a, lc.submap_a), (lc.robot_b, lc.submap_b)):
@@ -152,7 +157,7 @@ def _edges(closures: list["LoopClosure"], anchors: dict, chains: dict, thresh: i
             value = getattr(lc, name)
             if value is not None and not (np.isfinite(value) and value > 0):
                 raise EvaluationError(f"closure {ci}: {name} must be a positive number or None, got {value}")
-        if lc.n_associations < thresh:
+        if lc.n_associations < cfg.lc_association_thresh:
             continue
         pos_a, T_na_sa = anchors[(lc.robot_a, lc.submap_a)]
         pos_b, T_nb_sb = anchors[(lc.robot_b, lc.submap_b)]
@@ -160,29 +165,70 @@ def _edges(closures: list["LoopClosure"], anchors: dict, chains: dict, thresh: i
             log.warning("closure %d joins a keyframe to itself; ignored", ci)
             continue
         Z = T_na_sa @ T_a_b @ inv_T(T_nb_sb)
-        edges.append(Edge(ci, lc.robot_a, pos_a, lc.robot_b, pos_b, Z, int(lc.n_associations)))
+        sigma_m = cfg.lc_sigma_m if lc.sigma_m is None else lc.sigma_m
+        sigma_deg = cfg.lc_sigma_deg if lc.sigma_deg is None else lc.sigma_deg
+        edges.append(Edge(ci, lc.robot_a, pos_a, lc.robot_b, pos_b, Z, float(sigma_m), float(sigma_deg)))
     return edges
 
 
-def _place(robots: list[str], edges: list[Edge], chains: dict[str, Chain], parts: GraphParts) -> None:
-    """Spanning tree over robots: each next robot joins through its strongest closure."""
+def _candidates(robot: str, inter: list[Edge], chains: dict[str, Chain], parts: GraphParts) -> list[Candidate]:
+    """What each closure between ``robot`` and a placed robot implies about ``robot``'s frame."""
+    out = []
+    for e in inter:
+        if e.robot_b == robot and e.robot_a in parts.root:
+            other, pos_o, pos_r, Z = e.robot_a, e.pos_a, e.pos_b, e.Z
+        elif e.robot_a == robot and e.robot_b in parts.root:
+            other, pos_o, pos_r, Z = e.robot_b, e.pos_b, e.pos_a, inv_T(e.Z)
+        else:
+            continue
+        M = parts.T_root_odom[other] @ chains[other].T_odom_kf[pos_o] @ Z
+        chain = chains[robot]
+        out.append(
+            Candidate(
+                e.closure, M, chain.T_odom_kf[pos_r], float(chain.dist_m[pos_r]), e.sigma_m, np.deg2rad(e.sigma_deg)
+            )
+        )
+    return out
+
+
+def _place(
+    robots: list[str], edges: list[Edge], chains: dict[str, Chain], parts: GraphParts, noise: NoiseModel
+) -> None:
+    """Place robots one at a time, each from a robust consensus of its closures to placed robots.
+
+    The robot whose consensus is largest goes first (ties: scenario order); a robot no closure
+    reaches roots a group of its own.
+    """
     parts.first = robots[0]
     inter = [e for e in edges if e.robot_a != e.robot_b]
+    cache: dict[str, tuple[tuple[int, ...], Placement]] = {}  # a candidate's frame is fixed once its robot is
     while len(parts.root) < len(robots):
-        frontier = [e for e in inter if (e.robot_a in parts.root) != (e.robot_b in parts.root)]
-        if not frontier:
+        best: tuple[int, str, Placement] | None = None
+        for r in robots:
+            cands = [] if r in parts.root else _candidates(r, inter, chains, parts)
+            if not cands:
+                continue
+            ids = tuple(c.closure for c in cands)
+            if r not in cache or cache[r][0] != ids:
+                cache[r] = (ids, place_robot(cands, noise))
+            pl = cache[r][1]
+            if best is None or len(pl.support) > best[0]:
+                best = (len(pl.support), r, pl)
+        if best is None:
             new = next(r for r in robots if r not in parts.root)
             parts.root[new], parts.T_root_odom[new] = new, np.eye(4)
             continue
-        e = max(frontier, key=lambda x: (x.strength, -x.closure))
-        T_oa_na = chains[e.robot_a].T_odom_kf[e.pos_a]
-        T_ob_nb = chains[e.robot_b].T_odom_kf[e.pos_b]
-        if e.robot_a in parts.root:
-            T = parts.T_root_odom[e.robot_a] @ T_oa_na @ e.Z @ inv_T(T_ob_nb)
-            parts.root[e.robot_b], parts.T_root_odom[e.robot_b] = parts.root[e.robot_a], T
-        else:
-            T = parts.T_root_odom[e.robot_b] @ T_ob_nb @ inv_T(e.Z) @ inv_T(T_oa_na)
-            parts.root[e.robot_a], parts.T_root_odom[e.robot_a] = parts.root[e.robot_b], T
+        _, r, pl = best
+        anchor = next(e for e in inter if e.closure == pl.support[0])
+        parts.root[r] = parts.root[anchor.robot_a if anchor.robot_b == r else anchor.robot_b]
+        parts.T_root_odom[r], parts.placements[r] = pl.T_root_odom, pl
+        log.info(
+            "robot %s placed from %d of %d closures (rejected by the refinement: %d)",
+            r,
+            len(pl.support),
+            len(pl.candidates),
+            len(pl.rejected),
+        )
 
 
 def build_graph(
@@ -197,20 +243,19 @@ def build_graph(
     graph = gtsam.NonlinearFactorGraph()
     chains, anchors, odom_factors = _chains(trajectories, submap_nodes, cfg, graph)
     parts = GraphParts(graph=graph, chains=chains, known_inliers=list(odom_factors))
-    edges = _edges(closures, anchors, chains, cfg.lc_association_thresh)
+    edges = _edges(closures, anchors, chains, cfg)
     for e in edges:
-        lc = closures[e.closure]
-        noise = _sigmas(
-            cfg.lc_sigma_m if lc.sigma_m is None else lc.sigma_m,
-            cfg.lc_sigma_deg if lc.sigma_deg is None else lc.sigma_deg,
-        )
+        noise = _sigmas(e.sigma_m, e.sigma_deg)
         parts.closure_factor[e.closure] = graph.size()
         graph.add(
             gtsam.BetweenFactorPose3(
                 chains[e.robot_a].keys[e.pos_a], chains[e.robot_b].keys[e.pos_b], gtsam.Pose3(e.Z), noise
             )
         )
-    _place(list(trajectories), edges, chains, parts)
+    placement_noise = NoiseModel(
+        cfg.odom_sigma_m, float(np.deg2rad(cfg.odom_sigma_deg)), cfg.odom_ref_edge_m, cfg.inlier_cost_threshold
+    )
+    _place(list(trajectories), edges, chains, parts, placement_noise)
     prior = _sigmas(cfg.prior_sigma_m, cfg.prior_sigma_deg)
     for robot, root in parts.root.items():
         if robot == root:

@@ -3,8 +3,9 @@
 Each robot contributes a keyframe chain built from its drifting odometry; loop closures
 between submaps (intra- and inter-robot) attach to the keyframes at the submap centres.
 Robots are tied together only through their own inter-robot closures: the first robot's
-odometry frame is the common frame, every other robot is placed by a spanning tree of the
-strongest closures, and robots no closure reaches are reported as unconnected.
+odometry frame is the common frame, every other robot is placed from a robust consensus of
+all of its closures to robots already placed (``placement``), and robots no closure reaches
+are reported as unconnected.
 
 Odometry noise follows the reference (2 cm / 0.1 deg per edge at the full odometry rate,
 ``odom_ref_edge_m`` metres of travel per edge). Keyframe edges are longer, so their sigmas
@@ -80,7 +81,7 @@ def build_and_solve(
 
 
 def _initial_values(parts: GraphParts) -> gtsam.Values:
-    """Odometry keyframes moved by each robot's spanning-tree placement."""
+    """Odometry keyframes moved by each robot's placement."""
     values = gtsam.Values()
     for robot, chain in parts.chains.items():
         for key, T in zip(chain.keys, chain.T_odom_kf):

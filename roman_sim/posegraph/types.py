@@ -41,7 +41,7 @@ class LoopClosure:
         robot_a, robot_b: robot names.
         submap_a, submap_b: submap indices into the robots' ``submap_nodes`` lists.
         T_a_b: 4x4 pose of submap b's gravity-aligned frame in submap a's frame.
-        n_associations: association count (the acceptance statistic and placement strength).
+        n_associations: association count (the acceptance statistic; it never ranks closures).
         sigma_m, sigma_deg: per-closure noise override (None: the configured values).
         source: method that produced the closure (e.g. ``roman``, ``oracle``).
     """

@@ -17,6 +17,7 @@ from pathlib import Path
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.frontend_types import FrontEndGrades
+from roman_sim.evaluation.overlap import counts_by_pair, overlap_graph
 from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
 from roman_sim.report.frontend import frontend_report_lines
 from roman_sim.report.tables import (
@@ -142,6 +143,29 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
     return lines
 
 
+def _section_robot_pairs(metrics: EvaluationMetrics) -> list[str]:
+    """Relevant cross-robot pairs per robot pair, and whether the robots' overlap graph is connected."""
+    title = "## Robots that meet: relevant cross-robot pairs per robot pair"
+    if metrics.robot_pairs is None:
+        return [title, "", "Not recorded in this run's metrics (written before they were).", ""]
+    if not metrics.robot_pairs:
+        return [title, "", "No cross-robot pairs in this run.", ""]
+    counts = counts_by_pair(metrics.robot_pairs)
+    robots = list(dict.fromkeys(r for pair in counts for r in pair))
+    graph = overlap_graph(counts, robots)
+    rows = [
+        {
+            "robots": f"{a}, {b}",
+            "pairs scored": str(entry["n_pairs"]),
+            "relevant": str(entry["n_relevant"]),
+            f"overlap edge (>= {graph.min_pairs})": "yes" if entry["n_relevant"] >= graph.min_pairs else "no",
+        }
+        for (a, b), entry in zip(counts, metrics.robot_pairs.values())
+    ]
+    cfg = EvalConfig.model_validate(metrics.config)
+    return [title, "", f"Relevant: {cfg.describe_relevance()}. {graph.describe()}.", "", *markdown_table(rows), ""]
+
+
 def _section_ate(ate: AteTable | None) -> list[str]:
     if ate is None or not ate.variants:
         return ["## Trajectory error (ATE RMSE, m)", "", "No trajectory error was computed for this run.", ""]
@@ -197,6 +221,7 @@ def report_markdown(
     all_notes = list(dict.fromkeys(list(metrics.notes) + list(notes or [])))
     if all_notes:
         lines += ["## Notes", "", *[f"- {n}" for n in all_notes], ""]
+    lines += _section_robot_pairs(metrics)
     kinds = [metrics.headline] + [k for k in ("inter", "intra") if k != metrics.headline]
     if not metrics.methods:
         lines += ["## Alignment", "", "No method was evaluated.", ""]

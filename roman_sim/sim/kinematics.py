@@ -9,12 +9,13 @@ the tangent plane). Both ``simulate_robot`` and ``GroundRobotEnv`` drive this cl
 from __future__ import annotations
 
 import logging
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.core.geometry import make_T, wrap_angle
+from roman_sim.core.geometry import make_T
 from roman_sim.sim.paths import Path2D
 from roman_sim.world.truth import Terrain
 
@@ -34,12 +35,18 @@ def integrate_unicycle(state: PlanarState, v: float, omega: float, dt: float) ->
     """Exact constant-(v, omega) arc integration over ``dt`` seconds."""
     h = state.heading
     if abs(omega) < 1e-9:
-        dx, dy = v * dt * np.cos(h), v * dt * np.sin(h)
+        dx, dy = v * dt * math.cos(h), v * dt * math.sin(h)
     else:
         h2 = h + omega * dt
-        dx = v / omega * (np.sin(h2) - np.sin(h))
-        dy = -v / omega * (np.cos(h2) - np.cos(h))
-    return PlanarState(state.x + float(dx), state.y + float(dy), float(wrap_angle(h + omega * dt)))
+        dx = v / omega * (math.sin(h2) - math.sin(h))
+        dy = -v / omega * (math.cos(h2) - math.cos(h))
+    return PlanarState(state.x + dx, state.y + dy, _wrap(h + omega * dt))
+
+
+def _wrap(a: float) -> float:
+    """``geometry.wrap_angle`` for one float (the follower calls it ten times per step)."""
+    out = (a + math.pi) % (2 * math.pi) - math.pi
+    return out + 2 * math.pi if out <= -math.pi else out
 
 
 def body_pose_on_terrain(terrain: Terrain, state: PlanarState, body_height_m: float) -> NDArray[np.float64]:
@@ -97,16 +104,16 @@ class PathFollower:
         self._update_progress(x, y)
         end = self.path.xy[-1]
         remaining = self.path.length - self.progress_m
-        if remaining <= self.tol and np.hypot(end[0] - x, end[1] - y) <= self.tol + 0.05:
+        if remaining <= self.tol and float(np.hypot(end[0] - x, end[1] - y)) <= self.tol + 0.05:
             self.done = True
             return 0.0, 0.0
         tx, ty, _ = self.path.at(self.progress_m + self.lookahead)
-        alpha = float(wrap_angle(np.arctan2(ty - y, tx - x) - heading))
-        if np.cos(alpha) < 0.0:  # target behind (U-turn, sharp corner): turn on the spot
-            return 0.0, float(np.copysign(self.max_yaw_rate, alpha if alpha != 0.0 else 1.0))
-        dist = max(np.hypot(tx - x, ty - y), 1e-6)
-        k = 2.0 * np.sin(alpha) / dist  # pure-pursuit curvature
-        v = self.speed * max(0.2, np.cos(alpha))
+        alpha = _wrap(float(np.arctan2(ty - y, tx - x)) - heading)
+        if math.cos(alpha) < 0.0:  # target behind (U-turn, sharp corner): turn on the spot
+            return 0.0, math.copysign(self.max_yaw_rate, alpha if alpha != 0.0 else 1.0)
+        dist = max(float(np.hypot(tx - x, ty - y)), 1e-6)
+        k = 2.0 * math.sin(alpha) / dist  # pure-pursuit curvature
+        v = self.speed * max(0.2, math.cos(alpha))
         if abs(k) * v > self.max_yaw_rate:  # slow down instead of overshooting sharp turns
             v = self.max_yaw_rate / abs(k)
         return float(v), float(v * k)

@@ -8,23 +8,28 @@ that derive a path from another robot's path (``retrace`` drives pieces of it, e
 or backward, joined by routed connections: e.g. half the way along, half against). Straight
 legs that would come closer than the clearance to an object are replaced by a grid-planned
 detour; every final path is validated.
+
+A revisit need not be a replay: ``start_fraction`` starts a robot elsewhere on its line, and
+``lateral_offset_m`` moves it sideways within the road (geometry in ``revisit``), so two
+robots on one road neither drive the same line nor place submaps at the same spots.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import SimError
 from roman_sim.core.registry import Registry
 from roman_sim.sim.planner import Obstacles, inside_world, route
+from roman_sim.sim.revisit import offset_polyline, offset_range, start_at
 from roman_sim.world.truth import WorldTruth
 
 log = logging.getLogger(__name__)
@@ -60,15 +65,41 @@ class PathConfig(StrictModel):
     edge_margin_m: float = Field(1.0, ge=0.0, le=100.0)
     resample_m: float = Field(0.05, gt=0.001, le=1.0)
     smooth_iterations: int = Field(3, ge=0, le=6)
+    lateral_offset_m: tuple[float, float] | None = Field(
+        None,
+        description="road, waypoints, reverse_of, retrace: range (low, high) of this robot's sideways offset (m, "
+        "positive to the left of its direction of travel) from the road's centre line or the followed robot's line "
+        "before its own offset; drawn uniformly per robot (seeded); within the road width less the clearance",
+    )
+    start_fraction: float = Field(
+        0.0,
+        ge=0.0,
+        lt=1.0,
+        description="start this far along the line (fraction of its length): a closed line is driven whole from "
+        "there, an open one from there to its end",
+    )
+
+    @field_validator("lateral_offset_m")
+    @classmethod
+    def _ordered(cls, v: tuple[float, float] | None) -> tuple[float, float] | None:
+        if v is not None and not v[0] <= v[1]:
+            raise ValueError(f"must be a range (low, high) with low <= high, got {list(v)}")
+        return v
 
 
 @dataclass(frozen=True)
 class Path2D:
-    """A dense planar path: points (K, 2) at constant arc-length spacing, headings (K,) rad."""
+    """A dense planar path: points (K, 2) at constant arc-length spacing, headings (K,) rad.
+
+    A path moved sideways (``PathConfig.lateral_offset_m``) keeps the line it was moved from
+    as ``base`` and the drawn offset as ``offset_m`` (m, positive to the left).
+    """
 
     xy: NDArray[np.float64]
     heading: NDArray[np.float64]
     s: NDArray[np.float64]
+    base: Path2D | None = None
+    offset_m: float = 0.0
 
     @property
     def length(self) -> float:
@@ -77,11 +108,12 @@ class Path2D:
 
     def at(self, s: float) -> tuple[float, float, float]:
         """(x, y, heading) at arc length ``s`` (clamped to the path)."""
-        s = float(np.clip(s, 0.0, self.length))
-        i = int(np.clip(np.searchsorted(self.s, s) - 1, 0, len(self.s) - 2))
-        a = (s - self.s[i]) / max(self.s[i + 1] - self.s[i], 1e-12)
-        x, y = self.xy[i] + a * (self.xy[i + 1] - self.xy[i])
-        return float(x), float(y), float(self.heading[i])
+        s = min(max(float(s), 0.0), self.length)
+        i = min(max(int(np.searchsorted(self.s, s)) - 1, 0), len(self.s) - 2)
+        s0, s1 = float(self.s[i]), float(self.s[i + 1])
+        a = (s - s0) / max(s1 - s0, 1e-12)
+        (x0, y0), (x1, y1) = self.xy[i].tolist(), self.xy[i + 1].tolist()
+        return x0 + a * (x1 - x0), y0 + a * (y1 - y0), float(self.heading[i])
 
 
 def path_from_points(pts: NDArray[np.float64], step_m: float) -> Path2D:
@@ -243,24 +275,56 @@ def make_path(
     rng: np.random.Generator,
     name: str = "robot",
     paths_by_name: Mapping[str, Path2D] | None = None,
+    road_width_m: float | None = None,
 ) -> Path2D:
-    """Build, route, smooth, resample and validate a path.
+    """Build, route, smooth, resample and validate a path, then apply its start and lateral offset.
 
     Args:
         cfg: path configuration.
         truth: the world (terrain size, objects, roads).
-        rng: seeded generator for random placement.
+        rng: seeded generator for random placement and the drawn lateral offset.
         name: robot name, used in error messages.
-        paths_by_name: other robots' paths, for ``reverse_of`` and ``cross``.
+        paths_by_name: other robots' paths, for ``reverse_of``, ``cross`` and ``retrace``.
+        road_width_m: the world's road width, which bounds ``lateral_offset_m`` (None: only
+            the clearance to objects bounds it).
 
-    Raises: SimError when no valid path exists (leaves the world, blocked, unknown ``of``).
+    Raises: SimError when no valid path exists (leaves the world, blocked, unknown ``of``,
+        an offset off the road).
     """
     obs = Obstacles(truth)
+    line = _line(cfg, truth, rng, name, paths_by_name, obs)
+    if cfg.lateral_offset_m is not None and cfg.kind not in OFFSET_KINDS:
+        raise SimError(
+            f"robot {name!r}: path.lateral_offset_m applies to {', '.join(OFFSET_KINDS)} paths, not {cfg.kind}"
+        )
+    if cfg.start_fraction > 0.0:
+        line = validate_path(
+            path_from_points(start_at(line.xy, cfg.start_fraction), cfg.resample_m), truth, cfg, name, obs
+        )
+    if cfg.lateral_offset_m is None:
+        return line
+    lo, hi = offset_range(cfg.lateral_offset_m, road_width_m, cfg.clearance_m, name)
+    d = float(rng.uniform(lo, hi)) if hi > lo else lo
+    moved = path_from_points(offset_polyline(line.xy, line.heading, d), cfg.resample_m)
+    return replace(validate_path(moved, truth, cfg, name, obs), base=line, offset_m=d)
+
+
+def _line(
+    cfg: PathConfig,
+    truth: WorldTruth,
+    rng: np.random.Generator,
+    name: str,
+    paths_by_name: Mapping[str, Path2D] | None,
+    obs: Obstacles,
+) -> Path2D:
+    """The validated line of ``cfg.kind``, before the robot's own start and offset."""
     if cfg.kind in ("reverse_of", "cross", "retrace"):
         other = (paths_by_name or {}).get(cfg.of or "")
         if other is None:
             known = ", ".join(sorted(paths_by_name or {})) or "none"
             raise SimError(f"robot {name!r}: path.of={cfg.of!r} is not an earlier robot (known: {known})")
+        if cfg.lateral_offset_m is not None and other.base is not None:
+            other = other.base  # an offset is measured from the line the other robot was moved from
         if cfg.kind == "reverse_of":
             return validate_path(reversed_path(other), truth, cfg, name, obs)
         if cfg.kind == "retrace":
@@ -284,6 +348,8 @@ def make_path(
 
 
 _RANDOM_KINDS = ("loop", "out_and_back", "lawnmower")
+#: Kinds that follow a road or another robot's line, and so may be moved sideways within it.
+OFFSET_KINDS = ("road", "waypoints", "reverse_of", "retrace")
 _RANDOM_ATTEMPTS = 20
 
 

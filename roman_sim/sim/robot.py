@@ -74,8 +74,10 @@ class RobotConfig(StrictModel):
 
 
 def robot_path(world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
-    """The robot's validated path (seeded by ``seed`` and the robot name)."""
-    return make_path(cfg.path, world.truth, child_rng(seed, "path", cfg.name), cfg.name, paths_by_name)
+    """The robot's validated path (seeded by ``seed`` and the robot name; the world's road width bounds its offset)."""
+    roads = getattr(getattr(world, "spec", None), "roads", None)
+    width = None if roads is None else float(roads.width_m)
+    return make_path(cfg.path, world.truth, child_rng(seed, "path", cfg.name), cfg.name, paths_by_name, width)
 
 
 def plan_paths(world: World, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:

@@ -118,6 +118,8 @@ def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[Evalu
     stored = read_metrics_json(run_dir / METRICS_JSON)
     metrics = summary(scores, cfg, stored.n_skipped, acceptance_k)
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
+    if stored.robot_pairs is None:  # written before the per-robot-pair counts were recorded
+        metrics.robot_pairs = None
     return metrics, diffs
 
 

@@ -10,7 +10,7 @@ import pytest
 from roman_sim.align.base import AlignResult
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, EvaluationError
-from roman_sim.core.geometry import inv_T, pose_4dof
+from roman_sim.core.geometry import inv_T, pose_4dof, pose_error
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import multi_robot_ate
 from roman_sim.mapping.types import Submap
@@ -21,6 +21,7 @@ from roman_sim.posegraph import (
     closure_from_alignment,
     submap_nodes_from,
 )
+from roman_sim.posegraph.build import build_graph
 from roman_sim.posegraph.synthetic import SyntheticGraphConfig, synthetic_scenario
 
 NO_DRIFT = dict(
@@ -175,3 +176,45 @@ def test_synthetic_scenario_is_deterministic():
     assert a.closure_true == b.closure_true and sum(a.closure_true) == 3
     other = synthetic_scenario(10, cfg)
     assert not np.array_equal(other.odom["robot0"].T, a.odom["robot0"].T)
+
+
+def test_robust_placement_ignores_one_wrong_closure_that_outranks_consistent_ones():
+    """Four consistent closures with 6 associations and one wrong one with 100: consensus places robot1."""
+    sc = synthetic_scenario(7, SyntheticGraphConfig(n_robots=2, length_m=300, n_closures=40))
+    good = [replace(c, n_associations=6) for c in sc.closures if c.inter][:4]
+    T_ws = sc.T_world_submap
+    wrong_T = pose_4dof(-8.0, 9.0, 0.0, 2.4) @ inv_T(T_ws["robot0"][3]) @ T_ws["robot1"][20]
+    wrong = replace(good[0], submap_a=3, submap_b=20, T_a_b=wrong_T, n_associations=100, source="visual")
+    cfg = PoseGraphConfig()
+    placed_good = build_graph(sc.odom, sc.submap_nodes, good, cfg).T_root_odom["robot1"]
+    parts = build_graph(sc.odom, sc.submap_nodes, good + [wrong], cfg)
+    np.testing.assert_allclose(parts.T_root_odom["robot1"], placed_good, atol=1e-6)
+    assert parts.placements["robot1"].support == [0, 1, 2, 3]
+    # the wrong closure alone puts robot1 far away: the test would fail with the strongest closure
+    alone = build_graph(sc.odom, sc.submap_nodes, [wrong], cfg).T_root_odom["robot1"]
+    rot_err, _ = pose_error(alone, placed_good)
+    assert np.degrees(rot_err) > 60.0
+    res = build_and_solve(sc.odom, sc.submap_nodes, good + [wrong], cfg)
+    assert res.unconnected == []
+    assert res.closure_weights[4] is not None and res.closure_weights[4] < 0.1
+    assert all(w is not None and w > 0.9 for w in res.closure_weights[:4])
+    clean = build_and_solve(sc.odom, sc.submap_nodes, good, cfg)
+    for robot, est in clean.trajectories.items():
+        np.testing.assert_allclose(res.trajectories[robot].T, est.T, atol=1e-4)
+
+
+def test_placement_order_prefers_the_largest_consensus():
+    """robot2 reaches robot0 by one closure and robot1 by three: it is placed after robot1, from those three."""
+    sc = synthetic_scenario(11, SyntheticGraphConfig(n_robots=3, length_m=200, n_closures=60, **NO_DRIFT))
+    inter = [c for c in sc.closures if c.inter]
+    pair = {tuple(sorted((c.robot_a, c.robot_b))) for c in inter}
+    assert {("robot0", "robot1"), ("robot0", "robot2"), ("robot1", "robot2")} <= pair
+    r01 = [c for c in inter if {c.robot_a, c.robot_b} == {"robot0", "robot1"}][:2]
+    r02 = [c for c in inter if {c.robot_a, c.robot_b} == {"robot0", "robot2"}][:1]
+    r12 = [c for c in inter if {c.robot_a, c.robot_b} == {"robot1", "robot2"}][:3]
+    parts = build_graph(sc.odom, sc.submap_nodes, r01 + r02 + r12, PoseGraphConfig())
+    assert list(parts.placements) == ["robot1", "robot2"]
+    assert sorted(parts.placements["robot2"].candidates) == [2, 3, 4, 5]
+    T_o0_w = inv_T(sc.T_world_odom["robot0"])
+    for robot in ("robot1", "robot2"):
+        np.testing.assert_allclose(parts.T_root_odom[robot], T_o0_w @ sc.T_world_odom[robot], atol=1e-6)

@@ -134,3 +134,69 @@ def test_same_seed_same_path(field: WorldTruth) -> None:
     a = make_path(PathConfig(kind="loop"), field, np.random.default_rng(9))
     b = make_path(PathConfig(kind="loop"), field, np.random.default_rng(9))
     np.testing.assert_array_equal(a.xy, b.xy)
+
+
+def _lateral(points: np.ndarray, line) -> np.ndarray:
+    """Signed distance of ``points`` (N, 2) from ``line`` (Path2D): positive to the left of its travel."""
+    from scipy.spatial import cKDTree
+
+    dist, j = cKDTree(line.xy).query(points)
+    h = line.heading[j]
+    side = np.sign(np.cos(h) * (points[:, 1] - line.xy[j, 1]) - np.sin(h) * (points[:, 0] - line.xy[j, 0]))
+    return side * dist
+
+
+def test_revisit_drives_the_road_at_its_own_offset(tiny_world) -> None:
+    """b follows a's road with a drawn offset, its own start and speed; c drives it back, offset from the centre."""
+    from roman_sim.sim.robot import RobotConfig, plan_paths, trajectory_along
+
+    robots = [
+        RobotConfig(name="a", path=PathConfig(kind="road")),
+        RobotConfig(
+            name="b", speed_mps=0.7, path=PathConfig(kind="road", lateral_offset_m=(0.5, 1.2), start_fraction=0.3)
+        ),
+        RobotConfig(name="c", path=PathConfig(kind="reverse_of", of="b", lateral_offset_m=(0.8, 0.8))),
+    ]
+    paths = plan_paths(tiny_world, robots, seed=5)
+    a, b, c = paths["a"], paths["b"], paths["c"]
+    assert 0.5 <= b.offset_m <= 1.2 and c.offset_m == 0.8
+    assert plan_paths(tiny_world, robots, seed=5)["b"].offset_m == b.offset_m  # seeded
+    assert plan_paths(tiny_world, robots, seed=6)["b"].offset_m != b.offset_m
+    assert np.linalg.norm(b.xy[0] - a.at(0.3 * a.length)[:2]) == pytest.approx(b.offset_m, abs=0.02)
+    run_b = trajectory_along(tiny_world, robots[1], 5, b)
+    driven = run_b.T_world_body[:, :2, 3]
+    lateral = _lateral(driven, a)
+    np.testing.assert_allclose(lateral, b.offset_m, atol=0.05)  # the follower tracks within 5 cm
+    # c drives b's base line (a's centre line) backwards, 0.8 m to its own left = a's right
+    np.testing.assert_allclose(_lateral(c.xy, a), -0.8, atol=0.02)
+    assert np.cos(c.heading[0] - a.heading[int(np.argmin(np.linalg.norm(a.xy - c.xy[0], axis=1)))]) < -0.9
+
+
+def test_start_fraction_starts_elsewhere_on_the_line(field: WorldTruth) -> None:
+    loop = PathConfig(kind="loop", center=(0.0, 0.0), radius_m=6.0)
+    whole = make_path(loop, field, np.random.default_rng(1))
+    later = make_path(loop.model_copy(update={"start_fraction": 0.5}), field, np.random.default_rng(1))
+    assert later.length == pytest.approx(whole.length, rel=0.01)  # a closed line is driven whole
+    np.testing.assert_allclose(later.xy[0], whole.at(0.5 * whole.length)[:2], atol=0.05)
+    line = PathConfig(kind="waypoints", waypoints=[(-15, -15), (15, 14)])
+    part = make_path(line.model_copy(update={"start_fraction": 0.25}), field, np.random.default_rng(0))
+    full = make_path(line, field, np.random.default_rng(0))
+    assert part.length == pytest.approx(0.75 * full.length, rel=0.02)  # an open one from there to its end
+
+
+def test_offsets_that_leave_the_road_fail_with_the_allowed_range(tiny_world) -> None:
+    from roman_sim.core.config import validate_model
+    from roman_sim.core.errors import ConfigError
+    from roman_sim.sim.robot import RobotConfig, plan_paths
+
+    wide = [RobotConfig(name="b", path=PathConfig(kind="road", lateral_offset_m=(0.0, 1.5)))]
+    with pytest.raises(
+        SimError, match=r"path.lateral_offset_m \[0.0, 1.5\] leaves the road: allowed within \[-1.4, 1.4\] m"
+    ):
+        plan_paths(tiny_world, wide, seed=0)
+    with pytest.raises(ConfigError, match="lateral_offset_m.*low <= high"):
+        validate_model(PathConfig, {"kind": "road", "lateral_offset_m": [1.0, 0.5]})
+    with pytest.raises(
+        SimError, match="lateral_offset_m applies to road, waypoints, reverse_of, retrace paths, not loop"
+    ):
+        make_path(PathConfig(kind="loop", lateral_offset_m=(0.2, 0.2)), tiny_world.truth, np.random.default_rng(0))
