@@ -1,4 +1,4 @@
-"""Mask perturbations used by the simulated segmenter (all driven by a given Generator)."""
+"""Mask perturbations used by the simulated segmenter (random ones driven by a given Generator)."""
 
 from __future__ import annotations
 
@@ -7,36 +7,41 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 
-def adjacent_pairs(ids: NDArray[np.int32], depth: NDArray[np.float32], touch_depth_m: float) -> list[tuple[int, int]]:
-    """Sorted pairs of object ids that touch in the image at similar depth (touching in 3D).
+def neighbour_pairs(ids: NDArray[np.int32], max_gap_px: int) -> dict[tuple[int, int], int]:
+    """Pairs of object ids (a < b) that come within ``max_gap_px`` background pixels of each other.
+
+    Returns each pair's smallest gap found along image rows and columns (0: the objects
+    touch, mostly where one occludes the other). Depth plays no part: the sensor leaves no
+    valid depth on either side of an occlusion edge.
 
     Args:
         ids: (H, W) object ids, -1 background.
-        depth: (H, W) depth, 0 invalid.
-        touch_depth_m: largest depth step across the shared border.
+        max_gap_px: largest gap (pixels) to look across.
     """
-    pairs: set[tuple[int, int]] = set()
-    h, w = ids.shape
-    flat_i, flat_d = ids.ravel(), depth.ravel()
-    for step, valid in ((1, np.arange(w) < w - 1), (w, None)):
-        a, b = flat_i[:-step], flat_i[step:]
-        idx = np.flatnonzero(a != b)  # object borders are a small fraction of the image
-        if valid is not None:
-            idx = idx[valid[idx % w]]  # no wrap-around from one row to the next
-        ia, ib = a[idx], b[idx]
-        da, db = flat_d[idx], flat_d[idx + step]
-        sel = (ia >= 0) & (ib >= 0) & (da > 0) & (db > 0) & (np.abs(da - db) <= touch_depth_m)
-        if np.any(sel):
-            lo, hi = np.minimum(ia[sel], ib[sel]), np.maximum(ia[sel], ib[sel])
-            pairs.update(zip(lo.tolist(), hi.tolist()))
-    return sorted(pairs)
+    out: dict[tuple[int, int], int] = {}
+    if ids.size == 0:
+        return out
+    n = int(ids.max()) + 1
+    for gap in range(max(int(max_gap_px), 0), -1, -1):  # smallest gap last, so it wins
+        step = gap + 1
+        for a, b in ((ids[:, :-step], ids[:, step:]), (ids[:-step, :], ids[step:, :])):
+            if a.size == 0:
+                continue
+            sel = (a != b) & (a >= 0) & (b >= 0)
+            if not np.any(sel):
+                continue
+            lo, hi = np.minimum(a[sel], b[sel]).astype(np.int64), np.maximum(a[sel], b[sel]).astype(np.int64)
+            keys = np.unique(lo * n + hi)
+            for k in keys.tolist():
+                out[(k // n, k % n)] = gap
+    return dict(sorted(out.items()))
 
 
-def split_mask(pix: NDArray[np.bool_], rng: np.random.Generator) -> list[NDArray[np.bool_]]:
-    """Split a mask in two across its longer image axis at a random cut (30-70 %)."""
+def split_mask(pix: NDArray[np.bool_], quantile: float) -> list[NDArray[np.bool_]]:
+    """Split a mask in two across its longer image axis, the first part holding ``quantile`` of its pixels."""
     rows, cols = np.nonzero(pix)
     axis_vals = rows if np.ptp(rows) >= np.ptp(cols) else cols
-    cut = np.quantile(axis_vals, rng.uniform(0.3, 0.7))
+    cut = np.quantile(axis_vals, quantile)
     first = np.zeros_like(pix)
     sel = axis_vals <= cut
     first[rows[sel], cols[sel]] = True

@@ -16,6 +16,7 @@ from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
+from roman_sim.evaluation.frontend_types import GradeConfig
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.types import KeyframeSet
@@ -110,8 +111,8 @@ class _Grader:
     label the descriptors; nothing here is visible to the segmenter or the encoder.
     """
 
-    def __init__(self, group_of: Any, seed: int, robot: str | None = None) -> None:
-        self.inner = FrontEndGrader({}, group_of, seed=seed, stream=robot)
+    def __init__(self, group_of: Any, seed: int, robot: str | None = None, max_depth_m: float = 7.5) -> None:
+        self.inner = FrontEndGrader({}, group_of, GradeConfig(max_depth_m=max_depth_m), seed=seed, stream=robot)
 
     def use(self, families: dict[int, str] | None) -> FrontEndGrader:
         self.inner.families.update(families or {})
@@ -155,6 +156,7 @@ RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
 
 def map_one(ctx: RunContext, world: Any, cfg: Any, path: Any) -> RobotMapping:
     """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
-    grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
+    sc = ctx.scenario
+    grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
     smap, kf = map_sequence(ctx, cfg, grader) if cfg.source is not None else map_robot(ctx, world, cfg, path, grader)
     return smap, kf, grader.part()
