@@ -12,7 +12,8 @@ measured encoder's.
 Segmentation. The ``fastsam`` error model is fitted by iterating on the same frames: the
 simulated segmenter with the current parameters is graded like the target, and each rate
 is corrected by the difference of measured rates (miss probabilities by a least-squares
-fit of the per-cell miss-rate residuals on the model's features 1, small and far;
+fit of the per-cell miss-rate residuals on the model's features 1, small and far, over the
+cells within the mapper's depth range;
 over-segmentation (the per-frame and the view-dependent split rates by one factor),
 under-segmentation per touching pair and spurious masks multiplicatively), after choosing
 the boundary noise (0..4 px at 640 px width) whose mean IoU is closest to the target's.
@@ -109,14 +110,22 @@ def _features(cfg: SegmenterConfig, area_edges: list[float], dist_edges: list[fl
     return f
 
 
+def _near(g: Any) -> np.ndarray:
+    """(distance bins,) the bins within the grades' depth range (all of them without one)."""
+    upper = np.array([*g.distance_edges_m[1:], np.inf])
+    return upper <= getattr(g, "max_depth_m", np.inf) + 1e-9
+
+
 def _rates(g: Any) -> dict[str, Any]:
+    """Per-cell miss rates, and over-segmentation per detected object within the depth range."""
     obj = np.asarray(g.table_objects, dtype=np.float64)
     det = np.asarray(g.table_detected, dtype=np.float64)
-    over = np.asarray(g.table_over, dtype=np.float64).sum()
+    near = _near(g)
+    over = np.asarray(g.table_over, dtype=np.float64)[:, near].sum()
     return {
         "objects": obj,
         "miss": np.where(obj > 0, 1.0 - det / np.maximum(obj, 1), 0.0),
-        "over": over / max(det.sum(), 1.0),
+        "over": over / max(det[:, near].sum(), 1.0),
         "under": g.under_segmented / max(g.touching_pairs, 1),
         "spurious": g.spurious / max(g.frames, 1),
         "iou": g.mean_iou_all or 0.0,
@@ -150,7 +159,9 @@ def fit_segmenter(
     )
     cfg = cfg.model_copy(update={"boundary_noise_px": best})
     feats = _features(cfg, target.area_edges_frac, target.distance_edges_m)
-    w = np.sqrt(want["objects"]).ravel()
+    # Misses are fitted within the mapper's depth range only: beyond it a depth-limited
+    # segmenter finds nothing, and those views would drag the far term over the near bins.
+    w = (np.sqrt(want["objects"]) * _near(target)[None, :]).ravel()
     for it in range(iterations):
         got = _rates(grade(cfg))
         resid = (want["miss"] - got["miss"]).ravel()

@@ -96,9 +96,9 @@ class ConfusionConfig(StrictModel):
 
     level: float = Field(1.0, ge=0, le=10, description="multiplies every spread (0: classes never overlap)")
     same_instance: SameInstanceCosine = Field(default_factory=SameInstanceCosine)
-    same_family: RelationCosine = Field(default_factory=lambda: RelationCosine(mean=0.78, std=0.045))
-    same_group: RelationCosine = Field(default_factory=lambda: RelationCosine(mean=0.70, std=0.055))
-    other: RelationCosine = Field(default_factory=lambda: RelationCosine(mean=0.58, std=0.075))
+    same_family: RelationCosine = Field(default_factory=lambda: RelationCosine(mean=0.80, std=0.04))
+    same_group: RelationCosine = Field(default_factory=lambda: RelationCosine(mean=0.72, std=0.05))
+    other: RelationCosine = Field(default_factory=lambda: RelationCosine(mean=0.58, std=0.07))
 
     @model_validator(mode="before")
     @classmethod

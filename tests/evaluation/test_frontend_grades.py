@@ -10,7 +10,7 @@ from roman_sim.evaluation.frontend import FrontEndGrader
 from roman_sim.evaluation.frontend_types import FrontEndGrades, GradeConfig
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
-from roman_sim.report.frontend import plot_frontend_grades
+from roman_sim.report.frontend import frontend_report_lines, plot_frontend_grades
 
 H, W = 120, 160
 # Erosion is given at 640 px width: 12 px there is the 3 px radius these 160 px frames are built for.
@@ -121,7 +121,14 @@ def test_descriptor_cosines_by_class_and_view():
     assert d.classes["other_group"].pairs == 0 and d.classes["same_family"].pairs == 0
     # Views turn with the robot by 90 deg: both same-instance pairs fall in the 90-120 bin.
     assert d.view_pairs[3] == 2 and d.view_mean[3] == pytest.approx(0.9) and d.view_mean[0] is None
+    assert d.view_std[3] == pytest.approx(0.1) and d.dim == 4
     assert sum(same.hist) == 2
+    # The overlap figure: pairs at or above the 0.85 gate (object 1's 1.0 passes, object 0's 0.8 does not).
+    assert same.above_gate == 1 and same.frac_above_gate == 0.5
+    assert d.other_family_above_gate() == (0, 2)
+    lines = "\n".join(frontend_report_lines(g.result("perfect", "test")))
+    assert "Other-family pairs passing the 0.85 semantic gate: 0.000 (0 of 2)." in lines
+    assert "| within 7.5 m | 1.00 | 1.00 |" in lines and "| 7.5- (beyond range) | 2 |" in lines  # two frames
 
 
 def test_reservoir_keeps_the_cap_and_is_seeded():
