@@ -48,7 +48,7 @@ from roman_sim.mapping.segmenter_errors import (
     ObjectTraits,
     max_merge_gap_px,
     merge_probability,
-    object_bearings,
+    object_bearing,
     view_parts,
 )
 
@@ -126,22 +126,31 @@ class _Crop:
 
 @dataclass
 class _FrameObjects:
-    """The objects of one frame: pixel counts (index id + 1), windows (index id), ids present, median depths."""
+    """The objects of one frame: pixel counts (index id + 1), windows by id, ids present, median depths."""
 
+    ids: NDArray[np.int32]
+    depth: NDArray[np.float32]
     counts: NDArray[np.int64]
-    slices: list[Any]
+    slices: dict[int, tuple[slice, slice]]
     present: list[int]
-    depth_of: dict[int, float]
+    _depths: dict[int, float]
 
     @classmethod
     def of(cls, ids: NDArray[np.int32], depth: NDArray[np.float32]) -> _FrameObjects:
         """The objects of the instance image ``ids``."""
         lab = ids.astype(np.int64) + 1
         counts = np.bincount(lab.ravel())
-        slices = ndimage.find_objects(lab)
+        found = ndimage.find_objects(lab)
         present = [int(i) - 1 for i in np.flatnonzero(counts[1:]) + 1]
-        depth_of = {o: _median_depth(depth[slices[o]], ids[slices[o]] == o) for o in present}
-        return cls(counts, slices, present, depth_of)
+        slices = {o: found[o] for o in present}  # label o + 1 sits at index o
+        return cls(ids, depth, counts, slices, present, {})
+
+    def depth_of(self, o: int) -> float:
+        """Median valid depth of object ``o`` (inf without valid depth; computed once, on demand)."""
+        if o not in self._depths:
+            sl = self.slices[o]
+            self._depths[o] = _median_depth(self.depth[sl], self.ids[sl] == o)
+        return self._depths[o]
 
 
 @dataclass
@@ -246,7 +255,7 @@ class SimulatedSegmenter:
         out = []
         far = self.cfg.far_end_m  # an object without valid depth lies beyond the range: count it there
         for (a, b), gap in gaps.items():
-            da, db = (min(objs.depth_of.get(k, math.inf), far) for k in (a, b))
+            da, db = (min(objs.depth_of(k), far) for k in (a, b))
             p = merge_probability(self.cfg, gap, abs(da - db), ids.shape[1])
             if p > 0:
                 out.append((a, b, p))
@@ -270,8 +279,9 @@ class SimulatedSegmenter:
         A = ids.size
         objs = _FrameObjects.of(ids, depth)
         counts, slices = objs.counts, objs.slices
-        views = c.view_split_frac > 0 or c.partial_frac > 0
-        bearings = object_bearings(frame, ids, slices, objs.present) if views else {}
+        R_world_cam = None
+        if (c.view_split_frac > 0 or c.partial_frac > 0) and frame.truth is not None:
+            R_world_cam = (np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam))[:3, :3]
         out = []
         for members in self._groups(ids, objs, rng):
             area = int(sum(counts[m + 1] for m in members))
@@ -282,7 +292,7 @@ class SimulatedSegmenter:
                 for d in range(2)
             )
             pix = ids[sl] == members[0] if len(members) == 1 else np.isin(ids[sl], members)
-            dist = objs.depth_of[members[0]] if len(members) == 1 else _median_depth(depth[sl], pix)
+            dist = objs.depth_of(members[0]) if len(members) == 1 else _median_depth(depth[sl], pix)
             dist = dist if np.isfinite(dist) else c.far_end_m
             small = max(0.0, 1.0 - area / (c.small_area_frac * A))
             far = np.clip((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0, 1)
@@ -290,8 +300,9 @@ class SimulatedSegmenter:
                 continue
             large = area > c.oversegment_min_area_frac * A
             parts = [pix]
-            if len(members) == 1 and members[0] in bearings:
-                parts = view_parts(pix, self.traits(members[0]), bearings[members[0]], c, large)
+            if R_world_cam is not None and len(members) == 1:
+                bearing = object_bearing(R_world_cam, frame.intrinsics, sl)
+                parts = view_parts(pix, self.traits(members[0]), bearing, c, large)
             if large and rng.random() < c.oversegment_prob:
                 parts = [q for p in parts for q in split_mask(p, rng.uniform(0.3, 0.7))]
             out += [self._padded(p, sl[0].start, sl[1].start, members, ids.shape, sc.pad) for p in parts if p.any()]

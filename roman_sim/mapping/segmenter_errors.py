@@ -17,14 +17,25 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.core.sensors import Frame
+from roman_sim.core.sensors import Intrinsics
 from roman_sim.mapping.mask import REFERENCE_WIDTH_PX
 from roman_sim.mapping.mask_noise import split_mask
+
+
+class ErrorRates(Protocol):
+    """The ``SegmenterConfig`` fields these failures read."""
+
+    undersegment_prob: float
+    merge_gap_px: float
+    merge_depth_m: float
+    view_split_frac: float
+    partial_frac: float
+    partial_keep: float
 
 
 @dataclass(frozen=True)
@@ -46,8 +57,8 @@ class ObjectTraits:
     keep_first: bool
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, cfg: Any) -> ObjectTraits:
-        """Traits from the object's own generator (``cfg``: a ``SegmenterConfig``)."""
+    def draw(cls, rng: np.random.Generator, cfg: ErrorRates) -> ObjectTraits:
+        """Traits from the object's own generator."""
         u = rng.random(5)
         keep = float(np.clip(cfg.partial_keep + 0.3 * (u[3] - 0.5), 0.1, 0.95))
         return cls(
@@ -60,25 +71,16 @@ def in_sector(bearing_rad: float, start_rad: float, frac: float) -> bool:
     return frac > 0 and (bearing_rad - start_rad) % (2 * math.pi) < 2 * math.pi * frac
 
 
-def object_bearings(frame: Frame, ids: NDArray[np.int32], slices: list[Any], present: list[int]) -> dict[int, float]:
-    """Horizontal bearing (rad, world frame) from the camera to each object's pixel centroid."""
-    if frame.truth is None:
-        return {}
-    R = (np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam))[:3, :3]
-    intr = frame.intrinsics
-    out = {}
-    for o in present:
-        sl = slices[o]
-        rows, cols = np.nonzero(ids[sl] == o)
-        u = cols.mean() + sl[1].start
-        v = rows.mean() + sl[0].start
-        d = R @ np.array([(u - intr.cx) / intr.fx, (v - intr.cy) / intr.fy, 1.0])
-        out[o] = float(math.atan2(d[1], d[0]))
-    return out
+def object_bearing(R_world_cam: NDArray[np.float64], intr: Intrinsics, window: tuple[slice, slice]) -> float:
+    """Horizontal bearing (rad, world frame) from the camera to the centre of an object's image window."""
+    u = 0.5 * (window[1].start + window[1].stop - 1)
+    v = 0.5 * (window[0].start + window[0].stop - 1)
+    d = R_world_cam @ np.array([(u - intr.cx) / intr.fx, (v - intr.cy) / intr.fy, 1.0])
+    return float(math.atan2(d[1], d[0]))
 
 
 def view_parts(
-    pix: NDArray[np.bool_], traits: ObjectTraits, bearing_rad: float, cfg: Any, large: bool
+    pix: NDArray[np.bool_], traits: ObjectTraits, bearing_rad: float, cfg: ErrorRates, large: bool
 ) -> list[NDArray[np.bool_]]:
     """The masks one object shows as from ``bearing_rad``: partial, then split when large."""
     parts = [pix]
@@ -90,7 +92,7 @@ def view_parts(
     return parts
 
 
-def merge_probability(cfg: Any, gap_px: float, depth_gap_m: float, width: int) -> float:
+def merge_probability(cfg: ErrorRates, gap_px: float, depth_gap_m: float, width: int) -> float:
     """Probability that two objects ``gap_px`` image pixels and ``depth_gap_m`` apart merge in one frame."""
     if cfg.undersegment_prob <= 0:
         return 0.0
@@ -102,7 +104,7 @@ def merge_probability(cfg: Any, gap_px: float, depth_gap_m: float, width: int) -
     return float(cfg.undersegment_prob * image * math.exp(-abs(depth_gap_m) / cfg.merge_depth_m))
 
 
-def max_merge_gap_px(cfg: Any, width: int) -> int:
+def max_merge_gap_px(cfg: ErrorRates, width: int) -> int:
     """Largest image gap (pixels) looked across for merges: three e-folds of ``merge_gap_px``."""
     if cfg.undersegment_prob <= 0:
         return -1
