@@ -304,7 +304,7 @@ class SimulatedSegmenter:
                 bearing = object_bearing(R_world_cam, frame.intrinsics, sl)
                 parts = view_parts(pix, self.traits(members[0]), bearing, c, large)
             if large and rng.random() < c.oversegment_prob:
-                parts = [q for p in parts for q in split_mask(p, rng.uniform(0.3, 0.7))]
+                parts = [q for p in parts if p.any() for q in split_mask(p, rng.uniform(0.3, 0.7))]
             out += [self._padded(p, sl[0].start, sl[1].start, members, ids.shape, sc.pad) for p in parts if p.any()]
         return out
 

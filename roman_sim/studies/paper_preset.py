@@ -63,6 +63,8 @@ class PaperFitConfig(StrictModel):
     refine: int = Field(3, ge=0, le=10)
     tolerance: float = Field(0.01, ge=0, le=1, description="stop refining once a run is this close to the target")
     overrides: list[str] = Field(default_factory=list, description="--set items for every run (e.g. shorter paths)")
+    fit_aligners: list[str] = Field(default_factory=lambda: ["roman"], min_length=1)
+    predict_aligners: list[str] = Field(default_factory=lambda: ["roman", "ransac1m", "clipper"], min_length=1)
 
     @field_validator("grid")
     @classmethod
@@ -71,9 +73,18 @@ class PaperFitConfig(StrictModel):
             raise ValueError("needs at least two increasing severities within [0, 10]")
         return v
 
-    def run_overrides(self, severity: float, scenario_preset: str | None = None) -> list[str]:
-        """The ``--set`` items of one run at ``severity`` (the preset, or a fitted preset file)."""
-        return [*self.overrides, f"frontend.preset={scenario_preset or self.preset}", f"frontend.severity={severity:g}"]
+    def run_overrides(self, severity: float, fitted_preset: str | None = None) -> list[str]:
+        """The ``--set`` items of one fit run at ``severity``, or of the prediction run with ``fitted_preset``.
+
+        Only the aligners the figures need run (``fit_aligners``, ``predict_aligners``).
+        """
+        aligners = self.fit_aligners if fitted_preset is None else self.predict_aligners
+        return [
+            *self.overrides,
+            f"aligners=[{', '.join(aligners)}]",
+            f"frontend.preset={fitted_preset or self.preset}",
+            f"frontend.severity={severity:g}",
+        ]
 
 
 def _key(severity: float) -> str:

@@ -35,7 +35,7 @@ class Stub:
             raise KeyboardInterrupt
         self.calls.append((scenario, list(overrides)))
         # Every run's overrides load as a scenario (here on the tiny smoke scenario).
-        load_scenario("smoke", [o for o in overrides if o.startswith("frontend.")])
+        load_scenario("smoke", [o for o in overrides if o.startswith(("frontend.", "aligners="))])
         if scenario == "opposite_direction":
             return dict(self.opposite)
         s = _severity(overrides)
@@ -52,6 +52,7 @@ def test_fit_brackets_then_bisects_and_writes_a_preset(tmp_path):
     assert [_severity(o) for _, o in stub.calls] == [0.0, 1.0, 2.0, 3.0, 1.5, 1.25, 1.375]
     assert res["severity"] == 1.375 and res["fitted"] == pytest.approx(0.95 - 0.2 * 1.375)
     assert res["paper"] == 0.67 and all(sc == "same_direction" for sc, _ in stub.calls)
+    assert all("aligners=[roman]" in o for _, o in stub.calls)  # the fit needs ROMAN only
     # paper_fit.yaml is a preset file: the preset's parameters at the fitted severity.
     path = tmp_path / "paper_fit.yaml"
     fe = validate_model(FrontEnd, {"preset": str(path)})
@@ -87,6 +88,7 @@ def test_predictions_are_claims_that_hold_or_not(tmp_path):
     res = predict_paper_preset(tmp_path, run=stub)
     ((scenario, overrides),) = stub.calls
     assert scenario == "opposite_direction" and _severity(overrides) == 1.0
+    assert "aligners=[roman, ransac1m, clipper]" in overrides
     assert f"frontend.preset={(tmp_path / 'paper_fit.yaml').resolve()}" in overrides
     holds = [c["holds"] for c in res["claims"]]
     same = 0.95 - 0.2 * 1.375
