@@ -287,10 +287,11 @@ class SimulatedSegmenter:
             area = int(sum(counts[m + 1] for m in members))
             if area < A / c.min_area_div**2 / 2:
                 continue  # far below the area filter even after boundary noise
-            sl = tuple(
+            rows_sl, cols_sl = (
                 slice(min(slices[m][d].start for m in members), max(slices[m][d].stop for m in members))
                 for d in range(2)
             )
+            sl = (rows_sl, cols_sl)
             pix = ids[sl] == members[0] if len(members) == 1 else np.isin(ids[sl], members)
             dist = objs.depth_of(members[0]) if len(members) == 1 else _median_depth(depth[sl], pix)
             dist = dist if np.isfinite(dist) else c.far_end_m
