@@ -98,7 +98,7 @@ _COUNTS = (
     "under_segmented",
     "touching_pairs",
 )
-_TABLES = ("table_objects", "table_detected", "table_matched", "table_over")
+_TABLES = ("table_objects", "table_detected", "table_matched", "table_over", "dist_graded_masks", "dist_matched_masks")
 
 
 class FrontEndGrader:
@@ -134,6 +134,10 @@ class FrontEndGrader:
             table_detected=zeros(),
             table_matched=zeros(),
             table_over=zeros(),
+            max_depth_m=self.cfg.max_depth_m,
+            dist_graded_masks=[0] * n_d,
+            dist_matched_masks=[0] * n_d,
+            dist_iou_sum=[0.0] * n_d,
         )
         self._obs: list[_Obs] = []
         self._seen = 0
@@ -152,7 +156,17 @@ class FrontEndGrader:
         cfg: GradeConfig | None = None,
         seed: int = 0,
     ) -> FrontEndGrader:
-        """A grader holding the sum of ``parts`` (in the given order; see the module docstring)."""
+        """A grader holding the sum of ``parts`` (in the given order; see the module docstring).
+
+        Without ``cfg``, the parts' own depth range and bins are kept.
+        """
+        if cfg is None and parts:
+            first = parts[0].seg
+            cfg = GradeConfig(
+                max_depth_m=first.max_depth_m,
+                distance_edges_m=list(first.distance_edges_m),
+                area_edges_frac=list(first.area_edges_frac),
+            )
         out = cls({}, group_of, cfg, seed)
         s = out.seg
         for p in parts:
@@ -160,7 +174,10 @@ class FrontEndGrader:
                 setattr(s, name, getattr(s, name) + getattr(p.seg, name))
             for name in _TABLES:
                 mine, theirs = getattr(s, name), getattr(p.seg, name)
-                setattr(s, name, (np.asarray(mine, np.int64) + np.asarray(theirs, np.int64)).tolist())
+                if len(theirs):
+                    setattr(s, name, (np.asarray(mine, np.int64) + np.asarray(theirs, np.int64)).tolist())
+            if len(p.seg.dist_iou_sum):
+                s.dist_iou_sum = (np.asarray(s.dist_iou_sum) + np.asarray(p.seg.dist_iou_sum)).tolist()
         obs = [o for p in parts for o in p.obs]
         weight = np.array([p.seen / len(p.obs) for p in parts for _ in p.obs], dtype=np.float64)
         out._seen = sum(p.seen for p in parts)
@@ -195,21 +212,31 @@ class FrontEndGrader:
                 eroded.append(m)
         return kept, eroded, counts
 
+    def _bin(self, d: NDArray[np.float32]) -> int:
+        """Distance bin of the median of the valid depths ``d`` (none valid: the last, open bin)."""
+        d = d[d > 0]
+        dist = float(np.median(d)) if len(d) else np.inf
+        di = int(np.searchsorted(self.cfg.distance_edges_m, dist, side="right")) - 1
+        return min(max(di, 0), len(self.cfg.distance_edges_m) - 1)
+
     def _grade_masks(self, frame: Frame, ids: NDArray[np.int32], masks: list[Mask]) -> NDArray[np.int64]:
         """Update the segmentation counts; return each mask's owner id (-1 background or mixed)."""
         c, s = self.cfg, self.seg
         objs, eroded, counts = self._objects(ids)
+        depth = np.asarray(frame.depth)
         s.frames += 1
         s.masks += len(masks)
         s.objects += len(objs)
         col = {o: j for j, o in enumerate(objs)}
         owner = np.full(len(masks), -1, dtype=np.int64)
+        mask_bin = np.zeros(len(masks), dtype=np.int64)
         iou = np.zeros((len(masks), len(objs)))
         n_belong = np.zeros(len(objs), dtype=np.int64)
         for i, m in enumerate(masks):
             r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
             pix = m.pixels[r0:r1, c0:c1]
             under = ids[r0:r1, c0:c1][pix]
+            mask_bin[i] = self._bin(depth[r0:r1, c0:c1][pix])
             u, n = np.unique(under, return_counts=True)
             top = int(np.argmax(n)) if len(n) else -1
             if top >= 0 and n[top] >= c.belong_frac * len(under):
@@ -218,6 +245,7 @@ class FrontEndGrader:
                 s.spurious += 1
             if owner[i] in col or owner[i] < 0:
                 s.graded_masks += 1
+                s.dist_graded_masks[mask_bin[i]] += 1
             if owner[i] in col:
                 n_belong[col[owner[i]]] += 1
             covered = [o for o, k in zip(u.tolist(), n.tolist()) if o in col and k >= c.cover_frac * counts[o + 1]]
@@ -233,43 +261,38 @@ class FrontEndGrader:
             matched[cols[ok]] = True
             s.matched += int(ok.sum())
             s.iou_sum += float(iou[rows, cols][ok].sum())
+            for i, v in zip(rows[ok].tolist(), iou[rows, cols][ok].tolist()):
+                s.dist_matched_masks[mask_bin[i]] += 1
+                s.dist_iou_sum[mask_bin[i]] += float(v)
         s.over_segmented += int((n_belong >= 2).sum())
-        self._tables(frame, ids, objs, counts, n_belong, matched)
+        self._tables(depth, ids, objs, counts, n_belong, matched)
         return owner
 
     def _tables(
         self,
-        frame: Frame,
+        depth: NDArray[np.float32],
         ids: NDArray[np.int32],
         objs: list[int],
         counts: NDArray[np.int64],
         n_belong: NDArray[np.int64],
         matched: NDArray[np.bool_],
     ) -> None:
-        from roman_sim.mapping.mask_noise import adjacent_pairs
+        from roman_sim.mapping.mask_noise import neighbour_pairs
 
-        depth = np.asarray(frame.depth)
         A = ids.size
         s = self.seg
         for j, o in enumerate(objs):
-            d = depth[(ids == o) & (depth > 0)]
-            dist = float(np.median(d)) if len(d) else np.inf
-            di = int(np.searchsorted(self.cfg.distance_edges_m, dist, side="right")) - 1
+            di = self._bin(depth[ids == o])
             ai = min(
                 int(np.searchsorted(self.cfg.area_edges_frac, counts[o + 1] / A, side="right")) - 1,
                 len(self.cfg.area_edges_frac) - 2,
             )
-            di = min(max(di, 0), len(self.cfg.distance_edges_m) - 1)
             s.table_objects[ai][di] += 1
             s.table_detected[ai][di] += int(n_belong[j] >= 1)
             s.table_matched[ai][di] += int(matched[j])
             s.table_over[ai][di] += int(n_belong[j] >= 2)
         counted = set(objs)
-        s.touching_pairs += sum(
-            1
-            for a, b in adjacent_pairs(ids, depth.astype(np.float32), self.cfg.touch_depth_m)
-            if a in counted and b in counted
-        )
+        s.touching_pairs += sum(1 for a, b in neighbour_pairs(ids, 0) if a in counted and b in counted)
 
     def _keep(self, frame: Frame, m: Mask, oid: int, desc: NDArray[np.float32]) -> None:
         assert frame.truth is not None
@@ -315,7 +338,8 @@ class FrontEndGrader:
         same_g = ~same_i & ~same_f & (grp[i] == grp[j])
         other = ~same_i & ~same_f & ~same_g
         classes = {
-            name: CosineStats.of(cos[sel], c.cos_bins) for name, sel in zip(CLASSES, (same_i, same_f, same_g, other))
+            name: CosineStats.of(cos[sel], c.cos_bins, c.gate_cos)
+            for name, sel in zip(CLASSES, (same_i, same_f, same_g, other))
         }
         dview = np.degrees(np.abs(np.angle(np.exp(1j * (yaw[i] - yaw[j])))))[same_i]
         edges = np.arange(0.0, 180.0 + c.view_step_deg / 2, c.view_step_deg)
@@ -323,8 +347,11 @@ class FrontEndGrader:
         b = np.clip(np.searchsorted(edges, dview, side="right") - 1, 0, len(edges) - 2)
         cs = cos[same_i]
         means = [float(cs[b == k].mean()) if np.any(b == k) else None for k in range(len(edges) - 1)]
+        stds = [float(cs[b == k].std()) if np.any(b == k) else None for k in range(len(edges) - 1)]
         pairs = [int(np.sum(b == k)) for k in range(len(edges) - 1)]
-        return DescriptorGrades(len(self._obs), classes, edges.tolist(), means, pairs)
+        return DescriptorGrades(
+            len(self._obs), classes, edges.tolist(), means, pairs, stds, int(D.shape[1]), c.gate_cos
+        )
 
     def result(self, segmenter: str, encoder: str | None) -> FrontEndGrades:
         """The grades so far, labelled with the components' names."""

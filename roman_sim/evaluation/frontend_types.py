@@ -7,20 +7,28 @@ least ``belong_frac`` of its pixels (to the background when the background does)
 and objects are matched one to one by IoU (Hungarian, scipy), a match needing ``iou_match``.
 
 - precision: matched masks / graded masks (masks belonging to an instance outside the
-  window are not graded); recall: matched objects / objects; mean IoU of the matches;
+  window are not graded); recall: matched objects / objects; mean IoU of the matches. The
+  headline figures count what a mapper can use: objects and masks within its depth range
+  (``max_depth_m``, the mapper's 7.5 m), by their median valid depth (none valid: beyond);
+  the far bin is reported apart, and ``*_all`` over every depth;
 - over-segmentation: objects with two or more masks belonging to them; under-segmentation:
-  masks holding at least ``cover_frac`` of each of two or more objects;
+  masks holding at least ``cover_frac`` of each of two or more objects, out of the touching
+  pairs (counted objects next to each other in the image, at any depth: the sensor leaves no
+  valid depth across an occlusion edge);
 - spurious masks (belonging to the background); objects detected (some mask belongs to
   them) and matched per distance bin (median valid depth of the object; no valid depth:
-  the last, open bin) and per area bin.
+  the last, open bin) and per area bin; graded and matched masks per distance bin (the
+  mask's median valid depth), so every bin has its precision, recall and IoU.
 
 Descriptors: each observed mask that belongs to an instance contributes (instance, family,
 horizontal viewing angle, descriptor); cosines of pairs from different frames are binned
-for the same instance (also against the viewing-angle difference), the same family, and
-other families (same group / other group). Observations beyond ``max_observations`` are
-reservoir-sampled with a seeded generator. ``FrontEndGrader`` (``frontend_grader``) computes
-them, the only reader of truth in front-end grading; the results here are JSON-ready
-(``to_json`` / ``from_json``) and ``plot_frontend_grades`` draws them.
+for the same instance (also against the viewing-angle difference: mean and spread), the
+same family, and other families (same group / other group), each with the share of pairs at
+or above ROMAN's semantic gate (``gate_cos``, 0.85: CLIP's cos_min), the overlap figure.
+Observations beyond ``max_observations`` are reservoir-sampled with a seeded generator.
+``FrontEndGrader`` (``frontend_grader``) computes them, the only reader of truth in front-end
+grading; the results here are JSON-ready (``to_json`` / ``from_json``) and
+``plot_frontend_grades`` draws them.
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSONLike
@@ -46,17 +54,22 @@ class GradeConfig(MaskFilterConfig):
     iou_match: float = Field(0.5, gt=0, le=1)
     belong_frac: float = Field(0.5, gt=0, le=1)
     cover_frac: float = Field(0.3, gt=0, le=1)
-    touch_depth_m: float = Field(
-        0.3,
-        ge=0,
-        description="objects touching in the image within this depth step "
-        "are a touching pair (chances for under-segmentation)",
-    )
+    max_depth_m: float = Field(7.5, gt=0, le=100, description="the mapper's depth range: the headline figures")
     distance_edges_m: list[float] = Field(default_factory=lambda: [0.0, 2.5, 5.0, 7.5])
     area_edges_frac: list[float] = Field(default_factory=lambda: [0.0, 0.0025, 0.005, 0.01, 0.02, 0.05, 1.0])
     cos_bins: int = Field(100, ge=10, le=1000)
     view_step_deg: float = Field(15.0, gt=0, le=180)
     max_observations: int = Field(3000, ge=10, le=20000)
+    gate_cos: float = Field(0.85, ge=-1, le=1, description="semantic gate whose pass share is reported")
+
+    @model_validator(mode="after")
+    def _edges(self) -> GradeConfig:
+        e = self.distance_edges_m
+        if not e or e[0] != 0.0 or any(b <= a for a, b in zip(e, e[1:])):
+            raise ValueError("distance_edges_m must start at 0 and increase")
+        if self.max_depth_m not in e:  # the depth range is a bin edge (set without re-validating)
+            self.__dict__["distance_edges_m"] = sorted([*e, self.max_depth_m])
+        return self
 
 
 @dataclass
@@ -79,24 +92,70 @@ class SegmentationGrades:
     table_detected: list[list[int]] = field(default_factory=list)
     table_matched: list[list[int]] = field(default_factory=list)
     table_over: list[list[int]] = field(default_factory=list)
+    max_depth_m: float = 7.5
+    dist_graded_masks: list[int] = field(default_factory=list)
+    dist_matched_masks: list[int] = field(default_factory=list)
+    dist_iou_sum: list[float] = field(default_factory=list)
 
     @property
-    def precision(self) -> float | None:
-        """Matched masks / graded masks (None without graded masks)."""
+    def precision_all(self) -> float | None:
+        """Matched masks / graded masks at every depth (None without graded masks)."""
         return self.matched / self.graded_masks if self.graded_masks else None
 
     @property
-    def recall(self) -> float | None:
-        """Matched objects / objects (None without objects)."""
+    def recall_all(self) -> float | None:
+        """Matched objects / objects at every depth (None without objects)."""
         return self.matched / self.objects if self.objects else None
 
     @property
-    def mean_iou(self) -> float | None:
-        """Mean IoU of the matched pairs."""
+    def mean_iou_all(self) -> float | None:
+        """Mean IoU of the matched pairs at every depth."""
         return self.iou_sum / self.matched if self.matched else None
 
+    def _near(self) -> NDArray[np.bool_]:
+        """Distance bins within ``max_depth_m`` (the last bin is open)."""
+        upper = np.array([*self.distance_edges_m[1:], np.inf])
+        return upper <= self.max_depth_m + 1e-9
+
+    def _range(self, near: bool) -> dict[str, float | int | None]:
+        """Objects, masks, matches and the rates of the bins within (``near``) or beyond the depth range."""
+        if not self.dist_graded_masks or not self.table_objects:
+            return {"objects": None, "masks": None, "precision": None, "recall": None, "mean_iou": None}
+        sel = self._near() if near else ~self._near()
+        obj = int(np.asarray(self.table_objects, np.int64).sum(axis=0)[sel].sum())
+        hit = int(np.asarray(self.table_matched, np.int64).sum(axis=0)[sel].sum())
+        masks = int(np.asarray(self.dist_graded_masks, np.int64)[sel].sum())
+        mm = int(np.asarray(self.dist_matched_masks, np.int64)[sel].sum())
+        iou = float(np.asarray(self.dist_iou_sum, np.float64)[sel].sum())
+        return {
+            "objects": obj,
+            "masks": masks,
+            "precision": mm / masks if masks else None,
+            "recall": hit / obj if obj else None,
+            "mean_iou": iou / mm if mm else None,
+        }
+
+    @property
+    def precision(self) -> float | None:
+        """Headline precision: matched / graded masks within the depth range."""
+        return self._range(True)["precision"]  # type: ignore[return-value]
+
+    @property
+    def recall(self) -> float | None:
+        """Headline recall: matched / counted objects within the depth range."""
+        return self._range(True)["recall"]  # type: ignore[return-value]
+
+    @property
+    def mean_iou(self) -> float | None:
+        """Headline mean IoU of the matches within the depth range."""
+        return self._range(True)["mean_iou"]  # type: ignore[return-value]
+
+    def far(self) -> dict[str, float | int | None]:
+        """Objects, masks and rates beyond the depth range (reported apart)."""
+        return self._range(False)
+
     def by_distance(self) -> list[dict[str, Any]]:
-        """Per distance bin: objects, missed (no mask belongs), unmatched (no IoU match)."""
+        """Per distance bin: objects, missed (no mask belongs), unmatched (no IoU match), masks and rates."""
         if not self.table_objects:
             return []
         obj, det, mat = (
@@ -104,21 +163,40 @@ class SegmentationGrades:
             for t in (self.table_objects, self.table_detected, self.table_matched)
         )
         edges = [*self.distance_edges_m, None]
+        n = len(obj)
+        masks = self.dist_graded_masks or [0] * n
+        mm = self.dist_matched_masks or [0] * n
+        iou = self.dist_iou_sum or [0.0] * n
+        near = self._near()
         return [
             {
                 "from_m": edges[i],
                 "to_m": edges[i + 1],
+                "in_range": bool(near[i]),
                 "objects": int(obj[i]),
                 "missed": int(obj[i] - det[i]),
                 "unmatched": int(obj[i] - mat[i]),
+                "recall": float(mat[i] / obj[i]) if obj[i] else None,
+                "masks": int(masks[i]),
+                "precision": float(mm[i] / masks[i]) if masks[i] else None,
+                "mean_iou": float(iou[i] / mm[i]) if mm[i] else None,
             }
-            for i in range(len(obj))
+            for i in range(n)
         ]
 
     def to_json(self) -> dict[str, JSONLike]:
-        """Counts, tables and the derived rates."""
+        """Counts, tables and the derived rates (headline within the depth range, ``*_all`` at every depth)."""
         out = asdict(self)
-        out.update(precision=self.precision, recall=self.recall, mean_iou=self.mean_iou, by_distance=self.by_distance())
+        out.update(
+            precision=self.precision,
+            recall=self.recall,
+            mean_iou=self.mean_iou,
+            precision_all=self.precision_all,
+            recall_all=self.recall_all,
+            mean_iou_all=self.mean_iou_all,
+            far=self.far(),
+            by_distance=self.by_distance(),
+        )
         return out
 
     @classmethod
@@ -138,14 +216,21 @@ class CosineStats:
     p05: float | None
     p95: float | None
     hist: list[int]
+    above_gate: int = 0
 
     @classmethod
-    def of(cls, c: NDArray[np.float64], bins: int) -> CosineStats:
-        """Statistics of the cosines ``c``."""
+    def of(cls, c: NDArray[np.float64], bins: int, gate: float = 0.85) -> CosineStats:
+        """Statistics of the cosines ``c`` (``above_gate``: how many are at least ``gate``)."""
         h = np.histogram(np.clip(c, -1, 1), bins=bins, range=(-1.0, 1.0))[0].tolist()
         if len(c) == 0:
             return cls(0, None, None, None, None, h)
-        return cls(len(c), float(c.mean()), float(c.std()), float(np.quantile(c, 0.05)), float(np.quantile(c, 0.95)), h)
+        q05, q95 = (float(q) for q in np.quantile(c, [0.05, 0.95]))
+        return cls(len(c), float(c.mean()), float(c.std()), q05, q95, h, int(np.sum(c >= gate)))
+
+    @property
+    def frac_above_gate(self) -> float | None:
+        """Share of the pairs at or above the gate (None without pairs)."""
+        return self.above_gate / self.pairs if self.pairs else None
 
 
 @dataclass
@@ -157,6 +242,14 @@ class DescriptorGrades:
     view_edges_deg: list[float]
     view_mean: list[float | None]
     view_pairs: list[int]
+    view_std: list[float | None] = field(default_factory=list)
+    dim: int | None = None
+    gate_cos: float = 0.85
+
+    def other_family_above_gate(self) -> tuple[int, int]:
+        """(pairs at or above the gate, pairs) of other families (same group and other group together)."""
+        cls = [self.classes[k] for k in ("same_group", "other_group") if k in self.classes]
+        return sum(c.above_gate for c in cls), sum(c.pairs for c in cls)
 
     def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict."""

@@ -1,24 +1,22 @@
 """Fit the simulated front end to measured grades, so truth-driven runs behave like a real model.
 
-Semantics. The simulated encoder's expected cosines (``semantics.expected_cosine``) are
-
-    same instance, view difference D:  (1 - w_v (1 - cos D)) / (1 + e)
-    same family, other instance:       (1 - w_i - w_v) / (1 + e)
-    same group, other family:          (1 - w_i - w_v) (c + g) / (1 + e)
-    other group:                       (1 - w_i - w_v) c / (1 + e)
-
-with w_i = ``instance_weight``, w_v = ``view_weight``, e = ``noise_energy``, c =
-``common_weight``, g = ``group_weight``. A weighted least-squares line of the measured
-same-instance mean against (1 - cos D) gives 1 / (1 + e) and w_v / (1 + e); the class means
-then give w_i, c and g in closed form. Classes without pairs keep the prior's values; every
-value is clipped to its valid range.
+Semantics. The simulated encoder's confusion (``roman_sim.mapping.confusion``) is the
+measured one: a weighted least-squares line of the same-instance mean cosine against
+(1 - cos D) over the view-difference bins gives the means from the same and the opposite
+side, the pooled within-bin spread the same instance's spread, and each other relation's
+mean and spread are the measured ones (the grades' ``other_group`` is ``other``). Classes
+without pairs keep the prior's values; figures the model cannot realise are moved to the
+nearest it can (``confusion.realisable``; logged). The descriptor dimension is the
+measured encoder's.
 
 Segmentation. The ``fastsam`` error model is fitted by iterating on the same frames: the
 simulated segmenter with the current parameters is graded like the target, and each rate
 is corrected by the difference of measured rates (miss probabilities by a least-squares
-fit of the per-cell miss-rate residuals on the model's features 1, small and far;
-over-, under-segmentation and spurious masks multiplicatively), after choosing the boundary
-noise (0..4 px) whose mean IoU is closest to the target's.
+fit of the per-cell miss-rate residuals on the model's features 1, small and far, over the
+cells within the mapper's depth range;
+over-segmentation (the per-frame and the view-dependent split rates by one factor),
+under-segmentation per touching pair and spurious masks multiplicatively), after choosing
+the boundary noise (0..4 px at 640 px width) whose mean IoU is closest to the target's.
 """
 
 from __future__ import annotations
@@ -29,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from roman_sim.mapping.confusion import realisable
 from roman_sim.mapping.segmenter import SegmenterConfig
 from roman_sim.mapping.semantics import SemanticConfig
 
@@ -55,33 +54,42 @@ def _view_line(edges: list[float], means: list[float | None], pairs: list[int]) 
     return float(a), float(b)
 
 
+def _pooled_std(stds: list[float | None], pairs: list[int]) -> float | None:
+    """Pooled spread of the same instance's cosine within view-difference bins (None without pairs)."""
+    num = sum(n * s * s for s, n in zip(stds, pairs) if s is not None and n > 0)
+    den = sum(n for s, n in zip(stds, pairs) if s is not None and n > 0)
+    return float(np.sqrt(num / den)) if den else None
+
+
 def fit_semantics(desc: Any, prior: SemanticConfig | None = None) -> SemanticConfig:
-    """``SemanticConfig`` whose expected cosines match measured ``DescriptorGrades`` (or its JSON dict)."""
+    """``SemanticConfig`` whose confusion matches measured ``DescriptorGrades`` (or its JSON dict)."""
     prior = prior or SemanticConfig()
     d = desc if isinstance(desc, dict) else desc.to_json()
-    means = {k: v["mean"] if v["pairs"] else None for k, v in d["classes"].items()}
+    pc = prior.confusion
     line = _view_line(d["view_edges_deg"], d["view_mean"], d["view_pairs"])
     if line is None:
         log.warning("calibration: no same-instance pairs; the semantic prior is kept")
         return prior.model_copy()
     a, b = line
-    a = _clip(a, 1e-3, 1.0)
-    noise = _clip(1.0 / a - 1.0, 0.0, 10.0)
-    view = prior.view_weight if not np.isfinite(b) else _clip(b / a)
-    out = {"noise_energy": noise, "view_weight": view}
-    static = 1.0 - prior.instance_weight - view
-    if (same_family := means.get("same_family")) is not None:
-        inst = _clip(1.0 - view - same_family / a, 0.0, 1.0 - view)
-        out["instance_weight"] = inst
-        static = 1.0 - inst - view
-    if static > 1e-6 and (other_group := means.get("other_group")) is not None:
-        out["common_weight"] = _clip(other_group / (a * static))
-    common = out.get("common_weight", prior.common_weight)
-    if static > 1e-6 and (same_group := means.get("same_group")) is not None:
-        out["group_weight"] = _clip(same_group / (a * static) - common, 0.0, 1.0 - common)
-    else:
-        out["group_weight"] = min(prior.group_weight, 1.0 - common)
-    return prior.model_copy(update=out)
+    fall = 0.5 * (pc.same_instance.mean_same_view - pc.same_instance.mean_opposite_view)
+    b = fall if not np.isfinite(b) else b
+    s_i = _pooled_std(d.get("view_std") or [], d["view_pairs"])
+    rel = {}
+    for name, key, prior_rel in (
+        ("same_family", "same_family", pc.same_family),
+        ("same_group", "same_group", pc.same_group),
+        ("other", "other_group", pc.other),
+    ):
+        c = d["classes"].get(key) or {}
+        has = bool(c.get("pairs")) and c.get("mean") is not None
+        rel[name] = (float(c["mean"]), float(c.get("std") or 0.0)) if has else (prior_rel.mean, prior_rel.std)
+    conf, notes = realisable(a, a - 2.0 * b, pc.same_instance.std if s_i is None else s_i, rel)
+    if notes:
+        log.warning(
+            "calibration: measured cosines moved to what the simulated encoder can realise: %s", "; ".join(notes)
+        )
+    dim = d.get("dim") or prior.dim
+    return prior.model_copy(update={"confusion": conf, "dim": int(dim)})
 
 
 #: Grades of a segmenter configuration on the calibration frames: ``grade(cfg) -> SegmentationGrades``.
@@ -102,17 +110,25 @@ def _features(cfg: SegmenterConfig, area_edges: list[float], dist_edges: list[fl
     return f
 
 
+def _near(g: Any) -> np.ndarray:
+    """(distance bins,) the bins within the grades' depth range (all of them without one)."""
+    upper = np.array([*g.distance_edges_m[1:], np.inf])
+    return upper <= getattr(g, "max_depth_m", np.inf) + 1e-9
+
+
 def _rates(g: Any) -> dict[str, Any]:
+    """Per-cell miss rates, and over-segmentation per detected object within the depth range."""
     obj = np.asarray(g.table_objects, dtype=np.float64)
     det = np.asarray(g.table_detected, dtype=np.float64)
-    over = np.asarray(g.table_over, dtype=np.float64).sum()
+    near = _near(g)
+    over = np.asarray(g.table_over, dtype=np.float64)[:, near].sum()
     return {
         "objects": obj,
         "miss": np.where(obj > 0, 1.0 - det / np.maximum(obj, 1), 0.0),
-        "over": over / max(det.sum(), 1.0),
+        "over": over / max(det[:, near].sum(), 1.0),
         "under": g.under_segmented / max(g.touching_pairs, 1),
         "spurious": g.spurious / max(g.frames, 1),
-        "iou": g.mean_iou or 0.0,
+        "iou": g.mean_iou_all or 0.0,
     }
 
 
@@ -123,7 +139,7 @@ def _ratio_step(value: float, target: float, sim: float, hi: float) -> float:
 
 
 def fit_segmenter(
-    target: Any, grade: GradeFn, prior: SegmenterConfig | None = None, iterations: int = 4
+    target: Any, grade: GradeFn, prior: SegmenterConfig | None = None, iterations: int = 4, width: int = 640
 ) -> SegmenterConfig:
     """``fastsam`` error rates whose grades on the calibration frames match ``target``'s.
 
@@ -132,16 +148,20 @@ def fit_segmenter(
         grade: grades a simulated segmenter with the given configuration on the same frames.
         prior: starting configuration (default: the ``fastsam`` preset).
         iterations: correction rounds (each grades the simulated segmenter once).
+        width: the frames' width (the boundary noise tried is 0..4 px there, given at 640 px).
     """
     cfg = (prior or SegmenterConfig()).model_copy()
     want = _rates(target)
+    widths = sorted({min(40, round(k * 640 / max(width, 1))) for k in range(5)})
     best = min(
-        range(5),
+        widths,
         key=lambda px: abs(_rates(grade(cfg.model_copy(update={"boundary_noise_px": px})))["iou"] - want["iou"]),
     )
     cfg = cfg.model_copy(update={"boundary_noise_px": best})
     feats = _features(cfg, target.area_edges_frac, target.distance_edges_m)
-    w = np.sqrt(want["objects"]).ravel()
+    # Misses are fitted within the mapper's depth range only: beyond it a depth-limited
+    # segmenter finds nothing, and those views would drag the far term over the near bins.
+    w = (np.sqrt(want["objects"]) * _near(target)[None, :]).ravel()
     for it in range(iterations):
         got = _rates(grade(cfg))
         resid = (want["miss"] - got["miss"]).ravel()
@@ -151,6 +171,7 @@ def fit_segmenter(
             "miss_small_prob": _clip(cfg.miss_small_prob + step[1]),
             "miss_far_prob": _clip(cfg.miss_far_prob + step[2]),
             "oversegment_prob": _ratio_step(cfg.oversegment_prob, want["over"], got["over"], 1.0),
+            "view_split_frac": _ratio_step(cfg.view_split_frac, want["over"], got["over"], 1.0),
             "undersegment_prob": _ratio_step(cfg.undersegment_prob, want["under"], got["under"], 1.0),
             "spurious_rate": _ratio_step(cfg.spurious_rate, want["spurious"], got["spurious"], 20.0),
         }

@@ -145,11 +145,40 @@ class FrontEnd(StrictModel):
     """Segmenter and semantic encoder (built-in or ``package.module:Class``, each with ``params``).
 
     ``semantics`` parameterises the ``simulated`` encoder (``roman-sim calibrate`` fits it).
+    ``preset`` puts a bundled preset (``paper``) or a YAML file's ``frontend`` section under
+    these fields, and ``severity`` scales the error parameters when components are built
+    (``roman_sim.mapping.frontend_presets``).
     """
 
+    preset: str | None = Field(None, description="bundled preset name or YAML file under these fields")
+    severity: float = Field(1.0, ge=0, le=10, description="scales the simulated error parameters when built")
     segmenter: SegmenterEntry = Field(default_factory=SegmenterEntry)
     encoder: EncoderEntry = Field(default_factory=EncoderEntry)
     semantics: SemanticConfig = Field(default_factory=SemanticConfig)
+
+    @model_validator(mode="before")
+    @classmethod
+    def _preset(cls, v: Any) -> Any:
+        from roman_sim.mapping.frontend_presets import with_preset
+
+        return with_preset(v) if isinstance(v, dict) else v
+
+    def built_semantics(self) -> SemanticConfig:
+        """``semantics`` at this ``severity``: the confusion level scaled (clipped to the largest it allows)."""
+        if self.severity == 1.0:
+            return self.semantics
+        conf = self.semantics.confusion
+        level = min(conf.level * self.severity, conf.max_level())
+        return self.semantics.model_copy(update={"confusion": conf.model_copy(update={"level": level})})
+
+    def built_segmenter(self) -> SegmenterEntry:
+        """``segmenter`` at this ``severity`` (the simulated segmenter's rates scaled)."""
+        if self.severity == 1.0:
+            return self.segmenter
+        from roman_sim.mapping.frontend_presets import scaled_segmenter_params
+
+        params = scaled_segmenter_params(self.segmenter.name, self.segmenter.params, self.severity)
+        return self.segmenter.model_copy(update={"params": params})
 
     @property
     def needs_rgb(self) -> bool:
@@ -201,7 +230,7 @@ def _entry(
     cfg: FrontEnd | ComponentEntry | str | dict[str, object], cls: type[ComponentEntry], field: str
 ) -> ComponentEntry:
     if isinstance(cfg, FrontEnd):
-        return getattr(cfg, field.rsplit(".", 1)[-1])
+        return cfg.built_segmenter() if field.endswith("segmenter") else cfg.encoder
     if isinstance(cfg, ComponentEntry):
         return cfg
     return validate_model(cls, {"name": cfg} if isinstance(cfg, str) else cfg, source=field)
@@ -234,7 +263,7 @@ def build_encoder(
         robot: robot name (keys the simulated encoder's observation noise).
         families: object id -> family, for truth-driven encoders only.
     """
-    semantics = cfg.semantics if isinstance(cfg, FrontEnd) else SemanticConfig()
+    semantics = cfg.built_semantics() if isinstance(cfg, FrontEnd) else SemanticConfig()
     entry = _entry(cfg, EncoderEntry, "frontend.encoder")
     spec = encoder_spec(entry)
     ctx = BuildContext(seed, robot, families if spec.reads_truth else None, semantics)

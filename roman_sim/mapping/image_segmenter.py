@@ -18,6 +18,12 @@ Steps, at a working resolution (``work_width`` columns; the paper ran FastSAM at
    window, elliptical erosion). Pixels of working cells without valid depth (sky, beyond
    ``max_depth_m``) belong to no mask: such a mask could not be back-projected.
 
+Pixel sizes follow the image: ``min_size_px`` and ``smooth_px`` are given at the working
+resolution of ``work_width`` columns, so they are the same share of any image at least that
+wide; a narrower image (which is its own working resolution) scales them by its width over
+``work_width`` (``min_size_px``, an area, by the square). The final erosion follows the
+image width as every mask filter does (``erosion_px`` at 640 px).
+
 It reads ``rgb``, ``depth``, ``T_odom_body``, ``T_body_cam`` and the intrinsics, never
 ``frame.truth``; the result is a deterministic function of those pixels.
 """
@@ -37,7 +43,11 @@ from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
 
 
 class ImageSegmenterConfig(MaskFilterConfig):
-    """Parameters of the image segmenter (ROMAN's mask filter fields included)."""
+    """Parameters of the image segmenter (ROMAN's mask filter fields included).
+
+    ``min_size_px`` and ``smooth_px`` are sizes at ``work_width`` columns, scaled down for a
+    narrower image; ``erosion_px`` is at 640 px width, scaled to the image.
+    """
 
     work_width: int = Field(160, ge=16, le=4096, description="columns of the working resolution")
     scale: float = Field(80.0, gt=0, description="Felzenszwalb scale (larger: larger regions)")
@@ -110,7 +120,8 @@ class ImageSegmenter:
         h = max(1, round(H * w / W))
         valid_full = (depth > 0) & (depth <= self.cfg.max_depth_m) & np.isfinite(depth)
         small_rgb = cv2.resize(rgb, (w, h), interpolation=cv2.INTER_AREA) if (h, w) != (H, W) else rgb
-        d, valid = _mean_depth(depth, valid_full, (h, w), self.cfg.smooth_px)
+        shrink = w / self.cfg.work_width  # < 1 only for images narrower than the working resolution
+        d, valid = _mean_depth(depth, valid_full, (h, w), int(round(self.cfg.smooth_px * shrink)))
         P = self._points(frame, d, W / w)
         ground, valid = self._ground(frame, P, valid)
         objects = valid & ~ground
@@ -125,7 +136,7 @@ class ImageSegmenter:
             np.ascontiguousarray(small_rgb[win]),
             scale=self.cfg.scale,
             sigma=self.cfg.sigma,
-            min_size=self.cfg.min_size_px,
+            min_size=max(1, int(round(self.cfg.min_size_px * shrink * shrink))),
         )
         regions = self._regions(colour, d, valid, ground)
         chroma = cv2.cvtColor(np.ascontiguousarray(small_rgb), cv2.COLOR_RGB2LAB)[..., 1:].astype(np.float64)

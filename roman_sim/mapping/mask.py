@@ -1,7 +1,14 @@
-"""A segmentation mask, the segmenter protocol and mask helpers shared by every front end."""
+"""A segmentation mask, the segmenter protocol and mask helpers shared by every front end.
+
+Pixel sizes of the front end (erosion radius, boundary noise, merge distances) are given for
+an image 640 pixels wide and follow the image in proportion, as ROMAN's area window follows
+the image area: ``scaled_px(px, width)`` is ``px * width / 640`` rounded half up, so erosion 3
+is 3 px at 640 x 480, 2 px at 320 x 240 (1.5 rounded up) and 1 px at 160 x 120.
+"""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
@@ -57,3 +64,12 @@ def ellipse_kernel(radius: int) -> NDArray[np.bool_]:
     """Elliptical (disk) structuring element of size 2*radius+1."""
     yy, xx = np.mgrid[-radius : radius + 1, -radius : radius + 1]
     return (xx**2 + yy**2) <= radius**2 + radius * 0.5
+
+
+#: Image width (pixels) at which the front end's pixel sizes are given.
+REFERENCE_WIDTH_PX = 640
+
+
+def scaled_px(px: float, width: int) -> int:
+    """``px`` (given at 640 px width) for an image ``width`` pixels wide, rounded half up."""
+    return int(math.floor(px * width / REFERENCE_WIDTH_PX + 0.5))

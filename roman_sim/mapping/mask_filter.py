@@ -2,8 +2,11 @@
 
 A mask is kept when its area lies within [A / min_area_div^2, A / max_area_div^2]
 (A = image width x height; 30 and 3 in the reference), then eroded with an elliptical
-kernel of size 2 * erosion_px + 1 (3 in the reference). Work happens on each mask's
-bounding-box window (padded by the kernel radius), so the cost follows the masked area.
+kernel of radius ``erosion_px`` (3 in the reference, sized for 640 x 480) scaled to the
+image width as ``scaled_px`` does (``roman_sim.mapping.mask``): 2 px at 320 x 240, 1 px at
+160 x 120, so the filters keep the same share of every object at any resolution. Work happens
+on each mask's bounding-box window (padded by the kernel radius), so the cost follows the
+masked area.
 """
 
 from __future__ import annotations
@@ -14,15 +17,15 @@ from pydantic import Field, model_validator
 from scipy import ndimage
 
 from roman_sim.core.config import StrictModel
-from roman_sim.mapping.mask import Mask, ellipse_kernel
+from roman_sim.mapping.mask import Mask, ellipse_kernel, scaled_px
 
 
 class MaskFilterConfig(StrictModel):
-    """Area window and erosion of ROMAN's mask filter."""
+    """Area window and erosion of ROMAN's mask filter (``erosion_px`` at 640 px width, scaled to the image)."""
 
     min_area_div: float = Field(30.0, gt=1)
     max_area_div: float = Field(3.0, gt=0)
-    erosion_px: int = Field(3, ge=0, le=20)
+    erosion_px: int = Field(3, ge=0, le=20, description="erosion radius at 640 px width (scaled to the image)")
 
     @model_validator(mode="after")
     def _window(self) -> MaskFilterConfig:
@@ -34,6 +37,10 @@ class MaskFilterConfig(StrictModel):
         """(smallest, largest) kept area in pixels for an image of ``shape``."""
         A = float(shape[0] * shape[1])
         return A / self.min_area_div**2, A / self.max_area_div**2
+
+    def erosion_radius(self, width: int) -> int:
+        """Erosion radius (pixels) for an image ``width`` pixels wide."""
+        return scaled_px(self.erosion_px, width)
 
 
 def _kernel(radius: int) -> NDArray[np.uint8]:
@@ -54,7 +61,7 @@ def masks_from_labels(labels: NDArray[np.int32], cfg: MaskFilterConfig) -> list[
         if k == 0 or slices[k - 1] is None:
             continue
         sl = slices[k - 1]
-        m = _eroded(labels, sl, int(k), cfg.erosion_px)
+        m = _eroded(labels, sl, int(k), cfg.erosion_radius(labels.shape[1]))
         if m is not None:
             out.append(m)
     return out
@@ -70,7 +77,7 @@ def filter_masks(masks: list[NDArray[np.bool_]], cfg: MaskFilterConfig) -> list[
         if not lo <= area <= hi:
             continue
         sl = ndimage.find_objects(pix.astype(np.int32))[0]
-        m = _eroded(pix.astype(np.int32), sl, 1, cfg.erosion_px)
+        m = _eroded(pix.astype(np.int32), sl, 1, cfg.erosion_radius(pix.shape[1]))
         if m is not None:
             out.append(m)
     return out

@@ -1,4 +1,4 @@
-"""Mask perturbations used by the simulated segmenter (all driven by a given Generator)."""
+"""Mask perturbations used by the simulated segmenter (random ones driven by a given Generator)."""
 
 from __future__ import annotations
 
@@ -7,36 +7,61 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 
-def adjacent_pairs(ids: NDArray[np.int32], depth: NDArray[np.float32], touch_depth_m: float) -> list[tuple[int, int]]:
-    """Sorted pairs of object ids that touch in the image at similar depth (touching in 3D).
+def neighbour_pairs(ids: NDArray[np.int32], max_gap_px: int) -> dict[tuple[int, int], int]:
+    """Pairs of object ids (a < b) next to each other along an image row or column.
+
+    Two objects are neighbours where a run of one is followed, along a row or a column, by a
+    run of the other directly (gap 0: they touch, mostly where one occludes the other) or
+    after a run of at most ``max_gap_px`` background pixels. Returns each pair's smallest gap.
+    Depth plays no part: the sensor leaves no valid depth on either side of an occlusion edge.
+    Runs are found with whole-image operations, so the cost follows the number of runs.
 
     Args:
         ids: (H, W) object ids, -1 background.
-        depth: (H, W) depth, 0 invalid.
-        touch_depth_m: largest depth step across the shared border.
+        max_gap_px: largest background gap (pixels) to look across (0: touching only).
     """
-    pairs: set[tuple[int, int]] = set()
-    h, w = ids.shape
-    flat_i, flat_d = ids.ravel(), depth.ravel()
-    for step, valid in ((1, np.arange(w) < w - 1), (w, None)):
-        a, b = flat_i[:-step], flat_i[step:]
-        idx = np.flatnonzero(a != b)  # object borders are a small fraction of the image
-        if valid is not None:
-            idx = idx[valid[idx % w]]  # no wrap-around from one row to the next
-        ia, ib = a[idx], b[idx]
-        da, db = flat_d[idx], flat_d[idx + step]
-        sel = (ia >= 0) & (ib >= 0) & (da > 0) & (db > 0) & (np.abs(da - db) <= touch_depth_m)
-        if np.any(sel):
-            lo, hi = np.minimum(ia[sel], ib[sel]), np.maximum(ia[sel], ib[sel])
-            pairs.update(zip(lo.tolist(), hi.tolist()))
-    return sorted(pairs)
+    if ids.size == 0:
+        return {}
+    n = int(ids.max()) + 2
+    keys, gaps = [], []
+    for img in (ids, np.ascontiguousarray(ids.T)):
+        h, w = img.shape
+        flat = img.ravel()
+        # run starts, row by row: where the id changes, and every row's first pixel
+        change = flat[1:] != flat[:-1]
+        change[w - 1 :: w] = True
+        starts = np.concatenate(([0], np.flatnonzero(change) + 1))
+        r, c = starts // w, starts % w
+        val = flat[starts].astype(np.int64)
+        last = np.append(r[1:] != r[:-1], True)  # the run ends its row
+        length = np.where(last, w - c, np.append(c[1:], w) - c)
+        same = ~last[:-1]
+        touch = same & (val[:-1] >= 0) & (val[1:] >= 0)
+        keys.append(_pair_keys(val[:-1][touch], val[1:][touch], n))
+        gaps.append(np.zeros(int(touch.sum()), np.int64))
+        if max_gap_px > 0 and len(val) > 2:
+            across = same[:-1] & same[1:] & (val[1:-1] < 0) & (length[1:-1] <= max_gap_px)
+            across &= (val[:-2] >= 0) & (val[2:] >= 0) & (val[:-2] != val[2:])
+            keys.append(_pair_keys(val[:-2][across], val[2:][across], n))
+            gaps.append(length[1:-1][across])
+    k, g = np.concatenate(keys), np.concatenate(gaps)
+    order = np.lexsort((g, k))
+    k, g = k[order], g[order]
+    first = np.ones(len(k), dtype=bool)
+    first[1:] = k[1:] != k[:-1]
+    return {(int(x // n), int(x % n)): int(y) for x, y in zip(k[first].tolist(), g[first].tolist())}
 
 
-def split_mask(pix: NDArray[np.bool_], rng: np.random.Generator) -> list[NDArray[np.bool_]]:
-    """Split a mask in two across its longer image axis at a random cut (30-70 %)."""
+def _pair_keys(a: NDArray[np.int64], b: NDArray[np.int64], n: int) -> NDArray[np.int64]:
+    """One integer per unordered pair (min, max) of ids below ``n``."""
+    return np.minimum(a, b) * n + np.maximum(a, b)
+
+
+def split_mask(pix: NDArray[np.bool_], quantile: float) -> list[NDArray[np.bool_]]:
+    """Split a mask in two across its longer image axis, the first part holding ``quantile`` of its pixels."""
     rows, cols = np.nonzero(pix)
     axis_vals = rows if np.ptp(rows) >= np.ptp(cols) else cols
-    cut = np.quantile(axis_vals, rng.uniform(0.3, 0.7))
+    cut = np.quantile(axis_vals, quantile)
     first = np.zeros_like(pix)
     sel = axis_vals <= cut
     first[rows[sel], cols[sel]] = True

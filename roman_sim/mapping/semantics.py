@@ -1,17 +1,20 @@
 """Open-set semantics: the ``SemanticEncoder`` protocol and a simulated CLIP-like encoder.
 
-The simulated embedding of one observation of object ``o`` (family ``f``) seen along the
-horizontal viewing angle ``phi`` is the unit-normalised sum
+The simulated embedding of one observation of object ``o`` (family ``f``, group ``g``) seen
+along the horizontal viewing angle ``phi`` is the unit-normalised sum of unit vectors
 
-    sqrt(1 - w_i - w_v) * p_f  +  sqrt(w_i) * u_o  +  sqrt(w_v) * (cos(phi) a_o + sin(phi) b_o)  +  n,
+    sqrt(c) C + [g] G_g + [f] F_f + [u] U_o + sqrt(v) (cos(phi) A_o + sin(phi) B_o) + [n] N,
 
-with unit family prototype ``p_f``, unit instance vector ``u_o``, unit view vectors ``a_o``,
-``b_o`` and white noise ``n`` of total energy ``noise_energy``. Prototypes share a common
-part (all families) and a group part (families of one group, e.g. trees), so
-cos(p_f, p_g) = ``common_weight`` (+ ``group_weight`` within a group). In high dimension,
-independent random parts are nearly orthogonal, which gives the expected cosines of
-``expected_cosine``. Defaults: same view ~0.94, 90 deg ~0.87, opposite ~0.79 (CLIP
-threshold 0.85), another instance of the family ~0.82.
+with a common vector ``C``, a group, a family and an instance part, a view part that turns
+with the viewing angle and observation noise ``N`` (drawn anew for every observation). Each
+bracketed part ``[p] P = sqrt(high) P_high + sqrt(low) P_low`` has a full-dimensional
+vector (independent draws are nearly orthogonal) and a unit vector in a small subspace
+shared by the whole world, which spreads the cosines of two independent draws. The energy
+shares come from ``ConfusionConfig.layout`` (``roman_sim.mapping.confusion``), so that the
+cosine of two observations has the configured mean and spread for each relation: same
+instance (against view difference), same family, same group and other. Groups are
+``SemanticConfig.groups`` (a family in no group forms its own). Every vector but the noise
+is a function of the world seed and the object, shared by all robots.
 """
 
 from __future__ import annotations
@@ -23,11 +26,12 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field, model_validator
+from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, MappingError
 from roman_sim.core.seeding import child_rng
+from roman_sim.mapping.confusion import ConfusionConfig, Part
 
 log = logging.getLogger(__name__)
 
@@ -67,23 +71,11 @@ class SemanticEncoder(Protocol):
 
 
 class SemanticConfig(StrictModel):
-    """Similarity structure of the simulated encoder (weights are squared-norm shares)."""
+    """The simulated encoder: descriptor dimension, confusion per relation, family groups."""
 
     dim: int = Field(768, ge=8, le=8192)
-    common_weight: float = Field(0.3, ge=0, le=1)
-    group_weight: float = Field(0.4, ge=0, le=1)
-    instance_weight: float = Field(0.05, ge=0, le=1)
-    view_weight: float = Field(0.08, ge=0, le=1)
-    noise_energy: float = Field(0.06, ge=0, le=10)
+    confusion: ConfusionConfig = Field(default_factory=ConfusionConfig)
     groups: dict[str, list[str]] = Field(default_factory=lambda: {k: list(v) for k, v in DEFAULT_GROUPS.items()})
-
-    @model_validator(mode="after")
-    def _check_weights(self) -> "SemanticConfig":
-        if self.common_weight + self.group_weight > 1:
-            raise ValueError("common_weight + group_weight must be <= 1")
-        if self.instance_weight + self.view_weight > 1:
-            raise ValueError("instance_weight + view_weight must be <= 1")
-        return self
 
     def group_of(self, family: str) -> str:
         """Group of ``family`` (a family in no group forms its own)."""
@@ -92,39 +84,21 @@ class SemanticConfig(StrictModel):
                 return g
         return f"_{family}"
 
-
-def expected_cosine(
-    cfg: SemanticConfig, same_instance: bool, view_diff_rad: float = 0.0, family_cos: float = 1.0
-) -> float:
-    """High-dimensional expectation of the cosine between two simulated embeddings.
-
-    Args:
-        same_instance: both observations of the same object.
-        view_diff_rad: difference of viewing angles (same instance only).
-        family_cos: cosine of the two family prototypes (1 for the same family).
-    """
-    static = 1.0 - cfg.instance_weight - cfg.view_weight
-    if same_instance:
-        num = static + cfg.instance_weight + cfg.view_weight * np.cos(view_diff_rad)
-    else:
-        num = static * family_cos
-    return float(num / (1.0 + cfg.noise_energy))
-
-
-def family_cosine(cfg: SemanticConfig, fam_a: str, fam_b: str) -> float:
-    """Configured cosine of two family prototypes."""
-    if fam_a == fam_b:
-        return 1.0
-    same_group = cfg.group_of(fam_a) == cfg.group_of(fam_b)
-    return cfg.common_weight + (cfg.group_weight if same_group else 0.0)
+    def group_map(self) -> dict[str, str]:
+        """Family -> group for every listed family (as ``group_of``, in one lookup)."""
+        out: dict[str, str] = {}
+        for g, fams in sorted(self.groups.items()):
+            for f in fams:
+                out.setdefault(f, g)
+        return out
 
 
 class SimulatedEncoder:
-    """CLIP-like embeddings from truth: family prototypes, instance and view terms, noise.
+    """CLIP-like embeddings from truth with configurable confusion (see the module docstring).
 
     Args:
-        cfg: similarity structure.
-        seed: world-level seed: robots sharing it share prototypes and instance vectors.
+        cfg: descriptor dimension, confusion and groups.
+        seed: world-level seed: robots sharing it share every vector but the noise.
         families: object id -> family name (from ``WorldTruth``).
         robot: name keying this robot's independent observation-noise stream.
     """
@@ -142,25 +116,56 @@ class SimulatedEncoder:
         self.cfg = cfg or SemanticConfig()
         self.seed = seed
         self.families = dict(families or {})
+        self.layout = self.cfg.confusion.layout()
+        self._groups = self.cfg.group_map()
         self._rng = child_rng(seed, "semantics", "noise", robot)
-        self._cache: dict[tuple, NDArray[np.float64]] = {}
+        self._bases: dict[str, NDArray[np.float64]] = {}
+        self._static: dict[tuple[int, str], NDArray[np.float64]] = {}
+        self._views: dict[int, NDArray[np.float64]] = {}
+        self._common = self._unit("common")
 
     def _unit(self, *key: str | int) -> NDArray[np.float64]:
-        if key not in self._cache:
-            v = child_rng(self.seed, "semantics", *key).standard_normal(self.cfg.dim)
-            self._cache[key] = v / np.linalg.norm(v)
-        return self._cache[key]
-
-    def prototype(self, family: str) -> NDArray[np.float64]:
-        """Unit prototype of ``family``."""
-        c = self.cfg
-        own = max(0.0, 1.0 - c.common_weight - c.group_weight)
-        v = (
-            np.sqrt(c.common_weight) * self._unit("common")
-            + np.sqrt(c.group_weight) * self._unit("group", c.group_of(family))
-            + np.sqrt(own) * self._unit("family", family)
-        )
+        v = child_rng(self.seed, "semantics", *key).standard_normal(self.cfg.dim)
         return v / np.linalg.norm(v)
+
+    def _basis(self, level: str, dims: int) -> NDArray[np.float64]:
+        """(dims, dim) orthonormal rows spanning the world's shared subspace of ``level`` (orthogonal to ``C``)."""
+        if level not in self._bases:
+            g = child_rng(self.seed, "semantics", "basis", level).standard_normal((self.cfg.dim, dims))
+            g -= np.outer(self._common, self._common @ g)
+            self._bases[level] = np.linalg.qr(g)[0].T
+        return self._bases[level]
+
+    def _off_common(self, v: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``v`` without its component along the common vector, normalised (no cross term with ``C``)."""
+        v = v - (v @ self._common) * self._common
+        return v / np.sqrt(v @ v)
+
+    def _part(self, part: Part, level: str, key: str | int) -> NDArray[np.float64]:
+        """One part's vector for ``key`` (a group, family or object): full-dimensional plus subspace share."""
+        rng = child_rng(self.seed, "semantics", level, key)
+        v = np.sqrt(part.high) * self._off_common(rng.standard_normal(self.cfg.dim))
+        if part.low > 0:
+            z = rng.standard_normal(part.dims)
+            v = v + np.sqrt(part.low / (z @ z)) * (z @ self._basis(level, part.dims))
+        return v
+
+    def group_of(self, family: str) -> str:
+        """Group of ``family`` (``SemanticConfig.group_of``)."""
+        return self._groups.get(family, f"_{family}")
+
+    def static(self, oid: int, family: str) -> NDArray[np.float64]:
+        """The view- and noise-free part of object ``oid``'s embedding (terrain: ``oid`` -1)."""
+        key = (oid, family)
+        if key not in self._static:
+            lay = self.layout
+            self._static[key] = (
+                np.sqrt(lay.common) * self._common
+                + self._part(lay.group, "group", self.group_of(family))
+                + self._part(lay.family, "family", family)
+                + self._part(lay.instance, "instance", oid + 1)  # terrain (-1) -> key 0
+            )
+        return self._static[key]
 
     def family_of(self, context: EncodeContext) -> str:
         """Family of the observed object (``terrain`` for background)."""
@@ -179,20 +184,28 @@ class SimulatedEncoder:
                 "the simulated encoder builds descriptors from ground truth: this frame has none "
                 "(use an image encoder for real or truth-free frames)"
             )
-        c = self.cfg
-        oid = int(context.object_id if context.object_id is not None else -1) + 1  # terrain (-1) -> key 0
+        oid = int(context.object_id if context.object_id is not None else -1)
         phi = 0.0
         if context.view_dir is not None:
             d = np.asarray(context.view_dir, dtype=np.float64).reshape(3)
             if not np.all(np.isfinite(d)):
                 raise ConfigError("semantics: view_dir must be finite")
             phi = float(np.arctan2(d[1], d[0]))
-        static = max(0.0, 1.0 - c.instance_weight - c.view_weight)
-        v = (
-            np.sqrt(static) * self.prototype(self.family_of(context))
-            + np.sqrt(c.instance_weight) * self._unit("instance", oid)
-            + np.sqrt(c.view_weight)
-            * (np.cos(phi) * self._unit("view_a", oid) + np.sin(phi) * self._unit("view_b", oid))
-            + self._rng.standard_normal(c.dim) * np.sqrt(c.noise_energy / c.dim)
-        )
-        return (v / np.linalg.norm(v)).astype(np.float32)
+        lay = self.layout
+        if oid not in self._views:
+            ab = child_rng(self.seed, "semantics", "view", oid + 1).standard_normal((2, self.cfg.dim))
+            self._views[oid] = np.sqrt(lay.view) * np.stack([self._off_common(ab[0]), self._off_common(ab[1])])
+        a, b = self._views[oid]
+        v = self.static(oid, self.family_of(context)) + np.cos(phi) * a + np.sin(phi) * b + self._noise()
+        return (v / np.sqrt(v @ v)).astype(np.float32)
+
+    def _noise(self) -> NDArray[np.float64]:
+        """One observation's noise: a full-dimensional draw plus a unit vector in the noise subspace."""
+        n = self.layout.noise
+        out = np.zeros(self.cfg.dim)
+        if n.high > 0:
+            out += np.sqrt(n.high) * self._off_common(self._rng.standard_normal(self.cfg.dim))
+        if n.low > 0:
+            z = self._rng.standard_normal(n.dims)
+            out += np.sqrt(n.low / (z @ z)) * (z @ self._basis("noise", n.dims))
+        return out

@@ -21,6 +21,7 @@ from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
+from roman_sim.evaluation.frontend_types import GradeConfig
 from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
@@ -147,8 +148,10 @@ class _Grader:
     label the descriptors; nothing here is visible to the segmenter or the encoder.
     """
 
-    def __init__(self, group_of: Callable[[str], str], seed: int, robot: str | None = None) -> None:
-        self.inner = FrontEndGrader({}, group_of, seed=seed, stream=robot)
+    def __init__(
+        self, group_of: Callable[[str], str], seed: int, robot: str | None = None, max_depth_m: float = 7.5
+    ) -> None:
+        self.inner = FrontEndGrader({}, group_of, GradeConfig(max_depth_m=max_depth_m), seed=seed, stream=robot)
 
     def use(self, families: dict[int, str] | None) -> FrontEndGrader:
         self.inner.families.update(families or {})
@@ -192,7 +195,8 @@ def map_sequence(ctx: RunContext, cfg: ScenarioRobot, grader: _Grader | None = N
 
 def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot, path: Path2D | None) -> RobotMapping:
     """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
-    grader = _Grader(ctx.scenario.frontend.semantics.group_of, ctx.scenario.seed, cfg.name)
+    sc = ctx.scenario
+    grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
     if cfg.source is not None:
         smap, kf = map_sequence(ctx, cfg, grader)
     elif world is None or path is None:

@@ -15,34 +15,53 @@ def _f(v: float | None, digits: int = 2) -> str:
 
 
 def frontend_report_lines(grades: FrontEndGrades) -> list[str]:
-    """The report's front-end section (markdown lines): segmentation grades, misses, cosines."""
+    """The report's front-end section (markdown lines): grades within the depth range, by distance, cosines."""
     s = grades.segmentation
+    far = s.far()
     lines = [
         "## Front end against truth",
         "",
         f"Segmenter `{grades.segmenter}`, encoder `{grades.encoder or 'none'}`, graded on {s.frames} frames "
-        "against the instance image (objects in ROMAN's mask area window, after its erosion).",
+        "against the instance image (objects in ROMAN's mask area window, after its erosion). Headline: "
+        f"objects and masks within the mapper's {s.max_depth_m:g} m depth range.",
         "",
-        "| precision | recall | mean IoU | masks / frame | over-segmented | under-segmented | spurious |",
-        "|---|---|---|---|---|---|---|",
-        f"| {_f(s.precision)} | {_f(s.recall)} | {_f(s.mean_iou)} | {_f(s.masks / max(s.frames, 1), 1)} | "
-        f"{s.over_segmented} | {s.under_segmented} | {s.spurious} |",
+        "| | precision | recall | mean IoU | masks / frame | over-segmented | under-segmented | spurious |",
+        "|---|---|---|---|---|---|---|---|",
+        f"| within {s.max_depth_m:g} m | {_f(s.precision)} | {_f(s.recall)} | {_f(s.mean_iou)} | "
+        f"{_f(s.masks / max(s.frames, 1), 1)} | {s.over_segmented} | {s.under_segmented} of "
+        f"{s.touching_pairs} touching pairs | {s.spurious} |",
+        f"| beyond (not mapped) | {_f(far['precision'])} | {_f(far['recall'])} | {_f(far['mean_iou'])} | | | | |",
+        f"| every depth | {_f(s.precision_all)} | {_f(s.recall_all)} | {_f(s.mean_iou_all)} | | | | |",
         "",
     ]
     rows = s.by_distance()
     if rows:
-        lines += ["| object distance (m) | object views | missed | recall (IoU match) |", "|---|---|---|---|"]
+        lines += [
+            "| object distance (m) | object views | missed | recall (IoU match) | masks | precision | mean IoU |",
+            "|---|---|---|---|---|---|---|",
+        ]
         for r in rows:
             to = "" if r["to_m"] is None else f"{r['to_m']:g}"
-            rec = None if not r["objects"] else 1.0 - r["unmatched"] / r["objects"]
-            lines.append(f"| {r['from_m']:g}-{to} | {r['objects']} | {r['missed']} | {_f(rec)} |")
+            label = f"{r['from_m']:g}-{to}" + ("" if r["in_range"] else " (beyond range)")
+            lines.append(
+                f"| {label} | {r['objects']} | {r['missed']} | {_f(r['recall'])} | {r['masks']} | "
+                f"{_f(r['precision'])} | {_f(r['mean_iou'])} |"
+            )
         lines.append("")
     d = grades.descriptors
     if d is not None:
-        lines += ["| descriptor pairs | pairs | mean cosine | 5 % | 95 % |", "|---|---|---|---|---|"]
+        lines += [
+            f"| descriptor pairs | pairs | mean cosine | 5 % | 95 % | at or above {d.gate_cos:g} |",
+            "|---|---|---|---|---|---|",
+        ]
         for name, st in d.classes.items():
-            lines.append(f"| {name.replace('_', ' ')} | {st.pairs} | {_f(st.mean)} | {_f(st.p05)} | {_f(st.p95)} |")
-        lines.append("")
+            lines.append(
+                f"| {name.replace('_', ' ')} | {st.pairs} | {_f(st.mean)} | {_f(st.p05)} | {_f(st.p95)} | "
+                f"{_f(st.frac_above_gate)} |"
+            )
+        above, pairs = d.other_family_above_gate()
+        share = "n/a" if not pairs else f"{above / pairs:.3f} ({above} of {pairs})"
+        lines += ["", f"Other-family pairs passing the {d.gate_cos:g} semantic gate: {share}.", ""]
     return lines
 
 

@@ -3,11 +3,16 @@ then fit the simulated front end (``roman_sim.mapping.calibrate``) to reproduce 
 
 The encoder is measured on the true instance masks (the ``perfect`` segmenter), so its
 cosine distributions are not mixed with segmentation errors; the segmenter is measured
-alone. The result is a YAML fragment a scenario can use::
+alone. The result is a YAML file a scenario can use as its front-end preset
+(``frontend: {preset: calibration.yaml}``)::
 
+    calibration: {scenario: ..., frames: ..., encoder: clip, dim: 768, segmenter: ...}
     frontend:
-      semantics: {...}                     # from an encoder
-      segmenter: {name: fastsam, params: {...}}   # from a segmenter
+      semantics: {dim: 768, confusion: {...}, groups: {...}}   # from an encoder
+      segmenter: {name: fastsam, params: {...}}               # from a segmenter
+
+``semantics.dim`` is the measured encoder's dimension: a scenario that sets another one
+refuses the file.
 """
 
 from __future__ import annotations
@@ -94,15 +99,17 @@ class Calibration:
     fitted_descriptors: DescriptorGrades | None = None
     measured_segmentation: SegmentationGrades | None = None
     fitted_segmentation: SegmentationGrades | None = None
+    meta: dict[str, Any] | None = None
 
     def frontend_yaml(self) -> str:
-        """The fitted parameters as a scenario's ``frontend`` section (YAML)."""
+        """The fitted parameters as a front-end preset file: ``calibration`` (what was measured) and ``frontend``."""
         fe: dict[str, Any] = {}
         if self.semantics is not None:
             fe["semantics"] = self.semantics.model_dump(mode="json")
         if self.segmenter is not None:
             fe["segmenter"] = {"name": "fastsam", "params": self.segmenter.model_dump(mode="json")}
-        return yaml.safe_dump({"frontend": fe}, sort_keys=False)
+        head = {"calibration": self.meta} if self.meta else {}
+        return yaml.safe_dump({**head, "frontend": fe}, sort_keys=False)
 
     def to_json(self) -> dict[str, JSONLike]:
         """Everything measured and fitted, JSON-ready."""
@@ -141,27 +148,32 @@ def calibrate(
             truth-free ones before rendering to fail early on bad weights).
         target_segmenter: an already built segmenter, as ``target_encoder``.
     """
-    out = Calibration()
+    meta: dict[str, Any] = {"frames": len(data.frames), "seed": data.seed}
+    out = Calibration(meta=meta)
     seed = data.seed
     if encoder:
         target = target_encoder or build_encoder(
             frontend, seed, "calibration", data.families if encoder_spec(frontend.encoder).reads_truth else None
         )
         out.measured_descriptors = grade_encoder(data, target, frontend.semantics)
+        meta.update(encoder=frontend.encoder.name)
         if out.measured_descriptors is not None:
+            meta.update(dim=out.measured_descriptors.dim)
             prior = prior_semantics or SemanticConfig(groups=frontend.semantics.groups)
             out.semantics = fit_semantics(out.measured_descriptors, prior)
             fitted = build_encoder(FrontEnd(semantics=out.semantics), seed + 1, "calibration-fit", data.families)
             out.fitted_descriptors = grade_encoder(data, fitted, out.semantics)
     if segmenter:
         target_seg = target_segmenter or build_segmenter(frontend, seed, "calibration")
+        meta.update(segmenter=frontend.segmenter.name)
         out.measured_segmentation = grade_segmenter(data, target_seg)
 
         def grade(cfg: SegmenterConfig) -> SegmentationGrades:
             return grade_segmenter(data, SimulatedSegmenter(cfg, seed + 1))
 
+        width = int(data.frames[0].depth.shape[1]) if data.frames else 640
         out.segmenter = fit_segmenter(
-            out.measured_segmentation, grade, prior_segmenter or _prior(frontend.segmenter), iterations
+            out.measured_segmentation, grade, prior_segmenter or _prior(frontend.segmenter), iterations, width
         )
         out.fitted_segmentation = grade(out.segmenter)
     return out

@@ -10,9 +10,11 @@ from roman_sim.evaluation.frontend import FrontEndGrader
 from roman_sim.evaluation.frontend_types import FrontEndGrades, GradeConfig
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
-from roman_sim.report.frontend import plot_frontend_grades
+from roman_sim.report.frontend import frontend_report_lines, plot_frontend_grades
 
 H, W = 120, 160
+# Erosion is given at 640 px width: 12 px there is the 3 px radius these 160 px frames are built for.
+CFG = GradeConfig(erosion_px=12)
 INTR = Intrinsics(W, H, 80.0, 80.0, (W - 1) / 2, (H - 1) / 2)
 T_BC = make_T(R_FLU_RDF, [0.0, 0.0, 0.5])
 
@@ -37,7 +39,7 @@ def scene():
 
 
 def truth_masks(ids):
-    return masks_from_labels(np.where(ids >= 0, ids + 1, 0).astype(np.int32), MaskFilterConfig())
+    return masks_from_labels(np.where(ids >= 0, ids + 1, 0).astype(np.int32), MaskFilterConfig(erosion_px=12))
 
 
 def box(r0, r1, c0, c1):
@@ -48,7 +50,7 @@ def box(r0, r1, c0, c1):
 
 def test_perfect_masks_score_one():
     ids, depth = scene()
-    g = FrontEndGrader({0: "rock", 1: "bush", 2: "rock"})
+    g = FrontEndGrader({0: "rock", 1: "bush", 2: "rock"}, cfg=CFG)
     g.add(frame(ids, depth), truth_masks(ids), [])
     s = g.seg
     assert (s.objects, s.masks, s.matched, s.spurious, s.over_segmented, s.under_segmented) == (3, 3, 3, 0, 0, 0)
@@ -65,16 +67,25 @@ def test_errors_are_counted():
     split_a, split_b = box(23, 57, 13, 33), box(23, 57, 33, 47)  # object 0 in two parts: IoU 680/1156, 476/1156
     merged = Mask(ids >= 1)  # objects 1 and 2 in one mask (under-segmentation)
     sky = box(95, 115, 10, 40)  # terrain only: spurious
-    g = FrontEndGrader({})
+    g = FrontEndGrader({}, cfg=CFG)
     g.add(frame(ids, depth), [split_a, split_b, merged, sky], [])
     s = g.seg
     assert s.over_segmented == 1 and s.under_segmented == 1 and s.spurious == 1
     # Only the larger part of object 0 matches; the merged mask's IoU with object 1 is 576/1500.
     assert t[0].area == 34 * 34 and t[1].area == 24 * 24
     assert s.matched == 1 and s.mean_iou == pytest.approx(680 / 1156)
-    assert s.graded_masks == 4 and s.precision == 0.25 and s.recall == pytest.approx(1 / 3)
+    assert s.graded_masks == 4 and s.precision_all == 0.25 and s.recall_all == pytest.approx(1 / 3)
+    # Within the mapper's 7.5 m: objects 0 (3 m) and 1 (6 m); object 2 (no valid depth) is far.
+    # Every mask lies within range (the merged one at the 6 m of its valid pixels, the sky at 5 m).
+    assert s.recall == pytest.approx(1 / 2) and s.precision == 0.25 and s.mean_iou == pytest.approx(680 / 1156)
+    assert s.far() == {"objects": 1, "masks": 0, "precision": None, "recall": 0.0, "mean_iou": None}
+    rows = s.by_distance()
+    assert [r["masks"] for r in rows] == [0, 2, 2, 0] and [r["in_range"] for r in rows] == [True] * 3 + [False]
+    assert rows[1]["precision"] == 0.5 and rows[1]["recall"] == 1.0 and rows[2]["recall"] == 0.0
+    # The touching pair: objects 1 and 2 lie apart in the image, so none.
+    assert s.touching_pairs == 0
     # No mask at all: every object missed, in its distance bin.
-    g2 = FrontEndGrader({})
+    g2 = FrontEndGrader({}, cfg=CFG)
     g2.add(frame(ids, depth), [], [])
     assert [r["missed"] for r in g2.seg.by_distance()] == [0, 1, 1, 1] and g2.seg.precision is None
 
@@ -84,7 +95,7 @@ def test_objects_outside_romans_window_are_not_graded():
     ids[0:2, 0:2] = 7  # 4 pixels: below A / 30^2
     big = np.full((H, W), 9, np.int32)
     big[:, :20] = -1  # one object filling most of the image: above A / 3^2
-    g = FrontEndGrader({})
+    g = FrontEndGrader({}, cfg=CFG)
     g.add(frame(ids, depth), truth_masks(ids), [])
     assert g.seg.objects == 3
     g.add(frame(big, depth, 1), [Mask(big >= 0)], [])
@@ -95,7 +106,7 @@ def test_descriptor_cosines_by_class_and_view():
     ids, depth = scene()
     fams = {0: "conifer", 1: "deciduous", 2: "boulder"}
     groups = {"conifer": "tree", "deciduous": "tree", "boulder": "rock"}
-    g = FrontEndGrader(fams, groups.get, GradeConfig(view_step_deg=30.0))
+    g = FrontEndGrader(fams, groups.get, GradeConfig(view_step_deg=30.0, erosion_px=12))
     e = np.eye(4, dtype=np.float32)
     masks = truth_masks(ids)
     desc0 = [np.array([1, 0, 0, 0], np.float32), np.array([0.8, 0.6, 0, 0], np.float32)]
@@ -110,14 +121,21 @@ def test_descriptor_cosines_by_class_and_view():
     assert d.classes["other_group"].pairs == 0 and d.classes["same_family"].pairs == 0
     # Views turn with the robot by 90 deg: both same-instance pairs fall in the 90-120 bin.
     assert d.view_pairs[3] == 2 and d.view_mean[3] == pytest.approx(0.9) and d.view_mean[0] is None
+    assert d.view_std[3] == pytest.approx(0.1) and d.dim == 4
     assert sum(same.hist) == 2
+    # The overlap figure: pairs at or above the 0.85 gate (object 1's 1.0 passes, object 0's 0.8 does not).
+    assert same.above_gate == 1 and same.frac_above_gate == 0.5
+    assert d.other_family_above_gate() == (0, 2)
+    lines = "\n".join(frontend_report_lines(g.result("perfect", "test")))
+    assert "Other-family pairs passing the 0.85 semantic gate: 0.000 (0 of 2)." in lines
+    assert "| within 7.5 m | 1.00 | 1.00 |" in lines and "| 7.5- (beyond range) | 2 |" in lines  # two frames
 
 
 def test_reservoir_keeps_the_cap_and_is_seeded():
     ids, depth = scene()
 
     def run(seed):
-        g = FrontEndGrader({}, cfg=GradeConfig(max_observations=10), seed=seed)
+        g = FrontEndGrader({}, cfg=GradeConfig(max_observations=10, erosion_px=12), seed=seed)
         for k in range(12):
             g.add(frame(ids, depth, k), truth_masks(ids), [(0, np.float32([1, k, 0])), (1, np.float32([0, 1, k]))])
         return g
@@ -129,7 +147,7 @@ def test_reservoir_keeps_the_cap_and_is_seeded():
 
 def test_json_round_trip_plot_and_bad_input(tmp_path):
     ids, depth = scene()
-    g = FrontEndGrader({0: "rock", 1: "rock"})
+    g = FrontEndGrader({0: "rock", 1: "rock"}, cfg=CFG)
     masks = truth_masks(ids)
     for k in range(2):
         g.add(frame(ids, depth, k), masks, [(0, np.float32([1, 0])), (1, np.float32([0.6, 0.8]))])

@@ -130,3 +130,40 @@ def test_scenario_overrides_select_components():
     assert sc.frontend.encoder.name == "image"
     with pytest.raises(ConfigError, match="frontend.segmenter"):
         load_scenario("smoke", ["frontend.segmenter=sam9"])
+
+
+@pytest.mark.parametrize(
+    "override, field",
+    [
+        ("frontend.semantics.confusion.other.mean=1.2", "frontend.semantics.confusion.other.mean"),
+        ("frontend.semantics.confusion.same_group.std=-0.1", "frontend.semantics.confusion.same_group.std"),
+        ("frontend.semantics.confusion.same_instance.mean_same_view=-2", "mean_same_view"),
+        ("frontend.semantics.confusion=-1", "frontend.semantics.confusion.level"),
+        ("frontend.segmenter={params: {undersegment_prob: 1.5}}", "frontend.segmenter.params: undersegment_prob"),
+        ("frontend.segmenter={params: {view_split_frac: -0.1}}", "frontend.segmenter.params: view_split_frac"),
+        ("frontend.segmenter={params: {partial_frac: 2}}", "frontend.segmenter.params: partial_frac"),
+        ("frontend.severity=-1", "frontend.severity"),
+        ("frontend.preset=nope", "frontend.preset: unknown preset 'nope'"),
+    ],
+)
+def test_bad_front_end_values_fail_with_one_line_naming_the_field(override, field):
+    with pytest.raises(ConfigError) as err:
+        load_scenario("smoke", [override])
+    msg = str(err.value)
+    assert field in msg and "\n" not in msg, msg
+
+
+def test_confusion_sweeps_as_one_number():
+    sc = load_scenario("smoke", ["frontend.semantics.confusion=0.5"])
+    assert sc.frontend.semantics.confusion.level == 0.5
+    assert sc.frontend.semantics.confusion.other.std == SemanticConfig().confusion.other.std
+    sc = load_scenario("smoke", ["frontend.semantics.confusion.level=1.2"])
+    assert build_encoder(sc.frontend, families={}).layout == sc.frontend.semantics.confusion.layout()
+
+
+def test_confusion_is_a_sweep_axis():
+    from roman_sim.pipeline.sweep_spec import SweepConfig, expand
+
+    cfg = SweepConfig(name="c", scenario="smoke", grid={"frontend.semantics.confusion": [0.0, 0.5, 1.0]})
+    levels = [load_scenario("smoke", list(r.overrides)).frontend.semantics.confusion.level for r in expand(cfg)]
+    assert levels == [0.0, 0.5, 1.0]

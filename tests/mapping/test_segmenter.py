@@ -27,9 +27,10 @@ def _ids_boxes():
 def test_perfect_preset_is_eroded_truth_after_area_filter():
     masks = build_segmenter("perfect").segment(_frame(_ids_boxes()))
     assert [m.object_ids for m in masks] == [(0,), (2,)]
-    truth = ndimage.binary_erosion(_ids_boxes() == 0, structure=ellipse_kernel(3), border_value=0)
+    # Erosion 3 px at 640 px width is 1 px on these 160 px frames.
+    truth = ndimage.binary_erosion(_ids_boxes() == 0, structure=ellipse_kernel(1), border_value=0)
     np.testing.assert_array_equal(masks[0].pixels, truth)
-    assert masks[0].area == (40 - 6) * (50 - 6)
+    assert masks[0].area == (40 - 2) * (50 - 2)
 
 
 def test_area_filter_drops_huge_masks():
@@ -93,17 +94,29 @@ def test_oversegmentation_splits_large_objects():
     assert not np.any(masks[0].pixels & masks[1].pixels)
 
 
-def test_undersegmentation_merges_touching_objects_only():
+def test_undersegmentation_follows_image_gap_and_depth_gap():
     ids = np.full((120, 160), -1)
     ids[10:40, 10:40] = 0
-    ids[10:40, 40:70] = 1  # touches 0 at the same depth
-    ids[70:100, 100:130] = 2  # apart
-    masks = _only(undersegment_prob=1.0, erosion_px=0).segment(_frame(ids))
-    assert sorted(m.object_ids for m in masks) == [(0, 1), (2,)]
+    ids[10:40, 40:70] = 1  # touches 0
+    ids[70:100, 100:130] = 2  # far from both in the image
     depth = np.full(ids.shape, 3.0, np.float32)
-    depth[ids == 1] = 6.0  # a depth step: not touching in 3D
+    depth[:, 39:41] = 0.0  # the sensor invalidates depth across the shared edge: merges must not need it
     masks = _only(undersegment_prob=1.0, erosion_px=0).segment(_frame(ids, depth))
-    assert len(masks) == 3
+    assert sorted(m.object_ids for m in masks) == [(0, 1), (2,)]
+    # The probability falls with the depth gap: exp(-3 / 1.5) at a 3 m gap.
+    depth[ids == 1] = 6.0
+    seg = _only(undersegment_prob=1.0, erosion_px=0, merge_depth_m=1.5)
+    ((a, b, p),) = seg.merge_candidates(_frame(ids, depth))
+    assert (a, b) == (0, 1) and p == pytest.approx(np.exp(-2.0))
+    merged = sum(len(seg.segment(_frame(ids, depth, index=i))) == 2 for i in range(400))
+    assert abs(merged - 400 * np.exp(-2.0)) <= 3 * np.sqrt(400 * np.exp(-2.0) * (1 - np.exp(-2.0)))
+    # ... and with the image gap: 1 px apart at 160 px width is 4 px at 640, exp(-4 / 2).
+    ids[10:40, 40] = -1
+    depth[:] = 3.0
+    ((_, _, p),) = _only(undersegment_prob=0.5).merge_candidates(_frame(ids, depth))
+    assert p == pytest.approx(0.5 * np.exp(-2.0))
+    ids[10:40, 40:43] = -1  # 3 px (12 px at 640): beyond three e-folds, never looked at
+    assert _only(undersegment_prob=1.0).merge_candidates(_frame(ids, depth)) == []
 
 
 def test_spurious_masks_lie_on_terrain():
@@ -117,7 +130,7 @@ def test_spurious_masks_lie_on_terrain():
 def test_noisy_boundaries_change_only_the_border():
     ids = np.full((120, 160), -1)
     ids[20:60, 20:60] = 0
-    m = _only(boundary_noise_px=2, erosion_px=0).segment(_frame(ids))[0]
+    m = _only(boundary_noise_px=8, erosion_px=0).segment(_frame(ids))[0]  # 8 px at 640: 2 px here
     truth = ids == 0
     diff = m.pixels ^ truth
     assert diff.any()
@@ -135,3 +148,47 @@ def test_mask_bbox():
 def test_empty_image_gives_no_masks():
     f = _frame(np.zeros((0, 0), np.int32), np.zeros((0, 0), np.float32))
     assert build_segmenter("fastsam").segment(f) == []
+
+
+def _turning_frame(ids, yaw, index):
+    """``ids`` seen by a camera turned by ``yaw`` about the vertical (the object's bearing turns with it)."""
+    f = _frame(ids, index=index)
+    c, s = np.cos(yaw), np.sin(yaw)
+    f.truth.T_world_body = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
+    return f
+
+
+def test_view_dependent_splits_and_partial_masks():
+    ids = np.full((120, 160), -1)
+    ids[10:70, 50:75] = 5  # 1500 px: large enough to split (> 3 % of the image), within the area window
+    seg = _only(view_split_frac=0.25, erosion_px=0)
+    yaws = np.linspace(-np.pi, np.pi, 360, endpoint=False)
+    counts = np.array([len(seg.segment(_turning_frame(ids, y, k))) for k, y in enumerate(yaws)])
+    assert set(counts) == {1, 2} and abs(np.mean(counts == 2) - 0.25) <= 1 / 360
+    # The same bearing gives the same masks, whatever the frame and the robot.
+    again = [len(seg.segment(_turning_frame(ids, y, 1000 + k))) for k, y in enumerate(yaws[:60])]
+    assert again == counts[:60].tolist()
+    # The split sector is one arc: two masks in one run of bearings (on the circle).
+    two = counts == 2
+    assert int(np.sum(two != np.roll(two, 1))) == 2
+    part = _only(partial_frac=0.5, erosion_px=0)
+    areas = np.array([sum(m.area for m in part.segment(_turning_frame(ids, y, k))) for k, y in enumerate(yaws)])
+    keep = part.traits(5).keep
+    assert abs(np.mean(areas < 1500) - 0.5) <= 1 / 360
+    assert np.all(np.abs(areas[areas < 1500] / 1500 - keep) <= 1 / 60 + 1e-9)  # one image row of 25 px
+
+
+def test_pixel_sizes_follow_the_image_width():
+    """The same scene at 160 x 120 and 640 x 480: masks eroded by 1 px and by 3 px."""
+    from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
+
+    small = np.full((120, 160), -1)
+    small[10:50, 10:60] = 0
+    big = np.kron(small, np.ones((4, 4), int))
+    for ids, radius in ((small, 1), (big, 3)):
+        truth = ndimage.binary_erosion(ids == 0, structure=ellipse_kernel(radius), border_value=0)
+        m = build_segmenter("perfect").segment(_frame(ids))[0]
+        np.testing.assert_array_equal(m.pixels, truth)
+        (f,) = masks_from_labels((ids + 1).astype(np.int32), MaskFilterConfig())
+        np.testing.assert_array_equal(f.pixels, truth)
+    assert MaskFilterConfig().erosion_radius(320) == 2  # 1.5 rounds up

@@ -7,7 +7,7 @@ from typer.testing import CliRunner
 
 from roman_sim.cli import app
 from roman_sim.mapping import image_encoder, image_segmenter, segmenter, semantics
-from roman_sim.mapping.semantics import expected_cosine
+from roman_sim.mapping.confusion import relation_moments
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 
@@ -71,8 +71,9 @@ def test_truth_driven_run_is_graded_too(smoke_run):
     d = fe["descriptors"]
     cfg = smoke_run.scenario.frontend.semantics
     for lo, hi, mean, n in zip(d["view_edges_deg"], d["view_edges_deg"][1:], d["view_mean"], d["view_pairs"]):
-        if n >= 20:  # the simulated encoder's expected cosine at the bin's view difference
-            assert np.isclose(mean, expected_cosine(cfg, True, np.radians((lo + hi) / 2)), atol=0.02), (lo, n)
+        if n >= 20:  # the simulated encoder's mean cosine at the bin's view difference
+            want = relation_moments(cfg.confusion, np.radians((lo + hi) / 2))["same_instance"][0]
+            assert np.isclose(mean, want, atol=0.02), (lo, n)
 
 
 def test_rgb_front_end_without_rgb_fails_before_any_stage(tmp_path):
