@@ -11,7 +11,7 @@ import io
 import logging
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, TypedDict
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -25,6 +25,10 @@ from roman_sim.core.trajectory import Trajectory
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph.types import LoopClosure
 
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.typing import LineStyleType
+
 log = logging.getLogger(__name__)
 
 F64 = NDArray[np.float64]
@@ -36,15 +40,33 @@ TrajectoryLike = Trajectory | ArrayLike
 CLOSURE_COLOURS = {"intra": "tab:blue", "inter": "tab:green"}
 #: tab10 entries for robots: blue, green and red are left to the closure lines.
 ROBOT_PALETTE = (1, 4, 5, 6, 7, 8, 9)
-WRONG_STYLE: dict[str, Any] = {"color": "tab:red", "linestyle": "--", "linewidth": 1.4, "alpha": 1.0}
-LAYERS: dict[str, dict[str, Any]] = {  # name -> line style (matplotlib keywords) of that trajectory layer
+#: RGBA colour of a robot (a tab10 entry).
+RGBA = tuple[float, float, float, float]
+
+
+class LayerStyle(TypedDict, total=False):
+    """Matplotlib line keywords of a trajectory layer (the colour is the robot's)."""
+
+    linestyle: LineStyleType
+    linewidth: float
+    alpha: float
+
+
+class LineStyle(LayerStyle, total=False):
+    """Matplotlib line keywords of a closure line."""
+
+    color: str
+
+
+WRONG_STYLE: LineStyle = {"color": "tab:red", "linestyle": "--", "linewidth": 1.4, "alpha": 1.0}
+LAYERS: dict[str, LayerStyle] = {  # name -> line style (matplotlib keywords) of that trajectory layer
     "truth": {"linestyle": "-", "linewidth": 1.6, "alpha": 0.9},
     "estimate": {"linestyle": "--", "linewidth": 1.3, "alpha": 0.9},
     "odometry": {"linestyle": ":", "linewidth": 1.2, "alpha": 0.8},
 }
 
 
-def _positions(value: Any, name: str) -> F64:
+def _positions(value: TrajectoryLike, name: str) -> F64:
     """(N, 3) positions from a ``Trajectory``, ``T (N,4,4)`` or ``xyz (N,3)``."""
     if isinstance(value, Trajectory):
         return value.positions
@@ -56,7 +78,7 @@ def _positions(value: Any, name: str) -> F64:
     raise EvaluationError(f"trajectory plot: {name} must be a Trajectory, T (N,4,4) or xyz (N,3); got {arr.shape}")
 
 
-def _robot_colours(robots: Sequence[str]) -> dict[str, Any]:
+def _robot_colours(robots: Sequence[str]) -> dict[str, RGBA]:
     from matplotlib import colormaps
 
     cmap = colormaps["tab10"]
@@ -64,7 +86,7 @@ def _robot_colours(robots: Sequence[str]) -> dict[str, Any]:
     return {r: palette[i % len(palette)] for i, r in enumerate(robots)}
 
 
-def _draw_layers(ax: Any, colours: dict[str, Any], data: dict[str, Mapping[str, Any] | None]) -> list[str]:
+def _draw_layers(ax: Axes, colours: dict[str, RGBA], data: dict[str, Mapping[str, TrajectoryLike] | None]) -> list[str]:
     """Draw each given layer's trajectories (truth starts marked); returns the layers drawn."""
     layers = []
     for name, trajectories in data.items():
@@ -79,7 +101,7 @@ def _draw_layers(ax: Any, colours: dict[str, Any], data: dict[str, Mapping[str, 
     return layers
 
 
-def _draw_closures(ax: Any, closures: Sequence[ClosureLine]) -> set[str]:
+def _draw_closures(ax: Axes, closures: Sequence[ClosureLine]) -> set[str]:
     """Draw closure lines; returns the legend entries used."""
     used = set()
     for i, (xyz_a, xyz_b, kind, correct) in enumerate(closures):
@@ -95,12 +117,15 @@ def _draw_closures(ax: Any, closures: Sequence[ClosureLine]) -> set[str]:
     return used
 
 
-def _legend(ax: Any, robots: dict[str, Any], layers: list[str], closure_kinds: set[str]) -> None:
+def _without_alpha(style: LayerStyle) -> LayerStyle:
+    out = style.copy()
+    out.pop("alpha", None)
+    return out
+
+
+def _legend(ax: Axes, robots: dict[str, RGBA], layers: list[str], closure_kinds: set[str]) -> None:
     handles = [Line2D([], [], color=c, linewidth=2, label=r) for r, c in robots.items()]
-    handles += [
-        Line2D([], [], color="0.3", label=name, **{k: v for k, v in LAYERS[name].items() if k != "alpha"})
-        for name in layers
-    ]
+    handles += [Line2D([], [], color="0.3", label=name, **_without_alpha(LAYERS[name])) for name in layers]
     names = {"intra": "intra-robot closure", "inter": "inter-robot closure"}
     handles += [Line2D([], [], color=c, label=names[k]) for k, c in CLOSURE_COLOURS.items() if k in closure_kinds]
     if "wrong" in closure_kinds:
