@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 from rich.console import Console
@@ -11,6 +11,7 @@ from rich.table import Table
 
 from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
+from roman_sim.core.jsontypes import JSONScalar
 
 
 @app.command("export")
@@ -32,7 +33,7 @@ def export_cmd(
     from roman_sim.pipeline.scenario import load_scenario
 
     FORMATS.get(fmt)
-    by_format: dict[str, dict[str, Any]] = {"tum": {"depth_scale": depth_scale}, "rosbag2": {"storage": storage}}
+    by_format: dict[str, dict[str, JSONScalar]] = {"tum": {"depth_scale": depth_scale}, "rosbag2": {"storage": storage}}
     options = by_format.get(fmt, {})
     if depth_scale <= 0:
         raise ConfigError(f"--depth-scale: must be a positive number of units per metre, got {depth_scale}")

@@ -7,8 +7,10 @@ so the TUM folder and the ROS 2 bag of one robot carry the same stamps.
 
 from __future__ import annotations
 
-from typing import Any, Protocol
+from collections.abc import Callable
+from typing import Protocol
 
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.registry import Registry
 from roman_sim.core.sensors import Frame
 
@@ -30,7 +32,7 @@ class SequenceWriter(Protocol):
         """Store one frame (with truth: instance ids and true body pose)."""
         ...
 
-    def close(self) -> dict[str, Any]:
+    def close(self) -> dict[str, JSONLike]:
         """Finish the files; returns a JSON-friendly summary (counts, paths)."""
         ...
 
@@ -42,4 +44,4 @@ class SequenceWriter(Protocol):
 #: Export formats: name -> ``SequenceWriter`` class, called as
 #: ``cls(out_dir, robot, intrinsics, T_body_cam, **options)`` (``tum``, ``rosbag2``, or a
 #: user's ``package.module:Class``).
-FORMATS: Registry[Any] = Registry("export format")
+FORMATS: Registry[Callable[..., SequenceWriter]] = Registry("export format")

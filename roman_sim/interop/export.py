@@ -26,6 +26,7 @@ from typing import Any, Protocol
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.jsontypes import JSONLike, JSONScalar
 from roman_sim.interop import rosbag_writer as _rosbag  # noqa: F401  (registers "rosbag2")
 from roman_sim.interop import tum_writer as _tum  # noqa: F401  (registers "tum")
 from roman_sim.interop.base import FORMATS
@@ -61,7 +62,7 @@ class ExportResult:
 
     out_dir: Path
     format: str
-    robots: dict[str, dict[str, Any]] = field(default_factory=dict)
+    robots: dict[str, dict[str, JSONLike]] = field(default_factory=dict)
     render_s: dict[str, float] = field(default_factory=dict)
     write_s: dict[str, float] = field(default_factory=dict)
 
@@ -83,7 +84,7 @@ def _export_robot(
     stream: RobotStream,
     fmt: str,
     out: Path,
-    options: dict[str, Any],
+    options: dict[str, JSONScalar],
     progress: ExportProgress | None,
     result: ExportResult,
 ) -> None:
@@ -130,7 +131,7 @@ def export_scenario(
     robots: Sequence[str] | None = None,
     progress: ExportProgress | None = None,
     overwrite: bool = False,
-    **options: Any,
+    **options: JSONScalar,
 ) -> ExportResult:
     """Render every selected robot of ``scenario`` and write it in format ``fmt``.
 

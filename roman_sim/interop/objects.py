@@ -11,14 +11,17 @@ from __future__ import annotations
 import csv
 import io
 import json
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TypedDict
 
 import numpy as np
+from numpy.typing import ArrayLike
 from scipy.spatial.transform import Rotation
 
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.world.truth import WorldTruth
 
 OBJECTS_JSON = "objects.json"
@@ -45,13 +48,42 @@ CSV_COLUMNS = (
 )
 
 
-def _r(a: Any) -> Any:
-    return np.round(np.asarray(a, dtype=np.float64), 9).tolist()
+class ObjectBox(TypedDict):
+    """An object's oriented bounding box: centre, rotation (quaternion and matrix), full extents."""
+
+    center: list[float]
+    quaternion_xyzw: list[float]
+    R: list[list[float]]
+    extents: list[float]
 
 
-def object_rows(truth: WorldTruth) -> list[dict[str, Any]]:
+class ObjectRow(TypedDict):
+    """One object's record of ``objects.json``."""
+
+    id: int
+    mask_value: int
+    family: str
+    box: ObjectBox
+    T_world_obj: list[list[float]]
+    volume_m3: float
+    centroid: list[float]
+
+
+def _r(a: ArrayLike) -> list[float]:
+    """A vector rounded to 9 decimals, as a list."""
+    rounded: list[float] = np.round(np.asarray(a, dtype=np.float64), 9).tolist()
+    return rounded
+
+
+def _r2(a: ArrayLike) -> list[list[float]]:
+    """A matrix rounded to 9 decimals, as nested lists."""
+    rounded: list[list[float]] = np.round(np.asarray(a, dtype=np.float64), 9).tolist()
+    return rounded
+
+
+def object_rows(truth: WorldTruth) -> list[ObjectRow]:
     """One JSON-friendly record per object, ordered by id."""
-    rows = []
+    rows: list[ObjectRow] = []
     for o in sorted(truth.objects, key=lambda o: o.id):
         box = np.asarray(o.obb_T_world, dtype=np.float64)
         rows.append(
@@ -62,10 +94,10 @@ def object_rows(truth: WorldTruth) -> list[dict[str, Any]]:
                 "box": {
                     "center": _r(box[:3, 3]),
                     "quaternion_xyzw": _r(Rotation.from_matrix(box[:3, :3]).as_quat()),
-                    "R": _r(box[:3, :3]),
+                    "R": _r2(box[:3, :3]),
                     "extents": _r(o.obb_extents),
                 },
-                "T_world_obj": _r(o.T_world_obj),
+                "T_world_obj": _r2(o.T_world_obj),
                 "volume_m3": round(float(o.volume), 9),
                 "centroid": _r(o.centroid),
             }
@@ -73,7 +105,7 @@ def object_rows(truth: WorldTruth) -> list[dict[str, Any]]:
     return rows
 
 
-def _csv_text(rows: list[dict[str, Any]]) -> str:
+def _csv_text(rows: list[ObjectRow]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
     w.writerow(CSV_COLUMNS)
@@ -94,7 +126,9 @@ def _csv_text(rows: list[dict[str, Any]]) -> str:
     return buf.getvalue()
 
 
-def write_object_table(out_dir: str | Path, truth: WorldTruth, extra: dict[str, Any] | None = None) -> list[Path]:
+def write_object_table(
+    out_dir: str | Path, truth: WorldTruth, extra: Mapping[str, JSONLike] | None = None
+) -> list[Path]:
     """Write ``objects.json`` and ``objects.csv`` atomically into ``out_dir``; returns both paths."""
     out = Path(out_dir)
     rows = object_rows(truth)
@@ -111,7 +145,7 @@ def write_object_table(out_dir: str | Path, truth: WorldTruth, extra: dict[str, 
     return [out / OBJECTS_JSON, out / OBJECTS_CSV]
 
 
-def read_object_table(path: str | Path) -> list[dict[str, Any]]:
+def read_object_table(path: str | Path) -> list[ObjectRow]:
     """The object records of an ``objects.json`` (a file or the folder holding it)."""
     p = Path(path)
     if p.is_dir():

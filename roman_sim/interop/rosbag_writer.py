@@ -37,7 +37,7 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,6 +47,12 @@ from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
 from roman_sim.interop.masks import MaskWriter
+
+if TYPE_CHECKING:
+    from rosbags.interfaces import Qos
+    from rosbags.typesys.store import Msg, Typestore
+
+    from roman_sim.core.jsontypes import JSONLike
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +73,7 @@ def topics(robot: str) -> dict[str, str]:
     }
 
 
-def _qos(transient_local: bool) -> Any:
+def _qos(transient_local: bool) -> Qos:
     from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
     zero = QosTime(0, 0)
@@ -87,16 +93,16 @@ def _qos(transient_local: bool) -> Any:
 class _Messages:
     """Builds the message objects of one robot with a ``rosbags`` type store."""
 
-    def __init__(self, typestore: Any, robot: str, intr: Intrinsics) -> None:
+    def __init__(self, typestore: Typestore, robot: str, intr: Intrinsics) -> None:
         self.ts, self.t = typestore, typestore.types
         self.robot, self.intr = robot, intr
         self.cam_frame = f"{robot}/camera_optical_frame"
 
-    def header(self, ns: int, frame_id: str) -> Any:
+    def header(self, ns: int, frame_id: str) -> Msg:
         stamp = self.t["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
         return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id)
 
-    def image(self, ns: int, data: NDArray[Any], encoding: str) -> Any:
+    def image(self, ns: int, data: NDArray[np.generic], encoding: str) -> Msg:
         h, w = data.shape[:2]
         raw = np.ascontiguousarray(data).view(np.uint8).reshape(-1)
         return self.t["sensor_msgs/msg/Image"](
@@ -109,7 +115,7 @@ class _Messages:
             data=raw,
         )
 
-    def camera_info(self, ns: int) -> Any:
+    def camera_info(self, ns: int) -> Msg:
         k = self.intr
         K = np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=np.float64)
         P = np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=np.float64)
@@ -128,30 +134,31 @@ class _Messages:
             roi=roi,
         )
 
-    def _pose_parts(self, T: NDArray[np.float64]) -> tuple[Any, Any]:
+    def _pose_parts(self, T: NDArray[np.float64]) -> tuple[Msg, Msg]:
         g = self.t
         q = Rotation.from_matrix(T[:3, :3]).as_quat()
         vec = g["geometry_msgs/msg/Vector3"](x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3]))
         quat = g["geometry_msgs/msg/Quaternion"](x=float(q[0]), y=float(q[1]), z=float(q[2]), w=float(q[3]))
         return vec, quat
 
-    def transform(self, ns: int, parent: str, child: str, T: NDArray[np.float64]) -> Any:
+    def transform(self, ns: int, parent: str, child: str, T: NDArray[np.float64]) -> Msg:
         vec, quat = self._pose_parts(T)
         tf = self.t["geometry_msgs/msg/Transform"](translation=vec, rotation=quat)
         return self.t["geometry_msgs/msg/TransformStamped"](
             header=self.header(ns, parent), child_frame_id=child, transform=tf
         )
 
-    def tf(self, transforms: list[Any]) -> Any:
+    def tf(self, transforms: list[Msg]) -> Msg:
         return self.t["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
     def odometry(
         self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64], w_body: NDArray[np.float64]
-    ) -> Any:
+    ) -> Msg:
         g = self.t
-        vec, quat = self._pose_parts(T)
+        _, quat = self._pose_parts(T)
         pose = g["geometry_msgs/msg/Pose"](
-            position=g["geometry_msgs/msg/Point"](x=vec.x, y=vec.y, z=vec.z), orientation=quat
+            position=g["geometry_msgs/msg/Point"](x=float(T[0, 3]), y=float(T[1, 3]), z=float(T[2, 3])),
+            orientation=quat,
         )
         V3 = g["geometry_msgs/msg/Vector3"]
         twist = g["geometry_msgs/msg/Twist"](
@@ -225,7 +232,7 @@ class RosbagWriter:
         self._counts = {topic: 0 for topic in self._conn}
         self._prev: tuple[int, NDArray[np.float64]] | None = None
 
-    def _put(self, topic: str, ns: int, msg: Any) -> None:
+    def _put(self, topic: str, ns: int, msg: Msg) -> None:
         self._writer.write(self._conn[topic], ns, self._msgs.ts.serialize_cdr(msg, msg.__msgtype__))
         self._counts[topic] += 1
 
@@ -261,7 +268,7 @@ class RosbagWriter:
         self._masks.write(frame, stamp_text(ns))
         self._prev = (ns, T_ob)
 
-    def close(self) -> dict[str, Any]:
+    def close(self) -> dict[str, JSONLike]:
         """Finish the bag, move it to ``out_dir/bag``, write ``masks.txt``; returns message counts."""
         if self._prev is None:
             self.abort()

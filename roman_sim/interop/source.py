@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +23,26 @@ from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_traje
 
 if TYPE_CHECKING:
     from roman_sim.world import World
+    from roman_sim.world.spec import WorldSpec
+
+
+class WorldSource(Protocol):
+    """What names a scenario's world: its generator spec."""
+
+    def spec(self) -> WorldSpec: ...
+
+
+class SimScenario(Protocol):
+    """The parts of a ``Scenario`` the streams read (world, robots, seed)."""
+
+    @property
+    def seed(self) -> int: ...
+
+    @property
+    def robots(self) -> Sequence[RobotConfig]: ...
+
+    @property
+    def world(self) -> WorldSource: ...
 
 
 @dataclass
@@ -85,7 +105,7 @@ def select_robots(robots: Sequence[RobotConfig], names: Sequence[str] | None) ->
     return [r for r in simulated if not names or r.name in set(names)]
 
 
-def scenario_streams(scenario: Any, names: Sequence[str] | None = None) -> tuple[Any, list[RobotStream]]:
+def scenario_streams(scenario: SimScenario, names: Sequence[str] | None = None) -> tuple[World, list[RobotStream]]:
     """The generated world and a ``RobotStream`` per selected robot of ``scenario``.
 
     Args:

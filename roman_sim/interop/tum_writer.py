@@ -24,13 +24,13 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import format_tum
@@ -97,7 +97,7 @@ class TumWriter:
         self._T_wb.append(np.asarray(frame.truth.T_world_body, dtype=np.float64))
         self._T_ob.append(np.asarray(frame.T_odom_body, dtype=np.float64))
 
-    def close(self) -> dict[str, Any]:
+    def close(self) -> dict[str, JSONLike]:
         """Write the lists, trajectories and camera files; returns counts."""
         if not self._stamps:
             raise StorageError(f"TUM export: robot {self.robot} has no frames")
