@@ -12,13 +12,16 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from roman_sim.core.sensors import Frame
 
 if TYPE_CHECKING:
+    from roman_sim.interop.tum_reader import TumSourceConfig
+    from roman_sim.pipeline.scenario import Scenario, ScenarioRobot
+    from roman_sim.sim.robot import Path2D
     from roman_sim.world import World
 
 log = logging.getLogger(__name__)
@@ -42,14 +45,16 @@ def _recorded(rec_dir: Path, max_images: int) -> Iterator[Frame]:
             yield frame
 
 
-def _sequence(cfg: Any, seed: int, max_images: int) -> Iterator[Frame]:
+def _sequence(source: TumSourceConfig, robot: str, seed: int, max_images: int) -> Iterator[Frame]:
     from roman_sim.interop.tum_reader import TumSequence
 
-    seq = TumSequence(cfg.source, robot=cfg.name, seed=seed)
+    seq = TumSequence(source, robot=robot, seed=seed)
     yield from seq.frames(subsample(len(seq), max_images).tolist())
 
 
-def _rendered(world: World, scenario: Any, cfg: Any, paths: dict[str, Any], max_images: int) -> Iterator[Frame]:
+def _rendered(
+    world: World, scenario: Scenario, cfg: ScenarioRobot, paths: dict[str, Path2D], max_images: int
+) -> Iterator[Frame]:
     from dataclasses import replace
 
     from roman_sim.sim.robot import DrivenRun, render_trajectory, trajectory_along
@@ -61,7 +66,9 @@ def _rendered(world: World, scenario: Any, cfg: Any, paths: dict[str, Any], max_
         yield replace(frame, index=int(k))
 
 
-def camera_frames(run_dir: Path, scenario: Any, world: World | None, max_images: int) -> dict[str, Iterator[Frame]]:
+def camera_frames(
+    run_dir: Path, scenario: Scenario, world: World | None, max_images: int
+) -> dict[str, Iterator[Frame]]:
     """Per robot, a lazy stream of at most ``max_images`` frames (recorded or re-rendered).
 
     Robots without a recording are re-rendered only when ``world`` is given.
@@ -70,8 +77,9 @@ def camera_frames(run_dir: Path, scenario: Any, world: World | None, max_images:
     paths = None
     for cfg in scenario.robots:
         rec_dir = run_dir / "recordings" / cfg.name
-        if getattr(cfg, "source", None) is not None:
-            out[cfg.name] = _sequence(cfg, scenario.seed, max_images)
+        source = getattr(cfg, "source", None)  # a plain RobotConfig has none
+        if source is not None:
+            out[cfg.name] = _sequence(source, cfg.name, scenario.seed, max_images)
             continue
         if (rec_dir / "meta.json").is_file():
             out[cfg.name] = _recorded(rec_dir, max_images)

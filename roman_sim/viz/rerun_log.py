@@ -20,13 +20,21 @@ Timelines: ``time`` (seconds since the robot's start) and ``frame`` (frame index
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.sensors import Frame
 from roman_sim.core.trajectory import Trajectory
+
+if TYPE_CHECKING:
+    from rerun import RecordingStream
+
+    from roman_sim.interop.objects import ObjectRow
+    from roman_sim.mapping.mapper import SegmentMap
+    from roman_sim.mapping.types import Submap
+    from roman_sim.world.truth import Terrain
 
 F64 = NDArray[np.float64]
 
@@ -43,7 +51,7 @@ def _family_colour(k: int) -> tuple[int, int, int]:
     return int(255 * r), int(255 * g), int(255 * b)
 
 
-def log_objects(rec: Any, rows: list[dict[str, Any]]) -> None:
+def log_objects(rec: RecordingStream, rows: list[ObjectRow]) -> None:
     """Objects as oriented boxes, coloured and labelled by family.
 
     Args:
@@ -71,7 +79,7 @@ def log_objects(rec: Any, rows: list[dict[str, Any]]) -> None:
     )
 
 
-def log_terrain(rec: Any, terrain: Any, max_side: int = 96) -> None:
+def log_terrain(rec: RecordingStream, terrain: Terrain, max_side: int = 96) -> None:
     """The heightfield as a triangle mesh (subsampled to at most ``max_side`` per side)."""
     import rerun as rr
 
@@ -93,7 +101,7 @@ def log_terrain(rec: Any, terrain: Any, max_side: int = 96) -> None:
     )
 
 
-def log_trajectories(rec: Any, trajectories: dict[str, dict[str, Trajectory]]) -> None:
+def log_trajectories(rec: RecordingStream, trajectories: dict[str, dict[str, Trajectory]]) -> None:
     """Each robot's trajectories as line strips (already in the world frame)."""
     import rerun as rr
 
@@ -107,14 +115,14 @@ def log_trajectories(rec: Any, trajectories: dict[str, dict[str, Trajectory]]) -
             )
 
 
-def log_transform(rec: Any, path: str, T: F64, static: bool = False) -> None:
+def log_transform(rec: RecordingStream, path: str, T: F64, static: bool = False) -> None:
     """A 4x4 pose as a rerun transform of ``path`` relative to its parent."""
     import rerun as rr
 
     rec.log(path, rr.Transform3D(translation=T[:3, 3], mat3x3=T[:3, :3]), static=static)
 
 
-def log_segment_map(rec: Any, robot: str, smap: Any, T_world_odom: F64) -> None:
+def log_segment_map(rec: RecordingStream, robot: str, smap: SegmentMap, T_world_odom: F64) -> None:
     """A robot's segments (odometry frame) under its placed odometry frame."""
     import rerun as rr
 
@@ -133,7 +141,7 @@ def log_segment_map(rec: Any, robot: str, smap: Any, T_world_odom: F64) -> None:
     )
 
 
-def log_submaps(rec: Any, robot: str, submaps: Iterable[Any], T_world_odom: F64) -> None:
+def log_submaps(rec: RecordingStream, robot: str, submaps: Iterable[Submap], T_world_odom: F64) -> None:
     """Each submap's frame (true pose, else the placed odometry) and its segment centres."""
     import rerun as rr
 
@@ -148,7 +156,7 @@ def log_submaps(rec: Any, robot: str, submaps: Iterable[Any], T_world_odom: F64)
         )
 
 
-def log_closures(rec: Any, segments: dict[str, list[tuple[F64, F64]]]) -> None:
+def log_closures(rec: RecordingStream, segments: dict[str, list[tuple[F64, F64]]]) -> None:
     """Loop closures as lines between submap centres, one entity per verdict."""
     import rerun as rr
 
@@ -161,7 +169,7 @@ def log_closures(rec: Any, segments: dict[str, list[tuple[F64, F64]]]) -> None:
             )
 
 
-def log_camera(rec: Any, robot: str, frame: Frame, T_world_cam: F64, first: bool) -> None:
+def log_camera(rec: RecordingStream, robot: str, frame: Frame, T_world_cam: F64, first: bool) -> None:
     """One frame on the timeline: camera pose, and RGB, depth and instance mask over it."""
     import rerun as rr
 

@@ -14,13 +14,18 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import StorageError
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.types import Submap
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import Scenario
+    from roman_sim.pipeline.stages.evaluation import EvaluationOutput
+    from roman_sim.pipeline.stages.submaps import Submaps
 
 log = logging.getLogger(__name__)
 
@@ -48,7 +53,7 @@ class RunFolder:
     """The contents of a run folder (parts the run did not produce are empty)."""
 
     path: Path
-    scenario: Any
+    scenario: Scenario
     trajectories: dict[str, dict[str, Trajectory]] = field(default_factory=dict)
     maps: dict[str, SegmentMap] = field(default_factory=dict)
     submaps: dict[str, list[Submap]] = field(default_factory=dict)
@@ -69,12 +74,14 @@ def _trajectories(d: Path) -> dict[str, dict[str, Trajectory]]:
     return out
 
 
-def _closures(rf: RunFolder, evaluation: Any, submaps: Any) -> list[Closure]:
+def _closures(rf: RunFolder, evaluation: EvaluationOutput, submaps: Submaps) -> list[Closure]:
     from roman_sim.pipeline.stages.posegraph import method_closures
     from roman_sim.posegraph import build_and_solve, submap_nodes_from
 
     sc = rf.scenario
     method, thresh = sc.posegraph_method, sc.posegraph.lc_association_thresh
+    if method is None:  # the caller reads closures only of a run with a pose-graph method
+        return []
     records = [r for r in evaluation.alignments if r.method == method and r.T_a_b is not None]
     closures = method_closures(submaps, evaluation, method)  # same order as ``records``
     correct = {(s.truth.a, s.truth.b): s.correct for s in evaluation.scores if s.method == method}

@@ -16,9 +16,10 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from roman_sim.core.errors import RomanSimError, StorageError
 from roman_sim.core.geometry import gravity_aligned
@@ -26,12 +27,18 @@ from roman_sim.viz import rerun_log as rl
 from roman_sim.viz.run_folder import RunFolder, load_run_folder
 
 if TYPE_CHECKING:
+    from rerun import RecordingStream
+
+    from roman_sim.core.trajectory import Trajectory
+    from roman_sim.interop.objects import ObjectRow
+    from roman_sim.mapping.mapper import SegmentMap
     from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 
 APPLICATION_ID = "roman_sim"
 PLAIN_VARIANTS = ("truth", "odometry")
+F64 = NDArray[np.float64]
 
 
 @dataclass
@@ -44,7 +51,7 @@ class ViewResult:
     notes: list[str] = field(default_factory=list)
 
 
-def _aligned_trajectories(rf: RunFolder, notes: list[str]) -> dict[str, dict[str, Any]]:
+def _aligned_trajectories(rf: RunFolder, notes: list[str]) -> dict[str, dict[str, Trajectory]]:
     from roman_sim.core.errors import EvaluationError
     from roman_sim.evaluation.ate import multi_robot_ate
 
@@ -66,13 +73,13 @@ def _aligned_trajectories(rf: RunFolder, notes: list[str]) -> dict[str, dict[str
     return out
 
 
-def _T_world_odom(smap: Any) -> np.ndarray:
+def _T_world_odom(smap: SegmentMap) -> np.ndarray:
     T = getattr(smap, "T_world_body", None)
     return gravity_aligned(T[0]) if T is not None and len(T) else np.eye(4)
 
 
-def _closure_lines(rf: RunFolder, T_wo: dict[str, np.ndarray]) -> dict[str, list[tuple[Any, Any]]]:
-    lines: dict[str, list[tuple[Any, Any]]] = {"correct": [], "wrong": [], "rejected": []}
+def _closure_lines(rf: RunFolder, T_wo: dict[str, np.ndarray]) -> dict[str, list[tuple[F64, F64]]]:
+    lines: dict[str, list[tuple[F64, F64]]] = {"correct": [], "wrong": [], "rejected": []}
     for c in rf.closures:
         ends = []
         for name in (c.a, c.b):
@@ -84,7 +91,7 @@ def _closure_lines(rf: RunFolder, T_wo: dict[str, np.ndarray]) -> dict[str, list
     return lines
 
 
-def _world(rf: RunFolder, notes: list[str]) -> Any:
+def _world(rf: RunFolder, notes: list[str]) -> World | None:
     from roman_sim.world import generate
 
     if not rf.scenario.needs_world:
@@ -96,7 +103,7 @@ def _world(rf: RunFolder, notes: list[str]) -> Any:
         return None
 
 
-def _object_rows(rf: RunFolder, world: World) -> list[dict[str, Any]]:
+def _object_rows(rf: RunFolder, world: World | None) -> list[ObjectRow]:
     """The world's objects, else those of the recorded sequences' object tables (first one found)."""
     from roman_sim.interop.objects import object_rows, read_object_table
     from roman_sim.pipeline.sources import object_table_path
@@ -109,7 +116,9 @@ def _object_rows(rf: RunFolder, world: World) -> list[dict[str, Any]]:
     return read_object_table(tables[0]) if tables else []
 
 
-def _log_images(rec: Any, rf: RunFolder, world: World, max_images: int, T_wo: dict[str, np.ndarray]) -> dict[str, int]:
+def _log_images(
+    rec: RecordingStream, rf: RunFolder, world: World | None, max_images: int, T_wo: dict[str, np.ndarray]
+) -> dict[str, int]:
     from roman_sim.viz.camera_frames import camera_frames
 
     counts = {}
