@@ -42,6 +42,8 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 ObsDict = dict[str, np.ndarray]
+#: The ``info`` of ``reset`` and ``step``: poses (arrays), the time and the step's flags.
+InfoDict = dict[str, np.ndarray | float | bool]
 _ACTION = "speed m/s, yaw rate rad/s"
 #: Keys ``GroundRobotEnv.reset(options=...)`` accepts.
 RESET_OPTIONS = ("start",)
@@ -55,7 +57,7 @@ class EnvClosed(SimError, ClosedEnvironmentError):
     """The environment was used after ``close``."""
 
 
-def _positive(name: str, value: Any, allow_zero: bool = False) -> float:
+def _positive(name: str, value: float, allow_zero: bool = False) -> float:
     """``value`` as a float, or ``SimError`` naming ``name`` unless it is finite and > 0 (>= 0)."""
     try:
         v = float(value)
@@ -100,7 +102,7 @@ class GroundRobotEnv(gym.Env):
         world: World | None = None,
         preset: str = "tiny",
         world_seed: int = 0,
-        camera: CameraConfig | dict[str, Any] | None = None,
+        camera: CameraConfig | Mapping[str, object] | None = None,
         drift: str | DriftConfig = "typical",
         rate_hz: float = 6.0,
         max_speed_mps: float = 2.0,
@@ -158,7 +160,7 @@ class GroundRobotEnv(gym.Env):
         self._last_rgb: np.ndarray | None = None
         self._needs_reset: str | None = "call reset() before step()"
 
-    def _check_start(self, start: Any) -> tuple[float, float, float] | None:
+    def _check_start(self, start: object) -> tuple[float, float, float] | None:
         """The fixed start pose, checked: three finite numbers, inside the world, clear of objects."""
         if start is None:
             return None
@@ -211,8 +213,8 @@ class GroundRobotEnv(gym.Env):
         raise SimError(f"GroundRobotEnv: no free start pose with clearance {self.clearance_m} m found")
 
     def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[ObsDict, dict[str, Any]]:
+        self, *, seed: int | None = None, options: Mapping[str, object] | None = None
+    ) -> tuple[ObsDict, InfoDict]:
         """Start a new episode; the same ``seed`` gives the same episode.
 
         ``options`` (a dict, or None): ``start``, the start (x, y, heading rad) of this
@@ -234,7 +236,7 @@ class GroundRobotEnv(gym.Env):
         self._needs_reset = None
         return self._observe()
 
-    def _reset_start(self, options: Any) -> tuple[float, float, float] | None:
+    def _reset_start(self, options: object) -> tuple[float, float, float] | None:
         """The start pose ``reset(options=...)`` asks for (checked like the constructor's ``start``)."""
         if options is None:
             return self.start
@@ -255,7 +257,7 @@ class GroundRobotEnv(gym.Env):
         if self._renderer is None:
             raise EnvClosed(f"GroundRobotEnv: {what}() after close(); make a new environment")
 
-    def _action(self, action: Any) -> np.ndarray:
+    def _action(self, action: object) -> np.ndarray:
         """``action`` as (speed, yaw rate) clipped to the limits; ``SimError`` for a bad shape or value."""
         try:
             a = np.asarray(action, dtype=np.float64)
@@ -269,7 +271,7 @@ class GroundRobotEnv(gym.Env):
             )
         return np.clip(a.reshape(2), self._low, self._high)
 
-    def _observe(self) -> tuple[ObsDict, dict[str, Any]]:
+    def _observe(self) -> tuple[ObsDict, InfoDict]:
         T_wb = body_pose_on_terrain(self.world.truth.terrain, self._state, self.body_height_m)
         T_ob = self._drift.step(T_wb)
         rgb, depth, ids = self._renderer.render(T_wb @ self._T_body_cam)
@@ -278,10 +280,10 @@ class GroundRobotEnv(gym.Env):
             rgb = np.zeros((self.camera.height, self.camera.width, 3), dtype=np.uint8)
         self._last_rgb = rgb
         obs = {"rgb": rgb, "depth": depth, "object_ids": ids, "odom_pose": T_ob}
-        info = {"T_world_body": T_wb, "t": self._steps * self.dt, "T_body_cam": self._T_body_cam.copy()}
+        info: InfoDict = {"T_world_body": T_wb, "t": self._steps * self.dt, "T_body_cam": self._T_body_cam.copy()}
         return obs, info
 
-    def step(self, action: np.ndarray) -> tuple[ObsDict, float, bool, bool, dict[str, Any]]:
+    def step(self, action: np.ndarray) -> tuple[ObsDict, float, bool, bool, InfoDict]:
         """Apply (forward speed, yaw rate) for one sensor period (clipped to the limits)."""
         self._check_open("step")
         if self._needs_reset:
