@@ -19,20 +19,24 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import yaml
 
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.jsontypes import JSONLike, JSONScalar
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader
 from roman_sim.evaluation.frontend_types import DescriptorGrades, GradeConfig, SegmentationGrades
 from roman_sim.mapping.calibrate import fit_segmenter, fit_semantics
 from roman_sim.mapping.frontend import FrontEnd, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
+from roman_sim.mapping.mask import Segmenter
 from roman_sim.mapping.observation import observe_indexed
 from roman_sim.mapping.segmenter import SegmenterConfig, SimulatedSegmenter
-from roman_sim.mapping.semantics import SemanticConfig
+from roman_sim.mapping.semantics import SemanticConfig, SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -46,7 +50,7 @@ class CalibrationFrames:
     seed: int
 
 
-def render_calibration_frames(scenario: Any, max_frames: int = 120) -> CalibrationFrames:
+def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> CalibrationFrames:
     """At most ``max_frames`` frames in all (RGB on), spread evenly over each robot's run."""
     import numpy as np
 
@@ -66,7 +70,9 @@ def render_calibration_frames(scenario: Any, max_frames: int = 120) -> Calibrati
     return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed)
 
 
-def grade_segmenter(data: CalibrationFrames, segmenter: Any, cfg: GradeConfig | None = None) -> SegmentationGrades:
+def grade_segmenter(
+    data: CalibrationFrames, segmenter: Segmenter, cfg: GradeConfig | None = None
+) -> SegmentationGrades:
     """Segmentation grades of ``segmenter`` on the frames (truth only for truth-driven segmenters)."""
     grader = FrontEndGrader(data.families, cfg=cfg, seed=data.seed)
     truth = bool(getattr(segmenter, "reads_truth", False))
@@ -76,7 +82,7 @@ def grade_segmenter(data: CalibrationFrames, segmenter: Any, cfg: GradeConfig | 
 
 
 def grade_encoder(
-    data: CalibrationFrames, encoder: Any, semantics: SemanticConfig, cfg: GradeConfig | None = None
+    data: CalibrationFrames, encoder: SemanticEncoder, semantics: SemanticConfig, cfg: GradeConfig | None = None
 ) -> DescriptorGrades | None:
     """Descriptor grades of ``encoder`` on the true instance masks of the frames."""
     grader = FrontEndGrader(data.families, semantics.group_of, cfg=cfg, seed=data.seed)
@@ -99,11 +105,11 @@ class Calibration:
     fitted_descriptors: DescriptorGrades | None = None
     measured_segmentation: SegmentationGrades | None = None
     fitted_segmentation: SegmentationGrades | None = None
-    meta: dict[str, Any] | None = None
+    meta: dict[str, JSONScalar] | None = None
 
     def frontend_yaml(self) -> str:
         """The fitted parameters as a front-end preset file: ``calibration`` (what was measured) and ``frontend``."""
-        fe: dict[str, Any] = {}
+        fe: dict[str, JSONLike] = {}
         if self.semantics is not None:
             fe["semantics"] = self.semantics.model_dump(mode="json")
         if self.segmenter is not None:
@@ -113,7 +119,7 @@ class Calibration:
 
     def to_json(self) -> dict[str, JSONLike]:
         """Everything measured and fitted, JSON-ready."""
-        out: dict[str, Any] = {"frontend": yaml.safe_load(self.frontend_yaml())["frontend"]}
+        out: dict[str, JSONLike] = {"frontend": yaml.safe_load(self.frontend_yaml())["frontend"]}
         for name in ("measured_descriptors", "fitted_descriptors", "measured_segmentation", "fitted_segmentation"):
             v = getattr(self, name)
             out[name] = None if v is None else v.to_json()
@@ -128,8 +134,8 @@ def calibrate(
     iterations: int = 4,
     prior_semantics: SemanticConfig | None = None,
     prior_segmenter: SegmenterConfig | None = None,
-    target_encoder: Any = None,
-    target_segmenter: Any = None,
+    target_encoder: SemanticEncoder | None = None,
+    target_segmenter: Segmenter | None = None,
 ) -> Calibration:
     """Measure ``frontend``'s encoder and/or segmenter on ``data`` and fit the simulated ones to them.
 
@@ -148,7 +154,7 @@ def calibrate(
             truth-free ones before rendering to fail early on bad weights).
         target_segmenter: an already built segmenter, as ``target_encoder``.
     """
-    meta: dict[str, Any] = {"frames": len(data.frames), "seed": data.seed}
+    meta: dict[str, JSONScalar] = {"frames": len(data.frames), "seed": data.seed}
     out = Calibration(meta=meta)
     seed = data.seed
     if encoder:
