@@ -99,3 +99,64 @@ def test_figure_data_by_hand(tmp_path):
     ]
     png = pages.write_figure(summary, tmp_path / "f.png")
     assert pages.read_figure_data(png) == data
+
+
+def test_demo_block_by_hand():
+    """One row per method and heading with relevant pairs, one column per operating point, the ATE line."""
+
+    def pt(k, hits, n, fp, reached=True):
+        pos = hits + fp
+        return {
+            "k": k,
+            "reached": reached,
+            "hits": hits,
+            "n_relevant": n,
+            "false_positives": fp,
+            "recall": hits / n,
+            "recall_ci": [0.1, 0.9],
+            "precision": hits / pos if pos else None,
+            "precision_ci": [0.2, 0.8] if pos else None,
+        }
+
+    def rec(h, n):
+        points = {
+            "max_recall": pt(0, h, n, 3 * h),  # P 0.25
+            "precision_90": pt(5, h // 2, n, 0),
+            "precision_100": pt(None, 0, n, 0, reached=False),
+            "acceptance": pt(4, h - 1, n, 1),
+        }
+        return {
+            "max_recall": h / n,
+            "max_hits": h,
+            "n_relevant": n,
+            "recall_ci": [0.1, 0.9],
+            "few": n < 5,
+            "points": points,
+        }
+
+    empty = {"max_recall": None, "max_hits": 0, "n_relevant": 0, "recall_ci": None, "few": True, "points": {}}
+    inter = {**rec(8, 10), "bins": {"120-180": rec(6, 8), "0-60": empty, "60-120": rec(2, 2)}}
+    run = {
+        "methods": {"clipper": {"inter": inter}, "roman": {"inter": inter}},
+        "ate": {
+            "roman": {"connected": 2, "common": 0.5, "all": 0.25},
+            "oracle": {"connected": 2, "common": 0.1, "all": None},
+        },
+    }
+    lines = pages.demo_block(run).splitlines()
+    assert lines[0] == pages.DEMO_MARKERS[0] and lines[-1] == pages.DEMO_MARKERS[1]
+    assert lines[1:3] == [
+        "| method | cross-robot pairs | max recall | recall at P>=0.9 | recall at P=1 | recall at acceptance |",
+        "|---|---|---|---|---|---|",
+    ]
+    assert lines[3:6] == [
+        "| roman | all | 0.80 (8/10) [0.10, 0.90] P 0.25 k 0 | 0.40 (4/10) [0.10, 0.90] P 1.00 k 5 | "
+        "not reached (0/10) | 0.70 (7/10) [0.10, 0.90] P 0.88 k 4 |",
+        "| roman | 60-120 deg | n<5: 2/2 P 0.25 k 0 | n<5: 1/2 P 1.00 k 5 | not reached (0/2) | n<5: 1/2 P 0.50 k 4 |",
+        "| roman | 120-180 deg | 0.75 (6/8) [0.10, 0.90] P 0.25 k 0 | 0.38 (3/8) [0.10, 0.90] P 1.00 k 5 | "
+        "not reached (0/8) | 0.62 (5/8) [0.10, 0.90] P 0.83 k 4 |",
+    ]
+    assert [ln.split(" | ")[:2] for ln in lines[6:9]] == [
+        ["| clipper", h] for h in ("all", "60-120 deg", "120-180 deg")
+    ]
+    assert lines[-2] == "ATE RMSE over both robots (m, SE(3) aligned): roman 0.25."

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.atetable import ALL, COMMON, AteTable
+from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats
 
 
@@ -45,40 +46,85 @@ def _obj(v: JSONLike, what: str) -> Mapping[str, JSONLike]:
     return v
 
 
+def _points(v: JSONLike) -> dict[str, OperatingPoint]:
+    """Operating points read back from JSON (absent, from a summary written before them: empty)."""
+    if v is None:
+        return {}
+    o = _obj(v, "operating points")
+    out = {}
+    for name, p in o.items():
+        if name not in POINT_NAMES:
+            raise ValueError(f"unknown operating point {name!r}")
+        d = _obj(p, f"operating point {name}")
+        out[name] = OperatingPoint(
+            None if d["k"] is None else _i(d["k"]),
+            bool(d["reached"]),
+            _i(d["hits"]),
+            _i(d["n_relevant"]),
+            _i(d["false_positives"]),
+            _f(d["recall"]),
+            _pair(d["recall_ci"]),
+            _f(d["precision"]),
+            _pair(d["precision_ci"]),
+        )
+    return out
+
+
 @dataclass(frozen=True)
 class RecallSummary:
-    """A recall with its hits / relevant count, Wilson interval and small-set flag."""
+    """A recall with its hits / relevant count, Wilson interval and small-set flag, and its operating points.
+
+    ``points`` maps the names of ``operating_points.POINT_NAMES`` to the points (max recall with
+    its precision, recall at precision >= 0.9 and 1, recall at the acceptance threshold when the
+    run had one); it is empty for a summary written before the points were recorded.
+    """
 
     max_recall: float | None
     max_hits: int
     n_relevant: int
     recall_ci: tuple[float, float] | None
     few: bool
+    points: dict[str, OperatingPoint] = field(default_factory=dict)
 
     @classmethod
     def of(cls, s: CurveStats) -> RecallSummary:
-        """The recall figures of ``s``."""
+        """The recall figures and operating points of ``s``."""
         ci = None if s.recall_ci is None else (s.recall_ci[0], s.recall_ci[1])
-        return cls(s.max_recall, s.max_hits, s.n_relevant, ci, s.few)
+        return cls(s.max_recall, s.max_hits, s.n_relevant, ci, s.few, _present(s))
 
     def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
+        """JSON-ready dict (``points`` in table order)."""
         return {
             "max_recall": self.max_recall,
             "max_hits": self.max_hits,
             "n_relevant": self.n_relevant,
             "recall_ci": None if self.recall_ci is None else list(self.recall_ci),
             "few": self.few,
+            "points": {n: self.points[n].to_json() for n in POINT_NAMES if n in self.points},
         }
 
     @staticmethod
-    def _fields(d: Mapping[str, JSONLike]) -> tuple[float | None, int, int, tuple[float, float] | None, bool]:
-        return _f(d["max_recall"]), _i(d["max_hits"]), _i(d["n_relevant"]), _pair(d["recall_ci"]), bool(d["few"])
+    def _fields(
+        d: Mapping[str, JSONLike],
+    ) -> tuple[float | None, int, int, tuple[float, float] | None, bool, dict[str, OperatingPoint]]:
+        return (
+            _f(d["max_recall"]),
+            _i(d["max_hits"]),
+            _i(d["n_relevant"]),
+            _pair(d["recall_ci"]),
+            bool(d["few"]),
+            _points(d.get("points")),
+        )
 
     @classmethod
     def from_json(cls, d: JSONLike) -> RecallSummary:
-        """Inverse of ``to_json``."""
+        """Inverse of ``to_json`` (a summary without ``points`` reads with none)."""
         return cls(*cls._fields(_obj(d, "recall")))
+
+
+def _present(s: CurveStats) -> dict[str, OperatingPoint]:
+    """The operating points ``s`` has, in table order (acceptance only when the run had a threshold)."""
+    return {n: p for n in POINT_NAMES if (p := s.operating_points.get(n)) is not None}
 
 
 @dataclass(frozen=True)
@@ -136,6 +182,7 @@ def _set(metrics: EvaluationMetrics, method: str, kind: str) -> SetSummary:
         r.n_relevant,
         r.recall_ci,
         r.few,
+        r.points,
         n_pairs=o.n_pairs,
         recall_at_precision_1=o.recall_at_precision_1,
         hits_at_precision_1=o.hits_at_precision_1,
@@ -353,7 +400,8 @@ def compact_summary(
     """A run in short.
 
     ``methods[name]`` holds, per pair set (``inter`` cross-robot, ``intra`` same-robot),
-    the max recall with its hits / relevant count, Wilson interval and small-set flag, recall
+    the max recall with its hits / relevant count, Wilson interval and small-set flag, the
+    operating points (``RecallSummary.points``, also per heading bin), recall
     at precision 1, F1, AUC, association precision / recall and the coarse heading bins; plus
     the median runtime when given. ``ate[variant]`` holds the robots it placed and the SE(3)
     ATE over the common robots and over all robots; ``map`` the map size; ``frontend`` the

@@ -14,6 +14,7 @@ from collections.abc import Mapping
 from typing import TypedDict
 
 from roman_sim.core.jsontypes import JSONLike
+from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
 from roman_sim.report.summaries import AteSummary, RecallSummary, RunSummary, SetSummary
 
 #: The paper's figures (Kimera-Multi outdoor and the off-road Jackal experiment).
@@ -81,6 +82,39 @@ def rcell(r: RecallSummary | None) -> str:
     return f"{r.max_recall:.2f} ({r.max_hits}/{r.n_relevant})" + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "")
 
 
+def pcell(p: OperatingPoint | None) -> str:
+    """An operating point: ``0.77 (33/43) [0.62, 0.87] P 0.12 k 0`` (recall (hits/relevant) [Wilson
+    interval], precision and threshold at that point); ``n<5: 1/2 P 0.50 k 3`` for a small set,
+    ``not reached (0/43)`` when no threshold reaches the point's precision, ``n/a`` without
+    relevant pairs or without the point (a summary written before the points)."""
+    if p is None or not p.n_relevant or p.recall is None:
+        return "n/a"
+    if not p.reached:
+        return f"not reached (0/{p.n_relevant})"
+    at = f" P {'n/a' if p.precision is None else f'{p.precision:.2f}'} k {p.k}"
+    if p.n_relevant < MIN_RELEVANT:
+        return f"n<{MIN_RELEVANT}: {p.hits}/{p.n_relevant}" + at
+    ci = p.recall_ci
+    return f"{p.recall:.2f} ({p.hits}/{p.n_relevant})" + (f" [{ci[0]:.2f}, {ci[1]:.2f}]" if ci else "") + at
+
+
+def mcell(r: RecallSummary | None) -> str:
+    """Max recall with the precision and threshold at which it holds (``pcell`` of its point);
+    ``rcell`` for a summary written before the operating points."""
+    if r is not None and "max_recall" in r.points:
+        return pcell(r.points["max_recall"])
+    return rcell(r)
+
+
+#: The operating points of the tables, in column order, and their column titles.
+POINT_COLUMNS = {name: POINT_LABELS[name] for name in POINT_NAMES}
+
+
+def point_cells(r: RecallSummary | None) -> list[str]:
+    """``pcell`` of every operating point of ``r``, in ``POINT_COLUMNS`` order."""
+    return [pcell(None if r is None else r.points.get(name)) for name in POINT_COLUMNS]
+
+
 def num(v: JSONLike, digits: int = 2) -> str:
     """A number cell (``n/a`` for None)."""
     if isinstance(v, (tuple, list)):
@@ -142,8 +176,8 @@ def comparison(runs: Runs) -> list[dict[str, str]]:
                 {
                     "figure": f"{method} max recall, {scen.replace('_', ' ')}",
                     "paper": num(paper),
-                    "cross-robot": rcell(recall(runs, scen, method)),
-                    "same-robot": rcell(recall(runs, scen, method, "intra")),
+                    "cross-robot": mcell(recall(runs, scen, method)),
+                    "same-robot": mcell(recall(runs, scen, method, "intra")),
                 }
             )
     for method in ("roman", "clipper", "ransac100k", "visual"):
@@ -154,8 +188,8 @@ def comparison(runs: Runs) -> list[dict[str, str]]:
                 {
                     "figure": f"{method} max recall per heading bin, heading sweep",
                     "paper": "n/a",
-                    "cross-robot": "; ".join(f"{b}: {rcell(r)}" for b, r in bins.items()),
-                    "same-robot": rcell(recall(runs, "heading_sweep", method, "intra")),
+                    "cross-robot": "; ".join(f"{b}: {mcell(r)}" for b, r in bins.items()),
+                    "same-robot": mcell(recall(runs, "heading_sweep", method, "intra")),
                 }
             )
     ratio, how = _ratio(runs)
@@ -481,7 +515,7 @@ def sweep_markdown(rows: list[SweepRow]) -> str:
 
 
 def table_markdown(rows: list[dict[str, str]]) -> str:
-    """The comparison table as markdown."""
+    """The comparison table as markdown (recall cells: ``mcell``)."""
     lines = ["| figure | paper | simulation, cross-robot | simulation, same-robot |", "|---|---|---|---|"]
     lines += [f"| {r['figure']} | {r['paper']} | {r['cross-robot']} | {r['same-robot']} |" for r in rows]
     return "\n".join(lines) + "\n"

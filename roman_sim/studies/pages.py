@@ -6,7 +6,8 @@ of committed data, so a test re-renders it from those files and compares:
 - the results page (``docs/results.md``, ``RESULTS_MARKERS``): the comparison with the
   paper, Table I, the two front ends, the ambiguity sweep and the claims, from
   ``summary.json``;
-- the README's demo excerpt (``DEMO_MARKERS``): the demo's cross-robot recall and ATE, from
+- the README's demo excerpt (``DEMO_MARKERS``): the demo's cross-robot operating points per
+  method and heading bin, and its ATE, from
   the compact summary of its committed run (``results/reference/demo``);
 - the README's results figure (``docs/recall_heading.png``): cross-robot max recall per
   heading bin of the heading sweep with Wilson intervals. The plotted numbers are stored in
@@ -23,8 +24,14 @@ from pathlib import Path
 from typing import Any, TypedDict
 
 from roman_sim.core.atomic import write_bytes, write_text
-from roman_sim.studies.claims import claims_markdown, num, rcell, sweep_markdown, table_markdown
-from roman_sim.studies.reference_tables import frontends_markdown, table1_markdown
+from roman_sim.report.summaries import RecallSummary
+from roman_sim.studies.claims import claims_markdown, num, point_cells, sweep_markdown, table_markdown
+from roman_sim.studies.reference_tables import (
+    frontends_markdown,
+    operating_points_markdown,
+    points_header,
+    table1_markdown,
+)
 
 RESULTS_MARKERS = ("<!-- reference-results:begin -->", "<!-- reference-results:end -->")
 DEMO_MARKERS = ("<!-- demo-excerpt:begin -->", "<!-- demo-excerpt:end -->")
@@ -62,6 +69,7 @@ def results_block(summary: Summary) -> str:
         + table_markdown(summary["comparison"])
         + table1_markdown(summary.get("table1") or [])
         + frontends_markdown(summary.get("frontends") or {})
+        + operating_points_markdown(summary.get("operating_points") or [])
         + sweep_markdown(summary.get("ambiguity_sweep") or [])
         + "\n"
         + claims_markdown(summary["claims"])
@@ -72,21 +80,21 @@ def results_block(summary: Summary) -> str:
 def demo_block(run: Summary) -> str:
     """The README's demo excerpt (markers included) from the demo's compact run summary.
 
-    Cross-robot max recall per method, overall and per heading bin with relevant pairs, and
-    the ATE of each pose graph over all robots.
+    One row per method and heading (all cross-robot pairs, then every heading bin with relevant
+    pairs), one column per operating point (``claims.pcell`` cells: recall (hits/relevant)
+    [Wilson interval], P precision and k threshold at that point); then the ATE of each pose
+    graph over all robots.
     """
     begin, end = DEMO_MARKERS
     methods = sorted(run["methods"], key=lambda m: (m != "roman", m))
     held = {b for m in methods for b, r in run["methods"][m]["inter"]["bins"].items() if r["n_relevant"]}
     bins = sorted(held, key=lambda b: float(b.split("-")[0]))
-    lines = [
-        begin,
-        "| method | cross-robot max recall | " + " | ".join(f"{b} deg" for b in bins) + " |",
-        "|---" * (len(bins) + 2) + "|",
-    ]
+    lines = [begin, *points_header("method | cross-robot pairs")]
     for m in methods:
         inter = run["methods"][m]["inter"]
-        lines.append(f"| {m} | {rcell(inter)} | " + " | ".join(rcell(inter["bins"].get(b)) for b in bins) + " |")
+        for head, rec in [("all", inter), *((f"{b} deg", inter["bins"].get(b)) for b in bins)]:
+            cells = point_cells(None if rec is None else RecallSummary.from_json(rec))
+            lines.append(f"| {m} | {head} | " + " | ".join(cells) + " |")
     ate = run.get("ate") or {}
     rows = [f"{v} {num(ate[v]['all'])}" for v in DEMO_ATE_ROWS if v in ate and ate[v]["all"] is not None]
     if rows:

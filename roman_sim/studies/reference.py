@@ -47,9 +47,12 @@ from roman_sim.studies.claims import (
 from roman_sim.studies.raw_data import write_packets, write_runtimes
 from roman_sim.studies.reference_tables import (
     FrontEndTable,
+    PointRow,
     Table1Row,
     frontends,
     frontends_markdown,
+    operating_points,
+    operating_points_markdown,
     table1,
     table1_markdown,
 )
@@ -313,19 +316,21 @@ class ReferenceSummary(TypedDict):
     comparison: list[dict[str, str]]
     table1: list[Table1Row]
     frontends: FrontEndTable
+    operating_points: list[PointRow]
     claims: list[Claim]
     ambiguity_sweep: list[SweepRow]
     paper: dict[str, float | dict[str, tuple[float, float, float]]]
 
 
 def build_summary(runs: Runs, sweep: list[SweepRow]) -> ReferenceSummary:
-    """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the claims,
-    the sweep rows."""
+    """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the
+    operating points, the claims, the sweep rows."""
     return {
         "runs": {name: s.to_json() for name, s in runs.items()},
         "comparison": comparison(runs),
         "table1": table1(runs),
         "frontends": frontends(runs),
+        "operating_points": operating_points(runs),
         "claims": claims(runs, sweep),
         "ambiguity_sweep": sweep,
         "paper": PAPER,
@@ -333,7 +338,11 @@ def build_summary(runs: Runs, sweep: list[SweepRow]) -> ReferenceSummary:
 
 
 def _tables_markdown(summary: ReferenceSummary) -> str:
-    return table1_markdown(summary.get("table1") or []) + frontends_markdown(summary.get("frontends") or {})
+    return (
+        table1_markdown(summary.get("table1") or [])
+        + frontends_markdown(summary.get("frontends") or {})
+        + operating_points_markdown(summary.get("operating_points") or [])
+    )
 
 
 def summary_markdown(summary: ReferenceSummary) -> str:
@@ -341,7 +350,9 @@ def summary_markdown(summary: ReferenceSummary) -> str:
     return (
         "# Reference results next to the paper\n\n"
         "Recall cells: cross-robot (or same-robot) max recall over the association threshold k, "
-        "(hits/relevant) [95 % Wilson interval]; 'n<5' marks fewer than 5 relevant pairs. "
+        "(hits/relevant) [95 % Wilson interval], then P, the precision at the highest k that keeps "
+        "those hits, and that k; 'n<5' marks fewer than 5 relevant pairs. Recall at precision >= 0.9, "
+        "at precision 1 and at the acceptance threshold: the operating points table. "
         "Every pair of submaps is aligned and scored.\n\n"
         + table_markdown(summary["comparison"])
         + _tables_markdown(summary)

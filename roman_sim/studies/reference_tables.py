@@ -1,4 +1,4 @@
-"""Two tables of the reference results: the paper's Table I, and two front ends side by side.
+"""Tables of the reference results: the paper's Table I, two front ends side by side, the operating points.
 
 Both are pure functions of ``summary.json``'s ``runs`` (one ``compact_summary`` per
 scenario), so a test re-derives them from the committed raw files like every other number
@@ -10,7 +10,12 @@ of the summary.
   over the robots every row placed, with how many robots the row placed.
 - ``frontends``: the opposite-direction scenario run with the truth-driven front end and with
   the image front end: cross-robot max recall per heading bin (hits / relevant, Wilson
-  interval) of every segment-based method, and the front end's grades against truth.
+  interval, with its precision and threshold) of every segment-based method, and the front
+  end's grades against truth.
+- ``operating_points``: per recall scenario, method and heading bin with relevant pairs (and
+  all cross-robot pairs), the four operating points (max recall with its precision, recall at
+  precision >= 0.9 and 1 with their thresholds, recall at the acceptance threshold), each
+  with hits / relevant and a Wilson interval.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ from typing import TypedDict
 
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.report.summaries import RecallSummary
-from roman_sim.studies.claims import PAPER_ATE, Runs, _ate_cell, _robots, num, rcell
+from roman_sim.studies.claims import PAPER_ATE, POINT_COLUMNS, Runs, _ate_cell, _robots, mcell, num, point_cells
 
 #: Rows of the simulation's ATE table shown next to the paper's, with their column titles.
 ATE_ROWS = {
@@ -33,6 +38,14 @@ ATE_ROWS = {
 PAPER_ROWS = ("visual", "roman", "combined")
 #: The opposite-direction scenario with each front end (truth-driven first).
 FRONTEND_SCENARIOS = ("opposite_direction", "opposite_direction_pixels")
+#: The scenarios of the operating points table (those whose recall the page reports), in its order.
+POINT_SCENARIOS = (
+    "same_direction",
+    "partial_opposite",
+    "opposite_direction",
+    "opposite_direction_pixels",
+    "heading_sweep",
+)
 GRADE_COLUMNS = {
     "precision": "seg. precision",
     "recall": "seg. recall",
@@ -222,7 +235,8 @@ def frontends_markdown(table: FrontEndTable) -> str:
         "true family (truth-driven); `image` + `image` see only the RGB-D pixels. Same world, robots, pairs "
         f"and thresholds: {inter.get('n_pairs')} cross-robot pairs "
         f"({inter.get('n_relevant')} relevant), {same}. Cells: cross-robot max recall "
-        "(hits/relevant) [95 % Wilson interval].",
+        "(hits/relevant) [95 % Wilson interval], P its precision and k its threshold (the other "
+        "operating points: the next table).",
         "",
         "| front end | method | " + " | ".join(f"{b} deg" for b in bins) + " | all |",
         "|---" * (len(bins) + 3) + "|",
@@ -230,8 +244,8 @@ def frontends_markdown(table: FrontEndTable) -> str:
     for r in table["recall"]:
         lines.append(
             f"| {r['frontend']} | {r['method']} | "
-            + " | ".join(rcell(_recall(r["bins"].get(b))) for b in bins)
-            + f" | {rcell(_recall(r['all']))} |"
+            + " | ".join(mcell(_recall(r["bins"].get(b))) for b in bins)
+            + f" | {mcell(_recall(r['all']))} |"
         )
     lines += [
         "",
@@ -245,4 +259,70 @@ def frontends_markdown(table: FrontEndTable) -> str:
         g = table["grades"][s]
         cells = ["n/a"] * (len(GRADE_COLUMNS) + 1) if not g else [num(g["frames"])] + [num(g[k]) for k in GRADE_COLUMNS]
         lines.append(f"| {table['labels'][s]} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+class PointRow(TypedDict):
+    """One scenario, method and heading bin (``all``: every cross-robot pair): its ``RecallSummary`` JSON."""
+
+    scenario: str
+    method: str
+    heading: str
+    recall: dict[str, JSONLike]
+
+
+def _bin_order(label: str) -> float:
+    return float(label.split("-")[0])
+
+
+def operating_points(runs: Runs) -> list[PointRow]:
+    """Cross-robot operating points per ``POINT_SCENARIOS`` scenario that ran, method (ROMAN first)
+    and heading: all pairs, then every coarse heading bin with relevant pairs in heading order."""
+    rows: list[PointRow] = []
+    for scen in (s for s in POINT_SCENARIOS if s in runs):
+        methods = runs[scen].methods
+        for m in sorted(methods, key=lambda m: (m != "roman", m)):
+            inter = methods[m].inter
+            rows.append({"scenario": scen, "method": m, "heading": "all", "recall": RecallSummary.to_json(inter)})
+            rows += [
+                {"scenario": scen, "method": m, "heading": b, "recall": inter.bins[b].to_json()}
+                for b in sorted(inter.bins, key=_bin_order)
+                if inter.bins[b].n_relevant
+            ]
+    return rows
+
+
+def points_header(first: str) -> list[str]:
+    """The header lines of an operating points table whose first columns are ``first``."""
+    return [
+        f"| {first} | " + " | ".join(POINT_COLUMNS.values()) + " |",
+        "|---" * (first.count("|") + 1 + len(POINT_COLUMNS)) + "|",
+    ]
+
+
+POINTS_LEGEND = (
+    "Cells: recall (hits/relevant) [95 % Wilson interval], then P, the precision, and k, the "
+    "association threshold, at that point: max recall at the highest k that keeps its hits; recall at "
+    "P>=0.9 and at P=1 at the smallest k that reaches that precision (`not reached`: no k does, recall "
+    "0); recall at acceptance at the pose graph's acceptance threshold. `n<5` marks fewer than 5 "
+    "relevant pairs, `P n/a` a point without a positive."
+)
+
+
+def operating_points_markdown(rows: list[PointRow]) -> str:
+    """The operating points table as markdown (empty without rows)."""
+    if not rows:
+        return ""
+    lines = [
+        "",
+        "## Operating points, cross-robot pairs",
+        "",
+        "Per scenario, method and heading bin with relevant pairs (`all`: every cross-robot pair). " + POINTS_LEGEND,
+        "",
+        *points_header("scenario | method | heading"),
+    ]
+    for r in rows:
+        head = "all" if r["heading"] == "all" else f"{r['heading']} deg"
+        cells = point_cells(_recall(r["recall"]))
+        lines.append(f"| {r['scenario']} | {r['method']} | {head} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

@@ -17,6 +17,14 @@ applies the evaluation's definitions, written out again here:
   max hits = max over k of TP(k); hits at precision 1 = the largest TP(k) among the k with
   TP(k) > 0 and FP(k) = 0 (0 when there is none); recall = hits / relevant, with a Wilson
   score interval;
+- operating points (per pair set and heading bin), with precision = TP / (TP + FP) compared
+  in exact fractions: ``max_recall`` at the highest k of the sweep that keeps max hits (with
+  no hit at all, the lowest k); ``precision_90`` / ``precision_100`` at the smallest k whose
+  precision is at least 9/10 / exactly 1 (a k without a positive has no precision), else
+  not reached (k None, hits and false positives 0); ``acceptance`` at k = the run's
+  ``posegraph.lc_association_thresh`` as given (absent when the config has none). Each
+  carries hits, relevant pairs, false positives, recall and precision (None when their
+  denominator is 0) and the Wilson intervals of both;
 - heading bins are ``[lo, hi)``, the last one closed;
 - the ATE is the RMSE of position errors after the least-squares rigid alignment (Umeyama
   without scale) of the estimate onto the truth, over poses matched by timestamp; "joint"
@@ -30,7 +38,7 @@ applies the evaluation's definitions, written out again here:
 
 ``score_run`` gives, for one run folder, the figures of its compact summary that the
 reference claims use, in the same JSON shape; ``agreement`` compares them with a committed
-summary. Association precision/recall, F1 and AUC are not recomputed (no claim uses them).
+summary (``points`` included). Association precision/recall, F1 and AUC are not recomputed (no claim uses them).
 """
 
 from __future__ import annotations
@@ -43,6 +51,7 @@ import math
 import statistics
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -70,6 +79,13 @@ PAIR_FIELDS = (
     "n_assoc",
 )
 TIME_DECIMALS = 6
+#: Operating points and the precision each must reach (None: no target), in table order.
+POINTS: dict[str, Fraction | None] = {
+    "max_recall": None,
+    "precision_90": Fraction(9, 10),
+    "precision_100": Fraction(1),
+    "acceptance": None,
+}
 
 
 @dataclass(frozen=True)
@@ -86,6 +102,7 @@ class Settings:
     heading_bins_deg: tuple[float, ...]
     min_relevant: int
     interval_level: float
+    acceptance_k: int | None = None
 
 
 @dataclass(frozen=True)
@@ -118,11 +135,14 @@ def _raw(run_dir: Path, name: str) -> Path:
 
 
 def read_settings(run_dir: Path) -> Settings:
-    """The ``evaluation`` section of the run's resolved ``config.yaml``."""
+    """The ``evaluation`` section of the run's resolved ``config.yaml`` and the pose graph's
+    acceptance threshold (``posegraph.lc_association_thresh``; None when the file has none)."""
     data = read_yaml(run_dir / "config.yaml")
     ev = data.get("evaluation") if isinstance(data, dict) else None
     if not isinstance(ev, dict):
         raise StorageError(f"{run_dir / 'config.yaml'}: no evaluation section")
+    pg = data.get("posegraph") if isinstance(data, dict) else None
+    acc = pg.get("lc_association_thresh") if isinstance(pg, dict) else None
     try:
         return Settings(
             str(ev["relevance"]),
@@ -135,6 +155,7 @@ def read_settings(run_dir: Path) -> Settings:
             tuple(float(x) for x in ev["heading_bins_deg"]),
             int(ev["min_relevant"]),
             float(ev["interval_level"]),
+            None if acc is None else int(acc),
         )
     except (KeyError, TypeError, ValueError) as err:
         raise StorageError(f"{run_dir / 'config.yaml'}: evaluation section lacks {err}") from None
@@ -226,7 +247,8 @@ def judge(pairs: Sequence[Pair], estimates: Mapping[tuple[str, str, str], F64 | 
 
 
 def recall_record(rows: Sequence[Judged], cfg: Settings) -> dict[str, JSONValue]:
-    """max recall, its hits and relevant count, interval, small-set flag, and hits at precision 1."""
+    """max recall, its hits and relevant count, interval, small-set flag, hits at precision 1 and
+    the operating points."""
     n_rel = sum(r.relevant for r in rows)
     best, best_p1 = _hits(rows, cfg)
     return {
@@ -235,22 +257,72 @@ def recall_record(rows: Sequence[Judged], cfg: Settings) -> dict[str, JSONValue]
         "n_relevant": n_rel,
         "recall_ci": wilson_interval(best, n_rel, cfg.interval_level),
         "few": n_rel < cfg.min_relevant,
+        "points": operating_points(rows, cfg),
         "recall_at_precision_1": best_p1 / n_rel if n_rel else None,
         "hits_at_precision_1": best_p1,
     }
+
+
+def _counts(rows: Sequence[Judged], k: int) -> tuple[int, int]:
+    """(TP(k), FP(k)): positives (at least k associations) relevant and correct / not correct."""
+    pos = [r for r in rows if r.n_assoc >= k]
+    return sum(r.relevant and r.correct for r in pos), sum(not r.correct for r in pos)
 
 
 def _hits(rows: Sequence[Judged], cfg: Settings) -> tuple[int, int]:
     """(max over k of TP(k), max TP(k) over the k where TP(k) > 0 and FP(k) = 0)."""
     best, best_p1 = 0, 0
     for k in range(cfg.k_min, cfg.k_max + 1):
-        pos = [r for r in rows if r.n_assoc >= k]
-        tp = sum(r.relevant and r.correct for r in pos)
-        fp = sum(not r.correct for r in pos)
+        tp, fp = _counts(rows, k)
         best = max(best, tp)
         if fp == 0 and tp > 0:
             best_p1 = max(best_p1, tp)
     return best, best_p1
+
+
+def point_record(
+    k: int | None, tp: int, fp: int, n_relevant: int, level: float, reached: bool = True
+) -> dict[str, JSONValue]:
+    """One operating point: threshold, counts, recall and precision with their Wilson intervals.
+
+    A point not reached has k None and no hit or false positive (recall 0, precision None).
+    """
+    if not reached:
+        tp, fp = 0, 0
+    pos = tp + fp
+    return {
+        "k": k,
+        "reached": reached,
+        "hits": tp,
+        "n_relevant": n_relevant,
+        "false_positives": fp,
+        "recall": tp / n_relevant if n_relevant else None,
+        "recall_ci": wilson_interval(tp, n_relevant, level),
+        "precision": tp / pos if pos else None,
+        "precision_ci": wilson_interval(tp, pos, level),
+    }
+
+
+def operating_points(rows: Sequence[Judged], cfg: Settings) -> dict[str, JSONValue]:
+    """The operating points of ``rows`` over k = ``k_min..k_max`` (and at ``acceptance_k`` when set)."""
+    n_rel = sum(r.relevant for r in rows)
+    level = cfg.interval_level
+    sweep = [(k, *_counts(rows, k)) for k in range(cfg.k_min, cfg.k_max + 1)]
+    out: dict[str, JSONValue] = {}
+    if not sweep:
+        out = {name: point_record(None, 0, 0, n_rel, level, reached=False) for name in POINTS if name != "acceptance"}
+    else:
+        best = max(tp for _, tp, _ in sweep)
+        k, tp, fp = [s for s in sweep if s[1] == best][-1] if best else sweep[0]
+        out["max_recall"] = point_record(k, tp, fp, n_rel, level)
+        for name, target in POINTS.items():
+            if target is None:
+                continue
+            ok = [s for s in sweep if s[1] + s[2] > 0 and Fraction(s[1], s[1] + s[2]) >= target]
+            out[name] = point_record(*ok[0], n_rel, level) if ok else point_record(None, 0, 0, n_rel, level, False)
+    if cfg.acceptance_k is not None:
+        out["acceptance"] = point_record(cfg.acceptance_k, *_counts(rows, cfg.acceptance_k), n_rel, level)
+    return out
 
 
 def _max_hits(rows: Sequence[Judged], cfg: Settings) -> int:
@@ -283,7 +355,8 @@ def method_figures(rows: Sequence[Judged], kinds: Sequence[str], cfg: Settings) 
         for i, (lo, hi) in enumerate(zip(edges, edges[1:])):
             in_bin = [r for r in mine if heading_bin(r.heading_diff_deg, edges) == i]
             full = recall_record(in_bin, cfg)
-            bins[_label(lo, hi)] = {k: full[k] for k in ("max_recall", "max_hits", "n_relevant", "recall_ci", "few")}
+            keys = ("max_recall", "max_hits", "n_relevant", "recall_ci", "few", "points")
+            bins[_label(lo, hi)] = {k: full[k] for k in keys}
         rec["bins"] = bins
         out[kind] = rec
     return out

@@ -70,3 +70,58 @@ def test_small_bins_are_not_compared_and_cells_carry_counts(as_summaries):
     rows = {r["figure"]: r for r in comparison(as_summaries(_runs((1, 2), (2, 2))))}
     assert rows["roman max recall, opposite direction"]["cross-robot"] == "n<5: 1/2"
     assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.00, 1.00]"
+
+
+def _pt(k: int | None, hits: int, n: int, fp: int, reached: bool = True) -> dict:
+    """An operating point's JSON (intervals fixed, not computed: the cells only print them)."""
+    pos = hits + fp
+    return {
+        "k": k,
+        "reached": reached,
+        "hits": hits,
+        "n_relevant": n,
+        "false_positives": fp,
+        "recall": hits / n if n else None,
+        "recall_ci": [0.25, 0.75] if n else None,
+        "precision": hits / pos if pos else None,
+        "precision_ci": [0.2, 0.8] if pos else None,
+    }
+
+
+def test_point_cells_carry_precision_and_threshold():
+    from roman_sim.report.summaries import RecallSummary
+    from roman_sim.studies.claims import mcell, pcell, point_cells
+
+    points = {
+        "max_recall": _pt(3, 9, 10, 11),  # P 9/20
+        "precision_90": _pt(7, 6, 10, 0),
+        "precision_100": _pt(None, 0, 10, 0, reached=False),
+        "acceptance": _pt(4, 8, 10, 0),
+    }
+    r = RecallSummary.from_json({**_rec(9, 10), "points": points})
+    assert point_cells(r) == [
+        "0.90 (9/10) [0.25, 0.75] P 0.45 k 3",
+        "0.60 (6/10) [0.25, 0.75] P 1.00 k 7",
+        "not reached (0/10)",
+        "0.80 (8/10) [0.25, 0.75] P 1.00 k 4",
+    ]
+    assert mcell(r) == "0.90 (9/10) [0.25, 0.75] P 0.45 k 3"
+    small = RecallSummary.from_json(
+        {**_rec(1, 2), "points": {"max_recall": _pt(2, 1, 2, 1), "acceptance": _pt(4, 0, 2, 0)}}
+    )
+    assert point_cells(small) == ["n<5: 1/2 P 0.50 k 2", "n/a", "n/a", "n<5: 0/2 P n/a k 4"]
+    assert (
+        pcell(RecallSummary.from_json({**_rec(0, 0), "points": {"max_recall": _pt(0, 0, 0, 3)}}).points["max_recall"])
+        == "n/a"
+    )
+    # a summary written before the points: max recall as before, the other points n/a
+    old = RecallSummary.from_json(_rec(9, 10))
+    assert mcell(old) == "0.90 (9/10) [0.00, 1.00]" and point_cells(old) == ["n/a"] * 4
+
+
+def test_comparison_cells_give_max_recall_with_its_precision(as_summaries):
+    runs = _runs((6, 10), (5, 10))
+    runs["same_direction"]["methods"]["roman"]["inter"]["points"] = {"max_recall": _pt(2, 9, 10, 1)}
+    rows = {r["figure"]: r for r in comparison(as_summaries(runs))}
+    assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.25, 0.75] P 0.90 k 2"
+    assert rows["ransac1m max recall, same direction"]["cross-robot"] == "0.80 (8/10) [0.00, 1.00]"

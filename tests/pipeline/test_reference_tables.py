@@ -210,3 +210,68 @@ def test_frontend_summary_weights_other_families_by_pairs():
     other = frontend_summary({"segmenter": "x", "segmentation": seg, "descriptors": {"classes": cls}})
     assert other is not None and other.cosine_other_family is None
     assert frontend_summary(None) is None
+
+
+def _pt(k: int | None, hits: int, n: int, fp: int, reached: bool = True) -> dict:
+    pos = hits + fp
+    return {
+        "k": k,
+        "reached": reached,
+        "hits": hits,
+        "n_relevant": n,
+        "false_positives": fp,
+        "recall": hits / n if n else None,
+        "recall_ci": [0.1, 0.9] if n else None,
+        "precision": hits / pos if pos else None,
+        "precision_ci": [0.2, 0.8] if pos else None,
+    }
+
+
+def _with_points(rec: dict, hits: int, n: int) -> dict:
+    """``rec`` with operating points: max recall at k 2 (one false positive), P>=0.9 at k 6 with one
+    hit fewer, P=1 never, acceptance at k 4 with the hits of max recall and no false positive."""
+    points = {
+        "max_recall": _pt(2, hits, n, 1),
+        "precision_90": _pt(6, max(hits - 1, 0), n, 0),
+        "precision_100": _pt(None, 0, n, 0, reached=False),
+        "acceptance": _pt(4, hits, n, 0),
+    }
+    return {**rec, "points": points}
+
+
+def test_operating_points_table_per_method_and_bin(as_summaries):
+    from roman_sim.studies.reference_tables import operating_points, operating_points_markdown
+
+    runs = {"opposite_direction": _opp({"0-60": (0, 0), "60-120": (1, 2), "120-180": (6, 10)}, None)}
+    for m in runs["opposite_direction"]["methods"].values():
+        inter = m["inter"]
+        inter.update(_with_points(inter, 7, 12))
+        inter["bins"] = {b: _with_points(r, r["max_hits"], r["n_relevant"]) for b, r in inter["bins"].items()}
+    rows = operating_points(as_summaries({**runs, "multi_robot_tunnel": _multi({}, [])}))
+    # ROMAN first; all pairs, then the bins with relevant pairs in heading order; the ATE scenario is not listed
+    assert [(r["method"], r["heading"]) for r in rows] == [
+        (m, h) for m in ("roman", "clipper", "visual") for h in ("all", "60-120", "120-180")
+    ]
+    lines = operating_points_markdown(rows).splitlines()
+    assert (
+        "| scenario | method | heading | max recall | recall at P>=0.9 | recall at P=1 | recall at acceptance |"
+        in lines
+    )
+    assert "|---|---|---|---|---|---|---|" in lines
+    assert (
+        "| opposite_direction | roman | all | 0.58 (7/12) [0.10, 0.90] P 0.88 k 2 | "
+        "0.50 (6/12) [0.10, 0.90] P 1.00 k 6 | not reached (0/12) | 0.58 (7/12) [0.10, 0.90] P 1.00 k 4 |"
+    ) in lines
+    assert (
+        "| opposite_direction | clipper | 60-120 deg | n<5: 1/2 P 0.50 k 2 | n<5: 0/2 P n/a k 6 | "
+        "not reached (0/2) | n<5: 1/2 P 1.00 k 4 |"
+    ) in lines
+    assert "P>=0.9 and at P=1 at the smallest k" in operating_points_markdown(rows)
+    assert operating_points_markdown([]) == "" and operating_points(as_summaries({})) == []
+    # the front-end table's cells then carry max recall's precision and threshold too
+    runs["opposite_direction_pixels"] = runs["opposite_direction"]
+    t = frontends(as_summaries(runs))
+    assert (
+        "| opposite_direction | roman | n/a | n<5: 1/2 P 0.50 k 2 | 0.60 (6/10) [0.10, 0.90] P 0.86 k 2 | "
+        "0.58 (7/12) [0.10, 0.90] P 0.88 k 2 |"
+    ) in frontends_markdown(t).splitlines()

@@ -77,3 +77,26 @@ def test_compressed_reference_folders_verify_from_the_cli(smoke_run, tmp_path):
     collect(smoke_run.run_dir, tmp_path / "ref")
     out = runner.invoke(app, ["report", str(tmp_path / "ref"), "--verify"])
     assert out.exit_code == 0 and "verified" in out.output, out.output
+
+
+def test_the_scorer_gives_the_evaluations_operating_points(smoke_run):
+    """Every set and heading bin: the independent scorer's points are those of the run's metrics.json."""
+    from roman_sim.evaluation.operating_points import points_to_json
+    from roman_sim.studies.scorer import agreement, score_run
+    from roman_sim.studies.verify import stored_summary
+
+    scored = score_run(smoke_run.run_dir)
+    metrics = smoke_run.metrics
+    assert metrics.acceptance_k is not None
+    for m, figures in scored["methods"].items():
+        for kind in ("inter", "intra"):
+            ps = metrics.method(m).set(kind)
+            theirs = {n: p for n, p in points_to_json(ps.overall.operating_points).items() if p is not None}
+            assert not agreement(theirs, figures[kind]["points"]) and set(theirs) == set(figures[kind]["points"])
+            for b in ps.heading_bins:
+                theirs = {n: p for n, p in points_to_json(b.stats.operating_points).items() if p is not None}
+                assert not agreement(theirs, figures[kind]["bins"][b.label]["points"]), (m, kind, b.label)
+            assert figures[kind]["points"]["acceptance"]["k"] == metrics.acceptance_k
+    # the stored summary carries them, and the check compares them
+    assert stored_summary(smoke_run.run_dir)["methods"]["roman"]["inter"]["points"]["max_recall"]
+    assert not any("predates" in n for n in verify_run(smoke_run.run_dir).notes)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import dataclasses
 import gzip
 import io
 import json
@@ -79,6 +80,140 @@ def test_recall_record_by_hand():
     assert r["recall_ci"] == S.wilson_interval(3, 4, 0.95)
 
 
+CFG_ACC = S.Settings("distance", 10.0, 3, 5.0, 1.0, 0, 30, (0.0, 60.0, 120.0, 180.0), 5, 0.95, 4)
+#: (relevant, correct, n_assoc): TP(k) = 2 for k <= 5, 1 for k <= 10; FP(k) = 4 at k = 0, 3 up to k = 2,
+#: 2 at k = 3, then 1 (the n=8 wrong estimate) up to k = 8, 0 from k = 9
+SIX = [(True, True, 10), (True, True, 5), (True, False, 3), (True, False, 0), (False, False, 8), (False, False, 2)]
+
+
+def test_operating_points_by_hand():
+    pts = S.operating_points(_judged(SIX), CFG_ACC)
+    assert list(pts) == ["max_recall", "precision_90", "precision_100", "acceptance"]
+    # max recall: 2 hits, kept up to k = 5 (the highest such k), where the n=8 pair is the one false positive
+    assert pts["max_recall"] == {
+        "k": 5,
+        "reached": True,
+        "hits": 2,
+        "n_relevant": 4,
+        "false_positives": 1,
+        "recall": 0.5,
+        "recall_ci": S.wilson_interval(2, 4, 0.95),
+        "precision": 2 / 3,
+        "precision_ci": S.wilson_interval(2, 3, 0.95),
+    }
+    for name in ("precision_90", "precision_100"):  # first at k = 9: the n=10 hit alone
+        p = pts[name]
+        assert (p["k"], p["reached"], p["hits"], p["false_positives"], p["recall"], p["precision"]) == (
+            9,
+            True,
+            1,
+            0,
+            0.25,
+            1.0,
+        )
+        assert p["precision_ci"] == S.wilson_interval(1, 1, 0.95)
+    acc = pts["acceptance"]  # k = 4: the n=10 and n=5 hits, the n=8 miss
+    assert (acc["k"], acc["hits"], acc["false_positives"], acc["recall"], acc["precision"]) == (4, 2, 1, 0.5, 2 / 3)
+    # the acceptance threshold is used as given, also beyond the sweep; without one there is no such point
+    far = S.operating_points(_judged(SIX), dataclasses.replace(CFG_ACC, acceptance_k=50))["acceptance"]
+    assert (far["k"], far["hits"], far["false_positives"], far["recall"], far["precision"]) == (50, 0, 0, 0.0, None)
+    assert "acceptance" not in S.operating_points(_judged(SIX), CFG)
+
+
+def test_operating_points_compare_precision_in_fractions():
+    # 27 hits and 3 wrong positives: 27/30 is 0.9 exactly (0.9 * 30 is not 27 in floats)
+    rows = _judged([(True, i < 27, 5) for i in range(30)])
+    pts = S.operating_points(rows, CFG)
+    p90 = pts["precision_90"]
+    assert (p90["reached"], p90["k"], p90["hits"], p90["false_positives"]) == (True, 0, 27, 3)
+    p100 = pts["precision_100"]
+    assert p100 == {
+        "k": None,
+        "reached": False,
+        "hits": 0,
+        "n_relevant": 30,
+        "false_positives": 0,
+        "recall": 0.0,
+        "recall_ci": S.wilson_interval(0, 30, 0.95),
+        "precision": None,
+        "precision_ci": None,
+    }
+    assert pts["max_recall"]["k"] == 5  # 27 hits up to k = 5
+
+
+def test_operating_points_without_relevant_pairs_or_thresholds():
+    # no relevant pair: recall undefined, precision defined where there is a positive
+    pts = S.operating_points(_judged([(False, False, 5), (False, False, 0)]), dataclasses.replace(CFG, acceptance_k=2))
+    best = pts["max_recall"]  # no hit at all: the lowest threshold
+    assert (best["k"], best["hits"], best["false_positives"], best["recall"], best["recall_ci"]) == (
+        0,
+        0,
+        2,
+        None,
+        None,
+    )
+    assert best["precision"] == 0.0 and pts["acceptance"]["precision"] == 0.0 and pts["acceptance"]["recall"] is None
+    assert not pts["precision_90"]["reached"] and pts["precision_90"]["precision"] is None
+    # no pair at all: nothing is positive
+    empty = S.operating_points([], CFG)
+    assert (empty["max_recall"]["k"], empty["max_recall"]["precision"]) == (0, None)
+    # an empty sweep (k_min > k_max): no point reached
+    none = S.operating_points(_judged(SIX), dataclasses.replace(CFG, k_min=5, k_max=4))
+    assert all(not p["reached"] and p["k"] is None for p in none.values())
+
+
+def _evaluation_points(rows: list[tuple[bool, bool, int]], cfg: S.Settings, headings: list[float]) -> dict:
+    """The evaluation's operating points (overall and per coarse bin) of the same rows, as JSON."""
+    from roman_sim.evaluation.config import EvalConfig
+    from roman_sim.evaluation.metrics import PairScore, summary
+    from roman_sim.evaluation.pairs import PairTruth
+
+    scores = [
+        PairScore(
+            PairTruth(
+                f"a/{i}", f"b/{i}", "a", "b", 0, i, np.eye(4), 1.0 if rel else 50.0, h, 0.5, float("nan"), rel, "inter"
+            ),
+            "m",
+            n,
+            0.1 if ok else 40.0,
+            0.1 if ok else 40.0,
+            ok,
+            0.0,
+        )
+        for i, ((rel, ok, n), h) in enumerate(zip(rows, headings))
+    ]
+    ec = EvalConfig(
+        k_min=cfg.k_min, k_max=cfg.k_max, heading_bins_deg=list(cfg.heading_bins_deg), min_relevant=cfg.min_relevant
+    )
+    ps = summary(scores, ec, acceptance_k=cfg.acceptance_k).method("m").set("inter")
+    out = {"all": ps.overall.to_json()["operating_points"]}
+    out.update({b.label: b.stats.to_json()["operating_points"] for b in ps.heading_bins})
+    return {k: {n: p for n, p in v.items() if p is not None} for k, v in out.items()}
+
+
+def _scorer_points(rows: list[tuple[bool, bool, int]], cfg: S.Settings, headings: list[float]) -> dict:
+    judged = [S.Judged(rel, ok, n, h) for (rel, ok, n), h in zip(rows, headings)]
+    figures = S.method_figures(judged, ["inter"] * len(rows), cfg)["inter"]
+    return {"all": figures["points"], **{b: r["points"] for b, r in figures["bins"].items()}}
+
+
+def test_scorer_points_are_the_evaluations_on_hand_made_and_random_rows():
+    headings = [10.0, 70.0, 150.0, 170.0, 20.0, 100.0]
+    mine, theirs = _scorer_points(SIX, CFG_ACC, headings), _evaluation_points(SIX, CFG_ACC, headings)
+    assert set(mine) == set(theirs) == {"all", "0-60", "60-120", "120-180"}
+    assert not S.agreement(theirs, mine) and not S.agreement(mine, theirs)
+    assert mine["0-60"]["max_recall"]["k"] == 10  # the n=10 hit and the n=8 miss: both kept up to k = 8, the hit to 10
+    rng = np.random.default_rng(7)
+    for trial in range(40):
+        n = int(rng.integers(1, 40))  # the evaluation knows a method by its rows
+        rows = [(bool(rng.random() < 0.6), bool(rng.random() < 0.5), int(rng.integers(0, 14))) for _ in range(n)]
+        heads = [float(h) for h in rng.uniform(0.0, 180.0, n)]
+        cfg = dataclasses.replace(CFG_ACC, k_max=int(rng.integers(0, 16)), acceptance_k=int(rng.integers(0, 20)))
+        mine, theirs = _scorer_points(rows, cfg, heads), _evaluation_points(rows, cfg, heads)
+        assert set(mine) == set(theirs), trial
+        assert not S.agreement(theirs, mine), (trial, S.agreement(theirs, mine)[:5])
+
+
 def test_umeyama_recovers_a_rigid_transform():
     rng = np.random.default_rng(3)
     est = rng.normal(size=(50, 3))
@@ -90,10 +225,13 @@ def test_umeyama_recovers_a_rigid_transform():
     assert np.sqrt(np.mean(S.umeyama_residuals(est, noisy) ** 2)) < 0.1 * math.sqrt(3)
 
 
-def _write_run(d: Path, rows: list[dict[str, object]], estimates: list[dict[str, object]]) -> None:
+def _write_run(
+    d: Path, rows: list[dict[str, object]], estimates: list[dict[str, object]], acceptance: int | None = None
+) -> None:
     d.mkdir(parents=True)
+    posegraph = "" if acceptance is None else f"posegraph:\n  lc_association_thresh: {acceptance}\n"
     (d / "config.yaml").write_text(
-        "evaluation:\n  relevance: distance\n  relevant_dist_m: 10.0\n  min_shared_objects: 3\n"
+        posegraph + "evaluation:\n  relevance: distance\n  relevant_dist_m: 10.0\n  min_shared_objects: 3\n"
         "  rot_tol_deg: 5.0\n  trans_tol_m: 1.0\n  k_min: 0\n  k_max: 30\n"
         "  heading_bins_deg: [0.0, 60.0, 120.0, 180.0]\n  min_relevant: 1\n  interval_level: 0.95\n"
     )
@@ -138,6 +276,15 @@ def test_score_run_recomputes_correctness_from_the_estimates(tmp_path):
     assert (inter["max_hits"], inter["n_relevant"], inter["hits_at_precision_1"]) == (1, 2, 0)
     assert inter["bins"]["120-180"]["n_relevant"] == 2 and inter["bins"]["0-60"]["n_relevant"] == 0
     assert out["pairs"]["inter"] == {"n_pairs": 3, "n_relevant": 2}
+    # the config has no pose graph section: no acceptance point; max recall at k = 6 (the hit has 6)
+    assert list(inter["points"]) == ["max_recall", "precision_90", "precision_100"]
+    best = inter["points"]["max_recall"]
+    assert (best["k"], best["hits"], best["false_positives"], best["precision"]) == (6, 1, 1, 0.5)
+    assert not inter["points"]["precision_90"]["reached"]  # the wrong n=7 estimate outranks the hit
+    assert inter["bins"]["0-60"]["points"]["max_recall"]["recall"] is None  # no relevant pair in that bin
+    _write_run(tmp_path / "acc", rows, est, acceptance=7)
+    acc = S.score_run(tmp_path / "acc")["methods"]["m"]["inter"]["points"]["acceptance"]
+    assert (acc["k"], acc["hits"], acc["false_positives"], acc["precision"]) == (7, 0, 1, 0.0)
 
 
 def test_packets_rebuild_the_mapping_packet_sizes(tmp_path):
@@ -173,6 +320,40 @@ def test_every_committed_run_agrees_with_the_independent_scorer(scenario):
     assert all("runtime_median_s" in m for m in scored["methods"].values())
     diffs = S.agreement(_summary()["runs"][scenario], scored)
     assert not diffs, diffs[:10]
+
+
+@pytest.mark.skipif(not (REF / "demo" / "pairs.csv.gz").is_file(), reason="no committed demo run")
+def test_scorer_points_are_the_evaluations_on_the_committed_demo():
+    """On real raw files: the evaluation's points (recomputed from the pairs table) are the scorer's."""
+    from roman_sim.studies.reference import demo_summary
+
+    evaluated, scored = json.loads(json.dumps(demo_summary(REF))), S.score_run(REF / "demo")
+    assert not S.agreement(evaluated, scored)
+    for m, figures in scored["methods"].items():
+        for kind in ("inter", "intra"):
+            theirs = evaluated["methods"][m][kind]
+            assert not S.agreement(figures[kind]["points"], theirs["points"]), (m, kind)  # and the other way round
+            for b, rec in figures[kind]["bins"].items():
+                assert not S.agreement(rec["points"], theirs["bins"][b]["points"]), (m, kind, b)
+    roman = scored["methods"]["roman"]["inter"]["points"]
+    assert (
+        roman["acceptance"]["k"] == 4 and roman["max_recall"]["hits"] == scored["methods"]["roman"]["inter"]["max_hits"]
+    )
+
+
+@pytest.mark.skipif(not (REF / "demo" / "pairs.csv.gz").is_file(), reason="no committed demo run")
+def test_a_run_whose_metrics_predate_the_points_is_checked_without_them():
+    from roman_sim.studies.verify import independent_check, stored_summary, verify_run
+
+    d = REF / "demo"
+    if "acceptance_k" in json.loads((d / "metrics.json").read_text(encoding="utf-8")):
+        pytest.skip("the committed demo run has its operating points")
+    assert not any(
+        r["points"] for m in stored_summary(d)["methods"].values() for r in m.values() if isinstance(r, dict)
+    )
+    assert independent_check(d) == []
+    res = verify_run(d, rel_tol=1e-6, pairs_file="pairs.csv.gz", tum_suffix=".gz")
+    assert res.ok and any("independent scorer's figures were compared without them" in n for n in res.notes)
 
 
 def _overlay(base: object, new: object) -> object:
