@@ -46,7 +46,7 @@ def committed(smoke_run, tmp_path: Path) -> Path:
     out = tmp_path / "reference"
     for name in ("alpha", "beta"):
         collect(smoke_run.run_dir, out / name)
-    collect(smoke_run.run_dir, out / "ambiguity_sweep" / "r0", trajectories=False, plots=False, alignments=False)
+    collect(smoke_run.run_dir, out / "ambiguity_sweep" / "r0", trajectories=False, plots=False, packets=False)
     write_json(
         out / "ambiguity_sweep" / "sweep.json",
         {"grid": [AMBIGUITY_KEY], "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}]},

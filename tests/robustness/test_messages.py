@@ -75,19 +75,19 @@ def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return out
 
 
-def test_report_on_a_corrupt_ate_json_names_the_file(finished_run: Path, tmp_path: Path, cli_fails) -> None:
+def test_report_on_a_corrupt_result_file_names_the_file(finished_run: Path, tmp_path: Path, cli_fails) -> None:
     run = tmp_path / "run"
     shutil.copytree(finished_run, run)
     (run / "ate.json").write_text("{garbage")
     assert cli_fails("report", run) == (
-        f"error: {run / 'ate.json'}: unreadable pose-graph results (JSONDecodeError: Expecting property name "
+        f"error: {run / 'ate.json'}: unreadable ATE table (JSONDecodeError: Expecting property name "
         "enclosed in double quotes: line 1 column 2 (char 1))"
     )
     shutil.copy(finished_run / "ate.json", run / "ate.json")
-    (run / "posegraph.json").write_text("[1")
-    assert cli_fails("report", run) == (
-        f"error: {run / 'posegraph.json'}: unreadable pose-graph results (JSONDecodeError: Expecting ',' "
-        "delimiter: line 1 column 3 (char 2))"
+    (run / "metrics.json").write_text("[1")
+    assert (
+        cli_fails("report", run)
+        == f"error: {run / 'metrics.json'}: corrupt metrics JSON (line 1: Expecting ',' delimiter)"
     )
 
 

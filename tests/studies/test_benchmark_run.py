@@ -50,7 +50,7 @@ class FailsOnRepetitivePlaces:
         if len(d) >= 4:
             c = d @ d.T
             mean = (c.sum() - np.trace(c)) / (len(d) * (len(d) - 1))
-            if mean > 0.7:
+            if mean > 0.8:
                 raise RuntimeError(f"repetitive place (mean descriptor cosine {mean:.2f})")
         out = self.inner.align(a, b)
         out.method = self.name
