@@ -66,7 +66,8 @@ def downsample_union(
     voxel border) ``downsample`` runs.
 
     Args:
-        a, b: the clouds (N, 3) and (M, 3).
+        a: the first cloud (N, 3).
+        b: the second cloud (M, 3).
         voxel: voxel size (m).
         keys_a: ``hash_voxels(a, voxel)`` when the caller has it.
 

@@ -288,8 +288,9 @@ def make_path(
         road_width_m: the world's road width, which bounds ``lateral_offset_m`` (None: only
             the clearance to objects bounds it).
 
-    Raises: SimError when no valid path exists (leaves the world, blocked, unknown ``of``,
-        an offset off the road).
+    Raises:
+        SimError: no valid path exists (leaves the world, blocked, unknown ``of``, an offset
+            off the road).
     """
     obs = Obstacles(truth)
     line = _line(cfg, truth, rng, name, paths_by_name, obs)
