@@ -231,8 +231,11 @@ def _methods(runs: Runs, scen: str) -> set[str]:
 
 
 def _bins(runs: Runs, scen: str, method: str) -> dict[str, RecallSummary]:
+    """The heading bins of ``method``'s cross-robot set, in heading order (a summary read back from JSON
+    holds them in key order)."""
     inter = recall(runs, scen, method)
-    return inter.bins if isinstance(inter, SetSummary) else {}
+    bins = inter.bins if isinstance(inter, SetSummary) else {}
+    return {b: bins[b] for b in sorted(bins, key=lambda b: float(b.split("-")[0]))}
 
 
 def _opposite_harder(runs: Runs) -> Claim:
