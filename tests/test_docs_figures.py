@@ -55,3 +55,22 @@ def test_appearance_cost_matches_the_benchmark():
     assert got[2:4] == [per["shadows_2048"][key.format(s)] for s in sizes]
     others = [v[key.format(s)] for name, v in per.items() if "shadows" not in name for s in sizes]
     assert got[4:] == [min(others), max(others)]
+
+
+def test_per_frame_cost_table_is_the_benchmark():
+    cur = _bench("frames.json")["current"]
+    page = (ROOT / "docs" / "performance.md").read_text(encoding="utf-8")
+    rows = re.findall(r"^\| `(\w+)` \| (\d+) x (\d+) \| (\d+) of (\d+) \|(.*)\|$", page, flags=re.M)
+    assert [r[0] for r in rows] == ["demo", "demo_pixels", "kimera_outdoor"], rows
+    for name, w, h, rgb, frames, rest in rows:
+        x, m = cur[name], cur[name]["ms_per_frame"]
+        assert [int(w), int(h), int(rgb), int(frames)] == [*x["image"], x["rgb_frames"], x["frames"]], name
+        want = [m["depth_ids_pass"], m["depth"] + m["ids"], x["rgb_pass_ms_per_rgb_frame"], x["render_ms_per_frame"]]
+        want += [m[k] for k in ("segment", "observe", "encode", "track", "grade", "keyframes")]
+        want += [x["frontend_ms_per_frame"]]
+        got = [float(v) for v in rest.split("|")]
+        assert got[:-1] == [round(v, 1) for v in want], name
+        assert got[-1] == round(x["mapping_over_render"], 2), name
+        # the sums the page states: front end and render per frame from their steps
+        front = sum(m[k] for k in ("segment", "observe", "encode", "track", "grade", "keyframes"))
+        assert abs(front - x["frontend_ms_per_frame"]) < 1e-6, name
