@@ -92,7 +92,8 @@ def test_the_hybrid_miss_is_explained_by_the_data():
     metrics = json.loads((REF / "multi_robot_hybrid" / "metrics.json").read_text(encoding="utf-8"))
     pts = metrics["methods"]["roman"]["inter"]["operating_points"]
     m = re.search(
-        r"ROMAN's max recall there is (\d+) of (\d+) relevant pairs at k = (\d+) \(precision (\d\.\d\d)\) and (\d+) at k = (\d+)",
+        r"ROMAN's max recall there is (\d+) of (\d+) relevant pairs at k = (\d+) "
+        r"\(precision (\d\.\d\d)\) and (\d+) at k = (\d+)",
         page,
     )
     assert m, "docs/results.md states ROMAN's hybrid operating points"
