@@ -15,7 +15,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from roman_sim.core.atomic import write_json, write_text
-from roman_sim.core.errors import RomanSimError, StorageError
+from roman_sim.core.errors import RomanSimError
+from roman_sim.core.jsontypes import read_record
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -48,14 +49,7 @@ def write_sweep_json(cfg: "SweepConfig", runs: "list[RunSpec]", out_dir: Path) -
 
 
 def _read_sweep(out_dir: Path) -> dict[str, Any]:
-    path = out_dir / SWEEP_JSON
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        if data.get("schema") != SWEEP_SCHEMA:
-            raise ValueError(f"schema {data.get('schema')!r}")
-        return data
-    except (OSError, ValueError, AttributeError) as err:
-        raise StorageError(f"{path}: not a sweep record ({type(err).__name__}: {err})") from None
+    return read_record(out_dir / SWEEP_JSON, SWEEP_SCHEMA, "sweep record")
 
 
 def sweep_summary(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[str]]:

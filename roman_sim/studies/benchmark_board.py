@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.core.atomic import write_json, write_text
-from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import read_record as read_json_record
 from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.ranking import rank_by_intervals
@@ -55,14 +55,7 @@ HALF_WIDTH_BOUND = 0.1
 
 def read_record(out: Path) -> dict[str, Any]:
     """``benchmark.json`` of a benchmark folder (StorageError when missing or unreadable)."""
-    path = out / BENCHMARK_JSON
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        if data.get("schema") != BENCHMARK_SCHEMA:
-            raise ValueError(f"schema {data.get('schema')!r}")
-        return dict(data)
-    except (OSError, ValueError, AttributeError) as err:
-        raise StorageError(f"{path}: not a benchmark record ({type(err).__name__}: {err})") from None
+    return read_json_record(out / BENCHMARK_JSON, BENCHMARK_SCHEMA, "benchmark record")
 
 
 @dataclass
