@@ -42,7 +42,7 @@ from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.evaluation.operating_points import OperatingPoints, point_at, sweep_points
-from roman_sim.evaluation.overlap import robot_pair_counts
+from roman_sim.evaluation.overlap import revisit_figures, robot_pair_counts
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
     PAIR_SET_LABELS,
@@ -289,6 +289,7 @@ def summary(
     cfg = cfg or EvalConfig()
     methods = sorted({s.method for s in scores})
     counts = _pair_counts(scores)
+    truths = _distinct_truths(scores)
     headline = "inter" if counts["inter"]["n_pairs"] else "intra"
     out = EvaluationMetrics(
         config=cfg.model_dump(mode="json"),
@@ -300,7 +301,8 @@ def summary(
         n_skipped=n_skipped,
         methods={m: _method_summary([s for s in scores if s.method == m], cfg, acceptance_k) for m in methods},
         acceptance_k=acceptance_k,
-        robot_pairs=robot_pair_counts((t.robot_a, t.robot_b, t.relevant) for t in _distinct_truths(scores)),
+        robot_pairs=robot_pair_counts((t.robot_a, t.robot_b, t.relevant) for t in truths),
+        revisits=revisit_figures((t.robot_a, t.robot_b, t.relevant, t.overlap, t.shared_objects) for t in truths),
     )
     out.notes += _notes(out, cfg)
     return out

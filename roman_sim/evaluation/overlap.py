@@ -10,6 +10,8 @@ the robots' overlap graph, and what relevant pairs have in common.
 - ``revisit_overlap``: per relevant pair of submaps, the overlap (shared true objects over
   the smaller submap's objects) and the shared objects, with medians: how much of a
   revisit is a replay.
+- ``revisit_figures``: the same medians from a run's scored pairs, over all relevant
+  cross-robot pairs and per robot pair (``metrics.json``'s ``revisits``).
 """
 
 from __future__ import annotations
@@ -122,6 +124,50 @@ def counts_by_pair(robot_pairs: Mapping[str, Mapping[str, int]]) -> dict[RobotPa
     for key, entry in robot_pairs.items():
         a, b = key.split(KEY_SEP, 1)
         out[(a, b)] = int(entry["n_relevant"])
+    return out
+
+
+def _median_or_none(values: list[float]) -> float | None:
+    """Median of the finite ``values`` (None without any)."""
+    v = np.asarray(values, dtype=np.float64)
+    v = v[np.isfinite(v)]
+    return float(np.median(v)) if len(v) else None
+
+
+def revisit_figures(
+    pairs: Iterable[tuple[str, str, bool, float, int]],
+) -> dict[str, dict[str, float | int | None]]:
+    """Median overlap and shared objects of the relevant cross-robot pairs, overall and per robot pair.
+
+    Args:
+        pairs: ``(robot_a, robot_b, relevant, overlap, shared_objects)`` of each distinct pair.
+
+    Returns:
+        ``{"all": figures, "a|b": figures, ...}`` (robot pairs sorted, names sorted within a
+        key), each ``{"n_relevant": .., "median_overlap": .., "median_shared_objects": ..}``;
+        the medians are None without relevant pairs (an overlap is NaN when a submap has no
+        object id: such pairs count but give no overlap). Empty without cross-robot pairs.
+    """
+    groups: dict[str, list[tuple[float, int]]] = {}
+    seen_inter = False
+    for ra, rb, relevant, overlap, shared in pairs:
+        if ra == rb:
+            continue
+        seen_inter = True
+        if not relevant:
+            continue
+        for key in ("all", KEY_SEP.join(sorted((ra, rb)))):
+            groups.setdefault(key, []).append((float(overlap), int(shared)))
+    if not seen_inter:
+        return {}
+    out: dict[str, dict[str, float | int | None]] = {}
+    for key in ["all", *sorted(k for k in groups if k != "all")]:
+        g = groups.get(key, [])
+        out[key] = {
+            "n_relevant": len(g),
+            "median_overlap": _median_or_none([o for o, _ in g]),
+            "median_shared_objects": _median_or_none([float(n) for _, n in g]),
+        }
     return out
 
 

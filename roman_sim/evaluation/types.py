@@ -63,6 +63,19 @@ def _robot_pairs(d: Any) -> dict[str, dict[str, int]] | None:
     return {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d.items()}
 
 
+def _revisits(d: Any) -> dict[str, dict[str, float | int | None]] | None:
+    if d is None:
+        return None
+    return {
+        str(k): {
+            "n_relevant": int(v["n_relevant"]),
+            "median_overlap": None if v["median_overlap"] is None else float(v["median_overlap"]),
+            "median_shared_objects": None if v["median_shared_objects"] is None else float(v["median_shared_objects"]),
+        }
+        for k, v in d.items()
+    }
+
+
 def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:
     return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
 
@@ -315,6 +328,9 @@ class EvaluationMetrics:
         robot_pairs: cross-robot pairs scored and relevant per robot pair (``"a|b"`` ->
             ``{"n_pairs": .., "n_relevant": ..}``, ``overlap.robot_pair_counts``); None in files
             written before it was recorded.
+        revisits: median overlap and shared objects of the relevant cross-robot pairs,
+            overall (``"all"``) and per robot pair (``overlap.revisit_figures``); None in files
+            written before it was recorded.
     """
 
     config: dict[str, Any]
@@ -329,6 +345,7 @@ class EvaluationMetrics:
     frontend: dict[str, JSONLike] | None = None
     acceptance_k: int | None = None
     robot_pairs: dict[str, dict[str, int]] | None = None
+    revisits: dict[str, dict[str, float | int | None]] | None = None
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -368,6 +385,7 @@ class EvaluationMetrics:
             **({} if self.frontend is None else {"frontend": self.frontend}),
             "acceptance_k": self.acceptance_k,
             **({} if self.robot_pairs is None else {"robot_pairs": self.robot_pairs}),
+            **({} if self.revisits is None else {"revisits": self.revisits}),
         }
 
     @classmethod
@@ -390,6 +408,7 @@ class EvaluationMetrics:
                 d.get("frontend"),
                 None if d.get("acceptance_k") is None else int(d["acceptance_k"]),
                 _robot_pairs(d.get("robot_pairs")),
+                _revisits(d.get("revisits")),
             )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

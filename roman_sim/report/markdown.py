@@ -153,17 +153,37 @@ def _section_robot_pairs(metrics: EvaluationMetrics) -> list[str]:
     counts = counts_by_pair(metrics.robot_pairs)
     robots = list(dict.fromkeys(r for pair in counts for r in pair))
     graph = overlap_graph(counts, robots)
+    shared = metrics.revisits or {}
     rows = [
         {
             "robots": f"{a}, {b}",
             "pairs scored": str(entry["n_pairs"]),
             "relevant": str(entry["n_relevant"]),
             f"overlap edge (>= {graph.min_pairs})": "yes" if entry["n_relevant"] >= graph.min_pairs else "no",
+            **_shared_cells(shared.get(key)),
         }
-        for (a, b), entry in zip(counts, metrics.robot_pairs.values())
+        for (a, b), (key, entry) in zip(counts, metrics.robot_pairs.items())
     ]
     cfg = EvalConfig.model_validate(metrics.config)
-    return [title, "", f"Relevant: {cfg.describe_relevance()}. {graph.describe()}.", "", *markdown_table(rows), ""]
+    text = f"Relevant: {cfg.describe_relevance()}. {graph.describe()}."
+    if "all" in shared:
+        text += (
+            " Median overlap and shared objects: over the relevant pairs, the true objects with a segment in "
+            "both submaps (over the smaller submap's objects, and their number); all relevant cross-robot "
+            "pairs: " + ", ".join(f"{k} {v}" for k, v in _shared_cells(shared["all"]).items()) + "."
+        )
+    return [title, "", text, "", *markdown_table(rows), ""]
+
+
+def _shared_cells(fig: dict[str, float | int | None] | None) -> dict[str, str]:
+    """The median overlap and shared objects of one robot pair's relevant pairs, as table cells."""
+    if fig is None:
+        return {"median overlap": "n/a", "median shared objects": "n/a"}
+    ov, sh = fig["median_overlap"], fig["median_shared_objects"]
+    return {
+        "median overlap": "n/a" if ov is None else f"{ov:.2f}",
+        "median shared objects": "n/a" if sh is None else f"{sh:.1f}",
+    }
 
 
 def _section_ate(ate: AteTable | None) -> list[str]:

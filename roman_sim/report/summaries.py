@@ -333,6 +333,9 @@ class RunSummary:
         ate_robots: every robot and the common robots of the ATE table (None without one).
         map: map and packet sizes (None when not given).
         frontend: the front end's grades (None when the run did not grade it).
+        revisits: what the relevant cross-robot pairs share: ``n_relevant``,
+            ``median_overlap`` and ``median_shared_objects`` (None without cross-robot pairs
+            or in a summary written before it was recorded).
     """
 
     headline: str
@@ -343,6 +346,7 @@ class RunSummary:
     ate_robots: tuple[list[str], list[str]] | None = None
     map: MapStats | None = None
     frontend: FrontEndSummary | None = None
+    revisits: dict[str, float | int | None] | None = None
 
     def to_json(self) -> dict[str, JSONLike]:
         """JSON-ready dict (the layout ``summary.json`` has always had)."""
@@ -358,6 +362,7 @@ class RunSummary:
             "ate_robots": robots,
             "map": self.map.to_json() if self.map else {},
             "frontend": None if self.frontend is None else self.frontend.to_json(),
+            **({} if self.revisits is None else {"revisits": dict(self.revisits)}),
         }
 
     @classmethod
@@ -380,9 +385,22 @@ class RunSummary:
                 ate_robots=ate_robots,
                 map=MapStats.from_json(map_json) if map_json else None,
                 frontend=None if o["frontend"] is None else FrontEndSummary.from_json(o["frontend"]),
+                revisits=_revisits(o.get("revisits")),
             )
         except (KeyError, TypeError, ValueError, IndexError) as err:
             raise StorageError(f"run summary: malformed ({type(err).__name__}: {err})") from None
+
+
+def _revisits(v: JSONLike) -> dict[str, float | int | None] | None:
+    if v is None:
+        return None
+    o = _obj(v, "revisits")
+    n, ov, sh = o["n_relevant"], o["median_overlap"], o["median_shared_objects"]
+    return {
+        "n_relevant": _i(n),
+        "median_overlap": None if ov is None else float(ov),  # type: ignore[arg-type]
+        "median_shared_objects": None if sh is None else float(sh),  # type: ignore[arg-type]
+    }
 
 
 def _names(v: JSONLike) -> list[str]:
@@ -429,4 +447,5 @@ def compact_summary(
         robots,
         map_stats,
         frontend_summary(metrics.frontend),
+        None if not metrics.revisits else dict(metrics.revisits["all"]),
     )

@@ -479,6 +479,29 @@ def _paper_scale_claims(runs: Runs) -> list[Claim]:
     ]
 
 
+def _not_a_replay(runs: Runs) -> list[Claim]:
+    """Same-direction revisits share less than a replay of the same loop does (median overlap and
+    shared objects of the relevant cross-robot pairs); no claim unless both ran."""
+    replay = runs["same_direction_replay"].revisits if "same_direction_replay" in runs else None
+    revisit = runs["same_direction"].revisits if "same_direction" in runs else None
+    if replay is None or revisit is None:
+        return []
+    keys = ("median_overlap", "median_shared_objects")
+    held = all(_lt(_f(revisit[k]), _f(replay[k])) for k in keys)
+    text = (
+        "A same-direction revisit is not a replay: its relevant cross-robot pairs share a median overlap of "
+        f"{num(revisit['median_overlap'])} and {num(revisit['median_shared_objects'], 1)} objects "
+        f"({revisit['n_relevant']} pairs), against {num(replay['median_overlap'])} and "
+        f"{num(replay['median_shared_objects'], 1)} when the same loop is driven as a replay "
+        f"({replay['n_relevant']} pairs)."
+    )
+    return [_claim("revisit_not_replay", text, held)]
+
+
+def _f(v: float | int | None) -> float | None:
+    return None if v is None else float(v)
+
+
 def claims(runs: Runs, sweep: list[SweepRow]) -> list[Claim]:
     """Every claim the results page makes, with its wording and whether the data supports it."""
     return [
@@ -490,6 +513,7 @@ def claims(runs: Runs, sweep: list[SweepRow]) -> list[Claim]:
         *_ate_claims(runs),
         *_table1_claims(runs),
         *_paper_scale_claims(runs),
+        *_not_a_replay(runs),
         *_ambiguity(sweep),
     ]
 

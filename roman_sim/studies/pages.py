@@ -30,6 +30,7 @@ from roman_sim.studies.reference_tables import (
     frontends_markdown,
     operating_points_markdown,
     points_header,
+    revisits_markdown,
     table1_markdown,
 )
 
@@ -70,6 +71,7 @@ def results_block(summary: Summary) -> str:
         + table1_markdown(summary.get("table1") or [])
         + frontends_markdown(summary.get("frontends") or {})
         + operating_points_markdown(summary.get("operating_points") or [])
+        + revisits_markdown(summary.get("revisits") or [])
         + sweep_markdown(summary.get("ambiguity_sweep") or [])
         + "\n"
         + claims_markdown(summary["claims"])

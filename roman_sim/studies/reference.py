@@ -48,11 +48,14 @@ from roman_sim.studies.raw_data import write_packets, write_runtimes
 from roman_sim.studies.reference_tables import (
     FrontEndTable,
     PointRow,
+    RevisitRow,
     Table1Row,
     frontends,
     frontends_markdown,
     operating_points,
     operating_points_markdown,
+    revisits,
+    revisits_markdown,
     table1,
     table1_markdown,
 )
@@ -64,6 +67,7 @@ log = logging.getLogger(__name__)
 
 PAPER_SCENARIOS = [
     "same_direction",
+    "same_direction_replay",  # the same loop as a replay: what the revisit's offsets change
     "partial_opposite",
     "opposite_direction",
     "heading_sweep",
@@ -317,6 +321,7 @@ class ReferenceSummary(TypedDict):
     table1: list[Table1Row]
     frontends: FrontEndTable
     operating_points: list[PointRow]
+    revisits: list[RevisitRow]
     claims: list[Claim]
     ambiguity_sweep: list[SweepRow]
     paper: dict[str, float | dict[str, tuple[float, float, float]]]
@@ -331,6 +336,7 @@ def build_summary(runs: Runs, sweep: list[SweepRow]) -> ReferenceSummary:
         "table1": table1(runs),
         "frontends": frontends(runs),
         "operating_points": operating_points(runs),
+        "revisits": revisits(runs),
         "claims": claims(runs, sweep),
         "ambiguity_sweep": sweep,
         "paper": PAPER,
@@ -342,6 +348,7 @@ def _tables_markdown(summary: ReferenceSummary) -> str:
         table1_markdown(summary.get("table1") or [])
         + frontends_markdown(summary.get("frontends") or {})
         + operating_points_markdown(summary.get("operating_points") or [])
+        + revisits_markdown(summary.get("revisits") or [])
     )
 
 

@@ -326,3 +326,66 @@ def operating_points_markdown(rows: list[PointRow]) -> str:
         cells = point_cells(_recall(r["recall"]))
         lines.append(f"| {r['scenario']} | {r['method']} | {head} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+#: The scenarios of the revisit table, in its order: the replay first, then the revisits it is compared with.
+REVISIT_SCENARIOS = (
+    "same_direction_replay",
+    "same_direction",
+    "partial_opposite",
+    "opposite_direction",
+    "heading_sweep",
+)
+
+
+class RevisitRow(TypedDict):
+    """What one scenario's relevant cross-robot pairs share (``RunSummary.revisits``)."""
+
+    scenario: str
+    n_relevant: int
+    median_overlap: float | None
+    median_shared_objects: float | None
+
+
+def revisits(runs: Runs) -> list[RevisitRow]:
+    """One row per ``REVISIT_SCENARIOS`` scenario that ran and recorded its revisit figures."""
+    rows: list[RevisitRow] = []
+    for scen in (s for s in REVISIT_SCENARIOS if s in runs):
+        fig = runs[scen].revisits
+        if fig is None:
+            continue
+        ov, sh = fig["median_overlap"], fig["median_shared_objects"]
+        rows.append(
+            {
+                "scenario": scen,
+                "n_relevant": int(fig["n_relevant"] or 0),
+                "median_overlap": None if ov is None else float(ov),
+                "median_shared_objects": None if sh is None else float(sh),
+            }
+        )
+    return rows
+
+
+def revisits_markdown(rows: list[RevisitRow]) -> str:
+    """The revisit table as markdown (empty without rows)."""
+    if not rows:
+        return ""
+    lines = [
+        "",
+        "## Revisits: what relevant cross-robot pairs share",
+        "",
+        "Per scenario, over its relevant cross-robot submap pairs (true centres within 10 m): the median "
+        "overlap (true objects with a segment in both submaps over the smaller submap's objects) and the "
+        "median number of such shared objects. `same_direction_replay` drives `same_direction`'s loop as a "
+        "replay (both robots on the centre line, same start and speed); `same_direction` keeps each robot "
+        "to its own side of the track, starts b half way round and drives it slower.",
+        "",
+        "| scenario | relevant pairs | median overlap | median shared objects |",
+        "|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r['scenario']} | {r['n_relevant']} | {num(r['median_overlap'])} | "
+            f"{num(r['median_shared_objects'], 1)} |"
+        )
+    return "\n".join(lines) + "\n"

@@ -70,6 +70,7 @@ PAIR_FIELDS = (
     "kind",
     "center_dist_m",
     "heading_diff_deg",
+    "overlap",
     "shared_objects",
     "true_x_m",
     "true_y_m",
@@ -114,6 +115,7 @@ class Pair:
     kind: str
     center_dist_m: float
     heading_diff_deg: float
+    overlap: float
     shared_objects: int
     T_true: F64
     method: str
@@ -181,6 +183,7 @@ def read_pairs(path: Path) -> list[Pair]:
                 r["kind"],
                 float(r["center_dist_m"]),
                 float(r["heading_diff_deg"]),
+                float(r["overlap"]) if r["overlap"] not in ("", "nan") else math.nan,
                 int(r["shared_objects"]),
                 pose_4dof(float(r["true_x_m"]), float(r["true_y_m"]), float(r["true_z_m"]), float(r["true_yaw_rad"])),
                 r["method"],
@@ -537,6 +540,9 @@ def score_run(run_dir: str | Path) -> dict[str, JSONValue]:
             figures["runtime_median_s"] = statistics.median(runtimes[m]) if runtimes.get(m) else None
         methods[m] = figures
     out: dict[str, JSONValue] = {"methods": methods, "pairs": _pair_counts(pairs, judged)}
+    revisits = _revisits(pairs, judged)
+    if revisits is not None:
+        out["revisits"] = revisits
     if (d / "ate.json").is_file() and (d / "trajectories").is_dir():
         out["ate"], out["ate_robots"] = ate_figures(d)
     packets = map_figures(d)
@@ -593,6 +599,26 @@ def _pair_counts(pairs: Sequence[Pair], judged: Sequence[Judged]) -> dict[str, J
             "n_relevant": sum(1 for kind, rel in seen.values() if (k == "all" or kind == k) and rel),
         }
         for k in ("inter", "intra", "all")
+    }
+
+
+def _revisits(pairs: Sequence[Pair], judged: Sequence[Judged]) -> dict[str, JSONValue] | None:
+    """Median overlap and shared objects over the relevant cross-robot pairs (None without cross-robot pairs)."""
+    seen: dict[tuple[str, str], tuple[float, int]] = {}
+    inter = False
+    for p, j in zip(pairs, judged):
+        if p.kind == "inter":
+            inter = True
+            if j.relevant:
+                seen[(p.a, p.b)] = (p.overlap, p.shared_objects)
+    if not inter:
+        return None
+    overlaps = sorted(o for o, _ in seen.values() if not math.isnan(o))
+    shared = sorted(float(n) for _, n in seen.values())
+    return {
+        "n_relevant": len(seen),
+        "median_overlap": statistics.median(overlaps) if overlaps else None,
+        "median_shared_objects": statistics.median(shared) if shared else None,
     }
 
 

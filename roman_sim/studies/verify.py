@@ -120,6 +120,8 @@ def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[Evalu
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
     if stored.robot_pairs is None:  # written before the per-robot-pair counts were recorded
         metrics.robot_pairs = None
+    if stored.revisits is None:  # written before the revisit figures were recorded
+        metrics.revisits = None
     return metrics, diffs
 
 
@@ -195,8 +197,9 @@ def _has_points(node: Any) -> bool:
 def independent_check(run_dir: Path) -> list[str]:
     """Where the independent scorer's figures differ from the run's stored compact summary.
 
-    A run whose ``metrics.json`` predates the operating points gives a summary without them;
-    it is then compared without them (``verify_run`` says so).
+    A run whose ``metrics.json`` predates the operating points (or the revisit figures) gives a
+    summary without them; it is then compared without them (``verify_run`` says so for the
+    points).
     """
     from roman_sim.studies.scorer import agreement, score_run
 
@@ -204,6 +207,8 @@ def independent_check(run_dir: Path) -> list[str]:
     scored = score_run(run_dir)
     if not _has_points(stored):
         _drop_points(scored)
+    if isinstance(scored, dict) and "revisits" not in stored:
+        scored.pop("revisits", None)
     return agreement(stored, scored)
 
 

@@ -11,6 +11,7 @@ from roman_sim.evaluation.overlap import (
     counts_by_pair,
     overlap_graph,
     relevant_counts,
+    revisit_figures,
     revisit_overlap,
     robot_pair_counts,
 )
@@ -71,3 +72,39 @@ def test_revisit_overlap_from_submap_truth(make_submap):
     assert [(v.a, v.b) for v in by_objects.views] == [("a/0", "b/0"), ("a/0", "b/2")]
     assert revisit_overlap(subs, EvalConfig(), kind="intra").views == []
     assert np.isnan(revisit_overlap(subs[:1], EvalConfig()).median_overlap)
+
+
+def test_revisit_figures_by_hand():
+    nan = float("nan")
+    pairs = [
+        ("a", "b", True, 0.5, 4),
+        ("b", "a", True, 1.0, 10),  # the same robot pair, either order
+        ("a", "b", True, 0.25, 2),
+        ("a", "b", False, 0.9, 9),  # not relevant: left out
+        ("a", "a", True, 1.0, 12),  # same robot: left out
+        ("a", "c", True, nan, 0),  # counts, but gives no overlap
+    ]
+    got = revisit_figures(pairs)
+    assert list(got) == ["all", "a|b", "a|c"]
+    assert got["a|b"] == {"n_relevant": 3, "median_overlap": 0.5, "median_shared_objects": 4.0}
+    assert got["a|c"] == {"n_relevant": 1, "median_overlap": None, "median_shared_objects": 0.0}
+    # all: overlaps 0.5, 1.0, 0.25 (NaN left out) -> 0.5; shared 4, 10, 2, 0 -> 3
+    assert got["all"] == {"n_relevant": 4, "median_overlap": 0.5, "median_shared_objects": 3.0}
+    assert revisit_figures([("a", "a", True, 1.0, 3)]) == {}
+    assert revisit_figures([("a", "b", False, 1.0, 3)])["all"] == {
+        "n_relevant": 0,
+        "median_overlap": None,
+        "median_shared_objects": None,
+    }
+
+
+def test_metrics_record_revisit_figures_once_per_pair(make_score):
+    scores = [make_score(str(i), relevant=i < 3, n_assoc=5, correct=True, method=m) for i in range(5) for m in "xy"]
+    m = summary(scores)
+    assert m.revisits is not None  # one entry per pair, not per method
+    assert m.revisits["all"] == {"n_relevant": 3, "median_overlap": 0.5, "median_shared_objects": 0.0}
+    assert list(m.revisits) == ["all", "a|b"]
+    assert EvaluationMetrics.from_json(m.to_json()).revisits == m.revisits
+    old = m.to_json()
+    del old["revisits"]
+    assert EvaluationMetrics.from_json(old).revisits is None
