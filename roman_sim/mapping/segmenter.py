@@ -42,7 +42,7 @@ from roman_sim.core.errors import MappingError
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.sensors import Frame
-from roman_sim.mapping.mask import Mask, ellipse_kernel, scaled_px
+from roman_sim.mapping.mask import Mask, ellipse_kernel, erode_mask, scaled_px
 from roman_sim.mapping.mask_noise import neighbour_pairs, noisy_boundary, split_mask, spurious_blob
 from roman_sim.mapping.segmenter_errors import (
     ObjectTraits,
@@ -316,7 +316,7 @@ class SimulatedSegmenter:
         if not (A / self.cfg.min_area_div**2 <= area <= A / self.cfg.max_area_div**2):
             return None
         if sc.kernel is not None:
-            pix = ndimage.binary_erosion(pix, structure=sc.kernel, border_value=0)
+            pix = erode_mask(pix, sc.kernel)
         full = np.zeros(shape, dtype=bool)
         full[crop.r0 : crop.r0 + pix.shape[0], crop.c0 : crop.c0 + pix.shape[1]] = pix
         rows, cols = np.nonzero(pix)
