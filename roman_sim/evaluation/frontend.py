@@ -32,6 +32,7 @@ from roman_sim.evaluation.frontend_types import (
     GradeConfig,
     SegmentationGrades,
 )
+from roman_sim.mapping.frame_objects import FrameObjects, frame_objects
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import eroded_labels, masks_from_labels_reference
 
@@ -216,8 +217,9 @@ class FrontEndGrader:
         if any(np.asarray(m.pixels).dtype != np.bool_ for m in masks):
             return self._grade_masks_reference(frame, ids, masks)
         c, s = self.cfg, self.seg
-        lab = np.where(ids >= 0, ids + 1, 0).astype(np.int32)
-        counts = np.bincount(ids.ravel() + 1)  # label k = id k - 1 (0: background)
+        depth = np.asarray(frame.depth)
+        table = frame_objects(ids, depth)  # the segmenter's, when it read this frame's truth
+        lab, counts = table.labels, table.counts  # label k = id k - 1 (0: background)
         n_lab = len(counts)
         lo, hi = c.area_range(ids.shape)
         eroded = eroded_labels(lab, c.erosion_radius(ids.shape[1]))
@@ -226,7 +228,6 @@ class FrontEndGrader:
         counted[0] = False
         labels = np.flatnonzero(counted)  # the counted objects' labels, in id order
         objs = (labels - 1).tolist()
-        depth = np.asarray(frame.depth)
         s.frames += 1
         s.masks += len(masks)
         s.objects += len(objs)
@@ -270,39 +271,27 @@ class FrontEndGrader:
                 s.dist_matched_masks[mask_bin[i]] += 1
                 s.dist_iou_sum[mask_bin[i]] += float(v)
         s.over_segmented += int((n_belong >= 2).sum())
-        self._tables(depth, ids, lab, labels, counts, n_belong, matched)
+        self._tables(table, labels, n_belong, matched)
         return owner
 
     def _tables(
-        self,
-        depth: NDArray[np.float32],
-        ids: NDArray[np.int32],
-        lab: NDArray[np.int32],
-        labels: NDArray[np.int64],
-        counts: NDArray[np.int64],
-        n_belong: NDArray[np.int64],
-        matched: NDArray[np.bool_],
+        self, table: FrameObjects, labels: NDArray[np.int64], n_belong: NDArray[np.int64], matched: NDArray[np.bool_]
     ) -> None:
         """The area x distance tables and the touching pairs of the counted objects (labels ``labels``)."""
-        from scipy import ndimage
-
-        from roman_sim.mapping.mask_noise import neighbour_pairs
-
         s = self.seg
-        edges = self.cfg.area_edges_frac
-        area_bin = np.searchsorted(edges, counts[labels] / ids.size, side="right") - 1
+        edges, dist_edges = self.cfg.area_edges_frac, self.cfg.distance_edges_m
+        area_bin = np.searchsorted(edges, table.counts[labels] / table.ids.size, side="right") - 1
         np.minimum(area_bin, len(edges) - 2, out=area_bin)
-        boxes = ndimage.find_objects(lab, max_label=len(counts) - 1)
         for j, k in enumerate(labels.tolist()):
-            sl = boxes[k - 1]
-            di = self._bin(depth[sl][lab[sl] == k])  # the object's valid depths, found in its box
+            dist = table.depth_of(k - 1)  # the median of the object's valid depths (inf: none)
+            di = min(max(int(np.searchsorted(dist_edges, dist, side="right")) - 1, 0), len(dist_edges) - 1)
             ai = int(area_bin[j])
             s.table_objects[ai][di] += 1
             s.table_detected[ai][di] += int(n_belong[j] >= 1)
             s.table_matched[ai][di] += int(matched[j])
             s.table_over[ai][di] += int(n_belong[j] >= 2)
         counted = set((labels - 1).tolist())
-        s.touching_pairs += sum(1 for a, b in neighbour_pairs(ids, 0) if a in counted and b in counted)
+        s.touching_pairs += sum(1 for a, b in table.neighbour_pairs(0) if a in counted and b in counted)
 
     def _objects_reference(self, ids: NDArray[np.int32]) -> tuple[list[int], list[Mask], NDArray[np.int64]]:
         """Counted object ids, their eroded true masks, and raw pixel counts per id (index id + 1)."""
