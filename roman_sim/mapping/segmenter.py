@@ -265,7 +265,7 @@ class SimulatedSegmenter:
             dist = objs.depth_of(members[0]) if len(members) == 1 else median_depth(depth[sl], pix)
             dist = dist if np.isfinite(dist) else c.far_end_m
             small = max(0.0, 1.0 - area / (c.small_area_frac * A))
-            far = np.clip((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0, 1)
+            far = min(max((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0.0), 1.0)  # np.clip's value
             if rng.random() < min(1.0, c.miss_prob + c.miss_small_prob * small + c.miss_far_prob * far):
                 continue
             large = area > c.oversegment_min_area_frac * A

@@ -45,10 +45,16 @@ class SensorRenderer:
         rgb: whether ``render`` also returns an RGB image by default (costs one more pass;
             ``render(T, rgb=...)`` decides per frame).
         lighting: this camera's own lighting (``roman_sim.world.relight``); None: the world's.
+        cull: skip drawing the mesh geoms outside the frustum (the same images; False draws all).
     """
 
     def __init__(
-        self, world: World, camera_cfg: CameraConfig, rgb: bool = True, lighting: RobotLighting | None = None
+        self,
+        world: World,
+        camera_cfg: CameraConfig,
+        rgb: bool = True,
+        lighting: RobotLighting | None = None,
+        cull: bool = True,
     ) -> None:
         self.cfg = camera_cfg
         self.intrinsics: Intrinsics = camera_cfg.intrinsics()
@@ -83,7 +89,7 @@ class SensorRenderer:
         self._rgb_buf = np.empty((h, w, 3), dtype=np.uint8)
         self._rgba_buf = np.empty((h, w, 4), dtype=np.uint8)
         self._depth_buf = np.empty((h, w), dtype=np.float32)
-        self._cull = _FrustumCull(self._scene, self._ctx, self.intrinsics, self._near, self._far)
+        self._cull = _FrustumCull(self._scene, self._ctx, self.intrinsics, self._near, self._far, cull)
 
     def _build_scene(self) -> None:
         data = mujoco.MjData(self._model)
@@ -205,14 +211,16 @@ class _FrustumCull:
     side of the real one: a conservative test, it never drops a geom that could be seen.
     """
 
-    def __init__(self, scene: mujoco.MjvScene, ctx: mujoco.MjrContext, k: Intrinsics, near: float, far: float) -> None:
+    def __init__(
+        self, scene: mujoco.MjvScene, ctx: mujoco.MjrContext, k: Intrinsics, near: float, far: float, on: bool = True
+    ) -> None:
         self._scene = scene
         geoms = [scene.geoms[i] for i in range(scene.ngeom)]
         self._pos = np.array([g.pos for g in geoms], dtype=np.float64).reshape(-1, 3)
         self._radius = np.array([g.modelrbound for g in geoms], dtype=np.float64) * 1.01 + 1e-3
         self._dataid = np.array([g.dataid for g in geoms], dtype=np.int64)
         mesh = np.array([g.type == mujoco.mjtGeom.mjGEOM_MESH for g in geoms], dtype=bool)
-        self._cullable = mesh & (self._dataid >= 0)
+        self._cullable = mesh & (self._dataid >= 0) & on
         self._shown = np.ones(len(geoms), dtype=bool)
         self._near, self._far = near, far
         self._tan = np.array(
