@@ -34,7 +34,7 @@ def _extreme3(img: NDArray[np.float32], op: np.ufunc) -> NDArray[np.float32]:
     if img.ndim != 2 or img.dtype != np.float32 or np.isnan(img).any():
         return _filter3(img, op)
     morph = cv2.dilate if op is np.maximum else cv2.erode
-    return morph(img, _SQUARE3, borderType=cv2.BORDER_REPLICATE)
+    return np.asarray(morph(img, _SQUARE3, borderType=cv2.BORDER_REPLICATE), dtype=np.float32)
 
 
 def depth_edges(depth: NDArray[np.float32], jump_m: float) -> NDArray[np.bool_]:
