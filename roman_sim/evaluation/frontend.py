@@ -32,8 +32,9 @@ from roman_sim.evaluation.frontend_types import (
     GradeConfig,
     SegmentationGrades,
 )
+from roman_sim.mapping.frame_objects import FrameObjects, frame_objects
 from roman_sim.mapping.mask import Mask
-from roman_sim.mapping.mask_filter import masks_from_labels
+from roman_sim.mapping.mask_filter import eroded_labels, masks_from_labels_reference
 
 
 @dataclass
@@ -199,19 +200,6 @@ class FrontEndGrader:
             if desc is not None and owner[k] >= 0:
                 self._keep(frame, masks[k], int(owner[k]), desc)
 
-    def _objects(self, ids: NDArray[np.int32]) -> tuple[list[int], list[Mask], NDArray[np.int64]]:
-        """Counted object ids, their eroded true masks, and raw pixel counts per id (index id + 1)."""
-        counts = np.bincount(ids.ravel() + 1)
-        lab = np.where(ids >= 0, ids + 1, 0).astype(np.int32)
-        lo, hi = self.cfg.area_range(ids.shape)
-        eroded, kept = [], []
-        for m in masks_from_labels(lab, self.cfg):
-            oid = int(ids[m.pixels][0])
-            if lo <= counts[oid + 1] <= hi:
-                kept.append(oid)
-                eroded.append(m)
-        return kept, eroded, counts
-
     def _bin(self, d: NDArray[np.float32]) -> int:
         """Distance bin of the median of the valid depths ``d`` (none valid: the last, open bin)."""
         d = d[d > 0]
@@ -220,9 +208,108 @@ class FrontEndGrader:
         return min(max(di, 0), len(self.cfg.distance_edges_m) - 1)
 
     def _grade_masks(self, frame: Frame, ids: NDArray[np.int32], masks: list[Mask]) -> NDArray[np.int64]:
-        """Update the segmentation counts; return each mask's owner id (-1 background or mixed)."""
+        """Update the segmentation counts; return each mask's owner id (-1 background or mixed).
+
+        The true masks are eroded all at once (``eroded_labels``) and every mask's overlaps with
+        the objects and with their eroded masks are two ``np.bincount`` of the labels under it:
+        the same counts as ``_grade_masks_reference``, which scans one object at a time.
+        """
+        if any(np.asarray(m.pixels).dtype != np.bool_ for m in masks):
+            return self._grade_masks_reference(frame, ids, masks)
         c, s = self.cfg, self.seg
-        objs, eroded, counts = self._objects(ids)
+        depth = np.asarray(frame.depth)
+        table = frame_objects(ids, depth)  # the segmenter's, when it read this frame's truth
+        lab, counts = table.labels, table.counts  # label k = id k - 1 (0: background)
+        n_lab = len(counts)
+        lo, hi = c.area_range(ids.shape)
+        eroded = eroded_labels(lab, c.erosion_radius(ids.shape[1]))
+        e_area = np.bincount(eroded.ravel(), minlength=n_lab)
+        counted = (counts >= lo) & (counts <= hi) & (e_area > 0)
+        counted[0] = False
+        labels = np.flatnonzero(counted)  # the counted objects' labels, in id order
+        objs = (labels - 1).tolist()
+        s.frames += 1
+        s.masks += len(masks)
+        s.objects += len(objs)
+        col = {o: j for j, o in enumerate(objs)}
+        owner = np.full(len(masks), -1, dtype=np.int64)
+        mask_bin = np.zeros(len(masks), dtype=np.int64)
+        iou = np.zeros((len(masks), len(objs)))
+        n_belong = np.zeros(len(objs), dtype=np.int64)
+        for i, m in enumerate(masks):
+            r0, r1, c0, c1 = m.bbox  # type: ignore[misc]
+            pix = m.pixels[r0:r1, c0:c1]
+            under = lab[r0:r1, c0:c1][pix]
+            n_pix = len(under)
+            mask_bin[i] = self._bin(depth[r0:r1, c0:c1][pix])
+            if n_pix:
+                n = np.bincount(under, minlength=n_lab)
+                top = int(np.argmax(n))  # the first largest count: np.unique's order
+                if n[top] >= c.belong_frac * n_pix:
+                    owner[i] = top - 1
+                if owner[i] < 0 and top == 0:
+                    s.spurious += 1
+                covered = n[labels] >= c.cover_frac * counts[labels]
+                covered &= n[labels] > 0
+                s.under_segmented += int(np.count_nonzero(covered) >= 2)
+                inter = np.bincount(eroded[r0:r1, c0:c1][pix], minlength=n_lab)[labels]
+                hit = np.flatnonzero(inter)
+                iou[i, hit] = inter[hit] / (n_pix + e_area[labels[hit]] - inter[hit])
+            if owner[i] in col or owner[i] < 0:
+                s.graded_masks += 1
+                s.dist_graded_masks[mask_bin[i]] += 1
+            if owner[i] in col:
+                n_belong[col[owner[i]]] += 1
+        matched = np.zeros(len(objs), dtype=bool)
+        if len(masks) and len(objs):
+            rows, cols = linear_sum_assignment(-iou)
+            ok = iou[rows, cols] >= c.iou_match
+            matched[cols[ok]] = True
+            s.matched += int(ok.sum())
+            s.iou_sum += float(iou[rows, cols][ok].sum())
+            for i, v in zip(rows[ok].tolist(), iou[rows, cols][ok].tolist()):
+                s.dist_matched_masks[mask_bin[i]] += 1
+                s.dist_iou_sum[mask_bin[i]] += float(v)
+        s.over_segmented += int((n_belong >= 2).sum())
+        self._tables(table, labels, n_belong, matched)
+        return owner
+
+    def _tables(
+        self, table: FrameObjects, labels: NDArray[np.int64], n_belong: NDArray[np.int64], matched: NDArray[np.bool_]
+    ) -> None:
+        """The area x distance tables and the touching pairs of the counted objects (labels ``labels``)."""
+        s = self.seg
+        edges, dist_edges = self.cfg.area_edges_frac, self.cfg.distance_edges_m
+        area_bin = np.searchsorted(edges, table.counts[labels] / table.ids.size, side="right") - 1
+        np.minimum(area_bin, len(edges) - 2, out=area_bin)
+        for j, k in enumerate(labels.tolist()):
+            dist = table.depth_of(k - 1)  # the median of the object's valid depths (inf: none)
+            di = min(max(int(np.searchsorted(dist_edges, dist, side="right")) - 1, 0), len(dist_edges) - 1)
+            ai = int(area_bin[j])
+            s.table_objects[ai][di] += 1
+            s.table_detected[ai][di] += int(n_belong[j] >= 1)
+            s.table_matched[ai][di] += int(matched[j])
+            s.table_over[ai][di] += int(n_belong[j] >= 2)
+        counted = set((labels - 1).tolist())
+        s.touching_pairs += sum(1 for a, b in table.neighbour_pairs(0) if a in counted and b in counted)
+
+    def _objects_reference(self, ids: NDArray[np.int32]) -> tuple[list[int], list[Mask], NDArray[np.int64]]:
+        """Counted object ids, their eroded true masks, and raw pixel counts per id (index id + 1)."""
+        counts = np.bincount(ids.ravel() + 1)
+        lab = np.where(ids >= 0, ids + 1, 0).astype(np.int32)
+        lo, hi = self.cfg.area_range(ids.shape)
+        eroded, kept = [], []
+        for m in masks_from_labels_reference(lab, self.cfg):
+            oid = int(ids[m.pixels][0])
+            if lo <= counts[oid + 1] <= hi:
+                kept.append(oid)
+                eroded.append(m)
+        return kept, eroded, counts
+
+    def _grade_masks_reference(self, frame: Frame, ids: NDArray[np.int32], masks: list[Mask]) -> NDArray[np.int64]:
+        """``_grade_masks`` with one eroded true mask per object and per-object image scans."""
+        c, s = self.cfg, self.seg
+        objs, eroded, counts = self._objects_reference(ids)
         depth = np.asarray(frame.depth)
         s.frames += 1
         s.masks += len(masks)
@@ -265,10 +352,10 @@ class FrontEndGrader:
                 s.dist_matched_masks[mask_bin[i]] += 1
                 s.dist_iou_sum[mask_bin[i]] += float(v)
         s.over_segmented += int((n_belong >= 2).sum())
-        self._tables(depth, ids, objs, counts, n_belong, matched)
+        self._tables_reference(depth, ids, objs, counts, n_belong, matched)
         return owner
 
-    def _tables(
+    def _tables_reference(
         self,
         depth: NDArray[np.float32],
         ids: NDArray[np.int32],

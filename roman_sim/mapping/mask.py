@@ -60,6 +60,18 @@ class Segmenter(Protocol):
         ...
 
 
+def erode_mask(pix: NDArray[np.bool_], kernel: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Binary erosion of ``pix`` by the symmetric ``kernel``, pixels outside the image empty.
+
+    OpenCV's erosion: the bits of ``scipy.ndimage.binary_erosion(pix, kernel, border_value=0)``.
+    """
+    import cv2  # imported on use: loading a configuration should not import OpenCV
+
+    u = np.ascontiguousarray(pix, dtype=bool).view(np.uint8)
+    out = cv2.erode(u, kernel.astype(np.uint8), borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return out.view(bool)
+
+
 def ellipse_kernel(radius: int) -> NDArray[np.bool_]:
     """Elliptical (disk) structuring element of size 2*radius+1."""
     yy, xx = np.mgrid[-radius : radius + 1, -radius : radius + 1]

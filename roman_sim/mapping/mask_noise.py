@@ -68,6 +68,30 @@ def split_mask(pix: NDArray[np.bool_], quantile: float) -> list[NDArray[np.bool_
     return [first, pix & ~first]
 
 
+def boundary_band(pix: NDArray[np.bool_], width: int) -> NDArray[np.bool_]:
+    """Pixels within ``width`` (chessboard distance) of the boundary of ``pix`` (outside counts as empty).
+
+    Where the maximum and the minimum of the (2 width + 1)-square window differ; OpenCV's
+    dilation and erosion give the bits of ``boundary_band_reference`` (scipy's filters).
+    """
+    import cv2  # imported on use: loading a configuration should not import OpenCV
+
+    u = np.ascontiguousarray(pix).view(np.uint8)
+    square = np.ones((2 * width + 1, 2 * width + 1), dtype=np.uint8)
+    hi = cv2.dilate(u, square, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    lo = cv2.erode(u, square, borderType=cv2.BORDER_CONSTANT, borderValue=0)
+    return hi != lo
+
+
+def boundary_band_reference(pix: NDArray[np.bool_], width: int) -> NDArray[np.bool_]:
+    """``boundary_band`` by scipy's maximum and minimum filters."""
+    u = pix.view(np.uint8)
+    size = 2 * width + 1  # square window: separable min/max filters are cheap
+    return ndimage.maximum_filter(u, size=size, mode="constant") != ndimage.minimum_filter(
+        u, size=size, mode="constant"
+    )
+
+
 def noisy_boundary(pix: NDArray[np.bool_], width: int, rng: np.random.Generator) -> NDArray[np.bool_]:
     """Flip random pixels within ``width`` (chessboard distance) of the boundary, each with p = 0.5.
 
@@ -75,11 +99,7 @@ def noisy_boundary(pix: NDArray[np.bool_], width: int, rng: np.random.Generator)
     """
     if not np.any(pix):
         return pix
-    u = pix.view(np.uint8)
-    size = 2 * width + 1  # square window: separable min/max filters are cheap
-    band = ndimage.maximum_filter(u, size=size, mode="constant") != ndimage.minimum_filter(
-        u, size=size, mode="constant"
-    )
+    band = boundary_band(pix, width)
     idx = np.flatnonzero(band)
     out = pix.copy()
     flat = out.reshape(-1)

@@ -28,22 +28,21 @@ Presets live in ``SEGMENTERS``.
 from __future__ import annotations
 
 import logging
-import math
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field
-from scipy import ndimage
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import MappingError
 from roman_sim.core.registry import Registry
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.sensors import Frame
-from roman_sim.mapping.mask import Mask, ellipse_kernel, scaled_px
-from roman_sim.mapping.mask_noise import neighbour_pairs, noisy_boundary, split_mask, spurious_blob
+from roman_sim.mapping.frame_objects import FrameObjects, frame_objects, median_depth
+from roman_sim.mapping.mask import Mask, ellipse_kernel, erode_mask, scaled_px
+from roman_sim.mapping.mask_noise import noisy_boundary, split_mask, spurious_blob
 from roman_sim.mapping.segmenter_errors import (
     ObjectTraits,
     max_merge_gap_px,
@@ -122,35 +121,6 @@ class _Crop:
     r0: int
     c0: int
     ids: tuple[int, ...]
-
-
-@dataclass
-class _FrameObjects:
-    """The objects of one frame: pixel counts (index id + 1), windows by id, ids present, median depths."""
-
-    ids: NDArray[np.int32]
-    depth: NDArray[np.float32]
-    counts: NDArray[np.int64]
-    slices: dict[int, tuple[slice, slice]]
-    present: list[int]
-    _depths: dict[int, float]
-
-    @classmethod
-    def of(cls, ids: NDArray[np.int32], depth: NDArray[np.float32]) -> _FrameObjects:
-        """The objects of the instance image ``ids``."""
-        lab = ids.astype(np.int64) + 1
-        counts = np.bincount(lab.ravel())
-        found = ndimage.find_objects(lab)
-        present = [int(i) - 1 for i in np.flatnonzero(counts[1:]) + 1]
-        slices = {o: found[o] for o in present}  # label o + 1 sits at index o
-        return cls(ids, depth, counts, slices, present, {})
-
-    def depth_of(self, o: int) -> float:
-        """Median valid depth of object ``o`` (inf without valid depth; computed once, on demand)."""
-        if o not in self._depths:
-            sl = self.slices[o]
-            self._depths[o] = _median_depth(self.depth[sl], self.ids[sl] == o)
-        return self._depths[o]
 
 
 @dataclass
@@ -245,13 +215,13 @@ class SimulatedSegmenter:
         ids = np.asarray(frame.truth.object_ids) if frame.truth is not None else None
         if ids is None or ids.size == 0:
             return []
-        return self._candidates(ids, _FrameObjects.of(ids, np.asarray(frame.depth)))
+        return self._candidates(ids, frame_objects(ids, np.asarray(frame.depth)))
 
-    def _candidates(self, ids: NDArray[np.int32], objs: _FrameObjects) -> list[tuple[int, int, float]]:
+    def _candidates(self, ids: NDArray[np.int32], objs: FrameObjects) -> list[tuple[int, int, float]]:
         max_gap = max_merge_gap_px(self.cfg, ids.shape[1])
         if max_gap < 0:
             return []
-        gaps = neighbour_pairs(ids, max_gap)
+        gaps = objs.neighbour_pairs(max_gap)
         out = []
         far = self.cfg.far_end_m  # an object without valid depth lies beyond the range: count it there
         for (a, b), gap in gaps.items():
@@ -261,7 +231,7 @@ class SimulatedSegmenter:
                 out.append((a, b, p))
         return out
 
-    def _groups(self, ids: NDArray[np.int32], objs: _FrameObjects, rng: np.random.Generator) -> list[tuple[int, ...]]:
+    def _groups(self, ids: NDArray[np.int32], objs: FrameObjects, rng: np.random.Generator) -> list[tuple[int, ...]]:
         """Object groups after under-segmentation (``last_merges`` keeps the merged pairs)."""
         groups = {i: {i} for i in objs.present}
         for a, b, p in self._candidates(ids, objs):
@@ -277,8 +247,8 @@ class SimulatedSegmenter:
     ) -> list[_Crop]:
         c = self.cfg
         A = ids.size
-        objs = _FrameObjects.of(ids, depth)
-        counts, slices = objs.counts, objs.slices
+        objs = frame_objects(ids, depth)
+        counts, box = objs.counts, objs.box
         R_world_cam = None
         if (c.view_split_frac > 0 or c.partial_frac > 0) and frame.truth is not None:
             R_world_cam = (np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam))[:3, :3]
@@ -288,15 +258,14 @@ class SimulatedSegmenter:
             if area < A / c.min_area_div**2 / 2:
                 continue  # far below the area filter even after boundary noise
             rows_sl, cols_sl = (
-                slice(min(slices[m][d].start for m in members), max(slices[m][d].stop for m in members))
-                for d in range(2)
+                slice(min(box(m)[d].start for m in members), max(box(m)[d].stop for m in members)) for d in range(2)
             )
             sl = (rows_sl, cols_sl)
             pix = ids[sl] == members[0] if len(members) == 1 else np.isin(ids[sl], members)
-            dist = objs.depth_of(members[0]) if len(members) == 1 else _median_depth(depth[sl], pix)
+            dist = objs.depth_of(members[0]) if len(members) == 1 else median_depth(depth[sl], pix)
             dist = dist if np.isfinite(dist) else c.far_end_m
             small = max(0.0, 1.0 - area / (c.small_area_frac * A))
-            far = np.clip((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0, 1)
+            far = min(max((dist - c.far_start_m) / max(c.far_end_m - c.far_start_m, 1e-9), 0.0), 1.0)  # np.clip's value
             if rng.random() < min(1.0, c.miss_prob + c.miss_small_prob * small + c.miss_far_prob * far):
                 continue
             large = area > c.oversegment_min_area_frac * A
@@ -316,7 +285,7 @@ class SimulatedSegmenter:
         if not (A / self.cfg.min_area_div**2 <= area <= A / self.cfg.max_area_div**2):
             return None
         if sc.kernel is not None:
-            pix = ndimage.binary_erosion(pix, structure=sc.kernel, border_value=0)
+            pix = erode_mask(pix, sc.kernel)
         full = np.zeros(shape, dtype=bool)
         full[crop.r0 : crop.r0 + pix.shape[0], crop.c0 : crop.c0 + pix.shape[1]] = pix
         rows, cols = np.nonzero(pix)
@@ -329,10 +298,3 @@ class SimulatedSegmenter:
             crop.c0 + int(cols.max()) + 1,
         )
         return Mask(full, tuple(crop.ids), bbox)
-
-
-def _median_depth(depth: NDArray[np.float32], pix: NDArray[np.bool_]) -> float:
-    """Median valid depth under ``pix`` (inf without valid depth)."""
-    d = depth[pix]
-    d = d[d > 0]
-    return float(np.median(d)) if len(d) else math.inf

@@ -4,6 +4,12 @@ The world is static, so the MuJoCo scene is built once (``mjv_updateScene``); ea
 only overwrites the OpenGL camera (pose and an off-centre frustum matching the pinhole
 intrinsics) and renders. Depth and instance ids come from one segmentation pass (the
 depth buffer and the id colours are read together); RGB is a second pass when asked for.
+
+The software rasteriser spends most of a pass transforming vertices, so mesh geoms whose
+bounding sphere lies wholly outside the camera's frustum are not drawn (their display list
+is skipped: ``dataid`` -1). Such a geom gives no fragment, so the images are the same bits.
+The RGB pass culls too unless something outside the frustum can show in it: a shadow map
+or a reflective geom.
 """
 
 from __future__ import annotations
@@ -11,6 +17,7 @@ from __future__ import annotations
 import logging
 from typing import TYPE_CHECKING
 
+import cv2
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
@@ -38,10 +45,16 @@ class SensorRenderer:
         rgb: whether ``render`` also returns an RGB image by default (costs one more pass;
             ``render(T, rgb=...)`` decides per frame).
         lighting: this camera's own lighting (``roman_sim.world.relight``); None: the world's.
+        cull: skip drawing the mesh geoms outside the frustum (the same images; False draws all).
     """
 
     def __init__(
-        self, world: World, camera_cfg: CameraConfig, rgb: bool = True, lighting: RobotLighting | None = None
+        self,
+        world: World,
+        camera_cfg: CameraConfig,
+        rgb: bool = True,
+        lighting: RobotLighting | None = None,
+        cull: bool = True,
     ) -> None:
         self.cfg = camera_cfg
         self.intrinsics: Intrinsics = camera_cfg.intrinsics()
@@ -74,7 +87,9 @@ class SensorRenderer:
             apply_lighting(model, self._scene, self._ctx, lighting)
         self._seg_lut = self._segid_to_object(world.truth.geom_to_object(model.ngeom))
         self._rgb_buf = np.empty((h, w, 3), dtype=np.uint8)
+        self._rgba_buf = np.empty((h, w, 4), dtype=np.uint8)
         self._depth_buf = np.empty((h, w), dtype=np.float32)
+        self._cull = _FrustumCull(self._scene, self._ctx, self.intrinsics, self._near, self._far, cull)
 
     def _build_scene(self) -> None:
         data = mujoco.MjData(self._model)
@@ -132,9 +147,11 @@ class SensorRenderer:
             raise SimError("render: renderer is closed")
         self._gl.make_current()
         self._set_camera(T_world_cam)
+        self._cull.show(np.asarray(T_world_cam, dtype=np.float64), rgb_pass=False)
         depth, ids = self._render_depth_ids()
         if not (self.rgb if rgb is None else rgb):
             return None, depth, ids
+        self._cull.show(np.asarray(T_world_cam, dtype=np.float64), rgb_pass=True)
         mujoco.mjr_render(self._rect, self._scene, self._ctx)
         mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
         return self._rgb_buf[::-1].copy(), depth, ids
@@ -149,12 +166,13 @@ class SensorRenderer:
             mujoco.mjr_readPixels(self._rgb_buf, self._depth_buf, self._rect, self._ctx)
         finally:
             np.copyto(flags, saved)
-        buf = self._rgb_buf[::-1]  # OpenGL rows run bottom-up
-        seg = buf[..., 0].astype(np.uint32)
-        seg |= buf[..., 1].astype(np.uint32) << 8
-        seg |= buf[..., 2].astype(np.uint32) << 16
+        # id colour (r, g, b) -> r | g << 8 | b << 16: as RGBA, one little-endian uint32 per pixel
+        cv2.cvtColor(self._rgb_buf, cv2.COLOR_RGB2RGBA, dst=self._rgba_buf)
+        seg = self._rgba_buf.view("<u4")[..., 0]
+        seg &= 0xFFFFFF
         np.minimum(seg, len(self._seg_lut) - 1, out=seg)
-        return self._linear_depth(self._depth_buf[::-1]), self._seg_lut[seg]
+        # OpenGL rows run bottom-up
+        return self._linear_depth(self._depth_buf[::-1]), self._seg_lut.take(seg[::-1])
 
     def _linear_depth(self, zbuf: NDArray[np.float32]) -> NDArray[np.float32]:
         """Reversed-Z depth buffer (1 near, 0 far) -> metric depth; far/sky -> 0."""
@@ -162,9 +180,12 @@ class SensorRenderer:
         c = -(f + n) / (f - n)
         d = -(np.float32(2) * f * n) / (f - n)
         c, d = np.float32(-0.5) * c - np.float32(0.5), np.float32(-0.5) * d
+        depth = zbuf + c
         with np.errstate(divide="ignore"):
-            depth = d / (zbuf + c)
-        depth[(zbuf <= 0) | (depth >= f * np.float32(0.999))] = 0.0
+            np.divide(d, depth, out=depth)
+        far = zbuf <= 0
+        far |= depth >= f * np.float32(0.999)
+        depth[far] = 0.0
         return depth.astype(np.float32, copy=False)
 
     def close(self) -> None:
@@ -180,3 +201,55 @@ class SensorRenderer:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class _FrustumCull:
+    """Skips drawing the mesh geoms of a static scene that lie outside the camera's frustum.
+
+    A geom is kept when its bounding sphere (``modelrbound`` about its centre, grown by 1 % and
+    1 mm) reaches into the frustum, tested against a symmetric frustum as wide as the widest
+    side of the real one: a conservative test, it never drops a geom that could be seen.
+    """
+
+    def __init__(
+        self, scene: mujoco.MjvScene, ctx: mujoco.MjrContext, k: Intrinsics, near: float, far: float, on: bool = True
+    ) -> None:
+        self._scene = scene
+        geoms = [scene.geoms[i] for i in range(scene.ngeom)]
+        self._pos = np.array([g.pos for g in geoms], dtype=np.float64).reshape(-1, 3)
+        self._radius = np.array([g.modelrbound for g in geoms], dtype=np.float64) * 1.01 + 1e-3
+        self._dataid = np.array([g.dataid for g in geoms], dtype=np.int64)
+        mesh = np.array([g.type == mujoco.mjtGeom.mjGEOM_MESH for g in geoms], dtype=bool)
+        self._cullable = mesh & (self._dataid >= 0) & on
+        self._shown = np.ones(len(geoms), dtype=bool)
+        self._near, self._far = near, far
+        self._tan = np.array(
+            [
+                max(abs(-0.5 - k.cx), abs(k.width - 0.5 - k.cx)) / k.fx,
+                max(abs(-0.5 - k.cy), abs(k.height - 0.5 - k.cy)) / k.fy,
+            ]
+        )
+        self._norm = np.hypot(1.0, self._tan)
+        reflective = any(
+            g.type in (mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_BOX) and g.reflectance > 0 for g in geoms
+        )
+        shadows = bool(ctx.shadowFBO) and bool(scene.flags[mujoco.mjtRndFlag.mjRND_SHADOW])
+        self._rgb_ok = not (reflective or shadows)
+        log.debug("frustum culling of %d mesh geoms (RGB pass too: %s)", int(self._cullable.sum()), self._rgb_ok)
+
+    def visible(self, T_world_cam: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Geoms to draw from the camera pose ``T_world_cam`` (RDF optical frame)."""
+        p = (self._pos - T_world_cam[:3, 3]) @ T_world_cam[:3, :3]
+        r = self._radius
+        z = p[:, 2]
+        inside = (z + r >= self._near) & (z - r <= self._far)
+        for axis in (0, 1):
+            inside &= (np.abs(p[:, axis]) - self._tan[axis] * z) / self._norm[axis] <= r
+        return inside | ~self._cullable
+
+    def show(self, T_world_cam: NDArray[np.float64], rgb_pass: bool) -> None:
+        """Draw the visible geoms only (every geom in an RGB pass that may not cull)."""
+        want = self.visible(T_world_cam) if self._rgb_ok or not rgb_pass else np.ones_like(self._shown)
+        for i in np.flatnonzero(want != self._shown).tolist():
+            self._scene.geoms[i].dataid = int(self._dataid[i]) if want[i] else -1
+        self._shown = want

@@ -108,3 +108,67 @@ def test_largest_cluster_by_keys_is_the_k_d_tree_one() -> None:
     np.testing.assert_array_equal(
         segment_mod.largest_cluster(tie, 0.25), segment_mod.largest_cluster_reference(tie, 0.25)
     )
+
+
+def test_front_end_grades_and_masks_match_their_reference_paths(demo_frames, monkeypatch) -> None:
+    """Segmenter (OpenCV morphology, shared object table) and grader (one eroded label image)
+    against the scipy filters and the per-object grading, frame by frame."""
+    from scipy import ndimage
+
+    from roman_sim.evaluation.frontend import FrontEndGrader
+    from roman_sim.mapping import frame_objects as fo_mod
+    from roman_sim.mapping import mask_noise
+    from roman_sim.mapping import segmenter as seg_mod
+
+    sc, families, frames = demo_frames
+    fast_seg = build_segmenter(sc.frontend, seed=sc.seed, robot="a")
+    fast, ref = FrontEndGrader(families, seed=1), FrontEndGrader(families, seed=1)
+    ref._grade_masks = ref._grade_masks_reference  # type: ignore[method-assign]
+    masks_fast = []
+    for f in frames:
+        masks = fast_seg.segment(f)
+        masks_fast.append(masks)
+        fast.add(f, masks, [])  # the segmenter's object table, handed on
+        ref.add(f, masks, [])
+    assert fast.seg.to_json() == ref.seg.to_json()
+    assert fast.seg.matched > 200 and fast.seg.touching_pairs > 50 and fast.seg.under_segmented > 0
+
+    with monkeypatch.context() as m:
+        m.setattr(mask_noise, "boundary_band", mask_noise.boundary_band_reference)
+        m.setattr(seg_mod, "erode_mask", lambda pix, k: ndimage.binary_erosion(pix, structure=k, border_value=0))
+        m.setattr(fo_mod, "_recent", fo_mod.deque(maxlen=0))  # no table kept: each caller builds its own
+        ref_seg = build_segmenter(sc.frontend, seed=sc.seed, robot="a")
+        for f, masks in zip(frames, masks_fast, strict=True):
+            again = ref_seg.segment(f)
+            assert [(a.bbox, a.object_ids) for a in masks] == [(b.bbox, b.object_ids) for b in again]
+            for a, b in zip(masks, again):
+                np.testing.assert_array_equal(a.pixels, b.pixels)
+
+
+def test_label_erosion_matches_the_per_label_reference(demo_frames) -> None:
+    from roman_sim.mapping.frame_objects import FrameObjects
+    from roman_sim.mapping.mask_filter import (
+        MaskFilterConfig,
+        eroded_labels,
+        masks_from_labels,
+        masks_from_labels_reference,
+    )
+    from roman_sim.mapping.mask_noise import neighbour_pairs
+
+    _, _, frames = demo_frames
+    for f in frames[::12]:
+        ids = np.asarray(f.truth.object_ids)
+        labels = (ids + 1).astype(np.int32)
+        for px in (0, 4, 8, 12):
+            cfg = MaskFilterConfig(erosion_px=px)
+            fast, ref = masks_from_labels(labels, cfg), masks_from_labels_reference(labels, cfg)
+            assert [m.bbox for m in fast] == [m.bbox for m in ref] and len(fast) > 0
+            for a, b in zip(fast, ref):
+                np.testing.assert_array_equal(a.pixels, b.pixels)
+            r = cfg.erosion_radius(labels.shape[1])
+            big = np.where(labels > 0, labels + 70000, 0)  # beyond 16 bits: the offset-by-offset path
+            small = eroded_labels(labels, r)
+            np.testing.assert_array_equal(eroded_labels(big, r), np.where(small > 0, small + 70000, 0))
+        table = FrameObjects.of(ids, np.asarray(f.depth))
+        wide = table.neighbour_pairs(5)
+        assert table.neighbour_pairs(0) == neighbour_pairs(ids, 0) and wide == neighbour_pairs(ids, 5)
