@@ -19,10 +19,12 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from multiprocessing import forkserver
 from typing import TypeVar
 
@@ -58,8 +60,47 @@ class SerialExecutor(Executor):
             yield i, fn(*a)
 
 
+#: Environment variables that size the thread pools of the libraries tasks use: OpenMP, OpenBLAS,
+#: MKL, OpenCV and Mesa's software renderer (llvmpipe).
+THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OPENCV_FOR_THREADS_NUM", "LP_NUM_THREADS")
+#: The forkserver's preload: the modules tasks use (``roman_sim.pipeline.worker_preload``).
+PRELOAD = "roman_sim.pipeline.worker_preload"
+
+
+def threads_per_worker(workers: int) -> int:
+    """Threads each library may start in one of ``workers`` workers: this machine's cores shared out, at least 1."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, cores // max(1, workers))
+
+
+@contextmanager
+def thread_limits(workers: int) -> Iterator[None]:
+    """``THREAD_VARS`` set to ``threads_per_worker(workers)`` inside the block (those the user set are kept).
+
+    Processes started inside the block (the forkserver, hence every worker) size their
+    libraries' thread pools by it, so ``workers`` workers do not each start a thread per
+    core and fight over the cores. Thread counts change no result.
+    """
+    n = str(threads_per_worker(workers))
+    added = [v for v in THREAD_VARS if v not in os.environ]
+    os.environ.update({v: n for v in added})
+    try:
+        yield
+    finally:
+        for v in added:
+            os.environ.pop(v, None)
+
+
 class LocalPoolExecutor(Executor):
     """A pool of worker processes on this machine (``forkserver``: no threads or GL state are forked).
+
+    The forkserver imports the modules tasks use once (``roman_sim.pipeline.worker_preload``)
+    and every worker is forked from it with them; ``start`` launches it ahead of the first
+    task so that it imports while the caller works on. Workers size their libraries' thread
+    pools to their share of the cores (``thread_limits``).
 
     Workers die with the main process however it ends (``roman_sim.pipeline.lifeline``). An
     interrupt (or the caller abandoning ``run_tasks``) cancels the pending tasks and ends the
@@ -81,14 +122,20 @@ class LocalPoolExecutor(Executor):
     def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
             ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload(["roman_sim.pipeline.tasks"])
-            with sigint_ignored(), parent_sys_path():  # Ctrl-C ignored while it imports; this process's modules
+            ctx.set_forkserver_preload([PRELOAD])
+            # Ctrl-C ignored while it imports; this process's modules; the workers' thread counts
+            with sigint_ignored(), parent_sys_path(), thread_limits(self.workers):
                 forkserver.ensure_running()
             self._lifeline = Lifeline(ctx)
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers, mp_context=ctx, initializer=worker_init, initargs=(self._lifeline.reader,)
             )
         return self._pool
+
+    def start(self) -> None:
+        """Launch the forkserver (it imports the tasks' modules in the background; workers fork on the first task)."""
+        with signals_deferred():
+            self._get_pool()
 
     def run_tasks(
         self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
@@ -176,5 +223,7 @@ __all__ = [
     "TaskError",
     "guarded",
     "open_executor",
+    "thread_limits",
+    "threads_per_worker",
     "worker_name",
 ]

@@ -201,6 +201,8 @@ class Experiment:
         manifest = self._start_manifest(old, keys, reuse, active)
         needed = {i for s in active if s.name not in reuse for i in s.inputs} | set(RESULT_STAGES)
         timings = self._old_timings(reuse)
+        if any(s.uses_workers for s in active if s.name not in reuse):
+            ex.start()  # the workers start up while the stages before their first task (the world) run
         outputs: dict[str, StageOutput] = {}
         for stage in active:
             if stage.name in reuse:

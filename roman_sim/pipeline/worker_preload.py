@@ -1,0 +1,58 @@
+"""What a local pool's forkserver imports before it forks a worker: the modules the run's tasks use.
+
+The local pool names this module as the forkserver's preload
+(``roman_sim.pipeline.executors.LocalPoolExecutor``). Every worker is forked from the
+forkserver with these modules already imported, so no worker imports them again (seconds of
+CPU each), and the forkserver imports them while the run's own process generates the world.
+Best effort: a module that fails to import here (a missing optional package, a capped
+address space) is skipped, and the task that needs it imports it itself and fails there with
+its own error. Nothing here starts a thread or an OpenGL context.
+"""
+
+from __future__ import annotations
+
+import importlib
+import logging
+
+log = logging.getLogger(__name__)
+
+#: What mapping, alignment and plotting tasks import (the world's modules too: a pool task
+#: receives the world pickled).
+MODULES = (
+    "roman_sim.pipeline.tasks",
+    "roman_sim.pipeline.context",
+    "roman_sim.pipeline.robot_mapping",
+    "roman_sim.world",
+    "roman_sim.sim.robot",
+    "roman_sim.sim.render",
+    "roman_sim.align",
+    "roman_sim.align.clipper_jit",
+    "roman_sim.align.visual.aligner",
+    "roman_sim.report.render",
+    "roman_sim.report.examples",
+    "roman_sim.report.trajplot",
+    "cv2",
+)
+
+
+def preload(modules: tuple[str, ...] = MODULES) -> list[str]:
+    """Import ``modules`` and load the compiled CLIPPER solver; the names of what failed."""
+    failed = []
+    for name in modules:
+        try:
+            importlib.import_module(name)
+        except Exception as err:  # noqa: BLE001 (best effort: the task importing it reports the error)
+            failed.append(name)
+            log.debug("preload of %s failed: %s: %s", name, type(err).__name__, err)
+    try:
+        from roman_sim.align.clipper import warm_up
+
+        warm_up()  # numba's cache, loaded once here instead of in every worker
+    except Exception as err:  # noqa: BLE001 (the first pair a worker aligns loads it, or reports the error)
+        failed.append("roman_sim.align.clipper.warm_up")
+        log.debug("CLIPPER warm-up failed: %s: %s", type(err).__name__, err)
+    return failed
+
+
+#: What could not be preloaded.
+FAILED = preload()
