@@ -93,13 +93,18 @@ def map_robots(
     keyframes (robots that have them) and the grade parts (robots with instance truth), in
     scenario order.
     """
-    from roman_sim.pipeline.tasks import map_robot_task
+    from roman_sim.pipeline.tasks import PickledWorld, map_robot_task
 
     robots = ctx.scenario.robots
     names = [r.name for r in robots]
     sc_json = ctx.scenario.model_dump_json()
     local = tasks.in_process
-    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), world if local else None) for r in robots]
+    # A local pool's workers get the world pickled (a second to send and load against seconds
+    # to generate); Dask workers, possibly on other machines, regenerate it from the scenario.
+    shipped: World | PickledWorld | None = world if local else None
+    if not local and world is not None and tasks.kind == "local" and any(r.source is None for r in robots):
+        shipped = PickledWorld.of(world)
+    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), shipped) for r in robots]
 
     def here(sc: str, name: str, path: Path2D | None, run_dir: str, w: World | None) -> RobotMapping:
         return map_one(ctx, w, next(r for r in robots if r.name == name), path)
@@ -122,6 +127,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
 
     name = "maps"
     input_type = MapsInputs
+    uses_workers = True
 
     def applies(self, ctx: RunContext) -> bool:
         return ctx.submaps_dir is None
