@@ -20,6 +20,7 @@ from __future__ import annotations
 import logging
 import multiprocessing
 import os
+import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
@@ -63,8 +64,10 @@ class SerialExecutor(Executor):
 #: Environment variables that size the thread pools of the libraries tasks use: OpenMP, OpenBLAS,
 #: MKL, OpenCV and Mesa's software renderer (llvmpipe).
 THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OPENCV_FOR_THREADS_NUM", "LP_NUM_THREADS")
-#: The forkserver's preload: the modules tasks use (``roman_sim.pipeline.worker_preload``).
-PRELOAD = "roman_sim.pipeline.worker_preload"
+#: The forkserver's preload of any local pool: the module of the run's task functions.
+TASKS = "roman_sim.pipeline.tasks"
+#: The preload of a run's pool: everything its tasks use (``roman_sim.pipeline.worker_preload``).
+RUN_PRELOAD = "roman_sim.pipeline.worker_preload"
 
 
 def threads_per_worker(workers: int) -> int:
@@ -94,13 +97,40 @@ def thread_limits(workers: int) -> Iterator[None]:
             os.environ.pop(v, None)
 
 
+def start_forkserver(workers: int, preload: Sequence[str] = (TASKS,)) -> None:
+    """Launch multiprocessing's forkserver (once per process) with ``preload`` and ``workers``' thread limits.
+
+    Returns at once: the forkserver imports ``preload`` in the background, and the first
+    worker forks when it is done. Its settings are those of the first call: a forkserver
+    already running is kept as it is.
+    """
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(preload))
+    # Ctrl-C ignored while it imports; this process's modules; the workers' thread counts
+    with sigint_ignored(), parent_sys_path(), thread_limits(workers):
+        forkserver.ensure_running()
+
+
+def prestart(cfg: ExecutorConfig | None) -> None:
+    """Launch the forkserver of the local pool ``cfg`` describes, with a run's preload, if it describes one.
+
+    For the command line: called before it imports the pipeline, the forkserver imports the
+    modules of the run's tasks while the command imports its own and generates the world.
+    A command that stops early leaves nothing behind: the preload ends when this process
+    does (``roman_sim.pipeline.worker_preload``).
+    """
+    if cfg is not None and cfg.kind == "local" and cfg.n_workers() > 1:
+        start_forkserver(cfg.n_workers(), (RUN_PRELOAD,))
+
+
 class LocalPoolExecutor(Executor):
     """A pool of worker processes on this machine (``forkserver``: no threads or GL state are forked).
 
-    The forkserver imports the modules tasks use once (``roman_sim.pipeline.worker_preload``)
-    and every worker is forked from it with them; ``start`` launches it ahead of the first
-    task so that it imports while the caller works on. Workers size their libraries' thread
-    pools to their share of the cores (``thread_limits``).
+    Workers are forked from multiprocessing's forkserver, which imports ``preload`` once
+    (a run's pool: ``RUN_PRELOAD``, every module its tasks use, so no worker imports them
+    again); ``start`` launches it ahead of the first task so that it imports while the
+    caller works on. Workers size their libraries' thread pools to their share of the
+    cores (``thread_limits``) and take this process's ``sys.path`` when the pool is made.
 
     Workers die with the main process however it ends (``roman_sim.pipeline.lifeline``). An
     interrupt (or the caller abandoning ``run_tasks``) cancels the pending tasks and ends the
@@ -114,21 +144,22 @@ class LocalPoolExecutor(Executor):
     #: Bound after SIGTERM (s): workers still alive then are sent SIGKILL.
     kill_after_s = 2.0
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, preload: Sequence[str] = (TASKS,)) -> None:
         self.workers = workers
+        self.preload = tuple(preload)
         self._pool: ProcessPoolExecutor | None = None
         self._lifeline: Lifeline | None = None
 
     def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
+            start_forkserver(self.workers, self.preload)
             ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload([PRELOAD])
-            # Ctrl-C ignored while it imports; this process's modules; the workers' thread counts
-            with sigint_ignored(), parent_sys_path(), thread_limits(self.workers):
-                forkserver.ensure_running()
             self._lifeline = Lifeline(ctx)
             self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=ctx, initializer=worker_init, initargs=(self._lifeline.reader,)
+                max_workers=self.workers,
+                mp_context=ctx,
+                initializer=worker_init,
+                initargs=(self._lifeline.reader, list(sys.path)),
             )
         return self._pool
 
@@ -203,13 +234,16 @@ def _unblock(calls: object) -> None:
         pass
 
 
-def open_executor(cfg: ExecutorConfig | None) -> Executor:
-    """The executor ``cfg`` describes (``None``: serial). A local pool of one worker runs in-process."""
+def open_executor(cfg: ExecutorConfig | None, run: bool = False) -> Executor:
+    """The executor ``cfg`` describes (``None``: serial). A local pool of one worker runs in-process.
+
+    ``run``: the executor of a run, whose local pool preloads every module the run's tasks use.
+    """
     if cfg is None or cfg.kind == "serial":
         return SerialExecutor()
     if cfg.kind == "local":
         n = cfg.n_workers()
-        return SerialExecutor() if n == 1 else LocalPoolExecutor(n)
+        return SerialExecutor() if n == 1 else LocalPoolExecutor(n, (RUN_PRELOAD,) if run else (TASKS,))
     from roman_sim.pipeline.dask_executor import DaskExecutor
 
     return DaskExecutor(cfg)
@@ -223,6 +257,8 @@ __all__ = [
     "TaskError",
     "guarded",
     "open_executor",
+    "prestart",
+    "start_forkserver",
     "thread_limits",
     "threads_per_worker",
     "worker_name",

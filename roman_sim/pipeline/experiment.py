@@ -184,7 +184,7 @@ class Experiment:
         self.validate()
         if isinstance(self.executor, Executor):
             return self._run(self.executor)
-        with open_executor(self.executor) as ex:
+        with open_executor(self.executor, run=True) as ex:
             return self._run(ex)
 
     def _run(self, ex: Executor) -> RunResult:

@@ -1,4 +1,4 @@
-"""The tasks a run sends to its workers: map one robot, align one chunk of submap pairs.
+"""The tasks a run sends to its workers: map one robot, cut its submaps, align one chunk of submap pairs.
 
 Tasks get the scenario as JSON (the worker validates it again) and return plain data; the
 calling process writes every file. A mapping task gets the world pickled (``PickledWorld``,
@@ -23,6 +23,9 @@ from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.types import Submap
 
 if TYPE_CHECKING:
+    from roman_sim.mapping.mapper import SegmentMap
+    from roman_sim.mapping.submap import SubmapConfig
+    from roman_sim.mapping.types import KeyframeSet
     from roman_sim.pipeline.robot_mapping import RobotMapping
     from roman_sim.pipeline.scenario import Scenario
     from roman_sim.sim.paths import Path2D
@@ -106,6 +109,15 @@ def map_robot_task(
     if world is None and cfg.source is None:
         world = _world(sc.world.model_dump_json(), sc.seed)
     return map_one(RunContext(sc, Path(run_dir)), world, cfg, path)
+
+
+def submaps_task(smap: SegmentMap, cfg: SubmapConfig, keyframes: KeyframeSet | None) -> list[Submap]:
+    """One robot's submaps (``build_submaps``), carrying its keyframes when it has them."""
+    from roman_sim.align.visual import attach_keyframes
+    from roman_sim.mapping.submap import build_submaps
+
+    subs = build_submaps(smap, cfg)
+    return attach_keyframes(subs, keyframes) if keyframes is not None else subs
 
 
 @lru_cache(maxsize=4)

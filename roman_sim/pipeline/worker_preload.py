@@ -1,18 +1,21 @@
-"""What a local pool's forkserver imports before it forks a worker: the modules the run's tasks use.
+"""What a run's local pool's forkserver imports before it forks a worker: the modules the run's tasks use.
 
-The local pool names this module as the forkserver's preload
-(``roman_sim.pipeline.executors.LocalPoolExecutor``). Every worker is forked from the
-forkserver with these modules already imported, so no worker imports them again (seconds of
-CPU each), and the forkserver imports them while the run's own process generates the world.
-Best effort: a module that fails to import here (a missing optional package, a capped
-address space) is skipped, and the task that needs it imports it itself and fails there with
-its own error. Nothing here starts a thread or an OpenGL context.
+A run's local pool names this module as the forkserver's preload
+(``roman_sim.pipeline.executors.RUN_PRELOAD``). Every worker is forked from the forkserver
+with these modules already imported and the compiled CLIPPER solver loaded, so no worker
+does that again (seconds of CPU each), and the forkserver does it while the run's own
+process imports and generates the world. Best effort: a module that fails to import here (a
+missing optional package, a capped address space) is skipped, and the task that needs it
+imports it itself and fails there with its own error. Nothing here starts a thread or an
+OpenGL context. The preload stops (and the forkserver exits) as soon as the process that
+started the forkserver is gone, so a command that stops early leaves no process importing.
 """
 
 from __future__ import annotations
 
 import importlib
 import logging
+import os
 
 log = logging.getLogger(__name__)
 
@@ -35,15 +38,24 @@ MODULES = (
 )
 
 
+def _orphaned(parent: int) -> None:
+    """Exit at once when the process that started this one is gone (this one was re-parented)."""
+    if os.getppid() != parent:
+        os._exit(0)
+
+
 def preload(modules: tuple[str, ...] = MODULES) -> list[str]:
     """Import ``modules`` and load the compiled CLIPPER solver; the names of what failed."""
+    parent = os.getppid()
     failed = []
     for name in modules:
+        _orphaned(parent)
         try:
             importlib.import_module(name)
         except Exception as err:  # noqa: BLE001 (best effort: the task importing it reports the error)
             failed.append(name)
             log.debug("preload of %s failed: %s: %s", name, type(err).__name__, err)
+    _orphaned(parent)
     try:
         from roman_sim.align.clipper import warm_up
 

@@ -7,7 +7,7 @@ temporary folder and keeps the bytes of the files it wrote; the report stage's `
 then writes those bytes into the run folder. The bytes are the ones the function would
 have written in place (same data, same bytes), and the temporary folder is removed at once.
 
-``metric_plot_png``, ``method_examples_png`` and ``trajectory_plot_png`` draw one figure each
+``metric_plot_png``, ``method_examples_png``, ``map_view_job`` and ``trajectory_plot_png`` draw one figure each
 and return ``Drawn`` (the PNG, or the note saying why it was not drawn), so that the report
 stage can hand them to worker processes as independent tasks (``draw_job``).
 """
@@ -89,6 +89,16 @@ def method_examples_png(method: str, rows: list[Example]) -> Drawn:
     from roman_sim.report.examples import plot_method_examples
 
     return next(iter(drawn_pngs(lambda folder: [plot_method_examples(method, rows, folder)]).values())), []
+
+
+def map_view_job(submaps: list[Submap]) -> Drawn:
+    """The map view (``mapview.map_view_png``), or the note on why it is not rendered."""
+    from roman_sim.report.mapview import map_view_png
+
+    try:
+        return map_view_png(submaps), []
+    except EvaluationError as err:
+        return None, [f"map view not rendered: {err}"]
 
 
 def trajectory_plot_png(

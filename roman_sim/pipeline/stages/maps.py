@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import logging
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -162,14 +163,19 @@ class MapsStage(Stage[MapsInputs, Maps]):
         return Maps(maps, _rgb_notes(ctx), keyframes, grades)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
-        files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
-        if out.keyframes:
-            files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
-        if out.frontend is not None:
-            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
-            plot_frontend_grades(out.frontend, ctx.run_dir / FRONTEND_PNG)
-            files += [FRONTEND_JSON, FRONTEND_PNG]
-        return files
+        def save_frontend(grades: FrontEndGrades | None) -> list[str]:
+            if grades is None:
+                return []
+            write_json(ctx.run_dir / FRONTEND_JSON, grades.to_json())
+            plot_frontend_grades(grades, ctx.run_dir / FRONTEND_PNG)
+            return [FRONTEND_JSON, FRONTEND_PNG]
+
+        with ThreadPoolExecutor(max_workers=1) as pool:  # the front end's files while the maps compress
+            frontend = pool.submit(save_frontend, out.frontend)
+            files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+            if out.keyframes:
+                files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
+            return files + frontend.result()
 
     def load(self, ctx: RunContext, files: list[str]) -> Maps:
         maps, notes = load_per_robot(ctx, "maps", load_segment_map)

@@ -29,7 +29,6 @@ from roman_sim.evaluation.ate import aligned_to_truth
 from roman_sim.evaluation.types import MapStats
 from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.io import packet_bytes
-from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.robot_mapping import build_segmenter_for
 from roman_sim.pipeline.stages.ate import AteOutput
@@ -41,12 +40,12 @@ from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.report.examples import example_file, example_rows
-from roman_sim.report.mapview import map_view_png
 from roman_sim.report.markdown import REPORT_MD, report_markdown
 from roman_sim.report.plots import METRIC_PLOTS
 from roman_sim.report.render import (
     Drawn,
     draw_job,
+    map_view_job,
     masks_png,
     method_examples_png,
     metric_plot_png,
@@ -183,13 +182,6 @@ class PlotJob:
     here: bool = False
 
 
-def _map_view(submaps: list[Submap]) -> Drawn:
-    try:
-        return map_view_png(submaps), []
-    except EvaluationError as err:
-        return None, [f"map view not rendered: {err}"]
-
-
 def _snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> Drawn:
     try:
         return snapshot(ctx, world, maps, submaps), []
@@ -205,7 +197,7 @@ def plot_jobs(ctx: RunContext, inputs: ReportInputs) -> list[PlotJob]:
     jobs = [PlotJob(f"plots/{name}", metric_plot_png, (ev.metrics, name)) for name in METRIC_PLOTS]
     for method, rows in example_rows(ev.scores, submaps.by_name(), results).items():
         jobs.append(PlotJob(f"plots/{example_file(method)}", method_examples_png, (method, rows)))
-    jobs.append(PlotJob(MAP_VIEW, _map_view, (submaps.all(),), here=True))  # OpenGL: in this process
+    jobs.append(PlotJob(MAP_VIEW, map_view_job, (submaps.all(),)))
     try:
         traj = trajectory_plot(ctx, inputs.posegraph, submaps)
         if traj is not None:
@@ -226,10 +218,10 @@ def draw_plots(
 ) -> tuple[dict[str, bytes], list[str]]:
     """Metric plots, example alignments, the map view, the trajectories and the snapshot: (path -> PNG, notes).
 
-    With a local pool (``tasks``), the matplotlib figures are drawn by its workers, the
-    largest first, while this process renders the map view and the snapshot once the first
-    figure is back; otherwise everything is drawn here. Never on Dask workers: PNG bytes
-    depend on the installed matplotlib and fonts, and those workers may run elsewhere. The
+    With a local pool (``tasks``), its workers draw the figures, the largest first, while
+    this process renders the snapshot (it has the world) once the first figure is back;
+    otherwise everything is drawn here. Never on Dask workers: PNG bytes depend on the
+    installed matplotlib, fonts and OpenGL, and those workers may run elsewhere. The
     figures and notes come out in report order wherever they were drawn.
     """
     jobs = plot_jobs(ctx, inputs)
@@ -259,8 +251,8 @@ def draw_plots(
 
 
 def _weight(job: PlotJob) -> int:
-    """Rough drawing cost, to hand out the largest figures first (example figures, then the rest)."""
-    return 2 if job.fn is method_examples_png else 1
+    """Rough drawing cost, to hand out the largest figures first (map view, example figures, the rest)."""
+    return 3 if job.fn is map_view_job else 2 if job.fn is method_examples_png else 1
 
 
 class ReportStage(Stage[ReportInputs, ReportOutput]):
