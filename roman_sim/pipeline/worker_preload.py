@@ -6,9 +6,12 @@ with these modules already imported and the compiled CLIPPER solver loaded, so n
 does that again (seconds of CPU each), and the forkserver does it while the run's own
 process imports and generates the world. Best effort: a module that fails to import here (a
 missing optional package, a capped address space) is skipped, and the task that needs it
-imports it itself and fails there with its own error. Nothing here starts a thread or an
-OpenGL context. The preload stops (and the forkserver exits) as soon as the process that
-started the forkserver is gone, so a command that stops early leaves no process importing.
+imports it itself and fails there with its own error. Under a capped address space
+(``ulimit -v``) only the tasks' own module is preloaded: every worker is forked with the
+forkserver's address space, and a full preload would leave a worker little of the cap for
+its work. Nothing here starts a thread or an OpenGL context. The preload stops (and the
+forkserver exits) as soon as the process that started the forkserver is gone, so a command
+that stops early leaves no process importing.
 """
 
 from __future__ import annotations
@@ -38,14 +41,24 @@ MODULES = (
 )
 
 
+def capped() -> bool:
+    """Whether this process's address space is capped (``ulimit -v``)."""
+    try:
+        import resource
+
+        return resource.getrlimit(resource.RLIMIT_AS)[0] != resource.RLIM_INFINITY
+    except (ImportError, ValueError, OSError):  # no such limit here
+        return False
+
+
 def _orphaned(parent: int) -> None:
     """Exit at once when the process that started this one is gone (this one was re-parented)."""
     if os.getppid() != parent:
         os._exit(0)
 
 
-def preload(modules: tuple[str, ...] = MODULES) -> list[str]:
-    """Import ``modules`` and load the compiled CLIPPER solver; the names of what failed."""
+def preload(modules: tuple[str, ...] = MODULES, warm: bool = True) -> list[str]:
+    """Import ``modules`` and (``warm``) load the compiled CLIPPER solver; the names of what failed."""
     parent = os.getppid()
     failed = []
     for name in modules:
@@ -56,6 +69,8 @@ def preload(modules: tuple[str, ...] = MODULES) -> list[str]:
             failed.append(name)
             log.debug("preload of %s failed: %s: %s", name, type(err).__name__, err)
     _orphaned(parent)
+    if not warm:
+        return failed
     try:
         from roman_sim.align.clipper import warm_up
 
@@ -67,4 +82,4 @@ def preload(modules: tuple[str, ...] = MODULES) -> list[str]:
 
 
 #: What could not be preloaded.
-FAILED = preload()
+FAILED = preload(MODULES[:1], warm=False) if capped() else preload()
