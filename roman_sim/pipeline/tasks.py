@@ -139,13 +139,16 @@ def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list
     Returns one record per (pair, aligner), pair-major: ``result_to_json`` of the result
     under the aligner's label.
     """
+    from roman_sim.align.checks import remembered_checks
+
     out: list[ChunkRecord] = []
     labelled = _aligners(aligners_json)
-    for a, b in pairs:
-        for label, aligner in labelled:
-            res = aligner.align(submaps[a], submaps[b])
-            res.method = label
-            out.append({"a": a, "b": b, **result_to_json(res)})
+    with remembered_checks():  # each submap's input checks once per chunk, not once per pair and method
+        for a, b in pairs:
+            for label, aligner in labelled:
+                res = aligner.align(submaps[a], submaps[b])
+                res.method = label
+                out.append({"a": a, "b": b, **result_to_json(res)})
     return out
 
 
