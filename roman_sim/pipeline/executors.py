@@ -61,9 +61,11 @@ class SerialExecutor(Executor):
             yield i, fn(*a)
 
 
-#: Environment variables that size the thread pools of the libraries tasks use: OpenMP, OpenBLAS,
-#: MKL, OpenCV and Mesa's software renderer (llvmpipe).
-THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "OPENCV_FOR_THREADS_NUM", "LP_NUM_THREADS")
+#: Environment variables that size the thread pools of libraries tasks use: OpenCV and Mesa's
+#: software renderer (llvmpipe), whose results do not depend on their thread counts. BLAS and
+#: OpenMP are left alone: OpenBLAS sums dot products and matrix products in other orders with
+#: another thread count (other bits), and a run's bytes must not depend on where a task ran.
+THREAD_VARS = ("OPENCV_FOR_THREADS_NUM", "LP_NUM_THREADS")
 #: The forkserver's preload of any local pool: the module of the run's task functions.
 TASKS = "roman_sim.pipeline.tasks"
 #: The preload of a run's pool: everything its tasks use (``roman_sim.pipeline.worker_preload``).
@@ -83,9 +85,9 @@ def threads_per_worker(workers: int) -> int:
 def thread_limits(workers: int) -> Iterator[None]:
     """``THREAD_VARS`` set to ``threads_per_worker(workers)`` inside the block (those the user set are kept).
 
-    Processes started inside the block (the forkserver, hence every worker) size their
+    Processes started inside the block (the forkserver, hence every worker) size those
     libraries' thread pools by it, so ``workers`` workers do not each start a thread per
-    core and fight over the cores. Thread counts change no result.
+    core and fight over the cores; these thread counts change no result.
     """
     n = str(threads_per_worker(workers))
     added = [v for v in THREAD_VARS if v not in os.environ]
