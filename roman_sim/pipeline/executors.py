@@ -27,6 +27,7 @@ from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from contextlib import contextmanager
 from multiprocessing import forkserver
+from multiprocessing.connection import Connection
 from typing import TypeVar
 
 from roman_sim.pipeline.executor_base import (
@@ -160,8 +161,8 @@ class LocalPoolExecutor(Executor):
             self._pool = ProcessPoolExecutor(
                 max_workers=self.workers,
                 mp_context=ctx,
-                initializer=worker_init,
-                initargs=(self._lifeline.reader, list(sys.path)),
+                initializer=_start_worker,
+                initargs=(worker_init, self._lifeline.reader, list(sys.path)),
             )
         return self._pool
 
@@ -222,6 +223,16 @@ class LocalPoolExecutor(Executor):
                 end_processes(procs, hard=hard)
                 manager.join(self.kill_after_s)
             lifeline.cut()
+
+
+def _start_worker(init: Callable[[Connection], None], lifeline: Connection, sys_path: list[str]) -> None:
+    """Pool initialiser: ``init(lifeline)`` (``worker_init``), then the entries of ``sys_path`` the worker lacks.
+
+    ``sys_path`` is this process's module path when it made the pool, which may have grown
+    since the forkserver started (a plug-in's folder added while the scenario was checked).
+    """
+    init(lifeline)
+    sys.path.extend(p for p in sys_path if p not in sys.path)
 
 
 def _unblock(calls: object) -> None:

@@ -72,19 +72,11 @@ class Lifeline:
             self._writer.close()
 
 
-def worker_init(lifeline: Connection, sys_path: Sequence[str] | None = None) -> None:
-    """Pool worker initialiser: ignore SIGINT, die with the forkserver, die when ``lifeline`` closes.
-
-    ``sys_path``: the main process's module path when it made the pool (it may have grown
-    since the forkserver started, e.g. by a plug-in's folder); entries the worker lacks are
-    appended.
-    """
+def worker_init(lifeline: Connection) -> None:
+    """Pool worker initialiser: ignore SIGINT, die with the forkserver, die when ``lifeline`` closes."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     set_parent_death_signal(signal.SIGKILL)
     threading.Thread(target=_watch, args=(lifeline,), name="roman-sim-lifeline", daemon=True).start()
-    for p in sys_path or ():
-        if p not in sys.path:
-            sys.path.append(p)
 
 
 def _watch(lifeline: Connection) -> None:
