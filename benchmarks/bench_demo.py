@@ -1,19 +1,33 @@
-"""``roman-sim demo``: CPU time per stage, and the wall time it implies on 2 workers.
+"""``roman-sim demo``: CPU time per stage, the wall time it implies on 2 workers, and measured wall times.
 
 On a shared machine wall time says more about the other jobs than about the code, so the
 demo runs fresh in this process on the serial executor and every stage's CPU time
 (``time.process_time``) is recorded, with each robot's share of the maps stage. The wall
-time of ``roman-sim demo`` on 2 free cores is then estimated as
+time of ``roman-sim demo`` (a local pool of 2 workers on 2 free cores) is then estimated as
 
-    start-up (imports, in the CLI process) + world + the slower robot's maps (the robots
-    map in parallel) + submaps + evaluation / 2 (pairs spread over both workers) + posegraph
-    + report + a worker's start-up (imports, world, numba's cached solver)
+    max(start-up + world + world hand-off, CLI import + forkserver preload)
+    + the slower robot's maps (the robots map in parallel) + the rest of the maps stage
+    + (submaps + evaluation + report) / 2 (robots, pairs and figures spread over both cores)
+    + posegraph + ate
 
-``--wall`` also runs ``roman-sim demo --fresh`` in a subprocess and records its wall time and
-the CPU time of it and its workers (meaningful on a quiet machine only).
+where start-up is the CLI's imports (in its process), the forkserver preload is what a run's
+pool imports and loads before it forks a worker (``roman_sim.pipeline.worker_preload``;
+the forkserver starts right after the CLI's own module, so it overlaps the CLI's imports
+and the world), and the world hand-off is pickling the world for the workers and loading it
+in one.
+
+``--wall`` also runs ``roman-sim demo --fresh`` in a subprocess (``--repeats`` times; with
+``--against PATH`` each run alternates with one of the checkout at PATH, e.g. the code before
+a change unpacked with ``git archive``, recorded under ``against``) and records, per run, its
+wall time, the wall time of each stage (the run's ``timings.json``),
+the start-up and shutdown around the stages (wall time less the stages), the machine's load
+average, and the CPU time of the whole process tree (the CLI, the forkserver and its
+workers; sampled every 0.1 s with psutil when it is installed). Meaningful on a quiet
+machine only; the fastest run is the figure.
 Writes ``benchmarks/out/demo.json``.
 
-Usage: python benchmarks/bench_demo.py [--wall] [--scenario demo] [--set key=value ...] [--label NAME]
+Usage: python benchmarks/bench_demo.py [--wall [--repeats N] [--no-estimate] [--against PATH [--against-note TEXT]]]
+       [--scenario demo] [--set key=value ...] [--label NAME] [--note TEXT]
 """
 
 from __future__ import annotations
@@ -25,6 +39,7 @@ import resource
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -32,12 +47,14 @@ from typing import Any
 from roman_sim.core.atomic import write_json
 
 OUT = Path(__file__).resolve().parent / "out" / "demo.json"
-WORKER_START = (
-    "import time; t = time.process_time(); "
-    "from roman_sim.pipeline import tasks; from roman_sim.pipeline.scenario import load_scenario; "
-    "from roman_sim.world import generate; sc = load_scenario({name!r}); generate(sc.world.spec(), sc.seed); "
-    "from roman_sim.align import clipper; getattr(clipper, '_compiled', lambda: None)(); "
-    "print(time.process_time() - t)"
+PRELOAD = (
+    "import time; t = time.process_time(); import roman_sim.pipeline.worker_preload; print(time.process_time() - t)"
+)
+HANDOFF = (
+    "import time; from roman_sim.pipeline.scenario import load_scenario; "
+    "from roman_sim.pipeline.tasks import PickledWorld; from roman_sim.world import generate; "
+    "sc = load_scenario({name!r}); w = generate(sc.world.spec(), sc.seed); "
+    "t = time.process_time(); p = PickledWorld.of(w); p.load(); print(time.process_time() - t)"
 )
 
 
@@ -47,6 +64,12 @@ def _cpu(cmd: list[str]) -> float:
     subprocess.run(cmd, check=True, capture_output=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def _printed(code: str) -> float:
+    """The last number a ``python -c code`` subprocess prints."""
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    return float(out.split()[-1])
 
 
 def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
@@ -88,51 +111,122 @@ def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
 
 
 def estimate(name: str, sets: list[str]) -> dict[str, Any]:
-    """Per-stage CPU, start-up costs and the 2-worker wall-time estimate."""
+    """Per-stage CPU, start-up costs and the 2-worker wall-time estimate (see the module docstring)."""
     py = sys.executable
     startup = _cpu([py, "-c", "import roman_sim.cli.run, roman_sim.pipeline.experiment, roman_sim.pipeline.stages"])
-    worker = float(
-        subprocess.run(
-            [py, "-c", WORKER_START.format(name=name)], capture_output=True, text=True, check=True
-        ).stdout.split()[-1]
-    )
+    cli = _cpu([py, "-c", "import roman_sim.cli.run"])
+    preload = _printed(PRELOAD)
+    handoff = _printed(HANDOFF.format(name=name))
     cpu = stage_cpu(name, sets)
     s, r = cpu["stages_cpu_s"], cpu["robots_cpu_s"]
     maps_wall = s["maps"] - sum(r.values()) + max(r.values()) if r else s.get("maps", 0.0)
-    wall = startup + worker + maps_wall + s.get("evaluation", 0.0) / 2
-    wall += sum(v for k, v in s.items() if k not in ("maps", "evaluation"))
+    halved = ("submaps", "evaluation", "report")
+    wall = max(startup + s.get("world", 0.0) + handoff, cli + preload) + maps_wall
+    wall += sum(s.get(k, 0.0) for k in halved) / 2
+    wall += sum(v for k, v in s.items() if k not in ("world", "maps", *halved))
     return {
         "scenario": name,
         "overrides": sets,
         "cli_startup_cpu_s": startup,
-        "worker_startup_cpu_s": worker,
+        "cli_import_cpu_s": cli,
+        "forkserver_preload_cpu_s": preload,
+        "world_handoff_cpu_s": handoff,
         **cpu,
         "total_cpu_s": startup + sum(s.values()),
         "wall_estimate_2_workers_s": wall,
     }
 
 
-def measure_wall(name: str) -> dict[str, Any]:
-    """Wall and CPU (with workers) of ``roman-sim demo --fresh`` (or ``run NAME``) in a subprocess."""
+def _tree_cpu(pid: int, stop: threading.Event, out: dict[int, float]) -> None:
+    """Until ``stop``: the CPU seconds of ``pid`` and every descendant, the last value seen of each."""
+    import psutil
+
+    while not stop.is_set():
+        try:
+            procs = [psutil.Process(pid), *psutil.Process(pid).children(recursive=True)]
+        except psutil.NoSuchProcess:
+            return
+        for p in procs:
+            try:
+                t = p.cpu_times()
+                out[p.pid] = t.user + t.system
+            except (psutil.NoSuchProcess, psutil.AccessDenied, psutil.ZombieProcess):
+                continue
+        stop.wait(0.1)
+
+
+def measure_wall(name: str, tree: str | None = None) -> dict[str, Any]:
+    """Wall time, per-stage wall times and process-tree CPU of ``roman-sim demo --fresh`` (or ``run NAME``).
+
+    ``tree``: run the checkout at that path (its package first on ``PYTHONPATH``) instead of this one.
+    """
     with tempfile.TemporaryDirectory() as d:
+        run = Path(d) / "run"
         args = ["demo"] if name == "demo" else ["run", name]
-        cmd = [sys.executable, "-m", "roman_sim.cli", *args, "--out", str(Path(d) / "run"), "--fresh"]
+        cmd = [sys.executable, "-m", "roman_sim.cli", *args, "--out", str(run), "--fresh"]
+        env = {**os.environ, "PYTHONPATH": str(Path(tree).resolve())} if tree else None
+        load = [round(x, 2) for x in os.getloadavg()]
+        seen: dict[int, float] = {}
+        stop = threading.Event()
         t0 = time.perf_counter()
-        cpu = _cpu(cmd)
-        return {"wall_s": time.perf_counter() - t0, "cpu_s_with_workers": cpu}
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+        watcher = None
+        try:
+            import psutil  # noqa: F401  (optional: the process tree's CPU)
+
+            watcher = threading.Thread(target=_tree_cpu, args=(proc.pid, stop, seen), daemon=True)
+            watcher.start()
+        except ImportError:
+            pass
+        code = proc.wait()
+        wall = time.perf_counter() - t0
+        stop.set()
+        if watcher is not None:
+            watcher.join()
+        if code != 0:
+            raise SystemExit(f"{' '.join(cmd)} failed with exit code {code}")
+        timings = json.loads((run / "timings.json").read_text(encoding="utf-8"))["stages"]
+        stages = {k: v["seconds"] for k, v in timings.items()}
+        return {
+            "wall_s": wall,
+            "stages_wall_s": stages,
+            "outside_stages_s": wall - sum(stages.values()),
+            "alignment_wall_s": timings.get("evaluation", {}).get("pairs", {}).get("alignment_wall_s"),
+            "cpu_s_process_tree": sum(seen.values()) if watcher is not None else None,
+            "load_average_before": load,
+        }
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenario", default="demo")
     ap.add_argument("--wall", action="store_true")
+    ap.add_argument("--repeats", type=int, default=1, help="measured runs with --wall (the fastest is the figure)")
     ap.add_argument("--label", default="current")
+    ap.add_argument("--note", default=None, help="what the figures are of (stored with them)")
     ap.add_argument("--set", dest="sets", action="append", default=[], help="scenario override, e.g. seed=3")
+    ap.add_argument("--no-estimate", action="store_true", help="with --wall: skip the serial CPU estimate")
+    ap.add_argument("--against", default=None, help="with --wall: alternate with runs of the checkout at this path")
+    ap.add_argument("--against-note", default=None, help="what that checkout is (stored with its figures)")
     args = ap.parse_args()
     result = json.loads(OUT.read_text()) if OUT.is_file() else {}
-    entry = estimate(args.scenario, args.sets)
+    entry: dict[str, Any] = {} if args.no_estimate else estimate(args.scenario, args.sets)
+    if args.note:
+        entry["note"] = args.note
     if args.wall:
-        entry["measured"] = measure_wall(args.scenario)
+        runs, against = [], []
+        for _ in range(max(1, args.repeats)):  # with --against, this tree and the other one alternately
+            runs.append(measure_wall(args.scenario))
+            if args.against:
+                against.append(measure_wall(args.scenario, args.against))
+        entry["measured_runs"] = runs
+        entry["measured"] = min(runs, key=lambda m: m["wall_s"])
+        if against:
+            entry["against"] = {
+                "tree": args.against_note or "another checkout",
+                "measured_runs": against,
+                "measured": min(against, key=lambda m: m["wall_s"]),
+            }
     entry["load_average"] = [round(x, 2) for x in os.getloadavg()]
     result[args.label] = entry
     result["target_wall_s"] = 35.0

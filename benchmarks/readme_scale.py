@@ -167,9 +167,9 @@ def _workers(scale: dict[str, Any]) -> list[str]:
     return [
         "Two workers against one, interleaved medians (`bench_scale.py demo` / `dask`): "
         + "; ".join(rows)
-        + ". Serial work (world generation in each worker, the report stage) bounds the speed-up of a small "
-        "run; on a machine shared with other login sessions the kernel shares the cores between sessions, so "
-        "the speed-up holds only on free cores.",
+        + ". Serial work (the world's generation, the pose graphs, each stage's share in the main process) "
+        "bounds the speed-up of a small run; on a machine shared with other login sessions the kernel shares the "
+        "cores between sessions, so the speed-up holds only on free cores.",
         "",
     ]
 

@@ -74,3 +74,31 @@ def test_per_frame_cost_table_is_the_benchmark():
         # the sums the page states: front end and render per frame from their steps
         front = sum(m[k] for k in ("segment", "observe", "encode", "track", "grade", "keyframes"))
         assert abs(front - x["frontend_ms_per_frame"]) < 1e-6, name
+
+
+def test_demo_wall_time_figures_are_the_benchmark():
+    from statistics import median
+
+    bench = _bench("demo.json")
+    est, alt = bench["stage_cuts"], bench["alternate"]
+    m = re.search(
+        r"estimates the wall time on 2 free cores \(the formula is in the script's docstring\): (\d+\.\d) s "
+        r"\(`stage_cuts`; the target is (\d+) s\), of which (\d+\.\d) s is the maps stage, .*? taken at a load "
+        r"average of (\d+\.\d\d), .*? \(load average "
+        r"(\d+\.\d\d) when the runs began\) the fastest of (\d+) runs took (\d+\.\d) s against (\d+\.\d) s for the "
+        r"code before the changes below, the medians (\d+\.\d) s against (\d+\.\d) s \(`alternate`\)",
+        _page("performance.md"),
+    )
+    assert m, "docs/performance.md no longer states the demo's wall time"
+    s, r = est["stages_cpu_s"], est["robots_cpu_s"]
+    maps_wall = s["maps"] - sum(r.values()) + max(r.values())
+    after = [x["wall_s"] for x in alt["measured_runs"]]
+    before = [x["wall_s"] for x in alt["against"]["measured_runs"]]
+    assert float(m[1]) == round(est["wall_estimate_2_workers_s"], 1)
+    assert float(m[2]) == bench["target_wall_s"]
+    assert float(m[3]) == round(maps_wall, 1)
+    assert float(m[4]) == est["load_average"][0]
+    assert float(m[5]) == alt["measured_runs"][0]["load_average_before"][0]
+    assert int(m[6]) == len(after) == len(before)
+    assert (float(m[7]), float(m[8])) == (round(min(after), 1), round(min(before), 1))
+    assert (float(m[9]), float(m[10])) == (round(median(after), 1), round(median(before), 1))

@@ -1,11 +1,35 @@
-"""Input checks shared by the aligners: a bad submap gives a reason string, never an exception."""
+"""Input checks shared by the aligners: a bad submap gives a reason string, never an exception.
+
+Every aligner checks both submaps of every pair, so a submap is checked once per pair and
+method. Inside ``remembered_checks`` (the alignment tasks run their pairs in it) the answer
+for a submap object is kept and given again; the submaps must not change inside the block.
+"""
 
 from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 
 from roman_sim.align.registration import degeneracy
 from roman_sim.mapping.types import Submap
+
+#: Inside ``remembered_checks``: (id of the submap, label, shape, semantics) -> (the submap, its reason).
+_REMEMBERED: ContextVar[dict[tuple[int, str, bool, bool], tuple[Submap, str | None]] | None] = ContextVar(
+    "roman_sim_remembered_checks", default=None
+)
+
+
+@contextmanager
+def remembered_checks() -> Iterator[None]:
+    """Inside the block ``submap_reason`` checks each submap object once (the submaps must not change meanwhile)."""
+    token = _REMEMBERED.set({})
+    try:
+        yield
+    finally:
+        _REMEMBERED.reset(token)
 
 
 def _array_reason(name: str, x: object, shape_tail: tuple[int, ...], n: int) -> str | None:
@@ -19,6 +43,16 @@ def _array_reason(name: str, x: object, shape_tail: tuple[int, ...], n: int) -> 
 
 def submap_reason(s: Submap, label: str, shape: bool = False, semantics: bool = False) -> str | None:
     """Why submap ``s`` cannot be aligned (None when fine)."""
+    memo = _REMEMBERED.get()
+    if memo is None:
+        return _submap_reason(s, label, shape, semantics)
+    key = (id(s), label, shape, semantics)
+    if key not in memo:  # the entry holds the submap, so its id cannot be reused while the entry lives
+        memo[key] = (s, _submap_reason(s, label, shape, semantics))
+    return memo[key][1]
+
+
+def _submap_reason(s: Submap, label: str, shape: bool, semantics: bool) -> str | None:
     c = np.asarray(s.centers)
     n = len(c)
     if n < 3:

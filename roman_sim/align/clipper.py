@@ -213,6 +213,15 @@ def _compiled() -> tuple[Any, Any] | None:
         return None
 
 
+def warm_up() -> None:
+    """Load the compiled solver (numba's cached machine code) now rather than on the first pair.
+
+    Solves a 4-node complete graph, which runs every compiled kernel once; a process that
+    forks workers after calling it spares each of them the loading.
+    """
+    solve_clipper(sp.csr_matrix(np.ones((4, 4))))
+
+
 def solve_clipper(M: sp.spmatrix | NDArray[np.floating], params: ClipperParams | None = None) -> ClipperSolution:
     """Densest clique of the weighted consistency graph ``M``.
 

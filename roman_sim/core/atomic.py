@@ -151,8 +151,8 @@ def write_text(path: str | Path, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
 
 
-def write_json(path: str | Path, obj: Any, indent: int = 2) -> None:
-    """Atomically write ``obj`` as JSON (sorted keys, so the same data gives the same bytes)."""
+def write_json(path: str | Path, obj: Any, indent: int | None = 2) -> None:
+    """Atomically write ``obj`` as JSON (sorted keys: the same data gives the same bytes; ``indent=None``: compact)."""
     write_text(path, json.dumps(obj, indent=indent, sort_keys=True, default=_json_default) + "\n")
 
 

@@ -54,10 +54,12 @@ def association_truth(ids_a: ArrayLike, ids_b: ArrayLike, associations: ArrayLik
     if assoc.min() < 0 or assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b):
         raise EvaluationError(f"associations index segments outside the submaps ({len(a)} and {len(b)} segments)")
     ok = (a[assoc[:, 0]] == b[assoc[:, 1]]) & (a[assoc[:, 0]] >= 0)
-    good = np.unique(assoc[ok], axis=0)
     correct = int(ok.sum())
-    if len(good) == 0:
-        return correct, 0
+    if correct == 0:
+        return 0, 0
+    # the distinct correct rows in (i, j) order: np.unique(rows, axis=0), through one integer per row
+    code = np.unique(assoc[ok, 0] * len(b) + assoc[ok, 1])
+    good = np.stack([code // len(b), code % len(b)], axis=1)
     if len(np.unique(good[:, 0])) == len(good) and len(np.unique(good[:, 1])) == len(good):
         return correct, int(len(good))  # already one-to-one
     graph = sp.csr_matrix((np.ones(len(good)), (good[:, 0], good[:, 1])), shape=(len(a), len(b)))

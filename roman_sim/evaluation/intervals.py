@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from functools import lru_cache
 
 import numpy as np
 from scipy import stats
@@ -38,7 +39,13 @@ def wilson(k: int, n: int, level: float = 0.95) -> tuple[float, float] | None:
         return None
     if not 0 <= k <= n:
         raise EvaluationError(f"Wilson interval: {k} successes out of {n} trials")
-    ci = stats.binomtest(int(k), int(n)).proportion_ci(confidence_level=level, method="wilson")
+    return _wilson(int(k), int(n), float(level))
+
+
+@lru_cache(maxsize=4096)
+def _wilson(k: int, n: int, level: float) -> tuple[float, float]:
+    """``wilson`` of checked arguments; a run's metrics ask for the same few (k, n) many times."""
+    ci = stats.binomtest(k, n).proportion_ci(confidence_level=level, method="wilson")
     return float(ci.low), float(ci.high)
 
 

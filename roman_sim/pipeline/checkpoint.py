@@ -93,7 +93,7 @@ class Checkpoint:
         kept = codec.write(value, self.stem(item))
         files = {p.relative_to(self.folder).as_posix(): _sha256(p) for p in kept.files}
         record = {"schema": CHECKPOINT_SCHEMA, "key": self.key, "data": kept.data, "files": files}
-        write_json(self._record(item), record, indent=0)
+        write_json(self._record(item), record, indent=None)  # compact: the C encoder, several times faster
 
 
 def clear_checkpoints(run_dir: Path, stage: str | None = None) -> None:

@@ -144,6 +144,9 @@ class Executor(ABC):
         out: dict[int, T] = dict(self.run_tasks(fn, args, labels))
         return [out[i] for i in range(len(args))]
 
+    def start(self) -> None:  # noqa: B027 (optional hook: nothing to start ahead by default)
+        """Begin starting the workers now, so their start-up overlaps the caller's own work (no tasks run)."""
+
     def check_imports(self, modules: Sequence[str]) -> None:  # noqa: B027 (optional hook: workers share this process's imports)
         """Fail (naming the worker and the module) when a worker cannot import one of ``modules``."""
 

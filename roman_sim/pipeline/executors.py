@@ -19,11 +19,15 @@ from __future__ import annotations
 
 import logging
 import multiprocessing
+import os
+import sys
 import threading
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from multiprocessing import forkserver
+from multiprocessing.connection import Connection
 from typing import TypeVar
 
 from roman_sim.pipeline.executor_base import (
@@ -58,8 +62,78 @@ class SerialExecutor(Executor):
             yield i, fn(*a)
 
 
+#: Environment variables that size the thread pools of libraries tasks use: OpenCV and Mesa's
+#: software renderer (llvmpipe), whose results do not depend on their thread counts. BLAS and
+#: OpenMP are left alone: OpenBLAS sums dot products and matrix products in other orders with
+#: another thread count (other bits), and a run's bytes must not depend on where a task ran.
+THREAD_VARS = ("OPENCV_FOR_THREADS_NUM", "LP_NUM_THREADS")
+#: The forkserver's preload of any local pool: the module of the run's task functions.
+TASKS = "roman_sim.pipeline.tasks"
+#: The preload of a run's pool: everything its tasks use (``roman_sim.pipeline.worker_preload``).
+RUN_PRELOAD = "roman_sim.pipeline.worker_preload"
+
+
+def threads_per_worker(workers: int) -> int:
+    """Threads each library may start in one of ``workers`` workers: this machine's cores shared out, at least 1."""
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # not on Linux
+        cores = os.cpu_count() or 1
+    return max(1, cores // max(1, workers))
+
+
+@contextmanager
+def thread_limits(workers: int) -> Iterator[None]:
+    """``THREAD_VARS`` set to ``threads_per_worker(workers)`` inside the block (those the user set are kept).
+
+    Processes started inside the block (the forkserver, hence every worker) size those
+    libraries' thread pools by it, so ``workers`` workers do not each start a thread per
+    core and fight over the cores; these thread counts change no result.
+    """
+    n = str(threads_per_worker(workers))
+    added = [v for v in THREAD_VARS if v not in os.environ]
+    os.environ.update({v: n for v in added})
+    try:
+        yield
+    finally:
+        for v in added:
+            os.environ.pop(v, None)
+
+
+def start_forkserver(workers: int, preload: Sequence[str] = (TASKS,)) -> None:
+    """Launch multiprocessing's forkserver (once per process) with ``preload`` and ``workers``' thread limits.
+
+    Returns at once: the forkserver imports ``preload`` in the background, and the first
+    worker forks when it is done. Its settings are those of the first call: a forkserver
+    already running is kept as it is.
+    """
+    ctx = multiprocessing.get_context("forkserver")
+    ctx.set_forkserver_preload(list(preload))
+    # Ctrl-C ignored while it imports; this process's modules; the workers' thread counts
+    with sigint_ignored(), parent_sys_path(), thread_limits(workers):
+        forkserver.ensure_running()
+
+
+def prestart(cfg: ExecutorConfig | None) -> None:
+    """Launch the forkserver of the local pool ``cfg`` describes, with a run's preload, if it describes one.
+
+    For the command line: called before it imports the pipeline, the forkserver imports the
+    modules of the run's tasks while the command imports its own and generates the world.
+    A command that stops early leaves nothing behind: the preload ends when this process
+    does (``roman_sim.pipeline.worker_preload``).
+    """
+    if cfg is not None and cfg.kind == "local" and cfg.n_workers() > 1:
+        start_forkserver(cfg.n_workers(), (RUN_PRELOAD,))
+
+
 class LocalPoolExecutor(Executor):
     """A pool of worker processes on this machine (``forkserver``: no threads or GL state are forked).
+
+    Workers are forked from multiprocessing's forkserver, which imports ``preload`` once
+    (a run's pool: ``RUN_PRELOAD``, every module its tasks use, so no worker imports them
+    again); ``start`` launches it ahead of the first task so that it imports while the
+    caller works on. Workers size their libraries' thread pools to their share of the
+    cores (``thread_limits``) and take this process's ``sys.path`` when the pool is made.
 
     Workers die with the main process however it ends (``roman_sim.pipeline.lifeline``). An
     interrupt (or the caller abandoning ``run_tasks``) cancels the pending tasks and ends the
@@ -73,22 +147,29 @@ class LocalPoolExecutor(Executor):
     #: Bound after SIGTERM (s): workers still alive then are sent SIGKILL.
     kill_after_s = 2.0
 
-    def __init__(self, workers: int) -> None:
+    def __init__(self, workers: int, preload: Sequence[str] = (TASKS,)) -> None:
         self.workers = workers
+        self.preload = tuple(preload)
         self._pool: ProcessPoolExecutor | None = None
         self._lifeline: Lifeline | None = None
 
     def _get_pool(self) -> ProcessPoolExecutor:
         if self._pool is None:
+            start_forkserver(self.workers, self.preload)
             ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload(["roman_sim.pipeline.tasks"])
-            with sigint_ignored(), parent_sys_path():  # Ctrl-C ignored while it imports; this process's modules
-                forkserver.ensure_running()
             self._lifeline = Lifeline(ctx)
             self._pool = ProcessPoolExecutor(
-                max_workers=self.workers, mp_context=ctx, initializer=worker_init, initargs=(self._lifeline.reader,)
+                max_workers=self.workers,
+                mp_context=ctx,
+                initializer=_start_worker,
+                initargs=(worker_init, self._lifeline.reader, list(sys.path)),
             )
         return self._pool
+
+    def start(self) -> None:
+        """Launch the forkserver (it imports the tasks' modules in the background; workers fork on the first task)."""
+        with signals_deferred():
+            self._get_pool()
 
     def run_tasks(
         self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
@@ -144,6 +225,16 @@ class LocalPoolExecutor(Executor):
             lifeline.cut()
 
 
+def _start_worker(init: Callable[[Connection], None], lifeline: Connection, sys_path: list[str]) -> None:
+    """Pool initialiser: ``init(lifeline)`` (``worker_init``), then the entries of ``sys_path`` the worker lacks.
+
+    ``sys_path`` is this process's module path when it made the pool, which may have grown
+    since the forkserver started (a plug-in's folder added while the scenario was checked).
+    """
+    init(lifeline)
+    sys.path.extend(p for p in sys_path if p not in sys.path)
+
+
 def _unblock(calls: object) -> None:
     """Close the reading end of the pool's call queue, so its feeder thread stops writing to workers that are gone.
 
@@ -156,13 +247,16 @@ def _unblock(calls: object) -> None:
         pass
 
 
-def open_executor(cfg: ExecutorConfig | None) -> Executor:
-    """The executor ``cfg`` describes (``None``: serial). A local pool of one worker runs in-process."""
+def open_executor(cfg: ExecutorConfig | None, run: bool = False) -> Executor:
+    """The executor ``cfg`` describes (``None``: serial). A local pool of one worker runs in-process.
+
+    ``run``: the executor of a run, whose local pool preloads every module the run's tasks use.
+    """
     if cfg is None or cfg.kind == "serial":
         return SerialExecutor()
     if cfg.kind == "local":
         n = cfg.n_workers()
-        return SerialExecutor() if n == 1 else LocalPoolExecutor(n)
+        return SerialExecutor() if n == 1 else LocalPoolExecutor(n, (RUN_PRELOAD,) if run else (TASKS,))
     from roman_sim.pipeline.dask_executor import DaskExecutor
 
     return DaskExecutor(cfg)
@@ -176,5 +270,9 @@ __all__ = [
     "TaskError",
     "guarded",
     "open_executor",
+    "prestart",
+    "start_forkserver",
+    "thread_limits",
+    "threads_per_worker",
     "worker_name",
 ]

@@ -184,7 +184,7 @@ class Experiment:
         self.validate()
         if isinstance(self.executor, Executor):
             return self._run(self.executor)
-        with open_executor(self.executor) as ex:
+        with open_executor(self.executor, run=True) as ex:
             return self._run(ex)
 
     def _run(self, ex: Executor) -> RunResult:
@@ -201,6 +201,8 @@ class Experiment:
         manifest = self._start_manifest(old, keys, reuse, active)
         needed = {i for s in active if s.name not in reuse for i in s.inputs} | set(RESULT_STAGES)
         timings = self._old_timings(reuse)
+        if any(s.uses_workers for s in active if s.name not in reuse):
+            ex.start()  # the workers start up while the stages before their first task (the world) run
         outputs: dict[str, StageOutput] = {}
         for stage in active:
             if stage.name in reuse:

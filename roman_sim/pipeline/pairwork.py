@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
+from collections.abc import Callable
 from pathlib import Path
 from typing import cast
 
@@ -59,10 +60,17 @@ class ChunkCodec:
         return cast(list[ChunkRecord], data)
 
 
-def align_pairs(ctx: RunContext, pairs: list[tuple[Submap, Submap]], tasks: TaskRunner) -> dict[ResultKey, AlignResult]:
+def align_pairs(
+    ctx: RunContext,
+    pairs: list[tuple[Submap, Submap]],
+    tasks: TaskRunner,
+    on_chunk: Callable[[dict[ResultKey, AlignResult]], None] | None = None,
+) -> dict[ResultKey, AlignResult]:
     """Every scenario aligner on every pair: ``(a name, b name, label) -> AlignResult``.
 
-    Progress advances by the pairs of each finished chunk (``evaluation:pairs``).
+    Progress advances by the pairs of each finished chunk (``evaluation:pairs``). ``on_chunk``
+    gets each chunk's results as the chunk comes back (in the order chunks finish), so the
+    caller can work on them while the workers align the other chunks.
     """
     size = max(1, int(ctx.chunk_pairs))
     names = [(a.name, b.name) for a, b in pairs]
@@ -71,15 +79,13 @@ def align_pairs(ctx: RunContext, pairs: list[tuple[Submap, Submap]], tasks: Task
     spec = aligners_json(ctx)
     args = [(spec, {n: public[n] for ab in chunk for n in ab}, chunk) for chunk in chunks]
     labels = [f"aligning pairs {i * size}..{i * size + len(c) - 1}" for i, c in enumerate(chunks)]
-    records: dict[int, list[ChunkRecord]] = {}
+    done: dict[int, dict[ResultKey, AlignResult]] = {}
     for i, rec in tasks.run(align_chunk_task, args, labels, [_chunk_id(c) for c in chunks], ChunkCodec()):
-        records[i] = rec
+        done[i] = {(str(r["a"]), str(r["b"]), str(r["method"])): result_from_json(r) for r in rec}
         ctx.progress.advance("evaluation:pairs", len(chunks[i]))
-    out: dict[ResultKey, AlignResult] = {}
-    for i in range(len(chunks)):
-        for r in records[i]:
-            out[(str(r["a"]), str(r["b"]), str(r["method"]))] = result_from_json(r)
-    return out
+        if on_chunk is not None:
+            on_chunk(done[i])
+    return {k: v for i in range(len(chunks)) for k, v in done[i].items()}
 
 
 class Replay:

@@ -1,13 +1,16 @@
 """Per-robot stage folders (``<folder>/<robot>.npz`` + ``<folder>/notes.json``) and stage notes.
 
 The writers here are called from the stages' ``save`` only (stage code itself writes nothing
-outside ``save``; a test checks it), the readers from their ``load``.
+outside ``save``; a test checks it), the readers from their ``load``. The robots' files are
+written at the same time, one thread each: compressing them (zlib) runs outside the GIL.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import TypeVar
 
@@ -35,13 +38,25 @@ def read_notes(path: Path) -> list[str]:
 def save_per_robot(
     ctx: RunContext, folder: str, items: dict[str, T], writer: Callable[[Path, T], None], notes: list[str]
 ) -> list[str]:
-    """``writer(<folder>/<robot>.npz, item)`` per robot and the notes; the relative paths written."""
-    files = []
-    for robot, item in items.items():
-        writer(ctx.run_dir / folder / f"{robot}.npz", item)
-        files.append(f"{folder}/{robot}.npz")
+    """``writer(<folder>/<robot>.npz, item)`` per robot (on threads) and the notes; the relative paths written."""
+    files = [f"{folder}/{robot}.npz" for robot in items]
+    each(lambda robot: writer(ctx.run_dir / folder / f"{robot}.npz", items[robot]), list(items))
     write_notes(ctx.run_dir / folder / "notes.json", notes)
     return [*files, f"{folder}/notes.json"]
+
+
+def each(fn: Callable[[str], object], keys: list[str]) -> None:
+    """``fn(key)`` for every key, on up to one thread per core (in this thread for a single key).
+
+    For writers that spend their time compressing (outside the GIL). Raises the error of the
+    first key that failed, once every call has ended.
+    """
+    if len(keys) <= 1:
+        for k in keys:
+            fn(k)
+        return
+    with ThreadPoolExecutor(max_workers=min(len(keys), os.cpu_count() or 1)) as pool:
+        list(pool.map(fn, keys))
 
 
 def load_per_robot(ctx: RunContext, folder: str, reader: Callable[[Path], T]) -> tuple[dict[str, T], list[str]]:

@@ -89,3 +89,9 @@ class TaskRunner:
                     raise StorageError(f"{labels[i]}: its checkpoint in {self.checkpoint.folder} cannot be read back")
                 value = back
             yield i, value
+
+    def run_unkept(
+        self, fn: Callable[..., T], args: Sequence[tuple[object, ...]], labels: Sequence[str]
+    ) -> Iterator[tuple[int, T]]:
+        """Yield ``(index, result)`` of every task as it finishes, with no checkpoint (quick tasks: plots)."""
+        return self.executor.run_tasks(fn, args, labels)

@@ -1,17 +1,20 @@
-"""The tasks a run sends to its workers: map one robot, align one chunk of submap pairs.
+"""The tasks a run sends to its workers: map one robot, cut its submaps, align one chunk of submap pairs.
 
 Tasks get the scenario as JSON (the worker validates it again) and return plain data; the
-calling process writes every file. A worker keeps the last world it generated (worlds
-are deterministic in spec and seed) and the aligners it built, so consecutive tasks of one
-run do not rebuild them.
+calling process writes every file. A mapping task gets the world pickled (``PickledWorld``,
+from a local pool) or regenerates it from the scenario (Dask workers, possibly on other
+machines; worlds are deterministic in spec and seed). A worker keeps the last world it
+generated and the aligners it built, so consecutive tasks of one run do not rebuild them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import logging
+import pickle
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING, TypedDict, cast
 
 import numpy as np
 
@@ -20,6 +23,9 @@ from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.types import Submap
 
 if TYPE_CHECKING:
+    from roman_sim.mapping.mapper import SegmentMap
+    from roman_sim.mapping.submap import SubmapConfig
+    from roman_sim.mapping.types import KeyframeSet
     from roman_sim.pipeline.robot_mapping import RobotMapping
     from roman_sim.pipeline.scenario import Scenario
     from roman_sim.sim.paths import Path2D
@@ -62,22 +68,56 @@ def _world(world_json: str, seed: int) -> World:
     return generate(WorldRef.model_validate_json(world_json).spec(), seed)
 
 
+@dataclasses.dataclass(frozen=True)
+class PickledWorld:
+    """A world pickled once by the run's process, for its local workers (loading it takes a fraction
+    of the seconds generating it does).
+
+    The world goes without its ``MjSpec``, which cannot be pickled and which only exporting
+    reads; the compiled model, truth and meshes are the generated world's, byte for byte.
+    """
+
+    data: bytes
+
+    @classmethod
+    def of(cls, world: World) -> PickledWorld:
+        """``world`` pickled (its ``mjspec`` left out)."""
+        return cls(pickle.dumps(dataclasses.replace(world, mjspec=None), protocol=pickle.HIGHEST_PROTOCOL))
+
+    def load(self) -> World:
+        """The world back."""
+        world = pickle.loads(self.data)  # noqa: S301 (bytes this run's own process pickled)
+        return cast("World", world)
+
+
 def map_robot_task(
-    scenario_json: str, robot: str, path: Path2D | None, run_dir: str, world: World | None = None
+    scenario_json: str, robot: str, path: Path2D | None, run_dir: str, world: World | PickledWorld | None = None
 ) -> RobotMapping:
     """Map ``robot``: rendered along its planned ``path``, or read from its ``source``; its ``SegmentMap``.
 
-    ``world`` is passed in-process; workers regenerate it from the scenario (same bytes). A
-    robot read from a TUM folder needs that folder on the worker.
+    ``world`` is the world itself in-process, pickled from a local pool, None on Dask:
+    workers then regenerate it from the scenario (same bytes). A robot read from a TUM folder
+    needs that folder on the worker.
     """
     from roman_sim.pipeline.context import RunContext
     from roman_sim.pipeline.robot_mapping import map_one
 
     sc = _scenario(scenario_json)
     cfg = next(r for r in sc.robots if r.name == robot)
+    if isinstance(world, PickledWorld):
+        world = world.load() if cfg.source is None else None
     if world is None and cfg.source is None:
         world = _world(sc.world.model_dump_json(), sc.seed)
     return map_one(RunContext(sc, Path(run_dir)), world, cfg, path)
+
+
+def submaps_task(smap: SegmentMap, cfg: SubmapConfig, keyframes: KeyframeSet | None) -> list[Submap]:
+    """One robot's submaps (``build_submaps``), carrying its keyframes when it has them."""
+    from roman_sim.align.visual import attach_keyframes
+    from roman_sim.mapping.submap import build_submaps
+
+    subs = build_submaps(smap, cfg)
+    return attach_keyframes(subs, keyframes) if keyframes is not None else subs
 
 
 @lru_cache(maxsize=4)
@@ -99,13 +139,16 @@ def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list
     Returns one record per (pair, aligner), pair-major: ``result_to_json`` of the result
     under the aligner's label.
     """
+    from roman_sim.align.checks import remembered_checks
+
     out: list[ChunkRecord] = []
     labelled = _aligners(aligners_json)
-    for a, b in pairs:
-        for label, aligner in labelled:
-            res = aligner.align(submaps[a], submaps[b])
-            res.method = label
-            out.append({"a": a, "b": b, **result_to_json(res)})
+    with remembered_checks():  # each submap's input checks once per chunk, not once per pair and method
+        for a, b in pairs:
+            for label, aligner in labelled:
+                res = aligner.align(submaps[a], submaps[b])
+                res.method = label
+                out.append({"a": a, "b": b, **result_to_json(res)})
     return out
 
 

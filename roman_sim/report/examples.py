@@ -145,6 +145,50 @@ def _caption(tag: str, s: PairScore) -> str:
     )
 
 
+def example_rows(
+    scores: list[PairScore],
+    submaps: dict[str, Submap],
+    results: dict[tuple[str, str, str], AlignResult],
+) -> dict[str, list[Example]]:
+    """Per method (sorted): the rows of its figure, its correct example and its worst false positive
+    (those that exist; methods with neither are left out).
+
+    Args:
+        scores: scored pairs (any methods).
+        submaps: submaps by name (``robot/index``), with truth.
+        results: aligner results keyed by ``(a name, b name, method)``.
+
+    Raises:
+        EvaluationError: an example pair without its submaps or its result.
+    """
+    out: dict[str, list[Example]] = {}
+    for method in sorted({s.method for s in scores}):
+        rows: list[Example] = []
+        mine = [s for s in scores if s.method == method]
+        for tag, s in zip(("correct", "worst false positive"), pick_examples(mine)):
+            if s is None:
+                continue
+            key = (s.truth.a, s.truth.b, s.method)
+            if key not in results or s.truth.a not in submaps or s.truth.b not in submaps:
+                raise EvaluationError(f"no submaps/result for example pair {s.truth.a}|{s.truth.b} ({s.method})")
+            rows.append((submaps[s.truth.a], submaps[s.truth.b], results[key], s.truth.T_a_b_true, _caption(tag, s)))
+        if rows:
+            out[method] = rows
+    return out
+
+
+def example_file(method: str) -> str:
+    """The file name of ``method``'s example figure."""
+    return f"alignment_{_slug(method)}.png"
+
+
+def plot_method_examples(method: str, rows: list[Example], plots_dir: str | Path) -> Path:
+    """``alignment_<method>.png`` in ``plots_dir`` from ``method``'s rows (``example_rows``)."""
+    return plot_examples(
+        rows, Path(plots_dir) / example_file(method), f"{method}: a correct alignment and the worst false positive"
+    )
+
+
 def draw_examples(
     scores: list[PairScore],
     submaps: dict[str, Submap],
@@ -158,23 +202,4 @@ def draw_examples(
         submaps: submaps by name (``robot/index``), with truth.
         results: aligner results keyed by ``(a name, b name, method)``.
     """
-    out = []
-    for method in sorted({s.method for s in scores}):
-        rows: list[Example] = []
-        mine = [s for s in scores if s.method == method]
-        for tag, s in zip(("correct", "worst false positive"), pick_examples(mine)):
-            if s is None:
-                continue
-            key = (s.truth.a, s.truth.b, s.method)
-            if key not in results or s.truth.a not in submaps or s.truth.b not in submaps:
-                raise EvaluationError(f"no submaps/result for example pair {s.truth.a}|{s.truth.b} ({s.method})")
-            rows.append((submaps[s.truth.a], submaps[s.truth.b], results[key], s.truth.T_a_b_true, _caption(tag, s)))
-        if rows:
-            out.append(
-                plot_examples(
-                    rows,
-                    Path(plots_dir) / f"alignment_{_slug(method)}.png",
-                    f"{method}: a correct alignment and the worst false positive",
-                )
-            )
-    return out
+    return [plot_method_examples(m, rows, plots_dir) for m, rows in example_rows(scores, submaps, results).items()]

@@ -301,15 +301,24 @@ METRIC_PLOTS: dict[str, tuple[Callable[[EvaluationMetrics, Path], Path | None], 
 }
 
 
+def write_metric_plot(metrics: EvaluationMetrics, name: str, plots_dir: str | Path) -> tuple[Path | None, str | None]:
+    """The metric plot ``name`` (a key of ``METRIC_PLOTS``) into ``plots_dir``: (path, None) or (None, the note
+    on why it is not drawn)."""
+    draw, needs = METRIC_PLOTS[name]
+    path = Path(plots_dir) / name
+    if draw(metrics, path) is None:
+        path.unlink(missing_ok=True)
+        return None, f"plot {name} not drawn: it needs {needs}"
+    return path, None
+
+
 def write_metric_plots(metrics: EvaluationMetrics, plots_dir: str | Path) -> tuple[list[Path], list[str]]:
     """The metric plots into ``plots_dir``: (paths written, notes on plots not drawn)."""
-    d = Path(plots_dir)
     written, notes = [], []
-    for name, (draw, needs) in METRIC_PLOTS.items():
-        path = draw(metrics, d / name)
-        if path is None:
-            (d / name).unlink(missing_ok=True)
-            notes.append(f"plot {name} not drawn: it needs {needs}")
-        else:
+    for name in METRIC_PLOTS:
+        path, note = write_metric_plot(metrics, name, plots_dir)
+        if path is not None:
             written.append(path)
+        if note is not None:
+            notes.append(note)
     return written, notes

@@ -6,21 +6,34 @@ functions that write their PNG files themselves. ``drawn_pngs`` runs such a func
 temporary folder and keeps the bytes of the files it wrote; the report stage's ``save``
 then writes those bytes into the run folder. The bytes are the ones the function would
 have written in place (same data, same bytes), and the temporary folder is removed at once.
+
+``metric_plot_png``, ``method_examples_png``, ``map_view_job`` and ``trajectory_plot_png`` draw one figure each
+and return ``Drawn`` (the PNG, or the note saying why it was not drawn), so that the report
+stage can hand them to worker processes as independent tasks (``draw_job``).
 """
 
 from __future__ import annotations
 
 import tempfile
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.base import AlignResult
+from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.mapping.types import Submap
+
+if TYPE_CHECKING:
+    from roman_sim.report.examples import Example
+    from roman_sim.report.trajplot import ClosureLine, TrajectoryLike
+
+#: What drawing one figure gives: its PNG bytes (None when not drawn) and the notes on why not.
+Drawn = tuple[bytes | None, list[str]]
 
 
 def drawn_pngs(draw: Callable[[Path], Iterable[Path]]) -> dict[str, bytes]:
@@ -50,6 +63,58 @@ def example_pngs(
     from roman_sim.report.examples import draw_examples
 
     return drawn_pngs(lambda folder: draw_examples(scores, submaps, results, folder))
+
+
+def draw_job(fn: Callable[..., Drawn], *args: object) -> Drawn:
+    """``fn(*args)``: one figure drawn as a worker's task (``fn`` is one of this module's drawing functions)."""
+    return fn(*args)
+
+
+def metric_plot_png(metrics: EvaluationMetrics, name: str) -> Drawn:
+    """The metric plot ``name`` (a key of ``plots.METRIC_PLOTS``), or the note on why it is not drawn."""
+    from roman_sim.report.plots import write_metric_plot
+
+    notes: list[str] = []
+
+    def draw(folder: Path) -> list[Path]:
+        path, note = write_metric_plot(metrics, name, folder)
+        notes.extend([note] if note is not None else [])
+        return [] if path is None else [path]
+
+    return next(iter(drawn_pngs(draw).values()), None), notes
+
+
+def method_examples_png(method: str, rows: list[Example]) -> Drawn:
+    """``alignment_<method>.png`` from the method's example rows (``examples.example_rows``)."""
+    from roman_sim.report.examples import plot_method_examples
+
+    return next(iter(drawn_pngs(lambda folder: [plot_method_examples(method, rows, folder)]).values())), []
+
+
+def map_view_job(submaps: list[Submap]) -> Drawn:
+    """The map view (``mapview.map_view_png``), or the note on why it is not rendered."""
+    from roman_sim.report.mapview import map_view_png
+
+    try:
+        return map_view_png(submaps), []
+    except EvaluationError as err:
+        return None, [f"map view not rendered: {err}"]
+
+
+def trajectory_plot_png(
+    truth: Mapping[str, TrajectoryLike],
+    est: Mapping[str, TrajectoryLike] | None,
+    odom: Mapping[str, TrajectoryLike] | None,
+    closures: Sequence[ClosureLine],
+    title: str,
+) -> Drawn:
+    """The trajectory plot (``trajplot.trajectory_png``), or the note on why it is not drawn."""
+    from roman_sim.report.trajplot import trajectory_png
+
+    try:
+        return trajectory_png(truth, est=est, odom=odom, closures=closures, title=title), []
+    except EvaluationError as err:
+        return None, [f"trajectory plot not drawn: {err}"]
 
 
 def masks_png(

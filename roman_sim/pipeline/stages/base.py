@@ -77,6 +77,8 @@ class Stage(ABC, Generic[InputsT, OutputT]):
     cached: ClassVar[bool] = True
     #: Layout of the saved files (part of the cache key when set).
     format: ClassVar[str | None] = None
+    #: Whether ``run`` hands tasks to the run's workers (the experiment then starts them ahead of the run).
+    uses_workers: ClassVar[bool] = False
 
     @property
     def inputs(self) -> tuple[str, ...]:

@@ -23,6 +23,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,7 +35,7 @@ from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, score_pair, summary
-from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
+from roman_sim.evaluation.pairs import AmbiguityFn, PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
 from roman_sim.evaluation.results import read_evaluation, write_evaluation
 from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
@@ -83,12 +84,16 @@ ResultKey = tuple[str, str, str]
 
 
 def apply_aligners(
-    ctx: RunContext, pairs: list[tuple[Submap, Submap]], tasks: TaskRunner
+    ctx: RunContext,
+    pairs: list[tuple[Submap, Submap]],
+    tasks: TaskRunner,
+    on_chunk: Callable[[dict[ResultKey, AlignResult]], None] | None = None,
 ) -> tuple[dict[ResultKey, AlignResult], Timings]:
     """Every scenario aligner on every pair, ``(a name, b name, label) -> AlignResult``, and the wall times.
 
     Gated (when ``gating.enabled``), then in chunks through ``tasks``; pairs that gating
     skipped get "no alignment" with the gating reason, so they count as misses.
+    ``on_chunk`` gets the results of each chunk of aligned pairs as it comes back.
     """
     from roman_sim.align.gating import GATED_REASON, gate_pairs
     from roman_sim.pipeline.pairwork import align_pairs as run_chunks
@@ -99,7 +104,7 @@ def apply_aligners(
     gating_s = time.perf_counter() - t0
     ctx.progress.start("evaluation:pairs", len(kept))
     t1 = time.perf_counter()
-    results = run_chunks(ctx, kept, tasks)
+    results = run_chunks(ctx, kept, tasks, on_chunk)
     ctx.progress.end("evaluation:pairs")
     timings: Timings = {
         "candidates": len(pairs),
@@ -132,6 +137,56 @@ def score_pairs(
                 raise EvaluationError(f"no result of {m} for the pair {t.a}|{t.b}")
             out.append(score_pair(t, res, cfg))
     return out
+
+
+class Scorer:
+    """``score_pairs`` done as results come in: truths on the first chunk, each result scored on arrival.
+
+    The evaluation hands ``add`` to the alignment, so this process scores the chunks that
+    are back while the workers align the others; ``scores`` then scores what is left (pairs
+    that gating skipped) and gives exactly ``score_pairs(truths, results, methods, cfg)``.
+    """
+
+    def __init__(
+        self,
+        pairs: list[tuple[Submap, Submap]],
+        ambiguity: AmbiguityFn | None,
+        methods: list[str],
+        cfg: EvalConfig,
+    ) -> None:
+        self.pairs, self.ambiguity, self.methods, self.cfg = pairs, ambiguity, methods, cfg
+        self._truths: list[PairTruth] | None = None
+        self._by_pair: dict[tuple[str, str], PairTruth] = {}
+        self._scored: dict[ResultKey, PairScore] = {}
+
+    def truths(self) -> list[PairTruth]:
+        """Truth of every pair, in pair order (computed once)."""
+        if self._truths is None:
+            self._truths = truths_for_pairs(self.pairs, self.ambiguity, self.cfg)
+            self._by_pair = {(t.a, t.b): t for t in self._truths}
+        return self._truths
+
+    def add(self, results: dict[ResultKey, AlignResult]) -> None:
+        """Score ``results`` (of the scenario's methods on pairs of ``pairs``)."""
+        self.truths()
+        for key, res in results.items():
+            truth = self._by_pair.get(key[:2])
+            if truth is not None and key[2] in self.methods:
+                self._scored[key] = score_pair(truth, res, self.cfg)
+
+    def scores(self, results: dict[ResultKey, AlignResult]) -> list[PairScore]:
+        """Every (pair, method) score, pair-major, the methods in their order (``score_pairs``'s list)."""
+        out = []
+        for t in self.truths():
+            for m in self.methods:
+                key = (t.a, t.b, m)
+                if key not in self._scored:
+                    res = results.get(key)
+                    if res is None:
+                        raise EvaluationError(f"no result of {m} for the pair {t.a}|{t.b}")
+                    self._scored[key] = score_pair(t, res, self.cfg)
+                out.append(self._scored[key])
+        return out
 
 
 def _records(results: dict[ResultKey, AlignResult]) -> list[AlignmentRecord]:
@@ -167,6 +222,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
 
     name = "evaluation"
     input_type = EvaluationInputs
+    uses_workers = True
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         sc = ctx.scenario.model_dump(mode="json")
@@ -177,11 +233,12 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         sel = select_pairs(inputs.submaps.all(), ec)
         world = inputs.world
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
-        truths = truths_for_pairs(sel.pairs, ambiguity, ec)
-        results, pair_timings = apply_aligners(ctx, sel.pairs, tasks)
-        scores = score_pairs(truths, results, [e.name for e in ctx.scenario.aligners], ec)
+        scorer = Scorer(sel.pairs, ambiguity, [e.name for e in ctx.scenario.aligners], ec)
+        # pairs are scored as their chunks come back, while the workers align the others
+        results, pair_timings = apply_aligners(ctx, sel.pairs, tasks, scorer.add)
+        scores = scorer.scores(results)
         metrics = summary(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh)
-        log.info("evaluated %d pairs (%d skipped by the distance cap)", len(truths), sel.n_skipped)
+        log.info("evaluated %d pairs (%d skipped by the distance cap)", len(sel.pairs), sel.n_skipped)
         maps = inputs.maps
         if maps is not None and maps.frontend is not None:
             metrics.frontend = maps.frontend.to_json()

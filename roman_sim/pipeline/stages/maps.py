@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import json
 import logging
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -93,13 +94,18 @@ def map_robots(
     keyframes (robots that have them) and the grade parts (robots with instance truth), in
     scenario order.
     """
-    from roman_sim.pipeline.tasks import map_robot_task
+    from roman_sim.pipeline.tasks import PickledWorld, map_robot_task
 
     robots = ctx.scenario.robots
     names = [r.name for r in robots]
     sc_json = ctx.scenario.model_dump_json()
     local = tasks.in_process
-    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), world if local else None) for r in robots]
+    # A local pool's workers get the world pickled (a second to send and load against seconds
+    # to generate); Dask workers, possibly on other machines, regenerate it from the scenario.
+    shipped: World | PickledWorld | None = world if local else None
+    if not local and world is not None and tasks.kind == "local" and any(r.source is None for r in robots):
+        shipped = PickledWorld.of(world)
+    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), shipped) for r in robots]
 
     def here(sc: str, name: str, path: Path2D | None, run_dir: str, w: World | None) -> RobotMapping:
         return map_one(ctx, w, next(r for r in robots if r.name == name), path)
@@ -122,6 +128,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
 
     name = "maps"
     input_type = MapsInputs
+    uses_workers = True
 
     def applies(self, ctx: RunContext) -> bool:
         return ctx.submaps_dir is None
@@ -156,14 +163,19 @@ class MapsStage(Stage[MapsInputs, Maps]):
         return Maps(maps, _rgb_notes(ctx), keyframes, grades)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
-        files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
-        if out.keyframes:
-            files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
-        if out.frontend is not None:
-            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
-            plot_frontend_grades(out.frontend, ctx.run_dir / FRONTEND_PNG)
-            files += [FRONTEND_JSON, FRONTEND_PNG]
-        return files
+        def save_frontend(grades: FrontEndGrades | None) -> list[str]:
+            if grades is None:
+                return []
+            write_json(ctx.run_dir / FRONTEND_JSON, grades.to_json())
+            plot_frontend_grades(grades, ctx.run_dir / FRONTEND_PNG)
+            return [FRONTEND_JSON, FRONTEND_PNG]
+
+        with ThreadPoolExecutor(max_workers=1) as pool:  # the front end's files while the maps compress
+            frontend = pool.submit(save_frontend, out.frontend)
+            files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+            if out.keyframes:
+                files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
+            return files + frontend.result()
 
     def load(self, ctx: RunContext, files: list[str]) -> Maps:
         maps, notes = load_per_robot(ctx, "maps", load_segment_map)

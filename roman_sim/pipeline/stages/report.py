@@ -16,6 +16,7 @@ rewrites it.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -38,10 +39,19 @@ from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.pipeline.taskrunner import TaskRunner
-from roman_sim.report.mapview import map_view_png
+from roman_sim.report.examples import example_file, example_rows
 from roman_sim.report.markdown import REPORT_MD, report_markdown
-from roman_sim.report.render import example_pngs, masks_png, metric_plot_pngs
-from roman_sim.report.trajplot import closure_lines, trajectory_png
+from roman_sim.report.plots import METRIC_PLOTS
+from roman_sim.report.render import (
+    Drawn,
+    draw_job,
+    map_view_job,
+    masks_png,
+    method_examples_png,
+    metric_plot_png,
+    trajectory_plot_png,
+)
+from roman_sim.report.trajplot import closure_lines
 
 MAP_STATS_JSON = "map_stats.json"
 SNAPSHOT = "plots/segments_on_image.png"
@@ -143,10 +153,11 @@ def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) 
     return masks_png(frame.rgb, [m.pixels for m in masks], title, labels)
 
 
-def trajectory_plot(ctx: RunContext, posegraph: PoseGraphOutput, submaps: Submaps) -> bytes | None:
+def trajectory_plot(ctx: RunContext, posegraph: PoseGraphOutput, submaps: Submaps) -> PlotJob | None:
     """Truth, placed odometry and the method's pose graph moved onto the truth, with the closures it used.
 
-    None when no pose graph was solved. Raises EvaluationError when there is nothing to draw.
+    The drawing job (``render.trajectory_plot_png``); None when no pose graph was solved.
+    Raises EvaluationError when there is nothing to draw.
     """
     method = ctx.scenario.posegraph_method
     if method is None or method not in posegraph.variants:
@@ -155,37 +166,93 @@ def trajectory_plot(ctx: RunContext, posegraph: PoseGraphOutput, submaps: Submap
     graph = posegraph.variants[method]
     ev, thresh = ctx.scenario.evaluation, ctx.scenario.posegraph.lc_association_thresh
     lines = closure_lines(graph.closures, graph.weights, submaps.by_name(), thresh, ev.rot_tol_deg, ev.trans_tol_m)
-    return trajectory_png(
-        truth,
-        est=aligned_to_truth(posegraph.trajectories[graph.source], truth) or None,
-        odom=posegraph.trajectories["odometry"],
-        closures=lines,
-        title=f"{ctx.scenario.name}: truth, odometry and {method} pose graph",
-    )
+    est = aligned_to_truth(posegraph.trajectories[graph.source], truth) or None
+    title = f"{ctx.scenario.name}: truth, odometry and {method} pose graph"
+    args = (truth, est, posegraph.trajectories["odometry"], lines, title)
+    return PlotJob(TRAJECTORY_PLOT, trajectory_plot_png, args)
 
 
-def draw_plots(ctx: RunContext, inputs: ReportInputs) -> tuple[dict[str, bytes], list[str]]:
-    """Metric plots, example alignments, the map view, the trajectories and the snapshot: (path -> PNG, notes)."""
-    ev, submaps = inputs.evaluation, inputs.submaps
-    metric, notes = metric_plot_pngs(ev.metrics)
-    results = {(r.a, r.b, r.method): r.result() for r in ev.alignments}
-    pngs = {f"plots/{k}": v for k, v in {**metric, **example_pngs(ev.scores, submaps.by_name(), results)}.items()}
+@dataclass(frozen=True)
+class PlotJob:
+    """One figure, ``name``: ``fn(*args)`` draws it (``roman_sim.report.render.Drawn``); ``here``: in this process."""
+
+    name: str
+    fn: Callable[..., Drawn]
+    args: tuple[object, ...]
+    here: bool = False
+
+
+def _snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> Drawn:
     try:
-        pngs[MAP_VIEW] = map_view_png(submaps.all())
-    except EvaluationError as err:
-        notes.append(f"map view not rendered: {err}")
+        return snapshot(ctx, world, maps, submaps), []
+    except (RomanSimError, RuntimeError, ImportError) as err:
+        return None, [f"front-end snapshot not drawn: {err}"]
+
+
+def plot_jobs(ctx: RunContext, inputs: ReportInputs) -> list[PlotJob]:
+    """Every figure of the report, in report order: metric plots, example alignments, the map view, the
+    trajectories and the front-end snapshot (the last two when the run has what they need)."""
+    ev, submaps = inputs.evaluation, inputs.submaps
+    results = {(r.a, r.b, r.method): r.result() for r in ev.alignments}
+    jobs = [PlotJob(f"plots/{name}", metric_plot_png, (ev.metrics, name)) for name in METRIC_PLOTS]
+    for method, rows in example_rows(ev.scores, submaps.by_name(), results).items():
+        jobs.append(PlotJob(f"plots/{example_file(method)}", method_examples_png, (method, rows)))
+    jobs.append(PlotJob(MAP_VIEW, map_view_job, (submaps.all(),)))
     try:
         traj = trajectory_plot(ctx, inputs.posegraph, submaps)
         if traj is not None:
-            pngs[TRAJECTORY_PLOT] = traj
+            jobs.append(traj)
     except EvaluationError as err:
-        notes.append(f"trajectory plot not drawn: {err}")
-    if inputs.world is not None and inputs.maps is not None:
-        try:
-            pngs[SNAPSHOT] = snapshot(ctx, inputs.world, inputs.maps, submaps)
-        except (RomanSimError, RuntimeError, ImportError) as err:
-            notes.append(f"front-end snapshot not drawn: {err}")
+        jobs.append(PlotJob(TRAJECTORY_PLOT, _noted, (f"trajectory plot not drawn: {err}",), here=True))
+    if inputs.world is not None and inputs.maps is not None:  # renders with the world, which this process has
+        jobs.append(PlotJob(SNAPSHOT, _snapshot, (ctx, inputs.world, inputs.maps, submaps), here=True))
+    return jobs
+
+
+def _noted(note: str) -> Drawn:
+    return None, [note]
+
+
+def draw_plots(
+    ctx: RunContext, inputs: ReportInputs, tasks: TaskRunner | None = None
+) -> tuple[dict[str, bytes], list[str]]:
+    """Metric plots, example alignments, the map view, the trajectories and the snapshot: (path -> PNG, notes).
+
+    With a local pool (``tasks``), its workers draw the figures, the largest first, while
+    this process renders the snapshot (it has the world) once the first figure is back;
+    otherwise everything is drawn here. Never on Dask workers: PNG bytes depend on the
+    installed matplotlib, fonts and OpenGL, and those workers may run elsewhere. The
+    figures and notes come out in report order wherever they were drawn.
+    """
+    jobs = plot_jobs(ctx, inputs)
+    drawn: dict[int, Drawn] = {}
+    here = [i for i, j in enumerate(jobs) if j.here or tasks is None or tasks.kind != "local"]
+    there = sorted((i for i in range(len(jobs)) if i not in here), key=lambda i: -_weight(jobs[i]))
+    if there:
+        assert tasks is not None
+        runs = tasks.run_unkept(
+            draw_job, [(jobs[i].fn, *jobs[i].args) for i in there], [f"drawing {jobs[i].name}" for i in there]
+        )
+        for k, out in runs:
+            drawn[there[k]] = out
+            for i in here:  # this process's own figures, while the workers draw on
+                drawn[i] = jobs[i].fn(*jobs[i].args)
+            here = []
+    for i in here:
+        drawn[i] = jobs[i].fn(*jobs[i].args)
+    pngs: dict[str, bytes] = {}
+    notes: list[str] = []
+    for i, job in enumerate(jobs):
+        png, more = drawn[i]
+        if png is not None:
+            pngs[job.name] = png
+        notes += more
     return pngs, notes
+
+
+def _weight(job: PlotJob) -> int:
+    """Rough drawing cost, to hand out the largest figures first (map view, example figures, the rest)."""
+    return 3 if job.fn is map_view_job else 2 if job.fn is method_examples_png else 1
 
 
 class ReportStage(Stage[ReportInputs, ReportOutput]):
@@ -193,6 +260,7 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
 
     name = "report"
     input_type = ReportInputs
+    uses_workers = True
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         return [ctx.scenario.name]
@@ -202,7 +270,7 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
         for out in (inputs.maps, inputs.submaps, inputs.evaluation, inputs.posegraph, inputs.ate):
             notes += [] if out is None else list(out.notes)
         stats = map_stats(inputs.maps, inputs.submaps)
-        pngs, plot_notes = draw_plots(ctx, inputs)
+        pngs, plot_notes = draw_plots(ctx, inputs, tasks)
         notes = list(dict.fromkeys(notes + plot_notes))
         upstream = inputs.maps.plots if inputs.maps else []
         ate = inputs.ate.ate if inputs.ate.ate.variants else None

@@ -14,17 +14,16 @@ import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from roman_sim.align.visual import attach_keyframes
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.io import load_submaps, save_submaps
-from roman_sim.mapping.submap import build_submaps
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.pipeline.tasks import submaps_task
 
 
 @dataclass
@@ -66,10 +65,11 @@ def _user_files(ctx: RunContext) -> dict[str, Path]:
 
 
 class SubmapsStage(Stage[SubmapsInputs, Submaps]):
-    """Build submaps from the maps (or load the user's)."""
+    """Build submaps from the maps (or load the user's); on a local pool, one robot per worker."""
 
     name = "submaps"
     input_type = SubmapsInputs
+    uses_workers = True
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         parts: list[JSON] = [ctx.scenario.model_dump(mode="json")["submaps"]]
@@ -90,11 +90,12 @@ class SubmapsStage(Stage[SubmapsInputs, Submaps]):
         maps = inputs.maps
         if maps is None:
             raise ConfigError("the submaps stage needs the maps (or --submaps)")
-        out = {}
-        for name, smap in maps.maps.items():
-            subs = build_submaps(smap, ctx.scenario.submaps)
-            out[name] = attach_keyframes(subs, maps.keyframes[name]) if name in maps.keyframes else subs
-        return Submaps(out)
+        names = list(maps.maps)
+        args = [(maps.maps[n], ctx.scenario.submaps, maps.keyframes.get(n)) for n in names]
+        if tasks.kind != "local" or len(names) < 2:  # Dask workers would get every map over the network
+            return Submaps({n: submaps_task(*a) for n, a in zip(names, args)})
+        done = dict(tasks.run_unkept(submaps_task, args, [f"cutting the submaps of robot {n}" for n in names]))
+        return Submaps({n: done[i] for i, n in enumerate(names)})
 
     def save(self, out: Submaps, ctx: RunContext) -> list[str]:
         return save_per_robot(ctx, "submaps", out.submaps, save_submaps, out.notes)
