@@ -104,6 +104,9 @@ class AppearanceSpec(StrictModel):
     texture_memory_mb: float = Field(
         512.0, gt=0.0, le=MAX_TEXTURE_MEMORY_MB, description="bound on the surface textures' memory"
     )
+    ground_texel_m: float = Field(
+        0.025, ge=0.005, le=1.0, description="texel of the ground image (textured worlds; the longest side at most 8192 px)"
+    )
     instance_variation: float = Field(0.5, ge=0.0, le=1.0, description="fraction of each family's colour range")
     lighting: LightingSpec = Field(default_factory=LightingSpec, description="a preset name or a mapping")
     shadows: bool = Field(False, description="the sun casts shadows (a frame costs about 2x)")
