@@ -12,7 +12,7 @@ import trimesh
 from roman_sim.core.errors import WorldError
 from roman_sim.core.geometry import make_T, rot_z
 from roman_sim.core.seeding import child_rng
-from roman_sim.world.appearance import MAX_TEXTURE_SIDE_PX, check_texture_memory, resolve_sun
+from roman_sim.world.appearance import check_texture_memory, resolve_sun
 from roman_sim.world.assets import concat_meshes
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
@@ -141,7 +141,8 @@ def generate(spec: WorldSpec, seed: int) -> World:
         _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius)) for i, p in enumerate(placed)
     ]
     if spec.appearance.textures:
-        check_texture_memory(spec.appearance, len({part.surface for p in placed for part in p.asset.parts}))
+        kinds = len({part.surface for p in placed for part in p.asset.parts})
+        check_texture_memory(spec.appearance, kinds, spec.extent_m)
     app = spec.appearance
     ground = ground_texture(
         terrain,
@@ -149,7 +150,6 @@ def generate(spec: WorldSpec, seed: int) -> World:
         spec.roads.width_m,
         child_rng(seed, "world", "ground"),
         app.ground_texel_m if app.textures else None,
-        MAX_TEXTURE_SIDE_PX,
     )
     sun = resolve_sun(spec.appearance.lighting, seed)
     mjs = new_spec(spec, terrain, base_z, elevation, ground, sun)

@@ -23,6 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.ndimage import distance_transform_edt, gaussian_filter, zoom
 
+from roman_sim.world.appearance import ground_shape
 from roman_sim.world.roads import Polyline
 from roman_sim.world.truth import Terrain
 
@@ -48,14 +49,12 @@ def plain_texture_shape(terrain: Terrain) -> tuple[int, int]:
     return max(8, int(round(terrain.size_y / px))), max(8, int(round(terrain.size_x / px)))
 
 
-def detailed_texture_shape(extent_m: tuple[float, float], texel_m: float, max_side_px: int) -> tuple[int, int]:
-    """(rows, cols) of the detailed ground image: ``texel_m`` texels, the longer side at most ``max_side_px``."""
-    px = max(texel_m, max(extent_m) / max_side_px)
-    return max(8, int(round(extent_m[1] / px))), max(8, int(round(extent_m[0] / px)))
-
-
 def _road_distance_px(
-    shape: tuple[int, int], size_x: float, size_y: float, roads: list[Polyline], cell_m: tuple[float, float] | None = None
+    shape: tuple[int, int],
+    size_x: float,
+    size_y: float,
+    roads: list[Polyline],
+    cell_m: tuple[float, float] | None = None,
 ) -> NDArray[np.float64]:
     """Distance (metres) from every cell of a ``shape`` grid to the nearest road centre line.
 
@@ -90,15 +89,14 @@ def ground_texture(
     road_width_m: float,
     rng: np.random.Generator,
     texel_m: float | None = None,
-    max_side_px: int = MAX_TEXTURE_PX,
 ) -> NDArray[np.uint8]:
     """(rows, cols, 3) RGB ground image: grass and the road surfaces.
 
     ``texel_m`` None gives the plain image (patchy grass, faint noise); a texel size gives the
-    detailed one (``detailed_texture_shape``, at most ``max_side_px`` on its longer side).
+    detailed one (``roman_sim.world.appearance.ground_shape``).
     """
     if texel_m is not None:
-        return _detailed(terrain, roads, road_width_m, rng, texel_m, max_side_px)
+        return _detailed(terrain, roads, road_width_m, rng, texel_m)
     shape = plain_texture_shape(terrain)
     coarse = rng.normal(0.0, 1.0, (max(2, shape[0] // 32), max(2, shape[1] // 32)))
     patches = zoom(coarse, (shape[0] / coarse.shape[0], shape[1] / coarse.shape[1]), order=1)[: shape[0], : shape[1]]
@@ -125,7 +123,7 @@ def _bilinear(lat: NDArray[np.float32], r0: int, r1: int, cols: int, cell_px: fl
     i, j = np.floor(u).astype(np.int64), np.floor(v).astype(np.int64)
     fu, fv = (u - i).astype(np.float32)[:, None], (v - j).astype(np.float32)[None, :]
     rows_ = lat[i] * (1 - fu) + lat[i + 1] * fu  # (block, lattice cols)
-    return rows_[:, j] * (1 - fv) + rows_[:, j + 1] * fv
+    return (rows_[:, j] * (1 - fv) + rows_[:, j + 1] * fv).astype(np.float32, copy=False)
 
 
 def _detailed(
@@ -134,10 +132,9 @@ def _detailed(
     road_width_m: float,
     rng: np.random.Generator,
     texel_m: float,
-    max_side_px: int,
 ) -> NDArray[np.uint8]:
     """The detailed ground image (module docstring)."""
-    rows, cols = detailed_texture_shape((terrain.size_x, terrain.size_y), texel_m, max_side_px)
+    rows, cols = ground_shape((terrain.size_x, terrain.size_y), texel_m)
     px_m = max(terrain.size_x / cols, terrain.size_y / rows)
     n_oct = len(GRASS_OCTAVES)
     # everything drawn up front, in a fixed order, so the image does not depend on the block size
