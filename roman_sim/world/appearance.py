@@ -20,6 +20,10 @@ atlases' memory, ``kinds * (texture_px * atlas_tiles)^2 * 3`` bytes, must stay w
 ``texture_memory_mb``. ``texture_scope: surface`` gives each kind one tile that every
 instance shows alike (every instance of a shape then looks the same up to its colour).
 
+The ground (``roman_sim.world.ground``) is one image over the whole world: with textures,
+``ground_texel_m`` texels with detail at every scale (its memory counts towards
+``texture_memory_mb``); without, or with ``ground_texel_m: null``, the plain 0.2 m image.
+
 Lighting: one directional sun (azimuth counter-clockwise from the world +x axis, i.e. 0 =
 east and 90 = north in an east-north-up world; elevation above the horizon), a uniform
 ambient term and a diffuse headlight at the camera. Presets name typical skies; angles left
