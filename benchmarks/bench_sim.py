@@ -13,7 +13,8 @@ the model's texture bytes and whole buffer, and how much the process grows when 
 renderer uploads the world to OpenGL (Mesa keeps textures in process memory). The texture
 rows compare one shared texture per surface kind at 256 px (``textures_per_surface_256``,
 the look before per-instance textures) with every object part's own texture at 64 px
-(``textures``, the default) and 128 px.
+(``textures``, the default) and 128 px; ``textures_plain_ground`` is the default textures
+with the plain 0.2 m ground instead of the detailed one (``ground_texel_m: null``).
 Writes ``benchmarks/out/sim.json``. Run: ``python benchmarks/bench_sim.py [--quick]``, or
 ``--appearance`` to measure only that section and merge it into the existing file.
 """
@@ -63,6 +64,7 @@ APPEARANCE_OPTIONS: dict[str, dict[str, Any]] = {
     "textures_per_surface_256": {"textures": True, "texture_scope": "surface", "texture_px": 256},
     "textures": {"textures": True},
     "textures_per_instance_128": {"textures": True, "texture_px": 128},
+    "textures_plain_ground": {"textures": True, "ground_texel_m": None},
     "instance_variation_1": {"instance_variation": 1.0},
     "instance_variation_0": {"instance_variation": 0.0},
     **{f"lighting_{name}": {"lighting": name} for name in LIGHTING.names()},

@@ -3,7 +3,8 @@
 Run: ``python benchmarks/bench_world.py`` -> ``benchmarks/out/bench_world.json``.
 Also times the tiny test world, export, the ambiguity index and one 640x480 preview render,
 and the same forest with textures on, every object part its own texture (``textures: true``
-at the default ``texture_px``), and with one shared texture per surface kind. Times are the
+at the default ``texture_px``, the detailed ground at the default ``ground_texel_m``), with
+one shared texture per surface kind, and with the plain ground (``ground_texel_m: null``). Times are the
 best of a few runs, wall and CPU (CPU is steadier on a shared machine).
 """
 
@@ -89,6 +90,7 @@ def main() -> dict:
     }
     figures["forest_200m_textured_per_instance"] = _textured(forest)
     figures["forest_200m_textured_per_surface_256"] = _textured(forest, texture_scope="surface", texture_px=256)
+    figures["forest_200m_textured_plain_ground"] = _textured(forest, ground_texel_m=None)
     tiny_s, _ = _best_of(lambda: generate(load_world_spec("tiny"), 0))
     figures["tiny_generate_s"] = round(tiny_s, 3)
     with tempfile.TemporaryDirectory() as tmp:

@@ -20,6 +20,10 @@ atlases' memory, ``kinds * (texture_px * atlas_tiles)^2 * 3`` bytes, must stay w
 ``texture_memory_mb``. ``texture_scope: surface`` gives each kind one tile that every
 instance shows alike (every instance of a shape then looks the same up to its colour).
 
+The ground (``roman_sim.world.ground``) is one image over the whole world: with textures,
+``ground_texel_m`` texels with detail at every scale (its memory counts towards
+``texture_memory_mb``); without, or with ``ground_texel_m: null``, the plain 0.2 m image.
+
 Lighting: one directional sun (azimuth counter-clockwise from the world +x axis, i.e. 0 =
 east and 90 = north in an east-north-up world; elevation above the horizon), a uniform
 ambient term and a diffuse headlight at the camera. Presets name typical skies; angles left
@@ -104,6 +108,12 @@ class AppearanceSpec(StrictModel):
     texture_memory_mb: float = Field(
         512.0, gt=0.0, le=MAX_TEXTURE_MEMORY_MB, description="bound on the surface textures' memory"
     )
+    ground_texel_m: float | None = Field(
+        0.025,
+        ge=0.005,
+        le=1.0,
+        description="ground texel with textures (longest side at most 8192 px); null: the plain 0.2 m ground",
+    )
     instance_variation: float = Field(0.5, ge=0.0, le=1.0, description="fraction of each family's colour range")
     lighting: LightingSpec = Field(default_factory=LightingSpec, description="a preset name or a mapping")
     shadows: bool = Field(False, description="the sun casts shadows (a frame costs about 2x)")
@@ -142,18 +152,45 @@ def texture_memory_mb(n_textures: int, side_px: int) -> float:
     return n_textures * side_px**2 * TEXTURE_BYTES_PER_PX / 2**20
 
 
-def check_texture_memory(spec: AppearanceSpec, n_kinds: int) -> None:
-    """``WorldError`` naming the fields when ``n_kinds`` surface textures exceed ``spec.texture_memory_mb``."""
+def ground_shape(extent_m: tuple[float, float], texel_m: float) -> tuple[int, int]:
+    """(rows, cols) of a ground image of ``texel_m`` texels over ``extent_m`` (longer side at most
+    ``MAX_TEXTURE_SIDE_PX``: coarser texels beyond that)."""
+    px = max(texel_m, max(extent_m) / MAX_TEXTURE_SIDE_PX)
+    return max(8, int(round(extent_m[1] / px))), max(8, int(round(extent_m[0] / px)))
+
+
+def ground_memory_mb(spec: AppearanceSpec, extent_m: tuple[float, float]) -> float:
+    """Memory (MiB) of the detailed ground image (0 when the world has the plain one)."""
+    if not spec.textures or spec.ground_texel_m is None:
+        return 0.0
+    rows, cols = ground_shape(extent_m, spec.ground_texel_m)
+    return rows * cols * TEXTURE_BYTES_PER_PX / 2**20
+
+
+def check_texture_memory(spec: AppearanceSpec, n_kinds: int, extent_m: tuple[float, float]) -> None:
+    """``WorldError`` naming the fields when ``n_kinds`` surface textures and the ground image of a
+    world of ``extent_m`` exceed ``spec.texture_memory_mb``."""
     side = spec.texture_side_px()
-    need = texture_memory_mb(n_kinds, side)
+    atlases = texture_memory_mb(n_kinds, side)
+    ground = ground_memory_mb(spec, extent_m)
+    need = atlases + ground
     if need <= spec.texture_memory_mb:
         return
-    tiles = int(np.sqrt(spec.texture_memory_mb * 2**20 / (TEXTURE_BYTES_PER_PX * max(n_kinds, 1)))) // spec.texture_px
+    room = max(spec.texture_memory_mb - ground, 0.0)
+    tiles = int(np.sqrt(room * 2**20 / (TEXTURE_BYTES_PER_PX * max(n_kinds, 1)))) // spec.texture_px
     what = f"{n_kinds} surface atlases" if spec.texture_scope == "instance" else f"{n_kinds} surface textures"
     atlas = spec.texture_scope == "instance" and tiles >= 2
     fix = f"appearance.atlas_tiles <= {tiles} at this bound, " if atlas else ""
+    parts = f"{what} of {side} x {side} px x {TEXTURE_BYTES_PER_PX} B"
+    if ground > 0:
+        rows, cols = ground_shape(extent_m, spec.ground_texel_m or 0.0)
+        parts += f" + a ground image of {cols} x {rows} px ({ground:.3g} MB)"
+        ground_room = spec.texture_memory_mb - atlases
+        if ground_room > 0:
+            texel = np.sqrt(extent_m[0] * extent_m[1] * TEXTURE_BYTES_PER_PX / (ground_room * 2**20))
+            fix += f"appearance.ground_texel_m >= {np.ceil(texel * 1e3) / 1e3:g}, "
     raise WorldError(
-        f"appearance.texture_memory_mb: {what} of {side} x {side} px x {TEXTURE_BYTES_PER_PX} B = {need:.3g} MB, "
+        f"appearance.texture_memory_mb: {parts} = {need:.3g} MB, "
         f"over the bound of {spec.texture_memory_mb:g} MB; allowed: {fix}a smaller appearance.texture_px, "
         f"appearance.texture_memory_mb >= {need:.3g} (at most {MAX_TEXTURE_MEMORY_MB:g}), or "
         "appearance.texture_scope: surface"

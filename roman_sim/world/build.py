@@ -141,8 +141,16 @@ def generate(spec: WorldSpec, seed: int) -> World:
         _object_truth(i, p, footprint_min_height(terrain, p.x, p.y, p.asset.radius)) for i, p in enumerate(placed)
     ]
     if spec.appearance.textures:
-        check_texture_memory(spec.appearance, len({part.surface for p in placed for part in p.asset.parts}))
-    ground = ground_texture(terrain, roads, spec.roads.width_m, child_rng(seed, "world", "ground"))
+        kinds = len({part.surface for p in placed for part in p.asset.parts})
+        check_texture_memory(spec.appearance, kinds, spec.extent_m)
+    app = spec.appearance
+    ground = ground_texture(
+        terrain,
+        roads,
+        spec.roads.width_m,
+        child_rng(seed, "world", "ground"),
+        app.ground_texel_m if app.textures else None,
+    )
     sun = resolve_sun(spec.appearance.lighting, seed)
     mjs = new_spec(spec, terrain, base_z, elevation, ground, sun)
     meshes: dict[str, trimesh.Trimesh] = {}

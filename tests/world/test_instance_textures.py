@@ -13,7 +13,7 @@ from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, WorldError
 from roman_sim.core.seeding import child_rng
 from roman_sim.world import World, WorldSpec, generate
-from roman_sim.world.appearance import texture_memory_mb
+from roman_sim.world.appearance import ground_memory_mb, ground_shape, texture_memory_mb
 from roman_sim.world.catalog import family_assets
 from roman_sim.world.ground import ground_texture
 from roman_sim.world.mjcf import MATERIAL_PREFIX, instance_mesh_name, shape_of
@@ -137,16 +137,37 @@ def test_texture_memory_is_stated_and_bounded(world: World) -> None:
     app = world.spec.appearance
     side = app.texture_px * app.atlas_tiles
     assert texture_memory_mb(3, side) == pytest.approx(3 * side * side * 3 / 2**20)
-    assert world.model.ntexdata == 3 * side * side * 3 + 64 * 64 * 6 * 3 + 3 * 250 * 250
-    bound = 0.5 * texture_memory_mb(3, side)
+    rows, cols = ground_shape(world.spec.extent_m, 0.025)
+    assert (rows, cols) == (2000, 2000)  # 50 m at 2.5 cm
+    assert ground_memory_mb(app, world.spec.extent_m) == pytest.approx(rows * cols * 3 / 2**20)
+    assert world.model.ntexdata == 3 * side * side * 3 + 64 * 64 * 6 * 3 + 3 * rows * cols
+    ground = ground_memory_mb(app, world.spec.extent_m)
+    bound = ground + 0.5 * texture_memory_mb(3, side)
     with pytest.raises(WorldError) as err:
         generate(_spec(texture_memory_mb=bound), 0)
     msg = str(err.value)
-    tiles = int(np.sqrt(bound * 2**20 / (3 * 3))) // app.texture_px
+    tiles = int(np.sqrt((bound - ground) * 2**20 / (3 * 3))) // app.texture_px
     assert "\n" not in msg and msg.startswith("appearance.texture_memory_mb: 3 surface atlases of "), msg
     assert f"appearance.atlas_tiles <= {tiles}" in msg and "texture_scope: surface" in msg, msg
+    assert "ground image of 2000 x 2000 px" in msg and "ground_texel_m" not in msg, msg  # atlases alone are over
     generate(_spec(texture_memory_mb=bound, atlas_tiles=tiles), 0)  # what the message allows fits
     generate(_spec(texture_memory_mb=bound, texture_scope="surface"), 0)
+
+
+def test_the_ground_image_counts_towards_the_bound() -> None:
+    """A bound the atlases fit but not the ground fails naming a ground texel that fits."""
+    spec = _spec()
+    atlases = texture_memory_mb(3, spec.appearance.texture_side_px())
+    bound = atlases + 0.5 * ground_memory_mb(spec.appearance, spec.extent_m)
+    with pytest.raises(WorldError) as err:
+        generate(_spec(texture_memory_mb=bound), 0)
+    texel = float(str(err.value).split("appearance.ground_texel_m >= ")[1].split(",")[0])
+    assert 0.025 < texel < 0.05, texel
+    world = generate(_spec(texture_memory_mb=bound, ground_texel_m=texel), 0)  # what the message allows fits
+    assert world.model.ntexdata / 2**20 <= bound + 1.0  # the sky is not counted
+    plain = generate(_spec(texture_memory_mb=atlases, ground_texel_m=None), 0)
+    tid = mujoco.mj_name2id(plain.model, mujoco.mjtObj.mjOBJ_TEXTURE, "ground")
+    assert int(plain.model.tex_width[tid]) == 250  # the plain ground: 0.2 m texels, not counted
 
 
 @pytest.mark.parametrize(
@@ -166,12 +187,14 @@ def test_bad_texture_settings_name_the_field(appearance: dict, field: str, hint:
     assert "\n" not in msg and f"{field}:" in msg and hint in msg, msg
 
 
-def test_the_ground_does_not_repeat_at_submap_scale() -> None:
-    """A 15 m ground patch looks like no other patch up to 30 m away (submaps are ~15 m across)."""
+@pytest.mark.parametrize("texel", [None, 0.05])
+def test_the_ground_does_not_repeat_at_submap_scale(texel: float | None) -> None:
+    """A 15 m ground patch looks like no other patch up to 30 m away (submaps are ~15 m across),
+    plain or detailed (the detailed one at 5 cm here, to keep the test quick)."""
     spec = _spec()
     extent = (120.0, 120.0)
     terrain, _, _ = make_terrain(spec.terrain, extent, child_rng(0, "world", "terrain"))
-    img = ground_texture(terrain, [], 0.0, child_rng(0, "world", "ground")).astype(np.float64)[..., 1]
+    img = ground_texture(terrain, [], 0.0, child_rng(0, "world", "ground"), texel).astype(np.float64)[..., 1]
     px_m = extent[0] / img.shape[1]
     side, step = int(15.0 / px_m), int(2.0 / px_m)
     ref = img[:side, :side].ravel()
