@@ -193,3 +193,26 @@ def paper_predict_cmd(
         t.add_row(c["claim"], str(c["paper"]), shown, "yes" if c["holds"] else "no")
     Console().print(t)
     console.print(f"wrote {out / PREDICTIONS}")
+
+
+@paper_app.command("collect")
+def paper_collect_cmd(
+    out: Path = typer.Option(Path("paper_fit"), "--out", "-o", help="the fit's folder (fit and predictions done)"),
+    to: Path = typer.Option(Path("results/reference"), "--to", help="reference results folder"),
+    pages: Path | None = typer.Option(
+        Path("."), "--pages", help="repository whose results page's paper-preset block is rewritten"
+    ),
+) -> None:
+    """Keep a finished fit and its predictions in the reference results (raw pairs included)."""
+    from roman_sim.studies.pages import update_block
+    from roman_sim.studies.paper_preset import PAPER_PRESET_DIR, PRESET_MARKERS, collect_paper_preset, preset_block
+    from roman_sim.studies.reference import RESULTS_PAGE
+
+    dest = collect_paper_preset(out, to / PAPER_PRESET_DIR)
+    console.print(f"collected {out} into {dest}")
+    if pages is not None:
+        page = pages / RESULTS_PAGE
+        if page.is_file() and update_block(page, PRESET_MARKERS, preset_block(dest)):
+            console.print(f"rewrote the paper-preset block of {page}")
+        else:
+            console.print(f"note: {page} has no paper-preset markers; its block was not written")

@@ -271,3 +271,74 @@ def predict_paper_preset(
     }
     write_json(out / PREDICTIONS, result)
     return result
+
+
+#: The fit's folder inside the reference results.
+PAPER_PRESET_DIR = "paper_preset"
+#: The generated block of the results page.
+PRESET_MARKERS = ("<!-- paper-preset:begin -->", "<!-- paper-preset:end -->")
+
+
+def collect_paper_preset(fit_dir: str | Path, dest: str | Path) -> Path:
+    """Copy a finished fit and its predictions into ``dest`` (the reference results' ``paper_preset/``).
+
+    Kept: ``fit_state.json``, ``paper_fit.yaml``, ``paper_predictions.json`` and, per run (every
+    fit run and the prediction run, under ``runs/<name>/``), what ``reference.collect`` keeps
+    without plots, trajectories or packets: the metrics, configuration and the raw pairs
+    (``pairs.csv.gz``, ``alignments.json.gz``), from which every figure is re-derived.
+    """
+    import shutil
+
+    from roman_sim.studies.reference import collect
+
+    src, out = Path(fit_dir), Path(dest)
+    missing = [n for n in (STATE, FIT_YAML, PREDICTIONS) if not (src / n).is_file()]
+    if missing:
+        raise ConfigError(f"{src}: not a finished fit with predictions (missing {', '.join(missing)})")
+    if out.is_dir():
+        shutil.rmtree(out)
+    out.mkdir(parents=True)
+    for name in (STATE, FIT_YAML, PREDICTIONS):
+        shutil.copyfile(src / name, out / name)
+    for run in sorted(p for p in (src / "runs").iterdir() if (p / "pairs.csv").is_file()):
+        collect(run, out / "runs" / run.name, trajectories=False, plots=False, packets=False)
+    return out
+
+
+def _fmt(v: Any) -> str:
+    return "n/a" if v is None else f"{float(v):.2f}"
+
+
+def preset_block(folder: str | Path) -> str:
+    """The results page's paper-preset block (markers included), from a collected fit's JSON and YAML."""
+    import json
+
+    from roman_sim.core.config import read_yaml
+
+    d = Path(folder)
+    fit = read_yaml(d / FIT_YAML)["fit"]
+    pred = json.loads((d / PREDICTIONS).read_text(encoding="utf-8"))
+    begin, end = PRESET_MARKERS
+    lines = [
+        begin,
+        f"Fitted on one figure only: {fit['figure']} (paper {fit['paper']:.2f}), through the severity "
+        f"of the `{fit['preset']}` preset. Fitted severity {fit['severity']:g}: {_fmt(fit['fitted'])}.",
+        "",
+        "| severity | " + fit["figure"] + " |",
+        "|---|---|",
+        *(
+            f"| {s:g}{' (fitted)' if s == fit['severity'] else ''} | {_fmt(r)} |"
+            for s, r in (tuple(x) for x in fit["searched"])
+        ),
+        "",
+        f"Held-out predictions on `{pred['scenario']}` at that severity, nothing else changed "
+        "(cross-robot max recall):",
+        "",
+        "| prediction | paper | simulated | holds |",
+        "|---|---|---|---|",
+    ]
+    for c in pred["claims"]:
+        v = c["value"]
+        shown = ", ".join(f"{k} {_fmt(x)}" for k, x in v.items()) if isinstance(v, dict) else _fmt(v)
+        lines.append(f"| {c['claim']} | {c['paper']} | {shown} | {'yes' if c['holds'] else 'no'} |")
+    return "\n".join([*lines, end])
