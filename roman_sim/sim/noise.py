@@ -5,7 +5,6 @@ Kept separate from rendering so that noise-free depth stays available (tests, tr
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
@@ -33,6 +32,8 @@ def _extreme3(img: NDArray[np.float32], op: np.ufunc) -> NDArray[np.float32]:
     """
     if img.ndim != 2 or img.dtype != np.float32 or np.isnan(img).any():
         return _filter3(img, op)
+    import cv2  # imported on use: loading the pipeline should not import OpenCV
+
     morph = cv2.dilate if op is np.maximum else cv2.erode
     return np.asarray(morph(img, _SQUARE3, borderType=cv2.BORDER_REPLICATE), dtype=np.float32)
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 import logging
 from typing import TYPE_CHECKING
 
-import cv2
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
@@ -166,6 +165,8 @@ class SensorRenderer:
             mujoco.mjr_readPixels(self._rgb_buf, self._depth_buf, self._rect, self._ctx)
         finally:
             np.copyto(flags, saved)
+        import cv2  # imported on use: loading the pipeline should not import OpenCV
+
         # id colour (r, g, b) -> r | g << 8 | b << 16: as RGBA, one little-endian uint32 per pixel
         cv2.cvtColor(self._rgb_buf, cv2.COLOR_RGB2RGBA, dst=self._rgba_buf)
         seg = self._rgba_buf.view("<u4")[..., 0]

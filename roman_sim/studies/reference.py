@@ -375,7 +375,7 @@ def _run_summary(d: Path) -> RunSummary:
     from roman_sim.report.summaries import compact_summary
     from roman_sim.studies.verify import recompute_ate, recompute_metrics
 
-    metrics, _ = recompute_metrics(d, "pairs.csv.gz")
+    metrics, _ = recompute_metrics(d, "pairs.csv.gz", as_stored=False)
     ate = recompute_ate(d, ".gz") if (d / "ate.json").is_file() and (d / "trajectories").is_dir() else None
     stats = MapStats.from_json({k: v for k, v in _json(d / "map_stats.json").items() if k != "notes"})
     alignment = (_json(d / "timings.json").get("stages", {}).get("evaluation") or {}).get("alignment") or {}

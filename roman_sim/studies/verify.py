@@ -111,8 +111,14 @@ def rederive(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore],
     return out, diffs
 
 
-def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[EvaluationMetrics, list[str]]:
-    """``metrics.json`` as recomputed from ``pairs_file`` and ``config.yaml``, and row-level differences."""
+def recompute_metrics(
+    run_dir: Path, pairs_file: str = PAIRS_CSV, as_stored: bool = True
+) -> tuple[EvaluationMetrics, list[str]]:
+    """``metrics.json`` as recomputed from ``pairs_file`` and ``config.yaml``, and row-level differences.
+
+    ``as_stored``: leave out the figures the stored ``metrics.json`` predates (to compare with
+    it); False keeps every figure the current code derives from the pairs (to summarise a run).
+    """
     cfg, acceptance_k = eval_settings(run_dir)
     scores, diffs = rederive(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
@@ -120,7 +126,7 @@ def recompute_metrics(run_dir: Path, pairs_file: str = PAIRS_CSV) -> tuple[Evalu
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
     if stored.robot_pairs is None:  # written before the per-robot-pair counts were recorded
         metrics.robot_pairs = None
-    if stored.revisits is None:  # written before the revisit figures were recorded
+    if as_stored and stored.revisits is None:  # written before the revisit figures were recorded
         metrics.revisits = None
     return metrics, diffs
 
