@@ -98,9 +98,7 @@ def test_the_hybrid_miss_is_explained_by_the_data():
     page = _flat()
     d = REF / "multi_robot_hybrid"
     ate = _summary()["runs"]["multi_robot_hybrid"]["ate"]
-    m = re.search(
-        r"\((\d\.\d\d) against (\d\.\d\d) m over all robots; (\d\.\d\d) m with oracle closures\)", page
-    )
+    m = re.search(r"\((\d\.\d\d) against (\d\.\d\d) m over all robots; (\d\.\d\d) m with oracle closures\)", page)
     assert m, "docs/results.md states the hybrid ATEs"
     assert [float(g) for g in m.groups()] == [round(ate[x]["all"], 2) for x in ("roman", "odometry", "oracle")]
     assert ate["roman"]["all"] > ate["odometry"]["all"], "the paragraph explains a miss"
@@ -123,7 +121,8 @@ def test_the_hybrid_miss_is_explained_by_the_data():
     tied = [r for r in roman if m[5] in (r["robot_a"], r["robot_b"])]
     assert len(tied) == int(m[6])
     visual = _cross_closures("multi_robot_hybrid", "visual", k)
-    m = re.search(r"The visual closures there are right in (\d+) of the (\d+) it accepts, but none ties robot (\w)", page)
+    m = re.search(
+        r"The visual closures there are right in (\d+) of the (\d+) it accepts, but none ties robot (\w)", page
+    )
     assert m and [int(m[1]), int(m[2])] == [sum(r["correct"] == "true" for r in visual), len(visual)]
     assert not [r for r in visual if m[3] in (r["robot_a"], r["robot_b"])]
-
