@@ -21,7 +21,7 @@ from roman_sim.evaluation.overlap import MIN_RELEVANT_PAIRS, OverlapGraph, overl
 from roman_sim.mapping.submap import center_indices
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.sim.paths import Path2D
-from roman_sim.world import World
+from roman_sim.world import HasTruth
 
 log = logging.getLogger(__name__)
 
@@ -53,7 +53,7 @@ class ScenarioStats:
 
 
 def centres_along(
-    world: World, sc: Scenario, paths: dict[str, Path2D]
+    world: HasTruth, sc: Scenario, paths: dict[str, Path2D]
 ) -> tuple[dict[str, NDArray[np.float64]], dict[str, float]]:
     """Per simulated robot along its planned path: true submap centres (M, 3) and the distance driven (m)."""
     from roman_sim.sim.robot import trajectory_along
@@ -67,7 +67,7 @@ def centres_along(
     return centres, lengths
 
 
-def scenario_stats(sc: Scenario, min_pairs: int = MIN_RELEVANT_PAIRS, world: World | None = None) -> ScenarioStats:
+def scenario_stats(sc: Scenario, min_pairs: int = MIN_RELEVANT_PAIRS, world: HasTruth | None = None) -> ScenarioStats:
     """Relevant cross-robot pairs per robot pair and the overlap graph of ``sc`` (no rendering).
 
     Args:
@@ -91,9 +91,9 @@ def scenario_stats(sc: Scenario, min_pairs: int = MIN_RELEVANT_PAIRS, world: Wor
             "counted before mapping only by distance (relevance: distance)"
         )
     if world is None:
-        from roman_sim.world import generate
+        from roman_sim.world import generate_truth
 
-        world = generate(sc.world.spec(), sc.seed)
+        world = generate_truth(sc.world.spec(), sc.seed)
     from roman_sim.sim.robot import plan_paths
 
     paths = plan_paths(world, sc.simulated_robots(), sc.seed)

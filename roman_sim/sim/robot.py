@@ -31,7 +31,7 @@ from roman_sim.world.appearance import LIGHTING
 from roman_sim.world.relight import robot_lighting
 
 if TYPE_CHECKING:
-    from roman_sim.world import World
+    from roman_sim.world import HasTruth, World
 
 log = logging.getLogger(__name__)
 
@@ -73,14 +73,14 @@ class RobotConfig(StrictModel):
         return resolve_drift(self.drift)
 
 
-def robot_path(world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
+def robot_path(world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
     """The robot's validated path (seeded by ``seed`` and the robot name; the world's road width bounds its offset)."""
     roads = getattr(getattr(world, "spec", None), "roads", None)
     width = None if roads is None else float(roads.width_m)
     return make_path(cfg.path, world.truth, child_rng(seed, "path", cfg.name), cfg.name, paths_by_name, width)
 
 
-def plan_paths(world: World, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:
+def plan_paths(world: HasTruth, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:
     """Every robot's path, in order, so ``reverse_of`` / ``cross`` can refer to earlier robots.
 
     Raises: SimError for duplicate robot names or a reference to a later/unknown robot.
@@ -93,7 +93,7 @@ def plan_paths(world: World, robots: Sequence[RobotConfig], seed: int) -> dict[s
     return paths
 
 
-def drive(world: World, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def drive(world: HasTruth, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Drive the path with pure pursuit; returns times (N,) and true ``T_world_body`` (N, 4, 4).
 
     One pose per sensor step (``rate_hz``); the kinematics integrate ``substeps`` times per step.
@@ -122,7 +122,7 @@ def drive(world: World, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.floa
     return np.asarray(times), np.stack(poses)
 
 
-def _check_driven_clearance(world: World, cfg: RobotConfig, T_wb: NDArray[np.float64]) -> None:
+def _check_driven_clearance(world: HasTruth, cfg: RobotConfig, T_wb: NDArray[np.float64]) -> None:
     """The path is clear by construction; the controller may cut corners slightly."""
     clear = Obstacles(world.truth).clearance(T_wb[:, :2, 3])
     i = int(np.argmin(clear)) if len(clear) else 0
@@ -159,13 +159,13 @@ class DrivenRun(NamedTuple):
 
 
 def robot_trajectory(
-    world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
+    world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
 ) -> DrivenRun:
     """Times (N,), true ``T_world_body`` (N, 4, 4) and drifted ``T_odom_body`` (N, 4, 4); no rendering."""
     return trajectory_along(world, cfg, seed, robot_path(world, cfg, seed, paths_by_name))
 
 
-def trajectory_along(world: World, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
+def trajectory_along(world: HasTruth, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
     """``robot_trajectory`` for an already planned ``path`` (e.g. from ``plan_paths``)."""
     t, T_wb = drive(world, cfg, path)
     _check_driven_clearance(world, cfg, T_wb)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 from dataclasses import dataclass, field
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -18,12 +19,29 @@ from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
 from roman_sim.world.layout import LAYOUTS, LayoutContext, Placer
 from roman_sim.world.mjcf import Looks, add_object_geoms, new_spec
-from roman_sim.world.roads import make_roads
+from roman_sim.world.roads import Polyline, make_roads
 from roman_sim.world.spec import FamilySpec, WorldSpec
 from roman_sim.world.terrain import footprint_min_height, make_terrain
-from roman_sim.world.truth import ObjectTruth, WorldTruth
+from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
 
 log = logging.getLogger(__name__)
+
+
+class HasTruth(Protocol):
+    """Anything that carries a world's truth: a ``World`` or a ``TruthOnlyWorld``."""
+
+    @property
+    def truth(self) -> WorldTruth: ...
+
+
+@dataclass(frozen=True)
+class TruthOnlyWorld:
+    """A world's spec, seed and truth without its MuJoCo model (``generate_truth``): enough to plan
+    and drive robots and to count what they see, not to render."""
+
+    spec: WorldSpec
+    seed: int
+    truth: WorldTruth
 
 
 @dataclass
@@ -129,8 +147,19 @@ def _object_truth(i: int, p: _Placed, z: float) -> ObjectTruth:
     )
 
 
-def generate(spec: WorldSpec, seed: int) -> World:
-    """Generate the world of ``spec`` with ``seed`` (same inputs -> same model and truth)."""
+@dataclass(frozen=True)
+class _Layout:
+    terrain: Terrain
+    base_z: float
+    elevation: float
+    roads: list[Polyline]
+    placed: list[_Placed]
+    objects: list[ObjectTruth]
+    meta: dict[str, Any]
+
+
+def _layout(spec: WorldSpec, seed: int) -> _Layout:
+    """Terrain, roads, placed objects and their truth: everything of a world but its model."""
     if not isinstance(seed, (int, np.integer)) or seed < 0:
         raise WorldError(f"seed must be a non-negative integer, got {seed!r}")
     seed = int(seed)
@@ -143,28 +172,7 @@ def generate(spec: WorldSpec, seed: int) -> World:
     if spec.appearance.textures:
         kinds = len({part.surface for p in placed for part in p.asset.parts})
         check_texture_memory(spec.appearance, kinds, spec.extent_m)
-    app = spec.appearance
-    ground = ground_texture(
-        terrain,
-        roads,
-        spec.roads.width_m,
-        child_rng(seed, "world", "ground"),
-        app.ground_texel_m if app.textures else None,
-    )
     sun = resolve_sun(spec.appearance.lighting, seed)
-    mjs = new_spec(spec, terrain, base_z, elevation, ground, sun)
-    meshes: dict[str, trimesh.Trimesh] = {}
-    looks = Looks(spec.appearance, seed)
-    for obj, p in zip(objects, placed):
-        add_object_geoms(mjs, obj, p.asset, meshes, looks)
-    try:
-        model = mjs.compile()
-    except Exception as err:  # noqa: BLE001  (MuJoCo raises plain ValueError on compile failures)
-        raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
-    for obj in objects:
-        obj.geom_ids = [
-            mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))
-        ]
     meta = {
         "name": spec.name,
         "seed": seed,
@@ -174,6 +182,46 @@ def generate(spec: WorldSpec, seed: int) -> World:
         "placed_requested": counts,
         "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg},
     }
-    truth = WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
-    log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(objects), model.ngeom)
+    return _Layout(terrain, base_z, elevation, roads, placed, objects, meta)
+
+
+def generate_truth(spec: WorldSpec, seed: int) -> TruthOnlyWorld:
+    """The truth of ``generate(spec, seed)`` (objects without geom ids) without building its model.
+
+    Planning, driving and counting relevant pairs need only the truth; the model's textures
+    and meshes are most of a large world's generation time.
+    """
+    lay = _layout(spec, seed)
+    truth = WorldTruth(objects=lay.objects, terrain=lay.terrain, roads=lay.roads, meta=lay.meta)
+    return TruthOnlyWorld(spec=spec, seed=int(seed), truth=truth)
+
+
+def generate(spec: WorldSpec, seed: int) -> World:
+    """Generate the world of ``spec`` with ``seed`` (same inputs -> same model and truth)."""
+    lay = _layout(spec, seed)
+    seed = int(seed)
+    app = spec.appearance
+    ground = ground_texture(
+        lay.terrain,
+        lay.roads,
+        spec.roads.width_m,
+        child_rng(seed, "world", "ground"),
+        app.ground_texel_m if app.textures else None,
+    )
+    sun = resolve_sun(spec.appearance.lighting, seed)
+    mjs = new_spec(spec, lay.terrain, lay.base_z, lay.elevation, ground, sun)
+    meshes: dict[str, trimesh.Trimesh] = {}
+    looks = Looks(spec.appearance, seed)
+    for obj, p in zip(lay.objects, lay.placed):
+        add_object_geoms(mjs, obj, p.asset, meshes, looks)
+    try:
+        model = mjs.compile()
+    except Exception as err:  # noqa: BLE001  (MuJoCo raises plain ValueError on compile failures)
+        raise WorldError(f"world {spec.name!r}: MuJoCo compile failed: {err}") from None
+    for obj in lay.objects:
+        obj.geom_ids = [
+            mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))
+        ]
+    truth = WorldTruth(objects=lay.objects, terrain=lay.terrain, roads=lay.roads, meta=lay.meta)
+    log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(lay.objects), model.ngeom)
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)

@@ -106,27 +106,6 @@ def test_report_command_prints_summary(smoke_run):
     assert "no distance cap" in res.output and "odometry_no_prior" in res.output
 
 
-@pytest.mark.parametrize("name", sorted(bundled_scenarios()))
-def test_every_bundled_scenario_builds_and_drives(name):
-    """World generated, every robot's path planned and driven clear of objects (no rendering)."""
-    from roman_sim.align import build_aligner
-    from roman_sim.sim.robot import plan_paths, trajectory_along
-    from roman_sim.world import generate
-    from roman_sim.world.query import clearance
-
-    sc = load_scenario(name)
-    text = bundled_scenarios()[name].read_text()
-    assert text.startswith("#"), "each scenario states its purpose in a comment at its top"
-    for entry in sc.aligners:
-        build_aligner(entry.method, entry.params)
-    world = generate(sc.world.spec(), sc.seed)
-    paths = plan_paths(world, sc.robots, sc.seed)
-    for cfg in sc.robots:
-        t, T_wb, T_ob = trajectory_along(world, cfg, sc.seed, paths[cfg.name])
-        assert len(t) > 10 and np.all(np.diff(t) > 0)
-        assert clearance(world.truth, T_wb[:, :2, 3]).min() > 0.0
-
-
 def _one_line_error(res) -> str:
     assert res.exit_code == 1, res.output
     assert "Traceback" not in res.output

@@ -29,6 +29,8 @@ def test_multi_robot_scenarios_meet(name):
 @pytest.mark.slow
 @pytest.mark.parametrize("name", PAPER_SCALE)
 def test_paper_scale_robots_meet(name):
+    """Every robot's path planned and driven clear of objects (``trajectory_along`` raises
+    otherwise), and the robots' overlap graph connected with more edges than a chain."""
     st = scenario_stats(load_scenario(name))
     assert st.graph.connected, st.graph.describe()
     assert len(st.graph.edges) >= len(st.centres)  # more than a chain: robots meet several others
