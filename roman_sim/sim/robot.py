@@ -73,7 +73,9 @@ class RobotConfig(StrictModel):
         return resolve_drift(self.drift)
 
 
-def robot_path(world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None) -> Path2D:
+def robot_path(
+    world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
+) -> Path2D:
     """The robot's validated path (seeded by ``seed`` and the robot name; the world's road width bounds its offset)."""
     roads = getattr(getattr(world, "spec", None), "roads", None)
     width = None if roads is None else float(roads.width_m)

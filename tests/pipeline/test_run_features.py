@@ -6,13 +6,12 @@ import json
 import shutil
 from pathlib import Path
 
-import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
 from roman_sim.pipeline.experiment import Experiment
-from roman_sim.pipeline.scenario import bundled_scenarios, load_scenario
+from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_recall, run_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
