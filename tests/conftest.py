@@ -33,3 +33,28 @@ def cli_fails() -> Callable[..., str]:
         return lines[0]
 
     return run
+
+
+#: The test files that take longest (a minute or more of CPU each), longest first. With
+#: ``--dist loadfile`` each file runs on one worker, in collection order: starting these first
+#: keeps one long file from running alone at the end of the suite.
+LONGEST_FIRST = (
+    "tests/studies/test_benchmark_quick.py",
+    "tests/pipeline/test_visual.py",
+    "tests/pipeline/test_regression.py",
+    "tests/pipeline/test_executors.py",
+    "tests/pipeline/test_scenario_stats.py",
+    "tests/robustness/test_interrupts.py",
+    "tests/pipeline/test_run_features.py",
+    "tests/studies/test_benchmark_run.py",
+    "tests/pipeline/test_dask_security.py",
+    "tests/pipeline/test_wheel.py",
+    "tests/pipeline/test_sweep.py",
+    "tests/pipeline/test_bundled_scenarios.py",
+)
+
+
+def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Collect the longest files first (a stable sort: every other file keeps its order)."""
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda it: rank.get(it.nodeid.split("::", 1)[0], len(rank)))

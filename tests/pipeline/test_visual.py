@@ -14,7 +14,7 @@ from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_not_worse, assert_recall
 
-SEEDS = [0, 1, 2, 3]
+SEEDS = [0, 1]  # two seeds: each run of visual_small is about 80 s of CPU
 
 
 @pytest.fixture(scope="module", params=SEEDS, ids=[f"seed{s}" for s in SEEDS])
@@ -53,15 +53,14 @@ def test_keyframes_flow_through_the_stages(visual_run) -> None:
 @pytest.mark.slow
 def test_visual_orderings_hold_on_every_seed(visual_run) -> None:
     """Visual recall collapses at 120-180 deg where ROMAN holds; it is not zero at 0-60 deg;
-    the combined pose graph is at least as good as ROMAN's and far better than visual's.
+    the combined pose graph is at least as good as ROMAN's and better than visual's.
 
-    Measured on seeds 0-3, max recall 0-60 / 60-120 / 120-180 deg:
-    ROMAN 0.86/0.67/0.75, 0.82/0.40/0.70, 0.81/0.60/0.35, 0.84/1.00/0.65;
-    visual 0.68/0.17/0.00, 0.64/0.20/0.00, 0.77/0.00/0.00, 0.52/0.00/0.00.
+    Measured on seeds 0 and 1, max recall 0-60 / 60-120 / 120-180 deg:
+    ROMAN 0.92/1.00/0.81, 0.90/0.40/0.74; visual 0.77/0.00/0.00, 0.80/0.20/0.00.
     SE(3) ATE of all robots (m), combined / ROMAN / visual / odometry / oracle:
-    0.387/0.408/20.6/0.434/0.281, 0.388/0.396/33.9/0.910/0.284, 0.531/0.541/21.3/0.613/0.209,
-    0.400/0.404/30.6/0.764/0.265. Visual's graph is far off because robot c (opposite
-    direction) is tied to the others only by wrong visual closures.
+    0.287/0.308/0.328/0.397/0.276, 0.395/0.406/19.9/0.910/0.284. On seed 1 visual's graph is
+    far off because robot c (opposite direction) is tied to the others only by wrong visual
+    closures.
     """
     assert_not_worse(visual_run, "roman", "visual", heading_bin="120-180")
     assert visual_run.recall("roman", "120-180") >= visual_run.recall("visual", "120-180") + 0.2
