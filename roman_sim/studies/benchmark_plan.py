@@ -4,7 +4,7 @@ Which submap pairs should align depends only on where the submap centres are: th
 pipeline places a centre whenever a robot's *odometry* has moved ``submap_center_dist``
 (or ``submap_center_time`` has passed) and scores the pair of two centres by their *true*
 poses. Both trajectories follow from the world, the paths and the seed alone (driving and
-drift, no rendering), so the planner here generates the world, plans and drives every
+drift, no rendering), so the planner here generates the world's truth (no model), plans and drives every
 robot, places the centres with the pipeline's own rule (``mapping.submap.center_indices``)
 and scores the pairs with the evaluation's own functions (``select_pairs``,
 ``truths_for_pairs``) on submaps that carry only their truth. The counts are those of the
@@ -71,12 +71,12 @@ def scored_pairs(subs: list[Submap], sc: Scenario) -> list[PairTruth]:
 def planned_pairs(sc: Scenario) -> list[PairTruth]:
     """The truth of every pair the run of ``sc`` will score, from its planned and driven trajectories."""
     from roman_sim.sim.robot import plan_paths, trajectory_along
-    from roman_sim.world import generate
+    from roman_sim.world import generate_truth
 
     robots = sc.simulated_robots()
     if len(robots) != len(sc.robots):
         raise ConfigError("planning: every robot must be simulated (a recorded sequence has no planned path)")
-    world = generate(sc.world.spec(), sc.seed)
+    world = generate_truth(sc.world.spec(), sc.seed)
     paths = plan_paths(world, robots, sc.seed)
     runs = {cfg.name: trajectory_along(world, cfg, sc.seed, paths[cfg.name]) for cfg in robots}
     return scored_pairs(submaps_along(runs, sc.submaps), sc)

@@ -171,12 +171,12 @@ def build_crossing(scene: CrossingScene, seed: int, name: str = "crossing") -> C
         SimError: a robot's drive could not be placed in ``MAX_ATTEMPTS`` draws.
     """
     from roman_sim.sim.robot import robot_path, trajectory_along
-    from roman_sim.world import generate
+    from roman_sim.world import generate_truth
 
     heads = headings_deg(scene, seed)
     ends = [drive_ends(scene, seed, i, float(h), 0) for i, h in enumerate(heads)]
     sc = _scenario(scene, seed, ends, name)
-    world = generate(sc.world.spec(), seed)
+    world = generate_truth(sc.world.spec(), seed)
     runs = {}
     for i, h in enumerate(heads):
         for attempt in range(MAX_ATTEMPTS):
