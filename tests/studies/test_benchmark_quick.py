@@ -18,7 +18,7 @@ from roman_sim.cli import app
 from roman_sim.studies.benchmark_board import leaderboard
 from roman_sim.studies.benchmark_suites import load_suite
 from roman_sim.studies.verify import compare
-from roman_sim.testing import assert_benchmark, benchmark_pins
+from roman_sim.testing import benchmark_pins, check_benchmark
 
 pytestmark = pytest.mark.slow
 
@@ -92,5 +92,7 @@ def test_roman_keeps_its_pinned_cells(quick: tuple[int, str, Path]) -> None:
     measured = benchmark_pins(board, "roman")
     assert ROMAN_PINS, f"no pins: the quick suite gives {measured}"
     assert set(ROMAN_PINS) <= set(measured)
-    # one hit of slack: SVDs and sums differ in their last bits between CPUs
-    assert_benchmark("roman", "quick", pinned=ROMAN_PINS, tolerance=1, out=out)
+    # one hit of slack: SVDs and sums differ in their last bits between CPUs. The check
+    # ``assert_benchmark`` makes after it reruns (or reuses) the suite; its rerun is tested in
+    # test_benchmark_run.py on a smaller suite.
+    check_benchmark(board, "roman", ROMAN_PINS, tolerance=1)
