@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+import statistics
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -102,3 +103,19 @@ def test_demo_wall_time_figures_are_the_benchmark():
     assert int(m[6]) == len(after) == len(before)
     assert (float(m[7]), float(m[8])) == (round(min(after), 1), round(min(before), 1))
     assert (float(m[9]), float(m[10])) == (round(median(after), 1), round(median(before), 1))
+
+
+def test_error_model_cost_matches_the_benchmark():
+    b = _bench("frontend_cost.json")
+    m = re.search(
+        r"Median CPU: (\d+\.\d) s with the error model, (\d+\.\d) s without it, a ratio of (\d\.\d{3}) "
+        r"\(`frontend_cost.json`, (\d+) runs each; the two runs without it took (\d+\.\d) and (\d+\.\d) s",
+        _page("performance.md"),
+    )
+    assert m, "docs/performance.md states the error model's cost"
+    on, off = (statistics.median(r["cpu_s"] for r in b["runs"][k]) for k in ("on", "off"))
+    assert [float(m[1]), float(m[2])] == [round(on, 1), round(off, 1)]
+    assert float(m[3]) == b["cpu_ratio_on_over_off"] == round(on / off, 3)
+    offs = sorted(r["cpu_s"] for r in b["runs"]["off"])
+    assert int(m[4]) == len(b["runs"]["on"]) == len(offs) == 2
+    assert [float(m[5]), float(m[6])] == [round(v, 1) for v in offs]

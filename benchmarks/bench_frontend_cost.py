@@ -1,0 +1,77 @@
+"""What the front end's error model costs the demo: whole-run CPU with and without it.
+
+Runs ``roman-sim run demo`` fresh in a subprocess with the default front end ("on") and with
+the fastsam error model's under-segmentation, view-dependent splits, per-frame splits and
+partial masks turned off and the descriptor confusion at level 0 ("off"), alternating the two
+``--repeats`` times so that both see the same machine load. The runs are serial (one process),
+so their user + system time (``RUSAGE_CHILDREN``) is all of the demo's CPU: a pool's workers
+are forked by a forkserver the command does not wait for, and their time would be lost.
+Writes ``benchmarks/out/frontend_cost.json`` with each run's CPU and wall seconds and the
+ratio of the medians (on / off).
+Run: ``python benchmarks/bench_frontend_cost.py [--repeats N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+OUT = Path(__file__).resolve().parent / "out" / "frontend_cost.json"
+OFF = [
+    "frontend.segmenter.params.undersegment_prob=0",
+    "frontend.segmenter.params.view_split_frac=0",
+    "frontend.segmenter.params.oversegment_prob=0",
+    "frontend.segmenter.params.partial_frac=0",
+    "frontend.semantics.confusion.level=0",
+]
+
+
+def _children_cpu() -> float:
+    r = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return r.ru_utime + r.ru_stime
+
+
+def run_demo(overrides: list[str]) -> dict[str, float]:
+    """CPU and wall seconds of one fresh demo run with ``overrides``."""
+    with tempfile.TemporaryDirectory() as tmp:
+        run_dir = str(Path(tmp) / "run")
+        cmd = [sys.executable, "-m", "roman_sim.cli", "run", "demo", "--executor", "serial", "--out", run_dir]
+        for o in overrides:
+            cmd += ["--set", o]
+        cpu0, t0 = _children_cpu(), time.perf_counter()
+        subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "MUJOCO_GL": "egl"})
+        return {"cpu_s": round(_children_cpu() - cpu0, 2), "wall_s": round(time.perf_counter() - t0, 2)}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeats", type=int, default=2)
+    args = ap.parse_args()
+    runs: dict[str, list[dict[str, float]]] = {"on": [], "off": []}
+    for _ in range(args.repeats):
+        runs["on"].append(run_demo([]))
+        runs["off"].append(run_demo(OFF))
+    med = {k: statistics.median(r["cpu_s"] for r in v) for k, v in runs.items()}
+    out = {
+        "scenario": "demo",
+        "off_overrides": OFF,
+        "runs": runs,
+        "median_cpu_s": med,
+        "cpu_ratio_on_over_off": round(med["on"] / med["off"], 3),
+        "note": "alternating serial runs on one machine; CPU of the run's process",
+    }
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    OUT.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()
