@@ -13,7 +13,7 @@ import trimesh
 from roman_sim.core.errors import WorldError
 from roman_sim.core.geometry import make_T, rot_z
 from roman_sim.core.seeding import child_rng
-from roman_sim.world.appearance import check_texture_memory, resolve_sun
+from roman_sim.world.appearance import Sun, check_texture_memory, resolve_sun
 from roman_sim.world.assets import concat_meshes
 from roman_sim.world.catalog import Asset, family_assets
 from roman_sim.world.ground import ground_texture
@@ -155,7 +155,11 @@ class _Layout:
     roads: list[Polyline]
     placed: list[_Placed]
     objects: list[ObjectTruth]
+    sun: Sun
     meta: dict[str, Any]
+
+    def truth(self) -> WorldTruth:
+        return WorldTruth(objects=self.objects, terrain=self.terrain, roads=self.roads, meta=self.meta)
 
 
 def _layout(spec: WorldSpec, seed: int) -> _Layout:
@@ -182,7 +186,7 @@ def _layout(spec: WorldSpec, seed: int) -> _Layout:
         "placed_requested": counts,
         "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg},
     }
-    return _Layout(terrain, base_z, elevation, roads, placed, objects, meta)
+    return _Layout(terrain, base_z, elevation, roads, placed, objects, sun, meta)
 
 
 def generate_truth(spec: WorldSpec, seed: int) -> TruthOnlyWorld:
@@ -191,9 +195,7 @@ def generate_truth(spec: WorldSpec, seed: int) -> TruthOnlyWorld:
     Planning, driving and counting relevant pairs need only the truth; the model's textures
     and meshes are most of a large world's generation time.
     """
-    lay = _layout(spec, seed)
-    truth = WorldTruth(objects=lay.objects, terrain=lay.terrain, roads=lay.roads, meta=lay.meta)
-    return TruthOnlyWorld(spec=spec, seed=int(seed), truth=truth)
+    return TruthOnlyWorld(spec=spec, seed=int(seed), truth=_layout(spec, seed).truth())
 
 
 def generate(spec: WorldSpec, seed: int) -> World:
@@ -208,8 +210,7 @@ def generate(spec: WorldSpec, seed: int) -> World:
         child_rng(seed, "world", "ground"),
         app.ground_texel_m if app.textures else None,
     )
-    sun = resolve_sun(spec.appearance.lighting, seed)
-    mjs = new_spec(spec, lay.terrain, lay.base_z, lay.elevation, ground, sun)
+    mjs = new_spec(spec, lay.terrain, lay.base_z, lay.elevation, ground, lay.sun)
     meshes: dict[str, trimesh.Trimesh] = {}
     looks = Looks(spec.appearance, seed)
     for obj, p in zip(lay.objects, lay.placed):
@@ -222,6 +223,6 @@ def generate(spec: WorldSpec, seed: int) -> World:
         obj.geom_ids = [
             mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"obj{obj.id}_{k}") for k in range(len(obj.mesh_names))
         ]
-    truth = WorldTruth(objects=lay.objects, terrain=lay.terrain, roads=lay.roads, meta=lay.meta)
+    truth = lay.truth()
     log.info("world %s seed %d: %d objects, %d geoms", spec.name, seed, len(lay.objects), model.ngeom)
     return World(spec=spec, seed=seed, model=model, truth=truth, meshes=meshes, mjspec=mjs)
