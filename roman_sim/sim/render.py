@@ -146,11 +146,11 @@ class SensorRenderer:
             raise SimError("render: renderer is closed")
         self._gl.make_current()
         self._set_camera(T_world_cam)
-        self._cull.show(np.asarray(T_world_cam, dtype=np.float64), rgb_pass=False)
+        self._cull.show(np.asarray(T_world_cam, dtype=np.float64))
         depth, ids = self._render_depth_ids()
         if not (self.rgb if rgb is None else rgb):
             return None, depth, ids
-        self._cull.show(np.asarray(T_world_cam, dtype=np.float64), rgb_pass=True)
+        self._cull.show_for_rgb()
         mujoco.mjr_render(self._rect, self._scene, self._ctx)
         mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
         return self._rgb_buf[::-1].copy(), depth, ids
@@ -248,9 +248,16 @@ class _FrustumCull:
             inside &= (np.abs(p[:, axis]) - self._tan[axis] * z) / self._norm[axis] <= r
         return inside | ~self._cullable
 
-    def show(self, T_world_cam: NDArray[np.float64], rgb_pass: bool) -> None:
-        """Draw the visible geoms only (every geom in an RGB pass that may not cull)."""
-        want = self.visible(T_world_cam) if self._rgb_ok or not rgb_pass else np.ones_like(self._shown)
+    def show(self, T_world_cam: NDArray[np.float64]) -> None:
+        """Draw the geoms visible from ``T_world_cam`` only (the depth and ids pass)."""
+        self._draw(self.visible(T_world_cam))
+
+    def show_for_rgb(self) -> None:
+        """After ``show`` of the same pose: keep its geoms when the RGB pass may cull, else draw all."""
+        if not self._rgb_ok:
+            self._draw(np.ones_like(self._shown))
+
+    def _draw(self, want: NDArray[np.bool_]) -> None:
         for i in np.flatnonzero(want != self._shown).tolist():
             self._scene.geoms[i].dataid = int(self._dataid[i]) if want[i] else -1
         self._shown = want
