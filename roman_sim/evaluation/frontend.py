@@ -203,9 +203,31 @@ class FrontEndGrader:
     def _bin(self, d: NDArray[np.float32]) -> int:
         """Distance bin of the median of the valid depths ``d`` (none valid: the last, open bin)."""
         d = d[d > 0]
-        dist = float(np.median(d)) if len(d) else np.inf
+        return self._dist_bin(float(np.median(d)) if len(d) else np.inf)
+
+    def _dist_bin(self, dist: float) -> int:
+        """Distance bin of ``dist`` metres (inf: the last, open bin)."""
         di = int(np.searchsorted(self.cfg.distance_edges_m, dist, side="right")) - 1
         return min(max(di, 0), len(self.cfg.distance_edges_m) - 1)
+
+    def _match(
+        self, iou: NDArray[np.float64], mask_bin: NDArray[np.int64], n_belong: NDArray[np.int64]
+    ) -> NDArray[np.bool_]:
+        """One-to-one matching of masks to objects by IoU (Hungarian); counts the matches, their IoU
+        and the over-segmented objects; returns which objects were matched."""
+        c, s = self.cfg, self.seg
+        matched = np.zeros(iou.shape[1], dtype=bool)
+        if iou.size:
+            rows, cols = linear_sum_assignment(-iou)
+            ok = iou[rows, cols] >= c.iou_match
+            matched[cols[ok]] = True
+            s.matched += int(ok.sum())
+            s.iou_sum += float(iou[rows, cols][ok].sum())
+            for i, v in zip(rows[ok].tolist(), iou[rows, cols][ok].tolist()):
+                s.dist_matched_masks[mask_bin[i]] += 1
+                s.dist_iou_sum[mask_bin[i]] += float(v)
+        s.over_segmented += int((n_belong >= 2).sum())
+        return matched
 
     def _grade_masks(self, frame: Frame, ids: NDArray[np.int32], masks: list[Mask]) -> NDArray[np.int64]:
         """Update the segmentation counts; return each mask's owner id (-1 background or mixed).
@@ -260,17 +282,7 @@ class FrontEndGrader:
                 s.dist_graded_masks[mask_bin[i]] += 1
             if owner[i] in col:
                 n_belong[col[owner[i]]] += 1
-        matched = np.zeros(len(objs), dtype=bool)
-        if len(masks) and len(objs):
-            rows, cols = linear_sum_assignment(-iou)
-            ok = iou[rows, cols] >= c.iou_match
-            matched[cols[ok]] = True
-            s.matched += int(ok.sum())
-            s.iou_sum += float(iou[rows, cols][ok].sum())
-            for i, v in zip(rows[ok].tolist(), iou[rows, cols][ok].tolist()):
-                s.dist_matched_masks[mask_bin[i]] += 1
-                s.dist_iou_sum[mask_bin[i]] += float(v)
-        s.over_segmented += int((n_belong >= 2).sum())
+        matched = self._match(iou, mask_bin, n_belong)
         self._tables(table, labels, n_belong, matched)
         return owner
 
@@ -279,12 +291,11 @@ class FrontEndGrader:
     ) -> None:
         """The area x distance tables and the touching pairs of the counted objects (labels ``labels``)."""
         s = self.seg
-        edges, dist_edges = self.cfg.area_edges_frac, self.cfg.distance_edges_m
+        edges = self.cfg.area_edges_frac
         area_bin = np.searchsorted(edges, table.counts[labels] / table.ids.size, side="right") - 1
         np.minimum(area_bin, len(edges) - 2, out=area_bin)
         for j, k in enumerate(labels.tolist()):
-            dist = table.depth_of(k - 1)  # the median of the object's valid depths (inf: none)
-            di = min(max(int(np.searchsorted(dist_edges, dist, side="right")) - 1, 0), len(dist_edges) - 1)
+            di = self._dist_bin(table.depth_of(k - 1))  # the median of the object's valid depths (inf: none)
             ai = int(area_bin[j])
             s.table_objects[ai][di] += 1
             s.table_detected[ai][di] += int(n_belong[j] >= 1)
@@ -341,17 +352,7 @@ class FrontEndGrader:
                 inter = int(np.count_nonzero(e.pixels[r0:r1, c0:c1] & pix))
                 if inter:
                     iou[i, j] = inter / (m.area + e.area - inter)
-        matched = np.zeros(len(objs), dtype=bool)
-        if len(masks) and len(objs):
-            rows, cols = linear_sum_assignment(-iou)
-            ok = iou[rows, cols] >= c.iou_match
-            matched[cols[ok]] = True
-            s.matched += int(ok.sum())
-            s.iou_sum += float(iou[rows, cols][ok].sum())
-            for i, v in zip(rows[ok].tolist(), iou[rows, cols][ok].tolist()):
-                s.dist_matched_masks[mask_bin[i]] += 1
-                s.dist_iou_sum[mask_bin[i]] += float(v)
-        s.over_segmented += int((n_belong >= 2).sum())
+        matched = self._match(iou, mask_bin, n_belong)
         self._tables_reference(depth, ids, objs, counts, n_belong, matched)
         return owner
 
