@@ -14,6 +14,7 @@ Wall-clock runtimes are not part of it (they differ between runs of the same see
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -63,17 +64,19 @@ def _robot_pairs(d: Any) -> dict[str, dict[str, int]] | None:
     return {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d.items()}
 
 
-def _revisits(d: Any) -> dict[str, dict[str, float | int | None]] | None:
-    if d is None:
-        return None
+def revisit_figure(v: Any, to_int: Callable[[Any], int] = int) -> dict[str, float | int | None]:
+    """One ``revisits`` entry (``n_relevant``, ``median_overlap``, ``median_shared_objects``) read
+    from JSON (KeyError, TypeError or ValueError when malformed); ``to_int`` reads the count."""
+    ov, sh = v["median_overlap"], v["median_shared_objects"]
     return {
-        str(k): {
-            "n_relevant": int(v["n_relevant"]),
-            "median_overlap": None if v["median_overlap"] is None else float(v["median_overlap"]),
-            "median_shared_objects": None if v["median_shared_objects"] is None else float(v["median_shared_objects"]),
-        }
-        for k, v in d.items()
+        "n_relevant": to_int(v["n_relevant"]),
+        "median_overlap": None if ov is None else float(ov),
+        "median_shared_objects": None if sh is None else float(sh),
     }
+
+
+def _revisits(d: Any) -> dict[str, dict[str, float | int | None]] | None:
+    return None if d is None else {str(k): revisit_figure(v) for k, v in d.items()}
 
 
 def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:

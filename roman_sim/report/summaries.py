@@ -14,7 +14,7 @@ from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.atetable import ALL, COMMON, AteTable
 from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
-from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats
+from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats, revisit_figure
 
 
 def _f(v: JSONLike) -> float | None:
@@ -394,13 +394,7 @@ class RunSummary:
 def _revisits(v: JSONLike) -> dict[str, float | int | None] | None:
     if v is None:
         return None
-    o = _obj(v, "revisits")
-    n, ov, sh = o["n_relevant"], o["median_overlap"], o["median_shared_objects"]
-    return {
-        "n_relevant": _i(n),
-        "median_overlap": None if ov is None else float(ov),  # type: ignore[arg-type]
-        "median_shared_objects": None if sh is None else float(sh),  # type: ignore[arg-type]
-    }
+    return revisit_figure(_obj(v, "revisits"), _i)
 
 
 def _names(v: JSONLike) -> list[str]:
