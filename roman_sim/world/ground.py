@@ -2,7 +2,7 @@
 stretched once over the whole hfield (texture row 0 at +y, column 0 at -x).
 
 Untextured worlds get a coarse image (``plain_texture_shape``: 0.2 m texels or coarser).
-Textured worlds get a fine one (``appearance.ground_texel_m``, 5 cm by default) with
+Textured worlds get a fine one (``appearance.ground_texel_m``, 2.5 cm by default) with
 detail at every scale from one texel to a few metres: gravel and ruts on the roads, tufts
 and bare patches in the grass. The image is one realisation over the whole world, so no
 stretch of ground repeats another. Why: seen from a robot's camera 0.4 m above it, the
