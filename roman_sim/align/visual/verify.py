@@ -65,14 +65,31 @@ class VerifyOutcome:
     reason: str | None = None
 
 
-def match_descriptors(dq: NDArray[np.uint8], dc: NDArray[np.uint8], ratio: float) -> NDArray[np.int64]:
-    """Ratio-test matches (n, 2) of query descriptors ``dq`` to candidate descriptors ``dc``."""
+def match_descriptors(
+    dq: NDArray[np.uint8], dc: NDArray[np.uint8], ratio: float, one_to_one: bool = True
+) -> NDArray[np.int64]:
+    """Ratio-test matches (n, 2) of query descriptors ``dq`` to candidate descriptors ``dc``.
+
+    With ``one_to_one`` (the method's rule), a candidate feature that is the ratio-test match
+    of several query features (ORB finds one corner again at neighbouring pixels and pyramid
+    levels) keeps only its closest query feature (the first of equals), so one physical point
+    cannot count as several inliers. Rows are in query order.
+    """
     if len(dq) == 0 or len(dc) < 2:
         return np.zeros((0, 2), dtype=np.int64)
     import cv2  # OpenCV loads when the visual method runs, not with the package
 
     knn = cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(dq, dc, k=2)
-    pairs = [(m[0].queryIdx, m[0].trainIdx) for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
+    good = [m[0] for m in knn if len(m) == 2 and m[0].distance < ratio * m[1].distance]
+    if not one_to_one:
+        pairs = [(m.queryIdx, m.trainIdx) for m in good]
+        return np.array(pairs, dtype=np.int64).reshape(-1, 2)
+    best: dict[int, tuple[float, int]] = {}
+    for m in good:
+        key = (float(m.distance), int(m.queryIdx))
+        if m.trainIdx not in best or key < best[m.trainIdx]:
+            best[m.trainIdx] = key
+    pairs = sorted((q, c) for c, (_, q) in best.items())
     return np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
 
@@ -164,6 +181,7 @@ def verify_pair(
     K_q: NDArray | None = None,
     uv_c: NDArray | None = None,
     K_c: NDArray | None = None,
+    one_to_one: bool = True,
 ) -> VerifyOutcome:
     """Match keyframe q's features to c's and verify them in 3D.
 
@@ -179,8 +197,10 @@ def verify_pair(
         K_q: q's 3x3 camera matrix.
         uv_c: c's keypoint pixels, for the 2D-2D check (skipped unless all four are given).
         K_c: c's 3x3 camera matrix.
+        one_to_one: each candidate feature matched at most once (see ``match_descriptors``);
+            False only to show what the duplicates did.
     """
-    m = match_descriptors(dq, dc, p.lowe_ratio)
+    m = match_descriptors(dq, dc, p.lowe_ratio, one_to_one)
     if len(m) < p.min_inliers:
         return VerifyOutcome(None, np.zeros((0, 2), np.int64), len(m), f"only {len(m)} descriptor matches")
     n_matches = len(m)

@@ -96,6 +96,18 @@ def test_ratio_test_keeps_distinctive_matches_only() -> None:
     assert make_orb() is not None
 
 
+def test_a_candidate_feature_is_matched_once_to_its_closest_query() -> None:
+    rng = np.random.default_rng(2)
+    dc = rng.integers(0, 256, (10, 32), dtype=np.uint8)
+    dq = dc[[3, 3, 5, 7]].copy()  # queries 0 and 1 both find candidate 3
+    dq[0, 0] ^= 0b111  # query 0 is 3 bits from candidate 3, query 1 is 0 bits
+    dq[3, 0] ^= 0b1  # a lone query keeps its match, whatever its distance
+    m = match_descriptors(dq, dc, 0.7)
+    np.testing.assert_array_equal(m, [[1, 3], [2, 5], [3, 7]])  # query order, one row per candidate
+    tie = match_descriptors(dc[[4, 4]], dc, 0.7)  # equal distances: the first query keeps it
+    np.testing.assert_array_equal(tie, [[0, 4]])
+
+
 def test_two_view_check_keeps_epipolar_inliers_and_drops_shuffled_matches(shooter) -> None:
     from roman_sim.align.visual.verify import mono_inliers
 
