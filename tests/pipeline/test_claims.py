@@ -125,3 +125,38 @@ def test_comparison_cells_give_max_recall_with_its_precision(as_summaries):
     rows = {r["figure"]: r for r in comparison(as_summaries(runs))}
     assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.25, 0.75] P 0.90 k 2"
     assert rows["ransac1m max recall, same direction"]["cross-robot"] == "0.80 (8/10) [0.00, 1.00]"
+
+
+def _acceptance(hits: int, fp: int) -> dict:
+    """The visual method's cross-robot set with only its acceptance point (k = 6)."""
+    point = {
+        "k": 6,
+        "reached": True,
+        "hits": hits,
+        "n_relevant": 20,
+        "false_positives": fp,
+        "recall": hits / 20,
+        "recall_ci": [0.0, 1.0],
+        "precision": hits / (hits + fp) if hits + fp else None,
+        "precision_ci": [0.0, 1.0] if hits + fp else None,
+    }
+    one = {**_rec(hits, 20), "bins": {}, "points": {"acceptance": point}}
+    return {"inter": one, "intra": {**_rec(0, 0), "bins": {}}, "runtime_median_s": 0.01}
+
+
+def test_visual_closures_claim_counts_correct_over_accepted(as_summaries):
+    def claim(tunnel: tuple[int, int], paper: tuple[int, int]) -> dict:
+        runs = {
+            "multi_robot_tunnel": {"methods": {"visual": _acceptance(*tunnel)}, "map": {}},
+            "kimera_outdoor": {"methods": {"visual": _acceptance(*paper)}, "map": {}},
+            "same_direction": {"methods": {"visual": _acceptance(0, 9)}, "map": {}},  # not multi-robot: not read
+        }
+        return {c["id"]: c for c in claims(as_summaries(runs), [])}["visual_closures_correct"]
+
+    ok = claim((8, 2), (40, 5))  # 8 of 10 is exactly 80 %
+    assert ok["holds"], ok["text"]
+    assert "multi_robot_tunnel 0.80 (8/10, k = 6)" in ok["text"] and "kimera_outdoor 0.89 (40/45, k = 6)" in ok["text"]
+    assert "same_direction" not in ok["text"]
+    assert not claim((7, 2), (40, 5))["holds"]  # 7 of 9 = 0.78
+    none = claim((0, 0), (40, 5))
+    assert not none["holds"] and "multi_robot_tunnel: no closure (k = 6)" in none["text"]
