@@ -12,6 +12,9 @@ Parts (each merges its figures into ``benchmarks/out/benchmark.json``; run with 
   6), every standard method, serially in this process: CPU time of the whole run, then of
   the evaluation again with the maps reused (``from_stage="evaluation"``), which separates
   mapping (m, CPU s per km) from alignment (a, CPU s per pair, report stage included).
+* ``standard FOLDER WALL_S``: a finished ``roman-sim benchmark standard --out FOLDER`` run:
+  its wall time WALL_S (measured outside, e.g. summed over resumed segments), its cells and
+  their stage times, relevant pairs and whether every cell met the interval bound.
 * ``estimate``: the standard suite's cost from ``plan`` and ``part``: CPU time
   ``sum(km * m + pairs * a)`` over the planned cells, its wall time on 2 free cores (CPU / 2),
   and on N Dask workers with the paper-scale cost model ``T(N) = km * m / min(N, robots) +
@@ -156,6 +159,26 @@ def part(robots: int) -> None:
     shutil.rmtree(folder, ignore_errors=True)
 
 
+def standard(folder: Path, wall_s: float) -> None:
+    board = json.loads((folder / "leaderboard.json").read_text(encoding="utf-8"))
+    stages = _stages(folder)
+    _merge(
+        "standard",
+        {
+            "wall_s": round(wall_s),
+            "wall_min": round(wall_s / 60, 1),
+            "cells": len(stages),
+            "stages_s": stages,
+            "stages_total_s": round(sum(v or 0.0 for st in stages.values() for v in st.values())),
+            "relevant": {e["name"]: [b["n_relevant"] for b in e["bins"]] for e in board["levels"]},
+            "bound_met": board["bound_met"],
+            "load_after": _load(),
+            "note": "2 workers (local pool) on a 2-core machine that also ran other jobs at times: an upper "
+            "bound; stages_total_s sums the cells' stage wall times (planning not included)",
+        },
+    )
+
+
 def estimate() -> None:
     data = json.loads(OUT.read_text(encoding="utf-8"))
     p, cells = data["standard_part"], data["standard_plan"]["cells"]
@@ -189,8 +212,10 @@ if __name__ == "__main__":
         plan()
     elif what == "part":
         part(int(sys.argv[2]) if len(sys.argv) > 2 else 6)
+    elif what == "standard":
+        standard(Path(sys.argv[2]), float(sys.argv[3]))
     elif what == "estimate":
         estimate()
     else:
-        raise SystemExit(f"unknown part {what!r} (quick, plan, part, estimate)")
+        raise SystemExit(f"unknown part {what!r} (quick, plan, part, standard, estimate)")
     print(json.dumps(json.loads(OUT.read_text(encoding="utf-8")), indent=2)[:3000])
