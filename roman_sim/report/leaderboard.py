@@ -28,6 +28,14 @@ def _rate(p: dict[str, Any] | None) -> str:
     return f"{p['recall']:.2f} ({p['hits']}/{p['n_relevant']}) [{lo:.2f}, {hi:.2f}]"
 
 
+def _rate_at(p: dict[str, Any] | None) -> str:
+    """``_rate`` with the operating point's precision and threshold (``P 0.76 k 3``) where it has them."""
+    out = _rate(p)
+    if p is not None and p["n_relevant"] and p["reached"] and p.get("precision") is not None:
+        out += f" P {p['precision']:.2f} k {p['k']}"
+    return out
+
+
 def _ranked_cell(cell: dict[str, Any], method: str, point: str) -> str:
     p = cell["methods"][method][point]
     r = cell["ranks"][point].get(method)
@@ -169,13 +177,16 @@ def readme_block(board: dict[str, Any], figure: str) -> str:
     levels = [e for e in board["levels"] if e.get("bins")]
     m = "roman" if "roman" in board["methods"] else board["methods"][0]
     for e in levels:
-        pts = [(b["heading"], b["methods"][m]["max_recall"]) for b in e["bins"] if b["methods"].get(m)]
-        lo = min(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else 2.0)
-        hi = max(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else -1.0)
-        lines.append(
-            f"- {e['name']} ambiguity (index {_num(e.get('ambiguity_index'))}): {m} max recall from "
-            f"{_rate(lo[1])} at {lo[0]} deg to {_rate(hi[1])} at {hi[0]} deg."
-        )
+        parts = []
+        for point in ("max_recall", "precision_90"):
+            pts = [(b["heading"], b["methods"][m][point]) for b in e["bins"] if b["methods"].get(m)]
+            lo = min(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else 2.0)
+            hi = max(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else -1.0)
+            parts.append(
+                f"{POINT_LABELS[point]} from {_rate_at(lo[1])} at {lo[0]} deg to {_rate_at(hi[1])} at {hi[0]} deg"
+            )
+        head = f"- {e['name']} ambiguity (index {_num(e.get('ambiguity_index'))}), {m}: "
+        lines.append(head + "; ".join(parts) + ".")
     for point in RANKED:
         alone, tied, ranked = _first_alone(board, m, point)
         lines.append(

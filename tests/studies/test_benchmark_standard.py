@@ -30,17 +30,21 @@ def _committed() -> dict:
     return json.loads((STANDARD / "leaderboard.json").read_text(encoding="utf-8"))
 
 
-def test_the_leaderboard_follows_from_the_raw_pairs(by_hand):
+def test_the_leaderboard_follows_from_the_raw_pairs(by_hand_points, by_hand_precision_90):
     committed = _committed()
     again, _ = leaderboard(STANDARD)
     diffs = compare(committed, json.loads(json.dumps(again)), "leaderboard.json", rel_tol=1e-9, abs_tol=1e-12)
     assert not diffs, diffs[:10]
-    hand = by_hand(STANDARD)
+    hand, p90 = by_hand_points(STANDARD), by_hand_precision_90(STANDARD)
     for e in committed["levels"]:
         for b in e["bins"]:
             for m, pts in b["methods"].items():
                 p = pts["max_recall"]
-                assert hand[(e["name"], b["heading"], m)] == (p["hits"], p["n_relevant"]), (e["name"], b["heading"], m)
+                got = (p["hits"], p["n_relevant"], p["k"], p["false_positives"])
+                assert hand[(e["name"], b["heading"], m)] == got, (e["name"], b["heading"], m)
+                q = pts["precision_90"]
+                got = (q["hits"], q["k"], q["false_positives"])
+                assert p90[(e["name"], b["heading"], m)] == got, (e["name"], b["heading"], m)
 
 
 def test_every_cell_meets_the_interval_bound():
