@@ -153,3 +153,5 @@ def test_quiet_demo_wall_time_is_the_benchmark():
         round(fastest["stages_wall_s"]["evaluation"], 1),
     )
     assert min(walls) > _bench("demo.json")["target_wall_s"]  # the page says the target is missed
+    span = re.search(r"The three runs span (\d+\.\d) to (\d+\.\d) s with the same code", _page("performance.md"))
+    assert span and (float(span[1]), float(span[2])) == (round(min(walls), 1), round(max(walls), 1))
