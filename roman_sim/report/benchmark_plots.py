@@ -41,8 +41,33 @@ def _centres(board: dict[str, Any]) -> np.ndarray:
     return (e[:-1] + e[1:]) / 2
 
 
+def recall_heading_data(board: dict[str, Any]) -> dict[str, Any]:
+    """What ``recall_heading.png`` shows: per level, point and method, each bin's
+    ``[hits, relevant, recall, interval low, interval high]`` (None where the method has no point)."""
+    first = next((e["bins"] for e in board["levels"] if e.get("bins")), [])
+    out: dict[str, Any] = {"bins": [b["heading"] for b in first]}
+    for e in board["levels"]:
+        if not e.get("bins"):
+            continue
+        out[e["name"]] = {
+            point: {
+                m: [
+                    None
+                    if (p := b["methods"].get(m, {}).get(point)) is None
+                    else [p["hits"], p["n_relevant"], p["recall"], *(p["recall_ci"] or [None, None])]
+                    for b in e["bins"]
+                ]
+                for m in board["methods"]
+            }
+            for point in ("max_recall", "precision_90")
+        }
+    return out
+
+
 def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
-    """Recall per heading bin with bands, per method; columns: levels; rows: max recall, precision >= 0.9."""
+    """Recall per heading bin with bands, per method; columns: levels; rows: max recall, precision >= 0.9.
+
+    The PNG carries ``recall_heading_data(board)`` (``read_png_data``)."""
     levels = [(e["name"], e) for e in board["levels"] if e.get("bins")]
     if not levels:
         return None
@@ -65,7 +90,7 @@ def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
     fig.axes[0].set_ylabel("recall")
     fig.axes[len(levels)].set_ylabel("recall")
     fig.axes[0].legend(fontsize=7, loc="lower left")
-    return save_png(fig, path)
+    return save_png(fig, path, recall_heading_data(board))
 
 
 def _fmt(v: float | None) -> str:

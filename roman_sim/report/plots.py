@@ -24,6 +24,7 @@ timestamps, so the same data gives the same bytes.
 from __future__ import annotations
 
 import io
+import json
 import logging
 from collections.abc import Callable
 from pathlib import Path
@@ -49,15 +50,32 @@ def figure(w: float = 6.0, h: float = 4.0, ncols: int = 1, nrows: int = 1) -> Fi
     return fig
 
 
-def save_png(fig: Figure, path: str | Path) -> Path:
-    """Render ``fig`` to PNG in memory and write it atomically."""
+#: PNG text chunk that holds the data a figure was drawn from (``save_png(..., data=...)``).
+DATA_KEY = "roman_sim_data"
+
+
+def save_png(fig: Figure, path: str | Path, data: object = None) -> Path:
+    """Render ``fig`` to PNG in memory and write it atomically; ``data`` (JSON-ready), when given, is
+    stored in the PNG's ``DATA_KEY`` text chunk (``read_png_data`` reads it back)."""
     path = Path(path)
     buf = io.BytesIO()
     fig.tight_layout()
-    fig.savefig(buf, format="png", metadata={"Software": None})
+    meta: dict[str, str | None] = {"Software": None}
+    if data is not None:
+        meta[DATA_KEY] = json.dumps(data, sort_keys=True)
+    fig.savefig(buf, format="png", metadata=meta)
     write_bytes(path, buf.getvalue())
     log.debug("wrote %s", path)
     return path
+
+
+def read_png_data(path: str | Path) -> object:
+    """The data ``save_png`` stored with a figure (None when it stored none)."""
+    from PIL import Image
+
+    with Image.open(path) as im:
+        text = im.info.get(DATA_KEY)
+    return None if text is None else json.loads(text)
 
 
 def _points(c: PRCurve) -> int:

@@ -64,3 +64,17 @@ def test_readme_block_is_rendered_from_the_committed_results():
         pytest.skip("the README has no benchmark block yet")
     start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
     assert readme[start:end] == readme_block(_committed(), FIGURE)
+
+
+def test_readme_figure_shows_the_rederived_leaderboard(by_hand_points):
+    from roman_sim.report.benchmark_plots import recall_heading_data
+    from roman_sim.report.plots import read_png_data
+
+    shown = read_png_data(ROOT / FIGURE)
+    again, _ = leaderboard(STANDARD)
+    assert shown == json.loads(json.dumps(recall_heading_data(again)))
+    hand = by_hand_points(STANDARD)
+    for level in ("low", "medium", "high"):
+        for m, rows in shown[level]["max_recall"].items():
+            for heading, row in zip(shown["bins"], rows, strict=True):
+                assert tuple(row[:2]) == hand[(level, heading, m)][:2], (level, heading, m)
