@@ -133,8 +133,8 @@ def test_the_outdoor_visual_row_is_explained_by_the_data():
     m = re.search(
         r"Robot a meets the others only against their direction: its (\d+) relevant cross-robot pairs \((\d+) with b, "
         r"(\d+) with c\) all lie at (\d+) deg or more of heading difference \(median (\d+) deg\), where the visual "
-        r"method accepts no closure, .*? b and c share (\d+) relevant pairs, (\d+) of them below 60 deg, and the visual "
-        r"method accepts (\d+) of those, all correct",
+        r"method accepts no closure, .*? b and c share (\d+) relevant pairs, (\d+) of them below 60 deg, and the "
+        r"visual method accepts (\d+) of those, all correct",
         page,
     )
     assert m, "docs/results.md explains the outdoor visual row"

@@ -44,7 +44,7 @@ def _centres(board: dict[str, Any]) -> np.ndarray:
 def recall_heading_data(board: dict[str, Any]) -> dict[str, Any]:
     """What ``recall_heading.png`` shows: per level, point and method, each bin's
     ``[hits, relevant, recall, interval low, interval high]`` (None where the method has no point)."""
-    first = next((e["bins"] for e in board["levels"] if e.get("bins")), [])
+    first: list[dict[str, Any]] = next((e["bins"] for e in board["levels"] if e.get("bins")), [])
     out: dict[str, Any] = {"bins": [b["heading"] for b in first]}
     for e in board["levels"]:
         if not e.get("bins"):
