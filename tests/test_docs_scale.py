@@ -85,3 +85,27 @@ def test_update_rewrites_only_the_block(tmp_path):
     text = page.read_text()
     assert text.startswith("before\n") and text.endswith("\nafter\n") and "stale" not in text
     assert mod.render(tmp_path) in text
+
+
+def test_segments_per_submap_are_the_committed_packets():
+    import re
+    import statistics
+
+    import numpy as np
+
+    text = " ".join((ROOT / "docs" / "paper_scale.md").read_text(encoding="utf-8").split())
+    m = re.search(r"Segments per submap \(median over the submap packets .*? demo's (\d+) ", text)
+    assert m, "docs/paper_scale.md states the segments per submap"
+    stated = {run: median for run, median, _ in re.findall(r"`(kimera_\w+)` (\d+) \((\d+) submaps\)", text)}
+    runs = {p.parent.name for p in (ROOT / "results" / "reference").glob("kimera_*/packets")}
+    assert set(stated) == runs  # every committed paper-scale run, no other
+    for run in [*sorted(runs), "demo"]:
+        counts = []
+        for f in sorted((ROOT / "results" / "reference" / run / "packets").glob("*.npz")):
+            with np.load(f) as z:
+                counts += [len(z[k]) for k in z.files if k.endswith("_segment_ids")]
+        want = m[1] if run == "demo" else stated[run]
+        assert str(round(statistics.median(counts))) == want, run
+        if run != "demo":
+            assert statistics.median(counts) >= 10, run  # as full as the demo's: at least 10
+            assert re.search(rf"`{run}` \d+ \({len(counts)} submaps\)", text), run
