@@ -64,7 +64,7 @@ def test_paper_scale_runs_are_as_described():
     m = re.search(r"paper-scale `kimera_\*` runs \((\d+(?:\.\d+)?)-(\d+(?:\.\d+)?) km per robot\)", _flat())
     assert m, "docs/results.md states the paper-scale runs' length"
     lo, hi = float(m.group(1)), float(m.group(2))
-    listed = re.search(r"Committed paper-scale runs: ((?:`kimera_\w+`(?:, )?)+)\.", _flat())
+    listed = re.search(r"Committed paper-scale runs: ((?:`kimera_\w+`(?:, | and )?)+)", _flat())
     assert listed, "docs/results.md names the committed paper-scale runs"
     names = re.findall(r"`(kimera_\w+)`", listed.group(1))
     assert sorted(names) == sorted(p.name for p in REF.glob("kimera_*") if p.is_dir())
@@ -126,3 +126,17 @@ def test_the_hybrid_miss_is_explained_by_the_data():
     )
     assert m and [int(m[1]), int(m[2])] == [sum(r["correct"] == "true" for r in visual), len(visual)]
     assert not [r for r in visual if m[3] in (r["robot_a"], r["robot_b"])]
+
+
+def test_paper_scale_run_times_are_the_committed_timings():
+    m = re.search(r"Committed paper-scale runs: (.*?), each (\d+)-(\d+) min with RGB on 2 workers", _flat())
+    assert m, "docs/results.md states the committed paper-scale runs and their times"
+    runs = sorted(p.name for p in REF.glob("kimera_*") if p.is_dir())
+    assert sorted(re.findall(r"`(kimera_\w+)`", m[1])) == runs
+    minutes = []
+    for run in runs:
+        stages = json.loads((REF / run / "timings.json").read_text(encoding="utf-8"))["stages"]
+        minutes.append(round(sum(s["seconds"] for s in stages.values()) / 60))
+        assert stages["evaluation"]["pairs"]["workers"] == 2
+    assert (int(m[2]), int(m[3])) == (min(minutes), max(minutes))
+    assert max(minutes) <= 45  # the budget of a paper-scale run with RGB on 2 workers
