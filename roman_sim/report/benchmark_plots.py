@@ -67,20 +67,23 @@ def recall_heading_data(board: dict[str, Any]) -> dict[str, Any]:
 def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
     """Recall per heading bin with bands, per method; columns: levels; rows: max recall, precision >= 0.9.
 
-    The PNG carries ``recall_heading_data(board)`` (``read_png_data``)."""
+    The curves are drawn from ``recall_heading_data(board)``, which the PNG carries
+    (``read_png_data``)."""
     levels = [(e["name"], e) for e in board["levels"] if e.get("bins")]
     if not levels:
         return None
+    data = recall_heading_data(board)
     x = _centres(board)
     fig = figure(4.2 * len(levels), 7.0, ncols=len(levels), nrows=2)
     for col, (name, e) in enumerate(levels):
         for row, point in enumerate(("max_recall", "precision_90")):
             ax = fig.axes[row * len(levels) + col]
             for i, m in enumerate(board["methods"]):
-                pts = [b["methods"].get(m, {}).get(point) for b in e["bins"]]
-                y = np.array([np.nan if p is None or p["recall"] is None else p["recall"] for p in pts])
-                lo = np.array([np.nan if p is None or p["recall_ci"] is None else p["recall_ci"][0] for p in pts])
-                hi = np.array([np.nan if p is None or p["recall_ci"] is None else p["recall_ci"][1] for p in pts])
+                rows = data[name][point][m]  # per bin: [hits, relevant, recall, low, high] or None
+                y, lo, hi = (
+                    np.array([np.nan if r is None or r[j] is None else r[j] for r in rows], dtype=float)
+                    for j in (2, 3, 4)
+                )
                 ax.plot(x, y, marker="o", color=f"C{i}", label=m)
                 ax.fill_between(x, lo, hi, color=f"C{i}", alpha=0.15, linewidth=0)
             ax.set(xlim=(0, 180), ylim=(0, 1.02), xticks=board["heading_edges_deg"])
@@ -90,7 +93,7 @@ def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
     fig.axes[0].set_ylabel("recall")
     fig.axes[len(levels)].set_ylabel("recall")
     fig.axes[0].legend(fontsize=7, loc="lower left")
-    return save_png(fig, path, recall_heading_data(board))
+    return save_png(fig, path, data)
 
 
 def _fmt(v: float | None) -> str:
