@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import functools
 import gzip
 import io
 import json
@@ -13,7 +14,16 @@ import pytest
 
 
 def _rows(folder: Path) -> dict[tuple[str, str, str], list[tuple[int, bool, bool]]]:
-    """(level, heading bin, method) -> (associations, relevant, correct) of every cross-robot pair."""
+    """(level, heading bin, method) -> (associations, relevant, correct) of every cross-robot pair.
+
+    Read once per state of the folder's files (callers only read the result)."""
+    files = sorted([folder / "benchmark.json", *folder.glob("cells/*/pairs.csv.gz")])
+    return _read_rows(folder, tuple((str(f), f.stat().st_mtime_ns, f.stat().st_size) for f in files))
+
+
+@functools.lru_cache(maxsize=4)
+def _read_rows(folder: Path, stamp: tuple) -> dict[tuple[str, str, str], list[tuple[int, bool, bool]]]:
+    """``_rows`` of ``folder`` as its files are at ``stamp`` (names, modification times, sizes)."""
     rec = json.loads((folder / "benchmark.json").read_text(encoding="utf-8"))
     edges = rec["heading_edges_deg"]
     rows: dict[tuple[str, str, str], list[tuple[int, bool, bool]]] = {}
