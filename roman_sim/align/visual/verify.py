@@ -145,10 +145,32 @@ def refine_reprojection(T_q_c: NDArray, pc: NDArray, uv_q: NDArray, K_q: NDArray
     return make_T(cv2.Rodrigues(rvec)[0], tvec.ravel())
 
 
+def _homography_inliers(nq: NDArray, nc: NDArray, threshold: float) -> NDArray[np.bool_]:
+    """Inliers of a RANSAC homography ``nq ~ H nc`` over normalised points (the model of views
+    without parallax); none when OpenCV finds no homography."""
+    import cv2
+
+    try:
+        H, mask = cv2.findHomography(nc, nq, cv2.RANSAC, threshold, maxIters=2000, confidence=0.999)
+    except cv2.error:
+        return np.zeros(len(nq), dtype=bool)
+    if H is None or mask is None:
+        return np.zeros(len(nq), dtype=bool)
+    return np.asarray(mask, dtype=bool).reshape(-1)
+
+
 def mono_inliers(uv_q: NDArray, K_q: NDArray, uv_c: NDArray, K_c: NDArray, threshold_px: float) -> NDArray[np.bool_]:
     """Inliers of a 5-point essential-matrix RANSAC (OpenCV) between two keyframes' matched pixels.
 
     Pixels are normalised by each camera's matrix; the threshold is scaled by q's focal length.
+
+    Fewer than 5 distinct points in either view (several features matched at one pixel)
+    determine no essential matrix: no inliers. Matches without parallax (identical views, as
+    of two identical instances of an object seen from one relative pose: every essential
+    matrix of the rotation fits them) make the 5-point solver's polynomial degenerate:
+    OpenCV 5.0 returns inliers of one of those matrices, 5.1 and later raise; on that error
+    the matches are checked by the model that holds without parallax, a homography (RANSAC
+    at the same threshold), so both releases accept such views.
     """
     n = len(uv_q)
     if n < 5:
@@ -160,11 +182,13 @@ def mono_inliers(uv_q: NDArray, K_q: NDArray, uv_c: NDArray, K_c: NDArray, thres
     import cv2
 
     f = float(np.sqrt(K_q[0, 0] * K_q[1, 1]))
+    nq, nc = _norm(np.asarray(uv_q, np.float64), K_q), _norm(np.asarray(uv_c, np.float64), K_c)
+    if min(len(np.unique(x, axis=0)) for x in (nq, nc)) < 5:
+        return np.zeros(n, dtype=bool)
     try:
-        nq, nc = _norm(np.asarray(uv_q, np.float64), K_q), _norm(np.asarray(uv_c, np.float64), K_c)
         E, mask = cv2.findEssentialMat(nq, nc, np.eye(3), method=cv2.RANSAC, prob=0.999, threshold=threshold_px / f)
     except cv2.error:
-        return np.zeros(n, dtype=bool)
+        return _homography_inliers(nq, nc, threshold_px / f)
     if E is None or mask is None:
         return np.zeros(n, dtype=bool)
     return np.asarray(mask, dtype=bool).reshape(-1)

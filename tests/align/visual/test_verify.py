@@ -125,3 +125,22 @@ def test_two_view_check_keeps_epipolar_inliers_and_drops_shuffled_matches(shoote
     out = verify_pair(fq.descriptors, fq.points, fc.descriptors, fc.points, P, (), fq.uv, K, fc.uv, K)
     rot, trans = pose_error(out.T_q_c, inv_T(Tq) @ Tc)
     assert out.reason is None and np.degrees(rot) < 2.0 and trans < 0.1
+
+
+def test_two_view_check_accepts_identical_views_and_rejects_matches_at_few_points() -> None:
+    """Matches without parallax (every pixel the same in both views) are all inliers, whichever
+    OpenCV release solves them (5.1 raises where 5.0 answered); matches that use fewer than 5
+    distinct points of a view (several features matched to one) are none."""
+    from roman_sim.align.visual.verify import mono_inliers
+
+    K = np.array([[277.0, 0.0, 160.0], [0.0, 277.0, 120.0], [0.0, 0.0, 1.0]])
+    uv = np.random.default_rng(3).uniform([10.0, 10.0], [310.0, 230.0], (60, 2)).round()
+    same = mono_inliers(uv, K, uv.copy(), K, 2.0)
+    assert same.sum() >= 58, int(same.sum())  # a homography's RANSAC may leave a point or two
+    # rotated 5 deg about the camera's y axis: no parallax either, a homography holds
+    R = rpy_to_R(0.0, np.radians(5.0), 0.0)
+    rays = np.column_stack([(uv - K[:2, 2]) / K[0, 0], np.ones(len(uv))]) @ R.T
+    uv_rot = rays[:, :2] / rays[:, 2:] * K[0, 0] + K[:2, 2]
+    assert mono_inliers(uv, K, uv_rot, K, 2.0).sum() >= 58
+    few = np.repeat(uv[:4], 3, axis=0)  # 12 matches onto 4 points of c
+    assert not mono_inliers(uv[:12], K, few, K, 2.0).any()
