@@ -155,6 +155,13 @@ def _tree_cpu(pid: int, stop: threading.Event, out: dict[int, float]) -> None:
         stop.wait(0.1)
 
 
+def _imported_package(env: dict[str, str] | None, cwd: str) -> str:
+    """Where a child started as ``measure_wall`` starts its run imports ``roman_sim`` from."""
+    code = "import roman_sim; print(roman_sim.__file__)"
+    out = subprocess.run([sys.executable, "-P", "-c", code], env=env, cwd=cwd, capture_output=True, text=True)
+    return out.stdout.strip()
+
+
 def measure_wall(name: str, tree: str | None = None) -> dict[str, Any]:
     """Wall time, per-stage wall times and process-tree CPU of ``roman-sim demo --fresh`` (or ``run NAME``).
 
@@ -163,13 +170,18 @@ def measure_wall(name: str, tree: str | None = None) -> dict[str, Any]:
     with tempfile.TemporaryDirectory() as d:
         run = Path(d) / "run"
         args = ["demo"] if name == "demo" else ["run", name]
-        cmd = [sys.executable, "-m", "roman_sim.cli", *args, "--out", str(run), "--fresh"]
+        # -P and a neutral working directory: ``python -m`` would otherwise put the cwd (this
+        # checkout, when run from its root) ahead of PYTHONPATH and run this tree both ways
+        cmd = [sys.executable, "-P", "-m", "roman_sim.cli", *args, "--out", str(run), "--fresh"]
         env = {**os.environ, "PYTHONPATH": str(Path(tree).resolve())} if tree else None
+        package = _imported_package(env, d)
+        if tree and not package.startswith(str(Path(tree).resolve())):
+            raise SystemExit(f"the child imports roman_sim from {package}, not from {tree}")
         load = [round(x, 2) for x in os.getloadavg()]
         seen: dict[int, float] = {}
         stop = threading.Event()
         t0 = time.perf_counter()
-        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+        proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env, cwd=d)
         watcher = None
         try:
             import psutil  # noqa: F401  (optional: the process tree's CPU)
@@ -194,6 +206,7 @@ def measure_wall(name: str, tree: str | None = None) -> dict[str, Any]:
             "alignment_wall_s": timings.get("evaluation", {}).get("pairs", {}).get("alignment_wall_s"),
             "cpu_s_process_tree": sum(seen.values()) if watcher is not None else None,
             "load_average_before": load,
+            "package": package,
         }
 
 

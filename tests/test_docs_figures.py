@@ -75,34 +75,72 @@ def test_per_frame_cost_table_is_the_benchmark():
         # the sums the page states: front end and render per frame from their steps
         front = sum(m[k] for k in ("segment", "observe", "encode", "track", "grade", "keyframes"))
         assert abs(front - x["frontend_ms_per_frame"]) < 1e-6, name
+    flat = " ".join(page.split())
+    m = re.search(
+        r"measured with nothing else running \(commit (\w+), load average (\d+\.\d\d)\)\. The same code measured on "
+        r"a machine shared with other jobs \(load average (\d+\.\d\d), `loaded` in the JSON\) gave (\d\.\d\d) on "
+        r"the `demo`, (\d\.\d\d) on `demo_pixels` and (\d\.\d\d) on `kimera_outdoor`: there every step took about "
+        r"twice as long, the front end's steps \(segment, track, grade: (\d\.\d)x to (\d\.\d)x\) more than the "
+        r"render \((\d\.\d)x\)",
+        flat,
+    )
+    assert m, "docs/performance.md no longer compares the quiet and the loaded machine"
+    loaded = _bench("frames.json")["loaded"]
+    assert (m[1], float(m[2])) == (cur["machine"]["commit"], cur["machine"]["load_average"][0])
+    assert float(m[3]) == loaded["machine"]["load_average"][0]
+    names = ("demo", "demo_pixels", "kimera_outdoor")
+    assert [float(m[k]) for k in (4, 5, 6)] == [round(loaded[n]["mapping_over_render"], 2) for n in names]
+    slow = [loaded["demo"]["ms_per_frame"][k] / cur["demo"]["ms_per_frame"][k] for k in ("segment", "track", "grade")]
+    assert (float(m[7]), float(m[8])) == (round(min(slow), 1), round(max(slow), 1))
+    assert float(m[9]) == round(loaded["demo"]["render_ms_per_frame"] / cur["demo"]["render_ms_per_frame"], 1)
+    assert cur["demo"]["mapping_over_render"] <= 1.3 < loaded["demo"]["mapping_over_render"]
+    assert cur["kimera_outdoor"]["mapping_over_render"] <= 1.3
 
 
 def test_demo_wall_time_figures_are_the_benchmark():
     from statistics import median
 
     bench = _bench("demo.json")
-    est, alt = bench["stage_cuts"], bench["alternate"]
+    est, alt = bench["stage_cuts"], bench["quiet_alternate_34ffddf"]
+    assert "alternate" not in bench  # the withdrawn comparison (both sides were this tree)
     m = re.search(
         r"estimates the wall time on 2 free cores \(the formula is in the script's docstring\): (\d+\.\d) s "
         r"\(`stage_cuts`; the target is (\d+) s\), of which (\d+\.\d) s is the maps stage, .*? taken at a load "
-        r"average of (\d+\.\d\d), .*? \(load average "
-        r"(\d+\.\d\d) when the runs began\) the fastest of (\d+) runs took (\d+\.\d) s against (\d+\.\d) s for the "
-        r"code before the changes below, the medians (\d+\.\d) s against (\d+\.\d) s \(`alternate`\)",
+        r"average of (\d+\.\d\d), ",
         _page("performance.md"),
+        flags=re.S,
     )
-    assert m, "docs/performance.md no longer states the demo's wall time"
+    assert m, "docs/performance.md no longer states the demo's estimated wall time"
     s, r = est["stages_cpu_s"], est["robots_cpu_s"]
     maps_wall = s["maps"] - sum(r.values()) + max(r.values())
-    after = [x["wall_s"] for x in alt["measured_runs"]]
-    before = [x["wall_s"] for x in alt["against"]["measured_runs"]]
     assert float(m[1]) == round(est["wall_estimate_2_workers_s"], 1)
     assert float(m[2]) == bench["target_wall_s"]
     assert float(m[3]) == round(maps_wall, 1)
     assert float(m[4]) == est["load_average"][0]
-    assert float(m[5]) == alt["measured_runs"][0]["load_average_before"][0]
-    assert int(m[6]) == len(after) == len(before)
-    assert (float(m[7]), float(m[8])) == (round(min(after), 1), round(min(before), 1))
-    assert (float(m[9]), float(m[10])) == (round(median(after), 1), round(median(before), 1))
+    m = re.search(
+        r"the fastest of (\d+) runs of `roman-sim demo --fresh` took (\d+\.\d) s against (\d+\.\d) s for 34ffddf, "
+        r"the medians (\d+\.\d) s against (\d+\.\d) s \(ratios (\d\.\d\d) and (\d\.\d\d)\); in the fastest run "
+        r"the maps stage took (\d+\.\d) s, the evaluation (\d+\.\d) s, the report (\d+\.\d) s and the world "
+        r"(\d+\.\d) s: within the 35 s target",
+        " ".join(_page("performance.md").split()),
+    )
+    assert m, "docs/performance.md no longer states the alternating demo comparison"
+    after = [x["wall_s"] for x in alt["measured_runs"]]
+    before = [x["wall_s"] for x in alt["against"]["measured_runs"]]
+    assert int(m[1]) == len(after) == len(before)
+    assert (float(m[2]), float(m[3])) == (round(min(after), 1), round(min(before), 1))
+    assert (float(m[4]), float(m[5])) == (round(median(after), 1), round(median(before), 1))
+    assert float(m[6]) == round(min(after) / min(before), 2)
+    assert float(m[7]) == round(median(after) / median(before), 2)
+    fastest = alt["measured_runs"][after.index(min(after))]["stages_wall_s"]
+    assert [float(m[k]) for k in range(8, 12)] == [
+        round(fastest[k], 1) for k in ("maps", "evaluation", "report", "world")
+    ]
+    assert min(after) <= bench["target_wall_s"]  # the page says the target is met there
+    # the other side really was the other checkout, not this tree run twice
+    theirs = {x["package"] for x in alt["against"]["measured_runs"]}
+    ours = {x["package"] for x in alt["measured_runs"]}
+    assert len(theirs) == len(ours) == 1 and theirs != ours, (theirs, ours)
 
 
 def test_error_model_cost_matches_the_benchmark():
@@ -140,8 +178,8 @@ def test_quiet_demo_wall_time_is_the_benchmark():
     runs = _bench("demo.json")["after_visual_one_to_one"]["measured_runs"]
     m = re.search(
         r"the fastest of (\d+) runs of `roman-sim demo --fresh` took (\d+\.\d) s and the median (\d+\.\d) s, of "
-        r"which the maps stage (\d+\.\d) s and the evaluation (\d+\.\d) s in the fastest: the 35 s target is not met",
-        _page("performance.md"),
+        r"which the maps stage (\d+\.\d) s and the evaluation (\d+\.\d) s in the fastest: the 35 s target is not met there",
+        " ".join(_page("performance.md").split()),
     )
     assert m, "docs/performance.md no longer states the quiet-machine demo time"
     walls = [r["wall_s"] for r in runs]
@@ -153,5 +191,7 @@ def test_quiet_demo_wall_time_is_the_benchmark():
         round(fastest["stages_wall_s"]["evaluation"], 1),
     )
     assert min(walls) > _bench("demo.json")["target_wall_s"]  # the page says the target is missed
-    span = re.search(r"The three runs span (\d+\.\d) to (\d+\.\d) s with the same code", _page("performance.md"))
+    span = re.search(
+        r"The three runs span (\d+\.\d) to (\d+\.\d) s with the same code", " ".join(_page("performance.md").split())
+    )
     assert span and (float(span[1]), float(span[2])) == (round(min(walls), 1), round(max(walls), 1))
