@@ -37,7 +37,7 @@ from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.pipeline.checkpoint import Checkpoint, clear_checkpoints
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
 from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
-from roman_sim.pipeline.manifest import Manifest, StageRecord, existing_manifest
+from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, environment_changes, existing_manifest
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, Stage, StageOutput
@@ -166,6 +166,17 @@ class Experiment:
             if name not in reuse:
                 for f in rec.files:
                     (self.run_dir / f).unlink(missing_ok=True)
+        env = environment()
+        if old is not None and keep and old.environment:
+            changed = environment_changes(old.environment, env)
+            if changed:
+                log.warning(
+                    "%s: reusing stages %s computed with other library versions (%s); their bytes may differ "
+                    "from a fresh run's (use --fresh to recompute)",
+                    self.run_dir,
+                    ", ".join(sorted(keep)),
+                    "; ".join(changed),
+                )
         man = Manifest(
             self.scenario.name,
             self.scenario.seed,
@@ -173,6 +184,7 @@ class Experiment:
             __version__,
             keep,
             [s.name for s in active if s.cached],
+            env,
         )
         write_text(self.run_dir / "config.yaml", dump_yaml(self.scenario))
         man.save(self.run_dir)

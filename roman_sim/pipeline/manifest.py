@@ -1,7 +1,9 @@
 """``manifest.json``: what a run folder holds, so that nothing stale is ever read or reported.
 
-The manifest records the hash of the resolved configuration, the package version and, per
-completed stage, its cache key and the files it wrote (relative paths). A stage's outputs
+The manifest records the hash of the resolved configuration, the package version, the
+versions of the libraries whose arithmetic reaches the results (``environment``: a new
+OpenCV, MuJoCo or numpy may change the last bits of a result, or more) and, per completed
+stage, its cache key and the files it wrote (relative paths). A stage's outputs
 are reused only when its recorded key matches and every recorded file exists; outputs are
 read only from the files the manifest lists (never by globbing the folder). A run is
 complete when every stage of its scenario is recorded. Wall-clock figures live elsewhere
@@ -12,7 +14,9 @@ from __future__ import annotations
 
 import json
 import logging
+import platform
 from dataclasses import dataclass, field
+from importlib import metadata
 from pathlib import Path
 
 from roman_sim.core.atomic import write_json
@@ -23,6 +27,41 @@ log = logging.getLogger(__name__)
 
 MANIFEST_JSON = "manifest.json"
 MANIFEST_SCHEMA = "roman_sim.run/1"
+
+# Distributions whose versions a run records: each entry is one library, under any of the
+# names it is published as (the first one installed is recorded).
+ENVIRONMENT_DISTRIBUTIONS: tuple[tuple[str, ...], ...] = (
+    ("numpy",),
+    ("scipy",),
+    ("mujoco",),
+    ("opencv-python-headless", "opencv-python", "opencv-contrib-python-headless", "opencv-contrib-python"),
+    ("gtsam",),
+    ("trimesh",),
+    ("scikit-learn",),
+    ("torch",),
+)
+
+
+def environment() -> dict[str, str]:
+    """Python's version and those of the installed ``ENVIRONMENT_DISTRIBUTIONS`` (missing ones left out)."""
+    out = {"python": platform.python_version()}
+    for names in ENVIRONMENT_DISTRIBUTIONS:
+        for name in names:
+            try:
+                out[name] = metadata.version(name)
+            except metadata.PackageNotFoundError:
+                continue
+            break
+    return out
+
+
+def environment_changes(old: dict[str, str], new: dict[str, str]) -> list[str]:
+    """``"name old -> new"`` for every library whose version differs (absent: ``none``)."""
+    return [
+        f"{k} {old.get(k, 'none')} -> {new.get(k, 'none')}"
+        for k in sorted(set(old) | set(new))
+        if old.get(k) != new.get(k)
+    ]
 
 
 @dataclass
@@ -43,6 +82,7 @@ class Manifest:
     package_version: str
     stages: dict[str, StageRecord] = field(default_factory=dict)
     expected: list[str] = field(default_factory=list)
+    environment: dict[str, str] = field(default_factory=dict)
 
     @property
     def missing(self) -> list[str]:
@@ -67,6 +107,7 @@ class Manifest:
             "seed": self.seed,
             "config_hash": self.config_hash,
             "package_version": self.package_version,
+            "environment": self.environment,
             "expected": self.expected,
             "complete": self.complete,
             "stages": {k: {"key": v.key, "files": v.files} for k, v in self.stages.items()},
@@ -86,6 +127,7 @@ class Manifest:
                 str(d["package_version"]),
                 stages,
                 [str(s) for s in d["expected"]],
+                {str(k): str(v) for k, v in d.get("environment", {}).items()},
             )
         except (KeyError, TypeError, ValueError, AttributeError) as err:
             raise StorageError(f"{source}: malformed run manifest ({type(err).__name__}: {err})") from None

@@ -26,6 +26,40 @@ def test_rerun_reuses_cached_stages(smoke_run):
     assert again.notes == smoke_run.notes
 
 
+def test_manifest_records_the_library_versions_and_a_resume_in_another_environment_warns(smoke_run, tmp_path, caplog):
+    from importlib import metadata
+
+    from roman_sim.pipeline.manifest import environment, environment_changes
+
+    man = json.loads((smoke_run.run_dir / "manifest.json").read_text())
+    assert man["environment"] == environment()
+    assert man["environment"]["numpy"] == metadata.version("numpy")
+    assert man["environment"]["mujoco"] == metadata.version("mujoco")
+    assert any(k.startswith("opencv") for k in man["environment"])
+    # a run folder whose stages another OpenCV computed: reused, with a warning naming it
+    run_dir = tmp_path / "other_env"
+    shutil.copytree(smoke_run.run_dir, run_dir)
+    old = {**man["environment"], "opencv-python-headless": "4.0.0"}
+    old.pop("gtsam", None)
+    (run_dir / "manifest.json").write_text(json.dumps({**man, "environment": old}))
+    with caplog.at_level("WARNING", logger="roman_sim.pipeline.experiment"):
+        again = Experiment(load_scenario("smoke"), run_dir).run()
+    assert "maps" in again.reused
+    warned = [r.getMessage() for r in caplog.records if "other library versions" in r.getMessage()]
+    assert len(warned) == 1, warned
+    for change in environment_changes(old, environment()):
+        assert change in warned[0]
+    assert "opencv-python-headless 4.0.0 -> " in warned[0]
+    # the new manifest records this environment; a manifest without one reads as empty
+    assert json.loads((run_dir / "manifest.json").read_text())["environment"] == environment()
+    assert environment_changes({"a": "1"}, {"a": "1"}) == []
+    assert environment_changes({}, {"numpy": "2.0"}) == ["numpy none -> 2.0"]
+    from roman_sim.pipeline.manifest import Manifest
+
+    older = {k: v for k, v in man.items() if k != "environment"}  # written before versions were recorded
+    assert Manifest.from_json(older, "older").environment == {}
+
+
 def test_changed_aligners_recompute_only_evaluation(smoke_run, tmp_path):
     run_dir = tmp_path / "copy"
     shutil.copytree(smoke_run.run_dir, run_dir)
