@@ -208,3 +208,72 @@ def test_quiet_demo_wall_time_is_the_benchmark():
         r"The three runs span (\d+\.\d) to (\d+\.\d) s with the same code", " ".join(_page("performance.md").split())
     )
     assert span and (float(span[1]), float(span[2])) == (round(min(walls), 1), round(max(walls), 1))
+
+
+def test_visual_same_direction_miss_is_the_data():
+    """The results page's account of the visual method's same-direction closures: errors from
+    the committed pairs tables, inlier geometry from ``visual_inliers.json``."""
+    import csv
+    import gzip
+
+    flat = " ".join(_page("results.md").split())
+    m = re.search(
+        r"In `same_direction` the visual method accepts (\d+) cross-robot closures \(at least 5 inliers\), all "
+        r"(\d+) at the right place \(true submap centres within 10 m\), yet only (\d+) are correct: the median "
+        r"rotation error is (\d+\.\d\d) deg \((\d+) of the \d+ above the 5 deg tolerance\)\. Driven as a replay "
+        r"\(`same_direction_replay`\) it accepts (\d+), (\d+) of them correct, median rotation error (\d+\.\d\d) deg",
+        flat,
+    )
+    assert m, "docs/results.md no longer explains the visual same-direction figures"
+
+    def accepted(scenario: str) -> list[dict[str, str]]:
+        path = ROOT / "results" / "reference" / scenario / "pairs.csv.gz"
+        with gzip.open(path, "rt", encoding="utf-8", newline="") as f:
+            rows = list(csv.DictReader(f))
+        return [
+            r
+            for r in rows
+            if r["method"] == "visual"
+            and r["robot_a"] != r["robot_b"]
+            and int(r["n_assoc"]) >= 5
+            and r["rot_err_deg"] not in ("", "nan")
+        ]
+
+    def truthy(v: str) -> bool:
+        return v in ("True", "true", "1")
+
+    same, replay = accepted("same_direction"), accepted("same_direction_replay")
+    rot = [float(r["rot_err_deg"]) for r in same]
+    assert int(m[1]) == len(same) and int(m[2]) == sum(truthy(r["relevant"]) for r in same)
+    assert int(m[3]) == sum(truthy(r["correct"]) for r in same)
+    assert float(m[4]) == round(statistics.median(rot), 2) and int(m[5]) == sum(x > 5 for x in rot)
+    assert int(m[6]) == len(replay) and int(m[7]) == sum(truthy(r["correct"]) for r in replay)
+    assert float(m[8]) == round(statistics.median(float(r["rot_err_deg"]) for r in replay), 2)
+
+    geo = _bench("visual_inliers.json")
+    m = re.search(
+        r"In `same_direction` the inliers are a median of (\d+) points within (\d\.\d\d) m \(RMS\) of their "
+        r"centroid, (\d\.\d\d) m from the camera: .*? the true pose keeps a median (\d+) % of the inliers within "
+        r"the 0\.3 m threshold too, .*? a median of (\d+) inliers within (\d\.\d\d) m of their centroid, "
+        r"(\d\.\d\d) m away",
+        flat,
+    )
+    assert m, "docs/results.md no longer states the inliers' geometry"
+    sd, rp = geo["same_direction"], geo["same_direction_replay"]
+    assert (int(m[1]), float(m[2]), float(m[3])) == (
+        int(sd["median_inliers"]),
+        round(sd["median_radius_m"], 2),
+        round(sd["median_depth_m"], 2),
+    )
+    assert int(m[4]) == round(100 * sd["median_true_pose_inlier_share"])
+    assert (int(m[5]), float(m[6]), float(m[7])) == (
+        int(rp["median_inliers"]),
+        round(rp["median_radius_m"], 2),
+        round(rp["median_depth_m"], 2),
+    )
+    # the rows behind the medians
+    for entry in (sd, rp):
+        rows = entry["rows"]
+        assert entry["closures"] == len(rows) and entry["correct"] == sum(r["correct"] for r in rows)
+        assert entry["median_radius_m"] == statistics.median(r["radius_m"] for r in rows)
+    assert max(r["radius_m"] for r in sd["rows"]) < min(1.0, rp["median_radius_m"])
