@@ -36,8 +36,7 @@ import pandas as pd
 from scipy.spatial.transform import Rotation
 
 from roman_sim.align.visual import attach_keyframes
-from roman_sim.align.visual.aligner import _K, VisualAligner, candidates
-from roman_sim.align.visual.verify import verify_pair
+from roman_sim.align.visual.aligner import VisualAligner, candidates, verify_candidates
 from roman_sim.core.atomic import write_json
 from roman_sim.core.geometry import inv_T, make_T, pose_error
 from roman_sim.mapping.io import load_keyframes, load_submaps
@@ -84,26 +83,8 @@ def measure(run: Path) -> dict[str, Any]:
     for row in acc.itertuples():
         a, b = subs[row.robot_a][row.a], subs[row.robot_b][row.b]
         ka, kb = a.keyframes, b.keyframes
-        best = None
-        for q, c, _ in candidates(ka, kb, aligner.params)[0]:
-            uq, dq, pq = ka.features(q)
-            uc, dc, pc = kb.features(c)
-            out = verify_pair(
-                dq,
-                pq,
-                dc,
-                pc,
-                aligner.params.verify,
-                (a.name, b.name, q, c),
-                uq,
-                _K(ka.intrinsics[q]),
-                uc,
-                _K(kb.intrinsics[c]),
-            )
-            if best is None or len(out.inliers) > len(best[0].inliers):
-                best = (out, q, c, pq, pc)
-        assert best is not None
-        out, q, c, pq, pc = best
+        out, q, c, _ = verify_candidates(a, b, candidates(ka, kb, aligner.params)[0], aligner.params)
+        pq, pc = ka.features(q)[2], kb.features(c)[2]
         if len(out.inliers) != row.n_assoc:
             raise SystemExit(f"{row.a}|{row.b}: re-verified {len(out.inliers)} inliers, the run has {row.n_assoc}")
         Tq = _pose_at(truth[row.robot_a], float(ka.t[q])) @ T_body_cam[row.robot_a]

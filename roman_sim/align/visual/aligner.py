@@ -24,7 +24,7 @@ from pydantic import Field
 
 from roman_sim.align.base import ALIGNERS, AlignResult
 from roman_sim.align.visual.bow import BowVector, score_matrix
-from roman_sim.align.visual.verify import VerifyParams, verify_pair
+from roman_sim.align.visual.verify import VerifyOutcome, VerifyParams, verify_pair
 from roman_sim.core.config import StrictModel, validate_model
 from roman_sim.core.geometry import inv_T
 from roman_sim.mapping.types import KeyframeSet, Submap
@@ -80,6 +80,26 @@ def candidates(a: KeyframeSet, b: KeyframeSet, p: VisualParams) -> tuple[list[tu
     return out[: p.max_candidates], float(best.max())
 
 
+def verify_candidates(
+    a: Submap, b: Submap, cands: list[tuple[int, int, float]], p: VisualParams
+) -> tuple[VerifyOutcome, int, int, float]:
+    """Verify each candidate (q in a, c in b, score) in 3D; the outcome with most inliers (the
+    first of equals) and its q, c and score. ``cands`` must not be empty."""
+    ka, kb = a.keyframes, b.keyframes
+    assert ka is not None and kb is not None and cands
+    winner: tuple[VerifyOutcome, int, int, float] | None = None
+    for q, c, score in cands:
+        uq, dq, pq = ka.features(q)
+        uc, dc, pc = kb.features(c)
+        out = verify_pair(
+            dq, pq, dc, pc, p.verify, (a.name, b.name, q, c), uq, _K(ka.intrinsics[q]), uc, _K(kb.intrinsics[c])
+        )
+        if winner is None or len(out.inliers) > len(winner[0].inliers):
+            winner = (out, q, c, score)
+    assert winner is not None
+    return winner
+
+
 class VisualAligner:
     """Bag-of-words place recognition + 3D-3D verification on the submaps' keyframes."""
 
@@ -107,26 +127,7 @@ class VisualAligner:
         if not cands:
             why = f"no keyframe pair above alpha = {self.params.alpha:g}"
             return AlignResult.failure(self.name, why, time.perf_counter() - t0, **info)
-        winner = None
-        for q, c, score in cands:
-            uq, dq, pq = ka.features(q)
-            uc, dc, pc = kb.features(c)
-            out = verify_pair(
-                dq,
-                pq,
-                dc,
-                pc,
-                self.params.verify,
-                (a.name, b.name, q, c),
-                uq,
-                _K(ka.intrinsics[q]),
-                uc,
-                _K(kb.intrinsics[c]),
-            )
-            if winner is None or len(out.inliers) > len(winner[0].inliers):
-                winner = (out, q, c, score)
-        assert winner is not None
-        out, q, c, score = winner
+        out, q, c, score = verify_candidates(a, b, cands, self.params)
         info.update({"keyframe_a": q, "keyframe_b": c, "normalised_score": score, "n_matches": out.n_matches})
         T = None
         if out.T_q_c is not None:
