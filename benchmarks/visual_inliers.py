@@ -33,29 +33,25 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from scipy.spatial.transform import Rotation
 
 from roman_sim.align.visual import attach_keyframes
 from roman_sim.align.visual.aligner import VisualAligner, candidates, verify_candidates
 from roman_sim.core.atomic import write_json
-from roman_sim.core.geometry import inv_T, make_T, pose_error
+from roman_sim.core.geometry import inv_T, pose_error
+from roman_sim.core.trajectory import Trajectory
+from roman_sim.core.tum import read_tum
 from roman_sim.mapping.io import load_keyframes, load_submaps
 from roman_sim.pipeline.scenario import load_scenario
 
 OUT = Path(__file__).resolve().parent / "out" / "visual_inliers.json"
 
 
-def _truth_poses(run: Path, robot: str) -> tuple[np.ndarray, np.ndarray]:
-    x = np.loadtxt(run / "trajectories" / f"{robot}.truth.tum")
-    return x[:, 0], x
-
-
-def _pose_at(traj: tuple[np.ndarray, np.ndarray], t: float) -> np.ndarray:
-    times, x = traj
-    j = int(np.argmin(np.abs(times - t)))
-    if abs(times[j] - t) > 1e-6:
+def _pose_at(traj: Trajectory, t: float) -> np.ndarray:
+    """The pose of ``traj`` stamped ``t`` (a keyframe's time is one of the truth's frame times)."""
+    j = int(np.argmin(np.abs(traj.t - t)))
+    if abs(traj.t[j] - t) > 1e-6:
         raise SystemExit(f"no truth pose at keyframe time {t}")
-    return make_T(Rotation.from_quat(x[j, 4:8]).as_matrix(), x[j, 1:4])
+    return np.asarray(traj.T[j], dtype=np.float64)
 
 
 def measure(run: Path) -> dict[str, Any]:
@@ -74,7 +70,7 @@ def measure(run: Path) -> dict[str, Any]:
         for r in robots
     }
     T_body_cam = {r.name: r.camera.T_body_cam() for r in sc.robots}
-    truth = {r: _truth_poses(run, r) for r in robots}
+    truth = {r: read_tum(run / "trajectories" / f"{r}.truth.tum") for r in robots}
     pairs = pd.read_csv(run / "pairs.csv")
     acc = pairs[(pairs.method == "visual") & (pairs.robot_a != pairs.robot_b) & (pairs.n_assoc >= 5)]
     acc = acc[np.isfinite(acc.rot_err_deg)]

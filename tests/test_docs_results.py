@@ -140,3 +140,54 @@ def test_paper_scale_run_times_are_the_committed_timings():
         assert stages["evaluation"]["pairs"]["workers"] == 2
     assert (int(m[2]), int(m[3])) == (min(minutes), max(minutes))
     assert max(minutes) <= 45  # the budget of a paper-scale run with RGB on 2 workers
+
+
+def test_visual_same_direction_miss_is_the_data():
+    """The results page's account of the visual method's same-direction closures: errors from
+    the committed pairs tables, inlier geometry from ``visual_inliers.json``."""
+    flat = _flat()
+    m = re.search(
+        r"In `same_direction` the visual method accepts (\d+) cross-robot closures \(at least 5 inliers\), all "
+        r"(\d+) at the right place \(true submap centres within 10 m\), yet only (\d+) are correct: the median "
+        r"rotation error is (\d+\.\d\d) deg \((\d+) of the \d+ above the 5 deg tolerance\)\. Driven as a replay "
+        r"\(`same_direction_replay`\) it accepts (\d+), (\d+) of them correct, median rotation error (\d+\.\d\d) deg",
+        flat,
+    )
+    assert m, "docs/results.md no longer explains the visual same-direction figures"
+
+    same, replay = (_cross_closures(s, "visual", 5) for s in ("same_direction", "same_direction_replay"))
+    assert all(r["rot_err_deg"] not in ("", "nan") for r in same + replay)  # every accepted one has an estimate
+    rot = [float(r["rot_err_deg"]) for r in same]
+    assert int(m[1]) == len(same) and int(m[2]) == sum(r["relevant"] == "true" for r in same)
+    assert int(m[3]) == sum(r["correct"] == "true" for r in same)
+    assert float(m[4]) == round(statistics.median(rot), 2) and int(m[5]) == sum(x > 5 for x in rot)
+    assert int(m[6]) == len(replay) and int(m[7]) == sum(r["correct"] == "true" for r in replay)
+    assert float(m[8]) == round(statistics.median(float(r["rot_err_deg"]) for r in replay), 2)
+
+    geo = json.loads((ROOT / "benchmarks" / "out" / "visual_inliers.json").read_text(encoding="utf-8"))
+    m = re.search(
+        r"In `same_direction` the inliers are a median of (\d+) points within (\d\.\d\d) m \(RMS\) of their "
+        r"centroid, (\d\.\d\d) m from the camera: .*? the true pose keeps a median (\d+) % of the inliers within "
+        r"the 0\.3 m threshold too, .*? a median of (\d+) inliers within (\d\.\d\d) m of their centroid, "
+        r"(\d\.\d\d) m away",
+        flat,
+    )
+    assert m, "docs/results.md no longer states the inliers' geometry"
+    sd, rp = geo["same_direction"], geo["same_direction_replay"]
+    assert (int(m[1]), float(m[2]), float(m[3])) == (
+        int(sd["median_inliers"]),
+        round(sd["median_radius_m"], 2),
+        round(sd["median_depth_m"], 2),
+    )
+    assert int(m[4]) == round(100 * sd["median_true_pose_inlier_share"])
+    assert (int(m[5]), float(m[6]), float(m[7])) == (
+        int(rp["median_inliers"]),
+        round(rp["median_radius_m"], 2),
+        round(rp["median_depth_m"], 2),
+    )
+    # the rows behind the medians
+    for entry in (sd, rp):
+        rows = entry["rows"]
+        assert entry["closures"] == len(rows) and entry["correct"] == sum(r["correct"] for r in rows)
+        assert entry["median_radius_m"] == statistics.median(r["radius_m"] for r in rows)
+    assert max(r["radius_m"] for r in sd["rows"]) < min(1.0, rp["median_radius_m"])

@@ -29,7 +29,7 @@ def test_rerun_reuses_cached_stages(smoke_run):
 def test_manifest_records_the_library_versions_and_a_resume_in_another_environment_warns(smoke_run, tmp_path, caplog):
     from importlib import metadata
 
-    from roman_sim.pipeline.manifest import environment, environment_changes
+    from roman_sim.pipeline.manifest import Manifest, environment, environment_changes
 
     man = json.loads((smoke_run.run_dir / "manifest.json").read_text())
     assert man["environment"] == environment()
@@ -54,8 +54,6 @@ def test_manifest_records_the_library_versions_and_a_resume_in_another_environme
     assert json.loads((run_dir / "manifest.json").read_text())["environment"] == environment()
     assert environment_changes({"a": "1"}, {"a": "1"}) == []
     assert environment_changes({}, {"numpy": "2.0"}) == ["numpy none -> 2.0"]
-    from roman_sim.pipeline.manifest import Manifest
-
     older = {k: v for k, v in man.items() if k != "environment"}  # written before versions were recorded
     assert Manifest.from_json(older, "older").environment == {}
 
