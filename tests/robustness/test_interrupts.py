@@ -46,6 +46,7 @@ def main(mode, seed, kind):
             with open_executor(ExecutorConfig(kind=kind, workers=2)) as ex:
                 print("ready", flush=True)
                 for i, _ in ex.run_tasks(time.sleep, [(d,) for d in durations], [f"task {j}" for j in range(12)]):
+                    print(f"done {i}", flush=True)
                     if mode == "raise" and i >= 3:
                         raise RuntimeError("a bug in the caller")
         except KeyboardInterrupt as err:
@@ -130,8 +131,13 @@ def test_a_child_run_stopped_at_a_random_moment_leaves_no_process(how: str, tmp_
     proc = start([sys.executable, str(script), mode, str(seed), kind], env)
     assert proc.stdout is not None
     assert proc.stdout.readline().strip() == "ready", proc.stderr.read() if proc.stderr else ""
-    delay = {"sigkill-early": 0.0, "sigterm-parent-late": 1.5}.get(how, random.Random(seed).uniform(0.0, 1.2))
-    time.sleep(delay)
+    if how == "sigterm-parent-late":
+        # late in the run: once task 9 of the 12 is done (a fixed sleep raced the run's end on
+        # a fast machine, where the signal could land after the command had finished)
+        while proc.stdout.readline().strip() not in ("done 9", ""):
+            pass
+    else:
+        time.sleep({"sigkill-early": 0.0}.get(how, random.Random(seed).uniform(0.0, 1.2)))
     sig = {"sigint": signal.SIGINT, "sigterm": signal.SIGTERM, "sigkill": signal.SIGKILL}.get(how.split("-")[0])
     sent = time.monotonic()
     if sig is not None:
