@@ -1,0 +1,238 @@
+"""Figures that hold in the next world: thresholds chosen on other worlds, intervals over worlds.
+
+A recall "at precision >= 0.9" read off one world's own precision-recall sweep is an oracle:
+the threshold that reaches the target is chosen with the truth of the very pairs it is
+scored on, and per heading bin with a truth no robot has before it aligns a pair. Here:
+
+- ``choose_threshold``: the smallest association threshold ``k`` whose pooled precision
+  over *all* headings of the calibration pairs reaches the target (one setting for every
+  heading, as a deployed system runs); exact in integers (TP * q >= p * (TP + FP)).
+- ``held_out``: leave-one-world-out cross-validation. Each world's pairs are scored at the
+  threshold chosen on the *other* worlds only; the chosen thresholds and the held-out
+  positives are returned, so recall and precision are what a new world would give.
+- ``world_bootstrap``: a two-stage cluster bootstrap of a ratio (recall or precision):
+  resample worlds with replacement, then the robot pairs within each drawn world. Submap
+  pairs of one robot pair, and robot pairs of one world, are not independent draws; a
+  Wilson interval that treats them so is too narrow when worlds disagree.
+
+Thresholds follow the pairs' rule: a pair is positive when its score (number of
+associations) is at least ``k``; TP = relevant, positive and correct; FP = positive and not
+correct (see ``roman_sim.evaluation.operating_points``).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.core.errors import ConfigError
+
+log = logging.getLogger(__name__)
+
+#: Held-out precision may fall this far below the target before a method is flagged.
+PRECISION_SLACK = 0.05
+
+
+@dataclass(frozen=True)
+class PairOutcomes:
+    """One method's submap pairs, as parallel arrays of length n.
+
+    Attributes:
+        world: (n,) world (scenario seed) id of each pair.
+        cluster: (n,) robot-pair id within its world (e.g. ``"r00|r03"``).
+        relevant: (n,) whether the pair should align (truth).
+        correct: (n,) whether the method's registration is correct (truth).
+        score: (n,) the method's score (number of associations); positive when >= k.
+    """
+
+    world: NDArray[np.str_]
+    cluster: NDArray[np.str_]
+    relevant: NDArray[np.bool_]
+    correct: NDArray[np.bool_]
+    score: NDArray[np.int64]
+
+    def __post_init__(self) -> None:
+        n = len(self.world)
+        for name in ("cluster", "relevant", "correct", "score"):
+            if len(getattr(self, name)) != n:
+                raise ConfigError(f"pair outcomes: '{name}' has {len(getattr(self, name))} entries, expected {n}")
+
+    @classmethod
+    def from_lists(
+        cls,
+        world: Sequence[str],
+        cluster: Sequence[str],
+        relevant: Sequence[bool],
+        correct: Sequence[bool],
+        score: Sequence[int],
+    ) -> PairOutcomes:
+        """Outcomes from plain sequences (one entry per submap pair)."""
+        return cls(
+            np.asarray(world, dtype=np.str_),
+            np.asarray(cluster, dtype=np.str_),
+            np.asarray(relevant, dtype=np.bool_),
+            np.asarray(correct, dtype=np.bool_),
+            np.asarray(score, dtype=np.int64),
+        )
+
+    def subset(self, mask: NDArray[np.bool_]) -> PairOutcomes:
+        """The pairs where ``mask`` holds."""
+        return PairOutcomes(
+            self.world[mask], self.cluster[mask], self.relevant[mask], self.correct[mask], self.score[mask]
+        )
+
+    def worlds(self) -> list[str]:
+        """The distinct worlds, sorted."""
+        return sorted({str(w) for w in self.world})
+
+
+@dataclass(frozen=True)
+class Threshold:
+    """A threshold chosen for a target precision on calibration pairs.
+
+    Attributes:
+        k: the threshold, or None when no threshold reaches the target (nothing accepted).
+        tp, fp: true and false positives at ``k`` on the calibration pairs (0, 0 when None).
+    """
+
+    k: int | None
+    tp: int
+    fp: int
+
+    @property
+    def reached(self) -> bool:
+        """Whether some threshold reached the target on the calibration pairs."""
+        return self.k is not None
+
+
+def check_target(target: float) -> Fraction:
+    """The target precision as an exact fraction; it must lie in (0, 1]."""
+    if not (isinstance(target, (int, float)) and 0 < float(target) <= 1):
+        raise ConfigError(f"target precision: must lie in (0, 1], got {target!r}")
+    return Fraction(str(float(target))).limit_denominator(10_000)
+
+
+def positives(o: PairOutcomes, k: int | None) -> NDArray[np.bool_]:
+    """(n,) whether each pair is accepted at threshold ``k`` (None accepts nothing)."""
+    if k is None:
+        return np.zeros(len(o.score), dtype=np.bool_)
+    return o.score >= k
+
+
+def counts(o: PairOutcomes, positive: NDArray[np.bool_]) -> tuple[int, int, int]:
+    """(true positives, false positives, relevant pairs) of ``positive`` over ``o``."""
+    tp = int(np.count_nonzero(positive & o.relevant & o.correct))
+    fp = int(np.count_nonzero(positive & ~o.correct))
+    return tp, fp, int(np.count_nonzero(o.relevant))
+
+
+def choose_threshold(o: PairOutcomes, k_values: Sequence[int], target: float) -> Threshold:
+    """The smallest ``k`` of ``k_values`` whose pooled precision on ``o`` reaches ``target``.
+
+    True positives only fall as ``k`` rises, so the smallest such ``k`` keeps the most recall.
+    A threshold with no positive at all does not reach any target.
+    """
+    t = check_target(target)
+    for k in sorted(int(x) for x in k_values):
+        tp, fp, _ = counts(o, positives(o, k))
+        if tp + fp > 0 and tp * t.denominator >= t.numerator * (tp + fp):
+            return Threshold(k, tp, fp)
+    return Threshold(None, 0, 0)
+
+
+@dataclass(frozen=True)
+class HeldOut:
+    """Leave-one-world-out result.
+
+    Attributes:
+        thresholds: world -> the threshold chosen on every *other* world.
+        positive: (n,) whether each pair is accepted at its own world's held-out threshold.
+    """
+
+    thresholds: dict[str, Threshold]
+    positive: NDArray[np.bool_]
+
+
+def held_out(o: PairOutcomes, k_values: Sequence[int], target: float) -> HeldOut:
+    """Score each world at the threshold chosen on the other worlds (needs two worlds or more)."""
+    check_target(target)
+    worlds = o.worlds()
+    if len(worlds) < 2:
+        raise ConfigError(
+            f"held-out thresholds: need at least two worlds to split into calibration and held-out, got {len(worlds)}"
+        )
+    positive = np.zeros(len(o.score), dtype=np.bool_)
+    chosen: dict[str, Threshold] = {}
+    for w in worlds:
+        own = o.world == w
+        th = choose_threshold(o.subset(~own), k_values, target)
+        chosen[w] = th
+        positive[own] = positives(o.subset(own), th.k)
+        log.debug("world %s: threshold %s chosen on the other %d worlds", w, th.k, len(worlds) - 1)
+    return HeldOut(chosen, positive)
+
+
+def transfers(precision: float | None, target: float) -> bool:
+    """Whether a held-out precision is within ``PRECISION_SLACK`` of the target (None: nothing accepted)."""
+    return precision is None or precision >= float(check_target(target)) - PRECISION_SLACK
+
+
+def _cluster_totals(
+    o: PairOutcomes, positive: NDArray[np.bool_]
+) -> tuple[list[str], NDArray[np.int64], NDArray[np.float64]]:
+    """Per (world, robot pair): world id, and counts [tp, fp, relevant] as a (c, 3) array."""
+    keys = np.char.add(np.char.add(o.world.astype(np.str_), "\x00"), o.cluster.astype(np.str_))
+    uniq, inv = np.unique(keys, return_inverse=True)
+    tot = np.zeros((len(uniq), 3))
+    np.add.at(tot[:, 0], inv, (positive & o.relevant & o.correct).astype(np.float64))
+    np.add.at(tot[:, 1], inv, (positive & ~o.correct).astype(np.float64))
+    np.add.at(tot[:, 2], inv, o.relevant.astype(np.float64))
+    worlds = [str(u).split("\x00", 1)[0] for u in uniq]
+    return worlds, inv, tot
+
+
+def world_bootstrap(
+    o: PairOutcomes,
+    positive: NDArray[np.bool_],
+    stat: str = "recall",
+    n_boot: int = 2000,
+    level: float = 0.95,
+    seed: int = 0,
+) -> tuple[float, float] | None:
+    """Percentile interval of recall (TP / relevant) or precision (TP / (TP + FP)) over worlds.
+
+    Two stages: draw as many worlds as there are, with replacement; within each drawn world
+    draw as many robot pairs as it has, with replacement; the statistic is the ratio of the
+    summed counts. Draws whose denominator is 0 are left out; None when every draw is.
+    """
+    if stat not in ("recall", "precision"):
+        raise ConfigError(f"bootstrap statistic: expected 'recall' or 'precision', got {stat!r}")
+    if not 0 < level < 1:
+        raise ConfigError(f"interval level: must lie in (0, 1), got {level}")
+    if len(o.score) == 0:
+        return None
+    worlds, _, tot = _cluster_totals(o, positive)
+    num = tot[:, 0]
+    den = tot[:, 2] if stat == "recall" else tot[:, 0] + tot[:, 1]
+    names = sorted(set(worlds))
+    members = [np.flatnonzero(np.asarray(worlds) == w) for w in names]
+    rng = np.random.default_rng(seed)
+    ratios = np.full(n_boot, np.nan)
+    for b in range(n_boot):
+        n_sum = d_sum = 0.0
+        for wi in rng.integers(0, len(names), len(names)):
+            idx = members[wi][rng.integers(0, len(members[wi]), len(members[wi]))]
+            n_sum += float(num[idx].sum())
+            d_sum += float(den[idx].sum())
+        if d_sum > 0:
+            ratios[b] = n_sum / d_sum
+    ok = ratios[np.isfinite(ratios)]
+    if len(ok) == 0:
+        return None
+    a = (1 - level) / 2
+    return float(np.quantile(ok, a)), float(np.quantile(ok, 1 - a))

@@ -1,0 +1,113 @@
+"""Thresholds chosen on other worlds and intervals over worlds, on constructed pair sets."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from roman_sim.core.errors import ConfigError
+from roman_sim.evaluation.transfer import (
+    PairOutcomes,
+    choose_threshold,
+    counts,
+    held_out,
+    positives,
+    transfers,
+    world_bootstrap,
+)
+
+K = list(range(0, 21))
+
+
+def _world(name: str, rows: list[tuple[bool, bool, int]], robots: int = 1) -> list[tuple[str, str, bool, bool, int]]:
+    """Rows (relevant, correct, score) of one world, spread round-robin over ``robots`` robot pairs."""
+    return [(name, f"p{i % robots}", rel, cor, s) for i, (rel, cor, s) in enumerate(rows)]
+
+
+def _outcomes(rows: list[tuple[str, str, bool, bool, int]]) -> PairOutcomes:
+    w, c, r, k, s = zip(*rows)
+    return PairOutcomes.from_lists(w, c, r, k, s)
+
+
+def test_choose_threshold_is_the_smallest_k_reaching_the_target_in_exact_integers() -> None:
+    # scores of correct relevant pairs 5,6,7,8,9,10,11,12,13; one wrong pair at 6 and one at 4
+    rows = [(True, True, s) for s in range(5, 14)] + [(False, False, 6), (True, False, 4)]
+    o = _outcomes(_world("w", rows))
+    # k <= 4: 9 TP, 2 FP (0.818); k = 5, 6: 9 TP, 1 FP (0.9 exactly: reaches 0.9); k = 7: 7 TP, 0 FP
+    th = choose_threshold(o, K, 0.9)
+    assert (th.k, th.tp, th.fp) == (5, 9, 1)
+    th1 = choose_threshold(o, K, 1.0)
+    assert (th1.k, th1.tp, th1.fp) == (7, 7, 0)
+    assert not choose_threshold(_outcomes(_world("w", [(True, False, 3)])), K, 0.5).reached
+
+
+def test_held_out_threshold_is_never_chosen_with_the_held_out_worlds_truth() -> None:
+    # worlds b and c: wrong pairs up to score 6, so precision 1 needs k = 7
+    others = [(True, True, s) for s in (7, 8, 9, 10)] + [(False, False, s) for s in (5, 6)]
+    # world a: its own truth would pick k = 0 (no wrong pair at all), the others' truth picks 7
+    a_rows = [(True, True, s) for s in (3, 4, 5, 8)]
+    rows = _world("a", a_rows) + _world("b", others) + _world("c", others)
+    o = _outcomes(rows)
+    res = held_out(o, K, 1.0)
+    assert res.thresholds["a"].k == 7
+    assert choose_threshold(o.subset(o.world == "a"), K, 1.0).k == 0  # the oracle would differ
+    # scoring world a at k = 7: only the pair at 8 is accepted
+    a = o.world == "a"
+    assert counts(o.subset(a), res.positive[a]) == (1, 0, 4)
+    # changing world a's truth (all its pairs wrong) changes nothing of its own threshold
+    flipped = PairOutcomes(o.world, o.cluster, o.relevant, np.where(a, False, o.correct), o.score)
+    assert held_out(flipped, K, 1.0).thresholds["a"] == res.thresholds["a"]
+    # but it does change the thresholds chosen for the other worlds, which see world a
+    assert held_out(flipped, K, 1.0).thresholds["b"].k == 9
+
+
+def test_held_out_positives_are_each_worlds_own_threshold() -> None:
+    rows = _world("a", [(True, True, 5), (True, False, 2)]) + _world("b", [(True, True, 3), (True, False, 4)])
+    o = _outcomes(rows)
+    res = held_out(o, K, 1.0)
+    assert res.thresholds["a"].k is None  # on b, the correct pair scores 3 below the wrong one's 4: never reached
+    assert res.thresholds["b"].k == 3  # a: the correct pair at 5, the wrong at 2
+    np.testing.assert_array_equal(res.positive, [False, False, True, True])
+    np.testing.assert_array_equal(positives(o, None), [False] * 4)
+
+
+def test_world_bootstrap_widens_when_worlds_disagree() -> None:
+    def suite(recalls: list[float]) -> PairOutcomes:
+        rows: list[tuple[str, str, bool, bool, int]] = []
+        for wi, r in enumerate(recalls):
+            hits = round(40 * r)
+            rows += _world(f"w{wi}", [(True, True, 10)] * hits + [(True, True, 0)] * (40 - hits), robots=8)
+        return _outcomes(rows)
+
+    agree, disagree = suite([0.5] * 6), suite([0.9, 0.1, 0.9, 0.1, 0.9, 0.1])
+    for o in (agree, disagree):  # the same pooled recall: 120 of 240
+        tp, _, rel = counts(o, positives(o, 5))
+        assert (tp, rel) == (120, 240)
+    lo_a, hi_a = world_bootstrap(agree, positives(agree, 5), "recall", n_boot=1000)  # type: ignore[misc]
+    lo_d, hi_d = world_bootstrap(disagree, positives(disagree, 5), "recall", n_boot=1000)  # type: ignore[misc]
+    assert lo_d <= 0.5 <= hi_d and lo_a <= 0.5 <= hi_a
+    assert hi_d - lo_d > 3 * (hi_a - lo_a)
+
+
+def test_world_bootstrap_is_seeded_and_degenerate_where_nothing_varies() -> None:
+    o = _outcomes(_world("a", [(True, True, 9)] * 5, robots=2) + _world("b", [(True, True, 9)] * 5, robots=3))
+    pos = positives(o, 1)
+    assert world_bootstrap(o, pos, "recall", n_boot=200) == (1.0, 1.0)
+    assert world_bootstrap(o, pos, "precision", n_boot=200, seed=3) == (1.0, 1.0)
+    assert world_bootstrap(o, positives(o, None), "precision", n_boot=50) is None  # no positive at all
+
+
+@pytest.mark.parametrize("target", [0, -0.1, 1.5, float("nan")])
+def test_target_outside_the_unit_interval_is_refused(target: float) -> None:
+    o = _outcomes(_world("a", [(True, True, 5)]) + _world("b", [(True, True, 5)]))
+    with pytest.raises(ConfigError, match=r"target precision: must lie in \(0, 1\]"):
+        held_out(o, K, target)
+
+
+def test_one_world_cannot_be_split() -> None:
+    with pytest.raises(ConfigError, match="need at least two worlds to split into calibration and held-out, got 1"):
+        held_out(_outcomes(_world("a", [(True, True, 5)])), K, 0.9)
+
+
+def test_transfer_flag_allows_the_stated_slack_only() -> None:
+    assert transfers(0.86, 0.9) and not transfers(0.84, 0.9) and transfers(None, 0.9)
