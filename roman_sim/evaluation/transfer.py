@@ -236,3 +236,63 @@ def world_bootstrap(
         return None
     a = (1 - level) / 2
     return float(np.quantile(ok, a)), float(np.quantile(ok, 1 - a))
+
+
+@dataclass(frozen=True)
+class HeldOutCell:
+    """Held-out recall and precision of one heading bin, with pooled and world-bootstrap intervals.
+
+    Attributes:
+        label: the bin (``"0-60"``; ``"all"`` for every heading).
+        hits, false_positives, n_relevant: held-out counts in the bin.
+        recall, recall_wilson, recall_worlds: hits / relevant, its pooled Wilson interval and
+            its world-bootstrap interval (None without relevant pairs).
+        precision, precision_worlds: hits / (hits + false positives) and its world-bootstrap
+            interval (None without a positive).
+    """
+
+    label: str
+    hits: int
+    false_positives: int
+    n_relevant: int
+    recall: float | None
+    recall_wilson: tuple[float, float] | None
+    recall_worlds: tuple[float, float] | None
+    precision: float | None
+    precision_worlds: tuple[float, float] | None
+
+
+def held_out_cells(
+    o: PairOutcomes,
+    positive: NDArray[np.bool_],
+    heading_deg: NDArray[np.float64],
+    edges: Sequence[float],
+    n_boot: int = 2000,
+    level: float = 0.95,
+    seed: int = 0,
+) -> list[HeldOutCell]:
+    """One ``HeldOutCell`` per heading bin of ``edges`` (bins as ``roman_sim.evaluation.bins``), then ``"all"``."""
+    from roman_sim.evaluation.bins import bin_index, bin_label
+    from roman_sim.evaluation.intervals import wilson
+
+    idx = bin_index(heading_deg, edges)
+    masks = [(bin_label(edges[i], edges[i + 1]), idx == i) for i in range(len(edges) - 1)]
+    masks.append(("all", np.ones(len(idx), dtype=np.bool_)))
+    cells = []
+    for label, m in masks:
+        sub, pos = o.subset(m), positive[m]
+        tp, fp, rel = counts(sub, pos)
+        cells.append(
+            HeldOutCell(
+                label=label,
+                hits=tp,
+                false_positives=fp,
+                n_relevant=rel,
+                recall=tp / rel if rel else None,
+                recall_wilson=wilson(tp, rel, level),
+                recall_worlds=world_bootstrap(sub, pos, "recall", n_boot, level, seed) if rel else None,
+                precision=tp / (tp + fp) if tp + fp else None,
+                precision_worlds=world_bootstrap(sub, pos, "precision", n_boot, level, seed) if tp + fp else None,
+            )
+        )
+    return cells

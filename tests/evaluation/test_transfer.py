@@ -111,3 +111,19 @@ def test_one_world_cannot_be_split() -> None:
 
 def test_transfer_flag_allows_the_stated_slack_only() -> None:
     assert transfers(0.86, 0.9) and not transfers(0.84, 0.9) and transfers(None, 0.9)
+
+
+def test_held_out_cells_count_per_heading_bin_and_overall() -> None:
+    from roman_sim.evaluation.transfer import held_out_cells
+
+    rows = _world("a", [(True, True, 8), (True, True, 2), (False, False, 9)]) + _world(
+        "b", [(True, True, 8), (True, False, 8), (True, True, 9)]
+    )
+    o = _outcomes(rows)
+    heading = np.array([10.0, 100.0, 170.0, 30.0, 60.0, 179.0])
+    pos = positives(o, 8)  # accepted: 8, 9 | 8, 8, 9
+    cells = held_out_cells(o, pos, heading, [0, 60, 120, 180], n_boot=50)
+    got = {c.label: (c.hits, c.false_positives, c.n_relevant) for c in cells}
+    assert got == {"0-60": (2, 0, 2), "60-120": (0, 1, 2), "120-180": (1, 1, 1), "all": (3, 2, 5)}
+    assert cells[-1].recall == 3 / 5 and cells[-1].precision == 3 / 5
+    assert cells[1].precision == 0.0 and cells[1].recall_wilson is not None
