@@ -95,7 +95,10 @@ def _check_align(out: object, args: tuple[object, ...]) -> str | None:
     assoc = np.asarray(out.associations)
     if assoc.size and (assoc.ndim != 2 or assoc.shape[1] != 2 or not np.issubdtype(assoc.dtype, np.integer)):
         return f"AlignResult.associations is {describe(assoc)}, expected a (k, 2) integer array"
-    if assoc.size and (assoc.min() < 0 or assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
+    # only segment associations index the submaps (others, e.g. feature matches, are not drawn or graded)
+    info = out.info if isinstance(out.info, dict) else {}
+    segments = info.get("association_kind", "segments") == "segments"
+    if segments and assoc.size and (assoc.min() < 0 or assoc[:, 0].max() >= len(a) or assoc[:, 1].max() >= len(b)):
         return f"AlignResult.associations index segments outside the submaps ({len(a)} and {len(b)} segments)"
     if not isinstance(out.runtime_s, (int, float)) or not math.isfinite(out.runtime_s):
         return f"AlignResult.runtime_s is {describe(out.runtime_s)}, expected a finite number of seconds"

@@ -1,0 +1,148 @@
+"""``roman-sim score``: a run's own closures, written as CSV and g2o, read back give the run's figures."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roman_sim.core.geometry import rot_z
+from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.metrics import summary
+from roman_sim.evaluation.results import read_evaluation
+from roman_sim.interop.closures import Closure, write_csv_closures, write_g2o_closures
+from roman_sim.pipeline.external import EXTERNAL_ATE_JSON, read_external, run_closures, score_external
+from roman_sim.pipeline.result import RunResult
+
+
+@pytest.fixture(scope="module")
+def closures(smoke_run: RunResult) -> list[Closure]:
+    return run_closures(smoke_run.run_dir, "roman")
+
+
+@pytest.fixture(scope="module")
+def files(closures: list[Closure], tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    d = tmp_path_factory.mktemp("closures")
+    write_csv_closures(d / "roman.csv", closures)
+    write_g2o_closures(d / "roman.g2o", d / "roman.time.txt", closures, ["a", "b"])
+    return {"csv": d / "roman.csv", "g2o": d / "roman.g2o", "times": d / "roman.time.txt", "dir": d}
+
+
+@pytest.fixture(scope="module")
+def scored(smoke_run: RunResult, files: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """The run's ROMAN closures scored from CSV (with the run's own trajectories) and from g2o."""
+    out = tmp_path_factory.mktemp("scored")
+    traj = out / "traj"
+    traj.mkdir()
+    for r in ("a", "b"):
+        (traj / f"{r}.tum").write_bytes((smoke_run.run_dir / "trajectories" / f"{r}.roman.tum").read_bytes())
+    score_external(smoke_run.run_dir, files["csv"], out / "csv", trajectories=traj, label="ext")
+    score_external(smoke_run.run_dir, files["g2o"], out / "g2o", times=files["times"], label="ext")
+    return {"csv": out / "csv", "g2o": out / "g2o"}
+
+
+def _carried(run_dir: Path, label: str):  # type: ignore[no-untyped-def]
+    """The run's roman metrics recomputed from what a closure file carries.
+
+    A closure has a pose: a result with associations but no pose (too few for a transform)
+    is no closure, so it counts as 0 associations; an external system's associations are not
+    segment pairs, so they are not graded.
+    """
+    scores, metrics = read_evaluation(run_dir)
+    mine = [
+        dataclasses.replace(
+            s,
+            method=label,
+            n_assoc=0 if math.isnan(s.rot_err_deg) else s.n_assoc,
+            assoc_correct=-1,
+            assoc_recovered=-1,
+        )
+        for s in scores
+        if s.method == "roman"
+    ]
+    cfg = EvalConfig.model_validate(metrics.config)
+    return summary(mine, cfg, metrics.n_skipped, metrics.acceptance_k), metrics
+
+
+@pytest.mark.parametrize("fmt", ["csv", "g2o"])
+def test_round_trip_gives_the_runs_own_figures(
+    smoke_run: RunResult, closures: list[Closure], scored: dict[str, Path], fmt: str
+) -> None:
+    run = RunResult.load(scored[fmt])
+    assert [a.name for a in run.scenario.aligners] == ["ext"]
+    expected, own = _carried(smoke_run.run_dir, "ext")
+    got = run.metrics.methods["ext"]
+    assert got.to_json() == expected.methods["ext"].to_json()  # every figure, exactly
+    # and against the run's own metrics: every operating point, every recall, every hit count
+    mine = own.methods["roman"]
+    for kind in ("inter", "intra"):
+        a, b = got.set(kind), mine.set(kind)
+        assert a.overall.operating_points == b.overall.operating_points
+        assert (a.overall.max_hits, a.overall.hits_at_precision_1) == (
+            b.overall.max_hits,
+            b.overall.hits_at_precision_1,
+        )
+        assert a.pr_curve.tp.tolist() == b.pr_curve.tp.tolist()
+        k3 = a.pr_curve.k >= 3  # below 3 associations the run's results have no pose: no closure
+        assert a.pr_curve.fp[k3].tolist() == b.pr_curve.fp[k3].tolist()
+        assert [r.stats.max_hits for r in a.heading_bins] == [r.stats.max_hits for r in b.heading_bins]
+        assert [r.stats.operating_points for r in a.heading_bins] == [r.stats.operating_points for r in b.heading_bins]
+    # ATE of the pose graph with the closures: the run's roman row, to the last digit
+    ate = {v: r.rmse for v, r in run.ate.variants.items()}
+    assert ate["ext"] == smoke_run.ate.variants["roman"].rmse
+    with_pose = [
+        s for s in read_evaluation(smoke_run.run_dir)[0] if s.method == "roman" and not math.isnan(s.rot_err_deg)
+    ]
+    assert len(closures) == len(with_pose)
+    info = read_external(scored[fmt])
+    assert info["n_closures"] == info["n_pairs"] == len(closures) and info["unscored"] == {}
+    text = (scored[fmt] / "report.md").read_text(encoding="utf-8")
+    assert "## External system" in text and "`ext` is an external system" in text
+
+
+def test_per_pair_errors_match_the_run(smoke_run: RunResult, scored: dict[str, Path]) -> None:
+    own = {(s.truth.a, s.truth.b): s for s in read_evaluation(smoke_run.run_dir)[0] if s.method == "roman"}
+    for s in read_evaluation(scored["g2o"])[0]:
+        o = own[(s.truth.a, s.truth.b)]
+        if math.isnan(o.rot_err_deg):
+            assert s.n_assoc == 0 and math.isnan(s.rot_err_deg)
+            continue
+        assert s.n_assoc == o.n_assoc and s.correct == o.correct
+        assert s.rot_err_deg == pytest.approx(o.rot_err_deg, abs=1e-6)
+        assert s.trans_err_m == pytest.approx(o.trans_err_m, abs=1e-8)
+
+
+def test_own_trajectories_scored_like_the_runs_pose_graph(smoke_run: RunResult, scored: dict[str, Path]) -> None:
+    data = json.loads((scored["csv"] / EXTERNAL_ATE_JSON).read_text(encoding="utf-8"))
+    (row,) = data["variants"]
+    assert row["name"] == "ext_trajectories" and row["connected"] == ["a", "b"]
+    assert row["rmse"]["se3"]["all"] == pytest.approx(smoke_run.ate.variants["roman"].rmse["se3"]["all"], abs=1e-6)
+
+
+def test_wrong_closures_are_false_positives(smoke_run: RunResult, closures: list[Closure], tmp_path: Path) -> None:
+    """Accepted closures turned by 90 degrees are wrong: no hit is left, each correct one is one more false positive."""
+    own_scores = [s for s in read_evaluation(smoke_run.run_dir)[0] if s.method == "roman"]
+    k = smoke_run.metrics.acceptance_k
+    assert k is not None
+    turn = np.eye(4)
+    turn[:3, :3] = rot_z(np.pi / 2)
+    bad = [dataclasses.replace(c, T_pa_pb=c.T_pa_pb @ turn) if (c.score or 0) >= k else c for c in closures]
+    assert sum(1 for c in closures if (c.score or 0) >= k) >= 5
+    write_csv_closures(tmp_path / "bad.csv", bad)
+    res = score_external(smoke_run.run_dir, tmp_path / "bad.csv", tmp_path / "out")
+    got, was = res.run.metrics.methods["external"], smoke_run.metrics.methods["roman"]
+    n_correct = sum(1 for s in own_scores if s.correct and s.n_assoc >= k)
+    assert n_correct >= 5
+    points = [
+        (got.set(s).overall.operating_points["acceptance"], was.set(s).overall.operating_points["acceptance"])
+        for s in ("inter", "intra")
+    ]
+    assert all(g is not None and w is not None for g, w in points)
+    assert [g.hits for g, _ in points] == [0, 0]  # type: ignore[union-attr]
+    fp_got = sum(g.false_positives for g, _ in points)  # type: ignore[union-attr]
+    fp_was = sum(w.false_positives for _, w in points)  # type: ignore[union-attr]
+    assert fp_got == fp_was + n_correct
