@@ -24,6 +24,7 @@ from roman_sim.core.errors import ClusterError, ConfigError
 
 if TYPE_CHECKING:
     import distributed
+    from distributed.security import Security
 
 log = logging.getLogger(__name__)
 
@@ -85,16 +86,46 @@ def connect(address: str, timeout_s: float = DEFAULT_TIMEOUT_S) -> "distributed.
             f"Dask scheduler {address!r}: that is a Dask {kind}, not a scheduler "
             "(give the scheduler's address, by default port 8786)"
         )
-    from distributed import Client
-
     try:
-        client = Client(address.strip(), timeout=f"{timeout_s}s", set_as_default=False)
+        client = start_client(address.strip(), timeout_s)
     except Exception as err:  # distributed re-raises the remote side's errors, of any type
         raise ClusterError(
             f"Dask scheduler {address!r}: cannot connect: {type(err).__name__}: {' '.join(str(err).split())[:200]}"
         ) from None
     log.info("connected to the Dask scheduler at %s", address)
     return client
+
+
+def start_client(address: str, timeout_s: float, security: "Security | None" = None) -> "distributed.Client":
+    """A ``distributed.Client`` connected to ``address``; one that fails to connect is closed before the error.
+
+    A ``Client`` whose constructor raises is left half started, its event loop running, for
+    the garbage collector to close at some later moment. If that moment falls while the next
+    ``Client`` starts its loop, the process deadlocks: starting and closing take the same
+    non-reentrant lock of ``distributed`` (``LoopRunner._lock``), and the collector runs
+    inside the thread that holds it. Closing the refused client here, at once, leaves the
+    collector nothing to close.
+
+    Raises:
+        Exception: whatever ``distributed`` raised (callers word the message).
+    """
+    from distributed import Client
+
+    client = Client.__new__(Client)
+    try:
+        Client.__init__(client, address, timeout=f"{timeout_s}s", security=security, set_as_default=False)
+    except BaseException:
+        _close_refused(client, timeout_s)
+        raise
+    return client
+
+
+def _close_refused(client: "distributed.Client", timeout_s: float) -> None:
+    """Close a client whose start failed; errors of closing are logged, not raised."""
+    try:
+        client.close(timeout=timeout_s)
+    except Exception as err:  # a client that failed early may lack what closing touches
+        log.debug("closing a refused Dask client: %s: %s", type(err).__name__, err)
 
 
 def server_type(address: str, timeout_s: float) -> str:

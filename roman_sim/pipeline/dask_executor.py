@@ -37,14 +37,12 @@ def connect_client(address: str, timeout_s: float, security: Security | None = N
     probe, then an identity check: ports that are not Dask schedulers fail in one line);
     ``tls://`` connects with ``security``, bounded by the client's own timeout.
     """
-    from distributed import Client
+    from roman_sim.pipeline.cluster import connect, start_client
 
     if security is None and address.strip().startswith("tcp://"):
-        from roman_sim.pipeline.cluster import connect
-
         return connect(address, timeout_s=timeout_s)
     try:
-        return Client(address, timeout=f"{timeout_s}s", security=security, set_as_default=False)
+        return start_client(address, timeout_s, security)
     except Exception as err:  # distributed raises OSError, TimeoutError or the remote side's errors
         msg = " ".join(str(err).split())[:240]
         raise ClusterError(f"Dask scheduler {address}: cannot connect: {type(err).__name__}: {msg}") from None

@@ -146,6 +146,28 @@ def test_clients_without_the_certificate_are_refused(tls_cluster):
     ok.close()
 
 
+def test_a_refused_client_is_closed_before_the_error(tls_cluster):
+    """A refused client's event loop is stopped at once, not left for the garbage collector.
+
+    Left to the collector, its closing can run while the next client starts and holds the
+    lock closing needs: a deadlock inside ``distributed``.
+    """
+    import gc
+    import threading
+
+    def loops() -> set[threading.Thread]:
+        return {t for t in threading.enumerate() if t.name == "IO loop" and t.is_alive()}
+
+    before = loops()
+    gc.disable()  # only an explicit close may stop the loop here
+    try:
+        with pytest.raises(ClusterError, match="cannot connect"):
+            connect_client(tls_cluster["address"], 5.0, None)
+        assert loops() - before == set()
+    finally:
+        gc.enable()
+
+
 def test_certificates_from_dask_config(tls_cluster):
     import dask
 
