@@ -16,7 +16,7 @@ from roman_sim.cli import _signals as S
 from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
 from roman_sim.cli.progress import LineProgress, StageTracker, interactive, rich_progress
-from roman_sim.core.errors import RomanSimError, StorageError
+from roman_sim.core.errors import RomanSimError, RunFolderBusy, StorageError
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -179,6 +179,8 @@ def _run(
     except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: the executor has ended its workers
         typer.echo(f"{S.stop_word(err)}: {_kept(exp.run_dir)}; run the same command again to resume", err=True)
         raise typer.Exit(S.stop_code(err)) from None
+    except RunFolderBusy:  # the folder's files are the other run's: nothing of this run to report
+        raise
     except RomanSimError as err:
         note = S.memory_limit_note()
         err.args = (f"{err} ({_kept(exp.run_dir)}{'; ' + note if note else ''})",)  # what failed, what was kept

@@ -43,6 +43,10 @@ class ClusterError(RomanSimError):
     """A Dask scheduler cannot be reached in time, or the address is not a Dask scheduler."""
 
 
+class RunFolderBusy(RomanSimError):
+    """Another live run holds the lock of the results folder (the message names its pid)."""
+
+
 class PluginError(ConfigError):
     """A user plug-in (``package.module:Class``) failed: import, construction, protocol, dry call or a call in a run.
 

@@ -37,6 +37,7 @@ from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.pipeline.checkpoint import Checkpoint, clear_checkpoints
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
 from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
+from roman_sim.pipeline.folder_lock import hold_run_folder
 from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, environment_changes, existing_manifest
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
@@ -139,7 +140,7 @@ class Experiment:
             self.run_dir.mkdir(parents=True, exist_ok=True)
             probe = self.run_dir / ".write_probe"
             probe.write_bytes(b"")
-            probe.unlink()
+            probe.unlink(missing_ok=True)  # a second run into the folder may have removed it
         except OSError as err:
             raise ConfigError(f"--out {self.run_dir}: cannot write there ({err.strerror or err})") from None
 
@@ -192,12 +193,17 @@ class Experiment:
 
     # -- the run -----------------------------------------------------------------
     def run(self) -> RunResult:
-        """Run every stage (reusing cached ones) and return the result."""
+        """Run every stage (reusing cached ones) and return the result.
+
+        The run holds its folder's lock throughout (``roman_sim.pipeline.folder_lock``): a
+        second run into the same folder stops with ``RunFolderBusy`` before writing anything.
+        """
         self.validate()
-        if isinstance(self.executor, Executor):
-            return self._run(self.executor)
-        with open_executor(self.executor, run=True) as ex:
-            return self._run(ex)
+        with hold_run_folder(self.run_dir):
+            if isinstance(self.executor, Executor):
+                return self._run(self.executor)
+            with open_executor(self.executor, run=True) as ex:
+                return self._run(ex)
 
     def _run(self, ex: Executor) -> RunResult:
         from roman_sim.pipeline.dask_security import plugin_modules

@@ -1,0 +1,147 @@
+"""One run per results folder: real ``roman-sim run`` processes racing into one folder.
+
+A run holds an exclusive lock on its folder for its whole life; a second run into it stops
+at once with one line naming the folder and the holder's pid; a lock left by a killed run
+is taken over. Each run is the smoke scenario with both robots stopping after 12 m.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from roman_sim.pipeline.folder_lock import LOCK_NAME
+from roman_sim.testing import assert_same_run_folder
+
+from .processes import cli, start, tagged, tagged_env, wait_gone
+
+pytestmark = pytest.mark.timeout(600)
+MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]
+SETTINGS = {"seed0": [], "seed1": ["--set", "seed=1"]}
+
+
+def _busy_line(out: Path, pid: int) -> str:
+    return f"error: {out} is in use by another run (pid {pid}): wait for it to end or write into another folder"
+
+
+@pytest.fixture(scope="module")
+def clean_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
+    """One clean run of each setting, alone in its folder."""
+    root = tmp_path_factory.mktemp("clean")
+    env, _ = tagged_env()
+    runs = {}
+    for name, extra in SETTINGS.items():
+        runs[name] = root / name
+        res = subprocess.run(
+            cli("run", "smoke", *MICRO, *extra, "--out", str(runs[name])), env=env, capture_output=True, text=True
+        )
+        assert res.returncode == 0, res.stderr
+    return runs
+
+
+@pytest.fixture
+def out(tmp_path: Path) -> Path:
+    """The results folder the runs of a test share."""
+    return tmp_path / "run"
+
+
+def _wait_for_lock(out: Path, proc: subprocess.Popen, timeout_s: float = 120.0) -> None:
+    """Wait until ``proc`` holds the folder's lock (its pid is in the lock file)."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            if (out / LOCK_NAME).read_text().strip() == str(proc.pid):
+                return
+        except OSError:
+            pass
+        assert proc.poll() is None, f"the run ended before it held the lock: {proc.communicate()}"
+        time.sleep(0.02)
+    raise AssertionError(f"no lock of pid {proc.pid} in {out} within {timeout_s} s")
+
+
+@pytest.mark.slow
+def test_two_runs_started_together_leave_the_folder_of_one_clean_run(clean_runs: dict[str, Path], out: Path) -> None:
+    """Two settings race into one folder: it ends equal to a clean run of the one that ran, never a mix."""
+    env, tag = tagged_env()
+    procs = {
+        name: start(cli("run", "smoke", *MICRO, *extra, "--out", str(out)), env) for name, extra in SETTINGS.items()
+    }
+    ended = {name: (p, *p.communicate(timeout=300)) for name, p in procs.items()}
+    assert not wait_gone(lambda: tagged(tag))
+    codes = {name: p.returncode for name, (p, _, _) in ended.items()}
+    assert sorted(codes.values()) in ([0, 0], [0, 1]), {n: (c, ended[n][2]) for n, c in codes.items()}
+    if 1 in codes.values():  # they overlapped: the loser stopped at once, naming the winner
+        loser = next(n for n, c in codes.items() if c == 1)
+        winner = next(n for n in codes if n != loser)
+        assert ended[loser][2].strip().splitlines() == [_busy_line(out, procs[winner].pid)]
+    else:  # one ended before the other took the lock: the later one's results stand
+        winner = "seed1" if "seed: 1" in (out / "config.yaml").read_text() else "seed0"
+    assert not (out / LOCK_NAME).exists()
+    assert_same_run_folder(clean_runs[winner], out)
+
+
+@pytest.mark.slow
+def test_a_run_into_a_locked_folder_stops_at_once_naming_the_holder(clean_runs: dict[str, Path], out: Path) -> None:
+    env, tag = tagged_env()
+    first = start(cli("run", "smoke", *MICRO, "--out", str(out)), env)
+    _wait_for_lock(out, first)
+    second = subprocess.run(
+        cli("run", "smoke", *MICRO, "--set", "seed=1", "--out", str(out)), env=env, capture_output=True, text=True
+    )
+    assert second.returncode == 1, second.stderr
+    assert second.stderr.strip().splitlines() == [_busy_line(out, first.pid)]
+    _, err = first.communicate(timeout=300)
+    assert first.returncode == 0, err
+    assert not wait_gone(lambda: tagged(tag))
+    assert_same_run_folder(clean_runs["seed0"], out)
+
+
+@pytest.mark.slow
+def test_the_lock_of_a_killed_run_is_taken_over(clean_runs: dict[str, Path], out: Path) -> None:
+    """SIGKILL leaves the lock file with a dead pid; the next run takes it over and completes the folder."""
+    env, tag = tagged_env()
+    killed = start(cli("run", "smoke", *MICRO, "--out", str(out)), env)
+    _wait_for_lock(out, killed)
+    killed.send_signal(signal.SIGKILL)
+    killed.communicate(timeout=60)
+    assert killed.returncode == -signal.SIGKILL
+    assert not wait_gone(lambda: tagged(tag))
+    assert (out / LOCK_NAME).read_text().strip() == str(killed.pid)  # left behind: no process holds it
+    res = subprocess.run(cli("run", "smoke", *MICRO, "--out", str(out)), env=env, capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert f"taking over the lock of run pid {killed.pid}, which no longer runs" in res.stderr
+    assert not (out / LOCK_NAME).exists()
+    assert_same_run_folder(clean_runs["seed0"], out)
+
+
+def test_runs_into_different_folders_do_not_wait_for_each_other(tmp_path: Path) -> None:
+    """The lock is per folder: holding one does not hold another, and it is released after the block."""
+    from roman_sim.core.errors import RunFolderBusy
+    from roman_sim.pipeline.folder_lock import hold_run_folder
+
+    code = (
+        "import sys\nfrom roman_sim.pipeline.folder_lock import hold_run_folder\n"
+        "with hold_run_folder(sys.argv[1]):\n    print('held', flush=True)\n"
+    )
+    with hold_run_folder(tmp_path / "a") as lock:
+        assert lock.read_text() == f"{os.getpid()}\n"
+        env, _ = tagged_env()
+        other = subprocess.run(
+            [sys.executable, "-c", code, str(tmp_path / "b")], env=env, capture_output=True, text=True
+        )
+        assert other.returncode == 0 and other.stdout == "held\n", other.stderr
+        same = subprocess.run(
+            [sys.executable, "-c", code, str(tmp_path / "a")], env=env, capture_output=True, text=True
+        )
+        assert same.returncode == 1 and "RunFolderBusy" in same.stderr
+    assert not (tmp_path / "a" / LOCK_NAME).exists()
+    with hold_run_folder(tmp_path / "a"):
+        with pytest.raises(RunFolderBusy, match=f"pid {os.getpid()}"):
+            with hold_run_folder(tmp_path / "a"):
+                pass
