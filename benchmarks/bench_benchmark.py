@@ -67,9 +67,9 @@ def _stages(folder: Path) -> dict[str, Any]:
 
 
 def quick(workers: int = 1) -> None:
+    from roman_sim.benchmark.run import BenchmarkJob
+    from roman_sim.benchmark.suites import load_suite
     from roman_sim.pipeline.executors import ExecutorConfig
-    from roman_sim.studies.benchmark_run import BenchmarkJob
-    from roman_sim.studies.benchmark_suites import load_suite
 
     folder = Path(tempfile.mkdtemp(prefix="bench-quick-"))
     load0, t0, c0 = _load(), time.perf_counter(), _cpu()
@@ -97,9 +97,9 @@ def quick(workers: int = 1) -> None:
 
 
 def plan() -> None:
+    from roman_sim.benchmark.run import BenchmarkJob
+    from roman_sim.benchmark.suites import load_suite
     from roman_sim.pipeline.executors import ExecutorConfig
-    from roman_sim.studies.benchmark_run import BenchmarkJob
-    from roman_sim.studies.benchmark_suites import load_suite
 
     folder = Path(tempfile.mkdtemp(prefix="bench-plan-"))
     load0, c0 = _load(), _cpu()
@@ -123,9 +123,9 @@ def plan() -> None:
 
 
 def part(robots: int) -> None:
+    from roman_sim.benchmark.scenes import build_crossing
+    from roman_sim.benchmark.suites import load_suite
     from roman_sim.pipeline.experiment import Experiment
-    from roman_sim.studies.benchmark_scenes import build_crossing
-    from roman_sim.studies.benchmark_suites import load_suite
 
     suite = load_suite("standard")
     scene = suite.scene_at("low", suite.methods, []).model_copy(update={"robots": robots})

@@ -25,11 +25,11 @@ from pathlib import Path
 import numpy as np
 
 from roman_sim.core.atomic import write_json
+from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.semantics import SimulatedEncoder
 from roman_sim.mapping import synthetic
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.mapping.mapper import Mapper
-from roman_sim.mapping.segmenter import build_segmenter
-from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.types import Submap
@@ -167,8 +167,8 @@ def full_submap_bound(seed: int, dim: int = 768) -> dict:
 
 def _frontend_timing(frames: list, segmenter, encoder, families) -> dict:
     """Segmenter, encoder (all masks of a frame at once) and whole-mapper time on ``frames``."""
-    from roman_sim.mapping.frontend import reads_truth
     from roman_sim.mapping.observation import observe_indexed
+    from roman_sim.mapping.protocols import reads_truth
 
     seg_s, enc_s, seg_cpu, enc_cpu, masks = [], [], 0.0, 0.0, 0
     cfg = MappingConfig()
@@ -210,8 +210,8 @@ def run_image_frontend(n_frames: int, seed: int) -> dict:
     The encoder's time includes the back-projection of each mask (what ``observe`` does
     around the encoder), so both front ends are timed the same way.
     """
-    from roman_sim.mapping.frontend import build_encoder
-    from roman_sim.mapping.frontend import build_segmenter as build_any_segmenter
+    from roman_sim.frontend.components import build_encoder
+    from roman_sim.frontend.components import build_segmenter as build_any_segmenter
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.sim.robot import DrivenRun, plan_paths, render_trajectory, trajectory_along
 

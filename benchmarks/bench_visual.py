@@ -18,6 +18,7 @@ Writes ``benchmarks/out/visual.json``. Run: ``python benchmarks/bench_visual.py 
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import platform
@@ -47,7 +48,8 @@ from roman_sim.sim.robot import (
 )
 from roman_sim.world import generate, load_world_spec
 
-OUT = Path(__file__).resolve().parent / "out" / "visual.json"
+ROOT = Path(__file__).resolve().parent.parent
+OUT = ROOT / "benchmarks" / "out" / "visual.json"
 SEED = 9300
 
 
@@ -165,7 +167,11 @@ def main(quick: bool = False, full: bool = False, demo: bool = False) -> dict:
     if demo:
         res["demo"] = _demo_times()
     if full:
-        from roman_sim.studies.vocabulary import train_default
+        spec = importlib.util.spec_from_file_location("train_vocabulary", ROOT / "tools" / "train_vocabulary.py")
+        assert spec is not None and spec.loader is not None
+        trainer = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(trainer)
+        train_default = trainer.train_default
 
         t0 = time.perf_counter()
         train_default()

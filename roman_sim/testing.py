@@ -341,8 +341,8 @@ def assert_benchmark(
     """
     import json
 
-    from roman_sim.studies.benchmark_run import BenchmarkJob
-    from roman_sim.studies.benchmark_suites import load_suite
+    from roman_sim.benchmark.run import BenchmarkJob
+    from roman_sim.benchmark.suites import load_suite
 
     count_pins(pinned)
     _tolerance(tolerance)

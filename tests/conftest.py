@@ -39,14 +39,14 @@ def cli_fails() -> Callable[..., str]:
 #: ``--dist loadfile`` each file runs on one worker, in collection order: starting these first
 #: keeps one long file from running alone at the end of the suite.
 LONGEST_FIRST = (
-    "tests/studies/test_benchmark_quick.py",
+    "tests/benchmark/test_quick.py",
     "tests/pipeline/test_visual.py",
     "tests/pipeline/test_regression.py",
     "tests/pipeline/test_executors.py",
     "tests/pipeline/test_scenario_stats.py",
     "tests/robustness/test_interrupts.py",
     "tests/pipeline/test_run_features.py",
-    "tests/studies/test_benchmark_run.py",
+    "tests/benchmark/test_run.py",
     "tests/pipeline/test_dask_security.py",
     "tests/pipeline/test_wheel.py",
     "tests/pipeline/test_sweep.py",

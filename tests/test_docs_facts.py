@@ -47,7 +47,7 @@ def test_overview_names_every_method_segmenter_encoder_and_drift_preset():
     }
     named = {k: set(re.findall(r"`(\w+)`", v)) for k, v in row.items()}
     assert set(LISTINGS["aligners"]()) <= named["alignment"]
-    assert set(LISTINGS["segmenters"]()) | set(LISTINGS["encoders"]()) <= named["mapping"]
+    assert set(LISTINGS["segmenters"]()) | set(LISTINGS["encoders"]()) <= named["front ends"]
     assert set(LISTINGS["drift"]()) <= named["robots"]
 
 

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
+from roman_sim.cli.verify import verify_run
 from roman_sim.studies import pages
 from roman_sim.studies.reference import DEMO, FIGURE_PNG, demo_summary
-from roman_sim.studies.verify import verify_run
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"

@@ -83,9 +83,9 @@ def benchmark_cmd(
     upload: list[str] | None = X.UPLOAD,
 ) -> None:
     """Run a benchmark suite (resumable); write leaderboard.json, leaderboard.md and plots; exit 1 if a cell failed."""
-    from roman_sim.studies.benchmark_board import LEADERBOARD_JSON, LEADERBOARD_MD
-    from roman_sim.studies.benchmark_run import BenchmarkJob
-    from roman_sim.studies.benchmark_suites import load_suite
+    from roman_sim.benchmark.board import LEADERBOARD_JSON, LEADERBOARD_MD
+    from roman_sim.benchmark.run import BenchmarkJob
+    from roman_sim.benchmark.suites import load_suite
 
     spec = load_suite(suite)
     ex = X.executor_config(

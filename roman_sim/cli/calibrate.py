@@ -75,10 +75,10 @@ def calibrate_cmd(
     from roman_sim.core.atomic import write_json, write_text
     from roman_sim.core.config import validate_model
     from roman_sim.evaluation.frontend_types import FrontEndGrades, SegmentationGrades
-    from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+    from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
+    from roman_sim.pipeline.calibration import calibrate, render_calibration_frames
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.report.frontend import plot_frontend_grades
-    from roman_sim.studies.calibration import calibrate, render_calibration_frames
 
     enc, seg = _entry(encoder, "--encoder"), _entry(segmenter, "--segmenter")
     if enc is None and seg is None:
@@ -123,7 +123,7 @@ def calibrate_cmd(
 
 
 def _encoders() -> list[str]:
-    from roman_sim.mapping.frontend import ENCODER_TYPES
+    from roman_sim.frontend.components import ENCODER_TYPES
 
     return ENCODER_TYPES.names()
 

@@ -356,7 +356,7 @@ def report_cmd(
     if not compressed:
         print_summary(RunResult.load(run_dir))
     if verify:
-        from roman_sim.studies.verify import verify_run
+        from roman_sim.cli.verify import verify_run
 
         res = verify_run(
             run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv", tum_suffix=".gz" if compressed else ""
@@ -456,7 +456,7 @@ def _aligners() -> list[str]:
 
 
 def _segmenters() -> list[str]:
-    from roman_sim.mapping.frontend import SEGMENTER_TYPES
+    from roman_sim.frontend.components import SEGMENTER_TYPES
 
     return SEGMENTER_TYPES.names()
 

@@ -32,7 +32,7 @@ from roman_sim.evaluation.frontend_types import (
     GradeConfig,
     SegmentationGrades,
 )
-from roman_sim.mapping.frame_objects import FrameObjects, frame_objects
+from roman_sim.frontend.frame_objects import FrameObjects, frame_objects
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import eroded_labels, masks_from_labels_reference
 
@@ -365,7 +365,7 @@ class FrontEndGrader:
         n_belong: NDArray[np.int64],
         matched: NDArray[np.bool_],
     ) -> None:
-        from roman_sim.mapping.mask_noise import neighbour_pairs
+        from roman_sim.frontend.mask_noise import neighbour_pairs
 
         A = ids.size
         s = self.seg

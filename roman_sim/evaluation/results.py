@@ -4,7 +4,7 @@
 outcome; empty cells are undefined values (NaN / no reason). The true relative pose is
 stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned. Floats
 are written with ``repr`` (exact round trip), so ``metrics.json`` can be recomputed from
-this file alone (``roman_sim.studies.verify``). A path ending in ``.gz`` is read as
+this file alone (``roman_sim.report.recompute``). A path ending in ``.gz`` is read as
 gzip (the reference results keep their tables compressed).
 ``metrics.json`` is ``EvaluationMetrics.to_json()``. Neither holds wall-clock runtimes (two
 runs of one seed give the same bytes); those are kept in ``timings.json``. Reading either

@@ -20,7 +20,7 @@ from roman_sim.core.sensors import Frame
 from roman_sim.mapping.mask import Mask
 
 if TYPE_CHECKING:
-    from roman_sim.mapping.semantics import EncodeContext
+    from roman_sim.mapping.protocols import EncodeContext
 
 
 class DepthEdgeSegmenter:

@@ -1,5 +1,6 @@
-"""ROMAN's front end: open-set segments, semantics, 3D segment tracking, submaps, storage.
+"""ROMAN's map builder: the front-end protocols, 3D segment tracking, submaps, storage.
 
+The segmenters and encoders that implement the protocols live in ``roman_sim.frontend``.
 Typical use (one robot)::
 
     mapper = Mapper(MappingConfig(), build_segmenter("fastsam", seed),
@@ -33,10 +34,8 @@ _EXPORTS: dict[str, str] = {
     ),
     **dict.fromkeys(["Mapper", "SegmentMap"], "mapper"),
     **dict.fromkeys(["Segment", "Status"], "segment"),
-    **dict.fromkeys(
-        ["SEGMENTERS", "Mask", "Segmenter", "SegmenterConfig", "SimulatedSegmenter", "build_segmenter"], "segmenter"
-    ),
-    **dict.fromkeys(["EncodeContext", "SemanticConfig", "SemanticEncoder", "SimulatedEncoder"], "semantics"),
+    **dict.fromkeys(["Mask"], "mask"),
+    **dict.fromkeys(["EncodeContext", "Segmenter", "SemanticEncoder", "reads_truth"], "protocols"),
     **dict.fromkeys(["SubmapConfig", "build_submaps"], "submap"),
     **dict.fromkeys(["MappingConfig", "Observation", "Tracker"], "tracker"),
     **dict.fromkeys(["Submap", "SubmapTruth"], "types"),

@@ -12,11 +12,10 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import MappingError
 from roman_sim.core.sensors import Frame, check_frame
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.mapping.frontend import reads_truth
-from roman_sim.mapping.mask import Mask, Segmenter
+from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.observation import observe_indexed
+from roman_sim.mapping.protocols import Segmenter, SemanticEncoder, reads_truth
 from roman_sim.mapping.segment import Segment
-from roman_sim.mapping.semantics import SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Tracker
 
 log = logging.getLogger(__name__)

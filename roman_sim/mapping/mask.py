@@ -1,4 +1,4 @@
-"""A segmentation mask, the segmenter protocol and mask helpers shared by every front end.
+"""A segmentation mask and the mask helpers shared by every front end.
 
 Pixel sizes of the front end (erosion radius, boundary noise, merge distances) are given for
 an image 640 pixels wide and follow the image in proportion, as ROMAN's area window follows
@@ -10,12 +10,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
-
-from roman_sim.core.sensors import Frame
 
 
 @dataclass
@@ -49,15 +46,6 @@ def mask_bbox(pixels: NDArray[np.bool_]) -> tuple[int, int, int, int]:
     if len(rows) == 0:
         return (0, 0, 0, 0)
     return (int(rows[0]), int(rows[-1]) + 1, int(cols[0]), int(cols[-1]) + 1)
-
-
-@runtime_checkable
-class Segmenter(Protocol):
-    """Anything that turns a frame into masks (an image model never reads ``frame.truth``)."""
-
-    def segment(self, frame: Frame) -> list[Mask]:
-        """Masks of one frame."""
-        ...
 
 
 def erode_mask(pix: NDArray[np.bool_], kernel: NDArray[np.bool_]) -> NDArray[np.bool_]:

@@ -21,10 +21,9 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import MappingError
 from roman_sim.core.geometry import transform_points
 from roman_sim.core.sensors import Frame, backproject, check_frame
-from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.mask import Mask
+from roman_sim.mapping.protocols import EncodeContext, SemanticEncoder, reads_truth
 from roman_sim.mapping.segment import pca_extents
-from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
 from roman_sim.mapping.tracker import MappingConfig, Observation, is_plane_like
 from roman_sim.mapping.voxels import downsample
 

@@ -111,7 +111,7 @@ class Experiment:
     def _check_plugins(self) -> None:
         from roman_sim.align import build_aligner
         from roman_sim.core.plugins import instantiate_plugin
-        from roman_sim.mapping.frontend import check_frontend
+        from roman_sim.frontend.components import check_frontend
         from roman_sim.pipeline.plugin_guard import is_plugin
         from roman_sim.pipeline.plugins import dry_call
 

@@ -19,8 +19,8 @@ from roman_sim.align.base import Aligner, AlignResult
 from roman_sim.core.errors import PluginError
 from roman_sim.core.registry import one_line
 from roman_sim.core.sensors import Frame
-from roman_sim.mapping.mask import Mask, Segmenter
-from roman_sim.mapping.semantics import EncodeContext, SemanticEncoder
+from roman_sim.mapping.mask import Mask
+from roman_sim.mapping.protocols import EncodeContext, Segmenter, SemanticEncoder
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.plugins import check_result
 

@@ -24,7 +24,7 @@ from roman_sim.core.registry import one_line
 
 if TYPE_CHECKING:
     from roman_sim.core.sensors import Frame
-    from roman_sim.mapping.semantics import EncodeContext
+    from roman_sim.mapping.protocols import EncodeContext
     from roman_sim.mapping.types import Submap
 
 UNIT_TOL = 1e-3  # |norm - 1| allowed of an encoder's descriptor (float32 rounding is ~1e-7)
@@ -109,7 +109,7 @@ def _check_segment(out: object, args: tuple[object, ...]) -> str | None:
     from roman_sim.mapping.mask import Mask
 
     if not isinstance(out, (list, tuple)):
-        return f"segment(frame) returned {describe(out)}, expected a list of Mask (roman_sim.mapping.segmenter)"
+        return f"segment(frame) returned {describe(out)}, expected a list of Mask (roman_sim.frontend.segmenter)"
     shape = np.asarray(cast("Frame", args[0]).depth).shape
     for k, m in enumerate(out):
         if not isinstance(m, Mask):
@@ -156,7 +156,7 @@ def _dry_frame(with_rgb: bool) -> tuple[Frame, NDArray[np.bool_], NDArray[np.uin
     from dataclasses import replace
 
     from roman_sim.mapping import synthetic
-    from roman_sim.mapping.semantics import EncodeContext
+    from roman_sim.mapping.protocols import EncodeContext
 
     intr = synthetic.intrinsics(64, 48)
     frame = synthetic.frame_at(synthetic.sphere_field(4, seed=0), 0.0, 0.0, 0.0, 0.0, 0, robot="check", intr=intr)

@@ -22,11 +22,11 @@ from roman_sim.core.jsontypes import JSON
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
 from roman_sim.evaluation.frontend_types import GradeConfig
-from roman_sim.mapping.frontend import build_encoder, build_segmenter, encoder_spec
+from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
-from roman_sim.mapping.mask import Mask, Segmenter
-from roman_sim.mapping.semantics import SemanticEncoder
+from roman_sim.mapping.mask import Mask
+from roman_sim.mapping.protocols import Segmenter, SemanticEncoder
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext

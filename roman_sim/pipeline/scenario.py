@@ -17,8 +17,8 @@ from roman_sim.align.visual.keyframes import KeyframeParams
 from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
+from roman_sim.frontend.components import FrontEnd as FrontEndBase
 from roman_sim.interop.tum_reader import TumSourceConfig
-from roman_sim.mapping.frontend import FrontEnd as FrontEndBase
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.posegraph import PoseGraphConfig

@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ConfigError
+from roman_sim.frontend.components import encoder_spec
 from roman_sim.interop.objects import OBJECTS_JSON, read_object_table
 from roman_sim.interop.tum_reader import TumSequence, TumSourceConfig
-from roman_sim.mapping.frontend import encoder_spec
 
 if TYPE_CHECKING:
     from roman_sim.pipeline.scenario import Scenario, ScenarioRobot

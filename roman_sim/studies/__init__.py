@@ -1,3 +1,3 @@
-"""Studies that drive the whole testbed: the reference reproduction, its claims and tables, the
-benchmark suites, and tools that run the simulator to train or calibrate (vocabulary, front end).
+"""The paper reproduction: reference runs, their raw data, claims and tables, the paper preset and
+the independent scorer that checks them.
 """

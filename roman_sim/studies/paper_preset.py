@@ -1,7 +1,7 @@
 """The ``paper`` front-end preset fitted to ONE figure of the paper, then its held-out predictions.
 
 Fit (``fit_paper_preset``): one scalar, ``frontend.severity``, scales the preset's error
-parameters (``roman_sim.mapping.frontend_presets``). It is searched on ``scenario``
+parameters (``roman_sim.frontend.presets``). It is searched on ``scenario``
 (``same_direction``) for ROMAN's max recall over the cross-robot pairs to match the paper's
 0.67, and nothing else is tuned:
 
@@ -206,7 +206,7 @@ def fit_paper_preset(out: str | Path, cfg: PaperFitConfig | None = None, run: Ru
 def preset_at(preset: str, severity: float) -> dict[str, Any]:
     """The preset's ``frontend`` section with its error parameters at ``severity`` (explicit values)."""
     from roman_sim.core.config import validate_model
-    from roman_sim.mapping.frontend import FrontEnd
+    from roman_sim.frontend.components import FrontEnd
 
     fe = validate_model(FrontEnd, {"preset": preset, "severity": severity}, source="frontend")
     seg = fe.built_segmenter()

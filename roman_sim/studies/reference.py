@@ -372,8 +372,8 @@ def summary_markdown(summary: ReferenceSummary) -> str:
 def _run_summary(d: Path) -> RunSummary:
     """A run's compact summary recomputed from its committed raw files."""
     from roman_sim.evaluation.records import MapStats
+    from roman_sim.report.recompute import recompute_ate, recompute_metrics
     from roman_sim.report.summaries import compact_summary
-    from roman_sim.studies.verify import recompute_ate, recompute_metrics
 
     metrics, _ = recompute_metrics(d, "pairs.csv.gz", as_stored=False)
     ate = recompute_ate(d, ".gz") if (d / "ate.json").is_file() and (d / "trajectories").is_dir() else None

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from roman_sim.studies.verify import recompute_metrics
+from roman_sim.report.recompute import recompute_metrics
 
 RUN = Path(__file__).resolve().parents[2] / "results" / "reference" / "opposite_direction"
 Z95 = 1.959963984540054

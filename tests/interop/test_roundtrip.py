@@ -73,9 +73,9 @@ def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Scenario, Path]:
 
 
 def _map(sc: Scenario, families: dict[int, str], robot: str, frames) -> object:
-    from roman_sim.mapping.frontend import build_segmenter
+    from roman_sim.frontend.components import build_segmenter
+    from roman_sim.frontend.semantics import SimulatedEncoder
     from roman_sim.mapping.mapper import Mapper
-    from roman_sim.mapping.semantics import SimulatedEncoder
 
     mapper = Mapper(
         sc.mapping,

@@ -184,8 +184,8 @@ class SideFileSegmenter:
 
 
 def test_mapping_frames_whose_truth_has_no_ids(tum_export: Path) -> None:
+    from roman_sim.frontend.segmenter import build_segmenter
     from roman_sim.mapping.mapper import Mapper
-    from roman_sim.mapping.segmenter import build_segmenter
     from roman_sim.mapping.submap import SubmapConfig, build_submaps
     from roman_sim.mapping.tracker import MappingConfig
 

@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from roman_sim.frontend.components import build_encoder, build_segmenter
 from roman_sim.mapping import segment as segment_mod
 from roman_sim.mapping import voxels
-from roman_sim.mapping.frontend import build_encoder, build_segmenter
 from roman_sim.mapping.io import save_segment_map
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.obb import trimesh_extents
@@ -116,9 +116,9 @@ def test_front_end_grades_and_masks_match_their_reference_paths(demo_frames, mon
     from scipy import ndimage
 
     from roman_sim.evaluation.frontend import FrontEndGrader
-    from roman_sim.mapping import frame_objects as fo_mod
-    from roman_sim.mapping import mask_noise
-    from roman_sim.mapping import segmenter as seg_mod
+    from roman_sim.frontend import frame_objects as fo_mod
+    from roman_sim.frontend import mask_noise
+    from roman_sim.frontend import segmenter as seg_mod
 
     sc, families, frames = demo_frames
     fast_seg = build_segmenter(sc.frontend, seed=sc.seed, robot="a")
@@ -146,14 +146,14 @@ def test_front_end_grades_and_masks_match_their_reference_paths(demo_frames, mon
 
 
 def test_label_erosion_matches_the_per_label_reference(demo_frames) -> None:
-    from roman_sim.mapping.frame_objects import FrameObjects
+    from roman_sim.frontend.frame_objects import FrameObjects
+    from roman_sim.frontend.mask_noise import neighbour_pairs
     from roman_sim.mapping.mask_filter import (
         MaskFilterConfig,
         eroded_labels,
         masks_from_labels,
         masks_from_labels_reference,
     )
-    from roman_sim.mapping.mask_noise import neighbour_pairs
 
     _, _, frames = demo_frames
     for f in frames[::12]:

@@ -7,10 +7,10 @@ import pytest
 
 from roman_sim.core.geometry import inv_T, pose_4dof, transform_points
 from roman_sim.core.sensors import backproject
+from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.semantics import SimulatedEncoder
 from roman_sim.mapping.io import load_segment_map, packet_bytes, save_segment_map
 from roman_sim.mapping.mapper import Mapper
-from roman_sim.mapping.segmenter import build_segmenter
-from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample

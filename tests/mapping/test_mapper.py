@@ -7,10 +7,10 @@ from mapping_synth import SPHERES, drive, frame_at
 from roman_sim.core.errors import MappingError
 from roman_sim.core.geometry import pose_4dof, transform_points
 from roman_sim.core.sensors import backproject
+from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.semantics import SimulatedEncoder
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.mask import Mask
-from roman_sim.mapping.segmenter import build_segmenter
-from roman_sim.mapping.semantics import SimulatedEncoder
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
 

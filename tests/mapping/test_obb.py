@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from roman_sim.frontend.segmenter import build_segmenter
 from roman_sim.mapping import synthetic
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.obb import oriented_extents, trimesh_extents
-from roman_sim.mapping.segmenter import build_segmenter
 from roman_sim.mapping.tracker import MappingConfig
 
 

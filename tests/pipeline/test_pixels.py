@@ -6,8 +6,8 @@ import numpy as np
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.mapping import image_encoder, image_segmenter, segmenter, semantics
-from roman_sim.mapping.confusion import relation_moments
+from roman_sim.frontend import image_encoder, image_segmenter, segmenter, semantics
+from roman_sim.frontend.confusion import relation_moments
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 

@@ -245,8 +245,8 @@ def test_guarded_aligner_names_the_pair(plugin_dir: Path) -> None:
 def test_guarded_frontend_names_the_frame(plugin_dir: Path) -> None:
     from roman_user_plugins_t import Divides, GrowingEncoder  # type: ignore[import-not-found]
 
+    from roman_sim.frontend.segmenter import build_segmenter
     from roman_sim.mapping.mapper import Mapper
-    from roman_sim.mapping.segmenter import build_segmenter
     from roman_sim.mapping.tracker import MappingConfig
 
     frames = synthetic.drive(synthetic.sphere_field(4, seed=0), n=1)  # 160 x 120: three observations

@@ -15,8 +15,9 @@ from pathlib import Path
 
 import pytest
 
+from roman_sim.cli.verify import verify_run
+from roman_sim.report.recompute import compare
 from roman_sim.studies.reference import rederive, summary_markdown
-from roman_sim.studies.verify import compare, verify_run
 
 ROOT = Path(__file__).resolve().parents[2]
 REF = ROOT / "results" / "reference"

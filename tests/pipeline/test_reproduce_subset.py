@@ -14,6 +14,7 @@ import pytest
 
 from roman_sim.core.atomic import write_json
 from roman_sim.pipeline import experiment, scenario
+from roman_sim.report.recompute import compare
 from roman_sim.report.summaries import RunSummary
 from roman_sim.studies.pages import RESULTS_MARKERS, results_block
 from roman_sim.studies.reference import (
@@ -24,7 +25,6 @@ from roman_sim.studies.reference import (
     rederive,
     reproduce,
 )
-from roman_sim.studies.verify import compare
 
 
 class _Replay:

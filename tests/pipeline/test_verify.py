@@ -7,7 +7,7 @@ import shutil
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.studies.verify import verify_run
+from roman_sim.cli.verify import verify_run
 
 runner = CliRunner()
 
@@ -82,8 +82,8 @@ def test_compressed_reference_folders_verify_from_the_cli(smoke_run, tmp_path):
 def test_the_scorer_gives_the_evaluations_operating_points(smoke_run):
     """Every set and heading bin: the independent scorer's points are those of the run's metrics.json."""
     from roman_sim.evaluation.operating_points import points_to_json
+    from roman_sim.report.recompute import stored_summary
     from roman_sim.studies.scorer import agreement, score_run
-    from roman_sim.studies.verify import stored_summary
 
     scored = score_run(smoke_run.run_dir)
     metrics = smoke_run.metrics

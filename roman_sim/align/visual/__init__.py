@@ -4,7 +4,7 @@ Robot side: ``KeyframeExtractor`` turns RGB-D frames into keyframes (ORB feature
 depth, BoW vector from the shipped vocabulary) and ``attach_keyframes`` hands them to the
 robot's submaps. Alignment side: the ``visual`` aligner (``VisualAligner``) compares two
 submaps' keyframes. The vocabulary ships as package data (``default_vocabulary``) and is
-re-trained bit-identically by ``python -m roman_sim.studies.vocabulary``.
+re-trained bit-identically by ``python tools/train_vocabulary.py``.
 """
 
 from __future__ import annotations

@@ -43,6 +43,17 @@ log = logging.getLogger(__name__)
 VOCABULARY_FORMAT = "roman_sim.orb_vocabulary"
 VOCABULARY_VERSION = 1
 
+#: (preset, seed, lighting preset) of the worlds the shipped vocabulary is trained on
+#: (``tools/train_vocabulary.py``): far from every scenario's seed.
+TRAINING_WORLDS: tuple[tuple[str, int, str], ...] = (
+    ("forest", 9101, "noon"),
+    ("orchard", 9102, "morning"),
+    ("park", 9103, "evening"),
+    ("suburb", 9104, "overcast"),
+    ("offroad", 9105, "random"),
+    ("parking", 9106, "noon"),
+)
+
 
 @dataclass
 class Vocabulary:

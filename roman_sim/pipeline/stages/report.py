@@ -27,8 +27,8 @@ from roman_sim.core.errors import EvaluationError, RomanSimError, StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.ate import aligned_to_truth
 from roman_sim.evaluation.types import MapStats
-from roman_sim.mapping.frontend import reads_truth
 from roman_sim.mapping.io import packet_bytes
+from roman_sim.mapping.protocols import reads_truth
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.robot_mapping import build_segmenter_for
 from roman_sim.pipeline.stages.ate import AteOutput

@@ -9,9 +9,8 @@ import pytest
 
 from roman_sim.align.visual import default_vocabulary
 from roman_sim.align.visual.bow import l1_score
-from roman_sim.align.visual.vocabulary import Vocabulary, train_vocabulary
+from roman_sim.align.visual.vocabulary import TRAINING_WORLDS, Vocabulary, train_vocabulary
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.studies.vocabulary import TRAINING_WORLDS
 
 
 def _flip(rng: np.random.Generator, proto: np.ndarray, n: int, bits: int) -> np.ndarray:

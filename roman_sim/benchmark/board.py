@@ -1,0 +1,216 @@
+"""The leaderboard of a benchmark folder, from its kept raw pairs only.
+
+Every finished cell's ``pairs.csv.gz`` is read back, relevance and correctness are
+re-derived from the raw columns with the cell's ``config.yaml`` (``verify.rederive``), and
+the pairs of all cells of one ambiguity level are pooled (pair names prefixed with the
+cell). The evaluation's own ``metrics.summary`` then scores each level with the suite's
+heading bins: per method and cell (level x heading bin) the operating points (max recall
+with its precision, recall at precision >= 0.9 and 1, recall at the pose graph's
+acceptance threshold), each with counts and a Wilson interval. In each cell the methods
+are ranked by the intervals of max recall and of recall at precision >= 0.9
+(``evaluation.ranking``: tied unless the intervals separate). The bound of the standard
+suite, every interval at most +-0.1, is checked per cell over every method and point.
+
+``leaderboard.json`` holds all of it; ``leaderboard.md`` (``report.leaderboard``) and the
+figures in ``plots/`` (``report.benchmark_plots``) render it. Runtimes come from each cell's
+``runtimes.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+from roman_sim.benchmark.cells import (
+    BENCHMARK_JSON,
+    BENCHMARK_SCHEMA,
+    CELL_JSON,
+    CELLS_DIR,
+    PAIRS_GZ,
+    RUNTIMES_JSON,
+)
+from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.jsontypes import read_record as read_json_record
+from roman_sim.evaluation.metrics import PairScore, summary
+from roman_sim.evaluation.operating_points import POINT_NAMES
+from roman_sim.evaluation.ranking import rank_by_intervals
+from roman_sim.evaluation.results import read_pairs_csv
+from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
+from roman_sim.report.benchmark_plots import write_benchmark_plots
+from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
+from roman_sim.report.recompute import eval_settings, rederive
+
+log = logging.getLogger(__name__)
+
+LEADERBOARD_JSON = "leaderboard.json"
+LEADERBOARD_MD = "leaderboard.md"
+LEADERBOARD_SCHEMA = "roman_sim.leaderboard/1"
+#: Widest interval half-width the standard suite promises in every cell.
+HALF_WIDTH_BOUND = 0.1
+
+
+def read_record(out: Path) -> dict[str, Any]:
+    """``benchmark.json`` of a benchmark folder (StorageError when missing or unreadable)."""
+    return read_json_record(out / BENCHMARK_JSON, BENCHMARK_SCHEMA, "benchmark record")
+
+
+@dataclass
+class Level:
+    """The pooled pairs of one ambiguity level's finished cells."""
+
+    name: str
+    knob: float
+    cells: list[str] = field(default_factory=list)
+    scores: list[PairScore] = field(default_factory=list)
+    runtimes: list[dict[str, Any]] = field(default_factory=list)
+    acceptance_k: int | None = None
+
+
+def _cell_status(out: Path, cell: str) -> dict[str, Any]:
+    try:
+        return dict(json.loads((out / CELLS_DIR / cell / CELL_JSON).read_text(encoding="utf-8")))
+    except (OSError, ValueError):
+        return {"status": "pending"}
+
+
+def load_levels(out: Path, record: dict[str, Any]) -> tuple[dict[str, Level], dict[str, str]]:
+    """Per level its pooled, re-derived scores; and the cells that did not finish, with why."""
+    levels = {lv["name"]: Level(lv["name"], float(lv["knob"])) for lv in record["levels"]}
+    missing: dict[str, str] = {}
+    for c in record["cells"]:
+        folder = out / CELLS_DIR / c["id"]
+        st = _cell_status(out, c["id"])
+        if st.get("status") != "ok":
+            missing[c["id"]] = str(st.get("error") or st.get("status"))
+            continue
+        cfg, acceptance_k = eval_settings(folder)
+        scores, diffs = rederive(read_pairs_csv(folder / PAIRS_GZ), cfg)
+        if diffs:
+            log.warning("cell %s: %d rows re-derived differently (%s)", c["id"], len(diffs), diffs[0])
+        lv = levels[c["level"]]
+        lv.cells.append(c["id"])
+        lv.acceptance_k = acceptance_k
+        lv.scores += [_prefixed(s, c["id"]) for s in scores]
+        try:
+            lv.runtimes.append(json.loads((folder / RUNTIMES_JSON).read_text(encoding="utf-8")))
+        except (OSError, ValueError):
+            pass
+    return levels, missing
+
+
+def _prefixed(s: PairScore, cell: str) -> PairScore:
+    """``s`` with its pair named ``<cell>:<a>`` / ``<cell>:<b>`` (pairs of different cells stay apart)."""
+    t = s.truth
+    return replace(s, truth=replace(t, a=f"{cell}:{t.a}", b=f"{cell}:{t.b}", ids_a=None, ids_b=None))
+
+
+def level_metrics(out: Path, lv: Level, edges: list[float]) -> EvaluationMetrics:
+    """The evaluation of one level's pooled pairs over the suite's heading bins."""
+    cfg, _ = eval_settings(out / CELLS_DIR / lv.cells[0])
+    cfg = cfg.model_copy(update={"heading_bins_deg": list(edges)})
+    return summary(lv.scores, cfg, 0, lv.acceptance_k)
+
+
+def _points(s: CurveStats) -> dict[str, Any]:
+    return {n: (None if s.operating_points.get(n) is None else s.operating_points[n].to_json()) for n in POINT_NAMES}  # type: ignore[union-attr]
+
+
+def _cell(label: str, stats: dict[str, CurveStats]) -> dict[str, Any]:
+    """One leaderboard cell: per method its operating points, and the ranks by interval."""
+    first = next(iter(stats.values()))
+    out: dict[str, Any] = {
+        "heading": label,
+        "n_pairs": first.n_pairs,
+        "n_relevant": first.n_relevant,
+        "methods": {m: _points(s) for m, s in stats.items()},
+        "ranks": {},
+    }
+    for point in RANKED:
+        got = {m: s.operating_points.get(point) for m, s in stats.items()}
+        cis = {m: (None if p is None else p.recall_ci) for m, p in got.items()}
+        out["ranks"][point] = {m: {"rank": r.rank, "tied": r.tied} for m, r in rank_by_intervals(cis).items()}
+    halves = [
+        (p["recall_ci"][1] - p["recall_ci"][0]) / 2
+        for pts in out["methods"].values()
+        for p in pts.values()
+        if p is not None and p["recall_ci"] is not None
+    ]
+    out["max_half_width"] = max(halves) if halves else None
+    return out
+
+
+def _ambiguity_index(scores: list[PairScore]) -> float | None:
+    vals = {(s.truth.a, s.truth.b): s.truth.ambiguity for s in scores if s.truth.kind == "inter"}
+    finite = [v for v in vals.values() if not math.isnan(v)]
+    return sum(finite) / len(finite) if finite else None
+
+
+def _runtime(levels: dict[str, Level]) -> dict[str, Any]:
+    """Per method: pairs timed and the mean (exact over cells), the median and p90 of the cells' medians / p90s."""
+    per: dict[str, list[dict[str, Any]]] = {}
+    for lv in levels.values():
+        for rec in lv.runtimes:
+            for m, st in rec.items():
+                if st.get("n"):
+                    per.setdefault(m, []).append(st)
+    out = {}
+    for m, sts in sorted(per.items()):
+        n = sum(int(s["n"]) for s in sts)
+        out[m] = {
+            "n": n,
+            "mean_s": sum(float(s["mean"]) * int(s["n"]) for s in sts) / n,
+            "cell_medians_s": [float(s["median"]) for s in sts],
+            "cell_p10_s": [s.get("p10") for s in sts],
+            "cell_p90_s": [float(s["p90"]) for s in sts],
+        }
+    return out
+
+
+def leaderboard(out: str | Path) -> tuple[dict[str, Any], dict[str, EvaluationMetrics]]:
+    """The leaderboard of a benchmark folder and the evaluation of each level (for the figures)."""
+    out = Path(out)
+    record = read_record(out)
+    edges = [float(e) for e in record["heading_edges_deg"]]
+    levels, missing = load_levels(out, record)
+    board: dict[str, Any] = {
+        "schema": LEADERBOARD_SCHEMA,
+        "suite": record["suite"],
+        "description": record["suite_spec"].get("description", ""),
+        "methods": list(record["methods"]),
+        "overrides": list(record["overrides"]),
+        "heading_edges_deg": edges,
+        "half_width_bound": HALF_WIDTH_BOUND,
+        "failed_cells": missing,
+        "levels": [],
+    }
+    metrics: dict[str, EvaluationMetrics] = {}
+    for name, lv in levels.items():
+        entry: dict[str, Any] = {"name": name, "knob": lv.knob, "cells": lv.cells, "acceptance_k": lv.acceptance_k}
+        if lv.cells:
+            m = metrics[name] = level_metrics(out, lv, edges)
+            sets = {meth: mm.set("inter") for meth, mm in m.methods.items()}
+            entry["ambiguity_index"] = _ambiguity_index(lv.scores)
+            entry["interval_level"] = m.config["interval_level"]
+            entry["overall"] = _cell("all", {k: v.overall for k, v in sets.items()})
+            entry["bins"] = [
+                _cell(b.label, {k: v.heading_bins[i].stats for k, v in sets.items()})
+                for i, b in enumerate(next(iter(sets.values())).heading_bins)
+            ]
+        board["levels"].append(entry)
+    widths = [b["max_half_width"] for e in board["levels"] for b in e.get("bins", [])]
+    board["bound_met"] = bool(widths) and all(w is not None and w <= HALF_WIDTH_BOUND for w in widths) and not missing
+    board["runtime"] = _runtime(levels)
+    return board, metrics
+
+
+def write_leaderboard(out: str | Path) -> list[Path]:
+    """Write ``leaderboard.json``, ``leaderboard.md`` and the figures; returns the paths written."""
+    out = Path(out)
+    board, metrics = leaderboard(out)
+    write_json(out / LEADERBOARD_JSON, board)
+    write_text(out / LEADERBOARD_MD, leaderboard_markdown(board))
+    return [out / LEADERBOARD_JSON, out / LEADERBOARD_MD, *write_benchmark_plots(board, metrics, out / "plots")]

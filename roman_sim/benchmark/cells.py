@@ -1,0 +1,102 @@
+"""The cells of a benchmark: what one (level, seed) is, how it is planned and run, its kept files.
+
+``plan_task`` plans one cell as an executor task (``scenes.build_crossing``: its
+scenario and relevant pairs per heading bin, or its one-line error); ``CellExperiment`` runs
+a cell's scenario on an executor the job keeps open; ``runtime_summary`` is what a cell keeps
+of its per-pair runtimes. File names of a benchmark folder are defined here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roman_sim.benchmark.plan import relevant_per_bin
+from roman_sim.benchmark.scenes import CrossingScene, build_crossing
+from roman_sim.core.config import stable_hash
+from roman_sim.core.errors import RomanSimError
+from roman_sim.core.registry import one_line
+from roman_sim.evaluation.bins import runtime_stats
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.executors import Executor
+from roman_sim.pipeline.experiment import Experiment
+from roman_sim.pipeline.scenario import Scenario
+
+BENCHMARK_JSON = "benchmark.json"
+BENCHMARK_SCHEMA = "roman_sim.benchmark/1"
+PLAN_JSON = "plan.json"
+CELL_JSON = "cell.json"
+CELLS_DIR = "cells"
+WORK_DIR = "work"
+PAIRS_GZ = "pairs.csv.gz"
+RUNTIMES_JSON = "runtimes.json"
+SCENARIO_JSON = "scenario.json"
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One (ambiguity level, seed) of a suite and its scene."""
+
+    level: str
+    seed: int
+    scene: CrossingScene
+
+    @property
+    def id(self) -> str:
+        """``<level>-s<seed>``: the cell's folder name."""
+        return f"{self.level}-s{self.seed}"
+
+    def key(self) -> str:
+        """What the cell's results depend on: its scene (methods and overrides included) and seed."""
+        return stable_hash(self.scene.model_dump(mode="json"), self.seed)
+
+
+def plan_task(scene_json: str, seed: int, name: str, edges: list[float]) -> dict[str, Any]:
+    """Plan one cell (a top-level task): its scenario and relevant pairs per heading bin, or its error."""
+    try:
+        plan = build_crossing(CrossingScene.model_validate_json(scene_json), seed, name)
+    except RomanSimError as err:
+        return {"ok": False, "error": str(err)}
+    except Exception as err:  # a bug, or an override the generator did not foresee: this cell fails alone
+        return {"ok": False, "error": f"{type(err).__name__}: {one_line(err)}"}
+    subs = {t.a for t in plan.truths} | {t.b for t in plan.truths}
+    return {
+        "ok": True,
+        "scenario": plan.scenario.model_dump(mode="json"),
+        "relevant": relevant_per_bin(plan.truths, edges),
+        "pairs": len(plan.truths),
+        "submaps": len(subs),
+        "km": round(plan.trajectory_km, 4),
+    }
+
+
+class CellExperiment(Experiment):
+    """An ``Experiment`` on an executor the job keeps open, with the job's chunk size."""
+
+    def __init__(self, scenario: Scenario, run_dir: Path, executor: Executor, chunk_pairs: int) -> None:
+        super().__init__(scenario, run_dir, executor=executor)
+        self.chunk_pairs = chunk_pairs
+
+    def context(self) -> RunContext:
+        return dataclasses.replace(super().context(), chunk_pairs=self.chunk_pairs)
+
+
+def planned_totals(plans: list[dict[str, Any]], n_bins: int) -> list[int]:
+    """Planned relevant pairs per bin summed over the plans that succeeded."""
+    out = [0] * n_bins
+    for p in plans:
+        for i, v in enumerate(p.get("relevant") or []):
+            out[i] += int(v)
+    return out
+
+
+def runtime_summary(per_pair: list[float]) -> dict[str, Any]:
+    """Runtime statistics of one method in one cell (s): n, mean, median, p90 and p10."""
+    stats = runtime_stats(per_pair)
+    r = np.asarray([x for x in per_pair if x is not None and np.isfinite(x)], dtype=np.float64)
+    stats["p10"] = float(np.percentile(r, 10)) if len(r) else None
+    return stats

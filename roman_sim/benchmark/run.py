@@ -1,0 +1,277 @@
+"""Running a benchmark suite as one resumable job: plan the cells, run them, keep what finished.
+
+A cell is one (ambiguity level, seed): one crossing scenario, one run folder. The job
+
+1. plans every cell (``scenes.build_crossing``: world, drives, the relevant pairs,
+   no rendering) as tasks of the executor; a suite with ``min_relevant_per_bin`` adds seeds
+   per level, in order, until every heading bin plans that many relevant pairs;
+2. runs each cell with the pipeline (``Experiment``) on the same executor, so a cell's
+   robots and chunks of pairs spread over the workers (and a Dask cluster);
+3. keeps what each finished cell needs for the leaderboard in ``cells/<cell>/`` (the
+   scenario, ``pairs.csv.gz``, per-method runtime statistics) and writes the leaderboard.
+
+Everything resumes: a cell whose record matches its configuration is not run again, an
+interrupted cell continues from its run folder's checkpoints (robots mapped, chunks of
+pairs aligned), plans are kept in ``plan.json``. A cell that fails (a plug-in raising on
+one pair, a drive that cannot be placed) is recorded as failed with its one-line error and
+the other cells run. The run folders are under ``work/`` (large; ``.gitignore`` keeps them
+out of a repository); everything else in the folder is small and is the committed result.
+Files: ``benchmark.json`` (suite, methods, overrides, cells and their status),
+``plan.json``, ``cells/``, ``leaderboard.json``, ``leaderboard.md``, ``plots/``.
+"""
+
+from __future__ import annotations
+
+import gzip
+import json
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from roman_sim.benchmark.cells import (
+    BENCHMARK_JSON,
+    BENCHMARK_SCHEMA,
+    CELL_JSON,
+    CELLS_DIR,
+    PAIRS_GZ,
+    PLAN_JSON,
+    RUNTIMES_JSON,
+    SCENARIO_JSON,
+    WORK_DIR,
+    Cell,
+    CellExperiment,
+    plan_task,
+    planned_totals,
+    runtime_summary,
+)
+from roman_sim.benchmark.suites import BenchmarkSuite, check_methods
+from roman_sim.core.atomic import write_bytes, write_json, write_text
+from roman_sim.core.config import dump_yaml, validate_model
+from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.registry import one_line
+from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
+from roman_sim.pipeline.scenario import Scenario
+
+log = logging.getLogger(__name__)
+
+#: ``progress(done, total, what)`` after each planned or finished cell.
+ProgressFn = Callable[[int, int, str], None]
+
+
+@dataclass
+class BenchmarkOutcome:
+    """What a benchmark job did: its folder, its cells in order, and the cells that failed."""
+
+    out_dir: Path
+    cells: list[str]
+    failures: dict[str, str] = field(default_factory=dict)
+    reused: list[str] = field(default_factory=list)
+
+
+class BenchmarkJob:
+    """One suite, methods and overrides into one folder (see the module docstring).
+
+    Args:
+        suite: the suite.
+        out_dir: the benchmark folder.
+        methods: methods to score (None: the suite's); names or ``package.module:Class``.
+        overrides: dotted scenario overrides for every cell (realism options).
+        executor: where tasks run (None: this process).
+        progress: called after each planned or finished cell.
+    """
+
+    def __init__(
+        self,
+        suite: BenchmarkSuite,
+        out_dir: str | Path,
+        methods: list[str] | None = None,
+        overrides: list[str] | None = None,
+        executor: ExecutorConfig | None = None,
+        progress: ProgressFn | None = None,
+    ) -> None:
+        self.suite = suite
+        self.out = Path(out_dir).resolve()
+        self.methods = check_methods(list(methods) if methods else list(suite.methods))
+        self.overrides = list(overrides or [])
+        self.executor = executor
+        self.progress = progress or (lambda done, total, what: None)
+        self.scenes = {lv: suite.scene_at(lv, self.methods, self.overrides) for lv in suite.levels}
+
+    # -- the folder -------------------------------------------------------------
+    def guard(self) -> None:
+        """Refuse a folder that holds another suite's benchmark (or the same suite with other overrides)."""
+        path = self.out / BENCHMARK_JSON
+        if self.out.exists() and not self.out.is_dir():
+            raise ConfigError(f"--out {self.out}: not a folder")
+        if not path.is_file():
+            if (self.out / "manifest.json").is_file() or (self.out / "sweep.json").is_file():
+                raise ConfigError(f"--out {self.out}: holds a run or a sweep, not a benchmark (choose another --out)")
+            return
+        try:
+            old = json.loads(path.read_text(encoding="utf-8"))
+            name, overrides = old["suite"], list(old["overrides"])
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise StorageError(f"{path}: unreadable benchmark record ({type(err).__name__})") from None
+        if name != self.suite.name:
+            raise ConfigError(
+                f"--out {self.out}: holds the {name!r} benchmark, not {self.suite.name!r} (choose another --out)"
+            )
+        if overrides != self.overrides:
+            raise ConfigError(
+                f"--out {self.out}: holds the {name!r} benchmark with overrides {overrides}, not {self.overrides} "
+                "(choose another --out)"
+            )
+
+    def _record(self, cells: list[Cell], status: dict[str, str]) -> None:
+        write_json(
+            self.out / BENCHMARK_JSON,
+            {
+                "schema": BENCHMARK_SCHEMA,
+                "suite": self.suite.name,
+                "suite_spec": self.suite.model_dump(mode="json"),
+                "methods": self.methods,
+                "overrides": self.overrides,
+                "levels": [{"name": lv, "knob": a} for lv, a in self.suite.levels.items()],
+                "heading_edges_deg": self.suite.heading_edges(),
+                "cells": [
+                    {"id": c.id, "level": c.level, "seed": c.seed, "status": status.get(c.id, "pending")} for c in cells
+                ],
+            },
+        )
+        write_text(self.out / ".gitignore", f"{WORK_DIR}/\n")
+
+    # -- planning ---------------------------------------------------------------
+    def _plans(self) -> dict[str, Any]:
+        try:
+            data = json.loads((self.out / PLAN_JSON).read_text(encoding="utf-8"))
+            return dict(data["cells"]) if isinstance(data, dict) else {}
+        except (OSError, ValueError, KeyError, TypeError):
+            return {}
+
+    def _plan_batch(self, ex: Executor, cells: list[Cell], plans: dict[str, Any]) -> None:
+        """Plan the cells whose plan is missing or stale (executor tasks); results into ``plans``."""
+        edges = self.suite.heading_edges()
+        todo = [c for c in cells if plans.get(c.id, {}).get("key") != c.key()]
+        args = [(c.scene.model_dump_json(), c.seed, f"{self.suite.name}-{c.id}", edges) for c in todo]
+        for i, rec in ex.run_tasks(plan_task, args, [f"planning cell {c.id}" for c in todo]):
+            c = todo[i]
+            if rec["ok"]:
+                write_text(self.out / CELLS_DIR / c.id / SCENARIO_JSON, json.dumps(rec.pop("scenario"), indent=1))
+            plans[c.id] = {"key": c.key(), "level": c.level, "seed": c.seed, **rec}
+            write_json(self.out / PLAN_JSON, {"heading_edges_deg": edges, "cells": plans})
+
+    def plan(self, ex: Executor) -> list[Cell]:
+        """Every cell of the suite, planned (adding seeds per level when the suite asks for a count)."""
+        plans = self._plans()
+        s = self.suite
+        if s.min_relevant_per_bin is None:
+            cells = [Cell(lv, seed, self.scenes[lv]) for lv in s.levels for seed in s.seeds]
+            self._plan_batch(ex, cells, plans)
+            return cells
+        chosen: dict[str, list[Cell]] = {lv: [] for lv in s.levels}
+        open_levels, seed = list(s.levels), 0
+        while open_levels:
+            batch = [Cell(lv, seed, self.scenes[lv]) for lv in open_levels]
+            self._plan_batch(ex, batch, plans)
+            for c in batch:
+                chosen[c.level].append(c)
+                totals = planned_totals([plans[x.id] for x in chosen[c.level]], len(s.heading_edges()) - 1)
+                if min(totals) >= s.min_relevant_per_bin or len(chosen[c.level]) >= s.max_seeds:
+                    open_levels.remove(c.level)
+            seed += 1
+            self.progress(sum(len(v) for v in chosen.values()), 0, "planning")
+        return [c for lv in s.levels for c in chosen[lv]]
+
+    # -- running ----------------------------------------------------------------
+    def _done(self, c: Cell) -> bool:
+        try:
+            rec = json.loads((self.out / CELLS_DIR / c.id / CELL_JSON).read_text(encoding="utf-8"))
+        except (OSError, ValueError):
+            return False
+        files = (self.out / CELLS_DIR / c.id / n for n in (PAIRS_GZ, RUNTIMES_JSON, "config.yaml"))
+        return rec.get("status") == "ok" and rec.get("key") == c.key() and all(f.is_file() for f in files)
+
+    def _run_cell(self, c: Cell, ex: Executor) -> None:
+        folder = self.out / CELLS_DIR / c.id
+        try:
+            data = json.loads((folder / SCENARIO_JSON).read_text(encoding="utf-8"))
+        except (OSError, ValueError) as err:
+            raise StorageError(f"{folder / SCENARIO_JSON}: unreadable ({type(err).__name__})") from None
+        sc = validate_model(Scenario, data, source=str(folder / SCENARIO_JSON))
+        chunk = self.executor.chunk_pairs if self.executor is not None else ExecutorConfig().chunk_pairs
+        res = CellExperiment(sc, self.out / WORK_DIR / c.id, executor=ex, chunk_pairs=chunk).run()
+        raw = (res.run_dir / "pairs.csv").read_bytes()
+        write_bytes(folder / PAIRS_GZ, gzip.compress(raw, mtime=0))
+        write_text(folder / "config.yaml", dump_yaml(sc))
+        alignment = res.timings.get("evaluation", {}).get("alignment")
+        per_method = alignment if isinstance(alignment, dict) else {}
+        runtimes = {
+            m: runtime_summary(_floats(a.get("per_pair_s")) if isinstance(a, dict) else [])
+            for m, a in sorted(per_method.items())
+        }
+        write_json(folder / RUNTIMES_JSON, runtimes)
+
+    def _finish(self, c: Cell, status: str, error: str | None = None) -> None:
+        write_json(
+            self.out / CELLS_DIR / c.id / CELL_JSON,
+            {"key": c.key(), "level": c.level, "seed": c.seed, "status": status, "error": error},
+        )
+
+    def plan_only(self) -> tuple[list[Cell], dict[str, Any]]:
+        """Plan every cell (nothing rendered); the cells and their plans (``plan.json``'s records)."""
+        self.guard()
+        self.out.mkdir(parents=True, exist_ok=True)
+        with open_executor(self.executor) as ex:
+            cells = self.plan(ex)
+        self._record(cells, {})
+        return cells, self._plans()
+
+    def run(self) -> BenchmarkOutcome:
+        """Plan and run every cell (reusing finished ones), then write the leaderboard."""
+        from roman_sim.benchmark.board import write_leaderboard
+
+        self.guard()
+        self.out.mkdir(parents=True, exist_ok=True)
+        outcome = BenchmarkOutcome(self.out, [])
+        status: dict[str, str] = {}
+        with open_executor(self.executor) as ex:
+            cells = self.plan(ex)
+            outcome.cells = [c.id for c in cells]
+            plans = self._plans()
+            self._record(cells, status)
+            for n, c in enumerate(cells):
+                if not plans.get(c.id, {}).get("ok"):
+                    outcome.failures[c.id] = f"planning failed: {plans.get(c.id, {}).get('error', 'no plan')}"
+                    self._finish(c, "failed", outcome.failures[c.id])
+                elif self._done(c):
+                    outcome.reused.append(c.id)
+                else:
+                    self._attempt(c, ex, outcome)
+                status[c.id] = "failed" if c.id in outcome.failures else "ok"
+                self._record(cells, status)
+                self.progress(n + 1, len(cells), c.id)
+        write_leaderboard(self.out)
+        return outcome
+
+    def _attempt(self, c: Cell, ex: Executor, outcome: BenchmarkOutcome) -> None:
+        try:
+            self._run_cell(c, ex)
+        except RomanSimError as err:
+            outcome.failures[c.id] = str(err)
+        except Exception as err:  # a plug-in's own error or a bug: this cell fails, the others run
+            log.debug("cell %s failed", c.id, exc_info=True)
+            outcome.failures[c.id] = f"{type(err).__name__}: {one_line(err)}"
+        if c.id in outcome.failures:
+            log.warning("cell %s failed: %s", c.id, outcome.failures[c.id])
+            self._finish(c, "failed", outcome.failures[c.id])
+        else:
+            self._finish(c, "ok")
+
+
+def _floats(values: object) -> list[float]:
+    """The numbers of a JSON list (anything else: empty)."""
+    if not isinstance(values, list):
+        return []
+    return [float(v) for v in values if isinstance(v, (int, float))]

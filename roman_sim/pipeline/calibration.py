@@ -1,0 +1,191 @@
+"""Calibration runs: measure a segmenter or an encoder on rendered frames of a scenario's world,
+then fit the simulated front end (``roman_sim.frontend.fit``) to reproduce it.
+
+The encoder is measured on the true instance masks (the ``perfect`` segmenter), so its
+cosine distributions are not mixed with segmentation errors; the segmenter is measured
+alone. The result is a YAML file a scenario can use as its front-end preset
+(``frontend: {preset: calibration.yaml}``)::
+
+    calibration: {scenario: ..., frames: ..., encoder: clip, dim: 768, segmenter: ...}
+    frontend:
+      semantics: {dim: 768, confusion: {...}, groups: {...}}   # from an encoder
+      segmenter: {name: fastsam, params: {...}}               # from a segmenter
+
+``semantics.dim`` is the measured encoder's dimension: a scenario that sets another one
+refuses the file.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import yaml
+
+from roman_sim.core.jsontypes import JSONLike, JSONScalar
+from roman_sim.core.sensors import Frame
+from roman_sim.evaluation.frontend import FrontEndGrader
+from roman_sim.evaluation.frontend_types import DescriptorGrades, GradeConfig, SegmentationGrades
+from roman_sim.frontend.components import FrontEnd, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
+from roman_sim.frontend.fit import fit_segmenter, fit_semantics
+from roman_sim.frontend.segmenter import SegmenterConfig, SimulatedSegmenter
+from roman_sim.frontend.semantics import SemanticConfig
+from roman_sim.mapping.observation import observe_indexed
+from roman_sim.mapping.protocols import Segmenter, SemanticEncoder
+from roman_sim.mapping.tracker import MappingConfig
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import Scenario
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class CalibrationFrames:
+    """Rendered frames of a scenario's robots and the world's object families."""
+
+    frames: list[Frame]
+    families: dict[int, str]
+    seed: int
+
+
+def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> CalibrationFrames:
+    """At most ``max_frames`` frames in all (RGB on), spread evenly over each robot's run."""
+    import numpy as np
+
+    from roman_sim.sim.robot import DrivenRun, plan_paths, render_trajectory, trajectory_along
+    from roman_sim.world import generate
+
+    world = generate(scenario.world.spec(), scenario.seed)
+    robots = [r.model_copy(update={"render_rgb": True}) for r in scenario.robots]
+    paths = plan_paths(world, robots, scenario.seed)
+    per_robot = max(1, max_frames // len(robots))
+    frames: list[Frame] = []
+    for r in robots:
+        t, T_wb, T_ob = trajectory_along(world, r, scenario.seed, paths[r.name])
+        keep = np.unique(np.linspace(0, len(t) - 1, min(per_robot, len(t))).round().astype(int))
+        traj = DrivenRun(t[keep], T_wb[keep], T_ob[keep])
+        frames += list(render_trajectory(world, r, scenario.seed, traj))
+    return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed)
+
+
+def grade_segmenter(
+    data: CalibrationFrames, segmenter: Segmenter, cfg: GradeConfig | None = None
+) -> SegmentationGrades:
+    """Segmentation grades of ``segmenter`` on the frames (truth only for truth-driven segmenters)."""
+    grader = FrontEndGrader(data.families, cfg=cfg, seed=data.seed)
+    truth = bool(getattr(segmenter, "reads_truth", False))
+    for f in data.frames:
+        grader.add(f, segmenter.segment(f if truth else f.public()), [])
+    return grader.seg
+
+
+def grade_encoder(
+    data: CalibrationFrames, encoder: SemanticEncoder, semantics: SemanticConfig, cfg: GradeConfig | None = None
+) -> DescriptorGrades | None:
+    """Descriptor grades of ``encoder`` on the true instance masks of the frames."""
+    grader = FrontEndGrader(data.families, semantics.group_of, cfg=cfg, seed=data.seed)
+    perfect = build_segmenter("perfect", data.seed)
+    mapping = MappingConfig()
+    for f in data.frames:
+        masks = perfect.segment(f)
+        observed = observe_indexed(f, masks, mapping, encoder)
+        grader.add(f, masks, [(k, o.descriptor) for k, o in observed])
+    return grader.descriptor_grades()
+
+
+@dataclass
+class Calibration:
+    """Measured grades of the target components, the fitted parameters and the fit's own grades."""
+
+    semantics: SemanticConfig | None = None
+    segmenter: SegmenterConfig | None = None
+    measured_descriptors: DescriptorGrades | None = None
+    fitted_descriptors: DescriptorGrades | None = None
+    measured_segmentation: SegmentationGrades | None = None
+    fitted_segmentation: SegmentationGrades | None = None
+    meta: dict[str, JSONScalar] | None = None
+
+    def frontend_yaml(self) -> str:
+        """The fitted parameters as a front-end preset file: ``calibration`` (what was measured) and ``frontend``."""
+        fe: dict[str, JSONLike] = {}
+        if self.semantics is not None:
+            fe["semantics"] = self.semantics.model_dump(mode="json")
+        if self.segmenter is not None:
+            fe["segmenter"] = {"name": "fastsam", "params": self.segmenter.model_dump(mode="json")}
+        head = {"calibration": self.meta} if self.meta else {}
+        return yaml.safe_dump({**head, "frontend": fe}, sort_keys=False)
+
+    def to_json(self) -> dict[str, JSONLike]:
+        """Everything measured and fitted, JSON-ready."""
+        out: dict[str, JSONLike] = {"frontend": yaml.safe_load(self.frontend_yaml())["frontend"]}
+        for name in ("measured_descriptors", "fitted_descriptors", "measured_segmentation", "fitted_segmentation"):
+            v = getattr(self, name)
+            out[name] = None if v is None else v.to_json()
+        return out
+
+
+def calibrate(
+    data: CalibrationFrames,
+    frontend: FrontEnd,
+    encoder: bool = True,
+    segmenter: bool = True,
+    iterations: int = 4,
+    prior_semantics: SemanticConfig | None = None,
+    prior_segmenter: SegmenterConfig | None = None,
+    target_encoder: SemanticEncoder | None = None,
+    target_segmenter: Segmenter | None = None,
+) -> Calibration:
+    """Measure ``frontend``'s encoder and/or segmenter on ``data`` and fit the simulated ones to them.
+
+    Args:
+        data: rendered frames (``render_calibration_frames``).
+        frontend: the components to measure (``frontend.semantics`` parameterises a
+            ``simulated`` target and supplies the family groups).
+        encoder: calibrate the encoder.
+        segmenter: calibrate the segmenter.
+        iterations: correction rounds of the segmenter fit.
+        prior_semantics: starting point of the semantic fit for classes without pairs
+            (default: the default ``SemanticConfig`` with ``frontend.semantics``' groups).
+        prior_segmenter: starting point of the segmenter fit (default: the ``fastsam``
+            preset with the target's mask-filter fields).
+        target_encoder: an already built encoder (default: built from ``frontend``; build
+            truth-free ones before rendering to fail early on bad weights).
+        target_segmenter: an already built segmenter, as ``target_encoder``.
+    """
+    meta: dict[str, JSONScalar] = {"frames": len(data.frames), "seed": data.seed}
+    out = Calibration(meta=meta)
+    seed = data.seed
+    if encoder:
+        target = target_encoder or build_encoder(
+            frontend, seed, "calibration", data.families if encoder_spec(frontend.encoder).reads_truth else None
+        )
+        out.measured_descriptors = grade_encoder(data, target, frontend.semantics)
+        meta.update(encoder=frontend.encoder.name)
+        if out.measured_descriptors is not None:
+            meta.update(dim=out.measured_descriptors.dim)
+            prior = prior_semantics or SemanticConfig(groups=frontend.semantics.groups)
+            out.semantics = fit_semantics(out.measured_descriptors, prior)
+            fitted = build_encoder(FrontEnd(semantics=out.semantics), seed + 1, "calibration-fit", data.families)
+            out.fitted_descriptors = grade_encoder(data, fitted, out.semantics)
+    if segmenter:
+        target_seg = target_segmenter or build_segmenter(frontend, seed, "calibration")
+        meta.update(segmenter=frontend.segmenter.name)
+        out.measured_segmentation = grade_segmenter(data, target_seg)
+
+        def grade(cfg: SegmenterConfig) -> SegmentationGrades:
+            return grade_segmenter(data, SimulatedSegmenter(cfg, seed + 1))
+
+        width = int(data.frames[0].depth.shape[1]) if data.frames else 640
+        out.segmenter = fit_segmenter(
+            out.measured_segmentation, grade, prior_segmenter or _prior(frontend.segmenter), iterations, width
+        )
+        out.fitted_segmentation = grade(out.segmenter)
+    return out
+
+
+def _prior(entry: SegmenterEntry) -> SegmenterConfig:
+    """The fastsam preset, with the target's own mask-filter fields when it has them."""
+    keep = {k: v for k, v in entry.params.items() if k in ("min_area_div", "max_area_div", "erosion_px")}
+    return SegmenterConfig(**keep)

@@ -1,0 +1,84 @@
+"""The committed ``standard`` benchmark results: the leaderboard follows from their raw pairs, every cell
+meets the interval bound, and the README's benchmark block is what they render to.
+
+Skipped until ``results/benchmark/standard/`` is committed (``roman-sim benchmark standard``).
+The counts are re-derived twice: by the package (``benchmark.board.leaderboard``) and by hand
+(the ``by_hand`` fixture), from the raw pairs tables with the standard library only.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from roman_sim.benchmark.board import leaderboard
+from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
+from roman_sim.report.recompute import compare
+
+ROOT = Path(__file__).resolve().parents[2]
+STANDARD = ROOT / "results" / "benchmark" / "standard"
+FIGURE = "results/benchmark/standard/plots/recall_heading.png"
+
+pytestmark = pytest.mark.skipif(
+    not (STANDARD / "leaderboard.json").is_file(), reason="no committed standard benchmark results"
+)
+
+
+def _committed() -> dict:
+    return json.loads((STANDARD / "leaderboard.json").read_text(encoding="utf-8"))
+
+
+@pytest.fixture(scope="module", name="again")
+def _again() -> dict:
+    """The leaderboard re-derived from the committed raw pairs (once for the module), as JSON."""
+    return json.loads(json.dumps(leaderboard(STANDARD)[0]))
+
+
+def test_the_leaderboard_follows_from_the_raw_pairs(again, by_hand_points, by_hand_precision_90):
+    committed = _committed()
+    diffs = compare(committed, again, "leaderboard.json", rel_tol=1e-9, abs_tol=1e-12)
+    assert not diffs, diffs[:10]
+    hand, p90 = by_hand_points(STANDARD), by_hand_precision_90(STANDARD)
+    for e in committed["levels"]:
+        for b in e["bins"]:
+            for m, pts in b["methods"].items():
+                p = pts["max_recall"]
+                got = (p["hits"], p["n_relevant"], p["k"], p["false_positives"])
+                assert hand[(e["name"], b["heading"], m)] == got, (e["name"], b["heading"], m)
+                q = pts["precision_90"]
+                got = (q["hits"], q["k"], q["false_positives"])
+                assert p90[(e["name"], b["heading"], m)] == got, (e["name"], b["heading"], m)
+
+
+def test_every_cell_meets_the_interval_bound():
+    board = _committed()
+    assert board["bound_met"] and not board["failed_cells"]
+    assert [e["name"] for e in board["levels"]] == ["low", "medium", "high"]
+    for e in board["levels"]:
+        assert len(e["bins"]) == 6
+        for b in e["bins"]:
+            assert b["n_relevant"] >= 100, (e["name"], b["heading"])
+            assert b["max_half_width"] <= board["half_width_bound"], (e["name"], b["heading"])
+
+
+def test_readme_block_is_rendered_from_the_committed_results():
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    if README_BEGIN not in readme:
+        pytest.skip("the README has no benchmark block yet")
+    start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
+    assert readme[start:end] == readme_block(_committed(), FIGURE)
+
+
+def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
+    from roman_sim.report.benchmark_plots import recall_heading_data
+    from roman_sim.report.plots import read_png_data
+
+    shown = read_png_data(ROOT / FIGURE)
+    assert shown == json.loads(json.dumps(recall_heading_data(again)))
+    hand = by_hand_points(STANDARD)
+    for level in ("low", "medium", "high"):
+        for m, rows in shown[level]["max_recall"].items():
+            for heading, row in zip(shown["bins"], rows, strict=True):
+                assert tuple(row[:2]) == hand[(level, heading, m)][:2], (level, heading, m)
