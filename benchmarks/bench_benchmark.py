@@ -69,7 +69,7 @@ def _stages(folder: Path) -> dict[str, Any]:
 def quick(workers: int = 1) -> None:
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
-    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.runner.executors import ExecutorConfig
 
     folder = Path(tempfile.mkdtemp(prefix="bench-quick-"))
     load0, t0, c0 = _load(), time.perf_counter(), _cpu()
@@ -99,7 +99,7 @@ def quick(workers: int = 1) -> None:
 def plan() -> None:
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
-    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.runner.executors import ExecutorConfig
 
     folder = Path(tempfile.mkdtemp(prefix="bench-plan-"))
     load0, c0 = _load(), _cpu()

@@ -75,9 +75,9 @@ def _printed(code: str) -> float:
 def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
     """CPU seconds of every stage (and of each robot's mapping) of a fresh serial run of ``name``."""
     from roman_sim.pipeline import experiment
-    from roman_sim.pipeline.executor_base import ExecutorConfig
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.pipeline.stages import maps
+    from roman_sim.runner.executor_base import ExecutorConfig
 
     stages: dict[str, float] = {}
     robots: dict[str, float] = {}

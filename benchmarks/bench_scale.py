@@ -109,7 +109,7 @@ def _one_vs_two(name: str, kind: str, repeats: int, overrides: list[str] | None 
     drifts within minutes: the medians of interleaved runs compare like with like)."""
     import statistics
 
-    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.runner.executors import ExecutorConfig
 
     runs: dict[int, list[dict[str, Any]]] = {1: [], 2: []}
     with tempfile.TemporaryDirectory() as d:
@@ -136,7 +136,7 @@ def part_demo(repeats: int) -> dict[str, Any]:
 
 
 def part_paper(name: str, workers: int) -> dict[str, Any]:
-    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.runner.executors import ExecutorConfig
 
     res = _run(name, WORK / name, ExecutorConfig(kind="local", workers=workers))
     res["workers"] = workers
@@ -145,8 +145,8 @@ def part_paper(name: str, workers: int) -> dict[str, Any]:
 
 
 def part_probe(name: str, workers: int, length_m: float) -> dict[str, Any]:
-    from roman_sim.pipeline.executors import ExecutorConfig
     from roman_sim.pipeline.scenario import load_scenario
+    from roman_sim.runner.executors import ExecutorConfig
 
     n = len(load_scenario(name).robots)
     ovr = [f"robots.{i}.max_length_m={length_m}" for i in range(n)]
@@ -163,7 +163,7 @@ def part_dask(name: str, repeats: int) -> dict[str, Any]:
 
 def part_pairs(name: str, workers: int) -> dict[str, Any]:
     """Evaluation only, from the finished run's maps and submaps: all pairs vs gated."""
-    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.runner.executors import ExecutorConfig
 
     src = WORK / name
     out: dict[str, Any] = {}

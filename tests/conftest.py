@@ -3,9 +3,22 @@
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import pytest
 from typer.testing import CliRunner
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.result import RunResult
+
+
+@pytest.fixture(scope="session")
+def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
+    """The bundled smoke scenario, seed 0 (run once per test session)."""
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import load_scenario
+
+    return Experiment(load_scenario("smoke"), tmp_path_factory.mktemp("smoke") / "seed0").run()
 
 
 @pytest.fixture
@@ -42,12 +55,12 @@ LONGEST_FIRST = (
     "tests/benchmark/test_quick.py",
     "tests/pipeline/test_visual.py",
     "tests/pipeline/test_regression.py",
-    "tests/pipeline/test_executors.py",
+    "tests/runner/test_executors.py",
     "tests/pipeline/test_scenario_stats.py",
     "tests/robustness/test_interrupts.py",
     "tests/pipeline/test_run_features.py",
     "tests/benchmark/test_run.py",
-    "tests/pipeline/test_dask_security.py",
+    "tests/runner/test_dask_security.py",
     "tests/pipeline/test_wheel.py",
     "tests/pipeline/test_sweep.py",
     "tests/pipeline/test_bundled_scenarios.py",

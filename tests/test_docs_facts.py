@@ -144,7 +144,7 @@ def test_evaluation_page_states_the_defaults():
 
 
 def test_cluster_pages_state_the_connect_timeout():
-    from roman_sim.pipeline.executor_base import ExecutorConfig
+    from roman_sim.runner.executor_base import ExecutorConfig
 
     timeout = ExecutorConfig().connect_timeout_s
     for page in ("docs/tls.md", "docs/robustness.md"):

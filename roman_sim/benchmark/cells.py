@@ -22,9 +22,9 @@ from roman_sim.core.errors import RomanSimError
 from roman_sim.core.registry import one_line
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.executors import Executor
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import Scenario
+from roman_sim.runner.executors import Executor
 
 BENCHMARK_JSON = "benchmark.json"
 BENCHMARK_SCHEMA = "roman_sim.benchmark/1"

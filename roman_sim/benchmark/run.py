@@ -51,8 +51,8 @@ from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.config import dump_yaml, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.registry import one_line
-from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
 from roman_sim.pipeline.scenario import Scenario
+from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
 
 log = logging.getLogger(__name__)
 

@@ -35,7 +35,7 @@ def executor_config(
 ) -> Any:
     """An ``ExecutorConfig``: ``base`` (a sweep file's, or the CLI default: local pool) with the options set."""
     from roman_sim.core.config import validate_model
-    from roman_sim.pipeline.executors import ExecutorConfig
+    from roman_sim.runner.executors import ExecutorConfig
 
     data: dict[str, Any] = dict(base) if base is not None else {"kind": "local"}
     given: dict[str, Any] = {

@@ -156,7 +156,7 @@ def _run(
     from_stage: str | None = None,
     executor: Any = None,
 ) -> None:
-    from roman_sim.pipeline.executors import prestart
+    from roman_sim.runner.executors import prestart
 
     prestart(executor)  # a local pool's forkserver imports the tasks' modules while this process imports its own
     from roman_sim.pipeline.experiment import Experiment, default_run_dir

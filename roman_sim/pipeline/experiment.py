@@ -34,16 +34,16 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
-from roman_sim.pipeline.checkpoint import Checkpoint, clear_checkpoints
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
-from roman_sim.pipeline.executors import Executor, ExecutorConfig, open_executor
 from roman_sim.pipeline.folder_lock import hold_run_folder
 from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, environment_changes, existing_manifest
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, Stage, StageOutput
 from roman_sim.pipeline.stages.base import Timings
-from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.runner.checkpoint import Checkpoint, clear_checkpoints
+from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
+from roman_sim.runner.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
 
@@ -206,7 +206,7 @@ class Experiment:
                 return self._run(ex)
 
     def _run(self, ex: Executor) -> RunResult:
-        from roman_sim.pipeline.dask_security import plugin_modules
+        from roman_sim.pipeline.plugins import plugin_modules
 
         ex.check_imports(plugin_modules(self.scenario))
         ctx = self.context()

@@ -25,10 +25,10 @@ from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.types import Submap
-from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.pipeline.tasks import ChunkRecord, align_chunk_task, result_from_json
+from roman_sim.runner.checkpoint import Kept
+from roman_sim.runner.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
 

@@ -26,6 +26,7 @@ if TYPE_CHECKING:
     from roman_sim.core.sensors import Frame
     from roman_sim.mapping.protocols import EncodeContext
     from roman_sim.mapping.types import Submap
+    from roman_sim.pipeline.scenario import Scenario
 
 UNIT_TOL = 1e-3  # |norm - 1| allowed of an encoder's descriptor (float32 rounding is ~1e-7)
 
@@ -172,3 +173,11 @@ def _dry_frame(with_rgb: bool) -> tuple[Frame, NDArray[np.bool_], NDArray[np.uin
     crop = None if frame.rgb is None else np.asarray(frame.rgb)[r0:r1, c0:c1]
     ctx = EncodeContext(object_id=k, view_dir=np.array([1.0, 0.0, 0.0]))
     return frame, pix[r0:r1, c0:c1], crop, ctx
+
+
+def plugin_modules(scenario: Scenario) -> list[str]:
+    """The ``package.module`` part of every ``module:Class`` plug-in a scenario names."""
+    names = [a.method for a in scenario.aligners]
+    fe = scenario.frontend
+    names += [entry.name for entry in (fe.segmenter, fe.encoder)]
+    return sorted({n.split(":", 1)[0] for n in names if ":" in n})

@@ -28,9 +28,9 @@ from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.protocols import Segmenter, SemanticEncoder
 from roman_sim.mapping.types import KeyframeSet
-from roman_sim.pipeline.checkpoint import Kept
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.plugin_guard import guard_frontend, is_plugin
+from roman_sim.runner.checkpoint import Kept
 
 if TYPE_CHECKING:
     from numpy.typing import NDArray

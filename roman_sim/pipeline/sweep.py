@@ -11,7 +11,7 @@ the seeds with its 95 % interval, and the pooled hits / relevant with a Wilson i
 Any exception inside one run (a user plug-in's included) is recorded as that run's failure
 in the table; the other runs go on.
 
-Cells run as tasks of the run executor interface (``roman_sim.pipeline.executors``: serial,
+Cells run as tasks of the run executor interface (``roman_sim.runner.executors``: serial,
 local pool, Dask). Every path a task gets is absolute, so a worker in another folder writes
 where the table is read; ``sweep_failures`` lists the cells that failed or left no complete
 run (the CLI prints them and exits 1).
@@ -30,8 +30,8 @@ from roman_sim.core.atomic import write_text
 from roman_sim.core.config import read_yaml, validate_model
 from roman_sim.core.errors import RomanSimError
 from roman_sim.core.registry import one_line
-from roman_sim.pipeline.executors import TaskError, open_executor
 from roman_sim.pipeline.sweep_spec import RunSpec, SweepConfig, expand
+from roman_sim.runner.executors import TaskError, open_executor
 
 log = logging.getLogger(__name__)
 

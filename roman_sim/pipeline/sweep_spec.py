@@ -12,7 +12,7 @@ from pydantic import Field
 
 from roman_sim.core.config import FiniteTree, StrictModel
 from roman_sim.core.errors import ConfigError
-from roman_sim.pipeline.executor_base import ExecutorConfig
+from roman_sim.runner.executor_base import ExecutorConfig
 
 
 class SweepConfig(StrictModel):

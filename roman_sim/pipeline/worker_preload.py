@@ -1,7 +1,7 @@
 """What a run's local pool's forkserver imports before it forks a worker: the modules the run's tasks use.
 
 A run's local pool names this module as the forkserver's preload
-(``roman_sim.pipeline.executors.RUN_PRELOAD``). Every worker is forked from the forkserver
+(``roman_sim.runner.executors.RUN_PRELOAD``). Every worker is forked from the forkserver
 with these modules already imported and the compiled CLIPPER solver loaded, so no worker
 does that again (seconds of CPU each), and the forkserver does it while the run's own
 process imports and generates the world. Best effort: a module that fails to import here (a

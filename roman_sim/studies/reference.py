@@ -61,7 +61,7 @@ from roman_sim.studies.reference_tables import (
 )
 
 if TYPE_CHECKING:
-    from roman_sim.pipeline.executor_base import ExecutorConfig
+    from roman_sim.runner.executor_base import ExecutorConfig
 
 log = logging.getLogger(__name__)
 

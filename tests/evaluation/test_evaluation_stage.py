@@ -13,10 +13,10 @@ from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stages.evaluation import EvaluationInputs, EvaluationStage
 from roman_sim.pipeline.stages.submaps import Submaps
-from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.report.mapview import map_view_png
 from roman_sim.report.markdown import report_markdown
 from roman_sim.report.render import example_pngs, metric_plot_pngs
+from roman_sim.runner.taskrunner import TaskRunner
 
 
 class IdentityAligner:

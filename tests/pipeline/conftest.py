@@ -1,4 +1,4 @@
-"""Shared smoke runs (seeded, cached per test session)."""
+"""Shared runs (seeded, cached per test session); the smoke run is in the suite's own conftest."""
 
 from __future__ import annotations
 
@@ -7,13 +7,6 @@ import pytest
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
-
-
-@pytest.fixture(scope="session")
-def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
-    """The bundled smoke scenario, seed 0."""
-    sc = load_scenario("smoke")
-    return Experiment(sc, tmp_path_factory.mktemp("smoke") / "seed0").run()
 
 
 @pytest.fixture(scope="session", params=[0, 1], ids=["seed0", "seed1"])

@@ -22,7 +22,7 @@ from roman_sim.pipeline.stages.evaluation import EvaluationInputs, EvaluationSta
 from roman_sim.pipeline.stages.posegraph import PoseGraphStage
 from roman_sim.pipeline.stages.report import ReportStage
 from roman_sim.pipeline.stages.submaps import Submaps
-from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.runner.taskrunner import TaskRunner
 
 SHORT = ["robots.0.max_length_m=12", "robots.1.max_length_m=12"]
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pytest
 
-from roman_sim.pipeline.executors import LocalPoolExecutor
+from roman_sim.runner.executors import LocalPoolExecutor
 from roman_sim.testing import assert_same_run_folder
 
 from .processes import cli, pool_workers, start, tagged, tagged_env, wait_gone
@@ -36,7 +36,7 @@ STOP_BOUND_S = 15.0
 CHILD = """
 import random, sys, time
 from roman_sim.cli._signals import stop_code, stops_cleanly
-from roman_sim.pipeline.executors import ExecutorConfig, open_executor
+from roman_sim.runner.executors import ExecutorConfig, open_executor
 
 
 def main(mode, seed, kind):

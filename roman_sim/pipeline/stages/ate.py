@@ -17,7 +17,7 @@ from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
-from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.runner.taskrunner import TaskRunner
 
 ATE_JSON = "ate.json"
 

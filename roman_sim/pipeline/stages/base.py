@@ -43,7 +43,7 @@ from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance

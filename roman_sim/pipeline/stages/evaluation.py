@@ -44,7 +44,7 @@ from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.runner.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
 

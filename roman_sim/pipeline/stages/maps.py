@@ -39,8 +39,8 @@ from roman_sim.pipeline.robot_mapping import RobotMapping, RobotMappingCodec, ma
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.report.frontend import plot_frontend_grades
+from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:
     from roman_sim.sim.paths import Path2D

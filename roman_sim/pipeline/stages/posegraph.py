@@ -59,8 +59,8 @@ from roman_sim.pipeline.stages.estimates import (
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
-from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.posegraph import LoopClosure, build_and_solve, submap_nodes_from
+from roman_sim.runner.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
 

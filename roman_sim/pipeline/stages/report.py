@@ -38,7 +38,6 @@ from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.report.examples import example_file, example_rows
 from roman_sim.report.markdown import REPORT_MD, report_markdown
 from roman_sim.report.plots import METRIC_PLOTS
@@ -52,6 +51,7 @@ from roman_sim.report.render import (
     trajectory_plot_png,
 )
 from roman_sim.report.trajplot import closure_lines
+from roman_sim.runner.taskrunner import TaskRunner
 
 MAP_STATS_JSON = "map_stats.json"
 SNAPSHOT = "plots/segments_on_image.png"

@@ -22,8 +22,8 @@ from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.maps import Maps
-from roman_sim.pipeline.taskrunner import TaskRunner
 from roman_sim.pipeline.tasks import submaps_task
+from roman_sim.runner.taskrunner import TaskRunner
 
 
 @dataclass

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING
 from roman_sim.core.jsontypes import JSON
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import NoInputs, Stage, Timings
-from roman_sim.pipeline.taskrunner import TaskRunner
+from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:
     from roman_sim.world import World

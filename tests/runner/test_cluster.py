@@ -19,7 +19,7 @@ import pytest
 import yaml
 
 from roman_sim.core.errors import ClusterError, ConfigError
-from roman_sim.pipeline.cluster import connect, parse_scheduler_address
+from roman_sim.runner.cluster import connect, parse_scheduler_address
 
 pytestmark = pytest.mark.timeout(120)
 T = 1.0  # handshake bound used in these tests (s)

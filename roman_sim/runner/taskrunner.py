@@ -17,8 +17,8 @@ import logging
 from collections.abc import Callable, Iterator, Sequence
 from typing import TypeVar
 
-from roman_sim.pipeline.checkpoint import Checkpoint, TaskCodec
-from roman_sim.pipeline.executor_base import Executor
+from roman_sim.runner.checkpoint import Checkpoint, TaskCodec
+from roman_sim.runner.executor_base import Executor
 
 log = logging.getLogger(__name__)
 
@@ -35,7 +35,7 @@ class TaskRunner:
 
     def __init__(self, executor: Executor | None = None, checkpoint: Checkpoint | None = None) -> None:
         if executor is None:
-            from roman_sim.pipeline.executors import SerialExecutor
+            from roman_sim.runner.executors import SerialExecutor
 
             executor = SerialExecutor()
         self.executor = executor

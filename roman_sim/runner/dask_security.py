@@ -27,13 +27,12 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.pipeline.executor_base import ExecutorConfig
+from roman_sim.runner.executor_base import ExecutorConfig
 
 if TYPE_CHECKING:
     from distributed import Client, LocalCluster
     from distributed.security import Security
 
-    from roman_sim.pipeline.scenario import Scenario
 
 log = logging.getLogger(__name__)
 
@@ -193,11 +192,3 @@ def check_worker_imports(client: Client, modules: list[str]) -> None:
                 f"Dask worker {worker} cannot import plug-in module {module!r} ({why}); install it on the "
                 f"workers or ship it with --upload {module.replace('.', '/')}.py"
             )
-
-
-def plugin_modules(scenario: Scenario) -> list[str]:
-    """The ``package.module`` part of every ``module:Class`` plug-in a scenario names."""
-    names = [a.method for a in scenario.aligners]
-    fe = scenario.frontend
-    names += [entry.name for entry in (fe.segmenter, fe.encoder)]
-    return sorted({n.split(":", 1)[0] for n in names if ":" in n})

@@ -30,7 +30,7 @@ from multiprocessing import forkserver
 from multiprocessing.connection import Connection
 from typing import TypeVar
 
-from roman_sim.pipeline.executor_base import (
+from roman_sim.runner.executor_base import (
     Executor,
     ExecutorConfig,
     TaskError,
@@ -38,7 +38,7 @@ from roman_sim.pipeline.executor_base import (
     guarded,
     worker_name,
 )
-from roman_sim.pipeline.lifeline import (
+from roman_sim.runner.lifeline import (
     Lifeline,
     end_processes,
     parent_sys_path,
@@ -135,7 +135,7 @@ class LocalPoolExecutor(Executor):
     caller works on. Workers size their libraries' thread pools to their share of the
     cores (``thread_limits``) and take this process's ``sys.path`` when the pool is made.
 
-    Workers die with the main process however it ends (``roman_sim.pipeline.lifeline``). An
+    Workers die with the main process however it ends (``roman_sim.runner.lifeline``). An
     interrupt (or the caller abandoning ``run_tasks``) cancels the pending tasks and ends the
     running ones at once; ``close`` ends workers still alive ``stop_grace_s`` after the pool
     was asked to stop (a worker that never started or never answers), so stopping is bounded.
@@ -257,7 +257,7 @@ def open_executor(cfg: ExecutorConfig | None, run: bool = False) -> Executor:
     if cfg.kind == "local":
         n = cfg.n_workers()
         return SerialExecutor() if n == 1 else LocalPoolExecutor(n, (RUN_PRELOAD,) if run else (TASKS,))
-    from roman_sim.pipeline.dask_executor import DaskExecutor
+    from roman_sim.runner.dask_executor import DaskExecutor
 
     return DaskExecutor(cfg)
 

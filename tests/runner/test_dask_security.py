@@ -10,11 +10,11 @@ from pathlib import Path
 import pytest
 
 from roman_sim.core.errors import ClusterError, ConfigError
-from roman_sim.pipeline.dask_executor import DaskExecutor, connect_client
-from roman_sim.pipeline.dask_security import PluginImportError, check_address, is_loopback, security_for
-from roman_sim.pipeline.executors import ExecutorConfig, TaskError
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.runner.dask_executor import DaskExecutor, connect_client
+from roman_sim.runner.dask_security import PluginImportError, check_address, is_loopback, security_for
+from roman_sim.runner.executors import ExecutorConfig, TaskError
 from roman_sim.testing import assert_same_run_folder as assert_same_folder
 
 distributed = pytest.importorskip("distributed")
@@ -209,8 +209,8 @@ def _http_host(dask_scheduler=None) -> str:
 
 _DASHBOARD_PROBE = """
 import json, sys, urllib.error, urllib.request
-from roman_sim.pipeline.dask_executor import DaskExecutor
-from roman_sim.pipeline.executors import ExecutorConfig, TaskError
+from roman_sim.runner.dask_executor import DaskExecutor
+from roman_sim.runner.executors import ExecutorConfig, TaskError
 def status(port):
     try:
         with urllib.request.urlopen(f"http://127.0.0.1:{port}/status", timeout=10) as r:

@@ -19,7 +19,7 @@ from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, TypeVar, cast
 
 from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
-from roman_sim.pipeline.executor_base import Executor, ExecutorConfig, TaskError, collect, guarded
+from roman_sim.runner.executor_base import Executor, ExecutorConfig, TaskError, collect, guarded
 
 if TYPE_CHECKING:
     from distributed import Client, Future, LocalCluster
@@ -33,11 +33,11 @@ T = TypeVar("T")
 def connect_client(address: str, timeout_s: float, security: Security | None = None) -> Client:
     """A ``distributed.Client`` connected to ``address`` within ``timeout_s`` (one-line error otherwise).
 
-    Plain ``tcp://`` goes through ``roman_sim.pipeline.cluster.connect`` (a bounded handshake
+    Plain ``tcp://`` goes through ``roman_sim.runner.cluster.connect`` (a bounded handshake
     probe, then an identity check: ports that are not Dask schedulers fail in one line);
     ``tls://`` connects with ``security``, bounded by the client's own timeout.
     """
-    from roman_sim.pipeline.cluster import connect, start_client
+    from roman_sim.runner.cluster import connect, start_client
 
     if security is None and address.strip().startswith("tcp://"):
         return connect(address, timeout_s=timeout_s)
@@ -79,8 +79,8 @@ class DaskExecutor(Executor):
     close_timeout_s = 10.0
 
     def __init__(self, cfg: ExecutorConfig) -> None:
-        from roman_sim.pipeline import dask_security as sec
-        from roman_sim.pipeline.lifeline import signals_deferred
+        from roman_sim.runner import dask_security as sec
+        from roman_sim.runner.lifeline import signals_deferred
 
         self.cfg = cfg
         self.cluster: LocalCluster | None = None
@@ -130,12 +130,12 @@ class DaskExecutor(Executor):
             client.cancel([f for f in futures if not f.done()])
 
     def check_imports(self, modules: Sequence[str]) -> None:
-        from roman_sim.pipeline import dask_security as sec
+        from roman_sim.runner import dask_security as sec
 
         sec.check_worker_imports(self._connected(), list(modules))
 
     def close(self) -> None:
-        from roman_sim.pipeline.lifeline import signals_deferred
+        from roman_sim.runner.lifeline import signals_deferred
 
         cluster, client, self.cluster, self.client = self.cluster, self.client, None, None
         with signals_deferred():

@@ -11,9 +11,9 @@ import pytest
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.pipeline import pairwork
 from roman_sim.pipeline import robot_mapping as maps_stage
-from roman_sim.pipeline.executors import ExecutorConfig, LocalPoolExecutor, SerialExecutor, TaskError, open_executor
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.runner.executors import ExecutorConfig, LocalPoolExecutor, SerialExecutor, TaskError, open_executor
 from roman_sim.testing import assert_same_run_folder as assert_same_folder
 
 
@@ -250,7 +250,7 @@ def test_close_ends_a_worker_that_never_started_within_its_bound(monkeypatch, tm
     import functools
     import time
 
-    from roman_sim.pipeline import executors
+    from roman_sim.runner import executors
 
     marker = tmp_path / "pid"
     monkeypatch.setattr(executors, "worker_init", functools.partial(_never_starts, marker=str(marker)))
@@ -272,7 +272,7 @@ def test_signals_are_held_back_inside_signals_deferred_and_delivered_after():
     import threading
     import time
 
-    from roman_sim.pipeline.lifeline import signals_deferred
+    from roman_sim.runner.lifeline import signals_deferred
 
     if threading.current_thread() is not threading.main_thread():
         pytest.skip("signals reach the main thread only")

@@ -1,7 +1,7 @@
 """The executor interface and what every executor shares: its configuration, task errors, result collection.
 
 The executors themselves (serial, local process pool, Dask) are in
-``roman_sim.pipeline.executors`` and ``roman_sim.pipeline.dask_executor``; see the former's
+``roman_sim.runner.executors`` and ``roman_sim.runner.dask_executor``; see the former's
 docstring for the contract.
 """
 
@@ -57,7 +57,7 @@ class ExecutorConfig(StrictModel):
     def _address(cls, v: str | None) -> str | None:
         if v is None:
             return v
-        from roman_sim.pipeline.cluster import parse_scheduler_address
+        from roman_sim.runner.cluster import parse_scheduler_address
 
         try:
             parse_scheduler_address(v)

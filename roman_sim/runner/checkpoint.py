@@ -1,7 +1,7 @@
 """Task-level checkpoints: what an interrupted stage already finished (a robot, a chunk of pairs).
 
 The experiment gives each stage that runs many tasks a ``Checkpoint`` under the stage's
-cache key (through ``roman_sim.pipeline.taskrunner.TaskRunner``); stage code never touches
+cache key (through ``roman_sim.runner.taskrunner.TaskRunner``); stage code never touches
 it. Each finished task is kept as ``partial/<stage>/<item>.json`` (the record: schema, key,
 the codec's JSON data and the SHA-256 of each payload file) beside the payload files the
 task's ``TaskCodec`` wrote (``partial/<stage>/<item>.<part>``). A re-run of an interrupted
