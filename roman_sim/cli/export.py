@@ -17,12 +17,21 @@ from roman_sim.core.jsontypes import JSONScalar
 @app.command("export")
 def export_cmd(
     scenario: Annotated[str, typer.Argument(help="scenario YAML path or bundled scenario name")],
-    fmt: Annotated[str, typer.Option("--format", "-f", help="tum (TUM RGB-D folders) or rosbag2 (ROS 2 bags)")],
+    fmt: Annotated[
+        str,
+        typer.Option(
+            "--format",
+            "-f",
+            help="tum (TUM RGB-D folders), rosbag2 (ROS 2 bags) or roman (bags + ROMAN parameter folders)",
+        ),
+    ],
     out: Annotated[Path, typer.Option("--out", "-o", help="export folder (one sub-folder per robot)")],
     sets: Annotated[list[str] | None, typer.Option("--set", "-s", help="override, e.g. --set seed=3")] = None,
     robots: Annotated[str | None, typer.Option("--robots", "-r", help="only these robots: a,b")] = None,
     depth_scale: Annotated[float, typer.Option("--depth-scale", help="tum: depth PNG units per metre")] = 5000.0,
-    storage: Annotated[str, typer.Option("--storage", help="rosbag2: mcap or sqlite3")] = "mcap",
+    storage: Annotated[
+        str | None, typer.Option("--storage", help="rosbag2 (default mcap), roman (default sqlite3): mcap or sqlite3")
+    ] = None,
     overwrite: Annotated[bool, typer.Option("--overwrite", help="replace robot folders holding files")] = False,
 ) -> None:
     """Render the robots of a scenario and write them with exact ground truth, masks and the object table."""
@@ -33,7 +42,11 @@ def export_cmd(
     from roman_sim.pipeline.scenario import load_scenario
 
     FORMATS.get(fmt)
-    by_format: dict[str, dict[str, JSONScalar]] = {"tum": {"depth_scale": depth_scale}, "rosbag2": {"storage": storage}}
+    by_format: dict[str, dict[str, JSONScalar]] = {
+        "tum": {"depth_scale": depth_scale},
+        "rosbag2": {"storage": storage or "mcap"},
+        "roman": {"storage": storage or "sqlite3"},
+    }
     options = by_format.get(fmt, {})
     if depth_scale <= 0:
         raise ConfigError(f"--depth-scale: must be a positive number of units per metre, got {depth_scale}")

@@ -27,6 +27,7 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSONLike, JSONScalar
+from roman_sim.interop import roman_export as _roman  # noqa: F401  (registers "roman")
 from roman_sim.interop import rosbag_writer as _rosbag  # noqa: F401  (registers "rosbag2")
 from roman_sim.interop import tum_writer as _tum  # noqa: F401  (registers "tum")
 from roman_sim.interop.base import FORMATS
@@ -154,6 +155,9 @@ def export_scenario(
     for stream in streams:
         _export_robot(stream, fmt, out, options, progress, result)
         log.info("robot %s: %d frames exported as %s", stream.name, stream.n_frames, fmt)
+    finish = getattr(FORMATS.get(fmt), "finish_export", None)
+    if finish is not None:  # files of the whole export (e.g. the ROMAN parameter folders)
+        finish(out, scenario, streams, result.robots)
     manifest = {
         "format": "roman_sim.export",
         "version": 1,

@@ -37,7 +37,7 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -58,6 +58,9 @@ log = logging.getLogger(__name__)
 
 BAG_DIR = "bag"
 STORAGES = ("mcap", "sqlite3")
+#: rosbag2 metadata version: 8 keeps the QoS profiles as the YAML string ROS 2 Humble parses
+#: (version 9 writes them as a list, which Humble's reader rejects); Iron and newer read 8 too.
+METADATA_VERSION: Literal[8] = 8
 
 
 def topics(robot: str) -> dict[str, str]:
@@ -152,7 +155,13 @@ class _Messages:
         return self.t["tf2_msgs/msg/TFMessage"](transforms=transforms)
 
     def odometry(
-        self, ns: int, T: NDArray[np.float64], v_body: NDArray[np.float64], w_body: NDArray[np.float64]
+        self,
+        ns: int,
+        T: NDArray[np.float64],
+        v_body: NDArray[np.float64],
+        w_body: NDArray[np.float64],
+        frame_id: str | None = None,
+        child: str | None = None,
     ) -> Msg:
         g = self.t
         _, quat = self._pose_parts(T)
@@ -166,8 +175,8 @@ class _Messages:
             angular=V3(x=float(w_body[0]), y=float(w_body[1]), z=float(w_body[2])),
         )
         return g["nav_msgs/msg/Odometry"](
-            header=self.header(ns, f"{self.robot}/odom"),
-            child_frame_id=f"{self.robot}/base_link",
+            header=self.header(ns, frame_id or f"{self.robot}/odom"),
+            child_frame_id=child or f"{self.robot}/base_link",
             pose=g["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=np.zeros(36)),
             twist=g["geometry_msgs/msg/TwistWithCovariance"](twist=twist, covariance=np.zeros(36)),
         )
@@ -189,9 +198,13 @@ class RosbagWriter:
         robot: robot name (topic and frame prefix).
         intrinsics: camera intrinsics of every frame.
         T_body_cam: 4x4 camera pose in the body frame (the static transform).
-        storage: ``mcap`` (ROS 2 Iron and later) or ``sqlite3`` (Humble's default).
+        storage: ``mcap`` (ROS 2 Iron and later) or ``sqlite3`` (Humble's default); None:
+            ``default_storage``.
         distro: ``rosbags`` type store for the message definitions.
     """
+
+    #: Storage when none is given.
+    default_storage = "mcap"
 
     def __init__(
         self,
@@ -199,10 +212,12 @@ class RosbagWriter:
         robot: str,
         intrinsics: Intrinsics,
         T_body_cam: NDArray[np.float64],
-        storage: str = "mcap",
+        storage: str | None = None,
         distro: str = "ros2_humble",
     ) -> None:
         from rosbags.rosbag2 import StoragePlugin, Writer
+
+        storage = storage or self.default_storage
         from rosbags.typesys import Stores, get_typestore
 
         if storage not in STORAGES:
@@ -219,14 +234,14 @@ class RosbagWriter:
         self.dir.mkdir(parents=True, exist_ok=True)
         self._tmp_parent = Path(tempfile.mkdtemp(prefix=".bag.", suffix=".tmp", dir=self.dir))
         plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
-        self._writer = Writer(self._tmp_parent / BAG_DIR, version=9, storage_plugin=plugin)
+        self._writer = Writer(self._tmp_parent / BAG_DIR, version=METADATA_VERSION, storage_plugin=plugin)
         self._writer.open()
         self._msgs = _Messages(typestore, robot, intrinsics)
         self._conn = {
             topic: self._writer.add_connection(
                 topic, msgtype, typestore=typestore, offered_qos_profiles=[_qos(topic == "/tf_static")]
             )
-            for topic, msgtype in topics(robot).items()
+            for topic, msgtype in self.topic_table(robot).items()
         }
         self._masks = MaskWriter(self.dir, robot)
         self._counts = {topic: 0 for topic in self._conn}
@@ -236,37 +251,54 @@ class RosbagWriter:
         self._writer.write(self._conn[topic], ns, self._msgs.ts.serialize_cdr(msg, msg.__msgtype__))
         self._counts[topic] += 1
 
+    def topic_table(self, robot: str) -> dict[str, str]:
+        """Topic name -> message type of the bag (``topics``)."""
+        return topics(robot)
+
     def write(self, frame: Frame) -> None:
-        """Write one frame's images, camera infos, odometry and transforms, and its mask."""
+        """Write one frame's messages (``frame_messages``) and its mask."""
         if frame.rgb is None or frame.truth is None:
             raise StorageError(f"rosbag2 export: frame {frame.index} of robot {frame.robot} needs RGB and truth")
-        ns, r, m = stamp_ns(frame.t), self.robot, self._msgs
+        ns = stamp_ns(frame.t)
         if self._prev is not None and ns <= self._prev[0]:
             raise StorageError(f"rosbag2 export: frame {frame.index}: time stamp does not increase")
         if self._prev is None:
-            self._put("/tf_static", ns, m.tf([m.transform(ns, f"{r}/base_link", m.cam_frame, self.T_bc)]))
-        depth = np.asarray(frame.depth, dtype=np.float32)
-        depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(np.nan)).astype("<f4")
-        self._put(f"/{r}/camera/color/image_raw", ns, m.image(ns, np.asarray(frame.rgb, dtype=np.uint8), "rgb8"))
-        self._put(f"/{r}/camera/color/camera_info", ns, m.camera_info(ns))
-        self._put(f"/{r}/camera/depth/image", ns, m.image(ns, depth, "32FC1"))
-        self._put(f"/{r}/camera/depth/camera_info", ns, m.camera_info(ns))
+            m = self._msgs
+            self._put("/tf_static", ns, m.tf([m.transform(ns, f"{self.robot}/base_link", m.cam_frame, self.T_bc)]))
         T_ob = np.asarray(frame.T_odom_body, dtype=np.float64)
-        dt = 0.0 if self._prev is None else (ns - self._prev[0]) / 1e9
-        v, w = body_twist(None if self._prev is None else self._prev[1], T_ob, dt)
-        self._put(f"/{r}/odom", ns, m.odometry(ns, T_ob, v, w))
-        self._put(
-            "/tf",
-            ns,
-            m.tf(
-                [
-                    m.transform(ns, "world", f"{r}/base_link_gt", frame.truth.T_world_body),
-                    m.transform(ns, f"{r}/odom", f"{r}/base_link", T_ob),
-                ]
-            ),
-        )
+        for topic, msg in self.frame_messages(frame, ns, T_ob):
+            self._put(topic, ns, msg)
         self._masks.write(frame, stamp_text(ns))
         self._prev = (ns, T_ob)
+
+    def odometry(self, ns: int, T_ob: NDArray[np.float64]) -> Msg:
+        """The body odometry message (twist from the previous frame's pose)."""
+        dt = 0.0 if self._prev is None else (ns - self._prev[0]) / 1e9
+        v, w = body_twist(None if self._prev is None else self._prev[1], T_ob, dt)
+        return self._msgs.odometry(ns, T_ob, v, w)
+
+    def frame_messages(self, frame: Frame, ns: int, T_ob: NDArray[np.float64]) -> list[tuple[str, Msg]]:
+        """(topic, message) of one frame, in writing order."""
+        r, m = self.robot, self._msgs
+        assert frame.truth is not None and frame.rgb is not None
+        depth = np.asarray(frame.depth, dtype=np.float32)
+        depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(np.nan)).astype("<f4")
+        return [
+            (f"/{r}/camera/color/image_raw", m.image(ns, np.asarray(frame.rgb, dtype=np.uint8), "rgb8")),
+            (f"/{r}/camera/color/camera_info", m.camera_info(ns)),
+            (f"/{r}/camera/depth/image", m.image(ns, depth, "32FC1")),
+            (f"/{r}/camera/depth/camera_info", m.camera_info(ns)),
+            (f"/{r}/odom", self.odometry(ns, T_ob)),
+            (
+                "/tf",
+                m.tf(
+                    [
+                        m.transform(ns, "world", f"{r}/base_link_gt", frame.truth.T_world_body),
+                        m.transform(ns, f"{r}/odom", f"{r}/base_link", T_ob),
+                    ]
+                ),
+            ),
+        ]
 
     def close(self) -> dict[str, JSONLike]:
         """Finish the bag, move it to ``out_dir/bag``, write ``masks.txt``; returns message counts."""
