@@ -1,0 +1,38 @@
+"""``roman-sim score`` on an export folder: its scenario is run for the submaps, then the closures are scored."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from roman_sim.core.geometry import inv_T
+from roman_sim.core.tum import read_tum
+from roman_sim.evaluation.results import read_evaluation
+from roman_sim.interop.closures import Closure, write_csv_closures
+from roman_sim.pipeline.external import read_external, score_external
+from roman_sim.pipeline.scenario import Scenario
+
+
+def test_score_an_export_folder(tum_export: Path, tiny_scenario: Scenario, tmp_path: Path) -> None:
+    """A perfect closure between the robots' first frames (submap centres) scores as correct."""
+    truth = {r: read_tum(tum_export / r / "groundtruth_body.txt") for r in ("a", "b")}
+    T = inv_T(truth["a"].T[0]) @ truth["b"].T[0]
+    wrong = T @ np.diag([-1.0, -1.0, 1.0, 1.0])  # turned by 180 degrees about z
+    closures = [Closure("a", 0.0, "b", 0.0, T, 9), Closure("b", 0.0, "a", 2.0, inv_T(wrong), 2)]
+    write_csv_closures(tmp_path / "c.csv", closures)
+    res = score_external(tum_export, tmp_path / "c.csv", tmp_path / "scored", label="perfect")
+    scores = {(s.truth.a, s.truth.b): s for s in read_evaluation(tmp_path / "scored")[0]}
+    hit = scores[("a/0", "b/0")]
+    assert hit.method == "perfect" and hit.n_assoc == 9 and hit.correct
+    # the odometry starts at the body's tilted start pose, so its gravity-aligned submap frame
+    # differs from the true one by the start tilt (well under a degree on this ground)
+    assert hit.rot_err_deg < 1.0 and hit.trans_err_m < 1e-6
+    assert all(s.n_assoc == 0 for k, s in scores.items() if k != ("a/0", "b/0"))
+    info = read_external(tmp_path / "scored")
+    assert info["n_closures"] == 2 and res.n_pairs == 1
+    (why,) = info["unscored"].values()  # the second closure falls on the same pair with a lower score
+    assert "already has a closure with a score >= 2" in str(why) or "both ends" in str(why)
+    config = json.loads(json.dumps(res.run.scenario.model_dump(mode="json")))
+    assert config["aligners"][0]["label"] == "perfect" and config["seed"] == tiny_scenario.seed
