@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import pytest
 from typer.testing import CliRunner
+
+# Tests never share stages through the user's cache (nor fill it): each run computes what its
+# own folder lacks. The tests of the shared cache give it a folder of their own.
+os.environ["ROMAN_SIM_CACHE"] = "off"
 
 if TYPE_CHECKING:
     from roman_sim.pipeline.result import RunResult

@@ -204,7 +204,7 @@ class BenchmarkJob:
         res = CellExperiment(sc, self.out / WORK_DIR / c.id, executor=ex, chunk_pairs=chunk).run()
         raw = (res.run_dir / "pairs.csv").read_bytes()
         write_bytes(folder / PAIRS_GZ, gzip.compress(raw, mtime=0))
-        write_text(folder / "config.yaml", dump_yaml(sc))
+        write_text(folder / "config.yaml", dump_yaml(res.scenario))  # resolved, as the run used it
         alignment = res.timings.get("evaluation", {}).get("alignment")
         per_method = alignment if isinstance(alignment, dict) else {}
         runtimes = {

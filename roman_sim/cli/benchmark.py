@@ -62,6 +62,7 @@ def _board_table(board: dict[str, Any]) -> Table:
 
 
 @app.command("benchmark")
+@X.executor_options
 def benchmark_cmd(
     suite: str = typer.Argument("standard", help="suite: quick, standard, or a suite YAML file"),
     methods: list[str] | None = typer.Option(
@@ -70,17 +71,7 @@ def benchmark_cmd(
     sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every cell (key=value)"),
     out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/benchmark/<suite>)"),
     plan: bool = typer.Option(False, "--plan", help="only plan the cells and print their relevant pairs"),
-    executor: str | None = X.EXECUTOR,
-    workers: int | None = X.WORKERS,
-    scheduler: str | None = X.SCHEDULER,
-    chunk_pairs: int | None = X.CHUNK,
-    tls: bool = X.TLS,
-    tls_ca_file: str | None = X.TLS_CA,
-    tls_cert: str | None = X.TLS_CERT,
-    tls_key: str | None = X.TLS_KEY,
-    insecure: bool = X.INSECURE,
-    dashboard: bool = X.DASHBOARD,
-    upload: list[str] | None = X.UPLOAD,
+    flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a benchmark suite (resumable); write leaderboard.json, leaderboard.md and plots; exit 1 if a cell failed."""
     from roman_sim.benchmark.board import LEADERBOARD_JSON, LEADERBOARD_MD
@@ -88,20 +79,7 @@ def benchmark_cmd(
     from roman_sim.benchmark.suites import load_suite
 
     spec = load_suite(suite)
-    ex = X.executor_config(
-        None,
-        executor,
-        workers,
-        scheduler,
-        chunk_pairs,
-        tls,
-        tls_ca_file,
-        tls_cert,
-        tls_key,
-        insecure,
-        dashboard,
-        upload,
-    )
+    ex = flags.config()
     lines = LineProgress()
 
     def progress(done: int, total: int, what: str) -> None:

@@ -20,6 +20,11 @@ from roman_sim.core.errors import RomanSimError, RunFolderBusy, StorageError
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
+NO_SHARED_CACHE = typer.Option(
+    False,
+    "--no-shared-cache",
+    help="neither take stages from nor store them in the shared stage cache (see `roman-sim cache`)",
+)
 
 
 class RichProgress:
@@ -155,6 +160,7 @@ def _run(
     aligners: list[str] | None,
     from_stage: str | None = None,
     executor: Any = None,
+    share: bool = True,
 ) -> None:
     from roman_sim.runner.executors import prestart
 
@@ -164,7 +170,13 @@ def _run(
 
     sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
     exp = Experiment(
-        sc, out or default_run_dir(sc), fresh=fresh, submaps_dir=submaps, from_stage=from_stage, executor=executor
+        sc,
+        out or default_run_dir(sc),
+        fresh=fresh,
+        submaps_dir=submaps,
+        from_stage=from_stage,
+        executor=executor,
+        cache=share,
     )
     exp.validate()
     tracker = StageTracker(LineProgress())
@@ -211,11 +223,13 @@ def _kept(run_dir: Path) -> str:
 
 
 @app.command("run")
+@X.executor_options
 def run_cmd(
     scenario: str = typer.Argument(..., help="scenario YAML path or bundled scenario name"),
     out: Path | None = typer.Option(None, "--out", "-o", help="results folder (default results/<name>/...)"),
     sets: list[str] | None = typer.Option(None, "--set", "-s", help="override, e.g. --set seed=3"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage (ignore cached results)"),
+    no_shared_cache: bool = NO_SHARED_CACHE,
     submaps: Path | None = typer.Option(None, "--submaps", help="start from saved submaps (<robot>.npz)"),
     aligner: list[str] | None = typer.Option(
         None, "--aligner", "-a", help="add an aligner (name or package.module:Class)"
@@ -223,68 +237,24 @@ def run_cmd(
     from_stage: str | None = typer.Option(
         None, "--from", help="recompute from this stage on (maps, submaps, evaluation, posegraph, ate, report)"
     ),
-    executor: str | None = X.EXECUTOR,
-    workers: int | None = X.WORKERS,
-    scheduler: str | None = X.SCHEDULER,
-    chunk_pairs: int | None = X.CHUNK,
-    tls: bool = X.TLS,
-    tls_ca_file: str | None = X.TLS_CA,
-    tls_cert: str | None = X.TLS_CERT,
-    tls_key: str | None = X.TLS_KEY,
-    insecure: bool = X.INSECURE,
-    dashboard: bool = X.DASHBOARD,
-    upload: list[str] | None = X.UPLOAD,
+    flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a scenario end to end and print the summary (robots and pairs spread over the workers)."""
-    ex = X.executor_config(
-        None,
-        executor,
-        workers,
-        scheduler,
-        chunk_pairs,
-        tls,
-        tls_ca_file,
-        tls_cert,
-        tls_key,
-        insecure,
-        dashboard,
-        upload,
-    )
-    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex)
+    ex = flags.config()
+    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex, not no_shared_cache)
 
 
 @app.command("demo")
+@X.executor_options
 def demo_cmd(
     out: Path | None = typer.Option(None, "--out", "-o", help="results folder (default results/demo/...)"),
     fresh: bool = typer.Option(False, "--fresh", help="recompute every stage"),
-    executor: str | None = X.EXECUTOR,
-    workers: int | None = X.WORKERS,
-    scheduler: str | None = X.SCHEDULER,
-    chunk_pairs: int | None = X.CHUNK,
-    tls: bool = X.TLS,
-    tls_ca_file: str | None = X.TLS_CA,
-    tls_cert: str | None = X.TLS_CERT,
-    tls_key: str | None = X.TLS_KEY,
-    insecure: bool = X.INSECURE,
-    dashboard: bool = X.DASHBOARD,
-    upload: list[str] | None = X.UPLOAD,
+    no_shared_cache: bool = NO_SHARED_CACHE,
+    flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run the demo scenario: ROMAN against CLIPPER and RANSAC on opposite-direction traversals."""
-    ex = X.executor_config(
-        None,
-        executor,
-        workers,
-        scheduler,
-        chunk_pairs,
-        tls,
-        tls_ca_file,
-        tls_cert,
-        tls_key,
-        insecure,
-        dashboard,
-        upload,
-    )
-    _run(DEMO_SCENARIO, out, None, fresh, None, None, None, ex)
+    ex = flags.config()
+    _run(DEMO_SCENARIO, out, None, fresh, None, None, None, ex, not no_shared_cache)
 
 
 @app.command("record")
@@ -374,39 +344,17 @@ def report_cmd(
 
 
 @app.command("sweep")
+@X.executor_options
 def sweep_cmd(
     sweep_file: Path = typer.Argument(..., help="sweep YAML (scenario, grid, seeds, executor)"),
     out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/sweeps/<name>)"),
-    executor: str | None = X.EXECUTOR,
-    workers: int | None = X.WORKERS,
-    scheduler: str | None = X.SCHEDULER,
-    chunk_pairs: int | None = X.CHUNK,
-    tls: bool = X.TLS,
-    tls_ca_file: str | None = X.TLS_CA,
-    tls_cert: str | None = X.TLS_CERT,
-    tls_key: str | None = X.TLS_KEY,
-    insecure: bool = X.INSECURE,
-    dashboard: bool = X.DASHBOARD,
-    upload: list[str] | None = X.UPLOAD,
+    flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a parameter x seed sweep (resumable) and write sweep.csv; exit 1 with a table if a cell failed."""
     from roman_sim.pipeline.sweep import load_sweep, run_sweep, sweep_failures
 
     cfg, scenario_path = load_sweep(sweep_file)
-    cfg.executor = X.executor_config(
-        cfg.executor.model_dump(),
-        executor,
-        workers,
-        scheduler,
-        chunk_pairs,
-        tls,
-        tls_ca_file,
-        tls_cert,
-        tls_key,
-        insecure,
-        dashboard,
-        upload,
-    )
+    cfg.executor = flags.config(cfg.executor.model_dump())
     out_dir = out or Path("results") / "sweeps" / cfg.name
     if interactive():
         with _progress() as p:
@@ -471,6 +419,7 @@ LISTINGS.update(scenarios=_scenarios, aligners=_aligners, segmenters=_segmenters
 
 
 @app.command("reproduce")
+@X.executor_options
 def reproduce_cmd(
     out: Path = typer.Option(Path("results/reference"), "--out", "-o", help="where the small results go"),
     work: Path = typer.Option(Path("results/work"), "--work", help="full run folders (cached)"),
@@ -485,35 +434,12 @@ def reproduce_cmd(
         "--pages",
         help="repository whose generated pages are rewritten: docs/results.md, the README's demo excerpt and figure",
     ),
-    executor: str | None = X.EXECUTOR,
-    workers: int | None = X.WORKERS,
-    scheduler: str | None = X.SCHEDULER,
-    chunk_pairs: int | None = X.CHUNK,
-    tls: bool = X.TLS,
-    tls_ca_file: str | None = X.TLS_CA,
-    tls_cert: str | None = X.TLS_CERT,
-    tls_key: str | None = X.TLS_KEY,
-    insecure: bool = X.INSECURE,
-    dashboard: bool = X.DASHBOARD,
-    upload: list[str] | None = X.UPLOAD,
+    flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
     from roman_sim.studies.reference import reproduce
 
-    ex = X.executor_config(
-        None,
-        executor,
-        workers,
-        scheduler,
-        chunk_pairs,
-        tls,
-        tls_ca_file,
-        tls_cert,
-        tls_key,
-        insecure,
-        dashboard,
-        upload,
-    )
+    ex = flags.config()
     path = reproduce(
         out,
         list(scenario or []) or None,

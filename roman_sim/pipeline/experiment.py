@@ -10,6 +10,12 @@ cached stage give the same bytes downstream. A cached stage is loaded only when 
 runs needs its output. Wall-clock
 figures (per stage and per pair) go to ``timings.json``, never into the other outputs.
 
+The scenario is resolved first (every aligner's, segmenter's and encoder's parameters with
+their defaults, ``roman_sim.pipeline.components``): ``config.yaml`` records it and the
+stages' keys hash it with the fingerprint of the code each stage runs. A stage its folder
+does not hold is taken from the shared stage cache when another run computed it with the
+same key (``roman_sim.pipeline.stagecache``), and every completed stage is stored there.
+
 Each stage gets its inputs as the dataclass it declares (built from the upstream outputs)
 and a ``TaskRunner``: independent tasks (one per robot to map, one per chunk of pairs to
 align) run on the executor ``executor`` describes (this process by default; a local pool or
@@ -39,6 +45,7 @@ from roman_sim.pipeline.folder_lock import hold_run_folder
 from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, environment_changes, existing_manifest
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
+from roman_sim.pipeline.stagecache import StageCache
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, Stage, StageOutput
 from roman_sim.pipeline.stages.base import Timings
 from roman_sim.runner.checkpoint import Checkpoint, clear_checkpoints
@@ -63,6 +70,8 @@ class Experiment:
             (e.g. ``"evaluation"`` after changing an aligner's code).
         executor: where tasks run (``ExecutorConfig``, an open ``Executor`` the caller
             closes, or None: in this process).
+        cache: the shared stage cache (True: ``StageCache.default()``, which
+            ``$ROMAN_SIM_CACHE=off`` turns off; False: none).
     """
 
     def __init__(
@@ -74,6 +83,7 @@ class Experiment:
         submaps_dir: str | Path | None = None,
         from_stage: str | None = None,
         executor: ExecutorConfig | Executor | None = None,
+        cache: StageCache | bool = True,
     ) -> None:
         if from_stage is not None and from_stage not in STAGE_NAMES:
             raise ConfigError(f"from_stage: unknown stage {from_stage!r} (valid: {', '.join(STAGE_NAMES)})")
@@ -84,6 +94,8 @@ class Experiment:
         self.progress: Progress = progress or NullProgress()
         self.submaps_dir = Path(submaps_dir) if submaps_dir else None
         self.executor = executor
+        self.cache = StageCache.default() if cache is True else (cache or None)
+        self._validated = False
 
     def context(self) -> RunContext:
         """The run context the stages see."""
@@ -91,12 +103,16 @@ class Experiment:
         return RunContext(self.scenario, self.run_dir, self.progress, self.fresh, self.submaps_dir, chunk_pairs=chunk)
 
     def validate(self) -> None:
-        """Check what can be checked before any work: world spec, aligners, plug-ins, RGB, output folder.
+        """Resolve the scenario's components, then check what can be checked before any work:
+        world spec, aligners, plug-ins, RGB, output folder. ``run`` calls it unless it was called.
 
         Every user plug-in (``package.module:Class``) is imported, built, checked against its
         protocol and called once on a tiny synthetic input (``roman_sim.core.plugins``), so a
         broken one fails here in one line instead of after the expensive stages.
         """
+        from roman_sim.pipeline.components import resolve_scenario
+
+        self.scenario = resolve_scenario(self.scenario)
         if self.submaps_dir is None:
             from roman_sim.pipeline.sources import check_sources
 
@@ -107,6 +123,7 @@ class Experiment:
             raise ConfigError(f"--submaps {self.submaps_dir}: not a folder")
         self._check_plugins()
         self._prepare_dir()
+        self._validated = True
 
     def _check_plugins(self) -> None:
         from roman_sim.align import build_aligner
@@ -151,12 +168,31 @@ class Experiment:
             keys[stage.name] = stage.key(ctx, {i: keys.get(i) for i in stage.inputs})
         return keys
 
+    def _may_reuse(self, stage: Stage) -> bool:
+        if not stage.cached or self.fresh:
+            return False
+        return self.from_stage is None or STAGE_NAMES.index(stage.name) < STAGE_NAMES.index(self.from_stage)
+
     def _reusable(self, stage: Stage, key: str, old: Manifest | None) -> bool:
-        if not stage.cached or self.fresh or old is None:
-            return False
-        if self.from_stage is not None and STAGE_NAMES.index(stage.name) >= STAGE_NAMES.index(self.from_stage):
-            return False
-        return old.valid(stage.name, key, self.run_dir)
+        return old is not None and self._may_reuse(stage) and old.valid(stage.name, key, self.run_dir)
+
+    def _shared(self, active: list[Stage], keys: dict[str, str], reuse: set[str], manifest: Manifest) -> set[str]:
+        """Take the stages this folder lacks from the shared cache; store those it holds there; the names taken."""
+        if self.cache is None:
+            return set()
+        taken: set[str] = set()
+        for stage in active:
+            if stage.name in reuse:
+                rec = manifest.stages[stage.name]
+                self.cache.publish(stage.name, rec.key, manifest.environment, self.run_dir, rec.files)
+            elif self._may_reuse(stage):
+                files = self.cache.fetch(stage.name, keys[stage.name], manifest.environment, self.run_dir)
+                if files is not None:
+                    manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
+                    taken.add(stage.name)
+        if taken:
+            manifest.save(self.run_dir)
+        return taken
 
     def _start_manifest(
         self, old: Manifest | None, keys: dict[str, str], reuse: set[str], active: list[Stage]
@@ -198,7 +234,8 @@ class Experiment:
         The run holds its folder's lock throughout (``roman_sim.pipeline.folder_lock``): a
         second run into the same folder stops with ``RunFolderBusy`` before writing anything.
         """
-        self.validate()
+        if not self._validated:
+            self.validate()
         with hold_run_folder(self.run_dir):
             if isinstance(self.executor, Executor):
                 return self._run(self.executor)
@@ -217,6 +254,7 @@ class Experiment:
         old = existing_manifest(self.run_dir)
         reuse = {s.name for s in active if self._reusable(s, keys[s.name], old)}
         manifest = self._start_manifest(old, keys, reuse, active)
+        reuse |= self._shared(active, keys, reuse, manifest)
         needed = {i for s in active if s.name not in reuse for i in s.inputs} | set(RESULT_STAGES)
         timings = self._old_timings(reuse)
         if any(s.uses_workers for s in active if s.name not in reuse):
@@ -258,6 +296,8 @@ class Experiment:
             files = stage.save(out, ctx)
             manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
             manifest.save(self.run_dir)
+            if self.cache is not None:
+                self.cache.publish(stage.name, keys[stage.name], manifest.environment, self.run_dir, files)
             clear_checkpoints(self.run_dir, stage.name)
             # Later stages get exactly what a cached re-run would load (saving may round), so a run
             # gives the same bytes whether its earlier stages were computed or reused.

@@ -65,13 +65,15 @@ def _run_one(
 
 def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
     """Whether the cell's run completed with exactly the cell's resolved configuration."""
+    from roman_sim.pipeline.components import resolve_scenario
     from roman_sim.pipeline.manifest import existing_manifest
     from roman_sim.pipeline.scenario import load_scenario
 
     man = existing_manifest(run_dir)
     if man is None or not man.complete:
         return False
-    return man.config_hash == load_scenario(scenario_path, list(overrides) + [f"seed={seed}"]).config_hash()
+    sc = load_scenario(scenario_path, list(overrides) + [f"seed={seed}"])
+    return man.config_hash == resolve_scenario(sc).config_hash()  # the run folder records it resolved
 
 
 def run_sweep(

@@ -9,11 +9,22 @@ A stage is a ``Stage[InputsT, OutputT]`` subclass:
   e.g. no world when the run starts from saved submaps). The experiment builds it from the
   upstream outputs (``build_inputs``); ``inputs`` (the upstream stage names) is derived
   from it.
-- ``config_parts``: the scenario sections (JSON-ready) its output depends on. The cache key
-  hashes them with the package version, the stage's name, its ``format`` and its inputs'
-  keys, so a change anywhere upstream recomputes it. Bump ``format`` when the files
-  ``save`` writes change, so run folders of the old layout recompute the stage instead of
-  failing to load it.
+- ``config_parts``: the scenario sections (JSON-ready) its output depends on, as the run
+  resolved them (every component's parameters with their defaults filled in,
+  ``roman_sim.pipeline.components``). The cache key hashes them with the package version,
+  the stage's name, its ``format``, its inputs' keys and the fingerprint of its code
+  (``code_fingerprint``), so a change anywhere upstream, a changed default or a change to
+  code the stage runs recomputes it. Bump ``format`` when the files ``save`` writes
+  change, so run folders of the old layout recompute the stage instead of failing to
+  load it.
+- ``code`` and ``components``: the roots of the code fingerprint besides the stage's own
+  module: modules its worker jobs run that the module does not import itself, and the
+  kinds of configured component it runs (``aligners``, ``segmenter``, ``encoder``: their
+  modules, plug-ins' included). The fingerprint hashes the source of every module these
+  roots import statically from the package (``roman_sim.core.codehash``), except
+  ``NOT_FINGERPRINTED`` (where tasks run, not what they compute) and the other stages'
+  modules (their outputs reach this stage through their keys); ``FINGERPRINTED_ONLY``
+  modules are hashed without following their imports.
 - ``run(ctx, inputs, tasks)``: computes the output and returns it; it writes nothing.
   Independent tasks (a robot to map, a chunk of pairs to align) go through ``tasks`` (a
   ``TaskRunner``), which runs them on the run's executor and checkpoints each finished
@@ -39,6 +50,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, ClassVar, Generic, Protocol, TypeVar, cast
 
 from roman_sim import __version__
+from roman_sim.core.codehash import code_fingerprint
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSON
@@ -47,6 +59,33 @@ from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance
+
+    from roman_sim.pipeline.components import ComponentKind
+
+#: Modules no code fingerprint includes or follows: the run machinery (where and how tasks run,
+#: checkpoints, progress), which does not decide what a stage computes.
+NOT_FINGERPRINTED: tuple[str, ...] = (
+    "roman_sim.runner",
+    "roman_sim.pipeline.checkpoint",
+    "roman_sim.pipeline.cluster",
+    "roman_sim.pipeline.context",
+    "roman_sim.pipeline.dask_executor",
+    "roman_sim.pipeline.dask_security",
+    "roman_sim.pipeline.executor_base",
+    "roman_sim.pipeline.executors",
+    "roman_sim.pipeline.lifeline",
+    "roman_sim.pipeline.plugin_guard",
+    "roman_sim.pipeline.taskrunner",
+    "roman_sim.pipeline.worker_preload",
+)
+#: Modules hashed without following their imports: the scenario model and the resolution of
+#: its components (their values reach the keys through ``config_parts``) and the table of
+#: worker jobs (a stage names the modules its jobs run in ``code``).
+FINGERPRINTED_ONLY: tuple[str, ...] = (
+    "roman_sim.pipeline.components",
+    "roman_sim.pipeline.scenario",
+    "roman_sim.pipeline.tasks",
+)
 
 #: Wall-clock figures a stage reports (``timings.json``): name -> JSON value.
 Timings = dict[str, JSON]
@@ -79,6 +118,10 @@ class Stage(ABC, Generic[InputsT, OutputT]):
     format: ClassVar[str | None] = None
     #: Whether ``run`` hands tasks to the run's workers (the experiment then starts them ahead of the run).
     uses_workers: ClassVar[bool] = False
+    #: Modules its worker jobs run that its own module does not import (roots of the code fingerprint).
+    code: ClassVar[tuple[str, ...]] = ()
+    #: Kinds of configured component it runs (their modules are roots of the code fingerprint).
+    components: ClassVar[tuple[ComponentKind, ...]] = ()
 
     @property
     def inputs(self) -> tuple[str, ...]:
@@ -109,10 +152,27 @@ class Stage(ABC, Generic[InputsT, OutputT]):
         """The scenario sections (JSON-ready) the output depends on."""
         return []
 
+    def code_roots(self, ctx: RunContext) -> list[str]:
+        """The modules the code fingerprint starts from: its own, ``code`` and its components'."""
+        from roman_sim.pipeline.components import component_modules
+
+        roots = [type(self).__module__, *self.code]
+        for kind in self.components:
+            roots += component_modules(ctx.scenario, kind)
+        return roots
+
+    def code_fingerprint(self, ctx: RunContext) -> str:
+        """Hash of the source of the code the stage runs (see the module docstring)."""
+        others = {c.__module__ for c in _stage_classes() if c.__module__ != type(self).__module__}
+        skip = (*NOT_FINGERPRINTED, *sorted(others - {__name__}))
+        return code_fingerprint(self.code_roots(ctx), skip, FINGERPRINTED_ONLY)
+
     def key(self, ctx: RunContext, input_keys: dict[str, str | None]) -> str:
-        """Cache key: package version, stage name, file layout, its config sections, its inputs' keys."""
+        """Cache key: package version, stage name, file layout, its config sections, its inputs' keys, its code."""
         own: list[JSON] = [self.name] if self.format is None else [self.name, self.format]
-        return stable_hash(__version__, *own, self.config_parts(ctx), sorted(input_keys.items()))
+        return stable_hash(
+            __version__, *own, self.config_parts(ctx), sorted(input_keys.items()), self.code_fingerprint(ctx)
+        )
 
     @abstractmethod
     def run(self, ctx: RunContext, inputs: InputsT, tasks: TaskRunner) -> OutputT:
@@ -125,3 +185,14 @@ class Stage(ABC, Generic[InputsT, OutputT]):
     def load(self, ctx: RunContext, files: list[str]) -> OutputT:
         """Read the output back from ``files`` (those ``save`` returned)."""
         raise NotImplementedError(f"stage {self.name} is not cached")
+
+
+def _stage_classes() -> list[type[Stage]]:
+    """Every concrete ``Stage`` subclass imported so far."""
+    out: list[type[Stage]] = []
+    todo: list[type[Stage]] = list(Stage.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        out.append(cls)
+        todo += cls.__subclasses__()
+    return out

@@ -223,6 +223,8 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
     name = "evaluation"
     input_type = EvaluationInputs
     uses_workers = True
+    code = ("roman_sim.align.checks",)  # its worker job's
+    components = ("aligners",)
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         sc = ctx.scenario.model_dump(mode="json")

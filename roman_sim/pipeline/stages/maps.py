@@ -129,6 +129,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
     name = "maps"
     input_type = MapsInputs
     uses_workers = True
+    components = ("segmenter", "encoder")
 
     def applies(self, ctx: RunContext) -> bool:
         return ctx.submaps_dir is None

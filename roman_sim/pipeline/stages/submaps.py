@@ -70,6 +70,7 @@ class SubmapsStage(Stage[SubmapsInputs, Submaps]):
     name = "submaps"
     input_type = SubmapsInputs
     uses_workers = True
+    code = ("roman_sim.mapping.submap", "roman_sim.align.visual.keyframes")  # its worker job's
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         parts: list[JSON] = [ctx.scenario.model_dump(mode="json")["submaps"]]
