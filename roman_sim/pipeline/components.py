@@ -31,7 +31,7 @@ from roman_sim.core.config import validate_model
 from roman_sim.core.registry import import_object
 
 if TYPE_CHECKING:
-    from roman_sim.mapping.frontend import ComponentEntry
+    from roman_sim.frontend.components import ComponentEntry
     from roman_sim.pipeline.scenario import Scenario
 
 #: The configured components a stage may run.
@@ -87,8 +87,8 @@ def aligner_params(method: str, params: dict[str, Any]) -> dict[str, Any]:
 
 def frontend_params(kind: Literal["segmenter", "encoder"], entry: ComponentEntry) -> dict[str, Any]:
     """The resolved parameters of the front end's ``segmenter`` or ``encoder`` entry."""
-    from roman_sim.mapping.frontend import encoder_spec, segmenter_spec
-    from roman_sim.mapping.segmenter import SEGMENTERS
+    from roman_sim.frontend.components import encoder_spec, segmenter_spec
+    from roman_sim.frontend.segmenter import SEGMENTERS
 
     if _is_plugin(entry.name):
         return plugin_params(entry.name, kind, dict(entry.params))
@@ -125,7 +125,7 @@ def component_modules(sc: Scenario, kind: ComponentKind) -> list[str]:
             {n.split(":", 1)[0] if _is_plugin(n) else str(getattr(ALIGNERS.get(n), "__module__", "")) for n in names}
             - {""}
         )
-    from roman_sim.mapping.frontend import encoder_spec, segmenter_spec
+    from roman_sim.frontend.components import encoder_spec, segmenter_spec
 
     entry = sc.frontend.segmenter if kind == "segmenter" else sc.frontend.encoder
     if _is_plugin(entry.name):

@@ -66,16 +66,9 @@ if TYPE_CHECKING:
 #: checkpoints, progress), which does not decide what a stage computes.
 NOT_FINGERPRINTED: tuple[str, ...] = (
     "roman_sim.runner",
-    "roman_sim.pipeline.checkpoint",
-    "roman_sim.pipeline.cluster",
     "roman_sim.pipeline.context",
-    "roman_sim.pipeline.dask_executor",
-    "roman_sim.pipeline.dask_security",
-    "roman_sim.pipeline.executor_base",
-    "roman_sim.pipeline.executors",
-    "roman_sim.pipeline.lifeline",
+    "roman_sim.pipeline.folder_lock",
     "roman_sim.pipeline.plugin_guard",
-    "roman_sim.pipeline.taskrunner",
     "roman_sim.pipeline.worker_preload",
 )
 #: Modules hashed without following their imports: the scenario model and the resolution of
