@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from roman_sim.core.atomic import write_json
-from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.segmenter import simulated_segmenter
 from roman_sim.frontend.semantics import SimulatedEncoder
 from roman_sim.mapping import synthetic
 from roman_sim.mapping.io import packet_bytes
@@ -64,7 +64,7 @@ class Timed:
 
 
 def _mapper(seed: int, families: dict[int, str]) -> tuple[Mapper, Timed, Timed]:
-    seg = Timed(build_segmenter("fastsam", seed), "segment")
+    seg = Timed(simulated_segmenter("fastsam", seed), "segment")
     enc = Timed(SimulatedEncoder(seed=seed, families=families), "encode")
     return Mapper(MappingConfig(), seg, enc, seed), seg, enc
 

@@ -1,7 +1,7 @@
 """The leaderboard of a benchmark folder, from its kept raw pairs only.
 
 Every finished cell's ``pairs.csv.gz`` is read back, relevance and correctness are
-re-derived from the raw columns with the cell's ``config.yaml`` (``verify.rederive``), and
+re-derived from the raw columns with the cell's ``config.yaml`` (``report.recompute.rederive_scores``), and
 the pairs of all cells of one ambiguity level are pooled (pair names prefixed with the
 cell). The evaluation's own ``metrics.summary`` then scores each level with the suite's
 heading bins: per method and cell (level x heading bin) the operating points (max recall
@@ -42,7 +42,7 @@ from roman_sim.evaluation.results import read_pairs_csv
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
 from roman_sim.report.benchmark_plots import write_benchmark_plots
 from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
-from roman_sim.report.recompute import eval_settings, rederive
+from roman_sim.report.recompute import eval_settings, rederive_scores
 
 log = logging.getLogger(__name__)
 
@@ -88,7 +88,7 @@ def load_levels(out: Path, record: dict[str, Any]) -> tuple[dict[str, Level], di
             missing[c["id"]] = str(st.get("error") or st.get("status"))
             continue
         cfg, acceptance_k = eval_settings(folder)
-        scores, diffs = rederive(read_pairs_csv(folder / PAIRS_GZ), cfg)
+        scores, diffs = rederive_scores(read_pairs_csv(folder / PAIRS_GZ), cfg)
         if diffs:
             log.warning("cell %s: %d rows re-derived differently (%s)", c["id"], len(diffs), diffs[0])
         lv = levels[c["level"]]

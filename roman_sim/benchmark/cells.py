@@ -2,7 +2,7 @@
 
 ``plan_task`` plans one cell as an executor task (``scenes.build_crossing``: its
 scenario and relevant pairs per heading bin, or its one-line error); ``CellExperiment`` runs
-a cell's scenario on an executor the job keeps open; ``runtime_summary`` is what a cell keeps
+a cell's scenario on an executor the job keeps open; ``cell_runtime_stats`` is what a cell keeps
 of its per-pair runtimes. File names of a benchmark folder are defined here.
 """
 
@@ -94,7 +94,7 @@ def planned_totals(plans: list[dict[str, Any]], n_bins: int) -> list[int]:
     return out
 
 
-def runtime_summary(per_pair: list[float]) -> dict[str, Any]:
+def cell_runtime_stats(per_pair: list[float]) -> dict[str, Any]:
     """Runtime statistics of one method in one cell (s): n, mean, median, p90 and p10."""
     stats = runtime_stats(per_pair)
     r = np.asarray([x for x in per_pair if x is not None and np.isfinite(x)], dtype=np.float64)

@@ -42,9 +42,9 @@ from roman_sim.benchmark.cells import (
     WORK_DIR,
     Cell,
     CellExperiment,
+    cell_runtime_stats,
     plan_task,
     planned_totals,
-    runtime_summary,
 )
 from roman_sim.benchmark.suites import BenchmarkSuite, check_methods
 from roman_sim.core.atomic import write_bytes, write_json, write_text
@@ -208,7 +208,7 @@ class BenchmarkJob:
         alignment = res.timings.get("evaluation", {}).get("alignment")
         per_method = alignment if isinstance(alignment, dict) else {}
         runtimes = {
-            m: runtime_summary(_floats(a.get("per_pair_s")) if isinstance(a, dict) else [])
+            m: cell_runtime_stats(_floats(a.get("per_pair_s")) if isinstance(a, dict) else [])
             for m, a in sorted(per_method.items())
         }
         write_json(folder / RUNTIMES_JSON, runtimes)

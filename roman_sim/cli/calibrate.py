@@ -74,11 +74,11 @@ def calibrate_cmd(
     """Measure an encoder and/or a segmenter on rendered frames; write the fitted simulated front end."""
     from roman_sim.core.atomic import write_json, write_text
     from roman_sim.core.config import validate_model
-    from roman_sim.evaluation.frontend_types import FrontEndGrades, SegmentationGrades
+    from roman_sim.evaluation.grades import FrontEndGrades, SegmentationGrades
     from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
     from roman_sim.pipeline.calibration import calibrate, render_calibration_frames
     from roman_sim.pipeline.scenario import load_scenario
-    from roman_sim.report.frontend import plot_frontend_grades
+    from roman_sim.report.grades import plot_frontend_grades
 
     enc, seg = _entry(encoder, "--encoder"), _entry(segmenter, "--segmenter")
     if enc is None and seg is None:
@@ -129,90 +129,3 @@ def _encoders() -> list[str]:
 
 
 LISTINGS.update(encoders=_encoders)
-
-
-paper_app = typer.Typer(
-    help="The paper front-end preset: fit its severity to one figure, then run the held-out predictions.",
-    no_args_is_help=True,
-)
-app.add_typer(paper_app, name="paper-preset")
-
-
-def _fit_config(scenario: str | None, grid: str | None, refine: int | None, overrides: list[str]) -> Any:
-    from roman_sim.core.config import validate_model
-    from roman_sim.studies.paper_preset import PaperFitConfig
-
-    data: dict[str, Any] = {"overrides": list(overrides)}
-    if scenario is not None:
-        data["scenario"] = scenario
-    if grid is not None:
-        try:
-            data["grid"] = [float(x) for x in grid.split(",") if x.strip()]
-        except ValueError:
-            raise ConfigError(f"--grid: {grid!r} is not a comma-separated list of severities") from None
-    if refine is not None:
-        data["refine"] = refine
-    return validate_model(PaperFitConfig, data, source="paper-preset fit")
-
-
-@paper_app.command("fit")
-def paper_fit_cmd(
-    out: Path = typer.Option(Path("paper_fit"), "--out", "-o", help="folder of the fit's runs, state and result"),
-    scenario: str | None = typer.Option(None, "--scenario", help="scenario fitted on (default same_direction)"),
-    grid: str | None = typer.Option(None, "--grid", help="severities run first, e.g. 0,0.5,1,1.5,2,3"),
-    refine: int | None = typer.Option(None, "--refine", help="bisection steps inside the bracketing interval"),
-    overrides: list[str] = typer.Option([], "--set", help="override a scenario field in every run, key=value"),
-) -> None:
-    """Fit the preset's severity to ROMAN's same-direction max recall in the paper (0.67), resumably."""
-    from roman_sim.studies.paper_preset import FIT_YAML, fit_paper_preset
-
-    res = fit_paper_preset(out, _fit_config(scenario, grid, refine, overrides))["fit"]
-    t = Table(title=f"paper fit: {res['figure']} (paper {res['paper']})")
-    for col in ("severity", "max recall"):
-        t.add_column(col, justify="right")
-    for s, r in res["searched"]:
-        t.add_row(f"{s:g}" + (" (fitted)" if s == res["severity"] else ""), _fmt(r))
-    Console().print(t)
-    console.print(f"wrote {out / FIT_YAML}")
-
-
-@paper_app.command("predict")
-def paper_predict_cmd(
-    out: Path = typer.Option(Path("paper_fit"), "--out", "-o", help="the fit's folder (holds paper_fit.yaml)"),
-) -> None:
-    """Run the held-out predictions of the fitted preset (opposite direction) and check the paper's claims."""
-    from roman_sim.studies.paper_preset import PREDICTIONS, predict_paper_preset
-
-    res = predict_paper_preset(out)
-    t = Table(title=f"paper preset at severity {res['severity']:g}: held-out predictions")
-    for col in ("claim", "paper", "simulated", "holds"):
-        t.add_column(col)
-    for c in res["claims"]:
-        v = c["value"]
-        shown = ", ".join(f"{k} {_fmt(x)}" for k, x in v.items()) if isinstance(v, dict) else _fmt(v)
-        t.add_row(c["claim"], str(c["paper"]), shown, "yes" if c["holds"] else "no")
-    Console().print(t)
-    console.print(f"wrote {out / PREDICTIONS}")
-
-
-@paper_app.command("collect")
-def paper_collect_cmd(
-    out: Path = typer.Option(Path("paper_fit"), "--out", "-o", help="the fit's folder (fit and predictions done)"),
-    to: Path = typer.Option(Path("results/reference"), "--to", help="reference results folder"),
-    pages: Path | None = typer.Option(
-        Path("."), "--pages", help="repository whose results page's paper-preset block is rewritten"
-    ),
-) -> None:
-    """Keep a finished fit and its predictions in the reference results (raw pairs included)."""
-    from roman_sim.studies.pages import update_block
-    from roman_sim.studies.paper_preset import PAPER_PRESET_DIR, PRESET_MARKERS, collect_paper_preset, preset_block
-    from roman_sim.studies.reference import RESULTS_PAGE
-
-    dest = collect_paper_preset(out, to / PAPER_PRESET_DIR)
-    console.print(f"collected {out} into {dest}")
-    if pages is not None:
-        page = pages / RESULTS_PAGE
-        if page.is_file() and update_block(page, PRESET_MARKERS, preset_block(dest)):
-            console.print(f"rewrote the paper-preset block of {page}")
-        else:
-            console.print(f"note: {page} has no paper-preset markers; its block was not written")

@@ -7,7 +7,7 @@ Two checks, the second independent of the first:
 - the figures of the run's compact summary (recall, hits, relevant pairs and intervals per
   method, pair set and heading bin, the operating points, recall at precision 1, runtime
   medians, ATE per variant, packet sizes where the packets were kept) against
-  ``roman_sim.studies.scorer``, which re-scores the raw files with code of its own (nothing
+  ``roman_sim.studies.independent_scorer``, which re-scores the raw files with code of its own (nothing
   from ``roman_sim.evaluation``).
 
 ``verify_run`` returns the list of differences (empty: everything matches).
@@ -49,7 +49,7 @@ def independent_check(run_dir: Path) -> list[str]:
     summary without them; it is then compared without them (``verify_run`` says so for the
     points).
     """
-    from roman_sim.studies.scorer import agreement, score_run
+    from roman_sim.studies.independent_scorer import agreement, score_run
 
     stored = stored_summary(run_dir)
     scored = score_run(run_dir)

@@ -11,7 +11,7 @@
 
 Typical use (one robot)::
 
-    mapper = Mapper(MappingConfig(), build_segmenter("fastsam", seed),
+    mapper = Mapper(MappingConfig(), simulated_segmenter("fastsam", seed),
                     SimulatedEncoder(seed=seed, families=families, robot=name))
 """
 
@@ -22,7 +22,7 @@ from typing import Any
 
 # Names are imported lazily so that configuration models stay cheap to import.
 _EXPORTS: dict[str, str] = {
-    **dict.fromkeys(["SEGMENTERS", "SegmenterConfig", "SimulatedSegmenter", "build_segmenter"], "segmenter"),
+    **dict.fromkeys(["SEGMENTERS", "SegmenterConfig", "SimulatedSegmenter", "simulated_segmenter"], "segmenter"),
     **dict.fromkeys(["SemanticConfig", "SimulatedEncoder"], "semantics"),
 }
 __all__ = sorted(_EXPORTS)

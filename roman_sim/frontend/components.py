@@ -141,7 +141,7 @@ def _check_entry(registry: Registry[ComponentSpec], entry: ComponentEntry, field
     validate_model(registry.get(entry.name).params_model, entry.params, source=f"{field}.params")
 
 
-class FrontEnd(StrictModel):
+class FrontEndConfig(StrictModel):
     """Segmenter and semantic encoder (built-in or ``package.module:Class``, each with ``params``).
 
     ``semantics`` parameterises the ``simulated`` encoder (``roman-sim calibrate`` fits it).
@@ -227,9 +227,9 @@ def _build(spec: ComponentSpec, entry: ComponentEntry, ctx: BuildContext, field:
 
 
 def _entry(
-    cfg: FrontEnd | ComponentEntry | str | dict[str, object], cls: type[ComponentEntry], field: str
+    cfg: FrontEndConfig | ComponentEntry | str | dict[str, object], cls: type[ComponentEntry], field: str
 ) -> ComponentEntry:
-    if isinstance(cfg, FrontEnd):
+    if isinstance(cfg, FrontEndConfig):
         return cfg.built_segmenter() if field.endswith("segmenter") else cfg.encoder
     if isinstance(cfg, ComponentEntry):
         return cfg
@@ -237,7 +237,7 @@ def _entry(
 
 
 def build_segmenter(
-    cfg: FrontEnd | ComponentEntry | str | dict[str, object], seed: int = 0, robot: str = ""
+    cfg: FrontEndConfig | ComponentEntry | str | dict[str, object], seed: int = 0, robot: str = ""
 ) -> Segmenter:
     """The configured segmenter of ``robot`` (any object with ``segment(frame) -> list[Mask]``).
 
@@ -249,7 +249,7 @@ def build_segmenter(
 
 
 def build_encoder(
-    cfg: FrontEnd | ComponentEntry | str | dict[str, object],
+    cfg: FrontEndConfig | ComponentEntry | str | dict[str, object],
     seed: int = 0,
     robot: str = "",
     families: Mapping[int, str] | None = None,
@@ -263,14 +263,14 @@ def build_encoder(
         robot: robot name (keys the simulated encoder's observation noise).
         families: object id -> family, for truth-driven encoders only.
     """
-    semantics = cfg.built_semantics() if isinstance(cfg, FrontEnd) else SemanticConfig()
+    semantics = cfg.built_semantics() if isinstance(cfg, FrontEndConfig) else SemanticConfig()
     entry = _entry(cfg, EncoderEntry, "frontend.encoder")
     spec = encoder_spec(entry)
     ctx = BuildContext(seed, robot, families if spec.reads_truth else None, semantics)
     return cast(SemanticEncoder, _build(spec, entry, ctx, "frontend.encoder"))
 
 
-def check_robots(frontend: FrontEnd, robots: Iterable[RobotRGB]) -> None:
+def check_robots(frontend: FrontEndConfig, robots: Iterable[RobotRGB]) -> None:
     """Raise ``ConfigError`` naming the first robot (``.name``, ``.render_rgb``) without the RGB the front end needs."""
     if not frontend.needs_rgb:
         return
@@ -286,7 +286,7 @@ def check_robots(frontend: FrontEnd, robots: Iterable[RobotRGB]) -> None:
             )
 
 
-def check_frontend(frontend: FrontEnd, robots: Iterable[RobotRGB]) -> None:
+def check_frontend(frontend: FrontEndConfig, robots: Iterable[RobotRGB]) -> None:
     """``check_robots``, then each built-in component's own check (model folders), building nothing."""
     check_robots(frontend, robots)
     for entry, spec, field in (

@@ -97,7 +97,7 @@ SEGMENTERS.register(
 )
 
 
-def build_segmenter(cfg: SegmenterConfig | str | Any = "fastsam", seed: int = 0) -> Any:
+def simulated_segmenter(cfg: SegmenterConfig | str | Any = "fastsam", seed: int = 0) -> Any:
     """A simulated segmenter from a config or a preset name.
 
     A front-end entry (``frontend.segmenter``, any registered segmenter) is built by
@@ -105,7 +105,7 @@ def build_segmenter(cfg: SegmenterConfig | str | Any = "fastsam", seed: int = 0)
     """
     if not isinstance(cfg, (str, SegmenterConfig)):
         raise MappingError(
-            f"build_segmenter: expected a preset name or a SegmenterConfig, got {type(cfg).__name__} "
+            f"simulated_segmenter: expected a preset name or a SegmenterConfig, got {type(cfg).__name__} "
             "(a front-end entry is built by roman_sim.frontend.components.build_segmenter)"
         )
     if isinstance(cfg, str):

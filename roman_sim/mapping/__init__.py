@@ -3,7 +3,7 @@
 The segmenters and encoders that implement the protocols live in ``roman_sim.frontend``.
 Typical use (one robot)::
 
-    mapper = Mapper(MappingConfig(), build_segmenter("fastsam", seed),
+    mapper = Mapper(MappingConfig(), simulated_segmenter("fastsam", seed),
                     SimulatedEncoder(seed=seed, families=families, robot=name))
     for frame in simulate_robot(world, robot_cfg, seed):
         mapper.process(frame)

@@ -72,7 +72,7 @@ class Mapper:
 
     Args:
         cfg: front-end parameters.
-        segmenter: any ``Segmenter`` (e.g. ``build_segmenter("fastsam", seed)``).
+        segmenter: any ``Segmenter`` (e.g. ``simulated_segmenter("fastsam", seed)``, ``roman_sim.frontend``).
         encoder: any ``SemanticEncoder``, or None for no descriptors.
         seed: kept for reproducibility of user components (the built-ins are seeded).
         on_frame: called after each frame as ``on_frame(frame, masks, observed)`` with the

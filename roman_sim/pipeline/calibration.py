@@ -25,9 +25,9 @@ import yaml
 
 from roman_sim.core.jsontypes import JSONLike, JSONScalar
 from roman_sim.core.sensors import Frame
-from roman_sim.evaluation.frontend import FrontEndGrader
-from roman_sim.evaluation.frontend_types import DescriptorGrades, GradeConfig, SegmentationGrades
-from roman_sim.frontend.components import FrontEnd, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
+from roman_sim.evaluation.grader import FrontEndGrader
+from roman_sim.evaluation.grades import DescriptorGrades, GradeConfig, SegmentationGrades
+from roman_sim.frontend.components import FrontEndConfig, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
 from roman_sim.frontend.fit import fit_segmenter, fit_semantics
 from roman_sim.frontend.segmenter import SegmenterConfig, SimulatedSegmenter
 from roman_sim.frontend.semantics import SemanticConfig
@@ -128,7 +128,7 @@ class Calibration:
 
 def calibrate(
     data: CalibrationFrames,
-    frontend: FrontEnd,
+    frontend: FrontEndConfig,
     encoder: bool = True,
     segmenter: bool = True,
     iterations: int = 4,
@@ -167,7 +167,7 @@ def calibrate(
             meta.update(dim=out.measured_descriptors.dim)
             prior = prior_semantics or SemanticConfig(groups=frontend.semantics.groups)
             out.semantics = fit_semantics(out.measured_descriptors, prior)
-            fitted = build_encoder(FrontEnd(semantics=out.semantics), seed + 1, "calibration-fit", data.families)
+            fitted = build_encoder(FrontEndConfig(semantics=out.semantics), seed + 1, "calibration-fit", data.families)
             out.fitted_descriptors = grade_encoder(data, fitted, out.semantics)
     if segmenter:
         target_seg = target_segmenter or build_segmenter(frontend, seed, "calibration")

@@ -20,8 +20,8 @@ from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.sensors import Frame
-from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
-from roman_sim.evaluation.frontend_types import GradeConfig
+from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
+from roman_sim.evaluation.grades import GradeConfig
 from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap

@@ -17,7 +17,7 @@ from roman_sim.align.visual.keyframes import KeyframeParams
 from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
-from roman_sim.frontend.components import FrontEnd as FrontEndBase
+from roman_sim.frontend.components import FrontEndConfig
 from roman_sim.interop.tum_reader import TumSourceConfig
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
@@ -82,7 +82,7 @@ def method_label(method: str) -> str:
     return method.split(":", 1)[1].rsplit(".", 1)[-1] if ":" in method else method
 
 
-class FrontEnd(FrontEndBase):
+class FrontEnd(FrontEndConfig):
     """The scenario's front end: segmenter, encoder, the simulated encoder's semantics and visual keyframes."""
 
     keyframes: KeyframeParams = Field(

@@ -16,10 +16,10 @@ from pathlib import Path
 
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.frontend_types import FrontEndGrades
+from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.evaluation.overlap import counts_by_pair, overlap_graph
 from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
-from roman_sim.report.frontend import frontend_report_lines
+from roman_sim.report.grades import frontend_report_lines
 from roman_sim.report.tables import (
     NA,
     association_rows,

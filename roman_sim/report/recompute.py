@@ -2,7 +2,7 @@
 
 - ``metrics.json`` from ``pairs.csv`` and the evaluation settings in ``config.yaml``
   (``recompute_metrics``): every pair's relevance and correctness are re-derived from its true
-  distance, shared objects and errors (``rederive``), then every figure is recomputed
+  distance, shared objects and errors (``rederive_scores``), then every figure is recomputed
   (``metrics.summary``, the acceptance operating points at ``posegraph.lc_association_thresh``).
   The number of pairs a distance cap skipped is not in ``pairs.csv``; it is taken from
   ``metrics.json``. A file written before the operating points existed is compared without
@@ -89,7 +89,7 @@ def eval_settings(run_dir: Path) -> tuple[EvalConfig, int]:
     return cfg, pg.lc_association_thresh
 
 
-def rederive(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore], list[str]]:
+def rederive_scores(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[PairScore], list[str]]:
     """Scores with relevance and correctness recomputed from the raw columns; rows that disagree."""
     out, diffs = [], []
     for i, s in enumerate(scores):
@@ -116,7 +116,7 @@ def recompute_metrics(
     it); False keeps every figure the current code derives from the pairs (to summarise a run).
     """
     cfg, acceptance_k = eval_settings(run_dir)
-    scores, diffs = rederive(read_pairs_csv(run_dir / pairs_file), cfg)
+    scores, diffs = rederive_scores(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
     metrics = summary(scores, cfg, stored.n_skipped, acceptance_k)
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table

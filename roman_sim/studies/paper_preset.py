@@ -206,9 +206,9 @@ def fit_paper_preset(out: str | Path, cfg: PaperFitConfig | None = None, run: Ru
 def preset_at(preset: str, severity: float) -> dict[str, Any]:
     """The preset's ``frontend`` section with its error parameters at ``severity`` (explicit values)."""
     from roman_sim.core.config import validate_model
-    from roman_sim.frontend.components import FrontEnd
+    from roman_sim.frontend.components import FrontEndConfig
 
-    fe = validate_model(FrontEnd, {"preset": preset, "severity": severity}, source="frontend")
+    fe = validate_model(FrontEndConfig, {"preset": preset, "severity": severity}, source="frontend")
     seg = fe.built_segmenter()
     out: dict[str, Any] = {
         "segmenter": {"name": seg.name, "params": dict(seg.params)},

@@ -7,7 +7,7 @@ configuration, manifest, timings, the main plots) and the raw data, gzip-compres
 ``trajectories/*.tum.gz``, with the submap packets in ``packets/<robot>.npz``
 (``roman_sim.studies.raw_data``). The ambiguity sweep keeps ``sweep.json``,
 ``sweep_summary.csv`` and each run's pairs table and estimates. The independent scorer
-(``roman_sim.studies.scorer``) re-derives the summary's figures and claims from these files. Then it writes
+(``roman_sim.studies.independent_scorer``) re-derives the summary's figures and claims from these files. Then it writes
 ``summary.json`` (every run's compact summary, the comparison with the paper, the claims)
 and ``summary.md``. The demo's run is collected too (``out_dir/demo``, outside the summary).
 ``write_pages`` renders the documentation's generated blocks from the same files

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 from roman_sim.cli import app
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.frontend.components import FrontEnd
+from roman_sim.frontend.components import FrontEndConfig
 from roman_sim.frontend.confusion import relation_moments
 from roman_sim.frontend.fit import _features, fit_semantics
 from roman_sim.frontend.segmenter import SegmenterConfig
@@ -80,7 +80,7 @@ def test_fit_inverts_the_moments_exactly():
 def calibrated():
     sc = load_scenario("smoke")
     data = render_calibration_frames(sc, max_frames=60)
-    fe = FrontEnd(segmenter={"name": "fastsam", "params": SEG}, encoder="simulated", semantics=TRUE)
+    fe = FrontEndConfig(segmenter={"name": "fastsam", "params": SEG}, encoder="simulated", semantics=TRUE)
     return calibrate(data, fe)
 
 
@@ -139,18 +139,18 @@ def test_self_calibration_reproduces_the_segmentation_rates(calibrated):
 
 def test_calibration_yaml_is_a_frontend_preset(calibrated, tmp_path):
     data = yaml.safe_load(calibrated.frontend_yaml())
-    fe = validate_model(FrontEnd, data["frontend"])
+    fe = validate_model(FrontEndConfig, data["frontend"])
     assert fe.segmenter.name == "fastsam" and fe.semantics == calibrated.semantics
     assert data["calibration"]["dim"] == 768 and data["calibration"]["encoder"] == "simulated"
     assert json.loads(json.dumps(calibrated.to_json()))["frontend"]["segmenter"]["name"] == "fastsam"
     path = tmp_path / "cal.yaml"
     path.write_text(calibrated.frontend_yaml())
-    fe = validate_model(FrontEnd, {"preset": str(path), "segmenter": {"params": {"miss_prob": 0.5}}})
+    fe = validate_model(FrontEndConfig, {"preset": str(path), "segmenter": {"params": {"miss_prob": 0.5}}})
     assert fe.semantics == calibrated.semantics and fe.segmenter.params["miss_prob"] == 0.5
     assert fe.segmenter.params["oversegment_prob"] == calibrated.segmenter.oversegment_prob
     # A file measured on another encoder dimension is refused, naming both.
     with pytest.raises(ConfigError, match="768-d encoder, but frontend.semantics.dim is 512"):
-        validate_model(FrontEnd, {"preset": str(path), "semantics": {"dim": 512}})
+        validate_model(FrontEndConfig, {"preset": str(path), "semantics": {"dim": 512}})
 
 
 def test_calibrate_command(tmp_path):

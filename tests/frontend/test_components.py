@@ -7,7 +7,7 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.frontend.components import (
     ENCODER_TYPES,
     SEGMENTER_TYPES,
-    FrontEnd,
+    FrontEndConfig,
     build_encoder,
     build_segmenter,
     check_robots,
@@ -51,15 +51,15 @@ def test_registries_and_flags():
 
 
 def test_entries_accept_names_and_params():
-    assert issubclass(ScenarioFrontEnd, FrontEnd) and "keyframes" in ScenarioFrontEnd.model_fields
-    fe = validate_model(FrontEnd, {"segmenter": "image", "encoder": {"name": "image", "params": {"l_bins": 3}}})
+    assert issubclass(ScenarioFrontEnd, FrontEndConfig) and "keyframes" in ScenarioFrontEnd.model_fields
+    fe = validate_model(FrontEndConfig, {"segmenter": "image", "encoder": {"name": "image", "params": {"l_bins": 3}}})
     assert (fe.segmenter.name, fe.segmenter.params, fe.encoder.params) == ("image", {}, {"l_bins": 3})
     assert fe.needs_rgb and not fe.reads_truth
-    default = FrontEnd()
+    default = FrontEndConfig()
     assert (default.segmenter.name, default.encoder.name) == ("fastsam", "simulated")
     assert default.reads_truth and not default.needs_rgb
     # Calibration output: params without a name mean the fastsam error model.
-    assert validate_model(FrontEnd, {"segmenter": {"params": {"miss_prob": 0.2}}}).segmenter.name == "fastsam"
+    assert validate_model(FrontEndConfig, {"segmenter": {"params": {"miss_prob": 0.2}}}).segmenter.name == "fastsam"
 
 
 @pytest.mark.parametrize(
@@ -79,12 +79,12 @@ def test_entries_accept_names_and_params():
 )
 def test_bad_entries_are_one_line_errors(data, match):
     with pytest.raises(ConfigError, match=match) as err:
-        validate_model(FrontEnd, data, source="frontend")
+        validate_model(FrontEndConfig, data, source="frontend")
     assert "\n" not in str(err.value)
 
 
 def test_factories_build_the_components():
-    fe = FrontEnd(segmenter={"name": "perfect", "params": {"erosion_px": 1}}, semantics=SemanticConfig(dim=16))
+    fe = FrontEndConfig(segmenter={"name": "perfect", "params": {"erosion_px": 1}}, semantics=SemanticConfig(dim=16))
     seg = build_segmenter(fe, seed=3, robot="a")
     assert isinstance(seg, SimulatedSegmenter) and seg.cfg.erosion_px == 1 and seg.cfg.miss_prob == 0
     assert seg.seed == 3 and reads_truth(seg)
@@ -114,13 +114,13 @@ def test_model_adapters_need_a_local_folder(tmp_path):
 
 
 def test_rgb_check_names_the_robot():
-    fe = FrontEnd(segmenter="image", encoder="simulated")
+    fe = FrontEndConfig(segmenter="image", encoder="simulated")
     check_robots(fe, [Robot("a", True)])
     with pytest.raises(ConfigError, match=r"robots.b.render_rgb: the front end's segmenter 'image' needs RGB"):
         check_robots(fe, [Robot("a", True), Robot("b", False)])
-    check_robots(FrontEnd(), [Robot("a", False)])
+    check_robots(FrontEndConfig(), [Robot("a", False)])
     with pytest.raises(ConfigError, match="UserSegmenter"):
-        check_robots(FrontEnd(segmenter=f"{__name__}:UserSegmenter"), [Robot("c", False)])
+        check_robots(FrontEndConfig(segmenter=f"{__name__}:UserSegmenter"), [Robot("c", False)])
     assert encoder_spec("image").needs_rgb
 
 

@@ -7,11 +7,11 @@ import pytest
 from mapping_synth import INTR, drive, frame_at
 
 from roman_sim.core.errors import MappingError
-from roman_sim.evaluation.frontend import FrontEndGrader
-from roman_sim.evaluation.frontend_types import GradeConfig
+from roman_sim.evaluation.grader import FrontEndGrader
+from roman_sim.evaluation.grades import GradeConfig
 from roman_sim.frontend.image_encoder import ImageEncoder, ImageEncoderConfig
 from roman_sim.frontend.image_segmenter import ImageSegmenter, ImageSegmenterConfig
-from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.segmenter import simulated_segmenter
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.observation import observe_indexed
 from roman_sim.mapping.tracker import MappingConfig
@@ -82,7 +82,7 @@ def test_segmenter_filters_and_needs_rgb():
 
 def test_encoder_describes_colour_and_texture():
     f = scene_frames(1)[0]
-    masks = build_segmenter("perfect").segment(f)
+    masks = simulated_segmenter("perfect").segment(f)
     enc = ImageEncoder()
     D = enc.encode_batch(f.rgb, masks, [None] * len(masks))
     assert D.shape == (3, enc.dim) and D.dtype == np.float32
@@ -93,7 +93,7 @@ def test_encoder_describes_colour_and_texture():
         assert float(one @ D[k]) > 0.98  # codes at the crop's edge see other neighbours in the batch
     # The same sphere seen again from 0.5 m further on is closer to itself than to another colour.
     g = scene_frames(4)[3]
-    masks_g = build_segmenter("perfect").segment(g)
+    masks_g = simulated_segmenter("perfect").segment(g)
     Dg = enc.encode_batch(g.rgb, masks_g, [None] * len(masks_g))
     ids_f = [m.object_ids[0] for m in masks]
     ids_g = [m.object_ids[0] for m in masks_g]
@@ -120,7 +120,7 @@ class Spy:
     def segment(self, frame):
         self.frames.append(frame)
         return (
-            build_segmenter("perfect").segment(self._truth_frame)
+            simulated_segmenter("perfect").segment(self._truth_frame)
             if self.reads_truth
             else ImageSegmenter().segment(frame)
         )
@@ -149,7 +149,7 @@ def test_mapper_gives_truth_only_to_truth_driven_components():
     # The map still carries evaluation labels from the frames' truth.
     assert sorted(s.majority_id for s in m.finish().segments) == [0, 1, 2]
     truth_enc = Spy(reads_truth=True, batch=False)
-    obs = observe_indexed(frames[0], build_segmenter("perfect").segment(frames[0]), MappingConfig(), truth_enc)
+    obs = observe_indexed(frames[0], simulated_segmenter("perfect").segment(frames[0]), MappingConfig(), truth_enc)
     assert truth_enc.singles == len(obs) == 3 and truth_enc.batches == 0
     assert sorted(c.object_id for c in truth_enc.contexts) == [0, 1, 2]
     assert all(c.view_dir is not None for c in truth_enc.contexts)
@@ -162,7 +162,7 @@ def test_bad_batch_output_is_an_error():
 
     f = scene_frames(1)[0]
     with pytest.raises(MappingError, match="encode_batch returned shape"):
-        observe_indexed(f, build_segmenter("perfect").segment(f), MappingConfig(), Bad())
+        observe_indexed(f, simulated_segmenter("perfect").segment(f), MappingConfig(), Bad())
 
 
 def test_image_front_end_on_rendered_frames(tiny_rgb_frames):

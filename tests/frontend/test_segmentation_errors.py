@@ -8,7 +8,7 @@ merged anything; merges now follow the image gap and the objects' median depths.
 import numpy as np
 import pytest
 
-from roman_sim.evaluation.frontend import FrontEndGrader
+from roman_sim.evaluation.grader import FrontEndGrader
 from roman_sim.frontend.segmenter import SEGMENTERS, SegmenterConfig, SimulatedSegmenter
 
 

@@ -7,7 +7,7 @@ from scipy import ndimage
 
 from roman_sim.core.errors import ConfigError, MappingError
 from roman_sim.core.sensors import Frame, FrameTruth
-from roman_sim.frontend.segmenter import SEGMENTERS, SegmenterConfig, build_segmenter
+from roman_sim.frontend.segmenter import SEGMENTERS, SegmenterConfig, simulated_segmenter
 from roman_sim.mapping.mask import Mask, ellipse_kernel
 from roman_sim.mapping.protocols import Segmenter
 
@@ -26,7 +26,7 @@ def _ids_boxes():
 
 
 def test_perfect_preset_is_eroded_truth_after_area_filter():
-    masks = build_segmenter("perfect").segment(_frame(_ids_boxes()))
+    masks = simulated_segmenter("perfect").segment(_frame(_ids_boxes()))
     assert [m.object_ids for m in masks] == [(0,), (2,)]
     # Erosion 3 px at 640 px width is 1 px on these 160 px frames.
     truth = ndimage.binary_erosion(_ids_boxes() == 0, structure=ellipse_kernel(1), border_value=0)
@@ -37,38 +37,38 @@ def test_perfect_preset_is_eroded_truth_after_area_filter():
 def test_area_filter_drops_huge_masks():
     ids = np.full((120, 160), -1)
     ids[:, :100] = 0  # 12000 px > A/9
-    assert build_segmenter("perfect").segment(_frame(ids)) == []
+    assert simulated_segmenter("perfect").segment(_frame(ids)) == []
 
 
 def test_presets_and_protocol():
     assert {"perfect", "fastsam"} <= set(SEGMENTERS.names())
-    assert isinstance(build_segmenter("fastsam", 1), Segmenter)
+    assert isinstance(simulated_segmenter("fastsam", 1), Segmenter)
     with pytest.raises(ConfigError, match="valid: fastsam, perfect"):
-        build_segmenter("sam9")
+        simulated_segmenter("sam9")
     with pytest.raises(MappingError):
-        build_segmenter(SegmenterConfig(min_area_div=3.0, max_area_div=5.0))
+        simulated_segmenter(SegmenterConfig(min_area_div=3.0, max_area_div=5.0))
 
 
 def test_bad_shapes_raise():
     f = _frame(_ids_boxes())
     f.depth = np.zeros((10, 10), np.float32)
     with pytest.raises(MappingError, match="object_ids"):
-        build_segmenter("perfect").segment(f)
+        simulated_segmenter("perfect").segment(f)
 
 
 def test_same_seed_same_masks_and_seed_matters():
     f = _frame(_ids_boxes(), index=3)
-    a = build_segmenter("fastsam", 5).segment(f)
-    b = build_segmenter("fastsam", 5).segment(f)
+    a = simulated_segmenter("fastsam", 5).segment(f)
+    b = simulated_segmenter("fastsam", 5).segment(f)
     assert len(a) == len(b) and all(np.array_equal(x.pixels, y.pixels) for x, y in zip(a, b))
-    outs = {tuple(m.area for m in build_segmenter("fastsam", s).segment(f)) for s in range(6)}
+    outs = {tuple(m.area for m in simulated_segmenter("fastsam", s).segment(f)) for s in range(6)}
     assert len(outs) > 1
 
 
 def _only(**kw):
     base = SEGMENTERS.get("perfect").model_dump()
     base.update(kw)
-    return build_segmenter(SegmenterConfig(**base), seed=0)
+    return simulated_segmenter(SegmenterConfig(**base), seed=0)
 
 
 def test_missed_detections_likelier_for_small_and_far():
@@ -148,7 +148,7 @@ def test_mask_bbox():
 
 def test_empty_image_gives_no_masks():
     f = _frame(np.zeros((0, 0), np.int32), np.zeros((0, 0), np.float32))
-    assert build_segmenter("fastsam").segment(f) == []
+    assert simulated_segmenter("fastsam").segment(f) == []
 
 
 def _turning_frame(ids, yaw, index):
@@ -188,7 +188,7 @@ def test_pixel_sizes_follow_the_image_width():
     big = np.kron(small, np.ones((4, 4), int))
     for ids, radius in ((small, 1), (big, 3)):
         truth = ndimage.binary_erosion(ids == 0, structure=ellipse_kernel(radius), border_value=0)
-        m = build_segmenter("perfect").segment(_frame(ids))[0]
+        m = simulated_segmenter("perfect").segment(_frame(ids))[0]
         np.testing.assert_array_equal(m.pixels, truth)
         (f,) = masks_from_labels((ids + 1).astype(np.int32), MaskFilterConfig())
         np.testing.assert_array_equal(f.pixels, truth)

@@ -15,7 +15,7 @@ import pytest
 
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.frontend.components import FrontEnd
+from roman_sim.frontend.components import FrontEndConfig
 from roman_sim.frontend.confusion import ConfusionConfig, realisable, relation_moments
 from roman_sim.frontend.semantics import SemanticConfig, SimulatedEncoder
 from roman_sim.frontend.semantics_stats import CASES, cosine_statistics, sample_cosines, view_curve
@@ -103,7 +103,7 @@ def test_bad_confusion_fails_with_the_field():
     ]
     for conf, field in cases:
         with pytest.raises(ConfigError, match=field) as err:
-            validate_model(FrontEnd, {"semantics": {"confusion": conf}}, source="frontend")
+            validate_model(FrontEndConfig, {"semantics": {"confusion": conf}}, source="frontend")
         assert "\n" not in str(err.value)
     with pytest.raises(ConfigError, match="dim"):
         validate_model(SemanticConfig, {"dim": 2})

@@ -184,7 +184,7 @@ class SideFileSegmenter:
 
 
 def test_mapping_frames_whose_truth_has_no_ids(tum_export: Path) -> None:
-    from roman_sim.frontend.segmenter import build_segmenter
+    from roman_sim.frontend.segmenter import simulated_segmenter
     from roman_sim.mapping.mapper import Mapper
     from roman_sim.mapping.submap import SubmapConfig, build_submaps
     from roman_sim.mapping.tracker import MappingConfig
@@ -202,4 +202,4 @@ def test_mapping_frames_whose_truth_has_no_ids(tum_export: Path) -> None:
     subs = build_submaps(smap, SubmapConfig())
     assert subs and all(s.truth is not None and np.all(s.truth.object_ids == -1) for s in subs)
     with pytest.raises(MappingError, match="instance labels"):
-        Mapper(MappingConfig(), build_segmenter("perfect", seed=0)).process(next(seq.frames()))
+        Mapper(MappingConfig(), simulated_segmenter("perfect", seed=0)).process(next(seq.frames()))

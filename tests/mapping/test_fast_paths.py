@@ -115,7 +115,7 @@ def test_front_end_grades_and_masks_match_their_reference_paths(demo_frames, mon
     against the scipy filters and the per-object grading, frame by frame."""
     from scipy import ndimage
 
-    from roman_sim.evaluation.frontend import FrontEndGrader
+    from roman_sim.evaluation.grader import FrontEndGrader
     from roman_sim.frontend import frame_objects as fo_mod
     from roman_sim.frontend import mask_noise
     from roman_sim.frontend import segmenter as seg_mod

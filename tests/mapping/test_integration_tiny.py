@@ -7,7 +7,7 @@ import pytest
 
 from roman_sim.core.geometry import inv_T, pose_4dof, transform_points
 from roman_sim.core.sensors import backproject
-from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.segmenter import simulated_segmenter
 from roman_sim.frontend.semantics import SimulatedEncoder
 from roman_sim.mapping.io import load_segment_map, packet_bytes, save_segment_map
 from roman_sim.mapping.mapper import Mapper
@@ -29,7 +29,7 @@ def run():
 
 
 def _map(frames, segmenter="perfect", encoder=None):
-    m = Mapper(MappingConfig(), build_segmenter(segmenter, 0), encoder)
+    m = Mapper(MappingConfig(), simulated_segmenter(segmenter, 0), encoder)
     for f in frames:
         m.process(f)
     return m.finish()
@@ -49,7 +49,7 @@ def _visible(frames, max_depth=7.5):
 
 def _sufficiently_visible(frames, min_frames=5):
     """Objects with a perfect mask mostly within range in at least ``min_frames`` frames."""
-    seg = build_segmenter("perfect")
+    seg = simulated_segmenter("perfect")
     counts: dict[int, int] = {}
     for f in frames:
         for m in seg.segment(f):

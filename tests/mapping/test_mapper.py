@@ -7,7 +7,7 @@ from mapping_synth import SPHERES, drive, frame_at
 from roman_sim.core.errors import MappingError
 from roman_sim.core.geometry import pose_4dof, transform_points
 from roman_sim.core.sensors import backproject
-from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.segmenter import simulated_segmenter
 from roman_sim.frontend.semantics import SimulatedEncoder
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.mask import Mask
@@ -16,7 +16,7 @@ from roman_sim.mapping.voxels import downsample
 
 
 def _run(frames, segmenter=None, encoder=None):
-    m = Mapper(MappingConfig(), segmenter or build_segmenter("perfect"), encoder)
+    m = Mapper(MappingConfig(), segmenter or simulated_segmenter("perfect"), encoder)
     for f in frames:
         m.process(f)
     return m.finish()
@@ -61,7 +61,7 @@ class SplittingSegmenter:
     reads_truth = True
 
     def __init__(self):
-        self.inner = build_segmenter("perfect")
+        self.inner = simulated_segmenter("perfect")
 
     def segment(self, frame):
         masks = self.inner.segment(frame)
@@ -87,7 +87,7 @@ class GroundSegmenter:
     reads_truth = True
 
     def __init__(self):
-        self.inner = build_segmenter("perfect")
+        self.inner = simulated_segmenter("perfect")
 
     def segment(self, frame):
         ground = (frame.truth.object_ids < 0) & (frame.depth > 0) & (frame.depth < 7.0)
@@ -104,7 +104,7 @@ def test_empty_and_invalid_frames_are_skipped():
     frames = drive(n=3)
     for f in frames:
         f.depth = np.zeros_like(f.depth)
-    m = Mapper(MappingConfig(), build_segmenter("perfect"))
+    m = Mapper(MappingConfig(), simulated_segmenter("perfect"))
     assert [m.process(f) for f in frames] == [0, 0, 0]
     assert len(m.finish()) == 0
     f = frame_at([], 0, 0, 0, 0.0, 0)
@@ -115,7 +115,7 @@ def test_empty_and_invalid_frames_are_skipped():
 
 def test_mapper_rejects_inconsistent_input():
     frames = drive(n=3)
-    m = Mapper(MappingConfig(), build_segmenter("perfect"))
+    m = Mapper(MappingConfig(), simulated_segmenter("perfect"))
     m.process(frames[1])
     with pytest.raises(MappingError, match="back in time"):
         m.process(frames[0])
@@ -134,7 +134,7 @@ def test_mapper_rejects_inconsistent_input():
 def test_same_seed_same_map_with_noisy_segmenter_and_descriptors():
     def run():
         enc = SimulatedEncoder(seed=4, families={0: "rock", 1: "conifer", 2: "rock"})
-        return _run(drive(), build_segmenter("fastsam", 4), enc)
+        return _run(drive(), simulated_segmenter("fastsam", 4), enc)
 
     a, b = run(), run()
     assert [s.id for s in a.segments] == [s.id for s in b.segments]
@@ -149,4 +149,4 @@ def test_empty_image_is_a_clear_error():
     f.depth = np.zeros((0, 0), np.float32)
     f.truth.object_ids = np.zeros((0, 0), np.int32)
     with pytest.raises(MappingError, match="depth shape"):
-        Mapper(MappingConfig(), build_segmenter("fastsam")).process(f)
+        Mapper(MappingConfig(), simulated_segmenter("fastsam")).process(f)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.frontend.segmenter import build_segmenter
+from roman_sim.frontend.segmenter import simulated_segmenter
 from roman_sim.mapping import synthetic
 from roman_sim.mapping.mapper import Mapper
 from roman_sim.mapping.obb import oriented_extents, trimesh_extents
@@ -57,7 +57,7 @@ def test_same_extents_as_trimesh_on_mapped_segments() -> None:
     """Segments of ray-cast frames: dense voxel clouds of spheres seen from a moving camera."""
     spheres = synthetic.sphere_field(60, 3, x_range=(2.0, 8.0), half_width=3.0, radius_range=(0.2, 0.5))
     frames = synthetic.drive(spheres, n=15, speed=0.4, intr=synthetic.intrinsics(160, 120, 87.0))
-    mapper = Mapper(MappingConfig(), build_segmenter("perfect", 3))
+    mapper = Mapper(MappingConfig(), simulated_segmenter("perfect", 3))
     for frame in frames:
         mapper.process(frame)
     segments = mapper.finish().segments

@@ -245,12 +245,12 @@ def test_guarded_aligner_names_the_pair(plugin_dir: Path) -> None:
 def test_guarded_frontend_names_the_frame(plugin_dir: Path) -> None:
     from roman_user_plugins_t import Divides, GrowingEncoder  # type: ignore[import-not-found]
 
-    from roman_sim.frontend.segmenter import build_segmenter
+    from roman_sim.frontend.segmenter import simulated_segmenter
     from roman_sim.mapping.mapper import Mapper
     from roman_sim.mapping.tracker import MappingConfig
 
     frames = synthetic.drive(synthetic.sphere_field(4, seed=0), n=1)  # 160 x 120: three observations
-    seg, enc = guard_frontend(build_segmenter("perfect"), "perfect", Divides(), "m:Divides")
+    seg, enc = guard_frontend(simulated_segmenter("perfect"), "perfect", Divides(), "m:Divides")
     with pytest.raises(PluginError) as e:
         Mapper(MappingConfig(), seg, enc).process(frames[0])
     assert str(e.value) == (
@@ -259,7 +259,7 @@ def test_guarded_frontend_names_the_frame(plugin_dir: Path) -> None:
     seg, enc = guard_frontend(Divides(), "m:Divides", None, "simulated")
     with pytest.raises(PluginError, match="segmenter 'm:Divides' failed on frame 0 of robot a: ZeroDivisionError"):
         Mapper(MappingConfig(), seg, enc).process(frames[0])
-    seg, enc = guard_frontend(build_segmenter("perfect"), "perfect", GrowingEncoder(), "m:Growing")
+    seg, enc = guard_frontend(simulated_segmenter("perfect"), "perfect", GrowingEncoder(), "m:Growing")
     with pytest.raises(
         PluginError, match="on a mask of frame 0 of robot a: encode.* returned 6 values, earlier descriptors had 5"
     ):

@@ -83,7 +83,7 @@ def test_the_scorer_gives_the_evaluations_operating_points(smoke_run):
     """Every set and heading bin: the independent scorer's points are those of the run's metrics.json."""
     from roman_sim.evaluation.operating_points import points_to_json
     from roman_sim.report.recompute import stored_summary
-    from roman_sim.studies.scorer import agreement, score_run
+    from roman_sim.studies.independent_scorer import agreement, score_run
 
     scored = score_run(smoke_run.run_dir)
     metrics = smoke_run.metrics

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
-from roman_sim.frontend.components import FrontEnd, build_encoder, build_segmenter
+from roman_sim.frontend.components import FrontEndConfig, build_encoder, build_segmenter
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.studies import paper_preset
 from roman_sim.studies.paper_preset import PaperFitConfig, fit_paper_preset, predict_paper_preset
@@ -55,8 +55,8 @@ def test_fit_brackets_then_bisects_and_writes_a_preset(tmp_path):
     assert all("aligners=[roman]" in o for _, o in stub.calls)  # the fit needs ROMAN only
     # paper_fit.yaml is a preset file: the preset's parameters at the fitted severity.
     path = tmp_path / "paper_fit.yaml"
-    fe = validate_model(FrontEnd, {"preset": str(path)})
-    at = validate_model(FrontEnd, {"preset": "paper", "severity": 1.375})
+    fe = validate_model(FrontEndConfig, {"preset": str(path)})
+    at = validate_model(FrontEndConfig, {"preset": "paper", "severity": 1.375})
     assert build_segmenter(fe).cfg == build_segmenter(at).cfg
     assert build_encoder(fe).cfg == build_encoder(at).cfg
     assert yaml.safe_load(path.read_text())["fit"]["searched"][0] == [0.0, 0.95]
@@ -121,34 +121,36 @@ def test_commands(tmp_path, monkeypatch):
 
 
 def test_severity_scales_the_error_parameters_when_built():
-    fe = validate_model(FrontEnd, {"preset": "paper", "severity": 2.0})
+    fe = validate_model(FrontEndConfig, {"preset": "paper", "severity": 2.0})
     seg = build_segmenter(fe).cfg
     assert seg.undersegment_prob == pytest.approx(0.8) and seg.view_split_frac == pytest.approx(0.5)
     assert seg.partial_frac == pytest.approx(0.5) and seg.merge_gap_px == 3.0  # not a rate: unchanged
     conf = fe.semantics.confusion
     assert build_encoder(fe).cfg.confusion.level == pytest.approx(min(2.0, conf.max_level()))
     assert fe.segmenter.params["undersegment_prob"] == 0.4  # the configuration stays as written
-    assert validate_model(FrontEnd, fe.model_dump(mode="json")) == fe  # a resolved scenario reloads unchanged
-    capped = build_segmenter(validate_model(FrontEnd, {"preset": "paper", "severity": 4.0})).cfg
+    assert validate_model(FrontEndConfig, fe.model_dump(mode="json")) == fe  # a resolved scenario reloads unchanged
+    capped = build_segmenter(validate_model(FrontEndConfig, {"preset": "paper", "severity": 4.0})).cfg
     assert capped.undersegment_prob == 1.0
     # The scenario's own keys override the preset's; another segmenter replaces the preset's entry.
-    own = validate_model(FrontEnd, {"preset": "paper", "segmenter": {"params": {"undersegment_prob": 0.1}}})
+    own = validate_model(FrontEndConfig, {"preset": "paper", "segmenter": {"params": {"undersegment_prob": 0.1}}})
     assert own.segmenter.params["undersegment_prob"] == 0.1 and own.segmenter.params["view_split_frac"] == 0.25
-    assert validate_model(FrontEnd, {"preset": "paper", "segmenter": "perfect"}).segmenter.params == {}
+    assert validate_model(FrontEndConfig, {"preset": "paper", "segmenter": "perfect"}).segmenter.params == {}
     assert (
-        validate_model(FrontEnd, {"preset": "paper", "semantics": {"confusion": 0.5}}).semantics.confusion.other.std
+        validate_model(
+            FrontEndConfig, {"preset": "paper", "semantics": {"confusion": 0.5}}
+        ).semantics.confusion.other.std
         == 0.075
     )
 
 
 def test_bad_presets(tmp_path):
     with pytest.raises(ConfigError, match=r"unknown preset 'nope' \(valid: paper"):
-        validate_model(FrontEnd, {"preset": "nope"})
+        validate_model(FrontEndConfig, {"preset": "nope"})
     bad = tmp_path / "bad.yaml"
     bad.write_text("frontend: {}\nextra: 1\n")
     with pytest.raises(ConfigError, match="unknown top-level keys"):
-        validate_model(FrontEnd, {"preset": str(bad)})
+        validate_model(FrontEndConfig, {"preset": str(bad)})
     with pytest.raises(ConfigError, match="file not found"):
-        validate_model(FrontEnd, {"preset": str(tmp_path / "missing.yaml")})
+        validate_model(FrontEndConfig, {"preset": str(tmp_path / "missing.yaml")})
     with pytest.raises(ConfigError, match="severity"):
-        validate_model(FrontEnd, {"preset": "paper", "severity": -1})
+        validate_model(FrontEndConfig, {"preset": "paper", "severity": -1})

@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from roman_sim.studies import scorer as S
+from roman_sim.studies import independent_scorer as S
 from roman_sim.studies.pages import current_block
 from roman_sim.studies.paper_preset import PRESET_MARKERS, preset_block
 

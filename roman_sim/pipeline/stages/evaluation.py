@@ -139,7 +139,7 @@ def score_pairs(
     return out
 
 
-class Scorer:
+class IncrementalScorer:
     """``score_pairs`` done as results come in: truths on the first chunk, each result scored on arrival.
 
     The evaluation hands ``add`` to the alignment, so this process scores the chunks that
@@ -235,7 +235,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         sel = select_pairs(inputs.submaps.all(), ec)
         world = inputs.world
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
-        scorer = Scorer(sel.pairs, ambiguity, [e.name for e in ctx.scenario.aligners], ec)
+        scorer = IncrementalScorer(sel.pairs, ambiguity, [e.name for e in ctx.scenario.aligners], ec)
         # pairs are scored as their chunks come back, while the workers align the others
         results, pair_timings = apply_aligners(ctx, sel.pairs, tasks, scorer.add)
         scores = scorer.scores(results)

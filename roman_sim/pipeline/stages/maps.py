@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.evaluation.frontend import FrontEndGrader, GraderPart
-from roman_sim.evaluation.frontend_types import FrontEndGrades
+from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
+from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.types import KeyframeSet
@@ -39,7 +39,7 @@ from roman_sim.pipeline.robot_mapping import RobotMapping, RobotMappingCodec, ma
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.report.frontend import plot_frontend_grades
+from roman_sim.report.grades import plot_frontend_grades
 from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:

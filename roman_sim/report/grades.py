@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roman_sim.evaluation.frontend_types import FrontEndGrades
+from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.report.plots import save_png
 
 

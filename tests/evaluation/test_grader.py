@@ -6,11 +6,11 @@ import pytest
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import R_FLU_RDF, make_T
 from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics
-from roman_sim.evaluation.frontend import FrontEndGrader
-from roman_sim.evaluation.frontend_types import FrontEndGrades, GradeConfig
+from roman_sim.evaluation.grader import FrontEndGrader
+from roman_sim.evaluation.grades import FrontEndGrades, GradeConfig
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
-from roman_sim.report.frontend import frontend_report_lines, plot_frontend_grades
+from roman_sim.report.grades import frontend_report_lines, plot_frontend_grades
 
 H, W = 120, 160
 # Erosion is given at 640 px width: 12 px there is the 3 px radius these 160 px frames are built for.

@@ -1,6 +1,6 @@
 """``FrontEndGrader``: grades a front end frame by frame against the frame's truth.
 
-Definitions are in ``roman_sim.evaluation.frontend_types``. ``add(frame, masks, observed)``
+Definitions are in ``roman_sim.evaluation.grades``. ``add(frame, masks, observed)``
 has the signature of the mapper's ``on_frame`` hook, so grading runs during mapping for
 whatever segmenter and encoder ran; nothing else in front-end grading reads truth.
 
@@ -24,7 +24,7 @@ from scipy.optimize import linear_sum_assignment
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.sensors import Frame, backproject
-from roman_sim.evaluation.frontend_types import (
+from roman_sim.evaluation.grades import (
     CLASSES,
     CosineStats,
     DescriptorGrades,

@@ -1,6 +1,6 @@
 """The independent scorer: its definitions by hand, and its agreement with every committed run.
 
-The scorer (``roman_sim.studies.scorer``) shares no code with the evaluation that produced the
+The scorer (``roman_sim.studies.independent_scorer``) shares no code with the evaluation that produced the
 committed figures; these tests check it first on inputs whose answers are worked out by hand,
 then re-derive every committed run's summary figures and every claim from the raw files.
 """
@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roman_sim.studies import scorer as S
+from roman_sim.studies import independent_scorer as S
 
 ROOT = Path(__file__).resolve().parents[2]
 REF = ROOT / "results" / "reference"
@@ -31,7 +31,9 @@ def test_the_scorer_imports_no_scoring_code():
     import grimp
 
     graph = grimp.build_graph("roman_sim")
-    imported = graph.find_upstream_modules("roman_sim.studies.scorer")  # everything it imports, transitively
+    imported = graph.find_upstream_modules(
+        "roman_sim.studies.independent_scorer"
+    )  # everything it imports, transitively
     assert imported <= {"roman_sim.core.errors", "roman_sim.core.yamlio"}, sorted(imported)
 
 
