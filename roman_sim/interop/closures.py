@@ -38,7 +38,8 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from roman_sim.core.atomic import write_text
-from roman_sim.core.errors import ConfigError
+from roman_sim.core.errors import ConfigError, EvaluationError
+from roman_sim.core.trajectory import Trajectory
 
 #: Largest allowed deviation of a quaternion's norm from 1.
 QUAT_TOL = 1e-5
@@ -148,6 +149,34 @@ def read_csv_closures(path: str | Path) -> list[Closure]:
             )
         )
     return out
+
+
+#: Header of the trajectory CSV the reference ROMAN writes (robotdatapy's Kimera-Multi layout).
+POSE_CSV_HEADER = ["#timestamp_kf", "x", "y", "z", "qw", "qx", "qy", "qz"]
+
+
+def read_pose_csv(path: str | Path) -> Trajectory:
+    """A trajectory CSV as the reference ROMAN writes it: ``#timestamp_kf,x,y,z,qw,qx,qy,qz``, time in ns."""
+    p = Path(path)
+    try:
+        rows = list(csv.reader(io.StringIO(p.read_text(encoding="utf-8"))))
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{p}: cannot read the trajectory ({type(err).__name__})") from None
+    if not rows or [c.strip() for c in rows[0]] != POSE_CSV_HEADER:
+        raise ConfigError(f"{p}:1: a trajectory CSV starts with the header {','.join(POSE_CSV_HEADER)}")
+    t, T = [], []
+    for n, row in enumerate(rows[1:], start=2):
+        if not row:
+            continue
+        if len(row) != 8:
+            raise _bad(p, n, f"{len(row)} fields; a pose line is {','.join(POSE_CSV_HEADER)[1:]} (time in ns)")
+        v = _floats(p, n, row, "pose")
+        t.append(v[0] / 1e9)
+        T.append(pose_from_xyz_quat(p, n, [*v[1:4], *v[5:8], v[4]]))
+    try:
+        return Trajectory(np.asarray(t), np.asarray(T).reshape(-1, 4, 4))
+    except EvaluationError as err:
+        raise ConfigError(f"{p}: {err}") from None
 
 
 def read_times_file(path: str | Path) -> dict[tuple[int, int], float]:

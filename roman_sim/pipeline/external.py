@@ -50,7 +50,7 @@ from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
 from roman_sim.evaluation.pairs import select_pairs
-from roman_sim.interop.closures import Closure, read_closures
+from roman_sim.interop.closures import Closure, read_closures, read_pose_csv
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import Progress, RunContext
 from roman_sim.pipeline.experiment import Experiment
@@ -107,6 +107,17 @@ def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float
     return out
 
 
+def _robot_order(source: Path, scenario: Scenario) -> list[str]:
+    """The robots in the export's order (those it holds), else the scenario's."""
+    manifest = source / "export.json"
+    if manifest.is_file() and not (source / MANIFEST_JSON).is_file():
+        try:
+            return [str(r) for r in json.loads(manifest.read_text(encoding="utf-8"))["robots"]]
+        except (OSError, ValueError, KeyError, TypeError) as err:
+            raise StorageError(f"{manifest}: unreadable ({type(err).__name__})") from None
+    return [r.name for r in scenario.robots]
+
+
 def _load_stage(run_dir: Path, scenario: Scenario, stage: Any) -> Any:
     man = existing_manifest(run_dir)
     if man is None or stage.name not in man.stages:
@@ -128,20 +139,28 @@ def _check_closures(path: Path, closures: list[Closure], times: dict[str, NDArra
                 )
 
 
+def _read_trajectory(folder: Path, robot: str, robots: list[str]) -> tuple[Path, Trajectory]:
+    """``<robot>.tum``, else the reference ROMAN's ``<robot>.csv``."""
+    for path, reader in ((folder / f"{robot}.tum", read_tum), (folder / f"{robot}.csv", read_pose_csv)):
+        if path.is_file():
+            try:
+                return path, reader(path)
+            except StorageError as err:
+                raise ConfigError(str(err)) from None
+    need = ", ".join(f"{x}.tum" for x in robots)
+    raise ConfigError(
+        f"--trajectories {folder}: no {robot}.tum or {robot}.csv (one file per robot: {need}, or the reference "
+        "ROMAN's <robot>.csv)"
+    )
+
+
 def _read_trajectories(folder: Path, times: dict[str, NDArray[np.float64]]) -> dict[str, Trajectory]:
-    """``<robot>.tum`` of every robot, each covering the robot's frames (ConfigError otherwise)."""
+    """Every robot's trajectory (``_read_trajectory``), each covering the robot's frames (ConfigError otherwise)."""
     if not folder.is_dir():
         raise ConfigError(f"--trajectories {folder}: not a folder")
     out = {}
     for r, ts in times.items():
-        path = folder / f"{r}.tum"
-        if not path.is_file():
-            need = ", ".join(f"{x}.tum" for x in times)
-            raise ConfigError(f"--trajectories {folder}: no {r}.tum (one TUM file per robot: {need})")
-        try:
-            tr = read_tum(path)
-        except StorageError as err:
-            raise ConfigError(str(err)) from None
+        path, tr = _read_trajectory(folder, r, list(times))
         if len(tr) < 3 or tr.t[0] > ts[0] + COVER_TOL_S or tr.t[-1] < ts[-1] - COVER_TOL_S:
             span = f"{tr.t[0]:.3f} to {tr.t[-1]:.3f} s" if len(tr) else "no poses"
             raise ConfigError(
@@ -295,7 +314,7 @@ def score_external(
     if not label or "/" in label or ":" in label:
         raise ConfigError(f"--label {label!r}: a non-empty name without '/' or ':'")
     scenario = load_scenario(src / "config.yaml")
-    order = list(robots) if robots else [r.name for r in scenario.robots]
+    order = list(robots) if robots else _robot_order(src, scenario)
     read = read_closures(path, times, order)
     frame_t = _frame_times(src, scenario)
     _check_closures(path, read, frame_t)

@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 from roman_sim.core.geometry import rot_z
+from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import summary
 from roman_sim.evaluation.results import read_evaluation
@@ -41,7 +43,17 @@ def scored(smoke_run: RunResult, files: dict[str, Path], tmp_path_factory: pytes
     for r in ("a", "b"):
         (traj / f"{r}.tum").write_bytes((smoke_run.run_dir / "trajectories" / f"{r}.roman.tum").read_bytes())
     score_external(smoke_run.run_dir, files["csv"], out / "csv", trajectories=traj, label="ext")
-    score_external(smoke_run.run_dir, files["g2o"], out / "g2o", times=files["times"], label="ext")
+    ref = out / "ref"  # the same trajectories as the reference ROMAN writes them (CSV, ns, qw first)
+    ref.mkdir()
+    for r in ("a", "b"):
+        tr = read_tum(traj / f"{r}.tum")
+        q = Rotation.from_matrix(tr.T[:, :3, :3]).as_quat()
+        rows = [
+            ",".join([str(round(t * 1e9)), *(repr(float(v)) for v in (*p, w[3], *w[:3]))])
+            for t, p, w in zip(tr.t, tr.positions, q)
+        ]
+        (ref / f"{r}.csv").write_text("#timestamp_kf,x,y,z,qw,qx,qy,qz\n" + "\n".join(rows) + "\n", encoding="utf-8")
+    score_external(smoke_run.run_dir, files["g2o"], out / "g2o", times=files["times"], trajectories=ref, label="ext")
     return {"csv": out / "csv", "g2o": out / "g2o"}
 
 
@@ -116,11 +128,17 @@ def test_per_pair_errors_match_the_run(smoke_run: RunResult, scored: dict[str, P
         assert s.trans_err_m == pytest.approx(o.trans_err_m, abs=1e-8)
 
 
-def test_own_trajectories_scored_like_the_runs_pose_graph(smoke_run: RunResult, scored: dict[str, Path]) -> None:
-    data = json.loads((scored["csv"] / EXTERNAL_ATE_JSON).read_text(encoding="utf-8"))
+@pytest.mark.parametrize("fmt", ["csv", "g2o"])  # TUM trajectories with the CSV closures, the reference's CSV with g2o
+def test_own_trajectories_scored_like_the_runs_pose_graph(
+    smoke_run: RunResult, scored: dict[str, Path], fmt: str
+) -> None:
+    data = json.loads((scored[fmt] / EXTERNAL_ATE_JSON).read_text(encoding="utf-8"))
     (row,) = data["variants"]
     assert row["name"] == "ext_trajectories" and row["connected"] == ["a", "b"]
-    assert row["rmse"]["se3"]["all"] == pytest.approx(smoke_run.ate.variants["roman"].rmse["se3"]["all"], abs=1e-6)
+    own = smoke_run.ate.variants["roman"].rmse
+    for fit in ("se3", "4dof"):
+        for cell in ("a", "b", "all"):
+            assert row["rmse"][fit][cell] == pytest.approx(own[fit][cell], abs=1e-6)
 
 
 def test_wrong_closures_are_false_positives(smoke_run: RunResult, closures: list[Closure], tmp_path: Path) -> None:

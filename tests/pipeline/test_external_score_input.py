@@ -101,7 +101,10 @@ def test_trajectories_that_do_not_cover_the_run(
     assert not out.exists()
     (traj / "b.tum").unlink()
     err = cli_fails("score", smoke_run.run_dir, "--closures", closures, "--trajectories", traj, "--out", out)
-    assert err == f"error: --trajectories {traj}: no b.tum (one TUM file per robot: a.tum, b.tum)"
+    assert err.startswith(f"error: --trajectories {traj}: no b.tum or b.csv (one file per robot: a.tum, b.tum, or ")
+    (traj / "b.csv").write_text("time,x,y,z\n", encoding="utf-8")
+    err = cli_fails("score", smoke_run.run_dir, "--closures", closures, "--trajectories", traj, "--out", out)
+    assert err == f"error: {traj / 'b.csv'}:1: a trajectory CSV starts with the header #timestamp_kf,x,y,z,qw,qx,qy,qz"
 
 
 def test_source_and_out_checked(smoke_run: RunResult, tmp_path: Path, cli_fails: Callable[..., str]) -> None:
