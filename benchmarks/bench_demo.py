@@ -90,10 +90,10 @@ def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
         finally:
             stages[stage.name] = time.process_time() - t0
 
-    def timed_robot(ctx: Any, world: Any, cfg: Any, path: Any) -> Any:
+    def timed_robot(ctx: Any, world: Any, cfg: Any) -> Any:
         t0 = time.process_time()
         try:
-            return map_one(ctx, world, cfg, path)
+            return map_one(ctx, world, cfg)
         finally:
             robots[cfg.name] = time.process_time() - t0
 

@@ -35,7 +35,8 @@ from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.types import Submap
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.paths import PathConfig
-from roman_sim.sim.robot import RobotConfig, simulate_robot
+from roman_sim.sim.robot import RobotConfig
+from roman_sim.sim.source import robot_sources
 from roman_sim.world import generate, load_world_spec
 
 OUT = Path(__file__).parent / "out" / "mapping.json"
@@ -114,7 +115,7 @@ def run_world(world_name: str, seconds: float, seed: int) -> dict:
     mapper, seg, enc = _mapper(seed, {o.id: o.family for o in world.truth.objects})
     per_frame, n_obs = [], []
     t_wall = time.perf_counter()
-    for frame in simulate_robot(world, robot, seed):
+    for frame in robot_sources(world, [robot], seed)[0].frames():
         t0 = time.perf_counter()
         n_obs.append(mapper.process(frame))
         per_frame.append(time.perf_counter() - t0)

@@ -3,7 +3,7 @@
 World: the ``forest`` preset (about 1000 objects, 200 x 200 m), seed 0. Camera 640 x 480
 (the default ``CameraConfig``), poses along a robot driving the forest loop road (so the views
 are representative, not of empty sky). Also times the cheap parts of a run (path planning,
-driving + odometry), the depth noise, and whole ``simulate_robot`` frames (RGB, depth,
+driving + odometry), the depth noise, and whole frames of a robot's frame source (RGB, depth,
 ids, noise, odometry; renderer start-up included).
 The ``appearance`` section prices each look option (``WorldSpec.appearance``: textures,
 instance colour variation, every lighting preset, shadows) as milliseconds per RGB + depth +
@@ -39,12 +39,8 @@ from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.render import SensorRenderer
-from roman_sim.sim.robot import (
-    RobotConfig,
-    robot_path,
-    robot_trajectory,
-    simulate_robot,
-)
+from roman_sim.sim.robot import RobotConfig, plan_paths, trajectory_along
+from roman_sim.sim.source import robot_sources
 from roman_sim.world import WorldSpec, generate, load_world_spec
 from roman_sim.world.appearance import LIGHTING
 
@@ -175,7 +171,7 @@ def appearance_costs(poses: list, quick: bool = False) -> dict[str, Any]:
 
 def _robot_poses(world: Any, n_frames: int) -> list:
     cfg = RobotConfig(name="bench", path=PathConfig(kind="road", road_index=0), camera=CameraConfig())
-    _, T_wb, _ = robot_trajectory(world, cfg, 0)
+    _, T_wb, _ = robot_sources(world, [cfg], 0)[0].run
     return list(T_wb[:: max(1, len(T_wb) // n_frames)][:n_frames])
 
 
@@ -197,10 +193,10 @@ def main(quick: bool = False) -> dict:
     cam = CameraConfig()
     cfg = RobotConfig(name="bench", path=PathConfig(kind="road", road_index=0), camera=cam)
     t0 = time.perf_counter()
-    robot_path(world, cfg, 0)
+    path = plan_paths(world, [cfg], 0)[cfg.name]
     path_s = time.perf_counter() - t0
     t0 = time.perf_counter()
-    t, T_wb, _ = robot_trajectory(world, cfg, 0)
+    t, T_wb, _ = trajectory_along(world, cfg, 0, path)
     traj_s = time.perf_counter() - t0
     step = max(1, len(T_wb) // n_frames)
     poses = list(T_wb[::step][:n_frames])
@@ -217,7 +213,7 @@ def main(quick: bool = False) -> dict:
     r.close()
     sim_cfg = cfg.model_copy(update={"max_duration_s": (n_frames - 1) / cfg.rate_hz})
     t0 = time.perf_counter()
-    n_sim = sum(1 for _ in simulate_robot(world, sim_cfg, 0))
+    n_sim = sum(1 for _ in robot_sources(world, [sim_cfg], 0)[0].frames())
     sim_fps = n_sim / (time.perf_counter() - t0)
     rng = child_rng(0, "bench", "noise")
     t0 = time.perf_counter()

@@ -39,7 +39,8 @@ K, L, SEED = 10, 4, 0
 def training_images(frames_per_world: int = 60, frame_every: int = 6) -> list[NDArray[np.uint8]]:
     """ORB descriptors (one (n_i, 32) array per frame) of the training frames."""
     from roman_sim.sim.paths import PathConfig
-    from roman_sim.sim.robot import RobotConfig, render_trajectory, robot_trajectory
+    from roman_sim.sim.robot import RobotConfig
+    from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate, load_world_spec
     from roman_sim.world.appearance import AppearanceSpec
 
@@ -55,9 +56,8 @@ def training_images(frames_per_world: int = 60, frame_every: int = 6) -> list[ND
             path=PathConfig(kind="loop", radius_m=12.0),
             max_length_m=frames_per_world * frame_every / 6.0 + 1.0,
         )
-        traj = robot_trajectory(world, cfg, seed)
         taken = 0
-        for i, frame in enumerate(render_trajectory(world, cfg, seed, traj)):
+        for i, frame in enumerate(robot_sources(world, [cfg], seed)[0].frames()):
             if i % frame_every or frame.rgb is None:
                 continue
             mask = depth_mask(frame.depth, params.mask_erode_px) if params.depth_mask else None

@@ -70,15 +70,13 @@ def scored_pairs(subs: list[Submap], sc: Scenario) -> list[PairTruth]:
 
 def planned_pairs(sc: Scenario) -> list[PairTruth]:
     """The truth of every pair the run of ``sc`` will score, from its planned and driven trajectories."""
-    from roman_sim.sim.robot import plan_paths, trajectory_along
+    from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate_truth
 
-    robots = sc.simulated_robots()
-    if len(robots) != len(sc.robots):
+    if len(sc.simulated_robots()) != len(sc.robots):
         raise ConfigError("planning: every robot must be simulated (a recorded sequence has no planned path)")
     world = generate_truth(sc.world.spec(), sc.seed)
-    paths = plan_paths(world, robots, sc.seed)
-    runs = {cfg.name: trajectory_along(world, cfg, sc.seed, paths[cfg.name]) for cfg in robots}
+    runs = {src.name: src.run for src in robot_sources(world, sc.robots, sc.seed)}
     return scored_pairs(submaps_along(runs, sc.submaps), sc)
 
 

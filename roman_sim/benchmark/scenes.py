@@ -170,7 +170,7 @@ def build_crossing(scene: CrossingScene, seed: int, name: str = "crossing") -> C
         ConfigError: an override or the scene is invalid (names the field).
         SimError: a robot's drive could not be placed in ``MAX_ATTEMPTS`` draws.
     """
-    from roman_sim.sim.robot import robot_path, trajectory_along
+    from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate_truth
 
     heads = headings_deg(scene, seed)
@@ -185,7 +185,7 @@ def build_crossing(scene: CrossingScene, seed: int, name: str = "crossing") -> C
                 sc = _scenario(scene, seed, ends, name)
             cfg = sc.robots[i]
             try:
-                runs[cfg.name] = trajectory_along(world, cfg, seed, robot_path(world, cfg, seed))
+                runs[cfg.name] = robot_sources(world, [cfg], seed)[0].run  # each drive on its own
                 break
             except SimError as err:
                 log.debug("%s: drive %d of robot %s rejected (%s)", name, attempt, cfg.name, err)

@@ -269,7 +269,7 @@ def record_cmd(
     from roman_sim.core.errors import ConfigError
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.sim.recording import write_recording
-    from roman_sim.sim.robot import plan_paths, render_trajectory, trajectory_along
+    from roman_sim.sim.source import SimulatedRobot, robot_sources
     from roman_sim.world import generate
 
     sc = load_scenario(scenario, list(sets or []))
@@ -284,23 +284,20 @@ def record_cmd(
         if (out / cfg.name).exists() and not (out / cfg.name).is_dir():
             raise ConfigError(f"--out {out}: {cfg.name} there is an existing file, not a recording folder")
     world = generate(sc.world.spec(), sc.seed)
-    paths = plan_paths(world, sc.simulated_robots(), sc.seed)
+    sources = robot_sources(world, sc.robots, sc.seed, [n for n in names if not robot or n in robot])
     progress: Any = None
     with _progress() if interactive() else contextlib.nullcontext() as p:
         progress = RichProgress(p) if p is not None else LineProgress()
-        for cfg in sc.simulated_robots():
-            if robot and cfg.name not in robot:
-                continue
-            trajectory = trajectory_along(world, cfg, sc.seed, paths[cfg.name])
-            stage = f"record:{cfg.name}"
-            progress.start(stage, len(trajectory[0]))
+        for src in sources:
+            stage = f"record:{src.name}"
+            progress.start(stage, len(src))
 
-            def frames(cfg: Any = cfg, stage: str = stage, trajectory: Any = trajectory) -> Any:
-                for f in render_trajectory(world, cfg, sc.seed, trajectory):
+            def frames(src: SimulatedRobot = src, stage: str = stage) -> Any:
+                for f in src.frames():
                     progress.advance(stage)
                     yield f
 
-            write_recording(frames(), out / cfg.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
+            write_recording(frames(), out / src.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
             progress.end(stage)
     Console().print(f"recordings written to {out}")
 

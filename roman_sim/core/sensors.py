@@ -12,7 +12,9 @@ principal point is ``((W - 1) / 2, (H - 1) / 2)``. The camera optical frame is R
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, replace
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -97,6 +99,38 @@ class Frame:
     def public(self) -> "Frame":
         """A copy without ground truth: what a front end may see."""
         return replace(self, truth=None)
+
+
+@runtime_checkable
+class FrameSource(Protocol):
+    """One robot's stream of frames: a simulated robot, a recording or a TUM RGB-D folder.
+
+    Everything but ``frames`` is known before a frame is produced (a simulated robot is
+    driven, a folder associated, up front); ``frames`` yields one frame at a time.
+    """
+
+    @property
+    def name(self) -> str:
+        """The robot's name (``Frame.robot`` of every frame)."""
+        ...
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The camera intrinsics of every frame."""
+        ...
+
+    @property
+    def T_body_cam(self) -> NDArray[np.float64]:
+        """The camera mount: the camera (RDF optical) pose in the body (FLU) frame."""
+        ...
+
+    def __len__(self) -> int:
+        """Number of frames ``frames()`` yields."""
+        ...
+
+    def frames(self, indices: Iterable[int] | None = None) -> Iterator[Frame]:
+        """The frames in order; only those at ``indices`` (ascending, each keeping its index) if given."""
+        ...
 
 
 def check_frame(frame: Frame) -> None:

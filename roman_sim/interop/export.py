@@ -27,12 +27,13 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSONLike, JSONScalar
+from roman_sim.core.sensors import FrameSource
 from roman_sim.interop import roman_export as _roman  # noqa: F401  (registers "roman")
 from roman_sim.interop import rosbag_writer as _rosbag  # noqa: F401  (registers "rosbag2")
 from roman_sim.interop import tum_writer as _tum  # noqa: F401  (registers "tum")
 from roman_sim.interop.base import FORMATS
 from roman_sim.interop.objects import write_object_table
-from roman_sim.interop.source import RobotStream, scenario_streams, select_robots
+from roman_sim.interop.source import scenario_streams, select_robots
 
 log = logging.getLogger(__name__)
 
@@ -82,7 +83,7 @@ def _prepare(out: Path, names: list[str], overwrite: bool) -> None:
 
 
 def _export_robot(
-    stream: RobotStream,
+    stream: FrameSource,
     fmt: str,
     out: Path,
     options: dict[str, JSONScalar],
@@ -95,7 +96,7 @@ def _export_robot(
     except TypeError as err:
         raise ConfigError(f"export format {fmt!r}: bad option ({err})") from None
     if progress:
-        progress.start(stage, stream.n_frames)
+        progress.start(stage, len(stream))
     render_s = write_s = 0.0
     frames = stream.frames()
     try:
@@ -154,7 +155,7 @@ def export_scenario(
     result = ExportResult(out, fmt)
     for stream in streams:
         _export_robot(stream, fmt, out, options, progress, result)
-        log.info("robot %s: %d frames exported as %s", stream.name, stream.n_frames, fmt)
+        log.info("robot %s: %d frames exported as %s", stream.name, len(stream), fmt)
     finish = getattr(FORMATS.get(fmt), "finish_export", None)
     if finish is not None:  # files of the whole export (e.g. the ROMAN parameter folders)
         finish(out, scenario, streams, result.robots)

@@ -114,7 +114,7 @@ def _matrix(T: NDArray[np.float64]) -> list[list[float]]:
 
 def _data_yaml(out: Path, streams: Sequence[Any]) -> dict[str, Any]:
     bag = str(out.resolve() / "${ROBOT}" / "bag")
-    times = np.asarray(streams[0].trajectory[0], dtype=np.float64)
+    times = np.asarray(streams[0].run.t, dtype=np.float64)
     dt = float(np.median(np.diff(times))) if len(times) > 1 else 1.0 / 6.0
     image = {"type": "bag", "path": bag, "compressed": False, "ignore_ros_time": True}
     doc: dict[str, Any] = {

@@ -137,7 +137,7 @@ for _name, _fn in (("auto", _auto), ("drift", _drifted), ("groundtruth", _ground
 
 
 class TumSequence:
-    """An associated TUM RGB-D folder; ``frames()`` streams it (one frame in memory at a time).
+    """An associated TUM RGB-D folder as a ``FrameSource``; ``frames()`` streams it (one frame in memory at a time).
 
     Args:
         cfg: the source configuration.
@@ -225,6 +225,11 @@ class TumSequence:
 
     def _read(self, name: str) -> Any:
         return read_png(self.dir / name)
+
+    @property
+    def name(self) -> str:
+        """The robot name given to the frames (``FrameSource``)."""
+        return self.robot
 
     def __len__(self) -> int:
         return len(self.times)

@@ -5,7 +5,7 @@ Typical use (one robot)::
 
     mapper = Mapper(MappingConfig(), simulated_segmenter("fastsam", seed),
                     SimulatedEncoder(seed=seed, families=families, robot=name))
-    for frame in simulate_robot(world, robot_cfg, seed):
+    for frame in robot_sources(world, [robot_cfg], seed)[0].frames():
         mapper.process(frame)
     segment_map = mapper.finish()
     submaps = build_submaps(segment_map, SubmapConfig())

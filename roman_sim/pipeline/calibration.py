@@ -52,21 +52,22 @@ class CalibrationFrames:
 
 def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> CalibrationFrames:
     """At most ``max_frames`` frames in all (RGB on), spread evenly over each robot's run."""
+    from dataclasses import replace
+
     import numpy as np
 
-    from roman_sim.sim.robot import DrivenRun, plan_paths, render_trajectory, trajectory_along
+    from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate
 
     world = generate(scenario.world.spec(), scenario.seed)
-    robots = [r.model_copy(update={"render_rgb": True}) for r in scenario.robots]
-    paths = plan_paths(world, robots, scenario.seed)
-    per_robot = max(1, max_frames // len(robots))
+    sources = robot_sources(world, scenario.robots, scenario.seed, rgb=True)
+    per_robot = max(1, max_frames // len(sources))
     frames: list[Frame] = []
-    for r in robots:
-        t, T_wb, T_ob = trajectory_along(world, r, scenario.seed, paths[r.name])
-        keep = np.unique(np.linspace(0, len(t) - 1, min(per_robot, len(t))).round().astype(int))
-        traj = DrivenRun(t[keep], T_wb[keep], T_ob[keep])
-        frames += list(render_trajectory(world, r, scenario.seed, traj))
+    for src in sources:
+        n = len(src)
+        keep = np.unique(np.linspace(0, n - 1, min(per_robot, n)).round().astype(int))
+        # numbered within the sample: the simulated segmenter's draws are per frame index
+        frames += [replace(f, index=k) for k, f in enumerate(src.frames(keep.tolist()))]
     return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed)
 
 

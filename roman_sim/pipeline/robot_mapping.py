@@ -1,14 +1,16 @@
-"""Mapping one robot: render (or read) its frames and map them into a ``SegmentMap``, graded on its own.
+"""Mapping one robot: its frame source, one loop into the sinks, a ``SegmentMap`` graded on its own.
 
 The maps stage runs ``map_one`` per robot, in this process or as a worker task
-(``roman_sim.pipeline.tasks.map_robot_task``). When a scenario lists the ``visual`` method,
-the same frames also give the robot's visual keyframes.
+(``roman_sim.pipeline.tasks.map_robot_task``). The robot's frames come from one
+``FrameSource`` (``robot_source``: rendered, read from the run's recording, or read from a
+TUM RGB-D folder); ``map_source`` feeds them to the mapper and, when a scenario lists the
+``visual`` method, to the keyframe extractor, whatever the source.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -19,7 +21,7 @@ from roman_sim.align.visual.keyframes import keyframe_mask
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.sensors import Frame
+from roman_sim.core.sensors import Frame, FrameSource
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.grades import GradeConfig
 from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
@@ -36,8 +38,8 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from roman_sim.pipeline.scenario import ScenarioRobot
-    from roman_sim.sim.paths import Path2D
     from roman_sim.sim.robot import DrivenRun
+    from roman_sim.sim.source import SimulatedRobot
     from roman_sim.world import World
 
 log = logging.getLogger(__name__)
@@ -67,33 +69,48 @@ def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | No
     return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
 
 
-def _recording_key(ctx: RunContext, cfg: ScenarioRobot) -> str:
+def _recording_key(ctx: RunContext, name: str) -> str:
     """What a robot's rendered frames depend on: seed, world, every robot (paths may refer to others)."""
     sc = ctx.scenario.model_dump(mode="json")
-    return stable_hash(sc["seed"], sc["world"], sc["robots"], cfg.name)
+    return stable_hash(sc["seed"], sc["world"], sc["robots"], name)
 
 
-def _frames(ctx: RunContext, world: World, cfg: ScenarioRobot, trajectory: DrivenRun) -> Iterable[Frame]:
-    """Rendered frames of one robot (from the run's recording when ``record_frames`` and it matches)."""
-    from roman_sim.sim.recording import read_recording, recording_info, write_recording
-    from roman_sim.sim.robot import render_trajectory
+def robot_source(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> FrameSource:
+    """The robot's frames as the maps stage reads them (``roman_sim.sim.source.robot_sources``).
+
+    A robot with a ``source`` is its TUM RGB-D sequence; a simulated robot renders RGB only
+    where something reads it (``_rgb_frames``) and, with ``record_frames``, is read through
+    its recording (``_recorded``).
+    """
+    from roman_sim.pipeline.sources import open_sequence
+    from roman_sim.sim.source import SimulatedRobot, robot_sources
 
     sc = ctx.scenario
-    rec_dir = ctx.run_dir / "recordings" / cfg.name
-    key = _recording_key(ctx, cfg)
-    if sc.record_frames and not ctx.fresh:
+    source = robot_sources(world, sc.robots, sc.seed, [cfg.name], open_recorded=lambda r: open_sequence(r, sc.seed))[0]
+    if not isinstance(source, SimulatedRobot):
+        return source
+    if sc.record_frames:
+        return _recorded(ctx, source)
+    flags = _rgb_frames(ctx, source.run)
+    return source if flags is None else source.rgb_at(flags)
+
+
+def _recorded(ctx: RunContext, source: SimulatedRobot) -> FrameSource:
+    """The run's recording of ``source`` (``recordings/<robot>``): read back when its key matches, else
+    rendered into it (every frame with RGB) first."""
+    from roman_sim.sim.recording import Recording, recording_info, write_recording
+
+    sc = ctx.scenario
+    rec_dir = ctx.run_dir / "recordings" / source.name
+    key = _recording_key(ctx, source.name)
+    if not ctx.fresh:
         try:
             if recording_info(rec_dir).get("extra", {}).get("key") == key:
-                return read_recording(rec_dir)
+                return Recording(rec_dir)
         except RomanSimError:
             pass
-    frames = render_trajectory(
-        world, cfg, sc.seed, trajectory, None if sc.record_frames else _rgb_frames(ctx, trajectory)
-    )
-    if not sc.record_frames:
-        return frames
-    write_recording(frames, rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
-    return read_recording(rec_dir)
+    write_recording(source.frames(), rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
+    return Recording(rec_dir)
 
 
 def _rgb_frames(ctx: RunContext, trajectory: DrivenRun) -> NDArray[np.bool_] | list[bool] | None:
@@ -107,25 +124,36 @@ def _rgb_frames(ctx: RunContext, trajectory: DrivenRun) -> NDArray[np.bool_] | l
     return keyframe_mask(trajectory.t, trajectory.T_odom_body, fe.keyframes)
 
 
-def _map_frames(
-    ctx: RunContext,
-    name: str,
-    frames: Iterable[Frame],
-    n: int,
-    families: dict[int, str] | None,
-    grader: _Grader | None = None,
+def robot_families(world: World | None, cfg: ScenarioRobot) -> dict[int, str] | None:
+    """Object id -> family of the robot's objects: the world's, or its sequence's object table (None without one)."""
+    from roman_sim.pipeline.sources import sequence_families
+
+    if cfg.source is not None:
+        return sequence_families(cfg.source)
+    if world is None:
+        raise ConfigError(f"robot {cfg.name}: a simulated robot needs the world")
+    return {o.id: o.family for o in world.truth.objects}
+
+
+def map_source(
+    ctx: RunContext, source: FrameSource, families: dict[int, str] | None, grader: _Grader | None = None
 ) -> MapAndKeyframes:
+    """One loop of ``source``'s frames into the sinks: the mapper (graded by ``grader``) and, when the
+    visual method runs, the keyframe extractor."""
     sc = ctx.scenario
+    name = source.name
     stage = f"maps:{name}"
-    ctx.progress.start(stage, n)
+    ctx.progress.start(stage, len(source))
     # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
     fe = sc.frontend
     segmenter, encoder = guard_frontend(
         build_segmenter_for(ctx, name), fe.segmenter.name, build_encoder_for(ctx, name, families), fe.encoder.name
     )
+    if grader is not None:
+        grader.use(families)
     mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
     extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
-    for frame in frames:
+    for frame in source.frames():
         mapper.process(frame)
         if extractor is not None:
             extractor.offer(frame.public())
@@ -166,43 +194,11 @@ class _Grader:
         return self.inner.part() if self.inner.seg.frames else None
 
 
-def map_robot(
-    ctx: RunContext, world: World, cfg: ScenarioRobot, path: Path2D, grader: _Grader | None = None
-) -> MapAndKeyframes:
-    """Render and map one robot along its planned path (graded by ``grader``; keyframes when the
-    visual method runs)."""
-    from roman_sim.sim.robot import trajectory_along
-
-    trajectory = trajectory_along(world, cfg, ctx.scenario.seed, path)
-    families = {o.id: o.family for o in world.truth.objects}
-    if grader is not None:
-        grader.use(families)
-    return _map_frames(ctx, cfg.name, _frames(ctx, world, cfg, trajectory), len(trajectory[0]), families, grader)
-
-
-def map_sequence(ctx: RunContext, cfg: ScenarioRobot, grader: _Grader | None = None) -> MapAndKeyframes:
-    """Read and map one robot from its TUM RGB-D folder (``cfg.source``)."""
-    from roman_sim.pipeline.sources import open_sequence, sequence_families
-
-    if cfg.source is None:
-        raise ConfigError(f"robot {cfg.name}: no source to read")
-    seq = open_sequence(cfg, ctx.scenario.seed)
-    families = sequence_families(cfg.source)
-    if grader is not None:
-        grader.use(families)
-    return _map_frames(ctx, cfg.name, seq.frames(), len(seq), families, grader)
-
-
-def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot, path: Path2D | None) -> RobotMapping:
-    """One robot: read from its sequence (``cfg.source``) or simulated along ``path``, graded on its own."""
+def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> RobotMapping:
+    """One robot, simulated in ``world`` or read from its sequence (``cfg.source``), graded on its own."""
     sc = ctx.scenario
     grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
-    if cfg.source is not None:
-        smap, kf = map_sequence(ctx, cfg, grader)
-    elif world is None or path is None:
-        raise ConfigError(f"robot {cfg.name}: a simulated robot needs the world and its planned path")
-    else:
-        smap, kf = map_robot(ctx, world, cfg, path, grader)
+    smap, kf = map_source(ctx, robot_source(ctx, world, cfg), robot_families(world, cfg), grader)
     return smap, kf, grader.part()
 
 

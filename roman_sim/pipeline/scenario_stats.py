@@ -11,6 +11,7 @@ distance between true centres, ``evaluation.relevant_dist_m``).
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -20,7 +21,7 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.overlap import MIN_RELEVANT_PAIRS, OverlapGraph, overlap_graph, relevant_counts
 from roman_sim.mapping.submap import center_indices
 from roman_sim.pipeline.scenario import Scenario
-from roman_sim.sim.paths import Path2D
+from roman_sim.sim.source import SimulatedRobot
 from roman_sim.world import HasTruth
 
 log = logging.getLogger(__name__)
@@ -53,17 +54,15 @@ class ScenarioStats:
 
 
 def centres_along(
-    world: HasTruth, sc: Scenario, paths: dict[str, Path2D]
+    sources: Sequence[SimulatedRobot], sc: Scenario
 ) -> tuple[dict[str, NDArray[np.float64]], dict[str, float]]:
-    """Per simulated robot along its planned path: true submap centres (M, 3) and the distance driven (m)."""
-    from roman_sim.sim.robot import trajectory_along
-
+    """Per simulated robot along its driven run: true submap centres (M, 3) and the distance driven (m)."""
     centres, lengths = {}, {}
-    for r in sc.simulated_robots():
-        run = trajectory_along(world, r, sc.seed, paths[r.name])
+    for src in sources:
+        run = src.run
         idx = center_indices(run.t, run.T_odom_body, sc.submaps)
-        centres[r.name] = run.T_world_body[idx, :3, 3]
-        lengths[r.name] = float(np.linalg.norm(np.diff(run.T_world_body[:, :3, 3], axis=0), axis=1).sum())
+        centres[src.name] = run.T_world_body[idx, :3, 3]
+        lengths[src.name] = float(np.linalg.norm(np.diff(run.T_world_body[:, :3, 3], axis=0), axis=1).sum())
     return centres, lengths
 
 
@@ -94,12 +93,12 @@ def scenario_stats(sc: Scenario, min_pairs: int = MIN_RELEVANT_PAIRS, world: Has
         from roman_sim.world import generate_truth
 
         world = generate_truth(sc.world.spec(), sc.seed)
-    from roman_sim.sim.robot import plan_paths
+    from roman_sim.sim.source import robot_sources
 
-    paths = plan_paths(world, sc.simulated_robots(), sc.seed)
-    centres, lengths = centres_along(world, sc, paths)
+    sources = robot_sources(world, sc.robots, sc.seed)
+    centres, lengths = centres_along(sources, sc)
     counts = relevant_counts(centres, sc.evaluation.relevant_dist_m)
     graph = overlap_graph(counts, list(centres), min_pairs)
     log.info("scenario %s: %s", sc.name, graph.describe())
-    offsets = {r: float(p.offset_m) for r, p in paths.items()}
+    offsets = {s.name: float(s.path.offset_m) for s in sources}
     return ScenarioStats(sc.name, sc.evaluation.relevant_dist_m, centres, lengths, offsets, graph)

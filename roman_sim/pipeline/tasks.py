@@ -28,7 +28,6 @@ if TYPE_CHECKING:
     from roman_sim.mapping.types import KeyframeSet
     from roman_sim.pipeline.robot_mapping import RobotMapping
     from roman_sim.pipeline.scenario import Scenario
-    from roman_sim.sim.paths import Path2D
     from roman_sim.world import World
 
 log = logging.getLogger(__name__)
@@ -91,9 +90,9 @@ class PickledWorld:
 
 
 def map_robot_task(
-    scenario_json: str, robot: str, path: Path2D | None, run_dir: str, world: World | PickledWorld | None = None
+    scenario_json: str, robot: str, run_dir: str, world: World | PickledWorld | None = None
 ) -> RobotMapping:
-    """Map ``robot``: rendered along its planned ``path``, or read from its ``source``; its ``SegmentMap``.
+    """Map ``robot``: rendered along its planned path, or read from its ``source``; its ``SegmentMap``.
 
     ``world`` is the world itself in-process, pickled from a local pool, None on Dask:
     workers then regenerate it from the scenario (same bytes). A robot read from a TUM folder
@@ -108,7 +107,7 @@ def map_robot_task(
         world = world.load() if cfg.source is None else None
     if world is None and cfg.source is None:
         world = _world(sc.world.model_dump_json(), sc.seed)
-    return map_one(RunContext(sc, Path(run_dir)), world, cfg, path)
+    return map_one(RunContext(sc, Path(run_dir)), world, cfg)
 
 
 def submaps_task(smap: SegmentMap, cfg: SubmapConfig, keyframes: KeyframeSet | None) -> list[Submap]:

@@ -6,7 +6,7 @@ drifted ``T_odom_body``. Action (``Box``): (forward speed m/s, yaw rate rad/s) w
 ``[0, max_speed] x [-max_yaw_rate, max_yaw_rate]``. Reward 0. The episode terminates when
 the robot leaves the world or touches an object footprint, and is truncated after
 ``max_steps``. ``info`` carries the true ``T_world_body`` and the time, so a scripted
-``PathFollower`` (or any user policy) can drive the same kinematics as ``simulate_robot``.
+``PathFollower`` (or any user policy) can drive the same kinematics as ``trajectory_along``.
 
 Misuse is an error that leaves the environment usable: a NaN, infinite or wrongly shaped
 action raises ``SimError`` before any state changes; ``step`` before ``reset`` or after the

@@ -3,7 +3,7 @@
 The robot is a unicycle in the plane (x, y, heading) driven by (forward speed, yaw rate);
 its 3D body pose (FLU) sits on the terrain: z = terrain height + body height, roll and
 pitch from the terrain normal (the body z axis is the normal, x the heading projected on
-the tangent plane). Both ``simulate_robot`` and ``GroundRobotEnv`` drive this class.
+the tangent plane). Both ``trajectory_along`` and ``GroundRobotEnv`` drive this class.
 """
 
 from __future__ import annotations

@@ -128,7 +128,7 @@ def write_recording(
     """Store ``frames`` (one robot) in ``out_dir``; returns the folder path.
 
     Args:
-        frames: the frames, in order (e.g. ``simulate_robot(...)``; consumed lazily).
+        frames: the frames, in order (e.g. a frame source's ``frames()``; consumed lazily).
         out_dir: destination folder; must not exist unless ``overwrite``.
         chunk_size: frames per npz chunk.
         overwrite: replace an existing recording.
@@ -249,3 +249,49 @@ def read_recording(rec_dir: str | Path) -> Iterator[Frame]:
                 )
         except (KeyError, IndexError) as err:
             raise RecordingError(f"{d / name}: corrupt chunk (missing or short array: {err})") from None
+
+
+class Recording:
+    """A recording folder as a ``FrameSource`` (its ``meta.json`` read and checked up front).
+
+    Raises: RecordingError when the folder is not a readable recording.
+    """
+
+    def __init__(self, rec_dir: str | Path) -> None:
+        self.dir = Path(rec_dir)
+        self.meta = recording_info(self.dir)
+        try:
+            self._intrinsics = Intrinsics(**self.meta["intrinsics"])
+            self._T_body_cam = np.asarray(self.meta["T_body_cam"], dtype=np.float64).reshape(4, 4)
+            self._name = str(self.meta["robot"])
+            self._n = int(self.meta["frame_count"])
+        except (KeyError, TypeError, ValueError) as err:
+            raise RecordingError(f"{self.dir / 'meta.json'}: incomplete metadata ({err})") from None
+
+    @property
+    def name(self) -> str:
+        """The recorded robot's name."""
+        return self._name
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The camera intrinsics."""
+        return self._intrinsics
+
+    @property
+    def T_body_cam(self) -> NDArray[np.float64]:
+        """The camera (RDF optical) pose in the body (FLU) frame."""
+        return self._T_body_cam.copy()
+
+    def __len__(self) -> int:
+        return self._n
+
+    def frames(self, indices: Iterable[int] | None = None) -> Iterator[Frame]:
+        """The recorded frames in order (``read_recording``); only the ``indices``-th ones if given."""
+        if indices is None:
+            yield from read_recording(self.dir)
+            return
+        keep = {int(i) for i in indices}
+        for k, frame in enumerate(read_recording(self.dir)):
+            if k in keep:
+                yield frame

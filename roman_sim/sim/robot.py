@@ -1,15 +1,16 @@
 """A scripted robot run: path -> pure-pursuit driving on the terrain -> odometry -> frames.
 
-``robot_trajectory`` gives the poses only (cheap); ``simulate_robot`` also renders a
-``Frame`` per sensor step. Random streams (per robot name, from ``seeding.child_rng``):
-``path`` (placement), ``drift`` (odometry), ``depth_noise`` (sensor).
+The steps, each distinct: ``plan_paths`` (every robot's path, in order), ``trajectory_along``
+(drive one path: true poses and drifted odometry, cheap) and ``render_trajectory`` (a
+``Frame`` per pose). ``roman_sim.sim.source.robot_sources`` chains them into one frame source
+per robot. Random streams (per robot name, from ``seeding.child_rng``): ``path``
+(placement), ``drift`` (odometry), ``depth_noise`` (sensor).
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Iterator, Mapping, Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
@@ -73,9 +74,7 @@ class RobotConfig(StrictModel):
         return resolve_drift(self.drift)
 
 
-def robot_path(
-    world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
-) -> Path2D:
+def _robot_path(world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D]) -> Path2D:
     """The robot's validated path (seeded by ``seed`` and the robot name; the world's road width bounds its offset)."""
     roads = getattr(getattr(world, "spec", None), "roads", None)
     width = None if roads is None else float(roads.width_m)
@@ -91,7 +90,7 @@ def plan_paths(world: HasTruth, robots: Sequence[RobotConfig], seed: int) -> dic
     for cfg in robots:
         if cfg.name in paths:
             raise SimError(f"robot name {cfg.name!r} is used twice")
-        paths[cfg.name] = robot_path(world, cfg, seed, paths)
+        paths[cfg.name] = _robot_path(world, cfg, seed, paths)
     return paths
 
 
@@ -160,29 +159,13 @@ class DrivenRun(NamedTuple):
         return Trajectory(self.t, self.T_odom_body)
 
 
-def robot_trajectory(
-    world: HasTruth, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
-) -> DrivenRun:
-    """Times (N,), true ``T_world_body`` (N, 4, 4) and drifted ``T_odom_body`` (N, 4, 4); no rendering."""
-    return trajectory_along(world, cfg, seed, robot_path(world, cfg, seed, paths_by_name))
-
-
 def trajectory_along(world: HasTruth, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
-    """``robot_trajectory`` for an already planned ``path`` (e.g. from ``plan_paths``)."""
+    """Drive the planned ``path`` (from ``plan_paths``): times (N,), true ``T_world_body`` and drifted
+    ``T_odom_body`` (N, 4, 4); no rendering."""
     t, T_wb = drive(world, cfg, path)
     _check_driven_clearance(world, cfg, T_wb)
     drift = DriftModel(cfg.drift_config(), child_rng(seed, "drift", cfg.name))
     return DrivenRun(t, T_wb, np.stack([drift.step(T) for T in T_wb]))
-
-
-def simulate_robot(
-    world: World, cfg: RobotConfig, seed: int, paths_by_name: Mapping[str, Path2D] | None = None
-) -> Iterator[Frame]:
-    """The scripted run as a stream of rendered ``Frame`` objects (noisy depth, true ids).
-
-    Nothing is stored: consume the iterator, or pass it to ``write_recording``.
-    """
-    yield from render_trajectory(world, cfg, seed, robot_trajectory(world, cfg, seed, paths_by_name))
 
 
 def render_trajectory(
@@ -192,7 +175,7 @@ def render_trajectory(
     trajectory: DrivenRun,
     rgb_frames: NDArray[np.bool_] | Sequence[bool] | None = None,
 ) -> Iterator[Frame]:
-    """Rendered ``Frame`` objects along a trajectory from ``robot_trajectory`` / ``trajectory_along``.
+    """Rendered ``Frame`` objects along a trajectory from ``trajectory_along``.
 
     Depth and ids are rendered for every frame (the depth noise stream does not depend on
     ``rgb_frames``). RGB, when the robot renders it (``render_rgb``), is drawn on every frame, or
@@ -222,18 +205,3 @@ def render_trajectory(
             )
     finally:
         renderer.close()
-
-
-def record_robot(
-    world: World,
-    cfg: RobotConfig,
-    seed: int,
-    out_dir: str | Path,
-    paths_by_name: Mapping[str, Path2D] | None = None,
-    overwrite: bool = False,
-) -> Path:
-    """Simulate one robot and store the run with ``write_recording`` (config and seed in meta)."""
-    from roman_sim.sim.recording import write_recording
-
-    extra = {"seed": int(seed), "robot_config": cfg.model_dump(mode="json")}
-    return write_recording(simulate_robot(world, cfg, seed, paths_by_name), out_dir, overwrite=overwrite, extra=extra)

@@ -16,13 +16,13 @@ from roman_sim.frontend.segmenter import SEGMENTERS, SegmenterConfig, SimulatedS
 def smoke_frames():
     """80 rendered depth frames (160 x 120) of the smoke world's road, and the world's families."""
     from roman_sim.pipeline.scenario import load_scenario
-    from roman_sim.sim.robot import simulate_robot
+    from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate
 
     sc = load_scenario("smoke")
     world = generate(sc.world.spec(), sc.seed)
     cfg = sc.robots[0].model_copy(update={"max_duration_s": 13.0})
-    frames = list(simulate_robot(world, cfg, sc.seed))
+    frames = list(robot_sources(world, [cfg], sc.seed)[0].frames())
     return frames, {o.id: o.family for o in world.truth.objects}
 
 

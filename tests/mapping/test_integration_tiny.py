@@ -15,7 +15,8 @@ from roman_sim.mapping.submap import SubmapConfig, build_submaps
 from roman_sim.mapping.tracker import MappingConfig
 from roman_sim.mapping.voxels import downsample
 from roman_sim.sim.camera import CameraConfig
-from roman_sim.sim.robot import RobotConfig, robot_trajectory, simulate_robot
+from roman_sim.sim.robot import RobotConfig
+from roman_sim.sim.source import robot_sources
 from roman_sim.world import generate, load_world_spec
 
 
@@ -25,7 +26,7 @@ def run():
     cfg = RobotConfig(
         name="a", camera=CameraConfig(width=160, height=120), drift="zero", render_rgb=False, max_duration_s=20.0
     )
-    return world, list(simulate_robot(world, cfg, 0))
+    return world, list(robot_sources(world, [cfg], 0)[0].frames())
 
 
 def _map(frames, segmenter="perfect", encoder=None):
@@ -105,7 +106,7 @@ def test_typical_drift_segments_follow_the_drifted_odometry(run):
     cfg = RobotConfig(
         name="a", camera=CameraConfig(width=160, height=120), drift="typical", render_rgb=False, max_duration_s=20.0
     )
-    t, T_wb, T_ob = robot_trajectory(world, cfg, 0)
+    t, T_wb, T_ob = robot_sources(world, [cfg], 0)[0].run
     np.testing.assert_allclose(T_wb, np.stack([f.truth.T_world_body for f in frames]), atol=1e-9)
     drifted = [dataclasses.replace(f, T_odom_body=T_ob[i]) for i, f in enumerate(frames)]
     smap = _map(drifted)

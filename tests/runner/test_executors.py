@@ -88,16 +88,16 @@ def test_interrupted_run_resumes_per_robot_and_per_chunk_to_the_same_bytes(smoke
     sc = load_scenario("smoke")
     run_dir = tmp_path / "run"
     ex = ExecutorConfig(kind="serial", chunk_pairs=8)
-    real_map, real_chunk = maps_stage.map_robot, pairwork.align_chunk_task
+    real_map, real_chunk = maps_stage.map_source, pairwork.align_chunk_task
     mapped: list[str] = []
     chunks: list[int] = []
 
-    def map_robot(ctx, world, cfg, path, grader=None):
-        if cfg.name == "b" and "interrupted" not in mapped:
+    def map_source(ctx, source, families, grader=None):
+        if source.name == "b" and "interrupted" not in mapped:
             mapped.append("interrupted")
             raise Interrupt
-        mapped.append(cfg.name)
-        return real_map(ctx, world, cfg, path, grader)
+        mapped.append(source.name)
+        return real_map(ctx, source, families, grader)
 
     def align_chunk(spec, submaps, pairs):
         chunks.append(len(pairs))
@@ -105,7 +105,7 @@ def test_interrupted_run_resumes_per_robot_and_per_chunk_to_the_same_bytes(smoke
             raise Interrupt
         return real_chunk(spec, submaps, pairs)
 
-    monkeypatch.setattr(maps_stage, "map_robot", map_robot)
+    monkeypatch.setattr(maps_stage, "map_source", map_source)
     monkeypatch.setattr(pairwork, "align_chunk_task", align_chunk)
     with pytest.raises(Interrupt):  # robot a finished, b interrupted
         Experiment(sc, run_dir, executor=ex).run()

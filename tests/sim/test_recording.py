@@ -113,8 +113,11 @@ def test_read_errors(tmp_path: Path) -> None:
 
 
 def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
+    from roman_sim.core.sensors import FrameSource
     from roman_sim.sim.paths import PathConfig
-    from roman_sim.sim.robot import RobotConfig, record_robot, simulate_robot
+    from roman_sim.sim.recording import Recording, write_recording
+    from roman_sim.sim.robot import RobotConfig
+    from roman_sim.sim.source import robot_sources
 
     cfg = RobotConfig(
         name="a",
@@ -123,10 +126,16 @@ def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
         max_duration_s=1.0,
         render_rgb=False,
     )
-    rec = record_robot(tiny_world, cfg, 0, tmp_path / "run")
-    assert recording_info(rec)["extra"]["robot_config"]["name"] == "a"
+    source = robot_sources(tiny_world, [cfg], 0)[0]
+    rec = write_recording(source.frames(), tmp_path / "run", extra={"seed": 0})
+    assert recording_info(rec)["extra"] == {"seed": 0}
     frames = list(read_recording(rec))
-    live = list(simulate_robot(tiny_world, cfg, seed=0))
-    assert len(frames) == len(live) == 7
+    live = list(source.frames())
+    assert len(frames) == len(live) == len(source) == 7
+    recorded = Recording(rec)  # the recording is a frame source with the robot's name, camera and length
+    assert isinstance(recorded, FrameSource) and (recorded.name, len(recorded)) == ("a", 7)
+    assert recorded.intrinsics == source.intrinsics
+    np.testing.assert_array_equal(recorded.T_body_cam, source.T_body_cam)
+    assert [f.index for f in recorded.frames([1, 5])] == [1, 5]
     np.testing.assert_array_equal(frames[-1].truth.object_ids, live[-1].truth.object_ids)
     np.testing.assert_allclose(frames[-1].depth, live[-1].depth, atol=0.0005 + 1e-6)

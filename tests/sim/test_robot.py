@@ -11,7 +11,8 @@ from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.kinematics import PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.planner import Obstacles
-from roman_sim.sim.robot import RobotConfig, render_trajectory, robot_trajectory, simulate_robot
+from roman_sim.sim.robot import RobotConfig, render_trajectory
+from roman_sim.sim.source import SimulatedRobot, robot_sources
 from roman_sim.world.truth import Terrain
 
 SMALL = CameraConfig(width=64, height=48)
@@ -21,6 +22,10 @@ def _cfg(**kw) -> RobotConfig:
     base = dict(name="r1", path=PathConfig(kind="loop", radius_m=5.0), camera=SMALL)
     base.update(kw)
     return RobotConfig(**base)
+
+
+def _source(world, cfg: RobotConfig, seed: int) -> SimulatedRobot:
+    return robot_sources(world, [cfg], seed)[0]
 
 
 def test_unicycle_arc_is_exact() -> None:
@@ -43,7 +48,7 @@ def test_body_pose_follows_terrain_slope() -> None:
 
 def test_trajectory_follows_path_on_terrain(tiny_world) -> None:
     cfg = _cfg(drift="zero")
-    t, T_wb, T_ob = robot_trajectory(tiny_world, cfg, seed=3)
+    t, T_wb, T_ob = _source(tiny_world, cfg, 3).run
     assert np.allclose(np.diff(t), 1 / 6.0)
     speed = np.linalg.norm(np.diff(T_wb[:, :2, 3], axis=0), axis=1) * 6.0
     assert np.median(speed) == pytest.approx(1.0, rel=0.05)
@@ -55,16 +60,16 @@ def test_trajectory_follows_path_on_terrain(tiny_world) -> None:
 
 
 def test_limits_stop_the_run(tiny_world) -> None:
-    t, T_wb, _ = robot_trajectory(tiny_world, _cfg(max_duration_s=5.0), seed=3)
+    t, T_wb, _ = _source(tiny_world, _cfg(max_duration_s=5.0), 3).run
     assert t[-1] <= 5.0 + 1e-9 and len(t) == 31
-    t, T_wb, _ = robot_trajectory(tiny_world, _cfg(max_length_m=3.0), seed=3)
+    t, T_wb, _ = _source(tiny_world, _cfg(max_length_m=3.0), 3).run
     assert 3.0 <= np.linalg.norm(np.diff(T_wb[:, :2, 3], axis=0), axis=1).sum() < 3.5
 
 
 def test_frames_are_consistent_and_deterministic(tiny_world) -> None:
     cfg = _cfg(max_duration_s=0.5)
-    a = list(simulate_robot(tiny_world, cfg, seed=1))
-    b = list(simulate_robot(tiny_world, cfg, seed=1))
+    a = list(_source(tiny_world, cfg, 1).frames())
+    b = list(_source(tiny_world, cfg, 1).frames())
     assert [f.index for f in a] == [0, 1, 2, 3]
     for fa, fb in zip(a, b):
         np.testing.assert_array_equal(fa.depth, fb.depth)
@@ -75,7 +80,7 @@ def test_frames_are_consistent_and_deterministic(tiny_world) -> None:
     assert f.rgb.shape == (48, 64, 3) and f.depth.shape == (48, 64) and f.truth.object_ids.dtype == np.int32
     np.testing.assert_allclose(f.T_body_cam, SMALL.T_body_cam())
     assert f.depth.max() <= SMALL.max_depth_m
-    c = list(simulate_robot(tiny_world, cfg.model_copy(update={"render_rgb": False}), seed=2))
+    c = list(_source(tiny_world, cfg.model_copy(update={"render_rgb": False}), 2).frames())
     assert c[0].rgb is None
     assert not np.array_equal(c[1].T_odom_body, a[1].T_odom_body)
 
@@ -88,7 +93,7 @@ def test_plan_paths_resolves_references_in_order(tiny_world) -> None:
     b = _cfg(name="b", path=PathConfig(kind="reverse_of", of="a"))
     paths = plan_paths(tiny_world, [a, b], seed=0)
     np.testing.assert_allclose(paths["b"].xy[0], paths["a"].xy[-1])
-    t, T_wb, _ = robot_trajectory(tiny_world, b, seed=0, paths_by_name=paths)
+    t, T_wb, _ = robot_sources(tiny_world, [a, b], 0, ["b"])[0].run
     assert np.linalg.norm(T_wb[0, :2, 3] - paths["a"].xy[-1]) < 1e-9
     with pytest.raises(SimError, match="path.of='a'"):
         plan_paths(tiny_world, [b, a], seed=0)
@@ -98,7 +103,7 @@ def test_plan_paths_resolves_references_in_order(tiny_world) -> None:
 
 def test_rgb_only_on_the_frames_asked_for_and_the_rest_unchanged(tiny_world) -> None:
     cfg = _cfg(max_duration_s=0.5)
-    run = robot_trajectory(tiny_world, cfg, seed=1)
+    run = _source(tiny_world, cfg, 1).run
     full = list(render_trajectory(tiny_world, cfg, 1, run))
     part = list(render_trajectory(tiny_world, cfg, 1, run, [False, True, False, True]))
     assert [f.rgb is not None for f in part] == [False, True, False, True]

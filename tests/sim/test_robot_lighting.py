@@ -10,7 +10,8 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.paths import PathConfig
 from roman_sim.sim.render import SensorRenderer
-from roman_sim.sim.robot import RobotConfig, render_trajectory, robot_trajectory
+from roman_sim.sim.robot import RobotConfig, render_trajectory
+from roman_sim.sim.source import robot_sources
 from roman_sim.world import World, WorldSpec, generate, load_world_spec
 from roman_sim.world.appearance import LIGHTING
 from roman_sim.world.relight import robot_lighting
@@ -71,7 +72,7 @@ def test_random_lighting_is_drawn_per_robot_and_seeded() -> None:
 def test_render_trajectory_uses_the_robots_lighting() -> None:
     noon, evening = _world(), _world(lighting="evening")
     cfg = RobotConfig(name="b", path=PathConfig(kind="road", road_index=0), camera=CAM, max_duration_s=0.4)
-    run = robot_trajectory(noon, cfg, 0)
+    run = robot_sources(noon, [cfg], 0)[0].run
     mine = list(render_trajectory(noon, cfg.model_copy(update={"lighting": "evening"}), 0, run))
     theirs = list(render_trajectory(evening, cfg, 0, run))
     default = list(render_trajectory(noon, cfg, 0, run))

@@ -1,8 +1,9 @@
 """Stage ``maps``: simulate (or read) every robot and map its frames into a ``SegmentMap``.
 
-Simulated robots are planned together (a path may be defined relative to an earlier
-robot's), then rendered and mapped one by one; a robot with a ``source`` is read from its
-TUM RGB-D folder instead (``roman_sim.pipeline.sources``) and mapped the same way.
+Each robot is one task (``roman_sim.pipeline.robot_mapping.map_one``): its frame source
+(``roman_sim.sim.source.robot_sources``: simulated robots are planned together, since a path
+may be defined relative to an earlier robot's; a robot with a ``source`` is read from its
+TUM RGB-D folder, ``roman_sim.pipeline.sources``) mapped in one loop.
 When a scenario lists the ``visual`` method, the same frames also give each robot's visual
 keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
 ``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
@@ -43,7 +44,6 @@ from roman_sim.report.grades import plot_frontend_grades
 from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:
-    from roman_sim.sim.paths import Path2D
     from roman_sim.world import World
 
 log = logging.getLogger(__name__)
@@ -84,7 +84,7 @@ class MapsInputs:
 
 
 def map_robots(
-    ctx: RunContext, world: World | None, paths: dict[str, Path2D], tasks: TaskRunner
+    ctx: RunContext, world: World | None, tasks: TaskRunner
 ) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart]]:
     """Every robot, one ``map_one`` task per robot through ``tasks`` (scenario order).
 
@@ -105,10 +105,10 @@ def map_robots(
     shipped: World | PickledWorld | None = world if local else None
     if not local and world is not None and tasks.kind == "local" and any(r.source is None for r in robots):
         shipped = PickledWorld.of(world)
-    args = [(sc_json, r.name, paths.get(r.name), str(ctx.run_dir), shipped) for r in robots]
+    args = [(sc_json, r.name, str(ctx.run_dir), shipped) for r in robots]
 
-    def here(sc: str, name: str, path: Path2D | None, run_dir: str, w: World | None) -> RobotMapping:
-        return map_one(ctx, w, next(r for r in robots if r.name == name), path)
+    def here(sc: str, name: str, run_dir: str, w: World | None) -> RobotMapping:
+        return map_one(ctx, w, next(r for r in robots if r.name == name))
 
     fn = here if local else map_robot_task
     results: dict[str, RobotMapping] = {}
@@ -148,15 +148,11 @@ class MapsStage(Stage[MapsInputs, Maps]):
         ]
 
     def run(self, ctx: RunContext, inputs: MapsInputs, tasks: TaskRunner) -> Maps:
-        from roman_sim.sim.robot import plan_paths
-
         sc = ctx.scenario
-        simulated = sc.simulated_robots()
         world = None if inputs.world is None else inputs.world.world
-        if world is None and simulated:
+        if world is None and sc.simulated_robots():
             raise ConfigError("the maps stage needs the world for simulated robots")
-        paths = plan_paths(world, simulated, sc.seed) if world is not None and simulated else {}
-        maps, keyframes, parts = map_robots(ctx, world, paths, tasks)
+        maps, keyframes, parts = map_robots(ctx, world, tasks)
         grades = None
         if parts:
             grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)

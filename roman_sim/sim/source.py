@@ -1,0 +1,181 @@
+"""A scenario's robots as frame sources: ``robot_sources`` gives one ``FrameSource`` per robot.
+
+It is the one way robots and a world become streams of frames. The simulated robots' paths
+are planned together, in order (so ``reverse_of`` and ``cross`` resolve even when only a
+later robot is wanted); each wanted robot is driven up front (poses and odometry, cheap:
+``SimulatedRobot.run``) and rendered only while its frames are read, one frame in memory at
+a time. A robot read from a recorded sequence (a ``source`` in its configuration) is opened
+by the caller's ``open_recorded``: the formats live in the layers above the simulator.
+Random streams are those of ``roman_sim.sim.robot`` (per seed and robot name), so the same
+robots, world and seed give the same frames wherever they are read.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, TypeVar, overload
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.core.errors import ConfigError, SimError
+from roman_sim.core.sensors import Frame, FrameSource, Intrinsics
+from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_trajectory, trajectory_along
+
+if TYPE_CHECKING:
+    from roman_sim.sim.paths import Path2D
+    from roman_sim.world import HasTruth
+
+R = TypeVar("R", bound=FrameSource)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedRobot:
+    """One simulated robot as a ``FrameSource``: driven up front, rendered lazily.
+
+    Attributes:
+        cfg: the robot's configuration.
+        world: the world it drives in (a truth-only world gives poses but no frames).
+        seed: the scenario seed.
+        path: its planned path.
+        run: its times, true and odometry poses, one per frame.
+        rgb_frames: one flag per frame: RGB is rendered where true (None: every frame), and
+            only when the robot renders RGB (``render_rgb``).
+    """
+
+    cfg: RobotConfig
+    world: HasTruth
+    seed: int
+    path: Path2D
+    run: DrivenRun
+    rgb_frames: NDArray[np.bool_] | None = None
+
+    @property
+    def name(self) -> str:
+        """The robot's name."""
+        return self.cfg.name
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The camera intrinsics."""
+        return self.cfg.camera.intrinsics()
+
+    @property
+    def T_body_cam(self) -> NDArray[np.float64]:
+        """The camera (RDF optical) pose in the body (FLU) frame."""
+        return self.cfg.camera.T_body_cam()
+
+    def __len__(self) -> int:
+        return len(self.run.t)
+
+    def with_rgb(self) -> SimulatedRobot:
+        """This robot rendering RGB on every frame, even with ``render_rgb: false``."""
+        return replace(self, cfg=self.cfg.model_copy(update={"render_rgb": True}), rgb_frames=None)
+
+    def rgb_at(self, rgb_frames: NDArray[np.bool_] | Sequence[bool]) -> SimulatedRobot:
+        """This robot rendering RGB only where ``rgb_frames`` (one flag per frame) is true (and ``render_rgb``).
+
+        Raises: SimError when ``rgb_frames`` does not hold one flag per frame.
+        """
+        flags = np.asarray(rgb_frames, dtype=bool)
+        if flags.shape != (len(self),):
+            raise SimError(f"robot {self.name!r}: rgb_frames has {flags.size} flags for {len(self)} frames")
+        return replace(self, rgb_frames=flags)
+
+    def frames(self, indices: Iterable[int] | None = None) -> Iterator[Frame]:
+        """Rendered frames with truth (instance ids, true body pose), in order.
+
+        With ``indices`` only those frames are rendered, each keeping its index; the depth
+        noise stream draws once per rendered frame, so their noise is not that of the same
+        frames in the whole run.
+
+        Raises: SimError for a truth-only world or indices that are not ascending frame indices.
+        """
+        from roman_sim.world import World
+
+        if not isinstance(self.world, World):
+            raise SimError(f"robot {self.name!r}: the world was generated without a model; nothing to render")
+        if indices is None:
+            yield from render_trajectory(self.world, self.cfg, self.seed, self.run, self.rgb_frames)
+            return
+        idx = np.asarray(list(indices), dtype=np.int64)
+        if len(idx) and (idx.min() < 0 or idx.max() >= len(self) or np.any(np.diff(idx) <= 0)):
+            raise SimError(f"robot {self.name!r}: frame indices must be ascending, in [0, {len(self)})")
+        t, T_wb, T_ob = self.run
+        run = DrivenRun(t[idx], T_wb[idx], T_ob[idx])
+        flags = None if self.rgb_frames is None else self.rgb_frames[idx]
+        for k, frame in zip(idx, render_trajectory(self.world, self.cfg, self.seed, run, flags)):
+            yield replace(frame, index=int(k))
+
+
+@overload
+def robot_sources(
+    world: HasTruth | None,
+    robots: Sequence[RobotConfig],
+    seed: int,
+    names: Sequence[str] | None = None,
+    *,
+    rgb: bool = False,
+) -> list[SimulatedRobot]: ...
+
+
+@overload
+def robot_sources(
+    world: HasTruth | None,
+    robots: Sequence[RobotConfig],
+    seed: int,
+    names: Sequence[str] | None = None,
+    *,
+    rgb: bool = False,
+    open_recorded: Callable[[Any], R],
+) -> list[SimulatedRobot | R]: ...
+
+
+def robot_sources(
+    world: HasTruth | None,
+    robots: Sequence[RobotConfig],
+    seed: int,
+    names: Sequence[str] | None = None,
+    *,
+    rgb: bool = False,
+    open_recorded: Callable[[Any], R] | None = None,
+) -> list[SimulatedRobot] | list[SimulatedRobot | R]:
+    """One ``FrameSource`` per robot of ``robots`` named in ``names`` (all when None), in order.
+
+    Args:
+        world: the world (None when every wanted robot is read from a recorded sequence).
+        robots: every robot of the scenario, in order (paths may refer to earlier ones).
+        seed: the scenario seed.
+        names: the robots wanted.
+        rgb: simulated robots render RGB on every frame even when their ``render_rgb`` is off.
+        open_recorded: opens a robot whose configuration has a ``source`` (a recorded sequence).
+
+    Raises:
+        ConfigError: an unknown name, a recorded robot without ``open_recorded``, or no world
+            for a simulated robot.
+        SimError: a path cannot be planned or driven.
+    """
+    known = [r.name for r in robots]
+    unknown = [n for n in names or [] if n not in known]
+    if unknown:
+        raise ConfigError(f"robots: no robot {', '.join(unknown)} (robots: {', '.join(known)})")
+    wanted = [r for r in robots if names is None or r.name in set(names)]
+    simulated = [r for r in robots if getattr(r, "source", None) is None]
+    paths = {}
+    if any(getattr(r, "source", None) is None for r in wanted):
+        if world is None:
+            raise ConfigError("simulated robots need the world")
+        paths = plan_paths(world, simulated, seed)
+    out: list[SimulatedRobot | R] = []
+    for cfg in wanted:
+        if getattr(cfg, "source", None) is not None:
+            if open_recorded is None:
+                raise ConfigError(f"robot {cfg.name}: read from a recorded sequence, nothing to simulate")
+            out.append(open_recorded(cfg))
+            continue
+        assert world is not None  # checked above
+        path = paths[cfg.name]
+        source = SimulatedRobot(cfg, world, int(seed), path, trajectory_along(world, cfg, seed, path))
+        out.append(source.with_rgb() if rgb else source)
+    return out
