@@ -4,21 +4,24 @@ Example (in a user's own test suite)::
 
     from roman_sim.testing import assert_benchmark, assert_hits, assert_not_worse, run_scenario
 
-    def test_my_aligner_keeps_recall(tmp_path_factory):
-        run = run_scenario("smoke", aligners=["my_pkg.align:MyAligner"],
-                           out=tmp_path_factory.getbasetemp() / "smoke")
+    def test_my_aligner_keeps_recall():
+        run = run_scenario("smoke", aligners=["my_pkg.align:MyAligner"])   # cached in results/smoke/
         assert_hits(run, "MyAligner", {None: (11, 20), "120-180": (9, 15)})   # (hits, relevant)
-        assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")  # one-sided, 95 %
+
+    def test_my_aligner_is_not_worse_than_clipper():
+        run = run_scenario("demo", aligners=["my_pkg.align:MyAligner"])    # 40 relevant pairs at 120-180
+        assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")  # paired, margin 0.1
 
     def test_my_aligner_on_the_quick_benchmark(tmp_path_factory):
         assert_benchmark("my_pkg.align:MyAligner", "quick", pinned={"low/all": (14, 30), "high/all": (6, 33)},
                          out=tmp_path_factory.getbasetemp() / "quick")
 
-Runs are cached in ``out``: several tests on the same scenario share one simulation. Figures
-refer to the run's headline pair set (cross-robot pairs when the run has them) unless
-``kind`` names the other (``inter`` or ``intra``). Pins are counts, hits together with the
-relevant pairs they are out of, exact by default: a recall of 2 relevant pairs moves by 0.5
-when one pair flips, and a pin of hits alone would still pass when the relevant pairs grow.
+Runs are cached in ``out`` (default ``results/<scenario>/seed<seed>-<hash>``): several tests
+on the same scenario share one simulation. Figures refer to the run's headline pair set
+(cross-robot pairs when the run has them) unless ``kind`` names the other (``inter`` or
+``intra``). Pins are counts, hits together with the relevant pairs they are out of, exact by
+default: a recall of 2 relevant pairs moves by 0.5 when one pair flips, and a pin of hits
+alone would still pass when the relevant pairs grow.
 Every helper rejects a pin that cannot fail (empty, NaN, a boolean, a bare number where a
 count is meant) with a ``ConfigError`` naming the argument.
 """
@@ -32,9 +35,9 @@ from typing import Any, cast
 
 import numpy as np
 
-from roman_sim.core.errors import ConfigError
+from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.evaluation.operating_points import POINT_NAMES
-from roman_sim.evaluation.ranking import one_sided_bounds
+from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
@@ -221,20 +224,67 @@ def assert_hits(
     assert not failures, "; ".join(failures)
 
 
-#: Figures ``assert_not_worse`` compares by interval: their (hits, relevant) counts.
+#: Figures ``assert_not_worse`` compares, and the operating point whose threshold each is at.
 COUNTED = {
-    "max_recall": lambda s: (s.max_hits, s.n_relevant),
-    "recall_at_precision_1": lambda s: (s.hits_at_precision_1, s.n_relevant),
-    "recall_at_precision_90": lambda s: _point_counts(s, "precision_90"),
-    "recall_at_acceptance": lambda s: _point_counts(s, "acceptance"),
+    "max_recall": "max_recall",
+    "recall_at_precision_1": "precision_100",
+    "recall_at_precision_90": "precision_90",
+    "recall_at_acceptance": "acceptance",
 }
 
 
-def _point_counts(s: Any, name: str) -> tuple[int, int]:
+def _threshold(s: Any, name: str) -> int | None:
+    """The threshold k of operating point ``name`` (None: not reached, no pair is a hit)."""
     p = s.operating_points.get(name)
     if p is None:
         raise ConfigError(f"key: this run has no {name!r} operating point (written before they existed?)")
-    return p.hits, p.n_relevant
+    return None if not p.reached else p.k
+
+
+def _in_bin(metrics: Any, method: str, kind: str, heading_bin: str | None) -> Any:
+    """Whether a heading difference lies in ``heading_bin`` (half-open, the last bin of its table closed)."""
+    if heading_bin is None:
+        return lambda h: True
+    sets = metrics.method(method).set(kind)
+    b = sets.bin(heading_bin)
+    table = sets.heading_bins if any(x.label == heading_bin for x in sets.heading_bins) else sets.heading_bins_fine
+    last = table[-1].label == heading_bin
+    return lambda h: b.lo <= h < b.hi or (last and h == b.hi)
+
+
+def paired_hits(
+    run: RunResult, methods: tuple[str, str], key: str, heading_bin: str | None, kind: str | None
+) -> tuple[list[bool], list[bool]]:
+    """Per relevant pair (same pairs, same order) whether each of two methods hits it at ``key``'s threshold.
+
+    Reads the run's ``pairs.csv`` (or ``pairs.csv.gz``) and checks the hits add up to ``metrics.json``.
+    """
+    from roman_sim.evaluation.results import read_pairs_csv
+
+    path = run.run_dir / "pairs.csv"
+    if not path.is_file() and (run.run_dir / "pairs.csv.gz").is_file():
+        path = run.run_dir / "pairs.csv.gz"
+    if not path.is_file():
+        raise StorageError(f"{path}: missing; a paired comparison needs the run's per-pair results")
+    kind = kind or run.metrics.headline
+    inside = _in_bin(run.metrics, methods[0], kind, heading_bin)
+    by_method: dict[str, dict[tuple[str, str], bool]] = {m: {} for m in methods}
+    ks = {m: _threshold(run.metrics.stats(m, heading_bin, kind), COUNTED[key]) for m in methods}
+    for s in read_pairs_csv(path):
+        t = s.truth
+        if s.method in by_method and t.kind == kind and t.relevant and inside(t.heading_diff_deg):
+            k = ks[s.method]
+            by_method[s.method][(t.a, t.b)] = bool(s.correct and k is not None and s.n_assoc >= k)
+    a, b = by_method[methods[0]], by_method[methods[1]]
+    if set(a) != set(b):
+        raise StorageError(f"{path}: {methods[0]} and {methods[1]} were not scored on the same relevant pairs")
+    for m, got in by_method.items():
+        st = run.metrics.stats(m, heading_bin, kind)
+        want = (st.operating_points[COUNTED[key]].hits, st.n_relevant)  # type: ignore[union-attr]
+        if (sum(got.values()), len(got)) != want:
+            raise StorageError(f"{path}: {m}'s hits do not add up to metrics.json ({want[0]}/{want[1]})")
+    order = sorted(a)
+    return [a[p] for p in order], [b[p] for p in order]
 
 
 def assert_not_worse(
@@ -243,35 +293,50 @@ def assert_not_worse(
     baseline: str,
     heading_bin: str | None = None,
     key: str = "max_recall",
+    margin: float = 0.1,
     level: float = 0.95,
     kind: str | None = None,
 ) -> None:
-    """Assert ``method`` is not significantly worse than ``baseline`` (one-sided Wilson bounds at ``level``).
+    """Assert the run shows ``method``'s recall within ``margin`` of ``baseline``'s, on the same pairs.
 
-    It fails only when ``method``'s upper bound lies below ``baseline``'s lower bound, each
-    one-sided at ``level``: a point estimate below the baseline's by chance passes, a method
-    whose recall fell clearly fails.
+    A paired non-inferiority test (``roman_sim.evaluation.paired``): McNemar's exact test on
+    the relevant pairs one method hits and the other misses, and an exact upper bound at
+    ``level`` of the recall the method loses. It passes only when that bound is at most
+    ``margin``: a method whose recall fell fails, and so does a sample too small to show
+    anything (the message gives the relevant pairs it would need).
 
     Args:
         key: a counted figure: ``max_recall``, ``recall_at_precision_1``, ``recall_at_precision_90``,
-            ``recall_at_acceptance``.
-        level: one-sided confidence level of each bound, in [0.5, 1).
+            ``recall_at_acceptance``; each method at its own threshold for that figure.
+        margin: the recall loss still counted as not worse, in (0, 1) (default 0.1: 10 points).
+        level: one-sided confidence level of the bound, in [0.5, 1).
     """
+    from roman_sim.evaluation.paired import compare_paired
+
     method, baseline = method_label(method), method_label(baseline)
     if key not in COUNTED:
-        raise ConfigError(f"key: {key!r} cannot be compared by interval (valid: {', '.join(COUNTED)})")
+        raise ConfigError(f"key: {key!r} cannot be compared pair by pair (valid: {', '.join(COUNTED)})")
     if isinstance(level, bool) or not isinstance(level, (int, float)) or not 0.5 <= level < 1.0:
         raise ConfigError(f"level: expected a one-sided confidence level in [0.5, 1), got {level!r}")
+    if isinstance(margin, bool) or not isinstance(margin, (int, float)) or not 0.0 < margin < 1.0:
+        raise ConfigError(f"margin: expected a recall difference in (0, 1), got {margin!r}")
     if heading_bin is not None and not isinstance(heading_bin, str):
         raise ConfigError(f"heading_bin: expected a bin label such as '120-180' or None, got {heading_bin!r}")
-    (h, n), (hb, nb) = (COUNTED[key](run.metrics.stats(m, heading_bin, kind)) for m in (method, baseline))
-    where = heading_bin or "overall"
-    assert n and nb, f"{key} {where}: undefined (no relevant pairs): {method} {h}/{n}, {baseline} {hb}/{nb}"
-    upper, lower = one_sided_bounds(h, n, level)[1], one_sided_bounds(hb, nb, level)[0]  # type: ignore[index]
-    assert upper >= lower, (
-        f"{method} {key} {where}: {h}/{n} = {h / n:.3f}, its upper {level:.0%} bound {upper:.3f} lies below "
-        f"{baseline}'s {hb}/{nb} = {hb / nb:.3f}, lower bound {lower:.3f}"
+    hits, base = paired_hits(run, (method, baseline), key, heading_bin, kind)
+    c = compare_paired(hits, base, float(margin), float(level))
+    where = f"{key} {heading_bin or 'overall'}"
+    assert c.n, f"{where}: undefined (no relevant pairs): cannot compare {method} with {baseline}"
+    if c.not_worse:
+        return
+    said = (
+        f"{method} {where}: {c.hits}/{c.n} against {baseline}'s {c.baseline_hits}/{c.n} on the same pairs "
+        f"({c.worse} lost, {c.better} gained, McNemar p = {c.mcnemar_p:.3g}); the recall lost is at most "
+        f"{c.loss_upper:.3f} at {level:.0%}, above the margin {margin:g}"
     )
+    if c.loss >= margin:
+        raise AssertionError(f"{said}: {method} is worse (it lost {c.loss:.3f})")
+    need = f"about {c.needed} relevant pairs" if c.needed else f"more than {MAX_NEEDED} relevant pairs"
+    raise AssertionError(f"{said}: this sample cannot show it is not worse; it would need {need}")
 
 
 def benchmark_pins(board: Mapping[str, Any], method: str, point: str = "max_recall") -> dict[str, tuple[int, int]]:

@@ -8,10 +8,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from roman_sim.core.errors import ConfigError, EvaluationError
+from roman_sim.core.errors import ConfigError, EvaluationError, StorageError
 from roman_sim.evaluation.atetable import AteTable, VariantAte
 from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.pairs import PairTruth
+from roman_sim.evaluation.results import write_pairs_csv
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import (
@@ -26,8 +27,8 @@ from roman_sim.testing import (
 )
 
 
-def _score(i: int, method: str, correct: bool) -> PairScore:
-    """A relevant pair at 30 deg heading difference: right with 10 associations, or wrong with 4."""
+def _score(i: int, method: str, correct: bool, heading: float = 30.0) -> PairScore:
+    """A relevant pair at ``heading`` deg heading difference: right with 10 associations, or wrong with 4."""
     truth = PairTruth(
         a=f"a/{i}",
         b=f"b/{i}",
@@ -37,7 +38,7 @@ def _score(i: int, method: str, correct: bool) -> PairScore:
         index_b=i,
         T_a_b_true=np.eye(4),
         center_dist_m=5.0,
-        heading_diff_deg=30.0,
+        heading_diff_deg=heading,
         overlap=0.5,
         ambiguity=float("nan"),
         relevant=True,
@@ -71,8 +72,6 @@ def test_figures_pass_and_fail_against_hand_computed_values(run: RunResult) -> N
         assert_recall(run, "roman", 0.76)
     with pytest.raises(AssertionError, match="roman max_recall heading 120-180 deg: undefined .no relevant pairs."):
         assert_recall(run, "roman", {"120-180": 0.1})
-    assert_not_worse(run, "roman", "clipper")
-    assert_not_worse(run, "clipper", "roman")  # 2/4 against 3/4: the intervals cannot tell them apart
     assert_ate_below(run, "roman")
 
 
@@ -101,9 +100,9 @@ def test_unknown_names_list_the_valid_ones(run: RunResult) -> None:
         ConfigError, match="key: unknown figure 'recall' .valid: max_recall, recall_at_precision_1, best_f1, auc."
     ):
         assert_recall(run, "roman", 0.1, key="recall")
-    with pytest.raises(ConfigError, match="key: 'f1' cannot be compared by interval .valid: max_recall, "):
+    with pytest.raises(ConfigError, match="key: 'f1' cannot be compared pair by pair .valid: max_recall, "):
         assert_not_worse(run, "roman", "clipper", key="f1")
-    with pytest.raises(ConfigError, match="key: 'best_f1' cannot be compared by interval"):
+    with pytest.raises(ConfigError, match="key: 'best_f1' cannot be compared pair by pair"):
         assert_not_worse(run, "roman", "clipper", key="best_f1")
     with pytest.raises(EvaluationError, match=r"method 'ransac' not in this run \(methods: clipper, roman\)"):
         assert_recall(run, "ransac", 0.1)
@@ -148,22 +147,65 @@ def test_names_list_accepts_any_iterable_of_strings() -> None:
     assert names_list([], "x") == []
 
 
-def _run_of(hits: dict[str, int], n: int = 50) -> RunResult:
-    """Each method aligns ``hits[method]`` of ``n`` relevant pairs at 30 deg (10 associations each)."""
-    scores = [_score(i, m, i < h) for m, h in hits.items() for i in range(n)]
-    return RunResult(Path("."), load_scenario("smoke"), summary(scores, acceptance_k=4), AteTable([], [], {}), None)  # type: ignore[arg-type]
+def _run_of(tmp: Path, hits: dict[str, list[int]], n: int, heading: float = 30.0) -> RunResult:
+    """Each method aligns the relevant pairs ``hits[method]`` (indices) of ``n``; pairs.csv written to ``tmp``."""
+    scores = [_score(i, m, i in set(h), heading) for m, h in hits.items() for i in range(n)]
+    write_pairs_csv(tmp / "pairs.csv", scores)
+    return RunResult(tmp, load_scenario("smoke"), summary(scores, acceptance_k=4), AteTable([], [], {}), None)  # type: ignore[arg-type]
 
 
-def test_assert_not_worse_fails_a_degraded_method_by_interval() -> None:
-    run = _run_of({"roman": 45, "degraded": 20, "slightly": 41})
-    assert_not_worse(run, "slightly", "roman")  # 41/50 against 45/50: within the one-sided bounds
+def test_a_regression_from_six_to_one_of_fifteen_fails(tmp_path: Path) -> None:
+    """The sample the old interval check let through: the same 15 pairs, 6 hits then 1."""
+    run = _run_of(tmp_path, {"clipper": [0, 1, 2, 3, 4, 5], "MyAligner": [0]}, 15, heading=150.0)
     with pytest.raises(AssertionError) as e:
-        assert_not_worse(run, "degraded", "roman")
-    assert "degraded max_recall overall: 20/50 = 0.400, its upper 95% bound" in str(e.value)
-    assert "roman's 45/50 = 0.900, lower bound" in str(e.value)
-    with pytest.raises(AssertionError):
-        assert_not_worse(run, "degraded", "roman", heading_bin="0-60", key="recall_at_precision_90")
-    assert_not_worse(run, "roman", "degraded", key="recall_at_acceptance")
+        assert_not_worse(run, "MyAligner", "clipper", heading_bin="120-180")
+    assert str(e.value).startswith(
+        "MyAligner max_recall 120-180: 1/15 against clipper's 6/15 on the same pairs (5 lost, 0 gained, "
+        "McNemar p = 0.0312); the recall lost is at most 0.616 at 95%, above the margin 0.1: MyAligner is worse"
+    ), str(e.value)
+    assert_not_worse(run, "clipper", "MyAligner", heading_bin="120-180")  # 1 of 15 more hits can only gain
+
+
+def test_a_true_tie_passes_on_a_large_sample_and_not_on_a_small_one(tmp_path: Path) -> None:
+    same = list(range(0, 300, 2))  # both hit the same 150 of 300 pairs
+    assert_not_worse(_run_of(tmp_path, {"roman": same, "copy": same}, 300), "copy", "roman")
+    # equal recall with swaps: 10 lost, 10 gained of 300 still shows it within 0.1
+    swapped = same[10:] + [1 + 2 * i for i in range(10)]
+    assert_not_worse(_run_of(tmp_path, {"roman": same, "swapped": swapped}, 300), "swapped", "roman")
+    # the same tie on 15 pairs cannot show anything: it fails and names the sample it would need
+    small = _run_of(tmp_path, {"roman": [0, 1, 2], "copy": [0, 1, 2]}, 15)
+    with pytest.raises(AssertionError) as e:
+        assert_not_worse(small, "copy", "roman")
+    assert "(0 lost, 0 gained, McNemar p = 1); the recall lost is at most 0.218" in str(e.value)
+    assert str(e.value).endswith("this sample cannot show it is not worse; it would need about 36 relevant pairs")
+    assert_not_worse(_run_of(tmp_path, {"roman": [0], "copy": [0]}, 36), "copy", "roman")
+    with pytest.raises(AssertionError, match="would need about 36 relevant pairs"):
+        assert_not_worse(_run_of(tmp_path, {"roman": [0], "copy": [0]}, 35), "copy", "roman")
+
+
+def test_the_margin_and_the_operating_point_are_the_ones_asked(tmp_path: Path) -> None:
+    """41 against 45 of 50 (4 lost): the loss may reach 0.19, within a margin of 0.25, not of 0.1."""
+    run = _run_of(tmp_path, {"roman": list(range(45)), "slightly": list(range(41))}, 50)
+    with pytest.raises(AssertionError) as e:
+        assert_not_worse(run, "slightly", "roman")
+    assert str(e.value).endswith(
+        "at most 0.192 at 95%, above the margin 0.1: this sample cannot show it is not worse; it would need about "
+        "898 relevant pairs"
+    )
+    assert_not_worse(run, "slightly", "roman", margin=0.25)
+    with pytest.raises(AssertionError, match="slightly recall_at_precision_90 overall: 41/50 against roman's 45/50"):
+        assert_not_worse(run, "slightly", "roman", key="recall_at_precision_90")
+    assert_not_worse(run, "roman", "slightly", key="recall_at_acceptance")
+    for bad in (0, 1.0, math.nan, True, "0.1"):
+        with pytest.raises(ConfigError, match="margin: expected a recall difference in .0, 1., got"):
+            assert_not_worse(run, "slightly", "roman", margin=bad)  # type: ignore[arg-type]
+
+
+def test_a_paired_check_needs_the_pairs_of_the_run(tmp_path: Path) -> None:
+    run = _run_of(tmp_path, {"roman": [0], "copy": [0]}, 40)
+    (tmp_path / "pairs.csv").unlink()
+    with pytest.raises(StorageError, match="pairs.csv: missing; a paired comparison needs the run's per-pair"):
+        assert_not_worse(run, "copy", "roman")
 
 
 def test_assert_hits_pins_hits_and_relevant_together(run: RunResult) -> None:
