@@ -1,7 +1,7 @@
 """The reference results page: its generated block, and every figure of its prose, from committed files.
 
 The block must be exactly what ``results/reference/summary.json`` renders to (that file is
-re-derived from the raw data in ``tests/pipeline/test_reference_claims.py``); the prose's
+re-derived from the raw data in ``tests/studies/test_reference_claims.py``); the prose's
 figures are recomputed here from the committed files and the bundled scenarios.
 """
 

@@ -24,6 +24,7 @@ from typing import Any
 _EXPORTS: dict[str, str] = {
     **dict.fromkeys(["SEGMENTERS", "SegmenterConfig", "SimulatedSegmenter", "simulated_segmenter"], "segmenter"),
     **dict.fromkeys(["SemanticConfig", "SimulatedEncoder"], "semantics"),
+    **dict.fromkeys(["FrontEndConfig", "build_encoder", "build_segmenter"], "components"),
 }
 __all__ = sorted(_EXPORTS)
 

@@ -167,3 +167,17 @@ def test_confusion_is_a_sweep_axis():
     cfg = SweepConfig(name="c", scenario="smoke", grid={"frontend.semantics.confusion": [0.0, 0.5, 1.0]})
     levels = [load_scenario("smoke", list(r.overrides)).frontend.semantics.confusion.level for r in expand(cfg)]
     assert levels == [0.0, 0.5, 1.0]
+
+
+def test_package_exports_resolve_to_their_modules():
+    import roman_sim.frontend
+    import roman_sim.mapping
+
+    for pkg in (roman_sim.mapping, roman_sim.frontend):
+        for name in pkg.__all__:
+            obj = getattr(pkg, name)
+            assert getattr(obj, "__name__", name) == name or not callable(obj), (pkg.__name__, name)
+    assert roman_sim.mapping.Segmenter.__module__ == "roman_sim.mapping.protocols"
+    assert roman_sim.frontend.SimulatedSegmenter.__module__ == "roman_sim.frontend.segmenter"
+    with pytest.raises(AttributeError, match="SimulatedEncoder"):
+        _ = roman_sim.mapping.SimulatedEncoder  # the front ends live in roman_sim.frontend
