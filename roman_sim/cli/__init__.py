@@ -2,7 +2,9 @@
 
 Each area adds its commands from its own module (``world``, ``record``, ``run``, ...).
 Any ``RomanSimError`` becomes one line on stderr and exit code 1; so do ``MemoryError`` and a
-full disk; a traceback means a bug. Ctrl-C (SIGINT) ends a command with one line and exit
+full disk; a traceback means a bug. With ``-v`` or ``--debug`` the full traceback of the error
+and of its cause (a plug-in's own exception, with the file and line of its bug) follows the
+line. Ctrl-C (SIGINT) ends a command with one line and exit
 code 130, SIGTERM with one line and 143; results already written (completed stages) are
 kept, since every file is written atomically (``roman_sim.cli._signals``: every exit code).
 """
@@ -10,6 +12,7 @@ kept, since every file is written atomically (``roman_sim.cli._signals``: every 
 from __future__ import annotations
 
 import logging
+import traceback
 from typing import Any
 
 import typer
@@ -17,6 +20,30 @@ from typer.core import TyperGroup
 
 from roman_sim.cli import _signals as S
 from roman_sim.core.errors import RomanSimError
+
+#: Whether ``-v`` / ``--debug`` asked for tracebacks below the one-line errors.
+_TRACEBACKS = {"on": False}
+
+
+def error_traceback(err: BaseException) -> str:
+    """The tracebacks of ``err`` and of every exception behind it, the first cause first.
+
+    A cause is followed through ``raise ... from err`` and through the context a
+    ``raise ... from None`` hid, so a plug-in's own exception and line are shown.
+    """
+    chain: list[BaseException] = []
+    e: BaseException | None = err
+    while e is not None and all(e is not c for c in chain):
+        chain.append(e)
+        e = e.__cause__ or e.__context__
+    parts = ["".join(traceback.format_exception(x, chain=False)) for x in reversed(chain)]
+    return "\nwhich was reported as:\n\n".join(parts)
+
+
+def _echo_error(line: str, err: BaseException) -> None:
+    typer.echo(f"error: {line}", err=True)
+    if _TRACEBACKS["on"]:
+        typer.echo(error_traceback(err).rstrip("\n"), err=True)
 
 
 class _Group(TyperGroup):
@@ -29,10 +56,10 @@ class _Group(TyperGroup):
             with S.stops_cleanly():
                 return super().invoke(ctx)
         except RomanSimError as err:
-            typer.echo(f"error: {err}", err=True)
+            _echo_error(str(err), err)
             raise typer.Exit(1) from None
         except MemoryError as err:
-            typer.echo(f"error: {S.limit_line(err)}", err=True)
+            _echo_error(S.limit_line(err), err)
             raise typer.Exit(1) from None
         except OSError as err:
             if not S.is_disk_full(err):
@@ -59,7 +86,11 @@ app = typer.Typer(
 
 
 @app.callback()
-def _main(verbose: bool = typer.Option(False, "--verbose", "-v", help="Debug logging.")) -> None:
+def _main(
+    verbose: bool = typer.Option(False, "--verbose", "-v", help="Debug logging, and tracebacks below errors."),
+    debug: bool = typer.Option(False, "--debug", help="Tracebacks below errors (a plug-in's own, with its line)."),
+) -> None:
+    _TRACEBACKS["on"] = verbose or debug
     logging.basicConfig(
         level=logging.DEBUG if verbose else logging.WARNING,
         format="%(levelname)s %(name)s: %(message)s",

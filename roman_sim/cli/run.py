@@ -70,12 +70,19 @@ def _recall_cell(d: dict[str, Any], min_n: int) -> str:
     return f"{d['max_recall']:.2f} {d['max_hits']}/{d['n_relevant']}"
 
 
-def _recall_table(s: dict[str, Any], kind: str, title: str, min_n: int) -> Table:
-    t = Table(title=title)
+def _recall_tables(s: dict[str, Any], kind: str, label: str, min_n: int) -> list[Table]:
+    """Two tables that fit 80 columns: the overall figures and runtime, then max recall per heading bin."""
+    from rich import box
+
     first = next(iter(s["methods"].values()))[kind]
-    t.add_column("method", no_wrap=True)
-    for col in ["max R", "R@P=1", "F1", *[f"{b}°" for b in first["bins"]], "ms"]:
-        t.add_column(col, justify="right", no_wrap=True)
+    overall = Table(title=f"{label} pairs: recall (hits/relevant) and median ms per pair", box=box.SIMPLE_HEAD)
+    bins = Table(title=f"{label} pairs: max recall (hits/relevant) per heading bin", box=box.SIMPLE_HEAD)
+    overall.add_column("method", no_wrap=True)
+    bins.add_column("method", no_wrap=True)
+    for col in ("max R", "R@P=1", "F1", "ms"):
+        overall.add_column(col, justify="right", no_wrap=True)
+    for b in first["bins"]:
+        bins.add_column(f"{b} deg", justify="right", no_wrap=True)
     for name, m in s["methods"].items():
         k = m[kind]
         ms = None if m["runtime_median_s"] is None else m["runtime_median_s"] * 1000
@@ -84,21 +91,18 @@ def _recall_table(s: dict[str, Any], kind: str, title: str, min_n: int) -> Table
             "max_hits": k["hits_at_precision_1"],
             "n_relevant": k["n_relevant"],
         }
-        t.add_row(
-            name,
-            _recall_cell(k, min_n),
-            _recall_cell(p1, min_n),
-            _fmt(k["best_f1"]),
-            *[_recall_cell(b, min_n) for b in k["bins"].values()],
-            _fmt(ms, 1),
-        )
-    return t
+        overall.add_row(name, _recall_cell(k, min_n), _recall_cell(p1, min_n), _fmt(k["best_f1"]), _fmt(ms, 1))
+        bins.add_row(name, *[_recall_cell(b, min_n) for b in k["bins"].values()])
+    return [overall, bins]
 
 
 def print_summary(result: Any) -> None:
     """The summary tables: recall (hits/relevant) per heading bin per method for cross-robot and
     same-robot pairs, runtime; ATE over the same robots; map size."""
+    from rich import box
+
     from roman_sim.evaluation.types import PAIR_SET_LABELS
+    from roman_sim.report.lead import lead_paragraph
 
     s = result.metrics_summary()
     cfg = result.metrics.config
@@ -112,23 +116,20 @@ def print_summary(result: Any) -> None:
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
         f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
     )
+    for line in lead_paragraph(result.metrics, result.ate, markdown=False):
+        out.print(line, markup=False, highlight=False)
     kinds = [s["headline"]] + [k for k in ("inter", "intra") if k != s["headline"]]
     for kind in kinds:
         if s["methods"] and s["pairs"][kind]["n_pairs"]:
             label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s["headline"] else "")
-            out.print(
-                _recall_table(
-                    s,
-                    kind,
-                    f"{label} pairs: max recall (hits/relevant) overall and per heading bin, median ms per pair",
-                    int(cfg["min_relevant"]),
-                )
-            )
+            for table in _recall_tables(s, kind, label, int(cfg["min_relevant"])):
+                out.print(table)
     if s["ate"]:
         common = ", ".join(s["ate_robots"]["common"]) or "none"
         a = Table(
             title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({common}) and over all "
-            f"{len(s['ate_robots']['robots'])}"
+            f"{len(s['ate_robots']['robots'])}",
+            box=box.SIMPLE_HEAD,
         )
         for col in ("trajectory", "placed", "common", "all robots"):
             a.add_column(col, justify="left" if col == "trajectory" else "right")

@@ -20,6 +20,7 @@ from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.evaluation.overlap import counts_by_pair, overlap_graph
 from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
 from roman_sim.report.grades import frontend_report_lines
+from roman_sim.report.lead import lead_paragraph
 from roman_sim.report.tables import (
     NA,
     association_rows,
@@ -49,6 +50,9 @@ PLOT_CAPTIONS = {
     "trajectories.png": "Trajectories: truth, odometry and the pose graph",
     "frontend.png": "Front end against truth: descriptor cosines, cosine against view difference, objects missed",
 }
+
+#: The plots shown right after the opening paragraph, in this order (the others follow the tables).
+HEADLINE_PLOTS = ("recall_heading.png", "recall_operating_points.png", "precision_recall.png", "trajectories.png")
 
 MAP_LABELS = {
     "segments": "segments",
@@ -113,12 +117,9 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
     if not metrics.pairs[kind]["n_pairs"]:
         return [title, "", f"No {label} pairs in this run.", ""]
     lines = [title, "", *markdown_table(summary_rows(metrics, kind)), ""]
-    lines += [
-        f"### Operating points per heading bin, {label}",
-        "",
-        *markdown_table(operating_point_rows(metrics, kind)),
-        "",
-    ]
+    min_n = int(EvalConfig.model_validate(metrics.config).min_relevant)
+    points = operating_point_rows(metrics, kind)
+    lines += [f"### Operating points per heading bin, {label}", "", *_folded(points, min_n)]
     lines += [
         f"### Recall per heading bin, {label}, fine bins",
         "",
@@ -140,6 +141,22 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
         *markdown_table(association_rows(metrics, kind)),
         "",
     ]
+    return lines
+
+
+def _folded(rows: list[dict[str, str]], min_n: int) -> list[str]:
+    """A table whose rows with fewer than ``min_n`` relevant pairs are folded into a ``<details>`` block."""
+    few = [r for r in rows if r["relevant"].isdigit() and int(r["relevant"]) < min_n]
+    lines = [*markdown_table([r for r in rows if r not in few]), ""]
+    if few:
+        lines += [
+            f"<details><summary>{len(few)} rows with fewer than {min_n} relevant pairs</summary>",
+            "",
+            *markdown_table(few),
+            "",
+            "</details>",
+            "",
+        ]
     return lines
 
 
@@ -206,16 +223,24 @@ def _section_ate(ate: AteTable | None) -> list[str]:
     return lines
 
 
-def _section_plots(plots: list[str]) -> list[str]:
-    if not plots:
-        return ["## Plots", "", "No plots were written.", ""]
-    lines = ["## Plots", ""]
-    for p in sorted(plots):
-        name = Path(p).name
-        caption = PLOT_CAPTIONS.get(name, Path(p).stem.replace("_", " "))
-        if name.startswith("alignment_"):
-            caption = f"{name[len('alignment_') : -len('.png')]}: a correct alignment and the worst false positive"
-        lines += [f"![{caption}]({p})", ""]
+def _caption(name: str) -> str:
+    if name.startswith("alignment_"):
+        return f"{name[len('alignment_') : -len('.png')]}: a correct alignment and the worst false positive"
+    return PLOT_CAPTIONS.get(name, Path(name).stem.replace("_", " "))
+
+
+def _not_drawn(notes: list[str], names: set[str] | None) -> list[str]:
+    """The notes saying a plot was not drawn (of ``names`` only, when given)."""
+    return [n for n in notes if " not drawn" in n and (names is None or any(f"plot {x} " in n for x in names))]
+
+
+def _section_plots(title: str, plots: list[str], skipped: list[str]) -> list[str]:
+    if not plots and not skipped:
+        return []
+    lines = [title, ""]
+    for p in plots:
+        lines += [f"![{_caption(Path(p).name)}]({p})", ""]
+    lines += [f"- {n}" for n in skipped] + ([""] if skipped else [])
     return lines
 
 
@@ -237,8 +262,12 @@ def report_markdown(
         notes: statements to show (no loop closures, a robot never connected, ...).
         plots: plot files to show, relative to the run folder (e.g. ``plots/recall_heading.png``).
     """
-    lines = [f"# Evaluation report: {scenario_name}", "", *_header(metrics)]
     all_notes = list(dict.fromkeys(list(metrics.notes) + list(notes or [])))
+    by_name = {Path(p).name: p for p in sorted(plots or [])}
+    head = [by_name[n] for n in HEADLINE_PLOTS if n in by_name]
+    lines = [f"# Evaluation report: {scenario_name}", "", *lead_paragraph(metrics, ate_table)]
+    lines += _section_plots("## Headline plots", head, _not_drawn(all_notes, set(HEADLINE_PLOTS)))
+    lines += ["## What was scored", "", *_header(metrics)]
     if all_notes:
         lines += ["## Notes", "", *[f"- {n}" for n in all_notes], ""]
     lines += _section_robot_pairs(metrics)
@@ -246,8 +275,14 @@ def report_markdown(
     if not metrics.methods:
         lines += ["## Alignment", "", "No method was evaluated.", ""]
     else:
+        min_n = int(EvalConfig.model_validate(metrics.config).min_relevant)
         for kind in kinds:
-            lines += _section_pairs(metrics, kind)
+            section = _section_pairs(metrics, kind)
+            n_rel = metrics.pairs[kind]["n_relevant"]
+            if kind != metrics.headline and metrics.pairs[kind]["n_pairs"] and n_rel < min_n:
+                summary = f"{section[0][3:]}: {n_rel} relevant, fewer than {min_n} (tables folded)"
+                section = [f"<details><summary>{summary}</summary>", "", *section, "</details>", ""]
+            lines += section
     lines += _section_ate(ate_table)
     map_rows = [
         {"quantity": MAP_LABELS.get(k, k), "value": fmt(v)}
@@ -257,5 +292,10 @@ def report_markdown(
     if metrics.frontend is not None:
         lines += frontend_report_lines(FrontEndGrades.from_json(metrics.frontend))
     lines += ["Runtimes per pair and per stage: timings.json.", ""]
-    lines += _section_plots(list(plots or []))
+    rest = [p for n, p in by_name.items() if p not in head]
+    others = _not_drawn(all_notes, None)
+    others = [n for n in others if n not in _not_drawn(all_notes, set(HEADLINE_PLOTS))]
+    if not plots and not others:
+        lines += ["## Plots", "", "No plots were written.", ""]
+    lines += _section_plots("## More plots", rest, others)
     return "\n".join(lines)
