@@ -11,7 +11,8 @@ time of ``roman-sim demo`` (a local pool of 2 workers on 2 free cores) is then e
     + posegraph + ate
 
 where start-up is the CLI's imports (in its process), the forkserver preload is what a run's
-pool imports and loads before it forks a worker (``roman_sim.pipeline.worker_preload``;
+pool imports and loads before it forks a worker (``roman_sim.runner.preload`` of the stages'
+``worker_preload``;
 the forkserver starts right after the CLI's own module, so it overlaps the CLI's imports
 and the world), and the world hand-off is pickling the world for the workers and loading it
 in one.
@@ -48,11 +49,12 @@ from roman_sim.core.atomic import write_json
 
 OUT = Path(__file__).resolve().parent / "out" / "demo.json"
 PRELOAD = (
-    "import time; t = time.process_time(); import roman_sim.pipeline.worker_preload; print(time.process_time() - t)"
+    "import time; t = time.process_time(); from roman_sim.runner.preload import preload; "
+    "preload(('roman_sim.pipeline.stages:WORKER_PRELOAD',)); print(time.process_time() - t)"
 )
 HANDOFF = (
     "import time; from roman_sim.pipeline.scenario import load_scenario; "
-    "from roman_sim.pipeline.tasks import PickledWorld; from roman_sim.world import generate; "
+    "from roman_sim.world import PickledWorld, generate; "
     "sc = load_scenario({name!r}); w = generate(sc.world.spec(), sc.seed); "
     "t = time.process_time(); p = PickledWorld.of(w); p.load(); print(time.process_time() - t)"
 )

@@ -7,13 +7,26 @@ estimates ``inv(T_world_a) @ T_world_b``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TypedDict, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.registry import Registry
 from roman_sim.mapping.types import Submap
+
+
+class ResultJSON(TypedDict):
+    """An ``AlignResult`` as JSON (``AlignResult.to_json``)."""
+
+    method: str
+    T_a_b: list[list[float]] | None
+    associations: list[list[int]]
+    scores: list[float]
+    runtime_s: float
+    reason: str | None
+    info: dict[str, JSON]
 
 
 @dataclass
@@ -60,6 +73,47 @@ class AlignResult:
             reason=reason,
             info=dict(info),
         )
+
+    def to_json(self) -> ResultJSON:
+        """JSON-ready copy (floats round-trip exactly through JSON; numpy values in ``info`` become JSON types)."""
+        return {
+            "method": self.method,
+            "T_a_b": None if self.T_a_b is None else np.asarray(self.T_a_b).tolist(),
+            "associations": np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist(),
+            "scores": np.asarray(self.scores, dtype=np.float64).tolist(),
+            "runtime_s": float(self.runtime_s),
+            "reason": self.reason,
+            "info": {str(k): _plain(x) for k, x in self.info.items()},
+        }
+
+    @classmethod
+    def from_json(cls, d: ResultJSON) -> AlignResult:
+        """Inverse of ``to_json``."""
+        T = None if d["T_a_b"] is None else np.asarray(d["T_a_b"], dtype=np.float64)
+        return cls(
+            str(d["method"]),
+            T,
+            np.asarray(d["associations"], dtype=np.int64).reshape(-1, 2),
+            np.asarray(d["scores"], dtype=np.float64),
+            float(d["runtime_s"]),
+            d["reason"],
+            dict(d["info"]),
+        )
+
+
+def _plain(v: object) -> JSON:
+    """``v`` with numpy values turned into JSON types (lists, floats, ints, bools; anything else its ``str``)."""
+    if isinstance(v, np.ndarray):
+        return _plain(v.tolist())
+    if isinstance(v, np.generic):
+        return _plain(v.item())
+    if isinstance(v, dict):
+        return {str(k): _plain(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_plain(x) for x in v]
+    if v is None or isinstance(v, (bool, int, float, str)):
+        return v
+    return str(v)
 
 
 @runtime_checkable

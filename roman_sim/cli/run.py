@@ -165,7 +165,8 @@ def _run(
 ) -> None:
     from roman_sim.runner.executors import prestart
 
-    prestart(executor)  # a local pool's forkserver imports the tasks' modules while this process imports its own
+    # a local pool's forkserver imports the stages' worker modules while this process imports its own
+    prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
     from roman_sim.pipeline.experiment import Experiment, default_run_dir
     from roman_sim.pipeline.scenario import load_scenario, with_aligners
 

@@ -46,7 +46,7 @@ from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, envi
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stagecache import StageCache
-from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, Stage, StageOutput
+from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, WORKER_PRELOAD, Stage, StageOutput
 from roman_sim.pipeline.stages.base import Timings
 from roman_sim.runner.checkpoint import Checkpoint, clear_checkpoints
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
@@ -239,7 +239,7 @@ class Experiment:
         with hold_run_folder(self.run_dir):
             if isinstance(self.executor, Executor):
                 return self._run(self.executor)
-            with open_executor(self.executor, run=True) as ex:
+            with open_executor(self.executor, WORKER_PRELOAD) as ex:
                 return self._run(ex)
 
     def _run(self, ex: Executor) -> RunResult:

@@ -18,7 +18,7 @@ import logging
 from collections.abc import Callable, Iterator, Sequence
 from typing import TYPE_CHECKING, TypeVar, cast
 
-from roman_sim.core.errors import ClusterError, ConfigError, RomanSimError
+from roman_sim.core.errors import ClusterError, RomanSimError
 from roman_sim.runner.executor_base import Executor, ExecutorConfig, TaskError, collect, guarded
 
 if TYPE_CHECKING:
@@ -155,13 +155,3 @@ def _close_cluster(cluster: LocalCluster, timeout_s: float) -> None:
         cluster.close(timeout=timeout_s)
     except Exception as err:  # a timeout or a nanny's own error while stopping
         log.warning("Dask local cluster did not close in time: %s: %s", type(err).__name__, err)
-
-
-def require_dask() -> None:
-    """ConfigError when ``distributed`` is not installed."""
-    try:
-        import distributed  # noqa: F401
-    except ImportError:
-        raise ConfigError(
-            "executor.kind: dask needs the 'distributed' package (pip install 'dask[distributed]')"
-        ) from None

@@ -46,6 +46,7 @@ from roman_sim.runner.lifeline import (
     signals_deferred,
     worker_init,
 )
+from roman_sim.runner.preload import PRELOAD_ENV
 
 log = logging.getLogger(__name__)
 
@@ -67,10 +68,8 @@ class SerialExecutor(Executor):
 #: OpenMP are left alone: OpenBLAS sums dot products and matrix products in other orders with
 #: another thread count (other bits), and a run's bytes must not depend on where a task ran.
 THREAD_VARS = ("OPENCV_FOR_THREADS_NUM", "LP_NUM_THREADS")
-#: The forkserver's preload of any local pool: the module of the run's task functions.
-TASKS = "roman_sim.pipeline.tasks"
-#: The preload of a run's pool: everything its tasks use (``roman_sim.pipeline.worker_preload``).
-RUN_PRELOAD = "roman_sim.pipeline.worker_preload"
+#: The forkserver's preload module: it loads the pool's preload entries (``roman_sim.runner.preload``).
+PRELOAD_MODULE = "roman_sim.runner.preload"
 
 
 def threads_per_worker(workers: int) -> int:
@@ -100,39 +99,54 @@ def thread_limits(workers: int) -> Iterator[None]:
             os.environ.pop(v, None)
 
 
-def start_forkserver(workers: int, preload: Sequence[str] = (TASKS,)) -> None:
+@contextmanager
+def _preload_entries(preload: Sequence[str]) -> Iterator[None]:
+    """``PRELOAD_ENV`` set to ``preload`` inside the block (for the forkserver started there)."""
+    old = os.environ.get(PRELOAD_ENV)
+    os.environ[PRELOAD_ENV] = ",".join(preload)
+    try:
+        yield
+    finally:
+        if old is None:
+            os.environ.pop(PRELOAD_ENV, None)
+        else:
+            os.environ[PRELOAD_ENV] = old
+
+
+def start_forkserver(workers: int, preload: Sequence[str] = ()) -> None:
     """Launch multiprocessing's forkserver (once per process) with ``preload`` and ``workers``' thread limits.
 
-    Returns at once: the forkserver imports ``preload`` in the background, and the first
-    worker forks when it is done. Its settings are those of the first call: a forkserver
-    already running is kept as it is.
+    ``preload``: the entries ``roman_sim.runner.preload`` loads before a worker forks
+    (modules, warm-ups, or a ``module:name`` that lists more). Returns at once: the
+    forkserver loads them in the background, and the first worker forks when it is done.
+    Its settings are those of the first call: a forkserver already running is kept as it is.
     """
     ctx = multiprocessing.get_context("forkserver")
-    ctx.set_forkserver_preload(list(preload))
-    # Ctrl-C ignored while it imports; this process's modules; the workers' thread counts
-    with sigint_ignored(), parent_sys_path(), thread_limits(workers):
+    ctx.set_forkserver_preload([PRELOAD_MODULE] if preload else [])
+    # Ctrl-C ignored while it imports; this process's modules; the workers' thread counts; what to preload
+    with sigint_ignored(), parent_sys_path(), thread_limits(workers), _preload_entries(preload):
         forkserver.ensure_running()
 
 
-def prestart(cfg: ExecutorConfig | None) -> None:
-    """Launch the forkserver of the local pool ``cfg`` describes, with a run's preload, if it describes one.
+def prestart(cfg: ExecutorConfig | None, preload: Sequence[str]) -> None:
+    """Launch the forkserver of the local pool ``cfg`` describes, with ``preload``, if it describes one.
 
-    For the command line: called before it imports the pipeline, the forkserver imports the
-    modules of the run's tasks while the command imports its own and generates the world.
-    A command that stops early leaves nothing behind: the preload ends when this process
-    does (``roman_sim.pipeline.worker_preload``).
+    For the command line: called before it imports the code of the tasks, so the forkserver
+    imports it while the command imports its own and generates the world (``preload`` may
+    be one ``module:name`` entry that lists the rest). A command that stops early leaves
+    nothing behind: the preload ends when this process does (``roman_sim.runner.preload``).
     """
     if cfg is not None and cfg.kind == "local" and cfg.n_workers() > 1:
-        start_forkserver(cfg.n_workers(), (RUN_PRELOAD,))
+        start_forkserver(cfg.n_workers(), preload)
 
 
 class LocalPoolExecutor(Executor):
     """A pool of worker processes on this machine (``forkserver``: no threads or GL state are forked).
 
-    Workers are forked from multiprocessing's forkserver, which imports ``preload`` once
-    (a run's pool: ``RUN_PRELOAD``, every module its tasks use, so no worker imports them
-    again); ``start`` launches it ahead of the first task so that it imports while the
-    caller works on. Workers size their libraries' thread pools to their share of the
+    Workers are forked from multiprocessing's forkserver, which loads ``preload`` once
+    (``start_forkserver``; a run's pool: every module its stages' tasks use, so no worker
+    imports them again); ``start`` launches it ahead of the first task so that it imports
+    while the caller works on. Workers size their libraries' thread pools to their share of the
     cores (``thread_limits``) and take this process's ``sys.path`` when the pool is made.
 
     Workers die with the main process however it ends (``roman_sim.runner.lifeline``). An
@@ -147,7 +161,7 @@ class LocalPoolExecutor(Executor):
     #: Bound after SIGTERM (s): workers still alive then are sent SIGKILL.
     kill_after_s = 2.0
 
-    def __init__(self, workers: int, preload: Sequence[str] = (TASKS,)) -> None:
+    def __init__(self, workers: int, preload: Sequence[str] = ()) -> None:
         self.workers = workers
         self.preload = tuple(preload)
         self._pool: ProcessPoolExecutor | None = None
@@ -247,16 +261,16 @@ def _unblock(calls: object) -> None:
         pass
 
 
-def open_executor(cfg: ExecutorConfig | None, run: bool = False) -> Executor:
+def open_executor(cfg: ExecutorConfig | None, preload: Sequence[str] = ()) -> Executor:
     """The executor ``cfg`` describes (``None``: serial). A local pool of one worker runs in-process.
 
-    ``run``: the executor of a run, whose local pool preloads every module the run's tasks use.
+    ``preload``: what a local pool's forkserver loads before it forks a worker (``start_forkserver``).
     """
     if cfg is None or cfg.kind == "serial":
         return SerialExecutor()
     if cfg.kind == "local":
         n = cfg.n_workers()
-        return SerialExecutor() if n == 1 else LocalPoolExecutor(n, (RUN_PRELOAD,) if run else (TASKS,))
+        return SerialExecutor() if n == 1 else LocalPoolExecutor(n, preload)
     from roman_sim.runner.dask_executor import DaskExecutor
 
     return DaskExecutor(cfg)

@@ -13,9 +13,8 @@ from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.mapping.types import Submap
-from roman_sim.pipeline.tasks import PickledWorld
 from roman_sim.runner.executors import THREAD_VARS, thread_limits, threads_per_worker
-from roman_sim.world import generate, load_world_spec
+from roman_sim.world import PickledWorld, generate, load_world_spec
 
 
 def test_thread_limits_set_only_the_unset_variables_and_restore_them(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -98,12 +98,12 @@ def test_a_run_on_a_full_tmpfs_stops_in_the_maps_stage_with_one_line(small_tmpfs
 def test_memory_error_in_a_stage_is_one_line_naming_the_stage(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, cli_fails
 ) -> None:
-    from roman_sim.pipeline import pairwork
+    from roman_sim.pipeline.stages import evaluation_job
 
     def no_memory(*_: object) -> object:
         raise MemoryError("Unable to allocate 8.00 GiB for an array with shape (1073741824,) and data type float64")
 
-    monkeypatch.setattr(pairwork, "align_chunk_task", no_memory)
+    monkeypatch.setattr(evaluation_job, "align_chunk_task", no_memory)
     run = tmp_path / "run"
     line = cli_fails("run", "smoke", *MICRO, "--executor", "serial", "--out", run, allow_progress=True)
     note = memory_limit_note()

@@ -9,10 +9,10 @@ import sys
 import pytest
 
 from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.pipeline import pairwork
 from roman_sim.pipeline import robot_mapping as maps_stage
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.pipeline.stages import evaluation_job
 from roman_sim.runner.executors import ExecutorConfig, LocalPoolExecutor, SerialExecutor, TaskError, open_executor
 from roman_sim.testing import assert_same_run_folder as assert_same_folder
 
@@ -88,7 +88,7 @@ def test_interrupted_run_resumes_per_robot_and_per_chunk_to_the_same_bytes(smoke
     sc = load_scenario("smoke")
     run_dir = tmp_path / "run"
     ex = ExecutorConfig(kind="serial", chunk_pairs=8)
-    real_map, real_chunk = maps_stage.map_source, pairwork.align_chunk_task
+    real_map, real_chunk = maps_stage.map_source, evaluation_job.align_chunk_task
     mapped: list[str] = []
     chunks: list[int] = []
 
@@ -106,7 +106,7 @@ def test_interrupted_run_resumes_per_robot_and_per_chunk_to_the_same_bytes(smoke
         return real_chunk(spec, submaps, pairs)
 
     monkeypatch.setattr(maps_stage, "map_source", map_source)
-    monkeypatch.setattr(pairwork, "align_chunk_task", align_chunk)
+    monkeypatch.setattr(evaluation_job, "align_chunk_task", align_chunk)
     with pytest.raises(Interrupt):  # robot a finished, b interrupted
         Experiment(sc, run_dir, executor=ex).run()
     assert mapped == ["a", "interrupted"]
@@ -132,13 +132,13 @@ def test_checkpoints_of_another_configuration_are_ignored(smoke_run, tmp_path, m
     fake = run_dir / "partial" / "evaluation"
     fake.mkdir(parents=True)
     calls: list[int] = []
-    real_chunk = pairwork.align_chunk_task
+    real_chunk = evaluation_job.align_chunk_task
 
     def align_chunk(spec, submaps, pairs):
         calls.append(len(pairs))
         return real_chunk(spec, submaps, pairs)
 
-    monkeypatch.setattr(pairwork, "align_chunk_task", align_chunk)
+    monkeypatch.setattr(evaluation_job, "align_chunk_task", align_chunk)
     first = sorted(smoke_run.metrics.methods)
     (fake / "stale.json").write_text('{"schema": "roman_sim.checkpoint/1", "key": "other", "data": []}')
     Experiment(load_scenario("smoke"), run_dir, from_stage="evaluation").run()

@@ -26,10 +26,13 @@ STAGES: tuple[Stage, ...] = (
     ReportStage(),
 )
 STAGE_NAMES: tuple[str, ...] = tuple(s.name for s in STAGES)
+#: What a run's workers import, every stage's ``worker_preload`` in stage order (each entry once).
+WORKER_PRELOAD: tuple[str, ...] = tuple(dict.fromkeys(m for s in STAGES for m in s.worker_preload))
 
 __all__ = [
     "STAGES",
     "STAGE_NAMES",
+    "WORKER_PRELOAD",
     "AteOutput",
     "EvaluationOutput",
     "Maps",

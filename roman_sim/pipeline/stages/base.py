@@ -28,7 +28,9 @@ A stage is a ``Stage[InputsT, OutputT]`` subclass:
 - ``run(ctx, inputs, tasks)``: computes the output and returns it; it writes nothing.
   Independent tasks (a robot to map, a chunk of pairs to align) go through ``tasks`` (a
   ``TaskRunner``), which runs them on the run's executor and checkpoints each finished
-  one, so an interrupted stage resumes; the stage never sees the checkpoint files.
+  one, so an interrupted stage resumes; the stage never sees the checkpoint files. The
+  task functions are the stage's worker job (top-level functions of an importable module);
+  ``worker_preload`` names the modules they import.
 - ``save(out, ctx)``: writes the output atomically into the run folder and returns the
   files written (relative paths); ``load(ctx, files)`` reads exactly those files back.
   What later stages receive is always the loaded output, so a fresh and a cached stage
@@ -69,11 +71,10 @@ NOT_FINGERPRINTED: tuple[str, ...] = (
     "roman_sim.pipeline.context",
     "roman_sim.pipeline.folder_lock",
     "roman_sim.pipeline.plugin_guard",
-    "roman_sim.pipeline.worker_preload",
 )
 #: Modules hashed without following their imports: the scenario model and the resolution of
-#: its components (their values reach the keys through ``config_parts``) and the table of
-#: worker jobs (a stage names the modules its jobs run in ``code``).
+#: its components (their values reach the keys through ``config_parts``) and the maps stage's
+#: worker job (a stage names the modules its jobs run in ``code``).
 FINGERPRINTED_ONLY: tuple[str, ...] = (
     "roman_sim.pipeline.components",
     "roman_sim.pipeline.scenario",
@@ -115,6 +116,10 @@ class Stage(ABC, Generic[InputsT, OutputT]):
     code: ClassVar[tuple[str, ...]] = ()
     #: Kinds of configured component it runs (their modules are roots of the code fingerprint).
     components: ClassVar[tuple[ComponentKind, ...]] = ()
+    #: What the workers of the stage's tasks import: its job's module first, then what the job uses
+    #: (``module``, or ``module:function`` for a warm-up called once). A run's local pool imports
+    #: them before it forks a worker (``roman_sim.runner.preload``); nothing else depends on them.
+    worker_preload: ClassVar[tuple[str, ...]] = ()
 
     @property
     def inputs(self) -> tuple[str, ...]:

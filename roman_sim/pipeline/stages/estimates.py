@@ -12,10 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import TypedDict
 
-import numpy as np
-
 from roman_sim.evaluation.atetable import FITS, Fit
 from roman_sim.posegraph import LoopClosure
+from roman_sim.posegraph.types import LoopClosureJSON
 
 ESTIMATES_JSON = "posegraph_estimates.json"
 ESTIMATES_SCHEMA = "roman_sim.posegraph_estimates/1"
@@ -53,49 +52,18 @@ class Variant:
     weights: list[float | None] = field(default_factory=list)
 
 
-class ClosureJSON(TypedDict):
+class ClosureJSON(LoopClosureJSON):
     """A loop closure and its weight in ``posegraph_estimates.json``."""
 
-    robot_a: str
-    submap_a: int
-    robot_b: str
-    submap_b: int
-    T_a_b: list[list[float]]
-    n_associations: int
-    sigma_m: float | None
-    sigma_deg: float | None
-    source: str
     weight: float | None
 
 
 def _closure_json(c: LoopClosure, w: float | None) -> ClosureJSON:
-    return {
-        "robot_a": c.robot_a,
-        "submap_a": int(c.submap_a),
-        "robot_b": c.robot_b,
-        "submap_b": int(c.submap_b),
-        "T_a_b": np.asarray(c.T_a_b, dtype=np.float64).tolist(),
-        "n_associations": int(c.n_associations),
-        "sigma_m": c.sigma_m,
-        "sigma_deg": c.sigma_deg,
-        "source": c.source,
-        "weight": w,
-    }
+    return {**c.to_json(), "weight": w}
 
 
 def _closure_from_json(d: ClosureJSON) -> tuple[LoopClosure, float | None]:
-    c = LoopClosure(
-        str(d["robot_a"]),
-        int(d["submap_a"]),
-        str(d["robot_b"]),
-        int(d["submap_b"]),
-        np.asarray(d["T_a_b"], dtype=np.float64),
-        int(d["n_associations"]),
-        None if d["sigma_m"] is None else float(d["sigma_m"]),
-        None if d["sigma_deg"] is None else float(d["sigma_deg"]),
-        str(d["source"]),
-    )
-    return c, None if d["weight"] is None else float(d["weight"])
+    return LoopClosure.from_json(d), None if d["weight"] is None else float(d["weight"])
 
 
 class VariantJSON(TypedDict):

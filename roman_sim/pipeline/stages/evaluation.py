@@ -9,7 +9,10 @@ The evaluation is four steps, each a plain function:
    on the run's executor (serial, process pool or Dask), resumable per chunk, on
    ``public()`` copies (no truth) - the only step that runs the methods; the results are
    the same bytes whatever the executor;
-4. ``score_pairs`` and ``metrics.summary``: pure functions of (pair truths, aligner results).
+4. ``IncrementalScorer`` (each result scored as its chunk comes back) and ``metrics.summary``: pure
+   functions of (pair truths, aligner results).
+
+The alignment itself, the stage's worker job, is ``roman_sim.pipeline.stages.evaluation_job``.
 
 ``save`` writes ``pairs.csv`` (one row per pair and method), ``alignments.json`` (each
 method's estimate and selected associations per pair: the pose graph's closures and the
@@ -41,6 +44,7 @@ from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage, Timings
+from roman_sim.pipeline.stages.evaluation_job import WORKER_PRELOAD, ResultKey, align_pairs
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
@@ -80,9 +84,6 @@ class EvaluationInputs:
     maps: Maps | None = None
 
 
-ResultKey = tuple[str, str, str]
-
-
 def apply_aligners(
     ctx: RunContext,
     pairs: list[tuple[Submap, Submap]],
@@ -96,7 +97,6 @@ def apply_aligners(
     ``on_chunk`` gets the results of each chunk of aligned pairs as it comes back.
     """
     from roman_sim.align.gating import GATED_REASON, gate_pairs
-    from roman_sim.pipeline.pairwork import align_pairs as run_chunks
 
     t0 = time.perf_counter()
     keep, _ = gate_pairs(pairs, ctx.scenario.gating)
@@ -104,7 +104,7 @@ def apply_aligners(
     gating_s = time.perf_counter() - t0
     ctx.progress.start("evaluation:pairs", len(kept))
     t1 = time.perf_counter()
-    results = run_chunks(ctx, kept, tasks, on_chunk)
+    results = align_pairs(ctx, kept, tasks, on_chunk)
     ctx.progress.end("evaluation:pairs")
     timings: Timings = {
         "candidates": len(pairs),
@@ -121,30 +121,12 @@ def apply_aligners(
     return results, timings
 
 
-def score_pairs(
-    truths: list[PairTruth], results: dict[ResultKey, AlignResult], methods: list[str], cfg: EvalConfig
-) -> list[PairScore]:
-    """Score each method's result on each pair (pair-major, methods in the given order).
-
-    Raises:
-        EvaluationError: a result is missing for a (pair, method).
-    """
-    out = []
-    for t in truths:
-        for m in methods:
-            res = results.get((t.a, t.b, m))
-            if res is None:
-                raise EvaluationError(f"no result of {m} for the pair {t.a}|{t.b}")
-            out.append(score_pair(t, res, cfg))
-    return out
-
-
 class IncrementalScorer:
-    """``score_pairs`` done as results come in: truths on the first chunk, each result scored on arrival.
+    """Each method's result on each pair scored as results come in: truths on the first chunk, each result on arrival.
 
     The evaluation hands ``add`` to the alignment, so this process scores the chunks that
     are back while the workers align the others; ``scores`` then scores what is left (pairs
-    that gating skipped) and gives exactly ``score_pairs(truths, results, methods, cfg)``.
+    that gating skipped).
     """
 
     def __init__(
@@ -175,7 +157,11 @@ class IncrementalScorer:
                 self._scored[key] = score_pair(truth, res, self.cfg)
 
     def scores(self, results: dict[ResultKey, AlignResult]) -> list[PairScore]:
-        """Every (pair, method) score, pair-major, the methods in their order (``score_pairs``'s list)."""
+        """Every (pair, method) score, pair-major, the methods in their order.
+
+        Raises:
+            EvaluationError: a result is missing for a (pair, method).
+        """
         out = []
         for t in self.truths():
             for m in self.methods:
@@ -225,6 +211,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
     uses_workers = True
     code = ("roman_sim.align.checks",)  # its worker job's
     components = ("aligners",)
+    worker_preload = WORKER_PRELOAD
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         sc = ctx.scenario.model_dump(mode="json")

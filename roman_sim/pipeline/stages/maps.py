@@ -94,7 +94,8 @@ def map_robots(
     keyframes (robots that have them) and the grade parts (robots with instance truth), in
     scenario order.
     """
-    from roman_sim.pipeline.tasks import PickledWorld, map_robot_task
+    from roman_sim.pipeline.tasks import map_robot_task
+    from roman_sim.world import PickledWorld
 
     robots = ctx.scenario.robots
     names = [r.name for r in robots]
@@ -130,6 +131,14 @@ class MapsStage(Stage[MapsInputs, Maps]):
     input_type = MapsInputs
     uses_workers = True
     components = ("segmenter", "encoder")
+    worker_preload = (
+        "roman_sim.pipeline.tasks",
+        "roman_sim.pipeline.robot_mapping",
+        "roman_sim.world",
+        "roman_sim.sim.robot",
+        "roman_sim.sim.render",
+        "cv2",
+    )
 
     def applies(self, ctx: RunContext) -> bool:
         return ctx.submaps_dir is None

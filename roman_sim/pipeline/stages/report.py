@@ -261,6 +261,7 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
     name = "report"
     input_type = ReportInputs
     uses_workers = True
+    worker_preload = ("roman_sim.report.render", "roman_sim.report.examples", "roman_sim.report.trajplot")
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         return [ctx.scenario.name]

@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSON
@@ -22,8 +23,12 @@ from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.maps import Maps
-from roman_sim.pipeline.tasks import submaps_task
 from roman_sim.runner.taskrunner import TaskRunner
+
+if TYPE_CHECKING:
+    from roman_sim.mapping.mapper import SegmentMap
+    from roman_sim.mapping.submap import SubmapConfig
+    from roman_sim.mapping.types import KeyframeSet
 
 
 @dataclass
@@ -50,6 +55,15 @@ class SubmapsInputs:
     maps: Maps | None = None
 
 
+def submaps_task(smap: SegmentMap, cfg: SubmapConfig, keyframes: KeyframeSet | None) -> list[Submap]:
+    """The stage's worker job: one robot's submaps (``build_submaps``), carrying its keyframes when it has them."""
+    from roman_sim.align.visual import attach_keyframes
+    from roman_sim.mapping.submap import build_submaps
+
+    subs = build_submaps(smap, cfg)
+    return attach_keyframes(subs, keyframes) if keyframes is not None else subs
+
+
 def _user_files(ctx: RunContext) -> dict[str, Path]:
     """``<robot>.npz`` of each scenario robot in the user's submaps folder (ConfigError if one is missing)."""
     d = ctx.submaps_dir
@@ -71,6 +85,7 @@ class SubmapsStage(Stage[SubmapsInputs, Submaps]):
     input_type = SubmapsInputs
     uses_workers = True
     code = ("roman_sim.mapping.submap", "roman_sim.align.visual.keyframes")  # its worker job's
+    worker_preload = (__name__, "roman_sim.mapping.submap", "roman_sim.align.visual")
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
         parts: list[JSON] = [ctx.scenario.model_dump(mode="json")["submaps"]]

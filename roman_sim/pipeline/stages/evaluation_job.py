@@ -1,15 +1,17 @@
-"""Applying the aligners to submap pairs: in chunks, through the run's executor, resumable per chunk.
+"""The evaluation stage's worker job: every aligner on a chunk of submap pairs, resumable per chunk.
 
 This is only *how* the aligners run; what is scored is the evaluation's business. Pairs
-are cut into chunks of ``ctx.chunk_pairs`` in pair order; each chunk is one task that runs
-every aligner on its pairs (with truth stripped) and returns JSON-ready results. The
-stage's ``TaskRunner`` checkpoints each finished chunk (``ChunkCodec``: the records are the
-checkpoint's JSON data) under a hash of its pair names, so an interrupted evaluation
-re-aligns only the unfinished chunks. Every result, fresh or resumed, goes through the same
-JSON round trip, so the outputs are byte-identical whatever the executor, the worker count
-or the interruption.
+are cut into chunks of ``ctx.chunk_pairs`` in pair order; each chunk is one task
+(``align_chunk_task``) that runs every aligner on its pairs (with truth stripped) and
+returns JSON-ready results (``AlignResult.to_json``). The stage's ``TaskRunner``
+checkpoints each finished chunk (``ChunkCodec``: the records are the checkpoint's JSON data)
+under a hash of its pair names, so an interrupted evaluation re-aligns only the unfinished
+chunks. Every result, fresh or resumed, goes through the same JSON round trip, so the
+outputs are byte-identical whatever the executor, the worker count or the interruption.
 
-``Replay`` then hands the results to the evaluation as aligners that look them up.
+A worker keeps the aligners it built (``_aligners``), so consecutive chunks of one run do
+not rebuild them. ``WORKER_PRELOAD`` names what the job imports, for a local pool's
+forkserver to preload (the compiled CLIPPER solver loaded too).
 """
 
 from __future__ import annotations
@@ -18,21 +20,68 @@ import hashlib
 import json
 import logging
 from collections.abc import Callable
+from functools import lru_cache
 from pathlib import Path
 from typing import cast
 
-from roman_sim.align.base import AlignResult
+from roman_sim.align.base import Aligner, AlignResult, ResultJSON
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.tasks import ChunkRecord, align_chunk_task, result_from_json
 from roman_sim.runner.checkpoint import Kept
 from roman_sim.runner.taskrunner import TaskRunner
 
 log = logging.getLogger(__name__)
 
+#: ``(a name, b name, aligner label)``: the key of one aligner's result on one pair.
 ResultKey = tuple[str, str, str]
+
+#: What the job's workers import (``Stage.worker_preload``), the CLIPPER solver's warm-up last.
+WORKER_PRELOAD = (
+    __name__,
+    "roman_sim.align",
+    "roman_sim.align.clipper_jit",
+    "roman_sim.align.visual.aligner",
+    "roman_sim.align.clipper:warm_up",
+)
+
+
+class ChunkRecord(ResultJSON):
+    """One aligner's result on one pair of a chunk: the pair's submap names and the result."""
+
+    a: str
+    b: str
+
+
+@lru_cache(maxsize=4)
+def _aligners(aligners_json: str) -> list[tuple[str, Aligner]]:
+    from roman_sim.align import build_aligner
+    from roman_sim.pipeline.plugin_guard import guard_aligner
+
+    return [
+        (e["label"], guard_aligner(build_aligner(e["method"], e["params"]), e["method"]))
+        for e in json.loads(aligners_json)
+    ]
+
+
+def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list[tuple[str, str]]) -> list[ChunkRecord]:
+    """Every aligner on every pair of the chunk (submaps already public); JSON-ready results in order.
+
+    Returns one record per (pair, aligner), pair-major: ``AlignResult.to_json`` of the
+    result under the aligner's label.
+    """
+    from roman_sim.align.checks import remembered_checks
+
+    out: list[ChunkRecord] = []
+    labelled = _aligners(aligners_json)
+    with remembered_checks():  # each submap's input checks once per chunk, not once per pair and method
+        for a, b in pairs:
+            for label, aligner in labelled:
+                res = aligner.align(submaps[a], submaps[b])
+                res.method = label
+                out.append({"a": a, "b": b, **res.to_json()})
+    return out
 
 
 def aligners_json(ctx: RunContext) -> str:
@@ -81,35 +130,8 @@ def align_pairs(
     labels = [f"aligning pairs {i * size}..{i * size + len(c) - 1}" for i, c in enumerate(chunks)]
     done: dict[int, dict[ResultKey, AlignResult]] = {}
     for i, rec in tasks.run(align_chunk_task, args, labels, [_chunk_id(c) for c in chunks], ChunkCodec()):
-        done[i] = {(str(r["a"]), str(r["b"]), str(r["method"])): result_from_json(r) for r in rec}
+        done[i] = {(str(r["a"]), str(r["b"]), str(r["method"])): AlignResult.from_json(r) for r in rec}
         ctx.progress.advance("evaluation:pairs", len(chunks[i]))
         if on_chunk is not None:
             on_chunk(done[i])
     return {k: v for i in range(len(chunks)) for k, v in done[i].items()}
-
-
-class Replay:
-    """An aligner that returns the precomputed result of each pair (``Aligner`` protocol).
-
-    Pairs without a result (skipped by submap gating) get "no alignment" with ``reason``.
-    """
-
-    def __init__(self, name: str, results: dict[ResultKey, AlignResult], missing_reason: str | None = None) -> None:
-        self.name = name
-        self.results = results
-        self.missing_reason = missing_reason
-
-    def align(self, a: Submap, b: Submap) -> AlignResult:
-        res = self.results.get((a.name, b.name, self.name))
-        if res is not None:
-            return res
-        if self.missing_reason is None:
-            raise EvaluationError(f"{self.name}: no alignment computed for {a.name}|{b.name}")
-        return AlignResult.failure(self.name, self.missing_reason)
-
-
-def replay_aligners(
-    ctx: RunContext, results: dict[ResultKey, AlignResult], missing_reason: str | None = None
-) -> list[Replay]:
-    """One ``Replay`` per scenario aligner, in scenario order."""
-    return [Replay(e.name, results, missing_reason) for e in ctx.scenario.aligners]
