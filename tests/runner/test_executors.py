@@ -236,7 +236,7 @@ def test_close_ends_a_worker_that_never_answers_within_its_bound(tmp_path):
     ex.stop_grace_s, ex.kill_after_s = 0.5, 0.5
     marker = tmp_path / "pid"
     fut = ex._get_pool().submit(_stubborn, str(marker))
-    assert _wait(lambda: marker.is_file() and marker.read_text() != "")
+    assert _wait(lambda: marker.is_file() and marker.read_text() != "", 120.0)  # the worker imports this module
     pid = int(marker.read_text())
     t0 = time.monotonic()
     ex.close()
@@ -257,7 +257,7 @@ def test_close_ends_a_worker_that_never_started_within_its_bound(monkeypatch, tm
     ex = LocalPoolExecutor(1)
     ex.stop_grace_s, ex.kill_after_s = 0.5, 0.5
     fut = ex._get_pool().submit(abs, -1)
-    assert _wait(lambda: marker.is_file() and marker.read_text() != "")  # stuck in its initialiser
+    assert _wait(lambda: marker.is_file() and marker.read_text() != "", 120.0)  # stuck in its initialiser
     pid = int(marker.read_text())
     t0 = time.monotonic()
     ex.close()
