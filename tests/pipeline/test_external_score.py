@@ -164,3 +164,54 @@ def test_wrong_closures_are_false_positives(smoke_run: RunResult, closures: list
     fp_got = sum(g.false_positives for g, _ in points)  # type: ignore[union-attr]
     fp_was = sum(w.false_positives for _, w in points)  # type: ignore[union-attr]
     assert fp_got == fp_was + n_correct
+
+
+def _fused_g2o(run_dir: Path, closures: list[Closure], k: int, out: Path) -> None:
+    """The reference demo's fused file: a vertex per frame, odometry edges, accepted closures without comments."""
+    import gtsam
+
+    from roman_sim.interop.closures import xyz_quat
+    from roman_sim.pipeline.external import _load_stage
+    from roman_sim.pipeline.scenario import load_scenario
+    from roman_sim.pipeline.stages.maps import MapsStage
+
+    maps = _load_stage(run_dir, load_scenario(run_dir / "config.yaml"), MapsStage())
+    info = " ".join(["1"] * 21)
+    lines, times, key = [], [], {}
+    for i, r in enumerate(("a", "b")):
+        od = maps.maps[r].odometry
+        for j, (t, T) in enumerate(zip(od.t, od.T)):
+            key[(r, round(t * 1e9))] = gtsam.symbol(chr(ord("a") + i), j)
+            lines.append(f"VERTEX_SE3:QUAT {key[(r, round(t * 1e9))]} {' '.join(map(repr, xyz_quat(T)))}")
+            times.append(f"{i} {j} {round(t * 1e9)} x")
+            if j:
+                rel = np.linalg.inv(od.T[j - 1]) @ T
+                prev = gtsam.symbol(chr(ord("a") + i), j - 1)
+                lines.append(
+                    f"EDGE_SE3:QUAT {prev}\t{key[(r, round(t * 1e9))]}\t{' '.join(map(repr, xyz_quat(rel)))}\t{info}"
+                )
+    for c in closures:
+        if (c.score or 0) >= k:
+            ka, kb = key[(c.robot_a, round(c.t_a * 1e9))], key[(c.robot_b, round(c.t_b * 1e9))]
+            lines.append(f"EDGE_SE3:QUAT {ka} {kb}\t{' '.join(map(repr, xyz_quat(c.T_pa_pb)))}\t{info}")
+    (out / "odom_and_lc.g2o").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    (out / "odom_all.time.txt").write_text("\n".join(times) + "\n", encoding="utf-8")
+
+
+def test_reference_fused_layout_gives_the_acceptance_point(
+    smoke_run: RunResult, closures: list[Closure], tmp_path: Path
+) -> None:
+    """The demo's fused g2o (odometry edges skipped, accepted closures only): the run's acceptance point and ATE."""
+    k = smoke_run.metrics.acceptance_k
+    assert k is not None
+    _fused_g2o(smoke_run.run_dir, closures, k, tmp_path)
+    res = score_external(
+        smoke_run.run_dir, tmp_path / "odom_and_lc.g2o", tmp_path / "out", times=tmp_path / "odom_all.time.txt"
+    )
+    assert res.n_closures == sum(1 for c in closures if (c.score or 0) >= k) and res.unscored == {}
+    got, was = res.run.metrics.methods["external"], smoke_run.metrics.methods["roman"]
+    for kind in ("inter", "intra"):
+        assert (
+            got.set(kind).overall.operating_points["acceptance"] == was.set(kind).overall.operating_points["acceptance"]
+        )
+    assert res.run.ate.variants["external"].rmse == smoke_run.ate.variants["roman"].rmse
