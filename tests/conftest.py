@@ -190,6 +190,7 @@ LONGEST_FIRST = (
     "tests/pipeline/test_scenario_stats.py",
     "tests/robustness/test_interrupts.py",
     "tests/pipeline/test_run_features.py",
+    "tests/pipeline/test_external_score.py",
     "tests/benchmark/test_run.py",
     "tests/runner/test_dask_security.py",
     "tests/pipeline/test_wheel.py",

@@ -22,7 +22,10 @@ def score_cmd(
         str | None, typer.Option("--robots", "-r", help="g2o: robot order of the Symbol keys 'a', 'b', ...: a,b")
     ] = None,
     trajectories: Annotated[
-        Path | None, typer.Option("--trajectories", "-t", help="folder of the system's <robot>.tum trajectories")
+        Path | None,
+        typer.Option(
+            "--trajectories", "-t", help="folder of the system's <robot>.tum (or reference ROMAN <robot>.csv)"
+        ),
     ] = None,
     label: Annotated[str, typer.Option("--label", "-l", help="the system's name in tables")] = "external",
 ) -> None:
