@@ -312,10 +312,20 @@ def report_cmd(
         "--verify",
         help="recompute metrics.json from pairs.csv and ate.json from the TUM files; exit code 1 when they differ",
     ),
+    rewrite: bool = typer.Option(
+        False,
+        "--rewrite",
+        help="write report.md again in the current layout from the folder's own files (nothing else changes)",
+    ),
 ) -> None:
     """Print the summary of a finished run or sweep (an incomplete run is an error naming its missing stages)."""
     from roman_sim.pipeline.result import RunResult
     from roman_sim.pipeline.sweep_summary import SWEEP_JSON, print_sweep_summary
+
+    if rewrite:
+        from roman_sim.studies.reference import rewrite_report
+
+        Console().print(f"rewrote {rewrite_report(run_dir)}")
 
     if (run_dir / SWEEP_JSON).is_file():
         print_sweep_summary(run_dir, Console())

@@ -162,6 +162,54 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
         write_text(dest / "report.md", _report_without(text, [n for n in drawn if n not in keep]))
 
 
+def _report_notes(text: str) -> list[str]:
+    """The bullets of a report's ``## Notes`` section."""
+    lines = text.splitlines()
+    if "## Notes" not in lines:
+        return []
+    out = []
+    for ln in lines[lines.index("## Notes") + 1 :]:
+        if ln.startswith("## "):
+            break
+        if ln.startswith("- "):
+            out.append(ln[2:])
+    return out
+
+
+def rewrite_report(folder: str | Path) -> Path:
+    """Write a collected run's ``report.md`` again in the current layout, from its committed files alone.
+
+    The figures come from ``metrics.json``, ``ate.json`` and ``map_stats.json``, the notes from
+    the report's own notes section, the plots from ``plots/`` and the report's list of plots not
+    kept; no other file is touched.
+
+    Raises:
+        StorageError: the folder has no ``report.md`` or ``metrics.json``.
+    """
+    from roman_sim.core.config import read_yaml
+    from roman_sim.evaluation.atetable import AteTable
+    from roman_sim.evaluation.records import MapStats
+    from roman_sim.evaluation.results import read_metrics_json
+    from roman_sim.report.markdown import report_markdown
+
+    d = Path(folder)
+    if not (d / "report.md").is_file() or not (d / "metrics.json").is_file():
+        raise StorageError(f"{d}: not a collected run folder (report.md and metrics.json are needed)")
+    old = (d / "report.md").read_text(encoding="utf-8")
+    marker = "Plots not kept in the reference results (any run draws them): "
+    missing = [ln[len(marker) : -1].split(", ") for ln in old.splitlines() if ln.startswith(marker)]
+    not_kept = missing[0] if missing else []
+    kept = sorted(p.name for p in (d / "plots").glob("*.png")) if (d / "plots").is_dir() else []
+    config = read_yaml(d / "config.yaml")
+    ate = AteTable.from_json(_json(d / "ate.json")) if (d / "ate.json").is_file() else None
+    stats = MapStats.from_json(_json(d / "map_stats.json")) if (d / "map_stats.json").is_file() else None
+    plots = [f"plots/{n}" for n in sorted(kept + not_kept)]
+    name = str(config["name"]) if isinstance(config, dict) else d.name
+    text = report_markdown(name, read_metrics_json(d / "metrics.json"), ate, stats, _report_notes(old), plots)
+    write_text(d / "report.md", _report_without(text, not_kept))
+    return d / "report.md"
+
+
 def _config_value(run_dir: Path, key: str) -> JSON:
     from roman_sim.core.config import read_yaml
 
