@@ -28,10 +28,11 @@ from roman_sim.frontend.components import build_encoder, build_segmenter, encode
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.mask import Mask
-from roman_sim.mapping.protocols import Segmenter, SemanticEncoder
+from roman_sim.mapping.protocols import Segmenter, SemanticEncoder, reads_truth
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.plugin_guard import guard_frontend, is_plugin
+from roman_sim.report.snapshot import FrameSnapshot, load_snapshot, save_snapshot
 from roman_sim.runner.checkpoint import Kept
 
 if TYPE_CHECKING:
@@ -44,8 +45,9 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
-#: What mapping one robot gives: its map, its keyframes (visual method) and its share of the front-end grades.
-RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None]
+#: What mapping one robot gives: its map, its keyframes (visual method), its share of the front-end grades
+#: and, for the scenario's first robot, the report's front-end snapshot.
+RobotMapping = tuple[SegmentMap, KeyframeSet | None, GraderPart | None, FrameSnapshot | None]
 
 
 def build_segmenter_for(ctx: RunContext, robot: str) -> Segmenter:
@@ -199,21 +201,58 @@ def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> RobotMa
     sc = ctx.scenario
     grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
     smap, kf = map_source(ctx, robot_source(ctx, world, cfg), robot_families(world, cfg), grader)
-    return smap, kf, grader.part()
+    snap = frame_snapshot(ctx, world, cfg, smap) if cfg.name == sc.robots[0].name else None
+    return smap, kf, grader.part(), snap
+
+
+def busiest_frame(smap: SegmentMap) -> int:
+    """The frame in sight of the most segments (seen first at or before it, last at or after it); the first of ties."""
+    if not len(smap.times):
+        raise StorageError(f"robot {smap.robot}: no frames")
+    first = np.array([s.first_seen for s in smap.segments])
+    last = np.array([s.last_seen for s in smap.segments])
+    seen = [int(np.sum((first <= t) & (last >= t))) for t in smap.times]
+    return int(np.argmax(seen))
+
+
+def frame_snapshot(ctx: RunContext, world: World | None, cfg: ScenarioRobot, smap: SegmentMap) -> FrameSnapshot | None:
+    """The report's front-end snapshot: the robot's busiest frame (``busiest_frame``) with RGB, and the masks
+    the scenario's segmenter cuts from it (from the frame without truth unless it reads truth).
+
+    None (and a warning) when it cannot be taken (no OpenGL context, no colour image, ...).
+    """
+    from roman_sim.pipeline.sources import open_sequence
+    from roman_sim.sim.source import robot_sources
+
+    sc = ctx.scenario
+    try:
+        i = busiest_frame(smap)
+        source = robot_sources(
+            world, sc.robots, sc.seed, [cfg.name], rgb=True, open_recorded=lambda r: open_sequence(r, sc.seed)
+        )[0]
+        frame = next(iter(source.frames([i])))
+        segmenter = build_segmenter_for(ctx, cfg.name)
+        masks = segmenter.segment(frame if reads_truth(segmenter) else frame.public())
+        seg = sc.frontend.segmenter
+        return FrameSnapshot.of(frame, [m.pixels for m in masks], seg if isinstance(seg, str) else "configured")
+    except (RomanSimError, RuntimeError, ImportError, StopIteration) as err:
+        log.warning("robot %s: no front-end snapshot (%s)", cfg.name, err)
+        return None
 
 
 class RobotMappingCodec:
-    """Checkpoint codec of a robot's mapping (``TaskCodec``): ``<stem>.map.npz``, ``.keyframes.npz``, ``.grades.npz``.
+    """Checkpoint codec of a robot's mapping (``TaskCodec``): ``<stem>.map.npz``, ``.keyframes.npz``, ``.grades.npz``,
+    ``.snapshot.npz``.
 
-    The map and keyframes go through the same writers as the maps stage's own files, the
+    The map, keyframes and snapshot go through the same writers as the maps stage's own files, the
     grade part through its arrays, so what is read back is what the stage saves.
     """
 
     def write(self, value: RobotMapping, stem: Path) -> Kept:
-        """Write the map, the keyframes and the grade part that exist."""
+        """Write the map, the keyframes, the grade part and the snapshot that exist."""
         from roman_sim.core.atomic import write_arrays
 
-        smap, kf, part = value
+        smap, kf, part, snap = value
         files = [_part(stem, "map")]
         save_segment_map(files[0], smap)
         if kf is not None:
@@ -222,7 +261,10 @@ class RobotMappingCodec:
         if part is not None:
             files.append(_part(stem, "grades"))
             write_arrays(files[-1], part.arrays())
-        return Kept({"keyframes": kf is not None, "grades": part is not None}, files)
+        if snap is not None:
+            files.append(_part(stem, "snapshot"))
+            save_snapshot(files[-1], snap)
+        return Kept({"keyframes": kf is not None, "grades": part is not None, "snapshot": snap is not None}, files)
 
     def read(self, data: JSON, stem: Path) -> RobotMapping:
         """The map, keyframes and grade part ``write`` kept."""
@@ -233,7 +275,8 @@ class RobotMappingCodec:
             with np.load(_part(stem, "grades"), allow_pickle=False) as z:
                 part = GraderPart.from_arrays(z)
         kf = load_keyframes(_part(stem, "keyframes")) if data.get("keyframes") else None
-        return load_segment_map(_part(stem, "map")), kf, part
+        snap = load_snapshot(_part(stem, "snapshot")) if data.get("snapshot") else None
+        return load_segment_map(_part(stem, "map")), kf, part, snap
 
 
 def _part(stem: Path, name: str) -> Path:

@@ -7,7 +7,8 @@ temporary folder and keeps the bytes of the files it wrote; the report stage's `
 then writes those bytes into the run folder. The bytes are the ones the function would
 have written in place (same data, same bytes), and the temporary folder is removed at once.
 
-``metric_plot_png``, ``method_examples_png``, ``map_view_job`` and ``trajectory_plot_png`` draw one figure each
+``metric_plot_png``, ``method_examples_png``, ``map_view_job``, ``trajectory_plot_png`` and
+``frontend_grades_png`` (and ``snapshot.snapshot_job``) draw one figure each
 and return ``Drawn`` (the PNG, or the note saying why it was not drawn), so that the report
 stage can hand them to worker processes as independent tasks (``draw_job``).
 """
@@ -29,6 +30,7 @@ from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.mapping.types import Submap
 
 if TYPE_CHECKING:
+    from roman_sim.evaluation.grades import FrontEndGrades
     from roman_sim.report.examples import Example
     from roman_sim.report.trajplot import ClosureLine, TrajectoryLike
 
@@ -124,3 +126,10 @@ def masks_png(
     from roman_sim.report.maskview import plot_masks
 
     return next(iter(drawn_pngs(lambda folder: [plot_masks(rgb, masks, folder / "masks.png", title, labels)]).values()))
+
+
+def frontend_grades_png(grades: FrontEndGrades) -> Drawn:
+    """The front end's grades (``grades.plot_frontend_grades``)."""
+    from roman_sim.report.grades import plot_frontend_grades
+
+    return next(iter(drawn_pngs(lambda folder: [plot_frontend_grades(grades, folder / "frontend.png")]).values())), []

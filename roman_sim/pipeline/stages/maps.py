@@ -9,8 +9,9 @@ keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), sav
 ``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
 
 ``run`` hands one task per robot to its ``TaskRunner`` (checkpointed per robot) and writes
-nothing; ``save`` writes ``maps/``, ``keyframes/``, ``maps/frontend.json`` and
-``plots/frontend.png``. With ``record_frames``, the rendered frames are a cache, not an
+nothing; ``save`` writes ``maps/``, ``keyframes/``, ``maps/frontend.json`` (the front end's
+grades) and ``maps/snapshot.npz`` (the first robot's busiest camera frame with its masks);
+the report stage draws both. With ``record_frames``, the rendered frames are a cache, not an
 output of the stage: the mapping task (``roman_sim.pipeline.robot_mapping``) streams them
 into ``recordings/<robot>/`` as it renders (holding a robot's frames in memory until
 ``save`` would cost gigabytes at paper scale) and reads them back, under a key of what they
@@ -23,7 +24,6 @@ from __future__ import annotations
 
 import json
 import logging
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -40,7 +40,7 @@ from roman_sim.pipeline.robot_mapping import RobotMapping, RobotMappingCodec, ma
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.world import WorldOutput
-from roman_sim.report.grades import plot_frontend_grades
+from roman_sim.report.snapshot import FrameSnapshot, load_snapshot, save_snapshot
 from roman_sim.runner.taskrunner import TaskRunner
 
 if TYPE_CHECKING:
@@ -50,7 +50,7 @@ log = logging.getLogger(__name__)
 
 
 FRONTEND_JSON = "maps/frontend.json"
-FRONTEND_PNG = "plots/frontend.png"
+SNAPSHOT_NPZ = "maps/snapshot.npz"
 
 
 @dataclass
@@ -60,20 +60,16 @@ class Maps:
     odometry frame).
 
     ``frontend`` grades whatever segmenter and encoder ran against the frames' instance truth,
-    over every robot (None when no frame has instance truth); ``save`` then also draws
-    ``plots/frontend.png``.
+    over every robot (None when no frame has instance truth). ``snapshot`` is the first robot's
+    busiest camera frame with its segmenter's masks (None when it could not be taken).
     """
 
     maps: dict[str, SegmentMap]
     notes: list[str] = field(default_factory=list)
     keyframes: dict[str, KeyframeSet] = field(default_factory=dict)
     frontend: FrontEndGrades | None = None
+    snapshot: FrameSnapshot | None = None
     timings: Timings = field(default_factory=dict, repr=False, compare=False)
-
-    @property
-    def plots(self) -> list[str]:
-        """The plots among the stage's files (relative paths)."""
-        return [FRONTEND_PNG] if self.frontend is not None else []
 
 
 @dataclass(frozen=True)
@@ -85,14 +81,14 @@ class MapsInputs:
 
 def map_robots(
     ctx: RunContext, world: World | None, tasks: TaskRunner
-) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart]]:
+) -> tuple[dict[str, SegmentMap], dict[str, KeyframeSet], list[GraderPart], FrameSnapshot | None]:
     """Every robot, one ``map_one`` task per robot through ``tasks`` (scenario order).
 
     ``tasks`` checkpoints each finished robot (its map, keyframes and share of the front-end
     grades), so an interrupted run maps only the robots that did not finish, and hands back
     what it kept, so fresh and resumed robots give the same bytes. Returns the maps, the
     keyframes (robots that have them) and the grade parts (robots with instance truth), in
-    scenario order.
+    scenario order, and the first robot's snapshot.
     """
     from roman_sim.pipeline.tasks import map_robot_task
     from roman_sim.world import PickledWorld
@@ -121,7 +117,7 @@ def map_robots(
     maps = {n: results[n][0] for n in names}
     keyframes = {n: kf for n in names if (kf := results[n][1]) is not None}
     parts = [p for n in names if (p := results[n][2]) is not None]
-    return maps, keyframes, parts
+    return maps, keyframes, parts, results[names[0]][3]
 
 
 class MapsStage(Stage[MapsInputs, Maps]):
@@ -136,6 +132,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
         "roman_sim.pipeline.robot_mapping",
         "roman_sim.world",
         "roman_sim.sim.robot",
+        "roman_sim.sim.source",
         "roman_sim.sim.render",
         "cv2",
     )
@@ -161,27 +158,24 @@ class MapsStage(Stage[MapsInputs, Maps]):
         world = None if inputs.world is None else inputs.world.world
         if world is None and sc.simulated_robots():
             raise ConfigError("the maps stage needs the world for simulated robots")
-        maps, keyframes, parts = map_robots(ctx, world, tasks)
+        maps, keyframes, parts, snapshot = map_robots(ctx, world, tasks)
         grades = None
         if parts:
             grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)
             grades = grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name)
-        return Maps(maps, _rgb_notes(ctx), keyframes, grades)
+        return Maps(maps, _rgb_notes(ctx), keyframes, grades, snapshot)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
-        def save_frontend(grades: FrontEndGrades | None) -> list[str]:
-            if grades is None:
-                return []
-            write_json(ctx.run_dir / FRONTEND_JSON, grades.to_json())
-            plot_frontend_grades(grades, ctx.run_dir / FRONTEND_PNG)
-            return [FRONTEND_JSON, FRONTEND_PNG]
-
-        with ThreadPoolExecutor(max_workers=1) as pool:  # the front end's files while the maps compress
-            frontend = pool.submit(save_frontend, out.frontend)
-            files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
-            if out.keyframes:
-                files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
-            return files + frontend.result()
+        files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
+        if out.keyframes:
+            files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
+        if out.frontend is not None:
+            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
+            files.append(FRONTEND_JSON)
+        if out.snapshot is not None:
+            save_snapshot(ctx.run_dir / SNAPSHOT_NPZ, out.snapshot)
+            files.append(SNAPSHOT_NPZ)
+        return files
 
     def load(self, ctx: RunContext, files: list[str]) -> Maps:
         maps, notes = load_per_robot(ctx, "maps", load_segment_map)
@@ -193,7 +187,8 @@ class MapsStage(Stage[MapsInputs, Maps]):
                 grades = FrontEndGrades.from_json(json.loads(path.read_text(encoding="utf-8")))
             except (OSError, ValueError) as err:
                 raise StorageError(f"{path}: unreadable front-end grades ({type(err).__name__})") from None
-        return Maps(maps, notes, keyframes, grades)
+        snapshot = load_snapshot(ctx.run_dir / SNAPSHOT_NPZ) if SNAPSHOT_NPZ in files else None
+        return Maps(maps, notes, keyframes, grades, snapshot)
 
 
 def _rgb_notes(ctx: RunContext) -> list[str]:

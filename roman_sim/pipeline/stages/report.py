@@ -1,16 +1,16 @@
 """Stage ``report``: map statistics, the plots and ``report.md`` from the other stages' outputs.
 
-``run`` computes everything the report shows: the map statistics, the metric plots (from
-the metrics), each method's example alignments (from the recorded estimates and
-associations over the submaps), the map view, the trajectory plot (truth, odometry and the
-pose graph method's estimate moved onto the truth, with the closures that graph used) and
-a front-end snapshot: ``plots/segments_on_image.png`` renders one camera image of the first
-robot, at the centre of its submap with the most segments, runs the scenario's segmenter
-on it and draws the masks over it. Plots are rendered to PNG bytes and the report to text;
-``save`` writes them with ``map_stats.json``. A plot that cannot be drawn (no OpenGL
-context, no world when the run started from saved submaps, a single point) is noted and
-skipped. The report depends on the scenario's name (its title), so a renamed scenario
-rewrites it.
+``run`` computes everything the report shows: the map statistics, the front end's grades
+(from the maps stage), the metric plots (from the metrics), each method's example
+alignments (from the recorded estimates and associations over the submaps), the map view,
+the trajectory plot (truth, odometry and the pose graph method's estimate moved onto the
+truth, with the closures that graph used) and the front-end snapshot
+(``plots/segments_on_image.png``: the camera image and masks the maps stage kept). Every
+figure is drawn by ``roman_sim.report`` from saved outputs; nothing is rendered or
+segmented here. Plots are rendered to PNG bytes and the report to text; ``save`` writes
+them with ``map_stats.json``. A plot that cannot be drawn (no snapshot kept, a single
+point) is noted and skipped. The report depends on the scenario's name (its title), so a
+renamed scenario rewrites it.
 """
 
 from __future__ import annotations
@@ -20,40 +20,38 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_bytes, write_json, write_text
-from roman_sim.core.errors import EvaluationError, RomanSimError, StorageError
+from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.ate import aligned_to_truth
 from roman_sim.evaluation.types import MapStats
 from roman_sim.mapping.io import packet_bytes
-from roman_sim.mapping.protocols import reads_truth
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.robot_mapping import build_segmenter_for
 from roman_sim.pipeline.stages.ate import AteOutput
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
-from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.report.examples import example_file, example_rows
 from roman_sim.report.markdown import REPORT_MD, report_markdown
 from roman_sim.report.plots import METRIC_PLOTS
 from roman_sim.report.render import (
     Drawn,
     draw_job,
+    frontend_grades_png,
     map_view_job,
-    masks_png,
     method_examples_png,
     metric_plot_png,
     trajectory_plot_png,
 )
+from roman_sim.report.snapshot import snapshot_job
 from roman_sim.report.trajplot import closure_lines
 from roman_sim.runner.taskrunner import TaskRunner
 
 MAP_STATS_JSON = "map_stats.json"
+FRONTEND_PNG = "plots/frontend.png"
 SNAPSHOT = "plots/segments_on_image.png"
 TRAJECTORY_PLOT = "plots/trajectories.png"
 MAP_VIEW = "plots/map_view.png"
@@ -78,13 +76,12 @@ class ReportOutput:
 
 @dataclass(frozen=True)
 class ReportInputs:
-    """Every earlier stage's output (world and maps: None when the run started from saved submaps)."""
+    """Every earlier stage's output (maps: None when the run started from saved submaps)."""
 
     submaps: Submaps
     evaluation: EvaluationOutput
     posegraph: PoseGraphOutput
     ate: AteOutput
-    world: WorldOutput | None = None
     maps: Maps | None = None
 
 
@@ -109,48 +106,6 @@ def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
         trajectory_km=length_m / 1000.0 if maps else None,
         mb_per_km=(sum(sizes) / 1e6) / (length_m / 1000.0) if maps and length_m > 0 else None,
     )
-
-
-def _majority(object_ids: NDArray[np.signedinteger], pixels: NDArray[np.bool_]) -> str | None:
-    """The most frequent true object id under a mask (None when it covers only terrain/sky)."""
-    ids = object_ids[pixels]
-    ids = ids[ids >= 0]
-    return None if not len(ids) else str(int(np.bincount(ids).argmax()))
-
-
-def snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> bytes:
-    """Render one frame of the first robot, segment it, draw the masks; the PNG.
-
-    The segmenter sees the frame without truth unless it reads truth (as in the maps stage);
-    the numbers drawn are each mask's majority true object, from the object-id render.
-
-    Raises:
-        RomanSimError: the frame cannot be rendered or segmented (no OpenGL, ...).
-    """
-    from roman_sim.sim.robot import DrivenRun, render_trajectory
-
-    cfg = ctx.scenario.robots[0]
-    smap, subs = maps.maps[cfg.name], submaps.submaps.get(cfg.name) or []
-    if smap.T_world_body is None or not len(smap.times):
-        raise StorageError(f"robot {cfg.name} has no true trajectory to render from")
-    t = max(subs, key=lambda s: (len(s), -s.index)).t if subs else float(smap.times[len(smap.times) // 2])
-    i = int(np.argmin(np.abs(smap.times - t)))
-    run = DrivenRun(smap.times[i : i + 1], smap.T_world_body[i : i + 1], smap.T_odom_body[i : i + 1])
-    frame = next(
-        iter(render_trajectory(world.world, cfg.model_copy(update={"render_rgb": True}), ctx.scenario.seed, run))
-    )
-    if frame.rgb is None:
-        raise StorageError(f"robot {cfg.name}: the renderer gave no colour image")
-    segmenter = build_segmenter_for(ctx, cfg.name)
-    masks = segmenter.segment(frame if reads_truth(segmenter) else frame.public())
-    ids = frame.truth.object_ids if frame.truth is not None else None
-    labels = [None if ids is None else _majority(ids, m.pixels) for m in masks]
-    seg = ctx.scenario.frontend.segmenter
-    title = (
-        f"robot {cfg.name} at t = {frame.t:.1f} s: {len(masks)} masks of the "
-        f"{seg if isinstance(seg, str) else 'configured'} segmenter (numbers: majority true object)"
-    )
-    return masks_png(frame.rgb, [m.pixels for m in masks], title, labels)
 
 
 def trajectory_plot(ctx: RunContext, posegraph: PoseGraphOutput, submaps: Submaps) -> PlotJob | None:
@@ -182,19 +137,13 @@ class PlotJob:
     here: bool = False
 
 
-def _snapshot(ctx: RunContext, world: WorldOutput, maps: Maps, submaps: Submaps) -> Drawn:
-    try:
-        return snapshot(ctx, world, maps, submaps), []
-    except (RomanSimError, RuntimeError, ImportError) as err:
-        return None, [f"front-end snapshot not drawn: {err}"]
-
-
 def plot_jobs(ctx: RunContext, inputs: ReportInputs) -> list[PlotJob]:
-    """Every figure of the report, in report order: metric plots, example alignments, the map view, the
-    trajectories and the front-end snapshot (the last two when the run has what they need)."""
-    ev, submaps = inputs.evaluation, inputs.submaps
+    """Every figure of the report, in report order: the front end's grades, metric plots, example alignments,
+    the map view, the trajectories and the front-end snapshot (those the run has what they need for)."""
+    ev, submaps, maps = inputs.evaluation, inputs.submaps, inputs.maps
     results = {(r.a, r.b, r.method): r.result() for r in ev.alignments}
-    jobs = [PlotJob(f"plots/{name}", metric_plot_png, (ev.metrics, name)) for name in METRIC_PLOTS]
+    jobs = [PlotJob(FRONTEND_PNG, frontend_grades_png, (maps.frontend,))] if maps and maps.frontend else []
+    jobs += [PlotJob(f"plots/{name}", metric_plot_png, (ev.metrics, name)) for name in METRIC_PLOTS]
     for method, rows in example_rows(ev.scores, submaps.by_name(), results).items():
         jobs.append(PlotJob(f"plots/{example_file(method)}", method_examples_png, (method, rows)))
     jobs.append(PlotJob(MAP_VIEW, map_view_job, (submaps.all(),)))
@@ -204,8 +153,12 @@ def plot_jobs(ctx: RunContext, inputs: ReportInputs) -> list[PlotJob]:
             jobs.append(traj)
     except EvaluationError as err:
         jobs.append(PlotJob(TRAJECTORY_PLOT, _noted, (f"trajectory plot not drawn: {err}",), here=True))
-    if inputs.world is not None and inputs.maps is not None:  # renders with the world, which this process has
-        jobs.append(PlotJob(SNAPSHOT, _snapshot, (ctx, inputs.world, inputs.maps, submaps), here=True))
+    if maps is not None and maps.snapshot is not None:
+        jobs.append(PlotJob(SNAPSHOT, snapshot_job, (maps.snapshot,)))
+    elif maps is not None:
+        jobs.append(
+            PlotJob(SNAPSHOT, _noted, ("front-end snapshot not drawn: the maps stage kept no camera frame",), here=True)
+        )
     return jobs
 
 
@@ -216,12 +169,12 @@ def _noted(note: str) -> Drawn:
 def draw_plots(
     ctx: RunContext, inputs: ReportInputs, tasks: TaskRunner | None = None
 ) -> tuple[dict[str, bytes], list[str]]:
-    """Metric plots, example alignments, the map view, the trajectories and the snapshot: (path -> PNG, notes).
+    """Every figure of ``plot_jobs``: (path -> PNG, notes).
 
     With a local pool (``tasks``), its workers draw the figures, the largest first, while
-    this process renders the snapshot (it has the world) once the first figure is back;
-    otherwise everything is drawn here. Never on Dask workers: PNG bytes depend on the
-    installed matplotlib, fonts and OpenGL, and those workers may run elsewhere. The
+    this process adds its notes once the first figure is back; otherwise everything is
+    drawn here. Never on Dask workers: PNG bytes depend on the installed matplotlib and
+    fonts, and those workers may run elsewhere. The
     figures and notes come out in report order wherever they were drawn.
     """
     jobs = plot_jobs(ctx, inputs)
@@ -273,9 +226,8 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
         stats = map_stats(inputs.maps, inputs.submaps)
         pngs, plot_notes = draw_plots(ctx, inputs, tasks)
         notes = list(dict.fromkeys(notes + plot_notes))
-        upstream = inputs.maps.plots if inputs.maps else []
         ate = inputs.ate.ate if inputs.ate.ate.variants else None
-        text = report_markdown(ctx.scenario.name, inputs.evaluation.metrics, ate, stats, notes, upstream + list(pngs))
+        text = report_markdown(ctx.scenario.name, inputs.evaluation.metrics, ate, stats, notes, list(pngs))
         return ReportOutput(stats, notes, text, pngs, list(pngs))
 
     def save(self, out: ReportOutput, ctx: RunContext) -> list[str]:
