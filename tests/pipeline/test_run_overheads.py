@@ -1,9 +1,6 @@
-"""What cuts a run's fixed costs keeps its values: thread limits, the pickled world, remembered checks, Wilson."""
+"""What cuts a run's fixed costs keeps its values: remembered checks, Wilson, association truth."""
 
 from __future__ import annotations
-
-import os
-import pickle
 
 import numpy as np
 import pytest
@@ -13,33 +10,6 @@ from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.mapping.types import Submap
-from roman_sim.runner.executors import THREAD_VARS, thread_limits, threads_per_worker
-from roman_sim.world import PickledWorld, generate, load_world_spec
-
-
-def test_thread_limits_set_only_the_unset_variables_and_restore_them(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv(THREAD_VARS[0], "3")
-    for v in THREAD_VARS[1:]:
-        monkeypatch.delenv(v, raising=False)
-    with thread_limits(workers=10**6):
-        assert os.environ[THREAD_VARS[0]] == "3"  # the user's setting is kept
-        assert all(os.environ[v] == "1" for v in THREAD_VARS[1:])
-    assert os.environ[THREAD_VARS[0]] == "3"
-    assert not any(v in os.environ for v in THREAD_VARS[1:])
-
-
-def test_threads_per_worker_share_the_cores() -> None:
-    assert threads_per_worker(1) >= threads_per_worker(2) >= threads_per_worker(10**6) == 1
-
-
-def test_a_pickled_world_loads_as_the_generated_one() -> None:
-    world = generate(load_world_spec("tiny"), 0)
-    back = PickledWorld.of(world).load()
-    assert world.mjspec is not None and back.mjspec is None  # the spec stays home; the original keeps it
-    assert pickle.dumps(back.model) == pickle.dumps(world.model)
-    assert pickle.dumps(back.truth) == pickle.dumps(world.truth)
-    assert back.meshes.keys() == world.meshes.keys()
-    assert (back.spec, back.seed) == (world.spec, world.seed)
 
 
 def test_remembered_checks_give_the_same_reasons_checking_each_submap_once(monkeypatch: pytest.MonkeyPatch) -> None:
