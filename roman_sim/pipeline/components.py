@@ -28,6 +28,7 @@ from typing import TYPE_CHECKING, Any, Literal
 from pydantic import BaseModel
 
 from roman_sim.core.config import validate_model
+from roman_sim.core.errors import ConfigError, PluginError
 from roman_sim.core.registry import import_object
 
 if TYPE_CHECKING:
@@ -52,7 +53,10 @@ def _json_value(v: object) -> bool:
 
 def plugin_params(path: str, kind: str, params: dict[str, Any]) -> dict[str, Any]:
     """A plug-in's declared parameters with ``params`` over them (see the module docstring); nothing is built."""
-    obj = import_object(path, kind)
+    try:
+        obj = import_object(path, kind)
+    except ConfigError as err:  # as the plug-in checks report it
+        raise PluginError(str(err), path, kind) from None
     model = getattr(obj, "params_model", None)
     if isinstance(model, type) and issubclass(model, BaseModel):
         dumped: dict[str, Any] = validate_model(model, params, source=f"{kind} {path!r} params").model_dump(mode="json")
