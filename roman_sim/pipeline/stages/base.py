@@ -65,18 +65,19 @@ if TYPE_CHECKING:
     from roman_sim.pipeline.components import ComponentKind
 
 #: Modules no code fingerprint includes or follows: the run machinery (where and how tasks run,
-#: checkpoints, progress), which does not decide what a stage computes.
+#: checkpoints, progress), which does not decide what a stage computes, and the resolution of
+#: the scenario's components, whose results reach the keys by value (``config_parts``).
 NOT_FINGERPRINTED: tuple[str, ...] = (
     "roman_sim.runner",
+    "roman_sim.pipeline.components",
     "roman_sim.pipeline.context",
     "roman_sim.pipeline.folder_lock",
     "roman_sim.pipeline.plugin_guard",
 )
-#: Modules hashed without following their imports: the scenario model and the resolution of
-#: its components (their values reach the keys through ``config_parts``) and the maps stage's
-#: worker job (a stage names the modules its jobs run in ``code``).
+#: Modules hashed without following their imports: the scenario model (its values reach the
+#: keys through ``config_parts``) and the maps stage's worker job (a stage names the modules
+#: its jobs run in ``code``).
 FINGERPRINTED_ONLY: tuple[str, ...] = (
-    "roman_sim.pipeline.components",
     "roman_sim.pipeline.scenario",
     "roman_sim.pipeline.tasks",
 )
