@@ -94,7 +94,7 @@ def plan_paths(world: HasTruth, robots: Sequence[RobotConfig], seed: int) -> dic
     return paths
 
 
-def drive(world: HasTruth, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _drive(world: HasTruth, cfg: RobotConfig, path: Path2D) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Drive the path with pure pursuit; returns times (N,) and true ``T_world_body`` (N, 4, 4).
 
     One pose per sensor step (``rate_hz``); the kinematics integrate ``substeps`` times per step.
@@ -162,7 +162,7 @@ class DrivenRun(NamedTuple):
 def trajectory_along(world: HasTruth, cfg: RobotConfig, seed: int, path: Path2D) -> DrivenRun:
     """Drive the planned ``path`` (from ``plan_paths``): times (N,), true ``T_world_body`` and drifted
     ``T_odom_body`` (N, 4, 4); no rendering."""
-    t, T_wb = drive(world, cfg, path)
+    t, T_wb = _drive(world, cfg, path)
     _check_driven_clearance(world, cfg, T_wb)
     drift = DriftModel(cfg.drift_config(), child_rng(seed, "drift", cfg.name))
     return DrivenRun(t, T_wb, np.stack([drift.step(T) for T in T_wb]))
