@@ -16,10 +16,20 @@ import traceback
 from typing import Any
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperGroup, TyperOption
 
 from roman_sim.cli import _signals as S
 from roman_sim.core.errors import RomanSimError
+
+_OPTION_TYPE = TyperOption.display_type_rich
+
+
+def _plain_flag_type(self: TyperOption, ctx: Any) -> str | None:
+    """Help shows a flag as ``--verbose -v``, not ``--verbose -v <bool>``: a flag takes no value."""
+    return None if self.is_flag else _OPTION_TYPE(self, ctx)
+
+
+TyperOption.display_type_rich = _plain_flag_type  # type: ignore[method-assign]
 
 #: Whether ``-v`` / ``--debug`` asked for tracebacks below the one-line errors.
 _TRACEBACKS = {"on": False}
@@ -85,10 +95,20 @@ app = typer.Typer(
 )
 
 
+def _version(value: bool) -> None:
+    """``--version``: print the package's version and stop."""
+    if value:
+        from importlib.metadata import version
+
+        typer.echo(f"roman-sim {version('roman_sim')}")
+        raise typer.Exit()
+
+
 @app.callback()
 def _main(
     verbose: bool = typer.Option(False, "--verbose", "-v", help="Debug logging, and tracebacks below errors."),
     debug: bool = typer.Option(False, "--debug", help="Tracebacks below errors (a plug-in's own, with its line)."),
+    version: bool = typer.Option(False, "--version", callback=_version, is_eager=True, help="Print the version."),
 ) -> None:
     _TRACEBACKS["on"] = verbose or debug
     logging.basicConfig(

@@ -64,7 +64,9 @@ def _board_table(board: dict[str, Any]) -> Table:
 @app.command("benchmark")
 @X.executor_options
 def benchmark_cmd(
-    suite: str = typer.Argument("standard", help="suite: quick, standard, or a suite YAML file"),
+    suite: str = typer.Argument(
+        "quick", help="suite: quick (the default, minutes), standard (about 36 min), or a YAML"
+    ),
     methods: list[str] | None = typer.Option(
         None, "--methods", "-m", help="methods to score (comma-separated or repeated; package.module:Class plug-ins)"
     ),

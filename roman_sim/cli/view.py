@@ -19,7 +19,13 @@ def view_cmd(
     images: Annotated[int, typer.Option("--images", min=0, help="camera frames per robot (0: none)")] = 60,
 ) -> None:
     """Write a rerun recording of a run: objects, trajectories, maps, submaps, closures, camera images."""
+    import importlib.util
+
+    from roman_sim.core.errors import ConfigError
     from roman_sim.viz import open_viewer, write_run_view
+
+    if importlib.util.find_spec("rerun") is None:
+        raise ConfigError("roman-sim view needs the rerun SDK of the interop extra: pip install 'roman_sim[interop]'")
 
     console = Console(stderr=True)
     with console.status("writing the recording ..."):

@@ -42,7 +42,7 @@ from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
 from roman_sim.pipeline.folder_lock import hold_run_folder
-from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, environment_changes, existing_manifest
+from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, existing_manifest, used_changes
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stagecache import StageCache
@@ -205,7 +205,7 @@ class Experiment:
                     (self.run_dir / f).unlink(missing_ok=True)
         env = environment()
         if old is not None and keep and old.environment:
-            changed = environment_changes(old.environment, env)
+            changed = used_changes(old.environment, env)
             if changed:
                 log.warning(
                     "%s: reusing stages %s computed with other library versions (%s); their bytes may differ "

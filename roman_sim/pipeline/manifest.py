@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import logging
 import platform
+import sys
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -62,6 +63,19 @@ def environment_changes(old: dict[str, str], new: dict[str, str]) -> list[str]:
         for k in sorted(set(old) | set(new))
         if old.get(k) != new.get(k)
     ]
+
+
+#: Libraries only some runs import (a front end that runs a real model), by the module they import
+#: as: a resume warns about their versions only when this process imported them.
+ON_DEMAND = {"torch": "torch"}
+
+
+def used_changes(old: dict[str, str], new: dict[str, str]) -> list[str]:
+    """``environment_changes`` of the libraries this run uses (``ON_DEMAND`` ones only when imported)."""
+    skip = {name for name, module in ON_DEMAND.items() if module not in sys.modules}
+    return environment_changes(
+        {k: v for k, v in old.items() if k not in skip}, {k: v for k, v in new.items() if k not in skip}
+    )
 
 
 @dataclass

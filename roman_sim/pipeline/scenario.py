@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from pydantic import Field, field_validator, model_validator
 
@@ -216,9 +216,21 @@ def load_scenario(name_or_path: str | Path, overrides: list[str] | None = None) 
     data = read_yaml(path)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping at the top level")
-    if overrides:
-        data = apply_overrides(data, overrides)
-    return _resolve_sources(validate_model(Scenario, data, source=str(path)), path.parent)
+    if not overrides:
+        return _resolve_sources(validate_model(Scenario, data, source=str(path)), path.parent)
+    try:
+        sc = validate_model(Scenario, apply_overrides(data, overrides), source=str(path))
+    except ConfigError:
+        _blame_override(data, overrides, path)
+        raise
+    return _resolve_sources(sc, path.parent)
+
+
+def _blame_override(data: dict[str, Any], overrides: list[str], path: Path) -> None:
+    """Raise the error naming the file when the file is wrong, else naming the first ``--set`` that breaks it."""
+    validate_model(Scenario, data, source=str(path))
+    for i, ov in enumerate(overrides):
+        validate_model(Scenario, apply_overrides(data, overrides[: i + 1]), source=f"--set {ov}")
 
 
 def _resolve_sources(sc: Scenario, base: Path) -> Scenario:
