@@ -105,8 +105,18 @@ def disk_full_line(err: OSError, folder: str) -> str:
 
 
 def limit_line(err: BaseException, where: str = "") -> str:
-    """One line for ``MemoryError`` (or any failure under a memory rlimit); ``where``: e.g. ``in stage maps``."""
+    """One line for ``MemoryError`` (or any failure under a memory rlimit); ``where``: e.g. ``in stage maps``.
+
+    Under a memory rlimit the line starts with the cap, then the stage, then what failed:
+    whichever library met the cap first (an allocation, a renderer that cannot map its
+    device, a thread that cannot start) only shows the symptom.
+    """
     what = "out of memory" if isinstance(err, MemoryError) else "failed"
-    note = memory_limit_note()
     desc = f"{type(err).__name__}: {one_line(err)}" if str(err).strip() else type(err).__name__
-    return f"{what}{' ' + where if where else ''}: {desc}" + (f" ({note})" if note else "")
+    return capped(f"{what}{' ' + where if where else ''}: {desc}")
+
+
+def capped(line: str) -> str:
+    """``line`` after the memory rlimit in force (``address space limited to 586 MB (ulimit -v): ...``), if any."""
+    note = memory_limit_note()
+    return f"{note}: {line}" if note else line

@@ -61,8 +61,10 @@ def _fmt(v: Any, digits: int = 2) -> str:
     return fmt(v, digits)
 
 
-def _recall_cell(d: dict[str, Any], min_n: int) -> str:
-    """``0.77 33/43`` (``n<5 1/2`` for small sets, ``n/a`` without relevant pairs)."""
+def _recall_cell(d: dict[str, Any], min_n: int, undefined: bool = False) -> str:
+    """``0.77 33/43`` (``n<5 1/2`` for small sets, ``n/a`` without relevant pairs, ``undefined``: nothing to align)."""
+    if undefined:
+        return "undefined"
     if not d["n_relevant"] or d["max_recall"] is None:
         return "n/a"
     if d["n_relevant"] < min_n:
@@ -70,8 +72,11 @@ def _recall_cell(d: dict[str, Any], min_n: int) -> str:
     return f"{d['max_recall']:.2f} {d['max_hits']}/{d['n_relevant']}"
 
 
-def _recall_tables(s: dict[str, Any], kind: str, label: str, min_n: int) -> list[Table]:
-    """Two tables that fit 80 columns: the overall figures and runtime, then max recall per heading bin."""
+def _recall_tables(s: dict[str, Any], kind: str, label: str, min_n: int, undefined: bool = False) -> list[Table]:
+    """Two tables that fit 80 columns: the overall figures and runtime, then max recall per heading bin.
+
+    ``undefined``: the submaps held nothing to align, so every recall cell is undefined.
+    """
     from rich import box
 
     first = next(iter(s["methods"].values()))[kind]
@@ -91,8 +96,9 @@ def _recall_tables(s: dict[str, Any], kind: str, label: str, min_n: int) -> list
             "max_hits": k["hits_at_precision_1"],
             "n_relevant": k["n_relevant"],
         }
-        overall.add_row(name, _recall_cell(k, min_n), _recall_cell(p1, min_n), _fmt(k["best_f1"]), _fmt(ms, 1))
-        bins.add_row(name, *[_recall_cell(b, min_n) for b in k["bins"].values()])
+        f1 = "undefined" if undefined else _fmt(k["best_f1"])
+        overall.add_row(name, _recall_cell(k, min_n, undefined), _recall_cell(p1, min_n, undefined), f1, _fmt(ms, 1))
+        bins.add_row(name, *[_recall_cell(b, min_n, undefined) for b in k["bins"].values()])
     return [overall, bins]
 
 
@@ -101,10 +107,12 @@ def print_summary(result: Any) -> None:
     same-robot pairs, runtime; ATE over the same robots; map size."""
     from rich import box
 
+    from roman_sim.evaluation.metrics import NO_SEGMENTS_NOTE
     from roman_sim.evaluation.types import PAIR_SET_LABELS
     from roman_sim.report.lead import lead_paragraph
 
     s = result.metrics_summary()
+    empty = NO_SEGMENTS_NOTE in result.metrics.notes  # nothing to align: the figures are undefined, not 0
     cfg = result.metrics.config
     out = Console()
     cap = (
@@ -116,13 +124,15 @@ def print_summary(result: Any) -> None:
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
         f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
     )
+    if empty:
+        out.print(f"note: {NO_SEGMENTS_NOTE}", markup=False, highlight=False)
     for line in lead_paragraph(result.metrics, result.ate, markdown=False):
         out.print(line, markup=False, highlight=False)
     kinds = [s["headline"]] + [k for k in ("inter", "intra") if k != s["headline"]]
     for kind in kinds:
         if s["methods"] and s["pairs"][kind]["n_pairs"]:
             label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s["headline"] else "")
-            for table in _recall_tables(s, kind, label, int(cfg["min_relevant"])):
+            for table in _recall_tables(s, kind, label, int(cfg["min_relevant"]), empty):
                 out.print(table)
     if s["ate"]:
         common = ", ".join(s["ate_robots"]["common"]) or "none"
@@ -195,9 +205,9 @@ def _run(
         raise typer.Exit(S.stop_code(err)) from None
     except RunFolderBusy:  # the folder's files are the other run's: nothing of this run to report
         raise
-    except RomanSimError as err:
-        note = S.memory_limit_note()
-        err.args = (f"{err} ({_kept(exp.run_dir)}{'; ' + note if note else ''})",)  # what failed, what was kept
+    except RomanSimError as err:  # what failed (after the memory cap and the stage, under one), what was kept
+        head = S.capped(f"failed {tracker.where()}: ") if S.memory_limit_note() else ""
+        err.args = (f"{head}{err} ({_kept(exp.run_dir)})",)
         raise
     except Exception as err:
         raise _limit_error(err, tracker, exp.run_dir) from None

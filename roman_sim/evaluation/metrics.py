@@ -275,7 +275,11 @@ def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
 
 
 def summary(
-    scores: list[PairScore], cfg: EvalConfig | None = None, n_skipped: int = 0, acceptance_k: int | None = None
+    scores: list[PairScore],
+    cfg: EvalConfig | None = None,
+    n_skipped: int = 0,
+    acceptance_k: int | None = None,
+    n_segments: int | None = None,
 ) -> EvaluationMetrics:
     """Per-method metrics of ``scores`` (undefined figures are ``None`` and explained in ``notes``).
 
@@ -285,6 +289,8 @@ def summary(
         n_skipped: pairs a distance cap left out (reported, not scored).
         acceptance_k: the pose graph's acceptance threshold (``lc_association_thresh``) for
             the ``acceptance`` operating points; None: no such point.
+        n_segments: segments over all submaps (None: unknown). With none, no method had
+            anything to align: one note says so instead of a failure note per method.
     """
     cfg = cfg or EvalConfig()
     methods = sorted({s.method for s in scores})
@@ -304,15 +310,24 @@ def summary(
         robot_pairs=robot_pair_counts((t.robot_a, t.robot_b, t.relevant) for t in truths),
         revisits=revisit_figures((t.robot_a, t.robot_b, t.relevant, t.overlap, t.shared_objects) for t in truths),
     )
-    out.notes += _notes(out, cfg)
+    out.notes += _notes(out, cfg, n_segments)
     return out
 
 
-def _notes(out: EvaluationMetrics, cfg: EvalConfig) -> list[str]:
+#: The note of a run whose submaps hold no segment (a world without objects, or nothing mapped).
+NO_SEGMENTS_NOTE = (
+    "no submap holds a segment (a world without objects, or none mapped): no method had anything to align, "
+    "so every method's recall, precision and F1 are undefined, not 0"
+)
+
+
+def _notes(out: EvaluationMetrics, cfg: EvalConfig, n_segments: int | None = None) -> list[str]:
     notes = []
     label = PAIR_SET_LABELS[out.headline]
     if not out.n_pairs:
         return ["no pairs were evaluated: no metric could be computed"]
+    if n_segments == 0:
+        return [NO_SEGMENTS_NOTE]
     if out.pairs[out.headline]["n_relevant"] == 0:
         notes.append(
             f"no relevant {label} pairs ({cfg.describe_relevance()}): recall, F1 and AUC could not be computed"

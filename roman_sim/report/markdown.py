@@ -17,6 +17,7 @@ from pathlib import Path
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.grades import FrontEndGrades
+from roman_sim.evaluation.metrics import NO_SEGMENTS_NOTE
 from roman_sim.evaluation.overlap import counts_by_pair, overlap_graph
 from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
 from roman_sim.report.grades import frontend_report_lines
@@ -116,6 +117,8 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
     title = f"## Alignment, {label} pairs" + (" (headline)" if kind == metrics.headline else "")
     if not metrics.pairs[kind]["n_pairs"]:
         return [title, "", f"No {label} pairs in this run.", ""]
+    if NO_SEGMENTS_NOTE in metrics.notes:  # nothing was there to align: no figure is defined, not even 0 of n
+        return [title, "", f"Undefined: {NO_SEGMENTS_NOTE}.", ""]
     lines = [title, "", *markdown_table(summary_rows(metrics, kind)), ""]
     min_n = int(EvalConfig.model_validate(metrics.config).min_relevant)
     points = operating_point_rows(metrics, kind)

@@ -118,13 +118,22 @@ def recompute_metrics(
     cfg, acceptance_k = eval_settings(run_dir)
     scores, diffs = rederive_scores(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
-    metrics = summary(scores, cfg, stored.n_skipped, acceptance_k)
+    metrics = summary(scores, cfg, stored.n_skipped, acceptance_k, _n_segments(run_dir))
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
     if stored.robot_pairs is None:  # written before the per-robot-pair counts were recorded
         metrics.robot_pairs = None
     if as_stored and stored.revisits is None:  # written before the revisit figures were recorded
         metrics.revisits = None
     return metrics, diffs
+
+
+def _n_segments(run_dir: Path) -> int | None:
+    """0 when ``map_stats.json`` says the submaps hold no segment at all, else None (unknown to the pairs table)."""
+    try:
+        per_submap = json.loads((run_dir / "map_stats.json").read_text(encoding="utf-8"))["segments_per_submap"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return 0 if per_submap == 0 else None
 
 
 def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:

@@ -226,7 +226,8 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         # pairs are scored as their chunks come back, while the workers align the others
         results, pair_timings = apply_aligners(ctx, sel.pairs, tasks, scorer.add)
         scores = scorer.scores(results)
-        metrics = summary(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh)
+        n_segments = sum(len(s) for s in inputs.submaps.all())
+        metrics = summary(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh, n_segments)
         log.info("evaluated %d pairs (%d skipped by the distance cap)", len(sel.pairs), sel.n_skipped)
         maps = inputs.maps
         if maps is not None and maps.frontend is not None:
