@@ -44,8 +44,15 @@ def _third_party() -> dict[str, str]:
     return {m: f for m, f in found.items() if m not in skip}
 
 
+def _ci_pins() -> dict[str, str]:
+    """Exact pins ``.ci/run`` installs beside the lock (``pip install --no-deps name==version``)."""
+    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
+    return {normalize(n): v for n, v in re.findall(r"pip install .*--no-deps ([A-Za-z0-9._-]+)==(\S+)", ci)}
+
+
 def test_the_lock_pins_every_third_party_import_of_the_package_and_its_tests():
-    pins = locked_versions(LOCK)
+    assert "robotdatapy" in _ci_pins()  # installed without its dependencies, pinned where it is installed
+    pins = {**locked_versions(LOCK), **_ci_pins()}
     providers = metadata.packages_distributions()
     modules = _third_party()
     assert {"numpy", "cv2", "mujoco", "torch", "pytest", "distributed"} <= set(modules)  # the walk finds imports
