@@ -39,7 +39,7 @@ def test_readme_starts_with_the_demo_and_the_test_command():
     assert first_two == [
         "pip install -e . && roman-sim demo",
         'pip install -e ".[test]" -c constraints.txt && python -m pytest -q -n auto --dist loadfile --timeout=900 '
-        "--timeout-method=thread",
+        "--timeout-method=signal",
     ]
     # the test command is the one command between the markers
     assert text.count(BEGIN) == 1 and text.count(END) == 1
