@@ -112,7 +112,7 @@ def print_summary(result: Any) -> None:
     from roman_sim.report.lead import lead_paragraph
 
     s = result.metrics_summary()
-    empty = NO_SEGMENTS_NOTE in result.metrics.notes  # nothing to align: the figures are undefined, not 0
+    empty = NO_SEGMENTS_NOTE in result.metrics.notes  # nothing to align (the lead says so): figures undefined, not 0
     cfg = result.metrics.config
     out = Console()
     cap = (
@@ -124,8 +124,6 @@ def print_summary(result: Any) -> None:
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
         f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
     )
-    if empty:
-        out.print(f"note: {NO_SEGMENTS_NOTE}", markup=False, highlight=False)
     for line in lead_paragraph(result.metrics, result.ate, markdown=False):
         out.print(line, markup=False, highlight=False)
     kinds = [s["headline"]] + [k for k in ("inter", "intra") if k != s["headline"]]

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from roman_sim.evaluation.atetable import ALL, AteTable
+from roman_sim.evaluation.metrics import NO_SEGMENTS_NOTE
 from roman_sim.evaluation.operating_points import OperatingPoint
 from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics
 
@@ -140,6 +141,8 @@ def lead_paragraph(metrics: EvaluationMetrics, ate: AteTable | None = None, mark
     head = f"**{head}**" if markdown else head
     if not n_rel:
         return [f"{head} No relevant pair: no method can be ranked.", ""]
+    if NO_SEGMENTS_NOTE in metrics.notes:  # nothing to align: no figure to lead with, not even 0 of n_rel
+        return [f"{head} Undefined: {NO_SEGMENTS_NOTE}.", ""]
     leads = [lead for p in LEAD_POINTS if (lead := point_lead(metrics, p, kind)) is not None]
     sentences = [_point_sentence(metrics, lead, kind) for lead in leads]
     sentences += [s for s in (_order_sentence(leads), _ate_sentence(ate)) if s]

@@ -40,7 +40,7 @@ def _egl_fails(*_: object) -> object:
 
 def _pool_reports_egl(*_: object) -> object:
     """What a pool worker's failure comes back as (``TaskError``, a ``RomanSimError``)."""
-    from roman_sim.pipeline.executors import TaskError
+    from roman_sim.runner.executor_base import TaskError
 
     raise TaskError(f"mapping robot a failed on worker 1: ImportError: {EGL}")
 
@@ -75,12 +75,14 @@ def test_a_world_without_objects_says_so_once_and_leaves_every_figure_undefined(
     res = CliRunner().invoke(app, ["run", str(path), *MICRO, "--executor", "serial", "--out", str(run)])
     assert res.exit_code == 0, res.output
     printed = " ".join(res.stdout.split())  # the console wraps at its width
-    assert printed.count(f"note: {NO_SEGMENTS}") == 1
+    assert printed.count(NO_SEGMENTS) == 1  # the lead line, in place of figures
+    assert f"Cross-robot pairs, 1 relevant. Undefined: {NO_SEGMENTS}." in printed
     assert "0/1" not in printed and "undefined" in printed
     metrics = json.loads((run / "metrics.json").read_text())
     assert metrics["notes"] == [NO_SEGMENTS]  # one line, instead of a failure line per method
     assert metrics["n_relevant"] >= 1  # pairs are relevant by distance: the figures are undefined, not 0 of them
     report = (run / "report.md").read_text()
+    assert f"**Cross-robot pairs, 1 relevant.** Undefined: {NO_SEGMENTS}.\n" in report
     assert f"- {NO_SEGMENTS}\n" in report
     assert f"## Alignment, cross-robot pairs (headline)\n\nUndefined: {NO_SEGMENTS}.\n" in report
     verify = CliRunner().invoke(app, ["report", str(run), "--verify"])
