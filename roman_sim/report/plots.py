@@ -153,15 +153,20 @@ def _assoc_recall(s: CurveStats) -> tuple[float | None, int, int, tuple[float, f
 
 
 def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, ylabel: str) -> None:
-    """Grouped bars per bin and method: rate, Wilson interval, ``hits/n``; small bins hatched."""
+    """Grouped bars per bin and method: rate, Wilson interval, ``hits/n``; small bins hatched.
+
+    A bin in which no method has a denominator is left out (an empty bin is not data).
+    """
     names = list(rows)
-    labels = [b.label for b in rows[names[0]]] if names else []
+    first = rows[names[0]] if names else []
+    keep = [i for i in range(len(first)) if any(get(r[i].stats)[2] for r in rows.values())]
+    labels = [first[i].label for i in keep]
     width = 0.8 / max(len(names), 1)
     x = np.arange(len(labels))
     for i, name in enumerate(names):
         pos = x - 0.4 + width * (i + 0.5)
         colour = f"C{i}"
-        for p, b in zip(pos, rows[name]):
+        for p, b in zip(pos, [rows[name][j] for j in keep]):
             v, k, n, ci = get(b.stats)
             if n == 0 or v is None:
                 ax.text(p, 0.02, "none", ha="center", va="bottom", fontsize=6, rotation=90)
@@ -217,7 +222,8 @@ def plot_operating_points(metrics: EvaluationMetrics, path: str | Path) -> Path 
     if not names or _with_data(rows, point_getter(names[0])) < 2:
         return None
     min_n = int(metrics.config["min_relevant"])
-    fig = figure(max(6.0, 0.35 * len(first) * len(rows) + 2.0), 3.4 * len(names), nrows=len(names))
+    n_bins = _with_data(rows, point_getter(names[0]))
+    fig = figure(max(6.0, 0.35 * n_bins * len(rows) + 2.0), 3.4 * len(names), nrows=len(names))
     for ax, name in zip(fig.axes, names):
         label = POINT_LABELS[name] + (f" (k={metrics.acceptance_k})" if name == "acceptance" else "")
         _bars(ax, rows, point_getter(name), min_n, "recall")
@@ -240,7 +246,7 @@ def plot_heading_recall(metrics: EvaluationMetrics, path: str | Path, fine: bool
     kinds = [k for k in kinds if _with_data(per_kind[k], _recall) >= 2]
     if not kinds:
         return None
-    n_bins = len(next(iter(per_kind[kinds[0]].values())))
+    n_bins = max(_with_data(per_kind[k], _recall) for k in kinds)
     fig = figure(max(6.0, 0.35 * n_bins * len(metrics.methods) + 2.0), 3.8 * len(kinds), nrows=len(kinds))
     fig.suptitle(
         f"Max recall per heading bin (95 % Wilson intervals; hatched: fewer than "
@@ -294,7 +300,7 @@ def plot_association(metrics: EvaluationMetrics, path: str | Path) -> Path | Non
     rows = {m: mm.set(kind).heading_bins for m, mm in metrics.methods.items()}
     if _with_data(rows, _assoc_recall) < 2:
         return None
-    fig = figure(max(6.0, 0.35 * 3 * len(rows) + 2.0) * 2, 4.0, ncols=2)
+    fig = figure(max(6.0, 0.35 * _with_data(rows, _assoc_recall) * len(rows) + 2.0), 7.6, nrows=2)
     for ax, get, what in (
         (fig.axes[0], _assoc_precision, "precision (correct/selected)"),
         (fig.axes[1], _assoc_recall, "recall (recovered/available)"),

@@ -1,0 +1,65 @@
+"""The demo's metric plots, checked on their figure objects: titles that fit, labelled axes, legends, no empty bins."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from matplotlib.figure import Figure
+
+import roman_sim.report.plots as plots
+from roman_sim.evaluation.results import read_metrics_json
+
+DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
+
+
+@pytest.fixture(scope="module")
+def demo_figures(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Figure]:
+    if not (DEMO / "metrics.json").is_file():
+        pytest.skip("no committed demo run")
+    figs: dict[str, Figure] = {}
+    real = plots.save_png
+
+    def keep(fig: Figure, path: str | Path, data: object = None) -> Path:
+        fig.canvas.draw()  # lay the figure out as it is saved, then keep it open for the checks
+        figs[Path(path).name] = fig
+        return real(fig, path, data)
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(plots, "save_png", keep)
+    written, skipped = plots.write_metric_plots(read_metrics_json(DEMO / "metrics.json"), tmp_path_factory.mktemp("p"))
+    mp.undo()
+    assert skipped == ["plot recall_ambiguity.png not drawn: it needs two ambiguity bins with relevant pairs"]
+    assert sorted(figs) == sorted(p.name for p in written)
+    return figs
+
+
+def test_every_plot_is_titled_labelled_and_fits(demo_figures: dict[str, Figure]) -> None:
+    assert len(demo_figures) == 6
+    for name, fig in demo_figures.items():
+        w, h = fig.get_size_inches()
+        assert w <= 10.0 and h <= 14.0, (name, w, h)
+        box = fig.bbox
+        texts = [ax.title for ax in fig.axes] + ([fig._suptitle] if fig._suptitle is not None else [])
+        assert any(t.get_text() for t in texts), name
+        for t in texts:
+            if t.get_text():
+                ext = t.get_window_extent()
+                assert ext.x0 >= box.x0 - 1 and ext.x1 <= box.x1 + 1, (name, t.get_text())
+        for ax in fig.axes:
+            assert ax.get_title() and ax.get_xlabel() and ax.get_ylabel(), name
+            assert ax.get_legend() is not None, name
+            if "heading" in ax.get_xlabel():
+                assert ax.get_xlabel() == "heading difference (deg)"
+
+
+def test_empty_heading_bins_are_not_drawn(demo_figures: dict[str, Figure]) -> None:
+    """The demo has no relevant cross-robot pair below 60 deg: no 0-60 (or 0-30, 30-60) slot is drawn."""
+    for name in ("recall_heading.png", "recall_operating_points.png"):
+        for ax in demo_figures[name].axes:
+            assert [t.get_text() for t in ax.get_xticklabels()] == ["60-120", "120-180"], name
+    fine = [t.get_text() for t in demo_figures["recall_heading_fine.png"].axes[0].get_xticklabels()]
+    assert fine == ["90-120", "120-150", "150-180"]  # the 4 pairs of 60-120 deg lie above 90 deg
+    # association precision has data below 60 deg (associations selected on pairs that need not align)
+    assoc = [t.get_text() for t in demo_figures["association_heading.png"].axes[0].get_xticklabels()]
+    assert assoc == ["0-60", "60-120", "120-180"]
