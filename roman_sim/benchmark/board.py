@@ -11,6 +11,11 @@ are ranked by the intervals of max recall and of recall at precision >= 0.9
 (``evaluation.ranking``: tied unless the intervals separate). The bound of the standard
 suite, every interval at most +-0.1, is checked per cell over every method and point.
 
+Beside them, per level, the deployable point (``benchmark.deployable``): one threshold per
+method for every heading, chosen for a target precision on the level's other worlds
+(leave-one-world-out over its cells), with held-out recall and precision per heading bin,
+pooled Wilson and world-bootstrap intervals, and ranks by the world intervals.
+
 ``leaderboard.json`` holds all of it; ``leaderboard.md`` (``report.leaderboard``) and the
 figures in ``plots/`` (``report.benchmark_plots``) render it. Runtimes come from each cell's
 ``runtimes.json``.
@@ -33,12 +38,14 @@ from roman_sim.benchmark.cells import (
     PAIRS_GZ,
     RUNTIMES_JSON,
 )
+from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.jsontypes import read_record as read_json_record
 from roman_sim.evaluation.metrics import PairScore, summary
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.ranking import rank_by_intervals
 from roman_sim.evaluation.results import read_pairs_csv
+from roman_sim.evaluation.transfer import check_target
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
 from roman_sim.report.benchmark_plots import write_benchmark_plots
 from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
@@ -170,8 +177,14 @@ def _runtime(levels: dict[str, Level]) -> dict[str, Any]:
     return out
 
 
-def leaderboard(out: str | Path) -> tuple[dict[str, Any], dict[str, EvaluationMetrics]]:
-    """The leaderboard of a benchmark folder and the evaluation of each level (for the figures)."""
+def leaderboard(
+    out: str | Path, target_precision: float = DEFAULT_TARGET
+) -> tuple[dict[str, Any], dict[str, EvaluationMetrics]]:
+    """The leaderboard of a benchmark folder and the evaluation of each level (for the figures).
+
+    ``target_precision`` is the precision the deployable point's thresholds are chosen for.
+    """
+    check_target(target_precision)
     out = Path(out)
     record = read_record(out)
     edges = [float(e) for e in record["heading_edges_deg"]]
@@ -184,6 +197,7 @@ def leaderboard(out: str | Path) -> tuple[dict[str, Any], dict[str, EvaluationMe
         "overrides": list(record["overrides"]),
         "heading_edges_deg": edges,
         "half_width_bound": HALF_WIDTH_BOUND,
+        "target_precision": target_precision,
         "failed_cells": missing,
         "levels": [],
     }
@@ -200,6 +214,8 @@ def leaderboard(out: str | Path) -> tuple[dict[str, Any], dict[str, EvaluationMe
                 _cell(b.label, {k: v.heading_bins[i].stats for k, v in sets.items()})
                 for i, b in enumerate(next(iter(sets.values())).heading_bins)
             ]
+            k_values = eval_settings(out / CELLS_DIR / lv.cells[0])[0].k_values()
+            entry["deployable"] = deployable(lv.scores, list(m.methods), edges, k_values, target_precision)
         board["levels"].append(entry)
     widths = [b["max_half_width"] for e in board["levels"] for b in e.get("bins", [])]
     board["bound_met"] = bool(widths) and all(w is not None and w <= HALF_WIDTH_BOUND for w in widths) and not missing
@@ -207,10 +223,10 @@ def leaderboard(out: str | Path) -> tuple[dict[str, Any], dict[str, EvaluationMe
     return board, metrics
 
 
-def write_leaderboard(out: str | Path) -> list[Path]:
+def write_leaderboard(out: str | Path, target_precision: float = DEFAULT_TARGET) -> list[Path]:
     """Write ``leaderboard.json``, ``leaderboard.md`` and the figures; returns the paths written."""
     out = Path(out)
-    board, metrics = leaderboard(out)
+    board, metrics = leaderboard(out, target_precision)
     write_json(out / LEADERBOARD_JSON, board)
     write_text(out / LEADERBOARD_MD, leaderboard_markdown(board))
     return [out / LEADERBOARD_JSON, out / LEADERBOARD_MD, *write_benchmark_plots(board, metrics, out / "plots")]

@@ -80,6 +80,7 @@ class BenchmarkJob:
         overrides: dotted scenario overrides for every cell (realism options).
         executor: where tasks run (None: this process).
         progress: called after each planned or finished cell.
+        target_precision: precision the leaderboard's deployable thresholds are chosen for.
     """
 
     def __init__(
@@ -90,8 +91,10 @@ class BenchmarkJob:
         overrides: list[str] | None = None,
         executor: ExecutorConfig | None = None,
         progress: ProgressFn | None = None,
+        target_precision: float = 0.9,
     ) -> None:
         self.suite = suite
+        self.target_precision = target_precision
         self.out = Path(out_dir).resolve()
         self.methods = check_methods(list(methods) if methods else list(suite.methods))
         self.overrides = list(overrides or [])
@@ -252,7 +255,7 @@ class BenchmarkJob:
                 status[c.id] = "failed" if c.id in outcome.failures else "ok"
                 self._record(cells, status)
                 self.progress(n + 1, len(cells), c.id)
-        write_leaderboard(self.out)
+        write_leaderboard(self.out, self.target_precision)
         return outcome
 
     def _attempt(self, c: Cell, ex: Executor, outcome: BenchmarkOutcome) -> None:

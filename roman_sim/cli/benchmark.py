@@ -73,6 +73,14 @@ def benchmark_cmd(
     sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every cell (key=value)"),
     out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/benchmark/<suite>)"),
     plan: bool = typer.Option(False, "--plan", help="only plan the cells and print their relevant pairs"),
+    target_precision: float = typer.Option(
+        0.9,
+        "--target-precision",
+        help="precision the deployable thresholds are chosen for on the other worlds of a level, in (0, 1]",
+    ),
+    report_only: bool = typer.Option(
+        False, "--report-only", help="run nothing: re-render the leaderboard of the folder's finished cells"
+    ),
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a benchmark suite (resumable); write leaderboard.json, leaderboard.md and plots; exit 1 if a cell failed."""
@@ -80,7 +88,22 @@ def benchmark_cmd(
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
 
+    if not 0 < target_precision <= 1:
+        typer.echo(f"--target-precision: must lie in (0, 1], got {target_precision:g}", err=True)
+        raise typer.Exit(1)
     spec = load_suite(suite)
+    folder = out or Path("results") / "benchmark" / spec.name
+    if report_only:
+        from roman_sim.benchmark.board import write_leaderboard
+
+        if not (folder / "benchmark.json").is_file():
+            typer.echo(f"--report-only: no benchmark.json in {folder}; run the suite first", err=True)
+            raise typer.Exit(1)
+        write_leaderboard(folder, target_precision)
+        board = json.loads((folder / LEADERBOARD_JSON).read_text(encoding="utf-8"))
+        Console().print(_board_table(board))
+        Console().print(f"leaderboard: {folder / LEADERBOARD_MD}")
+        return
     ex = flags.config()
     lines = LineProgress()
 
@@ -90,7 +113,7 @@ def benchmark_cmd(
         else:
             lines.line(f"benchmark {spec.name}: {done} cells planned")
 
-    job = BenchmarkJob(spec, out or Path("results") / "benchmark" / spec.name, _methods(methods), sets, ex, progress)
+    job = BenchmarkJob(spec, folder, _methods(methods), sets, ex, progress, target_precision)
     if plan:
         cells, plans = job.plan_only()
         Console().print(_plan_table(cells, plans, spec.heading_edges()))

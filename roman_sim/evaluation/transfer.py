@@ -186,13 +186,16 @@ def _cluster_totals(
     o: PairOutcomes, positive: NDArray[np.bool_]
 ) -> tuple[list[str], NDArray[np.int64], NDArray[np.float64]]:
     """Per (world, robot pair): world id, and counts [tp, fp, relevant] as a (c, 3) array."""
-    keys = np.char.add(np.char.add(o.world.astype(np.str_), "\x00"), o.cluster.astype(np.str_))
-    uniq, inv = np.unique(keys, return_inverse=True)
-    tot = np.zeros((len(uniq), 3))
+    # (world, robot pair) as a tuple: a separator character inside numpy strings could be lost
+    # (numpy drops trailing NULs) and merge or split worlds
+    keys = sorted({(str(w), str(c)) for w, c in zip(o.world, o.cluster, strict=True)})
+    at = {k: i for i, k in enumerate(keys)}
+    inv = np.asarray([at[(str(w), str(c))] for w, c in zip(o.world, o.cluster, strict=True)], dtype=np.int64)
+    tot = np.zeros((len(keys), 3))
     np.add.at(tot[:, 0], inv, (positive & o.relevant & o.correct).astype(np.float64))
     np.add.at(tot[:, 1], inv, (positive & ~o.correct).astype(np.float64))
     np.add.at(tot[:, 2], inv, o.relevant.astype(np.float64))
-    worlds = [str(u).split("\x00", 1)[0] for u in uniq]
+    worlds = [w for w, _ in keys]
     return worlds, inv, tot
 
 
@@ -222,15 +225,19 @@ def world_bootstrap(
     names = sorted(set(worlds))
     members = [np.flatnonzero(np.asarray(worlds) == w) for w in names]
     rng = np.random.default_rng(seed)
+    # stage 1: (n_boot, n_worlds) drawn worlds; stage 2: for each draw slot and world, its robot
+    # pairs drawn with replacement (drawn for every world, used where that world was drawn)
+    drawn = rng.integers(0, len(names), (n_boot, len(names)))
+    n_sum = np.zeros(n_boot)
+    d_sum = np.zeros(n_boot)
+    for slot in range(len(names)):
+        for wi, mem in enumerate(members):
+            idx = mem[rng.integers(0, len(mem), (n_boot, len(mem)))]
+            use = drawn[:, slot] == wi
+            n_sum += np.where(use, num[idx].sum(axis=1), 0.0)
+            d_sum += np.where(use, den[idx].sum(axis=1), 0.0)
     ratios = np.full(n_boot, np.nan)
-    for b in range(n_boot):
-        n_sum = d_sum = 0.0
-        for wi in rng.integers(0, len(names), len(names)):
-            idx = members[wi][rng.integers(0, len(members[wi]), len(members[wi]))]
-            n_sum += float(num[idx].sum())
-            d_sum += float(den[idx].sum())
-        if d_sum > 0:
-            ratios[b] = n_sum / d_sum
+    np.divide(n_sum, d_sum, out=ratios, where=d_sum > 0)
     ok = ratios[np.isfinite(ratios)]
     if len(ok) == 0:
         return None

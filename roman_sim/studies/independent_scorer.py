@@ -654,3 +654,76 @@ def agreement(summary_run: JSONValue, scored: JSONValue, rel_tol: float = 1e-6, 
     another zlib may compress the same arrays to a few bytes more or less.
     """
     return list(_walk(summary_run, scored, "", rel_tol, map_rel_tol))
+
+
+#: One judged cross-robot row of a benchmark cell: cell, robot pair, relevant, correct, associations, heading.
+BenchRow = tuple[str, str, bool, bool, int, float]
+
+
+def _benchmark_rows(folder: Path) -> tuple[dict[str, JSONValue], dict[str, list[BenchRow]]]:
+    """``benchmark.json`` and, per (level, method) key ``level|method``, its cross-robot rows
+    (cell, robot pair, relevant, correct, associations, heading), judged from the raw columns
+    (errors ``rot_err_deg`` / ``trans_err_m`` against the cell's tolerances)."""
+    rec = json.loads((folder / "benchmark.json").read_text(encoding="utf-8"))
+    rows: dict[str, list[BenchRow]] = {}
+    for c in rec["cells"]:
+        if c["status"] != "ok":
+            continue
+        cell = folder / "cells" / c["id"]
+        cfg = read_settings(cell)
+        with _open_text(_raw(cell, "pairs.csv")) as fh:
+            for r in csv.DictReader(fh):
+                if r["kind"] != "inter":
+                    continue
+                if cfg.relevance == "shared_objects":
+                    rel = int(r["shared_objects"]) >= cfg.min_shared_objects
+                else:
+                    rel = float(r["center_dist_m"]) <= cfg.relevant_dist_m
+                ok = float(r["rot_err_deg"]) <= cfg.rot_tol_deg and float(r["trans_err_m"]) <= cfg.trans_tol_m
+                robots = "|".join(sorted((r["robot_a"], r["robot_b"])))
+                row = (c["id"], robots, rel, ok, int(r["n_assoc"]), float(r["heading_diff_deg"]))
+                rows.setdefault(f"{c['level']}|{r['method']}", []).append(row)
+    return rec, rows
+
+
+def _smallest_k(rows: Sequence[BenchRow], ks: range, target: Fraction) -> int | None:
+    """The smallest k whose precision over ``rows`` (all headings) is at least ``target`` (None: none)."""
+    for k in ks:
+        tp = sum(1 for r in rows if r[4] >= k and r[2] and r[3])
+        fp = sum(1 for r in rows if r[4] >= k and not r[3])
+        if tp + fp > 0 and tp * target.denominator >= target.numerator * (tp + fp):
+            return k
+    return None
+
+
+def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -> dict[str, JSONValue]:
+    """Held-out figures of a benchmark folder, per ``level|method``: the threshold chosen for each
+    world (cell) on the level's other worlds (smallest k of the sweep whose pooled precision over all
+    headings of their cross-robot pairs reaches ``target``), and per heading bin (and ``all``) the held-out
+    [hits, false positives, relevant] with every world scored at its own held-out threshold."""
+    folder = Path(folder)
+    rec, rows = _benchmark_rows(folder)
+    raw_edges = rec["heading_edges_deg"]
+    if not isinstance(raw_edges, list):
+        raise StorageError(f"{folder / 'benchmark.json'}: heading_edges_deg is not a list")
+    edges = [float(e) for e in raw_edges]
+    out: dict[str, JSONValue] = {}
+    for key, rs in rows.items():
+        worlds = sorted({r[0] for r in rs})
+        if len(worlds) < 2:
+            continue
+        cfg = read_settings(folder / "cells" / worlds[0])
+        ks = range(cfg.k_min, cfg.k_max + 1)
+        chosen = {w: _smallest_k([r for r in rs if r[0] != w], ks, target) for w in worlds}
+        labels = [_label(edges[i], edges[i + 1]) for i in range(len(edges) - 1)]
+        tally = {lab: [0, 0, 0] for lab in [*labels, "all"]}
+        for r in rs:
+            k = chosen[r[0]]
+            pos = k is not None and r[4] >= k
+            b = heading_bin(r[5], edges)
+            for lab in ([labels[b]] if b >= 0 else []) + ["all"]:
+                tally[lab][0] += int(pos and r[2] and r[3])
+                tally[lab][1] += int(pos and not r[3])
+                tally[lab][2] += int(r[2])
+        out[key] = {"thresholds": chosen, "bins": tally}
+    return out

@@ -82,3 +82,28 @@ def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
         for m, rows in shown[level]["max_recall"].items():
             for heading, row in zip(shown["bins"], rows, strict=True):
                 assert tuple(row[:2]) == hand[(level, heading, m)][:2], (level, heading, m)
+
+
+def test_the_deployable_point_follows_from_the_independent_scorer():
+    """Thresholds chosen on the other world of each level and the held-out counts per heading bin, as the
+    independent scorer (code of its own, the raw pairs and each cell's config) re-derives them."""
+    from fractions import Fraction
+
+    from roman_sim.studies.independent_scorer import benchmark_held_out
+
+    board = _committed()
+    target = Fraction(str(board["target_precision"]))
+    scored = benchmark_held_out(STANDARD, target)
+    checked = 0
+    for e in board["levels"]:
+        d = e["deployable"]
+        assert len(d["worlds"]) == 2 and "note" not in d, e["name"]
+        for m, ks in d["thresholds"].items():
+            own = scored[f"{e['name']}|{m}"]
+            assert own["thresholds"] == ks, (e["name"], m)
+            for cell in [*d["bins"], d["overall"]]:
+                c = cell["methods"][m]
+                got = [c["hits"], c["false_positives"], c["n_relevant"]]
+                assert own["bins"][cell["heading"]] == got, (e["name"], m, cell["heading"])
+                checked += 1
+    assert checked == 3 * 7 * len(board["methods"])

@@ -1,0 +1,89 @@
+"""The leaderboard's deployable point on constructed levels: thresholds from the other worlds, ranks by
+world intervals, the flag where precision falls short, one statement for a single world, bad targets."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from typer.testing import CliRunner
+
+from roman_sim.benchmark.deployable import deployable
+from roman_sim.cli import app
+from roman_sim.report.leaderboard import _deployable_section, deployable_readme_lines
+
+EDGES = [0.0, 90.0, 180.0]
+K = list(range(0, 21))
+
+
+def _in_world(s, world: str, robot_pair: int):
+    """``s`` as a pair of cell ``world`` (names ``<cell>:<robot>/<index>``), robots ``a`` and ``b<robot_pair>``."""
+    t = s.truth
+    return replace(s, truth=replace(t, a=f"{world}:{t.a}", b=f"{world}:{t.b}", robot_b=f"b{robot_pair}"))
+
+
+def _level(make_score):
+    """Two worlds. Method ``good``: correct pairs score 5..8, wrong ones 1..2 (k = 3 is clean everywhere).
+    Method ``leaky``: in world w0 wrong pairs score up to 4, in w1 up to 9; chosen on w0, w1 gets k = 5."""
+    scores = []
+    for w in ("w0", "w1"):
+        for i in range(20):
+            head = 30.0 if i % 2 else 120.0
+            scores.append(_in_world(make_score(f"{i}", True, 5 + i % 4, True, "good", head), w, i % 5))
+            scores.append(_in_world(make_score(f"{100 + i}", False, 1 + i % 2, False, "good", head), w, i % 5))
+            scores.append(_in_world(make_score(f"{i}", True, 6 + i % 4, True, "leaky", head), w, i % 5))
+            bad = (1 + i % 4) if w == "w0" else (6 + i % 4)
+            scores.append(_in_world(make_score(f"{100 + i}", False, bad, False, "leaky", head), w, i % 5))
+    return scores
+
+
+def test_thresholds_come_from_the_other_world_and_a_leaky_method_is_flagged(make_score) -> None:
+    d = deployable(_level(make_score), ["good", "leaky"], EDGES, K, 0.9)
+    assert d["worlds"] == ["w0", "w1"] and "note" not in d
+    assert d["thresholds"]["good"] == {"w0": 3, "w1": 3}
+    # leaky: chosen on w1 (wrong pairs up to 9) no k reaches 0.9 (None: w0 accepts nothing); on w0, k = 5
+    assert d["thresholds"]["leaky"] == {"w0": None, "w1": 5}
+    good, leaky = d["overall"]["methods"]["good"], d["overall"]["methods"]["leaky"]
+    assert (good["hits"], good["false_positives"], good["n_relevant"]) == (40, 0, 40)
+    # w0: nothing accepted; w1 at k = 5: its 20 correct pairs and its 20 wrong ones (scores 6..9)
+    assert (leaky["hits"], leaky["false_positives"], leaky["n_relevant"]) == (20, 20, 40)
+    assert d["transfers"] == {"good": True, "leaky": False}
+    assert good["recall_worlds"] == [1.0, 1.0]
+    # leaky's world interval [0, 1] reaches good's: tied, though the pooled Wilson intervals separate
+    assert d["overall"]["ranks"] == {"good": {"rank": 1, "tied": True}, "leaky": {"rank": 1, "tied": True}}
+    assert leaky["recall_wilson"][1] < good["recall_wilson"][0]
+    # recall 0 in w0 and 1 in w1: the world bootstrap spans both, far wider than the pooled Wilson interval
+    lo, hi = leaky["recall_worlds"]
+    wlo, whi = leaky["recall_wilson"]
+    assert lo == 0.0 and hi == 1.0 and hi - lo > 2 * (whi - wlo)
+    assert [b["heading"] for b in d["bins"]] == ["0-90", "90-180"]
+    assert sum(b["methods"]["good"]["n_relevant"] for b in d["bins"]) == 40
+    board = {"target_precision": 0.9, "methods": ["good", "leaky"], "levels": []}
+    board["levels"] = [{"name": "one", "knob": 0.0, "deployable": d, "overall": {"methods": {}}}]
+    md = "\n".join(_deployable_section(board))
+    assert "w0: none, w1: 5" in md and "**short**" in md
+    assert "tied 1 good 1.00 (40/40, P 1.00); tied 1 leaky 0.50 (20/40, P 0.50, short of the target)" in "\n".join(
+        deployable_readme_lines(board)
+    )
+
+
+def test_a_level_with_one_world_says_held_out_figures_need_two(make_score) -> None:
+    one = [s for s in _level(make_score) if s.truth.a.startswith("w0:")]
+    d = deployable(one, ["good", "leaky"], EDGES, K, 0.9)
+    assert d == {
+        "target_precision": 0.9,
+        "worlds": ["w0"],
+        "note": "held-out figures need at least two worlds (seeds) to choose a threshold on others; this level has 1",
+    }
+    board = {"target_precision": 0.9, "methods": ["good"], "levels": [{"name": "one", "knob": 0.0, "deployable": d}]}
+    assert "No held-out figures: held-out figures need at least two worlds" in "\n".join(_deployable_section(board))
+
+
+def test_a_target_precision_outside_the_unit_interval_fails_in_one_line(tmp_path) -> None:
+    for bad in ("0", "1.5", "-0.2"):
+        res = CliRunner().invoke(app, ["benchmark", "quick", "--report-only", "--target-precision", bad])
+        assert res.exit_code == 1, res.output
+        assert [x for x in res.output.splitlines() if x.strip()] == [
+            f"--target-precision: must lie in (0, 1], got {float(bad):g}"
+        ]
+    res = CliRunner().invoke(app, ["benchmark", "quick", "--report-only", "--out", str(tmp_path)])
+    assert res.exit_code == 1 and res.output.strip().startswith("--report-only: no benchmark.json in")
