@@ -663,7 +663,7 @@ BenchRow = tuple[str, str, bool, bool, int, float]
 def _benchmark_rows(folder: Path) -> tuple[dict[str, JSONValue], dict[str, list[BenchRow]]]:
     """``benchmark.json`` and, per (level, method) key ``level|method``, its cross-robot rows
     (cell, robot pair, relevant, correct, associations, heading), judged from the raw columns
-    (errors ``rot_err_deg`` / ``trans_err_m`` against the cell's tolerances)."""
+    (errors ``rot_err_deg`` / ``trans_err_m`` against the cell's tolerances; empty: no estimate)."""
     rec = json.loads((folder / "benchmark.json").read_text(encoding="utf-8"))
     rows: dict[str, list[BenchRow]] = {}
     for c in rec["cells"]:
@@ -679,7 +679,8 @@ def _benchmark_rows(folder: Path) -> tuple[dict[str, JSONValue], dict[str, list[
                     rel = int(r["shared_objects"]) >= cfg.min_shared_objects
                 else:
                     rel = float(r["center_dist_m"]) <= cfg.relevant_dist_m
-                ok = float(r["rot_err_deg"]) <= cfg.rot_tol_deg and float(r["trans_err_m"]) <= cfg.trans_tol_m
+                rot, trans = (float(r[f] or "nan") for f in ("rot_err_deg", "trans_err_m"))
+                ok = rot <= cfg.rot_tol_deg and trans <= cfg.trans_tol_m  # no estimate (NaN): not correct
                 robots = "|".join(sorted((r["robot_a"], r["robot_b"])))
                 row = (c["id"], robots, rel, ok, int(r["n_assoc"]), float(r["heading_diff_deg"]))
                 rows.setdefault(f"{c['level']}|{r['method']}", []).append(row)
