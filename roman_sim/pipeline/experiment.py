@@ -11,7 +11,7 @@ runs needs its output. Wall-clock
 figures (per stage and per pair) go to ``timings.json``, never into the other outputs.
 
 The scenario is resolved first (every aligner's, segmenter's and encoder's parameters with
-their defaults, ``roman_sim.pipeline.components``): ``config.yaml`` records it and the
+their defaults, ``roman_sim.pipeline.resolve``): ``config.yaml`` records it and the
 stages' keys hash it with the fingerprint of the code each stage runs. A stage its folder
 does not hold is taken from the shared stage cache when another run computed it with the
 same key (``roman_sim.pipeline.stagecache``), and every completed stage is stored there.
@@ -110,7 +110,7 @@ class Experiment:
         protocol and called once on a tiny synthetic input (``roman_sim.core.plugins``), so a
         broken one fails here in one line instead of after the expensive stages.
         """
-        from roman_sim.pipeline.components import resolve_scenario
+        from roman_sim.pipeline.resolve import resolve_scenario
 
         self.scenario = resolve_scenario(self.scenario)
         if self.submaps_dir is None:

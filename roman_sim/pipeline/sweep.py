@@ -65,8 +65,8 @@ def _run_one(
 
 def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
     """Whether the cell's run completed with exactly the cell's resolved configuration."""
-    from roman_sim.pipeline.components import resolve_scenario
     from roman_sim.pipeline.manifest import existing_manifest
+    from roman_sim.pipeline.resolve import resolve_scenario
     from roman_sim.pipeline.scenario import load_scenario
 
     man = existing_manifest(run_dir)

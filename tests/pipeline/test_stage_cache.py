@@ -68,7 +68,7 @@ _KEYS = """
 import json, sys
 import roman_sim
 assert roman_sim.__file__.startswith(sys.argv[1]), roman_sim.__file__
-from roman_sim.pipeline.components import resolve_scenario
+from roman_sim.pipeline.resolve import resolve_scenario
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stages import STAGES
@@ -101,7 +101,7 @@ def test_editing_a_module_changes_the_keys_of_the_stages_that_run_it(tmp_path):
         "roman_sim/mapping/submap.py": ["ate", "evaluation", "posegraph", "report", "submaps"],
         "roman_sim/report/markdown.py": ["report"],
         "roman_sim/runner/dask_executor.py": [],  # where tasks run, not what they compute
-        "roman_sim/pipeline/components.py": [],  # its results are hashed by value
+        "roman_sim/pipeline/resolve.py": [],  # its results are hashed by value
     }
     out = subprocess.run(
         [sys.executable, "-c", _KEYS, str(pkg), *edits],

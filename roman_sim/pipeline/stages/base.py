@@ -11,7 +11,7 @@ A stage is a ``Stage[InputsT, OutputT]`` subclass:
   from it.
 - ``config_parts``: the scenario sections (JSON-ready) its output depends on, as the run
   resolved them (every component's parameters with their defaults filled in,
-  ``roman_sim.pipeline.components``). The cache key hashes them with the package version,
+  ``roman_sim.pipeline.resolve``). The cache key hashes them with the package version,
   the stage's name, its ``format``, its inputs' keys and the fingerprint of its code
   (``code_fingerprint``), so a change anywhere upstream, a changed default or a change to
   code the stage runs recomputes it. Bump ``format`` when the files ``save`` writes
@@ -62,14 +62,14 @@ from roman_sim.runner.taskrunner import TaskRunner
 if TYPE_CHECKING:
     from _typeshed import DataclassInstance
 
-    from roman_sim.pipeline.components import ComponentKind
+    from roman_sim.pipeline.resolve import ComponentKind
 
 #: Modules no code fingerprint includes or follows: the run machinery (where and how tasks run,
 #: checkpoints, progress), which does not decide what a stage computes, and the resolution of
 #: the scenario's components, whose results reach the keys by value (``config_parts``).
 NOT_FINGERPRINTED: tuple[str, ...] = (
     "roman_sim.runner",
-    "roman_sim.pipeline.components",
+    "roman_sim.pipeline.resolve",
     "roman_sim.pipeline.context",
     "roman_sim.pipeline.folder_lock",
     "roman_sim.pipeline.plugin_guard",
@@ -153,7 +153,7 @@ class Stage(ABC, Generic[InputsT, OutputT]):
 
     def code_roots(self, ctx: RunContext) -> list[str]:
         """The modules the code fingerprint starts from: its own, ``code`` and its components'."""
-        from roman_sim.pipeline.components import component_modules
+        from roman_sim.pipeline.resolve import component_modules
 
         roots = [type(self).__module__, *self.code]
         for kind in self.components:
