@@ -106,7 +106,7 @@ def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
             sc = load_scenario(name, sets)
             res = experiment.Experiment(sc, Path(d) / name, fresh=True, executor=ExecutorConfig(kind="serial")).run()
             summary = {"pairs": res.metrics.n_pairs, "segments": res.map_stats.segments}
-            summary["summary"] = res.metrics_summary()
+            summary["summary"] = res.summary().to_json()
     finally:
         experiment.Experiment._run_stage, maps.map_one = run_stage, map_one
     return {"stages_cpu_s": stages, "robots_cpu_s": robots, **summary}

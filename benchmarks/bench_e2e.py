@@ -54,7 +54,7 @@ def run_one(name: str, overrides: list[str] | None = None) -> dict:
         "segments": res.map_stats.segments,
         "submaps": res.map_stats.submaps,
         "pairs": res.metrics.n_pairs,
-        "summary": res.metrics_summary(),
+        "summary": res.summary().to_json(),
         "frontend": res.metrics.frontend,
     }
 

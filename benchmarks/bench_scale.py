@@ -56,7 +56,7 @@ def _run(
     t0 = time.perf_counter()
     res = Experiment(sc, run_dir, fresh=fresh, executor=executor, from_stage=from_stage).run()
     total = time.perf_counter() - t0
-    s = res.metrics_summary()
+    s = res.summary()
     km = res.map_stats.trajectory_km
     return {
         "scenario": name,
@@ -71,8 +71,8 @@ def _run(
             m: {k: v for k, v in a.items() if k != "per_pair_s"}
             for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()
         },
-        "ate": s["ate"],
-        "methods": s["methods"],
+        "ate": {k: a.to_json() for k, a in s.ate.items()},
+        "methods": {k: m.to_json() for k, m in s.methods.items()},
         "cross_robot": _cross_robot(res),
         "posegraph": _posegraph(res.run_dir),
     }

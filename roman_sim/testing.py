@@ -36,6 +36,7 @@ from typing import Any, cast
 import numpy as np
 
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
@@ -339,20 +340,13 @@ def assert_not_worse(
     raise AssertionError(f"{said}: this sample cannot show it is not worse; it would need {need}")
 
 
-def benchmark_pins(board: Mapping[str, Any], method: str, point: str = "max_recall") -> dict[str, tuple[int, int]]:
+def benchmark_pins(board: Leaderboard, method: str, point: str = "max_recall") -> dict[str, tuple[int, int]]:
     """``{"<level>/<heading bin>": (hits, relevant)}`` of ``method`` in a leaderboard (``"<level>/all"`` too)."""
-    method = method_label(method)
-    out = {}
-    for e in board["levels"]:
-        for cell in [*e.get("bins", []), *([e["overall"]] if e.get("overall") else [])]:
-            p = cell["methods"].get(method, {}).get(point)
-            if p is not None:
-                out[f"{e['name']}/{cell['heading']}"] = (int(p["hits"]), int(p["n_relevant"]))
-    return out
+    return {cell: (p.hits, p.n_relevant) for cell, p in board.cells_of(method_label(method), point).items()}
 
 
 def check_benchmark(
-    board: Mapping[str, Any],
+    board: Leaderboard,
     method: str,
     pinned: Mapping[str, tuple[int, int]],
     tolerance: float = 0,
@@ -365,7 +359,7 @@ def check_benchmark(
     have = benchmark_pins(board, method, point)
     if not have:
         raise ConfigError(
-            f"method {method_label(method)!r} is not in this leaderboard (methods: {', '.join(board['methods'])})"
+            f"method {method_label(method)!r} is not in this leaderboard (methods: {', '.join(board.methods)})"
         )
     failures = []
     for cell, pin in pins.items():
@@ -386,7 +380,7 @@ def assert_benchmark(
     point: str = "max_recall",
     out: str | Path | None = None,
     executor: Any = None,
-) -> dict[str, Any]:
+) -> Leaderboard:
     """Run (or reuse) benchmark ``suite`` with ``method`` alone and pin its leaderboard cells.
 
     Args:
@@ -404,8 +398,6 @@ def assert_benchmark(
     Returns:
         The leaderboard (``leaderboard.json``), to print or pin more cells from.
     """
-    import json
-
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
 
@@ -415,9 +407,9 @@ def assert_benchmark(
     folder = Path(out) if out is not None else Path("results") / "benchmark" / f"{spec.name}-{method_label(method)}"
     outcome = BenchmarkJob(spec, folder, [method], executor=executor).run()
     assert not outcome.failures, f"benchmark {spec.name}: cells failed: {outcome.failures}"
-    board = json.loads((outcome.out_dir / "leaderboard.json").read_text(encoding="utf-8"))
+    board = read_leaderboard(outcome.out_dir / "leaderboard.json")
     check_benchmark(board, method, pinned, tolerance, point)
-    return dict(board)
+    return board
 
 
 def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", alignment: str = "se3") -> None:

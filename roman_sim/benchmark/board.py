@@ -3,7 +3,7 @@
 Every finished cell's ``pairs.csv.gz`` is read back, relevance and correctness are
 re-derived from the raw columns with the cell's ``config.yaml`` (``report.recompute.rederive_scores``), and
 the pairs of all cells of one ambiguity level are pooled (pair names prefixed with the
-cell). The evaluation's own ``metrics.summary`` then scores each level with the suite's
+cell). The evaluation's own ``metrics.compute_metrics`` then scores each level with the suite's
 heading bins: per method and cell (level x heading bin) the operating points (max recall
 with its precision, recall at precision >= 0.9 and 1, recall at the pose graph's
 acceptance threshold), each with counts and a Wilson interval. In each cell the methods
@@ -39,10 +39,11 @@ from roman_sim.benchmark.cells import (
     RUNTIMES_JSON,
 )
 from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.jsontypes import read_record as read_json_record
-from roman_sim.evaluation.metrics import PairScore, summary
-from roman_sim.evaluation.operating_points import POINT_NAMES
+from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard, MethodRuntime, write_leaderboard_json
+from roman_sim.evaluation.metrics import PairScore, compute_metrics
+from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
 from roman_sim.evaluation.ranking import rank_by_intervals
 from roman_sim.evaluation.results import read_pairs_csv
 from roman_sim.evaluation.transfer import check_target
@@ -55,7 +56,6 @@ log = logging.getLogger(__name__)
 
 LEADERBOARD_JSON = "leaderboard.json"
 LEADERBOARD_MD = "leaderboard.md"
-LEADERBOARD_SCHEMA = "roman_sim.leaderboard/1"
 #: Widest interval half-width the standard suite promises in every cell.
 HALF_WIDTH_BOUND = 0.1
 
@@ -119,35 +119,28 @@ def level_metrics(out: Path, lv: Level, edges: list[float]) -> EvaluationMetrics
     """The evaluation of one level's pooled pairs over the suite's heading bins."""
     cfg, _ = eval_settings(out / CELLS_DIR / lv.cells[0])
     cfg = cfg.model_copy(update={"heading_bins_deg": list(edges)})
-    return summary(lv.scores, cfg, 0, lv.acceptance_k)
+    return compute_metrics(lv.scores, cfg, 0, lv.acceptance_k)
 
 
-def _points(s: CurveStats) -> dict[str, Any]:
-    return {n: (None if s.operating_points.get(n) is None else s.operating_points[n].to_json()) for n in POINT_NAMES}  # type: ignore[union-attr]
-
-
-def _cell(label: str, stats: dict[str, CurveStats]) -> dict[str, Any]:
+def _cell(label: str, stats: dict[str, CurveStats]) -> BoardCell:
     """One leaderboard cell: per method its operating points, and the ranks by interval."""
     first = next(iter(stats.values()))
-    out: dict[str, Any] = {
-        "heading": label,
-        "n_pairs": first.n_pairs,
-        "n_relevant": first.n_relevant,
-        "methods": {m: _points(s) for m, s in stats.items()},
-        "ranks": {},
+    methods = {m: {n: s.operating_points.get(n) for n in POINT_NAMES} for m, s in stats.items()}
+    ranks = {
+        point: rank_by_intervals({m: (None if p is None else p.recall_ci) for m, p in _at(stats, point).items()})
+        for point in RANKED
     }
-    for point in RANKED:
-        got = {m: s.operating_points.get(point) for m, s in stats.items()}
-        cis = {m: (None if p is None else p.recall_ci) for m, p in got.items()}
-        out["ranks"][point] = {m: {"rank": r.rank, "tied": r.tied} for m, r in rank_by_intervals(cis).items()}
     halves = [
-        (p["recall_ci"][1] - p["recall_ci"][0]) / 2
-        for pts in out["methods"].values()
+        (p.recall_ci[1] - p.recall_ci[0]) / 2
+        for pts in methods.values()
         for p in pts.values()
-        if p is not None and p["recall_ci"] is not None
+        if p is not None and p.recall_ci is not None
     ]
-    out["max_half_width"] = max(halves) if halves else None
-    return out
+    return BoardCell(label, first.n_pairs, first.n_relevant, methods, ranks, max(halves) if halves else None)
+
+
+def _at(stats: dict[str, CurveStats], point: str) -> dict[str, OperatingPoint | None]:
+    return {m: s.operating_points.get(point) for m, s in stats.items()}
 
 
 def _ambiguity_index(scores: list[PairScore]) -> float | None:
@@ -156,7 +149,7 @@ def _ambiguity_index(scores: list[PairScore]) -> float | None:
     return sum(finite) / len(finite) if finite else None
 
 
-def _runtime(levels: dict[str, Level]) -> dict[str, Any]:
+def _runtime(levels: dict[str, Level]) -> dict[str, MethodRuntime]:
     """Per method: pairs timed and the mean (exact over cells), the median and p90 of the cells' medians / p90s."""
     per: dict[str, list[dict[str, Any]]] = {}
     for lv in levels.values():
@@ -167,19 +160,46 @@ def _runtime(levels: dict[str, Level]) -> dict[str, Any]:
     out = {}
     for m, sts in sorted(per.items()):
         n = sum(int(s["n"]) for s in sts)
-        out[m] = {
-            "n": n,
-            "mean_s": sum(float(s["mean"]) * int(s["n"]) for s in sts) / n,
-            "cell_medians_s": [float(s["median"]) for s in sts],
-            "cell_p10_s": [s.get("p10") for s in sts],
-            "cell_p90_s": [float(s["p90"]) for s in sts],
-        }
+        out[m] = MethodRuntime(
+            n=n,
+            mean_s=sum(float(s["mean"]) * int(s["n"]) for s in sts) / n,
+            cell_medians_s=[float(s["median"]) for s in sts],
+            cell_p10_s=[s.get("p10") for s in sts],
+            cell_p90_s=[float(s["p90"]) for s in sts],
+        )
     return out
+
+
+def _level(
+    out: Path, lv: Level, edges: list[float], target_precision: float
+) -> tuple[BoardLevel, EvaluationMetrics | None]:
+    """One level's leaderboard entry and its evaluation (None before a cell of it finished)."""
+    if not lv.cells:
+        return BoardLevel(lv.name, lv.knob, lv.cells, lv.acceptance_k), None
+    m = level_metrics(out, lv, edges)
+    sets = {meth: mm.set("inter") for meth, mm in m.methods.items()}
+    bins = [
+        _cell(b.label, {k: v.heading_bins[i].stats for k, v in sets.items()})
+        for i, b in enumerate(next(iter(sets.values())).heading_bins)
+    ]
+    k_values = eval_settings(out / CELLS_DIR / lv.cells[0])[0].k_values()
+    entry = BoardLevel(
+        lv.name,
+        lv.knob,
+        lv.cells,
+        lv.acceptance_k,
+        ambiguity_index=_ambiguity_index(lv.scores),
+        interval_level=m.config["interval_level"],
+        overall=_cell("all", {k: v.overall for k, v in sets.items()}),
+        bins=bins,
+        deployable=deployable(lv.scores, list(m.methods), edges, k_values, target_precision),
+    )
+    return entry, m
 
 
 def leaderboard(
     out: str | Path, target_precision: float = DEFAULT_TARGET
-) -> tuple[dict[str, Any], dict[str, EvaluationMetrics]]:
+) -> tuple[Leaderboard, dict[str, EvaluationMetrics]]:
     """The leaderboard of a benchmark folder and the evaluation of each level (for the figures).
 
     ``target_precision`` is the precision the deployable point's thresholds are chosen for.
@@ -189,37 +209,26 @@ def leaderboard(
     record = read_record(out)
     edges = [float(e) for e in record["heading_edges_deg"]]
     levels, missing = load_levels(out, record)
-    board: dict[str, Any] = {
-        "schema": LEADERBOARD_SCHEMA,
-        "suite": record["suite"],
-        "description": record["suite_spec"].get("description", ""),
-        "methods": list(record["methods"]),
-        "overrides": list(record["overrides"]),
-        "heading_edges_deg": edges,
-        "half_width_bound": HALF_WIDTH_BOUND,
-        "target_precision": target_precision,
-        "failed_cells": missing,
-        "levels": [],
-    }
-    metrics: dict[str, EvaluationMetrics] = {}
+    entries, metrics = [], {}
     for name, lv in levels.items():
-        entry: dict[str, Any] = {"name": name, "knob": lv.knob, "cells": lv.cells, "acceptance_k": lv.acceptance_k}
-        if lv.cells:
-            m = metrics[name] = level_metrics(out, lv, edges)
-            sets = {meth: mm.set("inter") for meth, mm in m.methods.items()}
-            entry["ambiguity_index"] = _ambiguity_index(lv.scores)
-            entry["interval_level"] = m.config["interval_level"]
-            entry["overall"] = _cell("all", {k: v.overall for k, v in sets.items()})
-            entry["bins"] = [
-                _cell(b.label, {k: v.heading_bins[i].stats for k, v in sets.items()})
-                for i, b in enumerate(next(iter(sets.values())).heading_bins)
-            ]
-            k_values = eval_settings(out / CELLS_DIR / lv.cells[0])[0].k_values()
-            entry["deployable"] = deployable(lv.scores, list(m.methods), edges, k_values, target_precision)
-        board["levels"].append(entry)
-    widths = [b["max_half_width"] for e in board["levels"] for b in e.get("bins", [])]
-    board["bound_met"] = bool(widths) and all(w is not None and w <= HALF_WIDTH_BOUND for w in widths) and not missing
-    board["runtime"] = _runtime(levels)
+        entry, m = _level(out, lv, edges, target_precision)
+        entries.append(entry)
+        if m is not None:
+            metrics[name] = m
+    widths = [b.max_half_width for e in entries for b in e.bins]
+    board = Leaderboard(
+        suite=record["suite"],
+        description=record["suite_spec"].get("description", ""),
+        methods=list(record["methods"]),
+        overrides=list(record["overrides"]),
+        heading_edges_deg=edges,
+        half_width_bound=HALF_WIDTH_BOUND,
+        failed_cells=missing,
+        levels=entries,
+        bound_met=bool(widths) and all(w is not None and w <= HALF_WIDTH_BOUND for w in widths) and not missing,
+        runtime=_runtime(levels),
+        target_precision=target_precision,
+    )
     return board, metrics
 
 
@@ -227,6 +236,6 @@ def write_leaderboard(out: str | Path, target_precision: float = DEFAULT_TARGET)
     """Write ``leaderboard.json``, ``leaderboard.md`` and the figures; returns the paths written."""
     out = Path(out)
     board, metrics = leaderboard(out, target_precision)
-    write_json(out / LEADERBOARD_JSON, board)
+    write_leaderboard_json(out / LEADERBOARD_JSON, board)
     write_text(out / LEADERBOARD_MD, leaderboard_markdown(board))
     return [out / LEADERBOARD_JSON, out / LEADERBOARD_MD, *write_benchmark_plots(board, metrics, out / "plots")]

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -13,6 +12,9 @@ from rich.table import Table
 from roman_sim.cli import _executor as X
 from roman_sim.cli import app
 from roman_sim.cli.progress import LineProgress
+
+if TYPE_CHECKING:
+    from roman_sim.evaluation.leaderboard import Leaderboard
 
 
 def _methods(values: list[str] | None) -> list[str] | None:
@@ -42,21 +44,17 @@ def _plan_table(cells: list[Any], plans: dict[str, Any], edges: list[float]) -> 
     return t
 
 
-def _board_table(board: dict[str, Any]) -> Table:
-    t = Table(title=f"benchmark {board['suite']}: max recall / recall at P>=0.9 over all heading bins, per level")
+def _board_table(board: Leaderboard) -> Table:
+    t = Table(title=f"benchmark {board.suite}: max recall / recall at P>=0.9 over all heading bins, per level")
     t.add_column("method")
-    levels = [e for e in board["levels"] if e.get("overall")]
-    for e in levels:
-        t.add_column(e["name"], justify="right")
-    for m in board["methods"]:
+    levels = [e.overall for e in board.finished_levels() if e.overall is not None]
+    for e in board.finished_levels():
+        t.add_column(e.name, justify="right")
+    for m in board.methods:
         row = [m]
-        for e in levels:
-            pts = e["overall"]["methods"].get(m)
-            if pts is None:
-                row.append("failed")
-                continue
-            a, b = pts["max_recall"], pts["precision_90"]
-            row.append(f"{a['hits']}/{a['n_relevant']} / {b['hits']}/{b['n_relevant']}")
+        for cell in levels:
+            a, b = cell.point(m, "max_recall"), cell.point(m, "precision_90")
+            row.append("failed" if a is None or b is None else f"{a.hits}/{a.n_relevant} / {b.hits}/{b.n_relevant}")
         t.add_row(*row)
     return t
 
@@ -87,6 +85,7 @@ def benchmark_cmd(
     from roman_sim.benchmark.board import LEADERBOARD_JSON, LEADERBOARD_MD
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
+    from roman_sim.evaluation.leaderboard import read_leaderboard
 
     if not 0 < target_precision <= 1:
         typer.echo(f"--target-precision: must lie in (0, 1], got {target_precision:g}", err=True)
@@ -119,8 +118,7 @@ def benchmark_cmd(
         Console().print(_plan_table(cells, plans, spec.heading_edges()))
         return
     outcome = job.run()
-    board = json.loads((outcome.out_dir / LEADERBOARD_JSON).read_text(encoding="utf-8"))
-    Console().print(_board_table(board))
+    Console().print(_board_table(read_leaderboard(outcome.out_dir / LEADERBOARD_JSON)))
     Console().print(f"leaderboard: {outcome.out_dir / LEADERBOARD_MD}")
     if outcome.failures:
         for c, err in outcome.failures.items():

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -17,6 +17,10 @@ from roman_sim.cli import app
 from roman_sim.cli.listing import LISTINGS
 from roman_sim.cli.progress import LineProgress, StageTracker, interactive, rich_progress
 from roman_sim.core.errors import RomanSimError, RunFolderBusy, StorageError
+
+if TYPE_CHECKING:
+    from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
+    from roman_sim.pipeline.result import RunResult
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -61,48 +65,48 @@ def _fmt(v: Any, digits: int = 2) -> str:
     return fmt(v, digits)
 
 
-def _recall_cell(d: dict[str, Any], min_n: int, undefined: bool = False) -> str:
+def _recall_cell(max_recall: float | None, hits: int, n_relevant: int, min_n: int, undefined: bool = False) -> str:
     """``0.77 33/43`` (``n<5 1/2`` for small sets, ``n/a`` without relevant pairs, ``undefined``: nothing to align)."""
     if undefined:
         return "undefined"
-    if not d["n_relevant"] or d["max_recall"] is None:
+    if not n_relevant or max_recall is None:
         return "n/a"
-    if d["n_relevant"] < min_n:
-        return f"n<{min_n} {d['max_hits']}/{d['n_relevant']}"
-    return f"{d['max_recall']:.2f} {d['max_hits']}/{d['n_relevant']}"
+    if n_relevant < min_n:
+        return f"n<{min_n} {hits}/{n_relevant}"
+    return f"{max_recall:.2f} {hits}/{n_relevant}"
 
 
-def _recall_tables(s: dict[str, Any], kind: str, label: str, min_n: int, undefined: bool = False) -> list[Table]:
+def _recall(r: RecallSummary, min_n: int, undefined: bool) -> str:
+    return _recall_cell(r.max_recall, r.max_hits, r.n_relevant, min_n, undefined)
+
+
+def _recall_tables(s: RunSummary, kind: str, label: str, min_n: int, undefined: bool = False) -> list[Table]:
     """Two tables that fit 80 columns: the overall figures and runtime, then max recall per heading bin.
 
     ``undefined``: the submaps held nothing to align, so every recall cell is undefined.
     """
     from rich import box
 
-    first = next(iter(s["methods"].values()))[kind]
+    first = next(iter(s.methods.values())).set(kind)
     overall = Table(title=f"{label} pairs: recall (hits/relevant) and median ms per pair", box=box.SIMPLE_HEAD)
     bins = Table(title=f"{label} pairs: max recall (hits/relevant) per heading bin", box=box.SIMPLE_HEAD)
     overall.add_column("method", no_wrap=True)
     bins.add_column("method", no_wrap=True)
     for col in ("max R", "R@P=1", "F1", "ms"):
         overall.add_column(col, justify="right", no_wrap=True)
-    for b in first["bins"]:
+    for b in first.bins:
         bins.add_column(f"{b} deg", justify="right", no_wrap=True)
-    for name, m in s["methods"].items():
-        k = m[kind]
-        ms = None if m["runtime_median_s"] is None else m["runtime_median_s"] * 1000
-        p1 = {
-            "max_recall": k["recall_at_precision_1"],
-            "max_hits": k["hits_at_precision_1"],
-            "n_relevant": k["n_relevant"],
-        }
-        f1 = "undefined" if undefined else _fmt(k["best_f1"])
-        overall.add_row(name, _recall_cell(k, min_n, undefined), _recall_cell(p1, min_n, undefined), f1, _fmt(ms, 1))
-        bins.add_row(name, *[_recall_cell(b, min_n, undefined) for b in k["bins"].values()])
+    for name, m in s.methods.items():
+        k = m.set(kind)
+        ms = None if m.runtime_median_s is None else m.runtime_median_s * 1000
+        p1 = _recall_cell(k.recall_at_precision_1, k.hits_at_precision_1, k.n_relevant, min_n, undefined)
+        f1 = "undefined" if undefined else _fmt(k.best_f1)
+        overall.add_row(name, _recall(k, min_n, undefined), p1, f1, _fmt(ms, 1))
+        bins.add_row(name, *[_recall(b, min_n, undefined) for b in k.bins.values()])
     return [overall, bins]
 
 
-def print_summary(result: Any) -> None:
+def print_summary(result: RunResult) -> None:
     """The summary tables: recall (hits/relevant) per heading bin per method for cross-robot and
     same-robot pairs, runtime; ATE over the same robots; map size."""
     from rich import box
@@ -111,14 +115,14 @@ def print_summary(result: Any) -> None:
     from roman_sim.evaluation.types import PAIR_SET_LABELS
     from roman_sim.report.lead import lead_paragraph
 
-    s = result.metrics_summary()
+    s = result.summary()
     empty = NO_SEGMENTS_NOTE in result.metrics.notes  # nothing to align (the lead says so): figures undefined, not 0
     cfg = result.metrics.config
     out = Console()
     cap = (
         "no distance cap"
         if cfg["max_pair_dist_m"] is None
-        else (f"distance cap {cfg['max_pair_dist_m']:g} m: {s['n_skipped']} pairs skipped")
+        else (f"distance cap {cfg['max_pair_dist_m']:g} m: {s.n_skipped} pairs skipped")
     )
     out.print(
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
@@ -126,34 +130,30 @@ def print_summary(result: Any) -> None:
     )
     for line in lead_paragraph(result.metrics, result.ate, markdown=False):
         out.print(line, markup=False, highlight=False)
-    kinds = [s["headline"]] + [k for k in ("inter", "intra") if k != s["headline"]]
+    kinds = [s.headline] + [k for k in ("inter", "intra") if k != s.headline]
     for kind in kinds:
-        if s["methods"] and s["pairs"][kind]["n_pairs"]:
-            label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s["headline"] else "")
+        if s.methods and s.pairs[kind]["n_pairs"]:
+            label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s.headline else "")
             for table in _recall_tables(s, kind, label, int(cfg["min_relevant"]), empty):
                 out.print(table)
-    if s["ate"]:
-        common = ", ".join(s["ate_robots"]["common"]) or "none"
+    if s.ate and s.ate_robots is not None:
+        robots, common = s.ate_robots
         a = Table(
-            title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({common}) and over all "
-            f"{len(s['ate_robots']['robots'])}",
+            title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({', '.join(common) or 'none'}) "
+            f"and over all {len(robots)}",
             box=box.SIMPLE_HEAD,
         )
         for col in ("trajectory", "placed", "common", "all robots"):
             a.add_column(col, justify="left" if col == "trajectory" else "right")
-        n = len(s["ate_robots"]["robots"])
-        for k, v in s["ate"].items():
-            a.add_row(
-                k,
-                f"{v['connected']}/{n}",
-                _fmt(v["common"]),
-                _fmt(v["all"]) if v["connected"] == n else "not connected",
-            )
+        n = len(robots)
+        for k, v in s.ate.items():
+            a.add_row(k, f"{v.connected}/{n}", _fmt(v.common), _fmt(v.all) if v.connected == n else "not connected")
         out.print(a)
-    mp = s["map"]
+    mp = s.map
     out.print(
-        f"map: {mp.get('segments')} segments, {mp.get('submaps')} submaps, "
-        f"{_fmt(mp.get('kb_per_submap'), 1)} KB/submap, {_fmt(mp.get('mb_per_km'))} MB/km"
+        f"map: {None if mp is None else mp.segments} segments, {None if mp is None else mp.submaps} submaps, "
+        f"{_fmt(None if mp is None else mp.kb_per_submap, 1)} KB/submap, "
+        f"{_fmt(None if mp is None else mp.mb_per_km)} MB/km"
     )
     for note in result.notes:
         out.print(f"[yellow]note:[/yellow] {note}")
@@ -328,7 +328,7 @@ def report_cmd(
 ) -> None:
     """Print the summary of a finished run or sweep (an incomplete run is an error naming its missing stages)."""
     from roman_sim.pipeline.result import RunResult
-    from roman_sim.pipeline.sweep_summary import SWEEP_JSON, print_sweep_summary
+    from roman_sim.pipeline.sweep_aggregate import SWEEP_JSON, print_sweep_aggregate
 
     if rewrite:
         from roman_sim.studies.reference import rewrite_report
@@ -336,7 +336,7 @@ def report_cmd(
         Console().print(f"rewrote {rewrite_report(run_dir)}")
 
     if (run_dir / SWEEP_JSON).is_file():
-        print_sweep_summary(run_dir, Console())
+        print_sweep_aggregate(run_dir, Console())
         return
     # reference results keep the raw data compressed and no maps: verify them, nothing to summarise
     compressed = not (run_dir / "pairs.csv").is_file() and (run_dir / "pairs.csv.gz").is_file()

@@ -33,7 +33,7 @@ def _spec(preset: str, sets: list[str] | None) -> "WorldSpec":
     return validate_model(WorldSpec, apply_overrides(spec.model_dump(mode="json"), sets), preset)
 
 
-def _summary(world: "World", where: Path) -> None:
+def _print_world(world: "World", where: Path) -> None:
     counts = Counter(o.family for o in world.truth.objects)
     requested = {f: pr[1] for f, pr in world.truth.meta.get("placed_requested", {}).items()}
     table = Table("family", "objects", "requested", title=f"{world.spec.name} (seed {world.seed}) -> {where}")
@@ -58,7 +58,7 @@ def generate_cmd(
     output_folder(out, "--out", create=False)
     world = generate(spec, seed)
     xml = export_world(world, out)
-    _summary(world, xml)
+    _print_world(world, xml)
 
 
 @world_app.command("preview")

@@ -16,7 +16,8 @@ truth or arbitrary, so it is not scored; instead:
 A variant's ``fit`` says how its trajectories are aligned to the truth: ``joint`` (one
 SE(3) or 4-DoF fit of the concatenation, as evo's APE of a multi-robot trajectory) or
 ``per_robot`` (one fit per robot, the concatenated error pooled: for odometry whose start
-poses are unknown). Adding a variant is one more entry in the ``estimates`` dict.
+poses are unknown). The variants are ``roman_sim.evaluation.variants.TrajectoryVariant``;
+adding one is one more entry in the ``variants`` dict.
 """
 
 from __future__ import annotations
@@ -24,34 +25,19 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any
 
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import AteResult, multi_robot_ate
+from roman_sim.evaluation.variants import FITS, Fit, TrajectoryVariant
 
 #: Schema tag of ``ate.json``.
 ATE_SCHEMA = "roman_sim.ate/2"
-Fit = Literal["joint", "per_robot"]
-FITS: tuple[Fit, ...] = ("joint", "per_robot")
 ALIGNMENTS = ("se3", "4dof")
 #: Row keys for the concatenated trajectories (robot names may not take them).
 COMMON, ALL = "common", "all"
-
-
-@dataclass(frozen=True)
-class VariantEstimate:
-    """One variant's trajectories (connected robots only, in its common frame) and how to fit them.
-
-    ``source`` names the variant whose trajectory files hold them (default: the variant itself;
-    a per-robot fit of placed odometry needs no files of its own).
-    """
-
-    trajectories: Mapping[str, Trajectory]
-    fit: Fit = "joint"
-    description: str = ""
-    source: str | None = None
 
 
 @dataclass
@@ -156,52 +142,61 @@ def _pooled(results: list[AteResult]) -> float:
 
 
 def _concatenated(
-    est: VariantEstimate, truth: Mapping[str, Trajectory], robots: list[str], alignment: str
+    est: Mapping[str, Trajectory], fit: Fit, truth: Mapping[str, Trajectory], robots: list[str], alignment: str
 ) -> float | None:
-    """ATE of ``robots`` (all placed by ``est``) as one trajectory; None if empty or not computable."""
+    """ATE of ``robots`` (all placed in ``est``) as one trajectory; None if empty or not computable."""
     if not robots:
         return None
-    sub_est, sub_ref = {r: est.trajectories[r] for r in robots}, {r: truth[r] for r in robots}
+    sub_est, sub_ref = {r: est[r] for r in robots}, {r: truth[r] for r in robots}
     res = multi_robot_ate(sub_est, sub_ref, alignment)  # type: ignore[arg-type]
     if any(res[r] is None for r in robots):
         return None
-    if est.fit == "per_robot":
+    if fit == "per_robot":
         return _pooled([res[r] for r in robots])  # type: ignore[misc]
     return None if res["all"] is None else res["all"].rmse_m
 
 
 def ate_table(
-    truth: Mapping[str, Trajectory], estimates: Mapping[str, VariantEstimate], alignments: tuple[str, ...] = ALIGNMENTS
+    truth: Mapping[str, Trajectory],
+    variants: Mapping[str, TrajectoryVariant],
+    trajectories: Mapping[str, Mapping[str, Trajectory]],
+    alignments: tuple[str, ...] = ALIGNMENTS,
 ) -> AteTable:
     """Score every variant against ``truth`` over the same robots (see the module docstring).
 
     Args:
         truth: robot -> true trajectory (its order is the table's robot order).
-        estimates: variant -> its placed trajectories and fit, in table order.
+        variants: variant name -> variant (its fit and trajectory source), in table order.
+        trajectories: trajectory source -> robot -> trajectory (placed robots only, in the
+            source's common frame); a variant without a ``source`` is scored from its own name.
         alignments: ``se3`` and/or ``4dof``.
 
     Raises:
-        EvaluationError: a variant places a robot without truth, or a robot is named
-            ``common`` or ``all``.
+        EvaluationError: a variant's trajectories are missing or place a robot without
+            truth, or a robot is named ``common`` or ``all``.
     """
     robots = list(truth)
     if {COMMON, ALL} & set(robots):
         raise EvaluationError(f"ATE table: a robot may not be named {COMMON!r} or {ALL!r}")
-    for name, est in estimates.items():
-        extra = sorted(set(est.trajectories) - set(robots))
+    sources = {name: v.source or name for name, v in variants.items()}
+    for name, src in sources.items():
+        if src not in trajectories:
+            raise EvaluationError(f"ATE variant {name!r}: no trajectories {src!r}")
+        extra = sorted(set(trajectories[src]) - set(robots))
         if extra:
             raise EvaluationError(f"ATE variant {name!r}: no true trajectory for {', '.join(extra)}")
-    connected = {name: [r for r in robots if r in est.trajectories] for name, est in estimates.items()}
+    connected = {name: [r for r in robots if r in trajectories[src]] for name, src in sources.items()}
     common = [r for r in robots if all(r in c for c in connected.values())]
     table = AteTable(robots, common)
-    for name, est in estimates.items():
-        row = VariantAte(est.description, est.fit, connected[name], source=est.source or name)
+    for name, v in variants.items():
+        est = trajectories[sources[name]]
+        row = VariantAte(v.description, v.fit, connected[name], source=sources[name])
         for al in alignments:
             placed = connected[name]
-            per = multi_robot_ate({r: est.trajectories[r] for r in placed}, {r: truth[r] for r in placed}, al)  # type: ignore[arg-type]
+            per = multi_robot_ate({r: est[r] for r in placed}, {r: truth[r] for r in placed}, al)  # type: ignore[arg-type]
             cells: dict[str, float | None] = {
-                COMMON: _concatenated(est, truth, common, al),
-                ALL: _concatenated(est, truth, robots, al) if placed == robots else None,
+                COMMON: _concatenated(est, v.fit, truth, common, al),
+                ALL: _concatenated(est, v.fit, truth, robots, al) if placed == robots else None,
             }
             cells.update({r: (None if per.get(r) is None else per[r].rmse_m) for r in robots})  # type: ignore[union-attr]
             row.rmse[al] = cells

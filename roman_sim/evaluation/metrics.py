@@ -57,7 +57,16 @@ from roman_sim.evaluation.types import (
 
 log = logging.getLogger(__name__)
 
-__all__ = ["EvalConfig", "PairScore", "auc", "curve_stats", "operating_points", "pr_curve", "score_pair", "summary"]
+__all__ = [
+    "EvalConfig",
+    "PairScore",
+    "auc",
+    "curve_stats",
+    "operating_points",
+    "pr_curve",
+    "compute_metrics",
+    "score_pair",
+]
 
 
 @dataclass(frozen=True)
@@ -235,7 +244,7 @@ def curve_stats(
     )
 
 
-def _set_summary(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | None) -> PairSetMetrics:
+def _set_metrics(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | None) -> PairSetMetrics:
     ks = cfg.k_values()
     stats = partial(curve_stats, cfg=cfg, acceptance_k=acceptance_k)
     head = [s.truth.heading_diff_deg for s in scores]
@@ -253,8 +262,8 @@ def _set_summary(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | N
     )
 
 
-def _method_summary(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | None) -> MethodMetrics:
-    sets = {k: _set_summary([s for s in scores if s.truth.kind == k], cfg, acceptance_k) for k in PAIR_SETS}
+def _method_metrics(scores: list[PairScore], cfg: EvalConfig, acceptance_k: int | None) -> MethodMetrics:
+    sets = {k: _set_metrics([s for s in scores if s.truth.kind == k], cfg, acceptance_k) for k in PAIR_SETS}
     return MethodMetrics(sets, n_failed=sum(1 for s in scores if s.reason is not None))
 
 
@@ -274,7 +283,7 @@ def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
     }
 
 
-def summary(
+def compute_metrics(
     scores: list[PairScore],
     cfg: EvalConfig | None = None,
     n_skipped: int = 0,
@@ -305,7 +314,7 @@ def summary(
         pairs=counts,
         n_candidates=counts["all"]["n_pairs"] + n_skipped,
         n_skipped=n_skipped,
-        methods={m: _method_summary([s for s in scores if s.method == m], cfg, acceptance_k) for m in methods},
+        methods={m: _method_metrics([s for s in scores if s.method == m], cfg, acceptance_k) for m in methods},
         acceptance_k=acceptance_k,
         robot_pairs=robot_pair_counts((t.robot_a, t.robot_b, t.relevant) for t in truths),
         revisits=revisit_figures((t.robot_a, t.robot_b, t.relevant, t.overlap, t.shared_objects) for t in truths),

@@ -1,7 +1,8 @@
-"""Small typed records of a run: map statistics and one method's estimate for one pair."""
+"""Small typed records of a run: map statistics (and measuring them) and one method's estimate for one pair."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
@@ -11,6 +12,8 @@ from numpy.typing import NDArray
 from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSONLike
+from roman_sim.mapping.io import packet_bytes
+from roman_sim.mapping.types import Submap
 
 
 @dataclass(frozen=True)
@@ -61,6 +64,35 @@ class MapStats:
             return cls(**values)
         except (KeyError, TypeError) as err:
             raise StorageError(f"{source}: malformed map statistics ({err})") from None
+
+
+def map_stats(submaps: Sequence[Submap], robots: int, segments: int | None, trajectory_m: float | None) -> MapStats:
+    """Segments, submaps, packet size per submap and MB per km of trajectory (keyframes apart).
+
+    Args:
+        submaps: every submap of the run.
+        robots: robots with submaps.
+        segments: finished segments of all robots (None when the maps are not available).
+        trajectory_m: total true trajectory length (None without maps).
+    """
+    sizes = [packet_bytes(s) for s in submaps]
+    length_m = trajectory_m or 0.0
+    with_kf = [s for s in submaps if s.keyframes is not None]
+    kf = [packet_bytes(s, "keyframes") for s in with_kf]
+    return MapStats(
+        keyframes_per_submap=float(np.mean([len(s.keyframes or []) for s in with_kf])) if with_kf else None,
+        keyframe_kb_per_submap=float(np.mean(kf)) / 1000.0 if kf else None,
+        keyframe_kb_per_submap_max=float(np.max(kf)) / 1000.0 if kf else None,
+        keyframe_mb_per_km=(sum(kf) / 1e6) / (length_m / 1000.0) if kf and length_m > 0 else None,
+        robots=robots,
+        segments=segments,
+        submaps=len(submaps),
+        segments_per_submap=float(np.mean([len(s) for s in submaps])) if submaps else None,
+        kb_per_submap=float(np.mean(sizes)) / 1000.0 if sizes else None,
+        kb_per_submap_max=float(np.max(sizes)) / 1000.0 if sizes else None,
+        trajectory_km=length_m / 1000.0 if trajectory_m is not None else None,
+        mb_per_km=(sum(sizes) / 1e6) / (length_m / 1000.0) if trajectory_m is not None and length_m > 0 else None,
+    )
 
 
 @dataclass(frozen=True)

@@ -16,10 +16,11 @@ from collections.abc import Iterable
 from typing import Any
 
 from roman_sim.evaluation.intervals import mean_interval, wilson
+from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
 
 #: The bin of a run's overall figure.
 OVERALL = "all"
-SUMMARY_FIELDS = [
+AGGREGATE_FIELDS = [
     "method",
     "kind",
     "bin",
@@ -35,24 +36,25 @@ SUMMARY_FIELDS = [
 ]
 
 
-def seed_rows(params: dict[str, Any], seed: int, summary: dict[str, Any]) -> list[dict[str, Any]]:
-    """Rows of one run's compact summary (``summaries.compact_summary``)."""
+def seed_rows(params: dict[str, Any], seed: int, summary: RunSummary) -> list[dict[str, Any]]:
+    """Rows of one run's summary (``run_summary.RunSummary``): per method, pair set and bin its max-recall counts."""
     out = []
-    for method, m in summary["methods"].items():
+    for method, m in summary.methods.items():
         for kind in ("inter", "intra"):
-            k = m[kind]
-            for label, s in [(OVERALL, k)] + list(k["bins"].items()):
-                out.append(
-                    {
-                        **params,
-                        "seed": seed,
-                        "method": method,
-                        "kind": kind,
-                        "bin": label,
-                        "hits": int(s["max_hits"]),
-                        "relevant": int(s["n_relevant"]),
-                    }
-                )
+            k = m.set(kind)
+            parts: list[tuple[str, RecallSummary]] = [(OVERALL, k), *k.bins.items()]
+            out += [
+                {
+                    **params,
+                    "seed": seed,
+                    "method": method,
+                    "kind": kind,
+                    "bin": label,
+                    "hits": s.max_hits,
+                    "relevant": s.n_relevant,
+                }
+                for label, s in parts
+            ]
     return out
 
 
@@ -65,7 +67,7 @@ def _hashable(v: object) -> object:
 
 
 def aggregate(rows: Iterable[dict[str, Any]], param_keys: list[str], level: float = 0.95) -> list[dict[str, Any]]:
-    """Summary rows (parameters, then ``SUMMARY_FIELDS``) in first-seen order."""
+    """Summary rows (parameters, then ``AGGREGATE_FIELDS``) in first-seen order."""
     groups: dict[tuple[object, ...], list[dict[str, Any]]] = {}
     for r in rows:
         groups.setdefault(_key(r, param_keys), []).append(r)

@@ -9,14 +9,13 @@ from pathlib import Path
 from typing import TypeVar
 
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.evaluation.run_summary import RunSummary, summarize_run
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.manifest import read_manifest
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stages import STAGES, AteOutput, EvaluationOutput, ReportOutput, StageOutput
 from roman_sim.pipeline.stages.base import Timings
-from roman_sim.report.summaries import RunSummary, compact_summary
 
 TIMINGS_JSON = "timings.json"
 #: The stages whose outputs a result is made of.
@@ -123,13 +122,9 @@ class RunResult:
         return float(median) if isinstance(median, (int, float)) else None
 
     def summary(self) -> RunSummary:
-        """The run in short (per method recall, runtime; ATE; map size): ``compact_summary``."""
+        """The run in short (per method recall, runtime; ATE; map size): ``summarize_run``."""
         runtimes = {m: self.runtime_median_s(m) for m in self.metrics.methods}
-        return compact_summary(self.metrics, self.ate, self.map_stats, runtimes)
-
-    def metrics_summary(self) -> dict[str, JSONLike]:
-        """``summary()`` as JSON (what ``summary.json`` holds per run)."""
-        return self.summary().to_json()
+        return summarize_run(self.metrics, self.ate, self.map_stats, runtimes)
 
 
 def read_timings(run_dir: Path) -> dict[str, Timings]:

@@ -52,10 +52,8 @@ def _run_one(
     from roman_sim.pipeline.experiment import run_scenario_file
 
     try:
-        result = run_scenario_file(
-            scenario_path, list(overrides) + [f"seed={seed}"], Path(run_dir), from_stage=from_stage
-        )
-        return {"ok": True, "metrics": result.metrics_summary()}
+        run_scenario_file(scenario_path, list(overrides) + [f"seed={seed}"], Path(run_dir), from_stage=from_stage)
+        return {"ok": True}
     except RomanSimError as err:
         return {"ok": False, "error": str(err)}
     except Exception as err:  # a user plug-in (or a bug) in one cell must not abort the whole sweep
@@ -119,11 +117,11 @@ def run_sweep(
             failures.update({r.run_id: str(err) for i, r in enumerate(todo) if i not in finished})
     for k, v in failures.items():
         log.warning("run %s failed: %s", k, v)
-    from roman_sim.pipeline.sweep_summary import write_sweep_json, write_sweep_summary
+    from roman_sim.pipeline.sweep_aggregate import write_sweep_aggregate, write_sweep_json
 
     write_sweep_json(cfg, runs, out_dir)
     table = write_sweep_table(runs, out_dir, failures)
-    write_sweep_summary(out_dir)
+    write_sweep_aggregate(out_dir)
     return table
 
 

@@ -174,12 +174,4 @@ def closure_from_alignment(a: Submap, b: Submap, result: AlignResult) -> LoopClo
     """The loop closure an alignment of submaps ``a`` and ``b`` proposes (None without a transform)."""
     if result.T_a_b is None:
         return None
-    return LoopClosure(
-        a.robot,
-        int(a.index),
-        b.robot,
-        int(b.index),
-        np.asarray(result.T_a_b, dtype=np.float64),
-        n_associations=result.n_associations,
-        source=result.method,
-    )
+    return LoopClosure.between(a, b, result.T_a_b, result.n_associations, result.method)

@@ -6,11 +6,12 @@ from dataclasses import dataclass, field
 from typing import Literal, TypedDict
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.trajectory import Trajectory
+from roman_sim.mapping.types import Submap
 
 F64 = NDArray[np.float64]
 
@@ -55,6 +56,19 @@ class LoopClosure:
     sigma_m: float | None = None
     sigma_deg: float | None = None
     source: str = ""
+
+    @classmethod
+    def between(cls, a: Submap, b: Submap, T_a_b: ArrayLike, n_associations: int, source: str) -> LoopClosure:
+        """The closure measuring submap ``b``'s frame in submap ``a``'s (``T_a_b``, 4x4) and its source."""
+        return cls(
+            a.robot,
+            int(a.index),
+            b.robot,
+            int(b.index),
+            np.asarray(T_a_b, dtype=np.float64),
+            n_associations=int(n_associations),
+            source=source,
+        )
 
     @property
     def inter(self) -> bool:

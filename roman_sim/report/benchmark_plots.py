@@ -9,8 +9,8 @@
 - ``runtime.png``: runtime per pair per method (mean over every pair; the cells' medians
   and 90th percentiles as points), log scale.
 
-The drawing functions take the leaderboard as ``leaderboard.json`` holds it (and, for the
-PR curves, each level's ``EvaluationMetrics``).
+The drawing functions take the ``Leaderboard`` (and, for the PR curves, each level's
+``EvaluationMetrics``).
 """
 
 from __future__ import annotations
@@ -20,14 +20,15 @@ from typing import Any
 
 import numpy as np
 
+from roman_sim.evaluation.leaderboard import Leaderboard
 from roman_sim.evaluation.operating_points import POINT_LABELS
 from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.report.plots import figure, pr_axes, save_png
 
 
-def benchmark_figures(board: dict[str, Any]) -> dict[str, str]:
+def benchmark_figures(board: Leaderboard) -> dict[str, str]:
     """Figure file -> caption, for the levels that have results."""
-    levels = [e["name"] for e in board["levels"] if e.get("bins")]
+    levels = [e.name for e in board.finished_levels()]
     out = {"recall_heading.png": "Recall against heading difference (95 % bands): max recall and at precision >= 0.9"}
     for n in levels:
         out[f"pr_heading_{n}.png"] = f"Precision-recall per heading bin, ambiguity level {n}"
@@ -36,40 +37,38 @@ def benchmark_figures(board: dict[str, Any]) -> dict[str, str]:
     return out
 
 
-def _centres(board: dict[str, Any]) -> np.ndarray:
-    e = np.asarray(board["heading_edges_deg"], dtype=float)
+def _centres(board: Leaderboard) -> np.ndarray:
+    e = np.asarray(board.heading_edges_deg, dtype=float)
     return (e[:-1] + e[1:]) / 2
 
 
-def recall_heading_data(board: dict[str, Any]) -> dict[str, Any]:
+def recall_heading_data(board: Leaderboard) -> dict[str, Any]:
     """What ``recall_heading.png`` shows: per level, point and method, each bin's
     ``[hits, relevant, recall, interval low, interval high]`` (None where the method has no point)."""
-    first: list[dict[str, Any]] = next((e["bins"] for e in board["levels"] if e.get("bins")), [])
-    out: dict[str, Any] = {"bins": [b["heading"] for b in first]}
-    for e in board["levels"]:
-        if not e.get("bins"):
-            continue
-        out[e["name"]] = {
+    levels = board.finished_levels()
+    out: dict[str, Any] = {"bins": [b.heading for b in levels[0].bins] if levels else []}
+    for e in levels:
+        out[e.name] = {
             point: {
                 m: [
                     None
-                    if (p := b["methods"].get(m, {}).get(point)) is None
-                    else [p["hits"], p["n_relevant"], p["recall"], *(p["recall_ci"] or [None, None])]
-                    for b in e["bins"]
+                    if (p := b.point(m, point)) is None
+                    else [p.hits, p.n_relevant, p.recall, *(p.recall_ci or [None, None])]
+                    for b in e.bins
                 ]
-                for m in board["methods"]
+                for m in board.methods
             }
             for point in ("max_recall", "precision_90")
         }
     return out
 
 
-def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
+def plot_recall_heading(board: Leaderboard, path: Path) -> Path | None:
     """Recall per heading bin with bands, per method; columns: levels; rows: max recall, precision >= 0.9.
 
     The curves are drawn from ``recall_heading_data(board)``, which the PNG carries
     (``read_png_data``)."""
-    levels = [(e["name"], e) for e in board["levels"] if e.get("bins")]
+    levels = [(e.name, e) for e in board.finished_levels()]
     if not levels:
         return None
     data = recall_heading_data(board)
@@ -78,7 +77,7 @@ def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
     for col, (name, e) in enumerate(levels):
         for row, point in enumerate(("max_recall", "precision_90")):
             ax = fig.axes[row * len(levels) + col]
-            for i, m in enumerate(board["methods"]):
+            for i, m in enumerate(board.methods):
                 rows = data[name][point][m]  # per bin: [hits, relevant, recall, low, high] or None
                 y, lo, hi = (
                     np.array([np.nan if r is None or r[j] is None else r[j] for r in rows], dtype=float)
@@ -86,8 +85,8 @@ def plot_recall_heading(board: dict[str, Any], path: Path) -> Path | None:
                 )
                 ax.plot(x, y, marker="o", color=f"C{i}", label=m)
                 ax.fill_between(x, lo, hi, color=f"C{i}", alpha=0.15, linewidth=0)
-            ax.set(xlim=(0, 180), ylim=(0, 1.02), xticks=board["heading_edges_deg"])
-            ax.set_title(f"{name} (index {_fmt(e.get('ambiguity_index'))}): {POINT_LABELS[point]}", fontsize=8)
+            ax.set(xlim=(0, 180), ylim=(0, 1.02), xticks=board.heading_edges_deg)
+            ax.set_title(f"{name} (index {_fmt(e.ambiguity_index)}): {POINT_LABELS[point]}", fontsize=8)
             ax.set_xlabel("heading difference (deg)", fontsize=8)
             ax.grid(alpha=0.3)
     fig.axes[0].set_ylabel("recall")
@@ -100,9 +99,9 @@ def _fmt(v: float | None) -> str:
     return "n/a" if v is None else f"{v:.2f}"
 
 
-def plot_pr_level(board: dict[str, Any], metrics: EvaluationMetrics, level: str, path: Path) -> Path | None:
+def plot_pr_level(board: Leaderboard, metrics: EvaluationMetrics, level: str, path: Path) -> Path | None:
     """Precision-recall over k per heading bin of one level (one panel per bin), operating points marked."""
-    sets = {m: metrics.method(m).set("inter") for m in board["methods"] if m in metrics.methods}
+    sets = {m: metrics.method(m).set("inter") for m in board.methods if m in metrics.methods}
     if not sets:
         return None
     first = next(iter(sets.values()))
@@ -120,13 +119,13 @@ def plot_pr_level(board: dict[str, Any], metrics: EvaluationMetrics, level: str,
     return save_png(fig, path)
 
 
-def plot_heatmap(board: dict[str, Any], path: Path) -> Path | None:
+def plot_heatmap(board: Leaderboard, path: Path) -> Path | None:
     """Max recall per (level, heading bin), one panel per method, with hits / relevant in each cell."""
-    levels = [(e["name"], e) for e in board["levels"] if e.get("bins")]
+    levels = [(e.name, e) for e in board.finished_levels()]
     if not levels:
         return None
-    methods = list(board["methods"])
-    labels = [b["heading"] for b in levels[0][1]["bins"]]
+    methods = list(board.methods)
+    labels = [b.heading for b in levels[0][1].bins]
     ncols = min(3, len(methods))
     nrows = int(np.ceil(len(methods) / ncols))
     fig = figure(1.0 * len(labels) * ncols + 1.5, 0.9 * len(levels) * nrows + 1.2, ncols=ncols, nrows=nrows)
@@ -135,13 +134,11 @@ def plot_heatmap(board: dict[str, Any], path: Path) -> Path | None:
     for ax, m in zip(fig.axes, methods):
         grid = np.full((len(levels), len(labels)), np.nan)
         for r, (_, e) in enumerate(levels):
-            for c, b in enumerate(e["bins"]):
-                p = b["methods"].get(m, {}).get("max_recall")
-                if p is not None and p["recall"] is not None:
-                    grid[r, c] = p["recall"]
-                text = (
-                    "n/a" if p is None or not p["n_relevant"] else f"{p['recall']:.2f}\n{p['hits']}/{p['n_relevant']}"
-                )
+            for c, b in enumerate(e.bins):
+                p = b.point(m, "max_recall")
+                if p is not None and p.recall is not None:
+                    grid[r, c] = p.recall
+                text = "n/a" if p is None or not p.n_relevant else f"{p.recall:.2f}\n{p.hits}/{p.n_relevant}"
                 ax.text(c, r, text, ha="center", va="center", fontsize=6)
         ax.imshow(grid, vmin=0.0, vmax=1.0, cmap="viridis", aspect="auto", alpha=0.85)
         ax.set_xticks(range(len(labels)), labels, fontsize=6)
@@ -151,19 +148,19 @@ def plot_heatmap(board: dict[str, Any], path: Path) -> Path | None:
     return save_png(fig, path)
 
 
-def plot_runtime(board: dict[str, Any], path: Path) -> Path | None:
+def plot_runtime(board: Leaderboard, path: Path) -> Path | None:
     """Runtime per pair per method: the mean (bar), the cells' medians (dots) and 90th percentiles (crosses)."""
-    rt = board.get("runtime") or {}
+    rt = board.runtime
     if not rt:
         return None
     names = list(rt)
     fig = figure(max(5.0, 0.9 * len(names) + 2.0), 3.6)
     ax = fig.axes[0]
     x = np.arange(len(names))
-    ax.bar(x, [1000 * rt[m]["mean_s"] for m in names], color=[f"C{i}" for i in range(len(names))], alpha=0.6)
+    ax.bar(x, [1000 * rt[m].mean_s for m in names], color=[f"C{i}" for i in range(len(names))], alpha=0.6)
     for i, m in enumerate(names):
-        med = [1000 * v for v in rt[m]["cell_medians_s"]]
-        p90 = [1000 * v for v in rt[m]["cell_p90_s"]]
+        med = [1000 * v for v in rt[m].cell_medians_s]
+        p90 = [1000 * v for v in rt[m].cell_p90_s]
         ax.scatter(np.full(len(med), i - 0.1), med, color="black", s=10, label="cell median" if i == 0 else None)
         ax.scatter(
             np.full(len(p90), i + 0.1), p90, color="black", marker="x", s=12, label="cell p90" if i == 0 else None
@@ -177,7 +174,7 @@ def plot_runtime(board: dict[str, Any], path: Path) -> Path | None:
     return save_png(fig, path)
 
 
-def write_benchmark_plots(board: dict[str, Any], metrics: dict[str, EvaluationMetrics], plots_dir: Path) -> list[Path]:
+def write_benchmark_plots(board: Leaderboard, metrics: dict[str, EvaluationMetrics], plots_dir: Path) -> list[Path]:
     """Every figure of ``benchmark_figures`` that has data, into ``plots_dir``; the paths written."""
     out = []
     for name in benchmark_figures(board):

@@ -15,52 +15,49 @@ from __future__ import annotations
 
 from typing import Any
 
-from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES
+from roman_sim.evaluation.leaderboard import BoardCell, Leaderboard
+from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
 from roman_sim.report.benchmark_plots import benchmark_figures
 
 #: The operating points methods are ranked by, in each cell.
 RANKED = ("max_recall", "precision_90")
 
 
-def _rate(p: dict[str, Any] | None) -> str:
-    if p is None or not p["n_relevant"]:
+def _rate(p: OperatingPoint | None) -> str:
+    if p is None or not p.n_relevant:
         return "n/a"
-    if not p["reached"]:
-        return f"not reached (0/{p['n_relevant']})"
-    lo, hi = p["recall_ci"]
-    return f"{p['recall']:.2f} ({p['hits']}/{p['n_relevant']}) [{lo:.2f}, {hi:.2f}]"
+    if not p.reached or p.recall is None or p.recall_ci is None:
+        return f"not reached (0/{p.n_relevant})"
+    lo, hi = p.recall_ci
+    return f"{p.recall:.2f} ({p.hits}/{p.n_relevant}) [{lo:.2f}, {hi:.2f}]"
 
 
-def _rate_at(p: dict[str, Any] | None) -> str:
+def _rate_at(p: OperatingPoint | None) -> str:
     """``_rate`` with the operating point's precision and threshold (``P 0.76 k 3``) where it has them."""
     out = _rate(p)
-    if p is not None and p["n_relevant"] and p["reached"] and p.get("precision") is not None:
-        out += f" P {p['precision']:.2f} k {p['k']}"
+    if p is not None and p.n_relevant and p.reached and p.precision is not None:
+        out += f" P {p.precision:.2f} k {p.k}"
     return out
 
 
-def _ranked_cell(cell: dict[str, Any], method: str, point: str) -> str:
-    p = cell["methods"][method][point]
-    r = cell["ranks"][point].get(method)
-    rank = "" if r is None else (f" tied {r['rank']}" if r["tied"] else f" #{r['rank']}")
-    return _rate(p) + rank
+def _ranked_cell(cell: BoardCell, method: str, point: str) -> str:
+    r = cell.ranks[point].get(method)
+    rank = "" if r is None else (f" tied {r.rank}" if r.tied else f" #{r.rank}")
+    return _rate(cell.point(method, point)) + rank
 
 
-def _rank_tables(board: dict[str, Any], point: str) -> list[str]:
+def _rank_tables(board: Leaderboard, point: str) -> list[str]:
     lines = []
-    for e in board["levels"]:
-        name = e["name"]
-        if not e.get("bins"):
-            continue
-        cells = [*e["bins"], e["overall"]]
+    for e in board.finished_levels():
+        cells = e.all_cells()
         lines += [
-            f"**{name}** (knob {e['knob']:g}, measured ambiguity index {_num(e.get('ambiguity_index'))}):",
+            f"**{e.name}** (knob {e.knob:g}, measured ambiguity index {_num(e.ambiguity_index)}):",
             "",
-            "| method | " + " | ".join(f"{c['heading']} deg" if c["heading"] != "all" else "all" for c in cells) + " |",
+            "| method | " + " | ".join(f"{c.heading} deg" if c.heading != "all" else "all" for c in cells) + " |",
             "|---|" + "---|" * len(cells),
         ]
-        for m in board["methods"]:
-            if m in e["overall"]["methods"]:
+        for m in board.methods:
+            if e.overall is not None and m in e.overall.methods:
                 lines.append(f"| {m} | " + " | ".join(_ranked_cell(c, m, point) for c in cells) + " |")
         lines.append("")
     return lines
@@ -70,27 +67,27 @@ def _num(v: float | None, digits: int = 2) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
-def leaderboard_markdown(board: dict[str, Any]) -> str:
+def leaderboard_markdown(board: Leaderboard) -> str:
     """``leaderboard.md``: deployable ranking, setup, ranked recall per cell, points, runtimes, failures, figures."""
-    lv0 = next((e for e in board["levels"] if e.get("bins")), None)
-    acc = None if lv0 is None else lv0.get("acceptance_k")
+    lv0 = next(iter(board.finished_levels()), None)
+    acc = None if lv0 is None else lv0.acceptance_k
     lines = [
-        f"# Benchmark `{board['suite']}`",
+        f"# Benchmark `{board.suite}`",
         "",
-        board["description"] + ".",
+        board.description + ".",
         "",
         *_deployable_section(board),
         "## Setup",
         "",
-        f"- Methods: {', '.join(board['methods'])}. Overrides: {', '.join(board['overrides']) or 'none'}.",
+        f"- Methods: {', '.join(board.methods)}. Overrides: {', '.join(board.overrides) or 'none'}.",
         "- Cells: ambiguity level x heading difference (30 deg bins) of the cross-robot pairs, pooled over the "
         "level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
         "- Ranks: 1 + the number of methods whose interval lies wholly above; methods that share a rank have "
         "overlapping intervals and are marked `tied`.",
         f"- Operating points: max recall (at the highest k that keeps it); recall at the smallest k with precision "
         f">= 0.9 (`not reached` when none has); recall at the pose graph's acceptance threshold k = {acc}.",
-        f"- Interval bound: every half-width at most {board['half_width_bound']:g}: "
-        + ("met in every cell." if board["bound_met"] else "**not met** in every cell (see the relevant counts)."),
+        f"- Interval bound: every half-width at most {board.half_width_bound:g}: "
+        + ("met in every cell." if board.bound_met else "**not met** in every cell (see the relevant counts)."),
         "",
     ]
     lines += [
@@ -105,9 +102,9 @@ def leaderboard_markdown(board: dict[str, Any]) -> str:
     lines += ["## Relevant cross-robot pairs per cell", "", *_relevant_table(board), ""]
     lines += ["## Operating points per level", "", *_points_table(board, acc), ""]
     lines += ["## Runtime per pair", "", *_runtime_table(board), ""]
-    if board["failed_cells"]:
+    if board.failed_cells:
         lines += ["## Cells that did not finish", ""]
-        lines += [f"- `{c}`: {err}" for c, err in sorted(board["failed_cells"].items())] + [""]
+        lines += [f"- `{c}`: {err}" for c, err in sorted(board.failed_cells.items())] + [""]
     lines += ["## Figures", ""] + [f"![{cap}](plots/{name})" for name, cap in benchmark_figures(board).items()] + [""]
     return "\n".join(lines)
 
@@ -134,9 +131,9 @@ def _held_out_precision(c: dict[str, Any] | None) -> str:
     return f"{c['precision']:.2f} worlds {_ci(c['precision_worlds'])}" + ("" if c["transfers"] else " **short**")
 
 
-def _deployable_section(board: dict[str, Any]) -> list[str]:
+def _deployable_section(board: Leaderboard) -> list[str]:
     """The leaderboard's lead: per level, held-out recall and precision at one threshold chosen on other worlds."""
-    target = board.get("target_precision")
+    target = board.target_precision
     if target is None:
         return []
     lines = [
@@ -153,11 +150,11 @@ def _deployable_section(board: dict[str, Any]) -> list[str]:
         "does not transfer to a new world); `nothing accepted` where no threshold reached the target.",
         "",
     ]
-    for e in board["levels"]:
-        d = e.get("deployable")
+    for e in board.levels:
+        d = e.deployable
         if d is None:
             continue
-        lines += [f"**{e['name']}** (knob {e['knob']:g}, worlds {', '.join(d['worlds']) or 'none'}):", ""]
+        lines += [f"**{e.name}** (knob {e.knob:g}, worlds {', '.join(d['worlds']) or 'none'}):", ""]
         if "note" in d:
             lines += [f"No held-out figures: {d['note']}.", ""]
             continue
@@ -167,11 +164,11 @@ def _deployable_section(board: dict[str, Any]) -> list[str]:
             "| method | " + " | ".join(heads) + " | thresholds (held-out world: k) | max recall (all) |",
             "|---|" + "---|" * (len(cells) + 2),
         ]
-        for m in board["methods"]:
+        for m in board.methods:
             if m not in d["thresholds"]:
                 continue
             ks = ", ".join(f"{w}: {'none' if k is None else k}" for w, k in d["thresholds"][m].items())
-            mx = e["overall"]["methods"].get(m, {}).get("max_recall")
+            mx = None if e.overall is None else e.overall.point(m, "max_recall")
             row = [_held_out_recall(c["methods"].get(m), c["ranks"].get(m)) for c in cells]
             lines.append(f"| {m} | " + " | ".join(row) + f" | {ks} | {_rate(mx)} |")
         lines += [
@@ -179,59 +176,56 @@ def _deployable_section(board: dict[str, Any]) -> list[str]:
             "| held-out precision | " + " | ".join(heads) + " |",
             "|---|" + "---|" * len(cells),
         ]
-        for m in board["methods"]:
+        for m in board.methods:
             if m in d["thresholds"]:
                 lines.append(f"| {m} | " + " | ".join(_held_out_precision(c["methods"].get(m)) for c in cells) + " |")
         lines.append("")
     return lines
 
 
-def _relevant_table(board: dict[str, Any]) -> list[str]:
-    named = [(e["name"], e) for e in board["levels"] if e.get("bins")]
+def _relevant_table(board: Leaderboard) -> list[str]:
+    named = board.finished_levels()
     if not named:
         return ["No cell finished."]
-    heads = [b["heading"] for b in named[0][1]["bins"]]
+    heads = [b.heading for b in named[0].bins]
     out = [
         "| level | " + " | ".join(f"{h} deg" for h in heads) + " | cross-robot pairs scored |",
         "|---|" + "---|" * (len(heads) + 1),
     ]
-    for n, e in named:
-        out.append(
-            f"| {n} | " + " | ".join(str(b["n_relevant"]) for b in e["bins"]) + f" | {e['overall']['n_pairs']} |"
-        )
+    for e in named:
+        n_pairs = None if e.overall is None else e.overall.n_pairs
+        out.append(f"| {e.name} | " + " | ".join(str(b.n_relevant) for b in e.bins) + f" | {n_pairs} |")
     return out
 
 
-def _points_table(board: dict[str, Any], acc: int | None) -> list[str]:
+def _points_table(board: Leaderboard, acc: int | None) -> list[str]:
     out = [
         f"| level | method | max recall (precision) | {POINT_LABELS['precision_90']} (k) | "
         f"{POINT_LABELS['precision_100']} (k) | recall at k = {acc} (precision) |",
         "|---|---|---|---|---|---|",
     ]
-    for e in board["levels"]:
-        n = e["name"]
-        for m, pts in (e.get("overall") or {}).get("methods", {}).items():
+    for e in board.levels:
+        for m, pts in ({} if e.overall is None else e.overall.methods).items():
             cells = []
             for name in POINT_NAMES:
                 p = pts[name]
                 extra = ""
-                if p is not None and p["reached"]:
-                    extra = f" P={_num(p['precision'])}" if name in ("max_recall", "acceptance") else f" k={p['k']}"
+                if p is not None and p.reached:
+                    extra = f" P={_num(p.precision)}" if name in ("max_recall", "acceptance") else f" k={p.k}"
                 cells.append(_rate(p) + extra)
-            out.append(f"| {n} | {m} | " + " | ".join(cells) + " |")
+            out.append(f"| {e.name} | {m} | " + " | ".join(cells) + " |")
     return out
 
 
-def _runtime_table(board: dict[str, Any]) -> list[str]:
-    rt = board["runtime"]
-    if not rt:
+def _runtime_table(board: Leaderboard) -> list[str]:
+    if not board.runtime:
         return ["No runtimes were recorded."]
     out = ["| method | pairs timed | mean ms | median ms (cells) | p90 ms (cells) |", "|---|---|---|---|---|"]
-    for m, r in rt.items():
-        med = sorted(r["cell_medians_s"])
+    for m, r in board.runtime.items():
+        med = sorted(r.cell_medians_s)
         out.append(
-            f"| {m} | {r['n']} | {1000 * r['mean_s']:.1f} | {1000 * med[len(med) // 2]:.1f} | "
-            f"{1000 * max(r['cell_p90_s']):.1f} |"
+            f"| {m} | {r.n} | {1000 * r.mean_s:.1f} | {1000 * med[len(med) // 2]:.1f} | "
+            f"{1000 * max(r.cell_p90_s):.1f} |"
         )
     return out
 
@@ -240,17 +234,17 @@ def _runtime_table(board: dict[str, Any]) -> list[str]:
 README_BEGIN, README_END = "<!-- benchmark:begin -->", "<!-- benchmark:end -->"
 
 
-def _first_alone(board: dict[str, Any], method: str, point: str) -> tuple[int, int, int]:
+def _first_alone(board: Leaderboard, method: str, point: str) -> tuple[int, int, int]:
     """(cells where ``method`` ranks first alone, first but tied, cells with a rank) over every level x bin."""
     alone = tied = ranked = 0
-    for e in board["levels"]:
-        for b in e.get("bins", []):
-            r = b["ranks"][point].get(method)
+    for e in board.levels:
+        for b in e.bins:
+            r = b.ranks[point].get(method)
             if r is None:
                 continue
             ranked += 1
-            alone += r["rank"] == 1 and not r["tied"]
-            tied += r["rank"] == 1 and r["tied"]
+            alone += r.rank == 1 and not r.tied
+            tied += r.rank == 1 and r.tied
     return alone, tied, ranked
 
 
@@ -261,9 +255,9 @@ def deployable_order(d: dict[str, Any]) -> list[tuple[str, dict[str, Any], dict[
     return sorted(got, key=lambda x: (x[2]["rank"], -(x[1]["recall"] or 0.0), x[0]))
 
 
-def deployable_readme_lines(board: dict[str, Any]) -> list[str]:
+def deployable_readme_lines(board: Leaderboard) -> list[str]:
     """The README's statements of the deployable ranking, one line per level (all headings)."""
-    target = board.get("target_precision")
+    target = board.target_precision
     if target is None:
         return []
     lines = [
@@ -271,12 +265,12 @@ def deployable_readme_lines(board: dict[str, Any]) -> list[str]:
         f"worlds for precision >= {target:g}; held-out recall over all headings, ranked by 95 % world-bootstrap "
         f"intervals):"
     ]
-    for e in board["levels"]:
-        d = e.get("deployable")
+    for e in board.levels:
+        d = e.deployable
         if d is None:
             continue
         if "note" in d:
-            lines.append(f"  - {e['name']}: {d['note']}.")
+            lines.append(f"  - {e.name}: {d['note']}.")
             continue
         parts = []
         for m, c, r in deployable_order(d):
@@ -284,29 +278,28 @@ def deployable_readme_lines(board: dict[str, Any]) -> list[str]:
             prec = "nothing accepted" if c["precision"] is None else f"P {c['precision']:.2f}"
             flag = "" if c["transfers"] else ", short of the target"
             parts.append(f"{rank} {m} {_num(c['recall'])} ({c['hits']}/{c['n_relevant']}, {prec}{flag})")
-        lines.append(f"  - {e['name']}: " + "; ".join(parts) + ".")
+        lines.append(f"  - {e.name}: " + "; ".join(parts) + ".")
     return lines
 
 
-def readme_block(board: dict[str, Any], figure: str) -> str:
+def readme_block(board: Leaderboard, figure: str) -> str:
     """The README's benchmark block: the recall-against-heading figure and statements read off ``board``.
 
     Every number is the board's (a test renders this again from the committed raw pairs).
     """
     lines = [README_BEGIN, "", f"![{benchmark_figures(board)['recall_heading.png']}]({figure})", ""]
-    levels = [e for e in board["levels"] if e.get("bins")]
     lines += deployable_readme_lines(board)
-    m = "roman" if "roman" in board["methods"] else board["methods"][0]
-    for e in levels:
+    m = "roman" if "roman" in board.methods else board.methods[0]
+    for e in board.finished_levels():
         parts = []
         for point in ("max_recall", "precision_90"):
-            pts = [(b["heading"], b["methods"][m][point]) for b in e["bins"] if b["methods"].get(m)]
-            lo = min(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else 2.0)
-            hi = max(pts, key=lambda x: x[1]["recall"] if x[1]["recall"] is not None else -1.0)
+            pts = [(b.heading, p) for b in e.bins if (p := b.point(m, point)) is not None]
+            lo = min(pts, key=lambda x: x[1].recall if x[1].recall is not None else 2.0)
+            hi = max(pts, key=lambda x: x[1].recall if x[1].recall is not None else -1.0)
             parts.append(
                 f"{POINT_LABELS[point]} from {_rate_at(lo[1])} at {lo[0]} deg to {_rate_at(hi[1])} at {hi[0]} deg"
             )
-        head = f"- {e['name']} ambiguity (index {_num(e.get('ambiguity_index'))}), {m}: "
+        head = f"- {e.name} ambiguity (index {_num(e.ambiguity_index)}), {m}: "
         lines.append(head + "; ".join(parts) + ".")
     for point in RANKED:
         alone, tied, ranked = _first_alone(board, m, point)
@@ -315,7 +308,7 @@ def readme_block(board: dict[str, Any], figure: str) -> str:
             f"{tied} (ranked only where 95 % intervals separate)."
         )
     lines += [
-        f"- Every interval half-width at most {board['half_width_bound']:g}: {'yes' if board['bound_met'] else 'no'}.",
+        f"- Every interval half-width at most {board.half_width_bound:g}: {'yes' if board.bound_met else 'no'}.",
         "",
         README_END,
     ]

@@ -30,7 +30,7 @@ from roman_sim.report.tables import (
     fmt,
     markdown_table,
     operating_point_rows,
-    summary_rows,
+    metrics_rows,
 )
 
 log = logging.getLogger(__name__)
@@ -119,7 +119,7 @@ def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
         return [title, "", f"No {label} pairs in this run.", ""]
     if NO_SEGMENTS_NOTE in metrics.notes:  # nothing was there to align: no figure is defined, not even 0 of n
         return [title, "", f"Undefined: {NO_SEGMENTS_NOTE}.", ""]
-    lines = [title, "", *markdown_table(summary_rows(metrics, kind)), ""]
+    lines = [title, "", *markdown_table(metrics_rows(metrics, kind)), ""]
     min_n = int(EvalConfig.model_validate(metrics.config).min_relevant)
     points = operating_point_rows(metrics, kind)
     lines += [f"### Operating points per heading bin, {label}", "", *_folded(points, min_n)]

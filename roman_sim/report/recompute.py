@@ -3,7 +3,7 @@
 - ``metrics.json`` from ``pairs.csv`` and the evaluation settings in ``config.yaml``
   (``recompute_metrics``): every pair's relevance and correctness are re-derived from its true
   distance, shared objects and errors (``rederive_scores``), then every figure is recomputed
-  (``metrics.summary``, the acceptance operating points at ``posegraph.lc_association_thresh``).
+  (``metrics.compute_metrics``, the acceptance operating points at ``posegraph.lc_association_thresh``).
   The number of pairs a distance cap skipped is not in ``pairs.csv``; it is taken from
   ``metrics.json``. A file written before the operating points existed is compared without
   them (and the check says so).
@@ -29,12 +29,13 @@ from typing import Any
 from roman_sim.core.config import read_yaml, validate_model
 from roman_sim.core.errors import RomanSimError, StorageError
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
+from roman_sim.evaluation.atetable import AteTable, ate_table
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import PairScore, is_correct, summary
+from roman_sim.evaluation.metrics import PairScore, compute_metrics, is_correct
 from roman_sim.evaluation.operating_points import strip_absent_points
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
 from roman_sim.evaluation.types import EvaluationMetrics
+from roman_sim.evaluation.variants import TRUTH, TrajectoryVariant
 
 ATE_JSON = "ate.json"
 REL_TOL = 1e-9
@@ -118,7 +119,7 @@ def recompute_metrics(
     cfg, acceptance_k = eval_settings(run_dir)
     scores, diffs = rederive_scores(read_pairs_csv(run_dir / pairs_file), cfg)
     stored = read_metrics_json(run_dir / METRICS_JSON)
-    metrics = summary(scores, cfg, stored.n_skipped, acceptance_k, _n_segments(run_dir))
+    metrics = compute_metrics(scores, cfg, stored.n_skipped, acceptance_k, _n_segments(run_dir))
     metrics.frontend = stored.frontend  # the front end's grades come from the maps, not from the pairs table
     if stored.robot_pairs is None:  # written before the per-robot-pair counts were recorded
         metrics.robot_pairs = None
@@ -146,17 +147,14 @@ def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
         stored = AteTable.from_json(json.loads(path.read_text(encoding="utf-8")), str(path))
     except (OSError, ValueError) as err:
         raise StorageError(f"{run_dir / ATE_JSON}: unreadable ({type(err).__name__})") from None
-    truth = {r: read_tum(_tum(run_dir, "truth", r, suffix)) for r in stored.robots}
-    estimates = {
-        v: VariantEstimate(
-            {r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected},
-            row.fit,  # type: ignore[arg-type]
-            row.description,
-            row.source,
-        )
-        for v, row in stored.variants.items()
+    truth = {r: read_tum(_tum(run_dir, TRUTH, r, suffix)) for r in stored.robots}
+    variants = {v: TrajectoryVariant(row.description, row.fit, row.source) for v, row in stored.variants.items()}
+    trajectories = {
+        row.source: {r: read_tum(_tum(run_dir, row.source, r, suffix)) for r in row.connected}
+        for row in stored.variants.values()
     }
-    return ate_table(truth, estimates, tuple(next(iter(stored.variants.values())).rmse) if stored.variants else ())
+    alignments = tuple(next(iter(stored.variants.values())).rmse) if stored.variants else ()
+    return ate_table(truth, variants, trajectories, alignments)
 
 
 def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
@@ -166,7 +164,7 @@ def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
 def stored_summary(run_dir: Path) -> dict[str, Any]:
     """The run's compact summary as its stored files give it (metrics, ATE, map statistics, timings)."""
     from roman_sim.evaluation.records import MapStats
-    from roman_sim.report.summaries import compact_summary
+    from roman_sim.evaluation.run_summary import summarize_run
 
     metrics = read_metrics_json(run_dir / METRICS_JSON)
     ate = None
@@ -182,7 +180,7 @@ def stored_summary(run_dir: Path) -> dict[str, Any]:
     except (OSError, ValueError, KeyError, TypeError):
         alignment = {}
     runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
-    return json.loads(json.dumps(compact_summary(metrics, ate, stats, runtimes).to_json()))
+    return json.loads(json.dumps(summarize_run(metrics, ate, stats, runtimes).to_json()))
 
 
 def check_run_files(

@@ -75,7 +75,7 @@ def _point_rate(p: OperatingPoint | None, min_n: int, interval: bool) -> str:
     return rate_cell(p.recall, p.hits, p.n_relevant, p.recall_ci, min_n, interval=interval)
 
 
-def summary_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -> list[dict[str, str]]:
+def metrics_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -> list[dict[str, str]]:
     """One row per method on pair set ``kind``: counts, max recall, R@P=1, the precision at max recall,
     recall at P>=0.9 and at the acceptance threshold, best F1, AUC, coarse bins."""
     min_n = int(metrics.config.get("min_relevant", 5))

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import io
 import logging
-import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, TypedDict
 
@@ -20,8 +19,8 @@ from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike, NDArray
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.core.geometry import pose_error
 from roman_sim.core.trajectory import Trajectory
+from roman_sim.evaluation.variants import closure_correct
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph.types import LoopClosure
 
@@ -151,13 +150,13 @@ def closure_lines(
     for c, w in zip(closures, weights):
         if w is None or c.n_associations < association_thresh:
             continue
-        a, b = submaps[f"{c.robot_a}/{c.submap_a}"], submaps[f"{c.robot_b}/{c.submap_b}"]
-        if a.truth is None or b.truth is None:
-            raise EvaluationError(f"trajectory plot: closure {a.name}|{b.name} joins submaps without truth")
-        Ta, Tb = a.truth.T_world_submap, b.truth.T_world_submap
-        rot, trans = pose_error(c.T_a_b, np.linalg.inv(Ta) @ Tb)
-        ok = math.degrees(rot) <= rot_tol_deg and trans <= trans_tol_m
-        lines.append((Ta[:3, 3], Tb[:3, 3], "inter" if c.inter else "intra", bool(ok)))
+        try:
+            ok = closure_correct(c, submaps, rot_tol_deg, trans_tol_m)
+        except EvaluationError as err:
+            raise EvaluationError(f"trajectory plot: {err}") from None
+        Ta = submaps[f"{c.robot_a}/{c.submap_a}"].truth.T_world_submap  # type: ignore[union-attr]
+        Tb = submaps[f"{c.robot_b}/{c.submap_b}"].truth.T_world_submap  # type: ignore[union-attr]
+        lines.append((Ta[:3, 3], Tb[:3, 3], "inter" if c.inter else "intra", ok))
     return lines
 
 

@@ -1,7 +1,7 @@
 """The reference results' comparison table and claims, derived from the runs' compact summaries.
 
-Everything here is a pure function of ``summary.json``'s ``runs`` (one ``compact_summary``
-per scenario) and ``ambiguity_sweep`` (sweep summary rows), so the table, the claims and
+Everything here is a pure function of ``summary.json``'s ``runs`` (one ``summarize_run``
+per scenario) and ``ambiguity_sweep`` (the sweep's aggregate rows), so the table, the claims and
 their wording in ``summary.md`` and the results page (``docs/results.md``) can be re-derived
 from the committed raw files by a test. A claim carries its wording (numbers filled in from
 the data) and whether it holds; the page lists the claims that hold and, separately, those
@@ -15,7 +15,7 @@ from typing import TypedDict
 
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
-from roman_sim.report.summaries import AteSummary, RecallSummary, RunSummary, SetSummary
+from roman_sim.evaluation.run_summary import AteSummary, RecallSummary, RunSummary, SetSummary
 
 #: The paper's figures (Kimera-Multi outdoor and the off-road Jackal experiment).
 PAPER_FIGURES: dict[str, float] = {

@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, TypedDict
 
 from roman_sim.core.atomic import write_bytes, write_text
-from roman_sim.report.summaries import RecallSummary
+from roman_sim.evaluation.run_summary import RecallSummary
 from roman_sim.studies.claims import claims_markdown, num, point_cells, sweep_markdown, table_markdown
 from roman_sim.studies.reference_tables import (
     frontends_markdown,

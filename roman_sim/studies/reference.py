@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any, TypedDict
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON, JSONLike
-from roman_sim.report.summaries import RunSummary
+from roman_sim.evaluation.run_summary import RunSummary
 from roman_sim.studies import pages
 from roman_sim.studies.claims import (
     PAPER,
@@ -105,7 +105,7 @@ def _gzip_copy(src: Path, dest: Path) -> None:
     write_bytes(dest, gzip.compress(src.read_bytes(), compresslevel=9, mtime=0))
 
 
-def _timings_summary(path: Path) -> JSON:
+def _timing_figures(path: Path) -> JSON:
     """``timings.json`` without the per-pair runtime lists (the statistics are kept)."""
     data = _json(path)
     for stage in data.get("stages", {}).values():
@@ -138,7 +138,7 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
         dest / "metrics.json", json.dumps(_json(run_dir / "metrics.json"), sort_keys=True, separators=(",", ":")) + "\n"
     )
     if (run_dir / "timings.json").is_file():
-        write_json(dest / "timings.json", _timings_summary(run_dir / "timings.json"))
+        write_json(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
     for name in RAW_FILES:
         if (run_dir / name).is_file():
             _gzip_copy(run_dir / name, dest / f"{name}.gz")
@@ -260,15 +260,15 @@ def reproduce(
         sweep = ambiguity_sweep(out / "ambiguity_sweep", work / "ambiguity_sweep", from_stage)
     else:
         runs, sweep = merge_committed(out, runs)
-    summary = build_summary(runs, sweep)
+    summary = build_reference(runs, sweep)
     write_json(out / "summary.json", summary)
-    write_text(out / "summary.md", summary_markdown(summary))
+    write_text(out / "summary.md", reference_markdown(summary))
     if root is not None:
         write_pages(Path(root), out, summary)
     return out / "summary.md"
 
 
-def write_pages(root: Path, ref_dir: Path, summary: ReferenceSummary) -> None:
+def write_pages(root: Path, ref_dir: Path, summary: ReferenceRecord) -> None:
     """Rewrite the generated documentation blocks under ``root`` from the reference results.
 
     The results page's block from ``summary``, the README's figure, and the README's demo
@@ -291,7 +291,7 @@ def demo_summary(ref_dir: str | Path) -> dict[str, JSONLike]:
 
 
 def _sweep_rows(rows: list[dict[str, Any]]) -> list[SweepRow]:
-    """Cross-robot overall rows of a sweep summary, per ambiguity knob and method."""
+    """Cross-robot overall rows of a sweep's aggregate over seeds, per ambiguity knob and method."""
     return [
         {
             "ambiguity": float(r[AMBIGUITY_KEY]),
@@ -308,10 +308,10 @@ def _sweep_rows(rows: list[dict[str, Any]]) -> list[SweepRow]:
 
 
 def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> list[SweepRow]:
-    """Run (or resume) the ambiguity sweep; keep its summary and each run's raw pairs table."""
+    """Run (or resume) the ambiguity sweep; keep its aggregate over seeds and each run's raw pairs table."""
     from roman_sim.pipeline.scenario import SCENARIO_DIR
     from roman_sim.pipeline.sweep import load_sweep, run_sweep
-    from roman_sim.pipeline.sweep_summary import SUMMARY_CSV, SWEEP_JSON, sweep_summary
+    from roman_sim.pipeline.sweep_aggregate import AGGREGATE_CSV, SWEEP_JSON, aggregate_sweep
 
     cfg, scenario = load_sweep(SCENARIO_DIR / AMBIGUITY_SWEEP)
     cfg.executor.kind = "serial"
@@ -319,13 +319,13 @@ def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> li
     if dest.is_dir():
         shutil.rmtree(dest)
     dest.mkdir(parents=True)
-    for name in (SWEEP_JSON, SUMMARY_CSV, "sweep.csv", "plots/sweep_summary.png"):
+    for name in (SWEEP_JSON, AGGREGATE_CSV, "sweep.csv", "plots/sweep_summary.png"):
         if (work / name).is_file():
             (dest / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(work / name, dest / name)
     for r in json.loads((work / SWEEP_JSON).read_text(encoding="utf-8"))["runs"]:
         collect(work / r["run_id"], dest / r["run_id"], trajectories=False, plots=False, packets=False)
-    return _sweep_rows(sweep_summary(work)[1])
+    return _sweep_rows(aggregate_sweep(work)[1])
 
 
 def merge_committed(out: Path, runs: dict[str, RunSummary]) -> tuple[dict[str, RunSummary], list[SweepRow]]:
@@ -361,11 +361,11 @@ def _committed_sweep(d: Path) -> list[SweepRow]:
     rows = []
     for r in spec["runs"]:
         s = _run_summary(d / "ambiguity_sweep" / r["run_id"])
-        rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s.to_json())
+        rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s)
     return _sweep_rows(aggregate(rows, list(spec["grid"])))
 
 
-class ReferenceSummary(TypedDict):
+class ReferenceRecord(TypedDict):
     """``summary.json``."""
 
     runs: dict[str, dict[str, JSONLike]]
@@ -379,7 +379,7 @@ class ReferenceSummary(TypedDict):
     paper: dict[str, float | dict[str, tuple[float, float, float]]]
 
 
-def build_summary(runs: Runs, sweep: list[SweepRow]) -> ReferenceSummary:
+def build_reference(runs: Runs, sweep: list[SweepRow]) -> ReferenceRecord:
     """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the
     operating points, the claims, the sweep rows."""
     return {
@@ -395,7 +395,7 @@ def build_summary(runs: Runs, sweep: list[SweepRow]) -> ReferenceSummary:
     }
 
 
-def _tables_markdown(summary: ReferenceSummary) -> str:
+def _tables_markdown(summary: ReferenceRecord) -> str:
     return (
         table1_markdown(summary.get("table1") or [])
         + frontends_markdown(summary.get("frontends") or {})
@@ -404,7 +404,7 @@ def _tables_markdown(summary: ReferenceSummary) -> str:
     )
 
 
-def summary_markdown(summary: ReferenceSummary) -> str:
+def reference_markdown(summary: ReferenceRecord) -> str:
     """``summary.md``: the comparison table, the claims and the ambiguity sweep."""
     return (
         "# Reference results next to the paper\n\n"
@@ -424,15 +424,15 @@ def summary_markdown(summary: ReferenceSummary) -> str:
 def _run_summary(d: Path) -> RunSummary:
     """A run's compact summary recomputed from its committed raw files."""
     from roman_sim.evaluation.records import MapStats
+    from roman_sim.evaluation.run_summary import summarize_run
     from roman_sim.report.recompute import recompute_ate, recompute_metrics
-    from roman_sim.report.summaries import compact_summary
 
     metrics, _ = recompute_metrics(d, "pairs.csv.gz", as_stored=False)
     ate = recompute_ate(d, ".gz") if (d / "ate.json").is_file() and (d / "trajectories").is_dir() else None
     stats = MapStats.from_json({k: v for k, v in _json(d / "map_stats.json").items() if k != "notes"})
     alignment = (_json(d / "timings.json").get("stages", {}).get("evaluation") or {}).get("alignment") or {}
     runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
-    return compact_summary(metrics, ate, stats, runtimes)
+    return summarize_run(metrics, ate, stats, runtimes)
 
 
 def _json(path: Path) -> Any:
@@ -442,9 +442,9 @@ def _json(path: Path) -> Any:
         raise StorageError(f"{path}: unreadable ({type(err).__name__})") from None
 
 
-def rederive(ref_dir: str | Path) -> ReferenceSummary:
+def rederive(ref_dir: str | Path) -> ReferenceRecord:
     """``summary.json`` recomputed from the raw files under ``ref_dir`` (scenarios as committed)."""
     d = Path(ref_dir)
     committed = _json(d / "summary.json")
     runs = {name: _run_summary(d / name) for name in committed["runs"]}
-    return build_summary(runs, _committed_sweep(d))
+    return build_reference(runs, _committed_sweep(d))

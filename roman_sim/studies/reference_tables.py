@@ -1,6 +1,6 @@
 """Tables of the reference results: the paper's Table I, two front ends side by side, the operating points.
 
-Both are pure functions of ``summary.json``'s ``runs`` (one ``compact_summary`` per
+Both are pure functions of ``summary.json``'s ``runs`` (one ``summarize_run`` per
 scenario), so a test re-derives them from the committed raw files like every other number
 of the summary.
 
@@ -23,7 +23,7 @@ from __future__ import annotations
 from typing import TypedDict
 
 from roman_sim.core.jsontypes import JSONLike
-from roman_sim.report.summaries import RecallSummary
+from roman_sim.evaluation.run_summary import RecallSummary
 from roman_sim.studies.claims import PAPER_ATE, POINT_COLUMNS, Runs, _ate_cell, _robots, mcell, num, point_cells
 
 #: Rows of the simulation's ATE table shown next to the paper's, with their column titles.

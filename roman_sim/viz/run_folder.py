@@ -75,7 +75,7 @@ def _trajectories(d: Path) -> dict[str, dict[str, Trajectory]]:
 
 
 def _closures(rf: RunFolder, evaluation: EvaluationOutput, submaps: Submaps) -> list[Closure]:
-    from roman_sim.pipeline.stages.posegraph import method_closures
+    from roman_sim.evaluation.variants import method_closures
     from roman_sim.posegraph import build_and_solve, submap_nodes_from
 
     sc = rf.scenario
@@ -83,7 +83,7 @@ def _closures(rf: RunFolder, evaluation: EvaluationOutput, submaps: Submaps) -> 
     if method is None:  # the caller reads closures only of a run with a pose-graph method
         return []
     records = [r for r in evaluation.alignments if r.method == method and r.T_a_b is not None]
-    closures = method_closures(submaps, evaluation, method)  # same order as ``records``
+    closures = method_closures(submaps.by_name(), evaluation.alignments, method)  # same order as ``records``
     correct = {(s.truth.a, s.truth.b): s.correct for s in evaluation.scores if s.method == method}
     verdicts: list[bool | None] = [None] * len(closures)
     if rf.maps:

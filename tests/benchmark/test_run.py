@@ -17,6 +17,7 @@ from roman_sim.benchmark.run import BenchmarkJob
 from roman_sim.benchmark.suites import load_suite
 from roman_sim.cli import app
 from roman_sim.core.errors import ConfigError
+from roman_sim.evaluation.leaderboard import read_leaderboard
 from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.testing import assert_benchmark, benchmark_pins
 
@@ -97,13 +98,18 @@ def test_a_plugin_failing_in_one_cell_fails_that_cell_only(failed_once: dict) ->
     folder = failed_once["folder"]
     rec = json.loads((folder / "benchmark.json").read_text())
     assert {c["id"]: c["status"] for c in rec["cells"]} == {"distinct-s0": "ok", "repetitive-s0": "failed"}
-    board = json.loads((folder / "leaderboard.json").read_text())
-    assert list(board["failed_cells"]) == ["repetitive-s0"] and not board["bound_met"]
-    distinct = board["levels"][0]
-    assert distinct["name"] == "distinct" and set(distinct["overall"]["methods"]) == {
-        "roman",
-        "FailsOnRepetitivePlaces",
-    }
+    board = read_leaderboard(folder / "leaderboard.json")
+    assert list(board.failed_cells) == ["repetitive-s0"] and not board.bound_met
+    distinct = board.levels[0]
+    assert (
+        distinct.name == "distinct"
+        and distinct.overall is not None
+        and set(distinct.overall.methods)
+        == {
+            "roman",
+            "FailsOnRepetitivePlaces",
+        }
+    )
     assert "## Cells that did not finish" in (folder / "leaderboard.md").read_text()
     # one seed per level: no held-out figures, one statement instead
     assert distinct["deployable"]["note"].startswith("held-out figures need at least two worlds")
@@ -129,25 +135,27 @@ def test_planned_relevant_pairs_are_the_run_s_and_the_board_follows_from_raw_pai
     folder = failed_once["folder"]
     plan = json.loads((folder / "plan.json").read_text())["cells"]["distinct-s0"]
     board, _ = leaderboard(folder)
-    level = board["levels"][0]
-    assert [b["n_relevant"] for b in level["bins"]] == plan["relevant"]  # planned before rendering = scored
+    level = board.levels[0]
+    assert level.overall is not None
+    assert [b.n_relevant for b in level.bins] == plan["relevant"]  # planned before rendering = scored
     own = _own_max_hits(folder / "cells" / "distinct-s0" / "pairs.csv.gz")
     for m, (hits, rel) in own.items():
-        p = level["overall"]["methods"][m]["max_recall"]
-        assert (p["hits"], p["n_relevant"]) == (hits, rel), m
-    assert json.loads((folder / "leaderboard.json").read_text()) == json.loads(json.dumps(board))
+        p = level.overall.point(m, "max_recall")
+        assert p is not None and (p.hits, p.n_relevant) == (hits, rel), m
+    assert read_leaderboard(folder / "leaderboard.json") == board
     block = readme_block(board, "plots/recall_heading.png")
     assert block.startswith(README_BEGIN) and block.endswith(README_END)
-    p = level["overall"]["methods"]["roman"]["max_recall"]
+    p = level.overall.point("roman", "max_recall")
     assert "- max recall: roman ranks first alone in " in block and "distinct ambiguity (index 0." in block
-    assert p["hits"] <= p["n_relevant"]
+    assert p is not None and p.hits <= p.n_relevant
     hand = by_hand(folder)  # the scorer the committed standard results are checked with
-    for b in level["bins"]:
-        for m, pts in b["methods"].items():
-            assert hand.get(("distinct", b["heading"], m), (0, 0)) == (
-                pts["max_recall"]["hits"],
-                pts["max_recall"]["n_relevant"],
-            ), (b["heading"], m)
+    for b in level.bins:
+        for m in b.methods:
+            q = b.point(m, "max_recall")
+            assert q is not None and hand.get(("distinct", b.heading, m), (0, 0)) == (q.hits, q.n_relevant), (
+                b.heading,
+                m,
+            )
 
 
 def test_a_rerun_resumes_and_assert_benchmark_pins_cells(failed_once: dict, home: Path, monkeypatch) -> None:
@@ -158,7 +166,7 @@ def test_a_rerun_resumes_and_assert_benchmark_pins_cells(failed_once: dict, home
     monkeypatch.chdir(home)
     out = job.run()
     assert out.reused == ["distinct-s0"] and list(out.failures) == ["repetitive-s0"]
-    board = json.loads((folder / "leaderboard.json").read_text())
+    board = read_leaderboard(folder / "leaderboard.json")
     pins = {k: v for k, v in benchmark_pins(board, "roman").items() if k.startswith("distinct/")}
     again = folder  # roman alone: the cells' evaluation runs again, their maps are reused
     board2 = assert_benchmark("roman", home / "tiny.yaml", pinned=pins, out=again)  # same cells, same counts

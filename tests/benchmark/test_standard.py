@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 
 from roman_sim.benchmark.board import leaderboard
+from roman_sim.core.records import to_json
+from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
 from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.report.recompute import compare
 
@@ -26,41 +28,41 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-def _committed() -> dict:
-    return json.loads((STANDARD / "leaderboard.json").read_text(encoding="utf-8"))
+def _committed() -> Leaderboard:
+    return read_leaderboard(STANDARD / "leaderboard.json")
 
 
 @pytest.fixture(scope="module", name="again")
-def _again() -> dict:
-    """The leaderboard re-derived from the committed raw pairs (once for the module), as JSON."""
-    return json.loads(json.dumps(leaderboard(STANDARD)[0]))
+def _again() -> Leaderboard:
+    """The leaderboard re-derived from the committed raw pairs (once for the module)."""
+    return leaderboard(STANDARD)[0]
 
 
 def test_the_leaderboard_follows_from_the_raw_pairs(again, by_hand_points, by_hand_precision_90):
-    committed = _committed()
-    diffs = compare(committed, again, "leaderboard.json", rel_tol=1e-9, abs_tol=1e-12)
+    raw = json.loads((STANDARD / "leaderboard.json").read_text(encoding="utf-8"))
+    rederived = {"schema": raw["schema"], **json.loads(json.dumps(to_json(again)))}
+    diffs = compare(raw, rederived, "leaderboard.json", rel_tol=1e-9, abs_tol=1e-12)
     assert not diffs, diffs[:10]
     hand, p90 = by_hand_points(STANDARD), by_hand_precision_90(STANDARD)
-    for e in committed["levels"]:
-        for b in e["bins"]:
-            for m, pts in b["methods"].items():
-                p = pts["max_recall"]
-                got = (p["hits"], p["n_relevant"], p["k"], p["false_positives"])
-                assert hand[(e["name"], b["heading"], m)] == got, (e["name"], b["heading"], m)
-                q = pts["precision_90"]
-                got = (q["hits"], q["k"], q["false_positives"])
-                assert p90[(e["name"], b["heading"], m)] == got, (e["name"], b["heading"], m)
+    for e in _committed().levels:
+        for b in e.bins:
+            for m, pts in b.methods.items():
+                p, q = pts["max_recall"], pts["precision_90"]
+                assert p is not None and q is not None, (e.name, b.heading, m)
+                got = (p.hits, p.n_relevant, p.k, p.false_positives)
+                assert hand[(e.name, b.heading, m)] == got, (e.name, b.heading, m)
+                assert p90[(e.name, b.heading, m)] == (q.hits, q.k, q.false_positives), (e.name, b.heading, m)
 
 
 def test_every_cell_meets_the_interval_bound():
     board = _committed()
-    assert board["bound_met"] and not board["failed_cells"]
-    assert [e["name"] for e in board["levels"]] == ["low", "medium", "high"]
-    for e in board["levels"]:
-        assert len(e["bins"]) == 6
-        for b in e["bins"]:
-            assert b["n_relevant"] >= 100, (e["name"], b["heading"])
-            assert b["max_half_width"] <= board["half_width_bound"], (e["name"], b["heading"])
+    assert board.bound_met and not board.failed_cells
+    assert [e.name for e in board.levels] == ["low", "medium", "high"]
+    for e in board.levels:
+        assert len(e.bins) == 6
+        for b in e.bins:
+            assert b.n_relevant >= 100, (e.name, b.heading)
+            assert b.max_half_width is not None and b.max_half_width <= board.half_width_bound, (e.name, b.heading)
 
 
 def test_readme_block_is_rendered_from_the_committed_results():

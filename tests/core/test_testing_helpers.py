@@ -10,7 +10,9 @@ import pytest
 
 from roman_sim.core.errors import ConfigError, EvaluationError, StorageError
 from roman_sim.evaluation.atetable import AteTable, VariantAte
-from roman_sim.evaluation.metrics import PairScore, summary
+from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard
+from roman_sim.evaluation.metrics import PairScore, compute_metrics
+from roman_sim.evaluation.operating_points import OperatingPoint
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.results import write_pairs_csv
 from roman_sim.pipeline.result import RunResult
@@ -60,7 +62,7 @@ def run() -> RunResult:
             for v, e in (("odometry", 1.0), ("roman", 0.5))
         },
     )
-    return RunResult(Path("."), load_scenario("smoke"), summary(scores), ate, None)  # type: ignore[arg-type]
+    return RunResult(Path("."), load_scenario("smoke"), compute_metrics(scores), ate, None)  # type: ignore[arg-type]
 
 
 def test_figures_pass_and_fail_against_hand_computed_values(run: RunResult) -> None:
@@ -151,7 +153,7 @@ def _run_of(tmp: Path, hits: dict[str, list[int]], n: int, heading: float = 30.0
     """Each method aligns the relevant pairs ``hits[method]`` (indices) of ``n``; pairs.csv written to ``tmp``."""
     scores = [_score(i, m, i in set(h), heading) for m, h in hits.items() for i in range(n)]
     write_pairs_csv(tmp / "pairs.csv", scores)
-    return RunResult(tmp, load_scenario("smoke"), summary(scores, acceptance_k=4), AteTable([], [], {}), None)  # type: ignore[arg-type]
+    return RunResult(tmp, load_scenario("smoke"), compute_metrics(scores, acceptance_k=4), AteTable([], [], {}), None)  # type: ignore[arg-type]
 
 
 def test_a_regression_from_six_to_one_of_fifteen_fails(tmp_path: Path) -> None:
@@ -242,18 +244,19 @@ def test_assert_hits_rejects_pins_that_cannot_fail(run: RunResult, pinned: objec
     assert str(e.value).startswith(expect), str(e.value)
 
 
-def _board() -> dict:
+def _board() -> Leaderboard:
     """A leaderboard of two methods on one level: roman 9/20 and 30/60, degraded 4/20 and 30/60."""
 
-    def pt(h: int, n: int) -> dict:
-        return {"hits": h, "n_relevant": n}
+    def pt(h: int, n: int) -> dict[str, OperatingPoint | None]:
+        return {"max_recall": OperatingPoint(0, True, h, n, 0, h / n, None, 1.0, None)}
 
-    bins = [{"heading": "0-30", "methods": {"roman": {"max_recall": pt(9, 20)}, "degraded": {"max_recall": pt(4, 20)}}}]
-    overall = {
-        "heading": "all",
-        "methods": {"roman": {"max_recall": pt(30, 60)}, "degraded": {"max_recall": pt(30, 60)}},
-    }
-    return {"methods": ["roman", "degraded"], "levels": [{"name": "low", "bins": bins, "overall": overall}]}
+    def cell(heading: str, roman: tuple[int, int], degraded: tuple[int, int]) -> BoardCell:
+        return BoardCell(heading, 100, roman[1], {"roman": pt(*roman), "degraded": pt(*degraded)}, {}, None)
+
+    level = BoardLevel(
+        "low", 0.0, ["low-s0"], 4, overall=cell("all", (30, 60), (30, 60)), bins=[cell("0-30", (9, 20), (4, 20))]
+    )
+    return Leaderboard("tiny", "", ["roman", "degraded"], [], [0.0, 30.0], 0.1, {}, [level])
 
 
 def test_benchmark_pins_pass_for_the_method_and_fail_for_a_degraded_one() -> None:

@@ -10,7 +10,8 @@ import pytest
 
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
+from roman_sim.evaluation.atetable import AteTable, ate_table
+from roman_sim.evaluation.variants import TrajectoryVariant
 
 V = np.array([0.0, 0.0, 0.8])  # offset of |v| = 0.8 m
 
@@ -42,10 +43,11 @@ def table() -> AteTable:
     return ate_table(
         TRUTH,
         {
-            "odometry": VariantEstimate(odom, "joint"),
-            "odometry_no_prior": VariantEstimate(odom, "per_robot"),
-            "graph": VariantEstimate(graph, "joint"),
+            "odometry": TrajectoryVariant("odometry", "joint", "odometry"),
+            "odometry_no_prior": TrajectoryVariant("odometry aligned robot by robot", "per_robot", "odometry"),
+            "graph": TrajectoryVariant("pose graph", "joint", "graph"),
         },
+        {"odometry": odom, "graph": graph},
         ("se3",),
     )
 
@@ -88,6 +90,8 @@ def test_bad_tables_are_clear_errors(table):
     with pytest.raises(EvaluationError, match="robot"):
         table.rmse("graph", robot="r9")
     with pytest.raises(EvaluationError, match="no true trajectory"):
-        ate_table(TRUTH, {"x": VariantEstimate({"r9": _traj(P)})})
+        ate_table(TRUTH, {"x": TrajectoryVariant("x")}, {"x": {"r9": _traj(P)}})
+    with pytest.raises(EvaluationError, match="ATE variant 'x': no trajectories 'y'"):
+        ate_table(TRUTH, {"x": TrajectoryVariant("x", source="y")}, {})
     with pytest.raises(EvaluationError, match="may not be named"):
-        ate_table({"all": _traj(P)}, {})
+        ate_table({"all": _traj(P)}, {}, {})

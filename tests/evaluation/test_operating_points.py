@@ -8,10 +8,10 @@ import math
 import pytest
 
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import summary
+from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES, strip_absent_points
 from roman_sim.evaluation.types import EvaluationMetrics
-from roman_sim.report.tables import bin_rows, operating_point_rows, point_cell, summary_rows
+from roman_sim.report.tables import bin_rows, metrics_rows, operating_point_rows, point_cell
 
 Z95 = 1.959963984540054
 
@@ -33,7 +33,7 @@ def six(make_score):
 
 
 def test_points_by_hand(six):
-    pts = summary(six, acceptance_k=4).stats("m").operating_points
+    pts = compute_metrics(six, acceptance_k=4).stats("m").operating_points
     best = pts["max_recall"]
     # TP stays 2 up to k = 5 (the highest such k), where only the n=8 pair is a false positive
     assert (best.k, best.hits, best.n_relevant, best.false_positives) == (5, 2, 4, 1)
@@ -45,20 +45,20 @@ def test_points_by_hand(six):
         assert (p.k, p.reached, p.hits, p.false_positives, p.recall, p.precision) == (9, True, 1, 0, 0.25, 1.0)
     acc = pts["acceptance"]
     assert (acc.k, acc.hits, acc.false_positives, acc.recall) == (4, 2, 1, 0.5)
-    assert summary(six).stats("m").operating_points["acceptance"] is None  # no threshold given, no point
+    assert compute_metrics(six).stats("m").operating_points["acceptance"] is None  # no threshold given, no point
 
 
 def test_precision_of_exactly_0_9_counts_as_reached(make_score):
     # 27 correct and 3 wrong positives: 27/30 is 0.9 exactly (0.9 * 30 is not 27 in floats)
     scores = [make_score(str(i), True, 5, i < 27) for i in range(30)]
-    p = summary(scores).stats("m").operating_points["precision_90"]
+    p = compute_metrics(scores).stats("m").operating_points["precision_90"]
     assert (p.reached, p.k, p.hits, p.false_positives) == (True, 0, 27, 3)
-    assert not summary(scores).stats("m").operating_points["precision_100"].reached
+    assert not compute_metrics(scores).stats("m").operating_points["precision_100"].reached
 
 
 def test_a_precision_never_reached_is_recall_zero_without_threshold(make_score):
     scores = [make_score("0", True, 5, True), make_score("1", False, 5, False), make_score("2", False, 7, False)]
-    pts = summary(scores).stats("m").operating_points
+    pts = compute_metrics(scores).stats("m").operating_points
     for name in ("precision_90", "precision_100"):
         p = pts[name]
         assert (p.reached, p.k, p.hits, p.recall, p.precision) == (False, None, 0, 0.0, None)
@@ -68,19 +68,19 @@ def test_a_precision_never_reached_is_recall_zero_without_threshold(make_score):
 
 def test_undefined_points_are_none(make_score):
     scores = [make_score("0", False, 5, False), make_score("1", False, 0, False)]
-    pts = summary(scores, acceptance_k=2).stats("m").operating_points
+    pts = compute_metrics(scores, acceptance_k=2).stats("m").operating_points
     assert pts["max_recall"].recall is None and pts["max_recall"].recall_ci is None
     assert pts["acceptance"].recall is None and pts["acceptance"].precision == 0.0
     assert point_cell(pts["max_recall"], 1) == "n/a"
 
 
 def test_acceptance_threshold_beyond_the_sweep(six):
-    acc = summary(six, acceptance_k=50).stats("m").operating_points["acceptance"]
+    acc = compute_metrics(six, acceptance_k=50).stats("m").operating_points["acceptance"]
     assert (acc.k, acc.hits, acc.false_positives, acc.recall, acc.precision) == (50, 0, 0, 0.0, None)
 
 
 def test_heading_bins_get_their_own_points(six):
-    m = summary(six, acceptance_k=4)
+    m = compute_metrics(six, acceptance_k=4)
     p = m.stats("m", "0-60").operating_points  # pairs 0 (n=10, right) and 4 (n=8, wrong, irrelevant)
     assert (p["max_recall"].k, p["max_recall"].hits, p["max_recall"].n_relevant) == (10, 1, 1)
     assert (p["precision_90"].k, p["acceptance"].false_positives) == (9, 1)
@@ -89,7 +89,7 @@ def test_heading_bins_get_their_own_points(six):
 
 
 def test_json_round_trip_and_older_files(six, tmp_path):
-    m = summary(six, acceptance_k=4)
+    m = compute_metrics(six, acceptance_k=4)
     d = json.loads(json.dumps(m.to_json()))
     assert d["acceptance_k"] == 4 and list(d["methods"]["m"]["inter"]["operating_points"]) == list(POINT_NAMES)
     assert EvaluationMetrics.from_json(d).to_json() == d
@@ -103,7 +103,7 @@ def test_json_round_trip_and_older_files(six, tmp_path):
 
 
 def test_tables_show_thresholds_and_precision(six):
-    m = summary(six, EvalConfig(min_relevant=1), acceptance_k=4)
+    m = compute_metrics(six, EvalConfig(min_relevant=1), acceptance_k=4)
     rows = operating_point_rows(m, "inter")
     assert [r["heading"] for r in rows] == ["all", "0-60 deg", "60-120 deg", "120-180 deg"]
     lo, hi = wilson_by_hand(2, 4)
@@ -112,12 +112,12 @@ def test_tables_show_thresholds_and_precision(six):
         "at k=9, P=1.00 (1/1)"
     )
     assert rows[0]["recall at acceptance (k=4)"].endswith("at k=4, P=0.67 (2/3)")
-    s = summary_rows(m, "inter")[0]
+    s = metrics_rows(m, "inter")[0]
     assert s["P at max recall"] == "0.67 (2/3) at k=5" and s["recall@accept (k=4)"].startswith("0.50 (2/4)")
 
 
 def test_bin_tables_give_each_operating_point(six):
-    rows = bin_rows(summary(six, EvalConfig(min_relevant=1), acceptance_k=4), "inter", "heading_bins_fine")
+    rows = bin_rows(compute_metrics(six, EvalConfig(min_relevant=1), acceptance_k=4), "inter", "heading_bins_fine")
     assert [r["figure"] for r in rows] == ["max recall", "recall at P>=0.9", "recall at acceptance (k=4)"]
     assert rows[0]["0-30"] == "1.00 (1/1)" and rows[1]["0-30"] == "1.00 (1/1)" and rows[2]["0-30"] == "1.00 (1/1)"
     assert rows[0]["150-180"] == "0.00 (0/2)" and rows[1]["150-180"] == "not reached (0/2)"  # both pairs wrong

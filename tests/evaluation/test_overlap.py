@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import summary
+from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.overlap import (
     counts_by_pair,
     overlap_graph,
@@ -46,7 +46,7 @@ def test_robot_pair_counts_and_metrics_round_trip(make_score):
     assert counts_by_pair(counts) == {("a", "b"): 1, ("a", "c"): 1}
     scores = [make_score(str(i), relevant=i < 3, n_assoc=5, correct=True, method=m) for i in range(5) for m in "xy"]
     scores += [make_score("9", relevant=True, n_assoc=5, correct=True, kind="intra")]
-    m = summary(scores)
+    m = compute_metrics(scores)
     assert m.robot_pairs == {"a|b": {"n_pairs": 5, "n_relevant": 3}}  # one per pair, not per method
     again = EvaluationMetrics.from_json(m.to_json())
     assert again.robot_pairs == m.robot_pairs
@@ -100,7 +100,7 @@ def test_revisit_figures_by_hand():
 
 def test_metrics_record_revisit_figures_once_per_pair(make_score):
     scores = [make_score(str(i), relevant=i < 3, n_assoc=5, correct=True, method=m) for i in range(5) for m in "xy"]
-    m = summary(scores)
+    m = compute_metrics(scores)
     assert m.revisits is not None  # one entry per pair, not per method
     assert m.revisits["all"] == {"n_relevant": 3, "median_overlap": 0.5, "median_shared_objects": 0.0}
     assert list(m.revisits) == ["all", "a|b"]

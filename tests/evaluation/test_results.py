@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import StorageError
-from roman_sim.evaluation.metrics import score_pair, summary
+from roman_sim.evaluation.metrics import compute_metrics, score_pair
 from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth
 from roman_sim.evaluation.results import (
     PAIRS_FIELDS,
@@ -48,13 +48,13 @@ def test_csv_round_trip_is_exact(scores, tmp_path):
 
 
 def test_metrics_round_trip_and_nan_is_null(scores, tmp_path):
-    m = summary(scores)
+    m = compute_metrics(scores)
     paths = write_evaluation(tmp_path, scores, m)
     text = paths["metrics"].read_text()
     assert "NaN" not in text and "null" in text
     back_scores, back = read_evaluation(tmp_path)
     assert back.to_json() == json.loads(json.dumps(m.to_json()))
-    assert summary(back_scores).to_json() == back.to_json()
+    assert compute_metrics(back_scores).to_json() == back.to_json()
 
 
 def test_missing_and_corrupt_files_raise_storage_error(scores, tmp_path):

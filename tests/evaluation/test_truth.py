@@ -8,7 +8,7 @@ import pytest
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.assoc import association_truth, shared_objects, true_correspondences
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import score_pair, summary
+from roman_sim.evaluation.metrics import compute_metrics, score_pair
 from roman_sim.evaluation.pairs import pair_truth, select_pairs
 
 
@@ -38,7 +38,7 @@ def test_score_pair_counts_associations_against_segment_truth(make_submap, resul
     res = result_for(t.T_a_b_true, 4, n_segments=4)  # (0,0) 1-2 no, (1,1) 2-1 no, (2,2) 3-3 yes, (3,3) 4-5 no
     s = score_pair(t, res)
     assert (s.n_assoc, s.assoc_correct, s.assoc_recovered) == (4, 1, 1)
-    st = summary([s]).stats("m")
+    st = compute_metrics([s]).stats("m")
     assert (st.assoc_selected, st.assoc_correct, st.assoc_available, st.assoc_recovered) == (4, 1, 3, 1)
     assert st.assoc_precision == pytest.approx(0.25) and st.assoc_recall == pytest.approx(1 / 3)
 
@@ -77,7 +77,7 @@ def test_cross_and_same_robot_pairs_are_scored_apart(make_score):
         make_score("3", True, 6, True, kind="intra"),
         make_score("4", True, 6, True, kind="intra"),
     ]
-    m = summary(scores, EvalConfig(min_relevant=3))
+    m = compute_metrics(scores, EvalConfig(min_relevant=3))
     assert m.headline == "inter"
     assert m.pairs == {
         "inter": {"n_pairs": 2, "n_relevant": 2},
@@ -89,5 +89,5 @@ def test_cross_and_same_robot_pairs_are_scored_apart(make_score):
     assert (intra.max_hits, intra.n_relevant, intra.few) == (3, 3, False)
     assert set(m.methods["m"].sets) == {"inter", "intra"}  # never mixed
     assert m.figure("m") == 0.5 and m.figure("m", kind="intra") == 1.0
-    only_intra = summary([make_score("0", True, 6, True, kind="intra")])
+    only_intra = compute_metrics([make_score("0", True, 6, True, kind="intra")])
     assert only_intra.headline == "intra" and only_intra.figure("m") == 1.0

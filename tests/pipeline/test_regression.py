@@ -143,5 +143,6 @@ def test_undefined_metrics_are_none_not_zero(smoke_run):
             for row in ps.heading_bins_fine:
                 if row.stats.n_relevant == 0:
                     assert row.stats.max_recall is None and row.stats.recall_ci is None
-    ate = smoke_run.metrics_summary()["ate"]
-    assert not any(isinstance(v, float) and math.isnan(v) for row in ate.values() for v in row.values())
+    ate = smoke_run.summary().ate
+    assert ate
+    assert not any(isinstance(v, float) and math.isnan(v) for row in ate.values() for v in (row.common, row.all))

@@ -7,7 +7,7 @@ import pytest
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import make_T, rot_z
-from roman_sim.evaluation.metrics import score_pair, summary
+from roman_sim.evaluation.metrics import compute_metrics, score_pair
 from roman_sim.evaluation.pairs import pair_truth
 from roman_sim.report.examples import draw_examples, pick_examples, plot_alignment
 from roman_sim.report.maskview import overlay, plot_masks
@@ -28,7 +28,7 @@ def metrics(make_score):
         for i, h in enumerate([10.0, 70.0, 150.0, 170.0]):
             scores.append(make_score(str(i), True, 8 - shift - i, i < 2, method=method, heading=h, ambiguity=0.2 * i))
         scores.append(make_score("9", False, 6, False, method=method))
-    return summary(scores)
+    return compute_metrics(scores)
 
 
 def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
@@ -51,18 +51,18 @@ def test_metric_plots_are_pngs_and_deterministic(metrics, tmp_path):
 def test_plots_carrying_one_point_are_not_drawn(make_score, tmp_path):
     # every relevant pair in one heading bin and one ambiguity bin: bars and PR per bin would be one point
     scores = [make_score(str(i), True, 8 - i, i < 2, heading=10.0 + i, ambiguity=0.1) for i in range(4)]
-    paths, notes = write_metric_plots(summary(scores), tmp_path)
+    paths, notes = write_metric_plots(compute_metrics(scores), tmp_path)
     assert [p.name for p in paths] == ["precision_recall.png"]
     assert len(notes) == 6 and all("not drawn" in n for n in notes)
     (tmp_path / "recall_heading.png").write_bytes(b"stale")
-    write_metric_plots(summary(scores), tmp_path)  # a plot no longer drawn leaves no stale file behind
+    write_metric_plots(compute_metrics(scores), tmp_path)  # a plot no longer drawn leaves no stale file behind
     assert not (tmp_path / "recall_heading.png").exists()
 
 
 def test_plots_with_undefined_metrics(make_score, tmp_path):
-    paths, notes = write_metric_plots(summary([make_score("0", False, 3, False)]), tmp_path)
+    paths, notes = write_metric_plots(compute_metrics([make_score("0", False, 3, False)]), tmp_path)
     assert paths == [] and len(notes) == 7
-    assert write_metric_plots(summary([]), tmp_path / "empty")[0] == []
+    assert write_metric_plots(compute_metrics([]), tmp_path / "empty")[0] == []
 
 
 def test_alignment_drawings(make_submap, result_for, tmp_path):

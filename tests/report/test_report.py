@@ -6,13 +6,14 @@ import numpy as np
 import pytest
 
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.atetable import VariantEstimate, ate_table
+from roman_sim.evaluation.atetable import ate_table
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import summary
+from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.types import MapStats
+from roman_sim.evaluation.variants import TrajectoryVariant
 from roman_sim.report.markdown import report_markdown
 from roman_sim.report.plots import write_metric_plots
-from roman_sim.report.tables import ate_rows, rate_cell, summary_rows
+from roman_sim.report.tables import ate_rows, metrics_rows, rate_cell
 
 
 @pytest.fixture
@@ -22,7 +23,7 @@ def metrics(make_score):
         make_score("1", True, 4, False, method="roman", heading=150.0, runtime=1.5),
         make_score("2", False, 2, False, method="roman", heading=90.0, runtime=1.0),
     ]
-    return summary(scores, EvalConfig(min_relevant=1))
+    return compute_metrics(scores, EvalConfig(min_relevant=1))
 
 
 def test_cells_carry_counts_and_intervals():
@@ -32,7 +33,7 @@ def test_cells_carry_counts_and_intervals():
 
 
 def test_summary_rows_hand_values(metrics):
-    rows = summary_rows(metrics, "inter")
+    rows = metrics_rows(metrics, "inter")
     assert len(rows) == 1
     r = rows[0]
     assert (r["method"], r["pairs"], r["relevant"]) == ("roman", "3", "2")
@@ -55,7 +56,8 @@ def _truth() -> dict[str, Trajectory]:
 def test_report_has_header_tables_plots_and_statements(metrics, tmp_path):
     plots = [p.relative_to(tmp_path).as_posix() for p in write_metric_plots(metrics, tmp_path / "plots")[0]]
     truth = _truth()
-    ate = ate_table(truth, {"odometry": VariantEstimate(truth), "roman": VariantEstimate({"r1": truth["r1"]})})
+    variants = {"odometry": TrajectoryVariant(""), "roman": TrajectoryVariant("")}
+    ate = ate_table(truth, variants, {"odometry": truth, "roman": {"r1": truth["r1"]}})
     maps = MapStats(
         robots=2,
         segments=120,
@@ -83,24 +85,25 @@ def test_report_has_header_tables_plots_and_statements(metrics, tmp_path):
 
 
 def test_report_names_a_distance_cap_and_what_it_skipped(make_score, tmp_path):
-    m = summary([make_score("0", True, 3, True)], EvalConfig(max_pair_dist_m=40.0), n_skipped=7)
+    m = compute_metrics([make_score("0", True, 3, True)], EvalConfig(max_pair_dist_m=40.0), n_skipped=7)
     text = report_markdown("capped", m)
     assert "distance cap 40 m on the true centre distance (relevant pairs kept): 7 of 8 candidate pairs skipped" in text
 
 
 def test_report_without_relevant_pairs_or_extras(make_score, tmp_path):
-    m = summary([make_score("0", False, 3, False)])
+    m = compute_metrics([make_score("0", False, 3, False)])
     text = report_markdown("empty", m)
     assert "no relevant cross-robot pairs" in text
     assert "| m | 1 | 0 | n/a | n/a |" in text
     assert "No trajectory error was computed" in text and "No map statistics" in text
     assert "No plots were written" in text
-    assert "No method was evaluated" in report_markdown("none", summary([]))
+    assert "No method was evaluated" in report_markdown("none", compute_metrics([]))
 
 
 def test_ate_rows_in_variant_order():
     truth = _truth()
-    table = ate_table(truth, {"odometry": VariantEstimate(truth), "roman": VariantEstimate({})})
+    variants = {"odometry": TrajectoryVariant(""), "roman": TrajectoryVariant("")}
+    table = ate_table(truth, variants, {"odometry": truth, "roman": {}})
     rows = ate_rows(table)
     assert [r["trajectory"] for r in rows] == ["odometry", "roman"]
     assert rows[1]["robots placed"] == "0/2" and rows[1]["r1"] == "not connected"

@@ -7,9 +7,9 @@ import json
 import pytest
 
 from roman_sim.core.errors import StorageError
-from roman_sim.evaluation.metrics import summary
+from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES
-from roman_sim.report.summaries import RecallSummary, RunSummary, SetSummary, compact_summary
+from roman_sim.evaluation.run_summary import RecallSummary, RunSummary, SetSummary, summarize_run
 
 
 @pytest.fixture
@@ -21,7 +21,7 @@ def six(make_score):
 
 
 def _run(scores, acceptance_k: int | None) -> RunSummary:
-    return compact_summary(summary(scores, acceptance_k=acceptance_k), None, None)
+    return summarize_run(compute_metrics(scores, acceptance_k=acceptance_k), None, None)
 
 
 def test_points_are_filled_for_the_set_and_every_bin(six):

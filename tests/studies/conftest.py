@@ -11,7 +11,7 @@ def as_summaries():
 
     Fields a test leaves out (the ones its claims and tables do not read) get neutral values.
     """
-    from roman_sim.report.summaries import RunSummary
+    from roman_sim.evaluation.run_summary import RunSummary
 
     set_defaults = {
         "n_pairs": 0,

@@ -89,7 +89,7 @@ def _pt(k: int | None, hits: int, n: int, fp: int, reached: bool = True) -> dict
 
 
 def test_point_cells_carry_precision_and_threshold():
-    from roman_sim.report.summaries import RecallSummary
+    from roman_sim.evaluation.run_summary import RecallSummary
     from roman_sim.studies.claims import mcell, pcell, point_cells
 
     points = {

@@ -168,7 +168,7 @@ def test_operating_points_without_relevant_pairs_or_thresholds():
 def _evaluation_points(rows: list[tuple[bool, bool, int]], cfg: S.Settings, headings: list[float]) -> dict:
     """The evaluation's operating points (overall and per coarse bin) of the same rows, as JSON."""
     from roman_sim.evaluation.config import EvalConfig
-    from roman_sim.evaluation.metrics import PairScore, summary
+    from roman_sim.evaluation.metrics import PairScore, compute_metrics
     from roman_sim.evaluation.pairs import PairTruth
 
     scores = [
@@ -188,7 +188,7 @@ def _evaluation_points(rows: list[tuple[bool, bool, int]], cfg: S.Settings, head
     ec = EvalConfig(
         k_min=cfg.k_min, k_max=cfg.k_max, heading_bins_deg=list(cfg.heading_bins_deg), min_relevant=cfg.min_relevant
     )
-    ps = summary(scores, ec, acceptance_k=cfg.acceptance_k).method("m").set("inter")
+    ps = compute_metrics(scores, ec, acceptance_k=cfg.acceptance_k).method("m").set("inter")
     out = {"all": ps.overall.to_json()["operating_points"]}
     out.update({b.label: b.stats.to_json()["operating_points"] for b in ps.heading_bins})
     return {k: {n: p for n, p in v.items() if p is not None} for k, v in out.items()}
@@ -379,7 +379,7 @@ def _overlay(base: object, new: object) -> object:
 
 @needs_reference
 def test_every_claim_follows_from_the_independent_figures():
-    from roman_sim.report.summaries import RunSummary
+    from roman_sim.evaluation.run_summary import RunSummary
     from roman_sim.studies.claims import claims
 
     summary = _summary()

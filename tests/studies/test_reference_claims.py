@@ -17,7 +17,7 @@ import pytest
 
 from roman_sim.cli.verify import verify_run
 from roman_sim.report.recompute import compare
-from roman_sim.studies.reference import rederive, summary_markdown
+from roman_sim.studies.reference import rederive, reference_markdown
 
 ROOT = Path(__file__).resolve().parents[2]
 REF = ROOT / "results" / "reference"
@@ -55,14 +55,14 @@ def test_summary_follows_from_the_raw_files():
 def test_claims_are_listed_as_the_data_says():
     summary = _summary()
     assert summary["claims"], "the reference summary states no claim"
-    text = summary_markdown(summary)
+    text = reference_markdown(summary)
     held, failed = text.split("Where it does not:")
     for c in summary["claims"]:
         assert c["text"] in (held if c["holds"] else failed), c["id"]
 
 
 def test_summary_md_is_rendered_from_the_summary():
-    assert (REF / "summary.md").read_text(encoding="utf-8") == summary_markdown(_summary())
+    assert (REF / "summary.md").read_text(encoding="utf-8") == reference_markdown(_summary())
 
 
 def test_reference_results_keep_raw_data_and_stay_small():

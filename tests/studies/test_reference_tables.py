@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from roman_sim.report.summaries import frontend_summary
+from roman_sim.evaluation.run_summary import frontend_summary
 from roman_sim.studies.claims import claims
 from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
 

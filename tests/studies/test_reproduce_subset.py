@@ -13,14 +13,14 @@ from pathlib import Path
 import pytest
 
 from roman_sim.core.atomic import write_json
+from roman_sim.evaluation.run_summary import RunSummary
 from roman_sim.pipeline import experiment, scenario
 from roman_sim.report.recompute import compare
-from roman_sim.report.summaries import RunSummary
 from roman_sim.studies.pages import RESULTS_MARKERS, results_block
 from roman_sim.studies.reference import (
     AMBIGUITY_KEY,
     RESULTS_PAGE,
-    build_summary,
+    build_reference,
     collect,
     rederive,
     reproduce,
@@ -53,7 +53,7 @@ def committed(smoke_run, tmp_path: Path) -> Path:
     )
     stale = RunSummary("inter", {"stale": {"n_pairs": 1}}, 0)
     # gamma was listed once but its folder is gone; beta's entry is stale until it is re-run
-    write_json(out / "summary.json", build_summary({"alpha": stale, "beta": stale, "gamma": stale}, []))
+    write_json(out / "summary.json", build_reference({"alpha": stale, "beta": stale, "gamma": stale}, []))
     return out
 
 
@@ -70,7 +70,7 @@ def test_subset_run_keeps_the_other_scenarios_and_the_sweep(committed, smoke_run
     assert replay.ran == ["beta", "delta"]
     summary = json.loads((committed / "summary.json").read_text(encoding="utf-8"))
     assert list(summary["runs"]) == ["alpha", "beta", "delta"]  # committed order, gamma dropped, delta appended
-    fresh = json.loads(json.dumps(smoke_run.metrics_summary()))
+    fresh = json.loads(json.dumps(smoke_run.summary().to_json()))
     for name in ("alpha", "beta", "delta"):  # alpha recomputed from its raw files, beta and delta from the run
         assert not compare(fresh, summary["runs"][name], name, rel_tol=1e-6, abs_tol=1e-9)
     assert [r["ambiguity"] for r in summary["ambiguity_sweep"]] == [0.25] * len(summary["ambiguity_sweep"])

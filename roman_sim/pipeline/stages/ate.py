@@ -13,10 +13,11 @@ from dataclasses import dataclass, field
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
-from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
+from roman_sim.evaluation.atetable import AteTable, ate_table
+from roman_sim.evaluation.variants import TRUTH
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage, Timings
-from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
+from roman_sim.pipeline.stages.posegraph import PoseGraphOutput
 from roman_sim.runner.taskrunner import TaskRunner
 
 ATE_JSON = "ate.json"
@@ -38,17 +39,6 @@ class AteInputs:
     posegraph: PoseGraphOutput
 
 
-def variant_table(posegraph: PoseGraphOutput) -> AteTable:
-    """Every variant of ``posegraph`` scored against its true trajectories (empty without variants)."""
-    if not posegraph.variants:
-        return AteTable()
-    estimates = {
-        name: VariantEstimate(posegraph.trajectories[v.source], v.fit, v.description, v.source)
-        for name, v in posegraph.variants.items()
-    }
-    return ate_table(posegraph.trajectories[TRUTH], estimates)
-
-
 class AteStage(Stage[AteInputs, AteOutput]):
     """Score the pose graph's trajectory variants against the truth."""
 
@@ -56,7 +46,9 @@ class AteStage(Stage[AteInputs, AteOutput]):
     input_type = AteInputs
 
     def run(self, ctx: RunContext, inputs: AteInputs, tasks: TaskRunner) -> AteOutput:
-        return AteOutput(variant_table(inputs.posegraph), list(inputs.posegraph.notes))
+        pg = inputs.posegraph
+        table = ate_table(pg.trajectories[TRUTH], pg.variants, pg.trajectories) if pg.variants else AteTable()
+        return AteOutput(table, list(pg.notes))
 
     def save(self, out: AteOutput, ctx: RunContext) -> list[str]:
         write_json(ctx.run_dir / ATE_JSON, {**out.ate.to_json(), "notes": out.notes})

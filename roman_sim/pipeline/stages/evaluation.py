@@ -9,7 +9,7 @@ The evaluation is four steps, each a plain function:
    on the run's executor (serial, process pool or Dask), resumable per chunk, on
    ``public()`` copies (no truth) - the only step that runs the methods; the results are
    the same bytes whatever the executor;
-4. ``IncrementalScorer`` (each result scored as its chunk comes back) and ``metrics.summary``: pure
+4. ``IncrementalScorer`` (each result scored as its chunk comes back) and ``metrics.compute_metrics``: pure
    functions of (pair truths, aligner results).
 
 The alignment itself, the stage's worker job, is ``roman_sim.pipeline.stages.evaluation_job``.
@@ -37,7 +37,7 @@ from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import PairScore, score_pair, summary
+from roman_sim.evaluation.metrics import PairScore, compute_metrics, score_pair
 from roman_sim.evaluation.pairs import AmbiguityFn, PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
 from roman_sim.evaluation.results import read_evaluation, write_evaluation
 from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
@@ -227,7 +227,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         results, pair_timings = apply_aligners(ctx, sel.pairs, tasks, scorer.add)
         scores = scorer.scores(results)
         n_segments = sum(len(s) for s in inputs.submaps.all())
-        metrics = summary(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh, n_segments)
+        metrics = compute_metrics(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh, n_segments)
         log.info("evaluated %d pairs (%d skipped by the distance cap)", len(sel.pairs), sel.n_skipped)
         maps = inputs.maps
         if maps is not None and maps.frontend is not None:

@@ -19,20 +19,18 @@ import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.ate import aligned_to_truth
-from roman_sim.evaluation.types import MapStats
-from roman_sim.mapping.io import packet_bytes
+from roman_sim.evaluation.records import MapStats, map_stats
+from roman_sim.evaluation.variants import TRUTH
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.ate import AteOutput
 from roman_sim.pipeline.stages.base import Stage, Timings
 from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
-from roman_sim.pipeline.stages.posegraph import TRUTH, PoseGraphOutput
+from roman_sim.pipeline.stages.posegraph import PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.report.examples import example_file, example_rows
 from roman_sim.report.markdown import REPORT_MD, report_markdown
@@ -83,29 +81,6 @@ class ReportInputs:
     posegraph: PoseGraphOutput
     ate: AteOutput
     maps: Maps | None = None
-
-
-def map_stats(maps: Maps | None, submaps: Submaps) -> MapStats:
-    """Segments, submaps, packet size per submap and MB per km of trajectory (keyframes apart)."""
-    subs = submaps.all()
-    sizes = [packet_bytes(s) for s in subs]
-    length_m = sum(m.trajectory_length_m for m in maps.maps.values()) if maps else 0.0
-    with_kf = [s for s in subs if s.keyframes is not None]
-    kf = [packet_bytes(s, "keyframes") for s in with_kf]
-    return MapStats(
-        keyframes_per_submap=float(np.mean([len(s.keyframes or []) for s in with_kf])) if with_kf else None,
-        keyframe_kb_per_submap=float(np.mean(kf)) / 1000.0 if kf else None,
-        keyframe_kb_per_submap_max=float(np.max(kf)) / 1000.0 if kf else None,
-        keyframe_mb_per_km=(sum(kf) / 1e6) / (length_m / 1000.0) if kf and length_m > 0 else None,
-        robots=len(submaps.submaps),
-        segments=sum(len(m) for m in maps.maps.values()) if maps else None,
-        submaps=len(subs),
-        segments_per_submap=float(np.mean([len(s) for s in subs])) if subs else None,
-        kb_per_submap=float(np.mean(sizes)) / 1000.0 if sizes else None,
-        kb_per_submap_max=float(np.max(sizes)) / 1000.0 if sizes else None,
-        trajectory_km=length_m / 1000.0 if maps else None,
-        mb_per_km=(sum(sizes) / 1e6) / (length_m / 1000.0) if maps and length_m > 0 else None,
-    )
 
 
 def trajectory_plot(ctx: RunContext, posegraph: PoseGraphOutput, submaps: Submaps) -> PlotJob | None:
@@ -223,7 +198,13 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
         notes: list[str] = []
         for out in (inputs.maps, inputs.submaps, inputs.evaluation, inputs.posegraph, inputs.ate):
             notes += [] if out is None else list(out.notes)
-        stats = map_stats(inputs.maps, inputs.submaps)
+        maps = inputs.maps.maps if inputs.maps else None
+        stats = map_stats(
+            inputs.submaps.all(),
+            len(inputs.submaps.submaps),
+            None if maps is None else sum(len(m) for m in maps.values()),
+            None if maps is None else sum(m.trajectory_length_m for m in maps.values()),
+        )
         pngs, plot_notes = draw_plots(ctx, inputs, tasks)
         notes = list(dict.fromkeys(notes + plot_notes))
         ate = inputs.ate.ate if inputs.ate.ate.variants else None

@@ -1,6 +1,6 @@
 """Compact views of a run's results for tables, sweeps, the reference summary and regression tests.
 
-``compact_summary`` gives a ``RunSummary``; its ``to_json()`` is what ``summary.json`` holds
+``summarize_run`` gives a ``RunSummary``; its ``to_json()`` is what ``summary.json`` holds
 per run (``from_json`` reads it back, so the reference tables and claims work on the
 dataclass whether the summary was just computed or read from the committed file).
 """
@@ -322,7 +322,7 @@ def frontend_summary(grades: Mapping[str, JSONLike] | None) -> FrontEndSummary |
 
 @dataclass(frozen=True)
 class RunSummary:
-    """A run in short (see ``compact_summary``); ``to_json()`` is its entry in ``summary.json``.
+    """A run in short (see ``summarize_run``); ``to_json()`` is its entry in ``summary.json``.
 
     Attributes:
         headline: the headline pair set (``inter`` or ``intra``).
@@ -403,7 +403,7 @@ def _names(v: JSONLike) -> list[str]:
     return [str(x) for x in v]
 
 
-def compact_summary(
+def summarize_run(
     metrics: EvaluationMetrics,
     ate: AteTable | None,
     map_stats: MapStats | None,

@@ -1,8 +1,9 @@
-"""A sweep's record and its summary over seeds: ``sweep.json``, ``sweep_summary.csv``, the plot, the table.
+"""A sweep's record and its aggregate over seeds: ``sweep.json``, ``sweep_summary.csv``, the plot, the table.
 
-``sweep.json`` names the sweep, its swept keys, seeds and runs. The summary loads every
-finished run and aggregates its max-recall hits per method, pair set and heading bin over
-the seeds (``roman_sim.evaluation.sweepstats``); ``roman-sim report SWEEP_DIR`` prints it.
+``sweep.json`` names the sweep, its swept keys, seeds and runs. The aggregate reads every
+finished run's summary (``RunSummary``) and pools its max-recall hits per method, pair set
+and heading bin over the seeds (``roman_sim.evaluation.sweepstats``); it is written to
+``sweep_summary.csv`` (the file keeps its name) and ``roman-sim report SWEEP_DIR`` prints it.
 """
 
 from __future__ import annotations
@@ -27,8 +28,8 @@ log = logging.getLogger(__name__)
 
 SWEEP_JSON = "sweep.json"
 SWEEP_SCHEMA = "roman_sim.sweep/1"
-SUMMARY_CSV = "sweep_summary.csv"
-SUMMARY_PLOT = "plots/sweep_summary.png"
+AGGREGATE_CSV = "sweep_summary.csv"
+AGGREGATE_PLOT = "plots/sweep_summary.png"
 
 
 def write_sweep_json(cfg: "SweepConfig", runs: "list[RunSpec]", out_dir: Path) -> Path:
@@ -52,8 +53,8 @@ def _read_sweep(out_dir: Path) -> dict[str, Any]:
     return read_record(out_dir / SWEEP_JSON, SWEEP_SCHEMA, "sweep record")
 
 
-def sweep_summary(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[str]]:
-    """(swept keys, summary rows, notes on runs left out) of a sweep folder's finished runs."""
+def aggregate_sweep(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[str]]:
+    """(swept keys, aggregate rows, notes on runs left out) of a sweep folder's finished runs."""
     from roman_sim.evaluation.sweepstats import aggregate, seed_rows
     from roman_sim.pipeline.result import RunResult
 
@@ -61,7 +62,7 @@ def sweep_summary(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[
     keys, rows, notes = list(data["grid"]), [], []
     for r in data["runs"]:
         try:
-            summary = RunResult.load(out_dir / r["run_id"]).metrics_summary()
+            summary = RunResult.load(out_dir / r["run_id"]).summary()
         except RomanSimError as err:
             notes.append(f"run {r['run_id']} left out: {err}")
             continue
@@ -69,34 +70,34 @@ def sweep_summary(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[
     return keys, aggregate(rows, keys), notes
 
 
-def write_sweep_summary(out_dir: Path) -> Path:
+def write_sweep_aggregate(out_dir: Path) -> Path:
     """``sweep_summary.csv`` and ``plots/sweep_summary.png`` (when there are two swept values)."""
-    from roman_sim.evaluation.sweepstats import SUMMARY_FIELDS
+    from roman_sim.evaluation.sweepstats import AGGREGATE_FIELDS
     from roman_sim.report.sweepplot import plot_sweep
 
-    keys, rows, notes = sweep_summary(out_dir)
+    keys, rows, notes = aggregate_sweep(out_dir)
     for n in notes:
         log.warning(n)
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=[*keys, *SUMMARY_FIELDS], lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=[*keys, *AGGREGATE_FIELDS], lineterminator="\n")
     w.writeheader()
     w.writerows([{k: ("" if v is None else v) for k, v in r.items()} for r in rows])
-    path = out_dir / SUMMARY_CSV
+    path = out_dir / AGGREGATE_CSV
     write_text(path, buf.getvalue())
     kind = "inter" if any(r["kind"] == "inter" and r["relevant"] for r in rows) else "intra"
-    if plot_sweep(rows, keys, out_dir / SUMMARY_PLOT, kind) is None:
-        (out_dir / SUMMARY_PLOT).unlink(missing_ok=True)
+    if plot_sweep(rows, keys, out_dir / AGGREGATE_PLOT, kind) is None:
+        (out_dir / AGGREGATE_PLOT).unlink(missing_ok=True)
     return path
 
 
-def print_sweep_summary(out_dir: Path, console: Console) -> None:
-    """Print the sweep's summary: one table per pair set with relevant pairs (rich console)."""
+def print_sweep_aggregate(out_dir: Path, console: Console) -> None:
+    """Print the sweep's aggregate over seeds: one table per pair set with relevant pairs (rich console)."""
     from rich.table import Table
 
     from roman_sim.evaluation.sweepstats import OVERALL, cell
     from roman_sim.evaluation.types import PAIR_SET_LABELS
 
-    keys, rows, notes = sweep_summary(out_dir)
+    keys, rows, notes = aggregate_sweep(out_dir)
     name = _read_sweep(out_dir)["name"]
     for kind in ("inter", "intra"):
         mine = [r for r in rows if r["kind"] == kind]
@@ -116,4 +117,4 @@ def print_sweep_summary(out_dir: Path, console: Console) -> None:
         console.print(t)
     for n in notes:
         console.print(f"[yellow]note:[/yellow] {n}")
-    console.print(f"summary table: {out_dir / SUMMARY_CSV}")
+    console.print(f"summary table: {out_dir / AGGREGATE_CSV}")

@@ -1,0 +1,150 @@
+"""The benchmark leaderboard as typed records (what ``leaderboard.json`` holds).
+
+A ``Leaderboard`` has one ``BoardLevel`` per ambiguity level; a finished level has one
+``BoardCell`` per heading bin and one over all bins (``overall``), each with, per method, its
+operating points and its ranks by interval. ``read_leaderboard`` / ``write_leaderboard_json``
+are the only places the file is parsed or written (``core.records``: every field checked).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from roman_sim.core.records import OMIT_NONE, read_record, write_record
+from roman_sim.evaluation.operating_points import OperatingPoint
+from roman_sim.evaluation.ranking import Rank
+
+LEADERBOARD_SCHEMA = "roman_sim.leaderboard/1"
+
+
+@dataclass(frozen=True)
+class BoardCell:
+    """One cell of a level (a heading bin, or ``all``): per method its operating points and ranks.
+
+    Attributes:
+        heading: the bin label (``"150-180"``) or ``"all"``.
+        n_pairs, n_relevant: cross-robot pairs scored and relevant in the cell.
+        methods: per method, per operating point name (``POINT_NAMES``) the point (None when
+            the method has none there).
+        ranks: per ranked operating point, per method its rank by interval.
+        max_half_width: the widest recall interval half-width over methods and points.
+    """
+
+    heading: str
+    n_pairs: int
+    n_relevant: int
+    methods: dict[str, dict[str, OperatingPoint | None]]
+    ranks: dict[str, dict[str, Rank]]
+    max_half_width: float | None
+
+    def point(self, method: str, name: str) -> OperatingPoint | None:
+        """``method``'s operating point ``name`` in this cell (None when absent)."""
+        return self.methods.get(method, {}).get(name)
+
+
+@dataclass(frozen=True)
+class BoardLevel:
+    """One ambiguity level: its cells (absent until a cell of the level finished).
+
+    Attributes:
+        name, knob: the level's name and the scenario knob it sets.
+        cells: the benchmark cells (scenario runs) pooled into the level.
+        acceptance_k: the pose graph's acceptance threshold of those runs.
+        ambiguity_index: mean measured ambiguity of the level's cross-robot pairs.
+        interval_level: the confidence level of the intervals.
+        overall: the cell over every heading bin.
+        bins: one cell per heading bin.
+        deployable: the level's deployable point (``roman_sim.benchmark.deployable``: held-out
+            thresholds per world, recall and precision, ranks), as computed there.
+    """
+
+    name: str
+    knob: float
+    cells: list[str]
+    acceptance_k: int | None
+    ambiguity_index: float | None = field(default=None, metadata=OMIT_NONE)
+    interval_level: float | None = field(default=None, metadata=OMIT_NONE)
+    overall: BoardCell | None = field(default=None, metadata=OMIT_NONE)
+    bins: list[BoardCell] = field(default_factory=list)
+    deployable: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+
+    @property
+    def finished(self) -> bool:
+        """Whether a cell of the level finished (it has figures)."""
+        return self.overall is not None
+
+    def all_cells(self) -> list[BoardCell]:
+        """The heading-bin cells, then the overall one."""
+        return [*self.bins, *([self.overall] if self.overall is not None else [])]
+
+
+@dataclass(frozen=True)
+class MethodRuntime:
+    """One method's alignment time per pair over the benchmark's cells (s).
+
+    Attributes:
+        n: pairs timed.
+        mean_s: mean over every timed pair.
+        cell_medians_s, cell_p10_s, cell_p90_s: per cell its median, 10th and 90th percentile.
+    """
+
+    n: int
+    mean_s: float
+    cell_medians_s: list[float]
+    cell_p10_s: list[float | None]
+    cell_p90_s: list[float]
+
+
+@dataclass(frozen=True)
+class Leaderboard:
+    """A benchmark's leaderboard (``leaderboard.json``).
+
+    Attributes:
+        suite, description: the suite's name and description.
+        methods: the methods scored, in the suite's order.
+        overrides: scenario overrides of every cell.
+        heading_edges_deg: the heading bin edges.
+        half_width_bound: widest interval half-width the suite promises.
+        failed_cells: cells that did not finish, with why.
+        levels: one entry per ambiguity level.
+        bound_met: whether every bin's intervals meet the bound and every cell finished.
+        runtime: per method its time per pair.
+        target_precision: the precision the deployable point's thresholds are chosen for.
+    """
+
+    suite: str
+    description: str
+    methods: list[str]
+    overrides: list[str]
+    heading_edges_deg: list[float]
+    half_width_bound: float
+    failed_cells: dict[str, str]
+    levels: list[BoardLevel]
+    bound_met: bool = False
+    runtime: dict[str, MethodRuntime] = field(default_factory=dict)
+    target_precision: float | None = field(default=None, metadata=OMIT_NONE)
+
+    def finished_levels(self) -> list[BoardLevel]:
+        """The levels with figures."""
+        return [e for e in self.levels if e.finished]
+
+    def cells_of(self, method: str, point: str) -> dict[str, OperatingPoint]:
+        """``{"<level>/<heading bin>": point}`` of ``method`` (``"<level>/all"`` too), where it has the point."""
+        return {
+            f"{e.name}/{c.heading}": p
+            for e in self.levels
+            for c in e.all_cells()
+            if (p := c.point(method, point)) is not None
+        }
+
+
+def read_leaderboard(path: str | Path) -> Leaderboard:
+    """``leaderboard.json`` as a ``Leaderboard`` (``RecordError`` naming the file and field when malformed)."""
+    return read_record(path, Leaderboard, LEADERBOARD_SCHEMA)
+
+
+def write_leaderboard_json(path: str | Path, board: Leaderboard) -> Path:
+    """Atomically write ``leaderboard.json``."""
+    return write_record(path, board, LEADERBOARD_SCHEMA)
