@@ -48,8 +48,9 @@ from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, VariantEstimate, ate_table
+from roman_sim.evaluation.atetable import AteTable, ate_table
 from roman_sim.evaluation.pairs import select_pairs
+from roman_sim.evaluation.variants import TrajectoryVariant
 from roman_sim.interop.closures import Closure, read_closures, read_pose_csv
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import Progress, RunContext
@@ -334,8 +335,8 @@ def score_external(
     ate = None
     if own is not None:
         truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
-        desc = f"{label}'s own trajectories"
-        ate = ate_table(truth, {f"{label}_trajectories": VariantEstimate(own, "joint", desc)})
+        name = f"{label}_trajectories"
+        ate = ate_table(truth, {name: TrajectoryVariant(f"{label}'s own trajectories", "joint", name)}, {name: own})
         write_json(out / EXTERNAL_ATE_JSON, ate.to_json())
     write_json(
         out / EXTERNAL_JSON,
