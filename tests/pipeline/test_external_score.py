@@ -19,7 +19,7 @@ from scipy.spatial.transform import Rotation
 from roman_sim.core.geometry import rot_z
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import summary
+from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.results import read_evaluation
 from roman_sim.interop.closures import Closure, write_csv_closures, write_g2o_closures
 from roman_sim.pipeline.external import EXTERNAL_ATE_JSON, read_external, run_closures, score_external
@@ -82,7 +82,7 @@ def _carried(run_dir: Path, label: str):  # type: ignore[no-untyped-def]
         if s.method == "roman"
     ]
     cfg = EvalConfig.model_validate(metrics.config)
-    return summary(mine, cfg, metrics.n_skipped, metrics.acceptance_k), metrics
+    return compute_metrics(mine, cfg, metrics.n_skipped, metrics.acceptance_k), metrics
 
 
 @pytest.mark.parametrize("fmt", ["csv", "g2o"])
