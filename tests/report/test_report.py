@@ -32,7 +32,7 @@ def test_cells_carry_counts_and_intervals():
     assert rate_cell(None, 0, 0, None) == "n/a"
 
 
-def test_summary_rows_hand_values(metrics):
+def test_metrics_rows_hand_values(metrics):
     rows = metrics_rows(metrics, "inter")
     assert len(rows) == 1
     r = rows[0]
