@@ -29,8 +29,8 @@ from roman_sim.report.tables import (
     bin_rows,
     fmt,
     markdown_table,
-    operating_point_rows,
     metrics_rows,
+    operating_point_rows,
 )
 
 log = logging.getLogger(__name__)
