@@ -16,8 +16,8 @@ truth or arbitrary, so it is not scored; instead:
 A variant's ``fit`` says how its trajectories are aligned to the truth: ``joint`` (one
 SE(3) or 4-DoF fit of the concatenation, as evo's APE of a multi-robot trajectory) or
 ``per_robot`` (one fit per robot, the concatenated error pooled: for odometry whose start
-poses are unknown). The variants are ``roman_sim.evaluation.variants.TrajectoryVariant``;
-adding one is one more entry in the ``variants`` dict.
+poses are unknown). Each row is a ``TrajectoryVariant`` (which exist is decided in
+``roman_sim.evaluation.variants``); adding one is one more entry in the ``variants`` dict.
 """
 
 from __future__ import annotations
@@ -25,19 +25,47 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import AteResult, multi_robot_ate
-from roman_sim.evaluation.variants import FITS, Fit, TrajectoryVariant
+from roman_sim.posegraph.types import LoopClosure
 
 #: Schema tag of ``ate.json``.
 ATE_SCHEMA = "roman_sim.ate/2"
+Fit = Literal["joint", "per_robot"]
+FITS: tuple[Fit, ...] = ("joint", "per_robot")
 ALIGNMENTS = ("se3", "4dof")
 #: Row keys for the concatenated trajectories (robot names may not take them).
 COMMON, ALL = "common", "all"
+
+
+@dataclass
+class TrajectoryVariant:
+    """One trajectory variant (a row of the ATE table).
+
+    Attributes:
+        description: what the variant is (the ATE table's text).
+        fit: ``joint`` (one fit of the concatenated robots) or ``per_robot`` (one fit per
+            robot), see the module docstring.
+        source: the variant whose trajectories it is scored from (``odometry_no_prior``
+            uses ``odometry``'s; a pose graph its own).
+        closures: the loop closures its pose graph was given (none for odometry).
+        weights: per closure, its GNC weight (about 1 inlier, about 0 outlier), or None when
+            the graph did not use it (below the association threshold or degenerate); empty
+            until the graph is solved.
+        association_thresh: the acceptance threshold of its pose graph when it overrides the
+            scenario's ``lc_association_thresh`` (not stored: it only matters for solving).
+    """
+
+    description: str
+    fit: Fit = "joint"
+    source: str = ""
+    closures: list[LoopClosure] = field(default_factory=list)
+    weights: list[float | None] = field(default_factory=list)
+    association_thresh: int | None = field(default=None, compare=False)
 
 
 @dataclass

@@ -16,9 +16,9 @@ The variants, in table order:
 - ``oracle``: the same graph with the true relative pose of every relevant pair (what loop
   closures can give at best).
 
-``TrajectoryVariant`` is one row of the ATE table: what it is, how it is fitted to the
-truth, whose trajectories it is scored from and, for a pose graph, the closures it was given
-with their GNC weights. ``graph_variants`` decides which pose graphs exist,
+A ``TrajectoryVariant`` (``roman_sim.evaluation.atetable``) is one row of the ATE table:
+what it is, how it is fitted to the truth, whose trajectories it is scored from and, for a
+pose graph, the closures it was given with their GNC weights. ``graph_variants`` decides which pose graphs exist,
 ``solve_variants`` solves them on the odometry and ``roman_sim.evaluation.atetable``
 scores the variants.
 """
@@ -29,7 +29,7 @@ import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Literal, TypedDict
+from typing import TypedDict
 
 import numpy as np
 
@@ -37,14 +37,13 @@ from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import gravity_aligned, pose_error
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.trajectory import Trajectory
+from roman_sim.evaluation.atetable import FITS, Fit, TrajectoryVariant
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.records import AlignmentRecord
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph import LoopClosure, PoseGraphConfig, build_and_solve, submap_nodes_from
 from roman_sim.posegraph.types import LoopClosureJSON
 
-Fit = Literal["joint", "per_robot"]
-FITS: tuple[Fit, ...] = ("joint", "per_robot")
 #: Name of the true trajectories among the trajectory sources.
 TRUTH = "truth"
 #: Association count given to an oracle closure (above any acceptance threshold).
@@ -52,32 +51,6 @@ ORACLE_ASSOCIATIONS = 1_000_000
 #: The variant name of the graph with both the method's and the visual closures.
 COMBINED = "combined"
 ORACLE = "oracle"
-
-
-@dataclass
-class TrajectoryVariant:
-    """One trajectory variant (a row of the ATE table).
-
-    Attributes:
-        description: what the variant is (the ATE table's text).
-        fit: ``joint`` (one fit of the concatenated robots) or ``per_robot`` (one fit per
-            robot), see ``roman_sim.evaluation.atetable``.
-        source: the variant whose trajectories it is scored from (``odometry_no_prior``
-            uses ``odometry``'s; a pose graph its own).
-        closures: the loop closures its pose graph was given (none for odometry).
-        weights: per closure, its GNC weight (about 1 inlier, about 0 outlier), or None when
-            the graph did not use it (below the association threshold or degenerate); empty
-            until the graph is solved.
-        association_thresh: the acceptance threshold of its pose graph when it overrides the
-            scenario's ``lc_association_thresh`` (not stored: it only matters for solving).
-    """
-
-    description: str
-    fit: Fit = "joint"
-    source: str = ""
-    closures: list[LoopClosure] = field(default_factory=list)
-    weights: list[float | None] = field(default_factory=list)
-    association_thresh: int | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -289,14 +262,11 @@ def variant_from_json(d: VariantJSON) -> tuple[str, TrajectoryVariant]:
 
 __all__ = [
     "COMBINED",
-    "FITS",
     "ORACLE",
     "ORACLE_ASSOCIATIONS",
     "TRUTH",
-    "Fit",
     "GraphInfo",
     "TrajectoryEstimates",
-    "TrajectoryVariant",
     "closure_correct",
     "graph_variants",
     "method_closures",

@@ -48,9 +48,8 @@ from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, ate_table
+from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
 from roman_sim.evaluation.pairs import select_pairs
-from roman_sim.evaluation.variants import TrajectoryVariant
 from roman_sim.interop.closures import Closure, read_closures, read_pose_csv
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import Progress, RunContext

@@ -29,13 +29,13 @@ from typing import Any
 from roman_sim.core.config import read_yaml, validate_model
 from roman_sim.core.errors import RomanSimError, StorageError
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, ate_table
+from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, compute_metrics, is_correct
 from roman_sim.evaluation.operating_points import strip_absent_points
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
 from roman_sim.evaluation.types import EvaluationMetrics
-from roman_sim.evaluation.variants import TRUTH, TrajectoryVariant
+from roman_sim.evaluation.variants import TRUTH
 
 ATE_JSON = "ate.json"
 REL_TOL = 1e-9

@@ -10,8 +10,7 @@ import pytest
 
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.atetable import AteTable, ate_table
-from roman_sim.evaluation.variants import TrajectoryVariant
+from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
 
 V = np.array([0.0, 0.0, 0.8])  # offset of |v| = 0.8 m
 

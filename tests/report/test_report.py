@@ -6,11 +6,10 @@ import numpy as np
 import pytest
 
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.atetable import ate_table
+from roman_sim.evaluation.atetable import TrajectoryVariant, ate_table
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.types import MapStats
-from roman_sim.evaluation.variants import TrajectoryVariant
 from roman_sim.report.markdown import report_markdown
 from roman_sim.report.plots import write_metric_plots
 from roman_sim.report.tables import ate_rows, metrics_rows, rate_cell
