@@ -29,8 +29,10 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -54,6 +56,10 @@ from roman_sim.evaluation.types import (
     PRCurve,
     nan_to_none,
 )
+
+if TYPE_CHECKING:
+    from roman_sim.mapping.types import Submap
+    from roman_sim.posegraph.types import LoopClosure
 
 log = logging.getLogger(__name__)
 
@@ -135,6 +141,19 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
 def is_correct(rot_err_deg: float, trans_err_m: float, cfg: EvalConfig) -> bool:
     """Whether an estimate with these errors is within both tolerances (NaN: no estimate, not correct)."""
     return bool(rot_err_deg <= cfg.rot_tol_deg and trans_err_m <= cfg.trans_tol_m)
+
+
+def closure_correct(c: LoopClosure, submaps: Mapping[str, Submap], rot_tol_deg: float, trans_tol_m: float) -> bool:
+    """Whether closure ``c``'s relative pose is within the tolerances of the true one of its submaps.
+
+    Raises:
+        EvaluationError: a submap of the closure has no truth.
+    """
+    a, b = submaps[f"{c.robot_a}/{c.submap_a}"], submaps[f"{c.robot_b}/{c.submap_b}"]
+    if a.truth is None or b.truth is None:
+        raise EvaluationError(f"closure {a.name}|{b.name} joins submaps without truth")
+    rot, trans = pose_error(c.T_a_b, np.linalg.inv(a.truth.T_world_submap) @ b.truth.T_world_submap)
+    return bool(math.degrees(rot) <= rot_tol_deg and trans <= trans_tol_m)
 
 
 def pr_curve(scores: list[PairScore], k_values: list[int] | None = None) -> PRCurve:

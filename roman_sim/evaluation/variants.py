@@ -25,16 +25,12 @@ scores the variants.
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TypedDict
 
-import numpy as np
-
-from roman_sim.core.errors import EvaluationError
-from roman_sim.core.geometry import gravity_aligned, pose_error
+from roman_sim.core.geometry import gravity_aligned
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.atetable import FITS, Fit, TrajectoryVariant
@@ -207,19 +203,6 @@ def solve_variants(
     return out
 
 
-def closure_correct(c: LoopClosure, submaps: Mapping[str, Submap], rot_tol_deg: float, trans_tol_m: float) -> bool:
-    """Whether closure ``c``'s relative pose is within the tolerances of the true one of its submaps.
-
-    Raises:
-        EvaluationError: a submap of the closure has no truth.
-    """
-    a, b = submaps[f"{c.robot_a}/{c.submap_a}"], submaps[f"{c.robot_b}/{c.submap_b}"]
-    if a.truth is None or b.truth is None:
-        raise EvaluationError(f"closure {a.name}|{b.name} joins submaps without truth")
-    rot, trans = pose_error(c.T_a_b, np.linalg.inv(a.truth.T_world_submap) @ b.truth.T_world_submap)
-    return bool(math.degrees(rot) <= rot_tol_deg and trans <= trans_tol_m)
-
-
 class ClosureJSON(LoopClosureJSON):
     """A loop closure and its weight in a variant's JSON."""
 
@@ -267,7 +250,6 @@ __all__ = [
     "TRUTH",
     "GraphInfo",
     "TrajectoryEstimates",
-    "closure_correct",
     "graph_variants",
     "method_closures",
     "odometry_variants",

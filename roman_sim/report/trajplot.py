@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.variants import closure_correct
+from roman_sim.evaluation.metrics import closure_correct
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph.types import LoopClosure
 

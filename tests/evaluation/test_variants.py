@@ -8,11 +8,11 @@ import pytest
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import inv_T, pose_4dof
 from roman_sim.evaluation.atetable import TrajectoryVariant
+from roman_sim.evaluation.metrics import closure_correct
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import AlignmentRecord
 from roman_sim.evaluation.variants import (
     ORACLE_ASSOCIATIONS,
-    closure_correct,
     graph_variants,
     odometry_variants,
     variant_from_json,
