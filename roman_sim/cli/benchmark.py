@@ -99,8 +99,7 @@ def benchmark_cmd(
             typer.echo(f"--report-only: no benchmark.json in {folder}; run the suite first", err=True)
             raise typer.Exit(1)
         write_leaderboard(folder, target_precision)
-        board = json.loads((folder / LEADERBOARD_JSON).read_text(encoding="utf-8"))
-        Console().print(_board_table(board))
+        Console().print(_board_table(read_leaderboard(folder / LEADERBOARD_JSON)))
         Console().print(f"leaderboard: {folder / LEADERBOARD_MD}")
         return
     ex = flags.config()

@@ -9,6 +9,7 @@ from typer.testing import CliRunner
 
 from roman_sim.benchmark.deployable import deployable
 from roman_sim.cli import app
+from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard
 from roman_sim.report.leaderboard import _deployable_section, deployable_readme_lines
 
 EDGES = [0.0, 90.0, 180.0]
@@ -57,8 +58,8 @@ def test_thresholds_come_from_the_other_world_and_a_leaky_method_is_flagged(make
     assert lo == 0.0 and hi == 1.0 and hi - lo > 2 * (whi - wlo)
     assert [b["heading"] for b in d["bins"]] == ["0-90", "90-180"]
     assert sum(b["methods"]["good"]["n_relevant"] for b in d["bins"]) == 40
-    board = {"target_precision": 0.9, "methods": ["good", "leaky"], "levels": []}
-    board["levels"] = [{"name": "one", "knob": 0.0, "deployable": d, "overall": {"methods": {}}}]
+    level = BoardLevel("one", 0.0, [], None, overall=BoardCell("all", 0, 0, {}, {}, None), deployable=d)
+    board = Leaderboard("t", "", ["good", "leaky"], [], list(EDGES), 0.1, {}, [level], target_precision=0.9)
     md = "\n".join(_deployable_section(board))
     assert "w0: none, w1: 5" in md and "**short**" in md
     assert "tied 1 good 1.00 (40/40, P 1.00); tied 1 leaky 0.50 (20/40, P 0.50, short of the target)" in "\n".join(
@@ -74,7 +75,8 @@ def test_a_level_with_one_world_says_held_out_figures_need_two(make_score) -> No
         "worlds": ["w0"],
         "note": "held-out figures need at least two worlds (seeds) to choose a threshold on others; this level has 1",
     }
-    board = {"target_precision": 0.9, "methods": ["good"], "levels": [{"name": "one", "knob": 0.0, "deployable": d}]}
+    level = BoardLevel("one", 0.0, [], None, deployable=d)
+    board = Leaderboard("t", "", ["good"], [], list(EDGES), 0.1, {}, [level], target_precision=0.9)
     assert "No held-out figures: held-out figures need at least two worlds" in "\n".join(_deployable_section(board))
 
 

@@ -94,18 +94,18 @@ def test_the_deployable_point_follows_from_the_independent_scorer():
     from roman_sim.studies.independent_scorer import benchmark_held_out
 
     board = _committed()
-    target = Fraction(str(board["target_precision"]))
+    target = Fraction(str(board.target_precision))
     scored = benchmark_held_out(STANDARD, target)
     checked = 0
-    for e in board["levels"]:
-        d = e["deployable"]
-        assert len(d["worlds"]) == 2 and "note" not in d, e["name"]
+    for e in board.levels:
+        d = e.deployable
+        assert d is not None and len(d["worlds"]) == 2 and "note" not in d, e.name
         for m, ks in d["thresholds"].items():
-            own = scored[f"{e['name']}|{m}"]
-            assert own["thresholds"] == ks, (e["name"], m)
+            own = scored[f"{e.name}|{m}"]
+            assert own["thresholds"] == ks, (e.name, m)
             for cell in [*d["bins"], d["overall"]]:
                 c = cell["methods"][m]
                 got = [c["hits"], c["false_positives"], c["n_relevant"]]
-                assert own["bins"][cell["heading"]] == got, (e["name"], m, cell["heading"])
+                assert own["bins"][cell["heading"]] == got, (e.name, m, cell["heading"])
                 checked += 1
-    assert checked == 3 * 7 * len(board["methods"])
+    assert checked == 3 * 7 * len(board.methods)
