@@ -176,10 +176,13 @@ def test_inputs_are_a_dataclass_of_earlier_outputs(stage):
     hints = typing.get_type_hints(stage.input_type)
     assert dataclasses.is_dataclass(stage.input_type)
     names = [s.name for s in STAGES]
+    outputs = {s.name: typing.get_type_hints(type(s).run)["return"] for s in STAGES}
     for field in dataclasses.fields(stage.input_type):
         assert names.index(field.name) < names.index(stage.name), field.name
         assert field.name in stage.required() or field.default is None
-        assert "Output" in str(hints[field.name]) or field.name in ("maps", "submaps"), hints[field.name]
+        # the field is typed with the output of the stage it is named after
+        assert typing.get_args(hints[field.name]) in ((), (outputs[field.name], type(None))), hints[field.name]
+        assert outputs[field.name] in (hints[field.name], *typing.get_args(hints[field.name])), hints[field.name]
 
 
 def test_a_folder_without_the_ate_stage_says_so_and_a_rerun_updates_it(smoke_run, tmp_path):

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 from matplotlib.figure import Figure
 
 import roman_sim.report.plots as plots
+from roman_sim.evaluation.leaderboard import MethodRuntime
 from roman_sim.evaluation.results import read_metrics_json
 
 DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
@@ -78,8 +80,11 @@ def test_the_benchmark_runtime_title_fits_its_figure(tmp_path: Path, monkeypatch
         return real(fig, path, data)
 
     monkeypatch.setattr(bp, "save_png", keep)
-    cell = {"mean_s": 0.002, "cell_medians_s": [0.001, 0.002], "cell_p90_s": [0.003, 0.004]}
-    assert bp.plot_runtime({"runtime": {"roman": cell, "clipper": cell}}, tmp_path / "runtime.png") is not None
+    cell = MethodRuntime(
+        n=4, mean_s=0.002, cell_medians_s=[0.001, 0.002], cell_p10_s=[None, None], cell_p90_s=[0.003, 0.004]
+    )
+    board = SimpleNamespace(runtime={"roman": cell, "clipper": cell})
+    assert bp.plot_runtime(board, tmp_path / "runtime.png") is not None  # type: ignore[arg-type]
     (fig,) = kept
     ax = fig.axes[0]
     ext, box = ax.title.get_window_extent(), fig.bbox
