@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol, cast
 
-from pydantic import Field, model_validator
+from pydantic import Field, ValidationInfo, field_validator, model_validator
 
 from roman_sim.core.config import StrictModel, validate_model
 from roman_sim.core.errors import ConfigError
@@ -162,6 +162,18 @@ class FrontEndConfig(StrictModel):
         from roman_sim.frontend.presets import with_preset
 
         return with_preset(v) if isinstance(v, dict) else v
+
+    @field_validator("semantics")
+    @classmethod
+    def _switches_honoured(cls, v: SemanticConfig, info: ValidationInfo) -> SemanticConfig:
+        """A simulated mechanism switched off on an encoder that has none is an error, not a no-op."""
+        off, encoder = v.switched_off(), info.data.get("encoder")
+        if off and isinstance(encoder, EncoderEntry) and encoder.name != "simulated":
+            raise ValueError(
+                f"{off[0]}: false is allowed only with the simulated encoder (encoder {encoder.name!r} "
+                f"has no simulated {off[0].replace('_', ' ')}); allowed: true"
+            )
+        return v
 
     def built_semantics(self) -> SemanticConfig:
         """``semantics`` at this ``severity``: the confusion level scaled (clipped to the largest it allows)."""

@@ -15,6 +15,11 @@ cosine of two observations has the configured mean and spread for each relation:
 instance (against view difference), same family, same group and other. Groups are
 ``SemanticConfig.groups`` (a family in no group forms its own). Every vector but the noise
 is a function of the world seed and the object, shared by all robots.
+
+``SemanticConfig.view_dependence: false`` holds the view part at one angle (the descriptor
+does not change with the viewing direction); ``lighting: false`` leaves out any term for the
+sun's direction relative to the view. Only this encoder honours the two switches
+(``FrontEndConfig`` refuses them with any other).
 """
 
 from __future__ import annotations
@@ -42,12 +47,25 @@ DEFAULT_GROUPS: dict[str, list[str]] = {
 }
 
 
+#: The simulated encoder's mechanisms that ``SemanticConfig`` can switch off; only the
+#: ``simulated`` encoder honours them (an image encoder or a real model has no such term).
+SWITCHES = ("view_dependence", "lighting")
+
+
 class SemanticConfig(StrictModel):
     """The simulated encoder: descriptor dimension, confusion per relation, family groups."""
 
     dim: int = Field(768, ge=8, le=8192)
     confusion: ConfusionConfig = Field(default_factory=ConfusionConfig)
     groups: dict[str, list[str]] = Field(default_factory=lambda: {k: list(v) for k, v in DEFAULT_GROUPS.items()})
+    view_dependence: bool = Field(
+        True, description="an instance's descriptor turns with the viewing direction (false: it does not)"
+    )
+    lighting: bool = Field(True, description="a term for the sun's direction relative to the view (false: none)")
+
+    def switched_off(self) -> list[str]:
+        """Names of the simulated mechanisms this configuration switches off (``view_dependence``, ``lighting``)."""
+        return [name for name in SWITCHES if not getattr(self, name)]
 
     def group_of(self, family: str) -> str:
         """Group of ``family`` (a family in no group forms its own)."""
@@ -158,7 +176,7 @@ class SimulatedEncoder:
             )
         oid = int(context.object_id if context.object_id is not None else -1)
         phi = 0.0
-        if context.view_dir is not None:
+        if context.view_dir is not None and self.cfg.view_dependence:
             d = np.asarray(context.view_dir, dtype=np.float64).reshape(3)
             if not np.all(np.isfinite(d)):
                 raise ConfigError("semantics: view_dir must be finite")

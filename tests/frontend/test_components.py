@@ -181,3 +181,20 @@ def test_package_exports_resolve_to_their_modules():
     assert roman_sim.frontend.SimulatedSegmenter.__module__ == "roman_sim.frontend.segmenter"
     with pytest.raises(AttributeError, match="SimulatedEncoder"):
         _ = roman_sim.mapping.SimulatedEncoder  # the front ends live in roman_sim.frontend
+
+
+@pytest.mark.parametrize("switch", ["view_dependence", "lighting"])
+@pytest.mark.parametrize("encoder", ["image", "mypkg.encoders:Clip"])
+def test_simulated_switches_fail_on_an_encoder_that_cannot_honour_them(switch, encoder):
+    with pytest.raises(ConfigError) as err:
+        validate_model(FrontEndConfig, {"encoder": encoder, "semantics": {switch: False}}, source="frontend")
+    what = switch.replace("_", " ")
+    assert str(err.value) == (
+        f"frontend: semantics: {switch}: false is allowed only with the simulated encoder "
+        f"(encoder {encoder!r} has no simulated {what}); allowed: true"
+    )
+    # on: nothing to honour; off with the simulated encoder: switched off
+    on = validate_model(FrontEndConfig, {"encoder": encoder, "semantics": {switch: True}})
+    assert on.semantics.switched_off() == []
+    sc = load_scenario("smoke", [f"frontend.semantics.{switch}=false"])
+    assert sc.frontend.semantics.switched_off() == [switch]

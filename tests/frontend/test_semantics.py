@@ -124,3 +124,13 @@ def test_max_level_and_realisable():
     assert fixed.same_instance.mean_opposite_view == 0.9 and fixed.same_family.mean == 0.9
     assert fixed.other.mean == 0.6 and fixed.same_instance.std < 0.1 / math.sqrt(3)
     assert len(notes) >= 5
+
+
+def test_view_dependence_off_keeps_the_descriptor_whatever_the_view():
+    def encode(cfg, view):
+        enc = SimulatedEncoder(cfg, seed=5, families={0: "bench"}, robot="a")  # same noise stream each time
+        return enc.encode(None, M, EncodeContext(0, view_dir=np.array(view)))
+
+    on, off = SemanticConfig(), SemanticConfig(view_dependence=False)
+    assert float(encode(on, [1.0, 0, 0]) @ encode(on, [-1.0, 0, 0])) < 0.9
+    np.testing.assert_array_equal(encode(off, [1.0, 0, 0]), encode(off, [-1.0, 0, 0]))
