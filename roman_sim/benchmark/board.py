@@ -40,7 +40,7 @@ from roman_sim.benchmark.cells import (
 )
 from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable
 from roman_sim.core.atomic import write_text
-from roman_sim.core.jsontypes import read_record as read_json_record
+from roman_sim.core.records import read_record as read_json_record
 from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard, MethodRuntime, write_leaderboard_json
 from roman_sim.evaluation.metrics import PairScore, compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
@@ -62,7 +62,7 @@ HALF_WIDTH_BOUND = 0.1
 
 def read_record(out: Path) -> dict[str, Any]:
     """``benchmark.json`` of a benchmark folder (StorageError when missing or unreadable)."""
-    return read_json_record(out / BENCHMARK_JSON, BENCHMARK_SCHEMA, "benchmark record")
+    return {"schema": BENCHMARK_SCHEMA, **read_json_record(out / BENCHMARK_JSON, dict[str, Any], BENCHMARK_SCHEMA)}
 
 
 @dataclass

@@ -8,31 +8,12 @@ only reads its argument (e.g. before serialising it).
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import TypeAlias
-
-from roman_sim.core.errors import StorageError
 
 JSONScalar: TypeAlias = str | int | float | bool | None
 JSON: TypeAlias = dict[str, "JSON"] | list["JSON"] | JSONScalar
 JSONObject: TypeAlias = dict[str, JSON]
 JSONLike: TypeAlias = Mapping[str, "JSONLike"] | Sequence["JSONLike"] | JSONScalar
 
-__all__ = ["JSON", "JSONLike", "JSONObject", "JSONScalar", "read_record"]
-
-
-def read_record(path: Path, schema: str, what: str) -> JSONObject:
-    """The JSON object at ``path`` whose ``schema`` field is ``schema``.
-
-    Raises: StorageError ``<path>: not a <what> (<error>)`` when the file is missing,
-    unreadable, not an object or of another schema.
-    """
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        if data.get("schema") != schema:
-            raise ValueError(f"schema {data.get('schema')!r}")
-        return dict(data)
-    except (OSError, ValueError, AttributeError) as err:
-        raise StorageError(f"{path}: not a {what} ({type(err).__name__}: {err})") from None
+__all__ = ["JSON", "JSONLike", "JSONObject", "JSONScalar"]

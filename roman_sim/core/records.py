@@ -33,7 +33,16 @@ T = TypeVar("T")
 #: Field metadata: leave the field out of the JSON when it is None (and read it as None when absent).
 OMIT_NONE = {"omit_none": True}
 
-__all__ = ["OMIT_NONE", "RecordError", "from_json", "read_record", "to_json", "write_record"]
+__all__ = [
+    "OMIT_NONE",
+    "RecordError",
+    "from_json",
+    "read_json",
+    "read_record",
+    "to_json",
+    "to_json_record",
+    "write_record",
+]
 
 
 class RecordError(StorageError):
@@ -66,17 +75,41 @@ def to_json(obj: Any) -> JSON:
     raise TypeError(f"not a JSON record value: {type(obj).__name__}")
 
 
-def from_json(cls: type[T], data: Any, source: str) -> T:
-    """``data`` (JSON values) as a ``cls`` dataclass.
+def from_json(cls: type[T], data: Any, source: str, schema: str | None = None) -> T:
+    """``data`` (JSON values) as a ``cls`` dataclass (its ``schema`` field must be ``schema`` when given).
 
     Raises:
         RecordError: ``<source>: field <path>: <problem>`` for the first field that is
-            missing, unknown or of another type.
+            missing, unknown or of another type, or a schema that is not ``schema``.
     """
+    if schema is not None:
+        if not isinstance(data, dict):
+            raise RecordError(f"{source}: expected a JSON object, got {_kind(data)}")
+        data = dict(data)
+        got = data.pop("schema", None)
+        if got != schema:
+            raise RecordError(f"{source}: field schema: expected {schema!r}, got {got!r}")
     try:
         return typing.cast(T, _decode(cls, data, ""))
     except _Mismatch as err:
         raise RecordError(f"{source}: {err}") from None
+
+
+def read_json(path: str | Path) -> Any:
+    """The JSON document in the file ``path``, parsed but not checked (``read_record`` checks it).
+
+    Raises:
+        RecordError: the file is missing, unreadable or not JSON (the message names the file).
+    """
+    path = Path(path)
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise RecordError(f"{path}: cannot read ({err.strerror or type(err).__name__})") from None
+    except UnicodeDecodeError:
+        raise RecordError(f"{path}: not a JSON file (not UTF-8 text)") from None
+    except json.JSONDecodeError as err:
+        raise RecordError(f"{path}: not valid JSON (line {err.lineno}: {err.msg})") from None
 
 
 def read_record(path: str | Path, cls: type[T], schema: str | None = None) -> T:
@@ -86,32 +119,25 @@ def read_record(path: str | Path, cls: type[T], schema: str | None = None) -> T:
         RecordError: the file is missing, unreadable, not JSON, of another schema, or a field
             is missing or of another type (the message names the file and the field).
     """
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise RecordError(f"{path}: cannot read ({err.strerror or type(err).__name__})") from None
-    except UnicodeDecodeError:
-        raise RecordError(f"{path}: not a JSON file (not UTF-8 text)") from None
-    except json.JSONDecodeError as err:
-        raise RecordError(f"{path}: not valid JSON (line {err.lineno}: {err.msg})") from None
-    if schema is not None:
-        if not isinstance(data, dict):
-            raise RecordError(f"{path}: expected a JSON object, got {_kind(data)}")
-        got = data.pop("schema", None)
-        if got != schema:
-            raise RecordError(f"{path}: field schema: expected {schema!r}, got {got!r}")
-    return from_json(cls, data, str(path))
+    return from_json(cls, read_json(path), str(path), schema)
 
 
-def write_record(path: str | Path, obj: Any, schema: str | None = None) -> Path:
-    """Atomically write the dataclass ``obj`` as JSON (with a ``schema`` field when given); returns ``path``."""
+def to_json_record(obj: Any, schema: str | None = None) -> JSON:
+    """``to_json(obj)`` with a ``schema`` field first when given (``obj`` then a dataclass or mapping)."""
     data = to_json(obj)
-    if schema is not None:
-        if not isinstance(data, dict):
-            raise TypeError("a record with a schema must be a dataclass or a mapping")
-        data = {"schema": schema, **data}
-    write_json(path, data)
+    if schema is None:
+        return data
+    if not isinstance(data, dict):
+        raise TypeError("a record with a schema must be a dataclass or a mapping")
+    return {"schema": schema, **data}
+
+
+def write_record(path: str | Path, obj: Any, schema: str | None = None, indent: int | None = 2) -> Path:
+    """Atomically write the dataclass ``obj`` as JSON (with a ``schema`` field when given); returns ``path``.
+
+    ``indent=None`` writes it on one line (sorted keys either way).
+    """
+    write_json(path, to_json_record(obj, schema), indent=indent)
     return Path(path)
 
 

@@ -25,10 +25,12 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from pathlib import Path
+from typing import Literal
 
-from roman_sim.core.errors import EvaluationError, StorageError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.errors import EvaluationError
+from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json_record, write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import AteResult, multi_robot_ate
 from roman_sim.posegraph.types import LoopClosure
@@ -86,32 +88,27 @@ class VariantAte:
     rmse: dict[str, dict[str, float | None]] = field(default_factory=dict)
     source: str = ""
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return {
-            "description": self.description,
-            "fit": self.fit,
-            "connected": self.connected,
-            "rmse": self.rmse,
-            "source": self.source,
-        }
 
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "VariantAte":
-        """Inverse of ``to_json`` (ValueError for an unknown fit)."""
-        fit = d["fit"]
-        if fit not in FITS:
-            raise ValueError(f"fit {fit!r} unknown (valid: {', '.join(FITS)})")
-        return cls(
-            str(d["description"]),
-            fit,
-            [str(r) for r in d["connected"]],
-            {
-                str(a): {str(k): (None if v is None else float(v)) for k, v in row.items()}
-                for a, row in d["rmse"].items()
-            },
-            str(d["source"]),
-        )
+@dataclass
+class AteRow:
+    """One row of the ATE table as ``ate.json`` stores it: the variant's name and its ``VariantAte`` fields."""
+
+    name: str
+    description: str
+    fit: Fit
+    connected: list[str]
+    rmse: dict[str, dict[str, float | None]]
+    source: str
+
+
+@dataclass
+class AteRecord:
+    """What ``ate.json`` holds: the table (rows in order) and the run's notes (absent in other ATE files)."""
+
+    robots: list[str]
+    common: list[str]
+    variants: list[AteRow]
+    notes: list[str] | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass
@@ -139,28 +136,36 @@ class AteTable:
             raise EvaluationError(f"ATE robot {robot!r} unknown (valid: {COMMON}, {ALL}, {', '.join(self.robots)})")
         return table[alignment][robot]
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (variants as a list, so their order survives sorted keys)."""
-        return {
-            "schema": ATE_SCHEMA,
-            "robots": self.robots,
-            "common": self.common,
-            "variants": [{"name": k, **v.to_json()} for k, v in self.variants.items()],
-        }
+    def record(self, notes: list[str] | None = None) -> AteRecord:
+        """The table as its ``ate.json`` record (variants as a list, so their order survives sorted keys)."""
+        rows = [AteRow(k, v.description, v.fit, v.connected, v.rmse, v.source) for k, v in self.variants.items()]
+        return AteRecord(self.robots, self.common, rows, notes)
+
+    @classmethod
+    def from_record(cls, rec: AteRecord) -> "AteTable":
+        """Inverse of ``record`` (the notes are not part of the table)."""
+        rows = {r.name: VariantAte(r.description, r.fit, r.connected, r.rmse, r.source) for r in rec.variants}
+        return cls(rec.robots, rec.common, rows)
+
+    def to_json(self) -> JSON:
+        """JSON-ready dict (with its schema tag)."""
+        return to_json_record(self.record(), ATE_SCHEMA)
 
     @classmethod
     def from_json(cls, d: object, source: str = "ate") -> "AteTable":
-        """Inverse of ``to_json``; StorageError names ``source`` when the data is not valid."""
-        if not isinstance(d, dict) or d.get("schema") != ATE_SCHEMA:
-            raise StorageError(f"{source}: not an ATE table of schema {ATE_SCHEMA}")
-        try:
-            return cls(
-                [str(r) for r in d["robots"]],
-                [str(r) for r in d["common"]],
-                {str(v["name"]): VariantAte.from_json(v) for v in d["variants"]},
-            )
-        except (KeyError, TypeError, ValueError, AttributeError) as err:
-            raise StorageError(f"{source}: malformed ATE table ({type(err).__name__}: {err})") from None
+        """Inverse of ``to_json``; RecordError names ``source`` and the field when the data is not valid."""
+        return cls.from_record(from_json(AteRecord, d, source, ATE_SCHEMA))
+
+
+def write_ate(path: str | Path, table: AteTable, notes: list[str]) -> Path:
+    """Atomically write ``ate.json``: the table and the run's notes."""
+    return write_record(path, table.record(notes), ATE_SCHEMA)
+
+
+def read_ate(path: str | Path) -> tuple[AteTable, list[str]]:
+    """``ate.json``: the table and the notes (RecordError naming the file and the field if it is not one)."""
+    rec = read_record(path, AteRecord, ATE_SCHEMA)
+    return AteTable.from_record(rec), list(rec.notes or [])
 
 
 def _pooled(results: list[AteResult]) -> float:

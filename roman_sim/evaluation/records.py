@@ -2,16 +2,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, fields
-from typing import Any
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.base import AlignResult
-from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.jsontypes import JSONLike, JSONObject
+from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json, write_record
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.mapping.types import Submap
 
@@ -42,28 +43,45 @@ class MapStats:
     kb_per_submap_max: float | None
     trajectory_km: float | None
     mb_per_km: float | None
-    keyframes_per_submap: float | None = None
-    keyframe_kb_per_submap: float | None = None
-    keyframe_kb_per_submap_max: float | None = None
-    keyframe_mb_per_km: float | None = None
+    keyframes_per_submap: float | None = field(default=None, metadata=OMIT_NONE)
+    keyframe_kb_per_submap: float | None = field(default=None, metadata=OMIT_NONE)
+    keyframe_kb_per_submap_max: float | None = field(default=None, metadata=OMIT_NONE)
+    keyframe_mb_per_km: float | None = field(default=None, metadata=OMIT_NONE)
 
-    def to_json(self) -> dict[str, JSONLike]:
+    def to_json(self) -> JSONObject:
         """JSON-ready dict (keyframe figures only when there are keyframes)."""
-        d = asdict(self)
-        return (
-            d if self.keyframes_per_submap is not None else {k: v for k, v in d.items() if not k.startswith("keyframe")}
-        )
+        return cast(JSONObject, to_json(self))
 
     @classmethod
     def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
-        """Inverse of ``to_json`` (files without keyframe figures are read with None)."""
-        try:
-            values: dict[str, Any] = {
-                f.name: d[f.name] if f.name in d or not f.name.startswith("keyframe") else None for f in fields(cls)
-            }
-            return cls(**values)
-        except (KeyError, TypeError) as err:
-            raise StorageError(f"{source}: malformed map statistics ({err})") from None
+        """Inverse of ``to_json`` (files without keyframe figures are read with None).
+
+        Raises:
+            RecordError: a figure is missing, unknown or not a number (names ``source`` and the field).
+        """
+        return from_json(cls, d, source)
+
+
+@dataclass(frozen=True)
+class MapStatsRecord(MapStats):
+    """What ``map_stats.json`` holds: the statistics and the run's notes."""
+
+    notes: list[str] = field(default_factory=list)
+
+    def stats(self) -> MapStats:
+        """The statistics without the notes."""
+        return MapStats(**{f.name: getattr(self, f.name) for f in fields(MapStats)})
+
+
+def write_map_stats(path: str | Path, stats: MapStats, notes: list[str]) -> Path:
+    """Atomically write ``map_stats.json``: the statistics and the run's notes."""
+    return write_record(path, MapStatsRecord(**vars(stats), notes=notes))
+
+
+def read_map_stats(path: str | Path) -> tuple[MapStats, list[str]]:
+    """``map_stats.json``: the statistics and the notes (RecordError naming the file and the field)."""
+    rec = read_record(path, MapStatsRecord)
+    return rec.stats(), list(rec.notes)
 
 
 def map_stats(submaps: Sequence[Submap], robots: int, segments: int | None, trajectory_m: float | None) -> MapStats:
@@ -148,3 +166,64 @@ class AlignmentRecord:
             float("nan"),
             None if self.T_a_b is not None else "no estimate",
         )
+
+
+@dataclass
+class MethodRuntimes:
+    """One method's alignment time per pair (s): ``runtime_stats`` and, in a run's own file, every pair's."""
+
+    n: int
+    median: float | None
+    mean: float | None
+    p90: float | None
+    per_pair_s: list[float] | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass
+class StageTimings:
+    """One stage's wall-clock figures: time, peak memory, whether it was reused, and its own figures.
+
+    Attributes:
+        pairs: the evaluation's gating and alignment figures (candidates, wall time, executor).
+        alignment: the evaluation's runtime per pair, per method.
+        posegraph_s: the pose graph's solve time per graph.
+    """
+
+    seconds: float
+    reused: bool
+    peak_rss_mb: float | None = None
+    pairs: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+    alignment: dict[str, MethodRuntimes] | None = field(default=None, metadata=OMIT_NONE)
+    posegraph_s: dict[str, float] | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass
+class RunTimings:
+    """What ``timings.json`` holds: each stage's wall-clock figures (never part of the reproducible results)."""
+
+    stages: dict[str, StageTimings] = field(default_factory=dict)
+
+    def median_s(self, method: str) -> float | None:
+        """Median alignment time per pair of ``method`` (s); None when unknown."""
+        ev = self.stages.get("evaluation")
+        per = None if ev is None or ev.alignment is None else ev.alignment.get(method)
+        return None if per is None else per.median
+
+
+def run_timings(stages: Mapping[str, Mapping[str, Any]], source: str = "timings") -> RunTimings:
+    """Stage name -> its figures (as the stages report them) as checked ``RunTimings``.
+
+    Raises:
+        RecordError: a figure is unknown or of another type (names ``source`` and the field).
+    """
+    return from_json(RunTimings, {"stages": to_json(stages)}, source)
+
+
+def write_timings(path: str | Path, timings: RunTimings) -> Path:
+    """Atomically write ``timings.json``."""
+    return write_record(path, timings)
+
+
+def read_timings(path: str | Path) -> RunTimings:
+    """``timings.json`` (RecordError naming the file and the field when it is not one)."""
+    return read_record(path, RunTimings)

@@ -28,7 +28,6 @@ removed once the stage completes. A stage's ``run`` writes nothing; the experime
 
 from __future__ import annotations
 
-import json
 import logging
 import time
 from collections.abc import Sized
@@ -36,14 +35,16 @@ from pathlib import Path
 from typing import cast
 
 from roman_sim import __version__
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.records import RecordError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
+from roman_sim.evaluation.records import run_timings, write_timings
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
 from roman_sim.pipeline.folder_lock import hold_run_folder
 from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, existing_manifest, used_changes
-from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult
+from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult, read_timings
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stagecache import StageCache
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, WORKER_PRELOAD, Stage, StageOutput
@@ -268,7 +269,7 @@ class Experiment:
             if not stage.cached and stage.name not in needed:
                 continue
             outputs[stage.name], timings[stage.name] = self._run_stage(stage, ctx, outputs, manifest, keys, ex)
-        write_json(self.run_dir / TIMINGS_JSON, {"stages": timings})
+        write_timings(self.run_dir / TIMINGS_JSON, run_timings(timings, str(self.run_dir / TIMINGS_JSON)))
         log.info(
             "run %s complete in %s (reused: %s)", self.scenario.name, self.run_dir, ", ".join(sorted(reuse)) or "none"
         )
@@ -325,8 +326,9 @@ class Experiment:
     def _old_timings(self, reuse: set[str]) -> dict[str, Timings]:
         """Timings of the reused stages, from the previous run's ``timings.json``."""
         try:
-            old = json.loads((self.run_dir / TIMINGS_JSON).read_text(encoding="utf-8"))["stages"]
-        except (OSError, ValueError, KeyError, TypeError):
+            old = read_timings(self.run_dir)
+        except RecordError as err:
+            log.warning("previous timings not kept: %s", err)
             old = {}
         return {name: {**old.get(name, {}), "reused": True} for name in STAGE_NAMES if name in reuse}
 

@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
-import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TypeVar
+from typing import TypeVar, cast
 
 from roman_sim.core.errors import StorageError
+from roman_sim.core.records import to_json
+from roman_sim.evaluation.records import read_timings as read_run_timings
+from roman_sim.evaluation.records import run_timings
 from roman_sim.evaluation.run_summary import RunSummary, summarize_run
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
@@ -116,10 +118,7 @@ class RunResult:
 
     def runtime_median_s(self, method: str) -> float | None:
         """Median alignment time per pair of ``method`` (s), from the timings; None if unknown."""
-        alignment = self.timings.get("evaluation", {}).get("alignment")
-        per = alignment.get(method) if isinstance(alignment, dict) else None
-        median = per.get("median") if isinstance(per, dict) else None
-        return float(median) if isinstance(median, (int, float)) else None
+        return run_timings(self.timings, f"{self.run_dir / TIMINGS_JSON}").median_s(method)
 
     def summary(self) -> RunSummary:
         """The run in short (per method recall, runtime; ATE; map size): ``summarize_run``."""
@@ -128,12 +127,15 @@ class RunResult:
 
 
 def read_timings(run_dir: Path) -> dict[str, Timings]:
-    """The per-stage timings of a run folder (empty when absent or unreadable)."""
-    try:
-        data = json.loads((run_dir / TIMINGS_JSON).read_text(encoding="utf-8"))
-        return dict(data["stages"])
-    except (OSError, ValueError, KeyError, TypeError):
+    """The per-stage timings of a run folder, as JSON figures (empty when it has no ``timings.json``).
+
+    Raises:
+        RecordError: the file is there but is not a timings record (names the file and the field).
+    """
+    path = run_dir / TIMINGS_JSON
+    if not path.is_file():
         return {}
+    return cast(dict[str, Timings], to_json(read_run_timings(path).stages))
 
 
 __all__ = ["TIMINGS_JSON", "RunResult", "read_timings"]

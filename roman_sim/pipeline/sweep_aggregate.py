@@ -12,12 +12,13 @@ import csv
 import io
 import json
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.errors import RomanSimError
-from roman_sim.core.jsontypes import read_record
+from roman_sim.core.records import read_record, write_record
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -32,25 +33,41 @@ AGGREGATE_CSV = "sweep_summary.csv"
 AGGREGATE_PLOT = "plots/sweep_summary.png"
 
 
+@dataclass
+class SweepRun:
+    """One run of a sweep: its folder name, seed and swept values (dotted key -> value)."""
+
+    run_id: str
+    seed: int
+    params: dict[str, Any]
+
+
+@dataclass
+class SweepRecord:
+    """What ``sweep.json`` holds: the sweep's name, scenario, swept keys (sorted), seeds and runs."""
+
+    name: str
+    scenario: str
+    grid: list[str]
+    seeds: list[int]
+    runs: list[SweepRun]
+
+
 def write_sweep_json(cfg: "SweepConfig", runs: "list[RunSpec]", out_dir: Path) -> Path:
     """``sweep.json``: the sweep's name, swept keys, seeds and runs (what the summary is made of)."""
-    path = out_dir / SWEEP_JSON
-    write_json(
-        path,
-        {
-            "schema": SWEEP_SCHEMA,
-            "name": cfg.name,
-            "scenario": cfg.scenario,
-            "grid": sorted(cfg.grid),
-            "seeds": list(cfg.seeds),
-            "runs": [{"run_id": r.run_id, "seed": r.seed, "params": r.params} for r in runs],
-        },
+    record = SweepRecord(
+        cfg.name,
+        cfg.scenario,
+        sorted(cfg.grid),
+        list(cfg.seeds),
+        [SweepRun(r.run_id, r.seed, dict(r.params)) for r in runs],
     )
-    return path
+    return write_record(out_dir / SWEEP_JSON, record, SWEEP_SCHEMA)
 
 
-def _read_sweep(out_dir: Path) -> dict[str, Any]:
-    return read_record(out_dir / SWEEP_JSON, SWEEP_SCHEMA, "sweep record")
+def read_sweep_json(out_dir: Path) -> SweepRecord:
+    """A sweep folder's ``sweep.json`` (RecordError naming the file and the field when it is not one)."""
+    return read_record(out_dir / SWEEP_JSON, SweepRecord, SWEEP_SCHEMA)
 
 
 def aggregate_sweep(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[str]]:
@@ -58,15 +75,17 @@ def aggregate_sweep(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], lis
     from roman_sim.evaluation.sweepstats import aggregate, seed_rows
     from roman_sim.pipeline.result import RunResult
 
-    data = _read_sweep(out_dir)
-    keys, rows, notes = list(data["grid"]), [], []
-    for r in data["runs"]:
+    data = read_sweep_json(out_dir)
+    keys: list[str] = list(data.grid)
+    rows: list[dict[str, Any]] = []
+    notes: list[str] = []
+    for r in data.runs:
         try:
-            summary = RunResult.load(out_dir / r["run_id"]).summary()
+            summary = RunResult.load(out_dir / r.run_id).summary()
         except RomanSimError as err:
-            notes.append(f"run {r['run_id']} left out: {err}")
+            notes.append(f"run {r.run_id} left out: {err}")
             continue
-        rows += seed_rows({k: r["params"][k] for k in keys}, int(r["seed"]), summary)
+        rows += seed_rows({k: r.params[k] for k in keys}, r.seed, summary)
     return keys, aggregate(rows, keys), notes
 
 
@@ -98,7 +117,7 @@ def print_sweep_aggregate(out_dir: Path, console: Console) -> None:
     from roman_sim.evaluation.types import PAIR_SET_LABELS
 
     keys, rows, notes = aggregate_sweep(out_dir)
-    name = _read_sweep(out_dir)["name"]
+    name = read_sweep_json(out_dir).name
     for kind in ("inter", "intra"):
         mine = [r for r in rows if r["kind"] == kind]
         if not any(r["relevant"] for r in mine):

@@ -20,19 +20,20 @@ bits between machines). ``report --verify`` adds a check independent of this cod
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 from roman_sim.core.config import read_yaml, validate_model
-from roman_sim.core.errors import RomanSimError, StorageError
+from roman_sim.core.errors import RomanSimError
+from roman_sim.core.records import RecordError, read_json, to_json
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
+from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table, read_ate
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, compute_metrics, is_correct
 from roman_sim.evaluation.operating_points import strip_absent_points
+from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
 from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.evaluation.variants import TRUTH
@@ -131,10 +132,10 @@ def recompute_metrics(
 def _n_segments(run_dir: Path) -> int | None:
     """0 when ``map_stats.json`` says the submaps hold no segment at all, else None (unknown to the pairs table)."""
     try:
-        per_submap = json.loads((run_dir / "map_stats.json").read_text(encoding="utf-8"))["segments_per_submap"]
-    except (OSError, ValueError, KeyError, TypeError):
+        stats, _ = read_map_stats(run_dir / "map_stats.json")
+    except RecordError:
         return None
-    return 0 if per_submap == 0 else None
+    return 0 if stats.segments_per_submap == 0 else None
 
 
 def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
@@ -142,11 +143,7 @@ def recompute_ate(run_dir: Path, suffix: str = "") -> AteTable:
 
     ``suffix`` is appended to the TUM file names (``.gz`` for compressed reference results).
     """
-    try:
-        path = run_dir / ATE_JSON
-        stored = AteTable.from_json(json.loads(path.read_text(encoding="utf-8")), str(path))
-    except (OSError, ValueError) as err:
-        raise StorageError(f"{run_dir / ATE_JSON}: unreadable ({type(err).__name__})") from None
+    stored, _ = read_ate(run_dir / ATE_JSON)
     truth = {r: read_tum(_tum(run_dir, TRUTH, r, suffix)) for r in stored.robots}
     variants = {v: TrajectoryVariant(row.description, row.fit, row.source) for v, row in stored.variants.items()}
     trajectories = {
@@ -163,24 +160,18 @@ def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
 
 def stored_summary(run_dir: Path) -> dict[str, Any]:
     """The run's compact summary as its stored files give it (metrics, ATE, map statistics, timings)."""
-    from roman_sim.evaluation.records import MapStats
     from roman_sim.evaluation.run_summary import summarize_run
 
     metrics = read_metrics_json(run_dir / METRICS_JSON)
     ate = None
     if (run_dir / ATE_JSON).is_file():
-        ate = AteTable.from_json(json.loads((run_dir / ATE_JSON).read_text(encoding="utf-8")), str(run_dir / ATE_JSON))
+        ate, _ = read_ate(run_dir / ATE_JSON)
     stats = None
     if (run_dir / "map_stats.json").is_file():
-        raw = json.loads((run_dir / "map_stats.json").read_text(encoding="utf-8"))
-        stats = MapStats.from_json({k: v for k, v in raw.items() if k != "notes"})
-    try:
-        timings = json.loads((run_dir / "timings.json").read_text(encoding="utf-8"))
-        alignment = timings["stages"]["evaluation"]["alignment"]
-    except (OSError, ValueError, KeyError, TypeError):
-        alignment = {}
-    runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
-    return json.loads(json.dumps(summarize_run(metrics, ate, stats, runtimes).to_json()))
+        stats, _ = read_map_stats(run_dir / "map_stats.json")
+    timings = read_timings(run_dir / "timings.json") if (run_dir / "timings.json").is_file() else RunTimings()
+    runtimes = {m: timings.median_s(m) for m in metrics.methods}
+    return dict(to_json(summarize_run(metrics, ate, stats, runtimes).to_json()))  # type: ignore[arg-type]
 
 
 def check_run_files(
@@ -191,7 +182,7 @@ def check_run_files(
     out = Verification()
     metrics, rows = recompute_metrics(d, pairs_file)
     out.checked.append(f"metrics.json from {pairs_file}")
-    stored = json.loads((d / METRICS_JSON).read_text(encoding="utf-8"))
+    stored = read_json(d / METRICS_JSON)
     again = metrics.to_json()
     if strip_absent_points(stored, again):
         out.notes.append(
@@ -206,7 +197,6 @@ def check_run_files(
             out.differences.append(f"ate.json: cannot recompute ({err})")
         else:
             out.checked.append("ate.json from trajectories/*.tum")
-            stored_ate = json.loads((d / ATE_JSON).read_text(encoding="utf-8"))
-            stored_ate.pop("notes", None)
+            stored_ate = read_ate(d / ATE_JSON)[0].to_json()
             out.differences += compare(stored_ate, table.to_json(), "ate.json", max(rel_tol, 1e-7), 1e-9)
     return out

@@ -15,13 +15,13 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 from pathlib import Path
 
 import numpy as np
 
 from roman_sim.core.atomic import write_arrays, write_bytes
 from roman_sim.core.errors import StorageError
+from roman_sim.evaluation.records import read_timings
 from roman_sim.mapping.io import load_submaps, packet_arrays
 from roman_sim.mapping.types import Submap
 
@@ -64,12 +64,11 @@ def write_runtimes(run_dir: Path, dest: Path) -> Path | None:
 
     None when the run kept no per-pair runtimes.
     """
-    try:
-        timings = json.loads((run_dir / "timings.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+    if not (run_dir / "timings.json").is_file():
         return None
-    alignment = (timings.get("stages", {}).get("evaluation") or {}).get("alignment") or {}
-    per_pair = {m: list(v.get("per_pair_s") or []) for m, v in alignment.items()}
+    evaluation = read_timings(run_dir / "timings.json").stages.get("evaluation")
+    alignment = {} if evaluation is None or evaluation.alignment is None else evaluation.alignment
+    per_pair = {m: list(v.per_pair_s or []) for m, v in alignment.items()}
     if not any(per_pair.values()):
         return None
     with (run_dir / "pairs.csv").open(encoding="utf-8", newline="") as fh:

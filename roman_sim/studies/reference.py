@@ -31,7 +31,9 @@ from typing import TYPE_CHECKING, Any, TypedDict
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON, JSONLike
+from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings, write_timings
 from roman_sim.evaluation.run_summary import RunSummary
+from roman_sim.pipeline.sweep_aggregate import read_sweep_json
 from roman_sim.studies import pages
 from roman_sim.studies.claims import (
     PAPER,
@@ -105,13 +107,13 @@ def _gzip_copy(src: Path, dest: Path) -> None:
     write_bytes(dest, gzip.compress(src.read_bytes(), compresslevel=9, mtime=0))
 
 
-def _timing_figures(path: Path) -> JSON:
+def _timing_figures(path: Path) -> RunTimings:
     """``timings.json`` without the per-pair runtime lists (the statistics are kept)."""
-    data = _json(path)
-    for stage in data.get("stages", {}).values():
-        for method in (stage.get("alignment") or {}).values():
-            method.pop("per_pair_s", None)
-    return data
+    timings = read_timings(path)
+    for stage in timings.stages.values():
+        for method in (stage.alignment or {}).values():
+            method.per_pair_s = None
+    return timings
 
 
 def _report_without(text: str, missing: list[str]) -> str:
@@ -138,7 +140,7 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
         dest / "metrics.json", json.dumps(_json(run_dir / "metrics.json"), sort_keys=True, separators=(",", ":")) + "\n"
     )
     if (run_dir / "timings.json").is_file():
-        write_json(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
+        write_timings(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
     for name in RAW_FILES:
         if (run_dir / name).is_file():
             _gzip_copy(run_dir / name, dest / f"{name}.gz")
@@ -187,8 +189,7 @@ def rewrite_report(folder: str | Path) -> Path:
         StorageError: the folder has no ``report.md`` or ``metrics.json``.
     """
     from roman_sim.core.config import read_yaml
-    from roman_sim.evaluation.atetable import AteTable
-    from roman_sim.evaluation.records import MapStats
+    from roman_sim.evaluation.atetable import read_ate
     from roman_sim.evaluation.results import read_metrics_json
     from roman_sim.report.markdown import report_markdown
 
@@ -201,8 +202,8 @@ def rewrite_report(folder: str | Path) -> Path:
     not_kept = missing[0] if missing else []
     kept = sorted(p.name for p in (d / "plots").glob("*.png")) if (d / "plots").is_dir() else []
     config = read_yaml(d / "config.yaml")
-    ate = AteTable.from_json(_json(d / "ate.json")) if (d / "ate.json").is_file() else None
-    stats = MapStats.from_json(_json(d / "map_stats.json")) if (d / "map_stats.json").is_file() else None
+    ate = read_ate(d / "ate.json")[0] if (d / "ate.json").is_file() else None
+    stats = read_map_stats(d / "map_stats.json")[0] if (d / "map_stats.json").is_file() else None
     plots = [f"plots/{n}" for n in sorted(kept + not_kept)]
     name = str(config["name"]) if isinstance(config, dict) else d.name
     text = report_markdown(name, read_metrics_json(d / "metrics.json"), ate, stats, _report_notes(old), plots)
@@ -311,7 +312,7 @@ def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> li
     """Run (or resume) the ambiguity sweep; keep its aggregate over seeds and each run's raw pairs table."""
     from roman_sim.pipeline.scenario import SCENARIO_DIR
     from roman_sim.pipeline.sweep import load_sweep, run_sweep
-    from roman_sim.pipeline.sweep_aggregate import AGGREGATE_CSV, SWEEP_JSON, aggregate_sweep
+    from roman_sim.pipeline.sweep_aggregate import AGGREGATE_CSV, SWEEP_JSON, aggregate_sweep, read_sweep_json
 
     cfg, scenario = load_sweep(SCENARIO_DIR / AMBIGUITY_SWEEP)
     cfg.executor.kind = "serial"
@@ -323,8 +324,8 @@ def ambiguity_sweep(dest: Path, work: Path, from_stage: str | None = None) -> li
         if (work / name).is_file():
             (dest / name).parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(work / name, dest / name)
-    for r in json.loads((work / SWEEP_JSON).read_text(encoding="utf-8"))["runs"]:
-        collect(work / r["run_id"], dest / r["run_id"], trajectories=False, plots=False, packets=False)
+    for r in read_sweep_json(work).runs:
+        collect(work / r.run_id, dest / r.run_id, trajectories=False, plots=False, packets=False)
     return _sweep_rows(aggregate_sweep(work)[1])
 
 
@@ -357,12 +358,12 @@ def _committed_sweep(d: Path) -> list[SweepRow]:
 
     if not (d / "ambiguity_sweep" / "sweep.json").is_file():
         return []
-    spec = _json(d / "ambiguity_sweep" / "sweep.json")
+    spec = read_sweep_json(d / "ambiguity_sweep")
     rows = []
-    for r in spec["runs"]:
-        s = _run_summary(d / "ambiguity_sweep" / r["run_id"])
-        rows += seed_rows({k: r["params"][k] for k in spec["grid"]}, int(r["seed"]), s)
-    return _sweep_rows(aggregate(rows, list(spec["grid"])))
+    for r in spec.runs:
+        s = _run_summary(d / "ambiguity_sweep" / r.run_id)
+        rows += seed_rows({k: r.params[k] for k in spec.grid}, r.seed, s)
+    return _sweep_rows(aggregate(rows, spec.grid))
 
 
 class ReferenceRecord(TypedDict):
@@ -423,15 +424,14 @@ def reference_markdown(summary: ReferenceRecord) -> str:
 
 def _run_summary(d: Path) -> RunSummary:
     """A run's compact summary recomputed from its committed raw files."""
-    from roman_sim.evaluation.records import MapStats
     from roman_sim.evaluation.run_summary import summarize_run
     from roman_sim.report.recompute import recompute_ate, recompute_metrics
 
     metrics, _ = recompute_metrics(d, "pairs.csv.gz", as_stored=False)
     ate = recompute_ate(d, ".gz") if (d / "ate.json").is_file() and (d / "trajectories").is_dir() else None
-    stats = MapStats.from_json({k: v for k, v in _json(d / "map_stats.json").items() if k != "notes"})
-    alignment = (_json(d / "timings.json").get("stages", {}).get("evaluation") or {}).get("alignment") or {}
-    runtimes = {m: (alignment.get(m) or {}).get("median") for m in metrics.methods}
+    stats, _ = read_map_stats(d / "map_stats.json")
+    timings = read_timings(d / "timings.json")
+    runtimes = {m: timings.median_s(m) for m in metrics.methods}
     return summarize_run(metrics, ate, stats, runtimes)
 
 

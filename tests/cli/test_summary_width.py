@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 from roman_sim.cli.run import print_summary
-from roman_sim.evaluation.atetable import AteTable
-from roman_sim.evaluation.records import MapStats
+from roman_sim.evaluation.atetable import read_ate
+from roman_sim.evaluation.records import read_map_stats
 from roman_sim.evaluation.results import read_metrics_json
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
@@ -27,8 +26,8 @@ def test_the_demo_summary_fits_80_columns_with_every_figure(
         DEMO,
         load_scenario(DEMO / "config.yaml"),
         metrics,
-        AteTable.from_json(json.loads((DEMO / "ate.json").read_text())),
-        MapStats.from_json(json.loads((DEMO / "map_stats.json").read_text())),
+        read_ate(DEMO / "ate.json")[0],
+        read_map_stats(DEMO / "map_stats.json")[0],
     )
     monkeypatch.setenv("COLUMNS", str(columns))
     print_summary(run)

@@ -8,12 +8,9 @@ pose graphs it scores. A run without a pose graph gets an empty table.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
-from roman_sim.evaluation.atetable import AteTable, ate_table
+from roman_sim.evaluation.atetable import AteTable, ate_table, read_ate, write_ate
 from roman_sim.evaluation.variants import TRUTH
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.base import Stage, Timings
@@ -51,14 +48,9 @@ class AteStage(Stage[AteInputs, AteOutput]):
         return AteOutput(table, list(pg.notes))
 
     def save(self, out: AteOutput, ctx: RunContext) -> list[str]:
-        write_json(ctx.run_dir / ATE_JSON, {**out.ate.to_json(), "notes": out.notes})
+        write_ate(ctx.run_dir / ATE_JSON, out.ate, out.notes)
         return [ATE_JSON]
 
     def load(self, ctx: RunContext, files: list[str]) -> AteOutput:
-        path = ctx.run_dir / ATE_JSON
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            notes = [str(n) for n in data["notes"]]
-        except (OSError, ValueError, KeyError, TypeError) as err:
-            raise StorageError(f"{path}: unreadable ATE table ({type(err).__name__}: {err})") from None
-        return AteOutput(AteTable.from_json(data, str(path)), notes)
+        table, notes = read_ate(ctx.run_dir / ATE_JSON)
+        return AteOutput(table, notes)

@@ -12,12 +12,11 @@ stages get the trajectories as read back from the TUM files, so ``roman-sim repo
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
+from typing import Any
 
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.evaluation.variants import (
     TRUTH,
@@ -38,6 +37,16 @@ from roman_sim.runner.taskrunner import TaskRunner
 
 POSEGRAPH_JSON = "posegraph.json"
 ESTIMATES_JSON = "posegraph_estimates.json"
+
+
+@dataclass
+class EstimatesRecord:
+    """What ``posegraph_estimates.json`` holds: the stage's notes and every variant (``variant_json``)."""
+
+    notes: list[str]
+    variants: list[Any]
+
+
 ESTIMATES_SCHEMA = "roman_sim.posegraph_estimates/1"
 #: The stage's output: every variant with its trajectories.
 PoseGraphOutput = TrajectoryEstimates
@@ -88,26 +97,20 @@ class PoseGraphStage(Stage[PoseGraphInputs, PoseGraphOutput]):
             for robot, tr in per.items():
                 write_tum(ctx.run_dir / tum_path(variant, robot), tr)
                 written.append(tum_path(variant, robot))
-        write_json(ctx.run_dir / POSEGRAPH_JSON, {k: vars(v) for k, v in out.graphs.items()})
+        write_record(ctx.run_dir / POSEGRAPH_JSON, out.graphs)
         estimates = [variant_json(k, v) for k, v in out.variants.items()]
-        write_json(
-            ctx.run_dir / ESTIMATES_JSON, {"schema": ESTIMATES_SCHEMA, "notes": out.notes, "variants": estimates}
-        )
+        write_record(ctx.run_dir / ESTIMATES_JSON, EstimatesRecord(out.notes, estimates), ESTIMATES_SCHEMA)
         return [POSEGRAPH_JSON, ESTIMATES_JSON, *sorted(written)]
 
     def load(self, ctx: RunContext, files: list[str]) -> PoseGraphOutput:
-        path = ctx.run_dir / ESTIMATES_JSON  # the file being read, named by the error
+        path = ctx.run_dir / ESTIMATES_JSON
+        est = read_record(path, EstimatesRecord, ESTIMATES_SCHEMA)
+        info = read_record(ctx.run_dir / POSEGRAPH_JSON, dict[str, GraphInfo])
         try:
-            est = json.loads(path.read_text(encoding="utf-8"))
-            if est.get("schema") != ESTIMATES_SCHEMA:
-                raise ValueError(f"schema {est.get('schema')!r}")
-            path = ctx.run_dir / POSEGRAPH_JSON
-            graphs = json.loads(path.read_text(encoding="utf-8"))
-            info = {k: GraphInfo(**v) for k, v in graphs.items()}
-            variants = dict(variant_from_json(v) for v in est["variants"])
-            notes = [str(n) for n in est["notes"]]
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-            raise StorageError(f"{path}: unreadable pose-graph results ({type(err).__name__}: {err})") from None
+            variants = dict(variant_from_json(v) for v in est.variants)
+        except (ValueError, KeyError, TypeError, AttributeError) as err:
+            raise RecordError(f"{path}: field variants: {type(err).__name__}: {err}") from None
+        notes = est.notes
         sources = list(dict.fromkeys([TRUTH] + [v.source for v in variants.values()])) if variants else []
         listed = set(files)
         trajectories = {

@@ -15,15 +15,14 @@ renamed scenario rewrites it.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
-from roman_sim.core.atomic import write_bytes, write_json, write_text
-from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.atomic import write_bytes, write_text
+from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.ate import aligned_to_truth
-from roman_sim.evaluation.records import MapStats, map_stats
+from roman_sim.evaluation.records import MapStats, map_stats, read_map_stats, write_map_stats
 from roman_sim.evaluation.variants import TRUTH
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.ate import AteOutput
@@ -215,15 +214,10 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
         for name, png in out.plots.items():
             write_bytes(ctx.run_dir / name, png)
         write_text(ctx.run_dir / REPORT_MD, out.text)
-        write_json(ctx.run_dir / MAP_STATS_JSON, {**out.map_stats.to_json(), "notes": out.notes})
+        write_map_stats(ctx.run_dir / MAP_STATS_JSON, out.map_stats, out.notes)
         return [MAP_STATS_JSON, REPORT_MD, *out.plots]
 
     def load(self, ctx: RunContext, files: list[str]) -> ReportOutput:
-        path = ctx.run_dir / MAP_STATS_JSON
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            notes = [str(n) for n in data.pop("notes")]
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-            raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
+        stats, notes = read_map_stats(ctx.run_dir / MAP_STATS_JSON)
         written = [f for f in files if f.endswith(".png")]
-        return ReportOutput(MapStats.from_json(data, str(path)), notes, written=written)
+        return ReportOutput(stats, notes, written=written)

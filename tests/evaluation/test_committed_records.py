@@ -1,0 +1,76 @@
+"""Every committed result file of a typed kind reads into its record and writes back to the same bytes.
+
+The committed files under ``results/`` are the test: reading one with its checked reader and
+writing the record with its writer must give the file's bytes, so moving a file onto the
+typed reader and writer changes no committed result. A damaged file fails with one line
+naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from roman_sim.core.records import RecordError, read_record, write_record
+from roman_sim.evaluation.atetable import read_ate, write_ate
+from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
+from roman_sim.evaluation.records import read_map_stats, read_timings, write_map_stats, write_timings
+from roman_sim.evaluation.variants import GraphInfo
+from roman_sim.pipeline.sweep_aggregate import SWEEP_SCHEMA, read_sweep_json
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "results"
+
+
+def _rewrite_sweep(src: Path, dest: Path) -> None:
+    write_record(dest, read_sweep_json(src.parent), SWEEP_SCHEMA)
+
+
+#: File name -> re-write (read ``src`` with the checked reader, write the record to ``dest``).
+REWRITE: dict[str, Callable[[Path, Path], object]] = {
+    "ate.json": lambda src, dest: write_ate(dest, *read_ate(src)),
+    "map_stats.json": lambda src, dest: write_map_stats(dest, *read_map_stats(src)),
+    "timings.json": lambda src, dest: write_timings(dest, read_timings(src)),
+    "posegraph.json": lambda src, dest: write_record(dest, read_record(src, dict[str, GraphInfo])),
+    "sweep.json": _rewrite_sweep,
+    "leaderboard.json": lambda src, dest: write_leaderboard_json(dest, read_leaderboard(src)),
+}
+
+FILES = sorted(p for p in RESULTS.rglob("*.json") if p.name in REWRITE)
+
+
+def test_every_typed_kind_has_committed_files() -> None:
+    kinds = {p.name for p in FILES}
+    assert kinds == set(REWRITE)
+    assert sum(p.name == "ate.json" for p in FILES) >= 20
+
+
+@pytest.mark.parametrize("path", FILES, ids=lambda p: str(p.relative_to(RESULTS)))
+def test_a_committed_file_reads_and_writes_back_byte_identical(path: Path, tmp_path: Path) -> None:
+    out = tmp_path / path.name
+    REWRITE[path.name](path, out)
+    assert out.read_bytes() == path.read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("name", "edit", "message"),
+    [
+        ("ate.json", lambda d: d["variants"][1].update(fit="sideways"), "field variants[1].fit: expected one of"),
+        ("map_stats.json", lambda d: d.update(submaps="many"), "field submaps: expected an integer"),
+        ("timings.json", lambda d: d["stages"]["maps"].pop("seconds"), "field stages.maps.seconds: missing"),
+        ("posegraph.json", lambda d: d["roman"].update(inliers=None), "field roman.inliers: expected an integer"),
+    ],
+)
+def test_a_damaged_run_file_names_the_file_and_field(
+    name: str, edit: Callable[[dict], object], message: str, tmp_path: Path
+) -> None:
+    data = json.loads((RESULTS / "reference" / "demo" / name).read_text(encoding="utf-8"))
+    edit(data)
+    bad = tmp_path / name
+    bad.write_text(json.dumps(data), encoding="utf-8")
+    with pytest.raises(RecordError) as err:
+        REWRITE[name](bad, tmp_path / "out.json")
+    assert str(err.value).startswith(f"{bad}: {message}")
