@@ -184,13 +184,14 @@ class StageTimings:
     """One stage's wall-clock figures: time, peak memory, whether it was reused, and its own figures.
 
     Attributes:
+        seconds: its wall time (None for a stage taken from the shared cache: not timed here).
         pairs: the evaluation's gating and alignment figures (candidates, wall time, executor).
         alignment: the evaluation's runtime per pair, per method.
         posegraph_s: the pose graph's solve time per graph.
     """
 
-    seconds: float
     reused: bool
+    seconds: float | None = field(default=None, metadata=OMIT_NONE)
     peak_rss_mb: float | None = None
     pairs: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
     alignment: dict[str, MethodRuntimes] | None = field(default=None, metadata=OMIT_NONE)

@@ -17,7 +17,7 @@ import pytest
 from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.evaluation.atetable import read_ate, write_ate
 from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
-from roman_sim.evaluation.records import read_map_stats, read_timings, write_map_stats, write_timings
+from roman_sim.evaluation.records import read_map_stats, read_timings, run_timings, write_map_stats, write_timings
 from roman_sim.evaluation.variants import GraphInfo
 from roman_sim.pipeline.sweep_aggregate import SWEEP_SCHEMA, read_sweep_json
 
@@ -60,7 +60,7 @@ def test_a_committed_file_reads_and_writes_back_byte_identical(path: Path, tmp_p
     [
         ("ate.json", lambda d: d["variants"][1].update(fit="sideways"), "field variants[1].fit: expected one of"),
         ("map_stats.json", lambda d: d.update(submaps="many"), "field submaps: expected an integer"),
-        ("timings.json", lambda d: d["stages"]["maps"].pop("seconds"), "field stages.maps.seconds: missing"),
+        ("timings.json", lambda d: d["stages"]["maps"].pop("reused"), "field stages.maps.reused: missing"),
         ("posegraph.json", lambda d: d["roman"].update(inliers=None), "field roman.inliers: expected an integer"),
     ],
 )
@@ -74,3 +74,13 @@ def test_a_damaged_run_file_names_the_file_and_field(
     with pytest.raises(RecordError) as err:
         REWRITE[name](bad, tmp_path / "out.json")
     assert str(err.value).startswith(f"{bad}: {message}")
+
+
+def test_a_stage_taken_from_the_shared_cache_has_no_time(tmp_path: Path) -> None:
+    """A stage another folder computed is reused without being timed here: only ``reused`` is known."""
+    timings = run_timings({"maps": {"reused": True}, "ate": {"seconds": 0.5, "peak_rss_mb": None, "reused": False}})
+    assert timings.stages["maps"].seconds is None and timings.stages["ate"].seconds == 0.5
+    write_timings(tmp_path / "timings.json", timings)
+    assert read_timings(tmp_path / "timings.json") == timings
+    written = json.loads((tmp_path / "timings.json").read_text())["stages"]
+    assert written["maps"] == {"peak_rss_mb": None, "reused": True}
