@@ -9,14 +9,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.core.errors import MappingError
+from roman_sim.core.errors import ConfigError, MappingError
 from roman_sim.core.sensors import Frame, check_frame
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.observation import observe_indexed
 from roman_sim.mapping.protocols import Segmenter, SemanticEncoder, reads_truth
 from roman_sim.mapping.segment import Segment
-from roman_sim.mapping.tracker import MappingConfig, Tracker
+from roman_sim.mapping.tracker import MappingConfig, Observation, Tracker
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +79,9 @@ class Mapper:
             frame as given (truth included), the segmenter's masks and ``observed``, the
             (mask index, descriptor or None) of every mask that gave an observation: the
             hook of front-end grading.
+        reshape: called as ``reshape(frame, observations)`` before tracking, returning the
+            observations to track: how a counterfactual (``MappingConfig.whole_surface``) replaces
+            their points; required when ``cfg.whole_surface`` is set.
 
     The segmenter sees ``frame.public()`` (no ground truth) unless it declares
     ``reads_truth``; the encoder gets truth-derived contexts only if it declares it.
@@ -91,12 +94,19 @@ class Mapper:
         encoder: SemanticEncoder | None = None,
         seed: int = 0,
         on_frame: Callable[[Frame, list[Mask], list[tuple[int, NDArray[np.float32] | None]]], None] | None = None,
+        reshape: Callable[[Frame, list[Observation]], list[Observation]] | None = None,
     ) -> None:
+        if cfg.whole_surface and reshape is None:
+            raise ConfigError(
+                "mapping.whole_surface: a counterfactual of the simulator; it needs simulated frames and "
+                "their world (allowed here: false)"
+            )
         self.cfg = cfg
         self.segmenter = segmenter
         self.encoder = encoder
         self.seed = seed
         self.on_frame = on_frame
+        self.reshape = reshape
         self.tracker = Tracker(cfg)
         self.robot: str | None = None
         self._t: list[float] = []
@@ -127,6 +137,8 @@ class Mapper:
         obs = [o for _, o in indexed]
         if self.on_frame is not None:
             self.on_frame(frame, masks, [(k, o.descriptor) for k, o in indexed])
+        if self.reshape is not None:
+            obs = self.reshape(frame, obs)
         self._t.append(float(frame.t))
         self._odom.append(np.asarray(frame.T_odom_body, dtype=np.float64))
         if frame.truth is not None and self._world is not None:

@@ -49,6 +49,9 @@ class MappingConfig(StrictModel):
         cluster_eps_m: largest-cluster cleanup scale; min_max_extent_m: speck filter.
         obs_plane_extents_m, seg_plane_extents_m: plane filters (descending extents).
         min_points: fewest points an observation or segment may have.
+        whole_surface: a counterfactual of the simulator, not a front-end setting: each
+            observation's points come from its objects' whole surfaces instead of the side the
+            depth image shows (the pipeline supplies them from the world; ``Mapper``'s ``reshape``).
     """
 
     max_depth_m: float = Field(7.5, gt=0, le=100)
@@ -69,6 +72,9 @@ class MappingConfig(StrictModel):
     obs_plane_extents_m: tuple[float, float, float] = (3.0, 1.0, 0.2)
     seg_plane_extents_m: tuple[float, float, float] = (3.0, 3.0, 0.5)
     min_points: int = Field(4, ge=1)
+    whole_surface: bool = Field(
+        False, description="counterfactual: observations take their objects' whole surfaces (simulated frames only)"
+    )
 
 
 @dataclass

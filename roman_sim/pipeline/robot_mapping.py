@@ -138,10 +138,15 @@ def robot_families(world: World | None, cfg: ScenarioRobot) -> dict[int, str] | 
 
 
 def map_source(
-    ctx: RunContext, source: FrameSource, families: dict[int, str] | None, grader: _Grader | None = None
+    ctx: RunContext,
+    source: FrameSource,
+    families: dict[int, str] | None,
+    grader: _Grader | None = None,
+    world: World | None = None,
 ) -> MapAndKeyframes:
     """One loop of ``source``'s frames into the sinks: the mapper (graded by ``grader``) and, when the
-    visual method runs, the keyframe extractor."""
+    visual method runs, the keyframe extractor. ``world`` serves the ``mapping.whole_surface``
+    counterfactual (``roman_sim.pipeline.whole_surface``)."""
     sc = ctx.scenario
     name = source.name
     stage = f"maps:{name}"
@@ -153,7 +158,13 @@ def map_source(
     )
     if grader is not None:
         grader.use(families)
-    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=None if grader is None else grader.add)
+    reshape = None
+    if sc.mapping.whole_surface:
+        from roman_sim.pipeline.whole_surface import whole_surface_for
+
+        reshape = whole_surface_for(world, sc.mapping.voxel, name)
+    on_frame = None if grader is None else grader.add
+    mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=on_frame, reshape=reshape)
     extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
     for frame in source.frames():
         mapper.process(frame)
@@ -200,7 +211,8 @@ def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> RobotMa
     """One robot, simulated in ``world`` or read from its sequence (``cfg.source``), graded on its own."""
     sc = ctx.scenario
     grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
-    smap, kf = map_source(ctx, robot_source(ctx, world, cfg), robot_families(world, cfg), grader)
+    source = robot_source(ctx, world, cfg)
+    smap, kf = map_source(ctx, source, robot_families(world, cfg), grader, None if cfg.source is not None else world)
     snap = frame_snapshot(ctx, world, cfg, smap) if cfg.name == sc.robots[0].name else None
     return smap, kf, grader.part(), snap
 

@@ -728,3 +728,63 @@ def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -
                 tally[lab][2] += int(r[2])
         out[key] = {"thresholds": chosen, "bins": tally}
     return out
+
+
+# -- the attribution study ------------------------------------------------------------------------
+def newcombe_interval(k1: int, n1: int, k2: int, n2: int, level: float) -> list[float] | None:
+    """Newcombe's hybrid-score interval of k1/n1 - k2/n2 from the two Wilson intervals; None without pairs."""
+    a, b = wilson_interval(k1, n1, level), wilson_interval(k2, n2, level)
+    if a is None or b is None:
+        return None
+    p1, p2 = k1 / n1, k2 / n2
+    lower = p1 - p2 - math.sqrt((p1 - a[0]) ** 2 + (b[1] - p2) ** 2)
+    upper = p1 - p2 + math.sqrt((a[1] - p1) ** 2 + (p2 - b[0]) ** 2)
+    return [lower, upper]
+
+
+def attribution_rows(folder: str | Path) -> list[dict[str, JSONValue]]:
+    """The attribution table re-derived from a study folder's raw pairs.
+
+    Reads ``attribution.json`` (its methods, mechanisms and runs) and, per run under ``runs/``,
+    the cross-robot rows of each method at the ``max_recall`` operating point: hits, relevant
+    pairs and precision; then per mechanism and method the drop same - opposite with Newcombe's
+    interval and the share of the all-on (``none``) drop that is gone with the mechanism off.
+    """
+    d = Path(folder)
+    with _open_text(d / "attribution.json") as fh:
+        spec = json.load(fh)
+    methods, level = list(spec["config"]["methods"]), float(spec["config"]["level"])
+    counts: dict[tuple[str, str, str], tuple[int, int, int]] = {}
+    for run in spec["runs"]:
+        cfg, pairs, judged = judged_rows(d / "runs" / run["run"])
+        for m in methods:
+            rows = [j for p, j in zip(pairs, judged) if p.method == m and p.kind == "inter"]
+            pt = operating_points(rows, cfg)["max_recall"]
+            assert isinstance(pt, dict)
+            counts[(run["role"], run["mechanism"], m)] = (
+                int(pt["hits"]),
+                int(pt["n_relevant"]),
+                int(pt["false_positives"]),
+            )
+    out: list[dict[str, JSONValue]] = []
+    for mech in ["none", *spec["config"]["mechanisms"]]:
+        for m in methods:
+            row: dict[str, JSONValue] = {"mechanism": mech, "method": m}
+            for role in ("same", "opposite"):
+                hits, rel, fp = counts[(role, mech, m)]
+                ci = wilson_interval(hits, rel, level)
+                row[f"{role}_hits"], row[f"{role}_relevant"] = hits, rel
+                row[f"{role}_recall"] = hits / rel if rel else None
+                row[f"{role}_recall_lo"], row[f"{role}_recall_hi"] = (None, None) if ci is None else (ci[0], ci[1])
+                row[f"{role}_precision"] = hits / (hits + fp) if hits + fp else None
+            (hs, ns, _), (ho, no, _) = counts[("same", mech, m)], counts[("opposite", mech, m)]
+            nc = newcombe_interval(hs, ns, ho, no, level)
+            row["drop"] = None if nc is None else hs / ns - ho / no
+            row["drop_lo"], row["drop_hi"] = (None, None) if nc is None else (nc[0], nc[1])
+            out.append(row)
+    for row in out:
+        base = next(r["drop"] for r in out if r["mechanism"] == "none" and r["method"] == row["method"])
+        drop = row["drop"]
+        ok = isinstance(base, float) and isinstance(drop, float) and base > 0
+        row["explained"] = (base - drop) / base if ok else None  # type: ignore[operator]
+    return out

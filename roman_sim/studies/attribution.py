@@ -1,0 +1,273 @@
+"""The attribution study: how much of the same -> opposite drop in max recall each heading mechanism explains.
+
+``run_attribution`` runs a same-direction and an opposite-direction scenario with every
+mechanism on (``none``) and with each mechanism of ``mechanisms`` switched off in turn
+(``roman_sim.pipeline.mechanisms``), each run a run folder ``<out>/runs/<role>__<mechanism>/``
+made by the ordinary pipeline. A finished run whose resolved configuration is unchanged is
+not run again, so an interrupted study resumes where it stopped.
+
+For each mechanism and method (cross-robot pairs): max recall (hits / relevant) in each
+direction with its Wilson interval and the precision at that operating point; the drop
+``same - opposite`` with Newcombe's interval for a difference of independent proportions
+(hybrid score, from the two Wilson intervals); and the share of the all-on drop that
+switching the mechanism off removes, ``(drop_none - drop_off) / drop_none``. Written
+atomically: ``attribution.json`` (the configuration and the runs) and ``attribution.csv``
+(the table). ``collect_attribution`` keeps the runs' raw pairs next to them, from which the
+independent scorer re-derives the table.
+
+Sizes: both scenarios keep their worlds and paths; ``STUDY_OVERRIDES`` shrink the images
+(256 x 192), the frame rate (3 Hz) and the world (60 x 60 m) and drop RGB (no method of
+the study reads it), so that the whole study fits in about 25 minutes on two cores.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import Field
+
+from roman_sim.core.config import StrictModel
+from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.evaluation.intervals import wilson
+from roman_sim.pipeline.mechanisms import ALL_ON, check_mechanisms, mechanism_overrides
+
+log = logging.getLogger(__name__)
+
+PLAN, TABLE = "attribution.json", "attribution.csv"
+SCHEMA = "roman_sim.attribution/1"
+ROLES = ("same", "opposite")
+
+#: The study's default mechanisms (each switched off in turn).
+DEFAULT_MECHANISMS = ("descriptor_view", "lighting", "partial_views", "segmenter_view", "road_side")
+
+#: Sizes of the study's runs, applied to both scenarios (see the module docstring).
+STUDY_OVERRIDES = (
+    "world.overrides.extent_m=[60.0, 60.0]",
+    *(f"robots.{i}.{k}" for i in (0, 1) for k in ("camera.width=256", "camera.height=192", "rate_hz=3.0")),
+    *(f"robots.{i}.render_rgb=false" for i in (0, 1)),
+)
+
+FIELDS = (
+    "mechanism",
+    "method",
+    "same_hits",
+    "same_relevant",
+    "same_recall",
+    "same_recall_lo",
+    "same_recall_hi",
+    "same_precision",
+    "opposite_hits",
+    "opposite_relevant",
+    "opposite_recall",
+    "opposite_recall_lo",
+    "opposite_recall_hi",
+    "opposite_precision",
+    "drop",
+    "drop_lo",
+    "drop_hi",
+    "explained",
+)
+
+
+class AttributionConfig(StrictModel):
+    """What the study runs: two scenarios, the mechanisms switched off in turn, the methods scored."""
+
+    same: str = Field("same_direction", min_length=1)
+    opposite: str = Field("opposite_direction", min_length=1)
+    mechanisms: list[str] = Field(default_factory=lambda: list(DEFAULT_MECHANISMS))
+    methods: list[str] = Field(default_factory=lambda: ["roman", "ransac1m"], min_length=1)
+    overrides: list[str] = Field(default_factory=lambda: list(STUDY_OVERRIDES), description="--set items, every run")
+    level: float = Field(0.95, gt=0, lt=1, description="confidence level of the intervals")
+
+
+@dataclass(frozen=True)
+class StudyRun:
+    """One run of the study: its role (same or opposite), scenario, mechanism switched off and folder."""
+
+    role: str
+    scenario: str
+    mechanism: str
+    name: str
+    overrides: tuple[str, ...]
+
+
+def plan_runs(cfg: AttributionConfig) -> list[StudyRun]:
+    """Every run of the study, all-on first, with its overrides (checks the mechanism names)."""
+    from roman_sim.core.overrides import apply_overrides
+    from roman_sim.core.yamlio import read_yaml
+    from roman_sim.pipeline.scenario import resolve_scenario_path
+
+    check_mechanisms(cfg.mechanisms, "mechanisms")
+    runs = []
+    for role, scenario in zip(ROLES, (cfg.same, cfg.opposite)):
+        data = apply_overrides(read_yaml(resolve_scenario_path(scenario)), list(cfg.overrides))
+        for mech in (ALL_ON, *cfg.mechanisms):
+            ovr = (*cfg.overrides, f"aligners=[{', '.join(cfg.methods)}]", *mechanism_overrides(mech, data))
+            runs.append(StudyRun(role, scenario, mech, f"{role}__{mech}", ovr))
+    return runs
+
+
+def _done(run_dir: Path, scenario: Any) -> bool:
+    """Whether ``run_dir`` holds a complete run of exactly ``scenario`` (resolved)."""
+    from roman_sim.pipeline.manifest import existing_manifest
+    from roman_sim.pipeline.resolve import resolve_scenario
+
+    man = existing_manifest(run_dir)
+    return man is not None and man.complete and man.config_hash == resolve_scenario(scenario).config_hash()
+
+
+def run_study(cfg: AttributionConfig, out: Path, on_run: Callable[[int, int, str, bool], None] | None = None) -> None:
+    """Run (or resume) every run of the study under ``out/runs`` (``on_run(i, n, name, reused)`` after each)."""
+    from roman_sim.core.atomic import write_json
+    from roman_sim.pipeline.experiment import Experiment
+    from roman_sim.pipeline.scenario import load_scenario
+
+    runs = plan_runs(cfg)
+    scenarios = [load_scenario(r.scenario, list(r.overrides)) for r in runs]  # every switch validated up front
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(
+        out / PLAN,
+        {
+            "schema": SCHEMA,
+            "config": cfg.model_dump(mode="json"),
+            "runs": [
+                {
+                    "role": r.role,
+                    "scenario": r.scenario,
+                    "mechanism": r.mechanism,
+                    "run": r.name,
+                    "overrides": r.overrides,
+                }
+                for r in runs
+            ],
+        },
+    )
+    for i, (r, sc) in enumerate(zip(runs, scenarios)):
+        run_dir = out / "runs" / r.name
+        reused = _done(run_dir, sc)
+        if not reused:
+            log.info("attribution: %s (%d/%d)", r.name, i + 1, len(runs))
+            Experiment(sc, run_dir).run()
+        if on_run is not None:
+            on_run(i + 1, len(runs), r.name, reused)
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One method's max recall in one run: hits, relevant pairs, false positives at that point."""
+
+    hits: int
+    relevant: int
+    false_positives: int
+
+
+def run_cells(run_dir: Path, methods: list[str]) -> dict[str, Cell]:
+    """Max-recall counts of ``methods`` over the cross-robot pairs of a finished run."""
+    from roman_sim.pipeline.result import RunResult
+
+    metrics = RunResult.load(run_dir).metrics
+    out = {}
+    for m in methods:
+        pt = metrics.stats(m, kind="inter").operating_points.get("max_recall")
+        if pt is None:
+            raise StorageError(f"{run_dir}: no max-recall point for {m} (was the method run?)")
+        out[m] = Cell(pt.hits, pt.n_relevant, pt.false_positives)
+    return out
+
+
+def newcombe(k1: int, n1: int, k2: int, n2: int, level: float) -> tuple[float, float] | None:
+    """Newcombe's hybrid-score interval of ``k1/n1 - k2/n2`` (independent samples); None without pairs."""
+    w1, w2 = wilson(k1, n1, level), wilson(k2, n2, level)
+    if w1 is None or w2 is None:
+        return None
+    p1, p2 = k1 / n1, k2 / n2
+    d = p1 - p2
+    return (d - math.hypot(p1 - w1[0], w2[1] - p2), d + math.hypot(w1[1] - p1, p2 - w2[0]))
+
+
+def _ratio(k: int, n: int) -> float | None:
+    return k / n if n else None
+
+
+def table_rows(cells: dict[tuple[str, str], dict[str, Cell]], cfg: AttributionConfig) -> list[dict[str, Any]]:
+    """The attribution table from ``cells[(role, mechanism)][method]`` (see the module docstring)."""
+    rows = []
+    for mech in (ALL_ON, *cfg.mechanisms):
+        for m in cfg.methods:
+            row: dict[str, Any] = {"mechanism": mech, "method": m}
+            for role in ROLES:
+                c = cells[(role, mech)][m]
+                ci = wilson(c.hits, c.relevant, cfg.level)
+                row |= {
+                    f"{role}_hits": c.hits,
+                    f"{role}_relevant": c.relevant,
+                    f"{role}_recall": _ratio(c.hits, c.relevant),
+                    f"{role}_recall_lo": None if ci is None else ci[0],
+                    f"{role}_recall_hi": None if ci is None else ci[1],
+                    f"{role}_precision": _ratio(c.hits, c.hits + c.false_positives),
+                }
+            s, o = cells[("same", mech)][m], cells[("opposite", mech)][m]
+            nc = newcombe(s.hits, s.relevant, o.hits, o.relevant, cfg.level)
+            row["drop"] = None if nc is None else s.hits / s.relevant - o.hits / o.relevant
+            row["drop_lo"], row["drop_hi"] = (None, None) if nc is None else nc
+            rows.append(row)
+    base = {r["method"]: r["drop"] for r in rows if r["mechanism"] == ALL_ON}
+    for r in rows:
+        b = base[r["method"]]
+        r["explained"] = None if b is None or r["drop"] is None or b <= 0 else (b - r["drop"]) / b
+    return rows
+
+
+def write_table(rows: list[dict[str, Any]], out: Path) -> Path:
+    """``attribution.csv`` (atomically; floats to 6 decimals, empty where undefined)."""
+    from roman_sim.core.atomic import write_text
+
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(FIELDS), lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: "" if r[k] is None else (f"{r[k]:.6f}" if isinstance(r[k], float) else r[k]) for k in FIELDS})
+    path = out / TABLE
+    write_text(path, buf.getvalue())
+    return path
+
+
+def run_attribution(
+    cfg: AttributionConfig, out: str | Path, on_run: Callable[[int, int, str, bool], None] | None = None
+) -> list[dict[str, Any]]:
+    """Run (or resume) the study in ``out``, write ``attribution.csv`` and return its rows."""
+    out = Path(out)
+    run_study(cfg, out, on_run)
+    cells = {(r.role, r.mechanism): run_cells(out / "runs" / r.name, cfg.methods) for r in plan_runs(cfg)}
+    rows = table_rows(cells, cfg)
+    write_table(rows, out)
+    return rows
+
+
+def collect_attribution(study: str | Path, dest: str | Path) -> Path:
+    """Keep a finished study in ``dest``: its plan, table and, per run, the configuration, metrics and raw pairs."""
+    import shutil
+
+    from roman_sim.studies.reference import collect
+
+    src, dst = Path(study), Path(dest)
+    missing = [n for n in (PLAN, TABLE) if not (src / n).is_file()]
+    if missing:
+        raise ConfigError(f"{src}: not a finished attribution study (missing {', '.join(missing)})")
+    if dst.resolve() == src.resolve():
+        raise ConfigError(f"--results: {dst} is the study's own folder; name another one")
+    if dst.is_dir():
+        shutil.rmtree(dst)
+    dst.mkdir(parents=True)
+    for name in (PLAN, TABLE):
+        shutil.copyfile(src / name, dst / name)
+    for run in sorted(p for p in (src / "runs").iterdir() if (p / "pairs.csv").is_file()):
+        collect(run, dst / "runs" / run.name, trajectories=False, plots=False, packets=False)
+    return dst
