@@ -10,6 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from roman_sim.cli import app
+from roman_sim.core.errors import ConfigError
 
 console = Console(stderr=True)
 
@@ -65,6 +66,9 @@ def attribution_cmd(
     mechanisms: list[str] | None = typer.Option(
         None, "--mechanism", "-m", help="mechanisms switched off in turn, e.g. partial_views,road_side (default: all)"
     ),
+    methods: list[str] | None = typer.Option(
+        None, "--methods", help="methods scored, e.g. roman,ransac1m (the default)"
+    ),
     same: str | None = typer.Option(None, "--same", help="same-direction scenario (default same_direction)"),
     opposite: str | None = typer.Option(
         None, "--opposite", help="opposite-direction scenario (default opposite_direction)"
@@ -75,6 +79,9 @@ def attribution_cmd(
     results: Path | None = typer.Option(
         None, "--results", help="also keep the finished study's table and raw pairs here (e.g. results/attribution)"
     ),
+    page: Path | None = typer.Option(
+        None, "--page", help="with --results: rewrite this page's attribution block (docs/heading_mechanisms.md)"
+    ),
 ) -> None:
     """Run both scenarios with every heading mechanism on, then each switched off in turn; table the drop.
 
@@ -83,8 +90,11 @@ def attribution_cmd(
     from roman_sim.core.config import validate_model
     from roman_sim.studies.attribution import TABLE, AttributionConfig, collect_attribution, run_attribution
 
+    if page is not None and results is None:
+        raise ConfigError("--page: needs --results (the block is made from the kept study)")
     data: dict[str, Any] = {}
-    for key, value in (("mechanisms", _names(mechanisms)), ("same", same), ("opposite", opposite)):
+    named = (("mechanisms", _names(mechanisms)), ("methods", _names(methods)), ("same", same), ("opposite", opposite))
+    for key, value in named:
         if value is not None:
             data[key] = value
     if overrides:
@@ -99,3 +109,10 @@ def attribution_cmd(
     console.print(f"wrote {out / TABLE}")
     if results is not None:
         console.print(f"kept the study in {collect_attribution(out, results)}")
+        if page is not None:
+            from roman_sim.studies.attribution import MARKERS, attribution_block
+            from roman_sim.studies.pages import update_block
+
+            if not update_block(page, MARKERS, attribution_block(results)):
+                raise ConfigError(f"--page: {page} has no attribution markers ({' and '.join(MARKERS)})")
+            console.print(f"rewrote the attribution block of {page}")

@@ -37,6 +37,7 @@ from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.pipeline.mechanisms import ALL_ON, check_mechanisms, mechanism_overrides
+from roman_sim.runner.executor_base import ExecutorConfig
 
 log = logging.getLogger(__name__)
 
@@ -85,6 +86,9 @@ class AttributionConfig(StrictModel):
     methods: list[str] = Field(default_factory=lambda: ["roman", "ransac1m"], min_length=1)
     overrides: list[str] = Field(default_factory=lambda: list(STUDY_OVERRIDES), description="--set items, every run")
     level: float = Field(0.95, gt=0, lt=1, description="confidence level of the intervals")
+    executor: ExecutorConfig = Field(
+        default_factory=lambda: ExecutorConfig(kind="local"), description="how each run spreads its robots and pairs"
+    )
 
 
 @dataclass(frozen=True)
@@ -154,7 +158,7 @@ def run_study(cfg: AttributionConfig, out: Path, on_run: Callable[[int, int, str
         reused = _done(run_dir, sc)
         if not reused:
             log.info("attribution: %s (%d/%d)", r.name, i + 1, len(runs))
-            Experiment(sc, run_dir).run()
+            Experiment(sc, run_dir, executor=cfg.executor).run()
         if on_run is not None:
             on_run(i + 1, len(runs), r.name, reused)
 
@@ -271,3 +275,103 @@ def collect_attribution(study: str | Path, dest: str | Path) -> Path:
     for run in sorted(p for p in (src / "runs").iterdir() if (p / "pairs.csv").is_file()):
         collect(run, dst / "runs" / run.name, trajectories=False, plots=False, packets=False)
     return dst
+
+
+#: Markers of the generated block on the heading-mechanisms page.
+MARKERS = ("<!-- attribution:begin -->", "<!-- attribution:end -->")
+PAGE = "docs/heading_mechanisms.md"
+#: Shares of the all-on drop (point estimates) at and above which a mechanism dominates / contributes.
+DOMINANT, CONTRIBUTES = 0.5, 0.2
+
+
+def read_table(folder: str | Path) -> list[dict[str, Any]]:
+    """``attribution.csv`` of a study folder, numbers parsed (None where empty)."""
+    with open(Path(folder) / TABLE, newline="", encoding="utf-8") as fh:
+        rows = list(csv.DictReader(fh))
+    out = []
+    for r in rows:
+        parsed: dict[str, Any] = {}
+        for k, v in r.items():
+            if k in ("mechanism", "method"):
+                parsed[k] = v
+            elif v == "":
+                parsed[k] = None
+            else:
+                parsed[k] = int(v) if k.endswith(("_hits", "_relevant")) else float(v)
+        out.append(parsed)
+    return out
+
+
+def classify(rows: list[dict[str, Any]], method: str) -> dict[str, list[str]]:
+    """Mechanisms of ``method`` by the share of the all-on drop they explain (point estimates).
+
+    ``dominant``: at least ``DOMINANT``; ``contributes``: at least ``CONTRIBUTES``; ``negligible``:
+    less (a negative share, a larger drop with the mechanism off, included); ``undefined``: no
+    all-on drop to explain.
+    """
+    out: dict[str, list[str]] = {"dominant": [], "contributes": [], "negligible": [], "undefined": []}
+    for r in rows:
+        if r["method"] != method or r["mechanism"] == ALL_ON:
+            continue
+        e = r["explained"]
+        key = (
+            "undefined"
+            if e is None
+            else "dominant"
+            if e >= DOMINANT
+            else "contributes"
+            if e >= CONTRIBUTES
+            else "negligible"
+        )
+        out[key].append(r["mechanism"])
+    return out
+
+
+def _cell(r: dict[str, Any], role: str) -> str:
+    if r[f"{role}_recall"] is None:
+        return "no relevant pair"
+    p = r[f"{role}_precision"]
+    return (
+        f"{r[f'{role}_hits']}/{r[f'{role}_relevant']} = {r[f'{role}_recall']:.2f} "
+        f"[{r[f'{role}_recall_lo']:.2f}, {r[f'{role}_recall_hi']:.2f}], P {'n/a' if p is None else f'{p:.2f}'}"
+    )
+
+
+def attribution_block(folder: str | Path) -> str:
+    """The page's generated block (markers included) from a kept study's ``attribution.csv``."""
+    rows = read_table(folder)
+    begin, end = MARKERS
+    lines = [
+        begin,
+        "| mechanism off | method | same direction | opposite direction | drop [95 %] | share of the all-on drop |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} [{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
+        share = "-" if r["mechanism"] == ALL_ON else ("n/a" if r["explained"] is None else f"{r['explained']:+.0%}")
+        lines.append(
+            f"| `{r['mechanism']}` | {r['method']} | {_cell(r, 'same')} | {_cell(r, 'opposite')} | {drop} | {share} |"
+        )
+    lines.append("")
+    for method in dict.fromkeys(r["method"] for r in rows):
+        base = next(r for r in rows if r["method"] == method and r["mechanism"] == ALL_ON)
+        c = classify(rows, method)
+        named = {k: ", ".join(f"`{m}`" for m in v) or "none" for k, v in c.items()}
+        sig = (
+            "its interval excludes 0"
+            if base["drop_lo"] is not None and base["drop_lo"] > 0
+            else "its interval includes 0"
+        )
+        drop = "n/a" if base["drop"] is None else f"{base['drop']:+.2f}"
+        lines.append(
+            f"- {method}: all-on drop {drop} ({sig}). Dominant (share >= {DOMINANT:.0%}): {named['dominant']}; "
+            f"contributing ({CONTRIBUTES:.0%} to {DOMINANT:.0%}): {named['contributes']}; "
+            f"negligible (< {CONTRIBUTES:.0%}): {named['negligible']}."
+        )
+        for r in rows:
+            if r["method"] == method and r["mechanism"] == "descriptor_view" and r["drop"] is not None:
+                ci = f"[{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
+                verdict = "it does not vanish." if r["drop_lo"] > 0 else "its interval includes 0."
+                lines.append(f"  With `descriptor_view` off the drop is {r['drop']:+.2f} {ci}: {verdict}")
+    lines.append(end)
+    return "\n".join(lines)
