@@ -697,11 +697,54 @@ def _smallest_k(rows: Sequence[BenchRow], ks: range, target: Fraction) -> int | 
     return None
 
 
+#: Draws and seed of the benchmark's world bootstrap (its documented protocol).
+WORLD_BOOT_DRAWS, WORLD_BOOT_SEED, WORLD_BOOT_LEVEL = 2000, 0, 0.95
+
+
+def world_bootstrap_interval(
+    groups: Sequence[tuple[str, str, int, int]], draws: int = WORLD_BOOT_DRAWS, seed: int = WORLD_BOOT_SEED
+) -> list[float] | None:
+    """Two-stage percentile interval of sum(num) / sum(den) over ``groups`` of (world, robot pair, num, den).
+
+    The protocol, written out: the groups sorted by (world, robot pair); ``numpy.random.default_rng(seed)``
+    draws first a (draws, W) table of worlds (W = number of worlds, sorted), then, for each of the W
+    slots and within it each world in order, a (draws, n_w) table of that world's groups with
+    replacement; a draw sums the groups drawn for the worlds in its slots; draws with a zero
+    denominator are left out; the 2.5 and 97.5 % quantiles (numpy's linear rule) of the rest.
+    """
+    if not groups:
+        return None
+    ordered = sorted(groups)
+    names = sorted({g[0] for g in ordered})
+    num = np.array([g[2] for g in ordered], dtype=np.float64)
+    den = np.array([g[3] for g in ordered], dtype=np.float64)
+    members = [np.array([i for i, g in enumerate(ordered) if g[0] == w], dtype=np.int64) for w in names]
+    rng = np.random.default_rng(seed)
+    slots = rng.integers(0, len(names), (draws, len(names)))
+    tot_num = np.zeros(draws)
+    tot_den = np.zeros(draws)
+    for slot in range(len(names)):
+        for wi, mem in enumerate(members):
+            pick = mem[rng.integers(0, len(mem), (draws, len(mem)))]
+            here = slots[:, slot] == wi
+            tot_num[here] += num[pick].sum(axis=1)[here]
+            tot_den[here] += den[pick].sum(axis=1)[here]
+    ok = tot_den > 0
+    if not ok.any():
+        return None
+    ratio = tot_num[ok] / tot_den[ok]
+    tail = (1 - WORLD_BOOT_LEVEL) / 2
+    return [float(np.quantile(ratio, tail)), float(np.quantile(ratio, 1 - tail))]
+
+
 def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -> dict[str, JSONValue]:
     """Held-out figures of a benchmark folder, per ``level|method``: the threshold chosen for each
     world (cell) on the level's other worlds (smallest k of the sweep whose pooled precision over all
     headings of their cross-robot pairs reaches ``target``), and per heading bin (and ``all``) the held-out
-    [hits, false positives, relevant] with every world scored at its own held-out threshold."""
+    [hits, false positives, relevant] with every world scored at its own held-out threshold
+    (``bins``), and the recall's Wilson interval and the world-bootstrap intervals of recall and
+    precision (``intervals``: ``recall_wilson``, ``recall_worlds``, ``precision_worlds``;
+    ``world_bootstrap_interval`` over the bin's (world, robot pair) groups)."""
     folder = Path(folder)
     rec, rows = _benchmark_rows(folder)
     raw_edges = rec["heading_edges_deg"]
@@ -718,15 +761,33 @@ def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -
         chosen = {w: _smallest_k([r for r in rs if r[0] != w], ks, target) for w in worlds}
         labels = [_label(edges[i], edges[i + 1]) for i in range(len(edges) - 1)]
         tally = {lab: [0, 0, 0] for lab in [*labels, "all"]}
+        groups: dict[str, dict[tuple[str, str], list[int]]] = {lab: {} for lab in tally}
         for r in rs:
             k = chosen[r[0]]
             pos = k is not None and r[4] >= k
             b = heading_bin(r[5], edges)
             for lab in ([labels[b]] if b >= 0 else []) + ["all"]:
-                tally[lab][0] += int(pos and r[2] and r[3])
-                tally[lab][1] += int(pos and not r[3])
-                tally[lab][2] += int(r[2])
-        out[key] = {"thresholds": chosen, "bins": tally}
+                hit, false, rel = int(pos and r[2] and r[3]), int(pos and not r[3]), int(r[2])
+                tally[lab][0] += hit
+                tally[lab][1] += false
+                tally[lab][2] += rel
+                g = groups[lab].setdefault((r[0], r[1]), [0, 0, 0])
+                g[0] += hit
+                g[1] += false
+                g[2] += rel
+        intervals: dict[str, JSONValue] = {}
+        for lab, (tp, fp, rel) in tally.items():
+            gs = groups[lab]
+            intervals[lab] = {
+                "recall_wilson": wilson_interval(tp, rel, WORLD_BOOT_LEVEL),
+                "recall_worlds": world_bootstrap_interval([(w, c, v[0], v[2]) for (w, c), v in gs.items()])
+                if rel
+                else None,
+                "precision_worlds": world_bootstrap_interval([(w, c, v[0], v[0] + v[1]) for (w, c), v in gs.items()])
+                if tp + fp
+                else None,
+            }
+        out[key] = {"thresholds": chosen, "bins": tally, "intervals": intervals}
     return out
 
 

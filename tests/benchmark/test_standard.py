@@ -109,3 +109,33 @@ def test_the_deployable_point_follows_from_the_independent_scorer():
                 assert own["bins"][cell["heading"]] == got, (e.name, m, cell["heading"])
                 checked += 1
     assert checked == 3 * 7 * len(board.methods)
+
+
+def test_the_deployable_intervals_follow_from_the_independent_scorer():
+    """The Wilson and world-bootstrap intervals of every held-out cell, as the independent scorer re-derives
+    them from the raw pairs with its own bootstrap (the documented protocol: worlds, then robot pairs)."""
+    from fractions import Fraction
+
+    from roman_sim.studies.independent_scorer import benchmark_held_out
+
+    board = _committed()
+    scored = benchmark_held_out(STANDARD, Fraction(str(board.target_precision)))
+    checked = widened = 0
+    for e in board.levels:
+        d = e.deployable
+        assert d is not None
+        for m in d["thresholds"]:
+            own = scored[f"{e.name}|{m}"]["intervals"]
+            for cell in [*d["bins"], d["overall"]]:
+                c, mine = cell["methods"][m], own[cell["heading"]]
+                for name in ("recall_wilson", "recall_worlds", "precision_worlds"):
+                    if c[name] is None:
+                        assert mine[name] is None, (e.name, m, cell["heading"], name)
+                    else:
+                        assert mine[name] == pytest.approx(c[name], abs=1e-12), (e.name, m, cell["heading"], name)
+                widened += c["recall_worlds"] is not None and (
+                    c["recall_worlds"][1] - c["recall_worlds"][0] > c["recall_wilson"][1] - c["recall_wilson"][0]
+                )
+                checked += 1
+    assert checked == 3 * 7 * len(board.methods)
+    assert widened > 0  # worlds that disagree widen some intervals beyond the pooled Wilson ones
