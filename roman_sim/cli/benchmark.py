@@ -44,17 +44,40 @@ def _plan_table(cells: list[Any], plans: dict[str, Any], edges: list[float]) -> 
     return t
 
 
+def _deployable_text(dep: dict[str, Any] | None, method: str) -> str:
+    """A level's deployable point of ``method``: held-out hits / relevant and precision, flagged when the
+    precision falls short of the target (the threshold chosen on other worlds does not transfer)."""
+    if dep is None or "note" in dep:
+        return "n/a (one world)"
+    overall = dep.get("overall") or {}
+    c = overall.get("methods", {}).get(method)
+    if c is None:
+        return "failed"
+    p = c["precision"]
+    text = f"{c['hits']}/{c['n_relevant']} P " + ("-" if p is None else f"{p:.2f}")
+    return text if c["transfers"] else f"{text} [red]does not transfer[/red]"
+
+
 def _board_table(board: Leaderboard) -> Table:
-    t = Table(title=f"benchmark {board.suite}: max recall / recall at P>=0.9 over all heading bins, per level")
+    target = board.target_precision if board.target_precision is not None else 0.9
+    t = Table(
+        title=f"benchmark {board.suite}: the deployable point (threshold chosen on other worlds for precision "
+        f"{target:g}; held-out hits / relevant and precision over all headings), then max recall"
+    )
     t.add_column("method")
-    levels = [e.overall for e in board.finished_levels() if e.overall is not None]
-    for e in board.finished_levels():
-        t.add_column(e.name, justify="right")
+    levels = [e for e in board.finished_levels() if e.overall is not None]
+    for e in levels:
+        t.add_column(f"{e.name}: deployable", justify="right")
+    for e in levels:
+        t.add_column(f"{e.name}: max recall", justify="right")
     for m in board.methods:
         row = [m]
-        for cell in levels:
-            a, b = cell.point(m, "max_recall"), cell.point(m, "precision_90")
-            row.append("failed" if a is None or b is None else f"{a.hits}/{a.n_relevant} / {b.hits}/{b.n_relevant}")
+        for e in levels:
+            row.append(_deployable_text(e.deployable, m))
+        for e in levels:
+            assert e.overall is not None
+            a = e.overall.point(m, "max_recall")
+            row.append("failed" if a is None else f"{a.hits}/{a.n_relevant}")
         t.add_row(*row)
     return t
 
