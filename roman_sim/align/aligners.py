@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
 from roman_sim.align.affinity import AffinityParams, build_affinity, cosine_matrix, min_max_ratio, object_scores
-from roman_sim.align.base import ALIGNERS, Aligner, AlignResult
+from roman_sim.align.base import ALIGNERS, Aligner, AlignResult, Tunable
 from roman_sim.align.checks import pair_reason
 from roman_sim.align.clipper import ClipperParams, solve_clipper
 from roman_sim.align.registration import estimate_transform, tilt_ok
@@ -84,11 +84,20 @@ class ShapeGravityParams(RomanParams):
     use_semantics: bool = False
 
 
+#: The semantic gate of ROMAN's object score: cosines at or below ``cos_min`` are no association,
+#: at or above ``cos_max`` the semantic term is 1 (``roman-sim tune`` may vary both).
+SEMANTIC_GATE: dict[str, Tunable] = {
+    "cos_min": Tunable(-1.0, 1.0, default=(0.8, 0.85, 0.9), doc="semantic gate: lower cosine bound"),
+    "cos_max": Tunable(-1.0, 1.0, doc="semantic gate: upper cosine bound"),
+}
+
+
 class RomanAligner:
     """CLIPPER-based alignment of two submaps; see :class:`RomanParams`."""
 
     name = "roman"
     params_model: type[RomanParams] = RomanParams
+    tunable_params: dict[str, Tunable] = SEMANTIC_GATE
 
     def __init__(self, **params: Any) -> None:
         self.params = validate_model(self.params_model, params, source=f"aligner {self.name}")
@@ -153,7 +162,9 @@ class RomanAligner:
 
 
 def _variant(name: str, model: type[RomanParams], doc: str) -> type[RomanAligner]:
-    attrs = {"name": name, "params_model": model, "__doc__": doc}
+    p = model()
+    gate = SEMANTIC_GATE if p.use_semantics else {k: v for k, v in SEMANTIC_GATE.items() if p.prune and k == "cos_min"}
+    attrs = {"name": name, "params_model": model, "__doc__": doc, "tunable_params": gate}
     cls = type(f"{name.title().replace('_', '')}Aligner", (RomanAligner,), attrs)
     ALIGNERS.register(name, cls)
     return cls

@@ -131,6 +131,37 @@ class Aligner(Protocol):
 ALIGNERS: Registry[Any] = Registry("aligner")
 
 
+@dataclass(frozen=True)
+class Tunable:
+    """A constructor parameter of an aligner that ``roman-sim tune`` may vary.
+
+    An aligner declares its tunable parameters as a class attribute
+    ``tunable_params: dict[str, Tunable]`` (parameter name -> its bounds); ``tune`` refuses any
+    other parameter of the method and any value outside ``[low, high]``.
+
+    Attributes:
+        low, high: the values allowed (inclusive).
+        integer: whether the parameter takes integers only.
+        default: the values tried when the user names the parameter without values (empty: not
+            tried unless named).
+        doc: one line saying what the parameter does.
+    """
+
+    low: float
+    high: float
+    integer: bool = False
+    default: tuple[float, ...] = ()
+    doc: str = ""
+
+
+def declared_tunables(factory: object) -> dict[str, Tunable]:
+    """The ``tunable_params`` an aligner class (or instance) declares (empty when it declares none)."""
+    raw = getattr(factory, "tunable_params", None)
+    if not isinstance(raw, dict):
+        return {}
+    return {str(k): v for k, v in raw.items() if isinstance(v, Tunable)}
+
+
 def segment_associations(result: AlignResult) -> bool:
     """Whether ``result.associations`` index segments of the two submaps.
 

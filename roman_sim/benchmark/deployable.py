@@ -63,7 +63,8 @@ def _pair(ci: tuple[float, float] | None) -> list[float] | None:
     return None if ci is None else [float(ci[0]), float(ci[1])]
 
 
-def _cell_json(c: HeldOutCell, target: float) -> dict[str, Any]:
+def cell_json(c: HeldOutCell, target: float) -> dict[str, Any]:
+    """A held-out cell as ``leaderboard.json`` holds it, with whether its precision transfers."""
     return {
         "hits": c.hits,
         "false_positives": c.false_positives,
@@ -114,7 +115,7 @@ def deployable(
         thresholds[m] = {w: t.k for w, t in res.thresholds.items()}
         got = held_out_cells(o, res.positive, heading, edges, N_BOOT, level, 0)
         labels = [c.label for c in got]
-        cells[m] = [_cell_json(c, target) for c in got]
+        cells[m] = [cell_json(c, target) for c in got]
         log.info("deployable %s: thresholds %s", m, thresholds[m])
     rows = [_ranked(lab, {m: cs[i] for m, cs in cells.items()}) for i, lab in enumerate(labels)]
     entry["thresholds"] = thresholds

@@ -6,6 +6,11 @@ created (the model's validation then names it if it is unknown); a list position
 range, a non-numeric position or a path through a scalar is a ``ConfigError`` that says so,
 naming the override as the user wrote it (``--set robots.1.drift`` on the command line,
 ``world.overrides (tiny): families.9.density`` in a scenario file: see ``source``).
+
+``@file.yaml`` in place of ``key=value`` applies a YAML file of scenario sections (as
+``roman-sim tune`` writes them): its mappings are walked into dotted keys, anything else (a
+list, a scalar) is the value of its key, so ``aligners: [...]`` replaces the aligners and
+``gating: {top_k: 4}`` sets ``gating.top_k`` only.
 """
 
 from __future__ import annotations
@@ -25,9 +30,7 @@ def apply_overrides(data: dict[str, Any], overrides: list[str], source: str = "-
     (tiny): a.b: ...``).
     """
     out = copy.deepcopy(data)
-    for item in overrides:
-        key, value = _parse(item, source)
-        label = _label(source, key)
+    for key, value, label in _expand(overrides, source):
         parts = key.split(".")
         node: Any = out
         for depth, part in enumerate(parts):
@@ -49,6 +52,42 @@ def apply_overrides(data: dict[str, Any], overrides: list[str], source: str = "-
                     f"{label}: {here} is {_kind(node)} ({node!r}), not a mapping or list, so it has no {part!r}"
                 )
     return out
+
+
+def _expand(overrides: list[str], source: str) -> list[tuple[str, Any, str]]:
+    """(key, value, label) of each override; an ``@file.yaml`` gives one per leaf of its sections."""
+    out = []
+    for item in overrides:
+        if item.startswith("@"):
+            out += [(k, v, _label(f"{source} {item}", k)) for k, v in _file_items(item[1:], f"{source} {item}")]
+        else:
+            key, value = _parse(item, source)
+            out.append((key, value, _label(source, key)))
+    return out
+
+
+def _file_items(path: str, label: str) -> list[tuple[str, Any]]:
+    """The dotted (key, value) leaves of a YAML file of sections."""
+    from pathlib import Path
+
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{label}: cannot read the file ({type(err).__name__})") from None
+    data = parse_yaml(text, label)
+    if not isinstance(data, dict) or not data:
+        raise ConfigError(f"{label}: expected a mapping of scenario sections")
+    items: list[tuple[str, Any]] = []
+
+    def walk(prefix: str, node: Any) -> None:
+        if isinstance(node, dict) and node:
+            for k, v in node.items():
+                walk(f"{prefix}.{k}" if prefix else str(k), v)
+        else:
+            items.append((prefix, node))
+
+    walk("", data)
+    return items
 
 
 def _label(source: str, key: str) -> str:

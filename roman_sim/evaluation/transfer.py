@@ -269,6 +269,31 @@ class HeldOutCell:
     precision_worlds: tuple[float, float] | None
 
 
+def held_out_cell(
+    label: str,
+    o: PairOutcomes,
+    positive: NDArray[np.bool_],
+    n_boot: int = 2000,
+    level: float = 0.95,
+    seed: int = 0,
+) -> HeldOutCell:
+    """The ``HeldOutCell`` of ``positive`` over the pairs ``o``, named ``label``."""
+    from roman_sim.evaluation.intervals import wilson
+
+    tp, fp, rel = counts(o, positive)
+    return HeldOutCell(
+        label=label,
+        hits=tp,
+        false_positives=fp,
+        n_relevant=rel,
+        recall=tp / rel if rel else None,
+        recall_wilson=wilson(tp, rel, level),
+        recall_worlds=world_bootstrap(o, positive, "recall", n_boot, level, seed) if rel else None,
+        precision=tp / (tp + fp) if tp + fp else None,
+        precision_worlds=world_bootstrap(o, positive, "precision", n_boot, level, seed) if tp + fp else None,
+    )
+
+
 def held_out_cells(
     o: PairOutcomes,
     positive: NDArray[np.bool_],
@@ -280,26 +305,8 @@ def held_out_cells(
 ) -> list[HeldOutCell]:
     """One ``HeldOutCell`` per heading bin of ``edges`` (bins as ``roman_sim.evaluation.bins``), then ``"all"``."""
     from roman_sim.evaluation.bins import bin_index, bin_label
-    from roman_sim.evaluation.intervals import wilson
 
     idx = bin_index(heading_deg, edges)
     masks = [(bin_label(edges[i], edges[i + 1]), idx == i) for i in range(len(edges) - 1)]
     masks.append(("all", np.ones(len(idx), dtype=np.bool_)))
-    cells = []
-    for label, m in masks:
-        sub, pos = o.subset(m), positive[m]
-        tp, fp, rel = counts(sub, pos)
-        cells.append(
-            HeldOutCell(
-                label=label,
-                hits=tp,
-                false_positives=fp,
-                n_relevant=rel,
-                recall=tp / rel if rel else None,
-                recall_wilson=wilson(tp, rel, level),
-                recall_worlds=world_bootstrap(sub, pos, "recall", n_boot, level, seed) if rel else None,
-                precision=tp / (tp + fp) if tp + fp else None,
-                precision_worlds=world_bootstrap(sub, pos, "precision", n_boot, level, seed) if tp + fp else None,
-            )
-        )
-    return cells
+    return [held_out_cell(label, o.subset(m), positive[m], n_boot, level, seed) for label, m in masks]

@@ -1,0 +1,474 @@
+"""``roman-sim tune``: a method's declared parameters tuned for a target precision, over worlds.
+
+The source is a scenario (its worlds are the seeds given), a sweep (each of its runs is a
+world) or a benchmark suite (each (level, seed) cell is a world). The job
+
+1. checks everything that can be checked before any work (target, parameters and their
+   ranges, at least two worlds; ``tune_space``);
+2. per world and aligner parameter set, runs the world's scenario with the method alone,
+   without gating or pose graph, into ``work/<world>/<alignment>/`` (the shared stage cache,
+   or the folder's own ``cache/`` when that is off, hands the maps of a world to every
+   alignment of it: a new alignment re-aligns, never re-maps; a benchmark's cells hand theirs
+   to a tune of the same suite), and keeps the pairs' outcomes and times
+   (``outcomes.json``); a finished alignment is never run again;
+3. applies each gating setting to those ungated results (``align.gating.gate_pairs`` on the
+   world's submaps; a gated-out pair is "no alignment" and costs no time), and each threshold
+   by the pairs' association counts: neither re-maps nor re-aligns;
+4. scores with ``evaluation.tuning``: per config (aligner x gating setting) held-out recall
+   and precision with world-bootstrap intervals at thresholds chosen on the other worlds,
+   false loop closures per km and time per pair, the Pareto front; the recommended setting
+   (chosen on every world of the source) with the held-out figures of the same choice made
+   leaving each world out;
+5. writes ``tune.json``, ``front.png`` and ``recommended.yaml`` (scenario sections: paste
+   them into a scenario or pass the file as ``roman-sim run ... --set @recommended.yaml``).
+
+Interrupted, the job resumes where it stopped: finished alignments are read back, an
+interrupted one continues from its run folder's checkpoints.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roman_sim.benchmark.deployable import cell_json
+from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, parse_params
+from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.config import read_yaml, stable_hash, validate_model
+from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.evaluation.transfer import PairOutcomes, check_target
+from roman_sim.evaluation.tuning import (
+    ConfigOutcomes,
+    Evidence,
+    Figures,
+    choose_setting,
+    config_rows,
+    nested_held_out,
+)
+from roman_sim.pipeline.scenario import Scenario
+from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
+
+log = logging.getLogger(__name__)
+
+TUNE_JSON = "tune.json"
+TUNE_SCHEMA = "roman_sim.tune/1"
+JOB_JSON = "job.json"
+RECOMMENDED_YAML = "recommended.yaml"
+FRONT_PNG = "front.png"
+OUTCOMES_JSON = "outcomes.json"
+WORLD_JSON = "world.json"
+WORK_DIR = "work"
+CACHE_DIR = "cache"
+#: Bootstrap draws of the world intervals (seed 0: the same outcomes give the same bytes).
+N_BOOT = 2000
+
+#: ``progress(done, total, what)`` after each alignment of a world finished or read back.
+ProgressFn = Callable[[int, int, str], None]
+
+
+@dataclass(frozen=True)
+class TuneWorld:
+    """One world of a tune: its id and how to get its scenario (a scenario, or a crossing cell to plan)."""
+
+    id: str
+    scenario: Scenario | None = None
+    cell: tuple[Any, int] | None = None  # (CrossingScene, seed)
+
+
+def _kind(source: str) -> str:
+    """``suite``, ``sweep`` or ``scenario``."""
+    from roman_sim.benchmark.suites import SUITES
+
+    if source in SUITES:
+        return "suite"
+    p = Path(source)
+    if p.suffix in (".yaml", ".yml") and p.is_file():
+        data = read_yaml(p)
+        if isinstance(data, dict) and "grid" in data:
+            return "sweep"
+        if isinstance(data, dict) and ("levels" in data or "scene" in data):
+            return "suite"
+    return "scenario"
+
+
+def load_worlds(source: str, method: str, seeds: list[int] | None, overrides: list[str]) -> list[TuneWorld]:
+    """The worlds of ``source`` (see the module docstring); ConfigError when fewer than two."""
+    kind = _kind(source)
+    worlds: list[TuneWorld] = []
+    if kind == "suite":
+        from roman_sim.benchmark.suites import load_suite
+
+        suite = load_suite(source)
+        for level in suite.levels:
+            scene = suite.scene_at(level, [method], overrides)
+            worlds += [TuneWorld(f"{level}-s{s}", cell=(scene, s)) for s in (seeds or suite.seeds)]
+    elif kind == "sweep":
+        from roman_sim.pipeline.scenario import load_scenario
+        from roman_sim.pipeline.sweep import load_sweep
+        from roman_sim.pipeline.sweep_spec import expand
+
+        cfg, path = load_sweep(source)
+        for run in expand(cfg):
+            if seeds and run.seed not in seeds:
+                continue
+            sc = load_scenario(path, [*run.overrides, *overrides, f"seed={run.seed}"])
+            worlds.append(TuneWorld(run.run_id, scenario=sc))
+    else:
+        from roman_sim.pipeline.scenario import load_scenario
+
+        base = load_scenario(source, overrides)
+        for s in seeds or [base.seed]:
+            worlds.append(TuneWorld(f"s{s}", scenario=base.model_copy(update={"seed": s})))
+    if len(worlds) < 2:
+        raise ConfigError(
+            f"worlds: {source} gives {len(worlds)} world; tuning needs at least two to split into calibration "
+            "and held-out (give more with --seeds)"
+        )
+    return worlds
+
+
+def tuned_scenario(sc: Scenario, method: str, params: dict[str, Any], name: str) -> Scenario:
+    """``sc`` with ``method`` alone (its scenario parameters, then ``params``), no gating, no pose graph."""
+    own = next((dict(e.params) for e in sc.aligners if e.method == method), {})
+    data = sc.model_dump(mode="json")
+    data.update(
+        name=name,
+        aligners=[{"method": method, "params": {**own, **params}}],
+        posegraph_method=None,
+        gating={**data["gating"], "enabled": False},
+    )
+    return validate_model(Scenario, data, source=f"tune world {name}")
+
+
+def _path_km(T: np.ndarray | None) -> float:
+    if T is None or len(T) < 2:
+        return 0.0
+    return float(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1).sum()) / 1000
+
+
+def _read_json(path: Path) -> dict[str, Any] | None:
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+class TuneJob:
+    """One tune into one folder (see the module docstring).
+
+    Args:
+        source: scenario (name or YAML), sweep YAML or benchmark suite (name or YAML).
+        method: the method tuned (a registered name or ``package.module:Class``).
+        out_dir: the folder.
+        params: ``NAME=SPEC`` items (``tune_space``); none: the method's defaults.
+        target: the target precision, in (0, 1].
+        seeds: the seeds (worlds) of a scenario or suite; a sweep's runs of these seeds.
+        overrides: dotted scenario overrides of every world.
+        executor: where the runs' tasks run (None: this process).
+        progress: called after each alignment of a world.
+    """
+
+    def __init__(
+        self,
+        source: str,
+        method: str,
+        out_dir: str | Path,
+        params: list[str] | None = None,
+        target: float = 0.9,
+        seeds: list[int] | None = None,
+        overrides: list[str] | None = None,
+        executor: ExecutorConfig | None = None,
+        progress: ProgressFn | None = None,
+    ) -> None:
+        check_target(target)
+        if seeds is not None and (len(set(seeds)) != len(seeds) or any(s < 0 for s in seeds)):
+            raise ConfigError(f"--seeds: distinct non-negative integers, got {seeds}")
+        self.source, self.method, self.target = source, method, float(target)
+        self.values = parse_params(method, list(params or []))
+        self.overrides = list(overrides or [])
+        self.worlds = load_worlds(source, method, seeds, self.overrides)
+        self.grid: Grid = build_grid(method, self.values, self._base_params())
+        self.out = Path(out_dir).resolve()
+        self.executor = executor
+        self.progress = progress or (lambda done, total, what: None)
+        self._guard()
+
+    def _base_params(self) -> dict[str, Any]:
+        sc = next((w.scenario for w in self.worlds if w.scenario is not None), None)
+        return next((dict(e.params) for e in sc.aligners if e.method == self.method), {}) if sc else {}
+
+    def _guard(self) -> None:
+        """Refuse a folder that holds something else, or another source's or method's tune."""
+        if self.out.exists() and not self.out.is_dir():
+            raise ConfigError(f"--out {self.out}: not a folder")
+        for other in ("manifest.json", "sweep.json", "benchmark.json"):
+            if (self.out / other).is_file():
+                raise ConfigError(f"--out {self.out}: holds a run, sweep or benchmark, not a tune (choose another)")
+        old = _read_json(self.out / JOB_JSON)
+        if old is not None and [old.get("source"), old.get("method"), old.get("overrides")] != self._identity():
+            raise ConfigError(
+                f"--out {self.out}: holds the tune of {old.get('method')!r} on {old.get('source')!r} "
+                f"with overrides {old.get('overrides')} (choose another --out)"
+            )
+
+    def _identity(self) -> list[Any]:
+        return [self.source, self.method, self.overrides]
+
+    # -- worlds and alignments ----------------------------------------------------
+    def _scenario(self, w: TuneWorld) -> Scenario:
+        if w.scenario is not None:
+            return w.scenario
+        from roman_sim.benchmark.scenes import build_crossing
+
+        path = self.out / WORK_DIR / w.id / "scenario.json"
+        assert w.cell is not None
+        scene, seed = w.cell
+        key = stable_hash(scene.model_dump(mode="json"), seed)
+        rec = _read_json(path)
+        if rec is not None and rec.get("key") == key:
+            return validate_model(Scenario, rec["scenario"], source=str(path))
+        sc = build_crossing(scene, seed, f"tune-{w.id}").scenario
+        write_json(path, {"key": key, "scenario": sc.model_dump(mode="json")})
+        return sc
+
+    def _align(self, w: TuneWorld, aligner: tuple[tuple[str, int | float], ...], ex: Executor) -> dict[str, Any]:
+        """The outcomes of one world and aligner parameter set (run once, then read back)."""
+        from roman_sim.benchmark.cells import CellExperiment
+        from roman_sim.pipeline.stagecache import StageCache
+
+        sc = tuned_scenario(self._scenario(w), self.method, dict(aligner), f"tune-{w.id}")
+        key = stable_hash(sc.model_dump(mode="json"))
+        folder = self.out / WORK_DIR / w.id / Config(aligner, ()).align_key
+        rec = _read_json(folder / OUTCOMES_JSON)
+        if rec is not None and rec.get("key") == key:
+            return rec
+        chunk = self.executor.chunk_pairs if self.executor is not None else ExecutorConfig().chunk_pairs
+        exp = CellExperiment(sc, folder / "run", executor=ex, chunk_pairs=chunk)
+        exp.cache = StageCache.default() or StageCache(self.out / CACHE_DIR)
+        res = exp.run()
+        rec = {"key": key, "params": dict(aligner), **_outcomes(res.run_dir, res.timings, sc)}
+        write_json(folder / OUTCOMES_JSON, rec, indent=None)
+        return rec
+
+    def _world_facts(self, w: TuneWorld, run_dir: Path, sc: Scenario) -> dict[str, Any]:
+        """Kilometres driven and each gating setting's kept pairs (computed once per world and setting)."""
+        path = self.out / WORK_DIR / w.id / WORLD_JSON
+        rec = _read_json(path) or {}
+        gatings = [c.gating for c in self.grid.configs if c.gating]
+        want = {_gating_id(g): g for g in gatings}
+        if "km" in rec and all(g in rec.get("gating", {}) for g in want):
+            return rec
+        from roman_sim.align.gating import GatingConfig, gate_pairs
+        from roman_sim.evaluation.pairs import select_pairs
+        from roman_sim.mapping.io import load_segment_map, load_submaps
+
+        km = 0.0
+        for r in sc.robots:
+            m = load_segment_map(run_dir / "maps" / f"{r.name}.npz")
+            km += _path_km(m.T_world_body if m.T_world_body is not None else m.T_odom_body)
+        subs = [s for r in sc.robots for s in load_submaps(run_dir / "submaps" / f"{r.name}.npz")]
+        pairs = select_pairs(subs, sc.evaluation).pairs
+        kept = dict(rec.get("gating", {}))
+        for gid, g in want.items():
+            if gid in kept:
+                continue
+            cfg = validate_model(
+                GatingConfig, {**sc.gating.model_dump(mode="json"), "enabled": True, "top_k": None, **dict(g)}
+            )
+            keep, _ = gate_pairs(pairs, cfg)
+            kept[gid] = [f"{a.name}|{b.name}" for (a, b), k in zip(pairs, keep, strict=True) if not k]
+        rec = {"km": km, "gating": kept}
+        write_json(path, rec, indent=None)
+        return rec
+
+    # -- the job ------------------------------------------------------------------
+    def run(self) -> dict[str, Any]:
+        """Run (or read back) every alignment of every world, score, write the results; ``tune.json``'s content."""
+        return self.score(*self.collect())
+
+    def collect(
+        self,
+    ) -> tuple[dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]], dict[str, dict[str, Any]]]:
+        """Run (or read back) every alignment of every world: per world its outcomes per aligner parameter
+        set, and per world its kilometres and gated pairs."""
+        self.out.mkdir(parents=True, exist_ok=True)
+        write_json(
+            self.out / JOB_JSON,
+            {"source": self.source, "method": self.method, "overrides": self.overrides},
+        )
+        write_text(self.out / ".gitignore", f"{WORK_DIR}/\n{CACHE_DIR}/\n")
+        aligners = self.grid.alignments()
+        total = len(self.worlds) * len(aligners)
+        done = 0
+        per_world: dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]] = {}
+        facts: dict[str, dict[str, Any]] = {}
+        with open_executor(self.executor) as ex:
+            for w in self.worlds:
+                per_world[w.id] = {}
+                for a in aligners:
+                    per_world[w.id][a] = self._align(w, a, ex)
+                    done += 1
+                    self.progress(done, total, f"{w.id} {Config(a, ()).align_key}")
+                first = self.out / WORK_DIR / w.id / Config(aligners[0], ()).align_key / "run"
+                facts[w.id] = self._world_facts(w, first, self._scenario(w))
+        return per_world, facts
+
+    def score(
+        self,
+        per_world: dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]],
+        facts: dict[str, dict[str, Any]],
+    ) -> dict[str, Any]:
+        """Score the outcomes (see ``evaluation.tuning``) and write the folder's results."""
+        from roman_sim.report.tune_plot import plot_front
+
+        configs = {c.id: config_outcomes(c, per_world, facts) for c in self.grid.configs}
+        km = {w: float(f["km"]) for w, f in facts.items()}
+        ks = self.grid.thresholds
+        ev = Evidence(configs, km, ks, self.target, N_BOOT, 0)
+        rows, nested = config_rows(ev), nested_held_out(ev)
+        rec = choose_setting(configs, km, sorted(km), ks, self.target)
+        by_id = {c.id: c for c in self.grid.configs}
+        result: dict[str, Any] = {
+            "schema": TUNE_SCHEMA,
+            "source": self.source,
+            "method": self.method,
+            "overrides": self.overrides,
+            "target_precision": self.target,
+            "parameters": {n: v for n, v in self.values.items()},
+            "worlds": [{"id": w, "km": round(km[w], 6)} for w in sorted(km)],
+            "configs": [
+                {
+                    "id": r.config,
+                    "values": by_id[r.config].values(),
+                    "thresholds": r.thresholds,
+                    **_figures_json(r.figures, self.target),
+                    "time_per_pair_s": r.time_per_pair_s,
+                    "on_front": r.on_front,
+                }
+                for r in rows
+            ],
+            "held_out": {
+                "chosen": {
+                    w: None if s is None else {"config": s.config, "threshold": s.k} for w, s in nested.chosen.items()
+                },
+                **_figures_json(nested.figures, self.target),
+            },
+            "recommended": None,
+        }
+        if rec is not None:
+            result["recommended"] = {
+                "config": rec.config,
+                "values": by_id[rec.config].values(),
+                "threshold": rec.k,
+                "calibration_recall": rec.recall,
+                "calibration_false_per_km": rec.false_per_km,
+                "time_per_pair_s": rec.time_per_pair_s,
+            }
+        write_json(self.out / TUNE_JSON, result)
+        plot_front(result, self.out / FRONT_PNG)
+        yaml_path = self.out / RECOMMENDED_YAML
+        if rec is not None:
+            write_text(yaml_path, recommended_yaml(result, by_id[rec.config], self._base_params()))
+        elif yaml_path.exists():
+            yaml_path.unlink()
+        return result
+
+
+def _gating_id(g: tuple[tuple[str, int | float], ...]) -> str:
+    return stable_hash(list(g))[:12]
+
+
+def _outcomes(run_dir: Path, timings: dict[str, Any], sc: Scenario) -> dict[str, Any]:
+    """The columns ``tune`` keeps of a finished run: every pair's names, kind, truth, outcome and time."""
+    from roman_sim.evaluation.results import read_pairs_csv
+
+    scores = read_pairs_csv(run_dir / "pairs.csv")
+    label = sc.aligners[0].name
+    per_pair = timings.get("evaluation", {}).get("alignment", {}).get(label, {}).get("per_pair_s")
+    rows = [s for s in scores if s.method == label]
+    runtime = [float(x) if x is not None else None for x in per_pair] if isinstance(per_pair, list) else None
+    if runtime is not None and len(runtime) != len(rows):
+        raise StorageError(f"{run_dir}: {len(runtime)} pair times for {len(rows)} pairs")
+    return {
+        "pair": [f"{s.truth.a}|{s.truth.b}" for s in rows],
+        "inter": [s.truth.kind == "inter" for s in rows],
+        "robots": ["|".join(sorted((s.truth.robot_a, s.truth.robot_b))) for s in rows],
+        "relevant": [bool(s.truth.relevant) for s in rows],
+        "correct": [bool(s.correct) for s in rows],
+        "n_assoc": [int(s.n_assoc) for s in rows],
+        "runtime_s": runtime,
+    }
+
+
+def config_outcomes(
+    c: Config,
+    per_world: dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]],
+    facts: dict[str, dict[str, Any]],
+) -> ConfigOutcomes:
+    """One config's cross-robot outcomes over every world: its alignment's, with its gating applied."""
+    cols: dict[str, list[Any]] = {k: [] for k in ("world", "cluster", "relevant", "correct", "score", "runtime")}
+    for w in sorted(per_world):
+        rec = per_world[w][c.aligner]
+        gated = set(facts[w]["gating"][_gating_id(c.gating)]) if c.gating else set()
+        times = rec["runtime_s"] or [None] * len(rec["pair"])
+        for i, name in enumerate(rec["pair"]):
+            if not rec["inter"][i]:
+                continue
+            out = name in gated
+            cols["world"].append(w)
+            cols["cluster"].append(rec["robots"][i])
+            cols["relevant"].append(rec["relevant"][i])
+            cols["correct"].append(rec["correct"][i] and not out)
+            cols["score"].append(0 if out else rec["n_assoc"][i])
+            t = times[i]
+            cols["runtime"].append(0.0 if out else (float("nan") if t is None else t))
+    o = PairOutcomes.from_lists(cols["world"], cols["cluster"], cols["relevant"], cols["correct"], cols["score"])
+    return ConfigOutcomes(o, np.asarray(cols["runtime"], dtype=np.float64))
+
+
+def _figures_json(f: Figures, target: float) -> dict[str, Any]:
+    return {**cell_json(f.cell, target), "false_per_km": f.false_per_km}
+
+
+def recommended_sections(method: str, c: Config, k: int, base_params: dict[str, Any]) -> dict[str, Any]:
+    """The scenario sections of a recommended setting: the method with its parameters, gating, threshold."""
+    return {
+        "aligners": [{"method": method, "params": {**base_params, **dict(c.aligner)}}],
+        "posegraph_method": method,
+        "posegraph": {"lc_association_thresh": int(k)},
+        "gating": c.gating_config(),
+    }
+
+
+def recommended_yaml(result: dict[str, Any], c: Config, base_params: dict[str, Any]) -> str:
+    """``recommended.yaml``: the sections, headed by comments stating the held-out figures."""
+    import yaml
+
+    rec, h = result["recommended"], result["held_out"]
+
+    def ci(v: list[float] | None) -> str:
+        return "n/a" if v is None else f"[{v[0]:.3f}, {v[1]:.3f}]"
+
+    def num(v: float | None) -> str:
+        return "n/a" if v is None else f"{v:.3f}"
+
+    head = [
+        f"# roman-sim tune: {result['method']} on {result['source']}, target precision {result['target_precision']:g}",
+        f"# chosen on {len(result['worlds'])} worlds: threshold {rec['threshold']}, "
+        + ", ".join(f"{k}={v}" for k, v in rec["values"].items()),
+        f"# held-out (each world scored at the setting chosen on the others): precision {num(h['precision'])} "
+        f"{ci(h['precision_worlds'])}, recall {num(h['recall'])} {ci(h['recall_worlds'])} (95 % world bootstrap)",
+        "# use: paste these sections into a scenario, or: roman-sim run SCENARIO --set @recommended.yaml",
+    ]
+    body = yaml.safe_dump(recommended_sections(result["method"], c, rec["threshold"], base_params), sort_keys=False)
+    return "\n".join(head) + "\n" + body
+
+
+__all__ = ["THRESHOLD", "TuneJob", "load_worlds", "recommended_sections", "tuned_scenario"]

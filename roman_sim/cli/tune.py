@@ -1,0 +1,120 @@
+"""``roman-sim tune SOURCE``: tune one method's declared parameters for a target precision over worlds."""
+
+from __future__ import annotations
+
+import contextlib
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from roman_sim.cli import _executor as X
+from roman_sim.cli import app
+from roman_sim.cli.progress import LineProgress, interactive, rich_progress
+
+
+def _seeds(text: str | None) -> list[int] | None:
+    """``0,1,2`` or ``0:3`` (0, 1, 2) -> the seeds (None: the source's)."""
+    from roman_sim.core.errors import ConfigError
+
+    if text is None:
+        return None
+    try:
+        if ":" in text:
+            lo, hi = (int(x) for x in text.split(":", 1))
+            if lo >= hi:
+                raise ConfigError(f"--seeds: empty or reversed range {text} (LO:HI takes LO < HI)")
+            return list(range(lo, hi))
+        return [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ConfigError(f"--seeds: expected 0,1,2 or LO:HI, got {text!r}") from None
+
+
+def _num(v: float | None, fmt: str = "{:.2f}") -> str:
+    return "-" if v is None else fmt.format(v)
+
+
+def _ci(v: list[float] | None) -> str:
+    return "" if v is None else f" [{v[0]:.2f}, {v[1]:.2f}]"
+
+
+def _table(result: dict[str, Any]) -> Table:
+    t = Table(
+        title=f"tune {result['method']}: held-out (thresholds chosen on other worlds), target precision "
+        f"{result['target_precision']:g}"
+    )
+    for col in ("config", "recall", "precision", "false / km", "time / pair (ms)", "front"):
+        t.add_column(col, justify="left" if col == "config" else "right", no_wrap=col == "config")
+    rec = (result.get("recommended") or {}).get("config")
+    for c in result["configs"]:
+        name = ", ".join(f"{k}={v}" for k, v in c["values"].items()) or "(defaults)"
+        flag = "" if c["transfers"] else " (does not transfer)"
+        t.add_row(
+            ("* " if c["id"] == rec else "") + name,
+            _num(c["recall"]) + _ci(c["recall_worlds"]),
+            _num(c["precision"]) + _ci(c["precision_worlds"]) + flag,
+            _num(c["false_per_km"]),
+            _num(None if c["time_per_pair_s"] is None else 1000 * c["time_per_pair_s"], "{:.1f}"),
+            "yes" if c["on_front"] else "",
+        )
+    return t
+
+
+@app.command("tune")
+@X.executor_options
+def tune_cmd(
+    source: str = typer.Argument(..., help="scenario (name or YAML), sweep YAML, or benchmark suite (quick, ...)"),
+    method: str = typer.Option("roman", "--method", "-m", help="the method tuned (name or package.module:Class)"),
+    params: list[str] | None = typer.Option(
+        None,
+        "--param",
+        "-p",
+        help="NAME=LO:HI, NAME=LO:HI:N or NAME=V1,V2 (repeat; default: the method's declared defaults)",
+    ),
+    target_precision: float = typer.Option(0.9, "--target-precision", help="precision to reach, in (0, 1]"),
+    seeds: str | None = typer.Option(None, "--seeds", help="worlds: seeds 0,1,2 or LO:HI (default: the source's)"),
+    sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every world (key=value)"),
+    out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/tune/<method>-<source>)"),
+    flags: X.ExecutorFlags = X.NO_FLAGS,
+) -> None:
+    """Tune a method's declared parameters for a target precision (resumable); write tune.json,
+    front.png and recommended.yaml (for a scenario or ``roman-sim run --set @recommended.yaml``)."""
+    from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob
+    from roman_sim.core.errors import ConfigError
+
+    if not 0 < target_precision <= 1:
+        raise ConfigError(f"--target-precision: must lie in (0, 1], got {target_precision:g}")
+    stem = Path(source).stem if source.endswith((".yaml", ".yml")) else source
+    folder = out or Path("results") / "tune" / f"{method.replace(':', '_').replace('.', '_')}-{stem}"
+    ex = flags.config()
+    lines = LineProgress()
+    bar: Any = None
+
+    def progress(done: int, total: int, what: str) -> None:
+        if bar is not None:
+            bar[0].update(bar[1], completed=done, total=total, description=f"tune: {what}")
+        else:
+            lines.line(f"tune {method}: alignment {what} done ({done}/{total})")
+
+    job = TuneJob(source, method, folder, list(params or []), target_precision, _seeds(seeds), sets, ex, progress)
+    with rich_progress(Console(stderr=True)) if interactive() else contextlib.nullcontext() as p:
+        if p is not None:
+            bar = (p, p.add_task("tune", total=len(job.worlds) * len(job.grid.alignments())))
+        result = job.run()
+    Console().print(_table(result))
+    h = result["held_out"]
+    Console().print(
+        f"held-out over {len(result['worlds'])} worlds (setting chosen on the others): precision "
+        f"{_num(h['precision'])}{_ci(h['precision_worlds'])}, recall {_num(h['recall'])}{_ci(h['recall_worlds'])}"
+        + ("" if h["transfers"] else " - the chosen setting does not transfer")
+    )
+    rec = result["recommended"]
+    if rec is None:
+        Console().print("no setting reaches the target precision on these worlds: nothing recommended")
+    else:
+        values = ", ".join(f"{k}={v}" for k, v in rec["values"].items())
+        Console().print(f"recommended: threshold {rec['threshold']}" + (f", {values}" if values else ""))
+        Console().print(f"written: {folder / RECOMMENDED_YAML}")
+    Console().print(f"front: {folder / FRONT_PNG}")

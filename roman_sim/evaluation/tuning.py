@@ -1,0 +1,221 @@
+"""Choosing a method's setting on calibration worlds, and what it gives on held-out worlds.
+
+A *config* is a setting of everything but the association threshold (an aligner's
+parameters, the submap gating); a *setting* is a config and a threshold. Per config the
+outcomes of every world's cross-robot pairs are one ``PairOutcomes`` (``transfer``), with
+each pair's alignment time (a pair gated out costs 0) and each world's driven kilometres.
+
+- ``choose_setting``: on calibration worlds only, per config the smallest threshold whose
+  pooled precision reaches the target (``transfer.choose_threshold``); among the configs
+  that reach it, the highest pooled recall, then the fewest false loop closures per km, then
+  the least time per pair, then the config's order.
+- ``nested_held_out``: leave-one-world-out: each world is scored at the setting chosen on
+  the other worlds only; the pooled held-out recall and precision with world-bootstrap
+  intervals are what the tuning procedure gives in a world it has not seen.
+- ``config_rows``: per config, its threshold chosen on the other worlds
+  (``transfer.held_out``), held-out recall and precision with world-bootstrap intervals,
+  false loop closures per km and time per pair; ``pareto`` marks the configs no other beats
+  in all three of recall, false closures per km and time.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.core.errors import ConfigError
+from roman_sim.evaluation.transfer import (
+    HeldOutCell,
+    PairOutcomes,
+    check_target,
+    choose_threshold,
+    held_out,
+    held_out_cell,
+    positives,
+    transfers,
+)
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ConfigOutcomes:
+    """One config's cross-robot pairs over every world.
+
+    Attributes:
+        pairs: the outcomes (world, robot pair, relevant, correct, associations).
+        runtime_s: (n,) alignment time of each pair (0 for a pair gating skipped; NaN: unknown).
+    """
+
+    pairs: PairOutcomes
+    runtime_s: NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Setting:
+    """A config (by id) and a threshold, with its pooled figures on the worlds it was chosen on."""
+
+    config: str
+    k: int
+    recall: float
+    false_per_km: float
+    time_per_pair_s: float | None
+
+
+def _time(c: ConfigOutcomes, mask: NDArray[np.bool_]) -> float | None:
+    r = c.runtime_s[mask]
+    r = r[np.isfinite(r)]
+    return float(r.mean()) if len(r) else None
+
+
+def _km(km: Mapping[str, float], worlds: Sequence[str]) -> float:
+    return float(sum(km[w] for w in worlds))
+
+
+def choose_setting(
+    configs: Mapping[str, ConfigOutcomes],
+    km: Mapping[str, float],
+    worlds: Sequence[str],
+    k_values: Sequence[int],
+    target: float,
+) -> Setting | None:
+    """The setting chosen on ``worlds`` only (see the module docstring); None when no config reaches the target."""
+    best: tuple[tuple[float, float, float, int], Setting] | None = None
+    total_km = _km(km, worlds)
+    for i, (cid, c) in enumerate(configs.items()):
+        mask = np.isin(c.pairs.world, np.asarray(worlds, dtype=np.str_))
+        o = c.pairs.subset(mask)
+        th = choose_threshold(o, k_values, target)
+        if th.k is None:
+            continue
+        rel = int(np.count_nonzero(o.relevant))
+        recall = th.tp / rel if rel else 0.0
+        fpk = th.fp / total_km if total_km > 0 else float(th.fp)
+        t = _time(c, mask)
+        s = Setting(cid, th.k, recall, fpk, t)
+        key = (-recall, fpk, t if t is not None else float("inf"), i)
+        if best is None or key < best[0]:
+            best = (key, s)
+    return None if best is None else best[1]
+
+
+@dataclass(frozen=True)
+class Figures:
+    """Held-out counts and ratios with their intervals (``transfer.HeldOutCell``, label ``"all"``), the false
+    loop closures per km and whether the precision is within ``transfer.PRECISION_SLACK`` of the target."""
+
+    cell: HeldOutCell
+    false_per_km: float
+    transfers: bool
+
+
+def figures(o: PairOutcomes, positive: NDArray[np.bool_], km: float, target: float, n_boot: int, seed: int) -> Figures:
+    """``Figures`` of ``positive`` over ``o`` (``km``: the worlds' driven kilometres)."""
+    c = held_out_cell("all", o, positive, n_boot, 0.95, seed)
+    fp = c.false_positives
+    return Figures(c, fp / km if km > 0 else float(fp), transfers(c.precision, target))
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """What a choice is made from: each config's outcomes, each world's kilometres, the thresholds
+    tried, the target precision, and the bootstrap's draws and seed."""
+
+    configs: Mapping[str, ConfigOutcomes]
+    km: Mapping[str, float]
+    k_values: Sequence[int]
+    target: float
+    n_boot: int = 2000
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class NestedHeldOut:
+    """Leave-one-world-out of the whole choice: per world the setting chosen on the others, and the pooled figures."""
+
+    chosen: dict[str, Setting | None]
+    figures: Figures
+
+
+def _worlds(configs: Mapping[str, ConfigOutcomes]) -> list[str]:
+    if not configs:
+        raise ConfigError("tune: no config to choose from")
+    worlds = next(iter(configs.values())).pairs.worlds()
+    if len(worlds) < 2:
+        raise ConfigError(f"worlds: need at least two to split into calibration and held-out, got {len(worlds)}")
+    return worlds
+
+
+def nested_held_out(ev: Evidence) -> NestedHeldOut:
+    """Each world scored at the setting chosen on the other worlds (``choose_setting``), pooled."""
+    check_target(ev.target)
+    configs, km = ev.configs, ev.km
+    worlds = _worlds(configs)
+    first = next(iter(configs.values())).pairs
+    parts: list[PairOutcomes] = []
+    pos: list[NDArray[np.bool_]] = []
+    chosen: dict[str, Setting | None] = {}
+    for w in worlds:
+        s = choose_setting(configs, km, [x for x in worlds if x != w], ev.k_values, ev.target)
+        chosen[w] = s
+        src = configs[s.config].pairs if s is not None else first
+        own = src.subset(src.world == w)
+        parts.append(own)
+        pos.append(positives(own, s.k if s is not None else None))
+        log.debug("world %s: setting %s chosen on the other %d worlds", w, s, len(worlds) - 1)
+    o = PairOutcomes(
+        np.concatenate([p.world for p in parts]),
+        np.concatenate([p.cluster for p in parts]),
+        np.concatenate([p.relevant for p in parts]),
+        np.concatenate([p.correct for p in parts]),
+        np.concatenate([p.score for p in parts]),
+    )
+    return NestedHeldOut(chosen, figures(o, np.concatenate(pos), _km(km, worlds), ev.target, ev.n_boot, ev.seed))
+
+
+@dataclass(frozen=True)
+class ConfigRow:
+    """One config at thresholds chosen on other worlds: held-out figures, time per pair, front membership."""
+
+    config: str
+    thresholds: dict[str, int | None]
+    figures: Figures
+    time_per_pair_s: float | None
+    on_front: bool = False
+
+
+def config_rows(ev: Evidence) -> list[ConfigRow]:
+    """Per config (in order) its held-out row; ``on_front`` set by ``pareto``."""
+    worlds = _worlds(ev.configs)
+    rows = []
+    for cid, c in ev.configs.items():
+        res = held_out(c.pairs, ev.k_values, ev.target)
+        f = figures(c.pairs, res.positive, _km(ev.km, worlds), ev.target, ev.n_boot, ev.seed)
+        all_pairs = np.ones(len(c.runtime_s), dtype=np.bool_)
+        rows.append(ConfigRow(cid, {w: t.k for w, t in res.thresholds.items()}, f, _time(c, all_pairs)))
+    return pareto(rows)
+
+
+def pareto(rows: list[ConfigRow]) -> list[ConfigRow]:
+    """``rows`` with ``on_front`` set: no other row has at least the recall, at most the false closures
+    per km and at most the time per pair, and is better in one of them (rows without recall are off it)."""
+
+    def objectives(r: ConfigRow) -> tuple[float, float, float] | None:
+        if r.figures.cell.recall is None:
+            return None
+        t = r.time_per_pair_s if r.time_per_pair_s is not None else float("inf")
+        return (-r.figures.cell.recall, r.figures.false_per_km, t)
+
+    obj = [objectives(r) for r in rows]
+    out = []
+    for i, r in enumerate(rows):
+        a = obj[i]
+        dominated = a is None or any(
+            b is not None and all(x <= y for x, y in zip(b, a, strict=True)) and b != a for b in obj
+        )
+        out.append(ConfigRow(r.config, r.thresholds, r.figures, r.time_per_pair_s, not dominated))
+    return out

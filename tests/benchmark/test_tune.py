@@ -1,0 +1,138 @@
+"""``roman-sim tune`` end to end on a tiny suite: figures against the raw pairs, the recommended YAML,
+resume (nothing re-run; a new alignment re-aligns without re-mapping), a bad parameter on a finished folder."""
+
+from __future__ import annotations
+
+import csv
+import json
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from roman_sim.cli import app
+from roman_sim.pipeline.scenario import load_scenario
+
+pytestmark = pytest.mark.slow
+
+SUITE = """\
+name: tiny
+description: two tiny crossing worlds
+scene: {robots: 3, length_m: 24.0, site_radius_m: 2.0, extent_m: 40.0, render_rgb: false,
+        image_width: 160, image_height: 120}
+levels: {distinct: 0.0}
+seeds: [0, 1]
+methods: [roman]
+"""
+KS = range(1, 9)
+
+
+def _tune(home: Path, *params: str) -> tuple[int, str]:
+    args = ["tune", str(home / "tiny.yaml"), "--out", str(home / "t"), "--param", "threshold=1:8"]
+    for p in params:
+        args += ["--param", p]
+    res = CliRunner().invoke(app, args)
+    return res.exit_code, res.output
+
+
+def _by_hand(home: Path) -> dict[tuple[str, str], list[tuple[bool, bool, int]]]:
+    """(world, alignment folder) -> (relevant, correct, associations) of each cross-robot pair, from pairs.csv."""
+    out = {}
+    for csv_path in sorted((home / "t" / "work").glob("*/*/run/pairs.csv")):
+        align, world = csv_path.parents[1].name, csv_path.parents[2].name
+        with csv_path.open() as fh:
+            rows = [r for r in csv.DictReader(fh) if r["kind"] == "inter"]
+        out[(world, align)] = [(r["relevant"] == "true", r["correct"] == "true", int(r["n_assoc"])) for r in rows]
+    return out
+
+
+def _k(rows: list[tuple[bool, bool, int]]) -> int | None:
+    for k in KS:
+        tp = sum(1 for rel, ok, n in rows if n >= k and rel and ok)
+        fp = sum(1 for rel, ok, n in rows if n >= k and not ok)
+        if tp + fp and 10 * tp >= 9 * (tp + fp):
+            return k
+    return None
+
+
+@pytest.fixture(scope="module")
+def home(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("tune")
+    (d / "tiny.yaml").write_text(SUITE)
+    code, output = _tune(d, "cos_min=0.85")
+    assert code == 0, output
+    return d
+
+
+def test_figures_follow_from_the_raw_pairs(home: Path):
+    res = json.loads((home / "t" / "tune.json").read_text())
+    assert [w["id"] for w in res["worlds"]] == ["distinct-s0", "distinct-s1"]
+    assert all(w["km"] > 0.05 for w in res["worlds"])
+    hand = _by_hand(home)
+    assert len(hand) == 2 and len(res["configs"]) == 1
+    row = res["configs"][0]
+    rows = {w: r for (w, _), r in hand.items()}
+    hits = fps = rel = 0
+    for w, other in (("distinct-s0", "distinct-s1"), ("distinct-s1", "distinct-s0")):
+        k = _k(rows[other])  # chosen on the other world only
+        assert row["thresholds"][w] == k
+        hits += sum(1 for r, ok, n in rows[w] if k is not None and n >= k and r and ok)
+        fps += sum(1 for r, ok, n in rows[w] if k is not None and n >= k and not ok)
+        rel += sum(1 for r, _, _ in rows[w] if r)
+    assert [row["hits"], row["false_positives"], row["n_relevant"]] == [hits, fps, rel]
+    km = sum(w["km"] for w in res["worlds"])
+    assert row["false_per_km"] == pytest.approx(fps / km, rel=1e-4)  # km stored to the metre
+    assert row["time_per_pair_s"] is not None and row["time_per_pair_s"] > 0
+    # one config: the setting chosen for each world is that config at the threshold of the other world
+    assert res["held_out"]["hits"] == hits and res["held_out"]["false_positives"] == fps
+    all_rows = rows["distinct-s0"] + rows["distinct-s1"]
+    rec = res["recommended"]
+    assert rec is not None and rec["threshold"] == _k(all_rows) and rec["values"] == {"cos_min": 0.85}
+    assert (home / "t" / "front.png").stat().st_size > 1000
+
+
+def test_recommended_yaml_loads_into_a_scenario(home: Path):
+    res = json.loads((home / "t" / "tune.json").read_text())
+    path = home / "t" / "recommended.yaml"
+    text = path.read_text()
+    assert text.startswith("# roman-sim tune: roman on")
+    sc = load_scenario("smoke", [f"@{path}"])
+    assert [(e.method, e.params) for e in sc.aligners] == [("roman", {"cos_min": 0.85})]
+    assert sc.posegraph.lc_association_thresh == res["recommended"]["threshold"]
+    assert sc.posegraph_method == "roman" and not sc.gating.enabled
+
+
+def test_resume_reuses_and_a_new_alignment_does_not_remap(home: Path):
+    t = home / "t"
+    before = {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")}
+    code, output = _tune(home, "cos_min=0.85")
+    assert code == 0, output
+    assert {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")} == before  # nothing re-run
+    # gating only changes the evaluation: still nothing aligned again
+    code, output = _tune(home, "cos_min=0.85", "gating.top_k=1,10000")
+    assert code == 0, output
+    assert {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")} == before
+    res = json.loads((t / "tune.json").read_text())
+    wide = next(c for c in res["configs"] if c["values"]["gating.top_k"] == 10000)
+    narrow = next(c for c in res["configs"] if c["values"]["gating.top_k"] == 1)
+    assert wide["n_relevant"] == narrow["n_relevant"]
+    assert narrow["time_per_pair_s"] < wide["time_per_pair_s"]  # gated-out pairs cost nothing
+    # a new aligner value: one new alignment per world, the maps reused
+    code, output = _tune(home, "cos_min=0.85,0.9")
+    assert code == 0, output
+    after = {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")}
+    assert len(after) == 4 and all(after[p] == m for p, m in before.items())
+    for new in set(after) - set(before):
+        stages = json.loads((new.parent / "run" / "timings.json").read_text())["stages"]
+        assert stages["maps"]["reused"] and stages["submaps"]["reused"] and not stages["evaluation"]["reused"]
+
+
+def test_bad_parameter_on_a_finished_folder(home: Path):
+    before = (home / "t" / "tune.json").read_bytes()
+    code, output = _tune(home, "radius=1:2")
+    assert code == 1
+    assert output.strip().splitlines() == [
+        "error: --param radius: roman does not declare it "
+        "(declared: threshold, gating.top_k, gating.min_similarity, cos_min, cos_max)"
+    ]
+    assert (home / "t" / "tune.json").read_bytes() == before

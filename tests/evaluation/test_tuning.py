@@ -1,0 +1,89 @@
+"""Choosing a setting on calibration worlds: never with the held-out world's truth; the front; the order."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from roman_sim.core.errors import ConfigError
+from roman_sim.evaluation.transfer import PairOutcomes
+from roman_sim.evaluation.tuning import ConfigOutcomes, Evidence, choose_setting, config_rows, nested_held_out
+
+
+def _world(w: str, n_rel: int, good: int, bad: int, good_score: int, bad_score: int) -> list[tuple]:
+    """``good`` relevant correct pairs at ``good_score`` associations, ``bad`` wrong ones at ``bad_score``,
+    the rest of the relevant pairs missed (0 associations); three robot pairs."""
+    rows = []
+    for i in range(n_rel):
+        ok = i < good
+        rows.append((w, f"r{i % 3}", True, ok, good_score if ok else 0))
+    rows += [(w, f"r{i % 3}", False, False, bad_score) for i in range(bad)]
+    return rows
+
+
+def _config(rows: list[tuple], time_s: float = 0.01) -> ConfigOutcomes:
+    o = PairOutcomes.from_lists(*(list(c) for c in zip(*rows, strict=True)))
+    return ConfigOutcomes(o, np.full(len(rows), time_s))
+
+
+def _configs(flip: str | None = None) -> dict[str, ConfigOutcomes]:
+    """Config "tight" (wrong pairs at 3 associations, right ones at 6) and "loose" (more hits at 4,
+    wrong pairs at 5) over worlds a, b, c; ``flip`` makes that world's loose config wrong everywhere."""
+    tight, loose = [], []
+    for w in "abc":
+        tight += _world(w, 20, 8, 10, 6, 3)
+        if w == flip:
+            loose += _world(w, 20, 0, 30, 4, 9)
+        else:
+            loose += _world(w, 20, 16, 10, 4, 2)
+    return {"tight": _config(tight), "loose": _config(loose)}
+
+
+KM = {"a": 1.0, "b": 1.0, "c": 1.0}
+KS = list(range(1, 12))
+
+
+def test_the_setting_chosen_for_a_world_never_reads_its_truth():
+    """Flipping world a's truth (its "loose" pairs all wrong) leaves the setting chosen for a unchanged
+    and changes the settings chosen for b and c, whose calibration worlds include a."""
+    base = nested_held_out(Evidence(_configs(), KM, KS, 0.9, n_boot=200))
+    flipped = nested_held_out(Evidence(_configs(flip="a"), KM, KS, 0.9, n_boot=200))
+    assert base.chosen["a"] == flipped.chosen["a"]
+    s = base.chosen["a"]
+    assert s is not None and (s.config, s.k) == ("loose", 3)  # 16/20 at precision 1 on b and c
+    for w in "bc":
+        got = flipped.chosen[w]
+        assert got is not None and (got.config, got.k) == ("tight", 4), w  # a's loose pairs now ruin loose
+    # the held-out figures are world a's own outcome at the setting chosen without it
+    assert flipped.figures.cell.hits == 0 + 8 + 8 and flipped.figures.cell.false_positives == 30
+
+
+def test_choice_order_recall_then_false_closures_then_time():
+    cfg = _configs()
+    s = choose_setting(cfg, KM, ["a", "b"], KS, 0.9)
+    assert s is not None and s.config == "loose" and s.k == 3 and s.recall == pytest.approx(16 / 20)
+    # equal recall: the fewer false closures per km win, then the faster
+    same = {"slow": _config(_world("a", 10, 5, 0, 4, 0), 0.5), "fast": _config(_world("a", 10, 5, 0, 4, 0), 0.1)}
+    assert choose_setting(same, {"a": 2.0}, ["a"], KS, 0.9).config == "fast"  # type: ignore[union-attr]
+    none = {"x": _config(_world("a", 10, 1, 5, 4, 4))}
+    assert choose_setting(none, {"a": 1.0}, ["a"], KS, 0.9) is None
+
+
+def test_front_and_rows():
+    rows = config_rows(Evidence(_configs(), KM, KS, 0.9, n_boot=200))
+    by = {r.config: r for r in rows}
+    assert by["loose"].thresholds == {"a": 3, "b": 3, "c": 3}
+    assert by["loose"].figures.cell.hits == 48 and by["loose"].figures.cell.false_positives == 0
+    assert by["tight"].thresholds == {"a": 4, "b": 4, "c": 4} and by["tight"].figures.cell.hits == 24
+    assert by["loose"].on_front and not by["tight"].on_front  # same time and false closures, less recall
+    slow = _configs()
+    slow["loose"] = ConfigOutcomes(slow["loose"].pairs, np.full(len(slow["loose"].runtime_s), 1.0))
+    assert all(r.on_front for r in config_rows(Evidence(slow, KM, KS, 0.9, n_boot=200)))  # tight is now faster
+
+
+def test_one_world_is_refused():
+    one = {"x": _config(_world("a", 10, 5, 0, 4, 0))}
+    with pytest.raises(ConfigError, match="worlds: need at least two"):
+        nested_held_out(Evidence(one, {"a": 1.0}, KS, 0.9))
+    with pytest.raises(ConfigError, match="target precision"):
+        nested_held_out(Evidence(_configs(), KM, KS, 1.5))
