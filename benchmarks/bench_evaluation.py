@@ -24,7 +24,7 @@ from roman_sim.evaluation.metrics import compute_metrics, score_pair
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.results import read_pairs_csv, write_pairs_csv
 from roman_sim.mapping.types import Submap, SubmapTruth
-from roman_sim.report.mapview import render_map
+from roman_sim.report.mapview import map_view_png
 from roman_sim.report.markdown import report_markdown
 from roman_sim.report.plots import write_metric_plots
 
@@ -120,9 +120,9 @@ def main() -> dict:
         _, fig["metric_plots_s"] = _timed(write_metric_plots, metrics, d / "plots")
         _, fig["report_s"] = _timed(report_markdown, "bench", metrics)
     subs = _submaps(rng)
-    _, fig["map_view_points_640x480_s"] = _timed(render_map, subs)
+    _, fig["map_view_points_s"] = _timed(map_view_png, subs)
     no_pts = [Submap(**{**s.__dict__, "points": None}) for s in subs]
-    _, fig["map_view_boxes_640x480_s"] = _timed(render_map, no_pts)
+    _, fig["map_view_circles_s"] = _timed(map_view_png, no_pts)
     fig["map_view_points_in_map"] = sum(len(p) for s in subs for p in s.points or [])
     fig["map_view_points_drawn"] = sum(min(len(p), 100) for s in subs for p in s.points or [])
     out = {

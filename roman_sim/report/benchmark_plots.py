@@ -4,8 +4,8 @@
   one column per ambiguity level, at max recall (top) and at precision >= 0.9 (bottom);
 - ``pr_heading_<level>.png``: precision-recall over k per heading bin, one panel per bin,
   operating points marked (triangle: precision >= 0.9, square: acceptance threshold);
-- ``heatmap.png``: heading x ambiguity, one panel per method, max recall in colour with
-  hits / relevant written in each cell;
+- ``heatmap.png``: heading x ambiguity, one panel per method (two per row), max recall in
+  colour (one labelled colour bar) with recall and hits / relevant written in each cell;
 - ``runtime.png``: runtime per pair per method (mean over every pair; the cells' medians
   and 90th percentiles as points), log scale.
 
@@ -19,6 +19,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 
 from roman_sim.evaluation.leaderboard import Leaderboard
 from roman_sim.evaluation.operating_points import POINT_LABELS
@@ -73,7 +76,7 @@ def plot_recall_heading(board: Leaderboard, path: Path) -> Path | None:
         return None
     data = recall_heading_data(board)
     x = _centres(board)
-    fig = figure(4.2 * len(levels), 7.0, ncols=len(levels), nrows=2)
+    fig = figure(3.8 * len(levels), 7.0, ncols=len(levels), nrows=2)
     for col, (name, e) in enumerate(levels):
         for row, point in enumerate(("max_recall", "precision_90")):
             ax = fig.axes[row * len(levels) + col]
@@ -88,9 +91,8 @@ def plot_recall_heading(board: Leaderboard, path: Path) -> Path | None:
             ax.set(xlim=(0, 180), ylim=(0, 1.02), xticks=board.heading_edges_deg)
             ax.set_title(f"{name} (index {_fmt(e.ambiguity_index)}): {POINT_LABELS[point]}", fontsize=8)
             ax.set_xlabel("heading difference (deg)", fontsize=8)
+            ax.set_ylabel("recall", fontsize=8)
             ax.grid(alpha=0.3)
-    fig.axes[0].set_ylabel("recall")
-    fig.axes[len(levels)].set_ylabel("recall")
     fig.axes[0].legend(fontsize=7, loc="lower left")
     return save_png(fig, path, data)
 
@@ -120,31 +122,55 @@ def plot_pr_level(board: Leaderboard, metrics: EvaluationMetrics, level: str, pa
 
 
 def plot_heatmap(board: Leaderboard, path: Path) -> Path | None:
-    """Max recall per (level, heading bin), one panel per method, with hits / relevant in each cell."""
+    """Max recall per (level, heading bin), one panel per method (two per row), hits / relevant in each cell,
+    and one colour bar for all panels."""
     levels = [(e.name, e) for e in board.finished_levels()]
     if not levels:
         return None
     methods = list(board.methods)
     labels = [b.heading for b in levels[0][1].bins]
-    ncols = min(3, len(methods))
+    ncols = min(2, len(methods))
     nrows = int(np.ceil(len(methods) / ncols))
-    fig = figure(1.0 * len(labels) * ncols + 1.5, 0.9 * len(levels) * nrows + 1.2, ncols=ncols, nrows=nrows)
-    for ax in fig.axes[len(methods) :]:
-        ax.set_axis_off()
-    for ax, m in zip(fig.axes, methods):
+    cell_w, cell_h = 0.58, 0.5  # inches per cell: room for two lines of 8-point text
+    fig = Figure(
+        figsize=(ncols * (cell_w * len(labels) + 1.1) + 0.7, nrows * (cell_h * len(levels) + 1.2) + 0.6), dpi=90
+    )
+    FigureCanvasAgg(fig)
+    gs = fig.add_gridspec(nrows, ncols + 1, width_ratios=[1.0] * ncols + [0.04])
+    cmap = colormaps["viridis"].with_extremes(bad="0.85")
+    image = None
+    for i, m in enumerate(methods):
+        ax = fig.add_subplot(gs[i // ncols, i % ncols])
         grid = np.full((len(levels), len(labels)), np.nan)
         for r, (_, e) in enumerate(levels):
             for c, b in enumerate(e.bins):
                 p = b.point(m, "max_recall")
-                if p is not None and p.recall is not None:
+                if p is not None and p.recall is not None and p.n_relevant:
                     grid[r, c] = p.recall
-                text = "n/a" if p is None or not p.n_relevant else f"{p.recall:.2f}\n{p.hits}/{p.n_relevant}"
-                ax.text(c, r, text, ha="center", va="center", fontsize=6)
-        ax.imshow(grid, vmin=0.0, vmax=1.0, cmap="viridis", aspect="auto", alpha=0.85)
-        ax.set_xticks(range(len(labels)), labels, fontsize=6)
-        ax.set_yticks(range(len(levels)), [n for n, _ in levels], fontsize=7)
-        ax.set_title(m, fontsize=9)
-    fig.suptitle("Max recall: ambiguity level x heading difference (deg); hits / relevant per cell", fontsize=9)
+                    colour = "white" if p.recall < 0.5 else "black"
+                    ax.text(
+                        c,
+                        r,
+                        f"{p.recall:.2f}\n{p.hits}/{p.n_relevant}",
+                        ha="center",
+                        va="center",
+                        fontsize=8,
+                        color=colour,
+                    )
+                else:
+                    ax.text(c, r, "n/a", ha="center", va="center", fontsize=8)
+        image = ax.imshow(grid, vmin=0.0, vmax=1.0, cmap=cmap, aspect="auto")
+        ax.set_xticks(range(len(labels)), labels, fontsize=8)
+        ax.set_yticks(range(len(levels)), [f"{n}\n({_fmt(e.ambiguity_index)})" for n, e in levels], fontsize=8)
+        ax.set_xlabel("heading difference (deg)", fontsize=8)
+        ax.set_ylabel("ambiguity level (index)", fontsize=8)
+        ax.set_title(m, fontsize=10)
+    assert image is not None  # board.methods is never empty when a level finished
+    bar = fig.colorbar(image, cax=fig.add_subplot(gs[:, ncols], label="<colorbar>"))
+    bar.set_label("max recall over k")
+    fig.suptitle(
+        "Max recall per ambiguity level and heading difference\n(each cell: recall, hits / relevant)", fontsize=10
+    )
     return save_png(fig, path)
 
 

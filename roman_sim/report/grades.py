@@ -70,7 +70,7 @@ def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(14, 4), dpi=100)
+    fig = Figure(figsize=(12, 4), dpi=100)
     FigureCanvasAgg(fig)
     ax1, ax2, ax3 = (fig.add_subplot(1, 3, k) for k in (1, 2, 3))
     d = grades.descriptors
@@ -84,7 +84,12 @@ def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
         ax2.plot(mids, [np.nan if v is None else v for v in d.view_mean], "o-")
         ax1.legend(fontsize=7)
     ax1.set(xlabel="cosine", ylabel="share of pairs", title=f"descriptors: {grades.encoder or 'none'}")
-    ax2.set(xlabel="view difference (deg)", ylabel="mean cosine, same instance", xlim=(0, 180))
+    ax2.set(
+        xlabel="view difference (deg)",
+        ylabel="mean cosine, same instance",
+        xlim=(0, 180),
+        title="same instance against view difference",
+    )
     rows = grades.segmentation.by_distance()
     labels = [f"{r['from_m']:g}-{'' if r['to_m'] is None else format(r['to_m'], 'g')}" for r in rows]
     x = np.arange(len(rows))

@@ -54,17 +54,22 @@ def figure(w: float = 6.0, h: float = 4.0, ncols: int = 1, nrows: int = 1) -> Fi
 DATA_KEY = "roman_sim_data"
 
 
-def save_png(fig: Figure, path: str | Path, data: object = None) -> Path:
-    """Render ``fig`` to PNG in memory and write it atomically; ``data`` (JSON-ready), when given, is
-    stored in the PNG's ``DATA_KEY`` text chunk (``read_png_data`` reads it back)."""
-    path = Path(path)
+def png_bytes(fig: Figure, data: object = None) -> bytes:
+    """``fig`` laid out and rendered to PNG bytes (no timestamp); ``data`` (JSON-ready), when given, goes
+    into the PNG's ``DATA_KEY`` text chunk (``read_png_data`` reads it back)."""
     buf = io.BytesIO()
     fig.tight_layout()
     meta: dict[str, str | None] = {"Software": None}
     if data is not None:
         meta[DATA_KEY] = json.dumps(data, sort_keys=True)
     fig.savefig(buf, format="png", metadata=meta)
-    write_bytes(path, buf.getvalue())
+    return buf.getvalue()
+
+
+def save_png(fig: Figure, path: str | Path, data: object = None) -> Path:
+    """Render ``fig`` to PNG in memory (``png_bytes``) and write it atomically."""
+    path = Path(path)
+    write_bytes(path, png_bytes(fig, data))
     log.debug("wrote %s", path)
     return path
 
@@ -332,8 +337,34 @@ def write_metric_plot(metrics: EvaluationMetrics, name: str, plots_dir: str | Pa
     path = Path(plots_dir) / name
     if draw(metrics, path) is None:
         path.unlink(missing_ok=True)
-        return None, f"plot {name} not drawn: it needs {needs}"
+        return None, f"plot {name} not drawn: it needs {needs}{_bins_held(metrics, name)}"
     return path, None
+
+
+#: Plot -> the bins (a ``PairSetMetrics`` attribute) whose relevant pairs it needs, and how a bin reads.
+BINS_NEEDED = {
+    "precision_recall_heading.png": ("heading_bins", "{} deg"),
+    "recall_heading.png": ("heading_bins", "{} deg"),
+    "recall_heading_fine.png": ("heading_bins_fine", "{} deg"),
+    "recall_ambiguity.png": ("ambiguity_bins", "ambiguity {}"),
+    "recall_operating_points.png": ("heading_bins", "{} deg"),
+}
+
+
+def _bins_held(metrics: EvaluationMetrics, name: str) -> str:
+    """What the run has of the bins ``name`` needs, for its note: the one bin with relevant pairs, or none."""
+    if name not in BINS_NEEDED or not metrics.methods:
+        return ""
+    attr, fmt = BINS_NEEDED[name]
+    kind = metrics.headline
+    bins: list[BinStats] = getattr(next(iter(metrics.methods.values())).set(kind), attr)
+    held = [b for b in bins if b.stats.n_relevant]
+    if not held:
+        return f"; no bin has a relevant {PAIR_SET_LABELS[kind]} pair"
+    if len(held) == 1:
+        one = held[0]
+        return f"; only {fmt.format(one.label)} has relevant {PAIR_SET_LABELS[kind]} pairs ({one.stats.n_relevant})"
+    return ""
 
 
 def write_metric_plots(metrics: EvaluationMetrics, plots_dir: str | Path) -> tuple[list[Path], list[str]]:

@@ -31,7 +31,7 @@ from roman_sim.mapping.types import Submap
 
 if TYPE_CHECKING:
     from roman_sim.evaluation.grades import FrontEndGrades
-    from roman_sim.report.examples import Example
+    from roman_sim.report.examples import Example, ExampleRule
     from roman_sim.report.trajplot import ClosureLine, TrajectoryLike
 
 #: What drawing one figure gives: its PNG bytes (None when not drawn) and the notes on why not.
@@ -59,12 +59,15 @@ def metric_plot_pngs(metrics: EvaluationMetrics) -> tuple[dict[str, bytes], list
 
 
 def example_pngs(
-    scores: list[PairScore], submaps: dict[str, Submap], results: dict[tuple[str, str, str], AlignResult]
+    scores: list[PairScore],
+    submaps: dict[str, Submap],
+    results: dict[tuple[str, str, str], AlignResult],
+    rule: ExampleRule | None = None,
 ) -> dict[str, bytes]:
     """``alignment_<method>.png`` per method (``examples.draw_examples``), file name -> PNG."""
     from roman_sim.report.examples import draw_examples
 
-    return drawn_pngs(lambda folder: draw_examples(scores, submaps, results, folder))
+    return drawn_pngs(lambda folder: draw_examples(scores, submaps, results, folder, rule))
 
 
 def draw_job(fn: Callable[..., Drawn], *args: object) -> Drawn:
@@ -86,21 +89,21 @@ def metric_plot_png(metrics: EvaluationMetrics, name: str) -> Drawn:
     return next(iter(drawn_pngs(draw).values()), None), notes
 
 
-def method_examples_png(method: str, rows: list[Example]) -> Drawn:
-    """``alignment_<method>.png`` from the method's example rows (``examples.example_rows``)."""
+def method_examples_png(method: str, rows: list[Example], title: str = "") -> Drawn:
+    """``alignment_<method>.png`` from the method's example rows and title (``examples.example_rows``)."""
     from roman_sim.report.examples import plot_method_examples
 
-    return next(iter(drawn_pngs(lambda folder: [plot_method_examples(method, rows, folder)]).values())), []
+    return next(iter(drawn_pngs(lambda folder: [plot_method_examples(method, rows, folder, title)]).values())), []
 
 
-def map_view_job(submaps: list[Submap]) -> Drawn:
-    """The map view (``mapview.map_view_png``), or the note on why it is not rendered."""
+def map_view_job(submaps: list[Submap], title: str = "") -> Drawn:
+    """The map view (``mapview.map_view_png``; ``title``: the scenario), or the note on why it is not drawn."""
     from roman_sim.report.mapview import map_view_png
 
     try:
-        return map_view_png(submaps), []
+        return map_view_png(submaps, title=title), []
     except EvaluationError as err:
-        return None, [f"map view not rendered: {err}"]
+        return None, [f"plot map_view.png not drawn: {err}"]
 
 
 def trajectory_plot_png(
@@ -116,7 +119,7 @@ def trajectory_plot_png(
     try:
         return trajectory_png(truth, est=est, odom=odom, closures=closures, title=title), []
     except EvaluationError as err:
-        return None, [f"trajectory plot not drawn: {err}"]
+        return None, [f"plot trajectories.png not drawn: {err}"]
 
 
 def masks_png(

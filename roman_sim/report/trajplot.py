@@ -7,7 +7,6 @@ green, wrong ones (``correct is False``) red dashed whatever their kind.
 
 from __future__ import annotations
 
-import io
 import logging
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, TypedDict
@@ -23,6 +22,7 @@ from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.metrics import closure_correct
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph.types import LoopClosure
+from roman_sim.report.plots import png_bytes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -77,7 +77,8 @@ def _positions(value: TrajectoryLike, name: str) -> F64:
     raise EvaluationError(f"trajectory plot: {name} must be a Trajectory, T (N,4,4) or xyz (N,3); got {arr.shape}")
 
 
-def _robot_colours(robots: Sequence[str]) -> dict[str, RGBA]:
+def robot_colours(robots: Sequence[str]) -> dict[str, RGBA]:
+    """Each robot's colour (tab10, leaving blue, green and red to the closure lines), in the given order."""
     from matplotlib import colormaps
 
     cmap = colormaps["tab10"]
@@ -125,11 +126,13 @@ def _without_alpha(style: LayerStyle) -> LayerStyle:
 def _legend(ax: Axes, robots: dict[str, RGBA], layers: list[str], closure_kinds: set[str]) -> None:
     handles = [Line2D([], [], color=c, linewidth=2, label=r) for r, c in robots.items()]
     handles += [Line2D([], [], color="0.3", label=name, **_without_alpha(LAYERS[name])) for name in layers]
+    if "truth" in layers:
+        handles.append(Line2D([], [], color="0.3", marker="o", linestyle="none", label="start"))
     names = {"intra": "intra-robot closure", "inter": "inter-robot closure"}
     handles += [Line2D([], [], color=c, label=names[k]) for k, c in CLOSURE_COLOURS.items() if k in closure_kinds]
     if "wrong" in closure_kinds:
         handles.append(Line2D([], [], label="wrong closure", **WRONG_STYLE))
-    ax.legend(handles=handles, loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize=7, framealpha=0.8)
+    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.1), ncol=4, fontsize=8, frameon=False)
 
 
 def closure_lines(
@@ -185,8 +188,8 @@ def trajectory_png(
     robots = list(dict.fromkeys([*truth, *(est or {}), *(odom or {})]))
     if not robots:
         raise EvaluationError("trajectory plot: no trajectories to draw")
-    colours = _robot_colours(robots)
-    fig = Figure(figsize=(8.0, 6.0))
+    colours = robot_colours(robots)
+    fig = Figure(figsize=(8.0, 7.0), dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
     layers = _draw_layers(ax, colours, {"truth": truth, "estimate": est, "odometry": odom})
@@ -198,6 +201,4 @@ def trajectory_png(
     ax.grid(True, linewidth=0.3)
     if title:
         ax.set_title(title)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
-    return buf.getvalue()
+    return png_bytes(fig)

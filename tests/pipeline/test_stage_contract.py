@@ -164,8 +164,9 @@ def test_a_renamed_scenario_rewrites_the_report(smoke_run, tmp_path):
     assert text.startswith("# Evaluation report: smoke_renamed\n")
     after = _digest(run_dir)
     differ = sorted(f for f in after if before.get(f) != after[f])
-    # the report's files (its title, the trajectory plot's title) and the run's records; nothing else
-    assert differ == ["config.yaml", "manifest.json", "plots/trajectories.png", "report.md", "timings.json"]
+    # the report's files (its title, the map view's and the trajectory plot's titles) and the run's records
+    want = ["config.yaml", "manifest.json", "plots/map_view.png", "plots/trajectories.png", "report.md", "timings.json"]
+    assert differ == want
 
 
 @pytest.mark.parametrize("stage", STAGES, ids=lambda s: s.name)

@@ -93,25 +93,81 @@ def test_alignment_drawings(make_submap, result_for, tmp_path):
         draw_examples(scores, {}, results, tmp_path)
 
 
-def test_map_view_renders_points_and_boxes(make_submap, tmp_path):
-    from roman_sim.report.mapview import render_map, write_map_view
+def test_the_worst_false_positive_is_the_accepted_estimate_furthest_off(make_score):
+    """Not the wrong estimate with the most associations (a near miss), but the accepted one with the largest
+    error in tolerances; estimates below the acceptance threshold are not false positives."""
+    from dataclasses import replace
 
-    pts = [make_submap("a", i, 4.0 * i, 0.0, 40.0 * i, object_ids=(1, 2, 3), with_points=True) for i in range(2)]
-    boxes = [make_submap("b", 0, 2.0, 5.0, 180.0, object_ids=(4, 5))]
-    img = render_map(pts + boxes, width=96, height=72)
-    assert img.shape == (72, 96, 3) and img.dtype == np.uint8
-    bg = img[0, 0]
-    drawn = np.any(np.abs(img.astype(int) - bg) > 20, axis=2)
-    assert drawn.sum() > 50  # ground slab and segments, not a blank frame
-    assert len(np.unique(img[drawn], axis=0)) > 3  # several segment colours
-    p = write_map_view(tmp_path / "map.png", [s.public() for s in boxes], frame="odom", width=64, height=48)
-    assert _is_png(p) or p.read_bytes().startswith(PNG)
+    from roman_sim.report.examples import ExampleRule, example_title
+
+    near = replace(make_score("1", True, 12, False), rot_err_deg=0.4, trans_err_m=1.25)  # 1.25 tolerances
+    turned = replace(make_score("2", True, 5, False), rot_err_deg=30.0, trans_err_m=2.0)  # 30 / 5 = 6 tolerances
+    far = replace(make_score("3", False, 4, False), rot_err_deg=3.0, trans_err_m=5.5)  # 5.5 tolerances
+    below = replace(make_score("4", False, 3, False), rot_err_deg=170.0, trans_err_m=80.0)  # not accepted at k = 4
+    good = make_score("5", True, 7, True)
+    rule = ExampleRule(min_assoc=4, rot_tol_deg=5.0, trans_tol_m=1.0)
+    scores = [near, turned, far, below, good]
+    assert rule.false_positives(scores) == [turned, far, near]
+    assert rule.error(turned) == 6.0 and rule.error(near) == 1.25
+    assert pick_examples(scores, rule) == (good, turned)
+    assert pick_examples(scores)[1] is below  # the default rule accepts any estimate
+    assert pick_examples([below, good], rule) == (good, None)
+    title = example_title("m", rule, 3, True)
+    assert title == (
+        "m: a correct alignment and the worst false positive\nworst: the largest error in tolerances "
+        "(5 deg, 1 m) among the 3 wrong estimates with >= 4 associations"
+    )
+    assert example_title("m", rule, 0, False).endswith(
+        "no wrong estimate has >= 4 associations; no correct relevant pair"
+    )
+
+
+def test_map_view_draws_each_segment_once_to_scale_where_the_truth_puts_it(make_submap, tmp_path):
+    from dataclasses import replace
+
+    from matplotlib.collections import EllipseCollection
+
+    from roman_sim.core.geometry import transform_points
+    from roman_sim.report.mapview import map_view_figure, write_map_view
+
+    a0 = make_submap("a", 0, 4.0, 0.0, 40.0, object_ids=(1, 2, -1), with_points=True)
+    # submap a/1 sees the same three segments again, from elsewhere: each is drawn once, from a/1
+    a1 = replace(
+        make_submap("a", 1, 10.0, 2.0, 90.0, object_ids=(1, 2, -1), with_points=True), segment_ids=a0.segment_ids
+    )
+    b0 = make_submap("b", 0, 2.0, 5.0, 180.0, object_ids=(4, 5))
+    fig = map_view_figure([a1, b0, a0], title="t")
+    (ax,) = fig.axes
+    circles = [c for c in ax.collections if isinstance(c, EllipseCollection)]
+    assert [len(c.get_offsets()) for c in circles] == [2, 1, 2]  # a: 2 with a true object, 1 without; b: 2
+    world_a = transform_points(a1.truth.T_world_submap, a1.centers)[:, :2]
+    np.testing.assert_allclose(np.concatenate([c.get_offsets() for c in circles[:2]]), world_a[[0, 1, 2]])
+    np.testing.assert_allclose(circles[2].get_offsets(), transform_points(b0.truth.T_world_submap, b0.centers)[:, :2])
+    assert circles[0].get_facecolor()[0, 3] > 0 and circles[1].get_facecolor()[0, 3] == 0  # hollow: no true object
+    assert ax.get_title() == "t: segment maps from above (true submap poses)\n5 segments in 3 submaps"
+    assert ax.get_xlabel() == "x (m)" and ax.get_ylabel() == "y (m)" and ax.get_aspect() == 1.0
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == [
+        "robot a",
+        "robot b",
+        "segment, circle to scale (true object known)",
+        "segment with no true object",
+        "segment points",
+        "submap centres, in order",
+    ]
+    (scale,) = [t.get_text() for t in ax.texts if t.get_text().endswith(" m")]
+    assert scale == "2 m"  # a fifth of the about 14 m wide map, rounded down to 1, 2 or 5 x 10^n
+    odom = map_view_figure([s.public() for s in (a0, b0)], frame="odom")
+    assert "(each robot's odometry frame)" in odom.axes[0].get_title()
+    assert "segment with no true object" not in [t.get_text() for t in odom.axes[0].get_legend().get_texts()]
+    p1 = write_map_view(tmp_path / "map.png", [a0, a1, b0])
+    first = p1.read_bytes()
+    assert _is_png(p1) and write_map_view(tmp_path / "map.png", [a0, a1, b0]).read_bytes() == first
     with pytest.raises(EvaluationError, match="odom"):
-        render_map([boxes[0].public()], frame="world")
+        map_view_figure([b0.public()], frame="world")
     with pytest.raises(EvaluationError, match="valid"):
-        render_map(boxes, frame="map")  # type: ignore[arg-type]
+        map_view_figure([b0], frame="map")  # type: ignore[arg-type]
     with pytest.raises(EvaluationError, match="no segments"):
-        render_map([make_submap("c", 0, 0.0, 0.0, object_ids=())])
+        map_view_figure([make_submap("c", 0, 0.0, 0.0, object_ids=())])
 
 
 def test_masks_over_an_image(tmp_path):

@@ -13,6 +13,7 @@ from roman_sim.evaluation.leaderboard import MethodRuntime
 from roman_sim.evaluation.results import read_metrics_json
 
 DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
+OPPOSITE = DEMO.parent / "opposite_direction"
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +32,10 @@ def demo_figures(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Figure]:
     mp.setattr(plots, "save_png", keep)
     written, skipped = plots.write_metric_plots(read_metrics_json(DEMO / "metrics.json"), tmp_path_factory.mktemp("p"))
     mp.undo()
-    assert skipped == ["plot recall_ambiguity.png not drawn: it needs two ambiguity bins with relevant pairs"]
+    assert skipped == [
+        "plot recall_ambiguity.png not drawn: it needs two ambiguity bins with relevant pairs; "
+        "only ambiguity 0-0.25 has relevant cross-robot pairs (44)"
+    ]
     assert sorted(figs) == sorted(p.name for p in written)
     return figs
 
@@ -90,3 +94,32 @@ def test_the_benchmark_runtime_title_fits_its_figure(tmp_path: Path, monkeypatch
     ext, box = ax.title.get_window_extent(), fig.bbox
     assert box.x0 <= ext.x0 and ext.x1 <= box.x1, (ext, box)
     assert ax.get_xlabel() == "method" and ax.get_ylabel() == "ms per pair (log scale)" and ax.get_legend()
+
+
+def test_plots_not_drawn_on_opposite_direction_are_named_with_why_in_the_report(tmp_path: Path) -> None:
+    """All 51 relevant cross-robot pairs of opposite_direction lie in 120-180 deg (and one ambiguity bin):
+    four plots are not drawn, and the report says which and why, each in its section."""
+    from roman_sim.report.markdown import report_markdown
+
+    if not (OPPOSITE / "metrics.json").is_file():
+        pytest.skip("no committed opposite_direction run")
+    metrics = read_metrics_json(OPPOSITE / "metrics.json")
+    written, skipped = plots.write_metric_plots(metrics, tmp_path)
+    assert [p.name for p in written] == ["precision_recall.png", "recall_heading_fine.png", "association_heading.png"]
+    only = "only 120-180 deg has relevant cross-robot pairs (51)"
+    assert skipped == [
+        f"plot precision_recall_heading.png not drawn: it needs two heading bins with relevant pairs; {only}",
+        f"plot recall_heading.png not drawn: it needs two heading bins with relevant pairs; {only}",
+        "plot recall_ambiguity.png not drawn: it needs two ambiguity bins with relevant pairs; "
+        "only ambiguity 0-0.25 has relevant cross-robot pairs (51)",
+        f"plot recall_operating_points.png not drawn: it needs two heading bins with relevant pairs; {only}",
+    ]
+    text = report_markdown("opposite_direction", metrics, notes=skipped, plots=[f"plots/{p.name}" for p in written])
+    head = text[text.index("## Headline plots") : text.index("## What was scored")]
+    more = text[text.index("## More plots") :]
+    for note in skipped:
+        headline = note.startswith(("plot recall_heading.png ", "plot recall_operating_points.png "))
+        assert f"- {note}" in (head if headline else more), note
+    committed = (OPPOSITE / "report.md").read_text(encoding="utf-8")
+    for name in ("precision_recall_heading", "recall_heading", "recall_ambiguity", "recall_operating_points"):
+        assert f"- plot {name}.png not drawn: it needs two " in committed, name

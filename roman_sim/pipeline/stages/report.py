@@ -31,7 +31,7 @@ from roman_sim.pipeline.stages.evaluation import EvaluationOutput
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.posegraph import PoseGraphOutput
 from roman_sim.pipeline.stages.submaps import Submaps
-from roman_sim.report.examples import example_file, example_rows
+from roman_sim.report.examples import ExampleRule, example_file, example_rows
 from roman_sim.report.markdown import REPORT_MD, report_markdown
 from roman_sim.report.plots import METRIC_PLOTS
 from roman_sim.report.render import (
@@ -118,20 +118,38 @@ def plot_jobs(ctx: RunContext, inputs: ReportInputs) -> list[PlotJob]:
     results = {(r.a, r.b, r.method): r.result() for r in ev.alignments}
     jobs = [PlotJob(FRONTEND_PNG, frontend_grades_png, (maps.frontend,))] if maps and maps.frontend else []
     jobs += [PlotJob(f"plots/{name}", metric_plot_png, (ev.metrics, name)) for name in METRIC_PLOTS]
-    for method, rows in example_rows(ev.scores, submaps.by_name(), results).items():
-        jobs.append(PlotJob(f"plots/{example_file(method)}", method_examples_png, (method, rows)))
-    jobs.append(PlotJob(MAP_VIEW, map_view_job, (submaps.all(),)))
+    cfg = ctx.scenario.evaluation
+    rule = ExampleRule(ev.metrics.acceptance_k or 1, cfg.rot_tol_deg, cfg.trans_tol_m)
+    examples = example_rows(ev.scores, submaps.by_name(), results, rule)
+    for method in sorted({*ev.metrics.methods, *examples}):
+        name = f"plots/{example_file(method)}"
+        if method in examples:
+            title, rows = examples[method]
+            jobs.append(PlotJob(name, method_examples_png, (method, rows, title)))
+        else:
+            why = f"{method} has no correct relevant pair and no wrong estimate with >= {rule.min_assoc} associations"
+            jobs.append(PlotJob(name, _noted, (f"plot {example_file(method)} not drawn: {why}",), here=True))
+    jobs.append(PlotJob(MAP_VIEW, map_view_job, (submaps.all(), ctx.scenario.name)))
     try:
         traj = trajectory_plot(ctx, inputs.posegraph, submaps)
         if traj is not None:
             jobs.append(traj)
+        else:
+            pg = ctx.scenario.posegraph_method
+            why = "the scenario names no posegraph_method" if pg is None else f"no {pg} pose graph was solved"
+            jobs.append(PlotJob(TRAJECTORY_PLOT, _noted, (f"plot trajectories.png not drawn: {why}",), here=True))
     except EvaluationError as err:
-        jobs.append(PlotJob(TRAJECTORY_PLOT, _noted, (f"trajectory plot not drawn: {err}",), here=True))
+        jobs.append(PlotJob(TRAJECTORY_PLOT, _noted, (f"plot trajectories.png not drawn: {err}",), here=True))
     if maps is not None and maps.snapshot is not None:
         jobs.append(PlotJob(SNAPSHOT, snapshot_job, (maps.snapshot,)))
     elif maps is not None:
         jobs.append(
-            PlotJob(SNAPSHOT, _noted, ("front-end snapshot not drawn: the maps stage kept no camera frame",), here=True)
+            PlotJob(
+                SNAPSHOT,
+                _noted,
+                ("plot segments_on_image.png not drawn: the maps stage kept no camera frame",),
+                here=True,
+            )
         )
     return jobs
 
