@@ -1,26 +1,30 @@
 """Cost and transfer of ``roman-sim tune`` on the ``quick`` suite; figures into ``benchmarks/out/tune.json``.
 
 1. ``roman-sim tune quick`` with ROMAN's default grid (threshold 1-30, cos_min 0.8 / 0.85 /
-   0.9), fresh (a private stage cache: every world is mapped), in this process: wall time,
-   CPU time (this process and its waited-for children, ``resource.getrusage``) and the load
-   average before and after (the machine may be shared: wall time is then an upper bound,
-   CPU time / 2 is the wall time on 2 free cores if both were kept busy).
+   0.9): wall time, CPU time (this process and its waited-for children,
+   ``resource.getrusage``; with ``--workers`` above 1 the pool's workers are not counted) and
+   the load average before and after (the machine may be shared: wall time is then an upper
+   bound, CPU time / 2 the wall time on 2 free cores if both were kept busy). Fresh by
+   default (a private stage cache: every world is mapped); ``--cache DIR`` uses a stage cache
+   that already holds the quick suite's maps (``ROMAN_SIM_CACHE=DIR roman-sim benchmark
+   quick`` fills one), so only the alignments and the tune itself are timed.
 2. The recommended setting on worlds the tune never saw: the quick suite's scene at seed
    ``CHECK_SEED`` in each level, run at exactly that setting (threshold and ``cos_min``);
    its pooled precision there against the target and against the held-out precision interval
    the tune stated (``held_out.precision_worlds``).
 
-Run: ``python benchmarks/bench_tune.py [FOLDER]`` (default: a temporary folder, removed after).
+Run: ``python benchmarks/bench_tune.py [FOLDER] [--cache DIR] [--workers N]`` (default: a
+temporary folder, removed after; one process).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import logging
 import os
 import resource
 import shutil
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -40,7 +44,7 @@ def _load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def _check(folder: Path, rec: dict[str, Any], target: float) -> dict[str, Any]:
+def _check(folder: Path, rec: dict[str, Any], target: float, executor: Any) -> dict[str, Any]:
     """The recommended setting, fixed, on the quick suite's worlds of ``CHECK_SEED``."""
     import numpy as np
 
@@ -48,7 +52,7 @@ def _check(folder: Path, rec: dict[str, Any], target: float) -> dict[str, Any]:
     from roman_sim.evaluation.transfer import counts, positives, world_bootstrap
 
     params = [f"threshold={rec['threshold']}"] + [f"{k}={v}" for k, v in rec["values"].items()]
-    job = TuneJob("quick", "roman", folder, params, target, seeds=[CHECK_SEED])
+    job = TuneJob("quick", "roman", folder, params, target, seeds=[CHECK_SEED], executor=executor)
     per_world, facts = job.collect()
     c = config_outcomes(job.grid.configs[0], per_world, facts)
     pos = positives(c.pairs, int(rec["threshold"]))
@@ -70,17 +74,24 @@ def _check(folder: Path, rec: dict[str, Any], target: float) -> dict[str, Any]:
 def main() -> None:
     logging.basicConfig(level=logging.WARNING)
     from roman_sim.benchmark.tune import TuneJob
+    from roman_sim.runner.executors import ExecutorConfig
 
-    keep = len(sys.argv) > 1
-    root = Path(sys.argv[1]) if keep else Path(tempfile.mkdtemp(prefix="bench_tune_"))
-    os.environ["ROMAN_SIM_CACHE"] = str(root / "cache")  # fresh: nothing mapped before
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("folder", nargs="?", type=Path, default=None)
+    ap.add_argument("--cache", type=Path, default=None, help="a stage cache holding the quick suite's maps")
+    ap.add_argument("--workers", type=int, default=1)
+    args = ap.parse_args()
+    keep = args.folder is not None
+    root = args.folder if keep else Path(tempfile.mkdtemp(prefix="bench_tune_"))
+    os.environ["ROMAN_SIM_CACHE"] = str(args.cache or root / "cache")  # default fresh: nothing mapped before
+    ex = ExecutorConfig(kind="local", workers=args.workers) if args.workers > 1 else None
     load0, cpu0, t0 = _load(), _cpu(), time.perf_counter()
-    job = TuneJob("quick", "roman", root / "tune", [], 0.9)
+    job = TuneJob("quick", "roman", root / "tune", [], 0.9, executor=ex)
     result = job.run()
     wall, cpu = time.perf_counter() - t0, _cpu() - cpu0
     load1 = _load()
     rec = result["recommended"]
-    check = _check(root / "check", rec, 0.9) if rec is not None else None
+    check = _check(root / "check", rec, 0.9, ex) if rec is not None else None
     h = result["held_out"]
     ci = h["precision_worlds"]
     p = None if check is None else check["precision"]
@@ -90,6 +101,8 @@ def main() -> None:
         "grid": {k: [min(v), max(v), len(v)] for k, v in result["parameters"].items()},
         "alignments": len(job.grid.alignments()),
         "worlds": [w["id"] for w in result["worlds"]],
+        "maps": "reused from a stage cache (only the alignments and the tune timed)" if args.cache else "fresh",
+        "workers": args.workers,
         "wall_s": round(wall, 1),
         "cpu_s": round(cpu, 1),
         "cpu_over_2_cores_s": round(cpu / 2, 1),

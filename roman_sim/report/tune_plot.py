@@ -62,6 +62,15 @@ def plot_front(result: dict[str, Any], path: str | Path) -> Path:
     target = result.get("target_precision")
     ax.set_title(f"tune {result.get('method')}: thresholds for precision {target} chosen on other worlds")
     ax.set_ylim(-0.02, 1.02)
+    ax.text(
+        0.99,
+        0.98,
+        "colour: time per pair, blue fast to red slow",
+        transform=ax.transAxes,
+        ha="right",
+        va="top",
+        fontsize=7,
+    )
     if data["recommended"] is not None or len(front) > 1:
         ax.legend(loc="lower right", fontsize=8)
     return save_png(fig, path, data)

@@ -108,6 +108,16 @@ def test_resume_reuses_and_a_new_alignment_does_not_remap(home: Path):
     code, output = _tune(home, "cos_min=0.85")
     assert code == 0, output
     assert {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")} == before  # nothing re-run
+    # interrupted after a world's run folder finished but before its outcomes were kept: read back, not re-run
+    lost = sorted(before)[0]
+    kept = lost.read_bytes()
+    lost.unlink()
+    code, output = _tune(home, "cos_min=0.85")
+    assert code == 0, output
+    assert lost.read_bytes() == kept
+    stages = json.loads((lost.parent / "run" / "timings.json").read_text())["stages"]
+    assert all(s["reused"] for s in stages.values() if "reused" in s), stages
+    before[lost] = lost.stat().st_mtime_ns
     # gating only changes the evaluation: still nothing aligned again
     code, output = _tune(home, "cos_min=0.85", "gating.top_k=1,10000")
     assert code == 0, output

@@ -110,3 +110,20 @@ def test_set_file_applies_scenario_sections(tmp_path: Path):
     (tmp_path / "list.yaml").write_text("- 1\n")
     with pytest.raises(ConfigError, match="expected a mapping of scenario sections"):
         apply_overrides(data, [f"@{tmp_path / 'list.yaml'}"])
+
+
+def test_worlds_of_a_scenario_a_sweep_and_a_suite():
+    from roman_sim.benchmark.tune import load_worlds, tuned_scenario
+
+    ws = load_worlds("smoke", "roman", [3, 5], [])
+    assert [w.id for w in ws] == ["s3", "s5"] and [w.scenario.seed for w in ws] == [3, 5]  # type: ignore[union-attr]
+    sweep = Path(__file__).resolve().parents[2] / "scenarios" / "sweeps" / "ambiguity_sweep.yaml"
+    ws = load_worlds(str(sweep), "roman", None, [])
+    assert len(ws) == 5 and len({w.id for w in ws}) == 5
+    knobs = sorted(w.scenario.world.overrides["ambiguity"] for w in ws)  # type: ignore[union-attr]
+    assert knobs == [0.0, 0.5, 0.75, 0.9, 1.0]
+    ws = load_worlds("quick", "roman", [0, 4], [])
+    assert [w.id for w in ws] == ["low-s0", "low-s4", "medium-s0", "medium-s4", "high-s0", "high-s4"]
+    sc = tuned_scenario(load_worlds("smoke", "roman", [0, 1], [])[0].scenario, "roman", {"cos_min": 0.8}, "x")  # type: ignore[arg-type]
+    assert [(e.method, e.params) for e in sc.aligners] == [("roman", {"cos_min": 0.8})]
+    assert sc.posegraph_method is None and not sc.gating.enabled
