@@ -71,6 +71,16 @@ def _check(folder: Path, rec: dict[str, Any], target: float, executor: Any) -> d
     }
 
 
+def _maps_reused(folder: Path) -> dict[str, bool]:
+    """Per world of a tune folder, whether none of its alignments mapped (all took the maps from a cache)."""
+    out: dict[str, bool] = {}
+    for t in sorted(folder.glob("work/*/*/run/timings.json")):
+        world = t.parents[2].name
+        reused = bool(json.loads(t.read_text(encoding="utf-8"))["stages"].get("maps", {}).get("reused"))
+        out[world] = out.get(world, True) and reused
+    return out
+
+
 def main() -> None:
     logging.basicConfig(level=logging.WARNING)
     from roman_sim.benchmark.tune import TuneJob
@@ -101,7 +111,7 @@ def main() -> None:
         "grid": {k: [min(v), max(v), len(v)] for k, v in result["parameters"].items()},
         "alignments": len(job.grid.alignments()),
         "worlds": [w["id"] for w in result["worlds"]],
-        "maps": "reused from a stage cache (only the alignments and the tune timed)" if args.cache else "fresh",
+        "maps_reused": _maps_reused(root / "tune"),
         "workers": args.workers,
         "wall_s": round(wall, 1),
         "cpu_s": round(cpu, 1),
