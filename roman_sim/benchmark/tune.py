@@ -326,8 +326,10 @@ class TuneJob:
         facts: dict[str, dict[str, Any]],
     ) -> dict[str, Any]:
         """Score the outcomes (see ``evaluation.tuning``) and write the folder's results."""
+        from roman_sim.benchmark.tune_space import declared
         from roman_sim.report.tune_plot import plot_front
 
+        spec = declared(self.method)
         configs = {c.id: config_outcomes(c, per_world, facts) for c in self.grid.configs}
         km = {w: float(f["km"]) for w, f in facts.items()}
         ks = self.grid.thresholds
@@ -341,7 +343,7 @@ class TuneJob:
             "method": self.method,
             "overrides": self.overrides,
             "target_precision": self.target,
-            "parameters": {n: v for n, v in self.values.items()},
+            "parameters": {n: [int(x) if spec[n].integer else x for x in v] for n, v in self.values.items()},
             "worlds": [{"id": w, "km": round(km[w], 6)} for w in sorted(km)],
             "configs": [
                 {
