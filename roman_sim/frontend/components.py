@@ -22,6 +22,7 @@ from pydantic import Field, ValidationInfo, field_validator, model_validator
 from roman_sim.core.config import StrictModel, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.registry import Registry, import_object
+from roman_sim.frontend.appearance import SceneLooks
 from roman_sim.frontend.semantics import SemanticConfig
 from roman_sim.mapping.protocols import Segmenter, SemanticEncoder
 
@@ -49,6 +50,7 @@ class BuildContext:
     robot: str
     families: Mapping[int, str] | None
     semantics: SemanticConfig
+    looks: SceneLooks | None = None
 
 
 @dataclass(frozen=True)
@@ -265,6 +267,7 @@ def build_encoder(
     seed: int = 0,
     robot: str = "",
     families: Mapping[int, str] | None = None,
+    looks: SceneLooks | None = None,
 ) -> SemanticEncoder:
     """The configured semantic encoder of ``robot``.
 
@@ -274,11 +277,14 @@ def build_encoder(
         seed: scenario seed (the simulated encoder's prototypes are shared by all robots).
         robot: robot name (keys the simulated encoder's observation noise).
         families: object id -> family, for truth-driven encoders only.
+        looks: how the world draws its objects and the robot's light (the simulated encoder's
+            appearance, view and light terms; ``roman_sim.pipeline.looks.robot_looks``).
     """
     semantics = cfg.built_semantics() if isinstance(cfg, FrontEndConfig) else SemanticConfig()
     entry = _entry(cfg, EncoderEntry, "frontend.encoder")
     spec = encoder_spec(entry)
-    ctx = BuildContext(seed, robot, families if spec.reads_truth else None, semantics)
+    truth = spec.reads_truth
+    ctx = BuildContext(seed, robot, families if truth else None, semantics, looks if truth else None)
     return cast(SemanticEncoder, _build(spec, entry, ctx, "frontend.encoder"))
 
 
@@ -339,7 +345,7 @@ def _sam_segmenter(params: SamConfig, ctx: BuildContext) -> Segmenter:
 def _simulated_encoder(params: StrictModel, ctx: BuildContext) -> SemanticEncoder:
     from roman_sim.frontend.semantics import SimulatedEncoder
 
-    return SimulatedEncoder(ctx.semantics, seed=ctx.seed, families=ctx.families, robot=ctx.robot)
+    return SimulatedEncoder(ctx.semantics, seed=ctx.seed, families=ctx.families, robot=ctx.robot, looks=ctx.looks)
 
 
 def _image_encoder(params: ImageEncoderConfig, ctx: BuildContext) -> SemanticEncoder:

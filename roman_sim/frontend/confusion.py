@@ -29,6 +29,12 @@ by its part's share (k >= 3, so each part's cosines are spread over [-1, 1] rath
 bunched at its ends): what a part does not need in its subspace stays in full-dimensional,
 nearly orthogonal directions that only move the means.
 
+The simulated encoder splits the instance and view shares per instance
+(``roman_sim.frontend.semantics``): ``same_family`` describes two instances that share no
+appearance value (kernel 0), and the same instance's fall is that of a shape at least
+``view_reference`` asymmetric; instances drawn alike sit above ``same_family.mean`` by their
+appearance kernel times their appearance energy, and more symmetric shapes fall less.
+
 Defaults (CLIP ViT-L/14 on object crops, as ROMAN uses it): CLIP gives 0.8-0.9 for two
 different photos of one class and about 0.5 for unrelated photos; near-duplicates sit at
 0.95-0.99; ROMAN's semantic gate (0.85 / 1.0) passes most views of one object from one side

@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from roman_sim.frontend.appearance import SceneLooks
 from roman_sim.frontend.confusion import realisable
 from roman_sim.frontend.segmenter import SegmenterConfig
 from roman_sim.frontend.semantics import SemanticConfig
@@ -61,8 +62,57 @@ def _pooled_std(stds: list[float | None], pairs: list[int]) -> float | None:
     return float(np.sqrt(num / den)) if den else None
 
 
-def fit_semantics(desc: Any, prior: SemanticConfig | None = None) -> SemanticConfig:
-    """``SemanticConfig`` whose confusion matches measured ``DescriptorGrades`` (or its JSON dict)."""
+def world_shares(
+    cfg: SemanticConfig, looks: SceneLooks, same_view: float, family_mean: float, pairs: int = 4000
+) -> tuple[float, float, float]:
+    """(view share, appearance lift, the lift's variance over pairs) of the world ``looks`` describes,
+    for the model's reference figures.
+
+    The configured fall from the same to the opposite side is that of a shape at least
+    ``view_reference`` asymmetric, and ``same_family.mean`` that of two instances sharing no
+    appearance value; in a world the same instance falls by the mean share
+    ``min(1, asymmetry / view_reference)`` of its instances (the view share), and two instances
+    of one family sit above ``same_family.mean`` by the mean of ``sqrt(E_a E_b) k(a, b)`` over
+    the family's pairs (the lift; ``E`` the appearance energy ``same_view - family_mean`` less
+    the instance's view share, ``k`` the appearance kernel; up to ``pairs`` pairs, seeded).
+    """
+    inst = list(looks.instances.values())
+    if not inst:
+        return 1.0, 0.0, 0.0
+    share = {
+        i: (min(1.0, looks.asymmetry[i.shape] / cfg.view_reference) if i.shape in looks.asymmetry else 1.0)
+        for i in set(inst)
+    }
+    view_share = float(np.mean([share[i] for i in inst])) if cfg.view_dependence else 0.0
+    by_family: dict[str, list[int]] = {}
+    for k, i in enumerate(inst):
+        by_family.setdefault(i.family, []).append(k)
+    cand = [(a, b) for ks in by_family.values() for n, a in enumerate(ks) for b in ks[n + 1 :]]
+    if not cand:
+        return max(view_share, 1e-6), 0.0, 0.0
+    rng = np.random.default_rng(0)
+    pick = rng.choice(len(cand), size=min(pairs, len(cand)), replace=False)
+    kern = np.array([cfg.appearance.kernel(inst[cand[j][0]], inst[cand[j][1]]) for j in pick])
+    sa = np.array([share[inst[cand[j][0]]] for j in pick])
+    sb = np.array([share[inst[cand[j][1]]] for j in pick])
+    budget = max(same_view - family_mean, 0.0)  # instance, view and light energies together
+    view = 0.5 * (cfg.confusion.same_instance.mean_same_view - cfg.confusion.same_instance.mean_opposite_view)
+    if not cfg.view_dependence:
+        sa, sb = sa * 0, sb * 0
+    ea, eb = np.maximum(budget - view * sa, 0.0), np.maximum(budget - view * sb, 0.0)
+    lift = np.sqrt(ea * eb) * kern
+    return max(view_share, 1e-6), float(np.mean(lift)), float(np.var(lift))
+
+
+def fit_semantics(desc: Any, prior: SemanticConfig | None = None, looks: SceneLooks | None = None) -> SemanticConfig:
+    """``SemanticConfig`` whose confusion matches measured ``DescriptorGrades`` (or its JSON dict).
+
+    With ``looks`` (how the measured world draws its objects) the measured same-instance fall
+    and same-family mean are world figures, and they are taken back to the model's reference
+    figures (``world_shares``): the fall divided by the world's view share, the family mean
+    less its appearance lift and the family's variance less the lift's (solved with the
+    fitted figures, a few fixed-point rounds).
+    """
     prior = prior or SemanticConfig()
     d = desc if isinstance(desc, dict) else desc.to_json()
     pc = prior.confusion
@@ -83,6 +133,15 @@ def fit_semantics(desc: Any, prior: SemanticConfig | None = None) -> SemanticCon
         c = d["classes"].get(key) or {}
         has = bool(c.get("pairs")) and c.get("mean") is not None
         rel[name] = (float(c["mean"]), float(c.get("std") or 0.0)) if has else (prior_rel.mean, prior_rel.std)
+    if looks is not None:
+        share = world_shares(prior, looks, a, rel["same_family"][0])[0]
+        b = b / share if prior.view_dependence else b
+        (measured_family, measured_std), family, spread = rel["same_family"], rel["same_family"][0], 0.0
+        for _ in range(8):
+            trial = realisable(a, a - 2.0 * b, pc.same_instance.std, {**rel, "same_family": (family, 0.0)})[0]
+            _, lift, spread = world_shares(prior.model_copy(update={"confusion": trial}), looks, a, family)
+            family = measured_family - lift
+        rel["same_family"] = (family, float(np.sqrt(max(measured_std**2 - spread, 0.0))))
     conf, notes = realisable(a, a - 2.0 * b, pc.same_instance.std if s_i is None else s_i, rel)
     if notes:
         log.warning(

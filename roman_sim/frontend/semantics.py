@@ -1,24 +1,42 @@
 """Open-set semantics: a simulated CLIP-like encoder (the ``SemanticEncoder`` of ``mapping.protocols``).
 
-The simulated embedding of one observation of object ``o`` (family ``f``, group ``g``) seen
-along the horizontal viewing angle ``phi`` is the unit-normalised sum of unit vectors
+The simulated embedding of one observation of object ``o`` (family ``f``, group ``g``, drawn
+by the renderer with appearance values ``x_o``: ``roman_sim.frontend.appearance``) seen along
+the horizontal viewing angle ``phi`` is the unit-normalised sum
 
-    sqrt(c) C + [g] G_g + [f] F_f + [u] U_o + sqrt(v) (cos(phi) A_o + sin(phi) B_o) + [n] N,
+    sqrt(c) C + [g] G_g + [f] F_f + [E_o] a(x_o) + sqrt(v_s) (cos(psi) A_s + sin(psi) B_s)
+      + sqrt(l) (cos(beta) P_s + sin(beta) Q_s) + [n] N,
 
-with a common vector ``C``, a group, a family and an instance part, a view part that turns
-with the viewing angle and observation noise ``N`` (drawn anew for every observation). Each
-bracketed part ``[p] P = sqrt(high) P_high + sqrt(low) P_low`` has a full-dimensional
-vector (independent draws are nearly orthogonal) and a unit vector in a small subspace
-shared by the whole world, which spreads the cosines of two independent draws. The energy
-shares come from ``ConfusionConfig.layout`` (``roman_sim.frontend.confusion``), so that the
-cosine of two observations has the configured mean and spread for each relation: same
-instance (against view difference), same family, same group and other. Groups are
-``SemanticConfig.groups`` (a family in no group forms its own). Every vector but the noise
-is a function of the world seed and the object, shared by all robots.
+with a common vector ``C``, a group and a family part, an appearance part, a view part, a
+light part and observation noise ``N`` (drawn anew for every observation). Nothing is drawn
+per object: the appearance part is the feature vector of the object's appearance VALUES
+(shape variant, scale, part colours, texture regions), so two instances the renderer draws
+alike get the same vector, and the view and light vectors ``A_s, B_s, P_s, Q_s`` are keyed by
+the family and shape variant ``s``. ``psi`` is the viewing azimuth in the object's own frame
+(``phi`` less its heading); ``beta`` the angle between the view and the sun's azimuth (0:
+against the sun, pi: the sun behind the camera).
 
-``SemanticConfig.view_dependence: false`` holds the view part at one angle (the descriptor
-does not change with the viewing direction); ``lighting: false`` leaves out any term for the
-sun's direction relative to the view. Only this encoder honours the two switches
+Energies: ``c``, the group, family and noise shares come from ``ConfusionConfig.layout``
+(``roman_sim.frontend.confusion``); of the same instance's view energy ``V`` (half its fall
+from the same to the opposite side), the light takes ``l = lighting_fall / 2 * strength``
+(the sun's share of the light times the cosine of its elevation: ``SceneLight.strength``)
+and the view ``v_s = (V - l) min(1, d_s / view_reference)``, with ``d_s`` the shape's
+front-back asymmetry (``roman_sim.frontend.view_asymmetry``); the appearance part takes the
+rest, ``E_o = U + V - l - v_s`` (``U``: the layout's instance share). Two observations of one
+instance from one side therefore keep ``mean_same_view``; from opposite sides a shape at
+least ``view_reference`` asymmetric falls by ``2 (V - l)``, a conifer (``d = 0``) not at all;
+two instances of one family sit at ``same_family.mean`` plus ``E`` times their appearance
+kernel (``AppearanceModel.kernel``): ``same_family.mean`` is the figure of two instances
+sharing no appearance value. Each bracketed part ``[p] P = sqrt(high) P_high + sqrt(low)
+P_low`` has a full-dimensional vector (independent draws are nearly orthogonal) and a unit
+vector in a small subspace shared by the whole world, which spreads the cosines of two
+independent draws (the appearance part's subspace share is the projection of its feature
+vector). Groups are ``SemanticConfig.groups`` (a family in no group forms its own). Every
+vector but the noise is a function of the world seed and the values, shared by all robots.
+
+``SemanticConfig.view_dependence: false`` sets ``v_s`` to 0 (the descriptor does not change
+with the viewing direction but through the light); ``lighting: false`` sets ``l`` to 0; their
+energy goes to the appearance part. Only this encoder honours the two switches
 (``FrontEndConfig`` refuses them with any other).
 """
 
@@ -29,11 +47,12 @@ from collections.abc import Mapping
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, MappingError
 from roman_sim.core.seeding import child_rng
+from roman_sim.frontend.appearance import AppearanceFeatures, AppearanceModel, InstanceLooks, SceneLooks, unknown_looks
 from roman_sim.frontend.confusion import ConfusionConfig, Part
 from roman_sim.mapping.protocols import EncodeContext
 
@@ -62,6 +81,24 @@ class SemanticConfig(StrictModel):
         True, description="an instance's descriptor turns with the viewing direction (false: it does not)"
     )
     lighting: bool = Field(True, description="a term for the sun's direction relative to the view (false: none)")
+    appearance: AppearanceModel = Field(default_factory=AppearanceModel)
+    view_reference: float = Field(
+        0.2, gt=0, le=1, description="front-back asymmetry of a shape that takes the whole configured view fall"
+    )
+    lighting_fall: float = Field(
+        0.04, ge=0, le=1, description="same-face cosine drop from front-lit to back-lit, sun alone at the horizon"
+    )
+
+    @model_validator(mode="after")
+    def _light_within_fall(self) -> SemanticConfig:
+        si = self.confusion.same_instance
+        fall = si.mean_same_view - si.mean_opposite_view
+        if self.lighting_fall > fall + 1e-12:
+            raise ValueError(
+                f"lighting_fall ({self.lighting_fall:g}) must not exceed the same instance's fall "
+                f"confusion.same_instance.mean_same_view - mean_opposite_view ({fall:g}): allowed 0 to {fall:g}"
+            )
+        return self
 
     def switched_off(self) -> list[str]:
         """Names of the simulated mechanisms this configuration switches off (``view_dependence``, ``lighting``)."""
@@ -87,10 +124,13 @@ class SimulatedEncoder:
     """CLIP-like embeddings from truth with configurable confusion (see the module docstring).
 
     Args:
-        cfg: descriptor dimension, confusion and groups.
+        cfg: descriptor dimension, confusion, groups, appearance weights, view and light.
         seed: world-level seed: robots sharing it share every vector but the noise.
         families: object id -> family name (from ``WorldTruth``).
         robot: name keying this robot's independent observation-noise stream.
+        looks: how the world draws each object, the shapes' asymmetries and the robot's
+            light; an object it does not list is drawn as ``unknown_looks`` (every such
+            instance of a family alike) and a shape it does not list takes the whole view fall.
     """
 
     needs_rgb = False
@@ -102,16 +142,19 @@ class SimulatedEncoder:
         seed: int = 0,
         families: Mapping[int, str] | None = None,
         robot: str = "",
+        looks: SceneLooks | None = None,
     ) -> None:
         self.cfg = cfg or SemanticConfig()
         self.seed = seed
         self.families = dict(families or {})
+        self.looks = looks or SceneLooks({}, {}, None)
         self.layout = self.cfg.confusion.layout()
         self._groups = self.cfg.group_map()
         self._rng = child_rng(seed, "semantics", "noise", robot)
+        self._features = AppearanceFeatures(self.cfg.appearance, seed, self.cfg.dim)
         self._bases: dict[str, NDArray[np.float64]] = {}
         self._static: dict[tuple[int, str], NDArray[np.float64]] = {}
-        self._views: dict[int, NDArray[np.float64]] = {}
+        self._turning: dict[tuple[str, str, str], NDArray[np.float64]] = {}
         self._common = self._unit("common")
 
     def _unit(self, *key: str | int) -> NDArray[np.float64]:
@@ -132,7 +175,7 @@ class SimulatedEncoder:
         return v / np.sqrt(v @ v)
 
     def _part(self, part: Part, level: str, key: str | int) -> NDArray[np.float64]:
-        """One part's vector for ``key`` (a group, family or object): full-dimensional plus subspace share."""
+        """One part's vector for ``key`` (a group or family): full-dimensional plus subspace share."""
         rng = child_rng(self.seed, "semantics", level, key)
         v = np.sqrt(part.high) * self._off_common(rng.standard_normal(self.cfg.dim))
         if part.low > 0:
@@ -144,18 +187,56 @@ class SimulatedEncoder:
         """Group of ``family`` (``SemanticConfig.group_of``)."""
         return self._groups.get(family, f"_{family}")
 
+    def looks_of(self, oid: int, family: str) -> InstanceLooks:
+        """How object ``oid`` is drawn (``unknown_looks`` when the world's looks do not list it)."""
+        out = self.looks.instances.get(oid)
+        return out if out is not None and out.family == family else unknown_looks(family)
+
+    def energies(self, looks: InstanceLooks) -> tuple[float, float, float]:
+        """(appearance, view, light) energy shares of an instance drawn as ``looks``.
+
+        The view part takes ``min(1, asymmetry / view_reference)`` of the configured view
+        energy (half the same instance's fall), the light ``lighting_fall / 2`` times the
+        light's strength (out of the view energy); what they leave goes to the appearance part.
+        """
+        lay, cfg = self.layout, self.cfg
+        light = 0.0
+        if cfg.lighting and self.looks.light is not None:
+            light = 0.5 * cfg.lighting_fall * min(max(self.looks.light.strength, 0.0), 1.0)
+        view = 0.0
+        if cfg.view_dependence:
+            asym = self.looks.asymmetry.get(looks.shape)
+            view = (lay.view - light) * (1.0 if asym is None else min(1.0, asym / cfg.view_reference))
+        return lay.instance.weight + lay.view - light - view, view, light
+
     def static(self, oid: int, family: str) -> NDArray[np.float64]:
         """The view- and noise-free part of object ``oid``'s embedding (terrain: ``oid`` -1)."""
         key = (oid, family)
         if key not in self._static:
             lay = self.layout
+            looks = self.looks_of(oid, family)
+            energy = self.energies(looks)[0]
+            f = self._features.vector(looks)
+            inst = lay.instance
+            app = np.sqrt(max(energy - inst.low, 0.0)) * self._off_common(f)
+            if inst.low > 0:
+                z = self._basis("instance", inst.dims) @ f
+                app = app + np.sqrt(inst.low / (z @ z)) * (z @ self._basis("instance", inst.dims))
             self._static[key] = (
                 np.sqrt(lay.common) * self._common
                 + self._part(lay.group, "group", self.group_of(family))
                 + self._part(lay.family, "family", family)
-                + self._part(lay.instance, "instance", oid + 1)  # terrain (-1) -> key 0
+                + app
             )
         return self._static[key]
+
+    def _pair(self, kind: str, looks: InstanceLooks) -> NDArray[np.float64]:
+        """(2, dim) unit vectors of a turning term (``view`` or ``light``), keyed by the family and shape."""
+        key = (kind, looks.family, looks.shape)
+        if key not in self._turning:
+            ab = child_rng(self.seed, "semantics", *key).standard_normal((2, self.cfg.dim))
+            self._turning[key] = np.stack([self._off_common(ab[0]), self._off_common(ab[1])])
+        return self._turning[key]
 
     def family_of(self, context: EncodeContext) -> str:
         """Family of the observed object (``terrain`` for background)."""
@@ -176,17 +257,23 @@ class SimulatedEncoder:
             )
         oid = int(context.object_id if context.object_id is not None else -1)
         phi = 0.0
-        if context.view_dir is not None and self.cfg.view_dependence:
+        if context.view_dir is not None:
             d = np.asarray(context.view_dir, dtype=np.float64).reshape(3)
             if not np.all(np.isfinite(d)):
                 raise ConfigError("semantics: view_dir must be finite")
             phi = float(np.arctan2(d[1], d[0]))
-        lay = self.layout
-        if oid not in self._views:
-            ab = child_rng(self.seed, "semantics", "view", oid + 1).standard_normal((2, self.cfg.dim))
-            self._views[oid] = np.sqrt(lay.view) * np.stack([self._off_common(ab[0]), self._off_common(ab[1])])
-        a, b = self._views[oid]
-        v = self.static(oid, self.family_of(context)) + np.cos(phi) * a + np.sin(phi) * b + self._noise()
+        family = self.family_of(context)
+        looks = self.looks_of(oid, family)
+        _, view, light = self.energies(looks)
+        v = self.static(oid, family) + self._noise()
+        if view > 0:
+            psi = phi - looks.yaw  # the viewing azimuth in the object's own frame
+            a, b = self._pair("view", looks)
+            v = v + np.sqrt(view) * (np.cos(psi) * a + np.sin(psi) * b)
+        if light > 0 and self.looks.light is not None:
+            beta = abs(_wrap(phi - self.looks.light.sun_azimuth))  # 0: against the sun, pi: sun behind the camera
+            p, q = self._pair("light", looks)
+            v = v + np.sqrt(light) * (np.cos(beta) * p + np.sin(beta) * q)
         return (v / np.sqrt(v @ v)).astype(np.float32)
 
     def _noise(self) -> NDArray[np.float64]:
@@ -199,3 +286,8 @@ class SimulatedEncoder:
             z = self._rng.standard_normal(n.dims)
             out += np.sqrt(n.low / (z @ z)) * (z @ self._basis("noise", n.dims))
         return out
+
+
+def _wrap(a: float) -> float:
+    """``a`` wrapped into [-pi, pi)."""
+    return float((a + np.pi) % (2 * np.pi) - np.pi)

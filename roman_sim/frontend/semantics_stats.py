@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.frontend.appearance import SceneLooks, reference_looks
 from roman_sim.frontend.semantics import SemanticConfig, SimulatedEncoder
 
 #: Case name -> (relation, view difference deg).
@@ -35,7 +36,11 @@ def sample_cosines(cfg: SemanticConfig, case: str, n: int = 200, seed: int = 0) 
     """(n,) cosines of ``n`` independent pairs of observations related as ``case`` (a ``CASES`` key)."""
     relation, dview = CASES[case]
     groups = {f"g{k}": [f"a{k}", f"b{k}"] for k in range(n)} if relation == "same_group" else {}
-    enc = SimulatedEncoder(cfg.model_copy(update={"groups": groups}), seed)
+    second = "a" if relation in ("same_instance", "same_family") else "b"
+    fams = {i: f"{'a' if i % 2 == 0 else second}{i // 2}" for i in range(2 * n)}
+    # every instance drawn with its own appearance values: the configured relations' kernel-0 pairs
+    looks = SceneLooks({i: reference_looks(f, i) for i, f in fams.items()}, {})
+    enc = SimulatedEncoder(cfg.model_copy(update={"groups": groups}), seed, looks=looks)
     rng = np.random.default_rng(seed)
     out = np.empty(n)
     mask = np.ones((1, 1), dtype=bool)

@@ -27,6 +27,7 @@ from roman_sim.core.jsontypes import JSONLike, JSONScalar
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.grader import FrontEndGrader
 from roman_sim.evaluation.grades import DescriptorGrades, GradeConfig, SegmentationGrades
+from roman_sim.frontend.appearance import SceneLooks
 from roman_sim.frontend.components import FrontEndConfig, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
 from roman_sim.frontend.fit import fit_segmenter, fit_semantics
 from roman_sim.frontend.segmenter import SegmenterConfig, SimulatedSegmenter
@@ -43,11 +44,13 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class CalibrationFrames:
-    """Rendered frames of a scenario's robots and the world's object families."""
+    """Rendered frames of a scenario's robots, the world's object families and how the world draws
+    them (under its own light: ``roman_sim.pipeline.looks``)."""
 
     frames: list[Frame]
     families: dict[int, str]
     seed: int
+    looks: SceneLooks | None = None
 
 
 def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> CalibrationFrames:
@@ -68,7 +71,10 @@ def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> Cali
         keep = np.unique(np.linspace(0, n - 1, min(per_robot, n)).round().astype(int))
         # numbered within the sample: the simulated segmenter's draws are per frame index
         frames += [replace(f, index=k) for k, f in enumerate(src.frames(keep.tolist()))]
-    return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed)
+    from roman_sim.pipeline.looks import robot_looks
+
+    looks = robot_looks(world, "", None, scenario.seed)
+    return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed, looks)
 
 
 def grade_segmenter(
@@ -159,16 +165,19 @@ def calibrate(
     out = Calibration(meta=meta)
     seed = data.seed
     if encoder:
+        truth = encoder_spec(frontend.encoder).reads_truth
         target = target_encoder or build_encoder(
-            frontend, seed, "calibration", data.families if encoder_spec(frontend.encoder).reads_truth else None
+            frontend, seed, "calibration", data.families if truth else None, data.looks
         )
         out.measured_descriptors = grade_encoder(data, target, frontend.semantics)
         meta.update(encoder=frontend.encoder.name)
         if out.measured_descriptors is not None:
             meta.update(dim=out.measured_descriptors.dim)
             prior = prior_semantics or SemanticConfig(groups=frontend.semantics.groups)
-            out.semantics = fit_semantics(out.measured_descriptors, prior)
-            fitted = build_encoder(FrontEndConfig(semantics=out.semantics), seed + 1, "calibration-fit", data.families)
+            out.semantics = fit_semantics(out.measured_descriptors, prior, data.looks)
+            fitted = build_encoder(
+                FrontEndConfig(semantics=out.semantics), seed + 1, "calibration-fit", data.families, data.looks
+            )
             out.fitted_descriptors = grade_encoder(data, fitted, out.semantics)
     if segmenter:
         target_seg = target_segmenter or build_segmenter(frontend, seed, "calibration")

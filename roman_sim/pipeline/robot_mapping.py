@@ -24,6 +24,7 @@ from roman_sim.core.jsontypes import JSON
 from roman_sim.core.sensors import Frame, FrameSource
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.grades import GradeConfig
+from roman_sim.frontend.appearance import SceneLooks
 from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
 from roman_sim.mapping.mapper import Mapper, SegmentMap
@@ -55,12 +56,15 @@ def build_segmenter_for(ctx: RunContext, robot: str) -> Segmenter:
     return build_segmenter(ctx.scenario.frontend, seed=ctx.scenario.seed, robot=robot)
 
 
-def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | None) -> SemanticEncoder:
+def build_encoder_for(
+    ctx: RunContext, robot: str, families: dict[int, str] | None, looks: SceneLooks | None = None
+) -> SemanticEncoder:
     """The scenario's semantic encoder for ``robot``; only a truth-driven one gets ``families``.
 
     ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
     simulated encoder. Its prototypes are shared by all robots (same seed); its observation
-    noise is per robot.
+    noise is per robot. ``looks`` (``roman_sim.pipeline.looks.robot_looks``) tells it how the
+    world draws each object and the robot's light.
     """
     fe = ctx.scenario.frontend
     if encoder_spec(fe.encoder).reads_truth and families is None:
@@ -68,7 +72,7 @@ def build_encoder_for(ctx: RunContext, robot: str, families: dict[int, str] | No
             f"robot {robot}: the {fe.encoder.name} encoder needs the objects' families (no world, "
             "no object table); use an image encoder (image, clip, dinov2 or package.module:Class)"
         )
-    return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families)
+    return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families, looks=looks)
 
 
 def _recording_key(ctx: RunContext, name: str) -> str:
@@ -143,19 +147,20 @@ def map_source(
     families: dict[int, str] | None,
     grader: _Grader | None = None,
     world: World | None = None,
+    looks: SceneLooks | None = None,
 ) -> MapAndKeyframes:
     """One loop of ``source``'s frames into the sinks: the mapper (graded by ``grader``) and, when the
     visual method runs, the keyframe extractor. ``world`` serves the ``mapping.whole_surface``
-    counterfactual (``roman_sim.pipeline.whole_surface``)."""
+    counterfactual (``roman_sim.pipeline.whole_surface``); ``looks`` is the simulated encoder's view
+    of the world (``roman_sim.pipeline.looks``)."""
     sc = ctx.scenario
     name = source.name
     stage = f"maps:{name}"
     ctx.progress.start(stage, len(source))
     # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
     fe = sc.frontend
-    segmenter, encoder = guard_frontend(
-        build_segmenter_for(ctx, name), fe.segmenter.name, build_encoder_for(ctx, name, families), fe.encoder.name
-    )
+    encoder = build_encoder_for(ctx, name, families, looks)
+    segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name, encoder, fe.encoder.name)
     if grader is not None:
         grader.use(families)
     reshape = None
@@ -211,8 +216,14 @@ def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> RobotMa
     """One robot, simulated in ``world`` or read from its sequence (``cfg.source``), graded on its own."""
     sc = ctx.scenario
     grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
+    looks = None
+    if encoder_spec(sc.frontend.encoder).reads_truth:
+        from roman_sim.pipeline.looks import robot_looks
+
+        looks = robot_looks(world, cfg.name, cfg.lighting, sc.seed)
     source = robot_source(ctx, world, cfg)
-    smap, kf = map_source(ctx, source, robot_families(world, cfg), grader, None if cfg.source is not None else world)
+    own_world = None if cfg.source is not None else world
+    smap, kf = map_source(ctx, source, robot_families(world, cfg), grader, own_world, looks)
     snap = frame_snapshot(ctx, world, cfg, smap) if cfg.name == sc.robots[0].name else None
     return smap, kf, grader.part(), snap
 

@@ -106,12 +106,16 @@ def n_variants(fam: FamilySpec, size_variation: float) -> int:
     return 1 + round(size_variation * (fam.variants - 1))
 
 
+def variant_parts(seed: int, family: str, variant: int) -> list[Part]:
+    """The scale-1 parts of shape variant ``variant`` of ``family`` (seeded per family and variant)."""
+    return FAMILIES.get(family)(child_rng(seed, "world", "asset", family, variant))
+
+
 def family_assets(seed: int, fam: FamilySpec, size_variation: float) -> list[Asset]:
     """Every asset of ``fam`` (variants x scale levels), seeded per family."""
     assets = []
     for v in range(n_variants(fam, size_variation)):
-        rng = child_rng(seed, "world", "asset", fam.name, v)
-        base = FAMILIES.get(fam.name)(rng)
+        base = variant_parts(seed, fam.name, v)
         shape = _shape(base)
         for b, s in enumerate(scale_levels(fam, size_variation)):
             assets.append(_scaled(f"{fam.name}_v{v}_s{b}", fam.name, base, shape, float(s)))

@@ -142,7 +142,8 @@ def texture_image(kind: str, rng: np.random.Generator, n: int, tile_px: int | No
 _TURNS = np.array([[[1, 0], [0, 1]], [[0, -1], [1, 0]], [[-1, 0], [0, -1]], [[0, 1], [-1, 0]]], dtype=np.float64)
 _MIRROR = np.array([[-1.0, 0.0], [0.0, 1.0]])
 _SYMMETRIES = np.concatenate([_TURNS, _TURNS @ _MIRROR])
-_GRAIN_KEEPING = _SYMMETRIES[[0, 2, 4, 6]]
+_GRAIN_INDEX = (0, 2, 4, 6)
+_GRAIN_KEEPING = _SYMMETRIES[list(_GRAIN_INDEX)]
 
 
 def instance_uv(uv: NDArray[np.float32], kind: str, atlas_tiles: int, rng: np.random.Generator) -> NDArray[np.float32]:
@@ -152,10 +153,19 @@ def instance_uv(uv: NDArray[np.float32], kind: str, atlas_tiles: int, rng: np.ra
     sees it through a symmetry of the tile grid and from an offset uniform over the atlas, both
     drawn from ``rng``. Returns texture coordinates in atlas units (1 = the whole atlas).
     """
-    table = _SYMMETRIES if SURFACES.get(kind).isotropic else _GRAIN_KEEPING
-    M = table[rng.integers(0, len(table))]
-    offset = rng.uniform(0.0, atlas_tiles, 2)
+    sym, offset = instance_region(kind, atlas_tiles, rng)
+    M = _SYMMETRIES[sym]
     return ((np.asarray(uv, np.float64) @ M.T + offset) / atlas_tiles).astype(np.float32)
+
+
+def instance_region(kind: str, atlas_tiles: int, rng: np.random.Generator) -> tuple[int, NDArray[np.float64]]:
+    """An instance's region of a kind's atlas, drawn from ``rng``: the index of its tile-grid
+    symmetry (into all 8; a grained kind draws among the 4 that keep the grain) and its offset (2,)
+    in tiles, uniform over the atlas."""
+    isotropic = SURFACES.get(kind).isotropic
+    pick = int(rng.integers(0, len(_SYMMETRIES) if isotropic else len(_GRAIN_KEEPING)))
+    offset = rng.uniform(0.0, atlas_tiles, 2)
+    return (pick if isotropic else _GRAIN_INDEX[pick]), offset
 
 
 # box projection: for a face whose normal is mostly along axis a, (u, v) read these axes,

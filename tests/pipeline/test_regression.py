@@ -25,6 +25,9 @@ from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall
 # 160 x 120 frames, where it was 3 px) and the simulated encoder's classes began to overlap: more small
 # objects keep pixels after erosion, so 108 segments (was 88) and 340 available associations (was 274);
 # ROMAN 13, 3, 10 hits (was 11, 2, 9), CLIPPER 7, 1, 6 (was 7, 2, 5).
+# Re-pinned when the simulated encoder's descriptors began to come from each instance's appearance
+# (no per-object draw) and its view part from each shape's asymmetry: instances of one family drawn
+# alike look alike, so ROMAN selects 215 cross-robot associations (was 211), 120 of them correct (was 119).
 PINNED_MAP = {"segments": (108, 6), "submaps": (18, 1)}
 PINNED_HITS = {  # method -> (pair set, heading bin or None) -> (max hits, relevant pairs)
     "roman": {
@@ -40,7 +43,7 @@ PINNED_HITS = {  # method -> (pair set, heading bin or None) -> (max hits, relev
         ("intra", None): (0, 2),
     },
 }
-PINNED_ASSOC = {"roman": (119, 211, 340), "clipper": (116, 361, 340)}  # cross-robot: correct, selected, available
+PINNED_ASSOC = {"roman": (120, 215, 340), "clipper": (116, 361, 340)}  # cross-robot: correct, selected, available
 PINNED_ATE = {
     "odometry": (0.535, 0.05),
     "odometry_no_prior": (0.307, 0.05),
