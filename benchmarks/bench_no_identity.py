@@ -27,8 +27,8 @@ from roman_sim.core.atomic import write_json
 from roman_sim.evaluation.grader import FrontEndGrader
 from roman_sim.evaluation.grades import GradeConfig
 from roman_sim.frontend.components import build_encoder, build_segmenter
+from roman_sim.interop.looks import robot_looks
 from roman_sim.mapping.mapper import Mapper
-from roman_sim.pipeline.looks import robot_looks
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.sim.source import robot_sources
 from roman_sim.world import generate

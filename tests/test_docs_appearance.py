@@ -8,7 +8,7 @@ import pytest
 
 from roman_sim.frontend.appearance import AppearanceModel
 from roman_sim.frontend.semantics import SemanticConfig
-from roman_sim.pipeline.looks import shape_asymmetry
+from roman_sim.interop.looks import shape_asymmetry
 from roman_sim.world.assets import FAMILIES
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -30,6 +30,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -278,3 +279,52 @@ def unknown_looks(family: str) -> InstanceLooks:
     """The looks of an object whose appearance nobody recorded (a sequence's object table): every
     such instance of a family is drawn alike, since nothing tells them apart."""
     return InstanceLooks(family, "unknown", 1.0, 0.0, ())
+
+
+def looks_to_json(looks: SceneLooks) -> dict[str, Any]:
+    """``looks`` as JSON-ready data (``looks_from_json`` reads it back exactly)."""
+    light = None if looks.light is None else [looks.light.sun_azimuth, looks.light.sun_elevation, looks.light.sun_share]
+    return {
+        "instances": {
+            str(oid): {
+                "family": i.family,
+                "shape": i.shape,
+                "scale": i.scale,
+                "yaw": i.yaw,
+                "atlas_tiles": i.atlas_tiles,
+                "parts": [
+                    [p.name, list(p.lab), p.area, None if p.texture is None else list(p.texture)] for p in i.parts
+                ],
+            }
+            for oid, i in sorted(looks.instances.items())
+        },
+        "asymmetry": dict(sorted(looks.asymmetry.items())),
+        "light": light,
+    }
+
+
+def looks_from_json(data: Mapping[str, Any]) -> SceneLooks:
+    """The ``SceneLooks`` of ``looks_to_json``'s data."""
+
+    def part(p: list[Any]) -> PartLooks:
+        tex = None if p[3] is None else (int(p[3][0]), float(p[3][1]), float(p[3][2]))
+        lab = (float(p[1][0]), float(p[1][1]), float(p[1][2]))
+        return PartLooks(str(p[0]), lab, float(p[2]), tex)
+
+    instances = {
+        int(k): InstanceLooks(
+            str(v["family"]),
+            str(v["shape"]),
+            float(v["scale"]),
+            float(v["yaw"]),
+            tuple(part(p) for p in v["parts"]),
+            int(v["atlas_tiles"]),
+        )
+        for k, v in data["instances"].items()
+    }
+    light = data.get("light")
+    return SceneLooks(
+        instances,
+        {str(k): float(v) for k, v in data["asymmetry"].items()},
+        None if light is None else SceneLight(float(light[0]), float(light[1]), float(light[2])),
+    )

@@ -278,7 +278,7 @@ def build_encoder(
         robot: robot name (keys the simulated encoder's observation noise).
         families: object id -> family, for truth-driven encoders only.
         looks: how the world draws its objects and the robot's light (the simulated encoder's
-            appearance, view and light terms; ``roman_sim.pipeline.looks.robot_looks``).
+            appearance, view and light terms; ``roman_sim.interop.looks.robot_looks``).
     """
     semantics = cfg.built_semantics() if isinstance(cfg, FrontEndConfig) else SemanticConfig()
     entry = _entry(cfg, EncoderEntry, "frontend.encoder")

@@ -32,6 +32,7 @@ from roman_sim.interop import roman_export as _roman  # noqa: F401  (registers "
 from roman_sim.interop import rosbag_writer as _rosbag  # noqa: F401  (registers "rosbag2")
 from roman_sim.interop import tum_writer as _tum  # noqa: F401  (registers "tum")
 from roman_sim.interop.base import FORMATS
+from roman_sim.interop.looks import table_looks
 from roman_sim.interop.objects import write_object_table
 from roman_sim.interop.source import scenario_streams, select_robots
 
@@ -151,7 +152,8 @@ def export_scenario(
     _prepare(out, [r.name for r in select_robots(scenario.robots, robots)], overwrite)
     world, streams = scenario_streams(scenario, robots)
     write_text(out / "config.yaml", dump_yaml(scenario))
-    write_object_table(out, world.truth, extra={"scenario": scenario.name, "seed": int(scenario.seed)})
+    looks = table_looks(world, [(r.name, r.lighting) for r in scenario.robots], int(scenario.seed))
+    write_object_table(out, world.truth, extra={"scenario": scenario.name, "seed": int(scenario.seed), **looks})
     result = ExportResult(out, fmt)
     for stream in streams:
         _export_robot(stream, fmt, out, options, progress, result)

@@ -45,7 +45,7 @@ log = logging.getLogger(__name__)
 @dataclass
 class CalibrationFrames:
     """Rendered frames of a scenario's robots, the world's object families and how the world draws
-    them (under its own light: ``roman_sim.pipeline.looks``)."""
+    them (under its own light: ``roman_sim.interop.looks``)."""
 
     frames: list[Frame]
     families: dict[int, str]
@@ -71,7 +71,7 @@ def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> Cali
         keep = np.unique(np.linspace(0, n - 1, min(per_robot, n)).round().astype(int))
         # numbered within the sample: the simulated segmenter's draws are per frame index
         frames += [replace(f, index=k) for k, f in enumerate(src.frames(keep.tolist()))]
-    from roman_sim.pipeline.looks import robot_looks
+    from roman_sim.interop.looks import robot_looks
 
     looks = robot_looks(world, "", None, scenario.seed)
     return CalibrationFrames(frames, {o.id: o.family for o in world.truth.objects}, scenario.seed, looks)

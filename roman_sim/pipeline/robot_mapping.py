@@ -63,7 +63,7 @@ def build_encoder_for(
 
     ``families`` (object id -> family: the world's, or a sequence's object table) feeds the
     simulated encoder. Its prototypes are shared by all robots (same seed); its observation
-    noise is per robot. ``looks`` (``roman_sim.pipeline.looks.robot_looks``) tells it how the
+    noise is per robot. ``looks`` (``roman_sim.interop.looks.robot_looks``) tells it how the
     world draws each object and the robot's light.
     """
     fe = ctx.scenario.frontend
@@ -141,6 +141,18 @@ def robot_families(world: World | None, cfg: ScenarioRobot) -> dict[int, str] | 
     return {o.id: o.family for o in world.truth.objects}
 
 
+def robot_looks_for(world: World | None, cfg: ScenarioRobot, seed: int) -> SceneLooks | None:
+    """What the robot's simulated encoder knows of how its objects are drawn: the world's looks, or
+    those its sequence's object table carries (None without either)."""
+    from roman_sim.interop.looks import robot_looks, sequence_looks
+    from roman_sim.pipeline.sources import object_table_path
+
+    if cfg.source is not None:
+        table = object_table_path(cfg.source)
+        return None if table is None else sequence_looks(table, cfg.name)
+    return robot_looks(world, cfg.name, cfg.lighting, seed)
+
+
 def map_source(
     ctx: RunContext,
     source: FrameSource,
@@ -152,7 +164,7 @@ def map_source(
     """One loop of ``source``'s frames into the sinks: the mapper (graded by ``grader``) and, when the
     visual method runs, the keyframe extractor. ``world`` serves the ``mapping.whole_surface``
     counterfactual (``roman_sim.pipeline.whole_surface``); ``looks`` is the simulated encoder's view
-    of the world (``roman_sim.pipeline.looks``)."""
+    of the world (``roman_sim.interop.looks``)."""
     sc = ctx.scenario
     name = source.name
     stage = f"maps:{name}"
@@ -216,11 +228,7 @@ def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> RobotMa
     """One robot, simulated in ``world`` or read from its sequence (``cfg.source``), graded on its own."""
     sc = ctx.scenario
     grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
-    looks = None
-    if encoder_spec(sc.frontend.encoder).reads_truth:
-        from roman_sim.pipeline.looks import robot_looks
-
-        looks = robot_looks(world, cfg.name, cfg.lighting, sc.seed)
+    looks = robot_looks_for(world, cfg, sc.seed) if encoder_spec(sc.frontend.encoder).reads_truth else None
     source = robot_source(ctx, world, cfg)
     own_world = None if cfg.source is not None else world
     smap, kf = map_source(ctx, source, robot_families(world, cfg), grader, own_world, looks)

@@ -22,8 +22,8 @@ from roman_sim.frontend.appearance import (
 )
 from roman_sim.frontend.components import FrontEndConfig
 from roman_sim.frontend.semantics import SemanticConfig, SimulatedEncoder
+from roman_sim.interop.looks import shape_asymmetry, world_instances
 from roman_sim.mapping.protocols import EncodeContext
-from roman_sim.pipeline.looks import shape_asymmetry, world_instances
 from roman_sim.world import WorldSpec, generate, load_world_spec
 
 M = np.ones((2, 2), bool)
