@@ -11,7 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.base import AlignResult
-from roman_sim.core.jsontypes import JSONLike, JSONObject
+from roman_sim.core.jsontypes import JSONObject
 from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json, write_record
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.mapping.types import Submap
@@ -132,29 +132,26 @@ class AlignmentRecord:
     T_a_b: NDArray[np.float64] | None
     associations: NDArray[np.int64] = field(default_factory=lambda: np.zeros((0, 2), np.int64), compare=False)
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return {
-            "a": self.a,
-            "b": self.b,
-            "method": self.method,
-            "n_associations": self.n_associations,
-            "T_a_b": None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist(),
-            "associations": np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist(),
-        }
+    def row(self) -> AlignmentRow:
+        """The record as ``alignments.json`` stores it (the estimate rounded to 1e-9, lists)."""
+        return AlignmentRow(
+            self.a,
+            self.b,
+            self.method,
+            self.n_associations,
+            None if self.T_a_b is None else np.round(self.T_a_b, 9).tolist(),
+            np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist(),
+        )
 
     @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "AlignmentRecord":
-        """Inverse of ``to_json``."""
-        T = d["T_a_b"]
-        return cls(
-            str(d["a"]),
-            str(d["b"]),
-            str(d["method"]),
-            int(d["n_associations"]),
-            None if T is None else np.asarray(T, dtype=np.float64).reshape(4, 4),
-            np.asarray(d.get("associations", []), dtype=np.int64).reshape(-1, 2),
-        )
+    def from_row(cls, r: AlignmentRow) -> AlignmentRecord:
+        """Inverse of ``row``."""
+        T = None if r.T_a_b is None else np.asarray(r.T_a_b, dtype=np.float64).reshape(4, 4)
+        return cls(r.a, r.b, r.method, r.n_associations, T, np.asarray(r.associations, dtype=np.int64).reshape(-1, 2))
+
+    def to_json(self) -> JSONObject:
+        """JSON-ready dict."""
+        return cast(JSONObject, to_json(self.row()))
 
     def result(self) -> AlignResult:
         """An ``AlignResult`` holding this record's estimate and associations (for drawing)."""
@@ -166,6 +163,41 @@ class AlignmentRecord:
             float("nan"),
             None if self.T_a_b is not None else "no estimate",
         )
+
+
+@dataclass
+class AlignmentRow:
+    """One ``AlignmentRecord`` as JSON lists: the 4x4 estimate (or None) and the (k, 2) associations."""
+
+    a: str
+    b: str
+    method: str
+    n_associations: int
+    T_a_b: list[list[float]] | None
+    associations: list[list[int]]
+
+
+@dataclass
+class AlignmentsFile:
+    """What ``alignments.json`` holds: the evaluation's notes and every method's estimate for every pair."""
+
+    notes: list[str]
+    alignments: list[AlignmentRow]
+
+
+#: Schema tag of ``alignments.json``.
+ALIGNMENTS_SCHEMA = "roman_sim.alignments/2"
+
+
+def write_alignments(path: str | Path, records: Sequence[AlignmentRecord], notes: list[str]) -> Path:
+    """Atomically write ``alignments.json``."""
+    return write_record(path, AlignmentsFile(list(notes), [r.row() for r in records]), ALIGNMENTS_SCHEMA)
+
+
+def read_alignments(path: str | Path) -> tuple[list[AlignmentRecord], list[str]]:
+    """``alignments.json``: the records and the notes (RecordError naming the file and the field)."""
+    rec = read_record(path, AlignmentsFile, ALIGNMENTS_SCHEMA)
+    return [AlignmentRecord.from_row(r) for r in rec.alignments], rec.notes
 
 
 @dataclass

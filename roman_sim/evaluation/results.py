@@ -16,7 +16,6 @@ from __future__ import annotations
 import csv
 import gzip
 import io
-import json
 import logging
 import math
 from pathlib import Path
@@ -27,6 +26,7 @@ import numpy as np
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.geometry import pose_4dof, yaw_of
+from roman_sim.core.records import read_json
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import EvaluationMetrics
@@ -216,13 +216,7 @@ def read_metrics_json(path: str | Path) -> EvaluationMetrics:
         StorageError: missing, not JSON, wrong schema, or malformed.
     """
     path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as err:
-        raise StorageError(f"{path}: cannot read metrics ({err.__class__.__name__})") from None
-    except json.JSONDecodeError as err:
-        raise StorageError(f"{path}: corrupt metrics JSON (line {err.lineno}: {err.msg})") from None
-    return EvaluationMetrics.from_json(data, source=str(path))
+    return EvaluationMetrics.from_json(read_json(path), source=str(path))
 
 
 def write_evaluation(out_dir: str | Path, scores: list[PairScore], metrics: EvaluationMetrics) -> dict[str, Path]:

@@ -9,9 +9,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from roman_sim.pipeline.scenario import Scenario
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.stagecache import StageCache
 
 
 class Progress(Protocol):
@@ -49,6 +52,10 @@ class RunContext:
         submaps_dir: start from the user's saved submaps (``<robot>.npz``) instead of
             simulating and mapping.
         chunk_pairs: submap pairs per alignment task.
+        keys: every stage's cache key in this run (empty outside a run).
+        cache: the shared stage cache (None when off): a stage that keeps parts of its
+            output apart (``Stage.parts``) takes the parts it can from there.
+        environment: the library versions the run computes with (the cache entries' names).
     """
 
     scenario: Scenario
@@ -57,3 +64,6 @@ class RunContext:
     fresh: bool = False
     submaps_dir: Path | None = None
     chunk_pairs: int = 32
+    keys: dict[str, str] = field(default_factory=dict)
+    cache: StageCache | None = None
+    environment: dict[str, str] = field(default_factory=dict)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Sized
+from dataclasses import replace
 from pathlib import Path
 from typing import cast
 
@@ -177,15 +178,16 @@ class Experiment:
     def _reusable(self, stage: Stage, key: str, old: Manifest | None) -> bool:
         return old is not None and self._may_reuse(stage) and old.valid(stage.name, key, self.run_dir)
 
-    def _shared(self, active: list[Stage], keys: dict[str, str], reuse: set[str], manifest: Manifest) -> set[str]:
+    def _shared(
+        self, ctx: RunContext, active: list[Stage], keys: dict[str, str], reuse: set[str], manifest: Manifest
+    ) -> set[str]:
         """Take the stages this folder lacks from the shared cache; store those it holds there; the names taken."""
         if self.cache is None:
             return set()
         taken: set[str] = set()
         for stage in active:
             if stage.name in reuse:
-                rec = manifest.stages[stage.name]
-                self.cache.publish(stage.name, rec.key, manifest.environment, self.run_dir, rec.files)
+                self._publish(stage, ctx, manifest.stages[stage.name])
             elif self._may_reuse(stage):
                 files = self.cache.fetch(stage.name, keys[stage.name], manifest.environment, self.run_dir)
                 if files is not None:
@@ -194,6 +196,15 @@ class Experiment:
         if taken:
             manifest.save(self.run_dir)
         return taken
+
+    def _publish(self, stage: Stage, ctx: RunContext, rec: StageRecord) -> None:
+        """Store a completed stage in the shared cache, and the parts it keeps apart (``Stage.parts``)."""
+        if self.cache is None:
+            return
+        self.cache.publish(stage.name, rec.key, ctx.environment, self.run_dir, rec.files)
+        for part in stage.parts(ctx):
+            if all(f in rec.files for f in part.files):
+                self.cache.publish(part.name, part.key, ctx.environment, self.run_dir, part.files)
 
     def _start_manifest(
         self, old: Manifest | None, keys: dict[str, str], reuse: set[str], active: list[Stage]
@@ -255,7 +266,8 @@ class Experiment:
         old = existing_manifest(self.run_dir)
         reuse = {s.name for s in active if self._reusable(s, keys[s.name], old)}
         manifest = self._start_manifest(old, keys, reuse, active)
-        reuse |= self._shared(active, keys, reuse, manifest)
+        ctx = replace(ctx, keys=keys, cache=self.cache, environment=manifest.environment)
+        reuse |= self._shared(ctx, active, keys, reuse, manifest)
         needed = {i for s in active if s.name not in reuse for i in s.inputs} | set(RESULT_STAGES)
         timings = self._old_timings(reuse)
         if any(s.uses_workers for s in active if s.name not in reuse):
@@ -297,8 +309,7 @@ class Experiment:
             files = stage.save(out, ctx)
             manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
             manifest.save(self.run_dir)
-            if self.cache is not None:
-                self.cache.publish(stage.name, keys[stage.name], manifest.environment, self.run_dir, files)
+            self._publish(stage, ctx, manifest.stages[stage.name])
             clear_checkpoints(self.run_dir, stage.name)
             # Later stages get exactly what a cached re-run would load (saving may round), so a run
             # gives the same bytes whether its earlier stages were computed or reused.

@@ -46,6 +46,7 @@ from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
+from roman_sim.core.records import read_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
@@ -393,8 +394,4 @@ def run_closures(run_dir: str | Path, method: str) -> list[Closure]:
 
 def read_external(run_dir: str | Path) -> dict[str, object]:
     """``external.json`` of a scored folder."""
-    path = Path(run_dir) / EXTERNAL_JSON
-    try:
-        return dict(json.loads(path.read_text(encoding="utf-8")))
-    except (OSError, ValueError, TypeError) as err:
-        raise StorageError(f"{path}: unreadable ({type(err).__name__})") from None
+    return read_record(Path(run_dir) / EXTERNAL_JSON, dict[str, Any])

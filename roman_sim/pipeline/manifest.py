@@ -12,7 +12,6 @@ complete when every stage of its scenario is recorded. Wall-clock figures live e
 
 from __future__ import annotations
 
-import json
 import logging
 import platform
 import sys
@@ -20,9 +19,9 @@ from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
 
-from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json_record, write_record
 
 log = logging.getLogger(__name__)
 
@@ -113,42 +112,58 @@ class Manifest:
         rec = self.stages.get(stage)
         return bool(rec and rec.key == key and all((run_dir / f).is_file() for f in rec.files))
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return {
-            "schema": MANIFEST_SCHEMA,
-            "scenario": self.scenario,
-            "seed": self.seed,
-            "config_hash": self.config_hash,
-            "package_version": self.package_version,
-            "environment": self.environment,
-            "expected": self.expected,
-            "complete": self.complete,
-            "stages": {k: {"key": v.key, "files": v.files} for k, v in self.stages.items()},
-        }
+    def record(self) -> ManifestRecord:
+        """The manifest as its ``manifest.json`` record (with ``complete`` spelled out)."""
+        return ManifestRecord(
+            self.scenario,
+            self.seed,
+            self.config_hash,
+            self.package_version,
+            self.expected,
+            self.complete,
+            self.stages,
+            self.environment,
+        )
+
+    @classmethod
+    def from_record(cls, rec: ManifestRecord) -> "Manifest":
+        """Inverse of ``record`` (manifests written before ``environment`` existed read with none)."""
+        return cls(
+            rec.scenario,
+            rec.seed,
+            rec.config_hash,
+            rec.package_version,
+            rec.stages,
+            rec.expected,
+            dict(rec.environment or {}),
+        )
+
+    def to_json(self) -> JSON:
+        """JSON-ready dict (with its schema tag)."""
+        return to_json_record(self.record(), MANIFEST_SCHEMA)
 
     @classmethod
     def from_json(cls, d: object, source: str) -> "Manifest":
-        """Inverse of ``to_json``; StorageError names ``source`` when invalid."""
-        if not isinstance(d, dict) or d.get("schema") != MANIFEST_SCHEMA:
-            raise StorageError(f"{source}: not a run manifest of schema {MANIFEST_SCHEMA}")
-        try:
-            stages = {str(k): StageRecord(str(v["key"]), [str(f) for f in v["files"]]) for k, v in d["stages"].items()}
-            return cls(
-                str(d["scenario"]),
-                int(d["seed"]),
-                str(d["config_hash"]),
-                str(d["package_version"]),
-                stages,
-                [str(s) for s in d["expected"]],
-                {str(k): str(v) for k, v in d.get("environment", {}).items()},
-            )
-        except (KeyError, TypeError, ValueError, AttributeError) as err:
-            raise StorageError(f"{source}: malformed run manifest ({type(err).__name__}: {err})") from None
+        """Inverse of ``to_json``; RecordError names ``source`` and the field when invalid."""
+        return cls.from_record(from_json(ManifestRecord, d, source, MANIFEST_SCHEMA))
 
     def save(self, run_dir: Path) -> None:
         """Write ``manifest.json`` atomically."""
-        write_json(run_dir / MANIFEST_JSON, self.to_json())
+        write_record(run_dir / MANIFEST_JSON, self.record(), MANIFEST_SCHEMA)
+
+
+@dataclass
+class ManifestRecord:
+    """What ``manifest.json`` holds: the ``Manifest`` and whether the run is complete."""
+
+    scenario: str
+    seed: int
+    config_hash: str
+    package_version: str
+    expected: list[str]
+    complete: bool
+    stages: dict[str, StageRecord]
+    environment: dict[str, str] | None = field(default=None, metadata=OMIT_NONE)
 
 
 def read_manifest(run_dir: Path) -> Manifest:
@@ -160,11 +175,7 @@ def read_manifest(run_dir: Path) -> Manifest:
     path = run_dir / MANIFEST_JSON
     if not path.is_file():
         raise StorageError(f"{run_dir}: no {MANIFEST_JSON}: not a run folder (or a run that never started)")
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise StorageError(f"{path}: unreadable run manifest ({type(err).__name__})") from None
-    return Manifest.from_json(data, str(path))
+    return Manifest.from_record(read_record(path, ManifestRecord, MANIFEST_SCHEMA))
 
 
 def existing_manifest(run_dir: Path) -> Manifest | None:

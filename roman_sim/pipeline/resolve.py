@@ -119,16 +119,20 @@ def resolve_scenario(sc: Scenario) -> Scenario:
     return validate_model(Scenario, data, source="resolved scenario")
 
 
+def aligner_modules(method: str) -> list[str]:
+    """The module whose code the aligner ``method`` runs (a plug-in: its own module); none when unknown."""
+    if _is_plugin(method):
+        return [method.split(":", 1)[0]]
+    from roman_sim.align import ALIGNERS
+
+    module = str(getattr(ALIGNERS.get(method), "__module__", ""))
+    return [module] if module else []
+
+
 def component_modules(sc: Scenario, kind: ComponentKind) -> list[str]:
     """The modules whose code the configured components of ``kind`` run (a plug-in: its own module)."""
     if kind == "aligners":
-        from roman_sim.align import ALIGNERS
-
-        names = [a.method for a in sc.aligners]
-        return sorted(
-            {n.split(":", 1)[0] if _is_plugin(n) else str(getattr(ALIGNERS.get(n), "__module__", "")) for n in names}
-            - {""}
-        )
+        return sorted({m for a in sc.aligners for m in aligner_modules(a.method)})
     from roman_sim.frontend.components import encoder_spec, segmenter_spec
 
     entry = sc.frontend.segmenter if kind == "segmenter" else sc.frontend.encoder

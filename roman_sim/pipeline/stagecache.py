@@ -31,7 +31,6 @@ own files.
 from __future__ import annotations
 
 import errno
-import json
 import logging
 import os
 import shutil
@@ -39,9 +38,9 @@ import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
-from roman_sim.core.atomic import write_json
 from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import RomanSimError
+from roman_sim.core.records import RecordError, read_record, write_record
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +78,16 @@ def _link(src: Path, dst: Path) -> None:
             tmp.unlink()
 
 
+@dataclass
+class CacheEntry:
+    """What an entry's ``entry.json`` holds: the stage, its key, the library versions, each file's size."""
+
+    stage: str
+    key: str
+    environment: dict[str, str]
+    files: dict[str, int]
+
+
 @dataclass(frozen=True)
 class StageCache:
     """The shared stage cache in ``root`` (see the module docstring)."""
@@ -98,16 +107,20 @@ class StageCache:
     def _read(self, entry: Path, stage: str, key: str) -> dict[str, int] | None:
         """The entry's files and sizes when it is valid, else None."""
         try:
-            data = json.loads((entry / ENTRY_JSON).read_text(encoding="utf-8"))
-            if data.get("schema") != ENTRY_SCHEMA or data.get("stage") != stage or data.get("key") != key:
+            rec = read_record(entry / ENTRY_JSON, CacheEntry, ENTRY_SCHEMA)
+            if rec.stage != stage or rec.key != key:
                 return None
-            files = {str(f): int(n) for f, n in data["files"].items()}
-            for f, n in files.items():
+            for f, n in rec.files.items():
                 if (entry / "files" / f).stat().st_size != n:
                     return None
-        except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        except (OSError, RecordError):
             return None
-        return files
+        return rec.files
+
+    def lookup(self, stage: str, key: str, environment: dict[str, str]) -> Path | None:
+        """The folder holding a valid entry's files (at their paths in a run folder), or None when there is none."""
+        entry = self.entry_dir(stage, key, environment)
+        return None if self._read(entry, stage, key) is None else entry / "files"
 
     def fetch(self, stage: str, key: str, environment: dict[str, str], run_dir: Path) -> list[str] | None:
         """Put the files of a valid entry into ``run_dir``; their relative paths, or None when there is none."""
@@ -134,8 +147,7 @@ class StageCache:
             for f in files:
                 _link(run_dir / f, tmp / "files" / f)
             sizes = {f: (tmp / "files" / f).stat().st_size for f in files}
-            meta = {"schema": ENTRY_SCHEMA, "stage": stage, "key": key, "environment": environment, "files": sizes}
-            write_json(tmp / ENTRY_JSON, meta)
+            write_record(tmp / ENTRY_JSON, CacheEntry(stage, key, dict(environment), sizes), ENTRY_SCHEMA)
             if entry.exists():  # an invalid entry (a file lost): replace it
                 shutil.rmtree(entry, ignore_errors=True)
             os.rename(tmp, entry)

@@ -7,32 +7,34 @@ written at the same time, one thread each: compressing them (zlib) runs outside 
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TypeVar
 
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
+from roman_sim.core.records import read_record, write_record
 from roman_sim.pipeline.context import RunContext
 
 T = TypeVar("T")
 
 
+@dataclass
+class NotesRecord:
+    """A stage's notes file: the statements it makes for the report."""
+
+    notes: list[str]
+
+
 def write_notes(path: Path, notes: list[str]) -> None:
     """Write the notes atomically."""
-    write_json(path, {"notes": list(notes)})
+    write_record(path, NotesRecord(list(notes)))
 
 
 def read_notes(path: Path) -> list[str]:
-    """Read notes written by ``write_notes`` (StorageError when unreadable)."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-        return [str(n) for n in data["notes"]]
-    except (OSError, ValueError, KeyError, TypeError) as err:
-        raise StorageError(f"{path}: unreadable notes ({type(err).__name__})") from None
+    """Read notes written by ``write_notes`` (RecordError naming the file and the field when unreadable)."""
+    return read_record(path, NotesRecord).notes
 
 
 def save_per_robot(

@@ -8,6 +8,7 @@ naming the file and the field.
 
 from __future__ import annotations
 
+import gzip
 import json
 from collections.abc import Callable
 from pathlib import Path
@@ -17,8 +18,17 @@ import pytest
 from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.evaluation.atetable import read_ate, write_ate
 from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
-from roman_sim.evaluation.records import read_map_stats, read_timings, run_timings, write_map_stats, write_timings
+from roman_sim.evaluation.records import (
+    read_alignments,
+    read_map_stats,
+    read_timings,
+    run_timings,
+    write_alignments,
+    write_map_stats,
+    write_timings,
+)
 from roman_sim.evaluation.variants import GraphInfo
+from roman_sim.pipeline.manifest import MANIFEST_SCHEMA, ManifestRecord
 from roman_sim.pipeline.sweep_aggregate import SWEEP_SCHEMA, read_sweep_json
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,6 +39,17 @@ def _rewrite_sweep(src: Path, dest: Path) -> None:
     write_record(dest, read_sweep_json(src.parent), SWEEP_SCHEMA)
 
 
+def _rewrite_alignments(src: Path, dest: Path) -> None:
+    """The committed file is gzipped: compared (and damaged) as its JSON text."""
+    text = gzip.decompress(src.read_bytes()) if src.suffix == ".gz" else src.read_bytes()
+    plain = dest.parent / "alignments.in.json"
+    plain.write_bytes(text)
+    write_alignments(dest, *read_alignments(plain))
+    dest.write_bytes(
+        gzip.compress(dest.read_bytes(), compresslevel=9, mtime=0) if src.suffix == ".gz" else dest.read_bytes()
+    )
+
+
 #: File name -> re-write (read ``src`` with the checked reader, write the record to ``dest``).
 REWRITE: dict[str, Callable[[Path, Path], object]] = {
     "ate.json": lambda src, dest: write_ate(dest, *read_ate(src)),
@@ -37,9 +58,13 @@ REWRITE: dict[str, Callable[[Path, Path], object]] = {
     "posegraph.json": lambda src, dest: write_record(dest, read_record(src, dict[str, GraphInfo])),
     "sweep.json": _rewrite_sweep,
     "leaderboard.json": lambda src, dest: write_leaderboard_json(dest, read_leaderboard(src)),
+    "manifest.json": lambda src, dest: write_record(
+        dest, read_record(src, ManifestRecord, MANIFEST_SCHEMA), MANIFEST_SCHEMA
+    ),
+    "alignments.json.gz": _rewrite_alignments,
 }
 
-FILES = sorted(p for p in RESULTS.rglob("*.json") if p.name in REWRITE)
+FILES = sorted(p for p in RESULTS.rglob("*.json*") if p.name in REWRITE)
 
 
 def test_every_typed_kind_has_committed_files() -> None:

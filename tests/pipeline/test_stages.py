@@ -160,7 +160,7 @@ def test_edited_config_or_corrupt_manifest(smoke_run, tmp_path):
     with pytest.raises(StorageError, match="config.yaml does not match"):
         RunResult.load(run_dir)
     (run_dir / "manifest.json").write_text("{not json")
-    with pytest.raises(StorageError, match="unreadable run manifest"):
+    with pytest.raises(StorageError, match="manifest.json: not valid JSON"):
         RunResult.load(run_dir)
     manifest = json.loads((smoke_run.run_dir / "manifest.json").read_text())
     assert manifest["config_hash"] == smoke_run.scenario.config_hash()

@@ -31,6 +31,10 @@ A stage is a ``Stage[InputsT, OutputT]`` subclass:
   one, so an interrupted stage resumes; the stage never sees the checkpoint files. The
   task functions are the stage's worker job (top-level functions of an importable module);
   ``worker_preload`` names the modules they import.
+- ``parts(ctx)``: parts of the output the shared cache keeps under their own keys besides
+  the stage's entry (``CachePart``), so a run whose stage key changed still takes the
+  unchanged parts (the evaluation: each aligner's results). The experiment publishes them
+  with the stage; the stage takes them from ``ctx.cache`` while it runs.
 - ``save(out, ctx)``: writes the output atomically into the run folder and returns the
   files written (relative paths); ``load(ctx, files)`` reads exactly those files back.
   What later stages receive is always the loaded output, so a fresh and a cached stage
@@ -84,6 +88,21 @@ FINGERPRINTED_ONLY: tuple[str, ...] = (
 
 #: Wall-clock figures a stage reports (``timings.json``): name -> JSON value.
 Timings = dict[str, JSON]
+
+
+@dataclasses.dataclass(frozen=True)
+class CachePart:
+    """A part of a stage's output the shared cache keeps under its own key (``Stage.parts``).
+
+    Attributes:
+        name: the kind of part (the cache's folder for it, e.g. ``alignment``).
+        key: what the part depends on, hashed (a run with the same key may take it).
+        files: its files, relative to the run folder (among those the stage's ``save`` wrote).
+    """
+
+    name: str
+    key: str
+    files: list[str]
 
 
 class StageOutput(Protocol):
@@ -162,9 +181,17 @@ class Stage(ABC, Generic[InputsT, OutputT]):
 
     def code_fingerprint(self, ctx: RunContext) -> str:
         """Hash of the source of the code the stage runs (see the module docstring)."""
+        return self.fingerprint(self.code_roots(ctx))
+
+    def fingerprint(self, roots: list[str]) -> str:
+        """Hash of the source of ``roots`` and what they import, as the stage's fingerprint skips and follows."""
         others = {c.__module__ for c in _stage_classes() if c.__module__ != type(self).__module__}
         skip = (*NOT_FINGERPRINTED, *sorted(others - {__name__}))
-        return code_fingerprint(self.code_roots(ctx), skip, FINGERPRINTED_ONLY)
+        return code_fingerprint(roots, skip, FINGERPRINTED_ONLY)
+
+    def parts(self, ctx: RunContext) -> list[CachePart]:
+        """The parts of the output kept apart in the shared cache under their own keys (none by default)."""
+        return []
 
     def key(self, ctx: RunContext, input_keys: dict[str, str | None]) -> str:
         """Cache key: package version, stage name, file layout, its config sections, its inputs' keys, its code."""

@@ -18,48 +18,67 @@ The alignment itself, the stage's worker job, is ``roman_sim.pipeline.stages.eva
 method's estimate and selected associations per pair: the pose graph's closures and the
 report's example drawings) and ``metrics.json`` (with the front end's grades from the maps
 stage in its ``frontend`` section); the report stage draws the plots. Per-pair runtimes go
-to the run's timings (the output's ``timings``), not into these files.
+to the run's timings (the output's ``timings``), not into these files. Each aligner's raw
+results are also kept apart, ``aligned/<label>.json`` under a key of their own
+(``roman_sim.pipeline.stages.aligned``): a run that adds an aligner takes the others' results
+from the shared cache and aligns with the new one only.
 """
 
 from __future__ import annotations
 
-import json
 import logging
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from roman_sim.align.base import AlignResult, segment_associations
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import EvaluationError, StorageError
+from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import write_record
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, compute_metrics, score_pair
 from roman_sim.evaluation.pairs import AmbiguityFn, PairTruth, select_pairs, truths_for_pairs, world_ambiguity_fn
+from roman_sim.evaluation.records import read_alignments, write_alignments
 from roman_sim.evaluation.results import read_evaluation, write_evaluation
 from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.stages.base import Stage, Timings
+from roman_sim.pipeline.stages.aligned import (
+    ALIGNED_SCHEMA,
+    ALIGNMENT_PART,
+    AlignedRecord,
+    aligned_file,
+    aligned_record,
+    aligned_results,
+    aligner_keys,
+    cached_aligned,
+)
+from roman_sim.pipeline.stages.base import CachePart, Stage, Timings
 from roman_sim.pipeline.stages.evaluation_job import WORKER_PRELOAD, ResultKey, align_pairs
 from roman_sim.pipeline.stages.maps import Maps
 from roman_sim.pipeline.stages.submaps import Submaps
 from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.runner.taskrunner import TaskRunner
 
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import AlignerEntry
+
 log = logging.getLogger(__name__)
 
 ALIGNMENTS_JSON = "alignments.json"
-ALIGNMENTS_SCHEMA = "roman_sim.alignments/2"
 
 
 @dataclass
 class EvaluationOutput:
     """Scores of every (pair, method), each method's estimates, the metrics and the notes.
 
+    ``aligned`` holds each aligner's results, kept apart (``roman_sim.pipeline.stages.aligned``),
+    ``aligned_cached`` the aligners whose results were taken from the shared cache; both are
+    empty when loaded.
     ``timings`` holds the gating and alignment wall times (``pairs``) and each method's
     per-pair runtimes (``alignment``).
     """
@@ -69,6 +88,8 @@ class EvaluationOutput:
     metrics: EvaluationMetrics
     notes: list[str] = field(default_factory=list)
     timings: Timings = field(default_factory=dict, repr=False, compare=False)
+    aligned: list[AlignedRecord] = field(default_factory=list, repr=False, compare=False)
+    aligned_cached: list[str] = field(default_factory=list, repr=False, compare=False)
 
     def truths(self) -> dict[tuple[str, str], PairTruth]:
         """Truth of each scored pair, keyed by (a name, b name)."""
@@ -88,9 +109,10 @@ def apply_aligners(
     ctx: RunContext,
     pairs: list[tuple[Submap, Submap]],
     tasks: TaskRunner,
+    aligners: Sequence[AlignerEntry] | None = None,
     on_chunk: Callable[[dict[ResultKey, AlignResult]], None] | None = None,
 ) -> tuple[dict[ResultKey, AlignResult], Timings]:
-    """Every scenario aligner on every pair, ``(a name, b name, label) -> AlignResult``, and the wall times.
+    """Each aligner (default: the scenario's) on every pair, ``(a name, b name, label) -> AlignResult``; wall times.
 
     Gated (when ``gating.enabled``), then in chunks through ``tasks``; pairs that gating
     skipped get "no alignment" with the gating reason, so they count as misses.
@@ -98,13 +120,14 @@ def apply_aligners(
     """
     from roman_sim.align.gating import GATED_REASON, gate_pairs
 
+    aligners = list(ctx.scenario.aligners if aligners is None else aligners)
     t0 = time.perf_counter()
     keep, _ = gate_pairs(pairs, ctx.scenario.gating)
     kept = [p for p, k in zip(pairs, keep) if k]
     gating_s = time.perf_counter() - t0
     ctx.progress.start("evaluation:pairs", len(kept))
     t1 = time.perf_counter()
-    results = align_pairs(ctx, kept, tasks, on_chunk)
+    results = align_pairs(ctx, kept, tasks, aligners, on_chunk) if aligners else {}
     ctx.progress.end("evaluation:pairs")
     timings: Timings = {
         "candidates": len(pairs),
@@ -113,10 +136,11 @@ def apply_aligners(
         "alignment_wall_s": round(time.perf_counter() - t1, 3),
         "workers": tasks.workers,
         "executor": tasks.kind,
+        "aligners": [e.name for e in aligners],
     }
     for (a, b), k in zip(pairs, keep):
         if not k:
-            for e in ctx.scenario.aligners:
+            for e in aligners:
                 results[(a.name, b.name, e.name)] = AlignResult.failure(e.name, GATED_REASON)
     return results, timings
 
@@ -223,9 +247,18 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         world = inputs.world
         ambiguity = None if world is None else world_ambiguity_fn(world.world.truth, ctx.scenario.submaps.submap_radius)
         scorer = IncrementalScorer(sel.pairs, ambiguity, [e.name for e in ctx.scenario.aligners], ec)
+        names = [(a.name, b.name) for a, b in sel.pairs]
+        keys = aligner_keys(self, ctx)
+        cached = cached_aligned(ctx, keys, names)  # aligners whose results on these pairs are in the shared cache
+        results = {k: v for rec in cached for k, v in aligned_results(rec).items()}
+        scorer.add(results)
+        taken = {rec.aligner for rec in cached}
+        todo = [e for e in ctx.scenario.aligners if e.name not in taken]
         # pairs are scored as their chunks come back, while the workers align the others
-        results, pair_timings = apply_aligners(ctx, sel.pairs, tasks, scorer.add)
+        fresh, pair_timings = apply_aligners(ctx, sel.pairs, tasks, todo, scorer.add)
+        results.update(fresh)
         scores = scorer.scores(results)
+        aligned = cached + [aligned_record(e.name, keys[e.name], names, results) for e in todo if e.name in keys]
         n_segments = sum(len(s) for s in inputs.submaps.all())
         metrics = compute_metrics(scores, ec, sel.n_skipped, ctx.scenario.posegraph.lc_association_thresh, n_segments)
         log.info("evaluated %d pairs (%d skipped by the distance cap)", len(sel.pairs), sel.n_skipped)
@@ -233,25 +266,23 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         if maps is not None and maps.frontend is not None:
             metrics.frontend = maps.frontend.to_json()
         timings: Timings = {"pairs": pair_timings, "alignment": _runtimes(scores)}
-        return EvaluationOutput(scores, _records(results), metrics, [], timings)
+        return EvaluationOutput(scores, _records(results), metrics, [], timings, aligned, sorted(taken))
+
+    def parts(self, ctx: RunContext) -> list[CachePart]:
+        """Each aligner's results, under its own key (``roman_sim.pipeline.stages.aligned``)."""
+        return [CachePart(ALIGNMENT_PART, k, [aligned_file(label)]) for label, k in aligner_keys(self, ctx).items()]
 
     def save(self, out: EvaluationOutput, ctx: RunContext) -> list[str]:
+        for rec in out.aligned:  # those from the shared cache linked (no copy), the others written
+            cache = ctx.cache if rec.aligner in out.aligned_cached else None
+            if cache is None or cache.fetch(ALIGNMENT_PART, rec.key, ctx.environment, ctx.run_dir) is None:
+                write_record(ctx.run_dir / aligned_file(rec.aligner), rec, ALIGNED_SCHEMA, indent=None)
         paths = write_evaluation(ctx.run_dir, out.scores, out.metrics)
-        write_json(
-            ctx.run_dir / ALIGNMENTS_JSON,
-            {"schema": ALIGNMENTS_SCHEMA, "notes": out.notes, "alignments": [r.to_json() for r in out.alignments]},
-        )
-        return [*sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values()), ALIGNMENTS_JSON]
+        write_alignments(ctx.run_dir / ALIGNMENTS_JSON, out.alignments, out.notes)
+        kept = [aligned_file(rec.aligner) for rec in out.aligned]
+        return [*sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values()), ALIGNMENTS_JSON, *kept]
 
     def load(self, ctx: RunContext, files: list[str]) -> EvaluationOutput:
         scores, metrics = read_evaluation(ctx.run_dir)
-        path = ctx.run_dir / ALIGNMENTS_JSON
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-            if data.get("schema") != ALIGNMENTS_SCHEMA:
-                raise ValueError(f"schema {data.get('schema')!r}")
-            records = [AlignmentRecord.from_json(r) for r in data["alignments"]]
-            notes = [str(n) for n in data["notes"]]
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as err:
-            raise StorageError(f"{path}: unreadable ({type(err).__name__}: {err})") from None
+        records, notes = read_alignments(ctx.run_dir / ALIGNMENTS_JSON)
         return EvaluationOutput(scores, records, metrics, notes)

@@ -19,10 +19,10 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 from pathlib import Path
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 from roman_sim.align.base import Aligner, AlignResult, ResultJSON
 from roman_sim.core.errors import EvaluationError
@@ -31,6 +31,9 @@ from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.runner.checkpoint import Kept
 from roman_sim.runner.taskrunner import TaskRunner
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import AlignerEntry
 
 log = logging.getLogger(__name__)
 
@@ -84,15 +87,13 @@ def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list
     return out
 
 
-def aligners_json(ctx: RunContext) -> str:
-    """The scenario's aligners (label, method, params) as the JSON the alignment tasks take."""
-    return json.dumps(
-        [{"label": e.name, "method": e.method, "params": e.params} for e in ctx.scenario.aligners], sort_keys=True
-    )
+def aligners_json(aligners: Sequence[AlignerEntry]) -> str:
+    """The aligners (label, method, params) as the JSON the alignment tasks take."""
+    return json.dumps([{"label": e.name, "method": e.method, "params": e.params} for e in aligners], sort_keys=True)
 
 
-def _chunk_id(pairs: list[tuple[str, str]]) -> str:
-    return hashlib.sha256(json.dumps(pairs).encode()).hexdigest()[:16]
+def _chunk_id(pairs: list[tuple[str, str]], labels: list[str]) -> str:
+    return hashlib.sha256(json.dumps([pairs, labels]).encode()).hexdigest()[:16]
 
 
 class ChunkCodec:
@@ -113,9 +114,10 @@ def align_pairs(
     ctx: RunContext,
     pairs: list[tuple[Submap, Submap]],
     tasks: TaskRunner,
+    aligners: Sequence[AlignerEntry],
     on_chunk: Callable[[dict[ResultKey, AlignResult]], None] | None = None,
 ) -> dict[ResultKey, AlignResult]:
-    """Every scenario aligner on every pair: ``(a name, b name, label) -> AlignResult``.
+    """Every aligner of ``aligners`` on every pair: ``(a name, b name, label) -> AlignResult``.
 
     Progress advances by the pairs of each finished chunk (``evaluation:pairs``). ``on_chunk``
     gets each chunk's results as the chunk comes back (in the order chunks finish), so the
@@ -125,11 +127,12 @@ def align_pairs(
     names = [(a.name, b.name) for a, b in pairs]
     chunks = [names[i : i + size] for i in range(0, len(names), size)]
     public = {s.name: s.public() for ab in pairs for s in ab}
-    spec = aligners_json(ctx)
+    spec = aligners_json(aligners)
+    ids = [_chunk_id(c, [e.name for e in aligners]) for c in chunks]
     args = [(spec, {n: public[n] for ab in chunk for n in ab}, chunk) for chunk in chunks]
     labels = [f"aligning pairs {i * size}..{i * size + len(c) - 1}" for i, c in enumerate(chunks)]
     done: dict[int, dict[ResultKey, AlignResult]] = {}
-    for i, rec in tasks.run(align_chunk_task, args, labels, [_chunk_id(c) for c in chunks], ChunkCodec()):
+    for i, rec in tasks.run(align_chunk_task, args, labels, ids, ChunkCodec()):
         done[i] = {(str(r["a"]), str(r["b"]), str(r["method"])): AlignResult.from_json(r) for r in rec}
         ctx.progress.advance("evaluation:pairs", len(chunks[i]))
         if on_chunk is not None:

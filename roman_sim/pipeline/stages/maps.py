@@ -22,7 +22,6 @@ unlike the checkpoints under ``partial/``.
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -30,6 +29,7 @@ from typing import TYPE_CHECKING
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import read_json
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
@@ -184,9 +184,9 @@ class MapsStage(Stage[MapsInputs, Maps]):
         if FRONTEND_JSON in files:
             path = ctx.run_dir / FRONTEND_JSON
             try:
-                grades = FrontEndGrades.from_json(json.loads(path.read_text(encoding="utf-8")))
-            except (OSError, ValueError) as err:
-                raise StorageError(f"{path}: unreadable front-end grades ({type(err).__name__})") from None
+                grades = FrontEndGrades.from_json(read_json(path))
+            except (KeyError, TypeError, ValueError) as err:
+                raise StorageError(f"{path}: malformed front-end grades ({type(err).__name__}: {err})") from None
         snapshot = load_snapshot(ctx.run_dir / SNAPSHOT_NPZ) if SNAPSHOT_NPZ in files else None
         return Maps(maps, notes, keyframes, grades, snapshot)
 

@@ -1,0 +1,122 @@
+"""Each aligner's results on a run's pairs, kept apart: a run that adds an aligner re-uses the others'.
+
+The evaluation stage's key covers every aligner of the scenario, so adding one changes it.
+What one aligner computes depends on less: the aligner (label, method, resolved
+parameters), the pairs (the submaps' key, the evaluation's pair selection, the gating) and
+the code it runs (the worker job, the input checks, the gating, the pair selection and the
+aligner's module, with what they import). ``aligner_key`` hashes exactly that. The stage
+writes each aligner's results to ``aligned/<label>.json`` (``AlignedRecord``: the key and
+one ``AlignResult.to_json`` record per pair, in pair order; gated pairs included) and lists
+the files among its own; the experiment stores each in the shared cache under its key
+(``Stage.parts``, part ``alignment``). A later run reads from there the aligners whose keys
+it finds (``cached_aligned``), aligns with the others only, and links the cached files into
+its folder when it saves. The records go through the
+same JSON round trip as a fresh chunk's results, so the scores are the same bytes.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, cast
+
+from roman_sim import __version__
+from roman_sim.align.base import AlignResult
+from roman_sim.core.config import stable_hash
+from roman_sim.core.records import RecordError, read_record
+from roman_sim.pipeline.context import RunContext
+from roman_sim.pipeline.resolve import aligner_modules
+from roman_sim.pipeline.stages.evaluation_job import ResultKey
+
+if TYPE_CHECKING:
+    from roman_sim.pipeline.scenario import AlignerEntry
+    from roman_sim.pipeline.stages.base import Stage
+
+log = logging.getLogger(__name__)
+
+#: The shared cache's name for one aligner's results (a ``CachePart``).
+ALIGNMENT_PART = "alignment"
+ALIGNED_DIR = "aligned"
+ALIGNED_SCHEMA = "roman_sim.aligned/1"
+#: Modules every aligner's results depend on besides the aligner's own (with what they import).
+ALIGNMENT_CODE = (
+    "roman_sim.pipeline.stages.evaluation_job",
+    "roman_sim.align.checks",
+    "roman_sim.align.gating",
+    "roman_sim.evaluation.pairs",
+)
+
+
+@dataclass
+class AlignedRecord:
+    """What ``aligned/<label>.json`` holds: the aligner's key and its result on every pair, in pair order.
+
+    Attributes:
+        aligner: the aligner's label.
+        key: ``aligner_key`` of the run that computed the results.
+        results: per pair, ``{"a", "b"}`` and ``AlignResult.to_json`` of the result.
+    """
+
+    aligner: str
+    key: str
+    results: list[dict[str, Any]]
+
+
+def aligned_file(label: str) -> str:
+    """The run-folder path of the aligner ``label``'s results."""
+    return f"{ALIGNED_DIR}/{label}.json"
+
+
+def aligner_key(stage: Stage[Any, Any], ctx: RunContext, entry: AlignerEntry) -> str | None:
+    """What the aligner's results on the run's pairs depend on, hashed (None outside a run: no submaps key)."""
+    submaps = ctx.keys.get("submaps")
+    if submaps is None:
+        return None
+    sc = ctx.scenario.model_dump(mode="json")
+    code = stage.fingerprint([*ALIGNMENT_CODE, *aligner_modules(entry.method)])
+    own = entry.model_dump(mode="json")
+    return stable_hash(__version__, ALIGNMENT_PART, entry.name, own, sc["evaluation"], sc["gating"], submaps, code)
+
+
+def aligner_keys(stage: Stage[Any, Any], ctx: RunContext) -> dict[str, str]:
+    """Label -> ``aligner_key`` of every aligner of the scenario (empty outside a run)."""
+    keys = {e.name: aligner_key(stage, ctx, e) for e in ctx.scenario.aligners}
+    return {label: k for label, k in keys.items() if k is not None}
+
+
+def aligned_record(
+    label: str, key: str, pairs: Sequence[tuple[str, str]], results: dict[ResultKey, AlignResult]
+) -> AlignedRecord:
+    """The aligner ``label``'s results on ``pairs`` (in their order) as its record."""
+    return AlignedRecord(label, key, [{"a": a, "b": b, **results[(a, b, label)].to_json()} for a, b in pairs])
+
+
+def cached_aligned(ctx: RunContext, keys: dict[str, str], pairs: Sequence[tuple[str, str]]) -> list[AlignedRecord]:
+    """The records of every aligner whose key the shared cache holds, on exactly ``pairs`` (read, not copied).
+
+    An entry that does not read back, or covers other pairs, is left (the aligner runs again).
+    """
+    out: list[AlignedRecord] = []
+    if ctx.cache is None or ctx.fresh:
+        return out
+    for label, key in keys.items():
+        where = ctx.cache.lookup(ALIGNMENT_PART, key, ctx.environment)
+        if where is None:
+            continue
+        try:
+            rec = read_record(where / aligned_file(label), AlignedRecord, ALIGNED_SCHEMA)
+            got = [(str(r.get("a")), str(r.get("b"))) for r in rec.results]
+            if rec.key != key or rec.aligner != label or got != list(pairs):
+                raise RecordError(f"{where / aligned_file(label)}: the results of another key, aligner or pair set")
+        except RecordError as err:
+            log.warning("aligner %s: cached results not used (%s); aligning again", label, err)
+            continue
+        log.info("aligner %s: its results taken from the shared cache", label)
+        out.append(rec)
+    return out
+
+
+def aligned_results(rec: AlignedRecord) -> dict[ResultKey, AlignResult]:
+    """The record's results, ``(a name, b name, label) -> AlignResult``."""
+    return {(str(r["a"]), str(r["b"]), rec.aligner): AlignResult.from_json(cast(Any, r)) for r in rec.results}
