@@ -300,6 +300,8 @@ class Experiment:
     ) -> tuple[StageOutput, Timings]:
         reset_peak_rss()
         t0 = time.perf_counter()
+        if not self._may_reuse(stage):  # --fresh or --from: no part of it is taken from the shared cache either
+            ctx = replace(ctx, cache=None)
         self.progress.start(stage.name)
         inputs = stage.build_inputs(outputs)
         tasks = TaskRunner(ex, Checkpoint(self.run_dir, stage.name, keys[stage.name]) if stage.cached else None)

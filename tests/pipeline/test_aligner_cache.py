@@ -66,9 +66,11 @@ def runs(smoke_run: RunResult, tmp_path_factory: pytest.TempPathFactory) -> dict
         added = _counted_run(Experiment(load_scenario("smoke", ADDED), tmp / "added", cache=cache), mp)
         alone = shutil.copytree(smoke_run.run_dir, tmp / "alone")
         fresh = _counted_run(Experiment(load_scenario("smoke", ADDED), alone), mp)
+        copy = shutil.copytree(tmp / "added", tmp / "again")
+        again = _counted_run(Experiment(load_scenario("smoke", ADDED), copy, cache=cache, from_stage="evaluation"), mp)
     finally:
         mp.undo()
-    return {"first": first, "added": added, "fresh": fresh, "cache": cache}  # type: ignore[dict-item]
+    return {"first": first, "added": added, "fresh": fresh, "again": again, "cache": cache}  # type: ignore[dict-item]
 
 
 def test_the_cached_run_publishes_each_aligners_results(runs) -> None:
@@ -90,6 +92,14 @@ def test_adding_an_aligner_aligns_with_the_new_one_only(runs) -> None:
     timings = _timings(added)
     assert timings["evaluation"]["pairs"]["aligners"] == ["ransac100k"]
     assert timings["maps"]["reused"] and not timings["evaluation"]["reused"]
+
+
+def test_from_evaluation_aligns_with_every_aligner_again(runs) -> None:
+    """``--from evaluation`` recomputes the stage: no aligner's results are taken from the cache."""
+    again, calls = runs["again"]
+    n_pairs = _timings(again)["evaluation"]["pairs"]["aligned"]
+    assert calls == Counter({"roman": n_pairs, "clipper": n_pairs, "ransac100k": n_pairs})
+    assert (again.run_dir / "pairs.csv").read_bytes() == (runs["fresh"][0].run_dir / "pairs.csv").read_bytes()
 
 
 def test_reused_results_give_the_same_bytes_as_computed_ones(runs) -> None:
