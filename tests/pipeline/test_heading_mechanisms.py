@@ -114,8 +114,6 @@ def test_every_switch_is_a_valid_scenario_override() -> None:
     data = read_yaml(resolve_scenario_path("opposite_direction"))
     base = validate_model(Scenario, data, "opposite_direction")
     for name in switchable():
-        if name in ("descriptor_view", "lighting") and "view_dependence" not in str(Scenario.model_json_schema()):
-            continue  # the descriptor model's switches are fields of frontend.semantics
         sc = validate_model(Scenario, apply_overrides(data, mechanism_overrides(name, data)), name)
         assert sc.config_hash() != base.config_hash(), name
     road = validate_model(Scenario, apply_overrides(data, mechanism_overrides("road_side", data)), "road_side")
@@ -308,3 +306,36 @@ def test_the_sun_lights_opposite_sides_differently_and_a_sun_free_world_does_not
     assert merged["appearance.lighting.sun"] == 0.0 and merged["appearance.lighting.elevation_deg"] == 20.0
     dark = _world([{"name": "car", "density": 20}], **merged)
     assert brightness_gap(sunny) > 3 * max(brightness_gap(dark), 1.0)
+
+
+# -- the descriptors' view dependence ----------------------------------------------------------
+def test_descriptor_view_dependence_separates_opposite_views_and_the_switch_removes_it(car_world: World) -> None:
+    """The simulated encoder, fed the car's observations from rendered frames: descriptors from
+    opposite sides are less alike than descriptors from one side; with ``descriptor_view`` off
+    (the registry's override on the front end) they are as alike as from one side."""
+    from roman_sim.frontend.components import FrontEndConfig, build_encoder
+
+    cam = CameraConfig(width=W, height=H)
+    side = _long_axis_bearing(car_world, 0) + math.pi / 2
+    poses = [(k, side + k * math.pi + j * 0.05) for k in (0, 1) for j in range(4)]
+    frames = [(k, _frame(car_world, cam, _facing(car_world, 0, b, 4.0 + 0.1 * i), i)) for i, (k, b) in enumerate(poses)]
+    data: dict[str, Any] = {"frontend": {}}
+    families = {o.id: o.family for o in car_world.truth.objects}
+
+    def cosines(fe_data: dict[str, Any]) -> tuple[float, float]:
+        enc = build_encoder(validate_model(FrontEndConfig, fe_data, "frontend"), seed=0, robot="a", families=families)
+        seg = SimulatedSegmenter(SegmenterConfig.model_validate(_PERFECT), seed=0)
+        descs = []
+        for k, f in frames:
+            obs = [o for o in observe(f, seg.segment(f), MappingConfig(), enc) if o.truth.most_common(1)[0][0] == 0]
+            assert len(obs) == 1 and obs[0].descriptor is not None
+            descs.append((k, obs[0].descriptor / np.linalg.norm(obs[0].descriptor)))
+        within = [float(a @ b) for i, (ka, a) in enumerate(descs) for kb, b in descs[i + 1 :] if ka == kb]
+        across = [float(a @ b) for i, (ka, a) in enumerate(descs) for kb, b in descs[i + 1 :] if ka != kb]
+        return float(np.mean(within)), float(np.mean(across))
+
+    within_on, across_on = cosines(data["frontend"])
+    off = apply_overrides(data, mechanism_overrides("descriptor_view", data))
+    within_off, across_off = cosines(off["frontend"])
+    assert across_on < within_on - 0.05, (within_on, across_on)
+    assert abs(across_off - within_off) < 0.02, (within_off, across_off)
