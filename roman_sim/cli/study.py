@@ -54,7 +54,7 @@ def attribution_table(rows: list[dict[str, Any]]) -> Table:
     for r in rows:
         drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} [{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
         expl = (
-            "-" if r["mechanism"] == "none" else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.0f} %")
+            "-" if r["mechanism"] == "none" else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
         )
         t.add_row(r["mechanism"], r["method"], _recall(r, "same"), _recall(r, "opposite"), drop, expl)
     return t

@@ -348,7 +348,9 @@ def attribution_block(folder: str | Path) -> str:
     ]
     for r in rows:
         drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} [{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
-        share = "-" if r["mechanism"] == ALL_ON else ("n/a" if r["explained"] is None else f"{r['explained']:+.0%}")
+        share = (
+            "-" if r["mechanism"] == ALL_ON else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
+        )
         lines.append(
             f"| `{r['mechanism']}` | {r['method']} | {_cell(r, 'same')} | {_cell(r, 'opposite')} | {drop} | {share} |"
         )

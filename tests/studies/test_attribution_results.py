@@ -44,3 +44,32 @@ def test_the_classes_on_the_page_follow_the_independently_derived_shares() -> No
             part = line.split(f"{label} (", 1)[1].split(";", 1)[0].split(".", 1)[0]
             named = part.split(": ", 1)[1]
             assert named == (", ".join(f"`{m}`" for m in classes[key]) or "none"), (method, key)
+
+
+def _stage_seconds(run: Path) -> float | None:
+    """A kept run's stage time (s), None when a stage was reused from elsewhere (not timed here)."""
+    import json
+
+    stages = json.loads((run / "timings.json").read_text())["stages"]
+    if any(v.get("reused") for v in stages.values()):
+        return None
+    return float(sum(v["seconds"] for v in stages.values()))
+
+
+def test_the_page_states_the_kept_runs_sizes_and_times() -> None:
+    """The sizes paragraph: relevant pairs per run, the timed runs' total and range, the slowest."""
+    table = read_table(KEPT)
+    assert {r[f"{role}_relevant"] for r in table for role in ("same", "opposite")} == {31, 32}
+    halves = [(r["same_recall_hi"] - r["same_recall_lo"]) / 2 for r in table]
+    assert 0.05 < min(halves) and max(halves) < 0.2
+    drops = [(r["drop_hi"] - r["drop_lo"]) / 2 for r in table]
+    assert 0.14 < min(drops) and max(drops) < 0.21
+    runs = sorted((KEPT / "runs").iterdir())
+    timed = {p.name: t for p in runs if (t := _stage_seconds(p)) is not None}
+    assert len(timed) == 9 and round(sum(timed.values())) == 1434
+    assert all(60 <= t <= 360 for t in timed.values())
+    for role in ("same", "opposite"):
+        mine = {k: v for k, v in timed.items() if k.startswith(role)}
+        assert max(mine, key=mine.__getitem__) == f"{role}__partial_views"
+    page = (ROOT / PAGE).read_text(encoding="utf-8")
+    assert "took 1434 s\nof stage time" in page or "took 1434 s of stage time" in " ".join(page.split())
