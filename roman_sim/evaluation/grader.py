@@ -143,6 +143,9 @@ class FrontEndGrader:
         self._obs: list[_Obs] = []
         self._seen = 0
         self._seed = seed
+        #: (object id, object id) -> appearance kernel of the two instances (the simulated
+        #: encoder's looks); None: no appearance table in the grades.
+        self.appearance: Callable[[int, int], float] | None = None
         self._rng = child_rng(seed, "frontend_grades", *([] if stream is None else [stream]))
 
     def part(self) -> GraderPart:
@@ -437,8 +440,36 @@ class FrontEndGrader:
         means = [float(cs[b == k].mean()) if np.any(b == k) else None for k in range(len(edges) - 1)]
         stds = [float(cs[b == k].std()) if np.any(b == k) else None for k in range(len(edges) - 1)]
         pairs = [int(np.sum(b == k)) for k in range(len(edges) - 1)]
+        dall = np.degrees(np.abs(np.angle(np.exp(1j * (yaw[i] - yaw[j])))))
+        one_side = dall <= c.side_deg
+        sides = {
+            name: CosineStats.of(cos[sel], c.cos_bins, c.gate_cos)
+            for name, sel in (
+                ("same_instance_same_side", same_i & one_side),
+                ("same_instance_opposite", same_i & (dall >= 180.0 - c.side_deg)),
+                ("same_family_same_side", same_f & one_side),
+                ("other_family_same_side", (same_g | other) & one_side),
+            )
+        }
+        appearance: list[CosineStats] = []
+        if self.appearance is not None:
+            sel = np.flatnonzero(same_f & one_side)
+            diff = np.array([1.0 - self.appearance(int(oid[i[k]]), int(oid[j[k]])) for k in sel])
+            e = np.asarray(c.appearance_edges)
+            b = np.clip(np.searchsorted(e, diff, side="right") - 1, 0, len(e) - 2) if len(sel) else sel
+            appearance = [CosineStats.of(cos[sel][b == k], c.cos_bins, c.gate_cos) for k in range(len(e) - 1)]
         return DescriptorGrades(
-            len(self._obs), classes, edges.tolist(), means, pairs, stds, int(D.shape[1]), c.gate_cos
+            len(self._obs),
+            classes,
+            edges.tolist(),
+            means,
+            pairs,
+            stds,
+            int(D.shape[1]),
+            c.gate_cos,
+            sides,
+            list(c.appearance_edges) if appearance else [],
+            appearance,
         )
 
     def result(self, segmenter: str, encoder: str | None) -> FrontEndGrades:

@@ -25,6 +25,11 @@ horizontal viewing angle, descriptor); cosines of pairs from different frames ar
 for the same instance (also against the viewing-angle difference: mean and spread), the
 same family, and other families (same group / other group), each with the share of pairs at
 or above ROMAN's semantic gate (``gate_cos``, 0.85: CLIP's cos_min), the overlap figure.
+``sides`` repeats the gate figure per relation from one side (viewing directions within
+``side_deg``) and, for the same instance, from opposite sides (at least 180 - ``side_deg``
+apart); with the simulated encoder's looks (``FrontEndGrader.appearance``), ``appearance``
+bins the pairs of two instances of one family seen from one side by their appearance
+difference, 1 - the encoder's appearance kernel (``appearance_edges``).
 Observations beyond ``max_observations`` are reservoir-sampled with a seeded generator.
 ``FrontEndGrader`` (``frontend_grader``) computes them, the only reader of truth in front-end
 grading; the results here are JSON-ready (``to_json`` / ``from_json``) and
@@ -61,6 +66,10 @@ class GradeConfig(MaskFilterConfig):
     view_step_deg: float = Field(15.0, gt=0, le=180)
     max_observations: int = Field(3000, ge=10, le=20000)
     gate_cos: float = Field(0.85, ge=-1, le=1, description="semantic gate whose pass share is reported")
+    side_deg: float = Field(45.0, gt=0, le=90, description="one side: viewing directions at most this far apart")
+    appearance_edges: list[float] = Field(
+        default_factory=lambda: [0.0, 0.02, 0.1, 0.2, 0.3, 0.5, 1.0], description="appearance-difference bins"
+    )
 
     @model_validator(mode="after")
     def _edges(self) -> GradeConfig:
@@ -245,6 +254,9 @@ class DescriptorGrades:
     view_std: list[float | None] = field(default_factory=list)
     dim: int | None = None
     gate_cos: float = 0.85
+    sides: dict[str, CosineStats] = field(default_factory=dict)
+    appearance_edges: list[float] = field(default_factory=list)
+    appearance: list[CosineStats] = field(default_factory=list)
 
     def other_family_above_gate(self) -> tuple[int, int]:
         """(pairs at or above the gate, pairs) of other families (same group and other group together)."""
@@ -260,6 +272,8 @@ class DescriptorGrades:
         """Inverse of ``to_json``."""
         d = dict(data)
         d["classes"] = {k: CosineStats(**v) for k, v in d["classes"].items()}
+        d["sides"] = {k: CosineStats(**v) for k, v in (d.get("sides") or {}).items()}
+        d["appearance"] = [CosineStats(**v) for v in d.get("appearance") or []]
         return cls(**d)
 
 

@@ -62,6 +62,24 @@ def frontend_report_lines(grades: FrontEndGrades) -> list[str]:
         above, pairs = d.other_family_above_gate()
         share = "n/a" if not pairs else f"{above / pairs:.3f} ({above} of {pairs})"
         lines += ["", f"Other-family pairs passing the {d.gate_cos:g} semantic gate: {share}.", ""]
+        if d.sides:
+            lines += [
+                f"| relation (one side: views within 45 deg) | pairs | mean cosine | at or above {d.gate_cos:g} |"
+            ]
+            lines += ["|---|---|---|---|"]
+            for name, st in d.sides.items():
+                lines.append(f"| {name.replace('_', ' ')} | {st.pairs} | {_f(st.mean)} | {_f(st.frac_above_gate)} |")
+            lines.append("")
+        if d.appearance:
+            lines += [
+                f"| two instances of one family, one side: appearance difference | pairs | mean cosine | "
+                f"at or above {d.gate_cos:g} |",
+                "|---|---|---|---|",
+            ]
+            e = d.appearance_edges
+            for k, st in enumerate(d.appearance):
+                lines.append(f"| {e[k]:g}-{e[k + 1]:g} | {st.pairs} | {_f(st.mean)} | {_f(st.frac_above_gate)} |")
+            lines.append("")
     return lines
 
 

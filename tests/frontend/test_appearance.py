@@ -179,3 +179,42 @@ def test_bad_appearance_and_view_parameters_fail_with_one_line(semantics, messag
     with pytest.raises(ConfigError) as err:
         validate_model(FrontEndConfig, {"semantics": semantics}, source="frontend")
     assert message in str(err.value) and "\n" not in str(err.value), str(err.value)
+
+
+def test_grades_table_bins_cosines_by_appearance_difference():
+    """The per-run table: two instances drawn alike sit in the first bin at the same-instance
+    cosine; instances drawn apart sit in later bins with lower cosines."""
+    from roman_sim.evaluation.grader import FrontEndGrader, GraderPart, _Obs
+    from roman_sim.evaluation.grades import GradeConfig, SegmentationGrades
+
+    base = _looks()
+    inst = {0: base, 1: base, 2: _looks(lab=(80.0, -10.0, 10.0)), 3: _looks(shape="bush_v1", lab=(20.0, 30.0, -30.0))}
+    scene = SceneLooks(inst, {})
+    cfg = SemanticConfig()
+    obs = []
+    for k in range(12):  # 12 frames, each seeing every object from about the same side
+        enc = SimulatedEncoder(cfg, seed=4, families=dict.fromkeys(inst, "bush"), robot=f"r{k}", looks=scene)
+        for oid in inst:
+            desc = enc.encode(None, M, EncodeContext(oid, view_dir=_view(3.0 * k)))
+            obs.append(_Obs(oid, "bush", math.radians(3.0 * k), ("a", k), desc))
+    grader = FrontEndGrader.from_parts([GraderPart(SegmentationGrades(), obs, len(obs))], cfg=GradeConfig(), seed=0)
+    grader.appearance = lambda a, b: cfg.appearance.kernel(inst[a], inst[b])
+    d = grader.descriptor_grades()
+    assert d.appearance_edges == [0.0, 0.02, 0.1, 0.2, 0.3, 0.5, 1.0]
+    by_bin = {d.appearance_edges[k]: st for k, st in enumerate(d.appearance) if st.pairs}
+    same = d.sides["same_instance_same_side"]
+    # 0 and 1 are drawn alike: 132 cross-frame pairs in the first bin, as alike as one instance
+    assert by_bin[0.0].pairs == 12 * 11 and by_bin[0.0].mean == pytest.approx(same.mean, abs=0.01)
+    diffs = sorted(1 - cfg.appearance.kernel(inst[a], inst[b]) for a, b in ((0, 2), (0, 3), (2, 3)))
+    assert diffs[0] > 0.1 and sum(st.pairs for st in d.appearance) == 6 * 12 * 11  # every pair of instances
+    means = [st.mean for st in d.appearance if st.pairs]
+    assert means == sorted(means, reverse=True)  # the further apart, the lower the cosine
+    text = "\n".join(report_lines_for(d))
+    assert "| 0-0.02 | 132 |" in text and "same instance same side" in text
+
+
+def report_lines_for(d):
+    from roman_sim.evaluation.grades import FrontEndGrades, SegmentationGrades
+    from roman_sim.report.grades import frontend_report_lines
+
+    return frontend_report_lines(FrontEndGrades("perfect", "simulated", SegmentationGrades(), d))

@@ -23,6 +23,7 @@ unlike the checkpoints under ``partial/``.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -162,6 +163,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
         grades = None
         if parts:
             grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)
+            grader.appearance = _appearance_kernel(ctx, world)
             grades = grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name)
         return Maps(maps, _rgb_notes(ctx), keyframes, grades, snapshot)
 
@@ -189,6 +191,24 @@ class MapsStage(Stage[MapsInputs, Maps]):
                 raise StorageError(f"{path}: malformed front-end grades ({type(err).__name__}: {err})") from None
         snapshot = load_snapshot(ctx.run_dir / SNAPSHOT_NPZ) if SNAPSHOT_NPZ in files else None
         return Maps(maps, notes, keyframes, grades, snapshot)
+
+
+def _appearance_kernel(ctx: RunContext, world: World | None) -> Callable[[int, int], float] | None:
+    """The simulated encoder's appearance kernel of two objects (``AppearanceModel.kernel`` of their
+    looks: the world's, or the first sequence table's), for the grades' appearance table."""
+    from roman_sim.frontend.components import encoder_spec
+    from roman_sim.interop.looks import world_instances
+
+    sc = ctx.scenario
+    if not encoder_spec(sc.frontend.encoder).reads_truth or world is None:
+        return None
+    inst = world_instances(world)
+    model = sc.frontend.semantics.appearance
+
+    def kernel(a: int, b: int) -> float:
+        return model.kernel(inst[a], inst[b]) if a in inst and b in inst else 0.0
+
+    return kernel
 
 
 def _rgb_notes(ctx: RunContext) -> list[str]:
