@@ -120,7 +120,8 @@ def main() -> None:
         "load_before": load0,
         "load_after": load1,
         "note": "wall time on a shared machine is an upper bound; cpu_over_2_cores_s is the wall time on "
-        "2 free cores if both were kept busy",
+        "2 free cores if both were kept busy"
+        + ("" if args.workers == 1 else f" (cpu_s leaves out the {args.workers} pool workers: not a bound)"),
         "recommended": rec,
         "held_out": {k: h[k] for k in ("hits", "false_positives", "n_relevant", "precision", "precision_worlds")},
         "check_on_unseen_worlds": check,
