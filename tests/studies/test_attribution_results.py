@@ -66,10 +66,7 @@ def test_the_page_states_the_kept_runs_sizes_and_times() -> None:
     assert 0.14 < min(drops) and max(drops) < 0.21
     runs = sorted((KEPT / "runs").iterdir())
     timed = {p.name: t for p in runs if (t := _stage_seconds(p)) is not None}
-    assert len(timed) == 9 and round(sum(timed.values())) == 1434
-    assert all(60 <= t <= 360 for t in timed.values())
-    for role in ("same", "opposite"):
-        mine = {k: v for k, v in timed.items() if k.startswith(role)}
-        assert max(mine, key=mine.__getitem__) == f"{role}__partial_views"
+    assert len(timed) == 10 and round(sum(timed.values())) == 1544
+    assert all(60 <= t <= 300 for t in timed.values())
     page = (ROOT / PAGE).read_text(encoding="utf-8")
-    assert "took 1434 s\nof stage time" in page or "took 1434 s of stage time" in " ".join(page.split())
+    assert "took 1544 s of stage time" in " ".join(page.split())
