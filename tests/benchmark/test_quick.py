@@ -25,29 +25,32 @@ from roman_sim.testing import benchmark_pins, check_benchmark
 pytestmark = pytest.mark.slow
 
 #: ROMAN's max-recall cells of the quick suite, ``level/heading bin -> (hits, relevant)``, as measured
-#: by ``roman-sim benchmark quick`` (``benchmark_pins(leaderboard, "roman")``).
+#: by ``roman-sim benchmark quick`` (``benchmark_pins(leaderboard, "roman")``). Re-pinned when the simulated
+#: encoder's descriptors began to come from each instance's appearance (no per-object identity): the cells
+#: that moved by more than one hit (low 60-90 and all, medium 90-120 and all, high 30-60, 90-120 and all)
+#: lost hits, most at high ambiguity, where instances of one family are drawn alike.
 ROMAN_PINS: dict[str, tuple[int, int]] = {
     "low/0-30": (7, 7),
     "low/30-60": (3, 3),
-    "low/60-90": (7, 9),
+    "low/60-90": (4, 9),
     "low/90-120": (4, 5),
     "low/120-150": (6, 7),
     "low/150-180": (20, 20),
-    "low/all": (47, 51),
+    "low/all": (44, 51),
     "medium/0-30": (1, 1),
     "medium/30-60": (5, 5),
     "medium/60-90": (3, 8),
-    "medium/90-120": (9, 10),
+    "medium/90-120": (7, 10),
     "medium/120-150": (3, 8),
     "medium/150-180": (7, 15),
-    "medium/all": (28, 47),
+    "medium/all": (25, 47),
     "high/0-30": (0, 0),
-    "high/30-60": (7, 7),
+    "high/30-60": (4, 7),
     "high/60-90": (4, 9),
-    "high/90-120": (2, 4),
+    "high/90-120": (0, 4),
     "high/120-150": (6, 18),
     "high/150-180": (1, 10),
-    "high/all": (20, 48),
+    "high/all": (14, 48),
 }
 
 
