@@ -144,7 +144,7 @@ CASES = [
     (["world", "preview", "{world_no_truth}", "--out", "{dir}/p.png"], "missing truth.json (not an exported world"),
     # run folders
     (["report", "{dir}"], "not a run folder"),
-    (["report", "{bad_manifest}"], "unreadable run manifest"),
+    (["report", "{bad_manifest}"], "{bad_manifest}/manifest.json: not valid JSON (line 1"),
     # recordings
     (["record", "smoke", "--out", "{taken}"], "--out {taken}: is an existing file, not a folder"),
     (["record", "smoke", "--robot", "c", "--out", "{dir}/r"], "--robot: no simulated robot c (simulated robots: a, b)"),
