@@ -28,6 +28,7 @@ count is meant) with a ``ConfigError`` naming the argument.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -420,11 +421,25 @@ def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", 
     assert got < ref, f"ATE of {variant} ({got:.3f} m) is not below {reference} ({ref:.3f} m)"
 
 
+def _without_wall_times(path: Path) -> bytes:
+    """``aligned/<label>.json`` with each pair's wall time (``runtime_s``) blanked; other files as they are."""
+    raw = path.read_bytes()
+    if path.parent.name != "aligned" or path.suffix != ".json":
+        return raw
+    rec = json.loads(raw)
+    for r in rec.get("results", []):
+        if isinstance(r, dict) and "runtime_s" in r:
+            r["runtime_s"] = None
+    return json.dumps(rec, sort_keys=True).encode()
+
+
 def run_folder_bytes(run_dir: str | Path) -> dict[str, bytes]:
-    """Every file of a run folder except the wall-clock ``timings.json``, by relative path."""
+    """Every file of a run folder by relative path, wall-clock times aside: without ``timings.json``, and
+    with the per-pair alignment times of ``aligned/<label>.json`` blanked (the only field of those
+    files that differs between two runs of one seed)."""
     d = Path(run_dir)
     return {
-        p.relative_to(d).as_posix(): p.read_bytes()
+        p.relative_to(d).as_posix(): _without_wall_times(p)
         for p in sorted(d.rglob("*"))
         if p.is_file() and p.name != "timings.json"
     }

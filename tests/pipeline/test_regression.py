@@ -7,13 +7,12 @@ import os
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import pytest
 
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
-from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall
+from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall, run_folder_bytes
 
 # Figures of `roman-sim run smoke` (seed 0), pinned as integer counts: the run is deterministic, and a
 # count within 1 absorbs a pair flipping on another machine's floating point. If a deliberate change moves
@@ -96,15 +95,6 @@ def test_opposite_direction_ordering(opposite_run):
     assert_recall(opposite_run, "roman", {"120-180": 0.2})
 
 
-def _folder_bytes(d: Path) -> dict[str, bytes]:
-    """Every file of a run folder but the wall-clock timings, by relative path."""
-    return {
-        p.relative_to(d).as_posix(): p.read_bytes()
-        for p in sorted(d.rglob("*"))
-        if p.is_file() and p.name != "timings.json"
-    }
-
-
 def test_two_fresh_runs_write_the_same_bytes(smoke_run, tmp_path):
     """Another process, another working directory, another PYTHONHASHSEED: the same folder."""
     elsewhere = tmp_path / "cwd"
@@ -115,7 +105,7 @@ def test_two_fresh_runs_write_the_same_bytes(smoke_run, tmp_path):
         f"load_scenario; Experiment(load_scenario('smoke'), {str(tmp_path / 'again')!r}, fresh=True).run()"
     )
     subprocess.run([sys.executable, "-c", code], cwd=elsewhere, env=env, check=True, timeout=600)
-    first, again = _folder_bytes(smoke_run.run_dir), _folder_bytes(tmp_path / "again")
+    first, again = run_folder_bytes(smoke_run.run_dir), run_folder_bytes(tmp_path / "again")
     assert sorted(first) == sorted(again)
     differ = [name for name in first if first[name] != again[name]]
     assert not differ, f"files differ between two runs of the same seed: {differ}"
@@ -126,7 +116,7 @@ def test_cached_and_fresh_stages_write_the_same_bytes(smoke_run, tmp_path):
     shutil.copytree(smoke_run.run_dir, run_dir)
     res = Experiment(load_scenario("smoke"), run_dir, from_stage="evaluation").run()
     assert set(res.reused) == {"maps", "submaps"}
-    first, again = _folder_bytes(smoke_run.run_dir), _folder_bytes(run_dir)
+    first, again = run_folder_bytes(smoke_run.run_dir), run_folder_bytes(run_dir)
     assert [n for n in first if first[n] != again.get(n)] == []
 
 

@@ -92,12 +92,12 @@ def test_interrupted_run_resumes_per_robot_and_per_chunk_to_the_same_bytes(smoke
     mapped: list[str] = []
     chunks: list[int] = []
 
-    def map_source(ctx, source, families, grader=None):
+    def map_source(ctx, source, *args, **kwargs):
         if source.name == "b" and "interrupted" not in mapped:
             mapped.append("interrupted")
             raise Interrupt
         mapped.append(source.name)
-        return real_map(ctx, source, families, grader)
+        return real_map(ctx, source, *args, **kwargs)
 
     def align_chunk(spec, submaps, pairs):
         chunks.append(len(pairs))

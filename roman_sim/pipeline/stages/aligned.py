@@ -11,7 +11,9 @@ the files among its own; the experiment stores each in the shared cache under it
 (``Stage.parts``, part ``alignment``). A later run reads from there the aligners whose keys
 it finds (``cached_aligned``), aligns with the others only, and links the cached files into
 its folder when it saves. The records go through the
-same JSON round trip as a fresh chunk's results, so the scores are the same bytes.
+same JSON round trip as a fresh chunk's results, so the scores are the same bytes. Each record
+keeps the pair's alignment wall time (``runtime_s``): like ``timings.json``, that field differs
+between two runs of one seed, and only that field (``roman_sim.testing.run_folder_bytes``).
 """
 
 from __future__ import annotations
