@@ -71,9 +71,12 @@ def test_truth_driven_run_is_graded_too(smoke_run):
     d = fe["descriptors"]
     cfg = smoke_run.scenario.frontend.semantics
     for lo, hi, mean, n in zip(d["view_edges_deg"], d["view_edges_deg"][1:], d["view_mean"], d["view_pairs"]):
-        if n >= 20:  # the simulated encoder's mean cosine at the bin's view difference
+        if n >= 20:
+            # each shape turns with its own measured asymmetry (at most the configured view share), so
+            # the mean cosine at the bin's view difference lies between the configured rate and the same view
             want = relation_moments(cfg.confusion, np.radians((lo + hi) / 2))["same_instance"][0]
-            assert np.isclose(mean, want, atol=0.02), (lo, n)
+            same = relation_moments(cfg.confusion, 0.0)["same_instance"][0]
+            assert want - 0.02 <= mean <= same + 0.02, (lo, n, mean, want, same)
 
 
 def test_rgb_front_end_without_rgb_fails_before_any_stage(tmp_path):

@@ -49,7 +49,14 @@ def committed(smoke_run, tmp_path: Path) -> Path:
     collect(smoke_run.run_dir, out / "ambiguity_sweep" / "r0", trajectories=False, plots=False, packets=False)
     write_json(
         out / "ambiguity_sweep" / "sweep.json",
-        {"grid": [AMBIGUITY_KEY], "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}]},
+        {
+            "schema": "roman_sim.sweep/1",
+            "name": "ambiguity_sweep",
+            "scenario": "smoke",
+            "seeds": [0],
+            "grid": [AMBIGUITY_KEY],
+            "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}],
+        },
     )
     stale = RunSummary("inter", {"stale": {"n_pairs": 1}}, 0)
     # gamma was listed once but its folder is gone; beta's entry is stale until it is re-run
