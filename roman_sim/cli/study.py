@@ -25,22 +25,10 @@ def _names(values: list[str] | None) -> list[str] | None:
     return [m.strip() for v in values for m in v.split(",") if m.strip()]
 
 
-def _pct(v: Any) -> str:
-    return "n/a" if v is None else f"{v:.2f}"
-
-
-def _recall(r: dict[str, Any], role: str) -> str:
-    if r[f"{role}_recall"] is None:
-        return "no relevant pair"
-    p = r[f"{role}_precision"]
-    return (
-        f"{r[f'{role}_hits']}/{r[f'{role}_relevant']} = {r[f'{role}_recall']:.2f} "
-        f"[{r[f'{role}_recall_lo']:.2f}, {r[f'{role}_recall_hi']:.2f}] P {_pct(p)}"
-    )
-
-
 def attribution_table(rows: list[dict[str, Any]]) -> Table:
     """The attribution table as rich prints it."""
+    from roman_sim.studies.attribution import recall_cell
+
     t = Table(title="same -> opposite drop in max recall (cross-robot pairs), each mechanism switched off in turn")
     for col in (
         "mechanism off",
@@ -56,7 +44,7 @@ def attribution_table(rows: list[dict[str, Any]]) -> Table:
         expl = (
             "-" if r["mechanism"] == "none" else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
         )
-        t.add_row(r["mechanism"], r["method"], _recall(r, "same"), _recall(r, "opposite"), drop, expl)
+        t.add_row(r["mechanism"], r["method"], recall_cell(r, "same", " "), recall_cell(r, "opposite", " "), drop, expl)
     return t
 
 

@@ -327,13 +327,14 @@ def classify(rows: list[dict[str, Any]], method: str) -> dict[str, list[str]]:
     return out
 
 
-def _cell(r: dict[str, Any], role: str) -> str:
+def recall_cell(r: dict[str, Any], role: str, sep: str = ", ") -> str:
+    """One role's (``same`` / ``opposite``) hits/relevant, recall [interval] and precision, from a table row."""
     if r[f"{role}_recall"] is None:
         return "no relevant pair"
     p = r[f"{role}_precision"]
     return (
         f"{r[f'{role}_hits']}/{r[f'{role}_relevant']} = {r[f'{role}_recall']:.2f} "
-        f"[{r[f'{role}_recall_lo']:.2f}, {r[f'{role}_recall_hi']:.2f}], P {'n/a' if p is None else f'{p:.2f}'}"
+        f"[{r[f'{role}_recall_lo']:.2f}, {r[f'{role}_recall_hi']:.2f}]{sep}P {'n/a' if p is None else f'{p:.2f}'}"
     )
 
 
@@ -352,7 +353,8 @@ def attribution_block(folder: str | Path) -> str:
             "-" if r["mechanism"] == ALL_ON else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
         )
         lines.append(
-            f"| `{r['mechanism']}` | {r['method']} | {_cell(r, 'same')} | {_cell(r, 'opposite')} | {drop} | {share} |"
+            f"| `{r['mechanism']}` | {r['method']} | {recall_cell(r, 'same')} | {recall_cell(r, 'opposite')} "
+            f"| {drop} | {share} |"
         )
     lines.append("")
     for method in dict.fromkeys(r["method"] for r in rows):
