@@ -23,12 +23,10 @@ figures in ``plots/`` (``report.benchmark_plots``) render it. Runtimes come from
 
 from __future__ import annotations
 
-import json
 import logging
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
 
 from roman_sim.benchmark.cells import (
     BENCHMARK_JSON,
@@ -37,9 +35,13 @@ from roman_sim.benchmark.cells import (
     CELLS_DIR,
     PAIRS_GZ,
     RUNTIMES_JSON,
+    BenchmarkRecord,
+    CellStatus,
+    RuntimeStats,
 )
 from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable
 from roman_sim.core.atomic import write_text
+from roman_sim.core.records import RecordError
 from roman_sim.core.records import read_record as read_json_record
 from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard, MethodRuntime, write_leaderboard_json
 from roman_sim.evaluation.metrics import PairScore, compute_metrics
@@ -60,9 +62,9 @@ LEADERBOARD_MD = "leaderboard.md"
 HALF_WIDTH_BOUND = 0.1
 
 
-def read_record(out: Path) -> dict[str, Any]:
-    """``benchmark.json`` of a benchmark folder (StorageError when missing or unreadable)."""
-    return {"schema": BENCHMARK_SCHEMA, **read_json_record(out / BENCHMARK_JSON, dict[str, Any], BENCHMARK_SCHEMA)}
+def read_record(out: Path) -> BenchmarkRecord:
+    """``benchmark.json`` of a benchmark folder (RecordError naming the file and field when missing or damaged)."""
+    return read_json_record(out / BENCHMARK_JSON, BenchmarkRecord, BENCHMARK_SCHEMA)
 
 
 @dataclass
@@ -73,40 +75,49 @@ class Level:
     knob: float
     cells: list[str] = field(default_factory=list)
     scores: list[PairScore] = field(default_factory=list)
-    runtimes: list[dict[str, Any]] = field(default_factory=list)
+    runtimes: list[dict[str, RuntimeStats]] = field(default_factory=list)
     acceptance_k: int | None = None
 
 
-def _cell_status(out: Path, cell: str) -> dict[str, Any]:
-    try:
-        return dict(json.loads((out / CELLS_DIR / cell / CELL_JSON).read_text(encoding="utf-8")))
-    except (OSError, ValueError):
-        return {"status": "pending"}
+def _cell_status(out: Path, cell: str) -> str | None:
+    """Why the cell has no results (its error, ``failed`` or ``pending``); None when it finished."""
+    path = out / CELLS_DIR / cell / CELL_JSON
+    if not path.exists():
+        return "pending"
+    st = read_json_record(path, CellStatus)
+    return None if st.status == "ok" else st.error or st.status
 
 
-def load_levels(out: Path, record: dict[str, Any]) -> tuple[dict[str, Level], dict[str, str]]:
+def load_levels(out: Path, record: BenchmarkRecord) -> tuple[dict[str, Level], dict[str, str]]:
     """Per level its pooled, re-derived scores; and the cells that did not finish, with why."""
-    levels = {lv["name"]: Level(lv["name"], float(lv["knob"])) for lv in record["levels"]}
+    levels = {lv.name: Level(lv.name, float(lv.knob)) for lv in record.levels}
     missing: dict[str, str] = {}
-    for c in record["cells"]:
-        folder = out / CELLS_DIR / c["id"]
-        st = _cell_status(out, c["id"])
-        if st.get("status") != "ok":
-            missing[c["id"]] = str(st.get("error") or st.get("status"))
+    for c in record.cells:
+        folder = out / CELLS_DIR / c.id
+        why = _cell_status(out, c.id)
+        if why is not None:
+            missing[c.id] = why
             continue
         cfg, acceptance_k = eval_settings(folder)
         scores, diffs = rederive_scores(read_pairs_csv(folder / PAIRS_GZ), cfg)
         if diffs:
-            log.warning("cell %s: %d rows re-derived differently (%s)", c["id"], len(diffs), diffs[0])
-        lv = levels[c["level"]]
-        lv.cells.append(c["id"])
+            log.warning("cell %s: %d rows re-derived differently (%s)", c.id, len(diffs), diffs[0])
+        lv = levels[c.level]
+        lv.cells.append(c.id)
         lv.acceptance_k = acceptance_k
-        lv.scores += [_prefixed(s, c["id"]) for s in scores]
+        lv.scores += [_prefixed(s, c.id) for s in scores]
         try:
-            lv.runtimes.append(json.loads((folder / RUNTIMES_JSON).read_text(encoding="utf-8")))
-        except (OSError, ValueError):
-            pass
+            lv.runtimes.append(read_runtimes(folder / RUNTIMES_JSON))
+        except RecordError as err:
+            if (folder / RUNTIMES_JSON).exists():
+                raise
+            log.warning("%s; the cell's runtimes are left out", err)
     return levels, missing
+
+
+def read_runtimes(path: Path) -> dict[str, RuntimeStats]:
+    """A cell's ``runtimes.json``: per method its time per pair (RecordError naming the file and field)."""
+    return read_json_record(path, dict[str, RuntimeStats])
 
 
 def _prefixed(s: PairScore, cell: str) -> PairScore:
@@ -151,21 +162,21 @@ def _ambiguity_index(scores: list[PairScore]) -> float | None:
 
 def _runtime(levels: dict[str, Level]) -> dict[str, MethodRuntime]:
     """Per method: pairs timed and the mean (exact over cells), the median and p90 of the cells' medians / p90s."""
-    per: dict[str, list[dict[str, Any]]] = {}
+    per: dict[str, list[RuntimeStats]] = {}
     for lv in levels.values():
         for rec in lv.runtimes:
             for m, st in rec.items():
-                if st.get("n"):
+                if st.n:
                     per.setdefault(m, []).append(st)
     out = {}
     for m, sts in sorted(per.items()):
-        n = sum(int(s["n"]) for s in sts)
+        n = sum(s.n for s in sts)
         out[m] = MethodRuntime(
             n=n,
-            mean_s=sum(float(s["mean"]) * int(s["n"]) for s in sts) / n,
-            cell_medians_s=[float(s["median"]) for s in sts],
-            cell_p10_s=[s.get("p10") for s in sts],
-            cell_p90_s=[float(s["p90"]) for s in sts],
+            mean_s=sum(float(s.mean or 0.0) * s.n for s in sts) / n,
+            cell_medians_s=[float(s.median or 0.0) for s in sts],
+            cell_p10_s=[s.p10 for s in sts],
+            cell_p90_s=[float(s.p90 or 0.0) for s in sts],
         )
     return out
 
@@ -207,7 +218,7 @@ def leaderboard(
     check_target(target_precision)
     out = Path(out)
     record = read_record(out)
-    edges = [float(e) for e in record["heading_edges_deg"]]
+    edges = [float(e) for e in record.heading_edges_deg]
     levels, missing = load_levels(out, record)
     entries, metrics = [], {}
     for name, lv in levels.items():
@@ -217,10 +228,10 @@ def leaderboard(
             metrics[name] = m
     widths = [b.max_half_width for e in entries for b in e.bins]
     board = Leaderboard(
-        suite=record["suite"],
-        description=record["suite_spec"].get("description", ""),
-        methods=list(record["methods"]),
-        overrides=list(record["overrides"]),
+        suite=record.suite,
+        description=str(record.suite_spec.get("description", "")),
+        methods=list(record.methods),
+        overrides=list(record.overrides),
         heading_edges_deg=edges,
         half_width_bound=HALF_WIDTH_BOUND,
         failed_cells=missing,

@@ -28,7 +28,7 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Literal
 
 from roman_sim.benchmark.cells import (
     BENCHMARK_JSON,
@@ -40,16 +40,23 @@ from roman_sim.benchmark.cells import (
     RUNTIMES_JSON,
     SCENARIO_JSON,
     WORK_DIR,
+    BenchmarkRecord,
     Cell,
+    CellEntry,
     CellExperiment,
+    CellPlan,
+    CellStatus,
+    LevelSpec,
+    PlanRecord,
     cell_runtime_stats,
     plan_task,
     planned_totals,
 )
 from roman_sim.benchmark.suites import BenchmarkSuite, check_methods
-from roman_sim.core.atomic import write_bytes, write_json, write_text
+from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.config import dump_yaml, validate_model
-from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
+from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.records import RecordError, read_json, read_record, write_record
 from roman_sim.core.registry import one_line
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
@@ -112,11 +119,8 @@ class BenchmarkJob:
             if (self.out / "manifest.json").is_file() or (self.out / "sweep.json").is_file():
                 raise ConfigError(f"--out {self.out}: holds a run or a sweep, not a benchmark (choose another --out)")
             return
-        try:
-            old = json.loads(path.read_text(encoding="utf-8"))
-            name, overrides = old["suite"], list(old["overrides"])
-        except (OSError, ValueError, KeyError, TypeError) as err:
-            raise StorageError(f"{path}: unreadable benchmark record ({type(err).__name__})") from None
+        old = read_record(path, BenchmarkRecord, BENCHMARK_SCHEMA)
+        name, overrides = old.suite, old.overrides
         if name != self.suite.name:
             raise ConfigError(
                 f"--out {self.out}: holds the {name!r} benchmark, not {self.suite.name!r} (choose another --out)"
@@ -128,42 +132,39 @@ class BenchmarkJob:
             )
 
     def _record(self, cells: list[Cell], status: dict[str, str]) -> None:
-        write_json(
-            self.out / BENCHMARK_JSON,
-            {
-                "schema": BENCHMARK_SCHEMA,
-                "suite": self.suite.name,
-                "suite_spec": self.suite.model_dump(mode="json"),
-                "methods": self.methods,
-                "overrides": self.overrides,
-                "levels": [{"name": lv, "knob": a} for lv, a in self.suite.levels.items()],
-                "heading_edges_deg": self.suite.heading_edges(),
-                "cells": [
-                    {"id": c.id, "level": c.level, "seed": c.seed, "status": status.get(c.id, "pending")} for c in cells
-                ],
-            },
+        record = BenchmarkRecord(
+            suite=self.suite.name,
+            suite_spec=self.suite.model_dump(mode="json"),
+            methods=self.methods,
+            overrides=self.overrides,
+            levels=[LevelSpec(lv, a) for lv, a in self.suite.levels.items()],
+            heading_edges_deg=self.suite.heading_edges(),
+            cells=[CellEntry(c.id, c.level, c.seed, status.get(c.id, "pending")) for c in cells],
         )
+        write_record(self.out / BENCHMARK_JSON, record, BENCHMARK_SCHEMA)
         write_text(self.out / ".gitignore", f"{WORK_DIR}/\n")
 
     # -- planning ---------------------------------------------------------------
-    def _plans(self) -> dict[str, Any]:
+    def _plans(self) -> dict[str, CellPlan]:
+        """The cells planned so far (none when ``plan.json`` is missing or damaged: they are planned again)."""
         try:
-            data = json.loads((self.out / PLAN_JSON).read_text(encoding="utf-8"))
-            return dict(data["cells"]) if isinstance(data, dict) else {}
-        except (OSError, ValueError, KeyError, TypeError):
+            return dict(read_record(self.out / PLAN_JSON, PlanRecord).cells)
+        except RecordError as err:
+            if (self.out / PLAN_JSON).exists():
+                log.warning("%s; planning again", err)
             return {}
 
-    def _plan_batch(self, ex: Executor, cells: list[Cell], plans: dict[str, Any]) -> None:
+    def _plan_batch(self, ex: Executor, cells: list[Cell], plans: dict[str, CellPlan]) -> None:
         """Plan the cells whose plan is missing or stale (executor tasks); results into ``plans``."""
         edges = self.suite.heading_edges()
-        todo = [c for c in cells if plans.get(c.id, {}).get("key") != c.key()]
+        todo = [c for c in cells if (old := plans.get(c.id)) is None or old.key != c.key()]
         args = [(c.scene.model_dump_json(), c.seed, f"{self.suite.name}-{c.id}", edges) for c in todo]
         for i, rec in ex.run_tasks(plan_task, args, [f"planning cell {c.id}" for c in todo]):
             c = todo[i]
-            if rec["ok"]:
-                write_text(self.out / CELLS_DIR / c.id / SCENARIO_JSON, json.dumps(rec.pop("scenario"), indent=1))
-            plans[c.id] = {"key": c.key(), "level": c.level, "seed": c.seed, **rec}
-            write_json(self.out / PLAN_JSON, {"heading_edges_deg": edges, "cells": plans})
+            if rec.ok:
+                write_text(self.out / CELLS_DIR / c.id / SCENARIO_JSON, json.dumps(rec.scenario, indent=1))
+            plans[c.id] = rec.plan(c.key(), c.level, c.seed)
+            write_record(self.out / PLAN_JSON, PlanRecord(edges, plans))
 
     def plan(self, ex: Executor) -> list[Cell]:
         """Every cell of the suite, planned (adding seeds per level when the suite asks for a count)."""
@@ -189,20 +190,19 @@ class BenchmarkJob:
 
     # -- running ----------------------------------------------------------------
     def _done(self, c: Cell) -> bool:
+        path = self.out / CELLS_DIR / c.id / CELL_JSON
         try:
-            rec = json.loads((self.out / CELLS_DIR / c.id / CELL_JSON).read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            rec = read_record(path, CellStatus)
+        except RecordError as err:
+            if path.exists():
+                log.warning("%s; running the cell again", err)
             return False
         files = (self.out / CELLS_DIR / c.id / n for n in (PAIRS_GZ, RUNTIMES_JSON, "config.yaml"))
-        return rec.get("status") == "ok" and rec.get("key") == c.key() and all(f.is_file() for f in files)
+        return rec.status == "ok" and rec.key == c.key() and all(f.is_file() for f in files)
 
     def _run_cell(self, c: Cell, ex: Executor) -> None:
         folder = self.out / CELLS_DIR / c.id
-        try:
-            data = json.loads((folder / SCENARIO_JSON).read_text(encoding="utf-8"))
-        except (OSError, ValueError) as err:
-            raise StorageError(f"{folder / SCENARIO_JSON}: unreadable ({type(err).__name__})") from None
-        sc = validate_model(Scenario, data, source=str(folder / SCENARIO_JSON))
+        sc = validate_model(Scenario, read_json(folder / SCENARIO_JSON), source=str(folder / SCENARIO_JSON))
         chunk = self.executor.chunk_pairs if self.executor is not None else ExecutorConfig().chunk_pairs
         res = CellExperiment(sc, self.out / WORK_DIR / c.id, executor=ex, chunk_pairs=chunk).run()
         raw = (res.run_dir / "pairs.csv").read_bytes()
@@ -214,15 +214,12 @@ class BenchmarkJob:
             m: cell_runtime_stats(_floats(a.get("per_pair_s")) if isinstance(a, dict) else [])
             for m, a in sorted(per_method.items())
         }
-        write_json(folder / RUNTIMES_JSON, runtimes)
+        write_record(folder / RUNTIMES_JSON, runtimes)
 
-    def _finish(self, c: Cell, status: str, error: str | None = None) -> None:
-        write_json(
-            self.out / CELLS_DIR / c.id / CELL_JSON,
-            {"key": c.key(), "level": c.level, "seed": c.seed, "status": status, "error": error},
-        )
+    def _finish(self, c: Cell, status: Literal["ok", "failed"], error: str | None = None) -> None:
+        write_record(self.out / CELLS_DIR / c.id / CELL_JSON, CellStatus(c.key(), c.level, c.seed, status, error))
 
-    def plan_only(self) -> tuple[list[Cell], dict[str, Any]]:
+    def plan_only(self) -> tuple[list[Cell], dict[str, CellPlan]]:
         """Plan every cell (nothing rendered); the cells and their plans (``plan.json``'s records)."""
         self.guard()
         self.out.mkdir(parents=True, exist_ok=True)
@@ -245,8 +242,9 @@ class BenchmarkJob:
             plans = self._plans()
             self._record(cells, status)
             for n, c in enumerate(cells):
-                if not plans.get(c.id, {}).get("ok"):
-                    outcome.failures[c.id] = f"planning failed: {plans.get(c.id, {}).get('error', 'no plan')}"
+                p = plans.get(c.id)
+                if p is None or not p.ok:
+                    outcome.failures[c.id] = f"planning failed: {p.error if p is not None else 'no plan'}"
                     self._finish(c, "failed", outcome.failures[c.id])
                 elif self._done(c):
                     outcome.reused.append(c.id)

@@ -14,6 +14,7 @@ from roman_sim.cli import app
 from roman_sim.cli.progress import LineProgress
 
 if TYPE_CHECKING:
+    from roman_sim.benchmark.cells import Cell, CellPlan
     from roman_sim.evaluation.leaderboard import Leaderboard
 
 
@@ -24,21 +25,21 @@ def _methods(values: list[str] | None) -> list[str] | None:
     return [m.strip() for v in values for m in v.split(",") if m.strip()]
 
 
-def _plan_table(cells: list[Any], plans: dict[str, Any], edges: list[float]) -> Table:
+def _plan_table(cells: list[Cell], plans: dict[str, CellPlan], edges: list[float]) -> Table:
     labels = [f"{lo:g}-{hi:g}" for lo, hi in zip(edges, edges[1:])]
     t = Table(title="planned relevant cross-robot pairs per heading bin (deg), before rendering")
     for col in ["cell", *labels, "pairs", "submaps"]:
         t.add_column(col, justify="right" if col != "cell" else "left")
     totals: dict[str, list[int]] = {}
     for c in cells:
-        p = plans.get(c.id, {})
-        if not p.get("ok"):
-            t.add_row(c.id, *(["-"] * len(labels)), "failed", p.get("error", ""))
+        p = plans.get(c.id)
+        if p is None or not p.ok or p.relevant is None:
+            t.add_row(c.id, *(["-"] * len(labels)), "failed", (p.error or "") if p is not None else "")
             continue
         tot = totals.setdefault(c.level, [0] * len(labels))
-        for i, v in enumerate(p["relevant"]):
+        for i, v in enumerate(p.relevant):
             tot[i] += v
-        t.add_row(c.id, *map(str, p["relevant"]), str(p["pairs"]), str(p["submaps"]))
+        t.add_row(c.id, *map(str, p.relevant), str(p.pairs), str(p.submaps))
     for level, tot in totals.items():
         t.add_row(f"[bold]{level} (all seeds)", *map(str, tot), "", "")
     return t
