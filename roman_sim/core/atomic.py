@@ -151,9 +151,14 @@ def write_text(path: str | Path, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
 
 
-def write_json(path: str | Path, obj: Any, indent: int | None = 2) -> None:
-    """Atomically write ``obj`` as JSON (sorted keys: the same data gives the same bytes; ``indent=None``: compact)."""
-    write_text(path, json.dumps(obj, indent=indent, sort_keys=True, default=_json_default) + "\n")
+def write_json(path: str | Path, obj: Any, indent: int | None = 2, tight: bool = False) -> None:
+    """Atomically write ``obj`` as JSON (sorted keys: the same data gives the same bytes).
+
+    ``indent=None``: on one line; ``tight``: on one line without spaces after separators.
+    """
+    seps = (",", ":") if tight else None
+    text = json.dumps(obj, indent=None if tight else indent, separators=seps, sort_keys=True, default=_json_default)
+    write_text(path, text + "\n")
 
 
 def write_npz(path: str | Path, compressed: bool = True, **arrays: np.ndarray) -> None:

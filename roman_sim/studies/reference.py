@@ -21,7 +21,6 @@ map statistics), so a test can check that every number and claim follows from th
 from __future__ import annotations
 
 import gzip
-import json
 import logging
 import shutil
 from collections.abc import Callable
@@ -31,7 +30,9 @@ from typing import TYPE_CHECKING, Any, TypedDict
 from roman_sim.core.atomic import write_bytes, write_json, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON, JSONLike
+from roman_sim.core.records import read_json
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings, write_timings
+from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
 from roman_sim.evaluation.run_summary import RunSummary
 from roman_sim.pipeline.sweep_aggregate import read_sweep_json
 from roman_sim.studies import pages
@@ -136,9 +137,7 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
     for name in SMALL_FILES:
         if (run_dir / name).is_file() and name != "report.md":
             shutil.copyfile(run_dir / name, dest / name)
-    write_text(
-        dest / "metrics.json", json.dumps(_json(run_dir / "metrics.json"), sort_keys=True, separators=(",", ":")) + "\n"
-    )
+    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"), tight=True)
     if (run_dir / "timings.json").is_file():
         write_timings(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
     for name in RAW_FILES:
@@ -190,7 +189,6 @@ def rewrite_report(folder: str | Path) -> Path:
     """
     from roman_sim.core.config import read_yaml
     from roman_sim.evaluation.atetable import read_ate
-    from roman_sim.evaluation.results import read_metrics_json
     from roman_sim.report.markdown import report_markdown
 
     d = Path(folder)
@@ -341,7 +339,7 @@ def merge_committed(out: Path, runs: dict[str, RunSummary]) -> tuple[dict[str, R
     if not (out / "summary.json").is_file():
         return runs, []
     merged: dict[str, RunSummary] = {}
-    for name in _json(out / "summary.json").get("runs", {}):
+    for name in read_json(out / "summary.json").get("runs", {}):
         if name in runs:
             merged[name] = runs[name]
         elif (out / name / "pairs.csv.gz").is_file():
@@ -435,16 +433,9 @@ def _run_summary(d: Path) -> RunSummary:
     return summarize_run(metrics, ate, stats, runtimes)
 
 
-def _json(path: Path) -> Any:
-    try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        raise StorageError(f"{path}: unreadable ({type(err).__name__})") from None
-
-
 def rederive(ref_dir: str | Path) -> ReferenceRecord:
     """``summary.json`` recomputed from the raw files under ``ref_dir`` (scenarios as committed)."""
     d = Path(ref_dir)
-    committed = _json(d / "summary.json")
+    committed = read_json(d / "summary.json")
     runs = {name: _run_summary(d / name) for name in committed["runs"]}
     return build_reference(runs, _committed_sweep(d))
