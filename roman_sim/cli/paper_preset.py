@@ -72,13 +72,11 @@ def paper_predict_cmd(
     from roman_sim.studies.paper_preset import PREDICTIONS, predict_paper_preset
 
     res = predict_paper_preset(out)
-    t = Table(title=f"paper preset at severity {res['severity']:g}: held-out predictions")
+    t = Table(title=f"paper preset at severity {res.severity:g}: held-out predictions")
     for col in ("claim", "paper", "simulated", "holds"):
         t.add_column(col)
-    for c in res["claims"]:
-        v = c["value"]
-        shown = ", ".join(f"{k} {_fmt(x)}" for k, x in v.items()) if isinstance(v, dict) else _fmt(v)
-        t.add_row(c["claim"], str(c["paper"]), shown, "yes" if c["holds"] else "no")
+    for c in res.claims:
+        t.add_row(c.claim, str(c.paper), c.shown(), "yes" if c.holds else "no")
     Console().print(t)
     console.print(f"wrote {out / PREDICTIONS}")
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,7 @@ from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.records import RecordError, read_record, write_record
 
 log = logging.getLogger(__name__)
 
@@ -91,34 +93,35 @@ def _key(severity: float) -> str:
     return f"{severity:.6f}"
 
 
+@dataclass(frozen=True)
+class FitStateRecord:
+    """``fit_state.json``: the fit's configuration and, per severity, each method's max recall."""
+
+    config: dict[str, Any]
+    runs: dict[str, dict[str, float | None]]
+
+
 class FitState:
     """The runs done so far, keyed by severity, saved after each run (``fit_state.json``)."""
 
     def __init__(self, out: Path, cfg: PaperFitConfig) -> None:
-        import json
-
         self.path = out / STATE
         self.cfg = cfg
         self.runs: dict[str, dict[str, float | None]] = {}
         if self.path.is_file():
             try:
-                data = json.loads(self.path.read_text())
-                saved, runs = data["config"], data["runs"]
-            except (ValueError, KeyError, TypeError) as err:
-                raise ConfigError(
-                    f"{self.path}: not a paper-fit state file ({err}); remove it to start again"
-                ) from None
-            if saved != cfg.model_dump(mode="json"):
+                saved = read_record(self.path, FitStateRecord)
+            except RecordError as err:
+                raise ConfigError(f"{err} (not a paper-fit state file; remove it to start again)") from None
+            if saved.config != cfg.model_dump(mode="json"):
                 raise ConfigError(
                     f"{self.path}: made with another fit configuration; use another output folder or remove it"
                 )
-            self.runs = {str(k): dict(v) for k, v in runs.items()}
+            self.runs = {k: dict(v) for k, v in saved.runs.items()}
 
     def save(self) -> None:
         """Write the state atomically."""
-        from roman_sim.core.atomic import write_json
-
-        write_json(self.path, {"config": self.cfg.model_dump(mode="json"), "runs": self.runs})
+        write_record(self.path, FitStateRecord(self.cfg.model_dump(mode="json"), self.runs))
 
     def recall(self, severity: float) -> float | None:
         """The fitted method's max recall at ``severity`` (None when the run had no relevant pair)."""
@@ -219,11 +222,51 @@ def preset_at(preset: str, severity: float) -> dict[str, Any]:
     return out
 
 
+@dataclass(frozen=True)
+class PaperClaim:
+    """One held-out prediction: the paper's claim, its figure, the simulated value, whether it holds."""
+
+    claim: str
+    paper: float | str
+    value: float | dict[str, float | None] | None
+    holds: bool
+
+    def shown(self) -> str:
+        """The simulated value as a table shows it (per method when several)."""
+        v = self.value
+        return ", ".join(f"{k} {_fmt(x)}" for k, x in v.items()) if isinstance(v, dict) else _fmt(v)
+
+
+@dataclass(frozen=True)
+class FittedFigure:
+    """The one figure the preset was fitted on: scenario, name, the paper's value and the fitted one."""
+
+    scenario: str
+    figure: str
+    paper: float
+    value: float
+
+
+@dataclass(frozen=True)
+class PaperPredictions:
+    """``paper_predictions.json``: the fitted severity and figure, the held-out run's max recalls, the claims."""
+
+    severity: float
+    fitted: FittedFigure
+    scenario: str
+    max_recall: dict[str, float | None]
+    claims: list[PaperClaim]
+
+
+def read_predictions(path: str | Path) -> PaperPredictions:
+    """``paper_predictions.json`` (RecordError naming the file and field when malformed)."""
+    return read_record(path, PaperPredictions)
+
+
 def predict_paper_preset(
     out: str | Path, cfg: PaperFitConfig | None = None, run: RunFn | None = None
-) -> dict[str, Any]:
+) -> PaperPredictions:
     """Run ``predict_scenario`` with the fitted preset; write ``paper_predictions.json``; return it."""
-    from roman_sim.core.atomic import write_json
     from roman_sim.core.config import read_yaml
 
     out = Path(out)
@@ -243,33 +286,33 @@ def predict_paper_preset(
     ratio_lo, ratio_hi = PAPER_SAME_RECALL / hi, PAPER_SAME_RECALL / lo
     band = f"{PAPER_OPPOSITE_RECALL} +- {PAPER_OPPOSITE_BAND}"
     claims = [
-        {
-            "claim": f"ROMAN's opposite-direction max recall lies within {band}",
-            "paper": PAPER_OPPOSITE_RECALL,
-            "value": roman,
-            "holds": roman is not None and lo <= roman <= hi,
-        },
-        {
-            "claim": "opposite direction: ROMAN > RANSAC-1M > CLIPPER (max recall)",
-            "paper": "ROMAN > RANSAC-1M > CLIPPER",
-            "value": {"roman": roman, "ransac1m": ransac, "clipper": clipper},
-            "holds": None not in (roman, ransac, clipper) and roman > ransac > clipper,  # type: ignore[operator]
-        },
-        {
-            "claim": f"same/opposite ratio of ROMAN's max recall within {ratio_lo:.2f}-{ratio_hi:.2f}",
-            "paper": PAPER_RATIO,
-            "value": ratio,
-            "holds": ratio is not None and ratio_lo <= ratio <= ratio_hi,
-        },
+        PaperClaim(
+            f"ROMAN's opposite-direction max recall lies within {band}",
+            PAPER_OPPOSITE_RECALL,
+            roman,
+            roman is not None and lo <= roman <= hi,
+        ),
+        PaperClaim(
+            "opposite direction: ROMAN > RANSAC-1M > CLIPPER (max recall)",
+            "ROMAN > RANSAC-1M > CLIPPER",
+            {"roman": roman, "ransac1m": ransac, "clipper": clipper},
+            None not in (roman, ransac, clipper) and roman > ransac > clipper,  # type: ignore[operator]
+        ),
+        PaperClaim(
+            f"same/opposite ratio of ROMAN's max recall within {ratio_lo:.2f}-{ratio_hi:.2f}",
+            PAPER_RATIO,
+            ratio,
+            ratio is not None and ratio_lo <= ratio <= ratio_hi,
+        ),
     ]
-    result = {
-        "severity": fit["severity"],
-        "fitted": {"scenario": cfg.scenario, "figure": fit["figure"], "paper": fit["paper"], "value": same},
-        "scenario": cfg.predict_scenario,
-        "max_recall": got,
-        "claims": claims,
-    }
-    write_json(out / PREDICTIONS, result)
+    result = PaperPredictions(
+        severity=fit["severity"],
+        fitted=FittedFigure(cfg.scenario, fit["figure"], fit["paper"], same),
+        scenario=cfg.predict_scenario,
+        max_recall=dict(got),
+        claims=claims,
+    )
+    write_record(out / PREDICTIONS, result)
     return result
 
 
@@ -311,13 +354,12 @@ def _fmt(v: Any) -> str:
 
 def preset_block(folder: str | Path) -> str:
     """The results page's paper-preset block (markers included), from a collected fit's JSON and YAML."""
-    import json
 
     from roman_sim.core.config import read_yaml
 
     d = Path(folder)
     fit = read_yaml(d / FIT_YAML)["fit"]
-    pred = json.loads((d / PREDICTIONS).read_text(encoding="utf-8"))
+    pred = read_predictions(d / PREDICTIONS)
     begin, end = PRESET_MARKERS
     lines = [
         begin,
@@ -331,14 +373,11 @@ def preset_block(folder: str | Path) -> str:
             for s, r in (tuple(x) for x in fit["searched"])
         ),
         "",
-        f"Held-out predictions on `{pred['scenario']}` at that severity, nothing else changed "
-        "(cross-robot max recall):",
+        f"Held-out predictions on `{pred.scenario}` at that severity, nothing else changed (cross-robot max recall):",
         "",
         "| prediction | paper | simulated | holds |",
         "|---|---|---|---|",
     ]
-    for c in pred["claims"]:
-        v = c["value"]
-        shown = ", ".join(f"{k} {_fmt(x)}" for k, x in v.items()) if isinstance(v, dict) else _fmt(v)
-        lines.append(f"| {c['claim']} | {c['paper']} | {shown} | {'yes' if c['holds'] else 'no'} |")
+    for c in pred.claims:
+        lines.append(f"| {c.claim} | {c.paper} | {c.shown()} | {'yes' if c.holds else 'no'} |")
     return "\n".join([*lines, end])

@@ -15,7 +15,7 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.frontend.components import FrontEndConfig, build_encoder, build_segmenter
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.studies import paper_preset
-from roman_sim.studies.paper_preset import PaperFitConfig, fit_paper_preset, predict_paper_preset
+from roman_sim.studies.paper_preset import PaperFitConfig, fit_paper_preset, predict_paper_preset, read_predictions
 
 
 def _severity(overrides):
@@ -90,13 +90,13 @@ def test_predictions_are_claims_that_hold_or_not(tmp_path):
     assert scenario == "opposite_direction" and _severity(overrides) == 1.0
     assert "aligners=[roman, ransac1m, clipper]" in overrides
     assert f"frontend.preset={(tmp_path / 'paper_fit.yaml').resolve()}" in overrides
-    holds = [c["holds"] for c in res["claims"]]
+    holds = [c.holds for c in res.claims]
     same = 0.95 - 0.2 * 1.375
     assert holds == [True, True, 0.67 / 0.34 <= same / 0.28 <= 0.67 / 0.18]
-    assert res["claims"][2]["value"] == pytest.approx(same / 0.28)
-    assert json.loads((tmp_path / "paper_predictions.json").read_text()) == json.loads(json.dumps(res))
+    assert res.claims[2].value == pytest.approx(same / 0.28)
+    assert read_predictions(tmp_path / "paper_predictions.json") == res
     miss = predict_paper_preset(tmp_path, run=Stub(opposite={"roman": 0.5, "ransac1m": 0.6, "clipper": 0.1}))
-    assert [c["holds"] for c in miss["claims"]] == [False, False, False]
+    assert [c.holds for c in miss.claims] == [False, False, False]
 
 
 def test_commands(tmp_path, monkeypatch):
