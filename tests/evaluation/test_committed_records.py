@@ -15,6 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from roman_sim.benchmark.board import read_runtimes
+from roman_sim.benchmark.cells import BENCHMARK_SCHEMA, BenchmarkRecord, CellStatus, PlanRecord
 from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.evaluation.atetable import read_ate, write_ate
 from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
@@ -27,9 +29,11 @@ from roman_sim.evaluation.records import (
     write_map_stats,
     write_timings,
 )
+from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
 from roman_sim.evaluation.variants import GraphInfo
 from roman_sim.pipeline.manifest import MANIFEST_SCHEMA, ManifestRecord
 from roman_sim.pipeline.sweep_aggregate import SWEEP_SCHEMA, read_sweep_json
+from roman_sim.studies.paper_preset import FitStateRecord, read_predictions
 
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "results"
@@ -62,6 +66,15 @@ REWRITE: dict[str, Callable[[Path, Path], object]] = {
         dest, read_record(src, ManifestRecord, MANIFEST_SCHEMA), MANIFEST_SCHEMA
     ),
     "alignments.json.gz": _rewrite_alignments,
+    "benchmark.json": lambda src, dest: write_record(
+        dest, read_record(src, BenchmarkRecord, BENCHMARK_SCHEMA), BENCHMARK_SCHEMA
+    ),
+    "metrics.json": lambda src, dest: write_metrics_json(dest, read_metrics_json(src), tight=True),
+    "fit_state.json": lambda src, dest: write_record(dest, read_record(src, FitStateRecord)),
+    "paper_predictions.json": lambda src, dest: write_record(dest, read_predictions(src)),
+    "plan.json": lambda src, dest: write_record(dest, read_record(src, PlanRecord)),
+    "cell.json": lambda src, dest: write_record(dest, read_record(src, CellStatus)),
+    "runtimes.json": lambda src, dest: write_record(dest, read_runtimes(src)),
 }
 
 FILES = sorted(p for p in RESULTS.rglob("*.json*") if p.name in REWRITE)

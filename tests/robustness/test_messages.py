@@ -85,8 +85,7 @@ def test_report_on_a_corrupt_result_file_names_the_file(finished_run: Path, tmp_
     shutil.copy(finished_run / "ate.json", run / "ate.json")
     (run / "metrics.json").write_text("[1")
     assert (
-        cli_fails("report", run)
-        == f"error: {run / 'metrics.json'}: not valid JSON (line 1: Expecting ',' delimiter)"
+        cli_fails("report", run) == f"error: {run / 'metrics.json'}: not valid JSON (line 1: Expecting ',' delimiter)"
     )
 
 
