@@ -122,3 +122,27 @@ def test_env_reset_rejects_unknown_options_and_non_dict_options_and_stays_usable
         env.step(np.array([1.0, 0.0]))  # usable after the rejected resets
     finally:
         env.close()
+
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_a_damaged_benchmark_cell_record_names_the_file_and_field(tmp_path: Path, cli_fails) -> None:
+    out = tmp_path / "standard"
+    shutil.copytree(ROOT / "results" / "benchmark" / "standard", out)
+    cell = out / "cells" / "low-s0" / "cell.json"
+    cell.write_text(cell.read_text().replace('"status": "ok"', '"status": "done"'))
+    assert cli_fails("benchmark", "standard", "--out", out, "--report-only") == (
+        f"error: {cell}: field status: expected one of 'ok', 'failed', got a string ('done')"
+    )
+
+
+def test_a_damaged_paper_fit_state_names_the_file_and_field(tmp_path: Path, cli_fails) -> None:
+    out = tmp_path / "fit"
+    out.mkdir()
+    state = out / "fit_state.json"
+    state.write_text('{"config": {}, "runs": {"0.000000": {"roman": "high"}}}')
+    assert cli_fails("paper-preset", "fit", "--out", out) == (
+        f"error: {state}: field runs.0.000000.roman: expected a number, got a string ('high') "
+        "(not a paper-fit state file; remove it to start again)"
+    )
