@@ -56,10 +56,17 @@ def paper_fit_cmd(
 
     res = fit_paper_preset(out, _fit_config(scenario, grid, refine, overrides))["fit"]
     t = Table(title=f"paper fit: {res['figure']} (paper {res['paper']})")
-    for col in ("severity", "max recall"):
+    for col in ("severity", "hits / relevant", "max recall", "95 % Wilson", "admitted"):
         t.add_column(col, justify="right")
-    for s, r in res["searched"]:
-        t.add_row(f"{s:g}" + (" (fitted)" if s == res["severity"] else ""), _fmt(r))
+    for r in res["runs"]:
+        ci = r.get("ci")
+        t.add_row(
+            f"{r['severity']:g}" + (" (fitted)" if r["severity"] == res["severity"] else ""),
+            f"{r.get('hits', 'n/a')}/{r.get('relevant', 'n/a')}",
+            _fmt(r["max_recall"]),
+            "n/a" if ci is None else f"{ci[0]:.3f}-{ci[1]:.3f}",
+            "yes" if r["admitted"] else "no",
+        )
     Console().print(t)
     console.print(f"wrote {out / FIT_YAML}")
 
@@ -67,16 +74,20 @@ def paper_fit_cmd(
 @paper_app.command("predict")
 def paper_predict_cmd(
     out: Path = typer.Option(Path("paper_fit"), "--out", "-o", help="the fit's folder (holds paper_fit.yaml)"),
+    no_run: bool = typer.Option(
+        False, "--no-run", help="run nothing: write the predictions from the runs done, the others marked not run"
+    ),
 ) -> None:
-    """Run the held-out predictions of the fitted preset (opposite direction) and check the paper's claims."""
-    from roman_sim.studies.paper_preset import PREDICTIONS, predict_paper_preset
+    """Run the held-out predictions (opposite direction) at every admitted severity and judge the paper's claims."""
+    from roman_sim.studies.paper_preset import PREDICTIONS, predict_paper_preset, range_cell, verdict_cell
 
-    res = predict_paper_preset(out)
-    t = Table(title=f"paper preset at severity {res.severity:g}: held-out predictions")
-    for col in ("claim", "paper", "simulated", "holds"):
+    res = predict_paper_preset(out, run_missing=not no_run)
+    admitted = ", ".join(f"{s:g}" for s in res.admitted.severities)
+    t = Table(title=f"paper preset, admitted severities {admitted} (fitted {res.severity:g}): held-out predictions")
+    for col in ("claim", "paper", "range over the settings run", "verdict"):
         t.add_column(col)
     for c in res.claims:
-        t.add_row(c.claim, str(c.paper), c.shown(), "yes" if c.holds else "no")
+        t.add_row(c.claim, str(c.paper), range_cell(c), verdict_cell(c))
     Console().print(t)
     console.print(f"wrote {out / PREDICTIONS}")
 

@@ -849,3 +849,113 @@ def attribution_rows(folder: str | Path) -> list[dict[str, JSONValue]]:
         ok = isinstance(base, float) and isinstance(drop, float) and base > 0
         row["explained"] = (base - drop) / base if ok else None  # type: ignore[operator]
     return out
+
+
+# -- the paper preset's fit and predictions ----------------------------------------------------
+#: The paper's held-out figures the preset's claims test: ROMAN's opposite-direction max recall
+#: 0.26 +- 0.08, and the same/opposite ratio band that this gives around 2.6 (target / 0.34 to
+#: target / 0.18); the ordering's methods, best first; the level of the admitting intervals.
+PAPER_OPPOSITE = (Fraction(26, 100), Fraction(8, 100))
+PAPER_ORDER = ("roman", "ransac1m", "clipper")
+ADMIT_LEVEL = 0.95
+
+
+def _inter_counts(run_dir: Path, methods: Sequence[str]) -> dict[str, tuple[int, int]]:
+    """Per method, (max hits, relevant) over the cross-robot rows of a run, from its raw pairs."""
+    cfg, pairs, judged = judged_rows(run_dir)
+    out = {}
+    for m in methods:
+        rows = [j for p, j in zip(pairs, judged) if p.method == m and p.kind == "inter"]
+        out[m] = (_max_hits(rows, cfg), sum(r.relevant for r in rows))
+    return out
+
+
+def _paper_verdict(holds: Sequence[bool], not_run: int) -> str:
+    """some: the settings run disagree; undetermined: they agree but some were not run; else every / none."""
+    if any(holds) and not all(holds):
+        return "some"
+    if not_run:
+        return "undetermined"
+    return "every" if holds and all(holds) else "none"
+
+
+def paper_preset_figures(folder: str | Path) -> dict[str, JSONValue]:
+    """The paper preset's admitted settings and its three predictions, re-derived from the raw pairs.
+
+    From ``fit_state.json`` only the fit's configuration is read (``scenario``,
+    ``predict_scenario``, ``method``, ``target``). Every fit run is a folder
+    ``runs/<scenario>_<severity, 6 decimals>``; its ``method``'s cross-robot max hits and
+    relevant pairs come from its pairs and alignments. The fitted severity is the one whose
+    recall lies closest to the target (the lower on a tie); the admitted ones are those whose
+    95 % Wilson interval contains the target, and the fitted one. A severity's prediction run is
+    ``runs/<predict_scenario>_<severity>``; a folder made before the admitted settings has one
+    prediction run, ``runs/<predict_scenario>``, at the fitted severity. Per claim and admitted
+    severity: the value (None when not run) and whether it holds; the range over the settings
+    run; the verdict (``every``, ``some``, ``none``, or ``undetermined`` when some setting was
+    not run and those run agree).
+    """
+    d = Path(folder)
+    with _open_text(d / "fit_state.json") as fh:
+        spec = json.load(fh)["config"]
+    scenario, predict, method = str(spec["scenario"]), str(spec["predict_scenario"]), str(spec["method"])
+    target = float(spec["target"])
+    prefix = f"{scenario}_"
+    fit: dict[float, tuple[int, int]] = {}
+    for run in sorted((d / "runs").iterdir()):
+        if run.is_dir() and run.name.startswith(prefix):
+            fit[float(run.name[len(prefix) :])] = _inter_counts(run, [method])[method]
+    scored = [(s, k / n) for s, (k, n) in fit.items() if n]
+    fitted = min(scored, key=lambda sr: (abs(sr[1] - target), sr[0]))[0]
+    admitted = []
+    for s, (k, n) in sorted(fit.items()):
+        ci = wilson_interval(k, n, ADMIT_LEVEL)
+        if s == fitted or (ci is not None and ci[0] <= target <= ci[1]):
+            admitted.append(s)
+    centre, band = PAPER_OPPOSITE
+    lo, hi = float(centre - band), float(centre + band)
+    rows: dict[str, dict[float, tuple[JSONValue, bool] | None]] = {"opposite": {}, "ordering": {}, "ratio": {}}
+    predicted: dict[float, dict[str, tuple[int, int]]] = {}
+    for s in admitted:
+        run = d / "runs" / f"{predict}_{s:.6f}"
+        if not run.is_dir() and s == fitted and (d / "runs" / predict).is_dir():
+            run = d / "runs" / predict
+        if not run.is_dir():
+            for claim in rows.values():
+                claim[s] = None
+            continue
+        got = predicted[s] = _inter_counts(run, PAPER_ORDER)
+        rec = {m: k / n if n else None for m, (k, n) in got.items()}
+        r = rec[method]
+        rows["opposite"][s] = (r, r is not None and lo <= r <= hi)
+        vals = [rec[m] for m in PAPER_ORDER]
+        ordered = all(v is not None for v in vals) and vals[0] > vals[1] > vals[2]  # type: ignore[operator]
+        rows["ordering"][s] = (rec, ordered)
+        k, n = fit[s]
+        q = (k / n) / r if n and r else None
+        rows["ratio"][s] = (q, q is not None and target / hi <= q <= target / lo)
+    claims: dict[str, JSONValue] = {}
+    for name, per in rows.items():
+        ran = {s: v for s, v in per.items() if v is not None}
+        holds = [h for _, h in ran.values()]
+        if name == "ordering":
+            span: JSONValue = {
+                m: [min(vs), max(vs)] if vs else None
+                for m in PAPER_ORDER
+                for vs in [[v[m] for v, _ in ran.values() if isinstance(v, dict) and v[m] is not None]]
+            }
+        else:
+            nums = [v for v, _ in ran.values() if isinstance(v, float)]
+            span = [min(nums), max(nums)] if nums else None
+        claims[name] = {
+            "values": {s: None if v is None else v[0] for s, v in per.items()},
+            "holds": {s: v[1] for s, v in ran.items()},
+            "range": span,
+            "verdict": _paper_verdict(holds, len(per) - len(ran)),
+        }
+    return {
+        "fit": {s: {"hits": k, "relevant": n, "ci": wilson_interval(k, n, ADMIT_LEVEL)} for s, (k, n) in fit.items()},
+        "fitted": fitted,
+        "admitted": admitted,
+        "predicted": {s: {m: {"hits": k, "relevant": n} for m, (k, n) in v.items()} for s, v in predicted.items()},
+        "claims": claims,
+    }
