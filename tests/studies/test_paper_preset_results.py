@@ -221,3 +221,44 @@ def test_the_mechanisms_cited_for_the_miss_are_the_attribution_studys():
         == (rows[("partial_views", "roman")]["explained"])
     )
     assert rows[("none", "roman")]["drop_lo"] <= 0 <= rows[("none", "roman")]["drop_hi"]
+
+
+def test_the_scorer_and_the_study_agree_where_the_admitted_settings_disagree(tmp_path):
+    """A copy of the committed fit with every admitted severity given a prediction run (committed run
+    folders reused: the same-direction run at 2 lacks RANSAC-1M and CLIPPER, so the ordering fails
+    there and holds at the others): the verdicts read 'some' and 'none', alike from the study's
+    figures (each run's metrics) and from the scorer's (raw pairs)."""
+    import shutil
+
+    from roman_sim.studies.paper_preset import predict_paper_preset
+
+    for name in ("fit_state.json", "paper_fit.yaml", "paper_predictions.json"):
+        shutil.copyfile(FOLDER / name, tmp_path / name)
+    (tmp_path / "runs").mkdir()
+    for run in (FOLDER / "runs").iterdir():
+        (tmp_path / "runs" / run.name).symlink_to(run)
+    for severity, source in (
+        (2.0, "same_direction_2.000000"),
+        (2.25, "opposite_direction"),
+        (2.5, "opposite_direction"),
+    ):
+        (tmp_path / "runs" / f"opposite_direction_{severity:.6f}").symlink_to(FOLDER / "runs" / source)
+
+    def from_metrics(scenario, overrides, run_dir):
+        inter = {m: v["inter"] for m, v in json.loads((run_dir / "metrics.json").read_text())["methods"].items()}
+        return {
+            m: (inter[m]["max_hits"], inter[m]["n_relevant"]) if m in inter else (0, 0)
+            for m in ("roman", "ransac1m", "clipper")
+        }
+
+    pred = predict_paper_preset(tmp_path, run=from_metrics)
+    scored = S.paper_preset_figures(tmp_path)
+    assert [c.verdict for c in pred.claims] == [
+        scored["claims"][n]["verdict"] for n in ("opposite", "ordering", "ratio")
+    ]
+    assert [c.verdict for c in pred.claims] == ["none", "some", "none"]
+    assert pred.claims[1].holds_for == [2.25, 2.375, 2.5] and pred.claims[1].fails_for == [2.0]
+    for claim, name in zip(pred.claims, ("opposite", "ordering", "ratio")):
+        assert claim.holds_for == [s for s, h in scored["claims"][name]["holds"].items() if h], name
+        if name != "ordering":
+            assert claim.range == pytest.approx(scored["claims"][name]["range"], rel=1e-12), name
