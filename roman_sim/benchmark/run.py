@@ -10,7 +10,8 @@ A cell is one (ambiguity level, seed): one crossing scenario, one run folder. Th
 3. keeps what each finished cell needs for the leaderboard in ``cells/<cell>/`` (the
    scenario, ``pairs.csv.gz``, per-method runtime statistics) and writes the leaderboard.
 
-Everything resumes: a cell whose record matches its configuration is not run again, an
+Everything resumes: a cell whose record matches its configuration and code (``cell_key``:
+its plan's key and every stage key of its run) is not run again, an
 interrupted cell continues from its run folder's checkpoints (robots mapped, chunks of
 pairs aligned), plans are kept in ``plan.json``. A cell that fails (a plug-in raising on
 one pair, a drive that cannot be placed) is recorded as failed with its one-line error and
@@ -54,10 +55,11 @@ from roman_sim.benchmark.cells import (
 )
 from roman_sim.benchmark.suites import BenchmarkSuite, check_methods
 from roman_sim.core.atomic import write_bytes, write_text
-from roman_sim.core.config import dump_yaml, validate_model
+from roman_sim.core.config import dump_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, RomanSimError
 from roman_sim.core.records import RecordError, read_json, read_record, write_record
 from roman_sim.core.registry import one_line
+from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
 
@@ -189,7 +191,22 @@ class BenchmarkJob:
         return [c for lv in s.levels for c in chosen[lv]]
 
     # -- running ----------------------------------------------------------------
-    def _done(self, c: Cell) -> bool:
+    def _scenario(self, c: Cell) -> Scenario:
+        """The cell's planned scenario (``scenario.json``)."""
+        path = self.out / CELLS_DIR / c.id / SCENARIO_JSON
+        return validate_model(Scenario, read_json(path), source=str(path))
+
+    def cell_key(self, c: Cell) -> str:
+        """What a cell's results depend on: its plan's key and its run's (``Experiment.run_key``: every
+        stage's resolved parameters and code), so a changed default or changed code runs it again."""
+        try:
+            sc = self._scenario(c)
+        except RomanSimError:  # not planned (or its plan is damaged): the cell cannot have run
+            return c.key()
+        return stable_hash(c.key(), Experiment(sc, self.out / WORK_DIR / c.id, cache=False).run_key())
+
+    def finished(self, c: Cell) -> bool:
+        """Whether the cell finished under its current key (``cell_key``) with every file it keeps."""
         path = self.out / CELLS_DIR / c.id / CELL_JSON
         try:
             rec = read_record(path, CellStatus)
@@ -198,11 +215,11 @@ class BenchmarkJob:
                 log.warning("%s; running the cell again", err)
             return False
         files = (self.out / CELLS_DIR / c.id / n for n in (PAIRS_GZ, RUNTIMES_JSON, "config.yaml"))
-        return rec.status == "ok" and rec.key == c.key() and all(f.is_file() for f in files)
+        return rec.status == "ok" and all(f.is_file() for f in files) and rec.key == self.cell_key(c)
 
     def _run_cell(self, c: Cell, ex: Executor) -> None:
         folder = self.out / CELLS_DIR / c.id
-        sc = validate_model(Scenario, read_json(folder / SCENARIO_JSON), source=str(folder / SCENARIO_JSON))
+        sc = self._scenario(c)
         chunk = self.executor.chunk_pairs if self.executor is not None else ExecutorConfig().chunk_pairs
         res = CellExperiment(sc, self.out / WORK_DIR / c.id, executor=ex, chunk_pairs=chunk).run()
         raw = (res.run_dir / "pairs.csv").read_bytes()
@@ -217,7 +234,8 @@ class BenchmarkJob:
         write_record(folder / RUNTIMES_JSON, runtimes)
 
     def _finish(self, c: Cell, status: Literal["ok", "failed"], error: str | None = None) -> None:
-        write_record(self.out / CELLS_DIR / c.id / CELL_JSON, CellStatus(c.key(), c.level, c.seed, status, error))
+        key = self.cell_key(c)
+        write_record(self.out / CELLS_DIR / c.id / CELL_JSON, CellStatus(key, c.level, c.seed, status, error))
 
     def plan_only(self) -> tuple[list[Cell], dict[str, CellPlan]]:
         """Plan every cell (nothing rendered); the cells and their plans (``plan.json``'s records)."""
@@ -246,7 +264,7 @@ class BenchmarkJob:
                 if p is None or not p.ok:
                     outcome.failures[c.id] = f"planning failed: {p.error if p is not None else 'no plan'}"
                     self._finish(c, "failed", outcome.failures[c.id])
-                elif self._done(c):
+                elif self.finished(c):
                     outcome.reused.append(c.id)
                 else:
                     self._attempt(c, ex, outcome)

@@ -37,7 +37,7 @@ from typing import cast
 
 from roman_sim import __version__
 from roman_sim.core.atomic import write_text
-from roman_sim.core.config import dump_yaml
+from roman_sim.core.config import dump_yaml, stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.records import RecordError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
@@ -164,6 +164,23 @@ class Experiment:
             raise ConfigError(f"--out {self.run_dir}: cannot write there ({err.strerror or err})") from None
 
     # -- planning --------------------------------------------------------------
+    def stage_keys(self) -> dict[str, str]:
+        """The cache key of every stage the run runs, as the run computes them; nothing is run or written.
+
+        The keys hash the scenario with every component's parameters resolved (defaults filled
+        in) and the fingerprint of the code each stage runs.
+        """
+        from roman_sim.pipeline.resolve import resolve_scenario
+
+        ctx = replace(self.context(), scenario=resolve_scenario(self.scenario))
+        return self._keys(ctx, [s for s in STAGES if s.applies(ctx)])
+
+    def run_key(self) -> str:
+        """What the run's results depend on: ``stage_keys`` hashed. A job that keeps a finished run's
+        figures (a benchmark cell, a tune's alignment) runs it again when the key changes: a changed
+        default or changed code."""
+        return stable_hash(sorted(self.stage_keys().items()))
+
     def _keys(self, ctx: RunContext, active: list[Stage]) -> dict[str, str]:
         keys: dict[str, str] = {}
         for stage in active:

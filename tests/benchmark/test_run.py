@@ -12,7 +12,9 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from roman_sim.align.aligners import RomanAligner, RomanParams
 from roman_sim.benchmark.board import leaderboard
+from roman_sim.benchmark.cells import Cell
 from roman_sim.benchmark.run import BenchmarkJob
 from roman_sim.benchmark.suites import load_suite
 from roman_sim.cli import app
@@ -158,6 +160,35 @@ def test_planned_relevant_pairs_are_the_run_s_and_the_board_follows_from_raw_pai
                 b.heading,
                 m,
             )
+
+
+class _FourAssociations(RomanParams):
+    """ROMAN's parameters with another default (as if its code had been edited)."""
+
+    min_associations_for_transform: int = 4
+
+
+def test_a_finished_cell_runs_again_when_a_default_or_the_code_changes(
+    failed_once: dict, home: Path, monkeypatch
+) -> None:
+    monkeypatch.syspath_prepend(str(home))
+    monkeypatch.chdir(home)
+    suite = load_suite(home / "tiny.yaml")
+    job = BenchmarkJob(suite, failed_once["folder"], ["roman", "bench_plugins:FailsOnRepetitivePlaces"])
+    cell = Cell("distinct", 0, job.scenes["distinct"])
+    assert job.finished(cell)  # nothing changed: reused
+    with monkeypatch.context() as m:
+        m.setattr(RomanAligner, "params_model", _FourAssociations)
+        assert not job.finished(cell)  # a changed default of a method the cell runs
+    assert job.finished(cell)
+    plugin = home / "bench_plugins.py"
+    source = plugin.read_text()
+    try:
+        plugin.write_text(source + "\n# edited\n")
+        assert not job.finished(cell)  # the code of a plug-in the cell runs
+    finally:
+        plugin.write_text(source)
+    assert job.finished(cell)
 
 
 def test_a_rerun_resumes_and_assert_benchmark_pins_cells(failed_once: dict, home: Path, monkeypatch) -> None:
