@@ -230,3 +230,18 @@ def test_every_run_command_declares_the_same_executor_options():
     for name in ("run", "demo", "sweep", "reproduce", "benchmark"):
         params = {p.name: getattr(p, "help", None) for p in group.commands[name].params}  # type: ignore[attr-defined]
         assert {k: params.get(k) for k in declared} == declared, name
+
+
+def test_a_sweep_runs_a_finished_cell_again_when_the_code_of_a_stage_changes(smoke_run, tmp_path, monkeypatch):
+    """A sweep's cell is done only while every stage's key holds: resolved parameters and code."""
+    from roman_sim.pipeline.stages.evaluation import EvaluationStage
+    from roman_sim.pipeline.sweep import _is_done
+
+    run_dir = _copy(smoke_run, tmp_path / "run")
+    assert _is_done(run_dir, "smoke", (), 0)  # nothing changed: reused
+    original = EvaluationStage.code_fingerprint
+    monkeypatch.setattr(EvaluationStage, "code_fingerprint", lambda self, ctx: original(self, ctx) + "-edited")
+    assert not _is_done(run_dir, "smoke", (), 0)  # the evaluation's code changed (its fingerprint)
+    monkeypatch.undo()
+    monkeypatch.setattr(RomanAligner, "params_model", _FourAssociations)
+    assert not _is_done(run_dir, "smoke", (), 0)  # a default of an aligner the cell runs changed
