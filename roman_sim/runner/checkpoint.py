@@ -14,15 +14,14 @@ removed, so a finished run folder holds no checkpoints.
 from __future__ import annotations
 
 import hashlib
-import json
 import logging
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Protocol, TypeVar
+from typing import Any, Protocol, TypeVar
 
-from roman_sim.core.atomic import write_json
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import RecordError, read_record, write_record
 
 log = logging.getLogger(__name__)
 
@@ -52,6 +51,15 @@ class TaskCodec(Protocol[T]):
         ...
 
 
+@dataclass(frozen=True)
+class CheckpointRecord:
+    """``partial/<stage>/<item>.json``: the stage key it was made under, the codec's data, its files' SHA-256."""
+
+    key: str
+    data: Any
+    files: dict[str, str]
+
+
 def _sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
@@ -72,28 +80,28 @@ class Checkpoint:
 
     def get(self, item: str, codec: TaskCodec[T]) -> T | None:
         """The result recorded for ``item`` under this key, or None (absent, other key, damaged)."""
+        path = self._record(item)
         try:
-            d = json.loads(self._record(item).read_text(encoding="utf-8"))
-        except (OSError, ValueError):
+            rec = read_record(path, CheckpointRecord, CHECKPOINT_SCHEMA)
+        except RecordError as err:
+            if path.exists():
+                log.info("checkpoint %s ignored: %s", item, err)
             return None
-        if not isinstance(d, dict) or d.get("schema") != CHECKPOINT_SCHEMA or d.get("key") != self.key:
+        if rec.key != self.key:
             return None
-        files = d.get("files")
-        if not isinstance(files, dict):
-            return None
-        for name, digest in files.items():
+        for name, digest in rec.files.items():
             path = self.folder / str(name)
             if not path.is_file() or _sha256(path) != digest:
                 log.info("checkpoint %s: payload %s missing or changed; recomputing", item, name)
                 return None
-        return codec.read(d.get("data"), self.stem(item))
+        return codec.read(rec.data, self.stem(item))
 
     def put(self, item: str, value: T, codec: TaskCodec[T]) -> None:
         """Record ``item`` as finished with ``value`` (payload first, then the record that names it)."""
         kept = codec.write(value, self.stem(item))
         files = {p.relative_to(self.folder).as_posix(): _sha256(p) for p in kept.files}
-        record = {"schema": CHECKPOINT_SCHEMA, "key": self.key, "data": kept.data, "files": files}
-        write_json(self._record(item), record, indent=None)  # compact: the C encoder, several times faster
+        record = CheckpointRecord(self.key, kept.data, files)
+        write_record(self._record(item), record, CHECKPOINT_SCHEMA, indent=None)  # compact: faster to write
 
 
 def clear_checkpoints(run_dir: Path, stage: str | None = None) -> None:
