@@ -12,19 +12,42 @@ longer matches it is an error. A run names it by path: ``METHOD`` below.
 from __future__ import annotations
 
 import hashlib
-import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.records import RecordError, read_record
 from roman_sim.mapping.types import Submap
 
 TABLE_FORMAT = "roman_sim.closure_table"
 NO_CLOSURE = "no closure from the external system"
 #: The aligner's ``package.module:Class`` name in a scenario.
 METHOD = "roman_sim.align.closure_table:ClosureTableAligner"
+
+
+@dataclass(frozen=True)
+class TableRow:
+    """One submap pair's closure: the external estimate of ``T_a_b``, its score, its line in the closures file."""
+
+    a: str
+    b: str
+    T_a_b: list[list[float]]
+    n_assoc: int
+    line: int
+
+
+@dataclass(frozen=True)
+class ClosureTable:
+    """The table file: its format and version, the method's label, the closures file, one row per pair."""
+
+    format: str
+    version: int
+    label: str
+    closures: str
+    pairs: list[TableRow]
 
 
 def table_sha256(path: str | Path) -> str:
@@ -46,15 +69,17 @@ class ClosureTableAligner:
         if hashlib.sha256(raw).hexdigest() != sha256:
             raise ConfigError(f"closures aligner: table {path} changed since it was written (SHA-256 differs)")
         try:
-            doc = json.loads(raw)
-            if doc.get("format") != TABLE_FORMAT:
-                raise ValueError(f"format {doc.get('format')!r}")
+            doc = read_record(path, ClosureTable)
+        except RecordError as err:
+            raise ConfigError(f"closures aligner: {err} (not a closure table)") from None
+        if doc.format != TABLE_FORMAT:
+            raise ConfigError(f"closures aligner: table {path}: format {doc.format!r}, not {TABLE_FORMAT!r}")
+        try:
             self.pairs = {
-                (str(p["a"]), str(p["b"])): (np.asarray(p["T_a_b"], dtype=np.float64).reshape(4, 4), int(p["n_assoc"]))
-                for p in doc["pairs"]
+                (p.a, p.b): (np.asarray(p.T_a_b, dtype=np.float64).reshape(4, 4), p.n_assoc) for p in doc.pairs
             }
-        except (ValueError, KeyError, TypeError, AttributeError) as err:
-            raise ConfigError(f"closures aligner: table {path}: not a closure table ({err})") from None
+        except ValueError as err:
+            raise ConfigError(f"closures aligner: table {path}: a T_a_b is not 4 x 4 ({err})") from None
 
     def align(self, a: Submap, b: Submap) -> AlignResult:
         """The table's estimate of ``T_a_b`` (score as the association count), or "no closure"."""

@@ -29,7 +29,6 @@ report starts with a section that marks the method as an external system.
 
 from __future__ import annotations
 
-import json
 import logging
 import shutil
 from collections.abc import Sequence
@@ -41,12 +40,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from roman_sim.align.closure_table import METHOD, TABLE_FORMAT, table_sha256
+from roman_sim.align.closure_table import METHOD, TABLE_FORMAT, ClosureTable, TableRow, table_sha256
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
-from roman_sim.core.records import read_record
+from roman_sim.core.records import from_json, read_json, read_record, write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
@@ -112,10 +111,9 @@ def _robot_order(source: Path, scenario: Scenario) -> list[str]:
     """The robots in the export's order (those it holds), else the scenario's."""
     manifest = source / "export.json"
     if manifest.is_file() and not (source / MANIFEST_JSON).is_file():
-        try:
-            return [str(r) for r in json.loads(manifest.read_text(encoding="utf-8"))["robots"]]
-        except (OSError, ValueError, KeyError, TypeError) as err:
-            raise StorageError(f"{manifest}: unreadable ({type(err).__name__})") from None
+        doc = read_json(manifest)  # the export's manifest: only its robots are read
+        robots = doc.get("robots") if isinstance(doc, dict) else None
+        return list(from_json(dict[str, Any], robots, f"{manifest}: field robots"))  # name -> its summary
     return [r.name for r in scenario.robots]
 
 
@@ -237,12 +235,9 @@ def resolve(
     return out
 
 
-def _table_json(res: _Resolved, label: str, source: Path) -> dict[str, object]:
-    rows = [
-        {"a": a, "b": b, "T_a_b": T.tolist(), "n_assoc": n, "line": line}
-        for (a, b), (T, n, line) in sorted(res.pairs.items())
-    ]
-    return {"format": TABLE_FORMAT, "version": 1, "label": label, "closures": str(source), "pairs": rows}
+def _table(res: _Resolved, label: str, source: Path) -> ClosureTable:
+    rows = [TableRow(a, b, T.tolist(), n, line) for (a, b), (T, n, line) in sorted(res.pairs.items())]
+    return ClosureTable(TABLE_FORMAT, 1, label, str(source), rows)
 
 
 def _external_scenario(scenario: Scenario, label: str, table: Path, sha: str) -> Scenario:
@@ -325,11 +320,11 @@ def score_external(
     if is_run:
         _seed_from_run(src, out)
     else:  # compute the maps and submaps (their stage outputs are reused by the scoring run)
-        write_json(table, {"format": TABLE_FORMAT, "version": 1, "label": label, "pairs": []})
+        write_record(table, ClosureTable(TABLE_FORMAT, 1, label, str(path), []))
         Experiment(_external_scenario(scenario, label, table, table_sha256(table)), out, progress=progress).run()
     maps, subs = _load_stage(out, scenario, MapsStage()), _load_stage(out, scenario, SubmapsStage())
     res = resolve(read, subs.submaps, {r: m.odometry for r, m in maps.maps.items()}, scenario)
-    write_json(table, _table_json(res, label, path))
+    write_record(table, _table(res, label, path))
     sc = _external_scenario(scenario, label, table, table_sha256(table))
     run = Experiment(sc, out, progress=progress).run()
     ate = None
@@ -338,22 +333,20 @@ def score_external(
         name = f"{label}_trajectories"
         ate = ate_table(truth, {name: TrajectoryVariant(f"{label}'s own trajectories", "joint", name)}, {name: own})
         write_json(out / EXTERNAL_ATE_JSON, ate.to_json())
-    write_json(
-        out / EXTERNAL_JSON,
-        {
-            "format": "roman_sim.external_score",
-            "version": 1,
-            "label": label,
-            "source": str(src),
-            "closures": str(path),
-            "times": None if times is None else str(times),
-            "robots": order,
-            "trajectories": None if trajectories is None else str(trajectories),
-            "n_closures": len(read),
-            "n_pairs": len(res.pairs),
-            "unscored": {str(k): v for k, v in sorted(res.unscored.items())},
-        },
+    info = ExternalRecord(
+        format="roman_sim.external_score",
+        version=1,
+        label=label,
+        source=str(src),
+        closures=str(path),
+        times=None if times is None else str(times),
+        robots=order,
+        trajectories=None if trajectories is None else str(trajectories),
+        n_closures=len(read),
+        n_pairs=len(res.pairs),
+        unscored={str(k): v for k, v in sorted(res.unscored.items())},
     )
+    write_record(out / EXTERNAL_JSON, info)
     report = out / "report.md"
     text = report.read_text(encoding="utf-8")
     head, _, rest = text.partition("\n\n")
@@ -392,6 +385,25 @@ def run_closures(run_dir: str | Path, method: str) -> list[Closure]:
     return out
 
 
-def read_external(run_dir: str | Path) -> dict[str, object]:
-    """``external.json`` of a scored folder."""
-    return read_record(Path(run_dir) / EXTERNAL_JSON, dict[str, Any])
+@dataclass(frozen=True)
+class ExternalRecord:
+    """``external.json``: what was scored (the source folder, the closures and their times, the robot
+    order, the system's own trajectories), the closures read, the pairs estimated and why the others
+    were not scored (by line of the closures file)."""
+
+    format: str
+    version: int
+    label: str
+    source: str
+    closures: str
+    times: str | None
+    robots: list[str]
+    trajectories: str | None
+    n_closures: int
+    n_pairs: int
+    unscored: dict[str, str]
+
+
+def read_external(run_dir: str | Path) -> ExternalRecord:
+    """``external.json`` of a scored folder (RecordError naming the file and field when malformed)."""
+    return read_record(Path(run_dir) / EXTERNAL_JSON, ExternalRecord)

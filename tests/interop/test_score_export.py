@@ -31,8 +31,8 @@ def test_score_an_export_folder(tum_export: Path, tiny_scenario: Scenario, tmp_p
     assert hit.rot_err_deg < 1.0 and hit.trans_err_m < 1e-6
     assert all(s.n_assoc == 0 for k, s in scores.items() if k != ("a/0", "b/0"))
     info = read_external(tmp_path / "scored")
-    assert info["n_closures"] == 2 and res.n_pairs == 1
-    (why,) = info["unscored"].values()  # the second closure falls on the same pair with a lower score
+    assert info.n_closures == 2 and res.n_pairs == 1
+    (why,) = info.unscored.values()  # the second closure falls on the same pair with a lower score
     assert "already has a closure with a score >= 2" in str(why) or "both ends" in str(why)
     config = json.loads(json.dumps(res.run.scenario.model_dump(mode="json")))
     assert config["aligners"][0]["label"] == "perfect" and config["seed"] == tiny_scenario.seed

@@ -116,7 +116,7 @@ def test_round_trip_gives_the_runs_own_figures(
     ]
     assert len(closures) == len(with_pose)
     info = read_external(scored[fmt])
-    assert info["n_closures"] == info["n_pairs"] == len(closures) and info["unscored"] == {}
+    assert info.n_closures == info.n_pairs == len(closures) and info.unscored == {}
     text = (scored[fmt] / "report.md").read_text(encoding="utf-8")
     assert "## External system" in text and "`ext` is an external system" in text
 
