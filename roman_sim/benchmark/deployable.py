@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
+from roman_sim.evaluation.leaderboard import Deployable, DeployableCell, HeldOutFigures
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.ranking import rank_by_intervals
 from roman_sim.evaluation.transfer import HeldOutCell, PairOutcomes, held_out, held_out_cells, transfers
@@ -63,31 +63,27 @@ def _pair(ci: tuple[float, float] | None) -> list[float] | None:
     return None if ci is None else [float(ci[0]), float(ci[1])]
 
 
-def cell_json(c: HeldOutCell, target: float) -> dict[str, Any]:
+def held_out_figures(c: HeldOutCell, target: float) -> HeldOutFigures:
     """A held-out cell as ``leaderboard.json`` holds it, with whether its precision transfers."""
-    return {
-        "hits": c.hits,
-        "false_positives": c.false_positives,
-        "n_relevant": c.n_relevant,
-        "recall": c.recall,
-        "recall_wilson": _pair(c.recall_wilson),
-        "recall_worlds": _pair(c.recall_worlds),
-        "precision": c.precision,
-        "precision_worlds": _pair(c.precision_worlds),
-        "transfers": transfers(c.precision, target),
-    }
+    return HeldOutFigures(
+        hits=c.hits,
+        false_positives=c.false_positives,
+        n_relevant=c.n_relevant,
+        recall=c.recall,
+        recall_wilson=_pair(c.recall_wilson),
+        recall_worlds=_pair(c.recall_worlds),
+        precision=c.precision,
+        precision_worlds=_pair(c.precision_worlds),
+        transfers=transfers(c.precision, target),
+    )
 
 
-def _ranked(label: str, per_method: dict[str, dict[str, Any]]) -> dict[str, Any]:
+def _ranked(label: str, per_method: dict[str, HeldOutFigures]) -> DeployableCell:
     """One bin across methods: their held-out figures, ranks by world interval, widest half-width."""
-    cis = {m: (None if c["recall_worlds"] is None else tuple(c["recall_worlds"])) for m, c in per_method.items()}
+    cis = {m: (None if c.recall_worlds is None else tuple(c.recall_worlds)) for m, c in per_method.items()}
     halves = [(ci[1] - ci[0]) / 2 for ci in cis.values() if ci is not None]
-    return {
-        "heading": label,
-        "methods": per_method,
-        "ranks": {m: {"rank": r.rank, "tied": r.tied} for m, r in rank_by_intervals(cis).items()},  # type: ignore[arg-type]
-        "max_half_width": max(halves) if halves else None,
-    }
+    ranks = rank_by_intervals(cis)  # type: ignore[arg-type]
+    return DeployableCell(label, per_method, ranks, max(halves) if halves else None)
 
 
 def deployable(
@@ -97,15 +93,13 @@ def deployable(
     k_values: Sequence[int],
     target: float,
     level: float = 0.95,
-) -> dict[str, Any]:
+) -> Deployable:
     """A level's deployable point as ``leaderboard.json`` holds it (see the module docstring)."""
     worlds = sorted({_world(s) for s in scores})
-    entry: dict[str, Any] = {"target_precision": target, "worlds": worlds}
     if len(worlds) < 2:
-        entry["note"] = single_world_note(len(worlds))
-        return entry
+        return Deployable(target, worlds, note=single_world_note(len(worlds)))
     thresholds: dict[str, dict[str, int | None]] = {}
-    cells: dict[str, list[dict[str, Any]]] = {}
+    cells: dict[str, list[HeldOutFigures]] = {}
     labels: list[str] = []
     for m in methods:
         o, heading = outcomes(scores, m)
@@ -115,11 +109,14 @@ def deployable(
         thresholds[m] = {w: t.k for w, t in res.thresholds.items()}
         got = held_out_cells(o, res.positive, heading, edges, N_BOOT, level, 0)
         labels = [c.label for c in got]
-        cells[m] = [cell_json(c, target) for c in got]
+        cells[m] = [held_out_figures(c, target) for c in got]
         log.info("deployable %s: thresholds %s", m, thresholds[m])
     rows = [_ranked(lab, {m: cs[i] for m, cs in cells.items()}) for i, lab in enumerate(labels)]
-    entry["thresholds"] = thresholds
-    entry["transfers"] = {m: cs[-1]["transfers"] for m, cs in cells.items()}
-    entry["bins"] = rows[:-1]
-    entry["overall"] = rows[-1] if rows else None
-    return entry
+    return Deployable(
+        target,
+        worlds,
+        thresholds=thresholds,
+        transfers={m: cs[-1].transfers for m, cs in cells.items()},
+        bins=rows[:-1],
+        overall=rows[-1] if rows else None,
+    )

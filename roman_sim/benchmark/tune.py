@@ -37,11 +37,12 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.benchmark.deployable import cell_json
+from roman_sim.benchmark.deployable import held_out_figures
 from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, parse_params
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.records import to_json
 from roman_sim.evaluation.transfer import PairOutcomes, check_target
 from roman_sim.evaluation.tuning import (
     ConfigOutcomes,
@@ -436,7 +437,9 @@ def config_outcomes(
 
 
 def _figures_json(f: Figures, target: float) -> dict[str, Any]:
-    return {**cell_json(f.cell, target), "false_per_km": f.false_per_km}
+    figures = to_json(held_out_figures(f.cell, target))
+    assert isinstance(figures, dict)  # a dataclass: an object
+    return {**figures, "false_per_km": f.false_per_km}
 
 
 def recommended_sections(method: str, c: Config, k: int, base_params: dict[str, Any]) -> dict[str, Any]:

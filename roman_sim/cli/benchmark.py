@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import typer
 from rich.console import Console
@@ -15,7 +15,7 @@ from roman_sim.cli.progress import LineProgress
 
 if TYPE_CHECKING:
     from roman_sim.benchmark.cells import Cell, CellPlan
-    from roman_sim.evaluation.leaderboard import Leaderboard
+    from roman_sim.evaluation.leaderboard import Deployable, Leaderboard
 
 
 def _methods(values: list[str] | None) -> list[str] | None:
@@ -45,18 +45,17 @@ def _plan_table(cells: list[Cell], plans: dict[str, CellPlan], edges: list[float
     return t
 
 
-def _deployable_text(dep: dict[str, Any] | None, method: str) -> str:
+def _deployable_text(dep: Deployable | None, method: str) -> str:
     """A level's deployable point of ``method``: held-out hits / relevant and precision, flagged when the
     precision falls short of the target (the threshold chosen on other worlds does not transfer)."""
-    if dep is None or "note" in dep:
+    if dep is None or dep.note is not None:
         return "n/a (one world)"
-    overall = dep.get("overall") or {}
-    c = overall.get("methods", {}).get(method)
+    c = None if dep.overall is None else dep.overall.methods.get(method)
     if c is None:
         return "failed"
-    p = c["precision"]
-    text = f"{c['hits']}/{c['n_relevant']} P " + ("-" if p is None else f"{p:.2f}")
-    return text if c["transfers"] else f"{text} [red]does not transfer[/red]"
+    p = c.precision
+    text = f"{c.hits}/{c.n_relevant} P " + ("-" if p is None else f"{p:.2f}")
+    return text if c.transfers else f"{text} [red]does not transfer[/red]"
 
 
 def _board_table(board: Leaderboard) -> Table:

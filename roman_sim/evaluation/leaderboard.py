@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.evaluation.operating_points import OperatingPoint
@@ -45,6 +44,74 @@ class BoardCell:
 
 
 @dataclass(frozen=True)
+class HeldOutFigures:
+    """One method's held-out figures in one heading bin of a level's deployable point.
+
+    Attributes:
+        hits, false_positives, n_relevant: held-out counts pooled over the level's worlds.
+        recall, recall_wilson, recall_worlds: hits / relevant, its pooled Wilson interval and its
+            world-bootstrap interval (None without relevant pairs).
+        precision, precision_worlds: hits / (hits + false positives) and its world-bootstrap
+            interval (None without a positive).
+        transfers: whether the precision is within the slack of the target (true when nothing was accepted).
+    """
+
+    hits: int
+    false_positives: int
+    n_relevant: int
+    recall: float | None
+    recall_wilson: list[float] | None
+    recall_worlds: list[float] | None
+    precision: float | None
+    precision_worlds: list[float] | None
+    transfers: bool
+
+
+@dataclass(frozen=True)
+class DeployableCell:
+    """One heading bin (or ``all``) of a deployable point: per method its held-out figures and rank."""
+
+    heading: str
+    methods: dict[str, HeldOutFigures]
+    ranks: dict[str, Rank]
+    max_half_width: float | None
+
+    def order(self) -> list[tuple[str, HeldOutFigures, Rank]]:
+        """(method, figures, rank) of the ranked methods, best first (rank, then recall, then name)."""
+        got = [(m, c, self.ranks[m]) for m, c in self.methods.items() if m in self.ranks]
+        return sorted(got, key=lambda x: (x[2].rank, -(x[1].recall or 0.0), x[0]))
+
+
+@dataclass(frozen=True)
+class Deployable:
+    """A level's deployable point (``roman_sim.benchmark.deployable``): thresholds chosen on other worlds.
+
+    A level with fewer than two worlds has only ``note`` (why there are no held-out figures).
+
+    Attributes:
+        target_precision: the precision the thresholds are chosen for.
+        worlds: the level's worlds (benchmark cells).
+        note: why there are no held-out figures (None when there are).
+        thresholds: per method, per held-out world the threshold chosen on the others (None: none reached it).
+        transfers: per method, whether its held-out precision over all headings transfers.
+        bins: one cell per heading bin.
+        overall: the cell over every heading.
+    """
+
+    target_precision: float
+    worlds: list[str]
+    note: str | None = field(default=None, metadata=OMIT_NONE)
+    thresholds: dict[str, dict[str, int | None]] | None = field(default=None, metadata=OMIT_NONE)
+    transfers: dict[str, bool] | None = field(default=None, metadata=OMIT_NONE)
+    bins: list[DeployableCell] | None = field(default=None, metadata=OMIT_NONE)
+    overall: DeployableCell | None = field(default=None, metadata=OMIT_NONE)
+
+    def cells(self) -> list[DeployableCell]:
+        """The heading-bin cells, then the overall one."""
+        return [*(self.bins or []), *([self.overall] if self.overall is not None else [])]
+
+
+@dataclass(frozen=True)
 class BoardLevel:
     """One ambiguity level: its cells (absent until a cell of the level finished).
 
@@ -68,7 +135,7 @@ class BoardLevel:
     interval_level: float | None = field(default=None, metadata=OMIT_NONE)
     overall: BoardCell | None = field(default=None, metadata=OMIT_NONE)
     bins: list[BoardCell] = field(default_factory=list)
-    deployable: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+    deployable: Deployable | None = field(default=None, metadata=OMIT_NONE)
 
     @property
     def finished(self) -> bool:

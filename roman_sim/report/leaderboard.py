@@ -13,10 +13,9 @@ and the figures.
 
 from __future__ import annotations
 
-from typing import Any
-
-from roman_sim.evaluation.leaderboard import BoardCell, Leaderboard
+from roman_sim.evaluation.leaderboard import BoardCell, HeldOutFigures, Leaderboard
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
+from roman_sim.evaluation.ranking import Rank
 from roman_sim.report.benchmark_plots import benchmark_figures
 
 #: The operating points methods are ranked by, in each cell.
@@ -113,22 +112,22 @@ def _ci(ci: list[float] | None) -> str:
     return "n/a" if ci is None else f"[{ci[0]:.2f}, {ci[1]:.2f}]"
 
 
-def _held_out_recall(c: dict[str, Any] | None, rank: dict[str, Any] | None) -> str:
+def _held_out_recall(c: HeldOutFigures | None, rank: Rank | None) -> str:
     """``recall (hits/relevant) Wilson [..] worlds [..] #rank`` of one held-out cell."""
-    if c is None or not c["n_relevant"]:
+    if c is None or not c.n_relevant:
         return "n/a"
-    out = f"{c['recall']:.2f} ({c['hits']}/{c['n_relevant']})"
-    out += f" Wilson {_ci(c['recall_wilson'])} worlds {_ci(c['recall_worlds'])}"
+    out = f"{c.recall:.2f} ({c.hits}/{c.n_relevant})"
+    out += f" Wilson {_ci(c.recall_wilson)} worlds {_ci(c.recall_worlds)}"
     if rank is not None:
-        out += f" tied {rank['rank']}" if rank["tied"] else f" #{rank['rank']}"
+        out += f" tied {rank.rank}" if rank.tied else f" #{rank.rank}"
     return out
 
 
-def _held_out_precision(c: dict[str, Any] | None) -> str:
+def _held_out_precision(c: HeldOutFigures | None) -> str:
     """``precision worlds [..]`` of one held-out cell, ``short`` when it falls short of the target."""
-    if c is None or c["precision"] is None:
+    if c is None or c.precision is None:
         return "nothing accepted"
-    return f"{c['precision']:.2f} worlds {_ci(c['precision_worlds'])}" + ("" if c["transfers"] else " **short**")
+    return f"{c.precision:.2f} worlds {_ci(c.precision_worlds)}" + ("" if c.transfers else " **short**")
 
 
 def _deployable_section(board: Leaderboard) -> list[str]:
@@ -154,22 +153,23 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         d = e.deployable
         if d is None:
             continue
-        lines += [f"**{e.name}** (knob {e.knob:g}, worlds {', '.join(d['worlds']) or 'none'}):", ""]
-        if "note" in d:
-            lines += [f"No held-out figures: {d['note']}.", ""]
+        lines += [f"**{e.name}** (knob {e.knob:g}, worlds {', '.join(d.worlds) or 'none'}):", ""]
+        if d.note is not None:
+            lines += [f"No held-out figures: {d.note}.", ""]
             continue
-        cells = [*d["bins"], d["overall"]]
-        heads = [f"{c['heading']} deg" if c["heading"] != "all" else "all" for c in cells]
+        cells = d.cells()
+        heads = [f"{c.heading} deg" if c.heading != "all" else "all" for c in cells]
         lines += [
             "| method | " + " | ".join(heads) + " | thresholds (held-out world: k) | max recall (all) |",
             "|---|" + "---|" * (len(cells) + 2),
         ]
+        thresholds = d.thresholds or {}
         for m in board.methods:
-            if m not in d["thresholds"]:
+            if m not in thresholds:
                 continue
-            ks = ", ".join(f"{w}: {'none' if k is None else k}" for w, k in d["thresholds"][m].items())
+            ks = ", ".join(f"{w}: {'none' if k is None else k}" for w, k in thresholds[m].items())
             mx = None if e.overall is None else e.overall.point(m, "max_recall")
-            row = [_held_out_recall(c["methods"].get(m), c["ranks"].get(m)) for c in cells]
+            row = [_held_out_recall(c.methods.get(m), c.ranks.get(m)) for c in cells]
             lines.append(f"| {m} | " + " | ".join(row) + f" | {ks} | {_rate(mx)} |")
         lines += [
             "",
@@ -177,8 +177,8 @@ def _deployable_section(board: Leaderboard) -> list[str]:
             "|---|" + "---|" * len(cells),
         ]
         for m in board.methods:
-            if m in d["thresholds"]:
-                lines.append(f"| {m} | " + " | ".join(_held_out_precision(c["methods"].get(m)) for c in cells) + " |")
+            if m in thresholds:
+                lines.append(f"| {m} | " + " | ".join(_held_out_precision(c.methods.get(m)) for c in cells) + " |")
         lines.append("")
     return lines
 
@@ -248,13 +248,6 @@ def _first_alone(board: Leaderboard, method: str, point: str) -> tuple[int, int,
     return alone, tied, ranked
 
 
-def deployable_order(d: dict[str, Any]) -> list[tuple[str, dict[str, Any], dict[str, Any]]]:
-    """(method, held-out figures over all headings, rank) of a level's deployable point, best first."""
-    o = d["overall"]
-    got = [(m, c, o["ranks"][m]) for m, c in o["methods"].items() if m in o["ranks"]]
-    return sorted(got, key=lambda x: (x[2]["rank"], -(x[1]["recall"] or 0.0), x[0]))
-
-
 def deployable_readme_lines(board: Leaderboard) -> list[str]:
     """The README's statements of the deployable ranking, one line per level (all headings)."""
     target = board.target_precision
@@ -269,15 +262,15 @@ def deployable_readme_lines(board: Leaderboard) -> list[str]:
         d = e.deployable
         if d is None:
             continue
-        if "note" in d:
-            lines.append(f"  - {e.name}: {d['note']}.")
+        if d.note is not None or d.overall is None:
+            lines.append(f"  - {e.name}: {d.note or 'no held-out figures'}.")
             continue
         parts = []
-        for m, c, r in deployable_order(d):
-            rank = f"tied {r['rank']}" if r["tied"] else f"#{r['rank']}"
-            prec = "nothing accepted" if c["precision"] is None else f"P {c['precision']:.2f}"
-            flag = "" if c["transfers"] else ", short of the target"
-            parts.append(f"{rank} {m} {_num(c['recall'])} ({c['hits']}/{c['n_relevant']}, {prec}{flag})")
+        for m, c, r in d.overall.order():
+            rank = f"tied {r.rank}" if r.tied else f"#{r.rank}"
+            prec = "nothing accepted" if c.precision is None else f"P {c.precision:.2f}"
+            flag = "" if c.transfers else ", short of the target"
+            parts.append(f"{rank} {m} {_num(c.recall)} ({c.hits}/{c.n_relevant}, {prec}{flag})")
         lines.append(f"  - {e.name}: " + "; ".join(parts) + ".")
     return lines
 

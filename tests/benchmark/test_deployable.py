@@ -4,11 +4,13 @@ world intervals, the flag where precision falls short, one statement for a singl
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 from typer.testing import CliRunner
 
 from roman_sim.benchmark.deployable import deployable
 from roman_sim.cli import app
+from roman_sim.core.records import to_json
 from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard
 from roman_sim.report.leaderboard import _deployable_section, deployable_readme_lines
 
@@ -38,7 +40,8 @@ def _level(make_score):
 
 
 def test_thresholds_come_from_the_other_world_and_a_leaky_method_is_flagged(make_score) -> None:
-    d = deployable(_level(make_score), ["good", "leaky"], EDGES, K, 0.9)
+    dep = deployable(_level(make_score), ["good", "leaky"], EDGES, K, 0.9)
+    d: Any = to_json(dep)  # as leaderboard.json holds it
     assert d["worlds"] == ["w0", "w1"] and "note" not in d
     assert d["thresholds"]["good"] == {"w0": 3, "w1": 3}
     # leaky: chosen on w1 (wrong pairs up to 9) no k reaches 0.9 (None: w0 accepts nothing); on w0, k = 5
@@ -58,7 +61,7 @@ def test_thresholds_come_from_the_other_world_and_a_leaky_method_is_flagged(make
     assert lo == 0.0 and hi == 1.0 and hi - lo > 2 * (whi - wlo)
     assert [b["heading"] for b in d["bins"]] == ["0-90", "90-180"]
     assert sum(b["methods"]["good"]["n_relevant"] for b in d["bins"]) == 40
-    level = BoardLevel("one", 0.0, [], None, overall=BoardCell("all", 0, 0, {}, {}, None), deployable=d)
+    level = BoardLevel("one", 0.0, [], None, overall=BoardCell("all", 0, 0, {}, {}, None), deployable=dep)
     board = Leaderboard("t", "", ["good", "leaky"], [], list(EDGES), 0.1, {}, [level], target_precision=0.9)
     md = "\n".join(_deployable_section(board))
     assert "w0: none, w1: 5" in md and "**short**" in md
@@ -70,7 +73,7 @@ def test_thresholds_come_from_the_other_world_and_a_leaky_method_is_flagged(make
 def test_a_level_with_one_world_says_held_out_figures_need_two(make_score) -> None:
     one = [s for s in _level(make_score) if s.truth.a.startswith("w0:")]
     d = deployable(one, ["good", "leaky"], EDGES, K, 0.9)
-    assert d == {
+    assert to_json(d) == {
         "target_precision": 0.9,
         "worlds": ["w0"],
         "note": "held-out figures need at least two worlds (seeds) to choose a threshold on others; this level has 1",

@@ -114,7 +114,7 @@ def test_a_plugin_failing_in_one_cell_fails_that_cell_only(failed_once: dict) ->
     )
     assert "## Cells that did not finish" in (folder / "leaderboard.md").read_text()
     # one seed per level: no held-out figures, one statement instead
-    assert distinct.deployable is not None and distinct.deployable["note"].startswith(
+    assert distinct.deployable is not None and str(distinct.deployable.note).startswith(
         "held-out figures need at least two worlds"
     )
     assert "No held-out figures: held-out figures need" in (folder / "leaderboard.md").read_text()

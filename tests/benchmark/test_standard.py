@@ -99,14 +99,14 @@ def test_the_deployable_point_follows_from_the_independent_scorer():
     checked = 0
     for e in board.levels:
         d = e.deployable
-        assert d is not None and len(d["worlds"]) == 2 and "note" not in d, e.name
-        for m, ks in d["thresholds"].items():
+        assert d is not None and len(d.worlds) == 2 and d.note is None and d.thresholds is not None, e.name
+        for m, ks in d.thresholds.items():
             own = scored[f"{e.name}|{m}"]
             assert own["thresholds"] == ks, (e.name, m)
-            for cell in [*d["bins"], d["overall"]]:
-                c = cell["methods"][m]
-                got = [c["hits"], c["false_positives"], c["n_relevant"]]
-                assert own["bins"][cell["heading"]] == got, (e.name, m, cell["heading"])
+            for cell in d.cells():
+                c = cell.methods[m]
+                got = [c.hits, c.false_positives, c.n_relevant]
+                assert own["bins"][cell.heading] == got, (e.name, m, cell.heading)
                 checked += 1
     assert checked == 3 * 7 * len(board.methods)
 
@@ -123,19 +123,19 @@ def test_the_deployable_intervals_follow_from_the_independent_scorer():
     checked = widened = 0
     for e in board.levels:
         d = e.deployable
-        assert d is not None
-        for m in d["thresholds"]:
+        assert d is not None and d.thresholds is not None
+        for m in d.thresholds:
             own = scored[f"{e.name}|{m}"]["intervals"]
-            for cell in [*d["bins"], d["overall"]]:
-                c, mine = cell["methods"][m], own[cell["heading"]]
+            for cell in d.cells():
+                c, mine = cell.methods[m], own[cell.heading]
                 for name in ("recall_wilson", "recall_worlds", "precision_worlds"):
-                    if c[name] is None:
-                        assert mine[name] is None, (e.name, m, cell["heading"], name)
+                    ci = getattr(c, name)
+                    if ci is None:
+                        assert mine[name] is None, (e.name, m, cell.heading, name)
                     else:
-                        assert mine[name] == pytest.approx(c[name], abs=1e-12), (e.name, m, cell["heading"], name)
-                widened += c["recall_worlds"] is not None and (
-                    c["recall_worlds"][1] - c["recall_worlds"][0] > c["recall_wilson"][1] - c["recall_wilson"][0]
-                )
+                        assert mine[name] == pytest.approx(ci, abs=1e-12), (e.name, m, cell.heading, name)
+                worlds, wilson = c.recall_worlds, c.recall_wilson
+                widened += worlds is not None and wilson is not None and worlds[1] - worlds[0] > wilson[1] - wilson[0]
                 checked += 1
     assert checked == 3 * 7 * len(board.methods)
     assert widened > 0  # worlds that disagree widen some intervals beyond the pooled Wilson ones

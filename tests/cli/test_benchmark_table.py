@@ -32,11 +32,11 @@ def test_deployable_point_then_max_recall():
         shown = rows[m]
         assert len(shown) == 2 * len(levels)
         for i, e in enumerate(levels):
-            c = e.deployable["overall"]["methods"][m]  # type: ignore[index]
-            p = "-" if c["precision"] is None else f"{c['precision']:.2f}"
-            expected = f"{c['hits']}/{c['n_relevant']} P {p}"
-            assert shown[i] == (expected if c["transfers"] else f"{expected} does not transfer"), (m, e.name)
-            flagged += not c["transfers"]
+            c = e.deployable.overall.methods[m]  # type: ignore[union-attr]
+            p = "-" if c.precision is None else f"{c.precision:.2f}"
+            expected = f"{c.hits}/{c.n_relevant} P {p}"
+            assert shown[i] == (expected if c.transfers else f"{expected} does not transfer"), (m, e.name)
+            flagged += not c.transfers
             a = e.overall.point(m, "max_recall")  # type: ignore[union-attr]
             assert a is not None and shown[len(levels) + i] == f"{a.hits}/{a.n_relevant}"
     assert flagged > 0  # the committed standard results hold methods whose threshold does not transfer
