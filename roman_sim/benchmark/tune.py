@@ -10,7 +10,8 @@ world) or a benchmark suite (each (level, seed) cell is a world). The job
    or the folder's own ``cache/`` when that is off, hands the maps of a world to every
    alignment of it: a new alignment re-aligns, never re-maps; a benchmark's cells hand theirs
    to a tune of the same suite), and keeps the pairs' outcomes and times
-   (``outcomes.json``); a finished alignment is never run again;
+   (``outcomes.json``) under the run's key (``Experiment.run_key``: its stages' resolved
+   parameters and code); a finished alignment is not run again while that key holds;
 3. applies each gating setting to those ungated results (``align.gating.gate_pairs`` on the
    world's submaps; a gated-out pair is "no alignment" and costs no time), and each threshold
    by the pairs' association counts: neither re-maps nor re-aligns;
@@ -28,12 +29,11 @@ interrupted one continues from its run folder's checkpoints.
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -42,7 +42,7 @@ from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, 
 from roman_sim.core.atomic import write_json, write_text
 from roman_sim.core.config import read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.core.records import to_json
+from roman_sim.core.records import RecordError, read_record, to_json, write_record
 from roman_sim.evaluation.transfer import PairOutcomes, check_target
 from roman_sim.evaluation.tuning import (
     ConfigOutcomes,
@@ -56,6 +56,7 @@ from roman_sim.pipeline.scenario import Scenario
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 TUNE_JSON = "tune.json"
 TUNE_SCHEMA = "roman_sim.tune/1"
@@ -71,6 +72,54 @@ N_BOOT = 2000
 
 #: ``progress(done, total, what)`` after each alignment of a world finished or read back.
 ProgressFn = Callable[[int, int, str], None]
+
+
+#: An aligner parameter set: (name, value) pairs in order.
+AlignerValues = tuple[tuple[str, int | float], ...]
+
+
+@dataclass(frozen=True)
+class JobRecord:
+    """``job.json``: what the folder tunes (a folder holds one tune)."""
+
+    source: str
+    method: str
+    overrides: list[str]
+
+
+@dataclass(frozen=True)
+class WorldScenario:
+    """``work/<world>/scenario.json``: a planned crossing world's scenario under its plan's key."""
+
+    key: str
+    scenario: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Outcomes:
+    """``outcomes.json``: one world's pairs under one aligner parameter set, under the run's key.
+
+    Per pair (in the run's order): its name ``a|b``, whether it is cross-robot, its robot pair,
+    whether it is relevant and correct, its association count and its time (s; None: untimed).
+    """
+
+    key: str
+    params: dict[str, int | float]
+    pair: list[str]
+    inter: list[bool]
+    robots: list[str]
+    relevant: list[bool]
+    correct: list[bool]
+    n_assoc: list[int]
+    runtime_s: list[float | None] | None
+
+
+@dataclass(frozen=True)
+class WorldFacts:
+    """``world.json``: a world's kilometres driven and, per gating setting, the pairs it gates out."""
+
+    km: float
+    gating: dict[str, list[str]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -153,12 +202,14 @@ def _path_km(T: np.ndarray | None) -> float:
     return float(np.linalg.norm(np.diff(T[:, :3, 3], axis=0), axis=1).sum()) / 1000
 
 
-def _read_json(path: Path) -> dict[str, Any] | None:
+def _read_kept(path: Path, cls: type[T]) -> T | None:
+    """The record kept in ``path``; None when absent or damaged (it is computed again)."""
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        return read_record(path, cls)
+    except RecordError as err:
+        if path.exists():
+            log.warning("%s; computing it again", err)
         return None
-    return data if isinstance(data, dict) else None
 
 
 class TuneJob:
@@ -212,15 +263,17 @@ class TuneJob:
         for other in ("manifest.json", "sweep.json", "benchmark.json"):
             if (self.out / other).is_file():
                 raise ConfigError(f"--out {self.out}: holds a run, sweep or benchmark, not a tune (choose another)")
-        old = _read_json(self.out / JOB_JSON)
-        if old is not None and [old.get("source"), old.get("method"), old.get("overrides")] != self._identity():
+        if not (self.out / JOB_JSON).is_file():
+            return
+        old = read_record(self.out / JOB_JSON, JobRecord)
+        if old != self._identity():
             raise ConfigError(
-                f"--out {self.out}: holds the tune of {old.get('method')!r} on {old.get('source')!r} "
-                f"with overrides {old.get('overrides')} (choose another --out)"
+                f"--out {self.out}: holds the tune of {old.method!r} on {old.source!r} "
+                f"with overrides {old.overrides} (choose another --out)"
             )
 
-    def _identity(self) -> list[Any]:
-        return [self.source, self.method, self.overrides]
+    def _identity(self) -> JobRecord:
+        return JobRecord(self.source, self.method, self.overrides)
 
     # -- worlds and alignments ----------------------------------------------------
     def _scenario(self, w: TuneWorld) -> Scenario:
@@ -232,40 +285,40 @@ class TuneJob:
         assert w.cell is not None
         scene, seed = w.cell
         key = stable_hash(scene.model_dump(mode="json"), seed)
-        rec = _read_json(path)
-        if rec is not None and rec.get("key") == key:
-            return validate_model(Scenario, rec["scenario"], source=str(path))
+        rec = _read_kept(path, WorldScenario)
+        if rec is not None and rec.key == key:
+            return validate_model(Scenario, rec.scenario, source=str(path))
         sc = build_crossing(scene, seed, f"tune-{w.id}").scenario
-        write_json(path, {"key": key, "scenario": sc.model_dump(mode="json")})
+        write_record(path, WorldScenario(key, sc.model_dump(mode="json")))
         return sc
 
-    def _align(self, w: TuneWorld, aligner: tuple[tuple[str, int | float], ...], ex: Executor) -> dict[str, Any]:
+    def _align(self, w: TuneWorld, aligner: AlignerValues, ex: Executor) -> Outcomes:
         """The outcomes of one world and aligner parameter set (run once, then read back)."""
         from roman_sim.benchmark.cells import CellExperiment
         from roman_sim.pipeline.stagecache import StageCache
 
         sc = tuned_scenario(self._scenario(w), self.method, dict(aligner), f"tune-{w.id}")
-        key = stable_hash(sc.model_dump(mode="json"))
         folder = self.out / WORK_DIR / w.id / Config(aligner, ()).align_key
-        rec = _read_json(folder / OUTCOMES_JSON)
-        if rec is not None and rec.get("key") == key:
-            return rec
         chunk = self.executor.chunk_pairs if self.executor is not None else ExecutorConfig().chunk_pairs
         exp = CellExperiment(sc, folder / "run", executor=ex, chunk_pairs=chunk)
+        key = exp.run_key()  # resolved parameters and code: a changed default aligns again
+        rec = _read_kept(folder / OUTCOMES_JSON, Outcomes)
+        if rec is not None and rec.key == key:
+            return rec
         exp.cache = StageCache.default() or StageCache(self.out / CACHE_DIR)
         res = exp.run()
-        rec = {"key": key, "params": dict(aligner), **_outcomes(res.run_dir, res.timings, sc)}
-        write_json(folder / OUTCOMES_JSON, rec, indent=None)
+        rec = _outcomes(key, dict(aligner), res.run_dir, res.timings, sc)
+        write_record(folder / OUTCOMES_JSON, rec, indent=None)
         return rec
 
-    def _world_facts(self, w: TuneWorld, run_dir: Path, sc: Scenario) -> dict[str, Any]:
+    def _world_facts(self, w: TuneWorld, run_dir: Path, sc: Scenario) -> WorldFacts:
         """Kilometres driven and each gating setting's kept pairs (computed once per world and setting)."""
         path = self.out / WORK_DIR / w.id / WORLD_JSON
-        rec = _read_json(path) or {}
+        old = _read_kept(path, WorldFacts)
         gatings = [c.gating for c in self.grid.configs if c.gating]
         want = {_gating_id(g): g for g in gatings}
-        if "km" in rec and all(g in rec.get("gating", {}) for g in want):
-            return rec
+        if old is not None and all(g in old.gating for g in want):
+            return old
         from roman_sim.align.gating import GatingConfig, gate_pairs
         from roman_sim.evaluation.pairs import select_pairs
         from roman_sim.mapping.io import load_segment_map, load_submaps
@@ -276,7 +329,7 @@ class TuneJob:
             km += _path_km(m.T_world_body if m.T_world_body is not None else m.T_odom_body)
         subs = [s for r in sc.robots for s in load_submaps(run_dir / "submaps" / f"{r.name}.npz")]
         pairs = select_pairs(subs, sc.evaluation).pairs
-        kept = dict(rec.get("gating", {}))
+        kept = dict(old.gating) if old is not None else {}
         for gid, g in want.items():
             if gid in kept:
                 continue
@@ -285,8 +338,8 @@ class TuneJob:
             )
             keep, _ = gate_pairs(pairs, cfg)
             kept[gid] = [f"{a.name}|{b.name}" for (a, b), k in zip(pairs, keep, strict=True) if not k]
-        rec = {"km": km, "gating": kept}
-        write_json(path, rec, indent=None)
+        rec = WorldFacts(km, kept)
+        write_record(path, rec, indent=None)
         return rec
 
     # -- the job ------------------------------------------------------------------
@@ -294,22 +347,17 @@ class TuneJob:
         """Run (or read back) every alignment of every world, score, write the results; ``tune.json``'s content."""
         return self.score(*self.collect())
 
-    def collect(
-        self,
-    ) -> tuple[dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]], dict[str, dict[str, Any]]]:
+    def collect(self) -> tuple[dict[str, dict[AlignerValues, Outcomes]], dict[str, WorldFacts]]:
         """Run (or read back) every alignment of every world: per world its outcomes per aligner parameter
         set, and per world its kilometres and gated pairs."""
         self.out.mkdir(parents=True, exist_ok=True)
-        write_json(
-            self.out / JOB_JSON,
-            {"source": self.source, "method": self.method, "overrides": self.overrides},
-        )
+        write_record(self.out / JOB_JSON, self._identity())
         write_text(self.out / ".gitignore", f"{WORK_DIR}/\n{CACHE_DIR}/\n")
         aligners = self.grid.alignments()
         total = len(self.worlds) * len(aligners)
         done = 0
-        per_world: dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]] = {}
-        facts: dict[str, dict[str, Any]] = {}
+        per_world: dict[str, dict[AlignerValues, Outcomes]] = {}
+        facts: dict[str, WorldFacts] = {}
         with open_executor(self.executor) as ex:
             for w in self.worlds:
                 per_world[w.id] = {}
@@ -322,9 +370,7 @@ class TuneJob:
         return per_world, facts
 
     def score(
-        self,
-        per_world: dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]],
-        facts: dict[str, dict[str, Any]],
+        self, per_world: dict[str, dict[AlignerValues, Outcomes]], facts: dict[str, WorldFacts]
     ) -> dict[str, Any]:
         """Score the outcomes (see ``evaluation.tuning``) and write the folder's results."""
         from roman_sim.benchmark.tune_space import declared
@@ -332,7 +378,7 @@ class TuneJob:
 
         spec = declared(self.method)
         configs = {c.id: config_outcomes(c, per_world, facts) for c in self.grid.configs}
-        km = {w: float(f["km"]) for w, f in facts.items()}
+        km = {w: float(f.km) for w, f in facts.items()}
         ks = self.grid.thresholds
         ev = Evidence(configs, km, ks, self.target, N_BOOT, 0)
         rows, nested = config_rows(ev), nested_held_out(ev)
@@ -388,7 +434,9 @@ def _gating_id(g: tuple[tuple[str, int | float], ...]) -> str:
     return stable_hash(list(g))[:12]
 
 
-def _outcomes(run_dir: Path, timings: dict[str, Any], sc: Scenario) -> dict[str, Any]:
+def _outcomes(
+    key: str, params: dict[str, int | float], run_dir: Path, timings: dict[str, Any], sc: Scenario
+) -> Outcomes:
     """The columns ``tune`` keeps of a finished run: every pair's names, kind, truth, outcome and time."""
     from roman_sim.evaluation.results import read_pairs_csv
 
@@ -399,37 +447,37 @@ def _outcomes(run_dir: Path, timings: dict[str, Any], sc: Scenario) -> dict[str,
     runtime = [float(x) if x is not None else None for x in per_pair] if isinstance(per_pair, list) else None
     if runtime is not None and len(runtime) != len(rows):
         raise StorageError(f"{run_dir}: {len(runtime)} pair times for {len(rows)} pairs")
-    return {
-        "pair": [f"{s.truth.a}|{s.truth.b}" for s in rows],
-        "inter": [s.truth.kind == "inter" for s in rows],
-        "robots": ["|".join(sorted((s.truth.robot_a, s.truth.robot_b))) for s in rows],
-        "relevant": [bool(s.truth.relevant) for s in rows],
-        "correct": [bool(s.correct) for s in rows],
-        "n_assoc": [int(s.n_assoc) for s in rows],
-        "runtime_s": runtime,
-    }
+    return Outcomes(
+        key=key,
+        params=params,
+        pair=[f"{s.truth.a}|{s.truth.b}" for s in rows],
+        inter=[s.truth.kind == "inter" for s in rows],
+        robots=["|".join(sorted((s.truth.robot_a, s.truth.robot_b))) for s in rows],
+        relevant=[bool(s.truth.relevant) for s in rows],
+        correct=[bool(s.correct) for s in rows],
+        n_assoc=[int(s.n_assoc) for s in rows],
+        runtime_s=runtime,
+    )
 
 
 def config_outcomes(
-    c: Config,
-    per_world: dict[str, dict[tuple[tuple[str, int | float], ...], dict[str, Any]]],
-    facts: dict[str, dict[str, Any]],
+    c: Config, per_world: dict[str, dict[AlignerValues, Outcomes]], facts: dict[str, WorldFacts]
 ) -> ConfigOutcomes:
     """One config's cross-robot outcomes over every world: its alignment's, with its gating applied."""
     cols: dict[str, list[Any]] = {k: [] for k in ("world", "cluster", "relevant", "correct", "score", "runtime")}
     for w in sorted(per_world):
         rec = per_world[w][c.aligner]
-        gated = set(facts[w]["gating"][_gating_id(c.gating)]) if c.gating else set()
-        times = rec["runtime_s"] or [None] * len(rec["pair"])
-        for i, name in enumerate(rec["pair"]):
-            if not rec["inter"][i]:
+        gated = set(facts[w].gating[_gating_id(c.gating)]) if c.gating else set()
+        times = rec.runtime_s or [None] * len(rec.pair)
+        for i, name in enumerate(rec.pair):
+            if not rec.inter[i]:
                 continue
             out = name in gated
             cols["world"].append(w)
-            cols["cluster"].append(rec["robots"][i])
-            cols["relevant"].append(rec["relevant"][i])
-            cols["correct"].append(rec["correct"][i] and not out)
-            cols["score"].append(0 if out else rec["n_assoc"][i])
+            cols["cluster"].append(rec.robots[i])
+            cols["relevant"].append(rec.relevant[i])
+            cols["correct"].append(rec.correct[i] and not out)
+            cols["score"].append(0 if out else rec.n_assoc[i])
             t = times[i]
             cols["runtime"].append(0.0 if out else (float("nan") if t is None else t))
     o = PairOutcomes.from_lists(cols["world"], cols["cluster"], cols["relevant"], cols["correct"], cols["score"])

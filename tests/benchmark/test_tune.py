@@ -8,8 +8,11 @@ import json
 from pathlib import Path
 
 import pytest
+import yaml
 from typer.testing import CliRunner
 
+from roman_sim.align.aligners import RomanAligner, RomanParams
+from roman_sim.benchmark.tune_space import Config
 from roman_sim.cli import app
 from roman_sim.pipeline.scenario import load_scenario
 
@@ -146,3 +149,30 @@ def test_bad_parameter_on_a_finished_folder(home: Path):
         "(declared: threshold, gating.top_k, gating.min_similarity, cos_min, cos_max)"
     ]
     assert (home / "t" / "tune.json").read_bytes() == before
+
+
+class _FourAssociations(RomanParams):
+    """ROMAN's parameters with another default (as if its code had been edited)."""
+
+    min_associations_for_transform: int = 4
+
+
+def test_a_changed_default_of_the_tuned_aligner_aligns_again_without_remapping(home: Path, monkeypatch):
+    t = home / "t"
+    code, output = _tune(home, "cos_min=0.85")
+    assert code == 0, output
+    before = {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")}
+    code, output = _tune(home, "cos_min=0.85")
+    assert code == 0, output
+    assert {p: p.stat().st_mtime_ns for p in t.glob("work/*/*/outcomes.json")} == before  # no change: reused
+    monkeypatch.setattr(RomanAligner, "params_model", _FourAssociations)
+    code, output = _tune(home, "cos_min=0.85")
+    assert code == 0, output
+    tuned = [p for p in before if p.parent.name == Config((("cos_min", 0.85),), ()).align_key]
+    assert len(tuned) == 2
+    for p in tuned:  # every world's alignment of the tuned value ran again, on the same maps
+        assert p.stat().st_mtime_ns != before[p]
+        stages = json.loads((p.parent / "run" / "timings.json").read_text())["stages"]
+        assert stages["maps"]["reused"] and stages["submaps"]["reused"] and not stages["evaluation"]["reused"]
+        params = yaml.safe_load((p.parent / "run" / "config.yaml").read_text())["aligners"][0]["params"]
+        assert params["min_associations_for_transform"] == 4
