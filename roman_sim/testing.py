@@ -37,12 +37,14 @@ from typing import Any, cast
 import numpy as np
 
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.records import read_record, to_json_record
 from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
+from roman_sim.pipeline.stages.aligned import ALIGNED_SCHEMA, AlignedRecord
 
 #: The figures ``assert_recall`` bounds (all fractions in [0, 1]).
 FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
@@ -423,14 +425,13 @@ def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", 
 
 def _without_wall_times(path: Path) -> bytes:
     """``aligned/<label>.json`` with each pair's wall time (``runtime_s``) blanked; other files as they are."""
-    raw = path.read_bytes()
     if path.parent.name != "aligned" or path.suffix != ".json":
-        return raw
-    rec = json.loads(raw)
-    for r in rec.get("results", []):
-        if isinstance(r, dict) and "runtime_s" in r:
+        return path.read_bytes()
+    rec = read_record(path, AlignedRecord, ALIGNED_SCHEMA)
+    for r in rec.results:
+        if "runtime_s" in r:
             r["runtime_s"] = None
-    return json.dumps(rec, sort_keys=True).encode()
+    return json.dumps(to_json_record(rec, ALIGNED_SCHEMA), sort_keys=True).encode()
 
 
 def run_folder_bytes(run_dir: str | Path) -> dict[str, bytes]:
