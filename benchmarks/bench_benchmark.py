@@ -110,11 +110,11 @@ def plan() -> None:
         p = plans[c.id]
         data = json.loads((folder / "cells" / c.id / "scenario.json").read_text(encoding="utf-8"))
         rows[c.id] = {
-            "relevant": p.get("relevant"),
-            "pairs": p.get("pairs"),
-            "submaps": p.get("submaps"),
+            "relevant": p.relevant,
+            "pairs": p.pairs,
+            "submaps": p.submaps,
             "robots": len(data["robots"]),
-            "km": p.get("km"),
+            "km": p.km,
         }
     _merge(
         "standard_plan", {"cells": rows, "planning_cpu_s": round(cpu, 1), "load_before": load0, "load_after": _load()}
