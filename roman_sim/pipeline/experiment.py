@@ -363,6 +363,21 @@ class Experiment:
         return {name: {**old.get(name, {}), "reused": True} for name in STAGE_NAMES if name in reuse}
 
 
+def is_current_run(run_dir: Path, scenario: Scenario) -> bool:
+    """Whether ``run_dir`` holds a complete run of ``scenario`` (resolved) under the keys a run would
+    compute now: a changed default or changed code of a stage makes it stale (``Experiment.stage_keys``)."""
+    from roman_sim.pipeline.resolve import resolve_scenario
+
+    man = existing_manifest(run_dir)
+    if man is None or not man.complete:
+        return False
+    sc = resolve_scenario(scenario)
+    if man.config_hash != sc.config_hash():  # the run folder records it resolved
+        return False
+    keys = Experiment(sc, run_dir, cache=False).stage_keys()
+    return all(name in keys and man.valid(name, keys[name], run_dir) for name in man.expected)
+
+
 def run_scenario_file(
     name_or_path: str | Path,
     overrides: list[str] | None = None,

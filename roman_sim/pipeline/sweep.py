@@ -62,21 +62,11 @@ def _run_one(
 
 
 def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed: int) -> bool:
-    """Whether the cell's run completed with exactly the cell's resolved configuration and current code
-    (every stage recorded under the key the run would compute now: a changed default or code runs it)."""
-    from roman_sim.pipeline.experiment import Experiment
-    from roman_sim.pipeline.manifest import existing_manifest
-    from roman_sim.pipeline.resolve import resolve_scenario
+    """Whether the cell's run completed with exactly the cell's resolved configuration and current code."""
+    from roman_sim.pipeline.experiment import is_current_run
     from roman_sim.pipeline.scenario import load_scenario
 
-    man = existing_manifest(run_dir)
-    if man is None or not man.complete:
-        return False
-    sc = resolve_scenario(load_scenario(scenario_path, list(overrides) + [f"seed={seed}"]))
-    if man.config_hash != sc.config_hash():  # the run folder records it resolved
-        return False
-    keys = Experiment(sc, run_dir, cache=False).stage_keys()
-    return all(name in keys and man.valid(name, keys[name], run_dir) for name in man.expected)
+    return is_current_run(run_dir, load_scenario(scenario_path, list(overrides) + [f"seed={seed}"]))
 
 
 def run_sweep(

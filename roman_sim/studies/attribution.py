@@ -35,6 +35,7 @@ from pydantic import Field
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.records import write_record
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.pipeline.mechanisms import ALL_ON, check_mechanisms, mechanism_overrides
 from roman_sim.runner.executor_base import ExecutorConfig
@@ -102,6 +103,25 @@ class StudyRun:
     overrides: tuple[str, ...]
 
 
+@dataclass(frozen=True)
+class PlannedRun:
+    """A run as ``attribution.json`` lists it: role, scenario, mechanism switched off, folder, overrides."""
+
+    role: str
+    scenario: str
+    mechanism: str
+    run: str
+    overrides: list[str]
+
+
+@dataclass(frozen=True)
+class AttributionPlan:
+    """``attribution.json``: the study's configuration and its runs."""
+
+    config: dict[str, Any]
+    runs: list[PlannedRun]
+
+
 def plan_runs(cfg: AttributionConfig) -> list[StudyRun]:
     """Every run of the study, all-on first, with its overrides (checks the mechanism names)."""
     from roman_sim.core.overrides import apply_overrides
@@ -119,40 +139,25 @@ def plan_runs(cfg: AttributionConfig) -> list[StudyRun]:
 
 
 def _done(run_dir: Path, scenario: Any) -> bool:
-    """Whether ``run_dir`` holds a complete run of exactly ``scenario`` (resolved)."""
-    from roman_sim.pipeline.manifest import existing_manifest
-    from roman_sim.pipeline.resolve import resolve_scenario
+    """Whether ``run_dir`` holds a complete run of exactly ``scenario`` (resolved) with the current code."""
+    from roman_sim.pipeline.experiment import is_current_run
 
-    man = existing_manifest(run_dir)
-    return man is not None and man.complete and man.config_hash == resolve_scenario(scenario).config_hash()
+    return is_current_run(run_dir, scenario)
 
 
 def run_study(cfg: AttributionConfig, out: Path, on_run: Callable[[int, int, str, bool], None] | None = None) -> None:
     """Run (or resume) every run of the study under ``out/runs`` (``on_run(i, n, name, reused)`` after each)."""
-    from roman_sim.core.atomic import write_json
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
     runs = plan_runs(cfg)
     scenarios = [load_scenario(r.scenario, list(r.overrides)) for r in runs]  # every switch validated up front
     out.mkdir(parents=True, exist_ok=True)
-    write_json(
-        out / PLAN,
-        {
-            "schema": SCHEMA,
-            "config": cfg.model_dump(mode="json"),
-            "runs": [
-                {
-                    "role": r.role,
-                    "scenario": r.scenario,
-                    "mechanism": r.mechanism,
-                    "run": r.name,
-                    "overrides": r.overrides,
-                }
-                for r in runs
-            ],
-        },
+    plan = AttributionPlan(
+        cfg.model_dump(mode="json"),
+        [PlannedRun(r.role, r.scenario, r.mechanism, r.name, list(r.overrides)) for r in runs],
     )
+    write_record(out / PLAN, plan, SCHEMA)
     for i, (r, sc) in enumerate(zip(runs, scenarios)):
         run_dir = out / "runs" / r.name
         reused = _done(run_dir, sc)

@@ -33,6 +33,8 @@ from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
 from roman_sim.evaluation.variants import GraphInfo
 from roman_sim.pipeline.manifest import MANIFEST_SCHEMA, ManifestRecord
 from roman_sim.pipeline.sweep_aggregate import SWEEP_SCHEMA, read_sweep_json
+from roman_sim.studies.attribution import SCHEMA as ATTRIBUTION_SCHEMA
+from roman_sim.studies.attribution import AttributionPlan
 from roman_sim.studies.paper_preset import FitStateRecord, read_predictions
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -70,6 +72,9 @@ REWRITE: dict[str, Callable[[Path, Path], object]] = {
         dest, read_record(src, BenchmarkRecord, BENCHMARK_SCHEMA), BENCHMARK_SCHEMA
     ),
     "metrics.json": lambda src, dest: write_metrics_json(dest, read_metrics_json(src), tight=True),
+    "attribution.json": lambda src, dest: write_record(
+        dest, read_record(src, AttributionPlan, ATTRIBUTION_SCHEMA), ATTRIBUTION_SCHEMA
+    ),
     "fit_state.json": lambda src, dest: write_record(dest, read_record(src, FitStateRecord)),
     "paper_predictions.json": lambda src, dest: write_record(dest, read_predictions(src)),
     "plan.json": lambda src, dest: write_record(dest, read_record(src, PlanRecord)),
