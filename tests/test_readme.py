@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from roman_sim.cli.verify import verify_run
+from roman_sim.cli._verify import verify_run
 from roman_sim.studies import pages
 from roman_sim.studies.reference import DEMO, FIGURE_PNG, demo_summary
 

@@ -343,7 +343,7 @@ def report_cmd(
     if not compressed:
         print_summary(RunResult.load(run_dir))
     if verify:
-        from roman_sim.cli.verify import verify_run
+        from roman_sim.cli._verify import verify_run
 
         res = verify_run(
             run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv", tum_suffix=".gz" if compressed else ""

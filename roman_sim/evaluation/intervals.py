@@ -14,7 +14,6 @@ from collections.abc import Sequence
 from functools import lru_cache
 
 import numpy as np
-from scipy import stats
 
 from roman_sim.core.errors import EvaluationError
 
@@ -45,6 +44,8 @@ def wilson(k: int, n: int, level: float = 0.95) -> tuple[float, float] | None:
 @lru_cache(maxsize=4096)
 def _wilson(k: int, n: int, level: float) -> tuple[float, float]:
     """``wilson`` of checked arguments; a run's metrics ask for the same few (k, n) many times."""
+    from scipy import stats  # imported on first use: scipy.stats takes about a second to import
+
     ci = stats.binomtest(k, n).proportion_ci(confidence_level=level, method="wilson")
     return float(ci.low), float(ci.high)
 
@@ -57,5 +58,7 @@ def mean_interval(values: Sequence[float], level: float = 0.95) -> tuple[float |
     mean = float(v.mean())
     if len(v) < 2:
         return mean, None
+    from scipy import stats
+
     half = float(stats.t.ppf(0.5 + level / 2, len(v) - 1) * v.std(ddof=1) / math.sqrt(len(v)))
     return mean, (mean - half, mean + half)

@@ -15,7 +15,7 @@
 Numbers match when they agree within ``rel_tol`` (the recomputation is the same arithmetic,
 so a run verified on the machine that wrote it matches exactly; SVDs may differ in the last
 bits between machines). ``report --verify`` adds a check independent of this code
-(``roman_sim.cli.verify``).
+(``roman_sim.cli._verify``).
 """
 
 from __future__ import annotations

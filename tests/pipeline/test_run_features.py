@@ -194,7 +194,7 @@ def test_every_bundled_sweep_validates(path):
 
 
 def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
-    from roman_sim.cli.verify import verify_run
+    from roman_sim.cli._verify import verify_run
     from roman_sim.studies.reference import rederive, reproduce
 
     shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")

@@ -7,7 +7,7 @@ import shutil
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.cli.verify import verify_run
+from roman_sim.cli._verify import verify_run
 
 runner = CliRunner()
 

@@ -354,7 +354,7 @@ def _without_points(v: object) -> object:
 
 @pytest.mark.skipif(not (REF / "demo" / "pairs.csv.gz").is_file(), reason="no committed demo run")
 def test_a_run_whose_metrics_predate_the_points_is_checked_without_them(tmp_path):
-    from roman_sim.cli.verify import independent_check, verify_run
+    from roman_sim.cli._verify import independent_check, verify_run
     from roman_sim.report.recompute import stored_summary
 
     d = tmp_path / "demo"

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from roman_sim.cli.verify import verify_run
+from roman_sim.cli._verify import verify_run
 from roman_sim.report.recompute import compare
 from roman_sim.studies.reference import rederive, reference_markdown
 
