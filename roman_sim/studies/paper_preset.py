@@ -38,7 +38,6 @@ run, and a verdict: it holds for ``every`` admitted setting, for ``some``, for `
 
 from __future__ import annotations
 
-import json
 import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -170,10 +169,10 @@ def _key(severity: float) -> str:
 
 def _counts_from_metrics(run_dir: Path, method: str) -> Counts | None:
     """A method's cross-robot (max hits, relevant pairs) from a finished run's ``metrics.json``, if it has them."""
-    try:
-        inter = json.loads((run_dir / "metrics.json").read_text(encoding="utf-8"))["methods"][method]["inter"]
+    try:  # only the two figures are read (a folder of that time may hold no more)
+        inter = read_json(run_dir / "metrics.json")["methods"][method]["inter"]
         return Counts(int(inter["max_hits"]), int(inter["n_relevant"]))
-    except (OSError, ValueError, KeyError, TypeError):
+    except (RecordError, KeyError, TypeError, ValueError):
         return None
 
 
@@ -232,9 +231,9 @@ class FitState:
     def _adopt_single_prediction(self) -> None:
         """A folder from before the admitted settings ran one prediction, at the fitted severity."""
         old, run_dir = self.out / PREDICTIONS, self.out / "runs" / self.cfg.predict_scenario
-        try:
-            severity = float(json.loads(old.read_text(encoding="utf-8"))["severity"])
-        except (OSError, ValueError, KeyError, TypeError):
+        try:  # the file of that time: only its severity is read
+            severity = float(read_json(old)["severity"])
+        except (RecordError, KeyError, TypeError, ValueError):
             return
         got = {m: _counts_from_metrics(run_dir, m) for m in self.cfg.predict_aligners}
         figures = {m: v for m, v in got.items() if v is not None}
