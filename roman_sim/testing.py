@@ -28,7 +28,6 @@ count is meant) with a ``ConfigError`` naming the argument.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -37,14 +36,12 @@ from typing import Any, cast
 import numpy as np
 
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.core.records import read_record, to_json_record
 from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
-from roman_sim.pipeline.stages.aligned import ALIGNED_SCHEMA, AlignedRecord
 
 #: The figures ``assert_recall`` bounds (all fractions in [0, 1]).
 FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
@@ -423,26 +420,15 @@ def assert_ate_below(run: RunResult, variant: str, reference: str = "odometry", 
     assert got < ref, f"ATE of {variant} ({got:.3f} m) is not below {reference} ({ref:.3f} m)"
 
 
-def _without_wall_times(path: Path) -> bytes:
-    """``aligned/<label>.json`` with each pair's wall time (``runtime_s``) blanked; other files as they are."""
-    if path.parent.name != "aligned" or path.suffix != ".json":
-        return path.read_bytes()
-    rec = read_record(path, AlignedRecord, ALIGNED_SCHEMA)
-    for r in rec.results:
-        if "runtime_s" in r:
-            r["runtime_s"] = None
-    return json.dumps(to_json_record(rec, ALIGNED_SCHEMA), sort_keys=True).encode()
-
-
 def run_folder_bytes(run_dir: str | Path) -> dict[str, bytes]:
-    """Every file of a run folder by relative path, wall-clock times aside: without ``timings.json``, and
-    with the per-pair alignment times of ``aligned/<label>.json`` blanked (the only field of those
-    files that differs between two runs of one seed)."""
+    """Every file of a run folder by relative path, wall-clock times aside: without ``timings.json`` and
+    the aligners' per-pair wall times (``aligned/<label>.times.json``), the only files that differ
+    between two runs of one seed."""
     d = Path(run_dir)
     return {
-        p.relative_to(d).as_posix(): _without_wall_times(p)
+        p.relative_to(d).as_posix(): p.read_bytes()
         for p in sorted(d.rglob("*"))
-        if p.is_file() and p.name != "timings.json"
+        if p.is_file() and p.name != "timings.json" and not p.name.endswith(".times.json")
     }
 
 

@@ -6,14 +6,16 @@ parameters), the pairs (the submaps' key, the evaluation's pair selection, the g
 the code it runs (the worker job, the input checks, the gating, the pair selection and the
 aligner's module, with what they import). ``aligner_key`` hashes exactly that. The stage
 writes each aligner's results to ``aligned/<label>.json`` (``AlignedRecord``: the key and
-one ``AlignResult.to_json`` record per pair, in pair order; gated pairs included) and lists
-the files among its own; the experiment stores each in the shared cache under its key
-(``Stage.parts``, part ``alignment``). A later run reads from there the aligners whose keys
-it finds (``cached_aligned``), aligns with the others only, and links the cached files into
-its folder when it saves. The records go through the
-same JSON round trip as a fresh chunk's results, so the scores are the same bytes. Each record
-keeps the pair's alignment wall time (``runtime_s``): like ``timings.json``, that field differs
-between two runs of one seed, and only that field (``roman_sim.testing.run_folder_bytes``).
+one ``AlignResult.to_json`` record per pair, in pair order, gated pairs included, without
+its wall time) and the pairs' alignment wall times beside them, to
+``aligned/<label>.times.json`` (``AlignedTimes``); it lists both among its files, and the
+experiment stores both in the shared cache under the aligner's key (``Stage.parts``, part
+``alignment``). The record is thus a pure function of its inputs (the same bytes from any
+run of the same key); the times, like ``timings.json``, differ between two runs
+(``roman_sim.testing.run_folder_bytes`` leaves them out). A later run reads from the cache
+the aligners whose keys it finds (``cached_aligned``: record and times), aligns with the
+others only, and links the cached files into its folder when it saves. The records go
+through the same JSON round trip as a fresh chunk's results, so the scores are the same bytes.
 """
 
 from __future__ import annotations
@@ -21,12 +23,13 @@ from __future__ import annotations
 import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from roman_sim import __version__
 from roman_sim.align.base import AlignResult
 from roman_sim.core.config import stable_hash
-from roman_sim.core.records import RecordError, read_record
+from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.resolve import aligner_modules
 from roman_sim.pipeline.stages.evaluation_job import ResultKey
@@ -40,7 +43,8 @@ log = logging.getLogger(__name__)
 #: The shared cache's name for one aligner's results (a ``CachePart``).
 ALIGNMENT_PART = "alignment"
 ALIGNED_DIR = "aligned"
-ALIGNED_SCHEMA = "roman_sim.aligned/1"
+ALIGNED_SCHEMA = "roman_sim.aligned/2"
+ALIGNED_TIMES_SCHEMA = "roman_sim.aligned_times/1"
 #: Modules every aligner's results depend on besides the aligner's own (with what they import).
 ALIGNMENT_CODE = (
     "roman_sim.pipeline.stages.evaluation_job",
@@ -65,9 +69,43 @@ class AlignedRecord:
     results: list[dict[str, Any]]
 
 
+@dataclass
+class AlignedTimes:
+    """What ``aligned/<label>.times.json`` holds: the alignment wall time of each pair of the record (s)."""
+
+    aligner: str
+    key: str
+    runtime_s: list[float]
+
+
 def aligned_file(label: str) -> str:
     """The run-folder path of the aligner ``label``'s results."""
     return f"{ALIGNED_DIR}/{label}.json"
+
+
+def times_file(label: str) -> str:
+    """The run-folder path of the wall times of the aligner ``label``'s results."""
+    return f"{ALIGNED_DIR}/{label}.times.json"
+
+
+def write_aligned(run_dir: Path, rec: AlignedRecord) -> list[str]:
+    """Write ``rec`` without its wall times, and the times beside it; the two files (relative paths)."""
+    results = [{k: v for k, v in r.items() if k != "runtime_s"} for r in rec.results]
+    times = [float(r["runtime_s"]) for r in rec.results]
+    label, key = rec.aligner, rec.key
+    write_record(run_dir / aligned_file(label), AlignedRecord(label, key, results), ALIGNED_SCHEMA, indent=None)
+    write_record(run_dir / times_file(label), AlignedTimes(label, key, times), ALIGNED_TIMES_SCHEMA, indent=None)
+    return [aligned_file(label), times_file(label)]
+
+
+def read_aligned(folder: Path, label: str) -> AlignedRecord:
+    """The aligner ``label``'s record in ``folder`` with its wall times put back (RecordError when either
+    file is missing, malformed or of another key or length)."""
+    rec = read_record(folder / aligned_file(label), AlignedRecord, ALIGNED_SCHEMA)
+    times = read_record(folder / times_file(label), AlignedTimes, ALIGNED_TIMES_SCHEMA)
+    if (times.aligner, times.key, len(times.runtime_s)) != (rec.aligner, rec.key, len(rec.results)):
+        raise RecordError(f"{folder / times_file(label)}: the wall times of another aligner, key or pair set")
+    return AlignedRecord(rec.aligner, rec.key, [{**r, "runtime_s": t} for r, t in zip(rec.results, times.runtime_s)])
 
 
 def aligner_key(stage: Stage[Any, Any], ctx: RunContext, entry: AlignerEntry) -> str | None:
@@ -107,7 +145,7 @@ def cached_aligned(ctx: RunContext, keys: dict[str, str], pairs: Sequence[tuple[
         if where is None:
             continue
         try:
-            rec = read_record(where / aligned_file(label), AlignedRecord, ALIGNED_SCHEMA)
+            rec = read_aligned(where, label)
             got = [(str(r.get("a")), str(r.get("b"))) for r in rec.results]
             if rec.key != key or rec.aligner != label or got != list(pairs):
                 raise RecordError(f"{where / aligned_file(label)}: the results of another key, aligner or pair set")

@@ -37,7 +37,6 @@ import numpy as np
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import write_record
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, compute_metrics, score_pair
@@ -48,7 +47,6 @@ from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.aligned import (
-    ALIGNED_SCHEMA,
     ALIGNMENT_PART,
     AlignedRecord,
     aligned_file,
@@ -56,6 +54,8 @@ from roman_sim.pipeline.stages.aligned import (
     aligned_results,
     aligner_keys,
     cached_aligned,
+    times_file,
+    write_aligned,
 )
 from roman_sim.pipeline.stages.base import CachePart, Stage, Timings
 from roman_sim.pipeline.stages.evaluation_job import WORKER_PRELOAD, ResultKey, align_pairs
@@ -232,6 +232,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
 
     name = "evaluation"
     input_type = EvaluationInputs
+    format = "aligned-times/1"  # each aligner's wall times apart from its results
     uses_workers = True
     code = ("roman_sim.align.checks",)  # its worker job's
     components = ("aligners",)
@@ -270,16 +271,19 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
 
     def parts(self, ctx: RunContext) -> list[CachePart]:
         """Each aligner's results, under its own key (``roman_sim.pipeline.stages.aligned``)."""
-        return [CachePart(ALIGNMENT_PART, k, [aligned_file(label)]) for label, k in aligner_keys(self, ctx).items()]
+        return [
+            CachePart(ALIGNMENT_PART, k, [aligned_file(label), times_file(label)])
+            for label, k in aligner_keys(self, ctx).items()
+        ]
 
     def save(self, out: EvaluationOutput, ctx: RunContext) -> list[str]:
         for rec in out.aligned:  # those from the shared cache linked (no copy), the others written
             cache = ctx.cache if rec.aligner in out.aligned_cached else None
             if cache is None or cache.fetch(ALIGNMENT_PART, rec.key, ctx.environment, ctx.run_dir) is None:
-                write_record(ctx.run_dir / aligned_file(rec.aligner), rec, ALIGNED_SCHEMA, indent=None)
+                write_aligned(ctx.run_dir, rec)
         paths = write_evaluation(ctx.run_dir, out.scores, out.metrics)
         write_alignments(ctx.run_dir / ALIGNMENTS_JSON, out.alignments, out.notes)
-        kept = [aligned_file(rec.aligner) for rec in out.aligned]
+        kept = [f for rec in out.aligned for f in (aligned_file(rec.aligner), times_file(rec.aligner))]
         return [*sorted(p.relative_to(ctx.run_dir).as_posix() for p in paths.values()), ALIGNMENTS_JSON, *kept]
 
     def load(self, ctx: RunContext, files: list[str]) -> EvaluationOutput:
