@@ -128,7 +128,8 @@ class Cell:
         return f"{self.level}-s{self.seed}"
 
     def key(self) -> str:
-        """What the cell's results depend on: its scene (methods and overrides included) and seed."""
+        """What the cell's plan depends on: its scene (methods and overrides included) and seed (its results:
+        ``BenchmarkJob.cell_key``, which adds every stage key of its run)."""
         return stable_hash(self.scene.model_dump(mode="json"), self.seed)
 
 
