@@ -98,6 +98,11 @@ def test_installed_wheel_runs_smoke_from_an_empty_folder(wheel_env, tmp_path):
             "out",
             "--aligner",
             "roman_sim.examples.mutual_nn_aligner:MutualNNAligner",
+            # both robots stop after 12 m: what is checked is that the wheel's data and plug-in run
+            "--set",
+            "robots.0.max_length_m=12",
+            "--set",
+            "robots.1.max_length_m=12",
         ],
         cwd=tmp_path,
         env=env,
