@@ -105,6 +105,7 @@ def test_visual_page_states_the_shipped_vocabulary():
 
 def test_visual_page_states_what_the_visual_test_asserts():
     page, test = _flat("docs/visual.md"), (ROOT / "tests" / "pipeline" / "test_visual.py").read_text()
+    assert "`tests/pipeline/test_visual.py` checks on seed 1 that:" in page and "SEEDS = [1]" in test
     assert "visual max recall at 120-180 deg is at most 0.05, and ROMAN's is at least 0.2 higher" in page
     assert 'visual_run.recall("visual", "120-180") <= 0.05' in test
     assert 'visual_run.recall("roman", "120-180") >= visual_run.recall("visual", "120-180") + 0.2' in test

@@ -14,7 +14,7 @@ from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_not_worse, assert_recall
 
-SEEDS = [0, 1]  # two seeds: each run of visual_small is about 80 s of CPU
+SEEDS = [1]  # one seed: a run of visual_small is about 80 s of CPU (seed 0, figures below, passed too)
 
 
 @pytest.fixture(scope="module", params=SEEDS, ids=[f"seed{s}" for s in SEEDS])
@@ -31,8 +31,6 @@ def test_visual_needs_rgb_and_names_the_robot() -> None:
 
 @pytest.mark.slow
 def test_keyframes_flow_through_the_stages(visual_run) -> None:
-    if visual_run.scenario.seed != 0:
-        pytest.skip("checked on one seed")
     d = visual_run.run_dir
     kf = load_keyframes(d / "keyframes" / "a.npz")
     subs = load_submaps(d / "submaps" / "a.npz")
@@ -51,11 +49,11 @@ def test_keyframes_flow_through_the_stages(visual_run) -> None:
 
 
 @pytest.mark.slow
-def test_visual_orderings_hold_on_every_seed(visual_run) -> None:
+def test_visual_orderings_hold(visual_run) -> None:
     """Visual recall collapses at 120-180 deg where ROMAN holds; it is not zero at 0-60 deg;
     the combined pose graph is at least as good as ROMAN's and better than visual's.
 
-    Measured on seeds 0 and 1, max recall 0-60 / 60-120 / 120-180 deg:
+    Measured on seeds 0 and 1 (the suite runs seed 1, where visual's pose graph fails), max recall 0-60 / 60-120 / 120-180 deg:
     ROMAN 0.92/1.00/0.81, 0.90/0.40/0.74; visual 0.77/0.00/0.00, 0.80/0.20/0.00.
     SE(3) ATE of all robots (m), combined / ROMAN / visual / odometry / oracle:
     0.287/0.308/0.328/0.397/0.276, 0.395/0.406/19.9/0.910/0.284. On seed 1 visual's graph is
