@@ -66,7 +66,10 @@ def _is_done(run_dir: Path, scenario_path: str, overrides: tuple[str, ...], seed
     from roman_sim.pipeline.experiment import is_current_run
     from roman_sim.pipeline.scenario import load_scenario
 
-    return is_current_run(run_dir, load_scenario(scenario_path, list(overrides) + [f"seed={seed}"]))
+    try:
+        return is_current_run(run_dir, load_scenario(scenario_path, list(overrides) + [f"seed={seed}"]))
+    except RomanSimError:  # a bad cell value: the cell runs and fails as that cell, not the whole sweep
+        return False
 
 
 def run_sweep(

@@ -49,10 +49,18 @@ def _metrics(path):
     return {k: {kk: vv for kk, vv in v.items() if kk not in ("runtime_s",)} for k, v in m["methods"].items()}
 
 
-def test_serial_sweep_resumes_and_matches_dask(tmp_path):
-    cfg, scenario = load_sweep(_write(tmp_path))
-    out = tmp_path / "serial"
-    table = run_sweep(cfg, scenario, out)
+@pytest.fixture(scope="module")
+def serial_sweep(tmp_path_factory):
+    """The micro sweep over seeds 0 and 1, run serially once for this module: (config, scenario, out, table)."""
+    tmp = tmp_path_factory.mktemp("sweep")
+    cfg, scenario = load_sweep(_write(tmp))
+    out = tmp / "serial"
+    return cfg, scenario, out, run_sweep(cfg, scenario, out)
+
+
+def test_serial_sweep_resumes_and_matches_dask(serial_sweep, tmp_path):
+    cfg, scenario, out, table = serial_sweep
+    cfg = cfg.model_copy(deep=True)
     rows = list(csv.DictReader(table.open()))
     assert {r["status"] for r in rows} == {"ok"}
     assert {r["seed"] for r in rows} == {"0", "1"}
@@ -71,13 +79,11 @@ def test_serial_sweep_resumes_and_matches_dask(tmp_path):
     assert _metrics(serial_run) == _metrics(dask_run)
 
 
-def test_sweep_summary_over_seeds_and_report(tmp_path):
+def test_sweep_summary_over_seeds_and_report(serial_sweep):
     from roman_sim.evaluation.intervals import mean_interval
     from roman_sim.pipeline.result import RunResult
 
-    cfg, scenario = load_sweep(_write(tmp_path))
-    out = tmp_path / "serial"
-    run_sweep(cfg, scenario, out)
+    _, _, out, _ = serial_sweep
     rows = list(csv.DictReader((out / "sweep_summary.csv").open()))
     row = next(r for r in rows if r["method"] == "roman" and r["kind"] == "inter" and r["bin"] == "all")
     runs = [RunResult.load(out / r["run_id"]) for r in json.loads((out / "sweep.json").read_text())["runs"]]
