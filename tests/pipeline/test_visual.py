@@ -53,7 +53,8 @@ def test_visual_orderings_hold(visual_run) -> None:
     """Visual recall collapses at 120-180 deg where ROMAN holds; it is not zero at 0-60 deg;
     the combined pose graph is at least as good as ROMAN's and better than visual's.
 
-    Measured on seeds 0 and 1 (the suite runs seed 1, where visual's pose graph fails), max recall 0-60 / 60-120 / 120-180 deg:
+    Measured on seeds 0 and 1 (the suite runs seed 1, where visual's pose graph fails), max recall
+    0-60 / 60-120 / 120-180 deg:
     ROMAN 0.92/1.00/0.81, 0.90/0.40/0.74; visual 0.77/0.00/0.00, 0.80/0.20/0.00.
     SE(3) ATE of all robots (m), combined / ROMAN / visual / odometry / oracle:
     0.287/0.308/0.328/0.397/0.276, 0.395/0.406/19.9/0.910/0.284. On seed 1 visual's graph is
