@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any, cast
 from roman_sim import __version__
 from roman_sim.align.base import AlignResult
 from roman_sim.core.config import stable_hash
-from roman_sim.core.records import RecordError, read_record, write_record
+from roman_sim.core.records import RecordError, read_record
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.resolve import aligner_modules
 from roman_sim.pipeline.stages.evaluation_job import ResultKey
@@ -88,14 +88,12 @@ def times_file(label: str) -> str:
     return f"{ALIGNED_DIR}/{label}.times.json"
 
 
-def write_aligned(run_dir: Path, rec: AlignedRecord) -> list[str]:
-    """Write ``rec`` without its wall times, and the times beside it; the two files (relative paths)."""
+def split_aligned(rec: AlignedRecord) -> tuple[AlignedRecord, AlignedTimes]:
+    """``rec`` without its wall times, and the times apart: what ``aligned/<label>.json`` and
+    ``aligned/<label>.times.json`` hold (the stage's ``save`` writes them)."""
     results = [{k: v for k, v in r.items() if k != "runtime_s"} for r in rec.results]
     times = [float(r["runtime_s"]) for r in rec.results]
-    label, key = rec.aligner, rec.key
-    write_record(run_dir / aligned_file(label), AlignedRecord(label, key, results), ALIGNED_SCHEMA, indent=None)
-    write_record(run_dir / times_file(label), AlignedTimes(label, key, times), ALIGNED_TIMES_SCHEMA, indent=None)
-    return [aligned_file(label), times_file(label)]
+    return AlignedRecord(rec.aligner, rec.key, results), AlignedTimes(rec.aligner, rec.key, times)
 
 
 def read_aligned(folder: Path, label: str) -> AlignedRecord:

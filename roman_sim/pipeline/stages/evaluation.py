@@ -37,6 +37,7 @@ import numpy as np
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import write_record
 from roman_sim.evaluation.bins import runtime_stats
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import PairScore, compute_metrics, score_pair
@@ -47,6 +48,8 @@ from roman_sim.evaluation.types import AlignmentRecord, EvaluationMetrics
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.stages.aligned import (
+    ALIGNED_SCHEMA,
+    ALIGNED_TIMES_SCHEMA,
     ALIGNMENT_PART,
     AlignedRecord,
     aligned_file,
@@ -54,8 +57,8 @@ from roman_sim.pipeline.stages.aligned import (
     aligned_results,
     aligner_keys,
     cached_aligned,
+    split_aligned,
     times_file,
-    write_aligned,
 )
 from roman_sim.pipeline.stages.base import CachePart, Stage, Timings
 from roman_sim.pipeline.stages.evaluation_job import WORKER_PRELOAD, ResultKey, align_pairs
@@ -280,7 +283,9 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         for rec in out.aligned:  # those from the shared cache linked (no copy), the others written
             cache = ctx.cache if rec.aligner in out.aligned_cached else None
             if cache is None or cache.fetch(ALIGNMENT_PART, rec.key, ctx.environment, ctx.run_dir) is None:
-                write_aligned(ctx.run_dir, rec)
+                record, times = split_aligned(rec)
+                write_record(ctx.run_dir / aligned_file(rec.aligner), record, ALIGNED_SCHEMA, indent=None)
+                write_record(ctx.run_dir / times_file(rec.aligner), times, ALIGNED_TIMES_SCHEMA, indent=None)
         paths = write_evaluation(ctx.run_dir, out.scores, out.metrics)
         write_alignments(ctx.run_dir / ALIGNMENTS_JSON, out.alignments, out.notes)
         kept = [f for rec in out.aligned for f in (aligned_file(rec.aligner), times_file(rec.aligner))]
