@@ -191,3 +191,26 @@ def test_visual_same_direction_miss_is_the_data():
         assert entry["closures"] == len(rows) and entry["correct"] == sum(r["correct"] for r in rows)
         assert entry["median_radius_m"] == statistics.median(r["radius_m"] for r in rows)
     assert max(r["radius_m"] for r in sd["rows"]) < min(1.0, rp["median_radius_m"])
+
+
+def _semantics(run: Path) -> dict:
+    import yaml
+
+    return yaml.safe_load((run / "config.yaml").read_text(encoding="utf-8"))["frontend"]["semantics"]
+
+
+def test_runs_made_with_the_earlier_descriptor_model_are_named():
+    """The page names exactly the runs of the summary, the demo and the sweep whose resolved
+    configuration has no appearance weights, and the command that regenerates them."""
+    flat = _flat()
+    m = re.search(r"Made with the earlier descriptor model: ((?:`\w+`(?:, | and )?)+), so", flat)
+    assert m, "docs/results.md names the runs made with the earlier descriptor model"
+    named = re.findall(r"`(\w+)`", m[1])
+    sweep = json.loads((REF / "ambiguity_sweep" / "sweep.json").read_text(encoding="utf-8"))
+    runs = [REF / n for n in [*_summary()["runs"], "demo"]] + [
+        REF / "ambiguity_sweep" / r["run_id"] for r in sweep["runs"]
+    ]
+    earlier = [run.relative_to(REF).as_posix() for run in runs if "appearance" not in _semantics(run)]
+    assert sorted(named) == sorted(earlier)
+    assert "`roman-sim reproduce " + " ".join(f"--scenario {n}" for n in named) + "` regenerates them" in flat
+    assert "the appearance-driven one sets `frontend.semantics.appearance`" in flat
