@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -36,6 +37,16 @@ def _committed() -> Leaderboard:
 def _again() -> Leaderboard:
     """The leaderboard re-derived from the committed raw pairs (once for the module)."""
     return leaderboard(STANDARD)[0]
+
+
+@pytest.fixture(scope="module", name="scored")
+def _scored() -> dict[str, Any]:
+    """The independent scorer's held-out figures of the committed raw pairs (once for the module)."""
+    from fractions import Fraction
+
+    from roman_sim.studies.independent_scorer import benchmark_held_out
+
+    return benchmark_held_out(STANDARD, Fraction(str(_committed().target_precision)))
 
 
 def test_the_leaderboard_follows_from_the_raw_pairs(again, by_hand_points, by_hand_precision_90):
@@ -86,16 +97,10 @@ def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
                 assert tuple(row[:2]) == hand[(level, heading, m)][:2], (level, heading, m)
 
 
-def test_the_deployable_point_follows_from_the_independent_scorer():
+def test_the_deployable_point_follows_from_the_independent_scorer(scored):
     """Thresholds chosen on the other world of each level and the held-out counts per heading bin, as the
     independent scorer (code of its own, the raw pairs and each cell's config) re-derives them."""
-    from fractions import Fraction
-
-    from roman_sim.studies.independent_scorer import benchmark_held_out
-
     board = _committed()
-    target = Fraction(str(board.target_precision))
-    scored = benchmark_held_out(STANDARD, target)
     checked = 0
     for e in board.levels:
         d = e.deployable
@@ -111,15 +116,10 @@ def test_the_deployable_point_follows_from_the_independent_scorer():
     assert checked == 3 * 7 * len(board.methods)
 
 
-def test_the_deployable_intervals_follow_from_the_independent_scorer():
+def test_the_deployable_intervals_follow_from_the_independent_scorer(scored):
     """The Wilson and world-bootstrap intervals of every held-out cell, as the independent scorer re-derives
     them from the raw pairs with its own bootstrap (the documented protocol: worlds, then robot pairs)."""
-    from fractions import Fraction
-
-    from roman_sim.studies.independent_scorer import benchmark_held_out
-
     board = _committed()
-    scored = benchmark_held_out(STANDARD, Fraction(str(board.target_precision)))
     checked = widened = 0
     for e in board.levels:
         d = e.deployable
