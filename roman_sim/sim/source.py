@@ -12,6 +12,8 @@ robots, world and seed give the same frames wherever they are read.
 
 from __future__ import annotations
 
+import weakref
+from collections import OrderedDict
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, TypeVar, overload
@@ -28,6 +30,39 @@ if TYPE_CHECKING:
     from roman_sim.world import HasTruth
 
 R = TypeVar("R", bound=FrameSource)
+
+#: Paths planned lately, per (world, seed, robots): the world held weakly, the paths read-only.
+#: A run maps each robot in a task of its own, and each task needs every earlier robot's path.
+_PLANNED: OrderedDict[tuple[int, int, tuple[str, ...]], tuple[weakref.ref[Any], dict[str, Path2D]]] = OrderedDict()
+_PLANNED_MAX = 4
+
+
+def _frozen(path: Path2D) -> Path2D:
+    """``path`` with its arrays (and its base's) made read-only, so a shared path cannot change."""
+    for a in (path.xy, path.heading, path.s):
+        a.setflags(write=False)
+    if path.base is not None:
+        _frozen(path.base)
+    return path
+
+
+def planned_paths(world: HasTruth, robots: Sequence[RobotConfig], seed: int) -> dict[str, Path2D]:
+    """``plan_paths(world, robots, seed)``, planned once per world, seed and robots in this process
+    (the same world object: a run's robot tasks share it); the paths are read-only."""
+    try:
+        ref = weakref.ref(world)
+    except TypeError:  # an object that cannot be held weakly: planned each time
+        return plan_paths(world, robots, seed)
+    key = (id(world), int(seed), tuple(r.model_dump_json() for r in robots))
+    hit = _PLANNED.get(key)
+    if hit is not None and hit[0]() is world:
+        _PLANNED.move_to_end(key)
+        return dict(hit[1])
+    paths = {name: _frozen(path) for name, path in plan_paths(world, robots, seed).items()}
+    _PLANNED[key] = (ref, paths)
+    while len(_PLANNED) > _PLANNED_MAX:
+        _PLANNED.popitem(last=False)
+    return dict(paths)
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,7 +201,7 @@ def robot_sources(
     if any(getattr(r, "source", None) is None for r in wanted):
         if world is None:
             raise ConfigError("simulated robots need the world")
-        paths = plan_paths(world, simulated, seed)
+        paths = planned_paths(world, simulated, seed)
     out: list[SimulatedRobot | R] = []
     for cfg in wanted:
         if getattr(cfg, "source", None) is not None:
