@@ -257,6 +257,7 @@ def reproduce(
         if on_start:
             on_start("ambiguity_sweep")
         sweep = ambiguity_sweep(out / "ambiguity_sweep", work / "ambiguity_sweep", from_stage)
+        runs, _ = merge_committed(out, runs)  # the paper-scale runs (run on request) keep their results
     else:
         runs, sweep = merge_committed(out, runs)
     summary = build_reference(runs, sweep)

@@ -215,6 +215,22 @@ def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
     assert "| roman max recall, same direction | 0.67 | n/a | n/a |" in text  # not run here: not computable
 
 
+def test_reproduce_of_the_default_set_keeps_the_runs_it_does_not_run(smoke_run, tmp_path, monkeypatch):
+    """The paper-scale runs are run on request: a default reproduce keeps their committed results."""
+    from roman_sim.studies import reference
+
+    shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
+    reference.reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")  # committed: smoke
+    before = json.loads((tmp_path / "ref" / "summary.json").read_text())
+    # a default set without smoke (the demo re-collected from its cached run, no sweep)
+    monkeypatch.setattr(reference, "PAPER_SCENARIOS", [])
+    monkeypatch.setattr(reference, "DEMO", "smoke")
+    monkeypatch.setattr(reference, "ambiguity_sweep", lambda *a, **k: [])
+    reference.reproduce(tmp_path / "ref", None, tmp_path / "work")
+    after = json.loads((tmp_path / "ref" / "summary.json").read_text())
+    assert list(after["runs"]) == ["smoke"] and after["runs"] == before["runs"]
+
+
 def test_record_command_stores_readable_frames(tmp_path):
     from roman_sim.core.tum import read_tum
     from roman_sim.sim.recording import read_recording, recording_info
