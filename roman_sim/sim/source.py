@@ -12,6 +12,7 @@ robots, world and seed give the same frames wherever they are read.
 
 from __future__ import annotations
 
+import threading
 import weakref
 from collections import OrderedDict
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -35,6 +36,7 @@ R = TypeVar("R", bound=FrameSource)
 #: A run maps each robot in a task of its own, and each task needs every earlier robot's path.
 _PLANNED: OrderedDict[tuple[int, int, tuple[str, ...]], tuple[weakref.ref[Any], dict[str, Path2D]]] = OrderedDict()
 _PLANNED_MAX = 4
+_PLANNED_LOCK = threading.Lock()  # a Dask worker may map robots in threads
 
 
 def _frozen(path: Path2D) -> Path2D:
@@ -54,14 +56,16 @@ def planned_paths(world: HasTruth, robots: Sequence[RobotConfig], seed: int) -> 
     except TypeError:  # an object that cannot be held weakly: planned each time
         return plan_paths(world, robots, seed)
     key = (id(world), int(seed), tuple(r.model_dump_json() for r in robots))
-    hit = _PLANNED.get(key)
-    if hit is not None and hit[0]() is world:
-        _PLANNED.move_to_end(key)
-        return dict(hit[1])
+    with _PLANNED_LOCK:
+        hit = _PLANNED.get(key)
+        if hit is not None and hit[0]() is world:
+            _PLANNED.move_to_end(key)
+            return dict(hit[1])
     paths = {name: _frozen(path) for name, path in plan_paths(world, robots, seed).items()}
-    _PLANNED[key] = (ref, paths)
-    while len(_PLANNED) > _PLANNED_MAX:
-        _PLANNED.popitem(last=False)
+    with _PLANNED_LOCK:
+        _PLANNED[key] = (ref, paths)
+        while len(_PLANNED) > _PLANNED_MAX:
+            _PLANNED.popitem(last=False)
     return dict(paths)
 
 
