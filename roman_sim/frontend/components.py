@@ -6,7 +6,7 @@ component declares whether it needs RGB and whether it reads ground truth, so a 
 check its robots before anything renders and give truth only to the components that read
 it. Built-in segmenters: ``perfect`` and ``fastsam`` (truth masks, degraded by the error
 model of ``SegmenterConfig``), ``image`` (RGB + depth only) and ``sam`` (a local SAM model);
-built-in encoders: ``simulated`` (from the true family), ``image`` (colour and texture
+built-in encoders: ``simulated`` (from the true family and each instance's looks), ``image`` (colour and texture
 statistics), ``clip`` and ``dinov2`` (local models). A user class may set the class
 attributes ``needs_rgb`` and ``reads_truth`` (both False when absent).
 """
@@ -422,7 +422,11 @@ def _register_builtins() -> None:
     enc(
         "simulated",
         ComponentSpec(
-            _simulated_encoder, NoParams, False, True, "CLIP-like descriptors from the true family (frontend.semantics)"
+            _simulated_encoder,
+            NoParams,
+            False,
+            True,
+            "CLIP-like descriptors from the true family and looks (frontend.semantics)",
         ),
     )
     enc(

@@ -232,7 +232,8 @@ def frontends_markdown(table: FrontEndTable) -> str:
         "## Two front ends on the opposite-direction scenario",
         "",
         "`fastsam` + `simulated` cut masks from the renderer's instance image and draw descriptors from the "
-        "true family (truth-driven); `image` + `image` see only the RGB-D pixels. Same world, robots, pairs "
+        "true family and each instance's looks (truth-driven); `image` + `image` see only the RGB-D "
+        "pixels. Same world, robots, pairs "
         f"and thresholds: {inter.get('n_pairs')} cross-robot pairs "
         f"({inter.get('n_relevant')} relevant), {same}. Cells: cross-robot max recall "
         "(hits/relevant) [95 % Wilson interval], P its precision and k its threshold (the other "

@@ -22,9 +22,7 @@ from roman_sim.testing import assert_same_run_folder
 from .processes import cli, start, tagged, tagged_env, wait_gone
 
 pytestmark = pytest.mark.timeout(600)
-#: Both robots stop after 12 m, in the run's own process: the lock does not depend on the executor
-#: (pools under signals are tested in test_interrupts.py).
-MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12", "--executor", "serial"]
+MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]
 SETTINGS = {"seed0": [], "seed1": ["--set", "seed=1"]}
 
 
