@@ -455,9 +455,9 @@ class FrontEndGrader:
         if self.appearance is not None:
             sel = np.flatnonzero(same_f & one_side)
             # the kernel of each distinct object pair once (many observation pairs share one)
-            objs, back = np.unique(np.stack([oid[i[sel]], oid[j[sel]]], 1).reshape(-1, 2), axis=0, return_inverse=True)
+            objs, back = np.unique(np.stack([oid[i[sel]], oid[j[sel]]], 1), axis=0, return_inverse=True)
             kern = np.array([self.appearance(int(a), int(b)) for a, b in objs], dtype=np.float64)
-            diff = 1.0 - kern[np.asarray(back).reshape(-1)] if len(sel) else np.zeros(0)
+            diff = 1.0 - kern[np.asarray(back).reshape(-1)]
             e = np.asarray(c.appearance_edges)
             b = np.clip(np.searchsorted(e, diff, side="right") - 1, 0, len(e) - 2) if len(sel) else sel
             appearance = [CosineStats.of(cos[sel][b == k], c.cos_bins, c.gate_cos) for k in range(len(e) - 1)]
