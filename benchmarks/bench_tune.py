@@ -30,6 +30,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from roman_sim.core.records import to_json
+from roman_sim.evaluation.tune_result import TuneRecommended
+
 OUT = Path(__file__).resolve().parent / "out" / "tune.json"
 #: The seed of the worlds the recommended setting is checked on (the quick suite tunes on seed 0).
 CHECK_SEED = 1
@@ -44,18 +47,18 @@ def _load() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def _check(folder: Path, rec: dict[str, Any], target: float, executor: Any) -> dict[str, Any]:
+def _check(folder: Path, rec: TuneRecommended, target: float, executor: Any) -> dict[str, Any]:
     """The recommended setting, fixed, on the quick suite's worlds of ``CHECK_SEED``."""
     import numpy as np
 
     from roman_sim.benchmark.tune import TuneJob, config_outcomes
     from roman_sim.evaluation.transfer import counts, positives, world_bootstrap
 
-    params = [f"threshold={rec['threshold']}"] + [f"{k}={v}" for k, v in rec["values"].items()]
+    params = [f"threshold={rec.threshold}"] + [f"{k}={v}" for k, v in rec.values.items()]
     job = TuneJob("quick", "roman", folder, params, target, seeds=[CHECK_SEED], executor=executor)
     per_world, facts = job.collect()
     c = config_outcomes(job.grid.configs[0], per_world, facts)
-    pos = positives(c.pairs, int(rec["threshold"]))
+    pos = positives(c.pairs, rec.threshold)
     tp, fp, rel = counts(c.pairs, pos)
     precision = tp / (tp + fp) if tp + fp else None
     return {
@@ -100,17 +103,17 @@ def main() -> None:
     result = job.run()
     wall, cpu = time.perf_counter() - t0, _cpu() - cpu0
     load1 = _load()
-    rec = result["recommended"]
+    rec = result.recommended
     check = _check(root / "check", rec, 0.9, ex) if rec is not None else None
-    h = result["held_out"]
-    ci = h["precision_worlds"]
+    h = result.held_out
+    ci = h.precision_worlds
     p = None if check is None else check["precision"]
     figures = {
         "suite": "quick",
         "method": "roman",
-        "grid": {k: [min(v), max(v), len(v)] for k, v in result["parameters"].items()},
+        "grid": {k: [min(v), max(v), len(v)] for k, v in result.parameters.items()},
         "alignments": len(job.grid.alignments()),
-        "worlds": [w["id"] for w in result["worlds"]],
+        "worlds": [w.id for w in result.worlds],
         "maps_reused": _maps_reused(root / "tune"),
         "workers": args.workers,
         "wall_s": round(wall, 1),
@@ -122,8 +125,10 @@ def main() -> None:
         "note": "wall time on a shared machine is an upper bound; cpu_over_2_cores_s is the wall time on "
         "2 free cores if both were kept busy"
         + ("" if args.workers == 1 else f" (cpu_s leaves out the {args.workers} pool workers: not a bound)"),
-        "recommended": rec,
-        "held_out": {k: h[k] for k in ("hits", "false_positives", "n_relevant", "precision", "precision_worlds")},
+        "recommended": None if rec is None else to_json(rec),
+        "held_out": {
+            k: getattr(h, k) for k in ("hits", "false_positives", "n_relevant", "precision", "precision_worlds")
+        },
         "check_on_unseen_worlds": check,
         "reaches_target": None if p is None else p >= 0.9,
         "within_slack_of_target": None if p is None else p >= 0.9 - 0.05,

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -39,11 +39,20 @@ import numpy as np
 
 from roman_sim.benchmark.deployable import held_out_figures
 from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, parse_params
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.config import read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.core.records import RecordError, read_record, to_json, write_record
+from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.evaluation.transfer import PairOutcomes, check_target
+from roman_sim.evaluation.tune_result import (
+    TuneChoice,
+    TuneConfig,
+    TuneHeldOut,
+    TuneRecommended,
+    TuneResult,
+    TuneWorldKm,
+    write_tune,
+)
 from roman_sim.evaluation.tuning import (
     ConfigOutcomes,
     Evidence,
@@ -59,7 +68,6 @@ log = logging.getLogger(__name__)
 T = TypeVar("T")
 
 TUNE_JSON = "tune.json"
-TUNE_SCHEMA = "roman_sim.tune/1"
 JOB_JSON = "job.json"
 RECOMMENDED_YAML = "recommended.yaml"
 FRONT_PNG = "front.png"
@@ -343,7 +351,7 @@ class TuneJob:
         return rec
 
     # -- the job ------------------------------------------------------------------
-    def run(self) -> dict[str, Any]:
+    def run(self) -> TuneResult:
         """Run (or read back) every alignment of every world, score, write the results; ``tune.json``'s content."""
         return self.score(*self.collect())
 
@@ -369,9 +377,7 @@ class TuneJob:
                 facts[w.id] = self._world_facts(w, first, self._scenario(w))
         return per_world, facts
 
-    def score(
-        self, per_world: dict[str, dict[AlignerValues, Outcomes]], facts: dict[str, WorldFacts]
-    ) -> dict[str, Any]:
+    def score(self, per_world: dict[str, dict[AlignerValues, Outcomes]], facts: dict[str, WorldFacts]) -> TuneResult:
         """Score the outcomes (see ``evaluation.tuning``) and write the folder's results."""
         from roman_sim.benchmark.tune_space import declared
         from roman_sim.report.tune_plot import plot_front
@@ -384,43 +390,35 @@ class TuneJob:
         rows, nested = config_rows(ev), nested_held_out(ev)
         rec = choose_setting(configs, km, sorted(km), ks, self.target)
         by_id = {c.id: c for c in self.grid.configs}
-        result: dict[str, Any] = {
-            "schema": TUNE_SCHEMA,
-            "source": self.source,
-            "method": self.method,
-            "overrides": self.overrides,
-            "target_precision": self.target,
-            "parameters": {n: [int(x) if spec[n].integer else x for x in v] for n, v in self.values.items()},
-            "worlds": [{"id": w, "km": round(km[w], 6)} for w in sorted(km)],
-            "configs": [
-                {
-                    "id": r.config,
-                    "values": by_id[r.config].values(),
-                    "thresholds": r.thresholds,
-                    **_figures_json(r.figures, self.target),
-                    "time_per_pair_s": r.time_per_pair_s,
-                    "on_front": r.on_front,
-                }
+        result = TuneResult(
+            source=self.source,
+            method=self.method,
+            overrides=list(self.overrides),
+            target_precision=self.target,
+            parameters={n: [int(x) if spec[n].integer else x for x in v] for n, v in self.values.items()},
+            worlds=[TuneWorldKm(w, round(km[w], 6)) for w in sorted(km)],
+            configs=[
+                TuneConfig(
+                    id=r.config,
+                    values=by_id[r.config].values(),
+                    thresholds=r.thresholds,
+                    time_per_pair_s=r.time_per_pair_s,
+                    on_front=r.on_front,
+                    **tuned_figures(r.figures, self.target),
+                )
                 for r in rows
             ],
-            "held_out": {
-                "chosen": {
-                    w: None if s is None else {"config": s.config, "threshold": s.k} for w, s in nested.chosen.items()
-                },
-                **_figures_json(nested.figures, self.target),
-            },
-            "recommended": None,
-        }
-        if rec is not None:
-            result["recommended"] = {
-                "config": rec.config,
-                "values": by_id[rec.config].values(),
-                "threshold": rec.k,
-                "calibration_recall": rec.recall,
-                "calibration_false_per_km": rec.false_per_km,
-                "time_per_pair_s": rec.time_per_pair_s,
-            }
-        write_json(self.out / TUNE_JSON, result)
+            held_out=TuneHeldOut(
+                chosen={w: None if s is None else TuneChoice(s.config, s.k) for w, s in nested.chosen.items()},
+                **tuned_figures(nested.figures, self.target),
+            ),
+            recommended=None
+            if rec is None
+            else TuneRecommended(
+                rec.config, by_id[rec.config].values(), rec.k, rec.recall, rec.false_per_km, rec.time_per_pair_s
+            ),
+        )
+        write_tune(self.out / TUNE_JSON, result)
         plot_front(result, self.out / FRONT_PNG)
         yaml_path = self.out / RECOMMENDED_YAML
         if rec is not None:
@@ -484,10 +482,10 @@ def config_outcomes(
     return ConfigOutcomes(o, np.asarray(cols["runtime"], dtype=np.float64))
 
 
-def _figures_json(f: Figures, target: float) -> dict[str, Any]:
-    figures = to_json(held_out_figures(f.cell, target))
-    assert isinstance(figures, dict)  # a dataclass: an object
-    return {**figures, "false_per_km": f.false_per_km}
+def tuned_figures(f: Figures, target: float) -> dict[str, Any]:
+    """The fields of ``TunedFigures`` for ``f`` at ``target`` (keyword arguments of it and its subclasses)."""
+    h = held_out_figures(f.cell, target)
+    return {**{x.name: getattr(h, x.name) for x in fields(h)}, "false_per_km": f.false_per_km}
 
 
 def recommended_sections(method: str, c: Config, k: int, base_params: dict[str, Any]) -> dict[str, Any]:
@@ -500,11 +498,13 @@ def recommended_sections(method: str, c: Config, k: int, base_params: dict[str, 
     }
 
 
-def recommended_yaml(result: dict[str, Any], c: Config, base_params: dict[str, Any]) -> str:
+def recommended_yaml(result: TuneResult, c: Config, base_params: dict[str, Any]) -> str:
     """``recommended.yaml``: the sections, headed by comments stating the held-out figures."""
     import yaml
 
-    rec, h = result["recommended"], result["held_out"]
+    rec, h = result.recommended, result.held_out
+    if rec is None:
+        raise ValueError("recommended_yaml: the tune recommends no setting")
 
     def ci(v: list[float] | None) -> str:
         return "n/a" if v is None else f"[{v[0]:.3f}, {v[1]:.3f}]"
@@ -513,14 +513,14 @@ def recommended_yaml(result: dict[str, Any], c: Config, base_params: dict[str, A
         return "n/a" if v is None else f"{v:.3f}"
 
     head = [
-        f"# roman-sim tune: {result['method']} on {result['source']}, target precision {result['target_precision']:g}",
-        f"# chosen on {len(result['worlds'])} worlds: threshold {rec['threshold']}, "
-        + ", ".join(f"{k}={v}" for k, v in rec["values"].items()),
-        f"# held-out (each world scored at the setting chosen on the others): precision {num(h['precision'])} "
-        f"{ci(h['precision_worlds'])}, recall {num(h['recall'])} {ci(h['recall_worlds'])} (95 % world bootstrap)",
+        f"# roman-sim tune: {result.method} on {result.source}, target precision {result.target_precision:g}",
+        f"# chosen on {len(result.worlds)} worlds: threshold {rec.threshold}, "
+        + ", ".join(f"{k}={v}" for k, v in rec.values.items()),
+        f"# held-out (each world scored at the setting chosen on the others): precision {num(h.precision)} "
+        f"{ci(h.precision_worlds)}, recall {num(h.recall)} {ci(h.recall_worlds)} (95 % world bootstrap)",
         "# use: paste these sections into a scenario, or: roman-sim run SCENARIO --set @recommended.yaml",
     ]
-    body = yaml.safe_dump(recommended_sections(result["method"], c, rec["threshold"], base_params), sort_keys=False)
+    body = yaml.safe_dump(recommended_sections(result.method, c, rec.threshold, base_params), sort_keys=False)
     return "\n".join(head) + "\n" + body
 
 

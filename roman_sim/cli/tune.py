@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import contextlib
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -13,6 +13,9 @@ from rich.table import Table
 from roman_sim.cli import _executor as X
 from roman_sim.cli import app
 from roman_sim.cli.progress import LineProgress, interactive, rich_progress
+
+if TYPE_CHECKING:
+    from roman_sim.evaluation.tune_result import TuneResult
 
 
 def _seeds(text: str | None) -> list[int] | None:
@@ -40,24 +43,24 @@ def _ci(v: list[float] | None) -> str:
     return "" if v is None else f" [{v[0]:.2f}, {v[1]:.2f}]"
 
 
-def _table(result: dict[str, Any]) -> Table:
+def _table(result: TuneResult) -> Table:
     t = Table(
-        title=f"tune {result['method']}: held-out (thresholds chosen on other worlds), target precision "
-        f"{result['target_precision']:g}"
+        title=f"tune {result.method}: held-out (thresholds chosen on other worlds), target precision "
+        f"{result.target_precision:g}"
     )
     for col in ("config", "recall", "precision", "false / km", "time / pair (ms)", "front"):
         t.add_column(col, justify="left" if col == "config" else "right", no_wrap=col == "config")
-    rec = (result.get("recommended") or {}).get("config")
-    for c in result["configs"]:
-        name = ", ".join(f"{k}={v}" for k, v in c["values"].items()) or "(defaults)"
-        flag = "" if c["transfers"] else " (does not transfer)"
+    rec = None if result.recommended is None else result.recommended.config
+    for c in result.configs:
+        name = ", ".join(f"{k}={v}" for k, v in c.values.items()) or "(defaults)"
+        flag = "" if c.transfers else " (does not transfer)"
         t.add_row(
-            ("* " if c["id"] == rec else "") + name,
-            _num(c["recall"]) + _ci(c["recall_worlds"]),
-            _num(c["precision"]) + _ci(c["precision_worlds"]) + flag,
-            _num(c["false_per_km"]),
-            _num(None if c["time_per_pair_s"] is None else 1000 * c["time_per_pair_s"], "{:.1f}"),
-            "yes" if c["on_front"] else "",
+            ("* " if c.id == rec else "") + name,
+            _num(c.recall) + _ci(c.recall_worlds),
+            _num(c.precision) + _ci(c.precision_worlds) + flag,
+            _num(c.false_per_km),
+            _num(None if c.time_per_pair_s is None else 1000 * c.time_per_pair_s, "{:.1f}"),
+            "yes" if c.on_front else "",
         )
     return t
 
@@ -104,17 +107,17 @@ def tune_cmd(
             bar = (p, p.add_task("tune", total=len(job.worlds) * len(job.grid.alignments())))
         result = job.run()
     Console().print(_table(result))
-    h = result["held_out"]
+    h = result.held_out
     Console().print(
-        f"held-out over {len(result['worlds'])} worlds (setting chosen on the others): precision "
-        f"{_num(h['precision'])}{_ci(h['precision_worlds'])}, recall {_num(h['recall'])}{_ci(h['recall_worlds'])}"
-        + ("" if h["transfers"] else " - the chosen setting does not transfer")
+        f"held-out over {len(result.worlds)} worlds (setting chosen on the others): precision "
+        f"{_num(h.precision)}{_ci(h.precision_worlds)}, recall {_num(h.recall)}{_ci(h.recall_worlds)}"
+        + ("" if h.transfers else " - the chosen setting does not transfer")
     )
-    rec = result["recommended"]
+    rec = result.recommended
     if rec is None:
         Console().print("no setting reaches the target precision on these worlds: nothing recommended")
     else:
-        values = ", ".join(f"{k}={v}" for k, v in rec["values"].items())
-        Console().print(f"recommended: threshold {rec['threshold']}" + (f", {values}" if values else ""))
+        values = ", ".join(f"{k}={v}" for k, v in rec.values.items())
+        Console().print(f"recommended: threshold {rec.threshold}" + (f", {values}" if values else ""))
         Console().print(f"written: {folder / RECOMMENDED_YAML}")
     Console().print(f"front: {folder / FRONT_PNG}")

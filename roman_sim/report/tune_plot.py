@@ -9,32 +9,35 @@ data is stored in the PNG (``plots.read_png_data``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from roman_sim.report.plots import figure, save_png
 
+if TYPE_CHECKING:
+    from roman_sim.evaluation.tune_result import TuneResult
 
-def front_data(result: dict[str, Any]) -> dict[str, Any]:
-    """What ``plot_front`` draws, from ``tune.json``'s content."""
-    rec = result.get("recommended")
+
+def front_data(result: TuneResult) -> dict[str, Any]:
+    """What ``plot_front`` draws, from a tune's result."""
+    rec = result.recommended
     return {
         "configs": [
             {
-                "id": c["id"],
-                "recall": c["recall"],
-                "recall_worlds": c["recall_worlds"],
-                "false_per_km": c["false_per_km"],
-                "time_per_pair_s": c["time_per_pair_s"],
-                "on_front": c["on_front"],
+                "id": c.id,
+                "recall": c.recall,
+                "recall_worlds": c.recall_worlds,
+                "false_per_km": c.false_per_km,
+                "time_per_pair_s": c.time_per_pair_s,
+                "on_front": c.on_front,
             }
-            for c in result["configs"]
+            for c in result.configs
         ],
-        "recommended": None if rec is None else rec["config"],
+        "recommended": None if rec is None else rec.config,
     }
 
 
-def plot_front(result: dict[str, Any], path: str | Path) -> Path:
-    """Draw the front of ``result`` (``tune.json``'s content) to ``path``."""
+def plot_front(result: TuneResult, path: str | Path) -> Path:
+    """Draw the front of a tune's ``result`` to ``path``."""
     data = front_data(result)
     fig = figure(6.5, 4.5)
     ax = fig.axes[0]
@@ -59,8 +62,7 @@ def plot_front(result: dict[str, Any], path: str | Path) -> Path:
         ax.plot([p[0] for p in front], [p[1] for p in front], "k--", lw=0.8, label="Pareto front")
     ax.set_xlabel("false loop closures per km (held-out)")
     ax.set_ylabel("recall (held-out, 95 % world bootstrap)")
-    target = result.get("target_precision")
-    ax.set_title(f"tune {result.get('method')}: thresholds for precision {target} chosen on other worlds")
+    ax.set_title(f"tune {result.method}: thresholds for precision {result.target_precision} chosen on other worlds")
     ax.set_ylim(-0.02, 1.02)
     ax.text(
         0.99,

@@ -14,6 +14,8 @@ from typer.testing import CliRunner
 from roman_sim.align.aligners import RomanAligner, RomanParams
 from roman_sim.benchmark.tune_space import Config
 from roman_sim.cli import app
+from roman_sim.core.records import RecordError
+from roman_sim.evaluation.tune_result import read_tune, write_tune
 from roman_sim.pipeline.scenario import load_scenario
 
 pytestmark = pytest.mark.slow
@@ -68,40 +70,57 @@ def home(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def test_figures_follow_from_the_raw_pairs(home: Path):
-    res = json.loads((home / "t" / "tune.json").read_text())
-    assert [w["id"] for w in res["worlds"]] == ["distinct-s0", "distinct-s1"]
-    assert all(w["km"] > 0.05 for w in res["worlds"])
+    res = read_tune(home / "t" / "tune.json")
+    assert [w.id for w in res.worlds] == ["distinct-s0", "distinct-s1"]
+    assert all(w.km > 0.05 for w in res.worlds)
     hand = _by_hand(home)
-    assert len(hand) == 2 and len(res["configs"]) == 1
-    row = res["configs"][0]
+    assert len(hand) == 2 and len(res.configs) == 1
+    row = res.configs[0]
     rows = {w: r for (w, _), r in hand.items()}
     hits = fps = rel = 0
     for w, other in (("distinct-s0", "distinct-s1"), ("distinct-s1", "distinct-s0")):
         k = _k(rows[other])  # chosen on the other world only
-        assert row["thresholds"][w] == k
+        assert row.thresholds[w] == k
         hits += sum(1 for r, ok, n in rows[w] if k is not None and n >= k and r and ok)
         fps += sum(1 for r, ok, n in rows[w] if k is not None and n >= k and not ok)
         rel += sum(1 for r, _, _ in rows[w] if r)
-    assert [row["hits"], row["false_positives"], row["n_relevant"]] == [hits, fps, rel]
-    km = sum(w["km"] for w in res["worlds"])
-    assert row["false_per_km"] == pytest.approx(fps / km, rel=1e-4)  # km stored to the metre
-    assert row["time_per_pair_s"] is not None and row["time_per_pair_s"] > 0
+    assert [row.hits, row.false_positives, row.n_relevant] == [hits, fps, rel]
+    km = sum(w.km for w in res.worlds)
+    assert row.false_per_km == pytest.approx(fps / km, rel=1e-4)  # km stored to the metre
+    assert row.time_per_pair_s is not None and row.time_per_pair_s > 0
     # one config: the setting chosen for each world is that config at the threshold of the other world
-    assert res["held_out"]["hits"] == hits and res["held_out"]["false_positives"] == fps
+    assert res.held_out.hits == hits and res.held_out.false_positives == fps
+    assert {w: None if c is None else c.threshold for w, c in res.held_out.chosen.items()} == row.thresholds
     all_rows = rows["distinct-s0"] + rows["distinct-s1"]
-    rec = res["recommended"]
-    assert rec is not None and rec["threshold"] == _k(all_rows) and rec["values"] == {"cos_min": 0.85}
+    rec = res.recommended
+    assert rec is not None and rec.threshold == _k(all_rows) and rec.values == {"cos_min": 0.85}
+    assert res.config(rec.config) is row
     assert (home / "t" / "front.png").stat().st_size > 1000
 
 
+def test_the_result_file_round_trips_and_a_damaged_one_names_the_field(home: Path, tmp_path: Path):
+    path = home / "t" / "tune.json"
+    res = read_tune(path)
+    write_tune(tmp_path / "tune.json", res)
+    assert (tmp_path / "tune.json").read_bytes() == path.read_bytes()
+    data = json.loads(path.read_text())
+    data["configs"][0]["hits"] = "many"
+    (tmp_path / "tune.json").write_text(json.dumps(data))
+    with pytest.raises(RecordError) as err:
+        read_tune(tmp_path / "tune.json")
+    assert (
+        str(err.value) == f"{tmp_path / 'tune.json'}: field configs[0].hits: expected an integer, got a string ('many')"
+    )
+
+
 def test_recommended_yaml_loads_into_a_scenario(home: Path):
-    res = json.loads((home / "t" / "tune.json").read_text())
+    res = read_tune(home / "t" / "tune.json")
     path = home / "t" / "recommended.yaml"
     text = path.read_text()
     assert text.startswith("# roman-sim tune: roman on")
     sc = load_scenario("smoke", [f"@{path}"])
     assert [(e.method, e.params) for e in sc.aligners] == [("roman", {"cos_min": 0.85})]
-    assert sc.posegraph.lc_association_thresh == res["recommended"]["threshold"]
+    assert res.recommended is not None and sc.posegraph.lc_association_thresh == res.recommended.threshold
     assert sc.posegraph_method == "roman" and not sc.gating.enabled
 
 

@@ -1,0 +1,124 @@
+"""``tune.json``: the result of ``roman-sim tune`` as typed records.
+
+One ``TuneResult`` per folder: what was tuned (source, method, overrides, target precision,
+the parameter grid), the worlds with their kilometres, one ``TuneConfig`` per config
+(aligner and gating setting at thresholds chosen on other worlds: held-out figures, time per
+pair, whether it is on the Pareto front), the held-out figures of the whole choice made
+leaving each world out (``TuneHeldOut``) and the recommended setting (``TuneRecommended``,
+None when no setting reaches the target on the calibration worlds).
+
+The held-out figures of a config and of the nested choice are a level's
+``HeldOutFigures`` plus the false loop closures per km, in the same object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from roman_sim.core.records import read_record, write_record
+from roman_sim.evaluation.leaderboard import HeldOutFigures
+
+TUNE_SCHEMA = "roman_sim.tune/1"
+
+#: A config's parameter values: name -> value (gating parameters as ``gating.<name>``).
+Values = dict[str, int | float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class TunedFigures(HeldOutFigures):
+    """Held-out figures (``HeldOutFigures``) and the false loop closures per km driven."""
+
+    false_per_km: float
+
+
+@dataclass(frozen=True, kw_only=True)
+class TuneConfig(TunedFigures):
+    """One config at thresholds chosen on other worlds (per held-out world its threshold, None: none reached)."""
+
+    id: str
+    values: Values
+    thresholds: dict[str, int | None]
+    time_per_pair_s: float | None
+    on_front: bool
+
+
+@dataclass(frozen=True)
+class TuneChoice:
+    """The setting chosen without one world: a config and its threshold."""
+
+    config: str
+    threshold: int
+
+
+@dataclass(frozen=True, kw_only=True)
+class TuneHeldOut(TunedFigures):
+    """The whole choice made leaving each world out: per world its choice (None: none reached the target)."""
+
+    chosen: dict[str, TuneChoice | None]
+
+
+@dataclass(frozen=True)
+class TuneRecommended:
+    """The setting chosen on every world, with its pooled figures on them."""
+
+    config: str
+    values: Values
+    threshold: int
+    calibration_recall: float
+    calibration_false_per_km: float
+    time_per_pair_s: float | None
+
+
+@dataclass(frozen=True)
+class TuneWorldKm:
+    """A world of the tune and the kilometres its robots drove."""
+
+    id: str
+    km: float
+
+
+@dataclass(frozen=True)
+class TuneResult:
+    """``tune.json`` (see the module docstring)."""
+
+    source: str
+    method: str
+    overrides: list[str]
+    target_precision: float
+    parameters: dict[str, list[int | float]]
+    worlds: list[TuneWorldKm]
+    configs: list[TuneConfig]
+    held_out: TuneHeldOut
+    recommended: TuneRecommended | None
+
+    def config(self, cid: str) -> TuneConfig:
+        """The config ``cid`` (KeyError when the tune has none of that id)."""
+        for c in self.configs:
+            if c.id == cid:
+                return c
+        raise KeyError(cid)
+
+
+def write_tune(path: str | Path, result: TuneResult) -> Path:
+    """Atomically write ``result`` to ``path`` (sorted keys, with its schema)."""
+    return write_record(path, result, schema=TUNE_SCHEMA)
+
+
+def read_tune(path: str | Path) -> TuneResult:
+    """The ``TuneResult`` in ``path`` (RecordError names the file and the field when it does not match)."""
+    return read_record(path, TuneResult, schema=TUNE_SCHEMA)
+
+
+__all__ = [
+    "TUNE_SCHEMA",
+    "TuneChoice",
+    "TuneConfig",
+    "TuneHeldOut",
+    "TuneRecommended",
+    "TuneResult",
+    "TuneWorldKm",
+    "TunedFigures",
+    "read_tune",
+    "write_tune",
+]
