@@ -9,7 +9,8 @@ type, so a damaged or foreign file fails with one line that names the file and t
 Supported field types: ``int``, ``float`` (an integer is kept as written, so the bytes
 written back are the same), ``str``, ``bool``, ``None``, unions (``X | None``),
 ``Literal``, ``list[X]``, ``tuple[X, ...]``, ``tuple[X, Y]``, ``dict[str, X]`` /
-``Mapping[str, X]``, nested dataclasses and ``Any`` (taken as it is). A field with a default
+``Mapping[str, X]``, nested dataclasses, ``TypedDict`` (read back as a dict, its required keys
+present), and ``Any`` or the JSON value aliases (taken as they are). A field with a default
 may be absent (files written before it existed); a field whose metadata has ``omit_none``
 is left out of the JSON when it is None. Unknown fields are errors.
 """
@@ -26,7 +27,7 @@ from typing import Any, TypeVar
 
 from roman_sim.core.atomic import write_json
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSON
+from roman_sim.core.jsontypes import JSON, JSONLike
 
 T = TypeVar("T")
 
@@ -170,15 +171,17 @@ def _expected(tp: Any) -> str:
         return names[tp]
     if origin in (list, tuple, Sequence):
         return "a list"
-    if origin in (dict, Mapping) or dataclasses.is_dataclass(tp):
+    if origin in (dict, Mapping) or dataclasses.is_dataclass(tp) or typing.is_typeddict(tp):
         return "an object"
     return str(tp)
 
 
 def _decode(tp: Any, v: Any, where: str) -> Any:
     """``v`` checked against (and built as) ``tp``; raises ``_Mismatch`` naming ``where``."""
-    if tp is Any:
+    if tp is Any or _is_json_alias(tp):
         return v
+    if typing.is_typeddict(tp):
+        return _decode_typeddict(tp, v, where)
     if tp is type(None) or tp is None:
         if v is None:
             return None
@@ -215,6 +218,28 @@ def _decode(tp: Any, v: Any, where: str) -> Any:
         val = args[1] if len(args) == 2 else Any
         return {k: _decode(val, x, f"{where}.{k}" if where else k) for k, x in v.items()}
     return _decode_scalar(tp, v, where)
+
+
+def _is_json_alias(tp: Any) -> bool:
+    """Whether ``tp`` is a JSON value alias, or its recursive reference inside one: any JSON value passes."""
+    if isinstance(tp, typing.ForwardRef):
+        return tp.__forward_arg__ in ("JSON", "JSONLike")
+    return tp is JSON or tp is JSONLike
+
+
+def _decode_typeddict(tp: Any, v: Any, where: str) -> dict[str, Any]:
+    """A ``TypedDict``: its required keys present, no unknown key, every value of its key's type."""
+    if not isinstance(v, dict):
+        raise _Mismatch(where, f"expected an object, got {_kind(v)}")
+    hints = typing.get_type_hints(tp)
+    unknown = [k for k in v if k not in hints]
+    if unknown:
+        name = f"{where}.{unknown[0]}" if where else unknown[0]
+        raise _Mismatch(name, f"unknown (valid: {', '.join(hints)})")
+    for k in tp.__required_keys__:
+        if k not in v:
+            raise _Mismatch(f"{where}.{k}" if where else k, "missing")
+    return {k: _decode(hints[k], x, f"{where}.{k}" if where else k) for k, x in v.items()}
 
 
 def _decode_tuple(args: tuple[Any, ...], v: Any, where: str) -> tuple[Any, ...]:

@@ -27,10 +27,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypedDict
 
-from roman_sim.core.atomic import write_bytes, write_json, write_text
+from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON, JSONLike
-from roman_sim.core.records import read_json
+from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings, write_timings
 from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
 from roman_sim.evaluation.run_summary import RunSummary
@@ -261,7 +261,7 @@ def reproduce(
     else:
         runs, sweep = merge_committed(out, runs)
     summary = build_reference(runs, sweep)
-    write_json(out / "summary.json", summary)
+    write_record(out / "summary.json", summary)
     write_text(out / "summary.md", reference_markdown(summary))
     if root is not None:
         write_pages(Path(root), out, summary)
@@ -340,7 +340,7 @@ def merge_committed(out: Path, runs: dict[str, RunSummary]) -> tuple[dict[str, R
     if not (out / "summary.json").is_file():
         return runs, []
     merged: dict[str, RunSummary] = {}
-    for name in read_json(out / "summary.json").get("runs", {}):
+    for name in read_reference(out / "summary.json")["runs"]:
         if name in runs:
             merged[name] = runs[name]
         elif (out / name / "pairs.csv.gz").is_file():
@@ -377,6 +377,11 @@ class ReferenceRecord(TypedDict):
     claims: list[Claim]
     ambiguity_sweep: list[SweepRow]
     paper: dict[str, float | dict[str, tuple[float, float, float]]]
+
+
+def read_reference(path: str | Path) -> ReferenceRecord:
+    """The ``summary.json`` at ``path``, every field checked (RecordError names the file and the field)."""
+    return read_record(path, ReferenceRecord)
 
 
 def build_reference(runs: Runs, sweep: list[SweepRow]) -> ReferenceRecord:
@@ -437,6 +442,6 @@ def _run_summary(d: Path) -> RunSummary:
 def rederive(ref_dir: str | Path) -> ReferenceRecord:
     """``summary.json`` recomputed from the raw files under ``ref_dir`` (scenarios as committed)."""
     d = Path(ref_dir)
-    committed = read_json(d / "summary.json")
+    committed = read_reference(d / "summary.json")
     runs = {name: _run_summary(d / name) for name in committed["runs"]}
     return build_reference(runs, _committed_sweep(d))

@@ -6,11 +6,12 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Literal, TypedDict
 
 import pytest
 
 from roman_sim.core.errors import StorageError
+from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.records import OMIT_NONE, RecordError, from_json, read_record, to_json, write_record
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -124,3 +125,26 @@ def test_an_unreadable_file_is_one_line(tmp_path: Path, text: str | None, messag
 def test_from_json_names_the_source() -> None:
     with pytest.raises(RecordError, match=r"^summary of run x: field hits: expected an integer, got null$"):
         from_json(Point, {"hits": None, "recall": 0.5, "ci": None}, "summary of run x")
+
+
+class _Row(TypedDict):
+    name: str
+    value: float | None
+    extra: dict[str, JSONLike]
+
+
+class _Table(TypedDict, total=False):
+    rows: list[_Row]
+    note: str
+
+
+def test_a_typed_dict_is_checked_key_by_key_and_read_back_as_a_dict() -> None:
+    data = {"rows": [{"name": "a", "value": 2, "extra": {"x": [1, {"y": None}]}}]}
+    got = from_json(_Table, data, "t.json")
+    assert got == data and type(got) is dict  # optional "note" may be absent; JSON values pass as they are
+    with pytest.raises(RecordError, match=r"^t.json: field rows\[0\].value: expected a number, got a string"):
+        from_json(_Table, {"rows": [{"name": "a", "value": "x", "extra": {}}]}, "t.json")
+    with pytest.raises(RecordError, match=r"^t.json: field rows\[0\].extra: missing$"):
+        from_json(_Table, {"rows": [{"name": "a", "value": 1.0}]}, "t.json")
+    with pytest.raises(RecordError, match=r"^t.json: field other: unknown \(valid: rows, note\)$"):
+        from_json(_Table, {"other": 1}, "t.json")

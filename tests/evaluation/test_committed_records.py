@@ -36,6 +36,7 @@ from roman_sim.pipeline.sweep_aggregate import SWEEP_SCHEMA, read_sweep_json
 from roman_sim.studies.attribution import SCHEMA as ATTRIBUTION_SCHEMA
 from roman_sim.studies.attribution import AttributionPlan
 from roman_sim.studies.paper_preset import FitStateRecord, read_predictions
+from roman_sim.studies.reference import read_reference
 
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "results"
@@ -80,6 +81,7 @@ REWRITE: dict[str, Callable[[Path, Path], object]] = {
     "plan.json": lambda src, dest: write_record(dest, read_record(src, PlanRecord)),
     "cell.json": lambda src, dest: write_record(dest, read_record(src, CellStatus)),
     "runtimes.json": lambda src, dest: write_record(dest, read_runtimes(src)),
+    "summary.json": lambda src, dest: write_record(dest, read_reference(src)),
 }
 
 FILES = sorted(p for p in RESULTS.rglob("*.json*") if p.name in REWRITE)
@@ -127,3 +129,26 @@ def test_a_stage_taken_from_the_shared_cache_has_no_time(tmp_path: Path) -> None
     assert read_timings(tmp_path / "timings.json") == timings
     written = json.loads((tmp_path / "timings.json").read_text())["stages"]
     assert written["maps"] == {"peak_rss_mb": None, "reused": True}
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d["table1"][0].pop("common"), "field table1[0].common: missing"),
+        (
+            lambda d: d["claims"][0].update(holds="yes"),
+            "field claims[0].holds: expected a boolean, got a string ('yes')",
+        ),
+        (lambda d: d["revisits"][0].update(seen=1), "field revisits[0].seen: unknown (valid: scenario, n_relevant,"),
+    ],
+)
+def test_a_damaged_reference_summary_names_the_file_and_field(
+    edit: Callable[[dict], object], message: str, tmp_path: Path
+) -> None:
+    data = json.loads((RESULTS / "reference" / "summary.json").read_text(encoding="utf-8"))
+    edit(data)
+    bad = tmp_path / "summary.json"
+    bad.write_text(json.dumps(data), encoding="utf-8")
+    with pytest.raises(RecordError) as err:
+        read_reference(bad)
+    assert str(err.value).startswith(f"{bad}: {message}")
