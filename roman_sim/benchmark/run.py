@@ -3,8 +3,9 @@
 A cell is one (ambiguity level, seed): one crossing scenario, one run folder. The job
 
 1. plans every cell (``scenes.build_crossing``: world, drives, the relevant pairs,
-   no rendering) as tasks of the executor; a suite with ``min_relevant_per_bin`` adds seeds
-   per level, in order, until every heading bin plans that many relevant pairs;
+   no rendering) as tasks of the executor; a suite with ``min_worlds`` or
+   ``min_relevant_per_bin`` adds seeds per level, in order, until the level holds that many
+   worlds and every heading bin plans that many relevant pairs;
 2. runs each cell with the pipeline (``Experiment``) on the same executor, so a cell's
    robots and chunks of pairs spread over the workers (and a Dask cluster);
 3. keeps what each finished cell needs for the leaderboard in ``cells/<cell>/`` (the
@@ -172,21 +173,25 @@ class BenchmarkJob:
         """Every cell of the suite, planned (adding seeds per level when the suite asks for a count)."""
         plans = self._plans()
         s = self.suite
-        if s.min_relevant_per_bin is None:
+        if not s.adds_seeds:
             cells = [Cell(lv, seed, self.scenes[lv]) for lv in s.levels for seed in s.seeds]
             self._plan_batch(ex, cells, plans)
             return cells
         chosen: dict[str, list[Cell]] = {lv: [] for lv in s.levels}
         open_levels, seed = list(s.levels), 0
         while open_levels:
-            batch = [Cell(lv, seed, self.scenes[lv]) for lv in open_levels]
+            # the first min_worlds seeds are needed whatever they plan: one batch (parallel tasks)
+            upto = max(seed + 1, min(s.min_worlds or 1, s.max_seeds))
+            batch = [Cell(lv, sd, self.scenes[lv]) for sd in range(seed, upto) for lv in open_levels]
             self._plan_batch(ex, batch, plans)
             for c in batch:
+                if c.level not in open_levels:
+                    continue
                 chosen[c.level].append(c)
                 totals = planned_totals([plans[x.id] for x in chosen[c.level]], len(s.heading_edges()) - 1)
-                if min(totals) >= s.min_relevant_per_bin or len(chosen[c.level]) >= s.max_seeds:
+                if s.level_done(len(chosen[c.level]), totals):
                     open_levels.remove(c.level)
-            seed += 1
+            seed = upto
             self.progress(sum(len(v) for v in chosen.values()), 0, "planning")
         return [c for lv in s.levels for c in chosen[lv]]
 

@@ -2,9 +2,10 @@
 
 A suite is a crossing scene template (``scenes.CrossingScene``), a set of named
 ambiguity levels (values of the world's ambiguity knob), and its seeds: either a fixed
-list, or, with ``min_relevant_per_bin``, seeds 0, 1, 2, ... added per level until the
-*planned* relevant cross-robot pairs (from the trajectories, before anything is rendered)
-reach that number in every heading bin. One (level, seed) is one cell: one run folder.
+list, or seeds 0, 1, 2, ... added per level until the level holds ``min_worlds`` worlds
+and (with ``min_relevant_per_bin``) the *planned* relevant cross-robot pairs (from the
+trajectories, before anything is rendered) reach that number in every heading bin, at
+most ``max_seeds``. One (level, seed) is one cell (one world): one run folder.
 
 Built-in suites (``SUITES``):
 
@@ -43,10 +44,13 @@ class BenchmarkSuite(StrictModel):
     description: str = ""
     scene: CrossingScene = Field(default_factory=CrossingScene)
     levels: dict[str, float] = Field(default_factory=lambda: dict(LEVELS), min_length=1)
-    seeds: list[int] = Field(default_factory=lambda: [0], description="fixed seeds (without min_relevant_per_bin)")
+    seeds: list[int] = Field(
+        default_factory=lambda: [0], description="fixed seeds (without min_relevant_per_bin and min_worlds)"
+    )
     min_relevant_per_bin: int | None = Field(
         None, ge=1, description="add seeds per level until every heading bin plans this many relevant pairs"
     )
+    min_worlds: int | None = Field(None, ge=1, le=1000, description="add seeds per level until it has this many")
     max_seeds: int = Field(12, ge=1, le=1000, description="most seeds per level when adding them")
     heading_bin_deg: float = Field(30.0, gt=0.0, le=180.0)
     methods: list[str] = Field(default_factory=lambda: list(PAPER_METHODS), min_length=1)
@@ -60,9 +64,23 @@ class BenchmarkSuite(StrictModel):
                 raise ValueError(f"levels.{level}: the ambiguity knob lies in [0, 1], got {a}")
         if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
             raise ValueError("seeds: distinct non-negative integers")
+        if self.min_worlds is not None and self.min_worlds > self.max_seeds:
+            raise ValueError(f"min_worlds: at most max_seeds ({self.max_seeds}), got {self.min_worlds}")
         if abs(180.0 / self.heading_bin_deg - round(180.0 / self.heading_bin_deg)) > 1e-9:
             raise ValueError(f"heading_bin_deg: must divide 180, got {self.heading_bin_deg:g}")
         return self
+
+    @property
+    def adds_seeds(self) -> bool:
+        """Whether seeds are added per level (``min_worlds`` or ``min_relevant_per_bin``) instead of fixed."""
+        return self.min_worlds is not None or self.min_relevant_per_bin is not None
+
+    def level_done(self, worlds: int, relevant: list[int]) -> bool:
+        """Whether a level with ``worlds`` planned worlds and ``relevant`` pairs per bin needs no more seeds."""
+        if worlds >= self.max_seeds:
+            return True
+        enough = self.min_relevant_per_bin is None or min(relevant) >= self.min_relevant_per_bin
+        return enough and worlds >= (self.min_worlds or 1)
 
     def heading_edges(self) -> list[float]:
         """Heading bin edges from 0 to 180 deg."""

@@ -92,3 +92,47 @@ def test_methods_are_checked_before_anything_runs():
         check_methods(["no_such_pkg.mod:Aligner"])
     with pytest.raises(ConfigError, match="--methods: roman given twice"):
         check_methods(["roman", "roman"])
+
+
+def test_bad_world_counts_name_the_field():
+    with pytest.raises(ConfigError, match=r"min_worlds: at most max_seeds \(12\), got 20"):
+        validate_model(BenchmarkSuite, {"name": "x", "min_worlds": 20})
+    with pytest.raises(ConfigError, match="min_worlds"):
+        validate_model(BenchmarkSuite, {"name": "x", "min_worlds": 0})
+    ok = validate_model(BenchmarkSuite, {"name": "x", "min_worlds": 20, "max_seeds": 20})
+    assert ok.adds_seeds and not validate_model(BenchmarkSuite, {"name": "x"}).adds_seeds
+
+
+@pytest.mark.parametrize(
+    ("spec", "worlds"),
+    [
+        # 4 relevant pairs per bin and seed at "dense", 2 at "sparse": 10 per bin needs 3 and 5 seeds
+        ({"min_relevant_per_bin": 10}, {"dense": 3, "sparse": 5}),
+        ({"min_relevant_per_bin": 10, "min_worlds": 4}, {"dense": 4, "sparse": 5}),
+        ({"min_worlds": 4}, {"dense": 4, "sparse": 4}),
+        ({"min_relevant_per_bin": 10, "max_seeds": 4}, {"dense": 3, "sparse": 4}),
+        ({"seeds": [3, 7]}, {"dense": 2, "sparse": 2}),
+    ],
+)
+def test_the_planner_adds_seeds_until_the_level_has_its_worlds_and_pairs(tmp_path, monkeypatch, spec, worlds):
+    from roman_sim.benchmark import run
+    from roman_sim.benchmark.cells import PlannedCell
+    from roman_sim.runner.executors import SerialExecutor
+
+    planned: list[tuple[str, int]] = []
+
+    def fake_plan(scene_json: str, seed: int, name: str, edges: list[float]) -> PlannedCell:
+        level = name.split("-")[1]
+        planned.append((level, seed))
+        per_bin = 4 if level == "dense" else 2
+        return PlannedCell(True, scenario={"seed": seed}, relevant=[per_bin] * (len(edges) - 1))
+
+    monkeypatch.setattr(run, "plan_task", fake_plan)
+    suite = validate_model(
+        BenchmarkSuite, {"name": "x", "levels": {"dense": 0.0, "sparse": 0.5}, "methods": ["roman"], **spec}
+    )
+    cells = run.BenchmarkJob(suite, tmp_path).plan(SerialExecutor())
+    got = {lv: [c.seed for c in cells if c.level == lv] for lv in suite.levels}
+    seeds = spec.get("seeds")
+    assert got == {lv: seeds or list(range(n)) for lv, n in worlds.items()}
+    assert sorted(planned) == sorted((c.level, c.seed) for c in cells)  # nothing planned beyond what is kept
