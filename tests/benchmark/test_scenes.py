@@ -136,3 +136,12 @@ def test_the_planner_adds_seeds_until_the_level_has_its_worlds_and_pairs(tmp_pat
     seeds = spec.get("seeds")
     assert got == {lv: seeds or list(range(n)) for lv, n in worlds.items()}
     assert sorted(planned) == sorted((c.level, c.seed) for c in cells)  # nothing planned beyond what is kept
+
+
+def test_the_docs_state_how_seeds_are_added():
+    from pathlib import Path
+
+    text = " ".join((Path(__file__).resolve().parents[2] / "docs" / "benchmark.md").read_text().split())
+    default = BenchmarkSuite(name="x").max_seeds
+    assert f"at most `max_seeds` ({default} unless set) per level" in text
+    assert "until the level holds `min_worlds` worlds and (with `min_relevant_per_bin`) every heading bin" in text
