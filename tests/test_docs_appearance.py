@@ -56,3 +56,39 @@ def test_no_identity_figure_is_the_committed_measurement():
     assert (int(sp), int(sn), int(op), int(on)) == (s["pass"], s["pairs"], o["pass"], o["pairs"])
     assert int(nobs) == m["observations"] and m["within_deg"] == 45.0 and m["ambiguity"] == 1.0
     assert m["ratio"] == pytest.approx((s["pass"] / s["pairs"]) / (o["pass"] / o["pairs"]))
+
+
+def test_lighting_figures_come_from_the_committed_measurement():
+    m = json.loads((OUT / "lighting_fall.json").read_text(encoding="utf-8"))
+    noon, pre = m["presets"]["noon"], m["presets"]
+    per = noon["per_family"].values()
+    cfg = SemanticConfig()
+    si = cfg.confusion.same_instance
+    fall = si.mean_same_view - si.mean_opposite_view
+    text = " ".join(DOC.split())
+    claims = [
+        f"(sun {noon['sun']:g}, ambient {noon['ambient']:g}, headlight {noon['headlight']:g}: a sun share of "
+        f"{noon['sun_share']:g})",
+        f"by 1 - cosine {m['one_minus_cos']:.3f} (mean over families and {len(m['views'])} views; "
+        f"{min(per):.3f} to {max(per):.3f} per family)",
+        f"the drop at full strength, that is {m['lighting_fall']:.2f}.",
+        f"give {pre['morning']['per_share']:.2f} and {pre['evening']['per_share']:.2f} over their shares, the "
+        f"overcast sky (share {pre['overcast']['sun_share']:.2f}) {pre['overcast']['per_share']:.2f}",
+        f"The default {cfg.lighting_fall:g} predates the measurement and is "
+        f"{round(m['lighting_fall'] / cfg.lighting_fall):d} times smaller",
+        f"the whole same-instance fall ({fall:.2f})",
+        f"the colour block alone gives {m['blocks']['colour']:.2f}, the gradient and texture blocks "
+        f"{m['blocks']['orient']:.3f} and {m['blocks']['lbp']:.3f}",
+        f"use {cfg.lighting_fall:g}.",
+    ]
+    for claim in claims:
+        assert claim in text, claim
+    assert m["configured_default"] == cfg.lighting_fall and m["preset"] == "noon"
+    assert m["lighting_fall"] == pytest.approx(m["one_minus_cos"] / m["sun_share"])
+    assert m["lighting_fall"] > fall  # "cannot be configured as it stands"
+    assert pre["overcast"]["per_share"] < m["lighting_fall"] / 1.5  # "not linear in the share"
+    assert m["blocks"]["colour"] > 10 * max(m["blocks"]["orient"], m["blocks"]["lbp"])  # "almost all of it"
+    with pytest.raises(ValueError, match="lighting_fall"):
+        SemanticConfig(lighting_fall=round(m["lighting_fall"], 2))
+    desc = SemanticConfig.model_fields["lighting_fall"].description or ""
+    assert f"{m['lighting_fall']:.2f} with the pixel encoder" in desc and "predates the measurement" in desc

@@ -86,7 +86,13 @@ class SemanticConfig(StrictModel):
         0.2, gt=0, le=1, description="front-back asymmetry of a shape that takes the whole configured view fall"
     )
     lighting_fall: float = Field(
-        0.04, ge=0, le=1, description="same-face cosine drop from front-lit to back-lit, sun alone at the horizon"
+        0.04,
+        ge=0,
+        le=1,
+        description=(
+            "same-face cosine drop from front-lit to back-lit, sun alone at the horizon; the default predates "
+            "the measurement (benchmarks/measure_lighting.py: 0.65 with the pixel encoder, docs/mapping.md)"
+        ),
     )
 
     @model_validator(mode="after")

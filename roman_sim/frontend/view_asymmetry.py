@@ -13,11 +13,16 @@ silhouette and colours a CLIP-like encoder sees, which is close to mirror-invari
 change), larger when the sides differ (a car's bonnet and boot, a bench's seat and backrest,
 a house's door). Everything is deterministic and cheap (a few milliseconds per shape); the
 per-family values of the built-in families are in ``docs/mapping.md``.
+
+``rasterise`` can also draw a shape under a ``Light`` (a directional sun with ambient and
+headlight terms, the world's lighting equation): ``benchmarks/measure_lighting.py`` measures
+the encoder's lighting term with it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -33,12 +38,38 @@ AMBIENT, HEADLIGHT = 0.35, 0.65
 Mesh = tuple[NDArray[np.float64], NDArray[np.int64], Sequence[float]]
 
 
+@dataclass(frozen=True)
+class Light:
+    """A directional sun, an ambient term and a headlight, drawn as ``world.appearance.LightingSpec``
+    says: colour times ``ambient + headlight * cos(view angle) + sun * cos(sun angle)``, clipped at 1.
+
+    Attributes:
+        towards: unit vector from the shape towards the sun, in the object frame.
+        sun: the sun's RGB intensity (its intensity times its colour).
+        ambient: light on every face alike.
+        headlight: diffuse light from the camera.
+    """
+
+    towards: tuple[float, float, float]
+    sun: tuple[float, float, float]
+    ambient: float
+    headlight: float
+
+
 def rasterise(
-    parts: Sequence[Mesh], azimuth: float, size: int = SIZE, half_m: float | None = None
+    parts: Sequence[Mesh],
+    azimuth: float,
+    size: int = SIZE,
+    half_m: float | None = None,
+    light: Light | None = None,
 ) -> NDArray[np.float64]:
     """(size, size, 3) orthographic image of ``parts`` (vertices, faces, RGB) seen along
     horizontal direction ``azimuth`` (rad, object frame, camera -> object), framed on the shape
-    (or on a square of half-side ``half_m`` metres about its middle height)."""
+    (or on a square of half-side ``half_m`` metres about its middle height).
+
+    Shading: ``AMBIENT + HEADLIGHT * cos(view angle)`` without ``light``; with it, the
+    light's terms, the sun lighting the side of each face the camera sees (a face turned
+    away from the sun gets ambient and headlight only), clipped at 1."""
     verts = np.concatenate([np.asarray(v, np.float64) for v, _, _ in parts])
     tri = np.concatenate([np.asarray(v, np.float64)[np.asarray(f)] for v, f, _ in parts])
     rgb = np.concatenate([np.tile(np.asarray(c, np.float64)[:3], (len(f), 1)) for _, f, c in parts])
@@ -51,7 +82,10 @@ def rasterise(
     z = tri @ d
     n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
     norm = np.linalg.norm(n, axis=1)
-    shade = AMBIENT + HEADLIGHT * np.abs(n @ d) / np.where(norm > 0, norm, 1.0)
+    if light is None:
+        shade = AMBIENT + HEADLIGHT * np.abs(n @ d) / np.where(norm > 0, norm, 1.0)
+    else:
+        shade = _lit(n, norm, d, light)
     px = (np.arange(size * size) % size + 0.5)[None, :]
     py = (np.arange(size * size) // size + 0.5)[None, :]
     det = (y[:, 1] - y[:, 2]) * (x[:, 0] - x[:, 2]) + (x[:, 2] - x[:, 1]) * (y[:, 0] - y[:, 2])
@@ -64,8 +98,22 @@ def rasterise(
     depth = np.where(inside, a * z[:, 0:1] + b * z[:, 1:2] + c * z[:, 2:3], np.inf)  # (T, P)
     near = np.argmin(depth, axis=0)
     hit = np.isfinite(depth[near, np.arange(depth.shape[1])])
-    img = np.where(hit[:, None], rgb[near] * shade[near][:, None], 0.0)
+    if light is None:
+        img = np.where(hit[:, None], rgb[near] * shade[near][:, None], 0.0)
+    else:
+        img = np.where(hit[:, None], np.clip(rgb[near] * shade[near], 0.0, 1.0), 0.0)
     return img.reshape(size, size, 3)
+
+
+def _lit(
+    n: NDArray[np.float64], norm: NDArray[np.float64], d: NDArray[np.float64], light: Light
+) -> NDArray[np.float64]:
+    """(T, 3) shading of faces with normals ``n`` (lengths ``norm``) seen along ``d`` under ``light``."""
+    unit = n / np.where(norm > 0, norm, 1.0)[:, None]
+    facing = np.abs(unit @ d)  # cosine of the view angle
+    seen = -np.sign(unit @ d)[:, None] * unit  # normal of the side the camera sees
+    sun = np.clip(seen @ np.asarray(light.towards, np.float64), 0.0, None)
+    return light.ambient + light.headlight * facing[:, None] + sun[:, None] * np.asarray(light.sun, np.float64)[None, :]
 
 
 def asymmetry(parts: Sequence[Mesh]) -> float:
