@@ -14,15 +14,17 @@ Light: the world's lighting equation (``world.appearance.LightingSpec``: colour 
 ``ambient + headlight * cos(view angle) + sun * colour * cos(sun angle)``, clipped at 1) with a
 preset's intensities and sun colour and the sun moved to the horizon. A Lambertian face turned
 away from the sun gets nothing from it, so back-lit every face the camera sees shows ambient and
-headlight only; front-lit the sun adds ``sun * cos(view angle)``. Shadows are left out: front-lit
-the camera sees the sunny sides, back-lit the shaded sides, which a shadow would not darken
-further. The measurement uses the default world lighting (``noon``: sun 0.5, ambient 0.3,
-headlight 0.2, a sun share of 0.5); under the sun alone (share 1) a back-lit face is black and
-shows the encoder nothing. ``lighting_fall`` is the drop at the encoder term's full strength
-(share 1, at the horizon) and the term is linear in its strength ``share * cos(elevation)``, so
-the figure it is compared with is the measured drop over the sun share. The other presets
-(``morning``, ``evening``, ``overcast``, sun at the horizon likewise) are measured too, to show
-how far that linear scaling holds.
+headlight only; front-lit the sun adds ``sun * cos(view angle)``. Shadows are left out and change
+neither image: with the sun exactly behind the orthographic camera every face the camera sees is
+seen by the sun too, and with it exactly in front every face the camera sees is turned away.
+
+The ambient share is the world's default lighting's (``noon``: sun 0.5, ambient 0.3, headlight
+0.2, a sun share of 0.5); under the sun alone (share 1) a back-lit face would be black and show
+the encoder nothing. ``lighting_fall`` is the drop at the encoder term's full strength (share 1,
+at the horizon) and the term is linear in its strength ``share * cos(elevation)``, so the figure
+compared with it is the measured drop over the sun share. The other presets (``morning``,
+``evening``, ``overcast``, the sun at the horizon likewise) are measured too, to show how far
+that linear scaling holds.
 
 Why the rasteriser and not MuJoCo: it is the renderer the appearance weights were measured with
 (``benchmarks/measure_appearance.py``), it draws the world's lighting equation without building a
