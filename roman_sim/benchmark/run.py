@@ -178,20 +178,22 @@ class BenchmarkJob:
             self._plan_batch(ex, cells, plans)
             return cells
         chosen: dict[str, list[Cell]] = {lv: [] for lv in s.levels}
-        open_levels, seed = list(s.levels), 0
+        open_levels = list(s.levels)
         while open_levels:
-            # the first min_worlds seeds are needed whatever they plan: one batch (parallel tasks)
-            upto = max(seed + 1, min(s.min_worlds or 1, s.max_seeds))
-            batch = [Cell(lv, sd, self.scenes[lv]) for sd in range(seed, upto) for lv in open_levels]
+            # a level's next seed, up to the worlds it needs whatever they plan: one batch (parallel tasks)
+            ranges = {lv: range(len(chosen[lv]), max(len(chosen[lv]) + 1, s.worlds_needed(lv))) for lv in open_levels}
+            batch = sorted(
+                (Cell(lv, sd, self.scenes[lv]) for lv, r in ranges.items() for sd in r),
+                key=lambda c: (c.seed, open_levels.index(c.level)),
+            )
             self._plan_batch(ex, batch, plans)
             for c in batch:
                 if c.level not in open_levels:
                     continue
                 chosen[c.level].append(c)
                 totals = planned_totals([plans[x.id] for x in chosen[c.level]], len(s.heading_edges()) - 1)
-                if s.level_done(len(chosen[c.level]), totals):
+                if s.level_done(c.level, len(chosen[c.level]), totals):
                     open_levels.remove(c.level)
-            seed = upto
             self.progress(sum(len(v) for v in chosen.values()), 0, "planning")
         return [c for lv in s.levels for c in chosen[lv]]
 

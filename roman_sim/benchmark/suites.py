@@ -3,9 +3,10 @@
 A suite is a crossing scene template (``scenes.CrossingScene``), a set of named
 ambiguity levels (values of the world's ambiguity knob), and its seeds: either a fixed
 list, or seeds 0, 1, 2, ... added per level until the level holds ``min_worlds`` worlds
-and (with ``min_relevant_per_bin``) the *planned* relevant cross-robot pairs (from the
-trajectories, before anything is rendered) reach that number in every heading bin, at
-most ``max_seeds``. One (level, seed) is one cell (one world): one run folder.
+(one count for every level, or a count per level) and (with ``min_relevant_per_bin``) the
+*planned* relevant cross-robot pairs (from the trajectories, before anything is rendered)
+reach that number in every heading bin, at most ``max_seeds``. One (level, seed) is one
+cell (one world): one run folder.
 
 Built-in suites (``SUITES``):
 
@@ -50,7 +51,9 @@ class BenchmarkSuite(StrictModel):
     min_relevant_per_bin: int | None = Field(
         None, ge=1, description="add seeds per level until every heading bin plans this many relevant pairs"
     )
-    min_worlds: int | None = Field(None, ge=1, le=1000, description="add seeds per level until it has this many")
+    min_worlds: int | dict[str, int] | None = Field(
+        None, description="add seeds per level until it has this many worlds (one count, or one per level)"
+    )
     max_seeds: int = Field(12, ge=1, le=1000, description="most seeds per level when adding them")
     heading_bin_deg: float = Field(30.0, gt=0.0, le=180.0)
     methods: list[str] = Field(default_factory=lambda: list(PAPER_METHODS), min_length=1)
@@ -64,23 +67,39 @@ class BenchmarkSuite(StrictModel):
                 raise ValueError(f"levels.{level}: the ambiguity knob lies in [0, 1], got {a}")
         if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
             raise ValueError("seeds: distinct non-negative integers")
-        if self.min_worlds is not None and self.min_worlds > self.max_seeds:
-            raise ValueError(f"min_worlds: at most max_seeds ({self.max_seeds}), got {self.min_worlds}")
+        self._check_worlds()
         if abs(180.0 / self.heading_bin_deg - round(180.0 / self.heading_bin_deg)) > 1e-9:
             raise ValueError(f"heading_bin_deg: must divide 180, got {self.heading_bin_deg:g}")
         return self
+
+    def _check_worlds(self) -> None:
+        per = self.min_worlds if isinstance(self.min_worlds, dict) else {}
+        unknown = sorted(set(per) - set(self.levels))
+        if unknown:
+            raise ValueError(f"min_worlds: unknown level {unknown[0]!r} (levels: {', '.join(self.levels)})")
+        for level in self.levels:
+            n = self.worlds_needed(level)
+            where = f"min_worlds.{level}" if level in per else "min_worlds"
+            if not 1 <= n <= self.max_seeds:
+                raise ValueError(f"{where}: a count from 1 to max_seeds ({self.max_seeds}), got {n}")
+
+    def worlds_needed(self, level: str) -> int:
+        """The fewest worlds (seeds) ``level`` is planned with (``min_worlds``; 1 when not given)."""
+        if isinstance(self.min_worlds, dict):
+            return self.min_worlds.get(level, 1)
+        return 1 if self.min_worlds is None else self.min_worlds
 
     @property
     def adds_seeds(self) -> bool:
         """Whether seeds are added per level (``min_worlds`` or ``min_relevant_per_bin``) instead of fixed."""
         return self.min_worlds is not None or self.min_relevant_per_bin is not None
 
-    def level_done(self, worlds: int, relevant: list[int]) -> bool:
-        """Whether a level with ``worlds`` planned worlds and ``relevant`` pairs per bin needs no more seeds."""
+    def level_done(self, level: str, worlds: int, relevant: list[int]) -> bool:
+        """Whether ``level`` with ``worlds`` planned worlds and ``relevant`` pairs per bin needs no more seeds."""
         if worlds >= self.max_seeds:
             return True
         enough = self.min_relevant_per_bin is None or min(relevant) >= self.min_relevant_per_bin
-        return enough and worlds >= (self.min_worlds or 1)
+        return enough and worlds >= self.worlds_needed(level)
 
     def heading_edges(self) -> list[float]:
         """Heading bin edges from 0 to 180 deg."""

@@ -95,11 +95,18 @@ def test_methods_are_checked_before_anything_runs():
 
 
 def test_bad_world_counts_name_the_field():
-    with pytest.raises(ConfigError, match=r"min_worlds: at most max_seeds \(12\), got 20"):
+    with pytest.raises(ConfigError, match=r"min_worlds: a count from 1 to max_seeds \(12\), got 20"):
         validate_model(BenchmarkSuite, {"name": "x", "min_worlds": 20})
-    with pytest.raises(ConfigError, match="min_worlds"):
+    with pytest.raises(ConfigError, match=r"min_worlds: a count from 1 to max_seeds \(12\), got 0"):
         validate_model(BenchmarkSuite, {"name": "x", "min_worlds": 0})
-    ok = validate_model(BenchmarkSuite, {"name": "x", "min_worlds": 20, "max_seeds": 20})
+    with pytest.raises(ConfigError, match=r"min_worlds.high: a count from 1 to max_seeds \(12\), got 30"):
+        validate_model(BenchmarkSuite, {"name": "x", "min_worlds": {"low": 3, "high": 30}})
+    with pytest.raises(ConfigError, match=r"min_worlds: unknown level 'hgih' \(levels: low, medium, high\)"):
+        validate_model(BenchmarkSuite, {"name": "x", "min_worlds": {"hgih": 3}})
+    with pytest.raises(ConfigError, match="min_worlds"):
+        validate_model(BenchmarkSuite, {"name": "x", "min_worlds": "many"})
+    ok = validate_model(BenchmarkSuite, {"name": "x", "min_worlds": {"low": 20, "high": 2}, "max_seeds": 20})
+    assert [ok.worlds_needed(lv) for lv in ok.levels] == [20, 1, 2]
     assert ok.adds_seeds and not validate_model(BenchmarkSuite, {"name": "x"}).adds_seeds
 
 
@@ -110,11 +117,16 @@ def test_bad_world_counts_name_the_field():
         ({"min_relevant_per_bin": 10}, {"dense": 3, "sparse": 5}),
         ({"min_relevant_per_bin": 10, "min_worlds": 4}, {"dense": 4, "sparse": 5}),
         ({"min_worlds": 4}, {"dense": 4, "sparse": 4}),
+        ({"min_worlds": {"dense": 6, "sparse": 2}}, {"dense": 6, "sparse": 2}),
+        ({"min_relevant_per_bin": 10, "min_worlds": {"sparse": 2}}, {"dense": 3, "sparse": 5}),
+        ({"min_relevant_per_bin": 10, "min_worlds": {"dense": 7}, "max_seeds": 6}, None),
         ({"min_relevant_per_bin": 10, "max_seeds": 4}, {"dense": 3, "sparse": 4}),
         ({"seeds": [3, 7]}, {"dense": 2, "sparse": 2}),
     ],
 )
-def test_the_planner_adds_seeds_until_the_level_has_its_worlds_and_pairs(tmp_path, monkeypatch, spec, worlds):
+def test_the_planner_adds_seeds_until_the_level_has_its_worlds_and_pairs(
+    tmp_path, monkeypatch, spec: dict, worlds: dict | None
+):
     from roman_sim.benchmark import run
     from roman_sim.benchmark.cells import PlannedCell
     from roman_sim.runner.executors import SerialExecutor
@@ -128,9 +140,12 @@ def test_the_planner_adds_seeds_until_the_level_has_its_worlds_and_pairs(tmp_pat
         return PlannedCell(True, scenario={"seed": seed}, relevant=[per_bin] * (len(edges) - 1))
 
     monkeypatch.setattr(run, "plan_task", fake_plan)
-    suite = validate_model(
-        BenchmarkSuite, {"name": "x", "levels": {"dense": 0.0, "sparse": 0.5}, "methods": ["roman"], **spec}
-    )
+    data = {"name": "x", "levels": {"dense": 0.0, "sparse": 0.5}, "methods": ["roman"], **spec}
+    if worlds is None:  # more worlds than max_seeds allows: refused before anything is planned
+        with pytest.raises(ConfigError, match=r"min_worlds.dense: a count from 1 to max_seeds \(6\), got 7"):
+            validate_model(BenchmarkSuite, data)
+        return
+    suite = validate_model(BenchmarkSuite, data)
     cells = run.BenchmarkJob(suite, tmp_path).plan(SerialExecutor())
     got = {lv: [c.seed for c in cells if c.level == lv] for lv in suite.levels}
     seeds = spec.get("seeds")
@@ -145,3 +160,7 @@ def test_the_docs_state_how_seeds_are_added():
     default = BenchmarkSuite(name="x").max_seeds
     assert f"at most `max_seeds` ({default} unless set) per level" in text
     assert "until the level holds `min_worlds` worlds and (with `min_relevant_per_bin`) every heading bin" in text
+    suite = validate_model(BenchmarkSuite, {"name": "x", "min_worlds": {"low": 30, "medium": 8}, "max_seeds": 30})
+    assert "`min_worlds` is one count for every level or a count per level (`{low: 30, medium: 8}`" in text
+    assert [suite.worlds_needed(lv) for lv in ("low", "medium", "high")] == [30, 8, 1]
+    assert "a level not named needs one world" in text
