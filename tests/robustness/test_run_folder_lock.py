@@ -88,12 +88,18 @@ def test_two_runs_started_together_leave_the_folder_of_one_clean_run(clean_runs:
 
 @pytest.mark.slow
 def test_a_run_into_a_locked_folder_stops_at_once_naming_the_holder(clean_runs: dict[str, Path], out: Path) -> None:
+    """The holder is paused (SIGSTOP) while it holds the lock, so that on a loaded machine it cannot
+    finish before the second run starts; paused, it keeps the lock, and it completes once resumed."""
     env, tag = tagged_env()
     first = start(cli("run", "smoke", *MICRO, "--out", str(out)), env)
     _wait_for_lock(out, first)
-    second = subprocess.run(
-        cli("run", "smoke", *MICRO, "--set", "seed=1", "--out", str(out)), env=env, capture_output=True, text=True
-    )
+    first.send_signal(signal.SIGSTOP)
+    try:
+        second = subprocess.run(
+            cli("run", "smoke", *MICRO, "--set", "seed=1", "--out", str(out)), env=env, capture_output=True, text=True
+        )
+    finally:
+        first.send_signal(signal.SIGCONT)
     assert second.returncode == 1, second.stderr
     assert second.stderr.strip().splitlines() == [_busy_line(out, first.pid)]
     _, err = first.communicate(timeout=300)
