@@ -203,12 +203,17 @@ def test_every_run_is_made_with_the_current_descriptor_model():
     """The page says every run of the summary, the demo and the sweep uses the appearance-driven
     descriptors, and each such run's resolved configuration has the appearance weights."""
     flat = _flat()
-    said = "Every committed run of the summary, the demo's and the ambiguity sweep's, the paper-scale runs included"
+    said = (
+        "Every committed run of the summary, the demo's and the ambiguity sweep's, the paper-scale runs and the "
+        "`paper` preset's fit included"
+    )
     assert said + ", was made with the current simulated descriptors" in flat
     sweep = json.loads((REF / "ambiguity_sweep" / "sweep.json").read_text(encoding="utf-8"))
-    runs = [REF / n for n in [*_summary()["runs"], "demo"]] + [
-        REF / "ambiguity_sweep" / r["run_id"] for r in sweep["runs"]
-    ]
+    runs = (
+        [REF / n for n in [*_summary()["runs"], "demo"]]
+        + [REF / "ambiguity_sweep" / r["run_id"] for r in sweep["runs"]]
+        + sorted((REF / "paper_preset" / "runs").iterdir())
+    )
     earlier = [run.relative_to(REF).as_posix() for run in runs if "appearance" not in _semantics(run)]
-    assert len(runs) > 15 and earlier == []
+    assert len(runs) > 28 and earlier == []
     assert "the appearance-driven one sets `frontend.semantics.appearance`" in flat

@@ -22,10 +22,10 @@ from roman_sim.studies.reference import rederive, reference_markdown
 ROOT = Path(__file__).resolve().parents[2]
 REF = ROOT / "results" / "reference"
 #: Committed reference results (raw data included) must stay small enough for a repository:
-#: about 29 MB for the small scenarios, the demo, the paper preset and the sweep, and 10-13 MB
-#: per paper-scale run, three of them (trajectories at frame rate, the pairs table and the
-#: submap packets the independent scorer reads): 65.1 MB committed.
-MAX_REFERENCE_MB = 66.0
+#: about 31 MB for the small scenarios, the demo, the paper preset (13 runs) and the sweep, and
+#: 10-13 MB per paper-scale run, three of them (trajectories at frame rate, the pairs table and
+#: the submap packets the independent scorer reads): 67.0 MB committed.
+MAX_REFERENCE_MB = 70.0
 
 pytestmark = pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
 
