@@ -35,16 +35,21 @@ def attribution_table(rows: list[dict[str, Any]]) -> Table:
         "method",
         "same: hits/relevant [95 %] precision",
         "opposite",
-        "drop [95 %]",
+        "drop [95 % Newcombe]",
+        "drop [95 % world bootstrap]",
         "explained",
     ):
         t.add_column(col, justify="left" if col in ("mechanism off", "method") else "right")
     for r in rows:
         drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} [{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
+        lo, hi = r["drop_worlds_lo"], r["drop_worlds_hi"]
+        boot = "n/a" if lo is None else f"[{lo:+.2f}, {hi:+.2f}]"
         expl = (
             "-" if r["mechanism"] == "none" else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
         )
-        t.add_row(r["mechanism"], r["method"], recall_cell(r, "same", " "), recall_cell(r, "opposite", " "), drop, expl)
+        t.add_row(
+            r["mechanism"], r["method"], recall_cell(r, "same", " "), recall_cell(r, "opposite", " "), drop, boot, expl
+        )
     return t
 
 
@@ -61,6 +66,11 @@ def attribution_cmd(
     opposite: str | None = typer.Option(
         None, "--opposite", help="opposite-direction scenario (default opposite_direction)"
     ),
+    seeds: str | None = typer.Option(
+        None,
+        "--seeds",
+        help="world seeds, every run in each world, e.g. 0,1,2,3 (default: the scenarios' own world, once)",
+    ),
     overrides: list[str] | None = typer.Option(
         None, "--set", help="override a scenario field in every run, key=value (replaces the study's size overrides)"
     ),
@@ -76,7 +86,13 @@ def attribution_cmd(
     Resumable: finished runs with an unchanged configuration are not run again.
     """
     from roman_sim.core.config import validate_model
-    from roman_sim.studies.attribution import TABLE, AttributionConfig, collect_attribution, run_attribution
+    from roman_sim.studies.attribution import (
+        TABLE,
+        AttributionConfig,
+        collect_attribution,
+        parse_seeds,
+        run_attribution,
+    )
 
     if page is not None and results is None:
         raise ConfigError("--page: needs --results (the block is made from the kept study)")
@@ -85,6 +101,8 @@ def attribution_cmd(
     for key, value in named:
         if value is not None:
             data[key] = value
+    if seeds is not None:
+        data["seeds"] = parse_seeds(seeds, "seeds")
     if overrides:
         data["overrides"] = list(overrides)
     cfg = validate_model(AttributionConfig, data, source="study attribution")

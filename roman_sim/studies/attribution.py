@@ -2,15 +2,21 @@
 
 ``run_attribution`` runs a same-direction and an opposite-direction scenario with every
 mechanism on (``none``) and with each mechanism of ``mechanisms`` switched off in turn
-(``roman_sim.pipeline.mechanisms``), each run a run folder ``<out>/runs/<role>__<mechanism>/``
-made by the ordinary pipeline. A finished run whose resolved configuration is unchanged is
-not run again, so an interrupted study resumes where it stopped.
+(``roman_sim.pipeline.mechanisms``), each run a run folder made by the ordinary pipeline.
+Worlds are the unit of replication: with ``seeds`` every (role, mechanism) runs in each
+world (the scenario's ``seed`` set to each value; both roles of one seed share their world),
+in ``<out>/runs/<role>__<mechanism>__s<seed>/``; without, once in the scenario's own world,
+in ``<out>/runs/<role>__<mechanism>/``. A finished run whose resolved configuration is
+unchanged is not run again, so an interrupted study resumes where it stopped.
 
-For each mechanism and method (cross-robot pairs): max recall (hits / relevant) in each
-direction with its Wilson interval and the precision at that operating point; the drop
-``same - opposite`` with Newcombe's interval for a difference of independent proportions
-(hybrid score, from the two Wilson intervals); and the share of the all-on drop that
-switching the mechanism off removes, ``(drop_none - drop_off) / drop_none``. Written
+For each mechanism and method (cross-robot pairs), counts pooled over the worlds (each
+world's hits, relevant pairs and false positives at its own max-recall point, summed): max
+recall (hits / relevant) in each direction with its Wilson interval and the precision at
+that operating point; the drop ``same - opposite`` with Newcombe's interval for a difference
+of independent proportions (hybrid score, from the two Wilson intervals) and, with two or
+more worlds, a world-bootstrap interval (``drop_bootstrap``: pairs within a world are not
+independent draws, worlds are); and the share of the all-on drop that switching the
+mechanism off removes, ``(drop_none - drop_off) / drop_none``. Written
 atomically: ``attribution.json`` (the configuration and the runs) and ``attribution.csv``
 (the table). ``collect_attribution`` keeps the runs' raw pairs next to them, from which the
 independent scorer re-derives the table.
@@ -31,7 +37,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import Field
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, StorageError
@@ -59,6 +67,7 @@ STUDY_OVERRIDES = (
 FIELDS = (
     "mechanism",
     "method",
+    "worlds",
     "same_hits",
     "same_relevant",
     "same_recall",
@@ -74,8 +83,42 @@ FIELDS = (
     "drop",
     "drop_lo",
     "drop_hi",
+    "drop_worlds_lo",
+    "drop_worlds_hi",
     "explained",
 )
+
+#: Draws and seed of the world bootstrap (the study's documented protocol, see ``drop_bootstrap``).
+BOOT_DRAWS, BOOT_SEED = 2000, 0
+
+
+def check_seeds(seeds: list[int], field: str = "seeds") -> list[int]:
+    """``seeds`` as given, after checking there is at least one, none negative and none twice."""
+    if not seeds:
+        raise ConfigError(f"{field}: empty (allowed: one or more world seeds >= 0, e.g. 0,1,2,3)")
+    for s in seeds:
+        if s < 0:
+            raise ConfigError(f"{field}: {s} is negative (allowed: world seeds >= 0)")
+    dup = sorted({s for s in seeds if seeds.count(s) > 1})
+    if dup:
+        raise ConfigError(f"{field}: {', '.join(map(str, dup))} named twice (each world seed once)")
+    return list(seeds)
+
+
+def parse_seeds(text: str, field: str = "seeds") -> list[int]:
+    """``"0,1,2"`` -> ``[0, 1, 2]`` (checked by ``check_seeds``; ``ConfigError`` naming ``field``)."""
+    items = [t.strip() for t in text.split(",")]
+    if not any(items):
+        return check_seeds([], field)
+    out = []
+    for t in items:
+        try:
+            out.append(int(t))
+        except ValueError:
+            raise ConfigError(
+                f"{field}: {t!r} is not a whole number (allowed: world seeds >= 0, e.g. 0,1,2,3)"
+            ) from None
+    return check_seeds(out, field)
 
 
 class AttributionConfig(StrictModel):
@@ -86,32 +129,51 @@ class AttributionConfig(StrictModel):
     mechanisms: list[str] = Field(default_factory=lambda: list(DEFAULT_MECHANISMS))
     methods: list[str] = Field(default_factory=lambda: ["roman", "ransac1m"], min_length=1)
     overrides: list[str] = Field(default_factory=lambda: list(STUDY_OVERRIDES), description="--set items, every run")
+    seeds: list[int] | None = Field(
+        None, description="world seeds, each run in every one (None: the scenarios' own world, once)"
+    )
     level: float = Field(0.95, gt=0, lt=1, description="confidence level of the intervals")
+    boot_draws: int = Field(BOOT_DRAWS, ge=1, description="draws of the world bootstrap")
+    boot_seed: int = Field(BOOT_SEED, ge=0, description="seed of the world bootstrap's draws")
     executor: ExecutorConfig = Field(
         default_factory=lambda: ExecutorConfig(kind="local"), description="how each run spreads its robots and pairs"
     )
 
+    @field_validator("seeds")
+    @classmethod
+    def _seeds(cls, v: list[int] | None) -> list[int] | None:
+        if v is not None:
+            try:
+                check_seeds(v, "seeds")
+            except ConfigError as err:
+                raise ValueError(str(err).split(": ", 1)[1]) from None
+        return v
+
 
 @dataclass(frozen=True)
 class StudyRun:
-    """One run of the study: its role (same or opposite), scenario, mechanism switched off and folder."""
+    """One run of the study: its role (same or opposite), scenario, mechanism switched off, world
+    seed (None: the scenario's own) and folder."""
 
     role: str
     scenario: str
     mechanism: str
     name: str
     overrides: tuple[str, ...]
+    seed: int | None = None
 
 
 @dataclass(frozen=True)
 class PlannedRun:
-    """A run as ``attribution.json`` lists it: role, scenario, mechanism switched off, folder, overrides."""
+    """A run as ``attribution.json`` lists it: role, scenario, mechanism switched off, folder,
+    overrides and world seed (None: the scenario's own)."""
 
     role: str
     scenario: str
     mechanism: str
     run: str
     overrides: list[str]
+    seed: int | None = None
 
 
 @dataclass(frozen=True)
@@ -122,19 +184,27 @@ class AttributionPlan:
     runs: list[PlannedRun]
 
 
+def run_name(role: str, mechanism: str, seed: int | None) -> str:
+    """A run's folder name: ``<role>__<mechanism>``, with ``__s<seed>`` when the study names worlds."""
+    return f"{role}__{mechanism}" if seed is None else f"{role}__{mechanism}__s{seed}"
+
+
 def plan_runs(cfg: AttributionConfig) -> list[StudyRun]:
-    """Every run of the study, all-on first, with its overrides (checks the mechanism names)."""
+    """Every run of the study, world by world, all-on first, with its overrides (checks the names)."""
     from roman_sim.core.overrides import apply_overrides
     from roman_sim.core.yamlio import read_yaml
     from roman_sim.pipeline.scenario import resolve_scenario_path
 
     check_mechanisms(cfg.mechanisms, "mechanisms")
+    seeds: list[int | None] = [None] if cfg.seeds is None else list(check_seeds(cfg.seeds))
     runs = []
-    for role, scenario in zip(ROLES, (cfg.same, cfg.opposite)):
-        data = apply_overrides(read_yaml(resolve_scenario_path(scenario)), list(cfg.overrides))
-        for mech in (ALL_ON, *cfg.mechanisms):
-            ovr = (*cfg.overrides, f"aligners=[{', '.join(cfg.methods)}]", *mechanism_overrides(mech, data))
-            runs.append(StudyRun(role, scenario, mech, f"{role}__{mech}", ovr))
+    for seed in seeds:  # world by world: a study stopped early holds whole worlds
+        world = () if seed is None else (f"seed={seed}",)
+        for role, scenario in zip(ROLES, (cfg.same, cfg.opposite)):
+            data = apply_overrides(read_yaml(resolve_scenario_path(scenario)), [*cfg.overrides, *world])
+            for mech in (ALL_ON, *cfg.mechanisms):
+                ovr = (*cfg.overrides, *world, f"aligners=[{', '.join(cfg.methods)}]", *mechanism_overrides(mech, data))
+                runs.append(StudyRun(role, scenario, mech, run_name(role, mech, seed), ovr, seed))
     return runs
 
 
@@ -155,7 +225,7 @@ def run_study(cfg: AttributionConfig, out: Path, on_run: Callable[[int, int, str
     out.mkdir(parents=True, exist_ok=True)
     plan = AttributionPlan(
         cfg.model_dump(mode="json"),
-        [PlannedRun(r.role, r.scenario, r.mechanism, r.name, list(r.overrides)) for r in runs],
+        [PlannedRun(r.role, r.scenario, r.mechanism, r.name, list(r.overrides), r.seed) for r in runs],
     )
     write_record(out / PLAN, plan, SCHEMA)
     for i, (r, sc) in enumerate(zip(runs, scenarios)):
@@ -205,14 +275,52 @@ def _ratio(k: int, n: int) -> float | None:
     return k / n if n else None
 
 
-def table_rows(cells: dict[tuple[str, str], dict[str, Cell]], cfg: AttributionConfig) -> list[dict[str, Any]]:
-    """The attribution table from ``cells[(role, mechanism)][method]`` (see the module docstring)."""
+def bootstrap_draws(n_worlds: int, draws: int = BOOT_DRAWS, seed: int = BOOT_SEED) -> NDArray[np.int64]:
+    """The world bootstrap's resamples: a (draws, n_worlds) table of world indices drawn with
+    replacement, ``numpy.random.default_rng(seed).integers(0, n_worlds, (draws, n_worlds))``."""
+    return np.random.default_rng(seed).integers(0, n_worlds, (draws, n_worlds))
+
+
+def drop_bootstrap(
+    same: list[tuple[int, int]], opposite: list[tuple[int, int]], draws: NDArray[np.int64], level: float
+) -> tuple[float, float] | None:
+    """Percentile interval of the pooled drop over resampled worlds.
+
+    ``same[w]`` and ``opposite[w]`` are world ``w``'s (hits, relevant) in each direction; each row
+    of ``draws`` is one resample of world indices (a world drawn twice counts twice, in both
+    directions). A resample's drop is ``sum hits_same / sum relevant_same - sum hits_opp / sum
+    relevant_opp`` over its worlds; resamples with no relevant pair in a direction are left
+    out; the interval is the ``(1 - level) / 2`` and ``(1 + level) / 2`` quantiles of the rest
+    (numpy's linear rule). None when every resample is left out.
+    """
+    s, o = np.asarray(same, dtype=np.float64), np.asarray(opposite, dtype=np.float64)
+    hs, ns, ho, no = (a[draws].sum(axis=1) for a in (s[:, 0], s[:, 1], o[:, 0], o[:, 1]))
+    ok = (ns > 0) & (no > 0)
+    if not ok.any():
+        return None
+    d = hs[ok] / ns[ok] - ho[ok] / no[ok]
+    tail = (1 - level) / 2
+    return float(np.quantile(d, tail)), float(np.quantile(d, 1 - tail))
+
+
+def pool(cells: list[Cell]) -> Cell:
+    """The worlds' cells summed: pooled hits, relevant pairs and false positives."""
+    return Cell(sum(c.hits for c in cells), sum(c.relevant for c in cells), sum(c.false_positives for c in cells))
+
+
+def table_rows(
+    cells: dict[tuple[str, str, int | None], dict[str, Cell]], cfg: AttributionConfig
+) -> list[dict[str, Any]]:
+    """The attribution table from ``cells[(role, mechanism, seed)][method]`` (see the module docstring)."""
+    seeds: list[int | None] = [None] if cfg.seeds is None else [*sorted(cfg.seeds)]
+    draws = bootstrap_draws(len(seeds), cfg.boot_draws, cfg.boot_seed) if len(seeds) >= 2 else None
     rows = []
     for mech in (ALL_ON, *cfg.mechanisms):
         for m in cfg.methods:
-            row: dict[str, Any] = {"mechanism": mech, "method": m}
+            row: dict[str, Any] = {"mechanism": mech, "method": m, "worlds": len(seeds)}
+            per_world = {role: [cells[(role, mech, w)][m] for w in seeds] for role in ROLES}
             for role in ROLES:
-                c = cells[(role, mech)][m]
+                c = pool(per_world[role])
                 ci = wilson(c.hits, c.relevant, cfg.level)
                 row |= {
                     f"{role}_hits": c.hits,
@@ -222,10 +330,15 @@ def table_rows(cells: dict[tuple[str, str], dict[str, Cell]], cfg: AttributionCo
                     f"{role}_recall_hi": None if ci is None else ci[1],
                     f"{role}_precision": _ratio(c.hits, c.hits + c.false_positives),
                 }
-            s, o = cells[("same", mech)][m], cells[("opposite", mech)][m]
+            s, o = pool(per_world["same"]), pool(per_world["opposite"])
             nc = newcombe(s.hits, s.relevant, o.hits, o.relevant, cfg.level)
             row["drop"] = None if nc is None else s.hits / s.relevant - o.hits / o.relevant
             row["drop_lo"], row["drop_hi"] = (None, None) if nc is None else nc
+            boot = None
+            if draws is not None and nc is not None:
+                counts = {role: [(c.hits, c.relevant) for c in per_world[role]] for role in ROLES}
+                boot = drop_bootstrap(counts["same"], counts["opposite"], draws, cfg.level)
+            row["drop_worlds_lo"], row["drop_worlds_hi"] = (None, None) if boot is None else boot
             rows.append(row)
     base = {r["method"]: r["drop"] for r in rows if r["mechanism"] == ALL_ON}
     for r in rows:
@@ -254,7 +367,7 @@ def run_attribution(
     """Run (or resume) the study in ``out``, write ``attribution.csv`` and return its rows."""
     out = Path(out)
     run_study(cfg, out, on_run)
-    cells = {(r.role, r.mechanism): run_cells(out / "runs" / r.name, cfg.methods) for r in plan_runs(cfg)}
+    cells = {(r.role, r.mechanism, r.seed): run_cells(out / "runs" / r.name, cfg.methods) for r in plan_runs(cfg)}
     rows = table_rows(cells, cfg)
     write_table(rows, out)
     return rows
@@ -290,11 +403,16 @@ DOMINANT, CONTRIBUTES = 0.5, 0.2
 
 
 def read_table(folder: str | Path) -> list[dict[str, Any]]:
-    """``attribution.csv`` of a study folder, numbers parsed (None where empty)."""
+    """``attribution.csv`` of a study folder, numbers parsed (None where empty).
+
+    A table from before worlds were the unit (no ``worlds`` column) is one world's: ``worlds``
+    reads 1 and the world-bootstrap columns None.
+    """
     with open(Path(folder) / TABLE, newline="", encoding="utf-8") as fh:
         rows = list(csv.DictReader(fh))
     out = []
     for r in rows:
+        r = {"worlds": "1", "drop_worlds_lo": "", "drop_worlds_hi": "", **r}
         parsed: dict[str, Any] = {}
         for k, v in r.items():
             if k in ("mechanism", "method"):
@@ -302,7 +420,7 @@ def read_table(folder: str | Path) -> list[dict[str, Any]]:
             elif v == "":
                 parsed[k] = None
             else:
-                parsed[k] = int(v) if k.endswith(("_hits", "_relevant")) else float(v)
+                parsed[k] = int(v) if k.endswith(("_hits", "_relevant")) or k == "worlds" else float(v)
         out.append(parsed)
     return out
 
@@ -332,6 +450,19 @@ def classify(rows: list[dict[str, Any]], method: str) -> dict[str, list[str]]:
     return out
 
 
+def drop_interval(r: dict[str, Any]) -> tuple[float, float, str] | None:
+    """The interval a row's verdict uses: the world bootstrap's with two or more worlds, else Newcombe's."""
+    if (r.get("worlds") or 1) >= 2:
+        lo, hi, name = r.get("drop_worlds_lo"), r.get("drop_worlds_hi"), "world-bootstrap"
+    else:
+        lo, hi, name = r["drop_lo"], r["drop_hi"], "Newcombe"
+    return None if lo is None or hi is None else (lo, hi, name)
+
+
+def _span(lo: float | None, hi: float | None) -> str:
+    return "n/a" if lo is None or hi is None else f"[{lo:+.2f}, {hi:+.2f}]"
+
+
 def recall_cell(r: dict[str, Any], role: str, sep: str = ", ") -> str:
     """One role's (``same`` / ``opposite``) hits/relevant, recall [interval] and precision, from a table row."""
     if r[f"{role}_recall"] is None:
@@ -343,35 +474,57 @@ def recall_cell(r: dict[str, Any], role: str, sep: str = ", ") -> str:
     )
 
 
+def _separated(r: dict[str, Any]) -> bool:
+    """Whether a row's drop is above 0 by the interval its verdict uses (``drop_interval``)."""
+    ci = drop_interval(r)
+    return ci is not None and ci[0] > 0
+
+
+def _verdict(r: dict[str, Any]) -> str:
+    """``its <kind> interval [lo, hi] excludes / includes 0`` for a row's drop."""
+    ci = drop_interval(r)
+    if ci is None:
+        return "no interval"
+    lo, hi, kind = ci
+    return f"its {kind} interval {_span(lo, hi)} {'excludes' if lo > 0 or hi < 0 else 'includes'} 0"
+
+
 def attribution_block(folder: str | Path) -> str:
     """The page's generated block (markers included) from a kept study's ``attribution.csv``."""
     rows = read_table(folder)
     begin, end = MARKERS
+    worlds = (rows[0].get("worlds") or 1) if rows else 1
+    head = (
+        f"Counts pooled over {worlds} worlds (each world's max-recall point, summed); the verdicts below "
+        "use the world-bootstrap intervals."
+        if worlds >= 2
+        else "One world: no world-bootstrap interval (it needs two or more); the verdicts below use Newcombe's."
+    )
     lines = [
         begin,
-        "| mechanism off | method | same direction | opposite direction | drop [95 %] | share of the all-on drop |",
-        "|---|---|---|---|---|---|",
+        head,
+        "",
+        "| mechanism off | method | same direction | opposite direction | drop [95 % Newcombe] "
+        "| drop [95 % world bootstrap] | share of the all-on drop |",
+        "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} [{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
+        drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} {_span(r['drop_lo'], r['drop_hi'])}"
+        boot = _span(r.get("drop_worlds_lo"), r.get("drop_worlds_hi"))
         share = (
             "-" if r["mechanism"] == ALL_ON else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
         )
         lines.append(
             f"| `{r['mechanism']}` | {r['method']} | {recall_cell(r, 'same')} | {recall_cell(r, 'opposite')} "
-            f"| {drop} | {share} |"
+            f"| {drop} | {boot} | {share} |"
         )
     lines.append("")
     for method in dict.fromkeys(r["method"] for r in rows):
         base = next(r for r in rows if r["method"] == method and r["mechanism"] == ALL_ON)
         c = classify(rows, method)
         named = {k: ", ".join(f"`{m}`" for m in v) or "none" for k, v in c.items()}
-        sig = (
-            "its interval excludes 0"
-            if base["drop_lo"] is not None and base["drop_lo"] > 0
-            else "its interval includes 0"
-        )
         drop = "n/a" if base["drop"] is None else f"{base['drop']:+.2f}"
+        sig = _verdict(base)
         lines.append(
             f"- {method}: all-on drop {drop} ({sig}). Dominant (share >= {DOMINANT:.0%}): {named['dominant']}; "
             f"contributing ({CONTRIBUTES:.0%} to {DOMINANT:.0%}): {named['contributes']}; "
@@ -379,8 +532,7 @@ def attribution_block(folder: str | Path) -> str:
         )
         for r in rows:
             if r["method"] == method and r["mechanism"] == "descriptor_view" and r["drop"] is not None:
-                ci = f"[{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
-                verdict = "it does not vanish." if r["drop_lo"] > 0 else "its interval includes 0."
-                lines.append(f"  With `descriptor_view` off the drop is {r['drop']:+.2f} {ci}: {verdict}")
+                verdict = "it does not vanish" if _separated(r) else _verdict(r)
+                lines.append(f"  With `descriptor_view` off the drop is {r['drop']:+.2f} ({verdict}).")
     lines.append(end)
     return "\n".join(lines)

@@ -803,45 +803,99 @@ def newcombe_interval(k1: int, n1: int, k2: int, n2: int, level: float) -> list[
     return [lower, upper]
 
 
+def world_drop_interval(
+    same: Sequence[tuple[int, int]], opposite: Sequence[tuple[int, int]], picks: Sequence[Sequence[int]], level: float
+) -> list[float] | None:
+    """Percentile interval of the pooled drop over resampled worlds, written out:
+
+    for each resample in ``picks`` (a list of world indices, repeats allowed), add up the drawn
+    worlds' same-direction (hits, relevant) and opposite-direction (hits, relevant); skip it if
+    either relevant total is 0, else keep hits_s / relevant_s - hits_o / relevant_o. Return the
+    (1 - level) / 2 and (1 + level) / 2 quantiles of the kept values (linear interpolation
+    between order statistics at position q * (n - 1)); None when none is kept.
+    """
+    kept = []
+    for pick in picks:
+        hs = sum(same[i][0] for i in pick)
+        ns = sum(same[i][1] for i in pick)
+        ho = sum(opposite[i][0] for i in pick)
+        no = sum(opposite[i][1] for i in pick)
+        if ns and no:
+            kept.append(hs / ns - ho / no)
+    if not kept:
+        return None
+    kept.sort()
+
+    def quantile(q: float) -> float:
+        pos = q * (len(kept) - 1)
+        i = math.floor(pos)
+        j = min(i + 1, len(kept) - 1)
+        return kept[i] + (pos - i) * (kept[j] - kept[i])
+
+    tail = (1 - level) / 2
+    return [quantile(tail), quantile(1 - tail)]
+
+
+def world_resamples(n_worlds: int, draws: int, seed: int) -> list[list[int]]:
+    """The study's resamples of worlds: ``numpy.random.default_rng(seed)`` draws a (draws, n_worlds)
+    table of integers in [0, n_worlds), one row per resample (worlds indexed by sorted seed)."""
+    table = np.random.default_rng(seed).integers(0, n_worlds, size=(draws, n_worlds))
+    return [[int(x) for x in row] for row in table]
+
+
 def attribution_rows(folder: str | Path) -> list[dict[str, JSONValue]]:
     """The attribution table re-derived from a study folder's raw pairs.
 
-    Reads ``attribution.json`` (its methods, mechanisms and runs) and, per run under ``runs/``,
-    the cross-robot rows of each method at the ``max_recall`` operating point: hits, relevant
-    pairs and precision; then per mechanism and method the drop same - opposite with Newcombe's
-    interval and the share of the all-on (``none``) drop that is gone with the mechanism off.
+    Reads ``attribution.json`` (its methods, mechanisms, world seeds and runs) and, per run under
+    ``runs/``, the cross-robot rows of each method at the ``max_recall`` operating point: hits,
+    relevant pairs and false positives; sums them over the worlds per role, mechanism and method;
+    then per mechanism and method the drop same - opposite with Newcombe's interval, with two or
+    more worlds the world-bootstrap interval of the pooled drop (``world_drop_interval`` over
+    ``world_resamples``), and the share of the all-on (``none``) drop that is gone with the
+    mechanism off.
     """
     d = Path(folder)
     with _open_text(d / "attribution.json") as fh:
         spec = json.load(fh)
-    methods, level = list(spec["config"]["methods"]), float(spec["config"]["level"])
-    counts: dict[tuple[str, str, str], tuple[int, int, int]] = {}
+    conf = spec["config"]
+    methods, level = list(conf["methods"]), float(conf["level"])
+    per_world: dict[tuple[str, str, str], dict[int | None, tuple[int, int, int]]] = {}
     for run in spec["runs"]:
         cfg, pairs, judged = judged_rows(d / "runs" / run["run"])
         for m in methods:
             rows = [j for p, j in zip(pairs, judged) if p.method == m and p.kind == "inter"]
             pt = operating_points(rows, cfg)["max_recall"]
             assert isinstance(pt, dict)
-            counts[(run["role"], run["mechanism"], m)] = (
+            per_world.setdefault((run["role"], run["mechanism"], m), {})[run.get("seed")] = (
                 int(pt["hits"]),
                 int(pt["n_relevant"]),
                 int(pt["false_positives"]),
             )
+    seeds = sorted(conf["seeds"]) if conf.get("seeds") else [None]
+    picks = world_resamples(len(seeds), int(conf["boot_draws"]), int(conf["boot_seed"])) if len(seeds) >= 2 else None
     out: list[dict[str, JSONValue]] = []
-    for mech in ["none", *spec["config"]["mechanisms"]]:
+    for mech in ["none", *conf["mechanisms"]]:
         for m in methods:
-            row: dict[str, JSONValue] = {"mechanism": mech, "method": m}
+            row: dict[str, JSONValue] = {"mechanism": mech, "method": m, "worlds": len(seeds)}
+            worlds = {role: [per_world[(role, mech, m)][w] for w in seeds] for role in ("same", "opposite")}
+            counts = {role: tuple(sum(c[i] for c in worlds[role]) for i in range(3)) for role in worlds}
             for role in ("same", "opposite"):
-                hits, rel, fp = counts[(role, mech, m)]
+                hits, rel, fp = counts[role]
                 ci = wilson_interval(hits, rel, level)
                 row[f"{role}_hits"], row[f"{role}_relevant"] = hits, rel
                 row[f"{role}_recall"] = hits / rel if rel else None
                 row[f"{role}_recall_lo"], row[f"{role}_recall_hi"] = (None, None) if ci is None else (ci[0], ci[1])
                 row[f"{role}_precision"] = hits / (hits + fp) if hits + fp else None
-            (hs, ns, _), (ho, no, _) = counts[("same", mech, m)], counts[("opposite", mech, m)]
+            (hs, ns, _), (ho, no, _) = counts["same"], counts["opposite"]
             nc = newcombe_interval(hs, ns, ho, no, level)
             row["drop"] = None if nc is None else hs / ns - ho / no
             row["drop_lo"], row["drop_hi"] = (None, None) if nc is None else (nc[0], nc[1])
+            boot = None
+            if picks is not None and nc is not None:
+                boot = world_drop_interval(
+                    [(c[0], c[1]) for c in worlds["same"]], [(c[0], c[1]) for c in worlds["opposite"]], picks, level
+                )
+            row["drop_worlds_lo"], row["drop_worlds_hi"] = (None, None) if boot is None else (boot[0], boot[1])
             out.append(row)
     for row in out:
         base = next(r["drop"] for r in out if r["mechanism"] == "none" and r["method"] == row["method"])
