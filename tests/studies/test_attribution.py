@@ -21,11 +21,13 @@ from roman_sim.studies.attribution import (
     FIELDS,
     AttributionConfig,
     Cell,
+    attribution_block,
     drop_bootstrap,
     newcombe,
     plan_runs,
     run_cells,
     table_rows,
+    write_table,
 )
 
 pytestmark = pytest.mark.timeout(900)
@@ -156,6 +158,27 @@ def test_the_world_bootstrap_equals_a_hand_computation_and_is_wider_than_newcomb
     assert row["drop_worlds_hi"] - row["drop_worlds_lo"] > 2 * (row["drop_hi"] - row["drop_lo"])
     picks = S.world_resamples(2, cfg.boot_draws, cfg.boot_seed)
     assert S.world_drop_interval(SAME, OPPOSITE, picks, 0.95) == pytest.approx([-0.6, 0.8])
+
+
+def test_with_two_worlds_the_verdicts_use_the_world_bootstrap(tmp_path: Path) -> None:
+    """The hand-made worlds: Newcombe's interval of the pooled drop excludes 0 at this size and the
+    world bootstrap's includes it; the page's block says which interval it uses and follows it."""
+    cfg = AttributionConfig(mechanisms=["descriptor_view"], methods=["roman"], seeds=[0, 1])
+    big = {"same": [(90, 100), (60, 100)], "opposite": [(10, 100), (70, 100)]}  # drops +0.8 and -0.1
+    cells = {
+        (role, mech, w): {"roman": Cell(k, n, 0)}
+        for role, worlds in big.items()
+        for mech in ("none", "descriptor_view")
+        for w, (k, n) in enumerate(worlds)
+    }
+    rows = table_rows(cells, cfg)
+    assert rows[0]["drop_lo"] > 0 and rows[0]["drop_worlds_lo"] < 0
+    write_table(rows, tmp_path)
+    block = attribution_block(tmp_path)
+    assert "Counts pooled over 2 worlds" in block and "use the world-bootstrap intervals" in block
+    lo, hi = rows[0]["drop_worlds_lo"], rows[0]["drop_worlds_hi"]
+    assert f"- roman: all-on drop +0.35 (its world-bootstrap interval [{lo:+.2f}, {hi:+.2f}] includes 0)." in block
+    assert "With `descriptor_view` off the drop is +0.35 (its world-bootstrap interval" in block
 
 
 def test_one_world_has_no_world_bootstrap() -> None:
