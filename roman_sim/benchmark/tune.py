@@ -19,7 +19,7 @@ world) or a benchmark suite (each (level, seed) cell is a world). The job
    and precision with world-bootstrap intervals at thresholds chosen on the other worlds,
    false loop closures per km and time per pair, the Pareto front; the recommended setting
    (chosen on every world of the source) with the held-out figures of the same choice made
-   leaving each world out;
+   leaving each world out, pooled and per world, and the precision interval of one new world;
 5. writes ``tune.json``, ``front.png`` and ``recommended.yaml`` (scenario sections: paste
    them into a scenario or pass the file as ``roman-sim run ... --set @recommended.yaml``).
 
@@ -50,6 +50,7 @@ from roman_sim.evaluation.tune_result import (
     TuneHeldOut,
     TuneRecommended,
     TuneResult,
+    TuneWorldHeldOut,
     TuneWorldKm,
     write_tune,
 )
@@ -410,6 +411,13 @@ class TuneJob:
             ],
             held_out=TuneHeldOut(
                 chosen={w: None if s is None else TuneChoice(s.config, s.k) for w, s in nested.chosen.items()},
+                per_world={
+                    p.world: TuneWorldHeldOut(
+                        p.hits, p.false_positives, p.precision, None if p.wilson is None else list(p.wilson)
+                    )
+                    for p in nested.per_world
+                },
+                precision_new_world=None if nested.new_world is None else list(nested.new_world),
                 **tuned_figures(nested.figures, self.target),
             ),
             recommended=None
@@ -518,6 +526,8 @@ def recommended_yaml(result: TuneResult, c: Config, base_params: dict[str, Any])
         + ", ".join(f"{k}={v}" for k, v in rec.values.items()),
         f"# held-out (each world scored at the setting chosen on the others): precision {num(h.precision)} "
         f"{ci(h.precision_worlds)}, recall {num(h.recall)} {ci(h.recall_worlds)} (95 % world bootstrap)",
+        f"# precision in one new world: {ci(h.precision_new_world)} (every held-out world's Wilson interval "
+        f"and the pooled one; {len(result.worlds)} worlds)",
         "# use: paste these sections into a scenario, or: roman-sim run SCENARIO --set @recommended.yaml",
     ]
     body = yaml.safe_dump(recommended_sections(result.method, c, rec.threshold, base_params), sort_keys=False)

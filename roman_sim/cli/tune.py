@@ -113,6 +113,11 @@ def tune_cmd(
         f"{_num(h.precision)}{_ci(h.precision_worlds)}, recall {_num(h.recall)}{_ci(h.recall_worlds)}"
         + ("" if h.transfers else " - the chosen setting does not transfer")
     )
+    per_world = ", ".join(f"{w} {_num(p.precision)}" for w, p in h.per_world.items())
+    Console().print(
+        f"precision per held-out world: {per_world}; in one new world:{_ci(h.precision_new_world) or ' -'} "
+        "(every world's Wilson interval and the pooled one)"
+    )
     rec = result.recommended
     if rec is None:
         Console().print("no setting reaches the target precision on these worlds: nothing recommended")

@@ -14,6 +14,13 @@ scored on, and per heading bin with a truth no robot has before it aligns a pair
   resample worlds with replacement, then the robot pairs within each drawn world. Submap
   pairs of one robot pair, and robot pairs of one world, are not independent draws; a
   Wilson interval that treats them so is too narrow when worlds disagree.
+- ``world_precisions`` and ``new_world_interval``: what *one* new world gives. The bootstrap
+  interval is one of the pooled ratio over as many worlds as were seen; one new world's
+  precision varies more: by the world (the spread between the held-out worlds) and by its
+  own few positives (its Wilson interval). The new-world interval is the hull of every
+  held-out world's Wilson interval and the pooled interval. With n exchangeable worlds the
+  range of n draws covers the next with probability (n - 1) / (n + 1) only (one half at
+  three worlds): a statement about a new world needs worlds, not pairs.
 
 Thresholds follow the pairs' rule: a pair is positive when its score (number of
 associations) is at least ``k``; TP = relevant, positive and correct; FP = positive and not
@@ -243,6 +250,48 @@ def world_bootstrap(
         return None
     a = (1 - level) / 2
     return float(np.quantile(ok, a)), float(np.quantile(ok, 1 - a))
+
+
+@dataclass(frozen=True)
+class WorldPrecision:
+    """One world's precision at its positives, with the Wilson interval of its own counts.
+
+    Attributes:
+        world: the world id.
+        hits, false_positives: its true and false positives.
+        precision: hits / (hits + false positives); None without a positive.
+        wilson: the Wilson interval of that ratio; None without a positive.
+    """
+
+    world: str
+    hits: int
+    false_positives: int
+    precision: float | None
+    wilson: tuple[float, float] | None
+
+
+def world_precisions(o: PairOutcomes, positive: NDArray[np.bool_], level: float = 0.95) -> list[WorldPrecision]:
+    """Per world of ``o`` (sorted) its precision at ``positive`` and that ratio's Wilson interval."""
+    from roman_sim.evaluation.intervals import wilson
+
+    out = []
+    for w in o.worlds():
+        own = o.world == w
+        tp, fp, _ = counts(o.subset(own), positive[own])
+        out.append(WorldPrecision(w, tp, fp, tp / (tp + fp) if tp + fp else None, wilson(tp, tp + fp, level)))
+    return out
+
+
+def new_world_interval(
+    per_world: Sequence[WorldPrecision], pooled: tuple[float, float] | None
+) -> tuple[float, float] | None:
+    """The hull of each world's Wilson interval and the ``pooled`` interval (None: no world has a positive)."""
+    got = [p.wilson for p in per_world if p.wilson is not None]
+    if pooled is not None:
+        got.append(pooled)
+    if not got:
+        return None
+    return min(lo for lo, _ in got), max(hi for _, hi in got)
 
 
 @dataclass(frozen=True)

@@ -4,7 +4,8 @@ One ``TuneResult`` per folder: what was tuned (source, method, overrides, target
 the parameter grid), the worlds with their kilometres, one ``TuneConfig`` per config
 (aligner and gating setting at thresholds chosen on other worlds: held-out figures, time per
 pair, whether it is on the Pareto front), the held-out figures of the whole choice made
-leaving each world out (``TuneHeldOut``) and the recommended setting (``TuneRecommended``,
+leaving each world out (``TuneHeldOut``: pooled, per world, and the precision interval of
+one new world) and the recommended setting (``TuneRecommended``,
 None when no setting reaches the target on the calibration worlds).
 
 The held-out figures of a config and of the nested choice are a level's
@@ -19,7 +20,7 @@ from pathlib import Path
 from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.leaderboard import HeldOutFigures
 
-TUNE_SCHEMA = "roman_sim.tune/1"
+TUNE_SCHEMA = "roman_sim.tune/2"
 
 #: A config's parameter values: name -> value (gating parameters as ``gating.<name>``).
 Values = dict[str, int | float]
@@ -51,11 +52,30 @@ class TuneChoice:
     threshold: int
 
 
+@dataclass(frozen=True)
+class TuneWorldHeldOut:
+    """One world scored at the setting chosen on the others: its counts, precision and that ratio's Wilson interval."""
+
+    hits: int
+    false_positives: int
+    precision: float | None
+    precision_wilson: list[float] | None
+
+
 @dataclass(frozen=True, kw_only=True)
 class TuneHeldOut(TunedFigures):
-    """The whole choice made leaving each world out: per world its choice (None: none reached the target)."""
+    """The whole choice made leaving each world out.
+
+    Attributes:
+        chosen: per world its choice (None: none reached the target).
+        per_world: per world its held-out counts and precision.
+        precision_new_world: the precision interval of one new world: the hull of every world's
+            Wilson interval and the pooled world-bootstrap interval (None: nothing accepted).
+    """
 
     chosen: dict[str, TuneChoice | None]
+    per_world: dict[str, TuneWorldHeldOut]
+    precision_new_world: list[float] | None
 
 
 @dataclass(frozen=True)
@@ -117,6 +137,7 @@ __all__ = [
     "TuneHeldOut",
     "TuneRecommended",
     "TuneResult",
+    "TuneWorldHeldOut",
     "TuneWorldKm",
     "TunedFigures",
     "read_tune",

@@ -11,7 +11,9 @@ each pair's alignment time (a pair gated out costs 0) and each world's driven ki
   the least time per pair, then the config's order.
 - ``nested_held_out``: leave-one-world-out: each world is scored at the setting chosen on
   the other worlds only; the pooled held-out recall and precision with world-bootstrap
-  intervals are what the tuning procedure gives in a world it has not seen.
+  intervals are what the tuning procedure gives over as many worlds it has not seen; each
+  world's own held-out precision, and the hull of their Wilson intervals and the pooled
+  interval (``transfer.new_world_interval``), what it gives in *one* such world.
 - ``config_rows``: per config, its threshold chosen on the other worlds
   (``transfer.held_out``), held-out recall and precision with world-bootstrap intervals,
   false loop closures per km and time per pair; ``pareto`` marks the configs no other beats
@@ -34,9 +36,12 @@ from roman_sim.evaluation.transfer import (
     check_target,
     choose_threshold,
     held_out,
+    WorldPrecision,
     held_out_cell,
+    new_world_interval,
     positives,
     transfers,
+    world_precisions,
 )
 
 log = logging.getLogger(__name__)
@@ -135,10 +140,19 @@ class Evidence:
 
 @dataclass(frozen=True)
 class NestedHeldOut:
-    """Leave-one-world-out of the whole choice: per world the setting chosen on the others, and the pooled figures."""
+    """Leave-one-world-out of the whole choice.
+
+    Attributes:
+        chosen: per world the setting chosen on the others (None: none reached the target).
+        figures: the pooled held-out figures.
+        per_world: each world's precision at its setting (``transfer.world_precisions``).
+        new_world: the precision interval of one new world (``transfer.new_world_interval``).
+    """
 
     chosen: dict[str, Setting | None]
     figures: Figures
+    per_world: list[WorldPrecision]
+    new_world: tuple[float, float] | None
 
 
 def _worlds(configs: Mapping[str, ConfigOutcomes]) -> list[str]:
@@ -174,7 +188,10 @@ def nested_held_out(ev: Evidence) -> NestedHeldOut:
         np.concatenate([p.correct for p in parts]),
         np.concatenate([p.score for p in parts]),
     )
-    return NestedHeldOut(chosen, figures(o, np.concatenate(pos), _km(km, worlds), ev.target, ev.n_boot, ev.seed))
+    positive = np.concatenate(pos)
+    f = figures(o, positive, _km(km, worlds), ev.target, ev.n_boot, ev.seed)
+    per_world = world_precisions(o, positive)
+    return NestedHeldOut(chosen, f, per_world, new_world_interval(per_world, f.cell.precision_worlds))
 
 
 @dataclass(frozen=True)

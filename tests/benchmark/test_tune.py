@@ -78,11 +78,14 @@ def test_figures_follow_from_the_raw_pairs(home: Path):
     row = res.configs[0]
     rows = {w: r for (w, _), r in hand.items()}
     hits = fps = rel = 0
+    per_world = {}
     for w, other in (("distinct-s0", "distinct-s1"), ("distinct-s1", "distinct-s0")):
         k = _k(rows[other])  # chosen on the other world only
         assert row.thresholds[w] == k
-        hits += sum(1 for r, ok, n in rows[w] if k is not None and n >= k and r and ok)
-        fps += sum(1 for r, ok, n in rows[w] if k is not None and n >= k and not ok)
+        h = sum(1 for r, ok, n in rows[w] if k is not None and n >= k and r and ok)
+        f = sum(1 for r, ok, n in rows[w] if k is not None and n >= k and not ok)
+        per_world[w] = (h, f)
+        hits, fps = hits + h, fps + f
         rel += sum(1 for r, _, _ in rows[w] if r)
     assert [row.hits, row.false_positives, row.n_relevant] == [hits, fps, rel]
     km = sum(w.km for w in res.worlds)
@@ -90,6 +93,12 @@ def test_figures_follow_from_the_raw_pairs(home: Path):
     assert row.time_per_pair_s is not None and row.time_per_pair_s > 0
     # one config: the setting chosen for each world is that config at the threshold of the other world
     assert res.held_out.hits == hits and res.held_out.false_positives == fps
+    assert {w: (p.hits, p.false_positives) for w, p in res.held_out.per_world.items()} == per_world
+    # one new world: at least every held-out world's Wilson interval and the pooled interval
+    stated = res.held_out.precision_new_world
+    spans = [p.precision_wilson for p in res.held_out.per_world.values() if p.precision_wilson is not None]
+    spans += [res.held_out.precision_worlds] if res.held_out.precision_worlds is not None else []
+    assert stated == (None if not spans else [min(a for a, _ in spans), max(b for _, b in spans)])
     assert {w: None if c is None else c.threshold for w, c in res.held_out.chosen.items()} == row.thresholds
     all_rows = rows["distinct-s0"] + rows["distinct-s1"]
     rec = res.recommended

@@ -11,9 +11,11 @@ from roman_sim.evaluation.transfer import (
     choose_threshold,
     counts,
     held_out,
+    new_world_interval,
     positives,
     transfers,
     world_bootstrap,
+    world_precisions,
 )
 
 K = list(range(0, 21))
@@ -127,3 +129,34 @@ def test_held_out_cells_count_per_heading_bin_and_overall() -> None:
     assert got == {"0-60": (2, 0, 2), "60-120": (0, 1, 2), "120-180": (1, 1, 1), "all": (3, 2, 5)}
     assert cells[-1].recall == 3 / 5 and cells[-1].precision == 3 / 5
     assert cells[1].precision == 0.0 and cells[1].recall_wilson is not None
+
+
+def _wilson_by_hand(k: int, n: int) -> tuple[float, float]:
+    """The Wilson score interval at 95 %, written out: (k + z^2/2 +- z sqrt(k (n - k) / n + z^2/4)) / (n + z^2)."""
+    z = 1.959963984540054
+    centre, half = k + z * z / 2, z * np.sqrt(k * (n - k) / n + z * z / 4)
+    return (centre - half) / (n + z * z), (centre + half) / (n + z * z)
+
+
+def test_one_new_world_is_stated_by_every_worlds_own_interval_and_the_pooled_one() -> None:
+    """World a: 9 hits and 1 false positive; b: 2 and 2; c: nothing accepted. One new world may be
+    either: the interval spans a's Wilson interval up to 0.982 and b's down to 0.150."""
+    rows = _world("a", [(True, True, 5)] * 9 + [(False, False, 5)] + [(True, True, 1)] * 3)
+    rows += _world("b", [(True, True, 5)] * 2 + [(True, False, 5)] * 2 + [(True, True, 1)])
+    rows += _world("c", [(True, True, 1)] * 4)
+    o = _outcomes(rows)
+    per = world_precisions(o, positives(o, 5))
+    assert [(p.world, p.hits, p.false_positives, p.precision) for p in per] == [
+        ("a", 9, 1, 0.9),
+        ("b", 2, 2, 0.5),
+        ("c", 0, 0, None),
+    ]
+    a, b = _wilson_by_hand(9, 10), _wilson_by_hand(2, 4)
+    assert per[0].wilson == pytest.approx(a) and per[1].wilson == pytest.approx(b) and per[2].wilson is None
+    assert a == pytest.approx((0.5958, 0.9821), abs=1e-4) and b == pytest.approx((0.1500, 0.8500), abs=1e-4)
+    assert new_world_interval(per, None) == pytest.approx((b[0], a[1]))
+    assert new_world_interval(per, (0.1, 0.99)) == (0.1, 0.99)  # a wider pooled interval widens it
+    assert new_world_interval(per[2:], None) is None  # no world accepted anything
+    # the pooled bootstrap of 11 / 14 over these worlds is narrower than what one world gives
+    pooled = world_bootstrap(o, positives(o, 5), "precision", n_boot=500)
+    assert pooled is not None and b[0] < pooled[0]

@@ -56,6 +56,15 @@ def test_the_setting_chosen_for_a_world_never_reads_its_truth():
         assert got is not None and (got.config, got.k) == ("tight", 4), w  # a's loose pairs now ruin loose
     # the held-out figures are world a's own outcome at the setting chosen without it
     assert flipped.figures.cell.hits == 0 + 8 + 8 and flipped.figures.cell.false_positives == 30
+    # per world: a 0 of 30, b and c 8 of 8 (Wilson 8/8: [8 / (8 + z^2), 1]); one new world may be any of them
+    per = {p.world: (p.hits, p.false_positives, p.precision) for p in flipped.per_world}
+    assert per == {"a": (0, 30, 0.0), "b": (8, 0, 1.0), "c": (8, 0, 1.0)}
+    z2 = 1.959963984540054**2
+    assert flipped.per_world[1].wilson == pytest.approx((8 / (8 + z2), 1.0))
+    assert flipped.per_world[0].wilson == pytest.approx((0.0, z2 / (30 + z2)))
+    assert flipped.new_world == pytest.approx((0.0, 1.0))
+    pooled = flipped.figures.cell.precision_worlds
+    assert pooled is not None and flipped.new_world[0] <= pooled[0] and pooled[1] <= flipped.new_world[1]
 
 
 def test_choice_order_recall_then_false_closures_then_time():
