@@ -33,10 +33,10 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.transfer import (
     HeldOutCell,
     PairOutcomes,
+    WorldPrecision,
     check_target,
     choose_threshold,
     held_out,
-    WorldPrecision,
     held_out_cell,
     new_world_interval,
     positives,
