@@ -8,7 +8,13 @@ so their user + system time (``RUSAGE_CHILDREN``) is all of the demo's CPU: a po
 are forked by a forkserver the command does not wait for, and their time would be lost.
 Writes ``benchmarks/out/frontend_cost.json`` with each run's CPU and wall seconds and the
 ratio of the medians (on / off).
-Run: ``python benchmarks/bench_frontend_cost.py [--repeats N]``.
+
+``--against PATH`` measures instead what a change of the code costs the demo: the default
+demo of this checkout alternates with that of the checkout at PATH (e.g. the code before a
+change unpacked with ``git archive``; its package first on ``PYTHONPATH``), both serial, and
+the ratio of the medians (this / that) goes under ``against`` with the other checkout's note;
+the file's other figures are kept.
+Run: ``python benchmarks/bench_frontend_cost.py [--repeats N] [--against PATH --against-note TEXT]``.
 """
 
 from __future__ import annotations
@@ -39,22 +45,31 @@ def _children_cpu() -> float:
     return r.ru_utime + r.ru_stime
 
 
-def run_demo(overrides: list[str]) -> dict[str, float]:
-    """CPU and wall seconds of one fresh demo run with ``overrides``."""
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_demo(overrides: list[str], tree: Path = ROOT) -> dict[str, float]:
+    """CPU and wall seconds of one fresh demo run with ``overrides``, of the checkout at ``tree``."""
     with tempfile.TemporaryDirectory() as tmp:
         run_dir = str(Path(tmp) / "run")
         cmd = [sys.executable, "-m", "roman_sim.cli", "run", "demo", "--executor", "serial", "--out", run_dir]
         for o in overrides:
             cmd += ["--set", o]
         cpu0, t0 = _children_cpu(), time.perf_counter()
-        subprocess.run(cmd, check=True, capture_output=True, env={**os.environ, "MUJOCO_GL": "egl"})
+        env = {**os.environ, "MUJOCO_GL": "egl", "PYTHONPATH": str(tree), "ROMAN_SIM_CACHE": "off"}
+        subprocess.run(cmd, check=True, capture_output=True, env=env, cwd=tree)
         return {"cpu_s": round(_children_cpu() - cpu0, 2), "wall_s": round(time.perf_counter() - t0, 2)}
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=2)
+    ap.add_argument("--against", type=Path, default=None, help="alternate with the demo of the checkout at this path")
+    ap.add_argument("--against-note", default="another checkout", help="what that checkout is")
     args = ap.parse_args()
+    if args.against is not None:
+        against(args.against.resolve(), args.against_note, args.repeats)
+        return
     runs: dict[str, list[dict[str, float]]] = {"on": [], "off": []}
     for _ in range(args.repeats):
         runs["on"].append(run_demo([]))
@@ -71,6 +86,29 @@ def main() -> None:
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
     print(json.dumps(out, indent=2))
+
+
+def against(tree: Path, note: str, repeats: int) -> None:
+    """The demo's CPU with this checkout over that at ``tree``, alternating; kept under ``against``."""
+    runs: dict[str, list[dict[str, float]]] = {"this": [], "other": []}
+    for _ in range(repeats):
+        runs["this"].append(run_demo([]))
+        runs["other"].append(run_demo([], tree))
+    med = {k: statistics.median(r["cpu_s"] for r in v) for k, v in runs.items()}
+    out = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
+    out["against"] = {
+        "other": note,
+        "runs": runs,
+        "median_cpu_s": med,
+        "cpu_ratio_this_over_other": round(med["this"] / med["other"], 3),
+        "load_average_after": [round(x, 2) for x in os.getloadavg()],
+        "note": "alternating serial runs of the default demo on one machine; CPU of the run's process",
+    }
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    tmp = OUT.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    tmp.replace(OUT)
+    print(json.dumps(out["against"], indent=2))
 
 
 if __name__ == "__main__":

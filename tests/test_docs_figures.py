@@ -158,6 +158,22 @@ def test_error_model_cost_matches_the_benchmark():
     assert [float(m[5]), float(m[6])] == [round(v, 1) for v in offs]
 
 
+def test_front_end_change_cost_matches_the_benchmark():
+    """The demo's CPU with the current front end over the code before it, as measured alternately."""
+    b = _bench("frontend_cost.json")["against"]
+    m = re.search(
+        r"Median CPU: (\d+\.\d) s against (\d+\.\d) s, a ratio of (\d\.\d{3}) \(`against` in "
+        r"`frontend_cost.json`, (\d+) runs each, on a machine shared with other jobs\), within the 10 %",
+        _page("performance.md"),
+    )
+    assert m, "docs/performance.md states what the front end's change costs"
+    this, other = (statistics.median(r["cpu_s"] for r in b["runs"][k]) for k in ("this", "other"))
+    assert [float(m[1]), float(m[2])] == [round(this, 1), round(other, 1)]
+    assert float(m[3]) == b["cpu_ratio_this_over_other"] == round(this / other, 3) <= 1.10
+    assert int(m[4]) == len(b["runs"]["this"]) == len(b["runs"]["other"])
+    assert b["other"].startswith("69a5f1b")
+
+
 def test_quick_benchmark_wall_time_is_the_benchmark():
     bench = _bench("benchmark.json")["quick_2_workers"]
     m = re.search(
