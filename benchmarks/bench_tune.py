@@ -21,8 +21,14 @@
    same statistic: one world per level); per level and over every unseen world the pooled
    precision. ``--check-cache DIR``: a stage cache for these worlds (not timed).
 
-Run: ``python benchmarks/bench_tune.py [FOLDER] [--cache DIR] [--check-cache DIR] [--workers N]``
-(default: a temporary folder, removed after; one worker).
+3. ``--level NAME``: the same, tuned on one level's worlds only (``roman-sim tune quick
+   --level NAME --seeds LO:HI``, ``--seeds``, default 0:4) and checked on that level's worlds
+   of ``--check-seeds`` (default 4, 5, 6), none of which the tune saw. The figures go into the
+   file's ``level_tunes`` under the level; the figures of the all-level tune are kept as they are.
+
+Run: ``python benchmarks/bench_tune.py [FOLDER] [--cache DIR] [--check-cache DIR] [--workers N]
+[--level NAME [--seeds LO:HI] [--check-seeds A,B,C]]`` (default: a temporary folder, removed
+after; one worker).
 """
 
 from __future__ import annotations
@@ -100,14 +106,22 @@ def _ratio(tp: int, fp: int) -> float | None:
     return tp / (tp + fp) if tp + fp else None
 
 
-def _check(folder: Path, rec: TuneRecommended, h: TuneHeldOut, target: float, executor: Any) -> dict[str, Any]:
-    """The recommended setting, fixed, on the quick suite's worlds of ``CHECK_SEEDS``."""
+def _check(
+    folder: Path,
+    rec: TuneRecommended,
+    h: TuneHeldOut,
+    target: float,
+    executor: Any,
+    level: str | None = None,
+    seeds: list[int] = CHECK_SEEDS,
+) -> dict[str, Any]:
+    """The recommended setting, fixed, on the quick suite's worlds of ``seeds`` (of ``level`` only when given)."""
     from roman_sim.benchmark.tune import TuneJob, config_outcomes
     from roman_sim.evaluation.intervals import wilson
     from roman_sim.evaluation.transfer import counts, positives, world_bootstrap, world_precisions
 
     params = [f"threshold={rec.threshold}"] + [f"{k}={v}" for k, v in rec.values.items()]
-    job = TuneJob("quick", "roman", folder, params, target, seeds=CHECK_SEEDS, executor=executor)
+    job = TuneJob("quick", "roman", folder, params, target, seeds=seeds, executor=executor, level=level)
     per_world, facts = job.collect()
     c = config_outcomes(job.grid.configs[0], per_world, facts)
     pos = positives(c.pairs, rec.threshold)
@@ -131,14 +145,14 @@ def _check(folder: Path, rec: TuneRecommended, h: TuneHeldOut, target: float, ex
     levels = sorted({w.rsplit("-s", 1)[0] for w in worlds})
     per_level = {lv: pooled([w for w in worlds if w.rsplit("-s", 1)[0] == lv]) for lv in levels}
     per_seed = {}
-    for s in CHECK_SEEDS:
+    for s in seeds:
         d = pooled([w for w in worlds if w.endswith(f"-s{s}")])
         d["inside_pooled_interval"] = _inside(d["precision"], h.precision_worlds)
         per_seed[f"s{s}"] = d
     inside = [v["inside_new_world_interval"] for v in worlds.values() if v["inside_new_world_interval"] is not None]
     seeds_inside = [v["inside_pooled_interval"] for v in per_seed.values() if v["inside_pooled_interval"] is not None]
     return {
-        "seeds": CHECK_SEEDS,
+        "seeds": seeds,
         "hits": tp,
         "false_positives": fp,
         "n_relevant": rel,
@@ -176,23 +190,32 @@ def main() -> None:
     ap.add_argument("--cache", type=Path, default=None, help="a stage cache holding the quick suite's maps")
     ap.add_argument("--check-cache", type=Path, default=None, help="a stage cache for the unseen worlds (not timed)")
     ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--level", default=None, help="tune on this level of quick only (see the docstring)")
+    ap.add_argument("--seeds", default="0:4", help="with --level: the tune's seeds, LO:HI or A,B,C")
+    ap.add_argument("--check-seeds", default="4,5,6", help="with --level: the unseen worlds' seeds")
     args = ap.parse_args()
+    from roman_sim.cli.tune import _seeds
+
+    tune_seeds = _seeds(args.seeds) if args.level else None
+    check_seeds = (_seeds(args.check_seeds) or []) if args.level else CHECK_SEEDS
+    if args.level and set(tune_seeds or []) & set(check_seeds):
+        ap.error("--check-seeds: the unseen worlds must not be tuned on (they share seeds with --seeds)")
     keep = args.folder is not None
     root = args.folder if keep else Path(tempfile.mkdtemp(prefix="bench_tune_"))
     os.environ["ROMAN_SIM_CACHE"] = str(args.cache or root / "cache")  # default fresh: nothing mapped before
     ex = ExecutorConfig(kind="local", workers=args.workers) if args.workers > 1 else None
     load0, cpu0, t0 = _load(), _cpu(), time.perf_counter()
     with TreeCpu() as tree:
-        job = TuneJob("quick", "roman", root / "tune", [], 0.9, executor=ex)
+        job = TuneJob("quick", "roman", root / "tune", [], 0.9, seeds=tune_seeds, executor=ex, level=args.level)
         result = job.run()
     wall, cpu = time.perf_counter() - t0, _cpu() - cpu0 + tree.total()
     load1 = _load()
     rec, h = result.recommended, result.held_out
     if args.check_cache is not None:
         os.environ["ROMAN_SIM_CACHE"] = str(args.check_cache)
-    check = _check(root / "check", rec, h, 0.9, ex) if rec is not None else None
+    check = _check(root / "check", rec, h, 0.9, ex, args.level, check_seeds) if rec is not None else None
     p = None if check is None else check["precision"]
-    figures = {
+    figures: dict[str, Any] = {
         "suite": "quick",
         "method": "roman",
         "grid": {k: [min(v), max(v), len(v)] for k, v in result.parameters.items()},
@@ -229,9 +252,13 @@ def main() -> None:
         if check is None
         else check["worlds_inside_new_world_interval"][0] == check["worlds_inside_new_world_interval"][1],
     }
+    if args.level:
+        figures = {"level": args.level, "seeds": tune_seeds, **figures}
+        kept = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
+        figures = {**kept, "level_tunes": {**kept.get("level_tunes", {}), args.level: figures}}
     OUT.parent.mkdir(parents=True, exist_ok=True)
     OUT.write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    print(json.dumps(figures, indent=2, sort_keys=True))
+    print(json.dumps(figures["level_tunes"][args.level] if args.level else figures, indent=2, sort_keys=True))
     if not keep:
         shutil.rmtree(root, ignore_errors=True)
 

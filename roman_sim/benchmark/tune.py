@@ -1,10 +1,12 @@
 """``roman-sim tune``: a method's declared parameters tuned for a target precision, over worlds.
 
 The source is a scenario (its worlds are the seeds given), a sweep (each of its runs is a
-world) or a benchmark suite (each (level, seed) cell is a world). The job
+world) or a benchmark suite (each (level, seed) cell is a world; with a level, only that
+level's cells: calibration and held-out worlds then share one ambiguity level, as the
+leaderboard's thresholds, chosen per method and level, do). The job
 
 1. checks everything that can be checked before any work (target, parameters and their
-   ranges, at least two worlds; ``tune_space``);
+   ranges, the level, at least two worlds; ``tune_space``);
 2. per world and aligner parameter set, runs the world's scenario with the method alone,
    without gating or pose graph, into ``work/<world>/<alignment>/`` (the shared stage cache,
    or the folder's own ``cache/`` when that is off, hands the maps of a world to every
@@ -42,7 +44,7 @@ from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, 
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.core.records import RecordError, read_record, write_record
+from roman_sim.core.records import OMIT_NONE, RecordError, read_record, write_record
 from roman_sim.evaluation.transfer import PairOutcomes, check_target
 from roman_sim.evaluation.tune_result import (
     TuneChoice,
@@ -89,11 +91,12 @@ AlignerValues = tuple[tuple[str, int | float], ...]
 
 @dataclass(frozen=True)
 class JobRecord:
-    """``job.json``: what the folder tunes (a folder holds one tune)."""
+    """``job.json``: what the folder tunes (a folder holds one tune; ``level``: a suite's level, None: all)."""
 
     source: str
     method: str
     overrides: list[str]
+    level: str | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass(frozen=True)
@@ -156,17 +159,30 @@ def _kind(source: str) -> str:
     return "scenario"
 
 
-def load_worlds(source: str, method: str, seeds: list[int] | None, overrides: list[str]) -> list[TuneWorld]:
-    """The worlds of ``source`` (see the module docstring); ConfigError when fewer than two."""
+def load_worlds(
+    source: str, method: str, seeds: list[int] | None, overrides: list[str], level: str | None = None
+) -> list[TuneWorld]:
+    """The worlds of ``source`` (see the module docstring), of ``level`` only when given.
+
+    Raises:
+        ConfigError: a level on a source without levels or one the suite does not have (naming
+            the valid levels), or fewer than two worlds.
+    """
     kind = _kind(source)
     worlds: list[TuneWorld] = []
+    if level is not None and kind != "suite":
+        raise ConfigError(
+            f"--level: {source} is a {kind}, which has no levels (valid: none; --level takes a benchmark suite's level)"
+        )
     if kind == "suite":
         from roman_sim.benchmark.suites import load_suite
 
         suite = load_suite(source)
-        for level in suite.levels:
-            scene = suite.scene_at(level, [method], overrides)
-            worlds += [TuneWorld(f"{level}-s{s}", cell=(scene, s)) for s in (seeds or suite.seeds)]
+        if level is not None and level not in suite.levels:
+            raise ConfigError(f"--level: {source} has no level {level!r} (valid: {', '.join(suite.levels)})")
+        for lv in [level] if level is not None else list(suite.levels):
+            scene = suite.scene_at(lv, [method], overrides)
+            worlds += [TuneWorld(f"{lv}-s{s}", cell=(scene, s)) for s in (seeds or suite.seeds)]
     elif kind == "sweep":
         from roman_sim.pipeline.scenario import load_scenario
         from roman_sim.pipeline.sweep import load_sweep
@@ -232,6 +248,7 @@ class TuneJob:
         target: the target precision, in (0, 1].
         seeds: the seeds (worlds) of a scenario or suite; a sweep's runs of these seeds.
         overrides: dotted scenario overrides of every world.
+        level: a suite's level: its worlds only (None: every level).
         executor: where the runs' tasks run (None: this process).
         progress: called after each alignment of a world.
     """
@@ -247,6 +264,7 @@ class TuneJob:
         overrides: list[str] | None = None,
         executor: ExecutorConfig | None = None,
         progress: ProgressFn | None = None,
+        level: str | None = None,
     ) -> None:
         check_target(target)
         if seeds is not None and (len(set(seeds)) != len(seeds) or any(s < 0 for s in seeds)):
@@ -254,7 +272,8 @@ class TuneJob:
         self.source, self.method, self.target = source, method, float(target)
         self.values = parse_params(method, list(params or []))
         self.overrides = list(overrides or [])
-        self.worlds = load_worlds(source, method, seeds, self.overrides)
+        self.level = level
+        self.worlds = load_worlds(source, method, seeds, self.overrides, level)
         self.grid: Grid = build_grid(method, self.values, self._base_params())
         self.out = Path(out_dir).resolve()
         self.executor = executor
@@ -266,7 +285,7 @@ class TuneJob:
         return next((dict(e.params) for e in sc.aligners if e.method == self.method), {}) if sc else {}
 
     def _guard(self) -> None:
-        """Refuse a folder that holds something else, or another source's or method's tune."""
+        """Refuse a folder that holds something else, or another source's, level's or method's tune."""
         if self.out.exists() and not self.out.is_dir():
             raise ConfigError(f"--out {self.out}: not a folder")
         for other in ("manifest.json", "sweep.json", "benchmark.json"):
@@ -276,13 +295,14 @@ class TuneJob:
             return
         old = read_record(self.out / JOB_JSON, JobRecord)
         if old != self._identity():
+            on = old.source if old.level is None else f"{old.source} level {old.level}"
             raise ConfigError(
-                f"--out {self.out}: holds the tune of {old.method!r} on {old.source!r} "
+                f"--out {self.out}: holds the tune of {old.method!r} on {on!r} "
                 f"with overrides {old.overrides} (choose another --out)"
             )
 
     def _identity(self) -> JobRecord:
-        return JobRecord(self.source, self.method, self.overrides)
+        return JobRecord(self.source, self.method, self.overrides, self.level)
 
     # -- worlds and alignments ----------------------------------------------------
     def _scenario(self, w: TuneWorld) -> Scenario:
@@ -393,6 +413,7 @@ class TuneJob:
         by_id = {c.id: c for c in self.grid.configs}
         result = TuneResult(
             source=self.source,
+            level=self.level,
             method=self.method,
             overrides=list(self.overrides),
             target_precision=self.target,
@@ -521,7 +542,9 @@ def recommended_yaml(result: TuneResult, c: Config, base_params: dict[str, Any])
         return "n/a" if v is None else f"{v:.3f}"
 
     head = [
-        f"# roman-sim tune: {result.method} on {result.source}, target precision {result.target_precision:g}",
+        f"# roman-sim tune: {result.method} on {result.source}"
+        + ("" if result.level is None else f", level {result.level}")
+        + f", target precision {result.target_precision:g}",
         f"# chosen on {len(result.worlds)} worlds: threshold {rec.threshold}, "
         + ", ".join(f"{k}={v}" for k, v in rec.values.items()),
         f"# held-out (each world scored at the setting chosen on the others): precision {num(h.precision)} "

@@ -44,8 +44,9 @@ def _ci(v: list[float] | None) -> str:
 
 
 def _table(result: TuneResult) -> Table:
+    level = "" if result.level is None else f" (level {result.level})"
     t = Table(
-        title=f"tune {result.method}: held-out (thresholds chosen on other worlds), target precision "
+        title=f"tune {result.method}{level}: held-out (thresholds chosen on other worlds), target precision "
         f"{result.target_precision:g}"
     )
     for col in ("config", "recall", "precision", "false / km", "time / pair (ms)", "front"):
@@ -78,19 +79,26 @@ def tune_cmd(
     ),
     target_precision: float = typer.Option(0.9, "--target-precision", help="precision to reach, in (0, 1]"),
     seeds: str | None = typer.Option(None, "--seeds", help="worlds: seeds 0,1,2 or LO:HI (default: the source's)"),
+    level: str | None = typer.Option(
+        None, "--level", help="a suite's ambiguity level: tune on its worlds only (default: every level)"
+    ),
     sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every world (key=value)"),
-    out: Path | None = typer.Option(None, "--out", "-o", help="folder (default results/tune/<method>-<source>)"),
+    out: Path | None = typer.Option(
+        None, "--out", "-o", help="folder (default results/tune/<method>-<source>[-<level>])"
+    ),
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Tune a method's declared parameters for a target precision (resumable); write tune.json,
-    front.png and recommended.yaml (for a scenario or ``roman-sim run --set @recommended.yaml``)."""
+    front.png and recommended.yaml (for a scenario or ``roman-sim run --set @recommended.yaml``).
+    With ``--level``, a suite's calibration and held-out worlds are that level's only."""
     from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob
     from roman_sim.core.errors import ConfigError
 
     if not 0 < target_precision <= 1:
         raise ConfigError(f"--target-precision: must lie in (0, 1], got {target_precision:g}")
     stem = Path(source).stem if source.endswith((".yaml", ".yml")) else source
-    folder = out or Path("results") / "tune" / f"{method.replace(':', '_').replace('.', '_')}-{stem}"
+    name = f"{method.replace(':', '_').replace('.', '_')}-{stem}" + ("" if level is None else f"-{level}")
+    folder = out or Path("results") / "tune" / name
     ex = flags.config()
     lines = LineProgress()
     bar: Any = None
@@ -101,7 +109,9 @@ def tune_cmd(
         else:
             lines.line(f"tune {method}: alignment {what} done ({done}/{total})")
 
-    job = TuneJob(source, method, folder, list(params or []), target_precision, _seeds(seeds), sets, ex, progress)
+    job = TuneJob(
+        source, method, folder, list(params or []), target_precision, _seeds(seeds), sets, ex, progress, level
+    )
     with rich_progress(Console(stderr=True)) if interactive() else contextlib.nullcontext() as p:
         if p is not None:
             bar = (p, p.add_task("tune", total=len(job.worlds) * len(job.grid.alignments())))

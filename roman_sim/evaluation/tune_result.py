@@ -1,6 +1,7 @@
 """``tune.json``: the result of ``roman-sim tune`` as typed records.
 
-One ``TuneResult`` per folder: what was tuned (source, method, overrides, target precision,
+One ``TuneResult`` per folder: what was tuned (source, the suite level when one, method,
+overrides, target precision,
 the parameter grid), the worlds with their kilometres, one ``TuneConfig`` per config
 (aligner and gating setting at thresholds chosen on other worlds: held-out figures, time per
 pair, whether it is on the Pareto front), the held-out figures of the whole choice made
@@ -14,10 +15,10 @@ The held-out figures of a config and of the nested choice are a level's
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from roman_sim.core.records import read_record, write_record
+from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.evaluation.leaderboard import HeldOutFigures
 
 TUNE_SCHEMA = "roman_sim.tune/2"
@@ -100,7 +101,8 @@ class TuneWorldKm:
 
 @dataclass(frozen=True)
 class TuneResult:
-    """``tune.json`` (see the module docstring)."""
+    """``tune.json`` (see the module docstring); ``level``: the suite level tuned (None, left out: every world
+    of the source)."""
 
     source: str
     method: str
@@ -111,6 +113,7 @@ class TuneResult:
     configs: list[TuneConfig]
     held_out: TuneHeldOut
     recommended: TuneRecommended | None
+    level: str | None = field(default=None, metadata=OMIT_NONE)
 
     def config(self, cid: str) -> TuneConfig:
         """The config ``cid`` (KeyError when the tune has none of that id)."""
