@@ -1,10 +1,12 @@
 """``roman-sim tune`` end to end on a tiny suite: figures against the raw pairs, the recommended YAML,
-resume (nothing re-run; a new alignment re-aligns without re-mapping), a bad parameter on a finished folder."""
+resume (nothing re-run; a new alignment re-aligns without re-mapping), a bad parameter on a finished folder,
+one level of a suite (its worlds only; a bad level; another level on the same folder)."""
 
 from __future__ import annotations
 
 import csv
 import json
+import shutil
 from pathlib import Path
 
 import pytest
@@ -29,6 +31,10 @@ levels: {distinct: 0.0}
 seeds: [0, 1]
 methods: [roman]
 """
+#: Two levels, one seed: ``--level distinct --seeds 0:2`` gives the worlds of ``SUITE``.
+LEVELLED = SUITE.replace("levels: {distinct: 0.0}", "levels: {distinct: 0.0, twin: 1.0}").replace(
+    "seeds: [0, 1]", "seeds: [0]"
+)
 KS = range(1, 9)
 
 
@@ -105,6 +111,70 @@ def test_figures_follow_from_the_raw_pairs(home: Path):
     assert rec is not None and rec.threshold == _k(all_rows) and rec.values == {"cos_min": 0.85}
     assert res.config(rec.config) is row
     assert (home / "t" / "front.png").stat().st_size > 1000
+
+
+def _tune_level(home: Path, out: str, *args: str) -> tuple[int, str]:
+    cmd = ["tune", str(home / "levelled.yaml"), "--out", str(home / out), "--param", "threshold=1:8"]
+    res = CliRunner().invoke(app, [*cmd, "--param", "cos_min=0.85", *args])
+    return res.exit_code, res.output
+
+
+def test_one_level_tunes_on_its_worlds_only(home: Path):
+    (home / "levelled.yaml").write_text(LEVELLED)
+    lv = home / "lv"
+    for part in ("work", "cache"):  # the same worlds as the all-level tune: its runs are read back
+        shutil.copytree(home / "t" / part, lv / part)
+    kept = {p.relative_to(lv): p.stat().st_mtime_ns for p in lv.glob("work/*/*/outcomes.json")}
+    code, output = _tune_level(home, "lv", "--level", "distinct", "--seeds", "0:2")
+    assert code == 0, output
+    assert {p.relative_to(lv): p.stat().st_mtime_ns for p in lv.glob("work/*/*/outcomes.json")} == kept
+    assert "tune roman (level distinct)" in output
+    assert sorted(p.name for p in (lv / "work").iterdir()) == ["distinct-s0", "distinct-s1"]  # no twin world
+    res, whole = read_tune(lv / "tune.json"), read_tune(home / "t" / "tune.json")
+    assert res.level == "distinct" and whole.level is None
+    assert json.loads((lv / "tune.json").read_text())["level"] == "distinct"
+    assert "level" not in json.loads((home / "t" / "tune.json").read_text())  # left out when every level is tuned
+    assert json.loads((lv / "job.json").read_text())["level"] == "distinct"
+    # the same two worlds as the one-level suite's tune: the same figures from the same pairs
+    assert [w.id for w in res.worlds] == ["distinct-s0", "distinct-s1"]
+    hand = {w: r for (w, _), r in _by_hand(home).items()}
+    row = res.configs[0]
+    assert row.thresholds == {"distinct-s0": _k(hand["distinct-s1"]), "distinct-s1": _k(hand["distinct-s0"])}
+    assert (row.hits, row.false_positives) == (whole.configs[0].hits, whole.configs[0].false_positives)
+    assert res.held_out == whole.held_out and res.recommended == whole.recommended
+    assert (lv / "recommended.yaml").read_text().startswith("# roman-sim tune: roman on")
+    assert ", level distinct, target precision 0.9" in (lv / "recommended.yaml").read_text().splitlines()[0]
+    write_tune(home / "lv-copy.json", res)
+    assert (home / "lv-copy.json").read_bytes() == (lv / "tune.json").read_bytes()
+
+
+def test_another_level_on_the_same_folder_is_refused(home: Path):
+    lv = home / "lv"
+    before = (lv / "tune.json").read_bytes()
+    for args in (["--level", "twin", "--seeds", "0:2"], ["--seeds", "0:2"]):
+        code, output = _tune_level(home, "lv", *args)
+        assert code == 1
+        assert output.strip().splitlines() == [
+            f"error: --out {lv}: holds the tune of 'roman' on '{home / 'levelled.yaml'} level distinct' "
+            "with overrides [] (choose another --out)"
+        ]
+    assert (lv / "tune.json").read_bytes() == before
+    assert sorted(p.name for p in (lv / "work").iterdir()) == ["distinct-s0", "distinct-s1"]
+
+
+def test_a_bad_level_names_the_valid_ones_before_anything_runs(home: Path):
+    code, output = _tune_level(home, "bad", "--level", "medium", "--seeds", "0:2")
+    assert code == 1
+    assert output.strip().splitlines() == [
+        f"error: --level: {home / 'levelled.yaml'} has no level 'medium' (valid: distinct, twin)"
+    ]
+    res = CliRunner().invoke(app, ["tune", "smoke", "--out", str(home / "bad"), "--level", "low"])
+    assert res.exit_code == 1
+    assert res.output.strip().splitlines() == [
+        "error: --level: smoke is a scenario, which has no levels "
+        "(valid: none; --level takes a benchmark suite's level)"
+    ]
+    assert not (home / "bad").exists()
 
 
 def test_the_result_file_round_trips_and_a_damaged_one_names_the_field(home: Path, tmp_path: Path):
