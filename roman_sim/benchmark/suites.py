@@ -128,10 +128,17 @@ SUITES.register(
     "standard",
     BenchmarkSuite(
         name="standard",
-        description="at least 100 relevant cross-robot pairs in every 30 deg bin at every ambiguity level",
-        scene=CrossingScene(robots=16, length_m=50.0, site_radius_m=10.0, extent_m=80.0),
+        description=(
+            "30 / 8 / 8 small worlds at low / medium / high ambiguity, 60 deg bins: every deployable"
+            " world-bootstrap interval at most +-0.1"
+        ),
+        scene=CrossingScene(
+            robots=8, length_m=40.0, site_radius_m=6.0, extent_m=64.0, image_width=160, image_height=120
+        ),
+        heading_bin_deg=60.0,
+        min_worlds={"low": 30, "medium": 8, "high": 8},
         min_relevant_per_bin=100,
-        max_seeds=12,
+        max_seeds=40,
     ),
 )
 
