@@ -176,9 +176,13 @@ class Leaderboard:
         half_width_bound: widest interval half-width the suite promises.
         failed_cells: cells that did not finish, with why.
         levels: one entry per ambiguity level.
-        bound_met: whether every bin's intervals meet the bound and every cell finished.
+        bound_met: whether the pooled Wilson intervals of every bin's per-bin operating points meet the
+            bound and every cell finished.
         runtime: per method its time per pair.
         target_precision: the precision the deployable point's thresholds are chosen for.
+        deployable_bound_met: the headline bound: whether, at the deployable point, every level x heading
+            bin has held-out figures whose widest world-bootstrap recall half-width over methods is at most
+            the bound, and every cell finished (``deployable_widths``).
     """
 
     suite: str
@@ -192,10 +196,30 @@ class Leaderboard:
     bound_met: bool = False
     runtime: dict[str, MethodRuntime] = field(default_factory=dict)
     target_precision: float | None = field(default=None, metadata=OMIT_NONE)
+    deployable_bound_met: bool = False
 
     def finished_levels(self) -> list[BoardLevel]:
         """The levels with figures."""
         return [e for e in self.levels if e.finished]
+
+    def deployable_widths(self) -> dict[str, dict[str, float | None]]:
+        """Per level, per heading bin the widest world-bootstrap half-width of held-out recall over methods
+        (None where no method has relevant pairs); a level without held-out figures maps to ``{}``."""
+        return {
+            e.name: {}
+            if e.deployable is None or e.deployable.bins is None
+            else {c.heading: c.max_half_width for c in e.deployable.bins}
+            for e in self.levels
+        }
+
+    def deployable_over(self) -> list[tuple[str, str, float | None]]:
+        """(level, heading bin, widest half-width) of every bin over the bound or without an interval."""
+        return [
+            (level, heading, w)
+            for level, bins in self.deployable_widths().items()
+            for heading, w in bins.items()
+            if w is None or w > self.half_width_bound
+        ]
 
     def cells_of(self, method: str, point: str) -> dict[str, OperatingPoint]:
         """``{"<level>/<heading bin>": point}`` of ``method`` (``"<level>/all"`` too), where it has the point."""

@@ -3,17 +3,19 @@
 Sections: first the deployable ranking (per level, held-out recall and precision per heading
 bin at one threshold per method chosen on the level's other worlds, with pooled Wilson and
 world-bootstrap intervals, the thresholds and a flag where the precision falls short of the
-target), then the setup (methods, overrides, what a cell, a rank and an operating point are, and
-whether every interval meets the suite's bound), per operating point ranked in ``RANKED``
-one table per ambiguity level (methods x heading bins, each cell ``recall (hits/relevant)
-[95 % interval]`` and its rank, ``tied`` where intervals overlap), the relevant pairs per
-cell, every operating point per level, runtimes per pair, the cells that did not finish
-and the figures.
+target; first in it the headline bound, the widest world-bootstrap half-width per level x
+heading bin against the suite's bound), then the setup (methods, overrides, what a cell, a
+rank and an operating point are, and whether every pooled Wilson interval meets the bound),
+per operating point ranked in ``RANKED`` one table per ambiguity level (methods x heading
+bins, each cell ``recall (hits/relevant) [95 % interval]`` and its rank, ``tied`` where
+intervals overlap), the relevant pairs per cell, every operating point per level, runtimes
+per pair, the cells that did not finish and the figures.
 """
 
 from __future__ import annotations
 
-from roman_sim.evaluation.leaderboard import BoardCell, HeldOutFigures, Leaderboard
+from roman_sim.evaluation.bins import bin_label
+from roman_sim.evaluation.leaderboard import BoardCell, DeployableCell, HeldOutFigures, Leaderboard
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
 from roman_sim.evaluation.ranking import Rank
 from roman_sim.report.benchmark_plots import benchmark_figures
@@ -66,6 +68,51 @@ def _num(v: float | None, digits: int = 2) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
 
+def _bin_width(board: Leaderboard) -> str:
+    """The heading bins' width (``60``), or their edges when they are uneven."""
+    e = board.heading_edges_deg
+    widths = {round(b - a, 9) for a, b in zip(e, e[1:], strict=False)}
+    return f"{widths.pop():g}" if len(widths) == 1 else "edges " + ", ".join(f"{x:g}" for x in e)
+
+
+def _widest(cell: DeployableCell) -> str:
+    """``0.087 (roman)``: the widest world-bootstrap recall half-width of a bin and the method with it."""
+    if cell.max_half_width is None:
+        return "n/a"
+    halves = {m: (c.recall_worlds[1] - c.recall_worlds[0]) / 2 for m, c in cell.methods.items() if c.recall_worlds}
+    m = max(sorted(halves), key=lambda k: halves[k])
+    return f"{cell.max_half_width:.3f} ({m})"
+
+
+def deployable_bound_lines(board: Leaderboard) -> list[str]:
+    """The headline bound: per level x heading bin the widest world-bootstrap half-width of held-out recall."""
+    bound = board.half_width_bound
+    verdict = "met" if board.deployable_bound_met else "**not met**"
+    lines = [
+        f"Deployable bound: in every level x heading bin the widest 95 % world-bootstrap half-width of held-out "
+        f"recall, over methods, at most {bound:g}: {verdict}.",
+        "",
+        "| level | "
+        + " | ".join(
+            f"{bin_label(a, b)} deg" for a, b in zip(board.heading_edges_deg, board.heading_edges_deg[1:], strict=False)
+        )
+        + " |",
+        "|---|" + "---|" * (len(board.heading_edges_deg) - 1),
+    ]
+    for e in board.levels:
+        d = e.deployable
+        if d is None or d.bins is None:
+            why = "no cell finished" if d is None else f"no held-out figures ({len(d.worlds)} world)"
+            lines.append(f"| {e.name} | " + " | ".join([why] * (len(board.heading_edges_deg) - 1)) + " |")
+            continue
+        cells = [
+            _widest(c) + ("" if c.max_half_width is not None and c.max_half_width <= bound else " **over**")
+            for c in d.bins
+        ]
+        lines.append(f"| {e.name} | " + " | ".join(cells) + " |")
+    return [*lines, ""]
+
+
 def leaderboard_markdown(board: Leaderboard) -> str:
     """``leaderboard.md``: deployable ranking, setup, ranked recall per cell, points, runtimes, failures, figures."""
     lv0 = next(iter(board.finished_levels()), None)
@@ -79,13 +126,14 @@ def leaderboard_markdown(board: Leaderboard) -> str:
         "## Setup",
         "",
         f"- Methods: {', '.join(board.methods)}. Overrides: {', '.join(board.overrides) or 'none'}.",
-        "- Cells: ambiguity level x heading difference (30 deg bins) of the cross-robot pairs, pooled over the "
-        "level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
+        f"- Cells: ambiguity level x heading difference ({_bin_width(board)} deg bins) of the cross-robot pairs, "
+        "pooled over the level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
         "- Ranks: 1 + the number of methods whose interval lies wholly above; methods that share a rank have "
         "overlapping intervals and are marked `tied`.",
         f"- Operating points: max recall (at the highest k that keeps it); recall at the smallest k with precision "
         f">= 0.9 (`not reached` when none has); recall at the pose graph's acceptance threshold k = {acc}.",
-        f"- Interval bound: every half-width at most {board.half_width_bound:g}: "
+        f"- Wilson bound (per-bin operating points below): every pooled Wilson half-width at most "
+        f"{board.half_width_bound:g}: "
         + ("met in every cell." if board.bound_met else "**not met** in every cell (see the relevant counts)."),
         "",
     ]
@@ -148,6 +196,7 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         f"- Flag: **short** where the held-out precision is more than 0.05 below {target:g} (the threshold "
         "does not transfer to a new world); `nothing accepted` where no threshold reached the target.",
         "",
+        *deployable_bound_lines(board),
     ]
     for e in board.levels:
         d = e.deployable
@@ -275,6 +324,25 @@ def deployable_readme_lines(board: Leaderboard) -> list[str]:
     return lines
 
 
+def deployable_bound_readme_line(board: Leaderboard) -> str:
+    """The README's statement of the headline bound, with the widest bin (or the bins over it)."""
+    head = (
+        f"- Deployable world-bootstrap half-width of held-out recall at most {board.half_width_bound:g} in every "
+        f"level x heading bin: "
+    )
+    widths = [(lv, h, w) for lv, bins in board.deployable_widths().items() for h, w in bins.items()]
+    over = board.deployable_over()
+    if board.deployable_bound_met:
+        lv, h, w = max(widths, key=lambda x: x[2] or 0.0)
+        return head + f"yes (widest {_num(w, 3)}, {lv} {h} deg)."
+    parts = [f"{lv} {h} deg {_num(w, 3)}" for lv, h, w in over]
+    missing = [lv for lv, bins in board.deployable_widths().items() if not bins]
+    parts += [f"{lv} without held-out figures" for lv in missing]
+    if board.failed_cells:
+        parts.append(f"{len(board.failed_cells)} cells did not finish")
+    return head + ("no (" + "; ".join(parts) + ")." if parts else "no.")
+
+
 def readme_block(board: Leaderboard, figure: str) -> str:
     """The README's benchmark block: the recall-against-heading figure and statements read off ``board``.
 
@@ -301,7 +369,9 @@ def readme_block(board: Leaderboard, figure: str) -> str:
             f"{tied} (ranked only where 95 % intervals separate)."
         )
     lines += [
-        f"- Every interval half-width at most {board.half_width_bound:g}: {'yes' if board.bound_met else 'no'}.",
+        deployable_bound_readme_line(board),
+        f"- Every pooled Wilson half-width of the per-bin operating points at most {board.half_width_bound:g}: "
+        f"{'yes' if board.bound_met else 'no'}.",
         "",
         README_END,
     ]

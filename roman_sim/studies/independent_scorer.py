@@ -791,6 +791,41 @@ def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -
     return out
 
 
+def benchmark_deployable_widths(held: Mapping[str, JSONValue]) -> dict[str, dict[str, float | None]]:
+    """Per level, per heading bin (not ``all``) the widest world-bootstrap half-width of held-out recall over
+    methods, from ``benchmark_held_out``'s figures (None where no method has relevant pairs in the bin)."""
+    out: dict[str, dict[str, float | None]] = {}
+    for key, fig in held.items():
+        level = key.split("|", 1)[0]
+        if not isinstance(fig, dict) or not isinstance(fig["intervals"], dict):
+            raise StorageError(f"held-out figures of {key}: not a mapping")
+        bins = out.setdefault(level, {})
+        for lab, iv in fig["intervals"].items():
+            if lab == "all" or not isinstance(iv, dict):
+                continue
+            ci = iv["recall_worlds"]
+            half = (float(ci[1]) - float(ci[0])) / 2 if isinstance(ci, list) else None  # type: ignore[arg-type]
+            prev = bins.get(lab)
+            bins[lab] = half if prev is None else (prev if half is None else max(prev, half))
+    return out
+
+
+def benchmark_deployable_bound_met(
+    folder: str | Path, widths: Mapping[str, Mapping[str, float | None]], bound: float = 0.1
+) -> bool:
+    """Whether every cell of ``benchmark.json`` finished, every level has held-out figures in every heading
+    bin and each bin's widest world-bootstrap half-width (``benchmark_deployable_widths``) is at most ``bound``."""
+    rec = json.loads((Path(folder) / "benchmark.json").read_text(encoding="utf-8"))
+    n_bins = len(rec["heading_edges_deg"]) - 1
+    if any(c["status"] != "ok" for c in rec["cells"]):
+        return False
+    levels = [lv["name"] for lv in rec["levels"]]
+    return all(
+        len(widths.get(lv, {})) == n_bins and all(w is not None and w <= bound for w in widths[lv].values())
+        for lv in levels
+    )
+
+
 # -- the attribution study ------------------------------------------------------------------------
 def newcombe_interval(k1: int, n1: int, k2: int, n2: int, level: float) -> list[float] | None:
     """Newcombe's hybrid-score interval of k1/n1 - k2/n2 from the two Wilson intervals; None without pairs."""

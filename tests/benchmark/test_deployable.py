@@ -92,3 +92,66 @@ def test_a_target_precision_outside_the_unit_interval_fails_in_one_line(tmp_path
         ]
     res = CliRunner().invoke(app, ["benchmark", "quick", "--report-only", "--out", str(tmp_path)])
     assert res.exit_code == 1 and res.output.strip().startswith("--report-only: no benchmark.json in")
+
+
+def _board(dep, edges=EDGES, failed=None) -> Leaderboard:
+    """A one-level board holding the deployable point ``dep``, its bound computed as the leaderboard does."""
+    from roman_sim.benchmark.board import deployable_bound_met
+
+    level = BoardLevel("one", 0.0, [], None, overall=BoardCell("all", 0, 0, {}, {}, None), deployable=dep)
+    board = Leaderboard("t", "", ["good", "leaky"], [], list(edges), 0.1, failed or {}, [level], target_precision=0.9)
+    return replace(board, deployable_bound_met=deployable_bound_met(board))
+
+
+def test_the_deployable_bound_fails_where_worlds_disagree_and_holds_where_they_agree(make_score) -> None:
+    from roman_sim.report.leaderboard import deployable_bound_readme_line
+
+    # leaky: recall 0 in w0 (nothing accepted) and 1 in w1, in both bins: half-width 0.5, over the bound
+    wide = _board(deployable(_level(make_score), ["good", "leaky"], EDGES, K, 0.9))
+    assert wide.deployable_widths() == {"one": {"0-90": 0.5, "90-180": 0.5}}
+    assert not wide.deployable_bound_met
+    assert wide.deployable_over() == [("one", "0-90", 0.5), ("one", "90-180", 0.5)]
+    md = "\n".join(_deployable_section(wide))
+    assert "at most 0.1: **not met**." in md and "| one | 0.500 (leaky) **over** | 0.500 (leaky) **over** |" in md
+    assert deployable_readme_line_ok(
+        deployable_bound_readme_line(wide), "no (one 0-90 deg 0.500; one 90-180 deg 0.500)."
+    )
+    # good alone: recall 1 in every world, half-width 0 in both bins: the bound holds
+    good = [s for s in _level(make_score) if s.method == "good"]
+    narrow = _board(deployable(good, ["good"], EDGES, K, 0.9))
+    assert narrow.deployable_widths() == {"one": {"0-90": 0.0, "90-180": 0.0}}
+    assert narrow.deployable_bound_met and not narrow.deployable_over()
+    assert "at most 0.1: met." in "\n".join(_deployable_section(narrow))
+    assert deployable_readme_line_ok(deployable_bound_readme_line(narrow), "yes (widest 0.000, one 0-90 deg).")
+    # a failed cell, or a bin without any relevant pair, is not met either
+    assert not _board(narrow.levels[0].deployable, failed={"one-s2": "boom"}).deployable_bound_met
+    sparse = _board(deployable(good, ["good"], [0.0, 90.0, 100.0, 180.0], K, 0.9), edges=[0.0, 90.0, 100.0, 180.0])
+    assert sparse.deployable_widths()["one"]["90-100"] is None and not sparse.deployable_bound_met
+
+
+def deployable_readme_line_ok(line: str, verdict: str) -> bool:
+    return line.startswith("- Deployable world-bootstrap half-width of held-out recall at most 0.1") and line.endswith(
+        verdict
+    )
+
+
+def test_a_single_world_level_reports_the_bound_not_met_without_crashing(make_score) -> None:
+    from roman_sim.report.leaderboard import deployable_bound_readme_line
+
+    one = [s for s in _level(make_score) if s.truth.a.startswith("w0:")]
+    board = _board(deployable(one, ["good", "leaky"], EDGES, K, 0.9))
+    assert board.deployable_widths() == {"one": {}} and not board.deployable_bound_met
+    assert "| one | no held-out figures (1 world) | no held-out figures (1 world) |" in "\n".join(
+        _deployable_section(board)
+    )
+    assert deployable_bound_readme_line(board).endswith("no (one without held-out figures).")
+
+
+def test_the_bound_round_trips_through_leaderboard_json(make_score, tmp_path) -> None:
+    from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
+
+    for scores, methods in ((_level(make_score), ["good", "leaky"]), (_level(make_score), ["good"])):
+        board = _board(deployable(scores, methods, EDGES, K, 0.9))
+        write_leaderboard_json(tmp_path / "leaderboard.json", board)
+        back = read_leaderboard(tmp_path / "leaderboard.json")
+        assert back == board and back.deployable_bound_met == (methods == ["good"])
