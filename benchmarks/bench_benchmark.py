@@ -1,4 +1,4 @@
-"""Cost of ``roman-sim benchmark``: the quick suite end to end, and a part of the standard suite.
+"""Cost of ``roman-sim benchmark``: the quick suite end to end, and a finished run of the standard suite.
 
 Parts (each merges its figures into ``benchmarks/out/benchmark.json``; run with ``nice -n 10``):
 
@@ -6,24 +6,19 @@ Parts (each merges its figures into ``benchmarks/out/benchmark.json``; run with 
   times. WORKERS 1 (default) runs it in this process, so the CPU time is complete; with more
   the local pool's workers are children of its fork server, whose CPU time ``getrusage``
   does not see until it exits, so only the wall time is meaningful then.
-* ``plan``: the standard suite planned (no rendering): per cell its relevant pairs per
-  heading bin, pairs and kilometres of trajectory, and the CPU time of planning.
-* ``part [ROBOTS]``: one standard cell (level low, seed 0) with only ROBOTS robots (default
-  6), every standard method, serially in this process: CPU time of the whole run, then of
-  the evaluation again with the maps reused (``from_stage="evaluation"``), which separates
-  mapping (m, CPU s per km) from alignment (a, CPU s per pair, report stage included).
-* ``standard FOLDER WALL_S``: a finished ``roman-sim benchmark standard --out FOLDER`` run:
-  its wall time WALL_S (measured outside, e.g. summed over resumed segments), its cells and
-  their stage times, relevant pairs and whether every cell met the interval bound.
-* ``estimate``: the standard suite's cost from ``plan`` and ``part``: CPU time
-  ``sum(km * m + pairs * a)`` over the planned cells, its wall time on 2 free cores (CPU / 2),
-  and on N Dask workers with the paper-scale cost model ``T(N) = km * m / min(N, robots) +
-  pairs * a / N`` per cell.
+* ``standard FOLDER WALL_S CPU_S PLANNING_CPU_S LOAD_LO,LOAD_HI LEVEL:CPU_S,...``: a finished
+  ``roman-sim benchmark standard --out FOLDER`` run (its ``work/`` folder still there): its
+  wall time, the CPU time of the job's processes, of its planning and of each level's cells
+  (measured outside, e.g. by sampling ``ps``), the range of the load average during it; per cell its
+  robots, kilometres, pairs, stage times, serial stages and alignment CPU; the Dask cost
+  model's constants (``cost_constants``: s, m, a) and the model summed over the cells
+  (``T(cell, N) = s + km * m / min(N, robots) + pairs * a / N``); whether the leaderboard's
+  bounds were met.
 
 CPU time counts every thread of this process and of its finished workers
 (``resource.getrusage``); wall times on a machine others load are upper bounds, so the
 load average is recorded before and after each part.
-Run: ``python benchmarks/bench_benchmark.py quick`` (then ``plan``, ``part``, ``estimate``).
+Run: ``python benchmarks/bench_benchmark.py quick`` (or ``quick 2``, ``standard ...``).
 """
 
 from __future__ import annotations
@@ -96,110 +91,76 @@ def quick(workers: int = 1) -> None:
     shutil.rmtree(folder, ignore_errors=True)
 
 
-def plan() -> None:
-    from roman_sim.benchmark.run import BenchmarkJob
-    from roman_sim.benchmark.suites import load_suite
-    from roman_sim.runner.executors import ExecutorConfig
-
-    folder = Path(tempfile.mkdtemp(prefix="bench-plan-"))
-    load0, c0 = _load(), _cpu()
-    cells, plans = BenchmarkJob(load_suite("standard"), folder, executor=ExecutorConfig(kind="serial")).plan_only()
-    cpu = _cpu() - c0
-    rows = {}
-    for c in cells:
-        p = plans[c.id]
-        data = json.loads((folder / "cells" / c.id / "scenario.json").read_text(encoding="utf-8"))
-        rows[c.id] = {
-            "relevant": p.relevant,
-            "pairs": p.pairs,
-            "submaps": p.submaps,
-            "robots": len(data["robots"]),
-            "km": p.km,
-        }
-    _merge(
-        "standard_plan", {"cells": rows, "planning_cpu_s": round(cpu, 1), "load_before": load0, "load_after": _load()}
-    )
-    shutil.rmtree(folder, ignore_errors=True)
+#: Stages a benchmark cell runs serially in the job's own process (the rest spreads over the workers).
+SERIAL_STAGES = ("world", "submaps", "posegraph", "report")
 
 
-def part(robots: int) -> None:
-    from roman_sim.benchmark.scenes import build_crossing
-    from roman_sim.benchmark.suites import load_suite
-    from roman_sim.pipeline.experiment import Experiment
+def cost_constants(cells: dict[str, Any], cpu_s: float, planning_cpu_s: float) -> dict[str, float]:
+    """The Dask cost model's constants from a run's cells (``standard`` below) and its measured CPU time.
 
-    suite = load_suite("standard")
-    scene = suite.scene_at("low", suite.methods, []).model_copy(update={"robots": robots})
-    folder = Path(tempfile.mkdtemp(prefix="bench-part-"))
-    load0, c0 = _load(), _cpu()
-    sc = build_crossing(scene, 0, "standard-part").scenario
-    c1 = _cpu()
-    res = Experiment(sc, folder).run()
-    c2 = _cpu()
-    Experiment(sc, folder, from_stage="evaluation").run()
-    c3 = _cpu()
-    km, pairs = res.map_stats.trajectory_km, res.metrics.n_pairs
-    full, evaluation = c2 - c1, c3 - c2
-    _merge(
-        "standard_part",
-        {
-            "robots": robots,
-            "km": km,
-            "pairs": pairs,
-            "methods": suite.methods,
-            "planning_cpu_s": round(c1 - c0, 1),
-            "run_cpu_s": round(full, 1),
-            "evaluation_again_cpu_s": round(evaluation, 1),
-            "m_cpu_s_per_km": round((full - evaluation) / km, 1),
-            "a_cpu_s_per_pair": round(evaluation / pairs, 4),
-            "stages_wall_s": {k: v.get("seconds") for k, v in res.timings.items()},
-            "load_before": load0,
-            "load_after": _load(),
-        },
-    )
-    shutil.rmtree(folder, ignore_errors=True)
+    s: mean wall time of a cell's serial stages; a: alignment CPU (every method's timed pairs) per pair
+    scored; m: the rest of the cells' CPU (mapping, with the evaluation's scoring and bookkeeping) per km.
+    """
+    serial = sum(c["serial_s"] for c in cells.values())
+    align = sum(c["align_cpu_s"] for c in cells.values())
+    pairs = sum(c["pairs"] for c in cells.values())
+    km = sum(c["km"] for c in cells.values())
+    return {
+        "s": round(serial / len(cells), 1),
+        "a": round(align / pairs, 4),
+        "m": round((cpu_s - planning_cpu_s - serial - align) / km, 1),
+    }
 
 
-def standard(folder: Path, wall_s: float) -> None:
+def model_s(c: dict[str, Any], k: dict[str, float], n: int) -> float:
+    """T(cell, N) = s + km * m / min(N, robots) + pairs * a / N (seconds)."""
+    return k["s"] + c["km"] * k["m"] / min(n, c["robots"]) + c["pairs"] * k["a"] / n
+
+
+def standard(
+    folder: Path, wall_s: float, cpu_s: float, planning_cpu_s: float, load: list[float], level_cpu: dict[str, float]
+) -> None:
+    """A finished standard run: wall and CPU time (measured outside; per level too, its cells run one after the
+    other), per cell its size, stage times and alignment CPU, the cost model's constants, the leaderboard's bounds."""
     board = json.loads((folder / "leaderboard.json").read_text(encoding="utf-8"))
+    plan = json.loads((folder / "plan.json").read_text(encoding="utf-8"))["cells"]
     stages = _stages(folder)
+    cells = {}
+    for cid, st in stages.items():
+        scenario = json.loads((folder / "cells" / cid / "scenario.json").read_text(encoding="utf-8"))
+        runtimes = json.loads((folder / "cells" / cid / "runtimes.json").read_text(encoding="utf-8"))
+        cells[cid] = {
+            "robots": len(scenario["robots"]),
+            "km": plan[cid]["km"],
+            "pairs": plan[cid]["pairs"],
+            "serial_s": round(sum(st.get(k) or 0.0 for k in SERIAL_STAGES), 2),
+            "align_cpu_s": round(sum((r["mean"] or 0.0) * r["n"] for r in runtimes.values()), 2),
+        }
+    k = cost_constants(cells, cpu_s, planning_cpu_s)
     _merge(
         "standard",
         {
             "wall_s": round(wall_s),
             "wall_min": round(wall_s / 60, 1),
-            "cells": len(stages),
+            "cpu_s": round(cpu_s),
+            "planning_cpu_s": round(planning_cpu_s),
+            "level_cpu_s": {k: round(v) for k, v in level_cpu.items()},
+            "load": load,
+            "cells": cells,
             "stages_s": stages,
             "stages_total_s": round(sum(v or 0.0 for st in stages.values() for v in st.values())),
             "relevant": {e["name"]: [b["n_relevant"] for b in e["bins"]] for e in board["levels"]},
             "bound_met": board["bound_met"],
-            "load_after": _load(),
-            "note": "2 workers (local pool) on a 2-core machine that also ran other jobs at times: an upper "
-            "bound; stages_total_s sums the cells' stage wall times (planning not included)",
-        },
-    )
-
-
-def estimate() -> None:
-    data = json.loads(OUT.read_text(encoding="utf-8"))
-    p, cells = data["standard_part"], data["standard_plan"]["cells"]
-    m, a = p["m_cpu_s_per_km"], p["a_cpu_s_per_pair"]
-    plan_cpu = data["standard_plan"]["planning_cpu_s"]
-    cpu = plan_cpu + sum(c["km"] * m + c["pairs"] * a for c in cells.values())
-
-    def dask(n: int) -> float:
-        return plan_cpu / n + sum(c["km"] * m / min(n, c["robots"]) + c["pairs"] * a / n for c in cells.values())
-
-    _merge(
-        "standard_estimate",
-        {
-            "cells": len(cells),
-            "km": round(sum(c["km"] for c in cells.values()), 2),
-            "pairs": sum(c["pairs"] for c in cells.values()),
-            "cpu_s": round(cpu),
-            "wall_2_free_cores_min": round(cpu / 2 / 60, 1),
-            "dask_min": {str(n): round(dask(n) / 60, 1) for n in (2, 10, 100)},
-            "model": "T(N) = sum over cells of km * m / min(N, robots) + pairs * a / N (+ planning / N); m, a from "
-            "standard_part",
+            "deployable_bound_met": board["deployable_bound_met"],
+            "constants": k,
+            "model_min": {
+                str(n): round((planning_cpu_s / n + sum(model_s(c, k, n) for c in cells.values())) / 60, 1)
+                for n in (2, 10, 100)
+            },
+            "note": "2 workers (local pool) on a 2-core machine shared with other jobs (load: the 1-minute load "
+            "average's range during the run): wall times are upper bounds; cpu_s sums the CPU time of the job's "
+            "processes (sampled every 10 s); stages_total_s sums the cells' stage wall times (planning not "
+            "included); model_min is the cost model summed over the cells, planning spread over N",
         },
     )
 
@@ -208,14 +169,10 @@ if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "quick"
     if what == "quick":
         quick(int(sys.argv[2]) if len(sys.argv) > 2 else 1)
-    elif what == "plan":
-        plan()
-    elif what == "part":
-        part(int(sys.argv[2]) if len(sys.argv) > 2 else 6)
     elif what == "standard":
-        standard(Path(sys.argv[2]), float(sys.argv[3]))
-    elif what == "estimate":
-        estimate()
+        lo, hi = (float(x) for x in sys.argv[6].split(","))
+        levels = {k: float(v) for k, v in (x.split(":") for x in sys.argv[7].split(","))}
+        standard(Path(sys.argv[2]), float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]), [lo, hi], levels)
     else:
-        raise SystemExit(f"unknown part {what!r} (quick, plan, part, standard, estimate)")
+        raise SystemExit(f"unknown part {what!r} (quick, standard)")
     print(json.dumps(json.loads(OUT.read_text(encoding="utf-8")), indent=2)[:3000])
