@@ -86,7 +86,7 @@ def _board_table(board: Leaderboard) -> Table:
 @X.executor_options
 def benchmark_cmd(
     suite: str = typer.Argument(
-        "quick", help="suite: quick (the default, minutes), standard (about 36 min), or a YAML"
+        "quick", help="suite: quick (the default, minutes), standard (about 41 min), or a YAML"
     ),
     methods: list[str] | None = typer.Option(
         None, "--methods", "-m", help="methods to score (comma-separated or repeated; package.module:Class plug-ins)"

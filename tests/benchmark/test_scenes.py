@@ -65,7 +65,8 @@ def test_bad_scenes_and_overrides_name_the_field():
 def test_suites_by_name_or_file_and_their_errors(tmp_path):
     assert set(SUITES.names()) == {"quick", "standard"}
     std = load_suite("standard")
-    assert std.heading_edges() == [0, 30, 60, 90, 120, 150, 180] and std.min_relevant_per_bin == 100
+    assert std.heading_edges() == [0, 60, 120, 180] and std.min_relevant_per_bin == 100
+    assert [std.worlds_needed(lv) for lv in std.levels] == [30, 8, 8] and std.max_seeds == 40
     assert list(std.levels) == ["low", "medium", "high"]
     with pytest.raises(ConfigError, match=r"unknown benchmark suite 'huge' \(valid: quick, standard, or a suite"):
         load_suite("huge")
