@@ -220,11 +220,12 @@ def test_the_stated_cost_follows_from_the_runs_timings():
 
 
 def test_the_mechanisms_cited_for_the_miss_are_the_attribution_studys():
-    """Partial views dominant for ROMAN, descriptor view dependence negligible, all-on drop not separated from 0."""
+    """Partial views dominant for ROMAN, descriptor view dependence negligible, all-on drop separated from 0."""
     page = " ".join((ROOT / "docs" / "results.md").read_text(encoding="utf-8").split())
     assert (
-        "finds partial views the dominant mechanism of ROMAN's drop and the descriptor's view dependence "
-        "negligible, with an all-on drop whose interval includes 0" in page
+        "on shrunk scenarios in four worlds, finds partial views the dominant mechanism of ROMAN's drop and "
+        "the descriptor's view dependence negligible, with an all-on drop whose world-bootstrap interval "
+        "excludes 0" in page
     )
     rows = {(r["mechanism"], r["method"]): r for r in S.attribution_rows(ROOT / "results" / "attribution")}
     assert rows[("partial_views", "roman")]["explained"] >= 0.5
@@ -233,8 +234,9 @@ def test_the_mechanisms_cited_for_the_miss_are_the_attribution_studys():
         max(r["explained"] for (mech, m), r in rows.items() if m == "roman" and mech != "none")
         == (rows[("partial_views", "roman")]["explained"])
     )
-    lo, hi, _ = drop_interval(rows[("none", "roman")]) or (1.0, 1.0, "")  # the interval the verdict uses
-    assert lo <= 0 <= hi
+    assert {r["worlds"] for r in rows.values()} == {4}
+    lo, _, kind = drop_interval(rows[("none", "roman")]) or (0.0, 0.0, "")  # the interval the verdict uses
+    assert kind == "world-bootstrap" and lo > 0
 
 
 def test_the_scorer_and_the_study_agree_where_the_admitted_settings_disagree(tmp_path):
