@@ -12,20 +12,14 @@ def _ci(v: list[float]) -> str:
     return f"[{v[0]:.2f}, {v[1]:.2f}]"
 
 
-def test_tune_figures_in_the_docs():
-    d = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
-    text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
-    assert d["suite"] == "quick" and d["method"] == "roman" and d["workers"] == 1  # one process: all CPU counted
-    assert not any(d["maps_reused"].values()) and len(d["worlds"]) == 3  # every world mapped fresh
-    lb, la = d["load_before"], d["load_after"]
-    assert (
-        f"in one process: {d['cpu_s']:.0f} s of CPU time, so about {d['cpu_s'] / 2:.0f} s on 2 free cores if both "
-        f"were kept busy ({d['cpu_s']:.0f} s on one). The wall time, {d['wall_s']:.0f} s, was taken on a 2-core "
-        f"machine shared with other jobs (load average {min(lb):.1f}-{max(lb):.1f} before, "
-        f"{min(la):.1f}-{max(la):.1f} after)" in text
-    )
-    assert d["cpu_over_2_cores_s"] == round(d["cpu_s"] / 2, 1)
-    rec, h, c = d["recommended"], d["held_out"], d["check_on_unseen_worlds"]
+def _loads(d: dict) -> tuple[str, str]:
+    """The load averages before and after, as the docs state them (lowest-highest)."""
+    b, a = d["load_before"], d["load_after"]
+    return f"{min(b):.1f}-{max(b):.1f}", f"{min(a):.1f}-{max(a):.1f}"
+
+
+def _recommended(rec: dict, h: dict, text: str) -> None:
+    """The docs state the recommended setting and its calibration recall as hits over relevant pairs."""
     ((name, value),) = rec["values"].items()
     cal_hits = round(rec["calibration_recall"] * h["n_relevant"])
     assert abs(cal_hits / h["n_relevant"] - rec["calibration_recall"]) < 1e-9
@@ -33,6 +27,22 @@ def test_tune_figures_in_the_docs():
         f"Recommended: `{name}` {value:g}, threshold {rec['threshold']}, at a calibration recall of "
         f"{rec['calibration_recall']:.2f} ({cal_hits} / {h['n_relevant']})" in text
     )
+
+
+def test_tune_figures_in_the_docs():
+    d = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    assert d["suite"] == "quick" and d["method"] == "roman" and d["workers"] == 1  # one process: all CPU counted
+    assert not any(d["maps_reused"].values()) and len(d["worlds"]) == 3  # every world mapped fresh
+    before, after = _loads(d)
+    assert (
+        f"in one process: {d['cpu_s']:.0f} s of CPU time, so about {d['cpu_s'] / 2:.0f} s on 2 free cores if both "
+        f"were kept busy ({d['cpu_s']:.0f} s on one). The wall time, {d['wall_s']:.0f} s, was taken on a 2-core "
+        f"machine shared with other jobs (load average {before} before, {after} after)" in text
+    )
+    assert d["cpu_over_2_cores_s"] == round(d["cpu_s"] / 2, 1)
+    rec, h, c = d["recommended"], d["held_out"], d["check_on_unseen_worlds"]
+    _recommended(rec, h, text)
     assert (
         f"{h['hits']} hits and {h['false_positives']} false positive, precision {h['precision']:.2f} with a 95 % "
         f"world interval {_ci(h['precision_worlds'])} and, for one new world, {_ci(h['precision_new_world'])}" in text
@@ -52,3 +62,65 @@ def test_tune_figures_in_the_docs():
     assert c["seeds_inside_pooled_interval"][0] == 0
     assert d["reaches_target"] is True and d["within_stated_interval"] is False
     assert "The target is reached, but not within the stated interval" in text
+
+
+def _frac(v: dict) -> str:
+    """``0.94 (34 / 36)`` of a record with hits, false positives and precision."""
+    return f"{v['precision']:.2f} ({v['hits']} / {v['hits'] + v['false_positives']})"
+
+
+def test_level_tune_figures_in_the_docs():
+    whole = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    d = whole["level_tunes"]["low"]
+    text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    assert d["level"] == "low" and d["seeds"] == [0, 1, 2, 3] and d["workers"] == 1  # one process: all CPU counted
+    assert d["worlds"] == [f"low-s{s}" for s in d["seeds"]] and not any(d["maps_reused"].values())
+    assert (
+        "`python benchmarks/bench_tune.py FOLDER --level low --seeds 0:4 --check-seeds 4,5,6 --check-cache DIR`" in text
+    )
+    before, after = _loads(d)
+    assert (
+        f"Tuned on the low level's four worlds of seeds 0-3 ({d['alignments']} alignments each, every world mapped "
+        f"fresh, in one process): {d['cpu_s']:.0f} s of CPU time, so about {d['cpu_s'] / 2:.0f} s on 2 free cores "
+        f"({d['cpu_s']:.0f} s on one; wall time {d['wall_s']:.0f} s on the shared machine, load average "
+        f"{before} before, {after} after)" in text
+    )
+    assert d["cpu_s"] / 2 <= 300  # "within 5 minutes on 2 cores"
+    assert "The cost is within 5 minutes on 2 cores" in text
+    rec, h, c = d["recommended"], d["held_out"], d["check_on_unseen_worlds"]
+    _recommended(rec, h, text)
+    per_world = [_frac(h["per_world"][w]) for w in d["worlds"]]
+    assert (
+        f"Held-out (each world at the setting chosen on the other three): {h['hits']} hits and "
+        f"{h['false_positives']} false positives, precision {h['precision']:.2f} with a 95 % world interval "
+        f"{_ci(h['precision_worlds'])}; per world {', '.join(per_world[:-1])} and {per_world[-1]}; for one new "
+        f"world {_ci(h['precision_new_world'])}" in text
+    )
+    unseen = [f"low-s{s}" for s in c["seeds"]]
+    assert c["seeds"] == [4, 5, 6] and sorted(c["per_world"]) == unseen
+    each = [_frac(c["per_world"][w]) for w in unseen]
+    assert (
+        f"On the three low worlds of seeds 4-6 the tune never saw, that setting reached precision "
+        f"{', '.join(each[:-1])} and {each[-1]}: pooled {c['precision']:.2f} ({c['hits']} / "
+        f"{c['hits'] + c['false_positives']}, Wilson {_ci(c['precision_wilson'])}) at recall {c['recall']:.2f} "
+        f"({c['hits']} / {c['n_relevant']})" in text
+    )
+    reach, n = c["worlds_reaching_target"]
+    inside, m = c["worlds_inside_new_world_interval"]
+    assert (reach, n, inside, m) == (1, 3, 2, 3)
+    (out,) = [w for w in unseen if not c["per_world"][w]["inside_new_world_interval"]]
+    assert c["per_world"][out]["precision"] < h["precision_new_world"][0]  # below it, not above
+    assert (
+        f"One of the three worlds reaches the target; two of the three lie in the one-new-world interval, the "
+        f"third ({c['per_world'][out]['precision']:.2f}) below it" in text
+    )
+    assert c["precision"] < h["precision_worlds"][0] and c["precision"] < 0.9 - 0.05
+    assert "the pooled precision lies below the pooled held-out interval and more than 0.05 short of the target" in text
+    assert d["reaches_target"] is False and d["within_stated_interval"] is False
+    assert d["within_slack_of_target"] is False
+    assert "the transfer is not met" in text
+    lo = min(v["precision"] for v in h["per_world"].values())
+    hi = max(v["precision"] for v in h["per_world"].values())
+    new_lo = min(v["precision"] for v in c["per_world"].values())
+    new_hi = max(v["precision"] for v in c["per_world"].values())
+    assert f"the four held-out worlds gave {lo:.2f}-{hi:.2f}, the three new ones {new_lo:.2f}-{new_hi:.2f}" in text
