@@ -28,7 +28,9 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 OUT = Path(__file__).resolve().parent / "out" / "frontend_cost.json"
 OFF = [
@@ -61,6 +63,31 @@ def run_demo(overrides: list[str], tree: Path = ROOT) -> dict[str, float]:
         return {"cpu_s": round(_children_cpu() - cpu0, 2), "wall_s": round(time.perf_counter() - t0, 2)}
 
 
+Runs = dict[str, list[dict[str, float]]]
+
+
+def alternate(
+    first: Callable[[], dict[str, float]], second: Callable[[], dict[str, float]], names: tuple[str, str], repeats: int
+) -> tuple[Runs, dict[str, float]]:
+    """``repeats`` runs of each, alternating so both see the same load; the runs and their median CPU per name."""
+    runs: Runs = {names[0]: [], names[1]: []}
+    for _ in range(repeats):
+        runs[names[0]].append(first())
+        runs[names[1]].append(second())
+    return runs, {k: statistics.median(r["cpu_s"] for r in v) for k, v in runs.items()}
+
+
+def save(update: dict[str, Any]) -> None:
+    """Merge ``update`` into the benchmark's file (its other figures kept), written atomically."""
+    out = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
+    out.update(update)
+    OUT.parent.mkdir(parents=True, exist_ok=True)
+    tmp = OUT.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
+    tmp.replace(OUT)
+    print(json.dumps(update, indent=2))
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=2)
@@ -68,47 +95,32 @@ def main() -> None:
     ap.add_argument("--against-note", default="another checkout", help="what that checkout is")
     args = ap.parse_args()
     if args.against is not None:
-        against(args.against.resolve(), args.against_note, args.repeats)
+        tree = args.against.resolve()
+        runs, med = alternate(lambda: run_demo([]), lambda: run_demo([], tree), ("this", "other"), args.repeats)
+        save(
+            {
+                "against": {
+                    "other": args.against_note,
+                    "runs": runs,
+                    "median_cpu_s": med,
+                    "cpu_ratio_this_over_other": round(med["this"] / med["other"], 3),
+                    "load_average_after": [round(x, 2) for x in os.getloadavg()],
+                    "note": "alternating serial runs of the default demo on one machine; CPU of the run's process",
+                }
+            }
+        )
         return
-    runs: dict[str, list[dict[str, float]]] = {"on": [], "off": []}
-    for _ in range(args.repeats):
-        runs["on"].append(run_demo([]))
-        runs["off"].append(run_demo(OFF))
-    med = {k: statistics.median(r["cpu_s"] for r in v) for k, v in runs.items()}
-    out = {
-        "scenario": "demo",
-        "off_overrides": OFF,
-        "runs": runs,
-        "median_cpu_s": med,
-        "cpu_ratio_on_over_off": round(med["on"] / med["off"], 3),
-        "note": "alternating serial runs on one machine; CPU of the run's process",
-    }
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
-    print(json.dumps(out, indent=2))
-
-
-def against(tree: Path, note: str, repeats: int) -> None:
-    """The demo's CPU with this checkout over that at ``tree``, alternating; kept under ``against``."""
-    runs: dict[str, list[dict[str, float]]] = {"this": [], "other": []}
-    for _ in range(repeats):
-        runs["this"].append(run_demo([]))
-        runs["other"].append(run_demo([], tree))
-    med = {k: statistics.median(r["cpu_s"] for r in v) for k, v in runs.items()}
-    out = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
-    out["against"] = {
-        "other": note,
-        "runs": runs,
-        "median_cpu_s": med,
-        "cpu_ratio_this_over_other": round(med["this"] / med["other"], 3),
-        "load_average_after": [round(x, 2) for x in os.getloadavg()],
-        "note": "alternating serial runs of the default demo on one machine; CPU of the run's process",
-    }
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    tmp = OUT.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(out, indent=2) + "\n", encoding="utf-8")
-    tmp.replace(OUT)
-    print(json.dumps(out["against"], indent=2))
+    runs, med = alternate(lambda: run_demo([]), lambda: run_demo(OFF), ("on", "off"), args.repeats)
+    save(
+        {
+            "scenario": "demo",
+            "off_overrides": OFF,
+            "runs": runs,
+            "median_cpu_s": med,
+            "cpu_ratio_on_over_off": round(med["on"] / med["off"], 3),
+            "note": "alternating serial runs on one machine; CPU of the run's process",
+        }
+    )
 
 
 if __name__ == "__main__":

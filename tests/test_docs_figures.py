@@ -142,6 +142,11 @@ def test_demo_wall_time_figures_are_the_benchmark():
     assert len(theirs) == len(ours) == 1 and theirs != ours, (theirs, ours)
 
 
+def _median_cpu(b: dict, *names: str) -> list[float]:
+    """The median CPU seconds of each named group of alternating runs."""
+    return [statistics.median(r["cpu_s"] for r in b["runs"][k]) for k in names]
+
+
 def test_error_model_cost_matches_the_benchmark():
     b = _bench("frontend_cost.json")
     m = re.search(
@@ -150,7 +155,7 @@ def test_error_model_cost_matches_the_benchmark():
         _page("performance.md"),
     )
     assert m, "docs/performance.md states the error model's cost"
-    on, off = (statistics.median(r["cpu_s"] for r in b["runs"][k]) for k in ("on", "off"))
+    on, off = _median_cpu(b, "on", "off")
     assert [float(m[1]), float(m[2])] == [round(on, 1), round(off, 1)]
     assert float(m[3]) == b["cpu_ratio_on_over_off"] == round(on / off, 3)
     offs = sorted(r["cpu_s"] for r in b["runs"]["off"])
@@ -167,7 +172,7 @@ def test_front_end_change_cost_matches_the_benchmark():
         _page("performance.md"),
     )
     assert m, "docs/performance.md states what the front end's change costs"
-    this, other = (statistics.median(r["cpu_s"] for r in b["runs"][k]) for k in ("this", "other"))
+    this, other = _median_cpu(b, "this", "other")
     assert [float(m[1]), float(m[2])] == [round(this, 1), round(other, 1)]
     assert float(m[3]) == b["cpu_ratio_this_over_other"] == round(this / other, 3) <= 1.10
     assert int(m[4]) == len(b["runs"]["this"]) == len(b["runs"]["other"])
