@@ -26,9 +26,18 @@
    of ``--check-seeds`` (default 4, 5, 6), none of which the tune saw. The figures go into the
    file's ``level_tunes`` under the level; the figures of the all-level tune are kept as they are.
 
+4. ``--rule lower`` (with ``--level``): the tune recommends by the lower end of each setting's
+   one-new-world precision interval (``roman-sim tune --rule lower``). The point rule's setting is
+   scored from the same alignments (``tune_point/``: the work folder copied, nothing re-aligned)
+   and checked on the same unseen worlds, so the two rules are compared like with like. The
+   figures go into the file's ``rule_tunes`` under ``<level>-<rule>``; the other keys are kept.
+   ``--reuse DIR``: the FOLDER of a finished run of this script on the same level and seeds; its
+   ``tune/work/`` and ``cache/`` are copied in first (its alignments read back, not re-run; the
+   cost figures then time the reading back only).
+
 Run: ``python benchmarks/bench_tune.py [FOLDER] [--cache DIR] [--check-cache DIR] [--workers N]
-[--level NAME [--seeds LO:HI] [--check-seeds A,B,C]]`` (default: a temporary folder, removed
-after; one worker).
+[--level NAME [--seeds LO:HI] [--check-seeds A,B,C] [--rule lower [--reuse DIR]]]`` (default: a
+temporary folder, removed after; one worker).
 """
 
 from __future__ import annotations
@@ -180,6 +189,31 @@ def _maps_reused(folder: Path) -> dict[str, bool]:
     return out
 
 
+def _point_rule(
+    root: Path, job: Any, seeds: list[int] | None, check_seeds: list[int], args: Any, ex: Any
+) -> dict[str, Any]:
+    """The point rule on the same alignments (work folder copied: nothing re-aligned), its recommended setting
+    checked on the same unseen worlds."""
+    from roman_sim.benchmark.tune import TuneJob
+
+    folder = root / "tune_point"
+    if not (folder / "work").exists():
+        shutil.copytree(root / "tune" / "work", folder / "work")
+    pj = TuneJob("quick", "roman", folder, [], 0.9, seeds=seeds, executor=ex, level=args.level)
+    res = pj.run()
+    rec, h = res.recommended, res.held_out
+    check = _check(root / "check_point", rec, h, 0.9, ex, args.level, check_seeds) if rec is not None else None
+    return {
+        "recommended": None if rec is None else to_json(rec),
+        "held_out": {
+            k: to_json(getattr(h, k))
+            for k in ("hits", "false_positives", "n_relevant", "precision", "precision_worlds", "per_world")
+        }
+        | {"precision_new_world": to_json(h.precision_new_world), "chosen": to_json(h.chosen)},
+        "check_on_unseen_worlds": check,
+    }
+
+
 def main() -> None:
     logging.basicConfig(level=logging.WARNING)
     from roman_sim.benchmark.tune import TuneJob
@@ -193,7 +227,11 @@ def main() -> None:
     ap.add_argument("--level", default=None, help="tune on this level of quick only (see the docstring)")
     ap.add_argument("--seeds", default="0:4", help="with --level: the tune's seeds, LO:HI or A,B,C")
     ap.add_argument("--check-seeds", default="4,5,6", help="with --level: the unseen worlds' seeds")
+    ap.add_argument("--rule", default="point", choices=["point", "lower"], help="with --level: the rule")
+    ap.add_argument("--reuse", type=Path, default=None, help="with --rule lower: a finished FOLDER to copy")
     args = ap.parse_args()
+    if args.rule != "point" and not args.level:
+        ap.error("--rule: takes --level (the rule comparison is per level)")
     from roman_sim.cli.tune import _seeds
 
     tune_seeds = _seeds(args.seeds) if args.level else None
@@ -202,11 +240,17 @@ def main() -> None:
         ap.error("--check-seeds: the unseen worlds must not be tuned on (they share seeds with --seeds)")
     keep = args.folder is not None
     root = args.folder if keep else Path(tempfile.mkdtemp(prefix="bench_tune_"))
+    if args.reuse is not None:
+        for sub in ("tune/work", "cache"):
+            if (args.reuse / sub).is_dir() and not (root / sub).exists():
+                shutil.copytree(args.reuse / sub, root / sub)
     os.environ["ROMAN_SIM_CACHE"] = str(args.cache or root / "cache")  # default fresh: nothing mapped before
     ex = ExecutorConfig(kind="local", workers=args.workers) if args.workers > 1 else None
     load0, cpu0, t0 = _load(), _cpu(), time.perf_counter()
     with TreeCpu() as tree:
-        job = TuneJob("quick", "roman", root / "tune", [], 0.9, seeds=tune_seeds, executor=ex, level=args.level)
+        job = TuneJob(
+            "quick", "roman", root / "tune", [], 0.9, seeds=tune_seeds, executor=ex, level=args.level, rule=args.rule
+        )
         result = job.run()
     wall, cpu = time.perf_counter() - t0, _cpu() - cpu0 + tree.total()
     load1 = _load()
@@ -252,13 +296,24 @@ def main() -> None:
         if check is None
         else check["worlds_inside_new_world_interval"][0] == check["worlds_inside_new_world_interval"][1],
     }
-    if args.level:
+    key = None
+    if args.rule != "point":
+        figures = {"level": args.level, "seeds": tune_seeds, "rule": args.rule, **figures}
+        figures["held_out"]["chosen"] = to_json(h.chosen)
+        figures["point_rule"] = _point_rule(root, job, tune_seeds, check_seeds, args, ex)
+        key = f"{args.level}-{args.rule}"
+        kept = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
+        figures = {**kept, "rule_tunes": {**kept.get("rule_tunes", {}), key: figures}}
+    elif args.level:
         figures = {"level": args.level, "seeds": tune_seeds, **figures}
         kept = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
         figures = {**kept, "level_tunes": {**kept.get("level_tunes", {}), args.level: figures}}
     OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n", encoding="utf-8")
-    print(json.dumps(figures["level_tunes"][args.level] if args.level else figures, indent=2, sort_keys=True))
+    tmp = OUT.with_suffix(".json.tmp")
+    tmp.write_text(json.dumps(figures, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    tmp.replace(OUT)
+    shown = figures["rule_tunes"][key] if key else figures["level_tunes"][args.level] if args.level else figures
+    print(json.dumps(shown, indent=2, sort_keys=True))
     if not keep:
         shutil.rmtree(root, ignore_errors=True)
 

@@ -60,6 +60,7 @@ from roman_sim.evaluation.tuning import (
     ConfigOutcomes,
     Evidence,
     Figures,
+    check_rule,
     choose_setting,
     config_rows,
     nested_held_out,
@@ -91,12 +92,14 @@ AlignerValues = tuple[tuple[str, int | float], ...]
 
 @dataclass(frozen=True)
 class JobRecord:
-    """``job.json``: what the folder tunes (a folder holds one tune; ``level``: a suite's level, None: all)."""
+    """``job.json``: what the folder tunes (a folder holds one tune; ``level``: a suite's level, None: all;
+    ``rule``: the recommendation rule, None: ``point``)."""
 
     source: str
     method: str
     overrides: list[str]
     level: str | None = field(default=None, metadata=OMIT_NONE)
+    rule: str | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass(frozen=True)
@@ -249,6 +252,7 @@ class TuneJob:
         seeds: the seeds (worlds) of a scenario or suite; a sweep's runs of these seeds.
         overrides: dotted scenario overrides of every world.
         level: a suite's level: its worlds only (None: every level).
+        rule: the recommendation rule (``evaluation.tuning.RULES``).
         executor: where the runs' tasks run (None: this process).
         progress: called after each alignment of a world.
     """
@@ -265,8 +269,10 @@ class TuneJob:
         executor: ExecutorConfig | None = None,
         progress: ProgressFn | None = None,
         level: str | None = None,
+        rule: str = "point",
     ) -> None:
         check_target(target)
+        self.rule = check_rule(rule)
         if seeds is not None and (len(set(seeds)) != len(seeds) or any(s < 0 for s in seeds)):
             raise ConfigError(f"--seeds: distinct non-negative integers, got {seeds}")
         self.source, self.method, self.target = source, method, float(target)
@@ -298,11 +304,13 @@ class TuneJob:
             on = old.source if old.level is None else f"{old.source} level {old.level}"
             raise ConfigError(
                 f"--out {self.out}: holds the tune of {old.method!r} on {on!r} "
-                f"with overrides {old.overrides} (choose another --out)"
+                f"with overrides {old.overrides}, rule {old.rule or 'point'} (choose another --out)"
             )
 
     def _identity(self) -> JobRecord:
-        return JobRecord(self.source, self.method, self.overrides, self.level)
+        return JobRecord(
+            self.source, self.method, self.overrides, self.level, None if self.rule == "point" else self.rule
+        )
 
     # -- worlds and alignments ----------------------------------------------------
     def _scenario(self, w: TuneWorld) -> Scenario:
@@ -407,13 +415,16 @@ class TuneJob:
         configs = {c.id: config_outcomes(c, per_world, facts) for c in self.grid.configs}
         km = {w: float(f.km) for w, f in facts.items()}
         ks = self.grid.thresholds
-        ev = Evidence(configs, km, ks, self.target, N_BOOT, 0)
+        ev = Evidence(configs, km, ks, self.target, N_BOOT, 0, self.rule)
         rows, nested = config_rows(ev), nested_held_out(ev)
-        rec = choose_setting(configs, km, sorted(km), ks, self.target)
+        rec = choose_setting(configs, km, sorted(km), ks, self.target, self.rule, N_BOOT, 0)
+        if rec is None:
+            log.warning("tune %s: no setting qualifies under rule %s: nothing recommended", self.method, self.rule)
         by_id = {c.id: c for c in self.grid.configs}
         result = TuneResult(
             source=self.source,
             level=self.level,
+            rule=None if self.rule == "point" else self.rule,
             method=self.method,
             overrides=list(self.overrides),
             target_precision=self.target,
@@ -544,7 +555,8 @@ def recommended_yaml(result: TuneResult, c: Config, base_params: dict[str, Any])
     head = [
         f"# roman-sim tune: {result.method} on {result.source}"
         + ("" if result.level is None else f", level {result.level}")
-        + f", target precision {result.target_precision:g}",
+        + f", target precision {result.target_precision:g}"
+        + ("" if result.rule is None else f", rule {result.rule}"),
         f"# chosen on {len(result.worlds)} worlds: threshold {rec.threshold}, "
         + ", ".join(f"{k}={v}" for k, v in rec.values.items()),
         f"# held-out (each world scored at the setting chosen on the others): precision {num(h.precision)} "

@@ -82,22 +82,33 @@ def tune_cmd(
     level: str | None = typer.Option(
         None, "--level", help="a suite's ambiguity level: tune on its worlds only (default: every level)"
     ),
+    rule: str = typer.Option(
+        "point",
+        "--rule",
+        help="recommend by the held-out point precision (point) or by the lower end of the one-new-world "
+        "precision interval (lower)",
+    ),
     sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every world (key=value)"),
     out: Path | None = typer.Option(
-        None, "--out", "-o", help="folder (default results/tune/<method>-<source>[-<level>])"
+        None, "--out", "-o", help="folder (default results/tune/<method>-<source>[-<level>][-<rule>])"
     ),
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Tune a method's declared parameters for a target precision (resumable); write tune.json,
     front.png and recommended.yaml (for a scenario or ``roman-sim run --set @recommended.yaml``).
-    With ``--level``, a suite's calibration and held-out worlds are that level's only."""
+    With ``--level``, a suite's calibration and held-out worlds are that level's only. With ``--rule lower``,
+    a setting qualifies only when the lower end of its one-new-world precision interval reaches the target."""
     from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob
     from roman_sim.core.errors import ConfigError
+    from roman_sim.evaluation.tuning import check_rule
+
+    check_rule(rule)
 
     if not 0 < target_precision <= 1:
         raise ConfigError(f"--target-precision: must lie in (0, 1], got {target_precision:g}")
     stem = Path(source).stem if source.endswith((".yaml", ".yml")) else source
     name = f"{method.replace(':', '_').replace('.', '_')}-{stem}" + ("" if level is None else f"-{level}")
+    name += "" if rule == "point" else f"-{rule}"
     folder = out or Path("results") / "tune" / name
     ex = flags.config()
     lines = LineProgress()
@@ -110,7 +121,7 @@ def tune_cmd(
             lines.line(f"tune {method}: alignment {what} done ({done}/{total})")
 
     job = TuneJob(
-        source, method, folder, list(params or []), target_precision, _seeds(seeds), sets, ex, progress, level
+        source, method, folder, list(params or []), target_precision, _seeds(seeds), sets, ex, progress, level, rule
     )
     with rich_progress(Console(stderr=True)) if interactive() else contextlib.nullcontext() as p:
         if p is not None:
@@ -129,7 +140,12 @@ def tune_cmd(
         "(every world's Wilson interval and the pooled one)"
     )
     rec = result.recommended
-    if rec is None:
+    if rec is None and rule == "lower":
+        Console().print(
+            "no setting's one-new-world precision interval reaches the target precision at its lower end "
+            "(--rule lower): nothing recommended"
+        )
+    elif rec is None:
         Console().print("no setting reaches the target precision on these worlds: nothing recommended")
     else:
         values = ", ".join(f"{k}={v}" for k, v in rec.values.items())

@@ -7,7 +7,7 @@ the parameter grid), the worlds with their kilometres, one ``TuneConfig`` per co
 pair, whether it is on the Pareto front), the held-out figures of the whole choice made
 leaving each world out (``TuneHeldOut``: pooled, per world, and the precision interval of
 one new world) and the recommended setting (``TuneRecommended``,
-None when no setting reaches the target on the calibration worlds).
+None when no setting qualifies under the rule on the calibration worlds).
 
 The held-out figures of a config and of the nested choice are a level's
 ``HeldOutFigures`` plus the false loop closures per km, in the same object.
@@ -114,6 +114,7 @@ class TuneResult:
     held_out: TuneHeldOut
     recommended: TuneRecommended | None
     level: str | None = field(default=None, metadata=OMIT_NONE)
+    rule: str | None = field(default=None, metadata=OMIT_NONE)
 
     def config(self, cid: str) -> TuneConfig:
         """The config ``cid`` (KeyError when the tune has none of that id)."""

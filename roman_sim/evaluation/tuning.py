@@ -5,10 +5,16 @@ parameters, the submap gating); a *setting* is a config and a threshold. Per con
 outcomes of every world's cross-robot pairs are one ``PairOutcomes`` (``transfer``), with
 each pair's alignment time (a pair gated out costs 0) and each world's driven kilometres.
 
-- ``choose_setting``: on calibration worlds only, per config the smallest threshold whose
-  pooled precision reaches the target (``transfer.choose_threshold``); among the configs
-  that reach it, the highest pooled recall, then the fewest false loop closures per km, then
-  the least time per pair, then the config's order.
+- ``choose_setting``: on calibration worlds only, per config the smallest threshold that
+  qualifies under the rule; among the configs with one, the highest pooled recall, then the
+  fewest false loop closures per km, then the least time per pair, then the config's order.
+  Rule ``point`` (the default): the threshold's pooled precision reaches the target
+  (``transfer.choose_threshold``). Rule ``lower``: the lower end of the setting's precision
+  interval for one new world reaches the target (``setting_new_world``: each calibration
+  world's Wilson interval at that fixed setting and the pooled world-bootstrap interval, the
+  hull; the same statement the tune makes of its choice). Under ``lower`` a setting whose
+  point precision reaches the target but whose worlds could fall below it does not qualify;
+  when none qualifies nothing is chosen (never the point rule's choice instead).
 - ``nested_held_out``: leave-one-world-out: each world is scored at the setting chosen on
   the other worlds only; the pooled held-out recall and precision with world-bootstrap
   intervals are what the tuning procedure gives over as many worlds it has not seen; each
@@ -33,18 +39,61 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.transfer import (
     HeldOutCell,
     PairOutcomes,
+    Threshold,
     WorldPrecision,
     check_target,
     choose_threshold,
+    counts,
     held_out,
     held_out_cell,
     new_world_interval,
     positives,
     transfers,
+    world_bootstrap,
     world_precisions,
 )
 
 log = logging.getLogger(__name__)
+
+#: The recommendation rules: ``point`` (pooled precision reaches the target) and ``lower`` (the lower
+#: end of the one-new-world precision interval reaches it); see the module docstring.
+RULES = ("point", "lower")
+
+
+def check_rule(rule: str) -> str:
+    """``rule`` when it is one of ``RULES`` (ConfigError naming ``--rule`` and the allowed values otherwise)."""
+    if rule not in RULES:
+        raise ConfigError(f"--rule: expected one of {', '.join(RULES)}, got {rule!r}")
+    return rule
+
+
+def setting_new_world(o: PairOutcomes, k: int, n_boot: int = 2000, seed: int = 0) -> tuple[float, float] | None:
+    """The one-new-world precision interval of threshold ``k`` fixed over the worlds of ``o``: the hull of
+    each world's Wilson interval and the pooled world-bootstrap interval (None: nothing accepted)."""
+    pos = positives(o, k)
+    per_world = world_precisions(o, pos)
+    if all(p.wilson is None for p in per_world):
+        return None
+    return new_world_interval(per_world, world_bootstrap(o, pos, "precision", n_boot, 0.95, seed))
+
+
+def lower_threshold(
+    o: PairOutcomes, k_values: Sequence[int], target: float, n_boot: int = 2000, seed: int = 0
+) -> Threshold:
+    """The smallest ``k`` of ``k_values`` whose one-new-world interval on ``o`` (``setting_new_world``) has its
+    lower end at or above ``target``; ``Threshold(None, 0, 0)`` when none has."""
+    t = float(check_target(target))
+    for k in sorted(int(x) for x in k_values):
+        pos = positives(o, k)
+        per_world = world_precisions(o, pos)
+        # the hull's lower end is at most any world's: the bootstrap only when every world clears the target
+        if any(p.wilson is None or p.wilson[0] < t for p in per_world):
+            continue
+        iv = setting_new_world(o, k, n_boot, seed)
+        if iv is not None and iv[0] >= t:
+            tp, fp, _ = counts(o, pos)
+            return Threshold(k, tp, fp)
+    return Threshold(None, 0, 0)
 
 
 @dataclass(frozen=True)
@@ -87,14 +136,22 @@ def choose_setting(
     worlds: Sequence[str],
     k_values: Sequence[int],
     target: float,
+    rule: str = "point",
+    n_boot: int = 2000,
+    seed: int = 0,
 ) -> Setting | None:
-    """The setting chosen on ``worlds`` only (see the module docstring); None when no config reaches the target."""
+    """The setting chosen on ``worlds`` only under ``rule`` (see the module docstring); None when no setting
+    qualifies."""
+    check_rule(rule)
     best: tuple[tuple[float, float, float, int], Setting] | None = None
     total_km = _km(km, worlds)
     for i, (cid, c) in enumerate(configs.items()):
         mask = np.isin(c.pairs.world, np.asarray(worlds, dtype=np.str_))
         o = c.pairs.subset(mask)
-        th = choose_threshold(o, k_values, target)
+        if rule == "lower":
+            th = lower_threshold(o, k_values, target, n_boot, seed)
+        else:
+            th = choose_threshold(o, k_values, target)
         if th.k is None:
             continue
         rel = int(np.count_nonzero(o.relevant))
@@ -128,7 +185,7 @@ def figures(o: PairOutcomes, positive: NDArray[np.bool_], km: float, target: flo
 @dataclass(frozen=True)
 class Evidence:
     """What a choice is made from: each config's outcomes, each world's kilometres, the thresholds
-    tried, the target precision, and the bootstrap's draws and seed."""
+    tried, the target precision, the bootstrap's draws and seed, and the rule of the choice."""
 
     configs: Mapping[str, ConfigOutcomes]
     km: Mapping[str, float]
@@ -136,6 +193,7 @@ class Evidence:
     target: float
     n_boot: int = 2000
     seed: int = 0
+    rule: str = "point"
 
 
 @dataclass(frozen=True)
@@ -174,7 +232,9 @@ def nested_held_out(ev: Evidence) -> NestedHeldOut:
     pos: list[NDArray[np.bool_]] = []
     chosen: dict[str, Setting | None] = {}
     for w in worlds:
-        s = choose_setting(configs, km, [x for x in worlds if x != w], ev.k_values, ev.target)
+        s = choose_setting(
+            configs, km, [x for x in worlds if x != w], ev.k_values, ev.target, ev.rule, ev.n_boot, ev.seed
+        )
         chosen[w] = s
         src = configs[s.config].pairs if s is not None else first
         own = src.subset(src.world == w)
