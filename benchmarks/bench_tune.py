@@ -33,7 +33,9 @@
    figures go into the file's ``rule_tunes`` under ``<level>-<rule>``; the other keys are kept.
    ``--reuse DIR``: the FOLDER of a finished run of this script on the same level and seeds; its
    ``tune/work/`` and ``cache/`` are copied in first (its alignments read back, not re-run; the
-   cost figures then time the reading back only).
+   cost figures then time the reading back only; ``alignments_read_back`` says so). The file also
+   records, over every setting, the highest lowest-world Wilson lower end
+   (``best_lowest_world_wilson``): no setting's one-new-world lower end exceeds it.
 
 Run: ``python benchmarks/bench_tune.py [FOLDER] [--cache DIR] [--check-cache DIR] [--workers N]
 [--level NAME [--seeds LO:HI] [--check-seeds A,B,C] [--rule lower [--reuse DIR]]]`` (default: a
@@ -189,6 +191,24 @@ def _maps_reused(folder: Path) -> dict[str, bool]:
     return out
 
 
+def _best_lowest_world_wilson(job: Any) -> dict[str, Any]:
+    """Over every setting of the tune (config and threshold), the one whose lowest world Wilson lower end is
+    highest: an upper bound of any setting's one-new-world lower end (the hull's lower end is at most it)."""
+    from roman_sim.benchmark.tune import config_outcomes
+    from roman_sim.evaluation.transfer import positives, world_precisions
+
+    per_world, facts = job.collect()
+    best: dict[str, Any] = {"value": -1.0}
+    for cfg in job.grid.configs:
+        pairs = config_outcomes(cfg, per_world, facts).pairs
+        for k in job.grid.thresholds:
+            ws = world_precisions(pairs, positives(pairs, k))
+            low = min(0.0 if p.wilson is None else p.wilson[0] for p in ws)
+            if low > best["value"]:
+                best = {"value": low, "values": cfg.values(), "threshold": int(k)}
+    return best
+
+
 def _point_rule(
     root: Path, job: Any, seeds: list[int] | None, check_seeds: list[int], args: Any, ex: Any
 ) -> dict[str, Any]:
@@ -301,6 +321,8 @@ def main() -> None:
         figures = {"level": args.level, "seeds": tune_seeds, "rule": args.rule, **figures}
         figures["held_out"]["chosen"] = to_json(h.chosen)
         figures["point_rule"] = _point_rule(root, job, tune_seeds, check_seeds, args, ex)
+        figures["alignments_read_back"] = args.reuse is not None
+        figures["best_lowest_world_wilson"] = _best_lowest_world_wilson(job)
         key = f"{args.level}-{args.rule}"
         kept = json.loads(OUT.read_text(encoding="utf-8")) if OUT.is_file() else {}
         figures = {**kept, "rule_tunes": {**kept.get("rule_tunes", {}), key: figures}}

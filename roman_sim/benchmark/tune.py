@@ -302,9 +302,10 @@ class TuneJob:
         old = read_record(self.out / JOB_JSON, JobRecord)
         if old != self._identity():
             on = old.source if old.level is None else f"{old.source} level {old.level}"
+            rule = "" if old.rule == self._identity().rule else f" by rule {old.rule or 'point'}"
             raise ConfigError(
                 f"--out {self.out}: holds the tune of {old.method!r} on {on!r} "
-                f"with overrides {old.overrides}, rule {old.rule or 'point'} (choose another --out)"
+                f"with overrides {old.overrides}{rule} (choose another --out)"
             )
 
     def _identity(self) -> JobRecord:

@@ -274,3 +274,55 @@ def test_a_changed_default_of_the_tuned_aligner_aligns_again_without_remapping(h
         assert stages["maps"]["reused"] and stages["submaps"]["reused"] and not stages["evaluation"]["reused"]
         params = yaml.safe_load((p.parent / "run" / "config.yaml").read_text())["aligners"][0]["params"]
         assert params["min_associations_for_transform"] == 4
+
+
+def test_the_lower_rule_is_recorded_and_another_rule_is_refused(home: Path):
+    lo = home / "lo"
+    for part in ("work", "cache"):  # the same worlds: the runs are read back
+        shutil.copytree(home / "t" / part, lo / part)
+    args = ["tune", str(home / "tiny.yaml"), "--out", str(lo), "--param", "threshold=1:8", "--param", "cos_min=0.85"]
+    res = CliRunner().invoke(app, [*args, "--rule", "lower"])
+    assert res.exit_code == 0, res.output
+    got, point = read_tune(lo / "tune.json"), read_tune(home / "t" / "tune.json")
+    assert json.loads((lo / "tune.json").read_text())["rule"] == "lower" and got.rule == "lower"
+    assert json.loads((lo / "job.json").read_text())["rule"] == "lower"
+    assert "rule" not in json.loads((home / "t" / "tune.json").read_text()) and point.rule is None
+    assert got.configs == point.configs  # the config rows do not depend on the rule
+    # by hand from pairs.csv: the smallest threshold at which every world's Wilson lower end reaches 0.9
+    # (the hull's lower end is at most each world's), else nothing
+    z2 = 1.959963984540054**2
+    rows = {w: r for (w, _), r in _by_hand(home).items()}
+
+    def world_ok(r: list[tuple[bool, bool, int]], k: int) -> bool:
+        tp = sum(1 for rel, ok, n in r if n >= k and rel and ok)
+        fp = sum(1 for rel, ok, n in r if n >= k and not ok)
+        if tp + fp == 0:
+            return False
+        n, p = tp + fp, tp / (tp + fp)
+        low = (p + z2 / (2 * n) - (z2**0.5) * (p * (1 - p) / n + z2 / (4 * n * n)) ** 0.5) / (1 + z2 / n)
+        return low >= 0.9 - 1e-12
+
+    candidates = [k for k in KS if all(world_ok(r, k) for r in rows.values())]
+    if not candidates:
+        assert got.recommended is None
+    if got.recommended is None:  # (with candidates, the pooled bootstrap's lower end fell short)
+        assert "(--rule lower): nothing recommended" in res.output
+        assert not (lo / "recommended.yaml").exists()
+    else:
+        assert got.recommended.threshold in candidates
+        assert ", rule lower" in (lo / "recommended.yaml").read_text().splitlines()[0]
+    before = (lo / "tune.json").read_bytes()
+    res = CliRunner().invoke(app, args)
+    assert res.exit_code == 1
+    assert res.output.strip().splitlines() == [
+        f"error: --out {lo}: holds the tune of 'roman' on '{home / 'tiny.yaml'}' with overrides [] by rule lower "
+        "(choose another --out)"
+    ]
+    assert (lo / "tune.json").read_bytes() == before
+
+
+def test_a_bad_rule_names_the_allowed_values_before_anything_runs(home: Path):
+    res = CliRunner().invoke(app, ["tune", str(home / "tiny.yaml"), "--out", str(home / "badrule"), "--rule", "up"])
+    assert res.exit_code == 1
+    assert res.output.strip().splitlines() == ["error: --rule: expected one of point, lower, got 'up'"]
+    assert not (home / "badrule").exists()

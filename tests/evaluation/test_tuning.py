@@ -7,7 +7,15 @@ import pytest
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.transfer import PairOutcomes
-from roman_sim.evaluation.tuning import ConfigOutcomes, Evidence, choose_setting, config_rows, nested_held_out
+from roman_sim.evaluation.tuning import (
+    ConfigOutcomes,
+    Evidence,
+    check_rule,
+    choose_setting,
+    config_rows,
+    nested_held_out,
+    setting_new_world,
+)
 
 
 def _world(w: str, n_rel: int, good: int, bad: int, good_score: int, bad_score: int) -> list[tuple]:
@@ -96,3 +104,64 @@ def test_one_world_is_refused():
         nested_held_out(Evidence(one, {"a": 1.0}, KS, 0.9))
     with pytest.raises(ConfigError, match="target precision"):
         nested_held_out(Evidence(_configs(), KM, KS, 1.5))
+
+
+Z2 = 1.959963984540054**2
+
+
+def _wilson_low(k: int, n: int) -> float:
+    """The Wilson lower end written out (95 %)."""
+    p = k / n
+    centre = (p + Z2 / (2 * n)) / (1 + Z2 / n)
+    half = (Z2**0.5) * ((p * (1 - p) / n + Z2 / (4 * n * n)) ** 0.5) / (1 + Z2 / n)
+    return centre - half
+
+
+def _rules_case(sure_hits: int) -> dict[str, ConfigOutcomes]:
+    """Config "many": in each of worlds a, b, c 50 relevant pairs, all found and right, and 2 wrong ones, all at
+    1 association (precision 50/52 in every world, 150/156 pooled; recall 1). Config "sure": ``sure_hits`` of
+    52 relevant pairs found and right at 1 association, nothing wrong (precision 1, recall sure_hits/52)."""
+    many, sure = [], []
+    for w in "abc":
+        many += _world(w, 50, 50, 2, 1, 1)
+        sure += _world(w, 52, sure_hits, 0, 1, 1)
+    return {"many": _config(many), "sure": _config(sure)}
+
+
+def test_the_lower_rule_picks_another_setting_than_the_point_rule():
+    """By hand: "many" reaches 0.9 pooled (150/156 = 0.96) and has the higher recall, so the point rule picks
+    it; the lower end of its one-new-world interval is a world's Wilson lower end at 50/52, 0.870 < 0.9. "sure"
+    at 40/40 per world: Wilson lower end 40 / (40 + z^2) = 0.912, and its pooled bootstrap is [1, 1] (nothing
+    wrong), so its interval is [0.912, 1] and the lower rule picks it."""
+    cfg = _rules_case(40)
+    assert _wilson_low(50, 52) == pytest.approx(0.8702, abs=1e-4) and _wilson_low(50, 52) < 0.9
+    assert 40 / (40 + Z2) == pytest.approx(0.91238, abs=1e-5)
+    point = choose_setting(cfg, KM, list("abc"), [1, 2], 0.9)
+    lower = choose_setting(cfg, KM, list("abc"), [1, 2], 0.9, rule="lower", n_boot=200)
+    assert point is not None and (point.config, point.k, point.recall) == ("many", 1, 1.0)
+    assert lower is not None and (lower.config, lower.k) == ("sure", 1)
+    assert lower.recall == pytest.approx(120 / 156)
+    iv = setting_new_world(cfg["sure"].pairs, 1, n_boot=200)
+    assert iv == pytest.approx((40 / (40 + Z2), 1.0))
+    many = setting_new_world(cfg["many"].pairs, 1, n_boot=200)
+    assert many is not None and many[0] == pytest.approx(_wilson_low(50, 52))
+    # the held-out choice follows the rule too: each world is scored at "sure" chosen on the other two
+    nested = nested_held_out(Evidence(cfg, KM, [1, 2], 0.9, n_boot=200, rule="lower"))
+    assert {w: (s.config, s.k) for w, s in nested.chosen.items() if s is not None} == {w: ("sure", 1) for w in "abc"}
+    assert (nested.figures.cell.hits, nested.figures.cell.false_positives) == (120, 0)
+
+
+def test_the_lower_rule_recommends_nothing_rather_than_fall_back():
+    """At 30/30 per world the Wilson lower end is 30 / (30 + z^2) = 0.887 < 0.9: no setting qualifies under the
+    lower rule, and nothing is chosen (the point rule would still choose "many")."""
+    cfg = _rules_case(30)
+    assert 30 / (30 + Z2) < 0.9
+    assert choose_setting(cfg, KM, list("abc"), [1, 2], 0.9, rule="lower", n_boot=200) is None
+    assert choose_setting(cfg, KM, list("abc"), [1, 2], 0.9) is not None
+
+
+def test_a_bad_rule_names_the_allowed_ones():
+    with pytest.raises(ConfigError, match=r"^--rule: expected one of point, lower, got 'upper'$"):
+        check_rule("upper")
+    with pytest.raises(ConfigError, match="--rule"):
+        choose_setting(_configs(), KM, ["a", "b"], KS, 0.9, rule="upper")
