@@ -124,3 +124,56 @@ def test_level_tune_figures_in_the_docs():
     new_lo = min(v["precision"] for v in c["per_world"].values())
     new_hi = max(v["precision"] for v in c["per_world"].values())
     assert f"the four held-out worlds gave {lo:.2f}-{hi:.2f}, the three new ones {new_lo:.2f}-{new_hi:.2f}" in text
+
+
+def test_rule_tune_figures_in_the_docs():
+    whole = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    d = whole["rule_tunes"]["low-lower"]
+    text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    assert d["level"] == "low" and d["rule"] == "lower" and d["seeds"] == [0, 1, 2, 3]
+    assert d["worlds"] == [f"low-s{s}" for s in d["seeds"]] and d["alignments_read_back"] is True
+    assert (
+        "`python benchmarks/bench_tune.py FOLDER --level low --seeds 0:4 --rule lower --check-seeds 7,8,9 "
+        "--reuse DIR --check-cache DIR`" in text
+    )
+    assert "figures in `rule_tunes.low-lower` of the same file" in text
+    # the lower rule: nothing qualifies, so nothing is recommended, nothing is checked, nothing held out
+    assert d["recommended"] is None and d["check_on_unseen_worlds"] is None
+    assert all(v is None for v in d["held_out"]["chosen"].values()) and d["held_out"]["hits"] == 0
+    assert "Under the lower rule no setting qualifies on the four worlds of seeds 0-3" in text
+    b = d["best_lowest_world_wilson"]
+    assert b["value"] < 0.9
+    assert (
+        f"the highest lowest-world Wilson lower end is {b['value']:.2f} (`cos_min` {b['values']['cos_min']}, "
+        f"threshold {b['threshold']})" in text
+    )
+    p = d["point_rule"]
+    ph = p["held_out"]
+    sizes = [v["hits"] + v["false_positives"] for v in ph["per_world"].values()]
+    assert f"the four worlds accepted {min(sizes)}-{max(sizes)} pairs each" in text
+    z2 = 1.959963984540054**2
+    assert 34 / (34 + z2) < 0.9 <= 35 / (35 + z2)  # n / n has Wilson lower end n / (n + z^2)
+    assert "unless it accepts 35 pairs or more" in text
+    rec = p["recommended"]
+    assert (
+        f"The point rule, scored from the same alignments, recommends `cos_min` {rec['values']['cos_min']}, "
+        f"threshold {rec['threshold']}, with the one-new-world interval {_ci(ph['precision_new_world'])}" in text
+    )
+    # the same setting as the --level low run above
+    lv = whole["level_tunes"]["low"]["recommended"]
+    assert (rec["values"], rec["threshold"]) == (lv["values"], lv["threshold"])
+    c = p["check_on_unseen_worlds"]
+    fresh = [f"low-s{s}" for s in (7, 8, 9)]
+    assert c["seeds"] == [7, 8, 9] and sorted(c["per_world"]) == fresh
+    assert not set(c["seeds"]) & {4, 5, 6} and not set(c["seeds"]) & set(d["seeds"])
+    each = [_frac(c["per_world"][w]) for w in fresh]
+    assert (
+        f"on seeds 7-9 that setting reached {', '.join(each[:-1])} and {each[-1]}: pooled {c['precision']:.2f} "
+        f"({c['hits']} / {c['hits'] + c['false_positives']}, Wilson {_ci(c['precision_wilson'])}) at recall "
+        f"{c['recall']:.2f} ({c['hits']} / {c['n_relevant']})" in text
+    )
+    assert c["worlds_reaching_target"] == [1, 3] and c["worlds_inside_new_world_interval"] == [3, 3]
+    assert "One of the three worlds reaches the target and all three lie in the stated interval" in text
+    assert c["precision"] < 0.9
+    assert f"the point rule misses the target (pooled {c['precision']:.2f}) within its interval" in text
+    assert f"its price is the whole recall of {c['recall']:.2f}" in text
