@@ -71,7 +71,13 @@ def setting_new_world(o: PairOutcomes, k: int, n_boot: int = 2000, seed: int = 0
     """The one-new-world precision interval of threshold ``k`` fixed over the worlds of ``o``: the hull of
     each world's Wilson interval and the pooled world-bootstrap interval (None: nothing accepted)."""
     pos = positives(o, k)
-    per_world = world_precisions(o, pos)
+    return _new_world(o, pos, world_precisions(o, pos), n_boot, seed)
+
+
+def _new_world(
+    o: PairOutcomes, pos: NDArray[np.bool_], per_world: list[WorldPrecision], n_boot: int, seed: int
+) -> tuple[float, float] | None:
+    """The hull of ``per_world``'s Wilson intervals and the pooled world-bootstrap interval at ``pos``."""
     if all(p.wilson is None for p in per_world):
         return None
     return new_world_interval(per_world, world_bootstrap(o, pos, "precision", n_boot, 0.95, seed))
@@ -89,7 +95,7 @@ def lower_threshold(
         # the hull's lower end is at most any world's: the bootstrap only when every world clears the target
         if any(p.wilson is None or p.wilson[0] < t for p in per_world):
             continue
-        iv = setting_new_world(o, k, n_boot, seed)
+        iv = _new_world(o, pos, per_world, n_boot, seed)
         if iv is not None and iv[0] >= t:
             tp, fp, _ = counts(o, pos)
             return Threshold(k, tp, fp)
