@@ -302,16 +302,19 @@ class TuneJob:
         old = read_record(self.out / JOB_JSON, JobRecord)
         if old != self._identity():
             on = old.source if old.level is None else f"{old.source} level {old.level}"
-            rule = "" if old.rule == self._identity().rule else f" by rule {old.rule or 'point'}"
+            rule = "" if old.rule == self._stored_rule else f" by rule {old.rule or 'point'}"
             raise ConfigError(
                 f"--out {self.out}: holds the tune of {old.method!r} on {on!r} "
                 f"with overrides {old.overrides}{rule} (choose another --out)"
             )
 
+    @property
+    def _stored_rule(self) -> str | None:
+        """The rule as ``job.json`` and ``tune.json`` record it: None for the default ``point``."""
+        return None if self.rule == "point" else self.rule
+
     def _identity(self) -> JobRecord:
-        return JobRecord(
-            self.source, self.method, self.overrides, self.level, None if self.rule == "point" else self.rule
-        )
+        return JobRecord(self.source, self.method, self.overrides, self.level, self._stored_rule)
 
     # -- worlds and alignments ----------------------------------------------------
     def _scenario(self, w: TuneWorld) -> Scenario:
@@ -425,7 +428,7 @@ class TuneJob:
         result = TuneResult(
             source=self.source,
             level=self.level,
-            rule=None if self.rule == "point" else self.rule,
+            rule=self._stored_rule,
             method=self.method,
             overrides=list(self.overrides),
             target_precision=self.target,
