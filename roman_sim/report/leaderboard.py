@@ -330,14 +330,13 @@ def deployable_bound_readme_line(board: Leaderboard) -> str:
         f"- Deployable world-bootstrap half-width of held-out recall at most {board.half_width_bound:g} in every "
         f"level x heading bin: "
     )
-    widths = [(lv, h, w) for lv, bins in board.deployable_widths().items() for h, w in bins.items()]
-    over = board.deployable_over()
+    per_level = board.deployable_widths()
     if board.deployable_bound_met:
+        widths = [(lv, h, w) for lv, bins in per_level.items() for h, w in bins.items()]
         lv, h, w = max(widths, key=lambda x: x[2] or 0.0)
         return head + f"yes (widest {_num(w, 3)}, {lv} {h} deg)."
-    parts = [f"{lv} {h} deg {_num(w, 3)}" for lv, h, w in over]
-    missing = [lv for lv, bins in board.deployable_widths().items() if not bins]
-    parts += [f"{lv} without held-out figures" for lv in missing]
+    parts = [f"{lv} {h} deg {_num(w, 3)}" for lv, h, w in board.deployable_over()]
+    parts += [f"{lv} without held-out figures" for lv, bins in per_level.items() if not bins]
     if board.failed_cells:
         parts.append(f"{len(board.failed_cells)} cells did not finish")
     return head + ("no (" + "; ".join(parts) + ")." if parts else "no.")
