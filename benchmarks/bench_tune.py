@@ -129,7 +129,19 @@ def _check(
     """The recommended setting, fixed, on the quick suite's worlds of ``seeds`` (of ``level`` only when given)."""
     from roman_sim.benchmark.tune import TuneJob, config_outcomes
     from roman_sim.evaluation.intervals import wilson
-    from roman_sim.evaluation.transfer import counts, positives, world_bootstrap, world_precisions
+    from roman_sim.evaluation.transfer import PRECISION_SLACK, counts, positives, world_bootstrap, world_precisions
+    from roman_sim.evaluation.world_spread import WorldSpread
+
+    sp = rec.spread
+    spread = None if sp is None else WorldSpread(sp.a, sp.b, sp.worlds)
+
+    def in_spread(p: Any) -> bool | None:
+        """Whether a world's hits lie in the 95 % interval the spread gives a world accepting as many pairs."""
+        n = p.hits + p.false_positives
+        if spread is None or n == 0:
+            return None
+        lo, hi = spread.hits_interval(n)
+        return bool(lo <= p.hits <= hi)
 
     params = [f"threshold={rec.threshold}"] + [f"{k}={v}" for k, v in rec.values.items()]
     job = TuneJob("quick", "roman", folder, params, target, seeds=seeds, executor=executor, level=level)
@@ -145,6 +157,8 @@ def _check(
             "precision_wilson": None if p.wilson is None else list(p.wilson),
             "inside_new_world_interval": _inside(p.precision, h.precision_new_world),
             "reaches_target": None if p.precision is None else p.precision >= target,
+            "within_slack": None if p.precision is None else p.precision >= target - PRECISION_SLACK,
+            "inside_spread_interval": in_spread(p),
         }
         for p in world_precisions(c.pairs, pos)
     }
@@ -161,6 +175,8 @@ def _check(
         d["inside_pooled_interval"] = _inside(d["precision"], h.precision_worlds)
         per_seed[f"s{s}"] = d
     inside = [v["inside_new_world_interval"] for v in worlds.values() if v["inside_new_world_interval"] is not None]
+    in_sp = [v["inside_spread_interval"] for v in worlds.values() if v["inside_spread_interval"] is not None]
+    accepting = [v for v in worlds.values() if v["precision"] is not None]
     seeds_inside = [v["inside_pooled_interval"] for v in per_seed.values() if v["inside_pooled_interval"] is not None]
     return {
         "seeds": seeds,
@@ -178,6 +194,10 @@ def _check(
         "worlds_inside_new_world_interval": [sum(inside), len(inside)],
         "seeds_inside_pooled_interval": [sum(seeds_inside), len(seeds_inside)],
         "worlds_reaching_target": [sum(1 for v in worlds.values() if v["reaches_target"]), len(worlds)],
+        "worlds_within_slack": [sum(1 for v in accepting if v["within_slack"]), len(accepting)],
+        "worlds_inside_spread_interval": [sum(in_sp), len(in_sp)],
+        "spread_share_at_target": None if sp is None else sp.share_at_target,
+        "spread_share_within_slack": None if sp is None else sp.share_within_slack,
     }
 
 
@@ -247,8 +267,8 @@ def main() -> None:
     ap.add_argument("--level", default=None, help="tune on this level of quick only (see the docstring)")
     ap.add_argument("--seeds", default="0:4", help="with --level: the tune's seeds, LO:HI or A,B,C")
     ap.add_argument("--check-seeds", default="4,5,6", help="with --level: the unseen worlds' seeds")
-    ap.add_argument("--rule", default="point", choices=["point", "lower"], help="with --level: the rule")
-    ap.add_argument("--reuse", type=Path, default=None, help="with --rule lower: a finished FOLDER to copy")
+    ap.add_argument("--rule", default="point", choices=["point", "lower", "world"], help="with --level: the rule")
+    ap.add_argument("--reuse", type=Path, default=None, help="with --rule lower/world: a finished FOLDER to copy")
     args = ap.parse_args()
     if args.rule != "point" and not args.level:
         ap.error("--rule: takes --level (the rule comparison is per level)")

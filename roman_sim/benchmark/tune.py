@@ -21,7 +21,9 @@ leaderboard's thresholds, chosen per method and level, do). The job
    and precision with world-bootstrap intervals at thresholds chosen on the other worlds,
    false loop closures per km and time per pair, the Pareto front; the recommended setting
    (chosen on every world of the source) with the held-out figures of the same choice made
-   leaving each world out, pooled and per world, and the precision interval of one new world;
+   leaving each world out, pooled and per world, and the precision interval of one new world,
+   and how the recommended setting's precision spreads over the worlds (a beta-binomial fit:
+   the share of new worlds at the target);
 5. writes ``tune.json``, ``front.png`` and ``recommended.yaml`` (scenario sections: paste
    them into a scenario or pass the file as ``roman-sim run ... --set @recommended.yaml``).
 
@@ -45,13 +47,14 @@ from roman_sim.core.atomic import write_text
 from roman_sim.core.config import read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.records import OMIT_NONE, RecordError, read_record, write_record
-from roman_sim.evaluation.transfer import PairOutcomes, check_target
+from roman_sim.evaluation.transfer import PRECISION_SLACK, PairOutcomes, check_target
 from roman_sim.evaluation.tune_result import (
     TuneChoice,
     TuneConfig,
     TuneHeldOut,
     TuneRecommended,
     TuneResult,
+    TuneSpread,
     TuneWorldHeldOut,
     TuneWorldKm,
     write_tune,
@@ -64,6 +67,7 @@ from roman_sim.evaluation.tuning import (
     choose_setting,
     config_rows,
     nested_held_out,
+    setting_spread,
 )
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
@@ -410,6 +414,21 @@ class TuneJob:
                 facts[w.id] = self._world_facts(w, first, self._scenario(w))
         return per_world, facts
 
+    def _spread(self, c: ConfigOutcomes, k: int) -> TuneSpread | None:
+        """The spread of the precision at threshold ``k`` of config ``c`` over every calibration world."""
+        fit = setting_spread(c.pairs, k)
+        if fit is None:
+            return None
+        return TuneSpread(
+            a=fit.a,
+            b=fit.b,
+            worlds=fit.worlds,
+            mean=fit.mean,
+            share_at_target=fit.share(self.target),
+            share_within_slack=fit.share(self.target - PRECISION_SLACK),
+            interval=list(fit.interval(0.95)),
+        )
+
     def score(self, per_world: dict[str, dict[AlignerValues, Outcomes]], facts: dict[str, WorldFacts]) -> TuneResult:
         """Score the outcomes (see ``evaluation.tuning``) and write the folder's results."""
         from roman_sim.benchmark.tune_space import declared
@@ -459,7 +478,13 @@ class TuneJob:
             recommended=None
             if rec is None
             else TuneRecommended(
-                rec.config, by_id[rec.config].values(), rec.k, rec.recall, rec.false_per_km, rec.time_per_pair_s
+                rec.config,
+                by_id[rec.config].values(),
+                rec.k,
+                rec.recall,
+                rec.false_per_km,
+                rec.time_per_pair_s,
+                self._spread(configs[rec.config], rec.k),
             ),
         )
         write_tune(self.out / TUNE_JSON, result)
@@ -542,6 +567,17 @@ def recommended_sections(method: str, c: Config, k: int, base_params: dict[str, 
     }
 
 
+def spread_lines(sp: TuneSpread | None, target: float) -> list[str]:
+    """The recommended setting's spread over worlds as ``recommended.yaml`` header lines (none without a fit)."""
+    if sp is None:
+        return []
+    return [
+        f"# worlds' spread (beta-binomial over {sp.worlds} worlds): a new world's precision {sp.mean:.3f} expected, "
+        f"95 % of worlds in [{sp.interval[0]:.3f}, {sp.interval[1]:.3f}]; {sp.share_at_target:.0%} of worlds at "
+        f"{target:g} or more, {sp.share_within_slack:.0%} at {target - PRECISION_SLACK:g} or more",
+    ]
+
+
 def recommended_yaml(result: TuneResult, c: Config, base_params: dict[str, Any]) -> str:
     """``recommended.yaml``: the sections, headed by comments stating the held-out figures."""
     import yaml
@@ -567,6 +603,7 @@ def recommended_yaml(result: TuneResult, c: Config, base_params: dict[str, Any])
         f"{ci(h.precision_worlds)}, recall {num(h.recall)} {ci(h.recall_worlds)} (95 % world bootstrap)",
         f"# precision in one new world: {ci(h.precision_new_world)} (every held-out world's Wilson interval "
         f"and the pooled one; {len(result.worlds)} worlds)",
+        *spread_lines(rec.spread, result.target_precision),
         "# use: paste these sections into a scenario, or: roman-sim run SCENARIO --set @recommended.yaml",
     ]
     body = yaml.safe_dump(recommended_sections(result.method, c, rec.threshold, base_params), sort_keys=False)

@@ -85,8 +85,8 @@ def tune_cmd(
     rule: str = typer.Option(
         "point",
         "--rule",
-        help="recommend by the held-out point precision (point) or by the lower end of the one-new-world "
-        "precision interval (lower)",
+        help="recommend by the pooled precision (point), by the lower end of the one-new-world precision "
+        "interval (lower), or by the share of new worlds within 0.05 of the target (world: at least 90 %)",
     ),
     sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every world (key=value)"),
     out: Path | None = typer.Option(
@@ -97,8 +97,9 @@ def tune_cmd(
     """Tune a method's declared parameters for a target precision (resumable); write tune.json,
     front.png and recommended.yaml (for a scenario or ``roman-sim run --set @recommended.yaml``).
     With ``--level``, a suite's calibration and held-out worlds are that level's only. With ``--rule lower``,
-    a setting qualifies only when the lower end of its one-new-world precision interval reaches the target."""
-    from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob
+    a setting qualifies only when the lower end of its one-new-world precision interval reaches the target; with
+    ``--rule world``, when the spread of the worlds' precisions puts at least 90 % of new worlds within 0.05 of it."""
+    from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob, spread_lines
     from roman_sim.core.errors import ConfigError
     from roman_sim.evaluation.tuning import check_rule
 
@@ -145,10 +146,20 @@ def tune_cmd(
             "no setting's one-new-world precision interval reaches the target precision at its lower end "
             "(--rule lower): nothing recommended"
         )
+    elif rec is None and rule == "world":
+        from roman_sim.evaluation.transfer import PRECISION_SLACK
+        from roman_sim.evaluation.tuning import WORLD_SHARE
+
+        Console().print(
+            f"no setting's spread over the worlds puts {WORLD_SHARE:.0%} of new worlds within {PRECISION_SLACK:g} "
+            "of the target precision (--rule world): nothing recommended"
+        )
     elif rec is None:
         Console().print("no setting reaches the target precision on these worlds: nothing recommended")
     else:
         values = ", ".join(f"{k}={v}" for k, v in rec.values.items())
         Console().print(f"recommended: threshold {rec.threshold}" + (f", {values}" if values else ""))
+        for line in spread_lines(rec.spread, result.target_precision):
+            Console().print(line.removeprefix("# "))
         Console().print(f"written: {folder / RECOMMENDED_YAML}")
     Console().print(f"front: {folder / FRONT_PNG}")

@@ -7,7 +7,8 @@ the parameter grid), the worlds with their kilometres, one ``TuneConfig`` per co
 pair, whether it is on the Pareto front), the held-out figures of the whole choice made
 leaving each world out (``TuneHeldOut``: pooled, per world, and the precision interval of
 one new world) and the recommended setting (``TuneRecommended``,
-None when no setting qualifies under the rule on the calibration worlds).
+None when no setting qualifies under the rule on the calibration worlds) with the spread of its
+precision from world to world (``TuneSpread``).
 
 The held-out figures of a config and of the nested choice are a level's
 ``HeldOutFigures`` plus the false loop closures per km, in the same object.
@@ -80,8 +81,25 @@ class TuneHeldOut(TunedFigures):
 
 
 @dataclass(frozen=True)
+class TuneSpread:
+    """How a setting's precision spreads over the calibration worlds (``evaluation.world_spread``): each world's
+    precision a draw of Beta(a, b), fitted on ``worlds`` worlds; for a new world its expected precision
+    (``mean``), the share of worlds at or above the target and within the slack of it, and the central interval
+    holding 95 % of worlds."""
+
+    a: float
+    b: float
+    worlds: int
+    mean: float
+    share_at_target: float
+    share_within_slack: float
+    interval: list[float]
+
+
+@dataclass(frozen=True)
 class TuneRecommended:
-    """The setting chosen on every world, with its pooled figures on them."""
+    """The setting chosen on every world, with its pooled figures on them and the spread of its precision over
+    them (None, left out: fewer than two worlds accepted a pair)."""
 
     config: str
     values: Values
@@ -89,6 +107,7 @@ class TuneRecommended:
     calibration_recall: float
     calibration_false_per_km: float
     time_per_pair_s: float | None
+    spread: TuneSpread | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass(frozen=True)
@@ -141,6 +160,7 @@ __all__ = [
     "TuneHeldOut",
     "TuneRecommended",
     "TuneResult",
+    "TuneSpread",
     "TuneWorldHeldOut",
     "TuneWorldKm",
     "TunedFigures",

@@ -14,7 +14,12 @@ each pair's alignment time (a pair gated out costs 0) and each world's driven ki
   world's Wilson interval at that fixed setting and the pooled world-bootstrap interval, the
   hull; the same statement the tune makes of its choice). Under ``lower`` a setting whose
   point precision reaches the target but whose worlds could fall below it does not qualify;
-  when none qualifies nothing is chosen (never the point rule's choice instead).
+  when none qualifies nothing is chosen (never the point rule's choice instead). Rule ``world``:
+  the beta-binomial spread of the worlds' precisions at that setting (``world_spread``) puts at
+  least ``WORLD_SHARE`` of new worlds within ``transfer.PRECISION_SLACK`` of the target. The
+  pooled precision weighs worlds by their accepted pairs, so a few busy, clean worlds carry a
+  threshold at which many small worlds fall short; this rule asks what one new world gives, and
+  unlike ``lower`` it does not add each world's own sampling noise of few pairs to the spread.
 - ``nested_held_out``: leave-one-world-out: each world is scored at the setting chosen on
   the other worlds only; the pooled held-out recall and precision with world-bootstrap
   intervals are what the tuning procedure gives over as many worlds it has not seen; each
@@ -37,6 +42,7 @@ from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.transfer import (
+    PRECISION_SLACK,
     HeldOutCell,
     PairOutcomes,
     Threshold,
@@ -52,12 +58,17 @@ from roman_sim.evaluation.transfer import (
     world_bootstrap,
     world_precisions,
 )
+from roman_sim.evaluation.world_spread import WorldSpread, fit_spread
 
 log = logging.getLogger(__name__)
 
-#: The recommendation rules: ``point`` (pooled precision reaches the target) and ``lower`` (the lower
-#: end of the one-new-world precision interval reaches it); see the module docstring.
-RULES = ("point", "lower")
+#: The recommendation rules: ``point`` (pooled precision reaches the target), ``lower`` (the lower
+#: end of the one-new-world precision interval reaches it) and ``world`` (the worlds' spread puts
+#: ``WORLD_SHARE`` of new worlds within the slack of the target); see the module docstring.
+RULES = ("point", "lower", "world")
+
+#: Under rule ``world``, the share of new worlds whose precision must be within the slack of the target.
+WORLD_SHARE = 0.9
 
 
 def check_rule(rule: str) -> str:
@@ -98,6 +109,26 @@ def lower_threshold(
         iv = _new_world(o, pos, per_world, n_boot, seed)
         if iv is not None and iv[0] >= t:
             tp, fp, _ = counts(o, pos)
+            return Threshold(k, tp, fp)
+    return Threshold(None, 0, 0)
+
+
+def setting_spread(o: PairOutcomes, k: int) -> WorldSpread | None:
+    """The beta-binomial spread (``world_spread.fit_spread``) of the worlds' precisions at threshold ``k`` fixed
+    over the worlds of ``o`` (None: fewer than two worlds accepted a pair)."""
+    per_world = world_precisions(o, positives(o, k))
+    return fit_spread([p.hits for p in per_world], [p.hits + p.false_positives for p in per_world])
+
+
+def world_threshold(o: PairOutcomes, k_values: Sequence[int], target: float) -> Threshold:
+    """The smallest ``k`` of ``k_values`` whose spread over the worlds of ``o`` (``setting_spread``) puts at least
+    ``WORLD_SHARE`` of new worlds at a precision of ``target - PRECISION_SLACK`` or more; ``Threshold(None, 0, 0)``
+    when none does."""
+    t = float(check_target(target))
+    for k in sorted(int(x) for x in k_values):
+        fit = setting_spread(o, k)
+        if fit is not None and fit.share(t - PRECISION_SLACK) >= WORLD_SHARE:
+            tp, fp, _ = counts(o, positives(o, k))
             return Threshold(k, tp, fp)
     return Threshold(None, 0, 0)
 
@@ -156,6 +187,8 @@ def choose_setting(
         o = c.pairs.subset(mask)
         if rule == "lower":
             th = lower_threshold(o, k_values, target, n_boot, seed)
+        elif rule == "world":
+            th = world_threshold(o, k_values, target)
         else:
             th = choose_threshold(o, k_values, target)
         if th.k is None:

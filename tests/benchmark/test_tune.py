@@ -324,5 +324,5 @@ def test_the_lower_rule_is_recorded_and_another_rule_is_refused(home: Path):
 def test_a_bad_rule_names_the_allowed_values_before_anything_runs(home: Path):
     res = CliRunner().invoke(app, ["tune", str(home / "tiny.yaml"), "--out", str(home / "badrule"), "--rule", "up"])
     assert res.exit_code == 1
-    assert res.output.strip().splitlines() == ["error: --rule: expected one of point, lower, got 'up'"]
+    assert res.output.strip().splitlines() == ["error: --rule: expected one of point, lower, world, got 'up'"]
     assert not (home / "badrule").exists()

@@ -161,7 +161,7 @@ def test_the_lower_rule_recommends_nothing_rather_than_fall_back():
 
 
 def test_a_bad_rule_names_the_allowed_ones():
-    with pytest.raises(ConfigError, match=r"^--rule: expected one of point, lower, got 'upper'$"):
+    with pytest.raises(ConfigError, match=r"^--rule: expected one of point, lower, world, got 'upper'$"):
         check_rule("upper")
     with pytest.raises(ConfigError, match="--rule"):
         choose_setting(_configs(), KM, ["a", "b"], KS, 0.9, rule="upper")
