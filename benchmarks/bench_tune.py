@@ -144,7 +144,7 @@ def _check(
         return bool(lo <= p.hits <= hi)
 
     params = [f"threshold={rec.threshold}"] + [f"{k}={v}" for k, v in rec.values.items()]
-    job = TuneJob("quick", "roman", folder, params, target, seeds=seeds, executor=executor, level=level)
+    job = TuneJob("quick", "roman", folder, params, target, seeds=seeds, executor=executor, level=level, rule="point")
     per_world, facts = job.collect()
     c = config_outcomes(job.grid.configs[0], per_world, facts)
     pos = positives(c.pairs, rec.threshold)
@@ -239,7 +239,7 @@ def _point_rule(
     folder = root / "tune_point"
     if not (folder / "work").exists():
         shutil.copytree(root / "tune" / "work", folder / "work")
-    pj = TuneJob("quick", "roman", folder, [], 0.9, seeds=seeds, executor=ex, level=args.level)
+    pj = TuneJob("quick", "roman", folder, [], 0.9, seeds=seeds, executor=ex, level=args.level, rule="point")
     res = pj.run()
     rec, h = res.recommended, res.held_out
     check = _check(root / "check_point", rec, h, 0.9, ex, args.level, check_seeds) if rec is not None else None

@@ -273,7 +273,7 @@ class TuneJob:
         executor: ExecutorConfig | None = None,
         progress: ProgressFn | None = None,
         level: str | None = None,
-        rule: str = "point",
+        rule: str = "world",
     ) -> None:
         check_target(target)
         self.rule = check_rule(rule)
@@ -314,7 +314,8 @@ class TuneJob:
 
     @property
     def _stored_rule(self) -> str | None:
-        """The rule as ``job.json`` and ``tune.json`` record it: None for the default ``point``."""
+        """The rule as ``job.json`` and ``tune.json`` record it: None for ``point`` (the rule of every tune written
+        before rules existed, so their files read and write back unchanged)."""
         return None if self.rule == "point" else self.rule
 
     def _identity(self) -> JobRecord:

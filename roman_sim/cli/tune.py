@@ -83,10 +83,10 @@ def tune_cmd(
         None, "--level", help="a suite's ambiguity level: tune on its worlds only (default: every level)"
     ),
     rule: str = typer.Option(
-        "point",
+        "world",
         "--rule",
-        help="recommend by the pooled precision (point), by the lower end of the one-new-world precision "
-        "interval (lower), or by the share of new worlds within 0.05 of the target (world: at least 90 %)",
+        help="recommend by the share of new worlds within 0.05 of the target (world: at least 90 %), by the "
+        "pooled precision (point) or by the lower end of the one-new-world precision interval (lower)",
     ),
     sets: list[str] | None = typer.Option(None, "--set", help="scenario override for every world (key=value)"),
     out: Path | None = typer.Option(
@@ -96,9 +96,10 @@ def tune_cmd(
 ) -> None:
     """Tune a method's declared parameters for a target precision (resumable); write tune.json,
     front.png and recommended.yaml (for a scenario or ``roman-sim run --set @recommended.yaml``).
-    With ``--level``, a suite's calibration and held-out worlds are that level's only. With ``--rule lower``,
-    a setting qualifies only when the lower end of its one-new-world precision interval reaches the target; with
-    ``--rule world``, when the spread of the worlds' precisions puts at least 90 % of new worlds within 0.05 of it."""
+    With ``--level``, a suite's calibration and held-out worlds are that level's only. Under ``--rule world`` (the
+    default) a setting qualifies when the spread of the worlds' precisions at it puts at least 90 % of new worlds
+    within 0.05 of the target; under ``point`` when its pooled precision reaches the target; under ``lower`` when
+    the lower end of its one-new-world precision interval does."""
     from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob, spread_lines
     from roman_sim.core.errors import ConfigError
     from roman_sim.evaluation.tuning import check_rule
@@ -109,7 +110,7 @@ def tune_cmd(
         raise ConfigError(f"--target-precision: must lie in (0, 1], got {target_precision:g}")
     stem = Path(source).stem if source.endswith((".yaml", ".yml")) else source
     name = f"{method.replace(':', '_').replace('.', '_')}-{stem}" + ("" if level is None else f"-{level}")
-    name += "" if rule == "point" else f"-{rule}"
+    name += "" if rule == "world" else f"-{rule}"
     folder = out or Path("results") / "tune" / name
     ex = flags.config()
     lines = LineProgress()

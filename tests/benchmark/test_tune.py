@@ -9,8 +9,10 @@ import json
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
+from scipy import stats
 from typer.testing import CliRunner
 
 from roman_sim.align.aligners import RomanAligner, RomanParams
@@ -39,7 +41,7 @@ KS = range(1, 9)
 
 
 def _tune(home: Path, *params: str) -> tuple[int, str]:
-    args = ["tune", str(home / "tiny.yaml"), "--out", str(home / "t"), "--param", "threshold=1:8"]
+    args = ["tune", str(home / "tiny.yaml"), "--out", str(home / "t"), "--param", "threshold=1:8", "--rule", "point"]
     for p in params:
         args += ["--param", p]
     res = CliRunner().invoke(app, args)
@@ -114,7 +116,7 @@ def test_figures_follow_from_the_raw_pairs(home: Path):
 
 
 def _tune_level(home: Path, out: str, *args: str) -> tuple[int, str]:
-    cmd = ["tune", str(home / "levelled.yaml"), "--out", str(home / out), "--param", "threshold=1:8"]
+    cmd = ["tune", str(home / "levelled.yaml"), "--out", str(home / out), "--param", "threshold=1:8", "--rule", "point"]
     res = CliRunner().invoke(app, [*cmd, "--param", "cos_min=0.85", *args])
     return res.exit_code, res.output
 
@@ -319,6 +321,62 @@ def test_the_lower_rule_is_recorded_and_another_rule_is_refused(home: Path):
         "(choose another --out)"
     ]
     assert (lo / "tune.json").read_bytes() == before
+
+
+def _grid_share(per_world: list[tuple[int, int]], x: float) -> float:
+    """The share of new worlds at ``x`` or more of the beta-binomial fitted to (hits, accepted) by a grid search
+    of scipy's pmf (independent of the tune's optimiser)."""
+    h = [a for a, n in per_world if n]
+    n = [n for _, n in per_world if n]
+    best = max(
+        (float(stats.betabinom.logpmf(h, n, m * c, (1 - m) * c).sum()), m, c)
+        for m in np.linspace(0.5, 0.9999, 200)
+        for c in np.geomspace(0.05, 1e5, 120)
+    )
+    return float(stats.beta.sf(x, best[1] * best[2], (1 - best[1]) * best[2]))
+
+
+def test_the_world_rule_is_the_default_and_states_the_spread_of_its_choice(home: Path):
+    wr = home / "wr"
+    for part in ("work", "cache"):  # the same worlds: the runs are read back
+        shutil.copytree(home / "t" / part, wr / part)
+    args = ["tune", str(home / "tiny.yaml"), "--out", str(wr), "--param", "threshold=1:8", "--param", "cos_min=0.85"]
+    res = CliRunner().invoke(app, args)  # the default rule
+    assert res.exit_code == 0, res.output
+    got, point = read_tune(wr / "tune.json"), read_tune(home / "t" / "tune.json")
+    assert got.rule == "world" and json.loads((wr / "job.json").read_text())["rule"] == "world"
+    assert got.configs == point.configs
+    rows = {w: r for (w, _), r in _by_hand(home).items()}
+
+    def per_world(k: int) -> list[tuple[int, int]]:
+        out = []
+        for r in rows.values():
+            tp = sum(1 for rel, ok, n in r if n >= k and rel and ok)
+            out.append((tp, sum(1 for _, ok, n in r if n >= k and not ok) + tp))
+        return out
+
+    # by hand: the smallest threshold whose worlds' spread puts 90 % of new worlds at 0.85 or more; a grid fit
+    # is coarser than the tune's, so a share within 0.02 of 0.9 decides nothing
+    rec = got.recommended
+    k_rec = 9 if rec is None else rec.threshold
+    for k in range(1, k_rec):
+        if sum(1 for _, n in per_world(k) if n) >= 2:
+            assert _grid_share(per_world(k), 0.85) < 0.92, k
+    if rec is None:
+        assert "(--rule world): nothing recommended" in res.output
+        return
+    sp = rec.spread
+    assert sp is not None and sp.worlds == sum(1 for _, n in per_world(rec.threshold) if n)
+    assert _grid_share(per_world(rec.threshold), 0.85) > 0.88
+    # the stated figures follow from the stated Beta(a, b)
+    assert sp.mean == pytest.approx(sp.a / (sp.a + sp.b))
+    assert sp.share_within_slack == pytest.approx(float(stats.beta.sf(0.85, sp.a, sp.b)))
+    assert sp.share_at_target == pytest.approx(float(stats.beta.sf(0.9, sp.a, sp.b)))
+    assert sp.interval == pytest.approx(list(stats.beta.ppf([0.025, 0.975], sp.a, sp.b)))
+    head = (wr / "recommended.yaml").read_text().splitlines()
+    assert ", rule world" in head[0]
+    assert any(line.startswith(f"# worlds' spread (beta-binomial over {sp.worlds} worlds)") for line in head)
+    assert f"{sp.share_within_slack:.0%} at 0.85 or more" in " ".join(res.output.split())  # wrapped lines
 
 
 def test_a_bad_rule_names_the_allowed_values_before_anything_runs(home: Path):

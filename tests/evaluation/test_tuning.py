@@ -15,6 +15,7 @@ from roman_sim.evaluation.tuning import (
     config_rows,
     nested_held_out,
     setting_new_world,
+    setting_spread,
 )
 
 
@@ -165,3 +166,54 @@ def test_a_bad_rule_names_the_allowed_ones():
         check_rule("upper")
     with pytest.raises(ConfigError, match="--rule"):
         choose_setting(_configs(), KM, ["a", "b"], KS, 0.9, rule="upper")
+
+
+def _spread_case(small_bad: int) -> dict[str, ConfigOutcomes]:
+    """One config over worlds a, b, c, d. World a: 80 relevant pairs found and right, 60 of them at 2
+    associations and 20 at 1. Worlds b, c, d: 10 relevant pairs found and right, 8 at 2 and 2 at 1, and
+    ``small_bad`` wrong pairs at 1 association."""
+    rows: list[tuple] = []
+    for w, n, top in (("a", 80, 60), ("b", 10, 8), ("c", 10, 8), ("d", 10, 8)):
+        rows += [(w, f"r{i % 3}", True, True, 2 if i < top else 1) for i in range(n)]
+        if w != "a":
+            rows += [(w, f"r{i % 3}", False, False, 1) for i in range(small_bad)]
+    return {"only": _config(rows)}
+
+
+KM4 = {w: 1.0 for w in "abcd"}
+
+
+def test_the_world_rule_weighs_worlds_not_pairs():
+    """By hand: at threshold 1 the pooled precision is 110 / 122 = 0.90 (world a's 80 clean pairs carry b, c and
+    d at 10 / 14 = 0.71 each), so the point rule takes it; a new world is three times as likely to be like b, c
+    or d, so the worlds' spread puts 56 % of new worlds, not 90 %, at 0.85 or more and the world rule takes
+    threshold 2, where no world has a false positive (84 of 110 relevant pairs)."""
+    cfg = _spread_case(4)
+    assert 110 / 122 >= 0.9
+    point = choose_setting(cfg, KM4, list("abcd"), [1, 2], 0.9)
+    world = choose_setting(cfg, KM4, list("abcd"), [1, 2], 0.9, rule="world")
+    assert point is not None and point.k == 1 and point.recall == 1.0
+    assert world is not None and world.k == 2 and world.recall == pytest.approx(84 / 110)
+    one = setting_spread(cfg["only"].pairs, 1)
+    assert one is not None and one.worlds == 4 and one.share(0.85) < 0.6  # 0.56
+    two = setting_spread(cfg["only"].pairs, 2)
+    assert two is not None and two.share(0.85) > 0.999
+    # each world is scored at the setting chosen on the other three: threshold 2 in every fold (without a, b, c
+    # and d agree at 0.71; without one of them, a still disagrees with the other two)
+    nested = nested_held_out(Evidence(cfg, KM4, [1, 2], 0.9, rule="world"))
+    assert {w: s.k for w, s in nested.chosen.items() if s is not None} == {w: 2 for w in "abcd"}
+    assert (nested.figures.cell.hits, nested.figures.cell.false_positives) == (84, 0)
+
+
+def test_the_world_rule_recommends_nothing_rather_than_fall_back():
+    """With 30 wrong pairs at 1 association in each of b, c and d, threshold 2 still drops every wrong pair; with
+    the wrong pairs at 2 associations too, no threshold clears them: nothing qualifies, nothing is chosen."""
+    rows: list[tuple] = []
+    for w, n in (("a", 200), ("b", 10), ("c", 10), ("d", 10)):
+        rows += [(w, f"r{i % 3}", True, True, 2) for i in range(n)]
+        if w != "a":
+            rows += [(w, f"r{i % 3}", False, False, 2) for i in range(4)]
+    cfg = {"only": _config(rows)}
+    assert 230 / 242 >= 0.9
+    assert choose_setting(cfg, KM4, list("abcd"), [1, 2], 0.9) is not None
+    assert choose_setting(cfg, KM4, list("abcd"), [1, 2], 0.9, rule="world") is None
