@@ -1,17 +1,17 @@
 """Cost and transfer of ``roman-sim tune`` on the ``quick`` suite; figures into ``benchmarks/out/tune.json``.
 
-1. ``roman-sim tune quick`` with ROMAN's default grid (threshold 1-30, cos_min 0.8 / 0.85 /
-   0.9): wall time, CPU time and the load average before and after. CPU time counts this
-   process and its waited-for children (``resource.getrusage``); with ``--workers`` above 1
-   the pool's workers are forked by multiprocessing's forkserver, not by this process, so the
-   process tree is sampled every half second (``psutil``) and their last seen CPU time added
-   (a lower bound: a worker's last half second may be missed). The default, one worker, runs
-   everything in this process: its CPU time is exact. The machine may be shared: wall time is
-   then an upper bound; CPU time / 2 is the wall time on 2 free cores if both were kept busy,
-   CPU time the wall time on one. Fresh by default (a private stage cache: every world is
-   mapped); ``--cache DIR`` uses a stage cache that already holds the quick suite's maps
-   (``ROMAN_SIM_CACHE=DIR roman-sim benchmark quick`` fills one), so only the alignments and
-   the tune itself are timed.
+1. ``roman-sim tune quick --rule point`` (the script's rule unless ``--rule``) with ROMAN's
+   default grid (threshold 1-30, cos_min 0.8 / 0.85 / 0.9): wall time, CPU time and the load
+   average before and after. CPU time counts this process and its waited-for children
+   (``resource.getrusage``); with ``--workers`` above 1 the pool's workers are forked by
+   multiprocessing's forkserver, not by this process, so the process tree is sampled every half
+   second (``psutil``) and their last seen CPU time added (a lower bound: a worker's last half
+   second may be missed). The default, one worker, runs everything in this process: its CPU
+   time is exact. The machine may be shared: wall time is then an upper bound; CPU time / 2 is
+   the wall time on 2 free cores if both were kept busy, CPU time the wall time on one. Fresh
+   by default (a private stage cache: every world is mapped); ``--cache DIR`` uses a stage
+   cache that already holds the quick suite's maps (``ROMAN_SIM_CACHE=DIR roman-sim benchmark
+   quick`` fills one), so only the alignments and the tune itself are timed.
 2. The recommended setting on worlds the tune never saw: the quick suite's scene at each seed
    of ``CHECK_SEEDS`` in each level (one world is one draw: several per level), run at exactly
    that setting (threshold and ``cos_min``). Per world its precision (with the Wilson interval
@@ -26,8 +26,11 @@
    of ``--check-seeds`` (default 4, 5, 6), none of which the tune saw. The figures go into the
    file's ``level_tunes`` under the level; the figures of the all-level tune are kept as they are.
 
-4. ``--rule lower`` (with ``--level``): the tune recommends by the lower end of each setting's
-   one-new-world precision interval (``roman-sim tune --rule lower``). The point rule's setting is
+4. ``--rule lower`` or ``--rule world`` (with ``--level``): the tune recommends by the lower end
+   of each setting's one-new-world precision interval, or by the share of new worlds the spread of
+   the worlds' precisions puts within 0.05 of the target (``roman-sim tune --rule``); each unseen
+   world's hits are also checked against the 95 % interval that spread gives a world accepting as
+   many pairs (``inside_spread_interval``). The point rule's setting is
    scored from the same alignments (``tune_point/``: the work folder copied, nothing re-aligned)
    and checked on the same unseen worlds, so the two rules are compared like with like. The
    figures go into the file's ``rule_tunes`` under ``<level>-<rule>``; the other keys are kept.
@@ -38,7 +41,7 @@
    (``best_lowest_world_wilson``): no setting's one-new-world lower end exceeds it.
 
 Run: ``python benchmarks/bench_tune.py [FOLDER] [--cache DIR] [--check-cache DIR] [--workers N]
-[--level NAME [--seeds LO:HI] [--check-seeds A,B,C] [--rule lower [--reuse DIR]]]`` (default: a
+[--level NAME [--seeds LO:HI] [--check-seeds A,B,C] [--rule lower|world [--reuse DIR]]]`` (default: a
 temporary folder, removed after; one worker).
 """
 

@@ -574,8 +574,8 @@ def spread_lines(sp: TuneSpread | None, target: float) -> list[str]:
         return []
     return [
         f"# worlds' spread (beta-binomial over {sp.worlds} worlds): a new world's precision {sp.mean:.3f} expected, "
-        f"95 % of worlds in [{sp.interval[0]:.3f}, {sp.interval[1]:.3f}]; {sp.share_at_target:.0%} of worlds at "
-        f"{target:g} or more, {sp.share_within_slack:.0%} at {target - PRECISION_SLACK:g} or more",
+        f"95 % of worlds in [{sp.interval[0]:.3f}, {sp.interval[1]:.3f}]; {sp.share_at_target:.1%} of worlds at "
+        f"{target:g} or more, {sp.share_within_slack:.1%} at {target - PRECISION_SLACK:g} or more",
     ]
 
 

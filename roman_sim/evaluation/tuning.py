@@ -8,9 +8,10 @@ each pair's alignment time (a pair gated out costs 0) and each world's driven ki
 - ``choose_setting``: on calibration worlds only, per config the smallest threshold that
   qualifies under the rule; among the configs with one, the highest pooled recall, then the
   fewest false loop closures per km, then the least time per pair, then the config's order.
-  Rule ``point`` (the default): the threshold's pooled precision reaches the target
-  (``transfer.choose_threshold``). Rule ``lower``: the lower end of the setting's precision
-  interval for one new world reaches the target (``setting_new_world``: each calibration
+  Rule ``point`` (these functions' default; ``roman-sim tune`` takes ``world``): the
+  threshold's pooled precision reaches the target (``transfer.choose_threshold``). Rule
+  ``lower``: the lower end of the setting's precision interval for one new world reaches the
+  target (``setting_new_world``: each calibration
   world's Wilson interval at that fixed setting and the pooled world-bootstrap interval, the
   hull; the same statement the tune makes of its choice). Under ``lower`` a setting whose
   point precision reaches the target but whose worlds could fall below it does not qualify;

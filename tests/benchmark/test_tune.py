@@ -376,7 +376,7 @@ def test_the_world_rule_is_the_default_and_states_the_spread_of_its_choice(home:
     head = (wr / "recommended.yaml").read_text().splitlines()
     assert ", rule world" in head[0]
     assert any(line.startswith(f"# worlds' spread (beta-binomial over {sp.worlds} worlds)") for line in head)
-    assert f"{sp.share_within_slack:.0%} at 0.85 or more" in " ".join(res.output.split())  # wrapped lines
+    assert f"{sp.share_within_slack:.1%} at 0.85 or more" in " ".join(res.output.split())  # wrapped lines
 
 
 def test_a_bad_rule_names_the_allowed_values_before_anything_runs(home: Path):

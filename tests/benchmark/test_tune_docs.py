@@ -177,3 +177,96 @@ def test_rule_tune_figures_in_the_docs():
     assert c["precision"] < 0.9
     assert f"the point rule misses the target (pooled {c['precision']:.2f}) within its interval" in text
     assert f"its price is the whole recall of {c['recall']:.2f}" in text
+
+
+def _spread_text(sp: dict) -> str:
+    return (
+        f"a new world's precision {sp['mean']:.2f} expected, 95 % of worlds in {_ci(sp['interval'])}, "
+        f"{sp['share_at_target']:.1%} at 0.9 or more and {sp['share_within_slack']:.1%} at 0.85 or more"
+    )
+
+
+def test_world_rule_figures_in_the_docs():
+    """The world rule on seven low worlds, checked on six fresh ones, against the point rule on the same alignments;
+    each world's hits against the 95 % interval of BetaBinomial(n, a, b), recomputed here with scipy."""
+    from scipy import stats
+
+    whole = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    d = whole["rule_tunes"]["low-world"]
+    text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    assert d["level"] == "low" and d["rule"] == "world" and d["seeds"] == list(range(7))
+    assert d["worlds"] == [f"low-s{s}" for s in d["seeds"]] and not any(d["maps_reused"].values())
+    assert d["alignments_read_back"] is False and d["workers"] == 2
+    assert (
+        "`python benchmarks/bench_tune.py FOLDER --level low --seeds 0:7 --rule world "
+        "--check-seeds 13,14,15,16,17,18 --workers 2 --check-cache DIR`" in text
+    )
+    assert "figures in `rule_tunes.low-world` of the same file" in text
+    before, after = _loads(d)
+    assert (
+        f"Tuned on the low level's seven worlds of seeds 0-6 ({d['alignments']} alignments each, every world mapped "
+        f"fresh, two workers): {d['wall_s']:.0f} s of wall time on 2 cores (load average {before} before, {after} "
+        f"after) and {d['cpu_s']:.0f} s of CPU time" in text
+    )
+    assert d["wall_s"] <= 300 and "The cost is within 5 minutes on 2 cores" in text
+    rec, h, c = d["recommended"], d["held_out"], d["check_on_unseen_worlds"]
+    _recommended(rec, h, text)
+    sp = rec["spread"]
+    assert sp["worlds"] == 7 and sp["share_within_slack"] >= 0.9
+    assert abs(sp["share_within_slack"] - float(stats.beta.sf(0.85, sp["a"], sp["b"]))) < 1e-9
+    assert f"Its spread over the seven worlds: {_spread_text(sp)}" in text
+    assert (
+        f"Held-out (each world at the setting chosen on the other six): precision {h['precision']:.2f} "
+        f"({h['hits']} / {h['hits'] + h['false_positives']}) with a 95 % world interval {_ci(h['precision_worlds'])}"
+        in text
+    )
+    p = d["point_rule"]
+    prec, psp, ph = p["recommended"], p["recommended"]["spread"], p["held_out"]
+    assert psp["share_within_slack"] < 0.9
+    assert (
+        f"The point rule, scored from the same alignments, recommends `cos_min` {prec['values']['cos_min']}, "
+        f"threshold {prec['threshold']} (held-out precision {ph['precision']:.2f}); at that setting the seven worlds' "
+        f"spread puts {psp['share_within_slack']:.1%} of new worlds at 0.85 or more" in text
+    )
+    fresh = [f"low-s{s}" for s in range(13, 19)]
+    assert c["seeds"] == list(range(13, 19)) and sorted(c["per_world"]) == fresh
+    assert not set(c["seeds"]) & set(range(13))  # never used before: calibration 0-6, earlier checks 4-12
+    each = [_frac(c["per_world"][w]) for w in fresh]
+    assert (
+        f"On the six fresh worlds of seeds 13-18 that setting reached {', '.join(each[:-1])} and {each[-1]}: "
+        f"pooled {c['precision']:.2f} ({c['hits']} / {c['hits'] + c['false_positives']}, Wilson "
+        f"{_ci(c['precision_wilson'])}) at recall {c['recall']:.2f} ({c['hits']} / {c['n_relevant']})" in text
+    )
+    assert c["precision"] >= 0.9 and d["reaches_target"] is True
+    # each world's hits against the interval its own number of accepted pairs gives, by scipy here
+    for w in fresh:
+        v = c["per_world"][w]
+        n = v["hits"] + v["false_positives"]
+        lo, hi = stats.betabinom.ppf([0.025, 0.975], n, sp["a"], sp["b"])
+        assert v["inside_spread_interval"] == bool(lo <= v["hits"] <= hi), w
+    reach, _ = c["worlds_reaching_target"]
+    assert (reach, *c["worlds_inside_new_world_interval"]) == (4, 6, 6)
+    assert f"for one new world {_ci(h['precision_new_world'])}" in text
+    assert "Four of the six reach 0.9, and all six lie in the one-new-world interval" in text
+    below = [w for w in fresh if not c["per_world"][w]["reaches_target"]]
+    assert [c["per_world"][w]["inside_spread_interval"] for w in below] == [True, False]
+    for w, verdict in zip(below, ("has as many hits as the spread gives", "has one hit fewer than the"), strict=True):
+        v = c["per_world"][w]
+        n = v["hits"] + v["false_positives"]
+        lo, hi = (int(x) for x in stats.betabinom.ppf([0.025, 0.975], n, sp["a"], sp["b"]))
+        assert f"{_frac(v)} {verdict}" in text
+        assert f"{lo}-{hi}" in text
+        if not v["inside_spread_interval"]:
+            assert v["hits"] == lo - 1
+    assert "seven worlds understate the spread" in text
+    pc = p["check_on_unseen_worlds"]
+    assert pc["seeds"] == c["seeds"] and pc["precision"] < 0.9 - 0.05
+    (out,) = [w for w in fresh if not pc["per_world"][w]["inside_spread_interval"]]
+    assert (
+        f"The point rule's setting reached {pc['precision']:.2f} pooled on the same six worlds ({pc['hits']} / "
+        f"{pc['hits'] + pc['false_positives']}, Wilson {_ci(pc['precision_wilson'])}) at recall "
+        f"{pc['recall']:.2f}; {pc['worlds_reaching_target'][0]} of the six reach 0.9 and one "
+        f"({_frac(pc['per_world'][out])}) lies outside the interval of its own spread" in text
+    )
+    assert f"the world rule pays for it in recall ({c['recall']:.2f} against {pc['recall']:.2f})" in text
+    assert c["precision"] >= 0.9 and d["within_stated_interval"] is True
