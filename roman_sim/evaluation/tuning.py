@@ -11,9 +11,9 @@ each pair's alignment time (a pair gated out costs 0) and each world's driven ki
   Rule ``point`` (these functions' default; ``roman-sim tune`` takes ``world``): the
   threshold's pooled precision reaches the target (``transfer.choose_threshold``). Rule
   ``lower``: the lower end of the setting's precision interval for one new world reaches the
-  target (``setting_new_world``: each calibration
-  world's Wilson interval at that fixed setting and the pooled world-bootstrap interval, the
-  hull; the same statement the tune makes of its choice). Under ``lower`` a setting whose
+  target (``setting_new_world``: each calibration world's Wilson interval at that fixed
+  setting and the pooled world-bootstrap interval, the hull; the same statement the tune makes
+  of its choice). Under ``lower`` a setting whose
   point precision reaches the target but whose worlds could fall below it does not qualify;
   when none qualifies nothing is chosen (never the point rule's choice instead). Rule ``world``:
   the beta-binomial spread of the worlds' precisions at that setting (``world_spread``) puts at
