@@ -61,6 +61,7 @@ from typing import Any
 
 from roman_sim.core.records import to_json
 from roman_sim.evaluation.tune_result import TuneHeldOut, TuneRecommended
+from roman_sim.evaluation.tuning import RULES
 
 OUT = Path(__file__).resolve().parent / "out" / "tune.json"
 #: The seeds of the worlds the recommended setting is checked on (the quick suite tunes on seed 0).
@@ -270,7 +271,7 @@ def main() -> None:
     ap.add_argument("--level", default=None, help="tune on this level of quick only (see the docstring)")
     ap.add_argument("--seeds", default="0:4", help="with --level: the tune's seeds, LO:HI or A,B,C")
     ap.add_argument("--check-seeds", default="4,5,6", help="with --level: the unseen worlds' seeds")
-    ap.add_argument("--rule", default="point", choices=["point", "lower", "world"], help="with --level: the rule")
+    ap.add_argument("--rule", default="point", choices=list(RULES), help="with --level: the rule")
     ap.add_argument("--reuse", type=Path, default=None, help="with --rule lower/world: a finished FOLDER to copy")
     args = ap.parse_args()
     if args.rule != "point" and not args.level:
