@@ -217,3 +217,14 @@ def test_the_world_rule_recommends_nothing_rather_than_fall_back():
     assert 230 / 242 >= 0.9
     assert choose_setting(cfg, KM4, list("abcd"), [1, 2], 0.9) is not None
     assert choose_setting(cfg, KM4, list("abcd"), [1, 2], 0.9, rule="world") is None
+
+
+def test_the_world_rule_never_reads_the_held_out_worlds_truth():
+    """Under the world rule too, flipping world a's truth (its "loose" pairs all wrong) leaves the setting chosen
+    for a as it was (made on b and c only) and changes those of b and c, whose calibration worlds include a."""
+    base = nested_held_out(Evidence(_configs(), KM, KS, 0.9, rule="world"))
+    flipped = nested_held_out(Evidence(_configs(flip="a"), KM, KS, 0.9, rule="world"))
+    chosen = {w: (s.config, s.k) for w, s in base.chosen.items() if s is not None}
+    assert chosen == {w: ("loose", 3) for w in "abc"}  # 16/20 at precision 1 in every world
+    got = {w: (s.config, s.k) for w, s in flipped.chosen.items() if s is not None}
+    assert got == {"a": ("loose", 3), "b": ("tight", 4), "c": ("tight", 4)}
