@@ -28,6 +28,7 @@ removed once the stage completes. A stage's ``run`` writes nothing; the experime
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Sized
@@ -43,10 +44,10 @@ from roman_sim.core.records import RecordError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.evaluation.records import run_timings, write_timings
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
-from roman_sim.pipeline.folder_lock import hold_run_folder
+from roman_sim.pipeline.folder_lock import hold_run_folder, holds_run_folder
 from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, existing_manifest, used_changes
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult, read_timings
-from roman_sim.pipeline.scenario import Scenario, load_scenario
+from roman_sim.pipeline.scenario import Scenario, default_run_dir, load_scenario
 from roman_sim.pipeline.stagecache import StageCache
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, WORKER_PRELOAD, Stage, StageOutput
 from roman_sim.pipeline.stages.base import Timings
@@ -265,7 +266,8 @@ class Experiment:
         """
         if not self._validated:
             self.validate()
-        with hold_run_folder(self.run_dir):
+        held = holds_run_folder(self.run_dir)  # the command line locks first, before its start-up work
+        with contextlib.nullcontext() if held else hold_run_folder(self.run_dir):
             if isinstance(self.executor, Executor):
                 return self._run(self.executor)
             with open_executor(self.executor, WORKER_PRELOAD) as ex:
@@ -391,11 +393,6 @@ def run_scenario_file(
     sc = load_scenario(name_or_path, overrides)
     out = Path(run_dir) if run_dir else default_run_dir(sc)
     return Experiment(sc, out, fresh=fresh, progress=progress, from_stage=from_stage, executor=executor).run()
-
-
-def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:
-    """``results/<scenario>/seed<seed>-<config hash>``: stable, so re-runs reuse stages."""
-    return Path(root) / sc.name / f"seed{sc.seed}-{sc.config_hash()[:8]}"
 
 
 __all__ = ["Experiment", "NullProgress", "Progress", "RunResult", "default_run_dir", "run_scenario_file"]

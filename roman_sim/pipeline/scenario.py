@@ -184,6 +184,11 @@ def with_aligners(sc: Scenario, methods: list[str]) -> Scenario:
     return validate_model(Scenario, data, source="aligners")
 
 
+def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:
+    """``results/<scenario>/seed<seed>-<config hash>``: stable, so re-runs reuse stages."""
+    return Path(root) / sc.name / f"seed{sc.seed}-{sc.config_hash()[:8]}"
+
+
 def bundled_scenarios() -> dict[str, Path]:
     """Scenario name -> YAML path of the scenarios shipped with the project."""
     return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.yaml"))}
