@@ -385,11 +385,13 @@ def sweep_cmd(
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a parameter x seed sweep (resumable) and write sweep.csv; exit 1 with a table if a cell failed."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.pipeline.sweep import load_sweep, run_sweep, sweep_failures
 
     cfg, scenario_path = load_sweep(sweep_file)
     cfg.executor = flags.config(cfg.executor.model_dump())
     out_dir = out or Path("results") / "sweeps" / cfg.name
+    output_folder(out_dir, "--out", create=False)
     if interactive():
         with _progress() as p:
             task = p.add_task(f"sweep {cfg.name}", total=None)
@@ -471,8 +473,11 @@ def reproduce_cmd(
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.studies.reference import reproduce
 
+    output_folder(out, "--out", create=False)
+    output_folder(work, "--work", create=False)
     ex = flags.config()
     path = reproduce(
         out,

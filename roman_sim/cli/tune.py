@@ -101,6 +101,7 @@ def tune_cmd(
     within 0.05 of the target; under ``point`` when its pooled precision reaches the target; under ``lower`` when
     the lower end of its one-new-world precision interval does."""
     from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob, spread_lines
+    from roman_sim.core.atomic import output_folder
     from roman_sim.core.errors import ConfigError
     from roman_sim.evaluation.tuning import check_rule
 
@@ -111,7 +112,7 @@ def tune_cmd(
     stem = Path(source).stem if source.endswith((".yaml", ".yml")) else source
     name = f"{method.replace(':', '_').replace('.', '_')}-{stem}" + ("" if level is None else f"-{level}")
     name += "" if rule == "world" else f"-{rule}"
-    folder = out or Path("results") / "tune" / name
+    folder = output_folder(out or Path("results") / "tune" / name, "--out", create=False)
     ex = flags.config()
     lines = LineProgress()
     bar: Any = None

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import output_folder, write_json, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSONLike, JSONScalar
@@ -71,8 +71,11 @@ class ExportResult:
 
 
 def _prepare(out: Path, names: list[str], overwrite: bool) -> None:
+    output_folder(out, "--out", create=False)
     for name in names:
         d = out / name
+        if d.exists() and not d.is_dir():
+            raise ConfigError(f"--out {out}: {d} is an existing file, not a robot folder")
         if d.exists() and any(d.iterdir()):
             if not overwrite:
                 raise ConfigError(f"--out {out}: {d} already holds files (pass --overwrite to replace them)")

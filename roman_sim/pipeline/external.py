@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
 from roman_sim.align.closure_table import METHOD, TABLE_FORMAT, ClosureTable, TableRow, table_sha256
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import output_folder, write_json, write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
@@ -305,7 +305,8 @@ def score_external(
     is_run = (src / MANIFEST_JSON).is_file()
     if not is_run and not (src / "export.json").is_file():
         raise ConfigError(f"{src}: neither a run folder (manifest.json) nor an export folder (export.json)")
-    if out.exists() and any(out.iterdir()):
+    output_folder(out, "--out", create=False)  # a file there: one line, not a traceback
+    if out.is_dir() and any(out.iterdir()):
         raise ConfigError(f"--out {out}: already holds files (choose a new folder)")
     if not label or "/" in label or ":" in label:
         raise ConfigError(f"--label {label!r}: a non-empty name without '/' or ':'")
