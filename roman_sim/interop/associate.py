@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import StorageError
+from roman_sim.core.tum import MAX_TIME_S, field_problem
 
 
 def read_list(path: str | Path) -> tuple[NDArray[np.float64], list[str]]:
@@ -36,8 +37,11 @@ def read_list(path: str | Path) -> tuple[NDArray[np.float64], list[str]]:
             t = float(parts[0])
         except ValueError:
             raise StorageError(f"{p}:{n}: expected 'timestamp filename', got {line!r}") from None
-        if len(parts) < 2 or not np.isfinite(t):
+        if len(parts) < 2:
             raise StorageError(f"{p}:{n}: expected 'timestamp filename', got {line!r}")
+        bad = field_problem("timestamp", t, MAX_TIME_S, "s")
+        if bad is not None:
+            raise StorageError(f"{p}:{n}: {bad}")
         stamps.append(t)
         names.append(parts[1])
     order = np.argsort(np.asarray(stamps, dtype=np.float64), kind="stable")

@@ -9,49 +9,53 @@ pair's ``T_a_b`` through the run's odometry::
 
     T_a_b = inv(T_odom_submap_a) @ T_odom_body_a(t_a) @ T_pa_pb @ inv(T_odom_body_b(t_b)) @ T_odom_submap_b
 
-(the body poses at the closure times are the odometry's, interpolated between frames).
+(the body poses at the closure times are the odometry's, interpolated between frames; the
+matching runs on the arrays the readers give: ``roman_sim.pipeline.closure_pairs``).
 The closures then go through the run's own evaluation as one more method, named
 ``label`` (``roman_sim.align.closure_table``): the same pairs, truth, correctness,
 recall against heading and ambiguity at every operating point, precision, the pose graph
 with its closures and the ATE table, the report and the plots, in a new run folder ``out``.
 A closure's score is its association count; a closure without one gets the run's
 acceptance threshold (``posegraph.lc_association_thresh``), so it counts as accepted.
-Closures of the same pair keep the highest score; closures whose two ends fall in one
-submap, or on a pair the evaluation does not score (same-robot neighbours), are listed as
-unscored. With ``trajectories`` (one ``<robot>.tum`` per robot), the system's own
-trajectories are scored too (``external_ate.json``, one SE(3)/4-DoF fit over all robots).
+A pair keeps the first of its closures with the highest score; the others, and closures whose
+two ends fall in one submap or on a pair the evaluation does not score (same-robot
+neighbours), are listed as unscored (``external.json`` every one, the report the first 20).
+With ``trajectories`` (one ``<robot>.tum`` per robot), the system's own trajectories are
+scored too (``external_ate.json``, one SE(3)/4-DoF fit over all robots).
 
-Bad input (unknown robot, a time outside the run, a malformed line, a non-rigid pose,
-trajectories that do not cover the run) raises ``ConfigError`` naming the file and line
-before anything is written. ``external.json`` records what was read and matched, and the
-report starts with a section that marks the method as an external system.
+Bad input (unknown robot, a time outside the run, a malformed line, a value that is not
+finite or out of range, a non-rigid pose, trajectories that do not cover the run) raises
+``ConfigError`` naming the file and line before anything is written. ``external.json``
+records what was read and matched, and the report starts with a section that marks the
+method as an external system.
 """
 
 from __future__ import annotations
 
+import itertools
+import json
 import logging
 import shutil
-from collections.abc import Sequence
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation, Slerp
 
 from roman_sim.align.closure_table import METHOD, TABLE_FORMAT, ClosureTable, TableRow, table_sha256
-from roman_sim.core.atomic import output_folder, write_json, write_text
+from roman_sim.core.atomic import atomic_open, output_folder, write_json, write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
-from roman_sim.core.records import from_json, read_json, read_record, write_record
+from roman_sim.core.records import from_json, read_json, read_record, to_json_record, write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
-from roman_sim.evaluation.pairs import select_pairs
-from roman_sim.interop.closures import Closure, read_closures, read_pose_csv
-from roman_sim.mapping.types import Submap
+from roman_sim.interop.associate import read_list
+from roman_sim.interop.closures import Closure, ClosureSet, read_closures, read_pose_csv
+from roman_sim.pipeline.closure_pairs import Resolved, Unscored, pose_at, resolve
 from roman_sim.pipeline.context import Progress, RunContext
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.manifest import MANIFEST_JSON, Manifest, StageRecord, existing_manifest
@@ -65,11 +69,13 @@ log = logging.getLogger(__name__)
 TABLE_JSON = "external_closures.json"
 EXTERNAL_JSON = "external.json"
 EXTERNAL_ATE_JSON = "external_ate.json"
+#: The report lists this many unscored closures (``external.json`` lists every one).
+REPORT_UNSCORED = 20
 #: A closure time may lie this far outside the robot's frames (s).
 TIME_TOL_S = 1e-3
 #: A trajectory must start and end within this of the robot's first and last frame (s).
 COVER_TOL_S = 1.0
-_EXACT_S = 1e-6  # a closure time this close to a frame's is that frame
+_CHUNK = 1 << 14  # unscored closures written at a time
 
 
 @dataclass
@@ -89,7 +95,7 @@ class ExternalScore:
     label: str
     n_closures: int
     n_pairs: int
-    unscored: dict[int, str] = field(default_factory=dict)
+    unscored: Mapping[int, str] = field(default_factory=dict)
     trajectories_ate: AteTable | None = None
 
 
@@ -102,8 +108,7 @@ def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float
     for r in scenario.robots:
         path = source / r.name / "masks.txt"
         if path.is_file():
-            rows = [ln.split()[0] for ln in path.read_text(encoding="utf-8").splitlines() if ln and ln[0] != "#"]
-            out[r.name] = np.asarray([float(s) for s in rows], dtype=np.float64)
+            out[r.name] = read_list(path)[0]  # the stamps, checked line by line, in time order
     return out
 
 
@@ -124,18 +129,31 @@ def _load_stage(run_dir: Path, scenario: Scenario, stage: Any) -> Any:
     return stage.load(RunContext(scenario, run_dir), man.stages[stage.name].files)
 
 
-def _check_closures(path: Path, closures: list[Closure], times: dict[str, NDArray[np.float64]]) -> None:
+def _check_closures(path: Path, closures: ClosureSet, times: dict[str, NDArray[np.float64]]) -> None:
+    """Every closure end's robot is a robot of the run and its time within the robot's frames (ConfigError
+    naming the first failing line: a's end before b's, the robot before its time)."""
     allowed = ", ".join(times)
-    for c in closures:
-        for r, t in ((c.robot_a, c.t_a), (c.robot_b, c.t_b)):
-            if r not in times:
-                raise ConfigError(f"{path}:{c.line}: robot {r!r} is not a robot of the run (allowed: {allowed})")
-            ts = times[r]
-            if not ts[0] - TIME_TOL_S <= t <= ts[-1] + TIME_TOL_S:
-                raise ConfigError(
-                    f"{path}:{c.line}: time {t:.6f} s of robot {r} is outside the run "
-                    f"(allowed: {ts[0]:.6f} to {ts[-1]:.6f} s)"
-                )
+    known = np.asarray([r in times for r in closures.robots], dtype=bool)
+    lo = np.asarray([times[r][0] - TIME_TOL_S if r in times else 0.0 for r in closures.robots], dtype=np.float64)
+    hi = np.asarray([times[r][-1] + TIME_TOL_S if r in times else 0.0 for r in closures.robots], dtype=np.float64)
+    checks = []
+    for codes, ts in ((closures.robot_a, closures.t_a), (closures.robot_b, closures.t_b)):
+        ok = known[codes]
+        checks += [~ok, ok & ~((lo[codes] <= ts) & (ts <= hi[codes]))]
+    failed = np.stack(checks, axis=1) if len(closures) else np.zeros((0, 4), dtype=bool)
+    if not failed.any():
+        return
+    row = int(np.flatnonzero(failed.any(axis=1))[0])
+    check = int(np.flatnonzero(failed[row])[0])
+    code, t_end = (closures.robot_a, closures.t_a) if check < 2 else (closures.robot_b, closures.t_b)
+    r, t, line = closures.robots[int(code[row])], float(t_end[row]), int(closures.line[row])
+    if check % 2 == 0:
+        raise ConfigError(f"{path}:{line}: robot {r!r} is not a robot of the run (allowed: {allowed})")
+    frames = times[r]
+    raise ConfigError(
+        f"{path}:{line}: time {t:.6f} s of robot {r} is outside the run "
+        f"(allowed: {frames[0]:.6f} to {frames[-1]:.6f} s)"
+    )
 
 
 def _read_trajectory(folder: Path, robot: str, robots: list[str]) -> tuple[Path, Trajectory]:
@@ -171,71 +189,7 @@ def _read_trajectories(folder: Path, times: dict[str, NDArray[np.float64]]) -> d
     return out
 
 
-def pose_at(traj: Trajectory, t: float) -> NDArray[np.float64]:
-    """The trajectory's pose at ``t``: a frame's own within 1 us, else interpolated (linear, slerp)."""
-    i = int(np.argmin(np.abs(traj.t - t)))
-    if abs(traj.t[i] - t) <= _EXACT_S or len(traj) == 1:
-        return traj.T[i].copy()
-    j = int(np.clip(np.searchsorted(traj.t, t), 1, len(traj) - 1))
-    t0, t1 = traj.t[j - 1], traj.t[j]
-    w = float(np.clip((t - t0) / (t1 - t0), 0.0, 1.0))
-    T = np.eye(4)
-    T[:3, :3] = Slerp([t0, t1], Rotation.from_matrix(traj.T[j - 1 : j + 1, :3, :3]))([t0 + w * (t1 - t0)]).as_matrix()[
-        0
-    ]
-    T[:3, 3] = (1 - w) * traj.T[j - 1, :3, 3] + w * traj.T[j, :3, 3]
-    return T
-
-
-def _nearest(subs: list[Submap], t: float) -> Submap:
-    return min(subs, key=lambda s: (abs(s.t - t), s.index))
-
-
-@dataclass
-class _Resolved:
-    pairs: dict[tuple[str, str], tuple[NDArray[np.float64], int, int]]  # (a, b) -> (T_a_b, n, line)
-    unscored: dict[int, str]
-
-
-def resolve(
-    closures: list[Closure],
-    submaps: dict[str, list[Submap]],
-    odometry: dict[str, Trajectory],
-    scenario: Scenario,
-) -> _Resolved:
-    """Each closure as an estimate of one evaluated submap pair (see the module docstring)."""
-    every = [s for subs in submaps.values() for s in subs]
-    scored = {(a.name, b.name) for a, b in select_pairs(every, scenario.evaluation).pairs}
-    k_default = scenario.posegraph.lc_association_thresh
-    out = _Resolved({}, {})
-    for c in closures:
-        sa, sb = _nearest(submaps[c.robot_a], c.t_a), _nearest(submaps[c.robot_b], c.t_b)
-        T_sa_sb = (
-            inv_T(sa.T_odom_submap)
-            @ pose_at(odometry[c.robot_a], c.t_a)
-            @ c.T_pa_pb
-            @ inv_T(pose_at(odometry[c.robot_b], c.t_b))
-            @ sb.T_odom_submap
-        )
-        if (sa.robot, sa.index) > (sb.robot, sb.index):
-            sa, sb, T_sa_sb = sb, sa, inv_T(T_sa_sb)
-        key = (sa.name, sb.name)
-        n = k_default if c.score is None else int(c.score)
-        if sa.name == sb.name:
-            out.unscored[c.line] = f"both ends fall in submap {sa.name}"
-        elif key not in scored:
-            out.unscored[c.line] = f"pair {sa.name}|{sb.name} is not scored by the evaluation (neighbours or capped)"
-        elif key in out.pairs and out.pairs[key][1] >= n:
-            out.unscored[c.line] = f"pair {sa.name}|{sb.name} already has a closure with a score >= {n}"
-        else:
-            if key in out.pairs:
-                old = out.pairs[key][2]
-                out.unscored[old] = f"pair {sa.name}|{sb.name} has a closure with a higher score (line {c.line})"
-            out.pairs[key] = (T_sa_sb, n, c.line)
-    return out
-
-
-def _table(res: _Resolved, label: str, source: Path) -> ClosureTable:
+def _table(res: Resolved, label: str, source: Path) -> ClosureTable:
     rows = [TableRow(a, b, T.tolist(), n, line) for (a, b), (T, n, line) in sorted(res.pairs.items())]
     return ClosureTable(TABLE_FORMAT, 1, label, str(source), rows)
 
@@ -260,7 +214,7 @@ def _seed_from_run(source: Path, out: Path) -> None:
     Manifest(man.scenario, man.seed, man.config_hash, man.package_version, keep, [], man.environment).save(out)
 
 
-def _report_section(label: str, closures: Path, n: int, res: _Resolved, ate: AteTable | None) -> str:
+def _report_section(label: str, closures: Path, n: int, res: Resolved, ate: AteTable | None) -> str:
     lines = [
         "## External system",
         "",
@@ -269,7 +223,10 @@ def _report_section(label: str, closures: Path, n: int, res: _Resolved, ate: Ate
         "matched to this run's submaps by time and scored against the truth like every method.",
     ]
     if res.unscored:
-        lines += ["", *[f"- line {line}: {why}" for line, why in sorted(res.unscored.items())]]
+        listed = list(itertools.islice(res.unscored.items(), REPORT_UNSCORED))
+        lines += ["", *[f"- line {line}: {why}" for line, why in listed]]
+        if len(res.unscored) > len(listed):
+            lines.append(f"- and {len(res.unscored) - len(listed)} more (every one in `{EXTERNAL_JSON}`)")
     if ate is not None:
         lines += ["", "Its own trajectories, ATE RMSE (m), one SE(3) fit over all robots:", ""]
         for name, row in ate.variants.items():
@@ -345,15 +302,15 @@ def score_external(
         trajectories=None if trajectories is None else str(trajectories),
         n_closures=len(read),
         n_pairs=len(res.pairs),
-        unscored={str(k): v for k, v in sorted(res.unscored.items())},
+        unscored={},
     )
-    write_record(out / EXTERNAL_JSON, info)
+    _write_external(out / EXTERNAL_JSON, info, res.unscored)
     report = out / "report.md"
     text = report.read_text(encoding="utf-8")
     head, _, rest = text.partition("\n\n")
     write_text(report, f"{head}\n\n{_report_section(label, path, len(read), res, ate)}{rest}")
     log.info("scored %d closures of %s: %d pairs", len(read), label, len(res.pairs))
-    return ExternalScore(run, label, len(read), len(res.pairs), dict(res.unscored), ate)
+    return ExternalScore(run, label, len(read), len(res.pairs), res.unscored, ate)
 
 
 def run_closures(run_dir: str | Path, method: str) -> list[Closure]:
@@ -403,6 +360,29 @@ class ExternalRecord:
     n_closures: int
     n_pairs: int
     unscored: dict[str, str]
+
+
+def _write_external(path: Path, info: ExternalRecord, unscored: Mapping[int, str]) -> None:
+    """``external.json`` with ``unscored`` filled in, the bytes ``write_record`` gives, its entries
+    streamed to the file (a file of millions of unscored closures is never one text in memory)."""
+    if not unscored:
+        write_record(path, info)
+        return
+    u = unscored if isinstance(unscored, Unscored) else Unscored.of(unscored)
+    mark = "\0unscored\0"
+    text = json.dumps(to_json_record(replace(info, unscored={mark: ""})), indent=2, sort_keys=True)
+    head, tail = text.split(f'{json.dumps(mark)}: ""')
+    reasons = [json.dumps(r) for r in u.reasons]
+    order = np.argsort(u.lines.astype(str), kind="stable")  # keys sorted as the strings they are in JSON
+    with atomic_open(path, "wb") as fh:
+        fh.write(head.encode("ascii"))
+        for s in range(0, len(order), _CHUNK):
+            rows = order[s : s + _CHUNK]
+            entries = ",\n    ".join(
+                f'"{line}": {reasons[code]}' for line, code in zip(u.lines[rows].tolist(), u.codes[rows].tolist())
+            )
+            fh.write((("" if s == 0 else ",\n    ") + entries).encode("ascii"))
+        fh.write((tail + "\n").encode("ascii"))
 
 
 def read_external(run_dir: str | Path) -> ExternalRecord:

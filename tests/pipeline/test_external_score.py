@@ -222,6 +222,37 @@ def test_reference_fused_layout_gives_the_acceptance_point(
     assert res.run.ate.variants["external"].rmse == smoke_run.ate.variants["roman"].rmse
 
 
+def test_a_pair_keeps_its_first_closure_of_the_highest_score(
+    smoke_run: RunResult, closures: list[Closure], tmp_path: Path
+) -> None:
+    """One closure written 26 times with other scores, and one whose ends fall in one submap: every
+    line's fate by hand; the report lists the first 20 unscored lines, external.json all of them."""
+    c = next(x for x in closures if x.robot_a != x.robot_b)
+    scores = [4, 4, 6, 5, *([2] * 22)]  # lines 2..27: equal, higher (keeps), lower, then 22 lower ones
+    rows = [dataclasses.replace(c, score=n) for n in scores] + [dataclasses.replace(c, robot_b=c.robot_a, t_b=c.t_a)]
+    write_csv_closures(tmp_path / "dup.csv", rows)
+    res = score_external(smoke_run.run_dir, tmp_path / "dup.csv", tmp_path / "out")
+    from roman_sim.pipeline.external import _load_stage
+    from roman_sim.pipeline.stages.submaps import SubmapsStage
+
+    subs = _load_stage(smoke_run.run_dir, smoke_run.scenario, SubmapsStage()).submaps
+    name = {(s.robot, s.t): s.name for robot in subs.values() for s in robot}  # the run's closures join centres
+    a, b = name[(c.robot_a, c.t_a)], name[(c.robot_b, c.t_b)]
+    pair = "|".join(sorted([a, b]))  # two robots: the robot's name orders the pair
+    expected = {
+        2: f"pair {pair} has a closure with a higher score (line 4)",
+        3: f"pair {pair} already has a closure with a score >= 4",
+        **{line: f"pair {pair} already has a closure with a score >= {n}" for line, n in zip(range(5, 28), scores[3:])},
+        28: f"both ends fall in submap {a}",
+    }
+    assert res.n_pairs == 1 and dict(res.unscored.items()) == expected
+    assert read_external(tmp_path / "out").unscored == {str(k): v for k, v in expected.items()}
+    report = (tmp_path / "out" / "report.md").read_text(encoding="utf-8")
+    listed = [ln for ln in report.splitlines() if ln.startswith("- line ")]
+    assert listed == [f"- line {k}: {v}" for k, v in sorted(expected.items())[:20]]
+    assert f"- and {len(expected) - 20} more (every one in `external.json`)" in report
+
+
 # -- bad input ---------------------------------------------------------------------------
 
 GOOD = "a,10.0,b,20.0,1.0,2.0,0.0,0.0,0.0,0.0,1.0,7"
@@ -249,6 +280,9 @@ CSV_CASES = {
     "short line": ("a,10.0,b,20.0,1,2,0,0,0,1", ":2: 10 fields; a closure line is robot_a,t_a,robot_b,t_b,"),
     "not a number": ("a,10.0,b,20.0,1,two,0,0,0,0,1,7", ":2: relative pose: not a number in"),
     "bad score": ("a,10.0,b,20.0,1,2,0,0,0,0,1,many", ":2: score 'many': must be a whole number"),
+    "huge pose": ("a,10.0,b,20.0,1e308,2,0,0,0,0,1,7", ":2: field x: 1e+308 m is out of range (allowed: a magnitude"),
+    "nan pose": ("a,10.0,b,20.0,1,nan,0,0,0,0,1,7", ":2: field y: nan is not a finite number"),
+    "inf time": ("a,inf,b,20.0,1,2,0,0,0,0,1,7", ":2: field t_a: inf is not a finite number"),
 }
 
 
@@ -298,17 +332,22 @@ def test_g2o_needs_its_times(smoke_run: RunResult, tmp_path: Path, cli_fails: Ca
     assert err == f"error: --closures {path}: a g2o file needs its timestamps file (--times)"
 
 
-def test_trajectories_that_do_not_cover_the_run(
-    smoke_run: RunResult, tmp_path: Path, cli_fails: Callable[..., str]
-) -> None:
-    closures = tmp_path / "c.csv"
-    closures.write_text(GOOD + "\n", encoding="utf-8")
+def _own_trajectories(smoke_run: RunResult, tmp_path: Path, edit_b: Callable[[list[str]], list[str]]) -> Path:
+    """A closure file and the run's ROMAN trajectories as the system's own, robot b's lines edited."""
+    (tmp_path / "c.csv").write_text(GOOD + "\n", encoding="utf-8")
     traj = tmp_path / "traj"
     traj.mkdir()
     for r in ("a", "b"):
         rows = (smoke_run.run_dir / "trajectories" / f"{r}.roman.tum").read_text(encoding="utf-8").splitlines()
-        (traj / f"{r}.tum").write_text("\n".join(rows[: len(rows) // 2] if r == "b" else rows) + "\n", encoding="utf-8")
-    out = tmp_path / "out"
+        (traj / f"{r}.tum").write_text("\n".join(edit_b(rows) if r == "b" else rows) + "\n", encoding="utf-8")
+    return traj
+
+
+def test_trajectories_that_do_not_cover_the_run(
+    smoke_run: RunResult, tmp_path: Path, cli_fails: Callable[..., str]
+) -> None:
+    traj = _own_trajectories(smoke_run, tmp_path, lambda rows: rows[: len(rows) // 2])
+    closures, out = tmp_path / "c.csv", tmp_path / "out"
     err = cli_fails("score", smoke_run.run_dir, "--closures", closures, "--trajectories", traj, "--out", out)
     assert err.startswith(f"error: {traj / 'b.tum'}: covers 0.000 to "), err
     assert "robot b runs 0.000 to " in err and "(allowed: from at most 1 s after its first frame" in err
@@ -330,3 +369,21 @@ def test_source_and_out_checked(smoke_run: RunResult, tmp_path: Path, cli_fails:
     assert err == f"error: --out {smoke_run.run_dir}: already holds files (choose a new folder)"
     err = cli_fails("score", smoke_run.run_dir, "--closures", tmp_path / "c.txt", "--out", tmp_path / "o")
     assert err == f"error: --closures {tmp_path / 'c.txt'}: no such file"
+
+
+def test_a_trajectory_value_out_of_range_is_one_line(
+    smoke_run: RunResult, tmp_path: Path, cli_fails: Callable[..., str]
+) -> None:
+    """A pose of 1e308 in the system's own trajectory: its file and line, before anything is written."""
+
+    def huge(rows: list[str]) -> list[str]:
+        cells = rows[3].split()
+        return [*rows[:3], " ".join([cells[0], "1e308", *cells[2:]]), *rows[4:]]
+
+    traj = _own_trajectories(smoke_run, tmp_path, huge)
+    closures, out = tmp_path / "c.csv", tmp_path / "out"
+    err = cli_fails("score", smoke_run.run_dir, "--closures", closures, "--trajectories", traj, "--out", out)
+    assert err == (
+        f"error: {traj / 'b.tum'}:4: field tx: 1e+308 m is out of range (allowed: a magnitude of at most 1e+09 m)"
+    )
+    assert not out.exists()
