@@ -1,6 +1,7 @@
 """Every committed result file of a typed kind reads into its record and writes back to the same bytes.
 
-The committed files under ``results/`` are the test: reading one with its checked reader and
+The committed files under the committed result folders (``committed_results``: never a user's
+own run folders under ``results/``) are the test: reading one with its checked reader and
 writing the record with its writer must give the file's bytes, so moving a file onto the
 typed reader and writer changes no committed result. A damaged file fails with one line
 naming the file and the field.
@@ -14,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from committed_results import REFERENCE, RESULTS, committed_files
 
 from roman_sim.benchmark.board import read_runtimes
 from roman_sim.benchmark.cells import BENCHMARK_SCHEMA, BenchmarkRecord, CellStatus, PlanRecord
@@ -37,9 +39,6 @@ from roman_sim.studies.attribution import SCHEMA as ATTRIBUTION_SCHEMA
 from roman_sim.studies.attribution import AttributionPlan
 from roman_sim.studies.paper_preset import FitStateRecord, read_predictions
 from roman_sim.studies.reference import read_reference
-
-ROOT = Path(__file__).resolve().parents[2]
-RESULTS = ROOT / "results"
 
 
 def _rewrite_sweep(src: Path, dest: Path) -> None:
@@ -84,7 +83,7 @@ REWRITE: dict[str, Callable[[Path, Path], object]] = {
     "summary.json": lambda src, dest: write_record(dest, read_reference(src)),
 }
 
-FILES = sorted(p for p in RESULTS.rglob("*.json*") if p.name in REWRITE)
+FILES = [p for p in committed_files("*.json*") if p.name in REWRITE]
 
 
 def test_every_typed_kind_has_committed_files() -> None:
@@ -112,7 +111,7 @@ def test_a_committed_file_reads_and_writes_back_byte_identical(path: Path, tmp_p
 def test_a_damaged_run_file_names_the_file_and_field(
     name: str, edit: Callable[[dict], object], message: str, tmp_path: Path
 ) -> None:
-    data = json.loads((RESULTS / "reference" / "demo" / name).read_text(encoding="utf-8"))
+    data = json.loads((REFERENCE / "demo" / name).read_text(encoding="utf-8"))
     edit(data)
     bad = tmp_path / name
     bad.write_text(json.dumps(data), encoding="utf-8")
@@ -145,7 +144,7 @@ def test_a_stage_taken_from_the_shared_cache_has_no_time(tmp_path: Path) -> None
 def test_a_damaged_reference_summary_names_the_file_and_field(
     edit: Callable[[dict], object], message: str, tmp_path: Path
 ) -> None:
-    data = json.loads((RESULTS / "reference" / "summary.json").read_text(encoding="utf-8"))
+    data = json.loads((REFERENCE / "summary.json").read_text(encoding="utf-8"))
     edit(data)
     bad = tmp_path / "summary.json"
     bad.write_text(json.dumps(data), encoding="utf-8")
