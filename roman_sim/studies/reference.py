@@ -128,16 +128,17 @@ def _report_without(text: str, missing: list[str]) -> str:
 def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True, packets: bool = True) -> None:
     """Copy a run's small results and its raw data (gzip) into ``dest``.
 
-    ``metrics.json`` is written without indentation; ``timings.json`` without its per-pair
-    runtime lists (medians, means and 90th percentiles per method stay); the plots kept are
-    ``KEPT_PLOTS`` and the pose-graph method's example alignments, and ``report.md`` names the
-    others instead of linking them.
+    ``metrics.json`` is checked by its reader and written again (the same bytes: a run writes
+    it in the committed format); ``timings.json`` without its per-pair runtime lists (medians,
+    means and 90th percentiles per method stay); the plots kept are ``KEPT_PLOTS`` and the
+    pose-graph method's example alignments, and ``report.md`` names the others instead of
+    linking them.
     """
     dest.mkdir(parents=True, exist_ok=True)
     for name in SMALL_FILES:
         if (run_dir / name).is_file() and name != "report.md":
             shutil.copyfile(run_dir / name, dest / name)
-    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"), tight=True)
+    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"))
     if (run_dir / "timings.json").is_file():
         write_timings(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
     for name in RAW_FILES:
