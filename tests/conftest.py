@@ -193,6 +193,7 @@ def _result_for_fixture():
 LONGEST_FIRST = (
     "tests/benchmark/test_quick.py",
     "tests/pipeline/test_visual.py",
+    "tests/test_docs_examples.py",
     "tests/pipeline/test_regression.py",
     "tests/runner/test_executors.py",
     "tests/pipeline/test_scenario_stats.py",
