@@ -39,6 +39,8 @@ def test_readme_starts_with_the_demo_and_the_test_command():
     # each is the one command between its markers, the order CI runs them in
     assert [marked_command(FIRST, text), marked_command(TEST, text)] == first_two
     assert text.index(markers(FIRST)[1]) < text.index(markers(TEST)[0])
+    # the docs site's front page starts with the same two
+    assert bash_commands((ROOT / "docs" / "index.md").read_text(encoding="utf-8"))[:2] == first_two
 
 
 def _ci_extract(name: str, cwd: Path) -> subprocess.CompletedProcess[str]:
