@@ -1,10 +1,16 @@
 """Fixtures shared by every test area; hand-made submaps, pair truths, scores and alignment results
-(``make_submap``, ``make_truth``, ``make_score``, ``result_for``) for the evaluation and report tests."""
+(``make_submap``, ``make_truth``, ``make_score``, ``result_for``) for the evaluation and report tests.
+
+The helper modules beside this file (``committed_results``: the committed result folders the
+tests may read) are importable from every test.
+"""
 
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -23,6 +29,8 @@ os.environ["ROMAN_SIM_CACHE"] = "off"
 
 if TYPE_CHECKING:
     from roman_sim.pipeline.result import RunResult
+
+sys.path.append(str(Path(__file__).parent))
 
 
 @pytest.fixture(scope="session")
@@ -185,6 +193,7 @@ def _result_for_fixture():
 LONGEST_FIRST = (
     "tests/benchmark/test_quick.py",
     "tests/pipeline/test_visual.py",
+    "tests/test_docs_examples.py",
     "tests/pipeline/test_regression.py",
     "tests/runner/test_executors.py",
     "tests/pipeline/test_scenario_stats.py",

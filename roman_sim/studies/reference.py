@@ -130,10 +130,11 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
     """Copy a run's small results and its raw data (gzip) into ``dest``.
 
     ``manifest.json`` is written without its files' SHA-256 (they are those of the run
-    folder, whose files are compressed or left out here); ``metrics.json`` is written without
-    indentation; ``timings.json`` without its per-pair runtime lists (medians, means and 90th
-    percentiles per method stay); the plots kept are ``KEPT_PLOTS`` and the pose-graph
-    method's example alignments, and ``report.md`` names the others instead of linking them.
+    folder, whose files are compressed or left out here); ``metrics.json`` is checked by its
+    reader and written again (the same bytes: a run writes it in the committed format);
+    ``timings.json`` without its per-pair runtime lists (medians, means and 90th percentiles
+    per method stay); the plots kept are ``KEPT_PLOTS`` and the pose-graph method's example
+    alignments, and ``report.md`` names the others instead of linking them.
     """
     dest.mkdir(parents=True, exist_ok=True)
     for name in SMALL_FILES:
@@ -141,7 +142,7 @@ def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = 
             shutil.copyfile(run_dir / name, dest / name)
     if (run_dir / MANIFEST_JSON).is_file():  # what ran; the hashes are of the run folder's files, not these
         read_manifest(run_dir).without_hashes().save(dest)
-    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"), tight=True)
+    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"))
     if (run_dir / "timings.json").is_file():
         write_timings(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
     for name in RAW_FILES:

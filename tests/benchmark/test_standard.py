@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from committed_results import STANDARD
 
 from roman_sim.benchmark.board import leaderboard
 from roman_sim.core.records import to_json
@@ -22,7 +23,6 @@ from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.report.recompute import compare
 
 ROOT = Path(__file__).resolve().parents[2]
-STANDARD = ROOT / "results" / "benchmark" / "standard"
 FIGURE = "results/benchmark/standard/plots/recall_heading.png"
 
 pytestmark = pytest.mark.skipif(

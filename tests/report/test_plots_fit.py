@@ -6,13 +6,14 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from committed_results import REFERENCE
 from matplotlib.figure import Figure
 
 import roman_sim.report.plots as plots
 from roman_sim.evaluation.leaderboard import MethodRuntime
 from roman_sim.evaluation.results import read_metrics_json
 
-DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
+DEMO = REFERENCE / "demo"
 OPPOSITE = DEMO.parent / "opposite_direction"
 
 

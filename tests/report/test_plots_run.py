@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from committed_results import REFERENCE, STANDARD
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.text import Text
@@ -25,9 +26,7 @@ from roman_sim.pipeline.manifest import read_manifest
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.stages import STAGES
 
-ROOT = Path(__file__).resolve().parents[2]
-STANDARD = ROOT / "results" / "benchmark" / "standard"
-DEMO = ROOT / "results" / "reference" / "demo"
+DEMO = REFERENCE / "demo"
 
 #: Largest figure (inches): two columns of a page at most.
 MAX_W, MAX_H = 12.0, 14.0
