@@ -229,3 +229,17 @@ def test_a_plugin_raising_in_a_cell_fails_the_command_with_the_cells_reason(row:
     assert lines[first + 1] == "Traceback (most recent call last):" and lines.index(bug) > first
     rec = json.loads((folder / "benchmark.json").read_text())
     assert [c["status"] for c in rec["cells"]] == ["failed", "failed"]
+
+
+def test_two_methods_of_one_row_name_are_refused_in_one_line(user_package: Path, monkeypatch) -> None:
+    from roman_sim.benchmark.suites import check_methods
+    from roman_sim.core.errors import ConfigError
+
+    (user_package / "myteam" / "other.py").write_text("from myteam.align import EveryOtherPair as roman\n")
+    (user_package / "myteam" / "again.py").write_text("from myteam.align import EveryOtherPair\n")
+    monkeypatch.chdir(user_package)
+    assert check_methods(["roman", PLUGIN]) == ["roman", PLUGIN]
+    with pytest.raises(ConfigError, match=r"^--methods: myteam.align:EveryOtherPair and myteam.again:EveryOtherPair "):
+        check_methods([PLUGIN, "myteam.again:EveryOtherPair"])
+    with pytest.raises(ConfigError, match=r"^--methods: roman and myteam.other:roman would share the row 'roman' "):
+        check_methods(["roman", "myteam.other:roman"])
