@@ -98,7 +98,7 @@ class Raises:
 @pytest.fixture(scope="module")
 def user_package(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     """A folder holding the user's package ``myteam`` (``myteam/align.py``: ``USER_ALIGNERS``), imported
-    afresh from it by the module that uses it (and forgotten after)."""
+    afresh from it by the test module that uses it (and forgotten after: modules and import path)."""
     home = tmp_path_factory.mktemp("user")
     (home / "myteam").mkdir()
     (home / "myteam" / "__init__.py").write_text("")
@@ -108,6 +108,8 @@ def user_package(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
     yield home
     for name in ("myteam.align", "myteam"):
         sys.modules.pop(name, None)
+    # a plug-in import from the current folder appends that folder to sys.path: forget it too
+    sys.path[:] = [p for p in sys.path if not p or os.path.realpath(p) != os.path.realpath(home)]
 
 
 @pytest.fixture(scope="session")
