@@ -259,6 +259,7 @@ LONGEST_FIRST = (
     "tests/pipeline/test_run_features.py",
     "tests/pipeline/test_external_score.py",
     "tests/benchmark/test_run.py",
+    "tests/benchmark/test_plugin_row.py",
     "tests/runner/test_dask_security.py",
     "tests/pipeline/test_wheel.py",
     "tests/pipeline/test_sweep.py",
