@@ -41,7 +41,7 @@ from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
 from roman_sim.pipeline.result import RunResult
-from roman_sim.pipeline.scenario import load_scenario, method_label, with_aligners
+from roman_sim.pipeline.scenario import load_scenario, method_label
 
 #: The figures ``assert_recall`` bounds (all fractions in [0, 1]).
 FIGURES = ("max_recall", "recall_at_precision_1", "best_f1", "auc")
@@ -87,7 +87,7 @@ def run_scenario(
     """Run (or reuse) a seeded scenario with extra aligners (names or ``package.module:Class``)."""
     aligners, overrides = names_list(aligners, "aligners"), names_list(overrides, "overrides")
     sets = list(overrides) + ([f"seed={seed}"] if seed is not None else [])
-    sc = with_aligners(load_scenario(scenario, sets), list(aligners))
+    sc = load_scenario(scenario, sets, list(aligners))
     run_dir = Path(out) / f"seed{sc.seed}" if out is not None else default_run_dir(sc)
     return Experiment(sc, run_dir).run()
 

@@ -176,9 +176,9 @@ def _run(
     # a local pool's forkserver imports the stages' worker modules while this process imports its own
     prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
     from roman_sim.pipeline.experiment import Experiment, default_run_dir
-    from roman_sim.pipeline.scenario import load_scenario, with_aligners
+    from roman_sim.pipeline.scenario import load_scenario
 
-    sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
+    sc = load_scenario(scenario, list(sets or []), list(aligners or []))
     exp = Experiment(
         sc,
         out or default_run_dir(sc),

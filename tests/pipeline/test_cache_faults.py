@@ -19,7 +19,7 @@ from typer.testing import CliRunner
 
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.result import RunResult
-from roman_sim.pipeline.scenario import load_scenario, with_aligners
+from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stagecache import StageCache
 
 CACHED = ["maps", "submaps", "evaluation", "posegraph", "ate", "report"]
@@ -188,7 +188,7 @@ def test_editing_a_plugins_helper_module_runs_its_stage_again(smoke_run, tmp_pat
     folder = tmp_path / "run"
     shutil.copytree(smoke_run.run_dir, folder)
     cache = StageCache(tmp_path / "cache")
-    sc = with_aligners(load_scenario("smoke"), ["myplugin:HelperAligner"])
+    sc = load_scenario("smoke", aligners=["myplugin:HelperAligner"])
     first = Experiment(sc, folder, cache=cache).run()
     assert "evaluation" not in first.reused and "maps" in first.reused
     again = Experiment(sc, folder, cache=cache).run()
