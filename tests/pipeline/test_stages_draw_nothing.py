@@ -28,7 +28,7 @@ FORBIDDEN_NAMES = {
     "build_encoder_for",
     "plot_frontend_grades",
     "plot_masks",
-    "masks_png",
+    "masks_files",
     "save_png",
     "figure",
 }
