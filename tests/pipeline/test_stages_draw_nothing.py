@@ -30,6 +30,8 @@ FORBIDDEN_NAMES = {
     "plot_masks",
     "masks_files",
     "save_png",
+    "save_figure",
+    "figure_files",
     "figure",
 }
 #: The world stage's one call into the world package, its type and the world's pickled form (shipped to workers).
