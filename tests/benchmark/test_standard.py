@@ -117,8 +117,8 @@ def test_readme_block_is_rendered_from_the_committed_results():
 
 
 def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
+    from roman_sim.core.figures import read_png_data
     from roman_sim.report.benchmark_plots import recall_heading_data
-    from roman_sim.report.plots import read_png_data
 
     shown = read_png_data(ROOT / FIGURE)
     assert shown == json.loads(json.dumps(recall_heading_data(again)))
