@@ -1,15 +1,21 @@
 """Fixtures shared by every test area; hand-made submaps, pair truths, scores and alignment results
-(``make_submap``, ``make_truth``, ``make_score``, ``result_for``) for the evaluation and report tests."""
+(``make_submap``, ``make_truth``, ``make_score``, ``result_for``) for the evaluation and report tests.
+
+The helper modules beside this file (``committed_results``: the committed result folders the
+tests may read) are importable from every test.
+"""
 
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+import sys
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
-from typer.testing import CliRunner
+from typer.testing import CliRunner, Result
 
 from roman_sim.align.base import AlignResult
 from roman_sim.core.geometry import pose_4dof
@@ -23,6 +29,8 @@ os.environ["ROMAN_SIM_CACHE"] = "off"
 
 if TYPE_CHECKING:
     from roman_sim.pipeline.result import RunResult
+
+sys.path.append(str(Path(__file__).parent))
 
 
 @pytest.fixture(scope="session")
@@ -57,6 +65,71 @@ def cli_fails() -> Callable[..., str]:
             lines = lines[-1:]
         assert len(lines) == 1 and lines[0].startswith("error: "), result.stderr
         return lines[0]
+
+    return run
+
+
+#: A user's package of aligner plug-ins, ``myteam.align``: ``EveryOtherPair`` is ROMAN on every other
+#: pair (its closures and hits a part of ROMAN's, so its row and its pose graph differ from ROMAN's);
+#: ``Raises`` passes the dry call (two synthetic submaps of robots "a" and "b") and raises on a run's pairs.
+USER_ALIGNERS = """\
+from roman_sim.align import build_aligner
+from roman_sim.align.base import AlignResult
+
+
+class EveryOtherPair:
+    name = "EveryOtherPair"
+
+    def __init__(self):
+        self.roman = build_aligner("roman", {})
+
+    def align(self, a, b):
+        if (a.index + b.index) % 2:
+            return AlignResult.failure(self.name, "every other pair")
+        out = self.roman.align(a, b)
+        out.method = self.name
+        return out
+
+
+class Raises:
+    name = "raises"
+
+    def align(self, a, b):
+        if a.robot in ("a", "b"):
+            return AlignResult.failure(self.name, "declines")
+        raise RuntimeError("model weights missing")
+"""
+
+
+@pytest.fixture(scope="module")
+def user_package(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
+    """A folder holding the user's package ``myteam`` (``myteam/align.py``: ``USER_ALIGNERS``), imported
+    afresh from it by the test module that uses it (and forgotten after: modules and import path)."""
+    home = tmp_path_factory.mktemp("user")
+    (home / "myteam").mkdir()
+    (home / "myteam" / "__init__.py").write_text("")
+    (home / "myteam" / "align.py").write_text(USER_ALIGNERS)
+    for name in ("myteam.align", "myteam"):
+        sys.modules.pop(name, None)
+    yield home
+    for name in ("myteam.align", "myteam"):
+        sys.modules.pop(name, None)
+    # a plug-in import from the current folder appends that folder to sys.path: forget it too
+    sys.path[:] = [p for p in sys.path if not p or os.path.realpath(p) != os.path.realpath(home)]
+
+
+@pytest.fixture(scope="session")
+def invoke_in() -> Callable[..., Result]:
+    """``invoke_in(folder, *args)``: ``roman-sim ARGS`` run from ``folder`` (where a user's package is found)."""
+    from roman_sim.cli import app
+
+    def run(folder: Path, *args: str) -> Result:
+        mp = pytest.MonkeyPatch()
+        mp.chdir(folder)
+        try:
+            return CliRunner().invoke(app, list(args))
+        finally:
+            mp.undo()
 
     return run
 
@@ -185,6 +258,7 @@ def _result_for_fixture():
 LONGEST_FIRST = (
     "tests/benchmark/test_quick.py",
     "tests/pipeline/test_visual.py",
+    "tests/test_docs_examples.py",
     "tests/pipeline/test_regression.py",
     "tests/runner/test_executors.py",
     "tests/pipeline/test_scenario_stats.py",
@@ -192,6 +266,7 @@ LONGEST_FIRST = (
     "tests/pipeline/test_run_features.py",
     "tests/pipeline/test_external_score.py",
     "tests/benchmark/test_run.py",
+    "tests/benchmark/test_plugin_row.py",
     "tests/runner/test_dask_security.py",
     "tests/pipeline/test_wheel.py",
     "tests/pipeline/test_sweep.py",

@@ -10,9 +10,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from committed_results import REFERENCE
 
 ROOT = Path(__file__).resolve().parent.parent
-SWEEP = ROOT / "results" / "reference" / "ambiguity_sweep"
+SWEEP = REFERENCE / "ambiguity_sweep"
 BEGIN, END = "<!-- ambiguity-knob:begin -->", "<!-- ambiguity-knob:end -->"
 
 

@@ -5,6 +5,7 @@ import re
 from pathlib import Path
 
 import pytest
+from committed_results import BENCHMARKS_OUT as OUT
 
 from roman_sim.frontend.appearance import AppearanceModel
 from roman_sim.frontend.semantics import SemanticConfig
@@ -13,7 +14,6 @@ from roman_sim.world.assets import FAMILIES
 
 ROOT = Path(__file__).resolve().parents[1]
 DOC = (ROOT / "docs" / "mapping.md").read_text(encoding="utf-8")
-OUT = ROOT / "benchmarks" / "out"
 
 
 def test_view_asymmetry_table_is_re_derived_from_the_shapes():

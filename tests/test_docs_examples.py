@@ -3,7 +3,8 @@
 A block that cannot run here says why on the line before it: ``<!-- not run: <reason> -->``
 (a paper-scale run, an install, a cluster). The others run in document order in one folder
 outside the repository, so an example that only works from the repository root fails; the
-smoke run they share is made once per session.
+smoke run they share is made once per session, and the README's comparison on the demo makes
+the one demo run (about 2 minutes) a later example would reuse.
 """
 
 from __future__ import annotations

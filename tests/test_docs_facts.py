@@ -10,6 +10,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from committed_results import REFERENCE
+
 from roman_sim.cli.run import LISTINGS
 from roman_sim.pipeline.scenario import load_scenario
 
@@ -121,7 +123,7 @@ def test_visual_page_states_the_heading_sweep_recall():
         r"in `heading_sweep` visual max recall at 0-60 deg is only (\d\.\d\d) \((\d+)/(\d+)\)", _flat("docs/visual.md")
     )
     assert m
-    summary = json.loads((ROOT / "results" / "reference" / "summary.json").read_text(encoding="utf-8"))
+    summary = json.loads((REFERENCE / "summary.json").read_text(encoding="utf-8"))
     cell = summary["runs"]["heading_sweep"]["methods"]["visual"]["inter"]["bins"]["0-60"]
     assert (round(cell["max_recall"], 2), cell["max_hits"], cell["n_relevant"]) == (float(m[1]), int(m[2]), int(m[3]))
 

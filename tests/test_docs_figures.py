@@ -7,6 +7,8 @@ import re
 import statistics
 from pathlib import Path
 
+from committed_results import BENCHMARKS_OUT, STANDARD
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -15,7 +17,7 @@ def _page(name: str) -> str:
 
 
 def _bench(name: str) -> dict:
-    return json.loads((ROOT / "benchmarks" / "out" / name).read_text(encoding="utf-8"))
+    return json.loads((BENCHMARKS_OUT / name).read_text(encoding="utf-8"))
 
 
 def test_image_front_end_cost_matches_the_benchmark():
@@ -206,7 +208,7 @@ def test_standard_benchmark_time_is_the_benchmark():
     assert [float(m[4]), float(m[5])] == bench["load"] and float(m[6]) == bench["model_min"]["2"]
     assert (int(m[8]), int(m[9])) == (bench["planning_cpu_s"], bench["cpu_s"])
     assert bench["stages_total_s"] == round(sum(v or 0.0 for st in bench["stages_s"].values() for v in st.values()))
-    board = json.loads((ROOT / "results" / "benchmark" / "standard" / "leaderboard.json").read_text(encoding="utf-8"))
+    board = json.loads((STANDARD / "leaderboard.json").read_text(encoding="utf-8"))
     assert (bench["bound_met"], bench["deployable_bound_met"]) == (board["bound_met"], board["deployable_bound_met"])
 
 

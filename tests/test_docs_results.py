@@ -15,13 +15,14 @@ import statistics
 from pathlib import Path
 
 import pytest
+from committed_results import BENCHMARKS_OUT, committed_files
+from committed_results import REFERENCE as REF
 
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.posegraph.types import PoseGraphConfig
 from roman_sim.studies import pages
 
 ROOT = Path(__file__).resolve().parent.parent
-REF = ROOT / "results" / "reference"
 PAGE = ROOT / "docs" / "results.md"
 
 pytestmark = pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
@@ -46,7 +47,7 @@ def test_results_block_is_rendered_from_the_summary():
 def test_page_states_the_committed_size():
     m = re.search(r"([\d.]+) MB in all, ([\d.]+) MB of it the paper-scale runs", _flat())
     assert m, "docs/results.md states the size of the reference results"
-    files = [p for p in REF.rglob("*") if p.is_file()]
+    files = committed_files(roots=[REF])
     total = sum(p.stat().st_size for p in files) / 1e6
     big = sum(p.stat().st_size for p in files if p.relative_to(REF).parts[0].startswith("kimera_")) / 1e6
     assert abs(float(m.group(1)) - total) < 0.15 and abs(float(m.group(2)) - big) < 0.15, (total, big)
@@ -164,7 +165,7 @@ def test_visual_same_direction_miss_is_the_data():
     assert int(m[6]) == len(replay) and int(m[7]) == sum(r["correct"] == "true" for r in replay)
     assert float(m[8]) == round(statistics.median(float(r["rot_err_deg"]) for r in replay), 2)
 
-    geo = json.loads((ROOT / "benchmarks" / "out" / "visual_inliers.json").read_text(encoding="utf-8"))
+    geo = json.loads((BENCHMARKS_OUT / "visual_inliers.json").read_text(encoding="utf-8"))
     m = re.search(
         r"In `same_direction` the inliers are a median of (\d+) points within (\d\.\d\d) m \(RMS\) of their "
         r"centroid, (\d\.\d\d) m from the camera: .*? the true pose keeps a median (\d+) % of the inliers within "

@@ -7,6 +7,8 @@ import json
 import shutil
 from pathlib import Path
 
+from committed_results import BENCHMARKS_OUT, REFERENCE, copy_committed
+
 ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -71,13 +73,9 @@ def test_cost_model_by_hand(tmp_path):
 
 def test_update_rewrites_only_the_block(tmp_path):
     mod = _module()
-    shutil.copytree(
-        ROOT / "results" / "reference",
-        tmp_path / "results" / "reference",
-        ignore=shutil.ignore_patterns("*.gz", "*.png", "*.csv"),
-    )
+    copy_committed(REFERENCE, tmp_path / "results" / "reference", ignore=("*.gz", "*.png", "*.csv"))
     (tmp_path / "benchmarks" / "out").mkdir(parents=True)
-    shutil.copyfile(ROOT / "benchmarks" / "out" / "scale.json", tmp_path / "benchmarks" / "out" / "scale.json")
+    shutil.copyfile(BENCHMARKS_OUT / "scale.json", tmp_path / "benchmarks" / "out" / "scale.json")
     page = tmp_path / mod.PAGE
     page.parent.mkdir()
     page.write_text(f"before\n{mod.BEGIN}\nstale\n{mod.END}\nafter\n")
@@ -97,11 +95,11 @@ def test_segments_per_submap_are_the_committed_packets():
     m = re.search(r"Segments per submap \(median over the submap packets .*? demo's (\d+) ", text)
     assert m, "docs/paper_scale.md states the segments per submap"
     stated = {run: median for run, median, _ in re.findall(r"`(kimera_\w+)` (\d+) \((\d+) submaps\)", text)}
-    runs = {p.parent.name for p in (ROOT / "results" / "reference").glob("kimera_*/packets")}
+    runs = {p.parent.name for p in REFERENCE.glob("kimera_*/packets")}
     assert set(stated) == runs  # every committed paper-scale run, no other
     for run in [*sorted(runs), "demo"]:
         counts = []
-        for f in sorted((ROOT / "results" / "reference" / run / "packets").glob("*.npz")):
+        for f in sorted((REFERENCE / run / "packets").glob("*.npz")):
             with np.load(f) as z:
                 counts += [len(z[k]) for k in z.files if k.endswith("_segment_ids")]
         want = m[1] if run == "demo" else stated[run]

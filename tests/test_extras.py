@@ -8,6 +8,7 @@ from importlib.metadata import PackageNotFoundError, packages_distributions, req
 from pathlib import Path
 
 from packaging.requirements import Requirement
+from readme_commands import TEST, marked_command, no_deps_installs
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -49,16 +50,11 @@ def _installed_by(extra: str) -> set[str]:
 
 
 def _installed_apart() -> set[str]:
-    """Distributions CI installs on their own with ``pip install --no-deps NAME==VERSION`` (.ci/run).
+    """Distributions the README's test command (CI runs it) installs with ``pip install --no-deps NAME==VERSION``.
 
     Their other dependencies are in the test extra (robotdatapy would pull opencv-python).
     """
-    out = set()
-    for line in (ROOT / ".ci" / "run").read_text(encoding="utf-8").splitlines():
-        words = line.split()
-        if "--no-deps" in words and words[:1] == ["run"]:
-            out |= {_name(Requirement(w)) for w in words[words.index("--no-deps") + 1 :] if "==" in w}
-    return out
+    return {_name(Requirement(r)) for r in no_deps_installs(marked_command(TEST))}
 
 
 def test_every_optional_import_of_the_tests_is_in_the_test_extra():

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 from packaging.requirements import Requirement
+from readme_commands import FIRST, TEST, marked_command, no_deps_installs
 
 from roman_sim.pipeline.lockfile import LOCK_FILE, lock_changes, locked_versions, normalize, warn_unlocked
 
@@ -45,9 +46,8 @@ def _third_party() -> dict[str, str]:
 
 
 def _ci_pins() -> dict[str, str]:
-    """Exact pins ``.ci/run`` installs beside the lock (``pip install --no-deps name==version``)."""
-    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
-    return {normalize(n): v for n, v in re.findall(r"pip install .*--no-deps ([A-Za-z0-9._-]+)==(\S+)", ci)}
+    """Exact pins the README's test command (CI runs it) installs beside the lock (``pip install --no-deps``)."""
+    return {normalize(n): v for n, v in (r.split("==") for r in no_deps_installs(marked_command(TEST)))}
 
 
 def test_the_lock_pins_every_third_party_import_of_the_package_and_its_tests():
@@ -84,10 +84,8 @@ def test_the_lock_is_a_constraints_file_of_exact_pins():
 
 
 def test_ci_and_the_readme_install_with_the_lock():
-    readme = (ROOT / "README.md").read_text(encoding="utf-8")
-    block = readme[readme.index("<!-- ci:test-command:begin -->") : readme.index("<!-- ci:test-command:end -->")]
-    assert f'pip install -e ".[test]" -c {LOCK_FILE} && ' in block
-    assert "pip install -e . && roman-sim demo" in readme  # users' install stays open
+    assert marked_command(TEST).startswith(f'pip install -e ".[test]" -c {LOCK_FILE} && ')
+    assert marked_command(FIRST) == "pip install -e . && roman-sim demo"  # users' first install stays open
     ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
     installs = [ln for ln in ci.splitlines() if "pip install" in ln and "-e" in ln]
     assert installs and all(f"-c {LOCK_FILE}" in ln for ln in installs), installs

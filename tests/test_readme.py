@@ -8,6 +8,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from committed_results import REFERENCE as REF
+from readme_commands import FIRST, TEST, bash_commands, marked_command, markers
 
 from roman_sim.cli._verify import verify_run
 from roman_sim.studies import pages
@@ -15,18 +17,11 @@ from roman_sim.studies.reference import DEMO, FIGURE_PNG, demo_summary
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
-REF = ROOT / "results" / "reference"
-BEGIN, END = "<!-- ci:test-command:begin -->", "<!-- ci:test-command:end -->"
+CI = ROOT / ".ci" / "run"
 
 
 def _text() -> str:
     return README.read_text(encoding="utf-8")
-
-
-def _commands(text: str) -> list[str]:
-    """The command lines of the README's shell code blocks, in order."""
-    blocks = re.findall(r"^```bash\n(.*?)^```", text, flags=re.S | re.M)
-    return [ln.strip() for b in blocks for ln in b.splitlines() if ln.strip()]
 
 
 def test_readme_is_short():
@@ -35,32 +30,48 @@ def test_readme_is_short():
 
 def test_readme_starts_with_the_demo_and_the_test_command():
     text = _text()
-    first_two = _commands(text[: text.index("## ")])
+    first_two = bash_commands(text[: text.index("## ")])
     assert first_two == [
         "pip install -e . && roman-sim demo",
-        'pip install -e ".[test]" -c constraints.txt && python -m pytest -q -n auto --dist loadfile --timeout=900 '
-        "--timeout-method=signal",
+        'pip install -e ".[test]" -c constraints.txt && pip install --no-deps robotdatapy==1.1.17 && '
+        "python -m pytest -q -n auto --dist loadfile --timeout=900 --timeout-method=signal",
     ]
-    # the test command is the one command between the markers
-    assert text.count(BEGIN) == 1 and text.count(END) == 1
-    assert _commands(text[text.index(BEGIN) : text.index(END)]) == first_two[1:]
+    # each is the one command between its markers, the order CI runs them in
+    assert [marked_command(FIRST, text), marked_command(TEST, text)] == first_two
+    assert text.index(markers(FIRST)[1]) < text.index(markers(TEST)[0])
+    # the docs site's front page starts with the same two
+    assert bash_commands((ROOT / "docs" / "index.md").read_text(encoding="utf-8"))[:2] == first_two
 
 
-def test_ci_reads_the_test_command_between_the_markers(tmp_path):
-    """The extraction line of ``.ci/run``, run on the README, gives the README's second command."""
-    ci = (ROOT / ".ci" / "run").read_text(encoding="utf-8")
-    line = next(ln for ln in ci.splitlines() if ln.startswith("test_cmd=$("))
-    assert BEGIN in line and END in line
-    out = subprocess.run(
-        ["bash", "-c", f'{line}\nprintf "%s" "$test_cmd"'], cwd=ROOT, capture_output=True, text=True, check=True
-    )
-    assert out.stdout == _commands(_text())[1]
-    # a README without the markers gives nothing, which .ci/run refuses
+def _ci_extract(name: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """``.ci/run``'s own ``readme_command`` function, run on the README in ``cwd``."""
+    ci = CI.read_text(encoding="utf-8")
+    func = ci[ci.index("readme_command() {") : ci.index("\n}\n", ci.index("readme_command() {")) + 3]
+    script = f"set -euo pipefail\n{func}readme_command {name}\n"
+    return subprocess.run(["bash", "-c", script], cwd=cwd, capture_output=True, text=True)
+
+
+def test_ci_runs_the_readme_commands_in_order():
+    """CI reads both commands with one function and runs the first, then the second, nothing between but checks."""
+    ci = CI.read_text(encoding="utf-8")
+    assert "first_cmd=$(readme_command first-command)" in ci and "test_cmd=$(readme_command test-command)" in ci
+    order = [ci.index(f'eval "${var}"') for var in ("first_cmd", "test_cmd")]
+    assert order[0] < ci.index("-c constraints.txt") < order[1]  # the open install runs before the locked one
+    assert "--no-deps" not in ci  # every install of the tests is the README's own
+
+
+@pytest.mark.parametrize("name", [FIRST, TEST])
+def test_ci_reads_each_command_between_its_markers(name: str, tmp_path: Path):
+    """The extraction of ``.ci/run``, run on the README, gives exactly the README's command."""
+    out = _ci_extract(name, ROOT)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == marked_command(name)
+    # a README without the markers gives nothing, and .ci/run stops with one line
     (tmp_path / "README.md").write_text("```bash\npip install -e . && roman-sim demo\npython -m pytest\n```\n")
-    out = subprocess.run(
-        ["bash", "-c", f'{line}\nprintf "%s" "$test_cmd"'], cwd=tmp_path, capture_output=True, text=True
-    )
-    assert out.stdout == ""
+    out = _ci_extract(name, tmp_path)
+    assert out.returncode == 1 and out.stdout == ""
+    begin, end = markers(name)
+    assert out.stderr == f"error: README.md needs exactly one command between {begin} and {end}\n"
 
 
 def test_readme_links_resolve():

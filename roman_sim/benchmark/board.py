@@ -52,6 +52,7 @@ from roman_sim.evaluation.ranking import rank_by_intervals
 from roman_sim.evaluation.results import read_pairs_csv
 from roman_sim.evaluation.transfer import check_target
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
+from roman_sim.pipeline.scenario import method_label
 from roman_sim.report.benchmark_plots import write_benchmark_plots
 from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
 from roman_sim.report.recompute import eval_settings, rederive_scores
@@ -234,7 +235,7 @@ def leaderboard(
     board = Leaderboard(
         suite=record.suite,
         description=str(record.suite_spec.get("description", "")),
-        methods=list(record.methods),
+        methods=[method_label(m) for m in record.methods],
         overrides=list(record.overrides),
         heading_edges_deg=edges,
         half_width_bound=HALF_WIDTH_BOUND,
@@ -243,6 +244,7 @@ def leaderboard(
         bound_met=bool(widths) and all(w is not None and w <= HALF_WIDTH_BOUND for w in widths) and not missing,
         runtime=_runtime(levels),
         target_precision=target_precision,
+        plugins={method_label(m): m for m in record.methods if ":" in m} or None,
     )
     return replace(board, deployable_bound_met=deployable_bound_met(board)), metrics
 

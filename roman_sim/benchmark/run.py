@@ -78,6 +78,8 @@ class BenchmarkOutcome:
     cells: list[str]
     failures: dict[str, str] = field(default_factory=dict)
     reused: list[str] = field(default_factory=list)
+    #: The exception of each cell that failed in this job (its tracebacks, for ``--debug``).
+    errors: dict[str, Exception] = field(default_factory=dict, repr=False)
 
 
 class BenchmarkJob:
@@ -285,10 +287,10 @@ class BenchmarkJob:
         try:
             self._run_cell(c, ex)
         except RomanSimError as err:
-            outcome.failures[c.id] = str(err)
+            outcome.failures[c.id], outcome.errors[c.id] = str(err), err
         except Exception as err:  # a plug-in's own error or a bug: this cell fails, the others run
             log.debug("cell %s failed", c.id, exc_info=True)
-            outcome.failures[c.id] = f"{type(err).__name__}: {one_line(err)}"
+            outcome.failures[c.id], outcome.errors[c.id] = f"{type(err).__name__}: {one_line(err)}", err
         if c.id in outcome.failures:
             log.warning("cell %s failed: %s", c.id, outcome.failures[c.id])
             self._finish(c, "failed", outcome.failures[c.id])

@@ -35,6 +35,7 @@ from roman_sim.benchmark.scenes import CrossingScene
 from roman_sim.core.config import StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.registry import Registry, import_object
+from roman_sim.pipeline.scenario import method_label
 
 #: The paper's methods (every built-in method the standard suite scores).
 PAPER_METHODS = ["roman", "clipper", "clipper_prune", "ransac100k", "ransac1m", "visual"]
@@ -164,8 +165,12 @@ def load_suite(name_or_path: str | Path) -> BenchmarkSuite:
 def check_methods(methods: list[str]) -> list[str]:
     """``methods`` if each is a registered aligner or an importable ``package.module:Class``.
 
+    A method's row in every table is its label (``pipeline.scenario.method_label``: a plug-in's
+    class name), so two methods may not share one.
+
     Raises:
-        ConfigError: an empty list, a duplicate, or an unknown method (naming it and the valid ones).
+        ConfigError: an empty list, a duplicate, an unknown method (naming it and the valid ones),
+            or two methods with one label.
     """
     from roman_sim.align import ALIGNERS
 
@@ -180,5 +185,13 @@ def check_methods(methods: list[str]) -> list[str]:
         elif m not in ALIGNERS:
             raise ConfigError(
                 f"--methods: unknown method {m!r} (valid: {', '.join(ALIGNERS.names())}, or package.module:Class)"
+            )
+    rows: dict[str, str] = {}
+    for m in methods:
+        other = rows.setdefault(method_label(m), m)
+        if other != m:
+            raise ConfigError(
+                f"--methods: {other} and {m} would share the row {method_label(m)!r} "
+                "(a plug-in's row is its class name: rename one class)"
             )
     return list(methods)

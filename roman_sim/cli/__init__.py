@@ -12,14 +12,13 @@ kept, since every file is written atomically (``roman_sim.cli._signals``: every 
 from __future__ import annotations
 
 import logging
-import traceback
 from typing import Any
 
 import typer
 from typer.core import TyperGroup, TyperOption
 
 from roman_sim.cli import _signals as S
-from roman_sim.core.errors import RomanSimError
+from roman_sim.core.errors import RomanSimError, format_chain
 
 _OPTION_TYPE = TyperOption.display_type_rich
 
@@ -35,25 +34,15 @@ TyperOption.display_type_rich = _plain_flag_type  # type: ignore[method-assign]
 _TRACEBACKS = {"on": False}
 
 
-def error_traceback(err: BaseException) -> str:
-    """The tracebacks of ``err`` and of every exception behind it, the first cause first.
-
-    A cause is followed through ``raise ... from err`` and through the context a
-    ``raise ... from None`` hid, so a plug-in's own exception and line are shown.
-    """
-    chain: list[BaseException] = []
-    e: BaseException | None = err
-    while e is not None and all(e is not c for c in chain):
-        chain.append(e)
-        e = e.__cause__ or e.__context__
-    parts = ["".join(traceback.format_exception(x, chain=False)) for x in reversed(chain)]
-    return "\nwhich was reported as:\n\n".join(parts)
+def echo_traceback(err: BaseException) -> None:
+    """With ``-v`` / ``--debug``: the tracebacks of ``err`` and of what lies behind it, on stderr."""
+    if _TRACEBACKS["on"]:
+        typer.echo(format_chain(err).rstrip("\n"), err=True)
 
 
 def _echo_error(line: str, err: BaseException) -> None:
     typer.echo(f"error: {line}", err=True)
-    if _TRACEBACKS["on"]:
-        typer.echo(error_traceback(err).rstrip("\n"), err=True)
+    echo_traceback(err)
 
 
 class _Group(TyperGroup):

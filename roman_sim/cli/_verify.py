@@ -1,7 +1,9 @@
 """``report --verify``: a finished run's figures recomputed, then checked by an independent scorer.
 
-Two checks, the second independent of the first:
+Three checks, the last independent of the others:
 
+- every file's bytes against the SHA-256 ``manifest.json`` recorded for it (a file edited
+  after the run is named);
 - the run's files recomputed from its raw files (``roman_sim.report.recompute``:
   ``metrics.json`` from ``pairs.csv``, ``ate.json`` from the TUM files);
 - the figures of the run's compact summary (recall, hits, relevant pairs and intervals per
@@ -64,8 +66,14 @@ def verify_run(
     run_dir: str | Path, rel_tol: float = REL_TOL, pairs_file: str = "pairs.csv", tum_suffix: str = ""
 ) -> Verification:
     """Recompute ``metrics.json`` (and ``ate.json`` when present), run the independent scorer, list every difference."""
+    from roman_sim.pipeline.manifest import changed_files, read_manifest
+
     d = Path(run_dir)
     out = check_run_files(d, rel_tol, pairs_file, tum_suffix)
+    man = read_manifest(d)
+    out.differences += changed_files(d, man)
+    if any(rec.sha256 for rec in man.stages.values()):  # older manifests recorded no hashes
+        out.checked.append("every file's SHA-256 against manifest.json")
     try:
         out.differences += [f"independent scorer: {x}" for x in independent_check(d)]
     except RomanSimError as err:

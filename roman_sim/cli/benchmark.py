@@ -10,7 +10,7 @@ from rich.console import Console
 from rich.table import Table
 
 from roman_sim.cli import _executor as X
-from roman_sim.cli import app
+from roman_sim.cli import app, echo_traceback
 from roman_sim.cli.progress import LineProgress
 
 if TYPE_CHECKING:
@@ -64,7 +64,7 @@ def _board_table(board: Leaderboard) -> Table:
         title=f"benchmark {board.suite}: the deployable point (threshold chosen on other worlds for precision "
         f"{target:g}; held-out hits / relevant and precision over all headings), then max recall"
     )
-    t.add_column("method")
+    t.add_column("method", no_wrap=True, min_width=max(map(len, board.methods), default=6))  # a row's name whole
     levels = [e for e in board.finished_levels() if e.overall is not None]
     for e in levels:
         t.add_column(f"{e.name}: deployable", justify="right")
@@ -145,5 +145,7 @@ def benchmark_cmd(
     if outcome.failures:
         for c, err in outcome.failures.items():
             typer.echo(f"cell {c} failed: {err}", err=True)
+            if c in outcome.errors:
+                echo_traceback(outcome.errors[c])
         typer.echo(f"{len(outcome.failures)} cell(s) failed, the others ran; run the command again to retry", err=True)
         raise typer.Exit(1)

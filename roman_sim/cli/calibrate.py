@@ -67,7 +67,7 @@ def calibrate_cmd(
     segmenter: str | None = typer.Option(None, "--segmenter", help="segmenter to measure, same form"),
     out: Path = typer.Option(Path("calibration.yaml"), "--out", "-o", help="YAML with the fitted frontend section"),
     grades: Path | None = typer.Option(None, "--grades", help="also write measured and fitted grades (JSON)"),
-    plot: Path | None = typer.Option(None, "--plot", help="also plot the measured grades (PNG)"),
+    plot: Path | None = typer.Option(None, "--plot", help="also plot the measured grades (PNG, with a PDF beside it)"),
     frames: int = typer.Option(120, "--frames", min=2, help="frames rendered in all"),
     overrides: list[str] = typer.Option([], "--set", help="override a scenario field, key=value"),
 ) -> None:

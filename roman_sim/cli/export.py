@@ -1,4 +1,4 @@
-"""``roman-sim export``: a scenario's robots as TUM RGB-D folders or ROS 2 bags."""
+"""``roman-sim export``: a scenario's robots as TUM RGB-D folders, ROS 2 bags or EuRoC MAV folders."""
 
 from __future__ import annotations
 
@@ -22,7 +22,8 @@ def export_cmd(
         typer.Option(
             "--format",
             "-f",
-            help="tum (TUM RGB-D folders), rosbag2 (ROS 2 bags) or roman (bags + ROMAN parameter folders)",
+            help="tum (TUM RGB-D folders), rosbag2 (ROS 2 bags), roman (bags + ROMAN parameter folders) "
+            "or euroc (EuRoC MAV folders with IMU, stereo and Kalibr calibration)",
         ),
     ],
     out: Annotated[Path, typer.Option("--out", "-o", help="export folder (one sub-folder per robot)")],

@@ -182,19 +182,19 @@ def _run(
 
     sc: Scenario | None = None
     if out is None:
-        from roman_sim.pipeline.scenario import default_run_dir, load_scenario, with_aligners
+        from roman_sim.pipeline.scenario import default_run_dir, load_scenario
 
-        sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
+        sc = load_scenario(scenario, list(sets or []), list(aligners or []))
         out = default_run_dir(sc)
     with hold_run_folder(out):
         from roman_sim.runner.executors import prestart
 
         # a local pool's forkserver imports the stages' worker modules while this process imports its own
         prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
-        from roman_sim.pipeline.scenario import load_scenario, with_aligners
+        from roman_sim.pipeline.scenario import load_scenario
 
         if sc is None:
-            sc = with_aligners(load_scenario(scenario, list(sets or [])), list(aligners or []))
+            sc = load_scenario(scenario, list(sets or []), list(aligners or []))
         _run_locked(sc, out, fresh, submaps, from_stage, executor, share)
 
 

@@ -65,7 +65,7 @@ def generate_cmd(
 def preview_cmd(
     source: str = typer.Argument(..., help="preset name, world YAML or exported world folder"),
     seed: int = SEED,
-    out: Path = typer.Option(..., "--out", help="PNG file (X.png + X_view.png) or folder"),
+    out: Path = typer.Option(..., "--out", help="PNG file (X.png + X.pdf + X_view.png) or folder"),
     width: int = typer.Option(640, help="rendered view width (16..1280)"),
     height: int = typer.Option(480, help="rendered view height (16..960)"),
 ) -> None:

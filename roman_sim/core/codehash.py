@@ -3,8 +3,12 @@
 ``code_closure(roots, skip)`` reads the roots' source files and follows their imports
 statically (``ast``; nothing is imported or run): every ``import`` and ``from ... import``
 anywhere in a module, lazy ones inside functions included, except those under
-``if TYPE_CHECKING:``. Only modules of the roots' own top-level packages are followed (for
-this package: ``roman_sim``; for a plug-in ``mypkg.mod:Class``: ``mypkg`` and ``roman_sim``).
+``if TYPE_CHECKING:``. It follows the modules of the roots' own top-level packages (for
+this package: ``roman_sim``; for a plug-in ``mypkg.mod:Class``: ``mypkg`` and ``roman_sim``)
+and every other module whose source lies outside the installed libraries (the standard
+library and the site-packages folders): a helper module beside a plug-in is code the
+plug-in runs, whatever its name. Installed libraries are not hashed: their versions are
+(below).
 
 - ``from pkg import name`` follows ``pkg.name`` when that is a module, else the module
   ``pkg/__init__.py`` takes ``name`` from (its re-export), else ``pkg/__init__.py``
@@ -17,9 +21,16 @@ this package: ``roman_sim``; for a plug-in ``mypkg.mod:Class``: ``mypkg`` and ``
   values reach a cache key anyway).
 
 ``code_fingerprint(roots, skip)`` is 16 hex digits of SHA-256 over the closure's module
-names and source bytes, in sorted order: deterministic, independent of the folder the
-package is installed in, and cheap (each file is read and parsed once per process while
-its size and modification time stay the same).
+names and source bytes, in sorted order, and over ``library_versions``: Python's version and
+the installed version of every distribution that provides a top-level module the closure
+imports (``numpy``, ``mujoco``, ``cv2`` -> ``opencv-python-headless``, ...). So code made with
+other library versions gets another fingerprint, and whatever is keyed by it is computed
+again. It is deterministic, independent of the folder the package is installed in, and
+cheap (each file is read and parsed once per process while its size and modification time
+stay the same).
+
+Imports made by name at run time (``importlib.import_module(some_string)``) cannot be seen
+statically and are not followed.
 """
 
 from __future__ import annotations
@@ -27,9 +38,13 @@ from __future__ import annotations
 import ast
 import hashlib
 import importlib.util
+import platform
+import site
 import sys
+import sysconfig
 from collections.abc import Iterable
 from functools import cache
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -183,31 +198,97 @@ def code_closure(roots: Iterable[str], skip: Iterable[str] = (), shallow: Iterab
 
     ``shallow`` modules are included when reached, but their imports are not followed.
     """
-    skip, shallow = tuple(skip), frozenset(shallow)
-    roots = [r for r in roots if module_file(r) is not None and not _skipped(r, skip)]
+    return sorted(_walk(tuple(roots), tuple(skip), frozenset(shallow))[0])
+
+
+@cache
+def _installed_dirs() -> tuple[Path, ...]:
+    """The folders of installed code: the standard library and every site-packages folder."""
+    paths = sysconfig.get_paths()
+    dirs = {paths[k] for k in ("stdlib", "platstdlib", "purelib", "platlib") if k in paths}
+    dirs |= set(site.getsitepackages()) | {site.getusersitepackages()}
+    return tuple(sorted({Path(d).resolve() for d in dirs if d}))
+
+
+@cache
+def is_installed(top: str) -> bool:
+    """Whether the top-level module ``top`` is an installed library (or not found at all)."""
+    where = _package_dir(top)
+    if where is None:
+        return True
+    path = where.resolve()
+    return any(path.is_relative_to(d) for d in _installed_dirs())
+
+
+def _walk(roots: tuple[str, ...], skip: tuple[str, ...], shallow: frozenset[str]) -> tuple[set[str], set[str]]:
+    """The closure's modules and the top-level names of the installed libraries they import."""
+    roots = tuple(r for r in roots if module_file(r) is not None and not _skipped(r, skip))
     follow = {HOME} | {_top(r) for r in roots}
     seen: set[str] = set()
+    libraries: set[str] = set()
     todo = list(roots)
     while todo:
         name = todo.pop()
         if name in seen:
             continue
         seen.add(name)
+        src = _source(name)
+        libraries |= {_top(m) for m, _ in (src[1] if src else ()) if m and _top(m) not in follow}
         if name in shallow:
             continue
-        todo += [
-            e
-            for e in _edges(name)
-            if e not in seen and _top(e) in follow and not _skipped(e, skip) and module_file(e) is not None
-        ]
-    return sorted(seen)
+        for e in _edges(name):
+            top = _top(e)
+            if e in seen or _skipped(e, skip) or module_file(e) is None:
+                continue
+            if top in follow or not is_installed(top):
+                todo.append(e)
+    libraries = {t for t in libraries if t not in {_top(m) for m in seen} and is_installed(t)}
+    return seen, libraries
+
+
+@cache
+def _distributions() -> dict[str, tuple[str, ...]]:
+    """Top-level module name -> the installed distributions that provide it."""
+    return {top: tuple(sorted(set(d))) for top, d in metadata.packages_distributions().items()}
+
+
+@cache
+def _version(dist: str) -> str | None:
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return None
+
+
+def library_versions(tops: Iterable[str]) -> dict[str, str]:
+    """Python's version and ``distribution -> version`` of the distributions providing the modules ``tops``.
+
+    Standard-library modules and modules no installed distribution provides are left out.
+    """
+    out = {"python": platform.python_version()}
+    dists = _distributions()
+    for top in tops:
+        for dist in dists.get(top, ()):
+            version = _version(dist)
+            if version is not None:
+                out[dist] = version
+    return dict(sorted(out.items()))
+
+
+def code_libraries(roots: Iterable[str], skip: Iterable[str] = (), shallow: Iterable[str] = ()) -> dict[str, str]:
+    """``library_versions`` of the installed libraries that ``code_closure(roots, skip, shallow)`` imports."""
+    return library_versions(_walk(tuple(roots), tuple(skip), frozenset(shallow))[1])
 
 
 def code_fingerprint(roots: Iterable[str], skip: Iterable[str] = (), shallow: Iterable[str] = ()) -> str:
-    """16 hex digits of SHA-256 over the names and sources of ``code_closure(roots, skip, shallow)``."""
+    """16 hex digits of SHA-256 over the names and sources of ``code_closure(roots, skip, shallow)``
+    and the versions of the installed libraries it imports (``code_libraries``)."""
+    modules, libraries = _walk(tuple(roots), tuple(skip), frozenset(shallow))
     h = hashlib.sha256()
-    for name in code_closure(roots, skip, shallow):
+    for name in sorted(modules):
         src = _source(name)
         assert src is not None  # the closure keeps only modules with a source file
         h.update(name.encode("utf-8") + b"\0" + hashlib.sha256(src[0]).digest())
+    for dist, version in library_versions(libraries).items():
+        h.update(f"\0{dist}=={version}".encode())
     return h.hexdigest()[:16]

@@ -79,6 +79,8 @@ class Frame:
         T_body_cam: 4x4 camera (RDF optical) pose in the body (FLU) frame.
         intrinsics: the camera intrinsics.
         truth: ground truth, or None (a real sequence, or stripped by ``public()``).
+        rgb_right: (H, W, 3) uint8 of a second camera beside the first (stereo: same
+            intrinsics, to the right along the optical x axis), or None.
     """
 
     robot: str
@@ -90,6 +92,7 @@ class Frame:
     T_body_cam: NDArray[np.float64]
     intrinsics: Intrinsics
     truth: FrameTruth | None = None
+    rgb_right: NDArray[np.uint8] | None = None
 
     @property
     def T_odom_cam(self) -> NDArray[np.float64]:
@@ -140,10 +143,12 @@ def check_frame(frame: Frame) -> None:
     depth = np.asarray(frame.depth)
     if depth.shape != shape:
         raise MappingError(f"frame {frame.index}: depth shape {depth.shape} does not match intrinsics {shape}")
-    if frame.rgb is not None and np.asarray(frame.rgb).shape != (*shape, 3):
-        raise MappingError(
-            f"frame {frame.index}: rgb shape {np.asarray(frame.rgb).shape} does not match intrinsics {shape} x 3"
-        )
+    for key in ("rgb", "rgb_right"):
+        image = getattr(frame, key)
+        if image is not None and np.asarray(image).shape != (*shape, 3):
+            raise MappingError(
+                f"frame {frame.index}: {key} shape {np.asarray(image).shape} does not match intrinsics {shape} x 3"
+            )
     poses = {"T_odom_body": frame.T_odom_body, "T_body_cam": frame.T_body_cam}
     if frame.truth is not None:
         if frame.truth.object_ids is not None and np.asarray(frame.truth.object_ids).shape != shape:

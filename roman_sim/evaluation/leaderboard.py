@@ -170,7 +170,8 @@ class Leaderboard:
 
     Attributes:
         suite, description: the suite's name and description.
-        methods: the methods scored, in the suite's order.
+        methods: the methods scored, in the suite's order, by the label of their rows (a plug-in's
+            class name).
         overrides: scenario overrides of every cell.
         heading_edges_deg: the heading bin edges.
         half_width_bound: widest interval half-width the suite promises.
@@ -183,6 +184,7 @@ class Leaderboard:
         deployable_bound_met: the headline bound: whether, at the deployable point, every level x heading
             bin has held-out figures whose widest world-bootstrap recall half-width over methods is at most
             the bound, and every cell finished (``deployable_widths``).
+        plugins: per plug-in row its ``package.module:Class`` (None without plug-ins).
     """
 
     suite: str
@@ -197,6 +199,7 @@ class Leaderboard:
     runtime: dict[str, MethodRuntime] = field(default_factory=dict)
     target_precision: float | None = field(default=None, metadata=OMIT_NONE)
     deployable_bound_met: bool = False
+    plugins: dict[str, str] | None = field(default=None, metadata=OMIT_NONE)
 
     def finished_levels(self) -> list[BoardLevel]:
         """The levels with figures."""

@@ -202,10 +202,10 @@ def read_pairs_csv(path: str | Path) -> list[PairScore]:
     return out
 
 
-def write_metrics_json(path: str | Path, metrics: EvaluationMetrics, tight: bool = False) -> Path:
-    """Atomically write ``metrics.json`` (``tight``: on one line, as committed reference results keep it)."""
+def write_metrics_json(path: str | Path, metrics: EvaluationMetrics) -> Path:
+    """Atomically write ``metrics.json``: on one line without spaces, the one format of runs and committed results."""
     path = Path(path)
-    write_json(path, metrics.to_json(), tight=tight)
+    write_json(path, metrics.to_json(), tight=True)
     return path
 
 

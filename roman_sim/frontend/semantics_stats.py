@@ -93,32 +93,24 @@ def view_curve(
 
 
 def plot_cosine_statistics(path: str | Path, cfg: SemanticConfig | None = None, n: int = 400, seed: int = 0) -> Path:
-    """Histogram of every case plus the view curve, saved as a PNG at ``path``."""
-    import io
+    """Histogram of every case plus the view curve, saved as a PNG at ``path`` with a PDF beside it."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from roman_sim.core.atomic import write_bytes
+    from roman_sim.core.figures import drawn_legend, save_figure
 
     cfg = cfg or SemanticConfig()
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    fig = Figure(figsize=(11, 4), dpi=100)
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(1, 2)
     bins = np.linspace(0.2, 1.0, 81)
     for case in CASES:
         ax1.hist(sample_cosines(cfg, case, n, seed), bins=bins, alpha=0.5, label=case)
     ax1.axvline(0.85, color="k", ls="--", lw=1, label="CLIP cos_min 0.85")
     ax1.set(xlabel="cosine", ylabel="pairs", title=f"Simulated descriptor cosines (confusion {cfg.confusion.level:g})")
-    ax1.legend(fontsize=7)
+    drawn_legend(ax1, fontsize=7)
     degs, means = view_curve(cfg, seed=seed)
     ax2.plot(degs, means, "o-")
     ax2.axhline(0.85, color="k", ls="--", lw=1)
     ax2.set(xlabel="view difference (deg)", ylabel="mean cosine", title="Same instance vs viewing direction")
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=100)
-    plt.close(fig)
-    path = Path(path)
-    write_bytes(path, buf.getvalue())
-    return path
+    return save_figure(fig, path)

@@ -1,7 +1,8 @@
 """Interoperability: export scenarios as standard sequences, import real or exported ones.
 
-- ``export_scenario``: every simulated robot of a scenario as a TUM RGB-D folder or a ROS 2
-  bag, with exact ground truth, instance masks and the object table.
+- ``export_scenario``: every simulated robot of a scenario as a TUM RGB-D folder, a ROS 2
+  bag or an EuRoC MAV folder (with its IMU and second camera, and Kalibr-style calibration),
+  with exact ground truth, instance masks and the object table.
 - ``read_tum_sequence`` / ``TumSequence``: a TUM RGB-D folder (real or exported) as
   ``Frame`` objects, ground truth kept apart in ``frame.truth``; ``TumSourceConfig`` is a
   scenario robot's ``source``.

@@ -13,6 +13,7 @@ differs on purpose: it keeps, per reference stamp, the earliest estimate, not th
 
 from __future__ import annotations
 
+from decimal import Decimal
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +23,12 @@ from roman_sim.core.errors import StorageError
 from roman_sim.core.tum import MAX_TIME_S, field_problem
 
 
-def read_list(path: str | Path) -> tuple[NDArray[np.float64], list[str]]:
-    """Stamps (N,) and file names of a TUM list file, sorted by stamp."""
+def read_list(path: str | Path, epoch_ns: int = 0) -> tuple[NDArray[np.float64], list[str]]:
+    """Stamps (N,) and file names of a TUM list file, sorted by stamp.
+
+    With ``epoch_ns`` the stamps are seconds after that epoch, taken off the decimal text
+    exactly (so a nine-decimal stamp comes back to the nanosecond).
+    """
     p = Path(path)
     if not p.is_file():
         raise StorageError(f"{p}: file list not found")
@@ -34,8 +39,8 @@ def read_list(path: str | Path) -> tuple[NDArray[np.float64], list[str]]:
             continue
         parts = line.split()
         try:
-            t = float(parts[0])
-        except ValueError:
+            t = float(parts[0]) if not epoch_ns else float(Decimal(parts[0]) - Decimal(epoch_ns) / 10**9)
+        except (ValueError, ArithmeticError):
             raise StorageError(f"{p}:{n}: expected 'timestamp filename', got {line!r}") from None
         if len(parts) < 2:
             raise StorageError(f"{p}:{n}: expected 'timestamp filename', got {line!r}")

@@ -1,8 +1,12 @@
 """What every sequence writer shares: the writer protocol, time stamps and the registry.
 
-Time stamps are integer nanoseconds ``round(t * 1e9)`` of the frame time ``t`` (seconds
-since the robot's start), written in text files as ``<sec>.<nanosec>`` with nine decimals,
-so the TUM folder and the ROS 2 bag of one robot carry the same stamps.
+Time stamps are integer nanoseconds from a fixed epoch: ``EXPORT_EPOCH_NS + round(t * 1e9)``
+for the frame time ``t`` (seconds since the robot's start), written in text files as
+``<sec>.<nanosec>`` with nine decimals, so the TUM folder, the ROS 2 bag and the EuRoC
+folder of one robot carry the same stamps. The epoch, 1 700 000 000 s after 1970-01-01
+(2023-11-14 22:13:20 UTC), makes them realistic ROS times (tools read a zero stamp as
+"unset") while every export stays the same bytes; ``export.json`` records it, and
+``frame_time`` takes a stamp back to seconds since the start.
 """
 
 from __future__ import annotations
@@ -14,10 +18,18 @@ from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.registry import Registry
 from roman_sim.core.sensors import Frame
 
+#: The epoch of exported stamps (ns since 1970-01-01 UTC): 2023-11-14 22:13:20 UTC.
+EXPORT_EPOCH_NS = 1_700_000_000 * 1_000_000_000
+
 
 def stamp_ns(t: float) -> int:
-    """Integer nanoseconds of a time in seconds (>= 0)."""
-    return round(float(t) * 1e9)
+    """Integer nanoseconds of the exported stamp of a time ``t`` in seconds since the start (>= 0)."""
+    return EXPORT_EPOCH_NS + round(float(t) * 1e9)
+
+
+def frame_time(ns: int) -> float:
+    """Seconds since the start of an exported stamp (``stamp_ns``'s inverse, to the nanosecond)."""
+    return (int(ns) - EXPORT_EPOCH_NS) / 1e9
 
 
 def stamp_text(ns: int) -> str:

@@ -6,11 +6,16 @@ Output folder::
     objects.json     object table (ids, families, oriented boxes; world frame), and
     objects.csv      the same as a flat table
     export.json      format, robots, frame counts, conventions
-    <robot>/         one sequence per robot (``roman_sim.interop.tum_writer`` or
-                     ``roman_sim.interop.rosbag_writer``), with instance masks in masks/
+    <robot>/         one sequence per robot (``roman_sim.interop.tum_writer``,
+                     ``rosbag_writer``, ``roman_export`` or ``euroc``), with instance masks
+                     in masks/
 
 Frames are rendered and written one at a time (never more than one frame in memory),
-every file is written atomically, and the same scenario and seed give the same bytes.
+every file is written atomically, and the same scenario and seed give the same bytes. A
+writer with a ``set_rig`` method also gets each robot's ``SensorRig`` (continuous truth,
+IMU readings, second camera) before its first frame; a robot with an IMU or a second camera
+exported in a format without one (``tum``) is warned about. So is a camera whose pixels are
+not square (fx != fy): real cameras' are, and some systems assume it.
 """
 
 from __future__ import annotations
@@ -28,10 +33,11 @@ from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSONLike, JSONScalar
 from roman_sim.core.sensors import FrameSource
+from roman_sim.interop import euroc as _euroc  # noqa: F401  (registers "euroc")
 from roman_sim.interop import roman_export as _roman  # noqa: F401  (registers "roman")
 from roman_sim.interop import rosbag_writer as _rosbag  # noqa: F401  (registers "rosbag2")
 from roman_sim.interop import tum_writer as _tum  # noqa: F401  (registers "tum")
-from roman_sim.interop.base import FORMATS
+from roman_sim.interop.base import EXPORT_EPOCH_NS, FORMATS
 from roman_sim.interop.looks import table_looks
 from roman_sim.interop.objects import write_object_table
 from roman_sim.interop.source import scenario_streams, select_robots
@@ -86,6 +92,28 @@ def _prepare(out: Path, names: list[str], overwrite: bool) -> None:
         raise ConfigError(f"--out {out}: cannot create it ({err.strerror or err})") from None
 
 
+def _add_sensors(writer: Any, stream: FrameSource, fmt: str) -> None:
+    """Give the writer the robot's sensor rig (when both have one); warn about what the format drops."""
+    k = stream.intrinsics
+    if k.fx != k.fy:
+        log.warning(
+            "robot %s: the camera's pixels are not square (fx %.3f, fy %.3f); give camera.vfov_deg: null "
+            "for square pixels",
+            stream.name,
+            k.fx,
+            k.fy,
+        )
+    rig_of = getattr(stream, "rig", None)
+    if rig_of is None:
+        return
+    rig = rig_of()
+    set_rig = getattr(writer, "set_rig", None)
+    if set_rig is not None:
+        set_rig(rig)
+    elif rig.imu is not None or rig.T_cam_cam2 is not None:
+        log.warning("robot %s: the %s format has no IMU or second camera; they are not exported", stream.name, fmt)
+
+
 def _export_robot(
     stream: FrameSource,
     fmt: str,
@@ -99,6 +127,11 @@ def _export_robot(
         writer = FORMATS.get(fmt)(out / stream.name, stream.name, stream.intrinsics, stream.T_body_cam, **options)
     except TypeError as err:
         raise ConfigError(f"export format {fmt!r}: bad option ({err})") from None
+    try:
+        _add_sensors(writer, stream, fmt)
+    except BaseException:
+        writer.abort()
+        raise
     if progress:
         progress.start(stage, len(stream))
     render_s = write_s = 0.0
@@ -143,7 +176,7 @@ def export_scenario(
 
     Args:
         scenario: a validated ``Scenario``.
-        fmt: ``tum`` or ``rosbag2`` (``FORMATS``).
+        fmt: ``tum``, ``rosbag2``, ``roman`` or ``euroc`` (``FORMATS``).
         out_dir: export folder (created).
         robots: robot names to export (all when None).
         progress: progress sink.
@@ -168,6 +201,7 @@ def export_scenario(
         "format": "roman_sim.export",
         "version": 1,
         "sequence_format": fmt,
+        "time_epoch_ns": EXPORT_EPOCH_NS,
         "scenario": scenario.name,
         "seed": int(scenario.seed),
         "options": options,
@@ -176,7 +210,7 @@ def export_scenario(
             for name, summary in result.robots.items()
         },
         "conventions": {
-            "time": "seconds since the robot's start; stamps are integer nanoseconds",
+            "time": "stamp = time_epoch_ns + seconds since the robot's start, in integer nanoseconds",
             "world": "frame of groundtruth.txt, objects.json and the 'world' tf frame",
             "masks": "16-bit PNG, object id + 1 (0 = background)",
         },

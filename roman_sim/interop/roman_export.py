@@ -14,18 +14,23 @@ topic                                  type                          content
 ``/r/camera/depth/camera_info``        sensor_msgs/msg/CameraInfo    same camera
 ``/r/camera/odom``                     nav_msgs/msg/Odometry         drifted odometry of the
                                                                      **camera** (``T_odom_cam``)
-``/groundtruth``                       nav_msgs/msg/Odometry         true **body** pose (FLU,
+``/r/groundtruth``                     nav_msgs/msg/Odometry         true **body** pose (FLU,
                                                                      ``T_world_body``)
 =====================================  ============================  =============================
 
 Depth is ``round(1000 * metres)``: within 0.5 mm of the rendered depth; a reading beyond
-65.535 m does not fit and is 0. The parameter folders ``roman_params/`` (FastSAM and DINOv2
-on a GPU, the reference's ``params/demo``) and ``roman_params_cpu/`` (``params/demo_no_gpu``:
-FastSAM on the CPU, no semantics) hold ``data.yaml`` (absolute paths to the bags, the
-robots as ``runs``, ``dt`` the frame interval, the camera-pose topic with ``T_camera_flu``
-= the camera mount's inverse for each robot), ``fastsam.yaml`` (``depth_scale: 1000``, the
-camera's ``max_depth``), ``mapper.yaml``, ``submap_align.yaml`` (the scenario's submap
-settings), ``offline_rpgo.yaml`` and ``gt_pose.yaml`` (the truth topic).
+65.535 m does not fit and is 0. Each robot's folder also holds ``groundtruth.csv``, the
+truth topic's poses in the reference's CSV layout (``#timestamp_kf,x,y,z,qw,qx,qy,qz``,
+nanoseconds): its ``gt_pose.yaml`` expands ``${ROBOT}`` in a path but not in a topic, so the
+truth of each robot is read from its own file. The parameter folders ``roman_params/``
+(FastSAM and DINOv2 on a GPU, the reference's ``params/demo``) and ``roman_params_cpu/``
+(``params/demo_no_gpu``: FastSAM on the CPU, no semantics) hold ``data.yaml`` (paths to the
+bags relative to the export folder, the robots as ``runs``, ``dt`` the frame interval
+``1 / rate_hz`` as configured, the camera-pose topic with ``T_camera_flu`` = the camera
+mount's inverse for each robot), ``fastsam.yaml`` (``depth_scale: 1000``, the camera's
+``max_depth``), ``mapper.yaml``, ``submap_align.yaml`` (the scenario's submap settings),
+``offline_rpgo.yaml`` and ``gt_pose.yaml`` (the truth files). Relative paths resolve against
+the working directory: run the reference from the export folder, which can then be moved.
 """
 
 from __future__ import annotations
@@ -38,12 +43,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 from roman_sim.core.atomic import write_text
+from roman_sim.core.geometry import inv_T
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.sensors import Frame
 from roman_sim.interop.base import FORMATS
-from roman_sim.interop.rosbag_writer import RosbagWriter, topics
+from roman_sim.interop.rig import matrix_rows
+from roman_sim.interop.rosbag_writer import BAG_DIR, RosbagWriter, topics
 
 if TYPE_CHECKING:
     from rosbags.typesys.store import Msg
@@ -52,9 +60,21 @@ log = logging.getLogger(__name__)
 
 #: Depth units per metre of ``16UC1`` images (the reference front end's ``depth_scale``).
 DEPTH_SCALE = 1000.0
-#: The truth topic: the same name in every robot's bag, since the reference reads ``gt_pose.yaml``
-#: without expanding variables in the topic (only in the path).
-TRUTH_TOPIC = "/groundtruth"
+#: Each robot's truth in its folder, in the reference's CSV layout (what ``gt_pose.yaml`` reads).
+TRUTH_CSV = "groundtruth.csv"
+#: ``gt_pose.yaml``'s reading of ``TRUTH_CSV`` (robotdatapy's ``PoseData.from_csv`` options).
+TRUTH_CSV_OPTIONS = {
+    "cols": {"time": ["#timestamp_kf"], "position": ["x", "y", "z"], "orientation": ["qx", "qy", "qz", "qw"]},
+    "col_nums": {"time": [0], "position": [1, 2, 3], "orientation": [5, 6, 7, 4]},
+    "timescale": 1e-9,
+}
+
+
+def truth_topic(robot: str) -> str:
+    """The robot's truth topic (one per robot, so bags played together do not mix)."""
+    return f"/{robot}/groundtruth"
+
+
 #: Parameter folders: name -> (FastSAM device, semantics).
 PARAM_DIRS = {"roman_params": ("cuda", True), "roman_params_cpu": ("cpu", False)}
 
@@ -64,7 +84,7 @@ def roman_topics(robot: str) -> dict[str, str]:
     out = {k: v for k, v in topics(robot).items() if k != f"/{robot}/camera/depth/image"}
     out[f"/{robot}/camera/depth/image_raw"] = "sensor_msgs/msg/Image"
     out[f"/{robot}/camera/odom"] = "nav_msgs/msg/Odometry"
-    out[TRUTH_TOPIC] = "nav_msgs/msg/Odometry"
+    out[truth_topic(robot)] = "nav_msgs/msg/Odometry"
     return out
 
 
@@ -79,6 +99,11 @@ class RomanBagWriter(RosbagWriter):
     """One robot's ROMAN-ready bag (module docstring) and its mask side files."""
 
     default_storage = "sqlite3"
+    color_encoding = "bgr8"
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._truth: list[tuple[int, NDArray[np.float64]]] = []
 
     def topic_table(self, robot: str) -> dict[str, str]:
         """``roman_topics``."""
@@ -89,18 +114,22 @@ class RomanBagWriter(RosbagWriter):
         r, m = self.robot, self._msgs
         assert frame.truth is not None and frame.rgb is not None
         zero = np.zeros(3)
-        bgr = np.ascontiguousarray(np.asarray(frame.rgb, dtype=np.uint8)[..., ::-1])
         out = []
         for topic, msg in super().frame_messages(frame, ns, T_ob):
-            if topic == f"/{r}/camera/color/image_raw":
-                msg = m.image(ns, bgr, "bgr8")
-            elif topic == f"/{r}/camera/depth/image":
+            if topic == f"/{r}/camera/depth/image":
                 topic, msg = f"/{r}/camera/depth/image_raw", m.image(ns, depth_mm(frame.depth), "16UC1")
             out.append((topic, msg))
         out.append((f"/{r}/camera/odom", m.odometry(ns, T_ob @ self.T_bc, zero, zero, child=m.cam_frame)))
         truth = m.odometry(ns, frame.truth.T_world_body, zero, zero, frame_id="world", child=f"{r}/base_link_gt")
-        out.append((TRUTH_TOPIC, truth))
+        out.append((truth_topic(r), truth))
+        self._truth.append((ns, np.asarray(frame.truth.T_world_body, dtype=np.float64)))
         return out
+
+    def close(self) -> dict[str, JSONLike]:
+        """Finish the bag (``RosbagWriter.close``) and write ``groundtruth.csv``."""
+        summary = super().close()
+        write_text(self.dir / TRUTH_CSV, truth_csv(self._truth))
+        return summary
 
     @staticmethod
     def finish_export(out: Path, scenario: Any, streams: Sequence[Any], robots: dict[str, dict[str, JSONLike]]) -> None:
@@ -108,17 +137,26 @@ class RomanBagWriter(RosbagWriter):
         write_roman_params(out, scenario, streams)
 
 
-def _matrix(T: NDArray[np.float64]) -> list[list[float]]:
-    return [[float(v) + 0.0 for v in row] for row in np.round(T, 12)]  # + 0.0: no -0.0
+def truth_csv(rows: Sequence[tuple[int, NDArray[np.float64]]]) -> str:
+    """The reference's trajectory CSV (``#timestamp_kf,x,y,z,qw,qx,qy,qz``, nanoseconds) of stamped poses."""
+    lines = ["#timestamp_kf,x,y,z,qw,qx,qy,qz\n"]
+    for ns, T in rows:
+        x, y, z, w = Rotation.from_matrix(T[:3, :3]).as_quat()
+        vals = (*T[:3, 3], w, x, y, z)
+        lines.append(f"{ns}," + ",".join(f"{float(v):.9f}" for v in vals) + "\n")
+    return "".join(lines)
 
 
-def _data_yaml(out: Path, streams: Sequence[Any]) -> dict[str, Any]:
-    bag = str(out.resolve() / "${ROBOT}" / "bag")
-    times = np.asarray(streams[0].run.t, dtype=np.float64)
-    dt = float(np.median(np.diff(times))) if len(times) > 1 else 1.0 / 6.0
+def _dt(stream: Any) -> float:
+    """The frame interval as configured: ``1 / rate_hz``."""
+    return 1.0 / float(stream.cfg.rate_hz)
+
+
+def _data_yaml(streams: Sequence[Any]) -> dict[str, Any]:
+    bag = "${ROBOT}/" + BAG_DIR
     image = {"type": "bag", "path": bag, "compressed": False, "ignore_ros_time": True}
     doc: dict[str, Any] = {
-        "dt": dt,
+        "dt": _dt(streams[0]),
         "runs": [s.name for s in streams],
         "run_env": "ROBOT",
         "img_data": {
@@ -137,13 +175,16 @@ def _data_yaml(out: Path, streams: Sequence[Any]) -> dict[str, Any]:
             "topic": "/${ROBOT}/camera/odom",
             "time_tol": 10.0,
             "ignore_ros_time": True,
-            "T_camera_flu": {"input_type": "matrix", "matrix": _matrix(np.linalg.inv(streams[0].T_body_cam))},
+            "T_camera_flu": {"input_type": "matrix", "matrix": matrix_rows(inv_T(streams[0].T_body_cam))},
         },
     }
     for s in streams:  # each robot's own mount (the reference merges a run's section over the top level)
-        doc[s.name] = {
-            "pose_data": {"T_camera_flu": {"input_type": "matrix", "matrix": _matrix(np.linalg.inv(s.T_body_cam))}}
+        own: dict[str, Any] = {
+            "pose_data": {"T_camera_flu": {"input_type": "matrix", "matrix": matrix_rows(inv_T(s.T_body_cam))}}
         }
+        if _dt(s) != doc["dt"]:
+            own["dt"] = _dt(s)
+        doc[s.name] = own
     return doc
 
 
@@ -218,14 +259,13 @@ def _submap_align_yaml(submaps: Any, semantics: bool) -> dict[str, Any]:
 
 def write_roman_params(out: Path, scenario: Any, streams: Sequence[Any]) -> list[Path]:
     """Write ``roman_params/`` and ``roman_params_cpu/`` for ``streams``' robots; the files written."""
-    data = _data_yaml(out, streams)
+    data = _data_yaml(streams)
     gt = {
-        "type": "bag",
-        "path": data["pose_data"]["path"],
-        "topic": TRUTH_TOPIC,
+        "type": "csv",
+        "path": "${ROBOT}/" + TRUTH_CSV,
+        "csv_options": TRUTH_CSV_OPTIONS,
         "time_tol": 10.0,
         "interp": True,
-        "ignore_ros_time": True,
     }
     max_depth = min(float(s.cfg.camera.max_depth_m) for s in streams)
     written = []

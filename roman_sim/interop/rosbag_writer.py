@@ -19,6 +19,11 @@ topic                                  type                          content
                                                                      r/camera_optical_frame``
 =====================================  ============================  =======================
 
+A robot with an IMU or a second camera (``RobotConfig.imu``, ``stereo``) also has their
+topics (``roman_sim.interop.rig``: ``/r/imu`` at the IMU rate, written in time order between
+the frames; ``/r/camera/right/...``), their mounts in ``/tf_static`` (``r/imu_link``,
+``r/camera_right_optical_frame``) and Kalibr-style calibration files in ``r/kalibr/``.
+
 Images carry ``frame_id = r/camera_optical_frame`` (RDF optical axes); the body frames are
 FLU. The truth lives in its own frame ``r/base_link_gt`` under ``world``, so it never
 conflicts with the odometry tree (``r/odom -> r/base_link``) a SLAM system builds on.
@@ -37,7 +42,7 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -47,12 +52,14 @@ from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
 from roman_sim.interop.masks import MaskWriter
+from roman_sim.interop.rig import color_topic, rig_topics, write_kalibr
 
 if TYPE_CHECKING:
     from rosbags.interfaces import Qos
     from rosbags.typesys.store import Msg, Typestore
 
     from roman_sim.core.jsontypes import JSONLike
+    from roman_sim.sim.source import SensorRig
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +73,7 @@ METADATA_VERSION: Literal[8] = 8
 def topics(robot: str) -> dict[str, str]:
     """Topic name -> message type of one robot's bag."""
     return {
-        f"/{robot}/camera/color/image_raw": "sensor_msgs/msg/Image",
+        color_topic(robot): "sensor_msgs/msg/Image",
         f"/{robot}/camera/color/camera_info": "sensor_msgs/msg/CameraInfo",
         f"/{robot}/camera/depth/image": "sensor_msgs/msg/Image",
         f"/{robot}/camera/depth/camera_info": "sensor_msgs/msg/CameraInfo",
@@ -105,11 +112,11 @@ class _Messages:
         stamp = self.t["builtin_interfaces/msg/Time"](sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
         return self.t["std_msgs/msg/Header"](stamp=stamp, frame_id=frame_id)
 
-    def image(self, ns: int, data: NDArray[np.generic], encoding: str) -> Msg:
+    def image(self, ns: int, data: NDArray[np.generic], encoding: str, frame_id: str | None = None) -> Msg:
         h, w = data.shape[:2]
         raw = np.ascontiguousarray(data).view(np.uint8).reshape(-1)
         return self.t["sensor_msgs/msg/Image"](
-            header=self.header(ns, self.cam_frame),
+            header=self.header(ns, frame_id or self.cam_frame),
             height=h,
             width=w,
             encoding=encoding,
@@ -118,13 +125,13 @@ class _Messages:
             data=raw,
         )
 
-    def camera_info(self, ns: int) -> Msg:
+    def camera_info(self, ns: int, frame_id: str | None = None, Tx: float = 0.0) -> Msg:
         k = self.intr
         K = np.array([k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1], dtype=np.float64)
-        P = np.array([k.fx, 0, k.cx, 0, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=np.float64)
+        P = np.array([k.fx, 0, k.cx, Tx, 0, k.fy, k.cy, 0, 0, 0, 1, 0], dtype=np.float64)
         roi = self.t["sensor_msgs/msg/RegionOfInterest"](x_offset=0, y_offset=0, height=0, width=0, do_rectify=False)
         return self.t["sensor_msgs/msg/CameraInfo"](
-            header=self.header(ns, self.cam_frame),
+            header=self.header(ns, frame_id or self.cam_frame),
             height=k.height,
             width=k.width,
             distortion_model="plumb_bob",
@@ -149,6 +156,22 @@ class _Messages:
         tf = self.t["geometry_msgs/msg/Transform"](translation=vec, rotation=quat)
         return self.t["geometry_msgs/msg/TransformStamped"](
             header=self.header(ns, parent), child_frame_id=child, transform=tf
+        )
+
+    def imu(self, ns: int, gyro: NDArray[np.float64], accel: NDArray[np.float64], var: tuple[float, float]) -> Msg:
+        """An Imu message without orientation (``orientation_covariance[0] = -1``); ``var`` is the
+        (gyroscope, accelerometer) variance of one reading."""
+        V3 = self.t["geometry_msgs/msg/Vector3"]
+        unknown = np.zeros(9)
+        unknown[0] = -1.0
+        return self.t["sensor_msgs/msg/Imu"](
+            header=self.header(ns, f"{self.robot}/imu_link"),
+            orientation=self.t["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+            orientation_covariance=unknown,
+            angular_velocity=V3(x=float(gyro[0]), y=float(gyro[1]), z=float(gyro[2])),
+            angular_velocity_covariance=np.diag(np.full(3, var[0])).reshape(-1),
+            linear_acceleration=V3(x=float(accel[0]), y=float(accel[1]), z=float(accel[2])),
+            linear_acceleration_covariance=np.diag(np.full(3, var[1])).reshape(-1),
         )
 
     def tf(self, transforms: list[Msg]) -> Msg:
@@ -205,6 +228,8 @@ class RosbagWriter:
 
     #: Storage when none is given.
     default_storage = "mcap"
+    #: Encoding of the colour images (``rgb8``, or ``bgr8``: OpenCV's order).
+    color_encoding = "rgb8"
 
     def __init__(
         self,
@@ -237,15 +262,62 @@ class RosbagWriter:
         self._writer = Writer(self._tmp_parent / BAG_DIR, version=METADATA_VERSION, storage_plugin=plugin)
         self._writer.open()
         self._msgs = _Messages(typestore, robot, intrinsics)
-        self._conn = {
-            topic: self._writer.add_connection(
-                topic, msgtype, typestore=typestore, offered_qos_profiles=[_qos(topic == "/tf_static")]
-            )
-            for topic, msgtype in self.topic_table(robot).items()
-        }
+        self._conn: dict[str, Any] = {}
+        self._counts: dict[str, int] = {}
+        self._add_topics(self.topic_table(robot))
         self._masks = MaskWriter(self.dir, robot)
-        self._counts = {topic: 0 for topic in self._conn}
         self._prev: tuple[int, NDArray[np.float64]] | None = None
+        self._rig: SensorRig | None = None
+        self._imu_next = 0
+
+    def _add_topics(self, table: dict[str, str]) -> None:
+        for topic, msgtype in table.items():
+            qos = [_qos(topic == "/tf_static")]
+            self._conn[topic] = self._writer.add_connection(
+                topic, msgtype, typestore=self._msgs.ts, offered_qos_profiles=qos
+            )
+            self._counts[topic] = 0
+
+    def set_rig(self, rig: SensorRig) -> None:
+        """Also write the robot's IMU and second camera (``roman_sim.interop.rig``); before the first frame."""
+        if self._prev is not None:
+            raise StorageError(f"rosbag2 export: robot {self.robot}: sensors added after the first frame")
+        self._rig = rig
+        self._add_topics(rig_topics(self.robot, rig.imu is not None, rig.T_cam_cam2 is not None))
+
+    def _color(self, ns: int, rgb: NDArray[np.uint8], frame_id: str | None = None) -> Msg:
+        """A colour image message in ``color_encoding``."""
+        image = np.asarray(rgb, dtype=np.uint8)
+        if self.color_encoding == "bgr8":
+            image = np.ascontiguousarray(image[..., ::-1])
+        return self._msgs.image(ns, image, self.color_encoding, frame_id)
+
+    def _static(self, ns: int) -> Msg:
+        """``/tf_static``: the camera mount, and the IMU's and the second camera's when present."""
+        m, r = self._msgs, self.robot
+        transforms = [m.transform(ns, f"{r}/base_link", m.cam_frame, self.T_bc)]
+        if self._rig is not None and self._rig.T_cam_cam2 is not None:
+            T = self.T_bc @ self._rig.T_cam_cam2
+            transforms.append(m.transform(ns, f"{r}/base_link", f"{r}/camera_right_optical_frame", T))
+        if self._rig is not None and self._rig.imu is not None:
+            transforms.append(m.transform(ns, f"{r}/base_link", f"{r}/imu_link", np.eye(4)))
+        return m.tf(transforms)
+
+    def _write_imu(self, until_ns: int | None) -> None:
+        """The IMU readings stamped up to ``until_ns`` (all that remain when None), in time order."""
+        imu = None if self._rig is None else self._rig.imu
+        if imu is None:
+            return
+        rate = imu.rate_hz
+        n = imu.noise
+        var = (n.gyroscope_noise_density**2 * rate, n.accelerometer_noise_density**2 * rate)
+        while self._imu_next < len(imu.t):
+            k = self._imu_next
+            ns = stamp_ns(imu.t[k])
+            if until_ns is not None and ns > until_ns:
+                break
+            self._put(f"/{self.robot}/imu", ns, self._msgs.imu(ns, imu.gyro[k], imu.accel[k], var))
+            self._imu_next += 1
 
     def _put(self, topic: str, ns: int, msg: Msg) -> None:
         self._writer.write(self._conn[topic], ns, self._msgs.ts.serialize_cdr(msg, msg.__msgtype__))
@@ -263,8 +335,8 @@ class RosbagWriter:
         if self._prev is not None and ns <= self._prev[0]:
             raise StorageError(f"rosbag2 export: frame {frame.index}: time stamp does not increase")
         if self._prev is None:
-            m = self._msgs
-            self._put("/tf_static", ns, m.tf([m.transform(ns, f"{self.robot}/base_link", m.cam_frame, self.T_bc)]))
+            self._put("/tf_static", ns, self._static(ns))
+        self._write_imu(ns)
         T_ob = np.asarray(frame.T_odom_body, dtype=np.float64)
         for topic, msg in self.frame_messages(frame, ns, T_ob):
             self._put(topic, ns, msg)
@@ -284,7 +356,7 @@ class RosbagWriter:
         depth = np.asarray(frame.depth, dtype=np.float32)
         depth = np.where(np.isfinite(depth) & (depth > 0), depth, np.float32(np.nan)).astype("<f4")
         return [
-            (f"/{r}/camera/color/image_raw", m.image(ns, np.asarray(frame.rgb, dtype=np.uint8), "rgb8")),
+            (color_topic(r), self._color(ns, frame.rgb)),
             (f"/{r}/camera/color/camera_info", m.camera_info(ns)),
             (f"/{r}/camera/depth/image", m.image(ns, depth, "32FC1")),
             (f"/{r}/camera/depth/camera_info", m.camera_info(ns)),
@@ -298,6 +370,21 @@ class RosbagWriter:
                     ]
                 ),
             ),
+            *self._right_messages(frame, ns),
+        ]
+
+    def _right_messages(self, frame: Frame, ns: int) -> list[tuple[str, Msg]]:
+        """The second camera's image and camera info (none without a second camera)."""
+        if self._rig is None or self._rig.T_cam_cam2 is None:
+            return []
+        if frame.rgb_right is None:
+            raise StorageError(f"rosbag2 export: frame {frame.index} of robot {frame.robot} has no second image")
+        r, m = self.robot, self._msgs
+        right = f"{r}/camera_right_optical_frame"
+        Tx = -float(self.intr.fx) * float(self._rig.T_cam_cam2[0, 3])
+        return [
+            (f"/{r}/camera/right/image_raw", self._color(ns, frame.rgb_right, right)),
+            (f"/{r}/camera/right/camera_info", m.camera_info(ns, right, Tx)),
         ]
 
     def close(self) -> dict[str, JSONLike]:
@@ -305,10 +392,13 @@ class RosbagWriter:
         if self._prev is None:
             self.abort()
             raise StorageError(f"rosbag2 export: robot {self.robot} has no frames")
+        self._write_imu(None)
         self._writer.close()
         os.replace(self._tmp_parent / BAG_DIR, self.final)
         shutil.rmtree(self._tmp_parent, ignore_errors=True)
         self._masks.close()
+        if self._rig is not None and (self._rig.imu is not None or self._rig.T_cam_cam2 is not None):
+            write_kalibr(self.dir, self.robot, self.intr, self.T_bc, self._rig)
         return {"frames": self._counts[f"/{self.robot}/odom"], "messages": dict(self._counts), "bag": str(self.final)}
 
     def abort(self) -> None:

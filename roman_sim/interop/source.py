@@ -4,8 +4,8 @@ The world is generated once; ``roman_sim.sim.source.robot_sources`` plans every 
 path in order (so ``reverse_of`` and ``cross`` resolve even when only a later robot is
 exported), drives each selected robot (cheap, poses only) and renders its frames only while
 they are read. The frames are exactly those of a pipeline run of the same scenario (same
-seed, same random streams), except that RGB is always rendered: a standard RGB-D sequence
-has colour images.
+seed, same random streams), except that RGB is always rendered (a standard RGB-D sequence
+has colour images) and so is a robot's second camera, when it has one.
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ def select_robots(robots: Sequence[RobotConfig], names: Sequence[str] | None) ->
 
 
 def scenario_streams(scenario: SimScenario, names: Sequence[str] | None = None) -> tuple[World, list[SimulatedRobot]]:
-    """The generated world and a frame source per selected simulated robot of ``scenario`` (RGB on).
+    """The generated world and a frame source per selected simulated robot of ``scenario`` (RGB, second camera on).
 
     Args:
         scenario: a validated ``Scenario`` (world, robots, seed).
@@ -71,4 +71,5 @@ def scenario_streams(scenario: SimScenario, names: Sequence[str] | None = None) 
 
     chosen = [r.name for r in select_robots(scenario.robots, names)]
     world = generate(scenario.world.spec(), scenario.seed)
-    return world, robot_sources(world, scenario.robots, int(scenario.seed), chosen, rgb=True)
+    streams = robot_sources(world, scenario.robots, int(scenario.seed), chosen, rgb=True)
+    return world, [s.with_stereo() for s in streams]

@@ -1,7 +1,8 @@
 """Camera files of a TUM RGB-D folder: ``camera.yaml`` (written and read) and ``camera.txt``.
 
 ``camera.yaml`` holds the intrinsics (pixels, OpenCV convention: pixel centres at integer
-coordinates), the depth scale and the camera mount ``T_body_cam``. ``camera.txt`` is the
+coordinates), the depth scale, the camera mount ``T_body_cam`` and, in an export, the epoch
+of its stamps (``time_epoch_ns``: the reader takes it off, so frame times count from the start). ``camera.txt`` is the
 plain form a user can write by hand for a real sequence: a first line ``fx fy cx cy``
 (optionally followed by the five distortion coefficients of TUM's calibration tables, which
 must be zero: frames here are undistorted) and an optional second line ``width height``;
@@ -37,6 +38,7 @@ class CameraFile:
     height: int | None = None
     depth_scale: float | None = None
     T_body_cam: NDArray[np.float64] | None = None
+    time_epoch_ns: int = 0
 
     def intrinsics(self, width: int, height: int) -> Intrinsics:
         """Intrinsics for an image of ``width`` x ``height`` (checked against the file's size)."""
@@ -47,8 +49,10 @@ class CameraFile:
         return Intrinsics(width, height, self.fx, self.fy, self.cx, self.cy)
 
 
-def camera_yaml_text(intr: Intrinsics, T_body_cam: NDArray[np.float64], depth_scale: float, robot: str) -> str:
-    """``camera.yaml``: intrinsics, depth scale and camera mount of an exported sequence."""
+def camera_yaml_text(
+    intr: Intrinsics, T_body_cam: NDArray[np.float64], depth_scale: float, robot: str, time_epoch_ns: int = 0
+) -> str:
+    """``camera.yaml``: intrinsics, depth scale, camera mount and stamp epoch of an exported sequence."""
     doc = {
         "format": CAMERA_FORMAT,
         "version": 1,
@@ -64,6 +68,7 @@ def camera_yaml_text(intr: Intrinsics, T_body_cam: NDArray[np.float64], depth_sc
         "depth_scale": float(depth_scale),
         "depth_registered_to_rgb": True,
         "T_body_cam": np.round(np.asarray(T_body_cam, dtype=np.float64), 12).tolist(),
+        "time_epoch_ns": int(time_epoch_ns),
         "frames": {
             "camera": "RDF optical (x right, y down, z forward)",
             "body": "FLU (x forward, y left, z up)",
@@ -105,6 +110,7 @@ def _read_yaml(p: Path) -> CameraFile:
             int(doc["height"]) if "height" in doc else None,
             None if scale is None else float(scale),
             T_bc,
+            int(doc.get("time_epoch_ns") or 0),
         )
     except (KeyError, TypeError, ValueError) as err:
         raise StorageError(

@@ -11,6 +11,10 @@ truth are matched to it. Frames without depth or odometry are dropped, and so ar
 without a ground-truth pose when the folder has a ``groundtruth.txt`` (a map is built from
 frames that all have truth, or none); the counts are logged.
 
+An exported folder's ``camera.yaml`` names the epoch of its stamps (``time_epoch_ns``); the
+reader takes it off every stamp it reads (lists exactly, trajectories to float precision), so
+the frames of an export come back at their times since the robot's start.
+
 Trajectory files are camera poses (TUM's convention); body poses are
 ``T_x_body = T_x_cam @ inv(T_body_cam)``. ``T_body_cam`` comes from the configuration,
 else ``camera.yaml``, else the optical camera on a level body at its origin (``R_FLU_RDF``,
@@ -108,7 +112,7 @@ def _from_file(seq: TumSequence, name: str) -> Trajectory:
             f"source.odometry: {path} not found (valid: {', '.join(ODOMETRY_SOURCES.names())}, "
             "or a TUM file of camera poses)"
         )
-    return read_tum(path)
+    return seq.since_epoch(read_tum(path))
 
 
 def _needs_truth(seq: TumSequence, what: str) -> Trajectory:
@@ -151,13 +155,19 @@ class TumSequence:
         if not self.dir.is_dir():
             raise ConfigError(f"source.tum {self.dir}: not a folder")
         self.camera_file = read_camera_file(self.dir)
+        self.epoch_ns = self.camera_file.time_epoch_ns if self.camera_file is not None else 0
         self.T_body_cam = self._T_body_cam()
         self.depth_scale = float(
             cfg.depth_scale or (self.camera_file and self.camera_file.depth_scale) or TUM_DEPTH_SCALE
         )
-        self.gt = read_tum(self.dir / "groundtruth.txt") if (self.dir / "groundtruth.txt").is_file() else None
+        gt = self.dir / "groundtruth.txt"
+        self.gt = self.since_epoch(read_tum(gt)) if gt.is_file() else None
         self._associate()
         self.intrinsics = self._intrinsics()
+
+    def since_epoch(self, traj: Trajectory) -> Trajectory:
+        """``traj`` with the folder's stamp epoch taken off its times."""
+        return traj if not self.epoch_ns else Trajectory(traj.t - self.epoch_ns / 1e9, traj.T)
 
     def _T_body_cam(self) -> NDArray[np.float64]:
         if self.cfg.T_body_cam is not None:
@@ -168,9 +178,9 @@ class TumSequence:
 
     def _associate(self) -> None:
         tol = self.cfg.max_time_diff_s
-        t_d, self._depth = read_list(self.dir / "depth.txt")
+        t_d, self._depth = read_list(self.dir / "depth.txt", self.epoch_ns)
         use_rgb = self.cfg.rgb and (self.dir / "rgb.txt").is_file()
-        t_rgb, self._rgb = read_list(self.dir / "rgb.txt") if use_rgb else (t_d, list(self._depth))
+        t_rgb, self._rgb = read_list(self.dir / "rgb.txt", self.epoch_ns) if use_rgb else (t_d, list(self._depth))
         ir, idp = associate(t_rgb, t_d, tol)
         t = t_rgb[ir]
         keep = np.ones(len(t), dtype=bool)
@@ -183,7 +193,7 @@ class TumSequence:
         T_world = None if self.gt is None else self._match(t, self.gt, keep)
         masks: list[str | None] = [None] * len(t)
         if self.cfg.masks and (self.dir / "masks.txt").is_file():
-            t_m, names = read_list(self.dir / "masks.txt")
+            t_m, names = read_list(self.dir / "masks.txt", self.epoch_ns)
             im, jm = associate(t_d[idp], t_m, tol)
             for i, j in zip(im, jm):
                 masks[i] = names[j]

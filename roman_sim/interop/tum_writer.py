@@ -34,12 +34,18 @@ from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import format_tum
-from roman_sim.interop.base import FORMATS, stamp_ns, stamp_text
+from roman_sim.interop.base import EXPORT_EPOCH_NS, FORMATS, frame_time, stamp_ns, stamp_text
 from roman_sim.interop.images import TUM_DEPTH_SCALE, depth_to_units, encode_png
 from roman_sim.interop.masks import MaskWriter, list_text
 from roman_sim.interop.tum_camera import CAMERA_TXT, CAMERA_YAML, camera_txt_text, camera_yaml_text
 
 log = logging.getLogger(__name__)
+
+
+def stamped_tum(ns: list[int], T: NDArray[np.float64]) -> str:
+    """TUM lines of poses ``T`` (N, 4, 4) stamped with the exact text of the stamps ``ns``."""
+    rows = format_tum(Trajectory(np.array([frame_time(n) for n in ns]), T)).splitlines()
+    return "".join(f"{stamp_text(n)} {row.split(' ', 1)[1]}\n" for n, row in zip(ns, rows))
 
 
 class TumWriter:
@@ -70,7 +76,7 @@ class TumWriter:
             (self.dir / sub).mkdir(parents=True, exist_ok=True)
         self._masks = MaskWriter(self.dir, robot)
         self._stamps: list[str] = []
-        self._t: list[float] = []
+        self._ns: list[int] = []
         self._T_wb: list[NDArray[np.float64]] = []
         self._T_ob: list[NDArray[np.float64]] = []
         self._too_deep = 0
@@ -85,7 +91,7 @@ class TumWriter:
             raise StorageError(f"TUM export: frame {frame.index}: camera differs from the sequence's")
         ns = stamp_ns(frame.t)
         s = stamp_text(ns)
-        if self._stamps and ns <= stamp_ns(self._t[-1]):
+        if self._ns and ns <= self._ns[-1]:
             raise StorageError(f"TUM export: frame {frame.index}: time stamp {s} does not increase")
         units, too_deep = depth_to_units(frame.depth, self.scale)
         self._too_deep += too_deep
@@ -93,7 +99,7 @@ class TumWriter:
         write_bytes(self.dir / "depth" / f"{s}.png", encode_png(units))
         self._masks.write(frame, s)
         self._stamps.append(s)
-        self._t.append(ns / 1e9)
+        self._ns.append(ns)
         self._T_wb.append(np.asarray(frame.truth.T_world_body, dtype=np.float64))
         self._T_ob.append(np.asarray(frame.T_odom_body, dtype=np.float64))
 
@@ -106,25 +112,16 @@ class TumWriter:
             write_text(d / f"{sub}.txt", list_text(kind, self.robot, [(s, f"{sub}/{s}.png") for s in st]))
         self._masks.close()
         write_text(d / "associations.txt", "".join(f"{s} rgb/{s}.png {s} depth/{s}.png\n" for s in st))
-        t, T_wb, T_ob = np.asarray(self._t), np.stack(self._T_wb), np.stack(self._T_ob)
-        head = "# {} of robot {}: timestamp tx ty tz qx qy qz qw\n"
-        write_text(
-            d / "groundtruth.txt",
-            head.format("true camera pose T_world_cam", self.robot) + format_tum(Trajectory(t, T_wb @ self.T_bc)),
-        )
-        write_text(
-            d / "odometry.txt",
-            head.format("drifted camera odometry T_odom_cam", self.robot) + format_tum(Trajectory(t, T_ob @ self.T_bc)),
-        )
-        write_text(
-            d / "groundtruth_body.txt",
-            head.format("true body pose T_world_body", self.robot) + format_tum(Trajectory(t, T_wb)),
-        )
-        write_text(
-            d / "odometry_body.txt",
-            head.format("drifted body odometry T_odom_body", self.robot) + format_tum(Trajectory(t, T_ob)),
-        )
-        write_text(d / CAMERA_YAML, camera_yaml_text(self.intr, self.T_bc, self.scale, self.robot))
+        T_wb, T_ob = np.stack(self._T_wb), np.stack(self._T_ob)
+        for name, what, T in (
+            ("groundtruth.txt", "true camera pose T_world_cam", T_wb @ self.T_bc),
+            ("odometry.txt", "drifted camera odometry T_odom_cam", T_ob @ self.T_bc),
+            ("groundtruth_body.txt", "true body pose T_world_body", T_wb),
+            ("odometry_body.txt", "drifted body odometry T_odom_body", T_ob),
+        ):
+            head = f"# {what} of robot {self.robot}: timestamp tx ty tz qx qy qz qw\n"
+            write_text(d / name, head + stamped_tum(self._ns, T))
+        write_text(d / CAMERA_YAML, camera_yaml_text(self.intr, self.T_bc, self.scale, self.robot, EXPORT_EPOCH_NS))
         write_text(d / CAMERA_TXT, camera_txt_text(self.intr, self.robot))
         if self._too_deep:
             log.warning(

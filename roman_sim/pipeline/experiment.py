@@ -45,7 +45,7 @@ from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.evaluation.records import run_timings, write_timings
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
 from roman_sim.pipeline.folder_lock import hold_run_folder, holds_run_folder
-from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, existing_manifest, used_changes
+from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, existing_manifest
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult, read_timings
 from roman_sim.pipeline.scenario import Scenario, default_run_dir, load_scenario
 from roman_sim.pipeline.stagecache import StageCache
@@ -194,7 +194,13 @@ class Experiment:
         return self.from_stage is None or STAGE_NAMES.index(stage.name) < STAGE_NAMES.index(self.from_stage)
 
     def _reusable(self, stage: Stage, key: str, old: Manifest | None) -> bool:
-        return old is not None and self._may_reuse(stage) and old.valid(stage.name, key, self.run_dir)
+        """Whether the folder's own files of ``stage`` are reused: recorded with ``key`` and unchanged."""
+        if old is None or not self._may_reuse(stage):
+            return False
+        why = old.check(stage.name, key, self.run_dir)
+        if why is not None and stage.name in old.stages and old.stages[stage.name].key == key:
+            log.warning("stage %s: %s; computing it again", stage.name, why)
+        return why is None
 
     def _shared(
         self, ctx: RunContext, active: list[Stage], keys: dict[str, str], reuse: set[str], manifest: Manifest
@@ -207,9 +213,9 @@ class Experiment:
             if stage.name in reuse:
                 self._publish(stage, ctx, manifest.stages[stage.name])
             elif self._may_reuse(stage):
-                files = self.cache.fetch(stage.name, keys[stage.name], manifest.environment, self.run_dir)
+                files = self.cache.fetch(stage.name, keys[stage.name], self.run_dir)
                 if files is not None:
-                    manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
+                    manifest.stages[stage.name] = StageRecord(keys[stage.name], list(files), dict(files))
                     taken.add(stage.name)
         if taken:
             manifest.save(self.run_dir)
@@ -219,10 +225,13 @@ class Experiment:
         """Store a completed stage in the shared cache, and the parts it keeps apart (``Stage.parts``)."""
         if self.cache is None:
             return
-        self.cache.publish(stage.name, rec.key, ctx.environment, self.run_dir, rec.files)
+        hashes = rec.hashes()
+        if set(hashes) != set(rec.files):  # an old manifest without hashes: nothing verified to publish
+            return
+        self.cache.publish(stage.name, rec.key, self.run_dir, hashes)
         for part in stage.parts(ctx):
-            if all(f in rec.files for f in part.files):
-                self.cache.publish(part.name, part.key, ctx.environment, self.run_dir, part.files)
+            if all(f in hashes for f in part.files):
+                self.cache.publish(part.name, part.key, self.run_dir, {f: hashes[f] for f in part.files})
 
     def _start_manifest(
         self, old: Manifest | None, keys: dict[str, str], reuse: set[str], active: list[Stage]
@@ -233,17 +242,8 @@ class Experiment:
             if name not in reuse:
                 for f in rec.files:
                     (self.run_dir / f).unlink(missing_ok=True)
+        # the stages' keys hold the versions of the libraries each runs: a kept stage was made with these
         env = environment()
-        if old is not None and keep and old.environment:
-            changed = used_changes(old.environment, env)
-            if changed:
-                log.warning(
-                    "%s: reusing stages %s computed with other library versions (%s); their bytes may differ "
-                    "from a fresh run's (use --fresh to recompute)",
-                    self.run_dir,
-                    ", ".join(sorted(keep)),
-                    "; ".join(changed),
-                )
         man = Manifest(
             self.scenario.name,
             self.scenario.seed,
@@ -328,7 +328,7 @@ class Experiment:
         own = dict(out.timings)
         if stage.cached:
             files = stage.save(out, ctx)
-            manifest.stages[stage.name] = StageRecord(keys[stage.name], files)
+            manifest.stages[stage.name] = StageRecord.of(keys[stage.name], self.run_dir, files)
             manifest.save(self.run_dir)
             self._publish(stage, ctx, manifest.stages[stage.name])
             clear_checkpoints(self.run_dir, stage.name)

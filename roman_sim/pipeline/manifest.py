@@ -2,26 +2,31 @@
 
 The manifest records the hash of the resolved configuration, the package version, the
 versions of the libraries whose arithmetic reaches the results (``environment``: a new
-OpenCV, MuJoCo or numpy may change the last bits of a result, or more) and, per completed
-stage, its cache key and the files it wrote (relative paths). A stage's outputs
-are reused only when its recorded key matches and every recorded file exists; outputs are
-read only from the files the manifest lists (never by globbing the folder). A run is
-complete when every stage of its scenario is recorded. Wall-clock figures live elsewhere
-(``timings.json``), so two runs of one seed write the same manifest.
+OpenCV, MuJoCo or numpy may change the last bits of a result, or more; the stages' keys
+include the versions of the libraries each stage runs, so every recorded stage was made
+with them) and, per completed stage, its cache key and the files it wrote (relative paths,
+in the order the stage wrote them) with each file's SHA-256. A stage's outputs are reused
+only when its recorded key matches and every recorded file exists with its recorded
+SHA-256 (``Manifest.check``): a file changed after the stage wrote it makes the stage run
+again, with a warning naming the file. Outputs are read only from the files the manifest
+lists (never by globbing the folder). A run is complete when every stage of its scenario is
+recorded. Wall-clock figures live elsewhere (``timings.json``), so two runs of one seed
+write the same manifest, whether a stage was computed, reused or taken from the shared
+cache.
 """
 
 from __future__ import annotations
 
 import logging
 import platform
-import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from importlib import metadata
 from pathlib import Path
 
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json_record, write_record
+from roman_sim.pipeline.stagecache import file_sha256
 
 log = logging.getLogger(__name__)
 
@@ -55,34 +60,38 @@ def environment() -> dict[str, str]:
     return out
 
 
-def environment_changes(old: dict[str, str], new: dict[str, str]) -> list[str]:
-    """``"name old -> new"`` for every library whose version differs (absent: ``none``)."""
-    return [
-        f"{k} {old.get(k, 'none')} -> {new.get(k, 'none')}"
-        for k in sorted(set(old) | set(new))
-        if old.get(k) != new.get(k)
-    ]
-
-
-#: Libraries only some runs import (a front end that runs a real model), by the module they import
-#: as: a resume warns about their versions only when this process imported them.
-ON_DEMAND = {"torch": "torch"}
-
-
-def used_changes(old: dict[str, str], new: dict[str, str]) -> list[str]:
-    """``environment_changes`` of the libraries this run uses (``ON_DEMAND`` ones only when imported)."""
-    skip = {name for name, module in ON_DEMAND.items() if module not in sys.modules}
-    return environment_changes(
-        {k: v for k, v in old.items() if k not in skip}, {k: v for k, v in new.items() if k not in skip}
-    )
-
-
 @dataclass
 class StageRecord:
-    """One completed stage: its cache key and the files it wrote (relative to the run folder)."""
+    """One completed stage: its cache key, the files it wrote (relative to the run folder, in the
+    order written) and each file's SHA-256 (None in manifests written before hashes were kept)."""
 
     key: str
     files: list[str]
+    sha256: dict[str, str] | None = field(default=None, metadata=OMIT_NONE)
+
+    @classmethod
+    def of(cls, key: str, run_dir: Path, files: list[str]) -> StageRecord:
+        """The record of ``files`` as they are in ``run_dir`` now (their SHA-256 computed)."""
+        return cls(key, list(files), {f: file_sha256(run_dir / f) for f in files})
+
+    def hashes(self) -> dict[str, str]:
+        """Path -> SHA-256, in the order the files were written (empty without recorded hashes)."""
+        return {f: self.sha256[f] for f in self.files if f in self.sha256} if self.sha256 else {}
+
+    def changed(self, run_dir: Path) -> str | None:
+        """Why the files in ``run_dir`` are not the ones recorded (a file missing or changed), or None."""
+        if self.sha256 is None or set(self.sha256) != set(self.files):
+            return "no SHA-256 recorded for its files"
+        for f in self.files:
+            path = run_dir / f
+            if not path.is_file():
+                return f"{path} is missing"
+            try:
+                if file_sha256(path) != self.sha256[f]:
+                    return f"{path} changed after the stage wrote it (its SHA-256 differs from {MANIFEST_JSON}'s)"
+            except OSError as err:
+                return f"{path} is unreadable ({err.strerror or err})"
+        return None
 
 
 @dataclass
@@ -107,10 +116,23 @@ class Manifest:
         """Whether every stage of the run completed."""
         return not self.missing
 
-    def valid(self, stage: str, key: str, run_dir: Path) -> bool:
-        """Whether ``stage`` is recorded with ``key`` and all of its files exist."""
+    def check(self, stage: str, key: str, run_dir: Path) -> str | None:
+        """None when ``stage`` is recorded with ``key`` and every file is as recorded, else why not."""
         rec = self.stages.get(stage)
-        return bool(rec and rec.key == key and all((run_dir / f).is_file() for f in rec.files))
+        if rec is None:
+            return "not recorded"
+        if rec.key != key:
+            return "recorded with another key"
+        return rec.changed(run_dir)
+
+    def valid(self, stage: str, key: str, run_dir: Path) -> bool:
+        """Whether ``stage`` is recorded with ``key`` and all of its files are as recorded (``check``)."""
+        return self.check(stage, key, run_dir) is None
+
+    def without_hashes(self) -> Manifest:
+        """The manifest with no file's SHA-256 (for a copy of a run whose files are not all the run's)."""
+        stages = {name: StageRecord(rec.key, list(rec.files)) for name, rec in self.stages.items()}
+        return replace(self, stages=stages)
 
     def record(self) -> ManifestRecord:
         """The manifest as its ``manifest.json`` record (with ``complete`` spelled out)."""
@@ -176,6 +198,20 @@ def read_manifest(run_dir: Path) -> Manifest:
     if not path.is_file():
         raise StorageError(f"{run_dir}: no {MANIFEST_JSON}: not a run folder (or a run that never started)")
     return Manifest.from_record(read_record(path, ManifestRecord, MANIFEST_SCHEMA))
+
+
+def changed_files(run_dir: Path, man: Manifest) -> list[str]:
+    """The files of ``run_dir`` whose bytes are not those ``man`` recorded, one line each (present files only).
+
+    Stages recorded without hashes (manifests written before hashes were kept) are not checked.
+    """
+    out = []
+    for rec in man.stages.values():
+        for f, sha in rec.hashes().items():
+            path = run_dir / f
+            if path.is_file() and file_sha256(path) != sha:
+                out.append(f"{path} changed after the run wrote it (its SHA-256 differs from {MANIFEST_JSON}'s)")
+    return out
 
 
 def existing_manifest(run_dir: Path) -> Manifest | None:

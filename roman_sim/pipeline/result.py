@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -14,10 +15,12 @@ from roman_sim.evaluation.records import run_timings
 from roman_sim.evaluation.run_summary import RunSummary, summarize_run
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.manifest import read_manifest
+from roman_sim.pipeline.manifest import changed_files, read_manifest
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stages import STAGES, AteOutput, EvaluationOutput, ReportOutput, StageOutput
 from roman_sim.pipeline.stages.base import Timings
+
+log = logging.getLogger(__name__)
 
 TIMINGS_JSON = "timings.json"
 #: The stages whose outputs a result is made of.
@@ -80,6 +83,9 @@ class RunResult:
             StorageError: not a run folder, a run that did not complete (naming the missing
                 stages), a folder of an older stage table, a configuration that does not match
                 the outputs, or unreadable files.
+
+        A file whose bytes differ from the SHA-256 ``manifest.json`` recorded for it (edited after
+        the run) is named in a warning.
         """
         d = Path(run_dir)
         man = read_manifest(d)
@@ -100,6 +106,8 @@ class RunResult:
             raise StorageError(
                 f"{d}: written by an older version without the {', '.join(never)} stage(s); run it again to update it"
             )
+        for line in changed_files(d, man):
+            log.warning("%s: the figures read from it are not the run's", line)
         ctx = RunContext(sc, d)
         outputs = {
             s.name: s.load(ctx, man.stages[s.name].files)

@@ -115,7 +115,9 @@ class Scenario(StrictModel):
     submaps: SubmapConfig = Field(default_factory=SubmapConfig)
     aligners: list[AlignerEntry] = Field(default_factory=lambda: [AlignerEntry(method="roman")], min_length=1)
     posegraph_method: str | None = Field(
-        "roman", description="aligner whose loop closures feed the pose graph (None: no pose graph)"
+        "roman",
+        description="aligner whose loop closures feed the pose graph, by its label or its method "
+        "(a plug-in's package.module:Class or class name; None: no pose graph)",
     )
     posegraph: PoseGraphConfig = Field(default_factory=PoseGraphConfig)
     evaluation: EvalConfig = Field(default_factory=EvalConfig)
@@ -155,6 +157,10 @@ class Scenario(StrictModel):
         labels = [a.name for a in self.aligners]
         if len(set(labels)) != len(labels):
             raise ValueError(f"aligners: labels must be unique, got {', '.join(labels)} (set 'label')")
+        by_method = {a.method: a.name for a in self.aligners}
+        if self.posegraph_method not in labels and self.posegraph_method in by_method:
+            # an aligner named by its method (package.module:Class): its label, without validating again
+            self.__dict__["posegraph_method"] = by_method[self.posegraph_method]
         if self.posegraph_method is not None and self.posegraph_method not in labels:
             raise ValueError(f"posegraph_method: {self.posegraph_method!r} is not among aligners ({', '.join(labels)})")
         recorded = {r.name for r in self.robots if not r.simulated}
@@ -174,14 +180,23 @@ class Scenario(StrictModel):
         return self
 
 
-def with_aligners(sc: Scenario, methods: list[str]) -> Scenario:
-    """``sc`` with the aligners ``methods`` added (those not already in it), validated."""
-    extra = [m for m in methods if m not in {e.method for e in sc.aligners}]
-    if not extra:
-        return sc
-    data = sc.model_dump(mode="json")
-    data["aligners"] += [{"method": m} for m in extra]
-    return validate_model(Scenario, data, source="aligners")
+def _missing(entries: list[Any], methods: list[str]) -> list[str]:
+    """Those of ``methods`` no entry of a scenario's raw ``aligners`` list runs (names or mappings)."""
+    have = {e if isinstance(e, str) else e.get("method") for e in entries if isinstance(e, (str, dict))}
+    return [m for m in dict.fromkeys(methods) if m not in have]
+
+
+def _added(data: dict[str, Any], methods: list[str]) -> dict[str, Any]:
+    """Scenario data with the aligners ``methods`` appended (those not already in it; absent: the default's)."""
+    if not methods:
+        return data
+    entries = data.get("aligners")
+    if entries is None:
+        default = Scenario.model_fields["aligners"].get_default(call_default_factory=True)
+        entries = [e.model_dump(mode="json") for e in default]
+    if not isinstance(entries, list):
+        return data  # not a list: validation names the field
+    return {**data, "aligners": [*entries, *({"method": m} for m in _missing(entries, methods))]}
 
 
 def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:
@@ -215,27 +230,36 @@ def resolve_scenario_path(name_or_path: str | Path, relative_to: Path | None = N
     )
 
 
-def load_scenario(name_or_path: str | Path, overrides: list[str] | None = None) -> Scenario:
-    """Load a scenario by name or path, apply ``key=value`` overrides and validate it."""
+def load_scenario(
+    name_or_path: str | Path, overrides: list[str] | None = None, aligners: list[str] | None = None
+) -> Scenario:
+    """Load a scenario by name or path, apply ``key=value`` overrides, add ``aligners`` and validate it.
+
+    The aligners are added before the scenario is validated, so an override may name one
+    (``posegraph_method=package.module:Class`` with that plug-in among ``aligners``).
+    """
     path = resolve_scenario_path(name_or_path)
     data = read_yaml(path)
     if not isinstance(data, dict):
         raise ConfigError(f"{path}: expected a mapping at the top level")
-    if not overrides:
+    overrides, aligners = list(overrides or []), list(aligners or [])
+    if not overrides and not aligners:
         return _resolve_sources(validate_model(Scenario, data, source=str(path)), path.parent)
     try:
-        sc = validate_model(Scenario, apply_overrides(data, overrides), source=str(path))
+        sc = validate_model(Scenario, _added(apply_overrides(data, overrides), aligners), source=str(path))
     except ConfigError:
-        _blame_override(data, overrides, path)
+        _blame_override(data, overrides, path, aligners)
         raise
     return _resolve_sources(sc, path.parent)
 
 
-def _blame_override(data: dict[str, Any], overrides: list[str], path: Path) -> None:
-    """Raise the error naming the file when the file is wrong, else naming the first ``--set`` that breaks it."""
+def _blame_override(data: dict[str, Any], overrides: list[str], path: Path, aligners: list[str]) -> None:
+    """Raise the error naming the file when the file is wrong, else the added aligners when they make it
+    wrong, else the first ``--set`` that breaks it."""
     validate_model(Scenario, data, source=str(path))
+    validate_model(Scenario, _added(data, aligners), source=f"--aligner {' '.join(aligners)}")
     for i, ov in enumerate(overrides):
-        validate_model(Scenario, apply_overrides(data, overrides[: i + 1]), source=f"--set {ov}")
+        validate_model(Scenario, _added(apply_overrides(data, overrides[: i + 1]), aligners), source=f"--set {ov}")
 
 
 def _resolve_sources(sc: Scenario, base: Path) -> Scenario:

@@ -1,28 +1,36 @@
-"""The shared stage cache: a stage computed in one run folder is reused in any other.
+"""The shared stage cache: a stage computed in one run folder is reused in any other, once verified.
 
 A stage's cache key says everything its output depends on (configuration, inputs' keys,
-code; ``roman_sim.pipeline.stages.base``), so the same key in another run folder means the
-same files. Every completed stage is published here, and a run looks here for each stage
-its own folder does not hold, before computing it: adding an aligner to a run in a new
-folder then reuses the maps (nothing is rendered again).
+code and the versions of the libraries the code imports; ``roman_sim.pipeline.stages.base``),
+so the same key in another run folder means the same files. Every completed stage is
+published here, and a run looks here for each stage its own folder does not hold, before
+computing it: adding an aligner to a run in a new folder then reuses the maps (nothing is
+rendered again).
 
 Location: ``$ROMAN_SIM_CACHE`` when set (``off`` disables the cache), else
-``$XDG_CACHE_HOME/roman_sim`` or ``~/.cache/roman_sim``. An entry is the folder
-``stages/<stage>/<key>-<environment>/`` holding ``entry.json`` (stage, key, the library
-versions of ``manifest.environment()``, each file's size) and the stage's files under
-``files/`` at their paths in the run folder. Files are hard-linked (copied when the cache is
-on another file system), both ways, so an entry costs no space while a run folder holding
-the same files exists; every writer of a run folder replaces files (``roman_sim.core.atomic``),
-never edits them in place, so a linked file never changes under the other folder.
+``$XDG_CACHE_HOME/roman_sim`` or ``~/.cache/roman_sim``; a location that exists and is not a
+folder turns the cache off, with one warning per process. An entry is the folder
+``stages/<stage>/<key>/`` holding ``entry.json`` (stage, key, and each file's path, size and
+SHA-256, in the order the stage wrote them) and the stage's files under ``files/`` at their
+paths in the run folder.
 
-An entry is valid when ``entry.json`` reads back with the stage and key asked for and every
-file is there with its recorded size. It is built in a temporary folder next to its place
-and renamed there in one step: two runs publishing the same entry both succeed, one rename
-wins, and a reader never sees half an entry. Files taken into a run folder are linked to a
-temporary name and renamed over their place, so an interrupted fetch leaves no partial file
-under a stage's name. Library versions are part of an entry's name: a run reuses only what
-was computed with the versions it runs with. The cache never fails a run: a publish or a
-fetch that cannot be done is logged and skipped.
+What the cache guarantees:
+
+- **Reuse is verified.** An entry is used only when ``entry.json`` reads back with the stage
+  and key asked for and every file has its recorded size and SHA-256. A file that does not
+  (flipped bytes, an edit, a truncation) drops the whole entry with one warning naming the
+  file, and the run computes the stage instead. ``roman-sim cache --verify`` checks every
+  entry the same way.
+- **No shared bytes.** Files are copied both ways, never linked: editing a file in a run
+  folder changes neither the cache nor any other run folder. A file taken into a run folder
+  is copied to a temporary name, its SHA-256 checked against the entry's, then renamed over
+  its place, so an interrupted or failed fetch leaves no partial file under a stage's name.
+  A published file is checked against the hash its run's manifest recorded.
+- **Whole entries only.** An entry is built in a temporary folder next to its place and
+  renamed there in one step: two runs publishing the same entry both succeed, one rename
+  wins, and a reader never sees half an entry. A dropped entry is renamed away before it is
+  deleted.
+- **Never a failed run.** A publish or a fetch that cannot be done is logged and skipped.
 
 Clearing it is deleting its folder (``roman-sim cache --clear``); a run folder keeps its
 own files.
@@ -31,14 +39,15 @@ own files.
 from __future__ import annotations
 
 import errno
+import hashlib
 import logging
 import os
 import shutil
 import uuid
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import RomanSimError
 from roman_sim.core.records import RecordError, read_record, write_record
 
@@ -49,7 +58,15 @@ CACHE_ENV = "ROMAN_SIM_CACHE"
 #: Values of ``CACHE_ENV`` that turn the cache off.
 OFF = frozenset({"off", "0", "false", "no", "none"})
 ENTRY_JSON = "entry.json"
-ENTRY_SCHEMA = "roman_sim.cache/1"
+ENTRY_SCHEMA = "roman_sim.cache/2"
+
+_warned_not_a_folder: set[Path] = set()
+
+
+def file_sha256(path: Path) -> str:
+    """The SHA-256 of a file's bytes, as 64 hex digits."""
+    with path.open("rb") as fh:
+        return hashlib.file_digest(fh, "sha256").hexdigest()
 
 
 def default_cache_dir() -> Path | None:
@@ -61,31 +78,57 @@ def default_cache_dir() -> Path | None:
     return Path(base) / "roman_sim"
 
 
-def _link(src: Path, dst: Path) -> None:
-    """``dst`` gets ``src``'s content: hard-linked (copied across file systems) to a temporary name, renamed."""
+def not_a_folder(where: Path) -> str | None:
+    """Why the cache cannot live at ``where`` (it, or a parent, exists and is not a folder), or None."""
+    for p in [where, *where.parents]:
+        if p.exists():
+            return None if p.is_dir() else f"{p} is a file, not a folder"
+    return None
+
+
+def _tmp_name(dst: Path) -> Path:
+    return dst.parent / f".{dst.name}.{uuid.uuid4().hex[:8]}.tmp"
+
+
+def _copy_checked(src: Path, dst: Path, sha256: str) -> Path | None:
+    """Copy ``src`` to a temporary name next to ``dst``; that name when its SHA-256 is ``sha256``, else None."""
     dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dst.parent / f".{dst.name}.{uuid.uuid4().hex[:8]}.tmp"
+    tmp = _tmp_name(dst)
     try:
-        try:
-            os.link(src, tmp)
-        except OSError as err:
-            if err.errno not in (errno.EXDEV, errno.EPERM, errno.EMLINK, errno.ENOTSUP, errno.EACCES):
-                raise
-            shutil.copyfile(src, tmp)
-        os.replace(tmp, dst)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+        shutil.copyfile(src, tmp)
+        if file_sha256(tmp) == sha256:
+            return tmp
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    tmp.unlink(missing_ok=True)
+    return None
+
+
+@dataclass
+class CachedFile:
+    """One file of an entry: its path in a run folder, its size and its SHA-256."""
+
+    path: str
+    size: int
+    sha256: str
 
 
 @dataclass
 class CacheEntry:
-    """What an entry's ``entry.json`` holds: the stage, its key, the library versions, each file's size."""
+    """What an entry's ``entry.json`` holds: the stage, its key and its files in the order they were written."""
 
     stage: str
     key: str
-    environment: dict[str, str]
-    files: dict[str, int]
+    files: list[CachedFile] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class EntryProblem:
+    """Why an entry is not used: ``file`` (None: the entry as a whole) and what is wrong."""
+
+    file: str | None
+    what: str
 
 
 @dataclass(frozen=True)
@@ -96,60 +139,125 @@ class StageCache:
 
     @classmethod
     def default(cls) -> StageCache | None:
-        """The cache of ``default_cache_dir()`` (None when turned off)."""
+        """The cache of ``default_cache_dir()`` (None when turned off or when its place is not a folder)."""
         where = default_cache_dir()
-        return None if where is None else cls(where)
+        if where is None:
+            return None
+        why = not_a_folder(where)
+        if why is not None:
+            if where not in _warned_not_a_folder:
+                _warned_not_a_folder.add(where)
+                log.warning("shared stage cache off: %s (set $%s to a folder, or to off)", why, CACHE_ENV)
+            return None
+        return cls(where)
 
-    def entry_dir(self, stage: str, key: str, environment: dict[str, str]) -> Path:
-        """The folder of the entry of ``stage`` with ``key``, computed with ``environment``'s library versions."""
-        return self.root / "stages" / stage / f"{key}-{stable_hash(environment)[:8]}"
+    def entry_dir(self, stage: str, key: str) -> Path:
+        """The folder of the entry of ``stage`` with ``key``."""
+        return self.root / "stages" / stage / key
 
-    def _read(self, entry: Path, stage: str, key: str) -> dict[str, int] | None:
-        """The entry's files and sizes when it is valid, else None."""
+    def check(self, entry: Path, stage: str | None = None, key: str | None = None) -> CacheEntry | EntryProblem:
+        """The entry's record when every file has its recorded size and SHA-256, else what is wrong."""
         try:
             rec = read_record(entry / ENTRY_JSON, CacheEntry, ENTRY_SCHEMA)
-            if rec.stage != stage or rec.key != key:
-                return None
-            for f, n in rec.files.items():
-                if (entry / "files" / f).stat().st_size != n:
-                    return None
-        except (OSError, RecordError):
-            return None
-        return rec.files
+        except RecordError as err:
+            return EntryProblem(None, f"{ENTRY_JSON} unreadable ({err})")
+        if (stage is not None and rec.stage != stage) or (key is not None and rec.key != key):
+            return EntryProblem(None, f"{ENTRY_JSON} names stage {rec.stage} key {rec.key}")
+        for f in rec.files:
+            path = entry / "files" / f.path
+            try:
+                if path.stat().st_size != f.size:
+                    return EntryProblem(f.path, f"{path.stat().st_size} bytes, {f.size} recorded")
+                if file_sha256(path) != f.sha256:
+                    return EntryProblem(f.path, "its SHA-256 differs from the one recorded")
+            except OSError as err:
+                return EntryProblem(f.path, f"unreadable ({err.strerror or err})")
+        return rec
 
-    def lookup(self, stage: str, key: str, environment: dict[str, str]) -> Path | None:
-        """The folder holding a valid entry's files (at their paths in a run folder), or None when there is none."""
-        entry = self.entry_dir(stage, key, environment)
-        return None if self._read(entry, stage, key) is None else entry / "files"
-
-    def fetch(self, stage: str, key: str, environment: dict[str, str], run_dir: Path) -> list[str] | None:
-        """Put the files of a valid entry into ``run_dir``; their relative paths, or None when there is none."""
-        entry = self.entry_dir(stage, key, environment)
-        files = self._read(entry, stage, key)
-        if files is None:
+    def _valid(self, stage: str, key: str) -> CacheEntry | None:
+        """The entry's record when it exists and is valid; an invalid one is dropped with one warning."""
+        entry = self.entry_dir(stage, key)
+        if not (entry / ENTRY_JSON).exists():
             return None
+        got = self.check(entry, stage, key)
+        if isinstance(got, EntryProblem):
+            self.drop(entry, got)
+            return None
+        return got
+
+    def drop(self, entry: Path, problem: EntryProblem) -> None:
+        """Remove an invalid entry, with one warning naming the file and what is wrong."""
+        where = entry if problem.file is None else entry / "files" / problem.file
+        log.warning("shared cache: entry dropped, %s: %s; the stage is computed again", where, problem.what)
+        self._remove(entry)
+
+    @staticmethod
+    def _remove(entry: Path) -> None:
+        gone = _tmp_name(entry)
         try:
-            for f in files:
-                _link(entry / "files" / f, run_dir / f)
+            os.rename(entry, gone)
+        except OSError:  # already gone (another run dropped it), or not renamable: remove in place
+            gone = entry
+        shutil.rmtree(gone, ignore_errors=True)
+
+    def lookup(self, stage: str, key: str) -> Path | None:
+        """The folder holding a verified entry's files (at their paths in a run folder), or None."""
+        return None if self._valid(stage, key) is None else self.entry_dir(stage, key) / "files"
+
+    def fetch(self, stage: str, key: str, run_dir: Path) -> dict[str, str] | None:
+        """Copy a verified entry's files into ``run_dir``: path -> SHA-256 in the order written, or None.
+
+        Every file is copied and checked before any is renamed into place, so a file that
+        changed in the cache meanwhile leaves the run folder as it was.
+        """
+        rec = self._valid(stage, key)
+        if rec is None:
+            return None
+        entry = self.entry_dir(stage, key)
+        tmps: dict[Path, Path] = {}
+        try:
+            for f in rec.files:
+                tmp = _copy_checked(entry / "files" / f.path, run_dir / f.path, f.sha256)
+                if tmp is None:
+                    self.drop(entry, EntryProblem(f.path, "its SHA-256 changed while it was copied"))
+                    return None
+                tmps[tmp] = run_dir / f.path
+            for tmp, dst in tmps.items():
+                os.replace(tmp, dst)
         except OSError as err:  # the entry went away meanwhile (cleared), or the run folder refused
             log.warning("shared cache: could not take stage %s from %s (%s); computing it", stage, entry, err)
             return None
+        finally:
+            for tmp in tmps:
+                tmp.unlink(missing_ok=True)
         log.info("stage %s: taken from the shared cache (%s)", stage, entry)
-        return list(files)
+        return {f.path: f.sha256 for f in rec.files}
 
-    def publish(self, stage: str, key: str, environment: dict[str, str], run_dir: Path, files: list[str]) -> None:
-        """Store the stage's ``files`` (relative to ``run_dir``) as an entry, unless a valid one is there."""
-        entry = self.entry_dir(stage, key, environment)
-        if self._read(entry, stage, key) is not None:
+    def publish(self, stage: str, key: str, run_dir: Path, files: Mapping[str, str]) -> None:
+        """Store ``files`` (path relative to ``run_dir`` -> its SHA-256) as an entry, unless a valid one is there.
+
+        A file whose copy does not have the given SHA-256 (it changed after the run wrote it)
+        is not published: nothing of the entry is.
+        """
+        entry = self.entry_dir(stage, key)
+        if self._valid(stage, key) is not None:
             return
-        tmp = entry.parent / f".{entry.name}.{uuid.uuid4().hex[:8]}.tmp"
+        tmp = _tmp_name(entry)
         try:
-            for f in files:
-                _link(run_dir / f, tmp / "files" / f)
-            sizes = {f: (tmp / "files" / f).stat().st_size for f in files}
-            write_record(tmp / ENTRY_JSON, CacheEntry(stage, key, dict(environment), sizes), ENTRY_SCHEMA)
-            if entry.exists():  # an invalid entry (a file lost): replace it
-                shutil.rmtree(entry, ignore_errors=True)
+            records = []
+            for f, sha in files.items():
+                copied = _copy_checked(run_dir / f, tmp / "files" / f, sha)
+                if copied is None:
+                    log.warning(
+                        "shared cache: %s changed since the run wrote it; stage %s not stored", run_dir / f, stage
+                    )
+                    return
+                os.replace(copied, tmp / "files" / f)
+                records.append(CachedFile(f, (tmp / "files" / f).stat().st_size, sha))
+            write_record(tmp / ENTRY_JSON, CacheEntry(stage, key, records), ENTRY_SCHEMA)
+            if entry.exists():  # an invalid entry that could not be dropped: replace it
+                self._remove(entry)
+            entry.parent.mkdir(parents=True, exist_ok=True)
             os.rename(tmp, entry)
         except (OSError, RomanSimError) as err:
             # another run renamed its copy into place first (ENOTEMPTY / EEXIST), or the cache cannot be written
@@ -160,14 +268,32 @@ class StageCache:
                 shutil.rmtree(tmp, ignore_errors=True)
 
     def entries(self) -> list[Path]:
-        """The entries' folders, sorted (valid or not)."""
+        """The entries' folders, sorted (valid or not; temporary folders left out)."""
         base = self.root / "stages"
         if not base.is_dir():
             return []
-        return sorted(p for stage in base.iterdir() if stage.is_dir() for p in stage.iterdir() if p.is_dir())
+        return sorted(
+            p
+            for stage in base.iterdir()
+            if stage.is_dir()
+            for p in stage.iterdir()
+            if p.is_dir() and not p.name.startswith(".")
+        )
+
+    def verify(self) -> tuple[int, list[tuple[Path, EntryProblem]]]:
+        """Check every entry: how many are valid, and the invalid ones (each dropped, with its problem)."""
+        good, bad = 0, []
+        for entry in self.entries():
+            got = self.check(entry, entry.parent.name, entry.name)
+            if isinstance(got, EntryProblem):
+                bad.append((entry, got))
+                self._remove(entry)
+            else:
+                good += 1
+        return good, bad
 
     def size_bytes(self) -> int:
-        """Bytes the cache's files take (each hard link counted once per file name)."""
+        """Bytes the cache's files take."""
         return sum(p.stat().st_size for p in self.root.rglob("*") if p.is_file()) if self.root.is_dir() else 0
 
     def clear(self) -> int:

@@ -90,7 +90,8 @@ def aggregate_sweep(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], lis
 
 
 def write_sweep_aggregate(out_dir: Path) -> Path:
-    """``sweep_summary.csv`` and ``plots/sweep_summary.png`` (when there are two swept values)."""
+    """``sweep_summary.csv`` and ``plots/sweep_summary.png`` with its PDF (when there are two swept values)."""
+    from roman_sim.core.figures import remove_figure
     from roman_sim.evaluation.sweepstats import AGGREGATE_FIELDS
     from roman_sim.report.sweepplot import plot_sweep
 
@@ -105,7 +106,7 @@ def write_sweep_aggregate(out_dir: Path) -> Path:
     write_text(path, buf.getvalue())
     kind = "inter" if any(r["kind"] == "inter" and r["relevant"] for r in rows) else "intra"
     if plot_sweep(rows, keys, out_dir / AGGREGATE_PLOT, kind) is None:
-        (out_dir / AGGREGATE_PLOT).unlink(missing_ok=True)
+        remove_figure(out_dir / AGGREGATE_PLOT)  # and its PDF: an earlier aggregate's figure is stale
     return path
 
 

@@ -28,10 +28,11 @@ from matplotlib.lines import Line2D
 
 from roman_sim.align.base import AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.figures import has_data, save_figure
 from roman_sim.core.geometry import transform_points
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.mapping.types import Submap
-from roman_sim.report.plots import figure, save_png
+from roman_sim.report.plots import figure
 
 log = logging.getLogger(__name__)
 
@@ -74,7 +75,7 @@ def _panel(
     ax.set_aspect("equal", adjustable="datalim")
     ax.set(xlabel=f"x in {a.name} (m)", ylabel=f"y in {a.name} (m)")
     ax.set_title(title, fontsize=9)
-    handles, _ = ax.get_legend_handles_labels()
+    handles = [h for h in ax.get_legend_handles_labels()[0] if has_data(h)]  # a submap without points: not listed
     handles += [Line2D([], [], color=c, lw=1.0, label=ASSOC_LABELS[c]) for c in ASSOC_LABELS if c in colours]
     ax.legend(handles=handles, fontsize=7, loc="upper right")
 
@@ -123,7 +124,7 @@ def plot_examples(rows: list[Example], path: str | Path, suptitle: str = "") -> 
             fig.axes[2 * i + 1].set_axis_off()
     if suptitle:
         fig.suptitle(suptitle, fontsize=10)
-    return save_png(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_alignment(

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
+from roman_sim.core.figures import drawn_legend, save_figure
 from roman_sim.evaluation.grades import FrontEndGrades
-from roman_sim.report.plots import save_png
 
 
 def _f(v: float | None, digits: int = 2) -> str:
@@ -100,7 +100,7 @@ def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
                 ax1.plot(centres, np.asarray(st.hist) / st.pairs, label=f"{name} ({st.pairs})")
         mids = 0.5 * (np.asarray(d.view_edges_deg[:-1]) + np.asarray(d.view_edges_deg[1:]))
         ax2.plot(mids, [np.nan if v is None else v for v in d.view_mean], "o-")
-        ax1.legend(fontsize=7)
+        drawn_legend(ax1, fontsize=7)
     ax1.set(xlabel="cosine", ylabel="share of pairs", title=f"descriptors: {grades.encoder or 'none'}")
     ax2.set(
         xlabel="view difference (deg)",
@@ -120,5 +120,5 @@ def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
         ylabel="object views",
         title=f"{grades.segmenter}: P {_f(s.precision)} R {_f(s.recall)} IoU {_f(s.mean_iou)}",
     )
-    ax3.legend(fontsize=7)
-    return save_png(fig, path)
+    drawn_legend(ax3, fontsize=7)
+    return save_figure(fig, path)

@@ -64,6 +64,12 @@ def _rank_tables(board: Leaderboard, point: str) -> list[str]:
     return lines
 
 
+def _method_list(board: Leaderboard) -> str:
+    """The methods by their rows' labels, each plug-in followed by its ``package.module:Class``."""
+    plugins = board.plugins or {}
+    return ", ".join(f"{m} (`{plugins[m]}`)" if m in plugins else m for m in board.methods)
+
+
 def _num(v: float | None, digits: int = 2) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
@@ -125,7 +131,7 @@ def leaderboard_markdown(board: Leaderboard) -> str:
         *_deployable_section(board),
         "## Setup",
         "",
-        f"- Methods: {', '.join(board.methods)}. Overrides: {', '.join(board.overrides) or 'none'}.",
+        f"- Methods: {_method_list(board)}. Overrides: {', '.join(board.overrides) or 'none'}.",
         f"- Cells: ambiguity level x heading difference ({_bin_width(board)} deg bins) of the cross-robot pairs, "
         "pooled over the level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
         "- Ranks: 1 + the number of methods whose interval lies wholly above; methods that share a rank have "

@@ -34,9 +34,10 @@ from matplotlib.patches import Patch
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.figures import FigureFiles, figure_files, save_figure
 from roman_sim.core.geometry import transform_points
 from roman_sim.mapping.types import Submap
-from roman_sim.report.plots import figure, png_bytes, save_png
+from roman_sim.report.plots import figure
 from roman_sim.report.trajplot import RGBA, robot_colours
 
 log = logging.getLogger(__name__)
@@ -108,8 +109,8 @@ def _scale_bar(ax: Axes, lo: NDArray[np.float64], hi: NDArray[np.float64]) -> fl
     return length
 
 
-def _draw_robot(ax: Axes, segs: _Segments, path: NDArray[np.float64], colour: RGBA) -> tuple[bool, bool]:
-    """Draw one robot's points, circles and path; returns (points drawn, hollow circles drawn)."""
+def _draw_robot(ax: Axes, segs: _Segments, path: NDArray[np.float64], colour: RGBA) -> tuple[bool, bool, bool]:
+    """Draw one robot's points, circles and path; returns (points, filled circles, hollow circles) drawn."""
     rows = list(segs.latest.values())
     pts = [p for _, _, _, p in rows if p is not None]
     if pts:
@@ -135,13 +136,15 @@ def _draw_robot(ax: Axes, segs: _Segments, path: NDArray[np.float64], colour: RG
                 )
             )
     ax.plot(path[:, 0], path[:, 1], color=colour, linewidth=1.0, marker="o", markersize=2.5, alpha=0.8, zorder=3)
-    return bool(pts), bool((~known).any())
+    return bool(pts), bool(known.any()), bool((~known).any())
 
 
-def _legend(ax: Axes, colours: dict[str, RGBA], points: bool, hollow: bool, truth: bool) -> None:
+def _legend(ax: Axes, colours: dict[str, RGBA], points: bool, filled: bool, hollow: bool, truth: bool) -> None:
+    """The legend of what was drawn: robots, filled and hollow circles and points (those drawn), submap centres."""
     handles: list[Line2D | Patch] = [Patch(facecolor=c, edgecolor=c, label=f"robot {r}") for r, c in colours.items()]
     seg = "segment, circle to scale" + (" (true object known)" if truth else "")
-    handles.append(Patch(facecolor="0.6", edgecolor="0.3", label=seg))
+    if filled:
+        handles.append(Patch(facecolor="0.6", edgecolor="0.3", label=seg))
     if hollow:
         handles.append(Patch(facecolor="none", edgecolor="0.3", label="segment with no true object"))
     if points:
@@ -171,11 +174,10 @@ def map_view_figure(
     colours = robot_colours(list(segs))
     fig = figure(8.0, 8.0)
     ax = fig.axes[0]
-    drew_points = drew_hollow = False
+    drawn = np.zeros(3, dtype=bool)  # points, filled circles, hollow circles
     extent: list[NDArray[np.float64]] = []
     for robot, s in segs.items():
-        p, h = _draw_robot(ax, s, paths[robot], colours[robot])
-        drew_points, drew_hollow = drew_points or p, drew_hollow or h
+        drawn |= _draw_robot(ax, s, paths[robot], colours[robot])
         extent += [paths[robot][:, :2], *(c[:2] + np.array([[-d, -d], [d, d]]) / 2 for c, d, _, _ in s.latest.values())]
     allxy = np.concatenate(extent)
     lo, hi = allxy.min(0), allxy.max(0)
@@ -186,7 +188,8 @@ def map_view_figure(
     ax.grid(True, linewidth=0.3, alpha=0.5)
     _scale_bar(ax, lo, hi)
     truth = all(s.truth is not None for s in submaps)
-    _legend(ax, colours, drew_points, drew_hollow, truth)
+    points, filled, hollow = (bool(d) for d in drawn)
+    _legend(ax, colours, points, filled, hollow, truth)
     where = "true submap poses" if frame == "world" else "each robot's odometry frame"
     head = f"{title}: segment maps" if title else "Segment maps"
     ax.set_title(f"{head} from above ({where})\n{n_segments} segments in {len(submaps)} submaps", fontsize=10)
@@ -194,12 +197,18 @@ def map_view_figure(
 
 
 def write_map_view(path: str | Path, submaps: list[Submap], **kwargs: object) -> Path:
-    """Draw the map view (see ``map_view_figure`` for options) and write it as a PNG atomically."""
-    out = save_png(map_view_figure(submaps, **kwargs), path)  # type: ignore[arg-type]
+    """Draw the map view (see ``map_view_figure`` for options) and write it atomically as a PNG at ``path`` and
+    a PDF beside it (its points drawn as an image inside the PDF)."""
+    out = save_figure(map_view_figure(submaps, **kwargs), path)  # type: ignore[arg-type]
     log.info("wrote map view %s", out)
     return out
 
 
+def map_view_files(submaps: list[Submap], **kwargs: object) -> FigureFiles:
+    """The map view (see ``map_view_figure`` for options) as PNG and PDF bytes."""
+    return figure_files(map_view_figure(submaps, **kwargs))  # type: ignore[arg-type]
+
+
 def map_view_png(submaps: list[Submap], **kwargs: object) -> bytes:
     """The map view (see ``map_view_figure`` for options) as PNG bytes."""
-    return png_bytes(map_view_figure(submaps, **kwargs))  # type: ignore[arg-type]
+    return figure_files(map_view_figure(submaps, **kwargs), vector=False)[".png"]  # type: ignore[arg-type]

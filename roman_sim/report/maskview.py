@@ -18,7 +18,8 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.report.plots import figure, save_png
+from roman_sim.core.figures import save_figure
+from roman_sim.report.plots import figure
 
 log = logging.getLogger(__name__)
 
@@ -74,4 +75,4 @@ def plot_masks(
             )
     ax.set_axis_off()
     ax.set_title(title, fontsize=8)
-    return save_png(fig, path)
+    return save_figure(fig, path)

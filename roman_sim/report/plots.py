@@ -17,15 +17,14 @@ where they have relevant pairs:
 - ``association_heading.png``: association precision and recall per heading bin.
 
 A plot that would carry a single point (one bin with data, a one-point curve) is not drawn;
-``write_metric_plots`` returns a note saying so. PNGs are written atomically and without
-timestamps, so the same data gives the same bytes.
+``write_metric_plots`` returns a note saying so. Each plot is written with a vector PDF beside
+its PNG (``roman_sim.core.figures.save_figure``: atomically, without timestamps, so the same
+data gives the same bytes). A legend lists only what its plot draws: a method without a
+point in a panel is left out of that panel's legend.
 """
 
 from __future__ import annotations
 
-import io
-import json
-import logging
 from collections.abc import Callable
 from pathlib import Path
 
@@ -35,11 +34,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Patch
 
-from roman_sim.core.atomic import write_bytes
+from roman_sim.core.figures import drawn_legend, remove_figure, save_figure
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES
 from roman_sim.evaluation.types import PAIR_SET_LABELS, BinStats, CurveStats, EvaluationMetrics, PRCurve
-
-log = logging.getLogger(__name__)
 
 
 def figure(w: float = 6.0, h: float = 4.0, ncols: int = 1, nrows: int = 1) -> Figure:
@@ -48,39 +45,6 @@ def figure(w: float = 6.0, h: float = 4.0, ncols: int = 1, nrows: int = 1) -> Fi
     FigureCanvasAgg(fig)
     fig.subplots(nrows, ncols, squeeze=False)
     return fig
-
-
-#: PNG text chunk that holds the data a figure was drawn from (``save_png(..., data=...)``).
-DATA_KEY = "roman_sim_data"
-
-
-def png_bytes(fig: Figure, data: object = None) -> bytes:
-    """``fig`` laid out and rendered to PNG bytes (no timestamp); ``data`` (JSON-ready), when given, goes
-    into the PNG's ``DATA_KEY`` text chunk (``read_png_data`` reads it back)."""
-    buf = io.BytesIO()
-    fig.tight_layout()
-    meta: dict[str, str | None] = {"Software": None}
-    if data is not None:
-        meta[DATA_KEY] = json.dumps(data, sort_keys=True)
-    fig.savefig(buf, format="png", metadata=meta)
-    return buf.getvalue()
-
-
-def save_png(fig: Figure, path: str | Path, data: object = None) -> Path:
-    """Render ``fig`` to PNG in memory (``png_bytes``) and write it atomically."""
-    path = Path(path)
-    write_bytes(path, png_bytes(fig, data))
-    log.debug("wrote %s", path)
-    return path
-
-
-def read_png_data(path: str | Path) -> object:
-    """The data ``save_png`` stored with a figure (None when it stored none)."""
-    from PIL import Image
-
-    with Image.open(path) as im:
-        text = im.info.get(DATA_KEY)
-    return None if text is None else json.loads(text)
 
 
 def _points(c: PRCurve) -> int:
@@ -102,7 +66,7 @@ def pr_axes(ax: Axes, curves: dict[str, PRCurve], title: str, stats: dict[str, C
                 ax.scatter([p.recall], [p.precision], marker=marker, s=40, color=f"C{i}", edgecolors="black", zorder=3)
     ax.set(xlabel="recall", ylabel="precision", xlim=(0, 1.02), ylim=(0, 1.05), title=title)
     ax.grid(alpha=0.3)
-    ax.legend(loc="best", fontsize=7)
+    drawn_legend(ax, loc="best", fontsize=7)
 
 
 def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
@@ -114,7 +78,7 @@ def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
     fig = figure()
     rel = metrics.pairs[kind]["n_relevant"]
     pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
-    return save_png(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
@@ -139,7 +103,7 @@ def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None
         "(triangle: precision >= 0.9, square: acceptance threshold)",
         fontsize=10,
     )
-    return save_png(fig, path)
+    return save_figure(fig, path)
 
 
 Getter = Callable[[CurveStats], tuple[float | None, int, int, tuple[float, float] | None]]
@@ -168,6 +132,7 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
     labels = [first[i].label for i in keep]
     width = 0.8 / max(len(names), 1)
     x = np.arange(len(labels))
+    drawn: list[int] = []  # the methods with a bar, the only ones the legend lists
     for i, name in enumerate(names):
         pos = x - 0.4 + width * (i + 0.5)
         colour = f"C{i}"
@@ -177,6 +142,8 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
                 ax.text(p, 0.02, "none", ha="center", va="bottom", fontsize=6, rotation=90)
                 continue
             small = n < min_n
+            if i not in drawn:
+                drawn.append(i)
             ax.bar(p, v, width, color=colour, alpha=0.35 if small else 1.0, hatch="//" if small else None)
             if ci is not None and not small:
                 ax.errorbar(p, v, yerr=[[v - ci[0]], [ci[1] - v]], fmt="none", ecolor="black", capsize=2, lw=0.8)
@@ -196,13 +163,13 @@ def _bars(ax: Axes, rows: dict[str, list[BinStats]], get: Getter, min_n: int, yl
     ax.set_yticks(np.linspace(0, 1, 6))
     ax.set_ylabel(ylabel)
     ax.grid(axis="y", alpha=0.3)
-    if names:
+    if drawn:
         ax.legend(
-            [Patch(color=f"C{i}") for i in range(len(names))],
-            names,
+            [Patch(color=f"C{i}") for i in drawn],
+            [names[i] for i in drawn],
             fontsize=7,
             loc="upper left",
-            ncols=min(len(names), 4),
+            ncols=min(len(drawn), 4),
         )
 
 
@@ -234,7 +201,7 @@ def plot_operating_points(metrics: EvaluationMetrics, path: str | Path) -> Path 
         _bars(ax, rows, point_getter(name), min_n, "recall")
         ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[kind]} pairs: {label}, hits/relevant")
     fig.suptitle("Recall at each operating point per heading bin (95 % Wilson intervals)", fontsize=9)
-    return save_png(fig, path)
+    return save_figure(fig, path)
 
 
 def _with_data(rows: dict[str, list[BinStats]], get: Getter) -> int:
@@ -261,7 +228,7 @@ def plot_heading_recall(metrics: EvaluationMetrics, path: str | Path, fine: bool
     for ax, k in zip(fig.axes, kinds):
         _bars(ax, per_kind[k], _recall, int(metrics.config["min_relevant"]), "max recall")
         ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[k]} pairs: max recall, hits/relevant")
-    return save_png(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_ambiguity_recall(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
@@ -295,8 +262,8 @@ def plot_ambiguity_recall(metrics: EvaluationMetrics, path: str | Path) -> Path 
         title=f"Recall against ambiguity, {PAIR_SET_LABELS[kind]} (95 % Wilson)",
     )
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    return save_png(fig, path)
+    drawn_legend(ax, fontsize=7)
+    return save_figure(fig, path)
 
 
 def plot_association(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
@@ -312,7 +279,7 @@ def plot_association(metrics: EvaluationMetrics, path: str | Path) -> Path | Non
     ):
         _bars(ax, rows, get, 1, f"association {what.split()[0]}")
         ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[kind]}: association {what}")
-    return save_png(fig, path)
+    return save_figure(fig, path)
 
 
 #: Plot file -> (drawing function, what it would need).
@@ -336,7 +303,7 @@ def write_metric_plot(metrics: EvaluationMetrics, name: str, plots_dir: str | Pa
     draw, needs = METRIC_PLOTS[name]
     path = Path(plots_dir) / name
     if draw(metrics, path) is None:
-        path.unlink(missing_ok=True)
+        remove_figure(path)
         return None, f"plot {name} not drawn: it needs {needs}{_bins_held(metrics, name)}"
     return path, None
 

@@ -2,7 +2,7 @@
 
 The maps stage keeps it (``FrameSnapshot.of`` a frame and its masks; saved with
 ``save_snapshot`` as ``maps/snapshot.npz``), so the report draws it from saved data
-(``snapshot_png``) without rendering or segmenting anything. The numbers drawn on the masks
+(``snapshot_files``) without rendering or segmenting anything. The numbers drawn on the masks
 are each mask's majority true object (from the frame's instance truth, when it has one).
 """
 
@@ -18,6 +18,7 @@ from numpy.typing import NDArray
 
 from roman_sim.core.atomic import write_arrays
 from roman_sim.core.errors import StorageError
+from roman_sim.core.figures import FigureFiles
 from roman_sim.core.sensors import Frame
 
 FORMAT = "roman_sim.frame_snapshot"
@@ -103,13 +104,13 @@ def load_snapshot(path: str | Path) -> FrameSnapshot:
         raise StorageError(f"{path}: unreadable front-end snapshot ({type(err).__name__}: {err})") from None
 
 
-def snapshot_png(snap: FrameSnapshot) -> bytes:
-    """The image with the masks over it, as PNG bytes."""
-    from roman_sim.report.render import masks_png
+def snapshot_files(snap: FrameSnapshot) -> FigureFiles:
+    """The image with the masks over it, as PNG and PDF bytes."""
+    from roman_sim.report.render import masks_files
 
-    return masks_png(snap.rgb, list(snap.masks), snap.title, snap.labels)
+    return masks_files(snap.rgb, list(snap.masks), snap.title, snap.labels)
 
 
-def snapshot_job(snap: FrameSnapshot) -> tuple[bytes | None, list[str]]:
-    """The snapshot as a report figure job (``render.Drawn``: the PNG and no notes)."""
-    return snapshot_png(snap), []
+def snapshot_job(snap: FrameSnapshot) -> tuple[FigureFiles | None, list[str]]:
+    """The snapshot as a report figure job (``render.Drawn``: its files and no notes)."""
+    return snapshot_files(snap), []

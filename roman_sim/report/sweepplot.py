@@ -7,9 +7,10 @@ from typing import Any
 
 import numpy as np
 
+from roman_sim.core.figures import drawn_legend, save_figure
 from roman_sim.evaluation.sweepstats import OVERALL, _hashable
 from roman_sim.evaluation.types import PAIR_SET_LABELS
-from roman_sim.report.plots import figure, save_png
+from roman_sim.report.plots import figure
 
 
 def _x_values(rows: list[dict[str, Any]], param_keys: list[str]) -> tuple[list[Any], list[str]]:
@@ -53,10 +54,10 @@ def plot_sweep(rows: list[dict[str, Any]], param_keys: list[str], path: str | Pa
         ax.set_xticks(range(len(combos)), labels, rotation=30, fontsize=7)
         ax.set(ylim=(0, 1.05), ylabel="max recall", title=f"{'overall' if b == OVERALL else b + ' deg'}")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        drawn_legend(ax, fontsize=7)
     n_seeds = max(r["n_seeds"] for r in mine)
     bars = "95 % t interval over seeds" if n_seeds >= 2 else "95 % Wilson interval (one seed)"
     fig.suptitle(
         f"Max recall over the sweep, {PAIR_SET_LABELS[kind]} pairs: mean of up to {n_seeds} seeds, {bars}", fontsize=9
     )
-    return save_png(fig, path)
+    return save_figure(fig, path)

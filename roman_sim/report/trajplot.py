@@ -1,15 +1,16 @@
-"""Top-down trajectory plot with loop-closure lines (matplotlib Agg, rendered to PNG bytes in memory).
+"""Top-down trajectory plot with loop-closure lines (matplotlib Agg, rendered to PNG and PDF bytes in memory).
 
 Truth is drawn solid, the estimate dashed and odometry dotted, one colour per robot;
 loop closures are lines between the two submap centres: intra-robot blue, inter-robot
-green, wrong ones (``correct is False``) red dashed whatever their kind.
+green, wrong ones (``correct is False``) red dashed whatever their kind. The legend lists
+the robots, layers and closure kinds drawn, nothing else.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, TypedDict
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -18,11 +19,11 @@ from matplotlib.lines import Line2D
 from numpy.typing import ArrayLike, NDArray
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.figures import figure_files
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.metrics import closure_correct
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph.types import LoopClosure
-from roman_sim.report.plots import png_bytes
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -86,19 +87,24 @@ def robot_colours(robots: Sequence[str]) -> dict[str, RGBA]:
     return {r: palette[i % len(palette)] for i, r in enumerate(robots)}
 
 
-def _draw_layers(ax: Axes, colours: dict[str, RGBA], data: dict[str, Mapping[str, TrajectoryLike] | None]) -> list[str]:
-    """Draw each given layer's trajectories (truth starts marked); returns the layers drawn."""
-    layers = []
+def _draw_layers(
+    ax: Axes, colours: dict[str, RGBA], data: dict[str, Mapping[str, TrajectoryLike] | None]
+) -> tuple[list[str], set[str]]:
+    """Draw each given layer's trajectories (truth starts marked); returns the layers and robots with a pose drawn."""
+    layers: list[str] = []
+    robots: set[str] = set()
     for name, trajectories in data.items():
-        if not trajectories:
-            continue
-        layers.append(name)
-        for robot, value in trajectories.items():
+        for robot, value in (trajectories or {}).items():
             xyz = _positions(value, f"{name}[{robot}]")
+            if not len(xyz):
+                continue
             ax.plot(xyz[:, 0], xyz[:, 1], color=colours[robot], zorder=2, **LAYERS[name])
-            if name == "truth" and len(xyz):
+            if name == "truth":
                 ax.plot(xyz[0, 0], xyz[0, 1], marker="o", color=colours[robot], zorder=3)
-    return layers
+            if name not in layers:
+                layers.append(name)
+            robots.add(robot)
+    return layers, robots
 
 
 def _draw_closures(ax: Axes, closures: Sequence[ClosureLine]) -> set[str]:
@@ -163,15 +169,20 @@ def closure_lines(
     return lines
 
 
-def trajectory_png(
+def trajectory_png(*args: Any, **kwargs: Any) -> bytes:
+    """``trajectory_figure(*args, **kwargs)`` as PNG bytes."""
+    return figure_files(trajectory_figure(*args, **kwargs), vector=False)[".png"]
+
+
+def trajectory_figure(
     truth: Mapping[str, TrajectoryLike],
     est: Mapping[str, TrajectoryLike] | None = None,
     odom: Mapping[str, TrajectoryLike] | None = None,
     closures: Sequence[ClosureLine] = (),
     title: str = "",
     dpi: int = 120,
-) -> bytes:
-    """Robots' trajectories drawn top-down (x right, y up, metres) with loop-closure lines, as PNG bytes.
+) -> Figure:
+    """Robots' trajectories drawn top-down (x right, y up, metres) with loop-closure lines.
 
     Args:
         truth: robot -> ``Trajectory`` (or ``T (N,4,4)`` or ``xyz (N,3)``), all in the same
@@ -180,7 +191,7 @@ def trajectory_png(
         odom: optional odometry, as ``truth``.
         closures: ``(xyz_a, xyz_b, kind, correct)`` per closure line.
         title: figure title.
-        dpi: resolution.
+        dpi: resolution of the PNG.
 
     Raises:
         EvaluationError: nothing to draw, a malformed trajectory or closure line.
@@ -192,13 +203,13 @@ def trajectory_png(
     fig = Figure(figsize=(8.0, 7.0), dpi=dpi)
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
-    layers = _draw_layers(ax, colours, {"truth": truth, "estimate": est, "odometry": odom})
+    layers, drawn = _draw_layers(ax, colours, {"truth": truth, "estimate": est, "odometry": odom})
     kinds = _draw_closures(ax, closures)
-    _legend(ax, colours, layers, kinds)
+    _legend(ax, {r: c for r, c in colours.items() if r in drawn}, layers, kinds)
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x (m)")
     ax.set_ylabel("y (m)")
     ax.grid(True, linewidth=0.3)
     if title:
         ax.set_title(title)
-    return png_bytes(fig)
+    return fig

@@ -3,7 +3,7 @@
 One point per config (aligner and gating setting, each at thresholds chosen on other worlds)
 with its world-bootstrap recall interval, coloured by time per pair; the Pareto front (recall,
 false closures per km, time) joined and ringed; the recommended config starred. The plotted
-data is stored in the PNG (``plots.read_png_data``).
+data is stored in the PNG (``roman_sim.core.figures.read_png_data``); a PDF copy is written beside it.
 """
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from roman_sim.report.plots import figure, save_png
+from roman_sim.core.figures import save_figure
+from roman_sim.report.plots import figure
 
 if TYPE_CHECKING:
     from roman_sim.evaluation.tune_result import TuneResult
@@ -75,4 +76,4 @@ def plot_front(result: TuneResult, path: str | Path) -> Path:
     )
     if data["recommended"] is not None or len(front) > 1:
         ax.legend(loc="lower right", fontsize=8)
-    return save_png(fig, path, data)
+    return save_figure(fig, path, data)

@@ -18,7 +18,7 @@ from typing import Literal, TypeVar
 from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.errors import ConfigError, RomanSimError, keep_worker_traceback
 
 log = logging.getLogger(__name__)
 
@@ -81,18 +81,27 @@ def worker_name() -> str:
 
 
 def guarded(fn: Callable[..., T], label: str, name_worker: bool, *args: object) -> T:
-    """Run ``fn(*args)`` on a worker: errors become picklable one-liners (see the module docstring)."""
+    """Run ``fn(*args)`` on a worker: errors become picklable one-liners (see the module docstring).
+
+    Each carries the worker's tracebacks of the error and of what lay behind it (a plug-in's own
+    exception, with its file and line) as text (``core.errors.keep_worker_traceback``): pickling
+    keeps no traceback, and ``--debug`` shows these."""
     try:
         return fn(*args)
     except RomanSimError as err:
         if not name_worker:
+            keep_worker_traceback(err)
             raise
-        raise TaskError(f"{label} failed on worker {worker_name()}: {err}") from None
+        raise keep_worker_traceback(TaskError(f"{label} failed on worker {worker_name()}: {err}"), err) from None
     except Exception as err:  # a bug or a plug-in's own error: keep the place it happened
         where = traceback.extract_tb(err.__traceback__)[-1]
         on = f" on worker {worker_name()}" if name_worker else ""
-        raise TaskError(
-            f"{label} failed{on}: {type(err).__name__}: {err} (at {os.path.basename(where.filename)}:{where.lineno})"
+        raise keep_worker_traceback(
+            TaskError(
+                f"{label} failed{on}: {type(err).__name__}: {err} "
+                f"(at {os.path.basename(where.filename)}:{where.lineno})"
+            ),
+            err,
         ) from None
 
 

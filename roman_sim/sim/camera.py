@@ -71,3 +71,17 @@ class CameraConfig(StrictModel):
         """
         R = rot_y(np.radians(self.mount_pitch_deg)) @ R_FLU_RDF
         return make_T(R, [self.mount_forward_m, 0.0, self.mount_height_m])
+
+
+class StereoConfig(StrictModel):
+    """A second camera beside the first: the same intrinsics and orientation, ``baseline_m``
+    to its right (along the first camera's optical x axis), rendered like the first.
+
+    The default is an Intel RealSense D455's stereo baseline, 95 mm.
+    """
+
+    baseline_m: float = Field(0.095, gt=0.0, le=5.0)
+
+    def T_cam_cam2(self) -> NDArray[np.float64]:
+        """4x4 pose of the second camera in the first camera's optical frame (a shift by +baseline in x)."""
+        return make_T(np.eye(3), [self.baseline_m, 0.0, 0.0])

@@ -150,10 +150,26 @@ class SensorRenderer:
         depth, ids = self._render_depth_ids()
         if not (self.rgb if rgb is None else rgb):
             return None, depth, ids
+        return self._rgb_pass(), depth, ids
+
+    def render_rgb(self, T_world_cam: NDArray[np.float64]) -> NDArray[np.uint8]:
+        """Only the RGB image from a camera pose: a second camera of the same intrinsics (stereo).
+
+        Returns: (H, W, 3) uint8, drawn as ``render`` draws its RGB pass.
+        """
+        if self._ctx is None:
+            raise SimError("render: renderer is closed")
+        self._gl.make_current()
+        self._set_camera(T_world_cam)
+        self._cull.show(np.asarray(T_world_cam, dtype=np.float64))
+        return self._rgb_pass()
+
+    def _rgb_pass(self) -> NDArray[np.uint8]:
+        """The RGB pass for the camera and culling set up last."""
         self._cull.show_for_rgb()
         mujoco.mjr_render(self._rect, self._scene, self._ctx)
         mujoco.mjr_readPixels(self._rgb_buf, None, self._rect, self._ctx)
-        return self._rgb_buf[::-1].copy(), depth, ids
+        return self._rgb_buf[::-1].copy()
 
     def _render_depth_ids(self) -> tuple[NDArray[np.float32], NDArray[np.int32]]:
         flags = self._scene.flags

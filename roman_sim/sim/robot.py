@@ -15,14 +15,15 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field, field_validator
+from pydantic import Field, SerializerFunctionWrapHandler, field_validator, model_serializer, model_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import SimError
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.sensors import Frame, FrameTruth
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.sim.camera import CameraConfig
+from roman_sim.sim.camera import CameraConfig, StereoConfig
+from roman_sim.sim.imu import ImuConfig
 from roman_sim.sim.kinematics import PathFollower, PlanarState, body_pose_on_terrain, integrate_unicycle
 from roman_sim.sim.noise import apply_depth_noise
 from roman_sim.sim.odometry import DRIFT_PRESETS, DriftConfig, DriftModel, resolve_drift
@@ -37,8 +38,14 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 
+#: Optional sensors: left out of the dumped configuration when absent, so a scenario without
+#: them has the same resolved configuration (and hash) as before they existed.
+OPTIONAL_SENSORS = ("imu", "stereo")
+
+
 class RobotConfig(StrictModel):
-    """One robot: its path, motion, camera, odometry drift and run limits."""
+    """One robot: its path, motion, camera, odometry drift, run limits and optional sensors
+    (an IMU, ``roman_sim.sim.imu``; a second camera, ``StereoConfig``)."""
 
     name: str = Field("robot", min_length=1)
     path: PathConfig = Field(default_factory=PathConfig)
@@ -54,6 +61,22 @@ class RobotConfig(StrictModel):
     lighting: str | None = Field(None, description="lighting preset of this robot's RGB (None: the world's)")
     max_duration_s: float | None = Field(None, gt=0.0)
     max_length_m: float | None = Field(None, gt=0.0)
+    imu: ImuConfig | None = Field(None, description="an IMU on the body (None: no IMU)")
+    stereo: StereoConfig | None = Field(None, description="a second camera beside the first (None: one camera)")
+
+    @model_serializer(mode="wrap")
+    def _without_absent_sensors(self, handler: SerializerFunctionWrapHandler) -> dict[str, object]:
+        data: dict[str, object] = handler(self)
+        for key in OPTIONAL_SENSORS:
+            if key in data and data[key] is None:
+                del data[key]
+        return data
+
+    @model_validator(mode="after")
+    def _imu_rate_fits_frames(self) -> RobotConfig:
+        if self.imu is not None:
+            self.imu.per_frame(self.rate_hz)  # raises ValueError naming imu.rate_hz
+        return self
 
     @field_validator("drift")
     @classmethod
@@ -174,12 +197,15 @@ def render_trajectory(
     seed: int,
     trajectory: DrivenRun,
     rgb_frames: NDArray[np.bool_] | Sequence[bool] | None = None,
+    stereo: bool = False,
 ) -> Iterator[Frame]:
     """Rendered ``Frame`` objects along a trajectory from ``trajectory_along``.
 
     Depth and ids are rendered for every frame (the depth noise stream does not depend on
     ``rgb_frames``). RGB, when the robot renders it (``render_rgb``), is drawn on every frame, or
     only where ``rgb_frames`` (one flag per frame) is true; the other frames have ``rgb`` None.
+    With ``stereo`` and a second camera (``cfg.stereo``), each frame with RGB also has
+    ``rgb_right``, drawn by the same renderer from the second camera's pose.
 
     Raises: SimError when ``rgb_frames`` does not hold one flag per frame.
     """
@@ -193,6 +219,7 @@ def render_trajectory(
         if with_rgb.shape != (len(t),):
             raise SimError(f"robot {cfg.name!r}: rgb_frames has {with_rgb.size} flags for {len(t)} frames")
     T_bc = cfg.camera.T_body_cam()
+    T_bc2 = T_bc @ cfg.stereo.T_cam_cam2() if stereo and cfg.stereo is not None else None
     noise_rng = child_rng(seed, "depth_noise", cfg.name)
     lighting = robot_lighting(cfg.lighting, seed, cfg.name)
     renderer = SensorRenderer(world, cfg.camera, rgb=cfg.render_rgb, lighting=lighting)
@@ -200,8 +227,8 @@ def render_trajectory(
         for i in range(len(t)):
             rgb, depth, ids = renderer.render(T_wb[i] @ T_bc, rgb=bool(with_rgb[i]))
             noisy = apply_depth_noise(depth, cfg.camera.depth_noise, cfg.camera.max_depth_m, noise_rng)
-            yield Frame(
-                cfg.name, i, float(t[i]), rgb, noisy, T_ob[i], T_bc, renderer.intrinsics, truth=FrameTruth(ids, T_wb[i])
-            )
+            right = renderer.render_rgb(T_wb[i] @ T_bc2) if T_bc2 is not None and rgb is not None else None
+            truth = FrameTruth(ids, T_wb[i])
+            yield Frame(cfg.name, i, float(t[i]), rgb, noisy, T_ob[i], T_bc, renderer.intrinsics, truth, right)
     finally:
         renderer.close()

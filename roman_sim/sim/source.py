@@ -23,7 +23,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError, SimError
+from roman_sim.core.seeding import child_rng
 from roman_sim.core.sensors import Frame, FrameSource, Intrinsics
+from roman_sim.sim.imu import ImuData, SmoothTrajectory, imu_readings
 from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_trajectory, trajectory_along
 
 if TYPE_CHECKING:
@@ -70,6 +72,23 @@ def planned_paths(world: HasTruth, robots: Sequence[RobotConfig], seed: int) -> 
 
 
 @dataclass(frozen=True, eq=False)
+class SensorRig:
+    """What a simulated robot carries beyond its RGB-D camera, for the writers that export it.
+
+    Attributes:
+        trajectory: the true body trajectory made continuous (``SmoothTrajectory``), None
+            for a robot of a single frame.
+        imu: the IMU's readings (``roman_sim.sim.imu``), or None without an IMU.
+        T_cam_cam2: 4x4 pose of the second camera in the first's optical frame, or None
+            without one.
+    """
+
+    trajectory: SmoothTrajectory | None
+    imu: ImuData | None = None
+    T_cam_cam2: NDArray[np.float64] | None = None
+
+
+@dataclass(frozen=True, eq=False)
 class SimulatedRobot:
     """One simulated robot as a ``FrameSource``: driven up front, rendered lazily.
 
@@ -81,6 +100,8 @@ class SimulatedRobot:
         run: its times, true and odometry poses, one per frame.
         rgb_frames: one flag per frame: RGB is rendered where true (None: every frame), and
             only when the robot renders RGB (``render_rgb``).
+        stereo: frames with RGB also carry the second camera's image (``rgb_right``), when
+            the robot has one (``cfg.stereo``).
     """
 
     cfg: RobotConfig
@@ -89,6 +110,7 @@ class SimulatedRobot:
     path: Path2D
     run: DrivenRun
     rgb_frames: NDArray[np.bool_] | None = None
+    stereo: bool = False
 
     @property
     def name(self) -> str:
@@ -111,6 +133,28 @@ class SimulatedRobot:
     def with_rgb(self) -> SimulatedRobot:
         """This robot rendering RGB on every frame, even with ``render_rgb: false``."""
         return replace(self, cfg=self.cfg.model_copy(update={"render_rgb": True}), rgb_frames=None)
+
+    def with_stereo(self) -> SimulatedRobot:
+        """This robot rendering its second camera too (``rgb_right``), when it has one."""
+        return replace(self, stereo=True)
+
+    def rig(self) -> SensorRig:
+        """Its continuous true trajectory, IMU readings and second camera (``SensorRig``).
+
+        The IMU draws its noise from its own stream (``imu`` and the robot name under the seed).
+
+        Raises: SimError for an IMU on a robot of a single frame.
+        """
+        t, T_wb = self.run.t, self.run.T_world_body
+        trajectory = SmoothTrajectory(t, T_wb) if len(t) > 1 else None
+        imu = None
+        if self.cfg.imu is not None:
+            if trajectory is None:
+                raise SimError(f"robot {self.name!r}: an IMU needs at least two frames")
+            rng = child_rng(self.seed, "imu", self.name)
+            imu = imu_readings(trajectory, t, self.cfg.rate_hz, self.cfg.imu, rng)
+        T_cc2 = None if self.cfg.stereo is None else self.cfg.stereo.T_cam_cam2()
+        return SensorRig(trajectory, imu, T_cc2)
 
     def rgb_at(self, rgb_frames: NDArray[np.bool_] | Sequence[bool]) -> SimulatedRobot:
         """This robot rendering RGB only where ``rgb_frames`` (one flag per frame) is true (and ``render_rgb``).
@@ -136,7 +180,7 @@ class SimulatedRobot:
         if not isinstance(self.world, World):
             raise SimError(f"robot {self.name!r}: the world was generated without a model; nothing to render")
         if indices is None:
-            yield from render_trajectory(self.world, self.cfg, self.seed, self.run, self.rgb_frames)
+            yield from render_trajectory(self.world, self.cfg, self.seed, self.run, self.rgb_frames, self.stereo)
             return
         idx = np.asarray(list(indices), dtype=np.int64)
         if len(idx) and (idx.min() < 0 or idx.max() >= len(self) or np.any(np.diff(idx) <= 0)):
@@ -144,7 +188,7 @@ class SimulatedRobot:
         t, T_wb, T_ob = self.run
         run = DrivenRun(t[idx], T_wb[idx], T_ob[idx])
         flags = None if self.rgb_frames is None else self.rgb_frames[idx]
-        for k, frame in zip(idx, render_trajectory(self.world, self.cfg, self.seed, run, flags)):
+        for k, frame in zip(idx, render_trajectory(self.world, self.cfg, self.seed, run, flags, self.stereo)):
             yield replace(frame, index=int(k))
 
 

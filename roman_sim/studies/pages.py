@@ -9,21 +9,21 @@ of committed data, so a test re-renders it from those files and compares:
 - the README's demo excerpt (``DEMO_MARKERS``): the demo's cross-robot operating points per
   method and heading bin, and its ATE, from
   the compact summary of its committed run (``results/reference/demo``);
-- the README's results figure (``docs/recall_heading.png``): cross-robot max recall per
-  heading bin of the heading sweep with Wilson intervals. The plotted numbers are stored in
-  the PNG's ``roman_sim`` text chunk, so a test compares them with the summary without
-  comparing pixels (which differ between matplotlib builds).
+- the README's results figure (``docs/recall_heading.png``, with a vector copy
+  ``docs/recall_heading.pdf``): cross-robot max recall per heading bin of the heading sweep
+  with Wilson intervals. The plotted numbers are stored in the PNG's ``roman_sim`` text
+  chunk, so a test compares them with the summary without comparing pixels (which differ
+  between matplotlib builds).
 """
 
 from __future__ import annotations
 
-import io
 import json
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, TypedDict
 
-from roman_sim.core.atomic import write_bytes, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.evaluation.run_summary import RecallSummary
 from roman_sim.studies.claims import claims_markdown, num, point_cells, sweep_markdown, table_markdown
 from roman_sim.studies.reference_tables import (
@@ -151,7 +151,9 @@ def figure_data(summary: Summary, scenario: str = FIGURE_SCENARIO) -> FigureData
 
 
 def write_figure(summary: Summary, path: str | Path, scenario: str = FIGURE_SCENARIO) -> Path:
-    """Draw ``figure_data`` as recall against heading with 95 % intervals; write the PNG atomically."""
+    """Draw ``figure_data`` as recall against heading with 95 % intervals; write the PNG and a PDF beside it
+    atomically (``core.figures.save_figure``)."""
+    from roman_sim.core.figures import drawn_legend, save_figure
     from roman_sim.report.plots import figure
 
     data = figure_data(summary, scenario)
@@ -174,12 +176,8 @@ def write_figure(summary: Summary, path: str | Path, scenario: str = FIGURE_SCEN
     ax.set_ylabel("max recall")
     ax.set_title(f"{scenario}: cross-robot max recall with 95 % Wilson intervals", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncols=len(data["methods"]), loc="upper center")
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", metadata={"Software": None, FIGURE_KEY: json.dumps(data, sort_keys=True)})
-    write_bytes(path, buf.getvalue())
-    return Path(path)
+    drawn_legend(ax, fontsize=7, ncols=len(data["methods"]), loc="upper center")
+    return save_figure(fig, path, data, data_key=FIGURE_KEY)
 
 
 def _centre(label: str) -> float:

@@ -34,6 +34,7 @@ from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings, write_timings
 from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
 from roman_sim.evaluation.run_summary import RunSummary
+from roman_sim.pipeline.manifest import MANIFEST_JSON, read_manifest
 from roman_sim.pipeline.sweep_aggregate import read_sweep_json
 from roman_sim.studies import pages
 from roman_sim.studies.claims import (
@@ -128,16 +129,20 @@ def _report_without(text: str, missing: list[str]) -> str:
 def collect(run_dir: Path, dest: Path, trajectories: bool = True, plots: bool = True, packets: bool = True) -> None:
     """Copy a run's small results and its raw data (gzip) into ``dest``.
 
-    ``metrics.json`` is written without indentation; ``timings.json`` without its per-pair
-    runtime lists (medians, means and 90th percentiles per method stay); the plots kept are
-    ``KEPT_PLOTS`` and the pose-graph method's example alignments, and ``report.md`` names the
-    others instead of linking them.
+    ``manifest.json`` is written without its files' SHA-256 (they are those of the run
+    folder, whose files are compressed or left out here); ``metrics.json`` is checked by its
+    reader and written again (the same bytes: a run writes it in the committed format);
+    ``timings.json`` without its per-pair runtime lists (medians, means and 90th percentiles
+    per method stay); the plots kept are ``KEPT_PLOTS`` and the pose-graph method's example
+    alignments, and ``report.md`` names the others instead of linking them.
     """
     dest.mkdir(parents=True, exist_ok=True)
     for name in SMALL_FILES:
-        if (run_dir / name).is_file() and name != "report.md":
+        if (run_dir / name).is_file() and name not in ("report.md", MANIFEST_JSON):
             shutil.copyfile(run_dir / name, dest / name)
-    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"), tight=True)
+    if (run_dir / MANIFEST_JSON).is_file():  # what ran; the hashes are of the run folder's files, not these
+        read_manifest(run_dir).without_hashes().save(dest)
+    write_metrics_json(dest / "metrics.json", read_metrics_json(run_dir / "metrics.json"))
     if (run_dir / "timings.json").is_file():
         write_timings(dest / "timings.json", _timing_figures(run_dir / "timings.json"))
     for name in RAW_FILES:

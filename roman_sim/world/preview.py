@@ -1,33 +1,47 @@
-"""World previews: a top-down map with families coloured and one rendered RGB view."""
+"""World previews: a top-down map with families coloured (PNG, and a PDF beside it) and one rendered RGB view."""
 
 from __future__ import annotations
 
 import io
 import logging
 from pathlib import Path
+from typing import Any
 
-import matplotlib
+import mujoco
+import numpy as np
+from matplotlib import colormaps
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.collections import PatchCollection
+from matplotlib.figure import Figure
+from matplotlib.image import imsave
+from matplotlib.legend_handler import HandlerPolyCollection
+from matplotlib.patches import Circle
+from numpy.typing import NDArray
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.collections import PatchCollection  # noqa: E402
-from matplotlib.patches import Circle  # noqa: E402
-from numpy.typing import NDArray  # noqa: E402
-
-from roman_sim.core.atomic import output_file, output_folder, write_bytes  # noqa: E402
-from roman_sim.core.errors import ConfigError, WorldError  # noqa: E402
-from roman_sim.world.build import World  # noqa: E402
-from roman_sim.world.truth import WorldTruth  # noqa: E402
+from roman_sim.core.atomic import output_file, output_folder, write_bytes
+from roman_sim.core.errors import ConfigError, WorldError
+from roman_sim.core.figures import PNG, figure_files, save_figure, vector_path
+from roman_sim.world.build import World
+from roman_sim.world.truth import WorldTruth
 
 log = logging.getLogger(__name__)
+
+#: How the top-down map is saved: cropped to what is drawn.
+SAVE: dict[str, Any] = {"tight_layout": False, "bbox_inches": "tight"}
 
 
 def topdown_png(truth: WorldTruth, title: str = "", road_width_m: float = 0.0) -> bytes:
     """PNG bytes of a top-down map: terrain shading, roads (to scale), footprints by family."""
+    return figure_files(topdown_figure(truth, title, road_width_m), vector=False, **SAVE)[PNG]
+
+
+def topdown_figure(truth: WorldTruth, title: str = "", road_width_m: float = 0.0) -> Figure:
+    """The top-down map: terrain shading, roads (to scale), footprints by family (the legend lists each family
+    drawn, with its count)."""
     t = truth.terrain
-    fig, ax = plt.subplots(figsize=(8, 8 * t.size_y / t.size_x + 0.5), dpi=100)
+    fig = Figure(figsize=(8, 8 * t.size_y / t.size_x + 0.5), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
     ext = (-t.size_x / 2, t.size_x / 2, -t.size_y / 2, t.size_y / 2)
     ax.set(xlim=ext[:2], ylim=ext[2:], aspect="equal")
     ax.imshow(t.heights, origin="lower", extent=ext, cmap="Greys", alpha=0.5)
@@ -41,18 +55,18 @@ def topdown_png(truth: WorldTruth, title: str = "", road_width_m: float = 0.0) -
             alpha=0.5,
             solid_capstyle="butt",
         )
-    cmap = plt.get_cmap("tab20")
+    cmap = colormaps["tab20"]
     for k, fam in enumerate(truth.families()):
         objs = [o for o in truth.objects if o.family == fam]
         circles = [Circle(tuple(o.T_world_obj[:2, 3]), o.radius) for o in objs]
-        ax.add_collection(PatchCollection(circles, facecolor=cmap(k % 20), edgecolor="k", lw=0.3, alpha=0.85))
-        ax.plot([], [], "o", color=cmap(k % 20), label=f"{fam} ({len(objs)})")
+        if circles:  # the family's footprints carry its legend entry: a family without one is not listed
+            coll = PatchCollection(circles, facecolor=cmap(k % 20), edgecolor="k", lw=0.3, alpha=0.85)
+            coll.set_label(f"{fam} ({len(objs)})")
+            ax.add_collection(coll)
     ax.set(xlim=ext[:2], ylim=ext[2:], xlabel="x [m]", ylabel="y [m]", aspect="equal", title=title)
-    ax.legend(loc="upper right", fontsize=7, framealpha=0.8)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", bbox_inches="tight")
-    plt.close(fig)
-    return buf.getvalue()
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=7, framealpha=0.8, handler_map={PatchCollection: HandlerPolyCollection()})
+    return fig
 
 
 def render_view(
@@ -83,35 +97,37 @@ def render_view(
 
 def _png(rgb: NDArray[np.uint8]) -> bytes:
     buf = io.BytesIO()
-    plt.imsave(buf, rgb, format="png")
+    imsave(buf, rgb, format="png")
     return buf.getvalue()
 
 
 def preview_paths(out: str | Path, what: str = "out") -> tuple[Path, Path]:
     """The (top-down, view) PNG paths for ``out``, checked writable (``ConfigError`` naming ``what``).
 
-    ``X.png`` gives ``X.png`` and ``X_view.png``; anything else is a folder that receives
-    ``topdown.png`` and ``view.png``. Nothing is created.
+    ``X.png`` gives ``X.png`` (with ``X.pdf``, its vector copy) and ``X_view.png``; anything
+    else is a folder that receives ``topdown.png`` (with ``topdown.pdf``) and ``view.png``.
+    Nothing is created.
     """
     out = Path(out)
     if out.suffix.lower() == ".png":
         top, view = out, out.with_name(out.stem + "_view.png")
-        output_file(top, what, create=False)
-        output_file(view, what, create=False)
+        for p in (top, vector_path(top), view):
+            output_file(p, what, create=False)
     else:
         output_folder(out, what, create=False)
         top, view = out / "topdown.png", out / "view.png"
-        for p in (top, view):
+        for p in (top, vector_path(top), view):
             if p.is_dir():
                 raise ConfigError(f"{what} {out}: {p.name} there is a folder, cannot write the preview")
     return top, view
 
 
 def write_preview(world: World, out: str | Path, width: int = 640, height: int = 480) -> list[Path]:
-    """Write ``topdown.png`` and ``view.png`` into folder ``out``, or ``X.png`` and ``X_view.png``."""
+    """Write ``topdown.png``, ``topdown.pdf`` and ``view.png`` into folder ``out``, or ``X.png``, ``X.pdf`` and
+    ``X_view.png``; returns the paths written."""
     top, view = preview_paths(out)
     title = f"{world.spec.name} (seed {world.seed}, {len(world.truth.objects)} objects)"
-    write_bytes(top, topdown_png(world.truth, title, world.spec.roads.width_m))
+    save_figure(topdown_figure(world.truth, title, world.spec.roads.width_m), top, **SAVE)
     write_bytes(view, _png(render_view(world, width, height)))
-    log.info("preview written to %s and %s", top, view)
-    return [top, view]
+    log.info("preview written to %s, %s and %s", top, vector_path(top), view)
+    return [top, vector_path(top), view]

@@ -6,12 +6,14 @@ import json
 import re
 from pathlib import Path
 
+from committed_results import BENCHMARKS_OUT
+
 ROOT = Path(__file__).resolve().parents[2]
 SERIAL = ("world", "submaps", "posegraph", "report")
 
 
 def _standard() -> dict:
-    return json.loads((ROOT / "benchmarks" / "out" / "benchmark.json").read_text(encoding="utf-8"))["standard"]
+    return json.loads((BENCHMARKS_OUT / "benchmark.json").read_text(encoding="utf-8"))["standard"]
 
 
 def _doc() -> str:

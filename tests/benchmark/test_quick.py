@@ -103,3 +103,21 @@ def test_roman_keeps_its_pinned_cells(quick: tuple[int, str, Path]) -> None:
     # ``assert_benchmark`` makes after it reruns (or reuses) the suite; its rerun is tested in
     # test_run.py on a smaller suite.
     check_benchmark(board, "roman", ROMAN_PINS, tolerance=1)
+
+
+def test_the_pins_the_docs_show_have_the_suites_relevant_counts() -> None:
+    """A pin a user copies from the docs fails only on the hits: its relevant counts are the suite's.
+
+    The relevant pairs of a cell are the same for every method (they follow from the planned
+    drives), so ROMAN's pins give them; the hits in the examples are placeholders.
+    """
+    import re
+
+    import roman_sim.testing
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "benchmark.md").read_text(encoding="utf-8")
+    shown = [page, roman_sim.testing.__doc__ or "", roman_sim.testing.assert_benchmark.__doc__ or ""]
+    for text in shown:
+        pins = re.findall(r'"(\w+/[\w-]+)": \((\d+), (\d+)\)', text)
+        assert pins, text[:80]
+        assert {cell: int(relevant) for cell, _, relevant in pins} == {cell: ROMAN_PINS[cell][1] for cell, _, _ in pins}

@@ -5,6 +5,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+from committed_results import BENCHMARKS_OUT
+
 ROOT = Path(__file__).resolve().parents[2]
 
 
@@ -30,7 +32,7 @@ def _recommended(rec: dict, h: dict, text: str) -> None:
 
 
 def test_tune_figures_in_the_docs():
-    d = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    d = json.loads((BENCHMARKS_OUT / "tune.json").read_text(encoding="utf-8"))
     text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
     assert d["suite"] == "quick" and d["method"] == "roman" and d["workers"] == 1  # one process: all CPU counted
     assert not any(d["maps_reused"].values()) and len(d["worlds"]) == 3  # every world mapped fresh
@@ -70,7 +72,7 @@ def _frac(v: dict) -> str:
 
 
 def test_level_tune_figures_in_the_docs():
-    whole = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    whole = json.loads((BENCHMARKS_OUT / "tune.json").read_text(encoding="utf-8"))
     d = whole["level_tunes"]["low"]
     text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
     assert d["level"] == "low" and d["seeds"] == [0, 1, 2, 3] and d["workers"] == 1  # one process: all CPU counted
@@ -127,7 +129,7 @@ def test_level_tune_figures_in_the_docs():
 
 
 def test_rule_tune_figures_in_the_docs():
-    whole = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    whole = json.loads((BENCHMARKS_OUT / "tune.json").read_text(encoding="utf-8"))
     d = whole["rule_tunes"]["low-lower"]
     text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
     assert d["level"] == "low" and d["rule"] == "lower" and d["seeds"] == [0, 1, 2, 3]
@@ -191,7 +193,7 @@ def test_world_rule_figures_in_the_docs():
     each world's hits against the 95 % interval of BetaBinomial(n, a, b), recomputed here with scipy."""
     from scipy import stats
 
-    whole = json.loads((ROOT / "benchmarks" / "out" / "tune.json").read_text(encoding="utf-8"))
+    whole = json.loads((BENCHMARKS_OUT / "tune.json").read_text(encoding="utf-8"))
     d = whole["rule_tunes"]["low-world"]
     text = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
     assert d["level"] == "low" and d["rule"] == "world" and d["seeds"] == list(range(7))

@@ -2,14 +2,13 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
+from committed_results import STANDARD
 from rich.console import Console
 
 from roman_sim.cli.benchmark import _board_table
 from roman_sim.evaluation.leaderboard import read_leaderboard
 
-STANDARD = Path(__file__).resolve().parents[2] / "results" / "benchmark" / "standard" / "leaderboard.json"
+BOARD = STANDARD / "leaderboard.json"
 
 
 def _cells(text: str) -> dict[str, list[str]]:
@@ -22,7 +21,7 @@ def _cells(text: str) -> dict[str, list[str]]:
 
 
 def test_deployable_point_then_max_recall():
-    board = read_leaderboard(STANDARD)
+    board = read_leaderboard(BOARD)
     console = Console(width=240, record=True)
     console.print(_board_table(board))
     rows = _cells(console.export_text())

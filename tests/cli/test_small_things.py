@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import importlib.util
-import sys
 from importlib.metadata import version
 from pathlib import Path
 
@@ -11,7 +10,6 @@ import pytest
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.pipeline.manifest import environment_changes, used_changes
 
 
 def test_version_prints_the_package_version() -> None:
@@ -58,12 +56,3 @@ def test_flags_show_plainly_in_help() -> None:
     assert "<bool>" not in res.stdout and "--verbose  -v " in res.stdout
     run = CliRunner().invoke(app, ["run", "--help"], env={"COLUMNS": "120"})
     assert "<bool>" not in run.stdout and "<int>" in run.stdout  # options with a value keep their type
-
-
-def test_a_resume_warns_only_about_libraries_this_run_imports(monkeypatch: pytest.MonkeyPatch) -> None:
-    old, new = {"numpy": "2.0", "torch": "2.12.0"}, {"numpy": "2.0", "torch": "2.13.0"}
-    monkeypatch.delitem(sys.modules, "torch", raising=False)
-    assert used_changes(old, new) == []  # the demo never imports torch
-    assert used_changes({**old, "numpy": "1.26"}, new) == ["numpy 1.26 -> 2.0"]
-    monkeypatch.setitem(sys.modules, "torch", sys)  # a front end that runs a model imported it
-    assert used_changes(old, new) == environment_changes(old, new) == ["torch 2.12.0 -> 2.13.0"]

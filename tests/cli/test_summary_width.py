@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import pytest
+from committed_results import REFERENCE
 
 from roman_sim.cli.run import print_summary
 from roman_sim.evaluation.atetable import read_ate
@@ -13,7 +12,7 @@ from roman_sim.evaluation.results import read_metrics_json
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario
 
-DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
+DEMO = REFERENCE / "demo"
 
 
 @pytest.mark.skipif(not (DEMO / "metrics.json").is_file(), reason="no committed demo run")

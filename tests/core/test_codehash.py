@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import platform
 import sys
 import textwrap
+from importlib.metadata import version
 
 import pytest
 
@@ -74,3 +76,26 @@ def test_the_fingerprint_changes_with_the_closure_only(pkg):
     assert code_fingerprint(["cachepkg.stage"]) == before
     (pkg / "cachepkg" / "machinery.py").write_text("changed = True\n")
     assert code_fingerprint(["cachepkg.stage"]) != before
+
+
+def test_a_helper_module_beside_the_package_is_followed_and_libraries_are_versioned(pkg, monkeypatch):
+    """A top-level module outside the installed libraries is code the package runs; numpy is a library."""
+    (pkg / "cachepkg" / "machinery.py").write_text("import besidehelper\nimport numpy\n")
+    (pkg / "besidehelper.py").write_text("import scipy\n")
+    codehash.is_installed.cache_clear()
+    closure = code_closure(["cachepkg.stage"])
+    assert "besidehelper" in closure and "numpy" not in closure and "json" not in closure
+    libraries = codehash.code_libraries(["cachepkg.stage"])
+    assert libraries["numpy"] == version("numpy") and libraries["scipy"] == version("scipy")
+    assert libraries["python"] == platform.python_version() and "json" not in libraries
+    before = code_fingerprint(["cachepkg.stage"])
+    (pkg / "besidehelper.py").write_text("import scipy\n# edited\n")
+    assert code_fingerprint(["cachepkg.stage"]) != before
+    edited = code_fingerprint(["cachepkg.stage"])
+    real = codehash.library_versions
+    monkeypatch.setattr(
+        codehash, "library_versions", lambda tops: {**real(tops), "numpy": "0.0.1"} if "numpy" in tops else real(tops)
+    )
+    assert code_fingerprint(["cachepkg.stage"]) != edited  # another numpy: another fingerprint
+    sys.modules.pop("besidehelper", None)
+    codehash.is_installed.cache_clear()

@@ -9,12 +9,11 @@ from pathlib import Path
 from typing import Literal, TypedDict
 
 import pytest
+from committed_results import STANDARD
 
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.records import OMIT_NONE, RecordError, from_json, read_record, to_json, write_record
-
-ROOT = Path(__file__).resolve().parents[2]
 
 
 @dataclass(frozen=True)
@@ -68,7 +67,7 @@ def test_a_record_round_trips_to_the_same_object_and_bytes(tmp_path: Path) -> No
 def test_the_committed_leaderboard_reads_and_writes_back_byte_identical(tmp_path: Path) -> None:
     from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
 
-    committed = ROOT / "results" / "benchmark" / "standard" / "leaderboard.json"
+    committed = STANDARD / "leaderboard.json"
     if not committed.is_file():
         pytest.skip("no committed standard benchmark")
     board = read_leaderboard(committed)

@@ -15,14 +15,14 @@ import gzip
 import io
 import json
 import math
-from pathlib import Path
 
 import pytest
 import yaml
+from committed_results import REFERENCE
 
 from roman_sim.report.recompute import recompute_metrics
 
-RUN = Path(__file__).resolve().parents[2] / "results" / "reference" / "opposite_direction"
+RUN = REFERENCE / "opposite_direction"
 Z95 = 1.959963984540054
 
 pytestmark = pytest.mark.skipif(not (RUN / "pairs.csv.gz").is_file(), reason="no committed reference run")

@@ -36,6 +36,8 @@ TINY = {
     "frontend": {"segmenter": "perfect"},
 }
 FRAMES = {"a": 19, "b": 7}  # 6 Hz for 3 s and 1 s, both ends included
+#: The documented epoch of exported stamps, 2023-11-14 22:13:20 UTC, in nanoseconds.
+EPOCH_NS = 1_700_000_000_000_000_000
 
 
 @pytest.fixture(scope="session")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 import yaml
 
 from .conftest import TINY
@@ -45,10 +46,37 @@ def test_bad_input_is_one_line(run_cli, tmp_path: Path) -> None:
         (["--format", "rosbag2", "--storage", "tape"], "storage: unknown 'tape'"),
         (["--format", "tum", "--depth-scale", "0"], "--depth-scale"),
         (["--format", "tum", "--set", "robots.0.speed_mps=-1"], "robots.0.speed_mps"),
+        (["--format", "euroc", "--set", "robots.0.imu.rate_hz=200"], "imu.rate_hz: 200 Hz is not a whole multiple"),
+        (["--format", "euroc", "--set", "robots.0.stereo.baseline_m=0"], "robots.0.stereo.baseline_m"),
+        (["--format", "rosbag2", "--set", "robots.1.stereo.baseline_m=-0.1"], "robots.1.stereo.baseline_m"),
     ]
-    for args, message in cases:
-        code, _, err = run_cli("export", sc, "--out", str(tmp_path / "bad"), *args)
+    for i, (args, message) in enumerate(cases):
+        code, _, err = run_cli("export", sc, "--out", str(tmp_path / f"bad{i}"), *args)
         assert code == 1 and message in err and "Traceback" not in err, (args, err)
         assert len(err.strip().splitlines()) == 1, err
+        if "--set" in args:  # a bad scenario value stops before anything is written
+            assert not (tmp_path / f"bad{i}").exists(), args
     code, _, err = run_cli("export", "no_such_scenario", "--format", "tum", "--out", str(tmp_path / "x"))
     assert code == 1 and "no such file or bundled scenario" in err
+
+
+def test_warnings_for_non_square_pixels_and_dropped_sensors(
+    run_cli, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The default camera (fx != fy) is named; a TUM export says it drops an IMU; square pixels are quiet."""
+    sc = str(_scenario_file(tmp_path))
+    base = ["--robots", "b", "--set", "robots.1.max_duration_s=0.2"]
+    code, _, err = run_cli(
+        "export", sc, "--format", "tum", "--out", str(tmp_path / "t"), *base, "--set", "robots.1.imu.preset=euroc"
+    )
+    assert code == 0
+    assert "robot b: the camera's pixels are not square (fx 33.721, fy 43.297)" in caplog.text
+    assert "robot b: the tum format has no IMU or second camera" in caplog.text
+    caplog.clear()
+    code, _, err = run_cli(
+        "export", sc, "--format", "euroc", "--out", str(tmp_path / "e"), *base, "--set", "robots.1.camera.vfov_deg=null"
+    )
+    assert code == 0 and "not square" not in caplog.text and "no IMU" not in caplog.text, caplog.text
+    assert (tmp_path / "e" / "b" / "mav0" / "cam0" / "data.csv").is_file()
+    manifest = json.loads((tmp_path / "e" / "export.json").read_text())
+    assert manifest["time_epoch_ns"] == 1_700_000_000_000_000_000

@@ -4,8 +4,11 @@ The reference implementation (``roman.params.data_params.DataParams``) reads ``d
 for each run it sets ``$ROBOT``, merges the run's own section over the top level, gives the
 image streams ``time_tol = dt / 2`` and ``type: bag``, expands the variables and calls
 ``ImgData.from_dict`` (camera parameters from the ``camera_info`` topic), loads the poses
-with ``PoseData.from_dict`` (``interp: True``) and ``T_camera_flu`` from a matrix. The
-helpers below do the same calls; robotdatapy is the real client.
+with ``PoseData.from_dict`` (``interp: True``) and ``T_camera_flu`` from a matrix, and its
+demo reads ``gt_pose.yaml`` with the ``PoseData`` reader its ``type`` names. Paths are
+relative to the export folder, the working directory the reference runs in. The helpers
+below do the same calls; robotdatapy is the real client. Stamps count from the export
+epoch: ``EPOCH_S`` + the frame time.
 """
 
 from __future__ import annotations
@@ -22,9 +25,13 @@ from rosbags.rosbag2 import Reader
 
 from roman_sim.core.geometry import inv_T
 
-from .conftest import FRAMES
+from .conftest import EPOCH_NS, FRAMES
 
 rdp = pytest.importorskip("robotdatapy.data")
+
+EPOCH_S = EPOCH_NS / 1e9
+#: Float seconds near the epoch (1.7e9 s) resolve 2.4e-7 s.
+STAMP_TOL_S = 5e-7
 
 
 @pytest.fixture(scope="module")
@@ -48,7 +55,9 @@ def _expand(d: dict) -> dict:
 
 
 def _load(params: Path, robot: str, monkeypatch: pytest.MonkeyPatch) -> dict[str, Any]:
-    """Images, depth, camera poses and T_camera_flu of one run, as the reference's DataParams loads them."""
+    """Images, depth, camera poses, T_camera_flu and truth of one run, as the reference loads them
+    when it runs in the export folder (``params``'s parent)."""
+    monkeypatch.chdir(params.parent)
     data = yaml.safe_load((params / "data.yaml").read_text(encoding="utf-8"))
     monkeypatch.setenv(data["run_env"], robot)
     run = _merged(data, data[robot]) if robot in data else data
@@ -62,7 +71,8 @@ def _load(params: Path, robot: str, monkeypatch: pytest.MonkeyPatch) -> dict[str
     assert tf["input_type"] == "matrix"
     out["T_camera_flu"] = np.array(tf["matrix"], dtype=np.float64).reshape(4, 4)
     gt = yaml.safe_load((params / "gt_pose.yaml").read_text(encoding="utf-8"))
-    out["gt"] = rdp.PoseData.from_bag(**{k: v for k, v in gt.items() if k != "type"})
+    reader = {"bag": rdp.PoseData.from_bag, "csv": rdp.PoseData.from_csv}[gt["type"]]
+    out["gt"] = reader(**{k: v for k, v in gt.items() if k != "type"})
     return out
 
 
@@ -72,12 +82,12 @@ def test_reference_data_loading(
 ) -> None:
     frames = direct_frames[robot]
     d = _load(roman_export / "roman_params", robot, monkeypatch)
-    assert d["runs"] == ["a", "b"] and d["dt"] == pytest.approx(1 / 6, abs=1e-9)
+    assert d["runs"] == ["a", "b"] and d["dt"] == 1 / 6  # 1 / rate_hz as configured, not a median of stamps
     img, depth = d["img_data"], d["depth_data"]
     t = np.array([f.t for f in frames])
     for stream in (img, depth):
         assert len(stream.times) == FRAMES[robot]
-        np.testing.assert_allclose(stream.times, t, atol=1e-9)
+        np.testing.assert_allclose(np.asarray(stream.times) - EPOCH_S, t, atol=STAMP_TOL_S)
     k = frames[0].intrinsics
     K = np.array([[k.fx, 0, k.cx], [0, k.fy, k.cy], [0, 0, 1]])
     for stream in (img, depth):
@@ -87,18 +97,19 @@ def test_reference_data_loading(
     T_cam_flu = d["T_camera_flu"]
     np.testing.assert_allclose(T_cam_flu, inv_T(frames[0].T_body_cam), atol=1e-9)
     for f in frames[:: max(1, len(frames) // 4)]:
-        bgr = img.img(f.t)
+        stamp = EPOCH_S + f.t
+        bgr = img.img(stamp)
         np.testing.assert_array_equal(bgr, np.asarray(f.rgb)[..., ::-1])  # OpenCV order
-        mm = depth.img(f.t)
+        mm = depth.img(stamp)
         assert mm.dtype == np.uint16
         ok = np.isfinite(f.depth) & (f.depth > 0)
         np.testing.assert_array_equal(mm[~ok], 0)
         assert np.abs(mm[ok] / 1000.0 - f.depth[ok]).max() <= 0.0005 + 1e-6
-        T_odom_cam = d["pose"].T_WB(f.t)
+        T_odom_cam = d["pose"].T_WB(stamp)
         np.testing.assert_allclose(T_odom_cam, f.T_odom_body @ f.T_body_cam, atol=1e-6)
         # what the reference mapper keeps as the body trajectory: pose @ T_camera_flu
         np.testing.assert_allclose(T_odom_cam @ T_cam_flu, f.T_odom_body, atol=1e-6)
-        np.testing.assert_allclose(d["gt"].T_WB(f.t), f.truth.T_world_body, atol=1e-6)
+        np.testing.assert_allclose(d["gt"].T_WB(stamp), f.truth.T_world_body, atol=1e-6)
 
 
 def _inside(world: np.ndarray, box: dict, margin: np.ndarray) -> np.ndarray:
@@ -125,8 +136,8 @@ def test_back_projected_object_lands_in_its_box(
     checked, wrong_scale = 0, []
     for f in direct_frames["a"]:
         ids = np.asarray(f.truth.object_ids)
-        raw = d["depth_data"].img(f.t).astype(np.float64)
-        T_world_cam = d["gt"].T_WB(f.t) @ inv_T(d["T_camera_flu"])
+        raw = d["depth_data"].img(EPOCH_S + f.t).astype(np.float64)
+        T_world_cam = d["gt"].T_WB(EPOCH_S + f.t) @ inv_T(d["T_camera_flu"])
         for oid in np.unique(ids[ids >= 0]):
             v, u = np.nonzero((ids == oid) & (raw > 0))
             if len(u) < 50:
@@ -148,7 +159,8 @@ def test_back_projected_object_lands_in_its_box(
 
 
 def test_bag_for_humble_and_evo(roman_export: Path, direct_frames: dict) -> None:
-    """Metadata version 8 (QoS as Humble's YAML string); evo reads the truth and odometry topics."""
+    """Metadata version 8 (QoS as Humble's YAML string); evo reads the truth and odometry topics;
+    each robot's bag has its own truth topic, so bags played together do not mix."""
     from evo.core import sync
     from evo.tools import file_interface
 
@@ -158,10 +170,14 @@ def test_bag_for_humble_and_evo(roman_export: Path, direct_frames: dict) -> None
     assert all(isinstance(t["topic_metadata"]["offered_qos_profiles"], str) for t in meta["topics_with_message_count"])
     frames = direct_frames["a"]
     with Reader(bag) as reader:
-        gt = file_interface.read_bag_trajectory(reader, "/groundtruth")
+        gt = file_interface.read_bag_trajectory(reader, "/a/groundtruth")
         odom = file_interface.read_bag_trajectory(reader, "/a/odom")
+    for robot in FRAMES:
+        with Reader(roman_export / robot / "bag") as reader:
+            truth_topics = sorted(c.topic for c in reader.connections if c.topic.endswith("groundtruth"))
+        assert truth_topics == [f"/{robot}/groundtruth"]
     assert gt.num_poses == odom.num_poses == FRAMES["a"]
-    np.testing.assert_allclose(gt.timestamps, [f.t for f in frames], atol=1e-9)
+    np.testing.assert_allclose(gt.timestamps - EPOCH_S, [f.t for f in frames], atol=STAMP_TOL_S)
     np.testing.assert_allclose(gt.poses_se3, [f.truth.T_world_body for f in frames], atol=1e-6)
     np.testing.assert_allclose(odom.poses_se3, [f.T_odom_body for f in frames], atol=1e-6)
     gt, odom = sync.associate_trajectories(gt, odom)
@@ -184,3 +200,22 @@ def test_parameter_folders(roman_export: Path, tiny_scenario: Any) -> None:
         sa = yaml.safe_load((p / "submap_align.yaml").read_text(encoding="utf-8"))
         assert sa["submap_radius"] == tiny_scenario.submaps.submap_radius
         assert sa["method"] == ("roman" if device == "cuda" else "roman_no_semantics")
+
+
+def test_parameters_are_relative_and_dt_as_configured(roman_export: Path, direct_frames: dict, tmp_path: Path) -> None:
+    """No absolute path in a parameter file: a moved export still loads; ``dt`` is written as 1 / rate_hz."""
+    import shutil
+
+    for folder in ("roman_params", "roman_params_cpu"):
+        for f in (roman_export / folder).iterdir():
+            text = f.read_text(encoding="utf-8")
+            assert str(roman_export) not in text and "path: /" not in text, f
+    data = (roman_export / "roman_params" / "data.yaml").read_text(encoding="utf-8")
+    assert data.startswith("dt: 0.16666666666666666\n")  # repr(1 / 6), not a median of stamp differences
+    moved = tmp_path / "moved"
+    shutil.copytree(roman_export, moved)
+    with pytest.MonkeyPatch.context() as mp:
+        d = _load(moved / "roman_params", "b", mp)
+    f = direct_frames["b"][-1]
+    np.testing.assert_allclose(d["gt"].T_WB(EPOCH_S + f.t), f.truth.T_world_body, atol=1e-6)
+    assert len(d["img_data"].times) == FRAMES["b"]

@@ -16,7 +16,7 @@ from roman_sim.interop.associate import read_list
 from roman_sim.interop.images import read_png
 from roman_sim.interop.rosbag_writer import body_twist, topics
 
-from .conftest import FRAMES
+from .conftest import EPOCH_NS, FRAMES
 
 TYPES = get_typestore(Stores.ROS2_HUMBLE)
 
@@ -50,10 +50,13 @@ def test_topics_types_and_counts(bag_export: Path, robot: str) -> None:
 def test_contents_match_the_frames(bag_export: Path, direct_frames: dict) -> None:
     frames = direct_frames["a"]
     msgs = _messages(bag_export / "a" / "bag")
-    stamps = [round(f.t * 1e9) for f in frames]
+    stamps = [EPOCH_NS + round(f.t * 1e9) for f in frames]
     for topic, rows in msgs.items():
         if topic != "/tf_static":
             assert [s for s, _ in rows] == stamps, topic
+            heads = [m.transforms[0].header if topic == "/tf" else m.header for _, m in rows]
+            headers = [h.stamp for h in heads]
+            assert [h.sec * 1_000_000_000 + h.nanosec for h in headers] == stamps, topic
     for f, (_, img), (_, depth), (_, info), (_, odom), (_, tf) in zip(
         frames,
         msgs["/a/camera/color/image_raw"],
@@ -124,3 +127,64 @@ def test_sqlite3_storage(tiny_scenario, tmp_path: Path) -> None:
     with Reader(tmp_path / "sq" / "b" / "bag") as reader:
         assert reader.message_count == 6 * FRAMES["b"] + 1
     assert not list((tmp_path / "sq" / "b").glob(".bag.*"))  # the temporary folder is gone
+
+
+@pytest.fixture(scope="module")
+def rig_exports(tmp_path_factory: pytest.TempPathFactory):
+    """Robot a of the tiny scenario with an IMU (D455 noise) and a second camera, as rosbag2 and roman bags."""
+    import copy
+
+    from roman_sim.core.config import validate_model
+    from roman_sim.interop import export_scenario
+    from roman_sim.interop.source import scenario_streams
+    from roman_sim.pipeline.scenario import Scenario
+
+    from .conftest import TINY
+
+    data = copy.deepcopy(TINY)
+    data["robots"][0].update(imu={"preset": "d455"}, stereo={"baseline_m": 0.12})
+    sc = validate_model(Scenario, data, source="rig")
+    out = tmp_path_factory.mktemp("rig")
+    for fmt in ("rosbag2", "roman"):
+        export_scenario(sc, fmt, out / fmt, robots=["a"])
+    _, (stream,) = scenario_streams(sc, ["a"])
+    return out, stream, list(stream.frames([0, 18]))
+
+
+def test_imu_and_second_camera_topics(rig_exports) -> None:
+    from roman_sim.core.geometry import make_T
+
+    out, stream, (first, last) = rig_exports
+    imu = stream.rig().imu
+    assert imu is not None and imu.noisy and len(imu.t) == 33 * 18 + 1
+    noise = imu.noise
+    for fmt, encoding in (("rosbag2", "rgb8"), ("roman", "bgr8")):
+        msgs = _messages(out / fmt / "a" / "bag")
+        assert len(msgs["/a/camera/right/image_raw"]) == len(msgs["/a/camera/right/camera_info"]) == FRAMES["a"]
+        rows = msgs["/a/imu"]
+        assert [s for s, _ in rows] == [EPOCH_NS + round(t * 1e9) for t in imu.t]
+        for k in (0, 1, 300, len(rows) - 1):
+            m = rows[k][1]
+            assert m.header.frame_id == "a/imu_link" and m.orientation_covariance[0] == -1.0
+            g, a = m.angular_velocity, m.linear_acceleration
+            np.testing.assert_array_equal([g.x, g.y, g.z], imu.gyro[k])
+            np.testing.assert_array_equal([a.x, a.y, a.z], imu.accel[k])
+            assert m.angular_velocity_covariance[0] == pytest.approx(noise.gyroscope_noise_density**2 * 198.0)
+            assert m.linear_acceleration_covariance[8] == pytest.approx(noise.accelerometer_noise_density**2 * 198.0)
+        for f, (_, img), (_, info) in zip(
+            (first, last),
+            (msgs["/a/camera/right/image_raw"][0], msgs["/a/camera/right/image_raw"][-1]),
+            (msgs["/a/camera/right/camera_info"][0], msgs["/a/camera/right/camera_info"][-1]),
+        ):
+            assert (img.encoding, img.header.frame_id) == (encoding, "a/camera_right_optical_frame")
+            pixels = np.asarray(img.data).reshape(120, 160, 3)
+            np.testing.assert_array_equal(pixels if encoding == "rgb8" else pixels[..., ::-1], f.rgb_right)
+            assert info.p[3] == pytest.approx(-f.intrinsics.fx * 0.12) and info.p[0] == f.intrinsics.fx
+        ((_, static),) = msgs["/tf_static"]
+        mounts = {t.child_frame_id: _pose(t.transform.translation, t.transform.rotation) for t in static.transforms}
+        T_bc = first.T_body_cam
+        np.testing.assert_allclose(mounts["a/camera_optical_frame"], T_bc, atol=1e-9)
+        np.testing.assert_allclose(mounts["a/camera_right_optical_frame"], T_bc @ make_T(t=[0.12, 0, 0]), atol=1e-9)
+        np.testing.assert_allclose(mounts["a/imu_link"], np.eye(4), atol=1e-12)
+        assert (out / fmt / "a" / "kalibr" / "camchain.yaml").is_file()
+        assert (out / fmt / "a" / "kalibr" / "imu.yaml").is_file()

@@ -26,34 +26,36 @@ def test_rerun_reuses_cached_stages(smoke_run):
     assert again.notes == smoke_run.notes
 
 
-def test_manifest_records_the_library_versions_and_a_resume_in_another_environment_warns(smoke_run, tmp_path, caplog):
+def test_manifest_records_the_library_versions_and_a_stage_made_with_others_is_computed_again(
+    smoke_run, tmp_path, monkeypatch
+):
     from importlib import metadata
 
-    from roman_sim.pipeline.manifest import Manifest, environment, environment_changes
+    from roman_sim.core import codehash
+    from roman_sim.pipeline import experiment as experiment_module
+    from roman_sim.pipeline.manifest import Manifest, environment
 
     man = json.loads((smoke_run.run_dir / "manifest.json").read_text())
     assert man["environment"] == environment()
     assert man["environment"]["numpy"] == metadata.version("numpy")
     assert man["environment"]["mujoco"] == metadata.version("mujoco")
     assert any(k.startswith("opencv") for k in man["environment"])
-    # a run folder whose stages another OpenCV computed: reused, with a warning naming it
+    # the same folder resumed with another MuJoCo: every stage whose code imports MuJoCo is computed
+    # again, so the manifest's versions are those its stages were made with
     run_dir = tmp_path / "other_env"
     shutil.copytree(smoke_run.run_dir, run_dir)
-    old = {**man["environment"], "opencv-python-headless": "4.0.0"}
-    old.pop("gtsam", None)
-    (run_dir / "manifest.json").write_text(json.dumps({**man, "environment": old}))
-    with caplog.at_level("WARNING", logger="roman_sim.pipeline.experiment"):
-        again = Experiment(load_scenario("smoke"), run_dir).run()
-    assert "maps" in again.reused
-    warned = [r.getMessage() for r in caplog.records if "other library versions" in r.getMessage()]
-    assert len(warned) == 1, warned
-    for change in environment_changes(old, environment()):
-        assert change in warned[0]
-    assert "opencv-python-headless 4.0.0 -> " in warned[0]
-    # the new manifest records this environment; a manifest without one reads as empty
-    assert json.loads((run_dir / "manifest.json").read_text())["environment"] == environment()
-    assert environment_changes({"a": "1"}, {"a": "1"}) == []
-    assert environment_changes({}, {"numpy": "2.0"}) == ["numpy none -> 2.0"]
+    real = codehash.library_versions
+
+    def other_mujoco(tops):
+        return {k: ("9.9.9" if k == "mujoco" else v) for k, v in real(tops).items()}
+
+    monkeypatch.setattr(codehash, "library_versions", other_mujoco)
+    monkeypatch.setattr(experiment_module, "environment", lambda: {**environment(), "mujoco": "9.9.9"})
+    again = Experiment(load_scenario("smoke"), run_dir, cache=False).run()
+    assert "maps" not in again.reused and "world" not in again.reused
+    recorded = json.loads((run_dir / "manifest.json").read_text())
+    assert recorded["environment"]["mujoco"] == "9.9.9"
+    assert again.metrics.to_json() == smoke_run.metrics.to_json()  # the arithmetic did not change here
     older = {k: v for k, v in man.items() if k != "environment"}  # written before versions were recorded
     assert Manifest.from_json(older, "older").environment == {}
 

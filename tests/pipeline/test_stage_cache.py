@@ -5,6 +5,7 @@ Runs start from a copy of the session's smoke run, so only what a test changes i
 
 from __future__ import annotations
 
+import hashlib
 import importlib
 import json
 import os
@@ -163,9 +164,11 @@ def test_adding_an_aligner_in_another_folder_maps_nothing(added_aligner):
     assert timings["maps"]["reused"] and timings["submaps"]["reused"]
     assert not timings["evaluation"]["reused"]
     manifest = json.loads((out / "manifest.json").read_text())
-    for f in manifest["stages"]["maps"]["files"]:  # the very files of the cache, linked
-        entry = next(e for e in cache.entries() if e.parent.name == "maps")
-        assert os.stat(out / f).st_ino == os.stat(entry / "files" / f).st_ino
+    entry = next(e for e in cache.entries() if e.parent.name == "maps")
+    for f in manifest["stages"]["maps"]["files"]:  # the cache's bytes, copied: no file shared with it
+        assert (out / f).read_bytes() == (entry / "files" / f).read_bytes()
+        assert os.stat(out / f).st_ino != os.stat(entry / "files" / f).st_ino
+        assert manifest["stages"]["maps"]["sha256"][f] == hashlib.sha256((out / f).read_bytes()).hexdigest()
     cfg = _config(out)
     assert cfg["aligners"][-1] == {
         "method": "roman_sim.examples.mutual_nn_aligner:MutualNNAligner",
@@ -179,32 +182,110 @@ def test_each_plugin_is_dry_called_once_per_run(added_aligner):
     assert calls.count("roman_sim.pipeline.plugins.dry_call") == 1  # the CLI validates, the run does not again
 
 
-def test_cache_entries_are_complete_or_absent(tmp_path):
-    run = tmp_path / "run"
+def _stage_files(run: Path) -> dict[str, str]:
+    """Two files of a made-up stage in ``run``: path -> SHA-256."""
     (run / "maps").mkdir(parents=True)
     (run / "maps" / "a.npz").write_bytes(b"a" * 100)
     (run / "notes.json").write_text("{}")
-    files = ["maps/a.npz", "notes.json"]
+    return {f: hashlib.sha256((run / f).read_bytes()).hexdigest() for f in ("maps/a.npz", "notes.json")}
+
+
+def test_cache_entries_are_complete_or_absent(tmp_path):
+    run = tmp_path / "run"
+    files = _stage_files(run)
     cache = StageCache(tmp_path / "cache")
-    env = {"numpy": "1"}
-    threads = [threading.Thread(target=cache.publish, args=("maps", "k1", env, run, files)) for _ in range(8)]
+    threads = [threading.Thread(target=cache.publish, args=("maps", "k1", run, files)) for _ in range(8)]
     for t in threads:
         t.start()
     for t in threads:
         t.join()
-    assert [e.name for e in cache.entries()] == [cache.entry_dir("maps", "k1", env).name]  # one entry, no leftovers
+    assert cache.entries() == [cache.entry_dir("maps", "k1")]  # one entry, no leftovers
     assert not list((tmp_path / "cache" / "stages" / "maps").glob(".*"))
     other = tmp_path / "other"
-    assert cache.fetch("maps", "k1", env, other) == files
+    assert cache.fetch("maps", "k1", other) == files
     assert (other / "maps" / "a.npz").read_bytes() == b"a" * 100
-    assert cache.fetch("maps", "k1", {"numpy": "2"}, other) is None  # other library versions: not reused
-    assert cache.fetch("maps", "k2", env, other) is None
-    (cache.entry_dir("maps", "k1", env) / "files" / "notes.json").unlink()  # a lost file invalidates the entry
-    assert cache.fetch("maps", "k1", env, tmp_path / "third") is None
+    assert cache.fetch("maps", "k2", other) is None
+    (cache.entry_dir("maps", "k1") / "files" / "notes.json").unlink()  # a lost file invalidates the entry
+    assert cache.fetch("maps", "k1", tmp_path / "third") is None
     assert not (tmp_path / "third").exists()
-    cache.publish("maps", "k1", env, run, files)  # republished whole
-    assert cache.fetch("maps", "k1", env, tmp_path / "third") == files
+    assert cache.entries() == []  # dropped
+    cache.publish("maps", "k1", run, files)  # republished whole
+    assert cache.fetch("maps", "k1", tmp_path / "third") == files
     assert cache.clear() == 1 and cache.entries() == []
+
+
+def test_a_file_changed_before_publishing_is_not_stored(tmp_path, caplog):
+    run = tmp_path / "run"
+    files = _stage_files(run)
+    (run / "maps" / "a.npz").write_bytes(b"b" * 100)  # same size, other bytes than the run recorded
+    cache = StageCache(tmp_path / "cache")
+    with caplog.at_level("WARNING", logger="roman_sim.pipeline.stagecache"):
+        cache.publish("maps", "k1", run, files)
+    assert cache.entries() == [] and not list((tmp_path / "cache").rglob("*.npz"))
+    assert [r.getMessage() for r in caplog.records] == [
+        f"shared cache: {run / 'maps' / 'a.npz'} changed since the run wrote it; stage maps not stored"
+    ]
+
+
+@pytest.mark.parametrize("damage", ["flip", "truncate", "entry"])
+def test_a_damaged_entry_is_dropped_with_one_warning_naming_the_file(tmp_path, caplog, damage):
+    run = tmp_path / "run"
+    files = _stage_files(run)
+    cache = StageCache(tmp_path / "cache")
+    cache.publish("maps", "k1", run, files)
+    stored = cache.entry_dir("maps", "k1") / "files" / "maps" / "a.npz"
+    if damage == "flip":  # one byte changed in place, the size kept
+        with stored.open("r+b") as fh:
+            fh.seek(50)
+            fh.write(b"x")
+    elif damage == "truncate":
+        stored.write_bytes(b"a" * 99)
+    else:
+        (cache.entry_dir("maps", "k1") / "entry.json").write_text("{")
+    with caplog.at_level("WARNING", logger="roman_sim.pipeline.stagecache"):
+        assert cache.fetch("maps", "k1", tmp_path / "other") is None
+    warned = [r.getMessage() for r in caplog.records]
+    assert len(warned) == 1 and warned[0].startswith("shared cache: entry dropped, ")
+    assert (str(stored) if damage != "entry" else str(cache.entry_dir("maps", "k1"))) in warned[0]
+    assert cache.entries() == [] and not (tmp_path / "other" / "maps" / "a.npz").exists()
+    assert cache.lookup("maps", "k1") is None
+
+
+def test_cache_verify_names_and_drops_damaged_entries(tmp_path, monkeypatch):
+    from roman_sim.cli import app
+
+    run = tmp_path / "run"
+    files = _stage_files(run)
+    cache = StageCache(tmp_path / "cache")
+    for key in ("k1", "k2"):
+        cache.publish("maps", key, run, files)
+    (cache.entry_dir("maps", "k2") / "files" / "notes.json").write_text("{ }")
+    monkeypatch.setenv("ROMAN_SIM_CACHE", str(cache.root))
+    res = CliRunner().invoke(app, ["cache", "--verify"])
+    assert res.exit_code == 1
+    assert f"dropped: {cache.entry_dir('maps', 'k2') / 'files' / 'notes.json'}: " in res.stdout
+    assert "1 entries verified, 1 dropped" in res.stdout
+    again = CliRunner().invoke(app, ["cache", "--verify"])
+    assert again.exit_code == 0 and "1 entries verified, 0 dropped" in again.stdout
+
+
+def test_a_cache_path_that_is_a_file_is_named_once(tmp_path, monkeypatch, caplog):
+    from roman_sim.cli import app
+    from roman_sim.pipeline import stagecache
+
+    where = tmp_path / "cachefile"
+    where.write_text("not a folder")
+    monkeypatch.setenv("ROMAN_SIM_CACHE", str(where))
+    monkeypatch.setattr(stagecache, "_warned_not_a_folder", set())
+    with caplog.at_level("WARNING", logger="roman_sim.pipeline.stagecache"):
+        assert StageCache.default() is None and StageCache.default() is None
+    assert [r.getMessage() for r in caplog.records] == [
+        f"shared stage cache off: {where} is a file, not a folder (set $ROMAN_SIM_CACHE to a folder, or to off)"
+    ]
+    res = CliRunner().invoke(app, ["cache"])
+    assert res.exit_code == 0 and f"the shared stage cache is off: {where} is a file, not a folder" in res.stdout
+    monkeypatch.setenv("ROMAN_SIM_CACHE", str(where / "below"))
+    assert StageCache.default() is None
 
 
 def test_the_cache_folder_and_switching_it_off(monkeypatch, tmp_path):

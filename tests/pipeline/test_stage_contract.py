@@ -36,7 +36,8 @@ WRITERS = {
     "save_submaps",
     "save_keyframes",
     "save_per_robot",
-    "save_png",
+    "save_figure",
+    "remove_figure",
     "draw_examples",
     "plot_masks",
     "plot_frontend_grades",
@@ -165,7 +166,8 @@ def test_a_renamed_scenario_rewrites_the_report(smoke_run, tmp_path):
     after = _digest(run_dir)
     differ = sorted(f for f in after if before.get(f) != after[f])
     # the report's files (its title, the map view's and the trajectory plot's titles) and the run's records
-    want = ["config.yaml", "manifest.json", "plots/map_view.png", "plots/trajectories.png", "report.md", "timings.json"]
+    want = ["config.yaml", "manifest.json", "plots/map_view.pdf", "plots/map_view.png", "plots/trajectories.pdf"]
+    want += ["plots/trajectories.png", "report.md", "timings.json"]
     assert differ == want
 
 

@@ -28,8 +28,10 @@ FORBIDDEN_NAMES = {
     "build_encoder_for",
     "plot_frontend_grades",
     "plot_masks",
-    "masks_png",
+    "masks_files",
     "save_png",
+    "save_figure",
+    "figure_files",
     "figure",
 }
 #: The world stage's one call into the world package, its type and the world's pickled form (shipped to workers).

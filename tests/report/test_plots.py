@@ -170,6 +170,24 @@ def test_map_view_draws_each_segment_once_to_scale_where_the_truth_puts_it(make_
         map_view_figure([make_submap("c", 0, 0.0, 0.0, object_ids=())])
 
 
+def test_a_map_view_lists_only_the_marks_it_draws_and_its_dense_points_are_an_image_in_the_pdf(make_submap, tmp_path):
+    """A map whose every segment lacks a true object draws hollow circles only: the legend used to list the
+    filled circle all the same."""
+    from dataclasses import replace
+
+    from roman_sim.report.mapview import map_view_figure, write_map_view
+
+    spurious = make_submap("a", 0, 0.0, 0.0, object_ids=(-1,) * 8)
+    labels = [t.get_text() for t in map_view_figure([spurious]).axes[0].get_legend().get_texts()]
+    assert labels == ["robot a", "segment with no true object", "submap centres, in order"]
+    rng = np.random.default_rng(1)
+    dense = replace(spurious, points=[c + rng.normal(scale=0.3, size=(150, 3)) for c in spurious.centers])
+    write_map_view(tmp_path / "sparse.png", [spurious])
+    write_map_view(tmp_path / "dense.png", [dense])  # 8 segments x 100 points (the default cap per segment)
+    assert b"/Subtype /Image" not in (tmp_path / "sparse.pdf").read_bytes()  # 8 circles and a path: vectors
+    assert b"/Subtype /Image" in (tmp_path / "dense.pdf").read_bytes()  # 800 points: an image inside the PDF
+
+
 def test_masks_over_an_image(tmp_path):
     rgb = np.full((48, 64, 3), 100, dtype=np.uint8)
     m1 = np.zeros((48, 64), bool)

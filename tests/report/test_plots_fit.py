@@ -6,13 +6,14 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from committed_results import REFERENCE
 from matplotlib.figure import Figure
 
 import roman_sim.report.plots as plots
 from roman_sim.evaluation.leaderboard import MethodRuntime
 from roman_sim.evaluation.results import read_metrics_json
 
-DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
+DEMO = REFERENCE / "demo"
 OPPOSITE = DEMO.parent / "opposite_direction"
 
 
@@ -21,15 +22,16 @@ def demo_figures(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Figure]:
     if not (DEMO / "metrics.json").is_file():
         pytest.skip("no committed demo run")
     figs: dict[str, Figure] = {}
-    real = plots.save_png
+    real = plots.save_figure
 
     def keep(fig: Figure, path: str | Path, data: object = None) -> Path:
-        fig.canvas.draw()  # lay the figure out as it is saved, then keep it open for the checks
+        out = real(fig, path, data)
+        fig.canvas.draw()  # the figure as its PNG was drawn (the PDF after it is drawn at 72 dpi), kept for the checks
         figs[Path(path).name] = fig
-        return real(fig, path, data)
+        return out
 
     mp = pytest.MonkeyPatch()
-    mp.setattr(plots, "save_png", keep)
+    mp.setattr(plots, "save_figure", keep)
     written, skipped = plots.write_metric_plots(read_metrics_json(DEMO / "metrics.json"), tmp_path_factory.mktemp("p"))
     mp.undo()
     assert skipped == [
@@ -76,14 +78,15 @@ def test_the_benchmark_runtime_title_fits_its_figure(tmp_path: Path, monkeypatch
     import roman_sim.report.benchmark_plots as bp
 
     kept: list[Figure] = []
-    real = bp.save_png
+    real = bp.save_figure
 
     def keep(fig: Figure, path: str | Path, data: object = None) -> Path:
+        out = real(fig, path, data)
         fig.canvas.draw()
         kept.append(fig)
-        return real(fig, path, data)
+        return out
 
-    monkeypatch.setattr(bp, "save_png", keep)
+    monkeypatch.setattr(bp, "save_figure", keep)
     cell = MethodRuntime(
         n=4, mean_s=0.002, cell_medians_s=[0.001, 0.002], cell_p10_s=[None, None], cell_p90_s=[0.003, 0.004]
     )

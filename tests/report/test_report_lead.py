@@ -12,17 +12,17 @@ import io
 import json
 import math
 import re
-from pathlib import Path
 
 import pytest
 import yaml
+from committed_results import REFERENCE
 
 from roman_sim.evaluation.atetable import AteTable
 from roman_sim.evaluation.results import read_metrics_json
 from roman_sim.report.lead import lead_paragraph
 from roman_sim.report.markdown import report_markdown
 
-DEMO = Path(__file__).resolve().parents[2] / "results" / "reference" / "demo"
+DEMO = REFERENCE / "demo"
 pytestmark = pytest.mark.skipif(not (DEMO / "pairs.csv.gz").is_file(), reason="no committed demo run")
 Z = 1.959963984540054  # the 97.5 % normal quantile
 

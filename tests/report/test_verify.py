@@ -18,6 +18,7 @@ def test_a_fresh_run_verifies(smoke_run):
     assert res.checked == [
         "metrics.json from pairs.csv",
         "ate.json from trajectories/*.tum",
+        "every file's SHA-256 against manifest.json",
         "the summary's figures against the independent scorer",
     ]
     out = runner.invoke(app, ["report", str(smoke_run.run_dir), "--verify"])
@@ -37,6 +38,7 @@ def test_an_edited_pairs_table_or_trajectory_fails_verification(smoke_run, tmp_p
     (run_dir / "pairs.csv").write_text("\n".join(lines) + "\n")
     res = verify_run(run_dir)
     assert not res.ok and any("correct=True, recomputed False" in d for d in res.differences)
+    assert f"{run_dir / 'pairs.csv'} changed after the run wrote it" in " ".join(res.differences)
     out = runner.invoke(app, ["report", str(run_dir), "--verify"])
     assert out.exit_code == 1 and "NOT verified" in out.output
     # a moved trajectory: the ATE no longer matches ate.json
@@ -46,7 +48,10 @@ def test_an_edited_pairs_table_or_trajectory_fails_verification(smoke_run, tmp_p
     rows[len(rows) // 2][1] = f"{float(rows[len(rows) // 2][1]) + 5.0:.9f}"
     tum.write_text("".join(" ".join(r) + "\n" for r in rows))
     res = verify_run(run_dir)
-    assert not res.ok and all(d.startswith(("ate.json", "independent scorer: /ate/")) for d in res.differences)
+    edited = [d for d in res.differences if "changed after the run wrote it" in d]
+    assert edited == [f"{tum} changed after the run wrote it (its SHA-256 differs from manifest.json's)"]
+    others = [d for d in res.differences if d not in edited]
+    assert others and all(d.startswith(("ate.json", "independent scorer: /ate/")) for d in others)
     assert any(d.startswith("independent scorer: /ate/roman/") for d in res.differences)
 
 

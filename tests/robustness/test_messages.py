@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from committed_results import STANDARD, copy_committed
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
@@ -124,12 +125,9 @@ def test_env_reset_rejects_unknown_options_and_non_dict_options_and_stays_usable
         env.close()
 
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
 def test_a_damaged_benchmark_cell_record_names_the_file_and_field(tmp_path: Path, cli_fails) -> None:
     out = tmp_path / "standard"
-    shutil.copytree(ROOT / "results" / "benchmark" / "standard", out)
+    copy_committed(STANDARD, out)
     cell = out / "cells" / "low-s0" / "cell.json"
     cell.write_text(cell.read_text().replace('"status": "ok"', '"status": "done"'))
     assert cli_fails("benchmark", "standard", "--out", out, "--report-only") == (

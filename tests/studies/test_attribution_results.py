@@ -6,13 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from committed_results import ATTRIBUTION as KEPT
 
 from roman_sim.studies import independent_scorer as S
 from roman_sim.studies.attribution import FIELDS, MARKERS, PAGE, attribution_block, classify, read_table
 from roman_sim.studies.pages import current_block
 
 ROOT = Path(__file__).parents[2]
-KEPT = ROOT / "results" / "attribution"
 
 pytestmark = pytest.mark.skipif(not (KEPT / "attribution.csv").is_file(), reason="no committed attribution study")
 

@@ -19,11 +19,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from committed_results import REFERENCE as REF
 
 from roman_sim.studies import independent_scorer as S
 
-ROOT = Path(__file__).resolve().parents[2]
-REF = ROOT / "results" / "reference"
 CFG = S.Settings("distance", 10.0, 3, 5.0, 1.0, 0, 30, (0.0, 60.0, 120.0, 180.0), 5, 0.95)
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from committed_results import ATTRIBUTION, REFERENCE
 
 from roman_sim.studies import independent_scorer as S
 from roman_sim.studies.attribution import drop_interval
@@ -21,7 +22,7 @@ from roman_sim.studies.pages import current_block
 from roman_sim.studies.paper_preset import PRESET_MARKERS, preset_block
 
 ROOT = Path(__file__).resolve().parents[2]
-FOLDER = ROOT / "results" / "reference" / "paper_preset"
+FOLDER = REFERENCE / "paper_preset"
 
 pytestmark = pytest.mark.skipif(
     not (FOLDER / "paper_fit.yaml").is_file(), reason="no committed fit of the paper front-end preset"
@@ -227,7 +228,7 @@ def test_the_mechanisms_cited_for_the_miss_are_the_attribution_studys():
         "the descriptor's view dependence negligible, with an all-on drop whose world-bootstrap interval "
         "excludes 0" in page
     )
-    rows = {(r["mechanism"], r["method"]): r for r in S.attribution_rows(ROOT / "results" / "attribution")}
+    rows = {(r["mechanism"], r["method"]): r for r in S.attribution_rows(ATTRIBUTION)}
     assert rows[("partial_views", "roman")]["explained"] >= 0.5
     assert rows[("descriptor_view", "roman")]["explained"] < 0.2
     assert (

@@ -11,16 +11,15 @@ the data cannot be listed as holding.
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
+from committed_results import REFERENCE as REF
+from committed_results import committed_files
 
 from roman_sim.cli._verify import verify_run
 from roman_sim.report.recompute import compare
 from roman_sim.studies.reference import rederive, reference_markdown
 
-ROOT = Path(__file__).resolve().parents[2]
-REF = ROOT / "results" / "reference"
 #: Committed reference results (raw data included) must stay small enough for a repository:
 #: about 31 MB for the small scenarios, the demo, the paper preset (13 runs) and the sweep, and
 #: 10-13 MB per paper-scale run, three of them (trajectories at frame rate, the pairs table and
@@ -66,7 +65,7 @@ def test_summary_md_is_rendered_from_the_summary():
 
 
 def test_reference_results_keep_raw_data_and_stay_small():
-    total = sum(p.stat().st_size for p in REF.rglob("*") if p.is_file())
+    total = sum(p.stat().st_size for p in committed_files(roots=[REF]))
     assert total < MAX_REFERENCE_MB * 1e6, f"{total / 1e6:.1f} MB"
     for scenario in _scenarios():
         d = REF / scenario

@@ -6,13 +6,12 @@ import shutil
 from pathlib import Path
 
 import pytest
+from committed_results import REFERENCE as REF
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
 from roman_sim.core.errors import StorageError
 from roman_sim.studies.reference import rewrite_report
-
-REF = Path(__file__).resolve().parents[2] / "results" / "reference"
 
 
 def _files(d: Path) -> dict[str, bytes]:

@@ -36,12 +36,15 @@ def test_preview_from_preset_and_from_folder(run_cli, tmp_path) -> None:
     )
     assert code == 0, err
     assert (tmp_path / "p.png").stat().st_size > 0 and (tmp_path / "p_view.png").stat().st_size > 0
+    assert (tmp_path / "p.pdf").read_bytes().startswith(b"%PDF")  # the map's vector copy (the view is a photo)
+    assert not (tmp_path / "p_view.pdf").exists()
     run_cli("world", "generate", "tiny", "--out", str(tmp_path / "w"))
     code, _, err = run_cli(
         "world", "preview", str(tmp_path / "w"), "--out", str(tmp_path / "prev"), "--width", "64", "--height", "48"
     )
     assert code == 0, err
     assert (tmp_path / "prev" / "topdown.png").is_file() and (tmp_path / "prev" / "view.png").is_file()
+    assert (tmp_path / "prev" / "topdown.pdf").read_bytes().startswith(b"%PDF")
 
 
 def test_ambiguity_command(run_cli) -> None:

@@ -139,7 +139,7 @@ def cached_aligned(ctx: RunContext, keys: dict[str, str], pairs: Sequence[tuple[
     if ctx.cache is None or ctx.fresh:
         return out
     for label, key in keys.items():
-        where = ctx.cache.lookup(ALIGNMENT_PART, key, ctx.environment)
+        where = ctx.cache.lookup(ALIGNMENT_PART, key)
         if where is None:
             continue
         try:

@@ -13,8 +13,9 @@ A stage is a ``Stage[InputsT, OutputT]`` subclass:
   resolved them (every component's parameters with their defaults filled in,
   ``roman_sim.pipeline.resolve``). The cache key hashes them with the package version,
   the stage's name, its ``format``, its inputs' keys and the fingerprint of its code
-  (``code_fingerprint``), so a change anywhere upstream, a changed default or a change to
-  code the stage runs recomputes it. Bump ``format`` when the files ``save`` writes
+  (``code_fingerprint``: its modules' sources and the installed versions of the libraries
+  they import), so a change anywhere upstream, a changed default, a change to code the
+  stage runs or another version of a library it runs recomputes it. Bump ``format`` when the files ``save`` writes
   change, so run folders of the old layout recompute the stage instead of failing to
   load it.
 - ``code`` and ``components``: the roots of the code fingerprint besides the stage's own

@@ -280,9 +280,9 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         ]
 
     def save(self, out: EvaluationOutput, ctx: RunContext) -> list[str]:
-        for rec in out.aligned:  # those from the shared cache linked (no copy), the others written
+        for rec in out.aligned:  # those from the shared cache copied (verified), the others written
             cache = ctx.cache if rec.aligner in out.aligned_cached else None
-            if cache is None or cache.fetch(ALIGNMENT_PART, rec.key, ctx.environment, ctx.run_dir) is None:
+            if cache is None or cache.fetch(ALIGNMENT_PART, rec.key, ctx.run_dir) is None:
                 record, times = split_aligned(rec)
                 write_record(ctx.run_dir / aligned_file(rec.aligner), record, ALIGNED_SCHEMA, indent=None)
                 write_record(ctx.run_dir / times_file(rec.aligner), times, ALIGNED_TIMES_SCHEMA, indent=None)

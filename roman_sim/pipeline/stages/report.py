@@ -7,19 +7,22 @@ the trajectory plot (truth, odometry and the pose graph method's estimate moved 
 truth, with the closures that graph used) and the front-end snapshot
 (``plots/segments_on_image.png``: the camera image and masks the maps stage kept). Every
 figure is drawn by ``roman_sim.report`` from saved outputs; nothing is rendered or
-segmented here. Plots are rendered to PNG bytes and the report to text; ``save`` writes
-them with ``map_stats.json``. A plot that cannot be drawn (no snapshot kept, a single
-point) is noted and skipped. The report depends on the scenario's name (its title), so a
-renamed scenario rewrites it.
+segmented here. Plots are rendered to bytes, each a PNG with a vector PDF beside it
+(``plots/x.png`` and ``plots/x.pdf``; ``roman_sim.core.figures``), and the report to text
+(it shows the PNGs); ``save`` writes them with ``map_stats.json``. A plot that cannot be
+drawn (no snapshot kept, a single point) is noted and skipped. The report depends on the
+scenario's name (its title), so a renamed scenario rewrites it.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import PurePosixPath
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.figures import PNG
 from roman_sim.core.jsontypes import JSON
 from roman_sim.evaluation.ate import aligned_to_truth
 from roman_sim.evaluation.records import MapStats, map_stats, read_map_stats, write_map_stats
@@ -58,9 +61,9 @@ MAP_VIEW = "plots/map_view.png"
 class ReportOutput:
     """Map statistics and every note of the run, in stage order.
 
-    ``text`` (``report.md``) and ``plots`` (relative path -> PNG bytes) are what ``save``
-    writes; a loaded output has neither (nothing downstream reads them), ``written`` lists
-    the plot files either way.
+    ``text`` (``report.md``) and ``plots`` (relative path -> bytes: each figure's PNG and its
+    PDF) are what ``save`` writes; a loaded output has neither (nothing downstream reads
+    them), ``written`` lists the figures' PNGs either way.
     """
 
     map_stats: MapStats
@@ -161,11 +164,11 @@ def _noted(note: str) -> Drawn:
 def draw_plots(
     ctx: RunContext, inputs: ReportInputs, tasks: TaskRunner | None = None
 ) -> tuple[dict[str, bytes], list[str]]:
-    """Every figure of ``plot_jobs``: (path -> PNG, notes).
+    """Every figure of ``plot_jobs``: (path -> bytes of each figure's PNG and its PDF beside it, notes).
 
     With a local pool (``tasks``), its workers draw the figures, the largest first, while
     this process adds its notes once the first figure is back; otherwise everything is
-    drawn here. Never on Dask workers: PNG bytes depend on the installed matplotlib and
+    drawn here. Never on Dask workers: the bytes depend on the installed matplotlib and
     fonts, and those workers may run elsewhere. The
     figures and notes come out in report order wherever they were drawn.
     """
@@ -185,14 +188,14 @@ def draw_plots(
             here = []
     for i in here:
         drawn[i] = jobs[i].fn(*jobs[i].args)
-    pngs: dict[str, bytes] = {}
+    files: dict[str, bytes] = {}
     notes: list[str] = []
     for i, job in enumerate(jobs):
-        png, more = drawn[i]
-        if png is not None:
-            pngs[job.name] = png
+        figure, more = drawn[i]
+        for suffix, blob in (figure or {}).items():
+            files[str(PurePosixPath(job.name).with_suffix(suffix))] = blob
         notes += more
-    return pngs, notes
+    return files, notes
 
 
 def _weight(job: PlotJob) -> int:
@@ -222,20 +225,21 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
             None if maps is None else sum(len(m) for m in maps.values()),
             None if maps is None else sum(m.trajectory_length_m for m in maps.values()),
         )
-        pngs, plot_notes = draw_plots(ctx, inputs, tasks)
+        files, plot_notes = draw_plots(ctx, inputs, tasks)
+        pngs = [f for f in files if f.endswith(PNG)]
         notes = list(dict.fromkeys(notes + plot_notes))
         ate = inputs.ate.ate if inputs.ate.ate.variants else None
-        text = report_markdown(ctx.scenario.name, inputs.evaluation.metrics, ate, stats, notes, list(pngs))
-        return ReportOutput(stats, notes, text, pngs, list(pngs))
+        text = report_markdown(ctx.scenario.name, inputs.evaluation.metrics, ate, stats, notes, pngs)
+        return ReportOutput(stats, notes, text, files, pngs)
 
     def save(self, out: ReportOutput, ctx: RunContext) -> list[str]:
-        for name, png in out.plots.items():
-            write_bytes(ctx.run_dir / name, png)
+        for name, blob in out.plots.items():
+            write_bytes(ctx.run_dir / name, blob)
         write_text(ctx.run_dir / REPORT_MD, out.text)
         write_map_stats(ctx.run_dir / MAP_STATS_JSON, out.map_stats, out.notes)
         return [MAP_STATS_JSON, REPORT_MD, *out.plots]
 
     def load(self, ctx: RunContext, files: list[str]) -> ReportOutput:
         stats, notes = read_map_stats(ctx.run_dir / MAP_STATS_JSON)
-        written = [f for f in files if f.endswith(".png")]
+        written = [f for f in files if f.endswith(PNG)]
         return ReportOutput(stats, notes, written=written)
