@@ -215,7 +215,7 @@ class Experiment:
             elif self._may_reuse(stage):
                 files = self.cache.fetch(stage.name, keys[stage.name], self.run_dir)
                 if files is not None:
-                    manifest.stages[stage.name] = StageRecord(keys[stage.name], list(files), dict(files))
+                    manifest.stages[stage.name] = StageRecord.of(keys[stage.name], self.run_dir, list(files))
                     taken.add(stage.name)
         if taken:
             manifest.save(self.run_dir)
@@ -225,13 +225,13 @@ class Experiment:
         """Store a completed stage in the shared cache, and the parts it keeps apart (``Stage.parts``)."""
         if self.cache is None:
             return
-        hashes = rec.hashes()
-        if set(hashes) != set(rec.files):  # an old manifest without hashes: nothing verified to publish
+        if rec.sha256 is None:  # an old manifest without hashes: nothing verified to publish
             return
-        self.cache.publish(stage.name, rec.key, self.run_dir, hashes)
+        files = {f: rec.sha256.get(f) for f in rec.files}
+        self.cache.publish(stage.name, rec.key, self.run_dir, files)
         for part in stage.parts(ctx):
-            if all(f in hashes for f in part.files):
-                self.cache.publish(part.name, part.key, self.run_dir, {f: hashes[f] for f in part.files})
+            if all(f in files for f in part.files):
+                self.cache.publish(part.name, part.key, self.run_dir, {f: files[f] for f in part.files})
 
     def _start_manifest(
         self, old: Manifest | None, keys: dict[str, str], reuse: set[str], active: list[Stage]

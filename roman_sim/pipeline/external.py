@@ -55,6 +55,7 @@ from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
 from roman_sim.interop.associate import read_list
 from roman_sim.interop.closures import Closure, ClosureSet, read_closures, read_pose_csv
+from roman_sim.interop.tum_camera import read_camera_file
 from roman_sim.pipeline.closure_pairs import Resolved, Unscored, pose_at, resolve
 from roman_sim.pipeline.context import Progress, RunContext
 from roman_sim.pipeline.experiment import Experiment
@@ -100,15 +101,17 @@ class ExternalScore:
 
 
 def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float64]]:
-    """Each robot's frame times: from the run's maps or the export's ``masks.txt``."""
+    """Each robot's frame times (seconds since its start): from the run's maps or the export's ``masks.txt``
+    (its stamps less the epoch its ``camera.yaml`` names)."""
     if (source / MANIFEST_JSON).is_file():
         maps = _load_stage(source, scenario, MapsStage())
         return {r: m.odometry.t for r, m in maps.maps.items()}
     out = {}
     for r in scenario.robots:
         path = source / r.name / "masks.txt"
-        if path.is_file():
-            out[r.name] = read_list(path)[0]  # the stamps, checked line by line, in time order
+        if path.is_file():  # the stamps, checked line by line, in time order, as seconds since the start
+            camera = read_camera_file(source / r.name)
+            out[r.name] = read_list(path, camera.time_epoch_ns if camera is not None else 0)[0]
     return out
 
 

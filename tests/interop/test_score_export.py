@@ -6,7 +6,6 @@ import json
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 from roman_sim.core.geometry import inv_T
 from roman_sim.core.tum import read_tum
@@ -16,12 +15,6 @@ from roman_sim.pipeline.external import read_external, score_external
 from roman_sim.pipeline.scenario import Scenario
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="exported stamps now count from the export epoch (export.json time_epoch_ns); "
-    "pipeline.external._frame_times reads masks.txt stamps and must take the epoch off "
-    "(roman_sim.interop.base.frame_time) before closures at times since the start can be checked",
-)
 def test_score_an_export_folder(tum_export: Path, tiny_scenario: Scenario, tmp_path: Path) -> None:
     """A perfect closure between the robots' first frames (submap centres) scores as correct."""
     truth = {r: read_tum(tum_export / r / "groundtruth_body.txt") for r in ("a", "b")}
