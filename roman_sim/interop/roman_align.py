@@ -16,7 +16,8 @@ The reference demo (``mit-acl/roman``, ``demo/demo.py``) aligns every pair of ro
   reference's dense odometry g2o, whose times ``offline_rpgo/dense/odom_all.time.txt`` lists
   (``robot_id pose_index time_ns``, robot ids in ``runs`` order). The reference's mapper
   poses are ``t0 + k * dt`` (``np.arange``), and the ROMAN-ready export sets ``dt`` to the
-  frame interval, so pose ``k`` is the exported frame ``k``. Intra-robot files hold every
+  frame interval, so pose ``k`` is the exported frame ``k`` (its float steps near 1.7e9 s
+  drift by microseconds, far within the match tolerance). Intra-robot files hold every
   ordered pair of submaps at least 50 s apart, so each pair twice, once each way.
 - ``align.json``: the same closures in the same order, each with the two robots'
   ``names``, their centre times as ``seconds`` and ``nanoseconds`` (the bag's stamps) and

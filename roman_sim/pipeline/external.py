@@ -193,8 +193,8 @@ def _check_closures(
     checks = []
     for codes, ts in ((cs.robot_a, cs.t_a), (cs.robot_b, cs.t_b)):
         known, on = np.zeros(len(cs), dtype=bool), np.zeros(len(cs), dtype=bool)
-        for code, r in enumerate(cs.robots):
-            mine = codes == code
+        for k, r in enumerate(cs.robots):
+            mine = codes == k
             if r in times and mine.any():
                 known[mine], on[mine] = True, matched(times[r], ts[mine])
         checks += [~known, known & ~on]
