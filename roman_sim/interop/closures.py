@@ -3,8 +3,9 @@
 A loop closure says: robot ``robot_a``'s body at time ``t_a`` sees robot ``robot_b``'s body
 at time ``t_b`` at the relative pose ``T_pa_pb`` (b's body in a's body frame, each body
 pose in its robot's own odometry frame: the edge the reference ROMAN back end writes),
-optionally with a score (the number of associations behind it). Times are seconds since
-the robot's start, as in the exported sequences.
+optionally with a score (the number of associations behind it). Times are seconds as the
+file gives them: since the robot's start, or since 1970 on an exported sequence's clock
+(``roman_sim.interop.stamps`` tells them apart, per file).
 
 CSV (``.csv``), one closure a line, ``#`` starts a comment, an optional header line::
 
@@ -18,9 +19,11 @@ Symbols (the character in the top 8 bits, the index in the low 56): the characte
 keyframe index; a timestamps side file (the reference's ``odom_all.time.txt``) gives each
 keyframe's time, one line ``robot_id keyframe_index time_ns [anything]``. An edge is a loop
 closure when a ``# LC: n`` comment precedes it (n is its score) or when it is not an
-odometry edge (an odometry edge joins keyframes k and k + 1 of one robot). Quaternions are
-``x y z w`` and must have unit norm (within ``QUAT_TOL``): a non-rigid pose is an error,
-never normalised.
+odometry edge (an odometry edge joins keyframes k and k + 1 of one robot). Keys written as
+a letter and an index (``a12``: the reference's per-pair files, read by
+``roman_sim.interop.roman_align``) are the Symbols they name. Quaternions are ``x y z w``
+(``quaternion_order="wxyz"``: w first) and must have unit norm (within ``QUAT_TOL``): a
+non-rigid pose is an error, never normalised.
 
 The files are read as a stream, one line at a time, into arrays (``ClosureSet``): no text
 of the file and no object per line is held, so a file of millions of closures takes the

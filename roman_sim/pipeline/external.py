@@ -2,10 +2,15 @@
 
 ``score_external(source, closures, out)`` takes a finished run folder, or an export folder
 (its ``config.yaml`` is the scenario: the run's maps and submaps are computed first, the
-same as ``roman-sim run`` of it gives), and a closure file (``roman_sim.interop.closures``:
-g2o or CSV). Each closure end ``(robot, t)`` is matched to that robot's submap whose centre
-time is nearest to ``t``, and the closure's relative body pose becomes an estimate of the
-pair's ``T_a_b`` through the run's odometry::
+same as ``roman-sim run`` of it gives), and a closure file in any format
+``roman_sim.interop.closure_files`` reads (CSV, g2o, the reference ROMAN's per-pair output,
+Kimera-Multi's ``loop_closures.csv``). Each file's stamps are taken on their clock (since the
+start, or the export's: ``roman_sim.interop.stamps``) and must match a frame of their robot
+within ``MATCH_TOL_S``; the file is read with the convention the flags give and scored under
+every other (``roman_sim.pipeline.closure_conventions``): a far better one is named in one
+line, a flag that makes it worse is an error. Each closure end ``(robot, t)`` is matched to
+that robot's submap whose centre time is nearest to ``t``, and the closure's relative body
+pose becomes an estimate of the pair's ``T_a_b`` through the run's odometry::
 
     T_a_b = inv(T_odom_submap_a) @ T_odom_body_a(t_a) @ T_pa_pb @ inv(T_odom_body_b(t_b)) @ T_odom_submap_b
 
@@ -23,9 +28,11 @@ neighbours), are listed as unscored (``external.json`` every one, the report the
 With ``trajectories`` (one ``<robot>.tum`` per robot), the system's own trajectories are
 scored too (``external_ate.json``, one SE(3)/4-DoF fit over all robots).
 
-Bad input (unknown robot, a time outside the run, a malformed line, a value that is not
-finite or out of range, a non-rigid pose, trajectories that do not cover the run) raises
-``ConfigError`` naming the file and line before anything is written. ``external.json``
+Bad input (a file in an unknown format, an unknown robot, a stamp that matches no frame, a
+malformed line, a value that is not finite or out of range, a non-rigid pose, a convention
+flag that makes the file score worse, trajectories that do not cover the run or match no
+frame) raises ``ConfigError`` naming the file and line before anything is written (an
+export's maps, computed into ``out`` first, are removed again). ``external.json``
 records what was read and matched, and the report starts with a section that marks the
 method as an external system.
 """

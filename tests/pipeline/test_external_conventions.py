@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
+import re
 from collections.abc import Callable
 from pathlib import Path
 
@@ -20,9 +21,10 @@ from typer.testing import CliRunner
 from roman_sim.core.geometry import inv_T
 from roman_sim.interop.closures import Closure, write_csv_closures
 from roman_sim.pipeline.closure_conventions import Convention
-from roman_sim.pipeline.external import run_closures, score_external
+from roman_sim.pipeline.external import ExternalScore, run_closures, score_external
 from roman_sim.pipeline.result import RunResult
 
+PAGE = Path(__file__).resolve().parents[2] / "docs" / "interop.md"
 FLAGS = {
     "w_first": ["--quaternion-order", "wxyz"],
     "inverted": ["--invert-edges"],
@@ -69,33 +71,43 @@ def _points(run: RunResult, method: str) -> list[object]:
 
 
 @pytest.fixture(scope="module")
-def right(smoke_run: RunResult, files: dict[str, Path], tmp_path_factory: pytest.TempPathFactory) -> RunResult:
-    """The right file scored: no warning, the default convention the best."""
-    res = score_external(smoke_run.run_dir, files["right"], tmp_path_factory.mktemp("right") / "out")
+def as_read(
+    smoke_run: RunResult, files: dict[str, Path], tmp_path_factory: pytest.TempPathFactory
+) -> dict[str, ExternalScore]:
+    """Each file scored as read (no flag)."""
+    d = tmp_path_factory.mktemp("as_read")
+    return {name: score_external(smoke_run.run_dir, path, d / name) for name, path in files.items()}
+
+
+def _acceptance_hits(res: ExternalScore) -> int:
+    point = res.run.metrics.methods["external"].set("inter").overall.operating_points["acceptance"]
+    assert point is not None
+    return point.hits
+
+
+def test_the_right_file_scores_best_as_read(as_read: dict[str, ExternalScore]) -> None:
+    res = as_read["right"]
     assert res.warning is None and res.conventions is not None
     assert res.conventions.best() == Convention()
-    return res.run
 
 
 @pytest.mark.parametrize("case", sorted(FLAGS))
 def test_a_wrong_convention_is_named_and_its_flag_recovers_the_figures(
-    smoke_run: RunResult, files: dict[str, Path], right: RunResult, tmp_path: Path, case: str
+    smoke_run: RunResult, files: dict[str, Path], as_read: dict[str, ExternalScore], tmp_path: Path, case: str
 ) -> None:
-    as_read = score_external(smoke_run.run_dir, files[case], tmp_path / "as_read")
-    check = as_read.conventions
+    res, right = as_read[case], as_read["right"].run
+    check = res.conventions
     assert check is not None and check.best() == CONVENTION[case]
     flag = " ".join(FLAGS[case])
-    assert as_read.warning is not None and as_read.warning.startswith(
+    assert res.warning is not None and res.warning.startswith(
         f"{files[case]} scores far better under another convention: {check.correct[CONVENTION[case]]} of "
     )
-    assert as_read.warning.endswith(f"; scored as read, rerun with {flag} to apply it")
+    assert res.warning.endswith(f"; scored as read, rerun with {flag} to apply it")
     assert check.correct[CONVENTION[case]] >= 2 * check.correct[Convention()] + 3  # far better, by the rule
     # as read, the acceptance point loses most of its hits (the file is silently wrong without the check)
-    hits = [as_read.run.metrics.methods["external"].set("inter").overall.operating_points["acceptance"]]
-    was = right.metrics.methods["external"].set("inter").overall.operating_points["acceptance"]
-    assert hits[0] is not None and was is not None and hits[0].hits <= was.hits // 2
-    report = (tmp_path / "as_read" / "report.md").read_text(encoding="utf-8")
-    assert f"**Warning:** {as_read.warning}" in report
+    assert _acceptance_hits(res) <= _acceptance_hits(as_read["right"]) // 2
+    report = (res.run.run_dir / "report.md").read_text(encoding="utf-8")
+    assert f"**Warning:** {res.warning}" in report
     # the flag applies it: every operating point and every hit count of the right file, exactly
     kw = {"w_first": {"quaternion_order": "wxyz"}, "inverted": {"invert_edges": True}, "swapped": {"swap_robots": True}}
     fixed = score_external(smoke_run.run_dir, files[case], tmp_path / "fixed", **kw[case])  # type: ignore[arg-type]
@@ -104,6 +116,30 @@ def test_a_wrong_convention_is_named_and_its_flag_recovers_the_figures(
     assert fixed.conventions is not None and fixed.conventions.correct[CONVENTION[case]] == max(
         fixed.conventions.correct.values()
     )
+
+
+def test_the_pages_figures(as_read: dict[str, ExternalScore]) -> None:
+    """docs/interop.md's figures of the four files, as measured (integer counts within 1)."""
+    text = " ".join(PAGE.read_text(encoding="utf-8").split())
+    m = re.search(
+        r"ROMAN closures give (\d+) of (\d+) estimated pairs correct and (\d+) of (\d+) hits at the acceptance "
+        r"threshold; written w first they give (\d+) correct pairs and (\d+) hits, inverted (\d+) and (\d+), swapped "
+        r"(\d+) and (\d+)\.",
+        text,
+    )
+    assert m is not None
+    page = [int(v) for v in m.groups()]
+    right = as_read["right"]
+    assert right.conventions is not None
+    n_relevant = right.run.metrics.methods["external"].set("inter").overall.n_relevant
+    got = [right.conventions.correct[Convention()], right.conventions.estimated[Convention()]]
+    got += [_acceptance_hits(right), n_relevant]
+    for case in ("w_first", "inverted", "swapped"):
+        check = as_read[case].conventions
+        assert check is not None
+        got += [check.correct[Convention()], _acceptance_hits(as_read[case])]
+    assert page[1] == got[1] and page[3] == got[3]
+    assert all(abs(a - b) <= 1 for a, b in zip(page, got)), (page, got)
 
 
 def test_the_warning_is_one_line_of_the_command(smoke_run: RunResult, files: dict[str, Path], tmp_path: Path) -> None:
