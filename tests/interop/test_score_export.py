@@ -78,3 +78,18 @@ def test_a_file_in_an_unknown_format_is_one_line(
     err = cli_fails("score", tum_export, "-c", tmp_path / "c.csv", "-o", out)
     assert err.startswith(f"error: {tmp_path / 'c.csv'}:1: unknown CSV header 'timestamp,x,y,z' (allowed: ")
     assert not out.exists()
+
+
+def test_swapped_robots_whose_stamps_match_no_frame_are_named(
+    tum_export: Path, tmp_path: Path, cli_fails: Callable[..., str]
+) -> None:
+    """Robot a drives 3 s, b 1 s: a closure at a's 2 s written as b's matches no frame of b, but swapped it does."""
+    write_csv_closures(tmp_path / "c.csv", [Closure("b", 2.0, "a", 0.0, np.eye(4), 5)])
+    out = tmp_path / "out"
+    err = cli_fails("score", tum_export, "-c", tmp_path / "c.csv", "-o", out)
+    assert err == (
+        f"error: {tmp_path / 'c.csv'}:2: time 2.000000 s of robot b matches no frame within 0.01 s (nearest frame "
+        "1.000000 s, 1.000000 s before it; the robot's frames run 0.000000 to 1.000000 s, every 0.166667 s; the file's "
+        "clock: seconds since the robot's start); with --swap-robots every closure matches a frame"
+    )
+    assert not out.exists()
