@@ -47,6 +47,15 @@ def field_problem(name: str, value: float, limit: float | None = None, unit: str
     return f"field {name}: {value:g}{u} is out of range (allowed: a magnitude of at most {limit:g}{u})"
 
 
+def time_problem(name: str, value: float) -> str | None:
+    """What is wrong with a time in seconds read from a file (None: nothing): ``field_problem`` within
+    ``MAX_TIME_S``; a finite value beyond it is named as what it most likely is, nanoseconds."""
+    bad = field_problem(name, value, MAX_TIME_S, "s")
+    if bad is None or not math.isfinite(value):
+        return bad
+    return f"{bad}; it looks like nanoseconds (times here are seconds)"
+
+
 def pose_problem(names: Sequence[str], values: Sequence[float]) -> str | None:
     """What is wrong with a pose read from a file, ``x y z qx qy qz qw`` (None: nothing): every value
     finite, the position within ``MAX_COORD_M``. ``names``: the seven fields' names in the file."""
@@ -113,7 +122,7 @@ def parse_tum(text: str, source: str = "TUM") -> Trajectory:
             raise StorageError(f"{path}:{n}: not a number in TUM line") from None
         if len(vals) != 8:
             raise StorageError(f"{path}:{n}: expected 8 values per TUM line, got {len(vals)}")
-        bad = field_problem(TUM_FIELDS[0], vals[0], MAX_TIME_S, "s") or pose_problem(TUM_FIELDS[1:], vals[1:])
+        bad = time_problem(TUM_FIELDS[0], vals[0]) or pose_problem(TUM_FIELDS[1:], vals[1:])
         if bad is None:
             norm = math.sqrt(sum(q * q for q in vals[4:8]))
             if not abs(norm - 1.0) <= TUM_QUAT_TOL:

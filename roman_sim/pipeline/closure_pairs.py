@@ -71,7 +71,7 @@ def poses_at(traj: Trajectory, t: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def _inv_Ts(T: NDArray[np.float64]) -> NDArray[np.float64]:
+def inv_Ts(T: NDArray[np.float64]) -> NDArray[np.float64]:
     """``inv_T`` of each of (N, 4, 4) rigid transforms (the same arithmetic)."""
     Rt = np.swapaxes(T[:, :3, :3], 1, 2)
     out = np.zeros_like(T)
@@ -136,6 +136,34 @@ class Resolved:
     unscored: Mapping[int, str]
 
 
+@dataclass
+class Matched:
+    """Each closure's submap pair and the rows the pairs keep (``match``), before any pose is computed.
+
+    Attributes:
+        every: the submaps of all robots, in ``submaps`` order.
+        ea, eb: (N,) each closure's two submaps (positions in ``every``).
+        swap: (N,) whether the pair's order (robot, index) puts b's end first.
+        keep: (K,) the rows the pairs keep, in file order.
+        scores: (N,) each closure's score (the acceptance threshold where the file gives none).
+        unscored: why every other row is not scored.
+    """
+
+    every: list[Submap]
+    ea: NDArray[np.int64]
+    eb: NDArray[np.int64]
+    swap: NDArray[np.bool_]
+    keep: NDArray[np.int64]
+    scores: NDArray[np.int64]
+    unscored: Unscored
+
+    def pair(self, i: int) -> tuple[Submap, Submap]:
+        """The submaps ``(a, b)`` of the ``i``-th kept row, in the pair's order."""
+        row = int(self.keep[i])
+        a, b = self.every[int(self.ea[row])], self.every[int(self.eb[row])]
+        return (b, a) if self.swap[row] else (a, b)
+
+
 def _ends(
     closures: ClosureSet, submaps: dict[str, list[Submap]], offset: dict[str, int]
 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -147,6 +175,40 @@ def _ends(
             if mine.any():
                 out[mine] = offset[name] + _nearest_submaps(submaps[name], t[mine])
     return ends
+
+
+def match(closures: ClosureSet, submaps: dict[str, list[Submap]], scenario: Scenario) -> Matched:
+    """Each closure's submap pair, and the first closure of the highest score each evaluated pair keeps."""
+    cs = closures
+    every = [s for subs in submaps.values() for s in subs]
+    offset = dict(zip(submaps, np.cumsum([0, *map(len, submaps.values())]).tolist()))
+    gid = {s.name: i for i, s in enumerate(every)}
+    rank = np.empty(len(every), dtype=np.int64)  # the (robot, index) order that orders a pair's two ends
+    rank[sorted(range(len(every)), key=lambda i: (every[i].robot, every[i].index))] = np.arange(len(every))
+    scored = {(gid[a.name], gid[b.name]) for a, b in select_pairs(every, scenario.evaluation).pairs}
+    ea, eb = _ends(cs, submaps, offset)
+    swap = rank[ea] > rank[eb]
+    lo, hi = np.where(swap, eb, ea), np.where(swap, ea, eb)
+    scores = np.where(cs.score < 0, scenario.posegraph.lc_association_thresh, cs.score)
+    keep, unscored = _choose(lo, hi, scores, cs.line, [s.name for s in every], scored)
+    return Matched(every, ea, eb, swap, keep, scores, unscored)
+
+
+def estimates(
+    closures: ClosureSet,
+    m: Matched,
+    odometry: dict[str, Trajectory],
+    T_pa_pb: NDArray[np.float64] | None = None,
+) -> NDArray[np.float64]:
+    """(K, 4, 4) ``T_a_b`` of the pairs ``m`` keeps, in the pair's order (``T_pa_pb``: the closures'
+    relative poses, (N, 4, 4), when not the set's own)."""
+    if not len(m.keep):
+        return np.zeros((0, 4, 4))
+    rel = closures.T_pa_pb if T_pa_pb is None else T_pa_pb
+    T = _estimates(closures, rel, m.keep, m.every, m.ea, m.eb, odometry)
+    flip = m.swap[m.keep]
+    T[flip] = inv_Ts(T[flip])
+    return T
 
 
 def resolve(
@@ -161,24 +223,12 @@ def resolve(
     submap indices alone; the relative pose is computed for the closure each pair keeps.
     """
     cs = closures if isinstance(closures, ClosureSet) else ClosureSet.of(closures)
-    every = [s for subs in submaps.values() for s in subs]
-    offset = dict(zip(submaps, np.cumsum([0, *map(len, submaps.values())]).tolist()))
-    gid = {s.name: i for i, s in enumerate(every)}
-    rank = np.empty(len(every), dtype=np.int64)  # the (robot, index) order that orders a pair's two ends
-    rank[sorted(range(len(every)), key=lambda i: (every[i].robot, every[i].index))] = np.arange(len(every))
-    scored = {(gid[a.name], gid[b.name]) for a, b in select_pairs(every, scenario.evaluation).pairs}
-    ea, eb = _ends(cs, submaps, offset)
-    swap = rank[ea] > rank[eb]
-    lo, hi = np.where(swap, eb, ea), np.where(swap, ea, eb)
-    scores = np.where(cs.score < 0, scenario.posegraph.lc_association_thresh, cs.score)
-    keep, unscored = _choose(lo, hi, scores, cs.line, [s.name for s in every], scored)
-    out = Resolved({}, unscored)
-    if len(keep):
-        T = _estimates(cs, keep, every, ea, eb, odometry)
-        T[swap[keep]] = _inv_Ts(T[swap[keep]])
-        for i, row in enumerate(keep.tolist()):
-            a, b = every[int(lo[row])], every[int(hi[row])]
-            out.pairs[(a.name, b.name)] = (T[i], int(scores[row]), int(cs.line[row]))
+    m = match(cs, submaps, scenario)
+    out = Resolved({}, m.unscored)
+    for i, T in enumerate(estimates(cs, m, odometry)):
+        a, b = m.pair(i)
+        row = int(m.keep[i])
+        out.pairs[(a.name, b.name)] = (T, int(m.scores[row]), int(cs.line[row]))
     return out
 
 
@@ -217,6 +267,7 @@ def _choose(
 
 def _estimates(
     cs: ClosureSet,
+    rel: NDArray[np.float64],
     rows: NDArray[np.int64],
     every: list[Submap],
     ea: NDArray[np.int64],
@@ -235,7 +286,7 @@ def _estimates(
         body.append(P)
     Ta = np.stack([every[int(i)].T_odom_submap for i in ea[rows]]).astype(np.float64)
     Tb = np.stack([every[int(i)].T_odom_submap for i in eb[rows]]).astype(np.float64)
-    return _inv_Ts(Ta) @ body[0] @ cs.T_pa_pb[rows] @ _inv_Ts(body[1]) @ Tb
+    return inv_Ts(Ta) @ body[0] @ rel[rows] @ inv_Ts(body[1]) @ Tb
 
 
-__all__ = ["Resolved", "Unscored", "pose_at", "poses_at", "resolve"]
+__all__ = ["Matched", "Resolved", "Unscored", "estimates", "inv_Ts", "match", "pose_at", "poses_at", "resolve"]

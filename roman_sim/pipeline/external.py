@@ -2,10 +2,15 @@
 
 ``score_external(source, closures, out)`` takes a finished run folder, or an export folder
 (its ``config.yaml`` is the scenario: the run's maps and submaps are computed first, the
-same as ``roman-sim run`` of it gives), and a closure file (``roman_sim.interop.closures``:
-g2o or CSV). Each closure end ``(robot, t)`` is matched to that robot's submap whose centre
-time is nearest to ``t``, and the closure's relative body pose becomes an estimate of the
-pair's ``T_a_b`` through the run's odometry::
+same as ``roman-sim run`` of it gives), and a closure file in any format
+``roman_sim.interop.closure_files`` reads (CSV, g2o, the reference ROMAN's per-pair output,
+Kimera-Multi's ``loop_closures.csv``). Each file's stamps are taken on their clock (since the
+start, or the export's: ``roman_sim.interop.stamps``) and must match a frame of their robot
+within ``MATCH_TOL_S``; the file is read with the convention the flags give and scored under
+every other (``roman_sim.pipeline.closure_conventions``): a far better one is named in one
+line, a flag that makes it worse is an error. Each closure end ``(robot, t)`` is matched to
+that robot's submap whose centre time is nearest to ``t``, and the closure's relative body
+pose becomes an estimate of the pair's ``T_a_b`` through the run's odometry::
 
     T_a_b = inv(T_odom_submap_a) @ T_odom_body_a(t_a) @ T_pa_pb @ inv(T_odom_body_b(t_b)) @ T_odom_submap_b
 
@@ -23,15 +28,20 @@ neighbours), are listed as unscored (``external.json`` every one, the report the
 With ``trajectories`` (one ``<robot>.tum`` per robot), the system's own trajectories are
 scored too (``external_ate.json``, one SE(3)/4-DoF fit over all robots).
 
-Bad input (unknown robot, a time outside the run, a malformed line, a value that is not
-finite or out of range, a non-rigid pose, trajectories that do not cover the run) raises
-``ConfigError`` naming the file and line before anything is written. ``external.json``
+Bad input (a file in an unknown format, an unknown robot, a stamp that matches no frame, a
+malformed line, a value that is not finite or out of range, a non-rigid pose, a convention
+flag that makes the file score worse, trajectories that do not cover the run or match no
+frame) raises ``ConfigError`` naming the file and line before anything is written (an
+export's maps, computed into ``out`` first, are removed again). ``external.json``
 records what was read and matched, and the report starts with a section that marks the
 method as an external system.
 """
 
 from __future__ import annotations
 
+import csv
+import gzip
+import io
 import itertools
 import json
 import logging
@@ -54,8 +64,12 @@ from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
 from roman_sim.interop.associate import read_list
-from roman_sim.interop.closures import Closure, ClosureSet, read_closures, read_pose_csv
-from roman_sim.interop.tum_camera import read_camera_file
+from roman_sim.interop.base import EXPORT_EPOCH_NS
+from roman_sim.interop.closure_files import read_closure_file
+from roman_sim.interop.closures import QUATERNION_ORDERS, Closure, ClosureSet, QuaternionOrder, read_pose_csv
+from roman_sim.interop.roman_align import write_align
+from roman_sim.interop.stamps import MATCH_TOL_S, Clock, file_clock, matched, no_frame, since_start_s
+from roman_sim.pipeline.closure_conventions import Convention, ConventionCheck, apply, check, on_frames, swapped
 from roman_sim.pipeline.closure_pairs import Resolved, Unscored, pose_at, resolve
 from roman_sim.pipeline.context import Progress, RunContext
 from roman_sim.pipeline.experiment import Experiment
@@ -72,8 +86,6 @@ EXTERNAL_JSON = "external.json"
 EXTERNAL_ATE_JSON = "external_ate.json"
 #: The report lists this many unscored closures (``external.json`` lists every one).
 REPORT_UNSCORED = 20
-#: A closure time may lie this far outside the robot's frames (s).
-TIME_TOL_S = 1e-3
 #: A trajectory must start and end within this of the robot's first and last frame (s).
 COVER_TOL_S = 1.0
 _CHUNK = 1 << 14  # unscored closures written at a time
@@ -90,6 +102,8 @@ class ExternalScore:
         n_pairs: submap pairs that received an estimate.
         unscored: closure line -> why it was not scored.
         trajectories_ate: the system's own trajectories scored (None without ``trajectories``).
+        conventions: the closures' correct pairs under every convention tried.
+        warning: one line when another convention scores far better (None otherwise).
     """
 
     run: RunResult
@@ -98,20 +112,32 @@ class ExternalScore:
     n_pairs: int
     unscored: Mapping[int, str] = field(default_factory=dict)
     trajectories_ate: AteTable | None = None
+    conventions: ConventionCheck | None = None
+    warning: str | None = None
+
+
+def _export_epoch(source: Path) -> int:
+    """The epoch of the stamps a system run on ``source`` gives (ns since 1970): an export's ``time_epoch_ns``
+    (0 for an export without one, stamped from 0), for a run folder the one every export is stamped from."""
+    manifest = source / "export.json"
+    if not manifest.is_file() or (source / MANIFEST_JSON).is_file():
+        return EXPORT_EPOCH_NS
+    doc = read_json(manifest)
+    value = doc.get("time_epoch_ns") if isinstance(doc, dict) else None
+    return 0 if value is None else from_json(int, value, f"{manifest}: field time_epoch_ns")
 
 
 def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float64]]:
     """Each robot's frame times (seconds since its start): from the run's maps or the export's ``masks.txt``
-    (its stamps less the epoch its ``camera.yaml`` names)."""
+    (its stamps less the export's epoch)."""
     if (source / MANIFEST_JSON).is_file():
         maps = _load_stage(source, scenario, MapsStage())
         return {r: m.odometry.t for r, m in maps.maps.items()}
-    out = {}
+    out, epoch = {}, _export_epoch(source)
     for r in scenario.robots:
         path = source / r.name / "masks.txt"
         if path.is_file():  # the stamps, checked line by line, in time order, as seconds since the start
-            camera = read_camera_file(source / r.name)
-            out[r.name] = read_list(path, camera.time_epoch_ns if camera is not None else 0)[0]
+            out[r.name] = read_list(path, epoch)[0]
     return out
 
 
@@ -132,31 +158,67 @@ def _load_stage(run_dir: Path, scenario: Scenario, stage: Any) -> Any:
     return stage.load(RunContext(scenario, run_dir), man.stages[stage.name].files)
 
 
-def _check_closures(path: Path, closures: ClosureSet, times: dict[str, NDArray[np.float64]]) -> None:
-    """Every closure end's robot is a robot of the run and its time within the robot's frames (ConfigError
-    naming the first failing line: a's end before b's, the robot before its time)."""
-    allowed = ", ".join(times)
-    known = np.asarray([r in times for r in closures.robots], dtype=bool)
-    lo = np.asarray([times[r][0] - TIME_TOL_S if r in times else 0.0 for r in closures.robots], dtype=np.float64)
-    hi = np.asarray([times[r][-1] + TIME_TOL_S if r in times else 0.0 for r in closures.robots], dtype=np.float64)
+def _where(path: Path, cs: ClosureSet, line: int) -> str:
+    """``file:line`` of a line of ``cs`` (a set read from a folder names the file in it)."""
+    name, n = cs.locate(line)
+    return f"{path if name is None else path / name}:{n}"
+
+
+def _clock_of(cs: ClosureSet, clocks: Sequence[Clock], line: int) -> Clock:
+    """The clock of the file a line of ``cs`` was read from."""
+    k = sum(1 for _, before in cs.files[1:] if before < line)
+    return clocks[k] if clocks else Clock()
+
+
+def _to_run_clock(
+    path: Path, cs: ClosureSet, epoch_ns: int, frames: dict[str, NDArray[np.float64]]
+) -> tuple[ClosureSet, list[Clock]]:
+    """The closures' stamps as seconds since the start, each file on its clock (``roman_sim.interop.stamps``)."""
+    every = np.unique(np.concatenate(list(frames.values()))) if frames else None
+    starts = [before for _, before in cs.files] or [0]
+    t_a, t_b, clocks = cs.t_a.copy(), cs.t_b.copy(), []
+    for k, before in enumerate(starts):
+        rows = (cs.line > before) & (cs.line <= (starts[k + 1] if k + 1 < len(starts) else np.inf))
+        where = path / cs.files[k][0] if cs.files else path
+        lines = cs.line[rows] - before
+        clock = file_clock(where, np.concatenate([cs.t_a[rows], cs.t_b[rows]]), np.tile(lines, 2), epoch_ns, every)
+        t_a[rows], t_b[rows] = since_start_s(cs.t_a[rows], clock), since_start_s(cs.t_b[rows], clock)
+        clocks.append(clock)
+    return replace(cs, t_a=t_a, t_b=t_b), clocks
+
+
+def _check_closures(
+    path: Path,
+    closures: ClosureSet,
+    times: dict[str, NDArray[np.float64]],
+    clocks: Sequence[Clock] = (),
+    swap_given: bool = False,
+) -> None:
+    """Every closure end's robot is a robot of the run and its time matches one of the robot's frames within
+    ``MATCH_TOL_S`` (ConfigError naming the first failing line: a's end before b's, the robot before its time)."""
+    cs, allowed = closures, ", ".join(times)
     checks = []
-    for codes, ts in ((closures.robot_a, closures.t_a), (closures.robot_b, closures.t_b)):
-        ok = known[codes]
-        checks += [~ok, ok & ~((lo[codes] <= ts) & (ts <= hi[codes]))]
-    failed = np.stack(checks, axis=1) if len(closures) else np.zeros((0, 4), dtype=bool)
+    for codes, ts in ((cs.robot_a, cs.t_a), (cs.robot_b, cs.t_b)):
+        known, on = np.zeros(len(cs), dtype=bool), np.zeros(len(cs), dtype=bool)
+        for k, r in enumerate(cs.robots):
+            mine = codes == k
+            if r in times and mine.any():
+                known[mine], on[mine] = True, matched(times[r], ts[mine])
+        checks += [~known, known & ~on]
+    failed = np.stack(checks, axis=1) if len(cs) else np.zeros((0, 4), dtype=bool)
     if not failed.any():
         return
     row = int(np.flatnonzero(failed.any(axis=1))[0])
-    check = int(np.flatnonzero(failed[row])[0])
-    code, t_end = (closures.robot_a, closures.t_a) if check < 2 else (closures.robot_b, closures.t_b)
-    r, t, line = closures.robots[int(code[row])], float(t_end[row]), int(closures.line[row])
-    if check % 2 == 0:
-        raise ConfigError(f"{path}:{line}: robot {r!r} is not a robot of the run (allowed: {allowed})")
-    frames = times[r]
-    raise ConfigError(
-        f"{path}:{line}: time {t:.6f} s of robot {r} is outside the run "
-        f"(allowed: {frames[0]:.6f} to {frames[-1]:.6f} s)"
-    )
+    kind = int(np.flatnonzero(failed[row])[0])
+    code, t_end = (cs.robot_a, cs.t_a) if kind < 2 else (cs.robot_b, cs.t_b)
+    r, t, line = cs.robots[int(code[row])], float(t_end[row]), int(cs.line[row])
+    if kind % 2 == 0:
+        raise ConfigError(f"{_where(path, cs, line)}: robot {r!r} is not a robot of the run (allowed: {allowed})")
+    clock = _clock_of(cs, clocks, line)
+    hint = ""
+    if len(times) == 2 and on_frames(swapped(cs, list(times)), times).all():
+        hint = f"; {'without' if swap_given else 'with'} --swap-robots every closure matches a frame"
+    raise ConfigError(f"{_where(path, cs, line)}: {no_frame(t + clock.epoch_ns / 1e9, clock, r, times[r])}{hint}")
 
 
 def _read_trajectory(folder: Path, robot: str, robots: list[str]) -> tuple[Path, Trajectory]:
@@ -174,22 +236,65 @@ def _read_trajectory(folder: Path, robot: str, robots: list[str]) -> tuple[Path,
     )
 
 
-def _read_trajectories(folder: Path, times: dict[str, NDArray[np.float64]]) -> dict[str, Trajectory]:
-    """Every robot's trajectory (``_read_trajectory``), each covering the robot's frames (ConfigError otherwise)."""
+def _data_lines(path: Path) -> NDArray[np.int64]:
+    """The line of each pose of a trajectory file (TUM, or the reference's CSV after its header), in order."""
+    raw = path.read_bytes()
+    text = (gzip.decompress(raw) if path.suffix == ".gz" else raw).decode("utf-8")
+    if path.suffix == ".csv":
+        lines = [n for n, row in enumerate(csv.reader(io.StringIO(text)), start=1) if n > 1 and row]
+    else:
+        lines = [n for n, ln in enumerate(text.splitlines(), start=1) if ln.strip() and not ln.strip().startswith("#")]
+    return np.asarray(lines, dtype=np.int64)
+
+
+def _check_poses(
+    path: Path, tr: Trajectory, lines: NDArray[np.int64], clock: Clock, robot: str, frames: NDArray[np.float64]
+) -> None:
+    """A trajectory's stamps against the robot's frames (ConfigError naming the first that fails): with no more
+    poses than frames (keyframes, frames) every stamp matches a frame; a denser one (e.g. at an IMU's rate)
+    has a pose within ``MATCH_TOL_S`` of every frame it spans."""
+    if len(tr) <= len(frames):
+        ok = matched(frames, tr.t)
+        if not ok.all():
+            i = int(np.flatnonzero(~ok)[0])
+            raise ConfigError(
+                f"{path}:{int(lines[i])}: {no_frame(float(tr.t[i]) + clock.epoch_ns / 1e9, clock, robot, frames)}"
+            )
+        return
+    spanned = frames[(frames >= tr.t[0] - MATCH_TOL_S) & (frames <= tr.t[-1] + MATCH_TOL_S)]
+    ok = matched(tr.t, spanned)
+    if not ok.all():
+        f = float(spanned[int(np.flatnonzero(~ok)[0])])
+        raise ConfigError(
+            f"{path}: no pose within {MATCH_TOL_S:g} s of robot {robot}'s frame at {f:.6f} s (a trajectory with more "
+            f"poses than the robot has frames needs one at every frame it spans; the file's clock: {clock.describe()})"
+        )
+
+
+def _read_trajectories(
+    folder: Path, times: dict[str, NDArray[np.float64]], epoch_ns: int = EXPORT_EPOCH_NS
+) -> tuple[dict[str, Trajectory], dict[str, Clock]]:
+    """Every robot's trajectory (``_read_trajectory``) on the run's clock, each covering the robot's frames and
+    matching them (``_check_poses``; ConfigError otherwise), and each file's clock."""
     if not folder.is_dir():
         raise ConfigError(f"--trajectories {folder}: not a folder")
-    out = {}
+    out, clocks = {}, {}
+    every = np.unique(np.concatenate(list(times.values()))) if times else None
     for r, ts in times.items():
-        path, tr = _read_trajectory(folder, r, list(times))
+        path, read = _read_trajectory(folder, r, list(times))
+        lines = _data_lines(path)
+        clock = file_clock(path, read.t, lines, epoch_ns, every)
+        tr = Trajectory(since_start_s(read.t, clock), read.T) if clock.epoch_ns else read
         if len(tr) < 3 or tr.t[0] > ts[0] + COVER_TOL_S or tr.t[-1] < ts[-1] - COVER_TOL_S:
-            span = f"{tr.t[0]:.3f} to {tr.t[-1]:.3f} s" if len(tr) else "no poses"
+            span_text = f"{tr.t[0]:.3f} to {tr.t[-1]:.3f} s" if len(tr) else "no poses"
             raise ConfigError(
-                f"{path}: covers {span}; robot {r} runs {ts[0]:.3f} to {ts[-1]:.3f} s (allowed: from at most "
+                f"{path}: covers {span_text}; robot {r} runs {ts[0]:.3f} to {ts[-1]:.3f} s (allowed: from at most "
                 f"{COVER_TOL_S:g} s after its first frame to at most {COVER_TOL_S:g} s before its last, "
                 "3 poses or more)"
             )
-        out[r] = tr
-    return out
+        _check_poses(path, tr, lines, clock, r, ts)
+        out[r], clocks[path.name] = tr, clock
+    return out, clocks
 
 
 def _table(res: Resolved, label: str, source: Path) -> ClosureTable:
@@ -217,17 +322,94 @@ def _seed_from_run(source: Path, out: Path) -> None:
     Manifest(man.scenario, man.seed, man.config_hash, man.package_version, keep, [], man.environment).save(out)
 
 
-def _report_section(label: str, closures: Path, n: int, res: Resolved, ate: AteTable | None) -> str:
+@dataclass
+class _Input:
+    """The closures as ``score_external`` reads them.
+
+    Attributes:
+        closures: on the run's clock, in the chosen convention.
+        on_clock: on the run's clock, with the chosen quaternion order only (what the check turns).
+        fmt: the file's format (``roman_sim.interop.closure_files``).
+        clocks: each file's clock.
+        convention: the chosen convention.
+        given: the convention flags the user gave.
+    """
+
+    closures: ClosureSet
+    on_clock: ClosureSet
+    fmt: str
+    clocks: list[Clock]
+    convention: Convention
+    given: list[str]
+
+
+def _read_input(
+    path: Path,
+    times: str | Path | None,
+    order: list[str],
+    frames: dict[str, NDArray[np.float64]],
+    epoch_ns: int,
+    flags: tuple[QuaternionOrder | None, bool, bool],
+) -> _Input:
+    """Read the closure file with the convention ``flags`` (quaternion order or None, invert, swap), on the run's
+    clock, every end checked against the frames (ConfigError otherwise)."""
+    order_q, invert, swap = flags
+    if order_q is not None and order_q not in QUATERNION_ORDERS:
+        raise ConfigError(f"--quaternion-order {order_q}: allowed: {', '.join(QUATERNION_ORDERS)}")
+    if swap and len(frames) != 2:
+        raise ConfigError(f"--swap-robots: the run has {len(frames)} robots (allowed: a run of two robots)")
+    conv = Convention(order_q or "xyzw", invert, swap)
+    given = ["--quaternion-order"] * (order_q is not None) + ["--invert-edges"] * invert + ["--swap-robots"] * swap
+    raw, fmt = read_closure_file(path, order, times, conv.quaternion_order)
+    on_clock, clocks = _to_run_clock(path, raw, epoch_ns, frames)
+    read = apply(on_clock, conv, list(frames))
+    _check_closures(path, read, frames, clocks, swap)
+    return _Input(read, on_clock, fmt, clocks, conv, given)
+
+
+def _check_conventions(
+    path: Path, got: _Input, frames: dict[str, NDArray[np.float64]], maps: Any, subs: Any, scenario: Scenario
+) -> tuple[ConventionCheck, str | None]:
+    """The closures scored under every convention; ConfigError when a flag given makes them score far worse,
+    else the warning line when another convention scores far better."""
+    odom = {r: m.odometry for r, m in maps.maps.items()}
+    checked = check(got.on_clock, got.convention, frames, subs.submaps, odom, scenario)
+    error, warning = checked.verdict(path, got.given)
+    if error is not None:
+        raise ConfigError(error)
+    if warning is not None:
+        log.info("%s", warning)
+    return checked, warning
+
+
+def _clear(out: Path, fresh: bool) -> None:
+    """Remove what scoring wrote into ``out`` (the folder too when it did not exist before)."""
+    if fresh:
+        shutil.rmtree(out, ignore_errors=True)
+        return
+    for child in out.iterdir() if out.is_dir() else []:
+        shutil.rmtree(child, ignore_errors=True) if child.is_dir() else child.unlink(missing_ok=True)
+
+
+def _report_section(
+    label: str, closures: Path, got: _Input, res: Resolved, ate: AteTable | None, warning: str | None
+) -> str:
+    n = len(got.closures)
     lines = [
         "## External system",
         "",
         f"Method `{label}` is an external system: its loop closures were read from `{closures}` "
         f"({n} closures; {len(res.pairs)} submap pairs received an estimate, {len(res.unscored)} closures unscored), "
-        "matched to this run's submaps by time and scored against the truth like every method.",
+        "matched to this run's submaps by time and scored against the truth like every method. "
+        f"Format `{got.fmt}`, convention {got.convention.describe()}, stamps on "
+        f"{'; '.join(sorted({c.describe() for c in got.clocks})) or Clock().describe()}.",
     ]
+    if warning is not None:
+        lines += ["", f"**Warning:** {warning}"]
     if res.unscored:
         listed = list(itertools.islice(res.unscored.items(), REPORT_UNSCORED))
-        lines += ["", *[f"- line {line}: {why}" for line, why in listed]]
+        where = [f"line {line}" if not got.closures.files else _where(Path(), got.closures, line) for line, _ in listed]
+        lines += ["", *[f"- {at}: {why}" for at, (_, why) in zip(where, listed)]]
         if len(res.unscored) > len(listed):
             lines.append(f"- and {len(res.unscored) - len(listed)} more (every one in `{EXTERNAL_JSON}`)")
     if ate is not None:
@@ -236,6 +418,19 @@ def _report_section(label: str, closures: Path, n: int, res: Resolved, ate: AteT
             cells = ", ".join(f"{k} {v:.3f}" for k, v in row.rmse["se3"].items() if v is not None)
             lines.append(f"- {name}: {cells}")
     return "\n".join(lines) + "\n\n"
+
+
+def _maps_and_submaps(
+    src: Path, out: Path, scenario: Scenario, label: str, path: Path, progress: Progress | None
+) -> tuple[Any, Any]:
+    """The run's maps and submaps: a run folder's own, or an export's scenario run into ``out`` for them."""
+    if (src / MANIFEST_JSON).is_file():
+        return _load_stage(src, scenario, MapsStage()), _load_stage(src, scenario, SubmapsStage())
+    out.mkdir(parents=True, exist_ok=True)
+    table = (out / TABLE_JSON).resolve()
+    write_record(table, ClosureTable(TABLE_FORMAT, 1, label, str(path), []))
+    Experiment(_external_scenario(scenario, label, table, table_sha256(table)), out, progress=progress).run()
+    return _load_stage(out, scenario, MapsStage()), _load_stage(out, scenario, SubmapsStage())
 
 
 def score_external(
@@ -247,18 +442,26 @@ def score_external(
     robots: Sequence[str] | None = None,
     trajectories: str | Path | None = None,
     label: str = "external",
+    quaternion_order: QuaternionOrder | None = None,
+    invert_edges: bool = False,
+    swap_robots: bool = False,
     progress: Progress | None = None,
 ) -> ExternalScore:
     """Score an external system's loop closures (and trajectories) on ``source``'s scenario into ``out_dir``.
 
     Args:
         source: a finished run folder (``manifest.json``) or an export folder (``export.json``).
-        closures: a ``.g2o`` or ``.csv`` closure file.
+        closures: a closure file or folder in any format ``roman_sim.interop.closure_files`` reads.
         out_dir: the new run folder (must not hold files).
-        times: a g2o file's timestamps file.
-        robots: robot order of a g2o file's keys (default: the scenario's robots).
+        times: a g2o file's timestamps file (the reference's dense one for its per-pair files,
+            Kimera-Multi's ``odometry_poses.csv`` file or folder).
+        robots: robot order of a g2o file's keys, the reference's ``runs``, Kimera-Multi's robot
+            indices (default: the scenario's robots).
         trajectories: folder of ``<robot>.tum`` trajectories of the system.
         label: the method's name in tables.
+        quaternion_order: the order of the file's quaternion numbers (None: ``xyzw``, not stated).
+        invert_edges: the file's relative poses are ``T_b_a``.
+        swap_robots: the file's two robots are exchanged.
         progress: progress sink.
     """
     src, out, path = Path(source), Path(out_dir), Path(closures)
@@ -272,19 +475,22 @@ def score_external(
         raise ConfigError(f"--label {label!r}: a non-empty name without '/' or ':'")
     scenario = load_scenario(src / "config.yaml")
     order = list(robots) if robots else _robot_order(src, scenario)
-    read = read_closures(path, times, order)
-    frame_t = _frame_times(src, scenario)
-    _check_closures(path, read, frame_t)
-    own = _read_trajectories(Path(trajectories), frame_t) if trajectories is not None else None
+    frame_t, epoch = _frame_times(src, scenario), _export_epoch(src)
+    got = _read_input(path, times, order, frame_t, epoch, (quaternion_order, invert_edges, swap_robots))
+    own, own_clocks = _read_trajectories(Path(trajectories), frame_t, epoch) if trajectories is not None else (None, {})
+    fresh = not out.exists()
+    try:
+        maps, subs = _maps_and_submaps(src, out, scenario, label, path, progress)
+        checked, warning = _check_conventions(path, got, frame_t, maps, subs, scenario)
+    except ConfigError:
+        if not is_run:
+            _clear(out, fresh)
+        raise
     out.mkdir(parents=True, exist_ok=True)
-    table = (out / TABLE_JSON).resolve()
     if is_run:
         _seed_from_run(src, out)
-    else:  # compute the maps and submaps (their stage outputs are reused by the scoring run)
-        write_record(table, ClosureTable(TABLE_FORMAT, 1, label, str(path), []))
-        Experiment(_external_scenario(scenario, label, table, table_sha256(table)), out, progress=progress).run()
-    maps, subs = _load_stage(out, scenario, MapsStage()), _load_stage(out, scenario, SubmapsStage())
-    res = resolve(read, subs.submaps, {r: m.odometry for r, m in maps.maps.items()}, scenario)
+    table = (out / TABLE_JSON).resolve()
+    res = resolve(got.closures, subs.submaps, {r: m.odometry for r, m in maps.maps.items()}, scenario)
     write_record(table, _table(res, label, path))
     sc = _external_scenario(scenario, label, table, table_sha256(table))
     run = Experiment(sc, out, progress=progress).run()
@@ -294,6 +500,7 @@ def score_external(
         name = f"{label}_trajectories"
         ate = ate_table(truth, {name: TrajectoryVariant(f"{label}'s own trajectories", "joint", name)}, {name: own})
         write_json(out / EXTERNAL_ATE_JSON, ate.to_json())
+    clocks = {name or str(path): c.describe() for (name, _), c in zip(got.closures.files or [("", 0)], got.clocks)}
     info = ExternalRecord(
         format="roman_sim.external_score",
         version=1,
@@ -303,17 +510,22 @@ def score_external(
         times=None if times is None else str(times),
         robots=order,
         trajectories=None if trajectories is None else str(trajectories),
-        n_closures=len(read),
+        n_closures=len(got.closures),
         n_pairs=len(res.pairs),
         unscored={},
+        closure_format=got.fmt,
+        convention=got.convention.describe(),
+        clocks={**clocks, **{k: c.describe() for k, c in own_clocks.items()}},
+        correct_by_convention={c.describe(): n for c, n in checked.correct.items()},
+        warning=warning,
     )
     _write_external(out / EXTERNAL_JSON, info, res.unscored)
     report = out / "report.md"
     text = report.read_text(encoding="utf-8")
     head, _, rest = text.partition("\n\n")
-    write_text(report, f"{head}\n\n{_report_section(label, path, len(read), res, ate)}{rest}")
-    log.info("scored %d closures of %s: %d pairs", len(read), label, len(res.pairs))
-    return ExternalScore(run, label, len(read), len(res.pairs), res.unscored, ate)
+    write_text(report, f"{head}\n\n{_report_section(label, path, got, res, ate, warning)}{rest}")
+    log.info("scored %d closures of %s: %d pairs", len(got.closures), label, len(res.pairs))
+    return ExternalScore(run, label, len(got.closures), len(res.pairs), res.unscored, ate, checked, warning)
 
 
 def run_closures(run_dir: str | Path, method: str) -> list[Closure]:
@@ -346,11 +558,27 @@ def run_closures(run_dir: str | Path, method: str) -> list[Closure]:
     return out
 
 
+def write_reference_align(
+    run_dir: str | Path, out: str | Path, method: str = "roman", min_score: int | None = None
+) -> list[Path]:
+    """A run's own closures of ``method`` (``run_closures``) written in the reference ROMAN's per-pair layout
+    (``roman_sim.interop.roman_align.write_align``: ``out/align/<r_i>_<r_j>/align.g2o`` and ``align.json``, the
+    dense timestamps files), stamped on the export's clock as the reference stamps them when it runs on the
+    ROMAN-ready export; closures below ``min_score`` associations are left out (the demo's ``-n``)."""
+    src = Path(run_dir)
+    scenario = load_scenario(src / "config.yaml")
+    maps = _load_stage(src, scenario, MapsStage())
+    frames = {r: m.odometry.t for r, m in maps.maps.items()}
+    robots = [r.name for r in scenario.robots]
+    return write_align(out, run_closures(src, method), frames, robots, EXPORT_EPOCH_NS, min_score)
+
+
 @dataclass(frozen=True)
 class ExternalRecord:
     """``external.json``: what was scored (the source folder, the closures and their times, the robot
     order, the system's own trajectories), the closures read, the pairs estimated and why the others
-    were not scored (by line of the closures file)."""
+    were not scored (by line of the closures file), the file's format, the convention it was read
+    with, each file's clock, the correct pairs under every convention tried and the warning, if any."""
 
     format: str
     version: int
@@ -363,6 +591,11 @@ class ExternalRecord:
     n_closures: int
     n_pairs: int
     unscored: dict[str, str]
+    closure_format: str = "csv"
+    convention: str = "as read"
+    clocks: dict[str, str] = field(default_factory=dict)
+    correct_by_convention: dict[str, int] = field(default_factory=dict)
+    warning: str | None = None
 
 
 def _write_external(path: Path, info: ExternalRecord, unscored: Mapping[int, str]) -> None:

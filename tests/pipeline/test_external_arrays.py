@@ -80,9 +80,9 @@ def test_the_first_failing_closure_end_is_named(tmp_path: Path) -> None:
         Closure("a", 1.0, "b", 99.0, T, line=3),  # b's time outside
         Closure("z", 1.0, "b", 2.0, T, line=4),
     ]
-    times = {"a": np.asarray([0.0, 10.0]), "b": np.asarray([0.5, 20.0])}
+    times = {"a": np.asarray([0.0, 1.0, 10.0]), "b": np.asarray([0.5, 2.0, 20.0])}
     _check_closures(tmp_path / "c.csv", ClosureSet.of(rows[:1]), times)
-    with pytest.raises(ConfigError, match=r"c.csv:3: time 99.000000 s of robot b is outside the run \(allowed: 0.5"):
+    with pytest.raises(ConfigError, match=r"c.csv:3: time 99.000000 s of robot b matches no frame within 0.01 s"):
         _check_closures(tmp_path / "c.csv", ClosureSet.of(rows), times)
     with pytest.raises(ConfigError, match=r"c.csv:4: robot 'z' is not a robot of the run \(allowed: a, b\)"):
         _check_closures(tmp_path / "c.csv", ClosureSet.of([rows[0], rows[2], rows[1]]), times)

@@ -270,7 +270,35 @@ CSV_CASES = {
     "unknown robot": ("a,10.0,z,20.0,1,2,0,0,0,0,1,7", ":2: robot 'z' is not a robot of the run (allowed: a, b)"),
     "time outside": (
         "a,10.0,b,999.0,1,2,0,0,0,0,1,7",
-        ":2: time 999.000000 s of robot b is outside the run (allowed: ",
+        ":2: time 999.000000 s of robot b matches no frame within 0.01 s (nearest frame 89.166667 s, 909.833333 s "
+        "before it; the robot's frames run 0.000000 to 89.166667 s, every 0.166667 s; the file's clock: seconds since "
+        "the robot's start)",
+    ),
+    "between frames": (
+        "a,10.05,b,20.0,1,2,0,0,0,0,1,7",
+        ":2: time 10.050000 s of robot a matches no frame within 0.01 s (nearest frame 10.000000 s, 0.050000 s before",
+    ),
+    "nanoseconds": (  # beside the seconds of the next line: two clocks, named as nanoseconds
+        "a,10000000000,b,20000000000,1,2,0,0,0,0,1,7",
+        ":3: time 10.000000 s is on another clock than line 2's 10000000000.000000 s (allowed: every stamp since the "
+        "robot's start, below 1e+09 s, or every stamp on the export's clock, since 1970); the file's stamps look like "
+        "nanoseconds since the start",
+    ),
+    "nanoseconds since the start": (  # all below 1e9: one clock, the stamp matches no frame
+        "a,166666667,b,20.0,1,2,0,0,0,0,1,7",
+        ":2: time 166666667.000000 s of robot a matches no frame within 0.01 s (nearest frame 89.166667 s, "
+        "166666577.833333 s before it; the robot's frames run 0.000000 to 89.166667 s, every 0.166667 s; the file's "
+        "clock: seconds since the robot's start); it looks like nanoseconds (166666667 ns is 0.166667 s, a frame's "
+        "time)",
+    ),
+    "nanoseconds since 1970": (
+        "a,1700000010000000000,b,20.0,1,2,0,0,0,0,1,7",
+        ":2: field t_a: 1.7e+18 s is out of range (allowed: a magnitude of at most 1e+11 s); it looks like nanoseconds",
+    ),
+    "mixed clocks": (
+        "a,1700000010.0,b,1700000020.0,1,2,0,0,0,0,1,7",
+        ":3: time 10.000000 s is on another clock than line 2's 1700000010.000000 s (allowed: every stamp since the "
+        "robot's start, below 1e+09 s, or every stamp on the export's clock, since 1970)",
     ),
     "negative time": ("a,-1,b,20,1,2,0,0,0,0,1,7", ":2: t_a: -1.0 s is negative"),
     "non-rigid": (
@@ -307,7 +335,10 @@ G2O_CASES = {
         f"EDGE_SE3:QUAT {A0} {B3} 1 2 0 0 0 0 1\n",
         ":1: EDGE_SE3:QUAT needs key1 key2 x y z qx qy qz qw and 21",
     ),
-    "text keys": (_g2o("a0", "b3"), ":2: EDGE_SE3:QUAT: keys must be whole numbers (gtsam Symbol keys), got a0 b3"),
+    "text keys": (
+        _g2o(str(A0), str(B3)) + _g2o("a0", "b3"),
+        ":4: EDGE_SE3:QUAT: keys must be whole numbers (gtsam Symbol keys), got a0 b3",
+    ),
     "other tag": ("EDGE_SE2 0 1 1 2 0 1 0 0 1 0 1\n", ":1: unsupported tag 'EDGE_SE2' (allowed: VERTEX_SE3:QUAT"),
     "no time": (_g2o(str(A0), str(gtsam.symbol("b", 9))), ":2: keyframe 9 of robot b (id 1) has no time"),
 }
