@@ -15,7 +15,8 @@ every file is written atomically, and the same scenario and seed give the same b
 writer with a ``set_rig`` method also gets each robot's ``SensorRig`` (continuous truth,
 IMU readings, second camera) before its first frame; a robot with an IMU or a second camera
 exported in a format without one (``tum``) is warned about. So is a camera whose pixels are
-not square (fx != fy): real cameras' are, and some systems assume it.
+not square (fx != fy, only with an explicit ``camera.vfov_deg``): real cameras' are, and some
+systems assume it.
 """
 
 from __future__ import annotations
@@ -97,8 +98,8 @@ def _add_sensors(writer: Any, stream: FrameSource, fmt: str) -> None:
     k = stream.intrinsics
     if k.fx != k.fy:
         log.warning(
-            "robot %s: the camera's pixels are not square (fx %.3f, fy %.3f); give camera.vfov_deg: null "
-            "for square pixels",
+            "robot %s: the camera's pixels are not square (fx %.3f, fy %.3f); leave camera.vfov_deg unset "
+            "(null) for square pixels",
             stream.name,
             k.fx,
             k.fy,
