@@ -146,7 +146,8 @@ def paired_difference(
     """Compare two methods' held-out hits world by world (the same worlds, in the same order).
 
     Args:
-        hits_a, hits_b: each method's held-out hits in each world.
+        hits_a: method ``a``'s held-out hits in each world.
+        hits_b: method ``b``'s held-out hits in each world.
         relevant: relevant pairs in each world (the same pairs for both methods).
         level: the interval's level.
         effect: the difference the power is stated for.
