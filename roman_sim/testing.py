@@ -35,8 +35,8 @@ from typing import Any, cast
 
 import numpy as np
 
+from roman_sim.benchmark.board_records import Leaderboard, read_leaderboard
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir

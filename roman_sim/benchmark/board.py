@@ -8,7 +8,7 @@ heading bins: per method and cell (level x heading bin) the operating points (ma
 with its precision, recall at precision >= 0.9 and 1, recall at the pose graph's
 acceptance threshold), each with counts and a Wilson interval. In each cell the methods
 are ranked by the intervals of max recall and of recall at precision >= 0.9
-(``evaluation.ranking``: tied unless the intervals separate). The pooled Wilson intervals are
+(``benchmark.ranking``: tied unless the intervals separate). The pooled Wilson intervals are
 checked against the bound (+-0.1) per cell over every method and point (``bound_met``).
 
 Beside them, per level, the deployable point (``benchmark.deployable``): one threshold per
@@ -18,8 +18,8 @@ pooled Wilson and world-bootstrap intervals, and ranks by the world intervals. T
 headline bound is checked there (``deployable_bound_met``): in every level x heading bin the
 widest world-bootstrap half-width of held-out recall, over methods, is at most +-0.1.
 
-``leaderboard.json`` holds all of it; ``leaderboard.md`` (``report.leaderboard``) and the
-figures in ``plots/`` (``report.benchmark_plots``) render it. Runtimes come from each cell's
+``leaderboard.json`` holds all of it; ``leaderboard.md`` (``benchmark.board_markdown``) and the
+figures in ``plots/`` (``benchmark.board_plots``) render it. Runtimes come from each cell's
 ``runtimes.json``.
 """
 
@@ -30,6 +30,9 @@ import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from roman_sim.benchmark.board_markdown import RANKED, leaderboard_markdown
+from roman_sim.benchmark.board_plots import write_benchmark_plots
+from roman_sim.benchmark.board_records import BoardCell, BoardLevel, Leaderboard, MethodRuntime, write_leaderboard_json
 from roman_sim.benchmark.cells import (
     BENCHMARK_JSON,
     BENCHMARK_SCHEMA,
@@ -42,19 +45,16 @@ from roman_sim.benchmark.cells import (
     RuntimeStats,
 )
 from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable
+from roman_sim.benchmark.ranking import rank_by_intervals
+from roman_sim.benchmark.transfer import check_target
 from roman_sim.core.atomic import write_text
 from roman_sim.core.records import RecordError
 from roman_sim.core.records import read_record as read_json_record
-from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard, MethodRuntime, write_leaderboard_json
 from roman_sim.evaluation.metrics import PairScore, compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
-from roman_sim.evaluation.ranking import rank_by_intervals
 from roman_sim.evaluation.results import read_pairs_csv
-from roman_sim.evaluation.transfer import check_target
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
 from roman_sim.pipeline.scenario import method_label
-from roman_sim.report.benchmark_plots import write_benchmark_plots
-from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
 from roman_sim.report.recompute import eval_settings, rederive_scores
 
 log = logging.getLogger(__name__)

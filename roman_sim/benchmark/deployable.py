@@ -2,14 +2,14 @@
 
 A deployed system runs one association threshold per method, for every heading, chosen
 before it sees the world it runs in. Per level and method this module chooses it as
-``evaluation.transfer`` does: leave one world (cell = scenario seed) out, choose on the
+``benchmark.transfer`` does: leave one world (cell = scenario seed) out, choose on the
 others the smallest ``k`` whose pooled precision over all headings of their cross-robot
 pairs reaches the target, score the left-out world at that ``k``; pool the held-out
 outcomes over the level's worlds. Per heading bin (and ``"all"``): held-out hits, false
 positives and relevant pairs, recall with its pooled Wilson and its world-bootstrap
 interval (worlds, then robot pairs within), precision with its world-bootstrap interval,
 and whether that precision is within ``transfer.PRECISION_SLACK`` of the target. Methods
-are ranked per bin by the world-bootstrap recall intervals (``evaluation.ranking``).
+are ranked per bin by the world-bootstrap recall intervals (``benchmark.ranking``).
 
 A level with a single world has no held-out figures: its entry says so.
 """
@@ -21,10 +21,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from roman_sim.evaluation.leaderboard import Deployable, DeployableCell, HeldOutFigures
+from roman_sim.benchmark.board_records import Deployable, DeployableCell, HeldOutFigures
+from roman_sim.benchmark.ranking import rank_by_intervals
+from roman_sim.benchmark.transfer import HeldOutCell, PairOutcomes, held_out, held_out_cells, transfers
 from roman_sim.evaluation.metrics import PairScore
-from roman_sim.evaluation.ranking import rank_by_intervals
-from roman_sim.evaluation.transfer import HeldOutCell, PairOutcomes, held_out, held_out_cells, transfers
 
 log = logging.getLogger(__name__)
 

@@ -15,10 +15,10 @@ import pytest
 from typer.testing import CliRunner
 
 from roman_sim.benchmark.board import leaderboard
+from roman_sim.benchmark.board_records import read_leaderboard
 from roman_sim.benchmark.suites import load_suite
 from roman_sim.cli import app
 from roman_sim.core.records import to_json
-from roman_sim.evaluation.leaderboard import read_leaderboard
 from roman_sim.report.recompute import compare
 from roman_sim.testing import benchmark_pins, check_benchmark
 

@@ -17,9 +17,9 @@ import pytest
 from committed_results import STANDARD
 
 from roman_sim.benchmark.board import leaderboard
+from roman_sim.benchmark.board_markdown import README_BEGIN, README_END, readme_block
+from roman_sim.benchmark.board_records import Leaderboard, read_leaderboard
 from roman_sim.core.records import to_json
-from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
-from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.report.recompute import compare
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -117,8 +117,8 @@ def test_readme_block_is_rendered_from_the_committed_results():
 
 
 def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
+    from roman_sim.benchmark.board_plots import recall_heading_data
     from roman_sim.core.figures import read_png_data
-    from roman_sim.report.benchmark_plots import recall_heading_data
 
     shown = read_png_data(ROOT / FIGURE)
     assert shown == json.loads(json.dumps(recall_heading_data(again)))

@@ -11,7 +11,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 import roman_sim.core.figures as figures
-from roman_sim.report.benchmark_plots import short_count
+from roman_sim.benchmark.board_plots import short_count
 from roman_sim.studies.reference import FIGURE_PNG, KEPT_PLOTS
 
 ROOT = Path(__file__).resolve().parents[2]

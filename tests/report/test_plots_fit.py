@@ -10,7 +10,7 @@ from committed_results import REFERENCE
 from matplotlib.figure import Figure
 
 import roman_sim.report.plots as plots
-from roman_sim.evaluation.leaderboard import MethodRuntime
+from roman_sim.benchmark.board_records import MethodRuntime
 from roman_sim.evaluation.results import read_metrics_json
 
 DEMO = REFERENCE / "demo"
@@ -75,7 +75,7 @@ def test_empty_heading_bins_are_not_drawn(demo_figures: dict[str, Figure]) -> No
 
 def test_the_benchmark_runtime_title_fits_its_figure(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """Two methods made the one-line title wider than the figure, cut on both sides."""
-    import roman_sim.report.benchmark_plots as bp
+    import roman_sim.benchmark.board_plots as bp
 
     kept: list[Figure] = []
     real = bp.save_figure

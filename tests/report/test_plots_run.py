@@ -337,9 +337,9 @@ def benchmark_figures(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[st
     which has no relevant pair below 60 deg), with the watcher that saw them drawn."""
     if not (STANDARD / "leaderboard.json").is_file() or not (DEMO / "metrics.json").is_file():
         pytest.skip("no committed standard benchmark or demo run")
-    from roman_sim.evaluation.leaderboard import read_leaderboard
+    from roman_sim.benchmark import board_plots as bp
+    from roman_sim.benchmark.board_records import read_leaderboard
     from roman_sim.evaluation.results import read_metrics_json
-    from roman_sim.report import benchmark_plots as bp
 
     board = read_leaderboard(STANDARD / "leaderboard.json")
     out = tmp_path_factory.mktemp("bench")
@@ -390,7 +390,7 @@ def test_no_two_texts_of_the_standard_heatmap_overlap(benchmark_figures) -> None
 
 
 def test_the_heatmap_cells_are_readable_and_have_a_colour_bar(benchmark_figures) -> None:
-    from roman_sim.evaluation.leaderboard import read_leaderboard
+    from roman_sim.benchmark.board_records import read_leaderboard
 
     board = read_leaderboard(STANDARD / "leaderboard.json")
     fig, _ = benchmark_figures[0]["heatmap.png"]
@@ -419,7 +419,7 @@ def test_the_heatmap_cells_are_readable_and_have_a_colour_bar(benchmark_figures)
 def _crowded_board(n_bins: int, levels: int, methods: list[str], counts: tuple[int, int]) -> Any:
     """A leaderboard of ``methods`` with ``n_bins`` heading bins and ``levels`` levels, every cell's relevant pairs
     drawn from ``counts`` (low, high) with a fixed seed."""
-    from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard
+    from roman_sim.benchmark.board_records import BoardCell, BoardLevel, Leaderboard
     from roman_sim.evaluation.operating_points import OperatingPoint
 
     rng = np.random.default_rng(3)
@@ -455,7 +455,7 @@ def _crowded_board(n_bins: int, levels: int, methods: list[str], counts: tuple[i
 def test_a_crowded_heatmap_keeps_its_texts_apart(
     n_bins: int, levels: int, methods: list[str], counts: tuple[int, int], tmp_path: Path
 ) -> None:
-    from roman_sim.report import benchmark_plots as bp
+    from roman_sim.benchmark import board_plots as bp
 
     board = _crowded_board(n_bins, levels, methods, counts)
     saved, mp = Saved(), pytest.MonkeyPatch()
@@ -475,7 +475,7 @@ def test_a_crowded_heatmap_keeps_its_texts_apart(
 
 
 def test_counts_are_abbreviated_from_five_digits() -> None:
-    from roman_sim.report.benchmark_plots import short_count
+    from roman_sim.benchmark.board_plots import short_count
 
     cases = {0: "0", 9999: "9999", 10_000: "10k", 12_345: "12.3k", 123_456: "123k", 999_499: "999k"}
     cases |= {999_500: "1M", 1_234_567: "1.23M", 2_500_000_000: "2.5G"}

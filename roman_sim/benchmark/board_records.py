@@ -11,9 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from roman_sim.benchmark.ranking import Rank
 from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.evaluation.operating_points import OperatingPoint
-from roman_sim.evaluation.ranking import Rank
 
 LEADERBOARD_SCHEMA = "roman_sim.leaderboard/1"
 

@@ -41,8 +41,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.core.errors import ConfigError
-from roman_sim.evaluation.transfer import (
+from roman_sim.benchmark.transfer import (
     PRECISION_SLACK,
     HeldOutCell,
     PairOutcomes,
@@ -59,7 +58,8 @@ from roman_sim.evaluation.transfer import (
     world_bootstrap,
     world_precisions,
 )
-from roman_sim.evaluation.world_spread import WorldSpread, fit_spread
+from roman_sim.benchmark.world_spread import WorldSpread, fit_spread
+from roman_sim.core.errors import ConfigError
 
 log = logging.getLogger(__name__)
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from roman_sim.evaluation.world_spread import CONCENTRATION_BOUNDS, MEAN_BOUNDS, WorldSpread, fit_spread
+from roman_sim.benchmark.world_spread import CONCENTRATION_BOUNDS, MEAN_BOUNDS, WorldSpread, fit_spread
 
 HITS = [45, 30, 20, 9, 50, 12]
 ACCEPTED = [50, 40, 20, 12, 60, 20]

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.core.errors import ConfigError
-from roman_sim.evaluation.transfer import PairOutcomes
-from roman_sim.evaluation.tuning import (
+from roman_sim.benchmark.transfer import PairOutcomes
+from roman_sim.benchmark.tune_choice import (
     ConfigOutcomes,
     Evidence,
     check_rule,
@@ -17,6 +16,7 @@ from roman_sim.evaluation.tuning import (
     setting_new_world,
     setting_spread,
 )
+from roman_sim.core.errors import ConfigError
 
 
 def _world(w: str, n_rel: int, good: int, bad: int, good_score: int, bad_score: int) -> list[tuple]:

@@ -15,7 +15,7 @@ from roman_sim.core.figures import save_figure
 from roman_sim.report.plots import figure
 
 if TYPE_CHECKING:
-    from roman_sim.evaluation.tune_result import TuneResult
+    from roman_sim.benchmark.tune_result import TuneResult
 
 
 def front_data(result: TuneResult) -> dict[str, Any]:

@@ -19,8 +19,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from roman_sim.benchmark.board_records import HeldOutFigures
 from roman_sim.core.records import OMIT_NONE, read_record, write_record
-from roman_sim.evaluation.leaderboard import HeldOutFigures
 
 TUNE_SCHEMA = "roman_sim.tune/2"
 
@@ -82,7 +82,7 @@ class TuneHeldOut(TunedFigures):
 
 @dataclass(frozen=True)
 class TuneSpread:
-    """How a setting's precision spreads over the calibration worlds (``evaluation.world_spread``): each world's
+    """How a setting's precision spreads over the calibration worlds (``benchmark.world_spread``): each world's
     precision a draw of Beta(a, b), fitted on ``worlds`` worlds; for a new world its expected precision
     (``mean``), the share of worlds at or above the target and within the slack of it, and the central interval
     holding 95 % of worlds."""

@@ -14,11 +14,11 @@ per pair, the cells that did not finish and the figures.
 
 from __future__ import annotations
 
+from roman_sim.benchmark.board_plots import benchmark_figures
+from roman_sim.benchmark.board_records import BoardCell, DeployableCell, HeldOutFigures, Leaderboard
+from roman_sim.benchmark.ranking import Rank
 from roman_sim.evaluation.bins import bin_label
-from roman_sim.evaluation.leaderboard import BoardCell, DeployableCell, HeldOutFigures, Leaderboard
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
-from roman_sim.evaluation.ranking import Rank
-from roman_sim.report.benchmark_plots import benchmark_figures
 
 #: The operating points methods are ranked by, in each cell.
 RANKED = ("max_recall", "precision_90")

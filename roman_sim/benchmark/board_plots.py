@@ -25,8 +25,8 @@ from matplotlib import colormaps
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from roman_sim.benchmark.board_records import Leaderboard
 from roman_sim.core.figures import drawn_legend, remove_figure, save_figure
-from roman_sim.evaluation.leaderboard import Leaderboard
 from roman_sim.evaluation.operating_points import POINT_LABELS
 from roman_sim.evaluation.types import EvaluationMetrics
 from roman_sim.report.plots import figure, pr_axes

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from roman_sim.benchmark.ranking import Rank, one_sided_bounds, rank_by_intervals
 from roman_sim.evaluation.intervals import wilson
-from roman_sim.evaluation.ranking import Rank, one_sided_bounds, rank_by_intervals
 
 
 def test_ranks_separate_only_disjoint_intervals():

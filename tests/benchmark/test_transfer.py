@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from roman_sim.core.errors import ConfigError
-from roman_sim.evaluation.transfer import (
+from roman_sim.benchmark.transfer import (
     PairOutcomes,
     choose_threshold,
     counts,
@@ -17,6 +16,7 @@ from roman_sim.evaluation.transfer import (
     world_bootstrap,
     world_precisions,
 )
+from roman_sim.core.errors import ConfigError
 
 K = list(range(0, 21))
 
@@ -116,7 +116,7 @@ def test_transfer_flag_allows_the_stated_slack_only() -> None:
 
 
 def test_held_out_cells_count_per_heading_bin_and_overall() -> None:
-    from roman_sim.evaluation.transfer import held_out_cells
+    from roman_sim.benchmark.transfer import held_out_cells
 
     rows = _world("a", [(True, True, 8), (True, True, 2), (False, False, 9)]) + _world(
         "b", [(True, True, 8), (True, False, 8), (True, True, 9)]
