@@ -117,7 +117,7 @@ class Experiment:
 
         self.scenario = resolve_scenario(self.scenario)
         if self.submaps_dir is None:
-            from roman_sim.pipeline.sources import check_sources
+            from roman_sim.pipeline.stages.maps_sources import check_sources
 
             if self.scenario.needs_world:
                 self.scenario.world.spec()

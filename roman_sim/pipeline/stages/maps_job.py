@@ -17,8 +17,8 @@ from typing import TYPE_CHECKING
 from roman_sim.world import PickledWorld
 
 if TYPE_CHECKING:
-    from roman_sim.pipeline.robot_mapping import RobotMapping
     from roman_sim.pipeline.scenario import Scenario
+    from roman_sim.pipeline.stages.maps_robot import RobotMapping
     from roman_sim.world import World
 
 log = logging.getLogger(__name__)
@@ -49,7 +49,7 @@ def map_robot_task(
     needs that folder on the worker.
     """
     from roman_sim.pipeline.context import RunContext
-    from roman_sim.pipeline.robot_mapping import map_one
+    from roman_sim.pipeline.stages.maps_robot import map_one
 
     sc = _scenario(scenario_json)
     cfg = next(r for r in sc.robots if r.name == robot)

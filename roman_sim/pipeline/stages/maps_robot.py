@@ -1,7 +1,7 @@
 """Mapping one robot: its frame source, one loop into the sinks, a ``SegmentMap`` graded on its own.
 
 The maps stage runs ``map_one`` per robot, in this process or as a worker task
-(``roman_sim.pipeline.tasks.map_robot_task``). The robot's frames come from one
+(``roman_sim.pipeline.stages.maps_job.map_robot_task``). The robot's frames come from one
 ``FrameSource`` (``robot_source``: rendered, read from the run's recording, or read from a
 TUM RGB-D folder); ``map_source`` feeds them to the mapper and, when a scenario lists the
 ``visual`` method, to the keyframe extractor, whatever the source.
@@ -88,7 +88,7 @@ def robot_source(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> Fr
     where something reads it (``_rgb_frames``) and, with ``record_frames``, is read through
     its recording (``_recorded``).
     """
-    from roman_sim.pipeline.sources import open_sequence
+    from roman_sim.pipeline.stages.maps_sources import open_sequence
     from roman_sim.sim.source import SimulatedRobot, robot_sources
 
     sc = ctx.scenario
@@ -132,7 +132,7 @@ def _rgb_frames(ctx: RunContext, trajectory: DrivenRun) -> NDArray[np.bool_] | l
 
 def robot_families(world: World | None, cfg: ScenarioRobot) -> dict[int, str] | None:
     """Object id -> family of the robot's objects: the world's, or its sequence's object table (None without one)."""
-    from roman_sim.pipeline.sources import sequence_families
+    from roman_sim.pipeline.stages.maps_sources import sequence_families
 
     if cfg.source is not None:
         return sequence_families(cfg.source)
@@ -145,7 +145,7 @@ def robot_looks_for(world: World | None, cfg: ScenarioRobot, seed: int) -> Scene
     """What the robot's simulated encoder knows of how its objects are drawn: the world's looks, or
     those its sequence's object table carries (None without either)."""
     from roman_sim.interop.looks import robot_looks, sequence_looks
-    from roman_sim.pipeline.sources import object_table_path
+    from roman_sim.pipeline.stages.maps_sources import object_table_path
 
     if cfg.source is not None:
         table = object_table_path(cfg.source)
@@ -252,7 +252,7 @@ def frame_snapshot(ctx: RunContext, world: World | None, cfg: ScenarioRobot, sma
 
     None (and a warning) when it cannot be taken (no OpenGL context, no colour image, ...).
     """
-    from roman_sim.pipeline.sources import open_sequence
+    from roman_sim.pipeline.stages.maps_sources import open_sequence
     from roman_sim.sim.source import robot_sources
 
     sc = ctx.scenario
