@@ -163,7 +163,7 @@ def map_source(
 ) -> MapAndKeyframes:
     """One loop of ``source``'s frames into the sinks: the mapper (graded by ``grader``) and, when the
     visual method runs, the keyframe extractor. ``world`` serves the ``mapping.whole_surface``
-    counterfactual (``roman_sim.pipeline.whole_surface``); ``looks`` is the simulated encoder's view
+    counterfactual (``roman_sim.frontend.whole_surface``); ``looks`` is the simulated encoder's view
     of the world (``roman_sim.interop.looks``)."""
     sc = ctx.scenario
     name = source.name
@@ -177,7 +177,7 @@ def map_source(
         grader.use(families)
     reshape = None
     if sc.mapping.whole_surface:
-        from roman_sim.pipeline.whole_surface import whole_surface_for
+        from roman_sim.frontend.whole_surface import whole_surface_for
 
         reshape = whole_surface_for(world, sc.mapping.voxel, name)
     on_frame = None if grader is None else grader.add

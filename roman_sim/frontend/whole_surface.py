@@ -11,14 +11,16 @@ part of each object that the points cover stops depending on the view. Masks on 
 alone (spurious ones) keep their points.
 
 This reads the world's truth, so it exists only for simulated frames; the mapping layer
-takes it as ``Mapper``'s ``reshape`` hook and never sees the world.
+takes it as ``Mapper``'s ``reshape`` hook and never sees the world. The objects' meshes come
+from anything that gives them in the world frame (``HasObjectMeshes``: a generated world),
+so this module imports no world.
 """
 
 from __future__ import annotations
 
 import logging
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,13 +32,21 @@ from roman_sim.mapping.tracker import Observation
 from roman_sim.mapping.voxels import downsample
 
 if TYPE_CHECKING:
-    from roman_sim.world import World
+    import trimesh
 
 log = logging.getLogger(__name__)
 
 #: Surface samples per voxel face area (before voxel downsampling), and the bounds per object.
 _SAMPLES_PER_CELL = 4.0
 _MIN_SAMPLES, _MAX_SAMPLES = 200, 40000
+
+
+class HasObjectMeshes(Protocol):
+    """What the counterfactual needs of a world: each object's mesh in the world frame."""
+
+    def object_mesh_world(self, obj_id: int) -> trimesh.Trimesh:
+        """The mesh of object ``obj_id``, placed in the world frame."""
+        ...
 
 
 class WholeSurface:
@@ -48,7 +58,7 @@ class WholeSurface:
         min_share: share of an observation's labelled points an object needs to count as under it.
     """
 
-    def __init__(self, world: World, voxel: float, min_share: float = 0.2) -> None:
+    def __init__(self, world: HasObjectMeshes, voxel: float, min_share: float = 0.2) -> None:
         self.world = world
         self.voxel = float(voxel)
         self.min_share = float(min_share)
@@ -89,7 +99,7 @@ class WholeSurface:
         return out
 
 
-def whole_surface_for(world: World | None, voxel: float, robot: str) -> WholeSurface:
+def whole_surface_for(world: HasObjectMeshes | None, voxel: float, robot: str) -> WholeSurface:
     """The counterfactual's hook for a simulated robot (``ConfigError`` without a world)."""
     if world is None:
         raise ConfigError(

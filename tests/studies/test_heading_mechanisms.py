@@ -2,7 +2,7 @@
 
 Frames are rendered with MuJoCo from body poses placed by hand around one object (ground
 truth from the generated world), at 160 x 120; the switches are the registry's overrides
-(``roman_sim.pipeline.mechanisms``) applied through the scenario override machinery.
+(``roman_sim.studies.mechanisms``) applied through the scenario override machinery.
 """
 
 from __future__ import annotations
@@ -25,12 +25,12 @@ from roman_sim.core.overrides import apply_overrides
 from roman_sim.core.sensors import Frame, FrameTruth
 from roman_sim.frontend.components import SegmenterEntry
 from roman_sim.frontend.segmenter import SEGMENTERS, SegmenterConfig, SimulatedSegmenter
+from roman_sim.frontend.whole_surface import WholeSurface
 from roman_sim.mapping.observation import observe
 from roman_sim.mapping.tracker import MappingConfig, Observation
-from roman_sim.pipeline.mechanisms import MECHANISMS, check_mechanisms, mechanism_overrides, switchable
-from roman_sim.pipeline.whole_surface import WholeSurface
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.render import SensorRenderer
+from roman_sim.studies.mechanisms import MECHANISMS, check_mechanisms, mechanism_overrides, switchable
 from roman_sim.world import World, WorldSpec, generate, load_world_spec
 
 W, H = 160, 120
