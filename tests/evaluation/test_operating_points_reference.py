@@ -1,4 +1,5 @@
-"""The operating points of a committed reference run, re-derived from its raw pairs table by a scorer of its own.
+"""The operating points (``roman_sim.evaluation.operating_points``) of a committed reference run, re-derived
+from its raw pairs table by a scorer of its own.
 
 The scorer here reads ``pairs.csv.gz`` and ``config.yaml`` with the standard library and
 PyYAML only: relevance from the true centre distance, correctness from the pose errors,

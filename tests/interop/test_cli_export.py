@@ -1,4 +1,4 @@
-"""``roman-sim export``: writes the sequences; bad input gives one line and exit code 1."""
+"""``roman-sim export``: writes the sequences (``roman_sim.interop``); bad input gives one line and exit code 1."""
 
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import psutil
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 TAG = "ROMAN_SIM_TEST_RUN_TAG"
 #: Standard-library helpers that live as long as the process that started them, not per pool.
 HELPERS = ("multiprocessing.forkserver", "multiprocessing.resource_tracker")

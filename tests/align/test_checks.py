@@ -1,4 +1,4 @@
-"""What cuts a run's fixed costs keeps its values: remembered checks, Wilson, association truth."""
+"""Submap checks remembered within a block (a run's fixed cost cut) give the reasons of the plain checks."""
 
 from __future__ import annotations
 
@@ -7,8 +7,6 @@ import pytest
 
 from roman_sim.align import checks
 from roman_sim.align.synthetic import make_submap_pair
-from roman_sim.evaluation.assoc import association_truth
-from roman_sim.evaluation.intervals import wilson
 from roman_sim.mapping.types import Submap
 
 
@@ -32,17 +30,3 @@ def test_remembered_checks_give_the_same_reasons_checking_each_submap_once(monke
     calls.clear()
     checks.pair_reason(a, b)  # outside the block nothing is remembered
     assert calls == [id(a), id(b)]
-
-
-def test_wilson_intervals_are_the_same_asked_again() -> None:
-    first = [wilson(k, n) for n in (1, 5, 44) for k in range(n + 1)]
-    assert [wilson(k, n) for n in (1, 5, 44) for k in range(n + 1)] == first
-    assert wilson(0, 0) is None
-
-
-def test_association_truth_counts_distinct_correct_rows() -> None:
-    ids_a, ids_b = [0, 1, 1, -1], [1, 0, 0, -1]
-    # (0, 1) and (0, 2) both correct for object 0, (1, 0) twice, (3, 3) has no object
-    assoc = [[0, 1], [0, 2], [1, 0], [1, 0], [3, 3], [2, 2]]
-    assert association_truth(ids_a, ids_b, assoc) == (4, 2)
-    assert association_truth(ids_a, ids_b, [[3, 3]]) == (0, 0)

@@ -17,10 +17,9 @@ import sys
 from pathlib import Path
 
 import pytest
+from processes import cli, tagged, tagged_env, wait_gone
 
 from roman_sim.cli._signals import memory_limit_note
-
-from .processes import cli, tagged, tagged_env, wait_gone
 
 pytestmark = pytest.mark.timeout(300)
 MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]

@@ -14,7 +14,7 @@ import roman_sim.core.figures as figures
 from roman_sim.benchmark.board_plots import short_count
 from roman_sim.studies.reference import FIGURE_PNG, KEPT_PLOTS
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _flat(page: str) -> str:

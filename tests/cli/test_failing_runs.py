@@ -14,11 +14,10 @@ from pathlib import Path
 
 import pytest
 import yaml
+from processes import cli, start, tagged, tagged_env, wait_gone
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-
-from .processes import cli, start, tagged, tagged_env, wait_gone
 
 pytestmark = pytest.mark.timeout(300)
 MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]

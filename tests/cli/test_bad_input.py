@@ -1,4 +1,5 @@
-"""The bad-input suite: every case is one clear ``error:`` line, exit code 1, no traceback, nothing accepted.
+"""The command line's bad-input suite (``roman_sim.cli``): every case is one ``error:`` line, exit code 1, no
+traceback, nothing accepted.
 
 Cases cover configuration files, ``--set`` overrides, names of presets and methods, output
 locations, world folders, run folders, sweeps and Dask addresses, and user plug-ins. All of

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from committed_results import BENCHMARKS_OUT
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _ci(v: list[float]) -> str:

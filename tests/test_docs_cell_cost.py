@@ -8,7 +8,7 @@ from pathlib import Path
 
 from committed_results import BENCHMARKS_OUT
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 SERIAL = ("world", "submaps", "posegraph", "report")
 
 

@@ -22,11 +22,10 @@ import time
 from pathlib import Path
 
 import pytest
+from processes import cli, pool_workers, start, tagged, tagged_env, wait_gone
 
 from roman_sim.runner.executors import LocalPoolExecutor
 from roman_sim.testing import assert_same_run_folder
-
-from .processes import cli, pool_workers, start, tagged, tagged_env, wait_gone
 
 pytestmark = pytest.mark.timeout(600)
 MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]
