@@ -1,4 +1,4 @@
-"""Every command's output path checked first: a folder option naming a file, or a file option naming
+"""Every command's output path checked first (``roman_sim.cli``): a folder option naming a file, or a file option naming
 a folder, is one line and exit code 1 before any work, and the file or folder there is left as it was."""
 
 from __future__ import annotations

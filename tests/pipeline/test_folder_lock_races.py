@@ -16,11 +16,10 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from processes import cli, start, tagged, tagged_env, wait_gone
 
 from roman_sim.pipeline.folder_lock import LOCK_NAME, Holder
 from roman_sim.testing import assert_same_run_folder
-
-from processes import cli, start, tagged, tagged_env, wait_gone
 
 pytestmark = pytest.mark.timeout(600)
 MICRO = ["--set", "robots.0.max_length_m=12", "--set", "robots.1.max_length_m=12"]
