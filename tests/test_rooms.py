@@ -11,6 +11,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 TOOL = ROOT / "tools" / "check_rooms.py"
 
@@ -46,27 +48,23 @@ def test_the_copy_keeps_its_rooms_too(tmp_path: Path) -> None:
     assert _check(_copy(tmp_path))[0] == 0  # so each failure below is the one change made
 
 
-def test_a_module_moved_into_another_package_names_the_package_it_belongs_in(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("make", "path"),
+    [
+        ("moved", "roman_sim/evaluation/ranking.py"),  # a module of the benchmark's, moved into evaluation
+        ("new", "roman_sim/report/board_heatmap.py"),  # a new module of the leaderboard's family, in report
+    ],
+)
+def test_a_module_out_of_its_package_names_the_package_it_belongs_in(tmp_path: Path, make: str, path: str) -> None:
     repo = _copy(tmp_path)
-    (repo / "roman_sim/benchmark/ranking.py").rename(repo / "roman_sim/evaluation/ranking.py")
+    if make == "moved":
+        (repo / "roman_sim/benchmark/ranking.py").rename(repo / path)
+    else:
+        (repo / path).write_text('"""A leaderboard figure, drawn in the wrong room."""\n')
+    package = path.split("/")[1]
     assert _check(repo) == (
         1,
-        [
-            "roman_sim/evaluation/ranking.py: not a subject of roman_sim.evaluation; it belongs in "
-            "roman_sim.benchmark (leaderboard)"
-        ],
-    )
-
-
-def test_a_module_of_a_family_found_elsewhere_names_its_package(tmp_path: Path) -> None:
-    repo = _copy(tmp_path)
-    (repo / "roman_sim/report/board_heatmap.py").write_text('"""A leaderboard figure, drawn in the wrong room."""\n')
-    assert _check(repo) == (
-        1,
-        [
-            "roman_sim/report/board_heatmap.py: not a subject of roman_sim.report; it belongs in "
-            "roman_sim.benchmark (leaderboard)"
-        ],
+        [f"{path}: not a subject of roman_sim.{package}; it belongs in roman_sim.benchmark (leaderboard)"],
     )
 
 
