@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from roman_sim.benchmark.board_records import read_leaderboard
-from roman_sim.report.plots import read_png_data
+from roman_sim.core.figures import read_png_data
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
 
