@@ -27,7 +27,7 @@ import numpy as np
 
 from roman_sim.core.atomic import write_json
 from roman_sim.interop.closures import write_csv_closures, write_g2o_closures
-from roman_sim.pipeline.external import run_closures
+from roman_sim.scoring.external import run_closures
 
 OUT = Path(__file__).resolve().parent / "out" / "closures.json"
 ROOT = Path(__file__).resolve().parents[1]
@@ -39,7 +39,7 @@ t0, c0 = time.perf_counter(), time.process_time()
 print(json.dumps({{"wall_s": time.perf_counter() - t0, "cpu_s": time.process_time() - c0,
                   "peak_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}}))
 """
-IMPORTS = "import roman_sim.cli, roman_sim.pipeline.external, roman_sim.interop.closures"
+IMPORTS = "import roman_sim.cli, roman_sim.scoring.external, roman_sim.interop.closures"
 
 
 def _env(root: Path = ROOT) -> dict[str, str]:

@@ -282,7 +282,7 @@ LONGEST_FIRST = (
     "tests/pipeline/test_scenario_stats.py",
     "tests/cli/test_interrupts.py",
     "tests/pipeline/test_run_features.py",
-    "tests/pipeline/test_external_score.py",
+    "tests/scoring/test_external_score.py",
     "tests/benchmark/test_run.py",
     "tests/benchmark/test_plugin_row.py",
     "tests/runner/test_dask_security.py",

@@ -57,7 +57,7 @@ def score_cmd(
 ) -> None:
     """Score an external system's loop closures against the truth, as a run of its own (report, plots, ATE)."""
     from roman_sim.cli.run import RichProgress, _progress, print_summary
-    from roman_sim.pipeline.external import score_external
+    from roman_sim.scoring.external import score_external
 
     names = [n.strip() for n in robots.split(",") if n.strip()] if robots else None
     target = out if out is not None else source.with_name(f"{source.name}-{label}")

@@ -17,7 +17,7 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.interop.closure_files import closure_format, read_closure_file
 from roman_sim.interop.closures import ClosureSet, read_closures
 from roman_sim.interop.stamps import Clock, file_clock, matched, nearest_frames, no_frame, since_start_ns
-from roman_sim.pipeline.closure_conventions import reorder
+from roman_sim.scoring.closure_conventions import reorder
 
 INFO = " ".join(["1"] * 21)
 Q = [float(v) for v in Rotation.from_euler("xyz", [0.1, -0.2, 0.7]).as_quat()]  # x y z w

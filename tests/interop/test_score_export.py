@@ -14,8 +14,8 @@ from roman_sim.core.geometry import inv_T
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.results import read_evaluation
 from roman_sim.interop.closures import Closure, write_csv_closures
-from roman_sim.pipeline.external import read_external, score_external
 from roman_sim.pipeline.scenario import Scenario
+from roman_sim.scoring.external import read_external, score_external
 
 
 def test_score_an_export_folder(tum_export: Path, tiny_scenario: Scenario, tmp_path: Path) -> None:
@@ -45,7 +45,7 @@ def test_an_export_scored_with_a_flag_that_makes_things_worse_leaves_nothing(
     tum_export: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """The export's maps are computed into --out before the check: the error removes them again."""
-    from roman_sim.pipeline import closure_conventions
+    from roman_sim.scoring import closure_conventions
 
     monkeypatch.setattr(closure_conventions, "FAR_GAIN", 1)  # one correct pair is "far better" than none here
     truth = {r: read_tum(tum_export / r / "groundtruth_body.txt") for r in ("a", "b")}

@@ -18,9 +18,9 @@ from scipy.spatial.transform import Rotation
 
 from roman_sim.interop.base import EXPORT_EPOCH_NS
 from roman_sim.interop.closures import Closure
-from roman_sim.pipeline.external import _load_stage, read_external, run_closures, score_external
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.stages.maps import MapsStage
+from roman_sim.scoring.external import _load_stage, read_external, run_closures, score_external
 
 ROBOTS = ("a", "b")
 

@@ -22,8 +22,8 @@ from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.results import read_evaluation
 from roman_sim.interop.closures import Closure, write_csv_closures, write_g2o_closures
-from roman_sim.pipeline.external import EXTERNAL_ATE_JSON, read_external, run_closures, score_external
 from roman_sim.pipeline.result import RunResult
+from roman_sim.scoring.external import EXTERNAL_ATE_JSON, read_external, run_closures, score_external
 
 
 @pytest.fixture(scope="module")
@@ -176,9 +176,9 @@ def _fused_g2o(run_dir: Path, closures: list[Closure], k: int, out: Path) -> Non
     import gtsam
 
     from roman_sim.interop.closures import xyz_quat
-    from roman_sim.pipeline.external import _load_stage
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.pipeline.stages.maps import MapsStage
+    from roman_sim.scoring.external import _load_stage
 
     maps = _load_stage(run_dir, load_scenario(run_dir / "config.yaml"), MapsStage())
     info = " ".join(["1"] * 21)
@@ -232,8 +232,8 @@ def test_a_pair_keeps_its_first_closure_of_the_highest_score(
     rows = [dataclasses.replace(c, score=n) for n in scores] + [dataclasses.replace(c, robot_b=c.robot_a, t_b=c.t_a)]
     write_csv_closures(tmp_path / "dup.csv", rows)
     res = score_external(smoke_run.run_dir, tmp_path / "dup.csv", tmp_path / "out")
-    from roman_sim.pipeline.external import _load_stage
     from roman_sim.pipeline.stages.submaps import SubmapsStage
+    from roman_sim.scoring.external import _load_stage
 
     subs = _load_stage(smoke_run.run_dir, smoke_run.scenario, SubmapsStage()).submaps
     name = {(s.robot, s.t): s.name for robot in subs.values() for s in robot}  # the run's closures join centres

@@ -33,8 +33,8 @@ from roman_sim.evaluation.metrics import is_correct
 from roman_sim.interop.closures import QUATERNION_ORDERS, ClosureSet, QuaternionOrder
 from roman_sim.interop.stamps import matched
 from roman_sim.mapping.types import Submap
-from roman_sim.pipeline.closure_pairs import estimates, inv_Ts, match
 from roman_sim.pipeline.scenario import Scenario
+from roman_sim.scoring.closure_pairs import estimates, inv_Ts, match
 
 #: A convention scores far better with at least this many times the correct pairs ...
 FAR_FACTOR = 2

@@ -17,8 +17,8 @@ from roman_sim.core.errors import ConfigError
 from roman_sim.core.records import write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.interop.closures import Closure, ClosureSet
-from roman_sim.pipeline.closure_pairs import Unscored, pose_at, poses_at
-from roman_sim.pipeline.external import ExternalRecord, _check_closures, _write_external
+from roman_sim.scoring.closure_pairs import Unscored, pose_at, poses_at
+from roman_sim.scoring.external import ExternalRecord, _check_closures, _write_external
 
 
 def _one_slerp(traj: Trajectory, t: float) -> np.ndarray:

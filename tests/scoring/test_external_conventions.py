@@ -20,9 +20,9 @@ from typer.testing import CliRunner
 
 from roman_sim.core.geometry import inv_T
 from roman_sim.interop.closures import Closure, write_csv_closures
-from roman_sim.pipeline.closure_conventions import Convention
-from roman_sim.pipeline.external import ExternalScore, run_closures, score_external
 from roman_sim.pipeline.result import RunResult
+from roman_sim.scoring.closure_conventions import Convention
+from roman_sim.scoring.external import ExternalScore, run_closures, score_external
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "interop.md"
 FLAGS = {
@@ -138,7 +138,7 @@ def test_the_pages_figures(as_read: dict[str, ExternalScore]) -> None:
         check = as_read[case].conventions
         assert check is not None
         got += [check.correct[Convention()], _acceptance_hits(as_read[case])]
-    assert page[1] == got[1] and page[3] == got[3]
+    assert page[1] == got[1] and page[3] == got[3], (page, got)
     assert all(abs(a - b) <= 1 for a, b in zip(page, got)), (page, got)
 
 

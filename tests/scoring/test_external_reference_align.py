@@ -18,8 +18,8 @@ import pytest
 from roman_sim.interop.base import EXPORT_EPOCH_NS
 from roman_sim.interop.closures import Closure
 from roman_sim.interop.roman_align import read_align
-from roman_sim.pipeline.external import read_external, run_closures, score_external, write_reference_align
 from roman_sim.pipeline.result import RunResult
+from roman_sim.scoring.external import read_external, run_closures, score_external, write_reference_align
 
 
 @pytest.fixture(scope="module")
@@ -37,8 +37,8 @@ def written(smoke_run: RunResult, tmp_path_factory: pytest.TempPathFactory) -> P
 def test_the_layout_is_the_references(smoke_run: RunResult, closures: list[Closure], written: Path) -> None:
     """Keys a<frame index> b<frame index>, a '# LC: n' line before each edge, align.json in the same order."""
     assert sorted(p.name for p in (written / "align").iterdir()) == ["a_a", "a_b", "b_b"]
-    from roman_sim.pipeline.external import _load_stage
     from roman_sim.pipeline.stages.maps import MapsStage
+    from roman_sim.scoring.external import _load_stage
 
     maps = _load_stage(smoke_run.run_dir, smoke_run.scenario, MapsStage()).maps
     frames = {r: m.odometry.t for r, m in maps.items()}

@@ -18,8 +18,8 @@ import pytest
 from roman_sim.core.tum import read_tum
 from roman_sim.interop.base import EXPORT_EPOCH_NS
 from roman_sim.interop.closures import Closure, write_csv_closures, write_g2o_closures
-from roman_sim.pipeline.external import EXTERNAL_ATE_JSON, read_external, run_closures, score_external
 from roman_sim.pipeline.result import RunResult
+from roman_sim.scoring.external import EXTERNAL_ATE_JSON, read_external, run_closures, score_external
 
 EPOCH_S = EXPORT_EPOCH_NS // 10**9
 

@@ -7,7 +7,7 @@ same as ``roman-sim run`` of it gives), and a closure file in any format
 Kimera-Multi's ``loop_closures.csv``). Each file's stamps are taken on their clock (since the
 start, or the export's: ``roman_sim.interop.stamps``) and must match a frame of their robot
 within ``MATCH_TOL_S``; the file is read with the convention the flags give and scored under
-every other (``roman_sim.pipeline.closure_conventions``): a far better one is named in one
+every other (``roman_sim.scoring.closure_conventions``): a far better one is named in one
 line, a flag that makes it worse is an error. Each closure end ``(robot, t)`` is matched to
 that robot's submap whose centre time is nearest to ``t``, and the closure's relative body
 pose becomes an estimate of the pair's ``T_a_b`` through the run's odometry::
@@ -15,7 +15,7 @@ pose becomes an estimate of the pair's ``T_a_b`` through the run's odometry::
     T_a_b = inv(T_odom_submap_a) @ T_odom_body_a(t_a) @ T_pa_pb @ inv(T_odom_body_b(t_b)) @ T_odom_submap_b
 
 (the body poses at the closure times are the odometry's, interpolated between frames; the
-matching runs on the arrays the readers give: ``roman_sim.pipeline.closure_pairs``).
+matching runs on the arrays the readers give: ``roman_sim.scoring.closure_pairs``).
 The closures then go through the run's own evaluation as one more method, named
 ``label`` (``roman_sim.align.closure_table``): the same pairs, truth, correctness,
 recall against heading and ambiguity at every operating point, precision, the pose graph
@@ -69,8 +69,6 @@ from roman_sim.interop.closure_files import read_closure_file
 from roman_sim.interop.closures import QUATERNION_ORDERS, Closure, ClosureSet, QuaternionOrder, read_pose_csv
 from roman_sim.interop.roman_align import write_align
 from roman_sim.interop.stamps import MATCH_TOL_S, Clock, file_clock, matched, no_frame, since_start_s
-from roman_sim.pipeline.closure_conventions import Convention, ConventionCheck, apply, check, on_frames, swapped
-from roman_sim.pipeline.closure_pairs import Resolved, Unscored, pose_at, resolve
 from roman_sim.pipeline.context import Progress, RunContext
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.manifest import MANIFEST_JSON, Manifest, StageRecord, existing_manifest
@@ -78,6 +76,8 @@ from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import Scenario, load_scenario
 from roman_sim.pipeline.stages.maps import MapsStage
 from roman_sim.pipeline.stages.submaps import SubmapsStage
+from roman_sim.scoring.closure_conventions import Convention, ConventionCheck, apply, check, on_frames, swapped
+from roman_sim.scoring.closure_pairs import Resolved, Unscored, pose_at, resolve
 
 log = logging.getLogger(__name__)
 

@@ -5,7 +5,7 @@ is nearest (ties: the lowest index) and decides, pair by pair, which closure the
 the first of those with the highest score. The others, and closures whose two ends fall in
 one submap or on a pair the evaluation does not score, are ``Unscored``, with the reason,
 by their line in the closure file. All of it runs on the arrays of a ``ClosureSet`` (no
-object per closure); the relative pose (``roman_sim.pipeline.external``'s formula, body poses
+object per closure); the relative pose (``roman_sim.scoring.external``'s formula, body poses
 from ``poses_at``) is computed only for the closures the pairs keep. ``poses_at`` and the
 batched inverses do scipy's and ``inv_T``'s arithmetic, so the poses are those a closure-by-
 closure loop gives, to the bit.
