@@ -7,18 +7,31 @@ target; first in it the headline bound, the widest world-bootstrap half-width pe
 heading bin against the suite's bound), then the setup (methods, overrides, what a cell, a
 rank and an operating point are, and whether every pooled Wilson interval meets the bound),
 per operating point ranked in ``RANKED`` one table per ambiguity level (methods x heading
-bins, each cell ``recall (hits/relevant) [95 % interval]`` and its rank, ``tied`` where
-intervals overlap), the relevant pairs per cell, every operating point per level, runtimes
-per pair, the cells that did not finish and the figures.
+bins, each cell ``recall (hits/relevant) [95 % interval]`` and its rank by paired verdicts,
+``tied`` where no verdict separates), the relevant pairs per cell, every operating point per
+level, runtimes per pair, the cells that did not finish and the figures. In the deployable
+section each level also has its paired verdicts (every two methods, per heading bin: who is
+ahead, or no difference shown with its power, or too few hits) and its floor line (the
+methods with too few held-out hits to rank).
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from roman_sim.benchmark.board_plots import benchmark_figures
-from roman_sim.benchmark.board_records import BoardCell, DeployableCell, HeldOutFigures, Leaderboard
+from roman_sim.benchmark.board_records import (
+    BoardCell,
+    Deployable,
+    DeployableCell,
+    HeldOutFigures,
+    Leaderboard,
+    PairVerdict,
+)
 from roman_sim.benchmark.ranking import Rank
 from roman_sim.evaluation.bins import bin_label
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
+from roman_sim.evaluation.paired_worlds import MIN_HITS
 
 #: The operating points methods are ranked by, in each cell.
 RANKED = ("max_recall", "precision_90")
@@ -43,8 +56,11 @@ def _rate_at(p: OperatingPoint | None) -> str:
 
 def _ranked_cell(cell: BoardCell, method: str, point: str) -> str:
     r = cell.ranks[point].get(method)
+    p = cell.point(method, point)
     rank = "" if r is None else (f" tied {r.rank}" if r.tied else f" #{r.rank}")
-    return _rate(cell.point(method, point)) + rank
+    if r is None and p is not None and p.n_relevant and p.reached and p.hits < MIN_HITS:
+        rank = ", too few hits to rank"
+    return _rate(p) + rank
 
 
 def _rank_tables(board: Leaderboard, point: str) -> list[str]:
@@ -105,6 +121,7 @@ def deployable_bound_lines(board: Leaderboard) -> list[str]:
         + " |",
         "|---|" + "---|" * (len(board.heading_edges_deg) - 1),
     ]
+    floors = set(board.deployable_floors())
     for e in board.levels:
         d = e.deployable
         if d is None or d.bins is None:
@@ -112,10 +129,19 @@ def deployable_bound_lines(board: Leaderboard) -> list[str]:
             lines.append(f"| {e.name} | " + " | ".join([why] * (len(board.heading_edges_deg) - 1)) + " |")
             continue
         cells = [
-            _widest(c) + ("" if c.max_half_width is not None and c.max_half_width <= bound else " **over**")
+            "floor: every method has too few hits"
+            if (e.name, c.heading) in floors
+            else _widest(c) + ("" if c.max_half_width is not None and c.max_half_width <= bound else " **over**")
             for c in d.bins
         ]
         lines.append(f"| {e.name} | " + " | ".join(cells) + " |")
+    if floors:
+        lines += [
+            "",
+            "Bins where every method is below the floor hold no bound: "
+            + ", ".join(f"{lv} {h} deg" for lv, h in sorted(floors))
+            + " (a floor is a finding: no method aligns enough there to rank or bound).",
+        ]
     return [*lines, ""]
 
 
@@ -134,8 +160,9 @@ def leaderboard_markdown(board: Leaderboard) -> str:
         f"- Methods: {_method_list(board)}. Overrides: {', '.join(board.overrides) or 'none'}.",
         f"- Cells: ambiguity level x heading difference ({_bin_width(board)} deg bins) of the cross-robot pairs, "
         "pooled over the level's seeds; counts are hits / relevant pairs with 95 % Wilson intervals.",
-        "- Ranks: 1 + the number of methods whose interval lies wholly above; methods that share a rank have "
-        "overlapping intervals and are marked `tied`.",
+        "- Ranks: 1 + the number of methods a paired verdict puts ahead (each method at its own threshold, "
+        "compared world by world on the same relevant pairs); methods that share a rank are marked `tied`; a "
+        f"method with fewer than {MIN_HITS} hits in a cell is not ranked there.",
         f"- Operating points: max recall (at the highest k that keeps it); recall at the smallest k with precision "
         f">= 0.9 (`not reached` when none has); recall at the pose graph's acceptance threshold k = {acc}.",
         f"- Wilson bound (per-bin operating points below): every pooled Wilson half-width at most "
@@ -166,15 +193,67 @@ def _ci(ci: list[float] | None) -> str:
     return "n/a" if ci is None else f"[{ci[0]:.2f}, {ci[1]:.2f}]"
 
 
-def _held_out_recall(c: HeldOutFigures | None, rank: Rank | None) -> str:
-    """``recall (hits/relevant) Wilson [..] worlds [..] #rank`` of one held-out cell."""
+def _held_out_recall(c: HeldOutFigures | None, rank: Rank | None, floor: str | None = None) -> str:
+    """``recall (hits/relevant) Wilson [..] worlds [..] #rank`` of one held-out cell (the floor instead of a rank)."""
     if c is None or not c.n_relevant:
         return "n/a"
     out = f"{c.recall:.2f} ({c.hits}/{c.n_relevant})"
     out += f" Wilson {_ci(c.recall_wilson)} worlds {_ci(c.recall_worlds)}"
-    if rank is not None:
+    if floor is not None:
+        out += f", {floor}"
+    elif rank is not None:
         out += f" tied {rank.rank}" if rank.tied else f" #{rank.rank}"
     return out
+
+
+def _signed(x: float) -> str:
+    return f"{x:+.3f}"
+
+
+def _p(p: float) -> str:
+    return "p < 0.001" if p < 0.001 else f"p {p:.3f}"
+
+
+def verdict_text(v: PairVerdict, effect: float) -> str:
+    """One paired verdict as the leaderboard prints it: the verdict, the difference and its p-value."""
+    if v.verdict == "too few hits":
+        return "too few hits"
+    return f"{v.says(effect)}: {_signed(v.diff)} ({_p(v.p_value)})"
+
+
+def floor_lines(d: Deployable) -> list[str]:
+    """The level's floor: per heading bin the methods with too few held-out hits to rank."""
+    per = [f"{c.heading} deg: " + "; ".join(f"{m} {t}" for m, t in c.floor.items()) for c in d.cells() if c.floor]
+    head = f"Floor: fewer than {d.min_hits} held-out hits in a bin is too few to rank (no rank, counts toward no bound)"
+    return [head + (": " + " | ".join(per) + "." if per else ": no method is below it."), ""]
+
+
+def verdict_table(d: Deployable, methods: list[str]) -> list[str]:
+    """Every two methods' paired verdicts per heading bin (the difference of held-out recall, ``a`` less ``b``)."""
+    effect = d.effect if d.effect is not None else 0.05
+    cells = d.cells()
+    heads = [f"{c.heading} deg" if c.heading != "all" else "all" for c in cells]
+    lines = [
+        f"Paired verdicts (held-out recall of the first less the second, same worlds and pairs; exact two-sided "
+        f"sign-flip test over worlds at 0.05; power for a difference of {effect:g}):",
+        "",
+        "| methods | " + " | ".join(heads) + " |",
+        "|---|" + "---|" * len(cells),
+    ]
+    for i, a in enumerate(methods):
+        for b in methods[i + 1 :]:
+            got = [c.verdict(a, b) for c in cells]
+            if all(v is None for v in got):
+                continue
+            row = ["n/a" if v is None else verdict_text(v if v.a == a else _flipped(v), effect) for v in got]
+            lines.append(f"| {a} - {b} | " + " | ".join(row) + " |")
+    return [*lines, ""]
+
+
+def _flipped(v: PairVerdict) -> PairVerdict:
+    """The verdict with its two methods swapped (the difference negated)."""
+    swap = {"a ahead": "b ahead", "b ahead": "a ahead"}
+    return replace(v, a=v.b, b=v.a, verdict=swap.get(v.verdict, v.verdict), diff=-v.diff)
 
 
 def _held_out_precision(c: HeldOutFigures | None) -> str:
@@ -196,9 +275,14 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         f"other worlds (seeds) of the level: the smallest k whose precision over all their cross-robot pairs "
         f"is at least {target:g} (leave-one-world-out). Each world is scored at the threshold chosen without "
         f"it; the held-out counts are pooled over the level's worlds.",
-        "- Intervals: pooled 95 % Wilson, and 95 % world bootstrap (draw worlds, then robot pairs within "
-        "them). Ranks use the world-bootstrap intervals (tied where they overlap). With few worlds per level "
-        "the world bootstrap is crude: it can only draw combinations of those worlds.",
+        "- Intervals: pooled 95 % Wilson, and 95 % world bootstrap (draw worlds with replacement, each drawn "
+        "world's pairs kept whole; draws doubled until no bound or verdict depends on the bootstrap's seed). "
+        "With few worlds per level the world bootstrap is crude: it can only draw combinations of those worlds.",
+        "- Ranks: from paired verdicts. Every two methods are compared on the same worlds and relevant pairs: the "
+        "difference of their held-out recall, tested by the exact sign-flip test over worlds (each world's "
+        "difference as likely + as -; nothing is drawn at random, so no verdict depends on a seed). A method's "
+        "rank is 1 + the methods ahead of it; `tied` where no verdict separates. A method with too few held-out "
+        "hits in a bin is not ranked there and counts toward no bound (the floor line says which).",
         f"- Flag: **short** where the held-out precision is more than 0.05 below {target:g} (the threshold "
         "does not transfer to a new world); `nothing accepted` where no threshold reached the target.",
         "",
@@ -224,7 +308,7 @@ def _deployable_section(board: Leaderboard) -> list[str]:
                 continue
             ks = ", ".join(f"{w}: {'none' if k is None else k}" for w, k in thresholds[m].items())
             mx = None if e.overall is None else e.overall.point(m, "max_recall")
-            row = [_held_out_recall(c.methods.get(m), c.ranks.get(m)) for c in cells]
+            row = [_held_out_recall(c.methods.get(m), c.ranks.get(m), c.floor.get(m)) for c in cells]
             lines.append(f"| {m} | " + " | ".join(row) + f" | {ks} | {_rate(mx)} |")
         lines += [
             "",
@@ -235,6 +319,8 @@ def _deployable_section(board: Leaderboard) -> list[str]:
             if m in thresholds:
                 lines.append(f"| {m} | " + " | ".join(_held_out_precision(c.methods.get(m)) for c in cells) + " |")
         lines.append("")
+        lines += floor_lines(d)
+        lines += verdict_table(d, [m for m in board.methods if m in thresholds])
     return lines
 
 
@@ -310,8 +396,8 @@ def deployable_readme_lines(board: Leaderboard) -> list[str]:
         return []
     lines = [
         f"- Deployable ranking (one threshold per method and level for every heading, chosen on the other "
-        f"worlds for precision >= {target:g}; held-out recall over all headings, ranked by 95 % world-bootstrap "
-        f"intervals):"
+        f"worlds for precision >= {target:g}; held-out recall over all headings, ranked by paired verdicts over "
+        f"the same worlds; a method with too few held-out hits is a floor, not a rank):"
     ]
     for e in board.levels:
         d = e.deployable
@@ -326,6 +412,7 @@ def deployable_readme_lines(board: Leaderboard) -> list[str]:
             prec = "nothing accepted" if c.precision is None else f"P {c.precision:.2f}"
             flag = "" if c.transfers else ", short of the target"
             parts.append(f"{rank} {m} {_num(c.recall)} ({c.hits}/{c.n_relevant}, {prec}{flag})")
+        parts += [f"{m} {t}" for m, t in d.overall.floor.items()]
         lines.append(f"  - {e.name}: " + "; ".join(parts) + ".")
     return lines
 
@@ -337,15 +424,22 @@ def deployable_bound_readme_line(board: Leaderboard) -> str:
         f"level x heading bin: "
     )
     per_level = board.deployable_widths()
+    floors = board.deployable_floors()
+    floor_note = (
+        f"; floors, every method below {MIN_HITS} held-out hits, hold no bound: "
+        + ", ".join(f"{lv} {h} deg" for lv, h in floors)
+        if floors
+        else ""
+    )
     if board.deployable_bound_met:
-        widths = [(lv, h, w) for lv, bins in per_level.items() for h, w in bins.items()]
+        widths = [(lv, h, w) for lv, bins in per_level.items() for h, w in bins.items() if (lv, h) not in floors]
         lv, h, w = max(widths, key=lambda x: x[2] or 0.0)
-        return head + f"yes (widest {_num(w, 3)}, {lv} {h} deg)."
+        return head + f"yes (widest {_num(w, 3)}, {lv} {h} deg{floor_note})."
     parts = [f"{lv} {h} deg {_num(w, 3)}" for lv, h, w in board.deployable_over()]
     parts += [f"{lv} without held-out figures" for lv, bins in per_level.items() if not bins]
     if board.failed_cells:
         parts.append(f"{len(board.failed_cells)} cells did not finish")
-    return head + ("no (" + "; ".join(parts) + ")." if parts else "no.")
+    return head + ("no (" + "; ".join(parts) + f"{floor_note})." if parts else "no.")
 
 
 def readme_block(board: Leaderboard, figure: str) -> str:
@@ -371,7 +465,7 @@ def readme_block(board: Leaderboard, figure: str) -> str:
         alone, tied, ranked = _first_alone(board, m, point)
         lines.append(
             f"- {POINT_LABELS[point]}: {m} ranks first alone in {alone} of {ranked} cells and is tied for first in "
-            f"{tied} (ranked only where 95 % intervals separate)."
+            f"{tied} (ranked by paired verdicts over worlds)."
         )
     lines += [
         deployable_bound_readme_line(board),

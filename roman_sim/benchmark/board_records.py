@@ -15,7 +15,7 @@ from roman_sim.benchmark.ranking import Rank
 from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.evaluation.operating_points import OperatingPoint
 
-LEADERBOARD_SCHEMA = "roman_sim.leaderboard/1"
+LEADERBOARD_SCHEMA = "roman_sim.leaderboard/2"
 
 
 @dataclass(frozen=True)
@@ -68,18 +68,70 @@ class HeldOutFigures:
 
 
 @dataclass(frozen=True)
+class PairVerdict:
+    """Two methods compared in one heading bin of a level: the paired difference of held-out recall.
+
+    Attributes:
+        a, b: the methods (in the board's order).
+        verdict: ``a ahead``, ``b ahead``, ``no difference shown`` or ``too few hits``
+            (``roman_sim.evaluation.paired_worlds``).
+        diff: held-out recall of ``a`` less that of ``b`` (same worlds, same relevant pairs).
+        p_value: the exact two-sided sign-flip p-value over worlds.
+        power: the power to detect a true difference of the level's effect size.
+        worlds_for_power: worlds that power 0.8 for that effect needs at this spread.
+    """
+
+    a: str
+    b: str
+    verdict: str
+    diff: float
+    p_value: float
+    power: float
+    worlds_for_power: int
+
+    def winner(self) -> str | None:
+        """The method ahead (None: no difference shown, or too few hits)."""
+        return self.a if self.verdict == "a ahead" else self.b if self.verdict == "b ahead" else None
+
+    def says(self, effect: float) -> str:
+        """The verdict in words, with the method ahead or the power for ``effect``."""
+        if self.verdict == "too few hits":
+            return "too few hits"
+        if self.winner() is not None:
+            return f"{self.winner()} ahead"
+        if self.power >= 0.8:
+            return f"no difference shown with power 0.8 for {effect:g}"
+        return f"no difference shown (power {self.power:.2f} for {effect:g}; {self.worlds_for_power} worlds for 0.8)"
+
+
+@dataclass(frozen=True)
 class DeployableCell:
-    """One heading bin (or ``all``) of a deployable point: per method its held-out figures and rank."""
+    """One heading bin (or ``all``) of a deployable point: per method its held-out figures and rank.
+
+    Attributes:
+        heading: the bin label or ``all``.
+        methods: per method its held-out figures.
+        ranks: per method above the floor its rank: 1 + the methods a paired verdict puts ahead of it.
+        max_half_width: the widest world-bootstrap recall half-width over the methods above the floor.
+        verdicts: one paired verdict per two methods.
+        floor: per method below the floor, ``too few hits to rank (h in n)``.
+    """
 
     heading: str
     methods: dict[str, HeldOutFigures]
     ranks: dict[str, Rank]
     max_half_width: float | None
+    verdicts: list[PairVerdict] = field(default_factory=list)
+    floor: dict[str, str] = field(default_factory=dict)
 
     def order(self) -> list[tuple[str, HeldOutFigures, Rank]]:
         """(method, figures, rank) of the ranked methods, best first (rank, then recall, then name)."""
         got = [(m, c, self.ranks[m]) for m, c in self.methods.items() if m in self.ranks]
         return sorted(got, key=lambda x: (x[2].rank, -(x[1].recall or 0.0), x[0]))
+
+    def verdict(self, a: str, b: str) -> PairVerdict | None:
+        """The verdict of ``a`` against ``b`` (in either order as stored), None when not compared."""
+        return next((v for v in self.verdicts if {v.a, v.b} == {a, b}), None)
 
 
 @dataclass(frozen=True)
@@ -93,6 +145,10 @@ class Deployable:
         worlds: the level's worlds (benchmark cells).
         note: why there are no held-out figures (None when there are).
         thresholds: per method, per held-out world the threshold chosen on the others (None: none reached it).
+        deployed: per method the threshold chosen on every world of the level: the one a new world
+            is run at (``roman-sim benchmark check``).
+        min_hits: held-out hits below which a method is a floor in a bin (not ranked, no bound).
+        effect: the recall difference the paired verdicts state their power for.
         transfers: per method, whether its held-out precision over all headings transfers.
         bins: one cell per heading bin.
         overall: the cell over every heading.
@@ -102,6 +158,9 @@ class Deployable:
     worlds: list[str]
     note: str | None = field(default=None, metadata=OMIT_NONE)
     thresholds: dict[str, dict[str, int | None]] | None = field(default=None, metadata=OMIT_NONE)
+    deployed: dict[str, int | None] | None = field(default=None, metadata=OMIT_NONE)
+    min_hits: int | None = field(default=None, metadata=OMIT_NONE)
+    effect: float | None = field(default=None, metadata=OMIT_NONE)
     transfers: dict[str, bool] | None = field(default=None, metadata=OMIT_NONE)
     bins: list[DeployableCell] | None = field(default=None, metadata=OMIT_NONE)
     overall: DeployableCell | None = field(default=None, metadata=OMIT_NONE)
@@ -182,8 +241,9 @@ class Leaderboard:
         runtime: per method its time per pair.
         target_precision: the precision the deployable point's thresholds are chosen for.
         deployable_bound_met: the headline bound: whether, at the deployable point, every level x heading
-            bin has held-out figures whose widest world-bootstrap recall half-width over methods is at most
-            the bound, and every cell finished (``deployable_widths``).
+            bin has held-out figures whose widest world-bootstrap recall half-width over the methods above the
+            floor is at most the bound, and every cell finished (``deployable_widths``); a bin where every
+            method is below the floor holds no bound (``deployable_floors``: reported, not counted as met).
         plugins: per plug-in row its ``package.module:Class`` (None without plug-ins).
     """
 
@@ -215,13 +275,25 @@ class Leaderboard:
             for e in self.levels
         }
 
+    def deployable_floors(self) -> list[tuple[str, str]]:
+        """(level, heading bin) of every bin where each method is below the floor: nothing there is ranked, and
+        no bound holds or fails (a floor is a finding, not a tie)."""
+        return [
+            (e.name, c.heading)
+            for e in self.levels
+            if e.deployable is not None and e.deployable.bins is not None
+            for c in e.deployable.bins
+            if c.methods and set(c.floor) == set(c.methods)
+        ]
+
     def deployable_over(self) -> list[tuple[str, str, float | None]]:
-        """(level, heading bin, widest half-width) of every bin over the bound or without an interval."""
+        """(level, heading bin, widest half-width) of every bin over the bound or without an interval, floors aside."""
+        floors = set(self.deployable_floors())
         return [
             (level, heading, w)
             for level, bins in self.deployable_widths().items()
             for heading, w in bins.items()
-            if w is None or w > self.half_width_bound
+            if (level, heading) not in floors and (w is None or w > self.half_width_bound)
         ]
 
     def cells_of(self, method: str, point: str) -> dict[str, OperatingPoint]:

@@ -41,8 +41,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from roman_sim.benchmark.deployable import held_out_figures
-from roman_sim.benchmark.transfer import PRECISION_SLACK, PairOutcomes, check_target
+from roman_sim.benchmark.board_records import HeldOutFigures
+from roman_sim.benchmark.transfer import PRECISION_SLACK, HeldOutCell, PairOutcomes, check_target, transfers
 from roman_sim.benchmark.tune_choice import (
     ConfigOutcomes,
     Evidence,
@@ -550,6 +550,25 @@ def config_outcomes(
             cols["runtime"].append(0.0 if out else (float("nan") if t is None else t))
     o = PairOutcomes.from_lists(cols["world"], cols["cluster"], cols["relevant"], cols["correct"], cols["score"])
     return ConfigOutcomes(o, np.asarray(cols["runtime"], dtype=np.float64))
+
+
+def _pair(ci: tuple[float, float] | None) -> list[float] | None:
+    return None if ci is None else [float(ci[0]), float(ci[1])]
+
+
+def held_out_figures(c: HeldOutCell, target: float) -> HeldOutFigures:
+    """A held-out cell of the tune as its records hold it, with whether its precision transfers."""
+    return HeldOutFigures(
+        hits=c.hits,
+        false_positives=c.false_positives,
+        n_relevant=c.n_relevant,
+        recall=c.recall,
+        recall_wilson=_pair(c.recall_wilson),
+        recall_worlds=_pair(c.recall_worlds),
+        precision=c.precision,
+        precision_worlds=_pair(c.precision_worlds),
+        transfers=transfers(c.precision, target),
+    )
 
 
 def tuned_figures(f: Figures, target: float) -> dict[str, Any]:
