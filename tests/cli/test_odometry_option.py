@@ -1,4 +1,5 @@
-"""``roman-sim run SCENARIO --odometry ROBOT=FILE.tum``: a bad file is one line, exit code 1, nothing written."""
+"""``roman-sim run SCENARIO --odometry ROBOT=FILE.tum`` (``roman_sim.cli``): a bad file is one line, exit code 1,
+nothing written."""
 
 from __future__ import annotations
 
