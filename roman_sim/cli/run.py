@@ -171,31 +171,45 @@ def _run(
     from_stage: str | None = None,
     executor: Any = None,
     share: bool = True,
+    odometry: list[str] | None = None,
 ) -> None:
     """Lock the results folder first, then start up and run: a refused run answers before any heavy work.
 
     With ``--out`` the lock comes before anything else; the default folder is named by the
     scenario, which is loaded first (the lock then comes before the pool and the pipeline's
-    imports).
+    imports). ``odometry``: ``ROBOT=FILE.tum`` values of ``--odometry``.
     """
     from roman_sim.pipeline.folder_lock import hold_run_folder
 
     sc: Scenario | None = None
     if out is None:
-        from roman_sim.pipeline.scenario import default_run_dir, load_scenario
+        from roman_sim.pipeline.scenario import default_run_dir
 
-        sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+        sc = _load(scenario, sets, aligners, odometry)
         out = default_run_dir(sc)
     with hold_run_folder(out):
         from roman_sim.runner.executors import prestart
 
         # a local pool's forkserver imports the stages' worker modules while this process imports its own
         prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
-        from roman_sim.pipeline.scenario import load_scenario
-
         if sc is None:
-            sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+            sc = _load(scenario, sets, aligners, odometry)
         _run_locked(sc, out, fresh, submaps, from_stage, executor, share)
+
+
+def _load(scenario: str, sets: list[str] | None, aligners: list[str] | None, odometry: list[str] | None) -> Scenario:
+    """The scenario with its overrides and added aligners, each ``--odometry ROBOT=FILE`` in its robot."""
+    from roman_sim.core.errors import ConfigError
+    from roman_sim.pipeline.scenario import load_scenario, with_odometry
+
+    sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+    files = {}
+    for value in odometry or []:
+        robot, sep, file = value.partition("=")
+        if not (sep and robot and file):
+            raise ConfigError(f"--odometry {value}: expected ROBOT=FILE.tum (a robot's name and a TUM file)")
+        files[robot] = Path(file).resolve()
+    return with_odometry(sc, files) if files else sc
 
 
 def _run_locked(
@@ -264,11 +278,16 @@ def run_cmd(
     from_stage: str | None = typer.Option(
         None, "--from", help="recompute from this stage on (maps, submaps, evaluation, posegraph, ate, report)"
     ),
+    odometry: list[str] | None = typer.Option(
+        None,
+        "--odometry",
+        help="ROBOT=FILE.tum: the robot's odometry from a TUM file of body poses (e.g. a VIO's) instead of its own",
+    ),
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a scenario end to end and print the summary (robots and pairs spread over the workers)."""
     ex = flags.config()
-    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex, not no_shared_cache)
+    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex, not no_shared_cache, odometry)
 
 
 @app.command("demo")
@@ -311,7 +330,7 @@ def record_cmd(
         if (out / cfg.name).exists() and not (out / cfg.name).is_dir():
             raise ConfigError(f"--out {out}: {cfg.name} there is an existing file, not a recording folder")
     world = generate(sc.world.spec(), sc.seed)
-    sources = robot_sources(world, sc.robots, sc.seed, [n for n in names if not robot or n in robot])
+    sources = robot_sources(world, sc.simulated_robots(), sc.seed, [n for n in names if not robot or n in robot])
     progress: Any = None
     with _progress() if interactive() else contextlib.nullcontext() as p:
         progress = RichProgress(p) if p is not None else LineProgress()

@@ -186,7 +186,7 @@ def export_scenario(
     """
     FORMATS.get(fmt)  # an unknown format fails before any rendering
     out = Path(out_dir)
-    _prepare(out, [r.name for r in select_robots(scenario.robots, robots)], overwrite)
+    _prepare(out, [r.name for r in select_robots(scenario, robots)], overwrite)
     world, streams = scenario_streams(scenario, robots)
     write_text(out / "config.yaml", dump_yaml(scenario))
     looks = table_looks(world, [(r.name, r.lighting) for r in scenario.robots], int(scenario.seed))

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING
 
 import yaml
 
+from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSONLike, JSONScalar
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.grader import FrontEndGrader
@@ -62,8 +63,10 @@ def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> Cali
     from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate
 
+    if not scenario.simulated_robots():
+        raise ConfigError(f"scenario {scenario.name}: calibration renders simulated robots, and it has none")
     world = generate(scenario.world.spec(), scenario.seed)
-    sources = robot_sources(world, scenario.robots, scenario.seed, rgb=True)
+    sources = robot_sources(world, scenario.simulated_robots(), scenario.seed, rgb=True)
     per_robot = max(1, max_frames // len(sources))
     frames: list[Frame] = []
     for src in sources:

@@ -102,6 +102,8 @@ def test_editing_a_module_changes_the_keys_of_the_stages_that_run_it(tmp_path):
         "roman_sim/mapping/submap.py": ["ate", "evaluation", "posegraph", "report", "submaps"],
         "roman_sim/pipeline/stages/maps_job.py": ["ate", "evaluation", "maps", "posegraph", "report", "submaps"],
         "roman_sim/pipeline/stages/maps_robot.py": ["ate", "evaluation", "maps", "posegraph", "report", "submaps"],
+        "roman_sim/pipeline/stages/maps_input.py": ["ate", "evaluation", "maps", "posegraph", "report", "submaps"],
+        "roman_sim/interop/odometry_in.py": ["ate", "evaluation", "maps", "posegraph", "report", "submaps"],
         "roman_sim/report/markdown.py": ["report"],
         "roman_sim/runner/dask_executor.py": [],  # where tasks run, not what they compute
         "roman_sim/pipeline/resolve.py": [],  # its results are hashed by value

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.records import read_json
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
@@ -101,12 +101,12 @@ def map_robots(
     # A local pool's workers get the world pickled (a second to send and load against seconds
     # to generate); Dask workers, possibly on other machines, regenerate it from the scenario.
     shipped: World | PickledWorld | None = world if local else None
-    if not local and world is not None and tasks.kind == "local" and any(r.source is None for r in robots):
+    if not local and world is not None and tasks.kind == "local":
         shipped = PickledWorld.of(world)
     args = [(sc_json, r.name, str(ctx.run_dir), shipped) for r in robots]
 
     def here(sc: str, name: str, run_dir: str, w: World | None) -> RobotMapping:
-        return map_one(ctx, w, next(r for r in robots if r.name == name))
+        return map_one(ctx, lambda: w, next(r for r in robots if r.name == name))
 
     fn = here if local else map_robot_task
     results: dict[str, RobotMapping] = {}
@@ -131,6 +131,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
     worker_preload = (
         "roman_sim.pipeline.stages.maps_job",
         "roman_sim.pipeline.stages.maps_robot",
+        "roman_sim.pipeline.stages.maps_input",
         "roman_sim.world",
         "roman_sim.sim.robot",
         "roman_sim.sim.source",
@@ -142,10 +143,10 @@ class MapsStage(Stage[MapsInputs, Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
-        from roman_sim.pipeline.stages.maps_sources import fingerprint
+        from roman_sim.pipeline.stages.maps_sources import fingerprints
 
         sc = ctx.scenario.model_dump(mode="json")
-        sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
+        sequences = fingerprints(ctx.scenario.robots)
         return [
             sc["robots"],
             sc["frontend"],
@@ -157,15 +158,13 @@ class MapsStage(Stage[MapsInputs, Maps]):
     def run(self, ctx: RunContext, inputs: MapsInputs, tasks: TaskRunner) -> Maps:
         sc = ctx.scenario
         world = None if inputs.world is None else inputs.world.world
-        if world is None and sc.simulated_robots():
-            raise ConfigError("the maps stage needs the world for simulated robots")
         maps, keyframes, parts, snapshot = map_robots(ctx, world, tasks)
         grades = None
         if parts:
             grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)
             grader.appearance = _appearance_kernel(ctx, world)
             grades = grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name)
-        return Maps(maps, _rgb_notes(ctx), keyframes, grades, snapshot)
+        return Maps(maps, _rgb_notes(ctx) + _odometry_notes(ctx, maps), keyframes, grades, snapshot)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
@@ -224,3 +223,13 @@ def _rgb_notes(ctx: RunContext) -> list[str]:
             )
             log.warning(notes[-1])
     return notes
+
+
+def _odometry_notes(ctx: RunContext, maps: dict[str, SegmentMap]) -> list[str]:
+    """Which odometry each robot used, when one robot's came from outside (none otherwise: every robot used its own)."""
+    from roman_sim.pipeline.stages.maps_input import odometry_used
+
+    robots = ctx.scenario.robots
+    if all(r.odometry is None for r in robots):
+        return []
+    return [f"robot {r.name}: odometry {odometry_used(r)}; {len(maps[r.name].times)} frames mapped" for r in robots]
