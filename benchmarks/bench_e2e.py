@@ -35,6 +35,7 @@ OUT = Path(__file__).resolve().parent / "out" / "e2e.json"
 
 def run_one(name: str, overrides: list[str] | None = None) -> dict:
     """Run ``name`` (with dotted ``overrides``) fresh in this process; return its per-stage figures."""
+    from roman_sim.core.records import to_json
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -54,8 +55,8 @@ def run_one(name: str, overrides: list[str] | None = None) -> dict:
         "segments": res.map_stats.segments,
         "submaps": res.map_stats.submaps,
         "pairs": res.metrics.n_pairs,
-        "summary": res.summary().to_json(),
-        "frontend": res.metrics.frontend,
+        "summary": to_json(res.summary()),
+        "frontend": to_json(res.metrics.frontend),
     }
 
 

@@ -49,6 +49,7 @@ def _run(
     fresh: bool = True,
     from_stage: str | None = None,
 ) -> dict[str, Any]:
+    from roman_sim.core.records import to_json
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -71,8 +72,8 @@ def _run(
             m: {k: v for k, v in a.items() if k != "per_pair_s"}
             for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()
         },
-        "ate": {k: a.to_json() for k, a in s.ate.items()},
-        "methods": {k: m.to_json() for k, m in s.methods.items()},
+        "ate": {k: to_json(a) for k, a in s.ate.items()},
+        "methods": {k: to_json(m) for k, m in s.methods.items()},
         "cross_robot": _cross_robot(res),
         "posegraph": _posegraph(res.run_dir),
     }

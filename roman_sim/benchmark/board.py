@@ -141,7 +141,9 @@ def level_metrics(out: Path, lv: Level, edges: list[float]) -> EvaluationMetrics
 def _cell(label: str, stats: dict[str, CurveStats]) -> BoardCell:
     """One leaderboard cell: per method its operating points, and the ranks by interval."""
     first = next(iter(stats.values()))
-    methods = {m: {n: s.operating_points.get(n) for n in POINT_NAMES} for m, s in stats.items()}
+    methods: dict[str, dict[str, OperatingPoint | None]] = {
+        m: {n: s.operating_points.get(n) for n in POINT_NAMES} for m, s in stats.items()
+    }
     ranks = {
         point: rank_by_intervals({m: (None if p is None else p.recall_ci) for m, p in _at(stats, point).items()})
         for point in RANKED
@@ -205,7 +207,7 @@ def _level(
         lv.cells,
         lv.acceptance_k,
         ambiguity_index=_ambiguity_index(lv.scores),
-        interval_level=m.config["interval_level"],
+        interval_level=m.config.interval_level,
         overall=_cell("all", {k: v.overall for k, v in sets.items()}),
         bins=bins,
         deployable=deployable(lv.scores, list(m.methods), edges, k_values, target_precision),

@@ -21,6 +21,7 @@ from roman_sim.core.errors import RomanSimError, RunFolderBusy, StorageError
 if TYPE_CHECKING:
     from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
     from roman_sim.pipeline.result import RunResult
+    from roman_sim.pipeline.sweep import SweepFailure
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -121,23 +122,23 @@ def print_summary(result: RunResult) -> None:
     out = Console()
     cap = (
         "no distance cap"
-        if cfg["max_pair_dist_m"] is None
-        else (f"distance cap {cfg['max_pair_dist_m']:g} m: {s.n_skipped} pairs skipped")
+        if cfg.max_pair_dist_m is None
+        else (f"distance cap {cfg.max_pair_dist_m:g} m: {s.n_skipped} pairs skipped")
     )
     out.print(
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
-        f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
+        f"relevant: {cfg.relevance}; correct: <= {cfg.rot_tol_deg:g} deg, <= {cfg.trans_tol_m:g} m"
     )
     for line in lead_paragraph(result.metrics, result.ate, markdown=False):
         out.print(line, markup=False, highlight=False)
     kinds = [s.headline] + [k for k in ("inter", "intra") if k != s.headline]
     for kind in kinds:
-        if s.methods and s.pairs[kind]["n_pairs"]:
+        if s.methods and s.pairs[kind].n_pairs:
             label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s.headline else "")
-            for table in _recall_tables(s, kind, label, int(cfg["min_relevant"]), empty):
+            for table in _recall_tables(s, kind, label, cfg.min_relevant, empty):
                 out.print(table)
     if s.ate and s.ate_robots is not None:
-        robots, common = s.ate_robots
+        robots, common = s.ate_robots.robots, s.ate_robots.common
         a = Table(
             title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({', '.join(common) or 'none'}) "
             f"and over all {len(robots)}",
@@ -398,13 +399,13 @@ def sweep_cmd(
         raise typer.Exit(1)
 
 
-def _failure_table(failed: list[dict[str, str]], path: Path) -> None:
+def _failure_table(failed: list[SweepFailure], path: Path) -> None:
     """The runs of a sweep that did not finish, on stderr."""
     t = Table(title=f"{len(failed)} sweep run(s) failed (all rows in {path})")
     for col in ("run", "seed", "status", "error"):
         t.add_column(col, overflow="fold")
     for row in failed:
-        t.add_row(row.get("run_id", ""), row.get("seed", ""), row.get("status", ""), row.get("error", ""))
+        t.add_row(row.run_id, row.seed, row.status, row.error)
     console.print(t)
 
 

@@ -10,6 +10,7 @@ from typer.testing import CliRunner
 from roman_sim.cli import app
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.records import to_json
 from roman_sim.frontend.components import FrontEndConfig
 from roman_sim.frontend.confusion import relation_moments
 from roman_sim.frontend.fit import _features, fit_semantics
@@ -157,7 +158,7 @@ def test_calibration_yaml_is_a_frontend_preset(calibrated, tmp_path):
     fe = validate_model(FrontEndConfig, data["frontend"])
     assert fe.segmenter.name == "fastsam" and fe.semantics == calibrated.semantics
     assert data["calibration"]["dim"] == 768 and data["calibration"]["encoder"] == "simulated"
-    assert json.loads(json.dumps(calibrated.to_json()))["frontend"]["segmenter"]["name"] == "fastsam"
+    assert json.loads(json.dumps(to_json(calibrated)))["frontend"]["segmenter"]["name"] == "fastsam"
     path = tmp_path / "cal.yaml"
     path.write_text(calibrated.frontend_yaml())
     fe = validate_model(FrontEndConfig, {"preset": str(path), "segmenter": {"params": {"miss_prob": 0.5}}})
