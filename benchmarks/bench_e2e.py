@@ -44,7 +44,7 @@ def run_one(name: str, overrides: list[str] | None = None) -> dict:
         t0 = time.perf_counter()
         res = Experiment(sc, Path(d) / name, fresh=True).run()
         total = time.perf_counter() - t0
-    stages = {k: {"seconds": v["seconds"], "peak_rss_mb": v["peak_rss_mb"]} for k, v in res.timings.items()}
+    stages = {k: {"seconds": v.seconds, "peak_rss_mb": v.peak_rss_mb} for k, v in res.timings.stages.items()}
     return {
         "scenario": name,
         "total_seconds": total,
@@ -83,8 +83,8 @@ timed(evaluation.EvaluationStage, "evaluation")
 timed(report.ReportStage, "report")
 res = Experiment(load_scenario("demo", sets), dst, from_stage="evaluation").run()
 import roman_sim
-print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds": cpu["evaluation"],
-                  "report_seconds": res.timings["report"]["seconds"], "report_cpu_seconds": cpu["report"],
+print(json.dumps({"seconds": res.timings.stages["evaluation"].seconds, "cpu_seconds": cpu["evaluation"],
+                  "report_seconds": res.timings.stages["report"].seconds, "report_cpu_seconds": cpu["report"],
                   "pairs": res.metrics.n_pairs, "package": roman_sim.__file__}))
 """
 

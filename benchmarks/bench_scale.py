@@ -58,6 +58,7 @@ def _run(
     res = Experiment(sc, run_dir, fresh=fresh, executor=executor, from_stage=from_stage).run()
     total = time.perf_counter() - t0
     s = res.summary()
+    timings = to_json(res.timings.stages)
     km = res.map_stats.trajectory_km
     return {
         "scenario": name,
@@ -66,11 +67,11 @@ def _run(
         "trajectory_km": km,
         "submaps": res.map_stats.submaps,
         "pairs": res.metrics.n_pairs,
-        "stages_s": {k: v.get("seconds") for k, v in res.timings.items()},
-        "pairs_timing": (res.timings.get("evaluation") or {}).get("pairs"),
+        "stages_s": {k: v.get("seconds") for k, v in timings.items()},
+        "pairs_timing": (timings.get("evaluation") or {}).get("pairs"),
         "alignment": {
             m: {k: v for k, v in a.items() if k != "per_pair_s"}
-            for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()
+            for m, a in ((timings.get("evaluation") or {}).get("alignment") or {}).items()
         },
         "ate": {k: to_json(a) for k, a in s.ate.items()},
         "methods": {k: to_json(m) for k, m in s.methods.items()},

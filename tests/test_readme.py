@@ -10,11 +10,11 @@ import pytest
 from committed_results import REFERENCE as REF
 from readme_commands import FIRST, TEST, bash_commands, marked_command, markers
 
-from roman_sim.cli._verify import verify_run
 from roman_sim.core.records import from_json
 from roman_sim.evaluation.run_summary import RunSummary
 from roman_sim.studies import pages
 from roman_sim.studies.reference import DEMO, FIGURE_PNG, ReferenceRecord, demo_summary, read_reference
+from roman_sim.studies.verify import verify_run
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"

@@ -279,7 +279,7 @@ def record_cmd(
     from roman_sim.core.atomic import output_folder
     from roman_sim.core.errors import ConfigError
     from roman_sim.pipeline.scenario import load_scenario
-    from roman_sim.sim.recording import write_recording
+    from roman_sim.sim.recording import RecordingOrigin, write_recording
     from roman_sim.sim.source import SimulatedRobot, robot_sources
     from roman_sim.world import generate
 
@@ -308,7 +308,7 @@ def record_cmd(
                     progress.advance(stage)
                     yield f
 
-            write_recording(frames(), out / src.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
+            write_recording(frames(), out / src.name, overwrite=True, origin=RecordingOrigin(sc.name, sc.seed))
             progress.end(stage)
     Console().print(f"recordings written to {out}")
 
@@ -344,7 +344,7 @@ def report_cmd(
     if not compressed:
         print_summary(RunResult.load(run_dir))
     if verify:
-        from roman_sim.cli._verify import verify_run
+        from roman_sim.studies.verify import verify_run
 
         res = verify_run(
             run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv", tum_suffix=".gz" if compressed else ""

@@ -149,7 +149,7 @@ def _put(out: dict[str, JSON], f: dataclasses.Field[Any], v: Any, owner: str) ->
         out[_key(f)] = {}
         return
     conv: _Via | None = meta.get("via")
-    value = to_json(v if conv is None else conv.encode(v))
+    value = to_json(v if conv is None or v is None else conv.encode(v))
     if not meta.get("inline"):
         out[_key(f)] = value
         return
@@ -450,11 +450,18 @@ def _decode_dataclass(cls: type, v: Any, where: str) -> Any:
             if f.default is not dataclasses.MISSING or f.default_factory is not dataclasses.MISSING:
                 continue
             raise _Mismatch(path, "missing")
-        if f.metadata.get("none_as_empty") and v[key] == {}:
+        if (f.metadata.get("none_as_empty") and v[key] == {}) or (v[key] is None and _optional(hints[name])):
             values[name] = None
             continue
         values[name] = _convert(f, _decode(tp, v[key], path), path)
     return cls(**values)
+
+
+def _optional(tp: Any) -> bool:
+    """Whether the type ``tp`` admits None."""
+    return tp is type(None) or (
+        typing.get_origin(tp) in (typing.Union, types.UnionType) and type(None) in typing.get_args(tp)
+    )
 
 
 def _convert(f: dataclasses.Field[Any], value: Any, path: str) -> Any:

@@ -41,15 +41,16 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
 from roman_sim.align.closure_table import METHOD, TABLE_FORMAT, ClosureTable, TableRow, table_sha256
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
-from roman_sim.core.records import from_json, read_json, read_record, write_record
+from roman_sim.core.records import read_record, write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
+from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, TrajectoryVariant, ate_table
 from roman_sim.evaluation.pairs import select_pairs
+from roman_sim.interop.base import EXPORT_JSON, read_export_manifest
 from roman_sim.interop.closures import Closure, read_closures, read_pose_csv
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import Progress, RunContext
@@ -109,11 +110,8 @@ def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float
 
 def _robot_order(source: Path, scenario: Scenario) -> list[str]:
     """The robots in the export's order (those it holds), else the scenario's."""
-    manifest = source / "export.json"
-    if manifest.is_file() and not (source / MANIFEST_JSON).is_file():
-        doc = read_json(manifest)  # the export's manifest: only its robots are read
-        robots = doc.get("robots") if isinstance(doc, dict) else None
-        return list(from_json(dict[str, Any], robots, f"{manifest}: field robots"))  # name -> its summary
+    if (source / EXPORT_JSON).is_file() and not (source / MANIFEST_JSON).is_file():
+        return list(read_export_manifest(source).robots)
     return [r.name for r in scenario.robots]
 
 
@@ -303,7 +301,7 @@ def score_external(
     """
     src, out, path = Path(source), Path(out_dir), Path(closures)
     is_run = (src / MANIFEST_JSON).is_file()
-    if not is_run and not (src / "export.json").is_file():
+    if not is_run and not (src / EXPORT_JSON).is_file():
         raise ConfigError(f"{src}: neither a run folder (manifest.json) nor an export folder (export.json)")
     if out.exists() and any(out.iterdir()):
         raise ConfigError(f"--out {out}: already holds files (choose a new folder)")
@@ -332,7 +330,7 @@ def score_external(
         truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
         name = f"{label}_trajectories"
         ate = ate_table(truth, {name: TrajectoryVariant(f"{label}'s own trajectories", "joint", name)}, {name: own})
-        write_json(out / EXTERNAL_ATE_JSON, ate.to_json())
+        write_record(out / EXTERNAL_ATE_JSON, ate.record(), ATE_SCHEMA)
     info = ExternalRecord(
         format="roman_sim.external_score",
         version=1,

@@ -104,18 +104,19 @@ def robot_source(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> Fr
 def _recorded(ctx: RunContext, source: SimulatedRobot) -> FrameSource:
     """The run's recording of ``source`` (``recordings/<robot>``): read back when its key matches, else
     rendered into it (every frame with RGB) first."""
-    from roman_sim.sim.recording import Recording, recording_info, write_recording
+    from roman_sim.sim.recording import Recording, RecordingOrigin, recording_info, write_recording
 
     sc = ctx.scenario
     rec_dir = ctx.run_dir / "recordings" / source.name
     key = _recording_key(ctx, source.name)
     if not ctx.fresh:
         try:
-            if recording_info(rec_dir).get("extra", {}).get("key") == key:
+            origin = recording_info(rec_dir).extra
+            if origin is not None and origin.key == key:
                 return Recording(rec_dir)
         except RomanSimError:
             pass
-    write_recording(source.frames(), rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
+    write_recording(source.frames(), rec_dir, overwrite=True, origin=RecordingOrigin(sc.name, sc.seed, key))
     return Recording(rec_dir)
 
 

@@ -15,7 +15,7 @@
 Numbers match when they agree within ``rel_tol`` (the recomputation is the same arithmetic,
 so a run verified on the machine that wrote it matches exactly; SVDs may differ in the last
 bits between machines). ``report --verify`` adds a check independent of this code
-(``roman_sim.cli._verify``).
+(``roman_sim.studies.verify``).
 """
 
 from __future__ import annotations
@@ -35,6 +35,7 @@ from roman_sim.evaluation.metrics import PairScore, compute_metrics, is_correct
 from roman_sim.evaluation.operating_points import strip_absent_points
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
+from roman_sim.evaluation.run_summary import RunSummary, summarize_run
 from roman_sim.evaluation.types import METRICS_SCHEMA, EvaluationMetrics
 from roman_sim.evaluation.variants import TRUTH
 
@@ -158,10 +159,8 @@ def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
     return run_dir / "trajectories" / f"{robot}.{variant}.tum{suffix}"
 
 
-def stored_summary(run_dir: Path) -> dict[str, Any]:
+def stored_summary(run_dir: Path) -> RunSummary:
     """The run's compact summary as its stored files give it (metrics, ATE, map statistics, timings)."""
-    from roman_sim.evaluation.run_summary import summarize_run
-
     metrics = read_metrics_json(run_dir / METRICS_JSON)
     ate = None
     if (run_dir / ATE_JSON).is_file():
@@ -171,7 +170,7 @@ def stored_summary(run_dir: Path) -> dict[str, Any]:
         stats, _ = read_map_stats(run_dir / "map_stats.json")
     timings = read_timings(run_dir / "timings.json") if (run_dir / "timings.json").is_file() else RunTimings()
     runtimes = {m: timings.median_s(m) for m in metrics.methods}
-    return to_json_object(summarize_run(metrics, ate, stats, runtimes))
+    return summarize_run(metrics, ate, stats, runtimes)
 
 
 def check_run_files(

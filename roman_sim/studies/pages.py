@@ -20,22 +20,19 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from roman_sim.core.atomic import write_text
 from roman_sim.core.records import from_json, to_json
 from roman_sim.evaluation.run_summary import RunSummary
 from roman_sim.studies.claims import claims_markdown, num, point_cells, sweep_markdown, table_markdown
 from roman_sim.studies.reference_tables import (
+    ReferenceRecord,
     frontends_markdown,
     operating_points_markdown,
     points_header,
     revisits_markdown,
     table1_markdown,
 )
-
-if TYPE_CHECKING:
-    from roman_sim.studies.reference import ReferenceRecord
 
 RESULTS_MARKERS = ("<!-- reference-results:begin -->", "<!-- reference-results:end -->")
 DEMO_MARKERS = ("<!-- demo-excerpt:begin -->", "<!-- demo-excerpt:end -->")

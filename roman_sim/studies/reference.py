@@ -24,14 +24,13 @@ import gzip
 import logging
 import shutil
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import NONE_AS_EMPTY, read_record, write_record
+from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings, write_timings
 from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
 from roman_sim.evaluation.run_summary import RunSummary
@@ -40,9 +39,6 @@ from roman_sim.pipeline.sweep_aggregate import read_sweep_json
 from roman_sim.studies import pages
 from roman_sim.studies.claims import (
     PAPER,
-    Claim,
-    ComparisonRow,
-    PaperFigures,
     Runs,
     SweepRow,
     claims,
@@ -53,10 +49,7 @@ from roman_sim.studies.claims import (
 )
 from roman_sim.studies.raw_data import write_packets, write_runtimes
 from roman_sim.studies.reference_tables import (
-    FrontEndTable,
-    PointRow,
-    RevisitRow,
-    Table1Row,
+    ReferenceRecord,
     frontends,
     frontends_markdown,
     operating_points,
@@ -378,23 +371,6 @@ def _committed_sweep(d: Path) -> list[SweepRow]:
         s = _run_summary(d / "ambiguity_sweep" / r.run_id)
         rows += seed_rows({k: r.params[k] for k in spec.grid}, r.seed, s)
     return _sweep_rows(aggregate(rows, spec.grid))
-
-
-@dataclass
-class ReferenceRecord:
-    """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends (None
-    when neither ran: written as ``{}``), the operating points, the revisits, the claims, the
-    ambiguity sweep's rows and the paper's figures."""
-
-    runs: dict[str, RunSummary]
-    comparison: list[ComparisonRow]
-    table1: list[Table1Row] = field(default_factory=list)
-    frontends: FrontEndTable | None = field(default=None, metadata=NONE_AS_EMPTY)
-    operating_points: list[PointRow] = field(default_factory=list)
-    revisits: list[RevisitRow] = field(default_factory=list)
-    claims: list[Claim] = field(default_factory=list)
-    ambiguity_sweep: list[SweepRow] = field(default_factory=list)
-    paper: PaperFigures = PAPER
 
 
 def read_reference(path: str | Path) -> ReferenceRecord:

@@ -20,10 +20,25 @@ of the summary.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from roman_sim.evaluation.run_summary import FrontEndSummary, PairCounts, RecallSummary
-from roman_sim.studies.claims import PAPER_ATE, POINT_COLUMNS, Runs, _ate_cell, _robots, mcell, num, point_cells
+from roman_sim.core.records import NONE_AS_EMPTY
+from roman_sim.evaluation.run_summary import FrontEndSummary, PairCounts, RecallSummary, RunSummary
+from roman_sim.studies.claims import (
+    PAPER,
+    PAPER_ATE,
+    POINT_COLUMNS,
+    Claim,
+    ComparisonRow,
+    PaperFigures,
+    Runs,
+    SweepRow,
+    _ate_cell,
+    _robots,
+    mcell,
+    num,
+    point_cells,
+)
 
 #: Rows of the simulation's ATE table shown next to the paper's, with their column titles.
 ATE_ROWS = {
@@ -378,3 +393,20 @@ def revisits_markdown(rows: list[RevisitRow]) -> str:
     for r in rows:
         lines.append(f"| {r.scenario} | {r.n_relevant} | {num(r.median_overlap)} | {num(r.median_shared_objects, 1)} |")
     return "\n".join(lines) + "\n"
+
+
+@dataclass
+class ReferenceRecord:
+    """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends (None
+    when neither ran: written as ``{}``), the operating points, the revisits, the claims, the
+    ambiguity sweep's rows and the paper's figures."""
+
+    runs: dict[str, RunSummary]
+    comparison: list[ComparisonRow]
+    table1: list[Table1Row] = field(default_factory=list)
+    frontends: FrontEndTable | None = field(default=None, metadata=NONE_AS_EMPTY)
+    operating_points: list[PointRow] = field(default_factory=list)
+    revisits: list[RevisitRow] = field(default_factory=list)
+    claims: list[Claim] = field(default_factory=list)
+    ambiguity_sweep: list[SweepRow] = field(default_factory=list)
+    paper: PaperFigures = PAPER

@@ -3,6 +3,7 @@ that does not match fails with one line naming the file and the field."""
 
 from __future__ import annotations
 
+import ast
 import json
 import math
 from dataclasses import dataclass, field
@@ -13,6 +14,7 @@ import numpy as np
 import pytest
 from committed_results import STANDARD
 
+import roman_sim
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSONLike
@@ -259,3 +261,47 @@ def test_a_document_inside_a_file_names_the_file() -> None:
         loads_record(b"{", _Counts, "x.npz")
     with pytest.raises(RecordError, match=r"^x.npz: not a JSON document \(not UTF-8"):
         loads_record(b"\xff", _Counts, "x.npz")
+
+
+#: The modules that may parse JSON themselves: the records mechanism, and the independent scorer
+#: (which must not share code with what it checks).
+JSON_PARSERS = {"roman_sim/core/records.py", "roman_sim/studies/independent_scorer.py"}
+_PARSE = {"load", "loads", "JSONDecoder", "raw_decode"}
+
+
+def _json_parses(tree: ast.AST) -> list[int]:
+    """Lines of ``tree`` that parse JSON with the standard library (``json.load``, ``json.loads``, a
+    decoder), whatever name ``json`` or its functions are imported under."""
+    modules, functions = set(), set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            modules |= {a.asname or a.name for a in node.names if a.name == "json"}
+        elif isinstance(node, ast.ImportFrom) and node.module == "json":
+            functions |= {a.asname or a.name for a in node.names if a.name in _PARSE}
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and node.attr in _PARSE:
+            if isinstance(node.value, ast.Name) and node.value.id in modules:
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Name) and node.id in functions:
+            lines.append(node.lineno)
+    return lines
+
+
+def test_only_the_records_module_parses_json() -> None:
+    """Every JSON document the package reads goes through ``roman_sim.core.records`` (checked fields,
+    one line naming the file and the field); no other module calls ``json.load`` / ``json.loads``."""
+    root = Path(roman_sim.__file__).parent
+    found = {
+        f"{p.relative_to(root.parent).as_posix()}:{line}"
+        for p in sorted(root.rglob("*.py"))
+        if p.relative_to(root.parent).as_posix() not in JSON_PARSERS
+        for line in _json_parses(ast.parse(p.read_text(encoding="utf-8")))
+    }
+    assert not found, "JSON parsed outside roman_sim.core.records: " + ", ".join(sorted(found))
+    assert _json_parses(ast.parse((root / "core" / "records.py").read_text(encoding="utf-8")))
+
+
+def test_the_json_rule_sees_every_spelling() -> None:
+    source = "import json as j\nfrom json import loads as parse\nj.load(f)\nparse(s)\nx = json.loads\nj.dumps(v)\n"
+    assert sorted(_json_parses(ast.parse(source))) == [3, 4]  # json itself is not imported: line 5 is another name

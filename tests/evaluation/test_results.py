@@ -10,6 +10,7 @@ import pytest
 
 from roman_sim.core.errors import StorageError
 from roman_sim.core.records import to_json
+from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics, score_pair
 from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth
 from roman_sim.evaluation.results import (
@@ -54,6 +55,7 @@ def test_metrics_round_trip_and_nan_is_null(scores, tmp_path):
     text = paths["metrics"].read_text()
     assert "NaN" not in text and "null" in text
     back_scores, back = read_evaluation(tmp_path)
+    assert isinstance(back.config, EvalConfig) and back.config == m.config  # the settings, typed
     assert to_json(back) == json.loads(json.dumps(to_json(m)))
     assert to_json(compute_metrics(back_scores)) == to_json(back)
 

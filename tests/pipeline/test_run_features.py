@@ -197,8 +197,8 @@ def test_every_bundled_sweep_validates(path):
 
 
 def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
-    from roman_sim.cli._verify import verify_run
     from roman_sim.studies.reference import rederive, reproduce
+    from roman_sim.studies.verify import verify_run
 
     shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
     path = reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")
@@ -246,7 +246,7 @@ def test_record_command_stores_readable_frames(tmp_path):
     assert not (out / "a").exists()
     info = recording_info(out / "b")
     frames = list(read_recording(out / "b"))
-    assert len(frames) == info["frame_count"] > 5
+    assert len(frames) == info.frame_count > 5 and info.extra is not None and info.extra.scenario == "smoke"
     assert frames[0].depth.shape == (120, 160) and frames[0].robot == "b"
     assert len(read_tum(out / "b" / "traj_odom.tum")) == len(frames)
     line = _one_line_error(runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "zz"]))

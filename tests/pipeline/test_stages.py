@@ -58,7 +58,7 @@ def test_evaluation_stage_round_trips_its_output(tmp_path):
     assert {"pairs.csv", "metrics.json", "alignments.json"} <= set(files)
     back = stage.load(ctx, files)
     assert to_json(back.metrics) == to_json(out.metrics)
-    assert [to_json(r) for r in back.alignments] == [to_json(r) for r in out.alignments]
+    assert [to_json(r.row()) for r in back.alignments] == [to_json(r.row()) for r in out.alignments]
     assert back.notes == out.notes and files == ["metrics.json", "pairs.csv", "alignments.json"]
     assert "per_pair_s" in out.timings["alignment"]["roman"]  # runtimes go to the timings only
     assert out.timings["pairs"]["aligned"] == 1 and back.timings == {}

@@ -7,7 +7,7 @@ import shutil
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.cli._verify import verify_run
+from roman_sim.studies.verify import verify_run
 
 runner = CliRunner()
 
@@ -103,5 +103,5 @@ def test_the_scorer_gives_the_evaluations_operating_points(smoke_run):
                 assert not agreement(theirs, figures[kind]["bins"][b.label]["points"]), (m, kind, b.label)
             assert figures[kind]["points"]["acceptance"]["k"] == metrics.acceptance_k
     # the stored summary carries them, and the check compares them
-    assert stored_summary(smoke_run.run_dir)["methods"]["roman"]["inter"]["points"]["max_recall"]
+    assert stored_summary(smoke_run.run_dir).methods["roman"].inter.points["max_recall"]
     assert not any("predates" in n for n in verify_run(smoke_run.run_dir).notes)

@@ -354,17 +354,15 @@ def _without_points(v: object) -> object:
 
 @pytest.mark.skipif(not (REF / "demo" / "pairs.csv.gz").is_file(), reason="no committed demo run")
 def test_a_run_whose_metrics_predate_the_points_is_checked_without_them(tmp_path):
-    from roman_sim.cli._verify import independent_check, verify_run
     from roman_sim.report.recompute import stored_summary
+    from roman_sim.studies.verify import independent_check, verify_run
 
     d = tmp_path / "demo"
     shutil.copytree(REF / "demo", d)
     metrics = json.loads((d / "metrics.json").read_text(encoding="utf-8"))
     assert "acceptance_k" in metrics  # the committed run has them; the copy is made older
     (d / "metrics.json").write_text(json.dumps(_without_points(metrics)), encoding="utf-8")
-    assert not any(
-        r["points"] for m in stored_summary(d)["methods"].values() for r in m.values() if isinstance(r, dict)
-    )
+    assert not any(s.points for m in stored_summary(d).methods.values() for s in (m.inter, m.intra))
     assert independent_check(d) == []
     res = verify_run(d, rel_tol=1e-6, pairs_file="pairs.csv.gz", tum_suffix=".gz")
     assert res.ok, res.differences[:5]

@@ -16,10 +16,10 @@ import pytest
 from committed_results import REFERENCE as REF
 from committed_results import committed_files
 
-from roman_sim.cli._verify import verify_run
 from roman_sim.core.records import to_json
 from roman_sim.report.recompute import compare
 from roman_sim.studies.reference import read_reference, rederive, reference_markdown
+from roman_sim.studies.verify import verify_run
 
 #: Committed reference results (raw data included) must stay small enough for a repository:
 #: about 31 MB for the small scenarios, the demo, the paper preset (13 runs) and the sweep, and
