@@ -117,9 +117,9 @@ def _patch_renderer(clock: Clock) -> Callable[[], None]:
 
 def _rgb_schedule(ctx: Any, run: Any) -> Any:
     """The frames the pipeline renders RGB for (None: all; an older checkout renders all)."""
-    from roman_sim.pipeline import robot_mapping
+    from roman_sim.pipeline.stages import maps_robot
 
-    pick = getattr(robot_mapping, "_rgb_frames", None)
+    pick = getattr(maps_robot, "_rgb_frames", None)
     return None if pick is None else pick(ctx, run)
 
 
@@ -127,13 +127,13 @@ def _one_pass(ctx: Any, world: Any, cfg: Any, run: Any, families: dict[int, str]
     """Render and map ``run`` once as the maps stage does; CPU seconds per step and counts."""
     from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
     from roman_sim.mapping.mapper import Mapper
-    from roman_sim.pipeline import robot_mapping
+    from roman_sim.pipeline.stages import maps_robot
     from roman_sim.sim.robot import render_trajectory
 
     sc, clock = ctx.scenario, Clock()
-    seg = Timed(robot_mapping.build_segmenter_for(ctx, cfg.name), clock, "segment", ("segment",))
-    enc = Timed(robot_mapping.build_encoder_for(ctx, cfg.name, families), clock, "encode", ("encode", "encode_batch"))
-    grader = robot_mapping._Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name)
+    seg = Timed(maps_robot.build_segmenter_for(ctx, cfg.name), clock, "segment", ("segment",))
+    enc = Timed(maps_robot.build_encoder_for(ctx, cfg.name, families), clock, "encode", ("encode", "encode_batch"))
+    grader = maps_robot._Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name)
     grader.use(families)
     mapper = Mapper(sc.mapping, seg, enc, seed=sc.seed, on_frame=clock.wrap("grade", grader.add))
     mapper.tracker.update = clock.wrap("track", mapper.tracker.update)  # type: ignore[method-assign]

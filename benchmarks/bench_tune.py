@@ -59,9 +59,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from roman_sim.benchmark.tune_choice import RULES
+from roman_sim.benchmark.tune_result import TuneHeldOut, TuneRecommended
 from roman_sim.core.records import to_json
-from roman_sim.evaluation.tune_result import TuneHeldOut, TuneRecommended
-from roman_sim.evaluation.tuning import RULES
 
 OUT = Path(__file__).resolve().parent / "out" / "tune.json"
 #: The seeds of the worlds the recommended setting is checked on (the quick suite tunes on seed 0).
@@ -131,10 +131,10 @@ def _check(
     seeds: list[int] = CHECK_SEEDS,
 ) -> dict[str, Any]:
     """The recommended setting, fixed, on the quick suite's worlds of ``seeds`` (of ``level`` only when given)."""
+    from roman_sim.benchmark.transfer import PRECISION_SLACK, counts, positives, world_bootstrap, world_precisions
     from roman_sim.benchmark.tune import TuneJob, config_outcomes
+    from roman_sim.benchmark.world_spread import WorldSpread
     from roman_sim.evaluation.intervals import wilson
-    from roman_sim.evaluation.transfer import PRECISION_SLACK, counts, positives, world_bootstrap, world_precisions
-    from roman_sim.evaluation.world_spread import WorldSpread
 
     sp = rec.spread
     spread = None if sp is None else WorldSpread(sp.a, sp.b, sp.worlds)
@@ -218,8 +218,8 @@ def _maps_reused(folder: Path) -> dict[str, bool]:
 def _best_lowest_world_wilson(job: Any) -> dict[str, Any]:
     """Over every setting of the tune (config and threshold), the one whose lowest world Wilson lower end is
     highest: an upper bound of any setting's one-new-world lower end (the hull's lower end is at most it)."""
+    from roman_sim.benchmark.transfer import positives, world_precisions
     from roman_sim.benchmark.tune import config_outcomes
-    from roman_sim.evaluation.transfer import positives, world_precisions
 
     per_world, facts = job.collect()
     best: dict[str, Any] = {"value": -1.0}

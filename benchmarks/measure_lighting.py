@@ -30,6 +30,9 @@ Why the rasteriser and not MuJoCo: it is the renderer the appearance weights wer
 (``benchmarks/measure_appearance.py``), it draws the world's lighting equation without building a
 world and a camera per family, and the whole measurement takes seconds.
 
+``SemanticConfig.lighting_fall``'s default is the noon figure rounded to 0.01 (the docs test
+checks it against the committed JSON, which records the default it was written with).
+
 Writes ``benchmarks/out/lighting_fall.json``.
 
 Usage: python benchmarks/measure_lighting.py

@@ -35,11 +35,12 @@ from typing import Any, cast
 
 import numpy as np
 
+from roman_sim.benchmark.board_records import Leaderboard, read_leaderboard
 from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.paired import MAX_NEEDED
 from roman_sim.pipeline.experiment import Experiment, default_run_dir
+from roman_sim.pipeline.manifest import is_wall_time_file
 from roman_sim.pipeline.result import RunResult
 from roman_sim.pipeline.scenario import load_scenario, method_label
 
@@ -428,7 +429,7 @@ def run_folder_bytes(run_dir: str | Path) -> dict[str, bytes]:
     return {
         p.relative_to(d).as_posix(): p.read_bytes()
         for p in sorted(d.rglob("*"))
-        if p.is_file() and p.name != "timings.json" and not p.name.endswith(".times.json")
+        if p.is_file() and not is_wall_time_file(p.name)
     }
 
 

@@ -2,7 +2,8 @@
 (``make_submap``, ``make_truth``, ``make_score``, ``result_for``) for the evaluation and report tests.
 
 The helper modules beside this file (``committed_results``: the committed result folders the
-tests may read) are importable from every test.
+tests may read; ``figure_checks``: checks of a figure as it is saved; ``processes``: the
+processes a run leaves behind) are importable from every test.
 """
 
 from __future__ import annotations
@@ -40,6 +41,23 @@ def smoke_run(tmp_path_factory: pytest.TempPathFactory) -> RunResult:
     from roman_sim.pipeline.scenario import load_scenario
 
     return Experiment(load_scenario("smoke"), tmp_path_factory.mktemp("smoke") / "seed0").run()
+
+
+@pytest.fixture
+def run_cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str, str]]:
+    """Run ``roman-sim ARGS`` through the real entry point; returns (exit code, stdout, stderr)."""
+    from roman_sim.cli import app
+
+    def run(*args: str) -> tuple[int, str, str]:
+        try:
+            app(list(args), prog_name="roman-sim")
+            code = 0
+        except SystemExit as ex:
+            code = int(ex.code or 0)
+        out = capsys.readouterr()
+        return code, out.out, out.err
+
+    return run
 
 
 @pytest.fixture
@@ -262,13 +280,13 @@ LONGEST_FIRST = (
     "tests/pipeline/test_regression.py",
     "tests/runner/test_executors.py",
     "tests/pipeline/test_scenario_stats.py",
-    "tests/robustness/test_interrupts.py",
+    "tests/cli/test_interrupts.py",
     "tests/pipeline/test_run_features.py",
-    "tests/pipeline/test_external_score.py",
+    "tests/scoring/test_external_score.py",
     "tests/benchmark/test_run.py",
     "tests/benchmark/test_plugin_row.py",
     "tests/runner/test_dask_security.py",
-    "tests/pipeline/test_wheel.py",
+    "tests/test_wheel.py",
     "tests/pipeline/test_sweep.py",
     "tests/pipeline/test_bundled_scenarios.py",
 )

@@ -53,6 +53,20 @@ def test_overview_names_every_method_segmenter_encoder_and_drift_preset():
     assert set(LISTINGS["drift"]()) <= named["robots"]
 
 
+def test_the_overview_and_the_api_index_name_every_package():
+    """The overview's table has a row for every package but those the sentence under it names (``core``,
+    ``cli``, ``examples``); the API index, one for every package and ``roman_sim.testing``."""
+    packages = {p.parent.name for p in (ROOT / "roman_sim").glob("*/__init__.py")}
+    rows = [ln for ln in (ROOT / "docs/index.md").read_text().splitlines() if ln.count("|") > 3]
+    overview = [m for ln in rows for m in re.findall(r"`roman_sim\.(\w+)`", ln.split("|")[2])]
+    assert len(overview) == len(set(overview))
+    assert set(overview) | {"core", "cli", "examples"} == packages
+    assert "(`core` at the base, `cli`, `viz`, `testing` and `examples` on top)" in _flat("docs/index.md")
+    api_rows = [ln for ln in (ROOT / "docs/api/index.md").read_text().splitlines() if ln.startswith("| [`")]
+    api = {m for ln in api_rows for m in re.findall(r"`roman_sim\.(\w+)`", ln.split("|")[1])}
+    assert api == packages | {"testing"}
+
+
 def test_readme_describes_the_demo():
     text = _flat("README.md")
     sc = load_scenario("demo")

@@ -14,7 +14,7 @@ import pytest
 from packaging.requirements import Requirement
 from readme_commands import FIRST, TEST, marked_command, no_deps_installs
 
-from roman_sim.pipeline.lockfile import LOCK_FILE, lock_changes, locked_versions, normalize, warn_unlocked
+from roman_sim.studies.lockfile import LOCK_FILE, lock_changes, locked_versions, normalize, warn_unlocked
 
 ROOT = Path(__file__).resolve().parent.parent
 LOCK = ROOT / LOCK_FILE
@@ -109,7 +109,7 @@ def test_lock_changes_names_each_installed_version_that_differs(tmp_path):
 def test_reproduce_warns_once_naming_the_versions_that_differ(tmp_path, caplog):
     numpy = metadata.version("numpy")
     _lock(tmp_path, {"numpy": "1.0.0", "PyYAML": metadata.version("PyYAML")})
-    with caplog.at_level(logging.WARNING, logger="roman_sim.pipeline.lockfile"):
+    with caplog.at_level(logging.WARNING, logger="roman_sim.studies.lockfile"):
         assert warn_unlocked(tmp_path) == [f"numpy 1.0.0 -> {numpy}"]
     assert [r.getMessage() for r in caplog.records] == [
         f"this environment differs from {tmp_path / LOCK_FILE}, the versions the reference results were made with "

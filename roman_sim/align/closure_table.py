@@ -1,7 +1,7 @@
 """An external system's loop closures, replayed as an aligner's results.
 
 The system ran outside the testbed; its closures were matched to this run's submap pairs
-(``roman_sim.pipeline.external``) and written to a table file. For a pair the table holds,
+(``roman_sim.scoring.external``) and written to a table file. For a pair the table holds,
 the result is the table's ``T_a_b`` with as many (placeholder) associations as the
 closure's score, marked ``association_kind: external`` so they are not graded against the
 true segment correspondences; any other pair is "no closure". The table's SHA-256 is a

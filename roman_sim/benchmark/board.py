@@ -8,7 +8,7 @@ heading bins: per method and cell (level x heading bin) the operating points (ma
 with its precision, recall at precision >= 0.9 and 1, recall at the pose graph's
 acceptance threshold), each with counts and a Wilson interval. In each cell the methods
 are ranked by the intervals of max recall and of recall at precision >= 0.9
-(``evaluation.ranking``: tied unless the intervals separate). The pooled Wilson intervals are
+(``benchmark.ranking``: tied unless the intervals separate). The pooled Wilson intervals are
 checked against the bound (+-0.1) per cell over every method and point (``bound_met``).
 
 Beside them, per level, the deployable point (``benchmark.deployable``): one threshold per
@@ -18,8 +18,8 @@ pooled Wilson and world-bootstrap intervals, and ranks by the world intervals. T
 headline bound is checked there (``deployable_bound_met``): in every level x heading bin the
 widest world-bootstrap half-width of held-out recall, over methods, is at most +-0.1.
 
-``leaderboard.json`` holds all of it; ``leaderboard.md`` (``report.leaderboard``) and the
-figures in ``plots/`` (``report.benchmark_plots``) render it. Runtimes come from each cell's
+``leaderboard.json`` holds all of it; ``leaderboard.md`` (``benchmark.board_markdown``) and the
+figures in ``plots/`` (``benchmark.board_plots``) render it. Runtimes come from each cell's
 ``runtimes.json``.
 """
 
@@ -27,9 +27,23 @@ from __future__ import annotations
 
 import logging
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+import numpy as np
+from numpy.typing import NDArray
+
+from roman_sim.benchmark.board_markdown import RANKED, leaderboard_markdown
+from roman_sim.benchmark.board_plots import write_benchmark_plots
+from roman_sim.benchmark.board_records import (
+    BoardCell,
+    BoardLevel,
+    Leaderboard,
+    MethodRuntime,
+    PairVerdict,
+    write_leaderboard_json,
+)
 from roman_sim.benchmark.cells import (
     BENCHMARK_JSON,
     BENCHMARK_SCHEMA,
@@ -41,20 +55,19 @@ from roman_sim.benchmark.cells import (
     CellStatus,
     RuntimeStats,
 )
-from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable
+from roman_sim.benchmark.deployable import DEFAULT_TARGET, deployable, paired_ranks
+from roman_sim.benchmark.ranking import Rank
+from roman_sim.benchmark.transfer import check_target
 from roman_sim.core.atomic import write_text
 from roman_sim.core.records import RecordError
 from roman_sim.core.records import read_record as read_json_record
-from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard, MethodRuntime, write_leaderboard_json
+from roman_sim.evaluation.bins import bin_index
 from roman_sim.evaluation.metrics import PairScore, compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
-from roman_sim.evaluation.ranking import rank_by_intervals
+from roman_sim.evaluation.paired_worlds import MIN_HITS, paired_difference
 from roman_sim.evaluation.results import read_pairs_csv
-from roman_sim.evaluation.transfer import check_target
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
 from roman_sim.pipeline.scenario import method_label
-from roman_sim.report.benchmark_plots import write_benchmark_plots
-from roman_sim.report.leaderboard import RANKED, leaderboard_markdown
 from roman_sim.report.recompute import eval_settings, rederive_scores
 
 log = logging.getLogger(__name__)
@@ -138,16 +151,72 @@ def level_metrics(out: Path, lv: Level, edges: list[float]) -> EvaluationMetrics
     return compute_metrics(lv.scores, cfg, 0, lv.acceptance_k)
 
 
-def _cell(label: str, stats: dict[str, CurveStats]) -> BoardCell:
-    """One leaderboard cell: per method its operating points, and the ranks by interval."""
+@dataclass(frozen=True)
+class MethodPairs:
+    """One method's cross-robot pairs of a level as arrays: world index, heading, truth and score."""
+
+    world: NDArray[np.int64]
+    heading: NDArray[np.float64]
+    hit: NDArray[np.bool_]
+    relevant: NDArray[np.bool_]
+    score: NDArray[np.int64]
+
+    def world_hits(self, k: int, mask: NDArray[np.bool_], n_worlds: int) -> tuple[NDArray, NDArray]:
+        """Per world the hits at threshold ``k`` and the relevant pairs among the pairs of ``mask``."""
+        hit = self.hit & (self.score >= k) & mask
+        return (
+            np.bincount(self.world, hit, n_worlds).astype(np.float64),
+            np.bincount(self.world, self.relevant & mask, n_worlds).astype(np.float64),
+        )
+
+
+def method_pairs(scores: list[PairScore]) -> tuple[dict[str, MethodPairs], int]:
+    """Per method its cross-robot pairs of a level as arrays, and the number of worlds (cells)."""
+    worlds = sorted({s.truth.a.split(":", 1)[0] for s in scores})
+    at = {w: i for i, w in enumerate(worlds)}
+    out = {}
+    for m in dict.fromkeys(s.method for s in scores):
+        rows = [s for s in scores if s.method == m and s.truth.kind == "inter"]
+        out[m] = MethodPairs(
+            np.asarray([at[s.truth.a.split(":", 1)[0]] for s in rows], dtype=np.int64),
+            np.asarray([s.truth.heading_diff_deg for s in rows], dtype=np.float64),
+            np.asarray([s.truth.relevant and s.correct for s in rows], dtype=np.bool_),
+            np.asarray([s.truth.relevant for s in rows], dtype=np.bool_),
+            np.asarray([s.n_assoc for s in rows], dtype=np.int64),
+        )
+    return out, len(worlds)
+
+
+def point_ranks(
+    points: dict[str, OperatingPoint | None], pairs: dict[str, MethodPairs], in_bin: Callable, n_worlds: int
+) -> dict[str, Rank]:
+    """Ranks at one operating point by paired verdicts over worlds (each method at its own threshold);
+    a method below the floor (``MIN_HITS``) or without the point gets none."""
+    counts = {}
+    for m, p in points.items():
+        if p is None or p.k is None or m not in pairs or p.hits < MIN_HITS:
+            continue
+        counts[m] = pairs[m].world_hits(p.k, in_bin(pairs[m]), n_worlds)
+    if n_worlds < 2:
+        return {}
+    names = list(counts)
+    verdicts = [
+        PairVerdict(a, b, paired_difference(counts[a][0], counts[b][0], counts[a][1]).verdict, 0.0, 1.0, 0.0, 0)
+        for i, a in enumerate(names)
+        for b in names[i + 1 :]
+    ]
+    return paired_ranks(names, verdicts)
+
+
+def _cell(
+    label: str, stats: dict[str, CurveStats], pairs: dict[str, MethodPairs], in_bin: Callable, n_worlds: int
+) -> BoardCell:
+    """One leaderboard cell: per method its operating points, and the ranks by paired verdicts."""
     first = next(iter(stats.values()))
     methods: dict[str, dict[str, OperatingPoint | None]] = {
         m: {n: s.operating_points.get(n) for n in POINT_NAMES} for m, s in stats.items()
     }
-    ranks = {
-        point: rank_by_intervals({m: (None if p is None else p.recall_ci) for m, p in _at(stats, point).items()})
-        for point in RANKED
-    }
+    ranks = {point: point_ranks(_at(stats, point), pairs, in_bin, n_worlds) for point in RANKED}
     halves = [
         (p.recall_ci[1] - p.recall_ci[0]) / 2
         for pts in methods.values()
@@ -196,8 +265,13 @@ def _level(
         return BoardLevel(lv.name, lv.knob, lv.cells, lv.acceptance_k), None
     m = level_metrics(out, lv, edges)
     sets = {meth: mm.set("inter") for meth, mm in m.methods.items()}
+    pairs, n_worlds = method_pairs(lv.scores)
+
+    def bin_of(i: int) -> Callable[[MethodPairs], NDArray[np.bool_]]:
+        return lambda mp: bin_index(mp.heading, edges) == i
+
     bins = [
-        _cell(b.label, {k: v.heading_bins[i].stats for k, v in sets.items()})
+        _cell(b.label, {k: v.heading_bins[i].stats for k, v in sets.items()}, pairs, bin_of(i), n_worlds)
         for i, b in enumerate(next(iter(sets.values())).heading_bins)
     ]
     k_values = eval_settings(out / CELLS_DIR / lv.cells[0])[0].k_values()
@@ -208,7 +282,9 @@ def _level(
         lv.acceptance_k,
         ambiguity_index=_ambiguity_index(lv.scores),
         interval_level=m.config.interval_level,
-        overall=_cell("all", {k: v.overall for k, v in sets.items()}),
+        overall=_cell(
+            "all", {k: v.overall for k, v in sets.items()}, pairs, lambda mp: np.ones(len(mp.world), bool), n_worlds
+        ),
         bins=bins,
         deployable=deployable(lv.scores, list(m.methods), edges, k_values, target_precision),
     )
@@ -253,7 +329,8 @@ def leaderboard(
 
 def deployable_bound_met(board: Leaderboard) -> bool:
     """Whether every cell finished and every level has held-out figures whose widest world-bootstrap recall
-    half-width is at most the board's bound in every heading bin (a single-world level cannot meet it)."""
+    half-width is at most the board's bound in every heading bin (a single-world level cannot meet it); bins
+    where every method is below the floor hold no bound (``Leaderboard.deployable_floors``)."""
     widths = board.deployable_widths()
     return (
         not board.failed_cells

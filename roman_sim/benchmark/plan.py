@@ -4,10 +4,11 @@ Which submap pairs should align depends only on where the submap centres are: th
 pipeline places a centre whenever a robot's *odometry* has moved ``submap_center_dist``
 (or ``submap_center_time`` has passed) and scores the pair of two centres by their *true*
 poses. Both trajectories follow from the world, the paths and the seed alone (driving and
-drift, no rendering), so the planner here generates the world's truth (no model), plans and drives every
-robot, places the centres with the pipeline's own rule (``mapping.submap.center_indices``)
-and scores the pairs with the evaluation's own functions (``select_pairs``,
-``truths_for_pairs``) on submaps that carry only their truth. The counts are those of the
+drift, no rendering), so a crossing scene's plan (``scenes.build_crossing``) drives every
+robot through the world's truth (no model), and the functions here place the centres with the
+pipeline's own rule (``mapping.submap.center_indices``) and score the pairs with the
+evaluation's own functions (``select_pairs``, ``truths_for_pairs``) on submaps that carry
+only their truth. The counts are those of the
 finished run, to the pair, as long as relevance is by distance (the default): relevance by
 shared objects needs the maps, and is refused.
 """
@@ -16,13 +17,12 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
 
 import numpy as np
 
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.geometry import gravity_aligned
-from roman_sim.evaluation.bins import bin_groups, bin_label
+from roman_sim.evaluation.bins import bin_groups
 from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs
 from roman_sim.mapping.submap import SubmapConfig, center_indices
 from roman_sim.mapping.types import Submap, SubmapTruth
@@ -68,44 +68,8 @@ def scored_pairs(subs: list[Submap], sc: Scenario) -> list[PairTruth]:
     return truths_for_pairs(select_pairs(subs, sc.evaluation).pairs, None, sc.evaluation)
 
 
-def planned_pairs(sc: Scenario) -> list[PairTruth]:
-    """The truth of every pair the run of ``sc`` will score, from its planned and driven trajectories."""
-    from roman_sim.sim.source import robot_sources
-    from roman_sim.world import generate_truth
-
-    if len(sc.simulated_robots()) != len(sc.robots):
-        raise ConfigError("planning: every robot must be simulated (a recorded sequence has no planned path)")
-    world = generate_truth(sc.world.spec(), sc.seed)
-    runs = {src.name: src.run for src in robot_sources(world, sc.robots, sc.seed)}
-    return scored_pairs(submaps_along(runs, sc.submaps), sc)
-
-
-@dataclass(frozen=True)
-class PlannedCounts:
-    """Relevant cross-robot pairs per heading bin of one planned run.
-
-    Attributes:
-        labels: heading bin labels (``"0-30"``, ...).
-        relevant: relevant cross-robot pairs in each bin.
-        pairs: every scored pair (cross- and same-robot).
-        submaps: planned submaps.
-    """
-
-    labels: list[str]
-    relevant: list[int]
-    pairs: int
-    submaps: int
-
-
 def relevant_per_bin(truths: Sequence[PairTruth], edges: Sequence[float]) -> list[int]:
     """Relevant cross-robot pairs whose heading difference falls in each bin of ``edges``."""
     inter = [t for t in truths if t.kind == "inter"]
     groups = bin_groups(inter, [t.heading_diff_deg for t in inter], edges)
     return [sum(1 for t in g if t.relevant) for g in groups]
-
-
-def plan_counts(truths: Sequence[PairTruth], edges: Sequence[float]) -> PlannedCounts:
-    """``PlannedCounts`` of a run's planned pair truths over the heading ``edges``."""
-    labels = [bin_label(lo, hi) for lo, hi in zip(edges, edges[1:])]
-    subs = len({t.a for t in truths} | {t.b for t in truths})
-    return PlannedCounts(labels, relevant_per_bin(truths, edges), len(truths), subs)

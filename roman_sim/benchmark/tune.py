@@ -17,7 +17,7 @@ leaderboard's thresholds, chosen per method and level, do). The job
 3. applies each gating setting to those ungated results (``align.gating.gate_pairs`` on the
    world's submaps; a gated-out pair is "no alignment" and costs no time), and each threshold
    by the pairs' association counts: neither re-maps nor re-aligns;
-4. scores with ``evaluation.tuning``: per config (aligner x gating setting) held-out recall
+4. scores with ``benchmark.tune_choice``: per config (aligner x gating setting) held-out recall
    and precision with world-bootstrap intervals at thresholds chosen on the other worlds,
    false loop closures per km and time per pair, the Pareto front; the recommended setting
    (chosen on every world of the source) with the held-out figures of the same choice made
@@ -41,15 +41,19 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from roman_sim.benchmark.deployable import held_out_figures
-from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, parse_params
-from roman_sim.core.atomic import write_text
-from roman_sim.core.config import read_yaml, stable_hash, validate_model
-from roman_sim.core.errors import ConfigError, StorageError
-from roman_sim.core.records import OMIT_NONE, RecordError, read_record, write_record
-from roman_sim.evaluation.records import RunTimings
-from roman_sim.evaluation.transfer import PRECISION_SLACK, PairOutcomes, check_target
-from roman_sim.evaluation.tune_result import (
+from roman_sim.benchmark.board_records import HeldOutFigures
+from roman_sim.benchmark.transfer import PRECISION_SLACK, HeldOutCell, PairOutcomes, check_target, transfers
+from roman_sim.benchmark.tune_choice import (
+    ConfigOutcomes,
+    Evidence,
+    Figures,
+    check_rule,
+    choose_setting,
+    config_rows,
+    nested_held_out,
+    setting_spread,
+)
+from roman_sim.benchmark.tune_result import (
     TuneChoice,
     TuneConfig,
     TuneHeldOut,
@@ -60,16 +64,12 @@ from roman_sim.evaluation.tune_result import (
     TuneWorldKm,
     write_tune,
 )
-from roman_sim.evaluation.tuning import (
-    ConfigOutcomes,
-    Evidence,
-    Figures,
-    check_rule,
-    choose_setting,
-    config_rows,
-    nested_held_out,
-    setting_spread,
-)
+from roman_sim.benchmark.tune_space import THRESHOLD, Config, Grid, build_grid, parse_params
+from roman_sim.core.atomic import write_text
+from roman_sim.core.config import read_yaml, stable_hash, validate_model
+from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.records import OMIT_NONE, RecordError, read_record, write_record
+from roman_sim.evaluation.records import RunTimings
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
 
@@ -257,7 +257,7 @@ class TuneJob:
         seeds: the seeds (worlds) of a scenario or suite; a sweep's runs of these seeds.
         overrides: dotted scenario overrides of every world.
         level: a suite's level: its worlds only (None: every level).
-        rule: the recommendation rule (``evaluation.tuning.RULES``).
+        rule: the recommendation rule (``benchmark.tune_choice.RULES``).
         executor: where the runs' tasks run (None: this process).
         progress: called after each alignment of a world.
     """
@@ -432,9 +432,9 @@ class TuneJob:
         )
 
     def score(self, per_world: dict[str, dict[AlignerValues, Outcomes]], facts: dict[str, WorldFacts]) -> TuneResult:
-        """Score the outcomes (see ``evaluation.tuning``) and write the folder's results."""
+        """Score the outcomes (see ``benchmark.tune_choice``) and write the folder's results."""
+        from roman_sim.benchmark.tune_plot import plot_front
         from roman_sim.benchmark.tune_space import declared
-        from roman_sim.report.tune_plot import plot_front
 
         spec = declared(self.method)
         configs = {c.id: config_outcomes(c, per_world, facts) for c in self.grid.configs}
@@ -551,6 +551,25 @@ def config_outcomes(
             cols["runtime"].append(0.0 if out else (float("nan") if t is None else t))
     o = PairOutcomes.from_lists(cols["world"], cols["cluster"], cols["relevant"], cols["correct"], cols["score"])
     return ConfigOutcomes(o, np.asarray(cols["runtime"], dtype=np.float64))
+
+
+def _pair(ci: tuple[float, float] | None) -> list[float] | None:
+    return None if ci is None else [float(ci[0]), float(ci[1])]
+
+
+def held_out_figures(c: HeldOutCell, target: float) -> HeldOutFigures:
+    """A held-out cell of the tune as its records hold it, with whether its precision transfers."""
+    return HeldOutFigures(
+        hits=c.hits,
+        false_positives=c.false_positives,
+        n_relevant=c.n_relevant,
+        recall=c.recall,
+        recall_wilson=_pair(c.recall_wilson),
+        recall_worlds=_pair(c.recall_worlds),
+        precision=c.precision,
+        precision_worlds=_pair(c.precision_worlds),
+        transfers=transfers(c.precision, target),
+    )
 
 
 def tuned_figures(f: Figures, target: float) -> dict[str, Any]:

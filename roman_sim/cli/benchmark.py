@@ -14,8 +14,8 @@ from roman_sim.cli import app, echo_traceback
 from roman_sim.cli.progress import LineProgress
 
 if TYPE_CHECKING:
+    from roman_sim.benchmark.board_records import Deployable, Leaderboard
     from roman_sim.benchmark.cells import Cell, CellPlan
-    from roman_sim.evaluation.leaderboard import Deployable, Leaderboard
 
 
 def _methods(values: list[str] | None) -> list[str] | None:
@@ -106,9 +106,9 @@ def benchmark_cmd(
 ) -> None:
     """Run a benchmark suite (resumable); write leaderboard.json, leaderboard.md and plots; exit 1 if a cell failed."""
     from roman_sim.benchmark.board import LEADERBOARD_JSON, LEADERBOARD_MD
+    from roman_sim.benchmark.board_records import read_leaderboard
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
-    from roman_sim.evaluation.leaderboard import read_leaderboard
 
     if not 0 < target_precision <= 1:
         typer.echo(f"--target-precision: must lie in (0, 1], got {target_precision:g}", err=True)

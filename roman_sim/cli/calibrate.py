@@ -72,7 +72,7 @@ def calibrate_cmd(
     overrides: list[str] = typer.Option([], "--set", help="override a scenario field, key=value"),
 ) -> None:
     """Measure an encoder and/or a segmenter on rendered frames; write the fitted simulated front end."""
-    from roman_sim.core.atomic import write_text
+    from roman_sim.core.atomic import output_file, write_text
     from roman_sim.core.config import validate_model
     from roman_sim.core.records import write_record
     from roman_sim.evaluation.grades import FrontEndGrades, SegmentationGrades
@@ -84,6 +84,9 @@ def calibrate_cmd(
     enc, seg = _entry(encoder, "--encoder"), _entry(segmenter, "--segmenter")
     if enc is None and seg is None:
         raise ConfigError("calibrate: give --encoder and/or --segmenter (what to measure)")
+    for path, what in ((out, "--out"), (grades, "--grades"), (plot, "--plot")):
+        if path is not None:
+            output_file(path, what, create=False)
     sc = load_scenario(scenario, overrides)
     data = sc.frontend.model_dump(mode="json")
     if enc is not None:

@@ -52,8 +52,10 @@ def paper_fit_cmd(
     overrides: list[str] = typer.Option([], "--set", help="override a scenario field in every run, key=value"),
 ) -> None:
     """Fit the preset's severity to ROMAN's same-direction max recall in the paper (0.67), resumably."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.studies.paper_preset import FIT_YAML, fit_paper_preset
 
+    output_folder(out, "--out", create=False)
     res = fit_paper_preset(out, _fit_config(scenario, grid, refine, overrides))
     t = Table(title=f"paper fit: {res.figure} (paper {res.paper})")
     for col in ("severity", "hits / relevant", "max recall", "95 % Wilson", "admitted"):

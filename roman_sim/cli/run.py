@@ -21,6 +21,7 @@ from roman_sim.core.errors import RomanSimError, RunFolderBusy, StorageError
 if TYPE_CHECKING:
     from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
     from roman_sim.pipeline.result import RunResult
+    from roman_sim.pipeline.scenario import Scenario
     from roman_sim.pipeline.sweep import SweepFailure
 
 console = Console(stderr=True)
@@ -172,23 +173,39 @@ def _run(
     executor: Any = None,
     share: bool = True,
 ) -> None:
-    from roman_sim.runner.executors import prestart
+    """Lock the results folder first, then start up and run: a refused run answers before any heavy work.
 
-    # a local pool's forkserver imports the stages' worker modules while this process imports its own
-    prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
-    from roman_sim.pipeline.experiment import Experiment, default_run_dir
-    from roman_sim.pipeline.scenario import load_scenario
+    With ``--out`` the lock comes before anything else; the default folder is named by the
+    scenario, which is loaded first (the lock then comes before the pool and the pipeline's
+    imports).
+    """
+    from roman_sim.pipeline.folder_lock import hold_run_folder
 
-    sc = load_scenario(scenario, list(sets or []), list(aligners or []))
-    exp = Experiment(
-        sc,
-        out or default_run_dir(sc),
-        fresh=fresh,
-        submaps_dir=submaps,
-        from_stage=from_stage,
-        executor=executor,
-        cache=share,
-    )
+    sc: Scenario | None = None
+    if out is None:
+        from roman_sim.pipeline.scenario import default_run_dir, load_scenario
+
+        sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+        out = default_run_dir(sc)
+    with hold_run_folder(out):
+        from roman_sim.runner.executors import prestart
+
+        # a local pool's forkserver imports the stages' worker modules while this process imports its own
+        prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
+        from roman_sim.pipeline.scenario import load_scenario
+
+        if sc is None:
+            sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+        _run_locked(sc, out, fresh, submaps, from_stage, executor, share)
+
+
+def _run_locked(
+    sc: Scenario, out: Path, fresh: bool, submaps: Path | None, from_stage: str | None, executor: Any, share: bool
+) -> None:
+    """Validate and run ``sc`` into ``out``, whose lock this thread holds; print the summary."""
+    from roman_sim.pipeline.experiment import Experiment
+
+    exp = Experiment(sc, out, fresh=fresh, submaps_dir=submaps, from_stage=from_stage, executor=executor, cache=share)
     exp.validate()
     tracker = StageTracker(LineProgress())
     try:
@@ -369,11 +386,13 @@ def sweep_cmd(
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a parameter x seed sweep (resumable) and write sweep.csv; exit 1 with a table if a cell failed."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.pipeline.sweep import load_sweep, run_sweep, sweep_failures
 
     cfg, scenario_path = load_sweep(sweep_file)
     cfg.executor = flags.config(cfg.executor.model_dump())
     out_dir = out or Path("results") / "sweeps" / cfg.name
+    output_folder(out_dir, "--out", create=False)
     if interactive():
         with _progress() as p:
             task = p.add_task(f"sweep {cfg.name}", total=None)
@@ -455,8 +474,11 @@ def reproduce_cmd(
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run the paper's experiments and write results/reference/summary.md next to the paper's figures."""
+    from roman_sim.core.atomic import output_folder
     from roman_sim.studies.reference import reproduce
 
+    output_folder(out, "--out", create=False)
+    output_folder(work, "--work", create=False)
     ex = flags.config()
     path = reproduce(
         out,

@@ -25,9 +25,12 @@ def stats_cmd(
 
     Paths are planned and driven (no rendering); submap centres are placed as a run places them.
     """
+    from roman_sim.core.atomic import output_file
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.pipeline.scenario_stats import scenario_stats
 
+    if out is not None:
+        output_file(out, "--out", create=False)
     sc = load_scenario(scenario, list(sets or []))
     st = scenario_stats(sc, min_pairs)
     console = Console()

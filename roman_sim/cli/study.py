@@ -84,6 +84,7 @@ def attribution_cmd(
 
     Resumable: finished runs with an unchanged configuration are not run again.
     """
+    from roman_sim.core.atomic import output_folder
     from roman_sim.core.config import validate_model
     from roman_sim.studies.attribution import (
         TABLE,
@@ -95,6 +96,9 @@ def attribution_cmd(
 
     if page is not None and results is None:
         raise ConfigError("--page: needs --results (the block is made from the kept study)")
+    output_folder(out, "--out", create=False)
+    if results is not None:
+        output_folder(results, "--results", create=False)
     data: dict[str, Any] = {}
     named = (("mechanisms", _names(mechanisms)), ("methods", _names(methods)), ("same", same), ("opposite", opposite))
     for key, value in named:

@@ -15,7 +15,7 @@ from roman_sim.cli import app
 from roman_sim.cli.progress import LineProgress, interactive, rich_progress
 
 if TYPE_CHECKING:
-    from roman_sim.evaluation.tune_result import TuneResult
+    from roman_sim.benchmark.tune_result import TuneResult
 
 
 def _seeds(text: str | None) -> list[int] | None:
@@ -101,8 +101,9 @@ def tune_cmd(
     within 0.05 of the target; under ``point`` when its pooled precision reaches the target; under ``lower`` when
     the lower end of its one-new-world precision interval does."""
     from roman_sim.benchmark.tune import FRONT_PNG, RECOMMENDED_YAML, TuneJob, spread_lines
+    from roman_sim.benchmark.tune_choice import check_rule
+    from roman_sim.core.atomic import output_folder
     from roman_sim.core.errors import ConfigError
-    from roman_sim.evaluation.tuning import check_rule
 
     check_rule(rule)
 
@@ -111,7 +112,7 @@ def tune_cmd(
     stem = Path(source).stem if source.endswith((".yaml", ".yml")) else source
     name = f"{method.replace(':', '_').replace('.', '_')}-{stem}" + ("" if level is None else f"-{level}")
     name += "" if rule == "world" else f"-{rule}"
-    folder = out or Path("results") / "tune" / name
+    folder = output_folder(out or Path("results") / "tune" / name, "--out", create=False)
     ex = flags.config()
     lines = LineProgress()
     bar: Any = None
@@ -148,8 +149,8 @@ def tune_cmd(
             "(--rule lower): nothing recommended"
         )
     elif rec is None and rule == "world":
-        from roman_sim.evaluation.transfer import PRECISION_SLACK
-        from roman_sim.evaluation.tuning import WORLD_SHARE
+        from roman_sim.benchmark.transfer import PRECISION_SLACK
+        from roman_sim.benchmark.tune_choice import WORLD_SHARE
 
         Console().print(
             f"no setting's spread over the worlds puts {WORLD_SHARE:.0%} of new worlds within {PRECISION_SLACK:g} "

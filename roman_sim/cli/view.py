@@ -21,11 +21,14 @@ def view_cmd(
     """Write a rerun recording of a run: objects, trajectories, maps, submaps, closures, camera images."""
     import importlib.util
 
+    from roman_sim.core.atomic import output_file
     from roman_sim.core.errors import ConfigError
     from roman_sim.viz import open_viewer, write_run_view
 
     if importlib.util.find_spec("rerun") is None:
         raise ConfigError("roman-sim view needs the rerun SDK of the interop extra: pip install 'roman_sim[interop]'")
+    if out is not None:
+        output_file(out, "--out", create=False)
 
     console = Console(stderr=True)
     with console.status("writing the recording ..."):

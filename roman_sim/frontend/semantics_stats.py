@@ -1,4 +1,4 @@
-"""Measured cosine statistics of the simulated encoder, and a plot documenting them.
+"""Measured cosine statistics of the simulated encoder: per relation, and against the view difference.
 
 Every draw takes fresh objects, families and groups, so the statistics are over the
 encoder's whole distribution (in one world, the few family and group pairs each sit at one
@@ -6,8 +6,6 @@ draw of their parts).
 """
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -90,27 +88,3 @@ def view_curve(
         ]
         means.append(float(np.mean(cs)))
     return degs, np.array(means)
-
-
-def plot_cosine_statistics(path: str | Path, cfg: SemanticConfig | None = None, n: int = 400, seed: int = 0) -> Path:
-    """Histogram of every case plus the view curve, saved as a PNG at ``path`` with a PDF beside it."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    from roman_sim.core.figures import drawn_legend, save_figure
-
-    cfg = cfg or SemanticConfig()
-    fig = Figure(figsize=(11, 4), dpi=100)
-    FigureCanvasAgg(fig)
-    ax1, ax2 = fig.subplots(1, 2)
-    bins = np.linspace(0.2, 1.0, 81)
-    for case in CASES:
-        ax1.hist(sample_cosines(cfg, case, n, seed), bins=bins, alpha=0.5, label=case)
-    ax1.axvline(0.85, color="k", ls="--", lw=1, label="CLIP cos_min 0.85")
-    ax1.set(xlabel="cosine", ylabel="pairs", title=f"Simulated descriptor cosines (confusion {cfg.confusion.level:g})")
-    drawn_legend(ax1, fontsize=7)
-    degs, means = view_curve(cfg, seed=seed)
-    ax2.plot(degs, means, "o-")
-    ax2.axhline(0.85, color="k", ls="--", lw=1)
-    ax2.set(xlabel="view difference (deg)", ylabel="mean cosine", title="Same instance vs viewing direction")
-    return save_figure(fig, path)

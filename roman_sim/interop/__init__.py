@@ -6,6 +6,10 @@
 - ``read_tum_sequence`` / ``TumSequence``: a TUM RGB-D folder (real or exported) as
   ``Frame`` objects, ground truth kept apart in ``frame.truth``; ``TumSourceConfig`` is a
   scenario robot's ``source``.
+- ``closure_files.read_closure_file``: any system's loop closures, in the format its file
+  shows (this testbed's CSV, g2o with gtsam Symbol keys, the reference ROMAN's per-pair
+  ``align`` output, Kimera-Multi's ``loop_closures.csv``), for ``roman-sim score``;
+  ``stamps``: which clock a file's stamps are on, and stamps matched to frames.
 """
 
 from roman_sim.interop.export import ExportResult, export_scenario

@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import StorageError
+from roman_sim.core.tum import MAX_TIME_S, field_problem
 
 
 def read_list(path: str | Path, epoch_ns: int = 0) -> tuple[NDArray[np.float64], list[str]]:
@@ -41,8 +42,11 @@ def read_list(path: str | Path, epoch_ns: int = 0) -> tuple[NDArray[np.float64],
             t = float(parts[0]) if not epoch_ns else float(Decimal(parts[0]) - Decimal(epoch_ns) / 10**9)
         except (ValueError, ArithmeticError):
             raise StorageError(f"{p}:{n}: expected 'timestamp filename', got {line!r}") from None
-        if len(parts) < 2 or not np.isfinite(t):
+        if len(parts) < 2:
             raise StorageError(f"{p}:{n}: expected 'timestamp filename', got {line!r}")
+        bad = field_problem("timestamp", t, MAX_TIME_S, "s")
+        if bad is not None:
+            raise StorageError(f"{p}:{n}: {bad}")
         stamps.append(t)
         names.append(parts[1])
     order = np.argsort(np.asarray(stamps, dtype=np.float64), kind="stable")

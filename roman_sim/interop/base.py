@@ -78,11 +78,11 @@ class ExportManifest:
     format: Literal["roman_sim.export"]
     version: int
     sequence_format: str
-    time_epoch_ns: int
     scenario: str
     seed: int
     options: dict[str, JSONScalar]
     robots: dict[str, RobotCounts]
+    time_epoch_ns: int = 0  # an export written before the epoch was stamped from 0
     conventions: ExportConventions = ExportConventions()
 
 

@@ -32,7 +32,6 @@ import logging
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
@@ -146,6 +145,8 @@ class EurocWriter:
             raise StorageError(f"EuRoC export: frame {frame.index}: time stamp does not increase")
         images = [("cam0", frame.rgb)] + ([("cam1", frame.rgb_right)] if self._stereo else [])
         for cam, rgb in images:
+            import cv2  # on first use: importing OpenCV maps hundreds of MB (a capped run would fail here)
+
             grey = cv2.cvtColor(np.ascontiguousarray(rgb, dtype=np.uint8), cv2.COLOR_RGB2GRAY)
             write_bytes(self.mav / cam / "data" / f"{ns}.png", encode_png(np.asarray(grey, dtype=np.uint8)))
         self._masks.write(frame, stamp_text(ns))

@@ -15,7 +15,8 @@ every file is written atomically, and the same scenario and seed give the same b
 writer with a ``set_rig`` method also gets each robot's ``SensorRig`` (continuous truth,
 IMU readings, second camera) before its first frame; a robot with an IMU or a second camera
 exported in a format without one (``tum``) is warned about. So is a camera whose pixels are
-not square (fx != fy): real cameras' are, and some systems assume it.
+not square (fx != fy, only with an explicit ``camera.vfov_deg``): real cameras' are, and some
+systems assume it.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from roman_sim.core.atomic import write_text
+from roman_sim.core.atomic import output_folder, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.jsontypes import JSONScalar
@@ -76,8 +77,11 @@ class ExportResult:
 
 
 def _prepare(out: Path, names: list[str], overwrite: bool) -> None:
+    output_folder(out, "--out", create=False)
     for name in names:
         d = out / name
+        if d.exists() and not d.is_dir():
+            raise ConfigError(f"--out {out}: {d} is an existing file, not a robot folder")
         if d.exists() and any(d.iterdir()):
             if not overwrite:
                 raise ConfigError(f"--out {out}: {d} already holds files (pass --overwrite to replace them)")
@@ -93,8 +97,8 @@ def _add_sensors(writer: Any, stream: FrameSource, fmt: str) -> None:
     k = stream.intrinsics
     if k.fx != k.fy:
         log.warning(
-            "robot %s: the camera's pixels are not square (fx %.3f, fy %.3f); give camera.vfov_deg: null "
-            "for square pixels",
+            "robot %s: the camera's pixels are not square (fx %.3f, fy %.3f); leave camera.vfov_deg unset "
+            "(null) for square pixels",
             stream.name,
             k.fx,
             k.fy,
@@ -194,6 +198,6 @@ def export_scenario(
     if finish is not None:  # files of the whole export (e.g. the ROMAN parameter folders)
         finish(out, scenario, streams, result.robots)
     summaries = {name: r.written for name, r in result.robots.items()}
-    what = (EXPORT_FORMAT, 1, fmt, EXPORT_EPOCH_NS, scenario.name, int(scenario.seed))
-    write_record(out / EXPORT_JSON, ExportManifest(*what, options, summaries))
+    what = (EXPORT_FORMAT, 1, fmt, scenario.name, int(scenario.seed), options, summaries)
+    write_record(out / EXPORT_JSON, ExportManifest(*what, time_epoch_ns=EXPORT_EPOCH_NS))
     return result

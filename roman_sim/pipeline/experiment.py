@@ -28,6 +28,7 @@ removed once the stage completes. A stage's ``run`` writes nothing; the experime
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 from collections.abc import Sized
@@ -43,10 +44,10 @@ from roman_sim.core.records import RecordError
 from roman_sim.core.resources import peak_rss_mb, reset_peak_rss
 from roman_sim.evaluation.records import run_timings, write_timings
 from roman_sim.pipeline.context import NullProgress, Progress, RunContext
-from roman_sim.pipeline.folder_lock import hold_run_folder
+from roman_sim.pipeline.folder_lock import hold_run_folder, holds_run_folder
 from roman_sim.pipeline.manifest import Manifest, StageRecord, environment, existing_manifest
 from roman_sim.pipeline.result import RESULT_STAGES, TIMINGS_JSON, RunResult, read_timings
-from roman_sim.pipeline.scenario import Scenario, load_scenario
+from roman_sim.pipeline.scenario import Scenario, default_run_dir, load_scenario
 from roman_sim.pipeline.stagecache import StageCache
 from roman_sim.pipeline.stages import STAGE_NAMES, STAGES, WORKER_PRELOAD, Stage, StageOutput
 from roman_sim.pipeline.stages.base import Timings
@@ -116,7 +117,7 @@ class Experiment:
 
         self.scenario = resolve_scenario(self.scenario)
         if self.submaps_dir is None:
-            from roman_sim.pipeline.sources import check_sources
+            from roman_sim.pipeline.stages.maps_sources import check_sources
 
             if self.scenario.needs_world:
                 self.scenario.world.spec()
@@ -214,7 +215,7 @@ class Experiment:
             elif self._may_reuse(stage):
                 files = self.cache.fetch(stage.name, keys[stage.name], self.run_dir)
                 if files is not None:
-                    manifest.stages[stage.name] = StageRecord(keys[stage.name], list(files), dict(files))
+                    manifest.stages[stage.name] = StageRecord.of(keys[stage.name], self.run_dir, list(files))
                     taken.add(stage.name)
         if taken:
             manifest.save(self.run_dir)
@@ -224,13 +225,13 @@ class Experiment:
         """Store a completed stage in the shared cache, and the parts it keeps apart (``Stage.parts``)."""
         if self.cache is None:
             return
-        hashes = rec.hashes()
-        if set(hashes) != set(rec.files):  # an old manifest without hashes: nothing verified to publish
+        if rec.sha256 is None:  # an old manifest without hashes: nothing verified to publish
             return
-        self.cache.publish(stage.name, rec.key, self.run_dir, hashes)
+        files = {f: rec.sha256.get(f) for f in rec.files}
+        self.cache.publish(stage.name, rec.key, self.run_dir, files)
         for part in stage.parts(ctx):
-            if all(f in hashes for f in part.files):
-                self.cache.publish(part.name, part.key, self.run_dir, {f: hashes[f] for f in part.files})
+            if all(f in files for f in part.files):
+                self.cache.publish(part.name, part.key, self.run_dir, {f: files[f] for f in part.files})
 
     def _start_manifest(
         self, old: Manifest | None, keys: dict[str, str], reuse: set[str], active: list[Stage]
@@ -265,7 +266,8 @@ class Experiment:
         """
         if not self._validated:
             self.validate()
-        with hold_run_folder(self.run_dir):
+        held = holds_run_folder(self.run_dir)  # the command line locks first, before its start-up work
+        with contextlib.nullcontext() if held else hold_run_folder(self.run_dir):
             if isinstance(self.executor, Executor):
                 return self._run(self.executor)
             with open_executor(self.executor, WORKER_PRELOAD) as ex:
@@ -392,11 +394,6 @@ def run_scenario_file(
     sc = load_scenario(name_or_path, overrides)
     out = Path(run_dir) if run_dir else default_run_dir(sc)
     return Experiment(sc, out, fresh=fresh, progress=progress, from_stage=from_stage, executor=executor).run()
-
-
-def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:
-    """``results/<scenario>/seed<seed>-<config hash>``: stable, so re-runs reuse stages."""
-    return Path(root) / sc.name / f"seed{sc.seed}-{sc.config_hash()[:8]}"
 
 
 __all__ = ["Experiment", "NullProgress", "Progress", "RunResult", "default_run_dir", "run_scenario_file"]

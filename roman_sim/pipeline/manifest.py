@@ -59,6 +59,15 @@ def environment() -> dict[str, str]:
     return out
 
 
+#: Name endings of files that hold wall-clock times (they differ between two runs of one seed).
+WALL_TIME_FILES = ("timings.json", ".times.json")
+
+
+def is_wall_time_file(path: str) -> bool:
+    """Whether the run-folder file ``path`` holds wall-clock times (``timings.json``, ``<label>.times.json``)."""
+    return path.rsplit("/", 1)[-1].endswith(WALL_TIME_FILES)
+
+
 @dataclass
 class StageRecord:
     """One completed stage: its cache key, the files it wrote (relative to the run folder, in the
@@ -70,21 +79,28 @@ class StageRecord:
 
     @classmethod
     def of(cls, key: str, run_dir: Path, files: list[str]) -> StageRecord:
-        """The record of ``files`` as they are in ``run_dir`` now (their SHA-256 computed)."""
-        return cls(key, list(files), {f: file_sha256(run_dir / f) for f in files})
+        """The record of ``files`` as they are in ``run_dir`` now: the SHA-256 of each, wall-time files aside.
+
+        A file of wall-clock times (``is_wall_time_file``) differs between two runs of one seed,
+        so its hash would make the manifest differ too: it is recorded without one (its
+        presence is still checked).
+        """
+        return cls(key, list(files), {f: file_sha256(run_dir / f) for f in files if not is_wall_time_file(f)})
 
     def hashes(self) -> dict[str, str]:
-        """Path -> SHA-256, in the order the files were written (empty without recorded hashes)."""
+        """Path -> SHA-256 of the files recorded with one, in the order written (empty without hashes)."""
         return {f: self.sha256[f] for f in self.files if f in self.sha256} if self.sha256 else {}
 
     def changed(self, run_dir: Path) -> str | None:
         """Why the files in ``run_dir`` are not the ones recorded (a file missing or changed), or None."""
-        if self.sha256 is None or set(self.sha256) != set(self.files):
+        if self.sha256 is None:
             return "no SHA-256 recorded for its files"
         for f in self.files:
             path = run_dir / f
             if not path.is_file():
                 return f"{path} is missing"
+            if f not in self.sha256:
+                continue
             try:
                 if file_sha256(path) != self.sha256[f]:
                     return f"{path} changed after the stage wrote it (its SHA-256 differs from {MANIFEST_JSON}'s)"

@@ -199,6 +199,11 @@ def _added(data: dict[str, Any], methods: list[str]) -> dict[str, Any]:
     return {**data, "aligners": [*entries, *({"method": m} for m in _missing(entries, methods))]}
 
 
+def default_run_dir(sc: Scenario, root: str | Path = "results") -> Path:
+    """``results/<scenario>/seed<seed>-<config hash>``: stable, so re-runs reuse stages."""
+    return Path(root) / sc.name / f"seed{sc.seed}-{sc.config_hash()[:8]}"
+
+
 def bundled_scenarios() -> dict[str, Path]:
     """Scenario name -> YAML path of the scenarios shipped with the project."""
     return {p.stem: p for p in sorted(SCENARIO_DIR.glob("*.yaml"))}

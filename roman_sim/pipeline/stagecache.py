@@ -90,13 +90,14 @@ def _tmp_name(dst: Path) -> Path:
     return dst.parent / f".{dst.name}.{uuid.uuid4().hex[:8]}.tmp"
 
 
-def _copy_checked(src: Path, dst: Path, sha256: str) -> Path | None:
-    """Copy ``src`` to a temporary name next to ``dst``; that name when its SHA-256 is ``sha256``, else None."""
+def _copy_checked(src: Path, dst: Path, sha256: str | None) -> Path | None:
+    """Copy ``src`` to a temporary name next to ``dst``; that name when its SHA-256 is ``sha256`` (or
+    ``sha256`` is None), else None."""
     dst.parent.mkdir(parents=True, exist_ok=True)
     tmp = _tmp_name(dst)
     try:
         shutil.copyfile(src, tmp)
-        if file_sha256(tmp) == sha256:
+        if sha256 is None or file_sha256(tmp) == sha256:
             return tmp
     except BaseException:
         tmp.unlink(missing_ok=True)
@@ -233,11 +234,12 @@ class StageCache:
         log.info("stage %s: taken from the shared cache (%s)", stage, entry)
         return {f.path: f.sha256 for f in rec.files}
 
-    def publish(self, stage: str, key: str, run_dir: Path, files: Mapping[str, str]) -> None:
+    def publish(self, stage: str, key: str, run_dir: Path, files: Mapping[str, str | None]) -> None:
         """Store ``files`` (path relative to ``run_dir`` -> its SHA-256) as an entry, unless a valid one is there.
 
         A file whose copy does not have the given SHA-256 (it changed after the run wrote it)
-        is not published: nothing of the entry is.
+        is not published: nothing of the entry is. A file given with None (wall-clock times,
+        which the run's manifest does not hash) is stored with the SHA-256 of its copy.
         """
         entry = self.entry_dir(stage, key)
         if self._valid(stage, key) is not None:
@@ -253,7 +255,8 @@ class StageCache:
                     )
                     return
                 os.replace(copied, tmp / "files" / f)
-                records.append(CachedFile(f, (tmp / "files" / f).stat().st_size, sha))
+                stored = tmp / "files" / f
+                records.append(CachedFile(f, stored.stat().st_size, sha or file_sha256(stored)))
             write_record(tmp / ENTRY_JSON, CacheEntry(stage, key, records), ENTRY_SCHEMA)
             if entry.exists():  # an invalid entry that could not be dropped: replace it
                 self._remove(entry)

@@ -12,13 +12,16 @@ import logging
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.geometry import R_FLU_RDF, make_T, rot_y
 from roman_sim.core.sensors import Intrinsics, check_intrinsics
 
 log = logging.getLogger(__name__)
+
+#: Allowed pixel aspect fy / fx of a camera given an explicit ``vfov_deg`` (real cameras' is 1).
+PIXEL_ASPECT = (0.5, 2.0)
 
 
 class DepthNoiseConfig(StrictModel):
@@ -39,15 +42,24 @@ class DepthNoiseConfig(StrictModel):
 class CameraConfig(StrictModel):
     """Camera intrinsics and its mount on the robot body (FLU).
 
-    Defaults follow an Intel RealSense D455 depth stream: 640 x 480, 87 deg horizontal
-    field of view, 58 deg vertical (the D455's depth field of view, so fy > fx at 4:3).
-    ``vfov_deg`` None means square pixels (about 71 deg vertical at 4:3).
+    The field of view is one angle, ``hfov_deg`` (horizontal), and the aspect is the image's
+    (``width / height``): pixels are square (fx = fy), as a real camera's are. Defaults follow an
+    Intel RealSense D455 depth stream at 4:3: 640 x 480 and its 87 deg horizontal field of view,
+    so the vertical one is 2 atan(tan(43.5 deg) * 3 / 4) = 70.9 deg. (The D455's quoted 87 x 58 deg
+    belong to its 16:9 image, where square pixels give 56.2 deg vertical.) ``vfov_deg`` asks for a
+    vertical field of view explicitly, which makes the pixels non-square (fy != fx); their aspect
+    fy / fx must lie within ``PIXEL_ASPECT``.
     """
 
     width: int = Field(640, ge=8, le=4096)
     height: int = Field(480, ge=8, le=4096)
-    hfov_deg: float = Field(87.0, gt=1.0, lt=179.0)
-    vfov_deg: float | None = Field(58.0, gt=1.0, lt=179.0)
+    hfov_deg: float = Field(87.0, gt=1.0, lt=179.0, description="horizontal field of view")
+    vfov_deg: float | None = Field(
+        None,
+        gt=1.0,
+        lt=179.0,
+        description="vertical field of view, for non-square pixels (null: square pixels, from the image's aspect)",
+    )
     mount_height_m: float = Field(0.4, ge=0.0, le=5.0)
     mount_forward_m: float = Field(0.2, ge=-2.0, le=2.0)
     mount_pitch_deg: float = Field(0.0, ge=-60.0, le=60.0)
@@ -56,13 +68,33 @@ class CameraConfig(StrictModel):
     near_m: float = Field(0.05, gt=0.0, le=1.0)
     depth_noise: DepthNoiseConfig = Field(default_factory=DepthNoiseConfig)
 
+    @model_validator(mode="after")
+    def _pixel_aspect(self) -> CameraConfig:
+        if self.vfov_deg is None:
+            return self
+        fx, fy = self._focal()
+        lo, hi = PIXEL_ASPECT
+        if not lo <= fy / fx <= hi:
+            square = 2.0 * np.degrees(np.arctan((self.height / 2.0) / fx))
+            raise ValueError(
+                f"vfov_deg ({self.vfov_deg:g}) with hfov_deg {self.hfov_deg:g} at {self.width} x {self.height} "
+                f"gives pixels of aspect fy/fx {fy / fx:.3g}: allowed {lo:g} to {hi:g} "
+                f"(null: square pixels, {square:.1f} deg vertical)"
+            )
+        return self
+
+    def _focal(self) -> tuple[float, float]:
+        """(fx, fy) in pixels: fx from ``hfov_deg``, fy = fx unless ``vfov_deg`` is given."""
+        fx = float((self.width / 2.0) / np.tan(np.radians(self.hfov_deg) / 2.0))
+        if self.vfov_deg is None:
+            return fx, fx
+        return fx, float((self.height / 2.0) / np.tan(np.radians(self.vfov_deg) / 2.0))
+
     def intrinsics(self) -> Intrinsics:
-        """Pinhole intrinsics with a centred principal point."""
-        fx = (self.width / 2.0) / np.tan(np.radians(self.hfov_deg) / 2.0)
-        fy = fx if self.vfov_deg is None else (self.height / 2.0) / np.tan(np.radians(self.vfov_deg) / 2.0)
+        """Pinhole intrinsics with a centred principal point (square pixels unless ``vfov_deg`` is given)."""
+        fx, fy = self._focal()
         cx, cy = (self.width - 1) / 2.0, (self.height - 1) / 2.0
-        intr = Intrinsics(self.width, self.height, float(fx), float(fy), cx, cy)
-        return check_intrinsics(intr)
+        return check_intrinsics(Intrinsics(self.width, self.height, fx, fy, cx, cy))
 
     def T_body_cam(self) -> NDArray[np.float64]:
         """4x4 pose of the camera optical frame (RDF) in the body frame (FLU).

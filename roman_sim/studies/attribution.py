@@ -2,7 +2,7 @@
 
 ``run_attribution`` runs a same-direction and an opposite-direction scenario with every
 mechanism on (``none``) and with each mechanism of ``mechanisms`` switched off in turn
-(``roman_sim.pipeline.mechanisms``), each run a run folder made by the ordinary pipeline.
+(``roman_sim.studies.mechanisms``), each run a run folder made by the ordinary pipeline.
 Worlds are the unit of replication: with ``seeds`` every (role, mechanism) runs in each
 world (the scenario's ``seed`` set to each value; both roles of one seed share their world),
 in ``<out>/runs/<role>__<mechanism>__s<seed>/``; without, once in the scenario's own world,
@@ -45,8 +45,8 @@ from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.records import write_record
 from roman_sim.evaluation.intervals import wilson
-from roman_sim.pipeline.mechanisms import ALL_ON, check_mechanisms, mechanism_overrides
 from roman_sim.runner.executor_base import ExecutorConfig
+from roman_sim.studies.mechanisms import ALL_ON, check_mechanisms, mechanism_overrides
 
 log = logging.getLogger(__name__)
 

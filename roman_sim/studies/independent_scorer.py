@@ -697,44 +697,98 @@ def _smallest_k(rows: Sequence[BenchRow], ks: range, target: Fraction) -> int | 
     return None
 
 
-#: Draws and seed of the benchmark's world bootstrap (its documented protocol).
-WORLD_BOOT_DRAWS, WORLD_BOOT_SEED, WORLD_BOOT_LEVEL = 2000, 0, 0.95
+#: The benchmark's world bootstrap, as its documentation states the protocol: start with 20 000 draws, double
+#: them (up to 640 000) while a decision is within 4 Monte-Carlo errors; the Monte-Carlo error of a bound is
+#: the standard deviation of that bound over 20 equal batches of the draws, over the square root of 20.
+BOOT_MIN, BOOT_MAX, BOOT_BATCHES, BOOT_MARGIN, BOOT_LEVEL = 20_000, 640_000, 20, 4.0, 0.95
+#: Held-out hits below which a method is a floor in a bin; the effect the verdicts' power is for.
+FLOOR_HITS, EFFECT = 10, 0.05
 
 
-def world_bootstrap_interval(
-    groups: Sequence[tuple[str, str, int, int]], draws: int = WORLD_BOOT_DRAWS, seed: int = WORLD_BOOT_SEED
-) -> list[float] | None:
-    """Two-stage percentile interval of sum(num) / sum(den) over ``groups`` of (world, robot pair, num, den).
+def _ratio_draws(rng: np.random.Generator, num: F64, den: F64, draws: int) -> F64:
+    """``draws`` draws of sum(num) / sum(den) over worlds drawn with replacement (``rng.integers(0, n, (draws,
+    n))``), the draws whose denominator sums to 0 left out."""
+    picks = rng.integers(0, len(num), (draws, len(num)))
+    top, bottom = num[picks].sum(axis=1), den[picks].sum(axis=1)
+    keep = bottom > 0
+    return top[keep] / bottom[keep]
 
-    The protocol, written out: the groups sorted by (world, robot pair); ``numpy.random.default_rng(seed)``
-    draws first a (draws, W) table of worlds (W = number of worlds, sorted), then, for each of the W
-    slots and within it each world in order, a (draws, n_w) table of that world's groups with
-    replacement; a draw sums the groups drawn for the worlds in its slots; draws with a zero
-    denominator are left out; the 2.5 and 97.5 % quantiles (numpy's linear rule) of the rest.
-    """
-    if not groups:
+
+def _percentiles(values: F64) -> tuple[float, float, float]:
+    """The 2.5 and 97.5 % quantiles and the Monte-Carlo error of the two (the larger)."""
+    q = [(1 - BOOT_LEVEL) / 2, 1 - (1 - BOOT_LEVEL) / 2]
+    lo, hi = np.quantile(values, q)
+    per = np.array([np.quantile(part, q) for part in np.array_split(values, BOOT_BATCHES)])
+    return float(lo), float(hi), float(per.std(axis=0, ddof=1).max() / math.sqrt(BOOT_BATCHES))
+
+
+def world_boot(
+    num: Sequence[float] | F64,
+    den: Sequence[float] | F64,
+    decide_at: float | None = None,
+    half_width: bool = False,
+    seed: int = 0,
+) -> dict[str, float] | None:
+    """The world bootstrap of sum(num) / sum(den) (one entry per world): ``low``, ``high``, ``se``, ``draws``,
+    ``err``. The draws double while a bound (or, with ``half_width``, the half-width) is within the margin of
+    ``decide_at``; None with fewer than two worlds or no denominator at all."""
+    n, d = np.asarray(num, dtype=np.float64), np.asarray(den, dtype=np.float64)
+    if len(n) < 2 or not (d > 0).any():
         return None
-    ordered = sorted(groups)
-    names = sorted({g[0] for g in ordered})
-    num = np.array([g[2] for g in ordered], dtype=np.float64)
-    den = np.array([g[3] for g in ordered], dtype=np.float64)
-    members = [np.array([i for i, g in enumerate(ordered) if g[0] == w], dtype=np.int64) for w in names]
     rng = np.random.default_rng(seed)
-    slots = rng.integers(0, len(names), (draws, len(names)))
-    tot_num = np.zeros(draws)
-    tot_den = np.zeros(draws)
-    for slot in range(len(names)):
-        for wi, mem in enumerate(members):
-            pick = mem[rng.integers(0, len(mem), (draws, len(mem)))]
-            here = slots[:, slot] == wi
-            tot_num[here] += num[pick].sum(axis=1)[here]
-            tot_den[here] += den[pick].sum(axis=1)[here]
-    ok = tot_den > 0
-    if not ok.any():
-        return None
-    ratio = tot_num[ok] / tot_den[ok]
-    tail = (1 - WORLD_BOOT_LEVEL) / 2
-    return [float(np.quantile(ratio, tail)), float(np.quantile(ratio, 1 - tail))]
+    values, draws = _ratio_draws(rng, n, d, BOOT_MIN), BOOT_MIN
+    lo, hi, err = _percentiles(values)
+
+    def close() -> bool:
+        if decide_at is None or err <= 0:
+            return False
+        if half_width:
+            return abs((hi - lo) / 2 - decide_at) <= BOOT_MARGIN * err
+        return abs(lo - decide_at) <= BOOT_MARGIN * err or abs(hi - decide_at) <= BOOT_MARGIN * err
+
+    while draws < BOOT_MAX and close():
+        values = np.concatenate([values, _ratio_draws(rng, n, d, draws)])
+        draws *= 2
+        lo, hi, err = _percentiles(values)
+    return {"low": lo, "high": hi, "se": float(values.std(ddof=1)), "draws": draws, "err": err}
+
+
+def sign_flip_p_value(diffs: Sequence[int]) -> float:
+    """Exact two-sided p-value of the sum of whole-number ``diffs`` under random signs, by counting every sum
+    the ``2^W`` sign choices reach (a dictionary of sum -> ways, one world at a time)."""
+    ways = {0: 1}
+    for d in diffs:
+        step: dict[int, int] = {}
+        for total, n in ways.items():
+            for signed in {d, -d}:
+                step[total + signed] = step.get(total + signed, 0) + n * (2 if d == 0 else 1)
+        ways = step
+    observed = abs(sum(diffs))
+    return sum(n for total, n in ways.items() if abs(total) >= observed) / 2 ** len(diffs)
+
+
+def paired_verdict(hits_a: Sequence[int], hits_b: Sequence[int], relevant: Sequence[int]) -> dict:
+    """Two methods' paired verdict over worlds: ``verdict`` (``a ahead``, ``b ahead``, ``no difference shown``,
+    ``too few hits``), ``diff``, ``p_value`` (exact sign-flip, two-sided) and ``power`` (two-sided, normal,
+    with the world-clustered standard error of the ratio, for ``EFFECT``)."""
+    from scipy.stats import norm
+
+    d = [int(x) - int(y) for x, y in zip(hits_a, hits_b, strict=True)]
+    n = [int(x) for x in relevant]
+    total = sum(n)
+    diff = sum(d) / total if total else 0.0
+    w = len(d)
+    se = math.sqrt(w / (w - 1) * sum((x - diff * m) ** 2 for x, m in zip(d, n, strict=True))) / total if total else 0
+    z = norm.ppf(0.5 + BOOT_LEVEL / 2)
+    power = 1.0 if se <= 0 else float(norm.cdf(EFFECT / se - z) + norm.cdf(-EFFECT / se - z))
+    p = sign_flip_p_value(d)
+    if sum(hits_a) < FLOOR_HITS and sum(hits_b) < FLOOR_HITS:
+        verdict = "too few hits"
+    elif p <= 1 - BOOT_LEVEL and diff != 0:
+        verdict = "a ahead" if diff > 0 else "b ahead"
+    else:
+        verdict = "no difference shown"
+    return {"verdict": verdict, "diff": diff, "p_value": p, "power": power}
 
 
 def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -> dict[str, JSONValue]:
@@ -742,9 +796,10 @@ def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -
     world (cell) on the level's other worlds (smallest k of the sweep whose pooled precision over all
     headings of their cross-robot pairs reaches ``target``), and per heading bin (and ``all``) the held-out
     [hits, false positives, relevant] with every world scored at its own held-out threshold
-    (``bins``), and the recall's Wilson interval and the world-bootstrap intervals of recall and
-    precision (``intervals``: ``recall_wilson``, ``recall_worlds``, ``precision_worlds``;
-    ``world_bootstrap_interval`` over the bin's (world, robot pair) groups)."""
+    (``bins``), the same per world (``worlds``: three lists over the sorted worlds), and the recall's
+    Wilson interval and the world-bootstrap intervals of recall and precision (``intervals``:
+    ``recall_wilson``, ``recall_worlds``, ``precision_worlds``; ``world_boot`` over the worlds, the recall's
+    draws doubled while its half-width is near 0.1)."""
     folder = Path(folder)
     rec, rows = _benchmark_rows(folder)
     raw_edges = rec["heading_edges_deg"]
@@ -776,52 +831,93 @@ def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -
                 g[1] += false
                 g[2] += rel
         intervals: dict[str, JSONValue] = {}
+        per_world: dict[str, JSONValue] = {}
         for lab, (tp, fp, rel) in tally.items():
             gs = groups[lab]
+            # per world (sorted): held-out hits, false positives, relevant pairs
+            cols = [[sum(v[i] for (w, _), v in gs.items() if w == world) for world in worlds] for i in range(3)]
+            rec_ci = world_boot(cols[0], cols[2], decide_at=0.1, half_width=True) if rel else None
+            prec_ci = world_boot(cols[0], [h + f for h, f in zip(cols[0], cols[1], strict=True)]) if tp + fp else None
             intervals[lab] = {
-                "recall_wilson": wilson_interval(tp, rel, WORLD_BOOT_LEVEL),
-                "recall_worlds": world_bootstrap_interval([(w, c, v[0], v[2]) for (w, c), v in gs.items()])
-                if rel
-                else None,
-                "precision_worlds": world_bootstrap_interval([(w, c, v[0], v[0] + v[1]) for (w, c), v in gs.items()])
-                if tp + fp
-                else None,
+                "recall_wilson": wilson_interval(tp, rel, BOOT_LEVEL),
+                "recall_worlds": None if rec_ci is None else [rec_ci["low"], rec_ci["high"]],
+                "precision_worlds": None if prec_ci is None else [prec_ci["low"], prec_ci["high"]],
             }
-        out[key] = {"thresholds": chosen, "bins": tally, "intervals": intervals}
+            per_world[lab] = cols
+        out[key] = {"thresholds": chosen, "bins": tally, "intervals": intervals, "worlds": per_world}
+    return out
+
+
+def benchmark_verdicts(held: Mapping[str, JSONValue]) -> dict[str, JSONValue]:
+    """Per ``level|bin|a|b`` (methods in sorted order) the paired verdict of their held-out hits per world, and
+    per ``level|bin`` the floor: the methods with fewer than ``FLOOR_HITS`` held-out hits there."""
+    by_level: dict[str, dict[str, dict]] = {}
+    for key, fig in held.items():
+        level, method = key.split("|", 1)
+        if not isinstance(fig, dict):
+            raise StorageError(f"held-out figures of {key}: not a mapping")
+        by_level.setdefault(level, {})[method] = fig
+    out: dict[str, JSONValue] = {}
+    for level, methods in by_level.items():
+        names = sorted(methods)
+        for lab in methods[names[0]]["worlds"]:
+            cols = {m: methods[m]["worlds"][lab] for m in names}
+            out[f"{level}|{lab}"] = [m for m in names if sum(cols[m][0]) < FLOOR_HITS]
+            for i, a in enumerate(names):
+                for b in names[i + 1 :]:
+                    out[f"{level}|{lab}|{a}|{b}"] = paired_verdict(cols[a][0], cols[b][0], cols[a][2])
     return out
 
 
 def benchmark_deployable_widths(held: Mapping[str, JSONValue]) -> dict[str, dict[str, float | None]]:
-    """Per level, per heading bin (not ``all``) the widest world-bootstrap half-width of held-out recall over
-    methods, from ``benchmark_held_out``'s figures (None where no method has relevant pairs in the bin)."""
+    """Per level, per heading bin (not ``all``) the widest world-bootstrap half-width of held-out recall over the
+    methods with at least ``FLOOR_HITS`` held-out hits there, from ``benchmark_held_out``'s figures (None where
+    no such method has relevant pairs in the bin)."""
     out: dict[str, dict[str, float | None]] = {}
     for key, fig in held.items():
         level = key.split("|", 1)[0]
-        if not isinstance(fig, dict) or not isinstance(fig["intervals"], dict):
+        if not isinstance(fig, dict) or not isinstance(fig["intervals"], dict) or not isinstance(fig["bins"], dict):
             raise StorageError(f"held-out figures of {key}: not a mapping")
         bins = out.setdefault(level, {})
         for lab, iv in fig["intervals"].items():
             if lab == "all" or not isinstance(iv, dict):
                 continue
             ci = iv["recall_worlds"]
-            half = (float(ci[1]) - float(ci[0])) / 2 if isinstance(ci, list) else None  # type: ignore[arg-type]
+            floor = fig["bins"][lab][0] < FLOOR_HITS  # type: ignore[index, operator]
+            half = (float(ci[1]) - float(ci[0])) / 2 if isinstance(ci, list) and not floor else None  # type: ignore[arg-type]
             prev = bins.get(lab)
             bins[lab] = half if prev is None else (prev if half is None else max(prev, half))
     return out
 
 
+def benchmark_floor_bins(held: Mapping[str, JSONValue]) -> list[tuple[str, str]]:
+    """(level, heading bin) where every method has fewer than ``FLOOR_HITS`` held-out hits (``all`` aside)."""
+    below: dict[tuple[str, str], bool] = {}
+    for key, fig in held.items():
+        level = key.split("|", 1)[0]
+        for lab, counts in fig["bins"].items():  # type: ignore[index, union-attr]
+            if lab != "all":
+                below[(level, lab)] = below.get((level, lab), True) and counts[0] < FLOOR_HITS
+    return sorted(k for k, v in below.items() if v)
+
+
 def benchmark_deployable_bound_met(
-    folder: str | Path, widths: Mapping[str, Mapping[str, float | None]], bound: float = 0.1
+    folder: str | Path,
+    widths: Mapping[str, Mapping[str, float | None]],
+    bound: float = 0.1,
+    floors: Sequence[tuple[str, str]] = (),
 ) -> bool:
     """Whether every cell of ``benchmark.json`` finished, every level has held-out figures in every heading
-    bin and each bin's widest world-bootstrap half-width (``benchmark_deployable_widths``) is at most ``bound``."""
+    bin and each bin's widest world-bootstrap half-width (``benchmark_deployable_widths``) is at most ``bound``;
+    ``floors`` (every method below the floor) hold no bound."""
     rec = json.loads((Path(folder) / "benchmark.json").read_text(encoding="utf-8"))
     n_bins = len(rec["heading_edges_deg"]) - 1
     if any(c["status"] != "ok" for c in rec["cells"]):
         return False
     levels = [lv["name"] for lv in rec["levels"]]
     return all(
-        len(widths.get(lv, {})) == n_bins and all(w is not None and w <= bound for w in widths[lv].values())
+        len(widths.get(lv, {})) == n_bins
+        and all((lv, h) in floors or (w is not None and w <= bound) for h, w in widths[lv].items())
         for lv in levels
     )
 

@@ -234,13 +234,13 @@ def reproduce(
     ``out_dir`` (``merge_committed``): the other scenarios and the sweep stay as committed.
     ``DEMO`` among ``scenarios`` re-collects the demo only. Installed versions that differ
     from the lock (``constraints.txt`` under ``root``, else the working folder) are named in
-    one warning first (``roman_sim.pipeline.lockfile``). ``executor`` (an
+    one warning first (``roman_sim.studies.lockfile``). ``executor`` (an
     ``ExecutorConfig``) spreads each run's robots and pairs over workers (the results do not
     depend on it).
     """
     from roman_sim.pipeline.experiment import Experiment
-    from roman_sim.pipeline.lockfile import warn_unlocked
     from roman_sim.pipeline.scenario import load_scenario
+    from roman_sim.studies.lockfile import warn_unlocked
 
     warn_unlocked(root if root is not None else ".")  # another environment: which versions differ from the lock
     out, work = Path(out_dir), Path(work_dir)

@@ -106,7 +106,7 @@ def _world(rf: RunFolder, notes: list[str]) -> World | None:
 def _object_rows(rf: RunFolder, world: World | None) -> list[ObjectRow]:
     """The world's objects, else those of the recorded sequences' object tables (first one found)."""
     from roman_sim.interop.objects import object_rows, read_object_table
-    from roman_sim.pipeline.sources import object_table_path
+    from roman_sim.pipeline.stages.maps_sources import object_table_path
 
     if world is not None:
         return object_rows(world.truth)

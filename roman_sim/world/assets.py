@@ -5,6 +5,10 @@ each) in the object frame: origin at the base centre, z up, resting on z = 0. Me
 light (tens to a few hundred faces) so 1000-object worlds render fast. Each part names its
 surface kind (``roman_sim.world.textures.SURFACES``: texture and colour range), the axis its
 grain runs along, and optionally a colour range of its own.
+
+An object whose real counterpart has a front faces +x in its own frame and is drawn
+asymmetric: a house's and a shed's door is on the +x face (windows on some faces only), a car's
+hood and headlights are at +x. ``mirror_gap`` measures how far a shape is from its mirror image.
 """
 
 from __future__ import annotations
@@ -14,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import trimesh
+from scipy.spatial import cKDTree
 
 from roman_sim.core.geometry import make_T, rot_x, rot_y
 from roman_sim.core.registry import Registry
@@ -142,29 +147,75 @@ def _gable_roof(w: float, d: float, h: float, z0: float, overhang: float = 0.3) 
     return m
 
 
+def _on_face(axis: int, half: float, wide: float, tall: float, at: float, z0: float, proud: float) -> trimesh.Trimesh:
+    """A thin box (door, window, lamp) ``proud`` metres out from the +``axis`` face (0: x, 1: y) of a
+    box reaching ``half`` along that axis: ``wide`` along the face, centred at ``at``, from ``z0`` up ``tall``."""
+    out = half + proud / 2
+    if axis == 0:
+        return _box(proud, wide, tall, x=out, y=at, z0=z0)
+    return _box(wide, proud, tall, x=at, y=out, z0=z0)
+
+
+OPENINGS: Rgba = (0.16, 0.18, 0.22, 1.0)  # doors and window panes, dark against any wall
+OPENINGS_PROUD_M = 0.06  # how far doors and windows stand out of their wall
+
+
 @FAMILIES.register("house")
 def house(rng: np.random.Generator) -> list[Part]:
+    """Walls under a gable roof (ridge along x). The front is the +x gable end: a door off centre and
+    a window beside it; the +y side has two windows, the back (-x) and the -y side none; a chimney
+    rises through the -y slope in the front half. Neither vertical mid-plane mirrors the house onto
+    itself."""
     w, d, h = rng.uniform(7.0, 11.0), rng.uniform(6.0, 9.0), rng.uniform(3.0, 5.5)
     wall = tuple(rng.uniform(0.65, 0.9, 3)) + (1.0,)
+    roof = _gable_roof(w, d, rng.uniform(1.5, 3.0), h)
+    door_y = d * rng.uniform(0.15, 0.3)
+    sill, pane = 0.9, min(1.2, h - 1.3)
+    openings = _cat(
+        _on_face(0, w / 2, 1.0, min(2.1, h - 0.5), door_y, 0.0, OPENINGS_PROUD_M),
+        _on_face(0, w / 2, 1.2, pane, -door_y, sill, OPENINGS_PROUD_M),
+        *(_on_face(1, d / 2, 1.4, pane, sx * w / 4, sill, OPENINGS_PROUD_M) for sx in (-1, 1)),
+    )
+    roof_h = float(roof.vertices[:, 2].max()) - h
+    chimney = _box(0.7, 0.7, roof_h + 0.6, x=w / 4, y=-d / 4, z0=h)  # rises through the -y slope, front half
     return [
-        Part("walls", _box(w, d, h), wall, "paint"),
-        Part("roof", _gable_roof(w, d, rng.uniform(1.5, 3.0), h), (0.55, 0.18, 0.12, 1.0), "tiles"),
+        Part("walls", _cat(_box(w, d, h), chimney), wall, "paint"),
+        Part("roof", roof, (0.55, 0.18, 0.12, 1.0), "tiles"),
+        Part("openings", openings, OPENINGS, "paint"),
     ]
 
 
 @FAMILIES.register("shed")
 def shed(rng: np.random.Generator) -> list[Part]:
+    """Walls under a gable roof (ridge along x); the front (+x) has a door off centre, the +y side one
+    window off centre, the back and the -y side none."""
     w, d, h = rng.uniform(2.5, 4.0), rng.uniform(2.0, 3.0), rng.uniform(2.0, 2.6)
+    door_y = d * rng.uniform(0.12, 0.22)
+    openings = _cat(
+        _on_face(0, w / 2, 0.8, min(1.9, h - 0.2), door_y, 0.0, OPENINGS_PROUD_M),
+        _on_face(1, d / 2, 0.8, 0.6, -0.15 * w, 1.0, OPENINGS_PROUD_M),
+    )
     return [
         Part("walls", _box(w, d, h), WOOD, "wood"),
         Part("roof", _gable_roof(w, d, 0.8, h, 0.15), (0.3, 0.3, 0.32, 1.0), "metal"),
+        Part("openings", openings, OPENINGS, "paint"),
     ]
+
+
+HEADLIGHTS: Rgba = (0.95, 0.93, 0.78, 1.0)
+LAMP_RANGE = Variation(2.0, 0.02, 0.03)  # headlights look alike on every car
 
 
 @FAMILIES.register("car")
 def car(rng: np.random.Generator) -> list[Part]:
+    """A car whose front is +x: the hood (top 0.85 m) lower than the rear deck (1.0 m) and the cabin
+    (1.55 m), the cabin set back, two headlights on the front face. Left and right mirror each other,
+    as a real car's do; front and back do not."""
     length, width = rng.uniform(3.8, 4.8), rng.uniform(1.7, 1.9)
-    body = _cat(_box(length, width, 0.7, z0=0.3), _box(length * 0.55, width * 0.9, 0.55, x=-0.1 * length, z0=1.0))
+    split = 0.2 * length  # where the hood meets the windscreen
+    rear = _box(length / 2 + split, width, 0.7, x=(split - length / 2) / 2, z0=0.3)
+    hood = _box(length / 2 - split, width, 0.55, x=(split + length / 2) / 2, z0=0.3)
+    body = _cat(rear, hood, _box(length * 0.55, width * 0.9, 0.55, x=-0.1 * length, z0=1.0))
     wheels = _cat(
         *(
             trimesh.creation.cylinder(radius=0.32, height=0.25, sections=8).apply_transform(
@@ -174,10 +225,12 @@ def car(rng: np.random.Generator) -> list[Part]:
             for sy in (-1, 1)
         )
     )
+    lamps = _cat(*(_on_face(0, length / 2, 0.32, 0.14, sy * (width / 2 - 0.28), 0.62, 0.03) for sy in (-1, 1)))
     colour = tuple(rng.uniform(0.1, 0.9, 3)) + (1.0,)
     return [
         Part("body", body, colour, "paint", variation=ANY_HUE),
         Part("wheels", wheels, (0.08, 0.08, 0.08, 1.0), "metal"),
+        Part("lights", lamps, HEADLIGHTS, "paint", variation=LAMP_RANGE),
     ]
 
 
@@ -221,3 +274,20 @@ def hay_bale(rng: np.random.Generator) -> list[Part]:
     m = trimesh.creation.cylinder(radius=r, height=rng.uniform(1.1, 1.5), sections=12)
     m.apply_transform(make_T(rot_x(np.pi / 2), [0.0, 0.0, r]))
     return [Part("body", m, (0.85, 0.75, 0.35, 1.0), "straw")]
+
+
+def mirror_gap(parts: Iterable[Part], axis: int) -> float:
+    """How far ``parts`` are from their mirror image about the vertical mid-plane across ``axis``
+    (0: x -> -x, 1: y -> -y, about the middle of the parts' bounds): the largest over parts of the
+    symmetric Hausdorff distance (m) between a part's vertices and its mirrored vertices. 0 for a
+    mirror-symmetric shape whose mirror maps vertices onto vertices (boxes, regular prisms)."""
+    parts = list(parts)
+    v = np.concatenate([p.mesh.vertices for p in parts])
+    mid = (v[:, axis].min() + v[:, axis].max()) / 2
+    gap = 0.0
+    for p in parts:
+        a = np.asarray(p.mesh.vertices, dtype=np.float64)
+        b = a.copy()
+        b[:, axis] = 2 * mid - b[:, axis]
+        gap = max(gap, float(cKDTree(a).query(b)[0].max()), float(cKDTree(b).query(a)[0].max()))
+    return gap

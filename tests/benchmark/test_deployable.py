@@ -8,11 +8,11 @@ from typing import Any
 
 from typer.testing import CliRunner
 
+from roman_sim.benchmark.board_markdown import _deployable_section, deployable_readme_lines
+from roman_sim.benchmark.board_records import BoardCell, BoardLevel, Leaderboard
 from roman_sim.benchmark.deployable import deployable
 from roman_sim.cli import app
 from roman_sim.core.records import to_json
-from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard
-from roman_sim.report.leaderboard import _deployable_section, deployable_readme_lines
 
 EDGES = [0.0, 90.0, 180.0]
 K = list(range(0, 21))
@@ -104,7 +104,7 @@ def _board(dep, edges=EDGES, failed=None) -> Leaderboard:
 
 
 def test_the_deployable_bound_fails_where_worlds_disagree_and_holds_where_they_agree(make_score) -> None:
-    from roman_sim.report.leaderboard import deployable_bound_readme_line
+    from roman_sim.benchmark.board_markdown import deployable_bound_readme_line
 
     # leaky: recall 0 in w0 (nothing accepted) and 1 in w1, in both bins: half-width 0.5, over the bound
     wide = _board(deployable(_level(make_score), ["good", "leaky"], EDGES, K, 0.9))
@@ -136,7 +136,7 @@ def deployable_readme_line_ok(line: str, verdict: str) -> bool:
 
 
 def test_a_single_world_level_reports_the_bound_not_met_without_crashing(make_score) -> None:
-    from roman_sim.report.leaderboard import deployable_bound_readme_line
+    from roman_sim.benchmark.board_markdown import deployable_bound_readme_line
 
     one = [s for s in _level(make_score) if s.truth.a.startswith("w0:")]
     board = _board(deployable(one, ["good", "leaky"], EDGES, K, 0.9))
@@ -148,7 +148,7 @@ def test_a_single_world_level_reports_the_bound_not_met_without_crashing(make_sc
 
 
 def test_the_bound_round_trips_through_leaderboard_json(make_score, tmp_path) -> None:
-    from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
+    from roman_sim.benchmark.board_records import read_leaderboard, write_leaderboard_json
 
     for scores, methods in ((_level(make_score), ["good", "leaky"]), (_level(make_score), ["good"])):
         board = _board(deployable(scores, methods, EDGES, K, 0.9))

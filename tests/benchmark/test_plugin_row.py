@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from roman_sim.evaluation.leaderboard import read_leaderboard
-from roman_sim.report.plots import read_png_data
+from roman_sim.benchmark.board_records import read_leaderboard
+from roman_sim.core.figures import read_png_data
 
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(600)]
 
@@ -140,7 +140,9 @@ def test_every_cell_of_the_board_holds_the_plugins_hand_counted_hits(row: dict) 
             mine = [r for r in pooled if lo <= r[0] < hi or (hi == edges[-1] and r[0] == hi)]
         p = cell.point(ROW, "max_recall")
         assert p is not None and (p.hits, p.n_relevant) == _max_recall(mine), cell.heading
-        assert ROW in cell.ranks["max_recall"] and ROW in cell.ranks["precision_90"], cell.heading
+        for point in ("max_recall", "precision_90"):  # ranked, or a floor: too few hits to rank
+            q = cell.point(ROW, point)
+            assert (ROW in cell.ranks[point]) == (q is not None and q.k is not None and q.hits >= 10), cell.heading
         ranked += 1
     assert ranked == len(edges)  # every heading bin and "all"
     assert level.overall is not None and sum(1 for r in pooled if r[1]) == level.overall.n_relevant > 0
@@ -156,7 +158,11 @@ def test_the_deployable_point_ranks_the_plugin_at_thresholds_chosen_by_hand(row:
     assert dep.thresholds[ROW] == ks
     got = dep.overall.methods[ROW]
     assert (got.hits, got.false_positives, got.n_relevant) == (hits, fps, rel)
-    assert ROW in dep.overall.ranks and all(ROW in c.ranks for c in dep.cells())
+    for c in dep.cells():  # every cell ranks the plug-in or states its floor with its counts
+        f = c.methods[ROW]
+        assert (ROW in c.ranks) != (ROW in c.floor), c.heading
+        assert ROW not in c.floor or c.floor[ROW] == f"too few hits to rank ({f.hits} in {f.n_relevant})"
+        assert c.verdict(ROW, "roman") is not None  # and compares it with every other method
 
 
 def test_every_ranked_table_of_the_markdown_has_the_plugins_row(row: dict) -> None:

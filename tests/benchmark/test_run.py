@@ -14,13 +14,13 @@ from typer.testing import CliRunner
 
 from roman_sim.align.aligners import RomanAligner, RomanParams
 from roman_sim.benchmark.board import leaderboard
+from roman_sim.benchmark.board_markdown import README_BEGIN, README_END, readme_block
+from roman_sim.benchmark.board_records import read_leaderboard
 from roman_sim.benchmark.cells import Cell
 from roman_sim.benchmark.run import BenchmarkJob
 from roman_sim.benchmark.suites import load_suite
 from roman_sim.cli import app
 from roman_sim.core.errors import ConfigError
-from roman_sim.evaluation.leaderboard import read_leaderboard
-from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.testing import assert_benchmark, benchmark_pins
 
 pytestmark = pytest.mark.slow

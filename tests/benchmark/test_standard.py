@@ -17,9 +17,9 @@ import pytest
 from committed_results import STANDARD
 
 from roman_sim.benchmark.board import leaderboard
+from roman_sim.benchmark.board_markdown import README_BEGIN, README_END, readme_block
+from roman_sim.benchmark.board_records import Leaderboard, read_leaderboard
 from roman_sim.core.records import to_json
-from roman_sim.evaluation.leaderboard import Leaderboard, read_leaderboard
-from roman_sim.report.leaderboard import README_BEGIN, README_END, readme_block
 from roman_sim.report.recompute import compare
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -74,7 +74,11 @@ def test_every_level_and_bin_meets_the_deployable_bound(scored):
     """The suite's promise: at the deployable point every level x 60 deg bin has a world-bootstrap half-width of
     held-out recall at most 0.1 for every method, as the leaderboard states and the independent scorer finds."""
     from roman_sim.benchmark.suites import load_suite
-    from roman_sim.studies.independent_scorer import benchmark_deployable_bound_met, benchmark_deployable_widths
+    from roman_sim.studies.independent_scorer import (
+        benchmark_deployable_bound_met,
+        benchmark_deployable_widths,
+        benchmark_floor_bins,
+    )
 
     board = _committed()
     suite = load_suite("standard")
@@ -86,15 +90,22 @@ def test_every_level_and_bin_meets_the_deployable_bound(scored):
         assert e.deployable is not None and e.deployable.bins is not None and len(e.bins) == 3, e.name
         assert e.deployable.worlds == sorted(e.cells), e.name
         for c in e.deployable.bins:
-            halves = [(f.recall_worlds[1] - f.recall_worlds[0]) / 2 for f in c.methods.values() if f.recall_worlds]
-            assert len(halves) == len(board.methods) and c.max_half_width == max(halves), (e.name, c.heading)
+            above = {m: f for m, f in c.methods.items() if f.hits >= 10}  # the floor: fewer than 10 held-out hits
+            assert set(c.floor) == set(c.methods) - set(above), (e.name, c.heading)
+            if not above:  # every method on the floor: no bound holds or fails there
+                assert (e.name, c.heading) in board.deployable_floors() and c.max_half_width is None
+                continue
+            halves = [(f.recall_worlds[1] - f.recall_worlds[0]) / 2 for f in above.values() if f.recall_worlds]
+            assert len(halves) == len(above) and c.max_half_width == max(halves), (e.name, c.heading)
             assert widths[e.name][c.heading] == c.max_half_width <= board.half_width_bound == 0.1, (e.name, c.heading)
     assert board.deployable_bound_met
     own = benchmark_deployable_widths(scored)
     assert own.keys() == widths.keys()
     for level, bins in widths.items():
         assert own[level] == pytest.approx(bins, abs=1e-12), level
-    assert benchmark_deployable_bound_met(STANDARD, own, 0.1)
+    floors = benchmark_floor_bins(scored)
+    assert floors == sorted(board.deployable_floors())
+    assert benchmark_deployable_bound_met(STANDARD, own, 0.1, floors)
 
 
 def test_the_pooled_wilson_bound_is_reported_beside_it():
@@ -117,8 +128,8 @@ def test_readme_block_is_rendered_from_the_committed_results():
 
 
 def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
+    from roman_sim.benchmark.board_plots import recall_heading_data
     from roman_sim.core.figures import read_png_data
-    from roman_sim.report.benchmark_plots import recall_heading_data
 
     shown = read_png_data(ROOT / FIGURE)
     assert shown == json.loads(json.dumps(recall_heading_data(again)))
@@ -150,7 +161,8 @@ def test_the_deployable_point_follows_from_the_independent_scorer(scored):
 
 def test_the_deployable_intervals_follow_from_the_independent_scorer(scored):
     """The Wilson and world-bootstrap intervals of every held-out cell, as the independent scorer re-derives
-    them from the raw pairs with its own bootstrap (the documented protocol: worlds, then robot pairs)."""
+    them from the raw pairs with its own bootstrap (the documented protocol: worlds drawn with replacement,
+    their pairs kept whole, draws doubled while a half-width is near the bound)."""
     board = _committed()
     checked = widened = 0
     for e in board.levels:
@@ -205,3 +217,74 @@ def test_the_readme_and_docs_state_the_suite_and_its_committed_figures():
     assert vis.recall is not None
     said = f"held-out recall over all headings at low ambiguity: {vis.recall:.2f} ({vis.hits}/{vis.n_relevant})"
     assert said in docs
+
+
+def test_the_paired_verdicts_and_floors_follow_from_the_independent_scorer(scored):
+    """Every two methods in every level x bin: the verdict, the difference and its interval, as the independent
+    scorer re-derives them from each world's held-out counts with code of its own; and each bin's floor."""
+    from roman_sim.studies.independent_scorer import benchmark_verdicts
+
+    mine = benchmark_verdicts(scored)
+    checked = 0
+    for e in _committed().levels:
+        d = e.deployable
+        assert d is not None and d.min_hits == 10 and d.effect == 0.05
+        for c in d.cells():
+            assert sorted(c.floor) == mine[f"{e.name}|{c.heading}"], (e.name, c.heading)
+            for m, line in c.floor.items():
+                f = c.methods[m]
+                assert line == f"too few hits to rank ({f.hits} in {f.n_relevant})" and f.hits < 10
+            for v in c.verdicts:
+                a, b = sorted((v.a, v.b))
+                own = mine[f"{e.name}|{c.heading}|{a}|{b}"]
+                sign = 1 if v.a == a else -1
+                flip = {"a ahead": "b ahead", "b ahead": "a ahead"}
+                assert (own["verdict"] if sign == 1 else flip.get(own["verdict"], own["verdict"])) == v.verdict
+                assert sign * v.diff == pytest.approx(own["diff"], abs=1e-12)
+                assert v.p_value == own["p_value"] and v.power == pytest.approx(own["power"], abs=1e-12)
+                checked += 1
+    n = len(_committed().methods)
+    assert checked == 3 * 4 * n * (n - 1) // 2
+
+
+def test_no_verdict_or_bound_moves_with_the_bootstrap_seed(scored):
+    """The verdicts come from the exact sign-flip test (nothing drawn): the same from each world's counts
+    whatever the seed. The bound's world intervals are drawn: recomputed under bootstrap seeds 1-19, every
+    bin above the floor decides the bound as the committed board does."""
+    from roman_sim.evaluation.paired_worlds import near_half_width, paired_difference, world_interval
+
+    board = _committed()
+    for e in board.levels:
+        d = e.deployable
+        assert d is not None
+        for c in d.cells():
+            counts = {m: scored[f"{e.name}|{m}"]["worlds"][c.heading] for m in c.methods}
+            for v in c.verdicts:
+                assert paired_difference(counts[v.a][0], counts[v.b][0], counts[v.a][2]).verdict == v.verdict
+            if c.heading == "all":
+                continue
+            for m, f in c.methods.items():
+                if m in c.floor or f.recall_worlds is None:
+                    continue
+                committed = (f.recall_worlds[1] - f.recall_worlds[0]) / 2 <= board.half_width_bound
+                for seed in range(1, 20):
+                    iv = world_interval(counts[m][0], counts[m][2], seed=seed, undecided=near_half_width(0.1))
+                    assert iv is not None and (iv.half_width <= 0.1) == committed, (e.name, c.heading, m, seed)
+
+
+def test_the_docs_state_the_committed_paired_verdict_and_floor_bins():
+    """docs/benchmark.md's example of pairing and of floor bins, read off the committed board."""
+    docs = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    board = _committed()
+    low = next(e for e in board.levels if e.name == "low")
+    assert low.deployable is not None and low.deployable.overall is not None
+    cell = low.deployable.overall
+    v = cell.verdict("roman", "ransac1m")
+    assert v is not None and v.p_value < 0.001
+    diff = v.diff if v.a == "roman" else -v.diff
+    assert v.winner() == "roman" and f"ROMAN is ahead of RANSAC-1M by {diff:.3f} of held-out recall" in docs
+    rom, r1m = cell.methods["roman"].recall_worlds, cell.methods["ransac1m"].recall_worlds
+    assert rom is not None and r1m is not None and rom[0] <= r1m[1]  # the separate intervals overlap
+    floors = board.deployable_floors()
+    assert floors == [("medium", "60-120"), ("high", "60-120")]
+    assert "in the committed board medium and high 60-120 deg are such bins" in docs

@@ -16,10 +16,10 @@ from scipy import stats
 from typer.testing import CliRunner
 
 from roman_sim.align.aligners import RomanAligner, RomanParams
+from roman_sim.benchmark.tune_result import read_tune, write_tune
 from roman_sim.benchmark.tune_space import Config
 from roman_sim.cli import app
 from roman_sim.core.records import RecordError
-from roman_sim.evaluation.tune_result import read_tune, write_tune
 from roman_sim.pipeline.scenario import load_scenario
 
 pytestmark = pytest.mark.slow

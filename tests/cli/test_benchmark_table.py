@@ -5,8 +5,8 @@ from __future__ import annotations
 from committed_results import STANDARD
 from rich.console import Console
 
+from roman_sim.benchmark.board_records import read_leaderboard
 from roman_sim.cli.benchmark import _board_table
-from roman_sim.evaluation.leaderboard import read_leaderboard
 
 BOARD = STANDARD / "leaderboard.json"
 

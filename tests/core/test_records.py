@@ -84,7 +84,7 @@ def test_a_record_round_trips_to_the_same_object_and_bytes(tmp_path: Path) -> No
 
 
 def test_the_committed_leaderboard_reads_and_writes_back_byte_identical(tmp_path: Path) -> None:
-    from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
+    from roman_sim.benchmark.board_records import read_leaderboard, write_leaderboard_json
 
     committed = STANDARD / "leaderboard.json"
     if not committed.is_file():

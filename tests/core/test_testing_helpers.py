@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from roman_sim.benchmark.board_records import BoardCell, BoardLevel, Leaderboard
 from roman_sim.core.errors import ConfigError, EvaluationError, StorageError
 from roman_sim.evaluation.atetable import AteTable, VariantAte
-from roman_sim.evaluation.leaderboard import BoardCell, BoardLevel, Leaderboard
 from roman_sim.evaluation.metrics import PairScore, compute_metrics
 from roman_sim.evaluation.operating_points import OperatingPoint
 from roman_sim.evaluation.pairs import PairTruth

@@ -18,11 +18,11 @@ import pytest
 from committed_results import REFERENCE, RESULTS, committed_files
 
 from roman_sim.benchmark.board import read_runtimes
+from roman_sim.benchmark.board_records import read_leaderboard, write_leaderboard_json
 from roman_sim.benchmark.cells import BENCHMARK_SCHEMA, BenchmarkRecord, CellStatus, PlanRecord
 from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.evaluation.atetable import read_ate, write_ate
 from roman_sim.evaluation.grades import FrontEndGrades
-from roman_sim.evaluation.leaderboard import read_leaderboard, write_leaderboard_json
 from roman_sim.evaluation.records import (
     read_alignments,
     read_map_stats,

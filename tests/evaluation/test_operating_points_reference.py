@@ -1,4 +1,5 @@
-"""The operating points of a committed reference run, re-derived from its raw pairs table by a scorer of its own.
+"""The operating points (``roman_sim.evaluation.operating_points``) of a committed reference run, re-derived
+from its raw pairs table by a scorer of its own.
 
 The scorer here reads ``pairs.csv.gz`` and ``config.yaml`` with the standard library and
 PyYAML only: relevance from the true centre distance, correctness from the pose errors,
@@ -20,6 +21,7 @@ import pytest
 import yaml
 from committed_results import REFERENCE
 
+from roman_sim.core.records import to_json
 from roman_sim.report.recompute import recompute_metrics
 
 RUN = REFERENCE / "opposite_direction"
@@ -84,7 +86,7 @@ def _package_points() -> dict:
     if "acceptance_k" in stored:
         return stored
     metrics, _ = recompute_metrics(RUN, "pairs.csv.gz")
-    return json.loads(json.dumps(metrics.to_json()))
+    return json.loads(json.dumps(to_json(metrics)))
 
 
 def test_operating_points_follow_from_the_pairs_table():

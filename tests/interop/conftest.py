@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -70,20 +69,3 @@ def bag_export(tiny_scenario: Scenario, tmp_path_factory: pytest.TempPathFactory
     out = tmp_path_factory.mktemp("bag") / "export"
     export_scenario(tiny_scenario, "rosbag2", out)
     return out
-
-
-@pytest.fixture
-def run_cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str, str]]:
-    """Run ``roman-sim ARGS`` through the real entry point; returns (exit code, stdout, stderr)."""
-    from roman_sim.cli import app
-
-    def run(*args: str) -> tuple[int, str, str]:
-        try:
-            app(list(args), prog_name="roman-sim")
-            code = 0
-        except SystemExit as ex:
-            code = int(ex.code or 0)
-        out = capsys.readouterr()
-        return code, out.out, out.err
-
-    return run

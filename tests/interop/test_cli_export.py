@@ -1,8 +1,9 @@
-"""``roman-sim export``: writes the sequences; bad input gives one line and exit code 1."""
+"""``roman-sim export``: writes the sequences (``roman_sim.interop``); bad input gives one line and exit code 1."""
 
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 import pytest
@@ -49,6 +50,7 @@ def test_bad_input_is_one_line(run_cli, tmp_path: Path) -> None:
         (["--format", "euroc", "--set", "robots.0.imu.rate_hz=200"], "imu.rate_hz: 200 Hz is not a whole multiple"),
         (["--format", "euroc", "--set", "robots.0.stereo.baseline_m=0"], "robots.0.stereo.baseline_m"),
         (["--format", "rosbag2", "--set", "robots.1.stereo.baseline_m=-0.1"], "robots.1.stereo.baseline_m"),
+        (["--format", "tum", "--set", "robots.0.camera.vfov_deg=10"], "robots.0.camera: vfov_deg (10) with hfov_deg"),
     ]
     for i, (args, message) in enumerate(cases):
         code, _, err = run_cli("export", sc, "--out", str(tmp_path / f"bad{i}"), *args)
@@ -60,23 +62,30 @@ def test_bad_input_is_one_line(run_cli, tmp_path: Path) -> None:
     assert code == 1 and "no such file or bundled scenario" in err
 
 
-def test_warnings_for_non_square_pixels_and_dropped_sensors(
+def test_a_bundled_scenario_exports_square_pixels_and_explicit_vfov_warns(
     run_cli, tmp_path: Path, caplog: pytest.LogCaptureFixture
 ) -> None:
-    """The default camera (fx != fy) is named; a TUM export says it drops an IMU; square pixels are quiet."""
-    sc = str(_scenario_file(tmp_path))
+    """``roman-sim export smoke`` writes fx == fy (the default camera) without a pixel warning, and
+    says a TUM export drops an IMU; an explicit ``vfov_deg`` writes its fy and is named."""
     base = ["--robots", "b", "--set", "robots.1.max_duration_s=0.2"]
     code, _, err = run_cli(
-        "export", sc, "--format", "tum", "--out", str(tmp_path / "t"), *base, "--set", "robots.1.imu.preset=euroc"
+        "export", "smoke", "--format", "tum", "--out", str(tmp_path / "t"), *base, "--set", "robots.1.imu.preset=euroc"
     )
-    assert code == 0
-    assert "robot b: the camera's pixels are not square (fx 33.721, fy 43.297)" in caplog.text
+    assert code == 0, err
+    assert "not square" not in caplog.text
     assert "robot b: the tum format has no IMU or second camera" in caplog.text
+    line = (tmp_path / "t" / "b" / "camera.txt").read_text().splitlines()[1].split()
+    fx, fy = float(line[0]), float(line[1])
+    assert fx == fy == pytest.approx(80.0 / math.tan(math.radians(43.5)), abs=1e-8)  # 160 x 120, 87 deg
+    cam = yaml.safe_load((tmp_path / "t" / "b" / "camera.yaml").read_text())
+    assert cam["fx"] == cam["fy"] and (cam["width"], cam["height"]) == (160, 120)
     caplog.clear()
-    code, _, err = run_cli(
-        "export", sc, "--format", "euroc", "--out", str(tmp_path / "e"), *base, "--set", "robots.1.camera.vfov_deg=null"
-    )
-    assert code == 0 and "not square" not in caplog.text and "no IMU" not in caplog.text, caplog.text
-    assert (tmp_path / "e" / "b" / "mav0" / "cam0" / "data.csv").is_file()
+    vfov = ["--set", "robots.1.camera.vfov_deg=58"]
+    code, _, err = run_cli("export", "smoke", "--format", "euroc", "--out", str(tmp_path / "e"), *base, *vfov)
+    assert code == 0, err
+    assert "robot b: the camera's pixels are not square (fx 84.302, fy 108.243)" in caplog.text
+    assert "no IMU" not in caplog.text, caplog.text
+    sensor = yaml.safe_load((tmp_path / "e" / "b" / "mav0" / "cam0" / "sensor.yaml").read_text())
+    assert sensor["intrinsics"][:2] == pytest.approx([fx, 60.0 / math.tan(math.radians(29.0))], abs=1e-9)
     manifest = json.loads((tmp_path / "e" / "export.json").read_text())
     assert manifest["time_epoch_ns"] == 1_700_000_000_000_000_000

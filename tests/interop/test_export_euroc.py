@@ -176,6 +176,8 @@ def test_cameras_and_calibration_files(smoke_euroc: Path, smoke_truth: Any) -> N
             with Image.open(smoke_euroc / "mav0" / cam / "data" / name) as img:
                 assert (img.mode, img.size) == ("L", (64, 48))
     k = smoke_truth.intrinsics
+    fx, fy = cam0["intrinsics"][:2]
+    assert fx == fy == k.fx == k.fy  # the bundled scenario's camera has square pixels
     T_bc = smoke_truth.T_body_cam
     shift = make_T(np.eye(3), [0.095, 0.0, 0.0])
     for cam, T in ((cam0, T_bc), (cam1, T_bc @ shift)):

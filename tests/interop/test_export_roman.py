@@ -219,3 +219,18 @@ def test_parameters_are_relative_and_dt_as_configured(roman_export: Path, direct
     f = direct_frames["b"][-1]
     np.testing.assert_allclose(d["gt"].T_WB(EPOCH_S + f.t), f.truth.T_world_body, atol=1e-6)
     assert len(d["img_data"].times) == FRAMES["b"]
+
+
+@pytest.mark.parametrize("robot", ["a", "b"])
+def test_the_reference_mapper_keeps_one_pose_per_exported_frame(
+    roman_export: Path, direct_frames: dict, robot: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The reference's per-pair keys (``a12 b34``) index its mapper's poses, at ``np.arange(t0, tf, dt)`` (its
+    runner's times): with the export's ``dt``, pose k is the exported frame k, as ``roman_align`` reads them."""
+    d = _load(roman_export / "roman_params", robot, monkeypatch)
+    img = d["img_data"]
+    times = np.arange(img.t0, img.tf, d["dt"])
+    t = np.array([f.t for f in direct_frames[robot]])
+    assert len(t) - 1 <= len(times) <= len(t)  # the last frame is in or out as the float steps fall
+    # its steps near 1.7e9 s drift by microseconds: pose k is still nearest frame k, far within the 0.01 s match
+    np.testing.assert_allclose(times - EPOCH_S, t[: len(times)], atol=1e-5)

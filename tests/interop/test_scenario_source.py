@@ -1,4 +1,5 @@
-"""Scenarios whose robots read TUM folders: path resolution, caching, and bad input in one line."""
+"""Scenarios whose robots read TUM folders (``roman_sim.interop.tum_reader``): path resolution, caching, and bad
+input in one line."""
 
 from __future__ import annotations
 

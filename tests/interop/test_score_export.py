@@ -3,25 +3,21 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from roman_sim.core.errors import ConfigError
 from roman_sim.core.geometry import inv_T
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.results import read_evaluation
 from roman_sim.interop.closures import Closure, write_csv_closures
-from roman_sim.pipeline.external import read_external, score_external
 from roman_sim.pipeline.scenario import Scenario
+from roman_sim.scoring.external import read_external, score_external
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="exported stamps now count from the export epoch (export.json time_epoch_ns); "
-    "pipeline.external._frame_times reads masks.txt stamps and must take the epoch off "
-    "(roman_sim.interop.base.frame_time) before closures at times since the start can be checked",
-)
 def test_score_an_export_folder(tum_export: Path, tiny_scenario: Scenario, tmp_path: Path) -> None:
     """A perfect closure between the robots' first frames (submap centres) scores as correct."""
     truth = {r: read_tum(tum_export / r / "groundtruth_body.txt") for r in ("a", "b")}
@@ -43,3 +39,57 @@ def test_score_an_export_folder(tum_export: Path, tiny_scenario: Scenario, tmp_p
     assert "already has a closure with a score >= 2" in str(why) or "both ends" in str(why)
     config = json.loads(json.dumps(res.run.scenario.model_dump(mode="json")))
     assert config["aligners"][0]["label"] == "perfect" and config["seed"] == tiny_scenario.seed
+
+
+def test_an_export_scored_with_a_flag_that_makes_things_worse_leaves_nothing(
+    tum_export: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The export's maps are computed into --out before the check: the error removes them again."""
+    from roman_sim.scoring import closure_conventions
+
+    monkeypatch.setattr(closure_conventions, "FAR_GAIN", 1)  # one correct pair is "far better" than none here
+    truth = {r: read_tum(tum_export / r / "groundtruth_body.txt") for r in ("a", "b")}
+    write_csv_closures(tmp_path / "c.csv", [Closure("a", 0.0, "b", 0.0, inv_T(truth["a"].T[0]) @ truth["b"].T[0], 9)])
+    with pytest.raises(
+        ConfigError,
+        match=r"^--invert-edges makes .*c.csv score worse: 0 of 1 estimated pairs correct "
+        r"with --invert-edges, 1 of 1 estimated pairs correct as read \(drop --invert-edges\)$",
+    ):
+        score_external(tum_export, tmp_path / "c.csv", tmp_path / "scored", invert_edges=True)
+    assert not (tmp_path / "scored").exists()
+    (tmp_path / "empty").mkdir()  # a folder that was there and empty stays, emptied
+    with pytest.raises(ConfigError):
+        score_external(tum_export, tmp_path / "c.csv", tmp_path / "empty", invert_edges=True)
+    assert list((tmp_path / "empty").iterdir()) == []
+
+
+def test_a_file_in_an_unknown_format_is_one_line(
+    tum_export: Path, tmp_path: Path, cli_fails: Callable[..., str]
+) -> None:
+    (tmp_path / "c.json").write_text("[]", encoding="utf-8")
+    (tmp_path / "c.csv").write_text("timestamp,x,y,z\n0,1,2,3\n", encoding="utf-8")
+    out = tmp_path / "out"
+    err = cli_fails("score", tum_export, "-c", tmp_path / "c.json", "-o", out)
+    assert err == (
+        f"error: --closures {tmp_path / 'c.json'}: unknown file type '.json' (allowed: a .csv file (this testbed's "
+        "closures or Kimera-Multi's loop_closures.csv), a .g2o file (gtsam Symbol keys, or the reference ROMAN's "
+        "per-pair align.g2o), the reference's align folder, or a folder of Kimera-Multi's logs)"
+    )
+    err = cli_fails("score", tum_export, "-c", tmp_path / "c.csv", "-o", out)
+    assert err.startswith(f"error: {tmp_path / 'c.csv'}:1: unknown CSV header 'timestamp,x,y,z' (allowed: ")
+    assert not out.exists()
+
+
+def test_swapped_robots_whose_stamps_match_no_frame_are_named(
+    tum_export: Path, tmp_path: Path, cli_fails: Callable[..., str]
+) -> None:
+    """Robot a drives 3 s, b 1 s: a closure at a's 2 s written as b's matches no frame of b, but swapped it does."""
+    write_csv_closures(tmp_path / "c.csv", [Closure("b", 2.0, "a", 0.0, np.eye(4), 5)])
+    out = tmp_path / "out"
+    err = cli_fails("score", tum_export, "-c", tmp_path / "c.csv", "-o", out)
+    assert err == (
+        f"error: {tmp_path / 'c.csv'}:2: time 2.000000 s of robot b matches no frame within 0.01 s (nearest frame "
+        "1.000000 s, 1.000000 s before it; the robot's frames run 0.000000 to 1.000000 s, every 0.166667 s; the file's "
+        "clock: seconds since the robot's start); with --swap-robots every closure matches a frame"
+    )
+    assert not out.exists()

@@ -27,7 +27,12 @@ from roman_sim.testing import assert_ate_below, assert_not_worse, assert_recall,
 # Re-pinned when the simulated encoder's descriptors began to come from each instance's appearance
 # (no per-object draw) and its view part from each shape's asymmetry: instances of one family drawn
 # alike look alike, so ROMAN selects 215 cross-robot associations (was 211), 120 of them correct (was 119).
-PINNED_MAP = {"segments": (108, 6), "submaps": (18, 1)}
+# Re-pinned when the camera's pixels became square (87 deg horizontal, 70.9 deg vertical where it was 58 deg)
+# and the light term took its measured size (lighting_fall 0.64, was 0.04): the taller view keeps more small
+# objects, so 113 segments (was 108) and 335 available associations (was 340); CLIPPER 9, 1, 8 hits (was 7,
+# 1, 6) and 110 of 358 selected correct (was 116 of 361); ROMAN's hits unchanged, 125 of 225 selected correct
+# (was 120 of 215; 223 with the camera change alone); ROMAN's ATE 0.492 m (was 0.470, within its tolerance).
+PINNED_MAP = {"segments": (113, 6), "submaps": (18, 1)}
 PINNED_HITS = {  # method -> (pair set, heading bin or None) -> (max hits, relevant pairs)
     "roman": {
         ("inter", None): (13, 19),
@@ -36,17 +41,17 @@ PINNED_HITS = {  # method -> (pair set, heading bin or None) -> (max hits, relev
         ("intra", None): (0, 2),
     },
     "clipper": {
-        ("inter", None): (7, 19),
+        ("inter", None): (9, 19),
         ("inter", "60-120"): (1, 4),
-        ("inter", "120-180"): (6, 15),
+        ("inter", "120-180"): (8, 15),
         ("intra", None): (0, 2),
     },
 }
-PINNED_ASSOC = {"roman": (120, 215, 340), "clipper": (116, 361, 340)}  # cross-robot: correct, selected, available
+PINNED_ASSOC = {"roman": (125, 225, 335), "clipper": (110, 358, 335)}  # cross-robot: correct, selected, available
 PINNED_ATE = {
     "odometry": (0.535, 0.05),
     "odometry_no_prior": (0.307, 0.05),
-    "roman": (0.470, 0.08),
+    "roman": (0.492, 0.08),
     "oracle": (0.266, 0.08),
 }  # SE(3), over the robots every row placed (both)
 

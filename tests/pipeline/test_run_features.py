@@ -170,7 +170,8 @@ def test_cli_missing_scenario_and_unwritable_out(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
     line = _one_line_error(runner.invoke(app, ["run", "smoke", "--out", str(blocker / "sub")]))
-    assert "cannot write" in line
+    sub = blocker / "sub"
+    assert line == f"error: --out {sub}: lies inside {blocker}, an existing file, not a folder (choose a folder path)"
 
 
 def test_cli_report_on_missing_run(tmp_path):

@@ -101,6 +101,8 @@ def test_editing_a_module_changes_the_keys_of_the_stages_that_run_it(tmp_path):
         "roman_sim/posegraph/solve.py": ["ate", "posegraph", "report"],
         "roman_sim/align/aligners.py": ["ate", "evaluation", "posegraph", "report"],
         "roman_sim/mapping/submap.py": ["ate", "evaluation", "posegraph", "report", "submaps"],
+        "roman_sim/pipeline/stages/maps_job.py": ["ate", "evaluation", "maps", "posegraph", "report", "submaps"],
+        "roman_sim/pipeline/stages/maps_robot.py": ["ate", "evaluation", "maps", "posegraph", "report", "submaps"],
         "roman_sim/report/markdown.py": ["report"],
         "roman_sim/runner/dask_executor.py": [],  # where tasks run, not what they compute
         "roman_sim/pipeline/resolve.py": [],  # its results are hashed by value
@@ -145,7 +147,7 @@ def added_aligner(smoke_run, tmp_path_factory):
         mp.setenv("ROMAN_SIM_CACHE", str(cache.root))
         for target in (
             "roman_sim.pipeline.stages.maps.map_one",
-            "roman_sim.pipeline.robot_mapping.map_one",
+            "roman_sim.pipeline.stages.maps_robot.map_one",
             "roman_sim.pipeline.plugins.dry_call",
         ):
             _counting(mp, calls, target)

@@ -1,5 +1,6 @@
 """No stage module renders a frame, builds a segmenter, plans robots or draws: the report's figures are drawn by
-``roman_sim.report`` from the saved outputs (the maps stage keeps the camera frame the snapshot shows)."""
+``roman_sim.report`` from the saved outputs (the maps stage keeps the camera frame the snapshot shows). What
+renders and maps a robot is the maps stage's worker job, run in the workers (``worker_preload``)."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import numpy as np
 import roman_sim.pipeline.stages as stages_pkg
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
+from roman_sim.pipeline.stages import STAGES
 
 #: Modules a stage never imports: renderers, plotting, the simulator.
 FORBIDDEN_MODULES = ("mujoco", "matplotlib", "pyrender", "OpenGL", "roman_sim.sim", "roman_sim.report.maskview")
@@ -50,7 +52,14 @@ def _imports(path: Path) -> list[tuple[str, str]]:
 
 
 def test_stage_modules_import_no_renderer_segmenter_or_plotting() -> None:
-    files = sorted(Path(stages_pkg.__file__).parent.glob("*.py"))
+    (maps,) = (s for s in STAGES if s.name == "maps")  # its worker job renders and maps one robot
+    jobs = {m for m in maps.worker_preload if m.startswith(stages_pkg.__name__)} - {type(maps).__module__}
+    assert jobs == {f"{stages_pkg.__name__}.maps_job", f"{stages_pkg.__name__}.maps_robot"}
+    files = [
+        f
+        for f in sorted(Path(stages_pkg.__file__).parent.glob("*.py"))
+        if f"{stages_pkg.__name__}.{f.stem}" not in jobs
+    ]
     assert {"maps.py", "report.py", "world.py"} <= {f.name for f in files}
     bad = []
     for f in files:
@@ -92,7 +101,7 @@ def test_the_snapshot_frame_is_the_one_in_sight_of_the_most_segments() -> None:
     from types import SimpleNamespace
 
     from roman_sim.mapping.mapper import SegmentMap
-    from roman_sim.pipeline.robot_mapping import busiest_frame
+    from roman_sim.pipeline.stages.maps_robot import busiest_frame
 
     segs = [SimpleNamespace(first_seen=a, last_seen=b) for a, b in ((0.0, 1.0), (1.0, 2.0), (1.0, 3.0), (3.0, 3.0))]
     smap = SegmentMap("a", segs, times=np.array([0.0, 1.0, 2.0, 3.0]))  # in sight: 1, 3, 2, 2

@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from roman_sim.pipeline import tasks as maps_job
-from roman_sim.pipeline.stages import STAGES, WORKER_PRELOAD, evaluation_job, submaps
+from roman_sim.pipeline.stages import STAGES, WORKER_PRELOAD, evaluation_job, maps_job, submaps
 from roman_sim.runner.preload import preload
 
 

@@ -3,14 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
-from types import SimpleNamespace
 
 import pytest
 from committed_results import REFERENCE
 from matplotlib.figure import Figure
 
 import roman_sim.report.plots as plots
-from roman_sim.evaluation.leaderboard import MethodRuntime
 from roman_sim.evaluation.results import read_metrics_json
 
 DEMO = REFERENCE / "demo"
@@ -71,32 +69,6 @@ def test_empty_heading_bins_are_not_drawn(demo_figures: dict[str, Figure]) -> No
     # association precision has data below 60 deg (associations selected on pairs that need not align)
     assoc = [t.get_text() for t in demo_figures["association_heading.png"].axes[0].get_xticklabels()]
     assert assoc == ["0-60", "60-120", "120-180"]
-
-
-def test_the_benchmark_runtime_title_fits_its_figure(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Two methods made the one-line title wider than the figure, cut on both sides."""
-    import roman_sim.report.benchmark_plots as bp
-
-    kept: list[Figure] = []
-    real = bp.save_figure
-
-    def keep(fig: Figure, path: str | Path, data: object = None) -> Path:
-        out = real(fig, path, data)
-        fig.canvas.draw()
-        kept.append(fig)
-        return out
-
-    monkeypatch.setattr(bp, "save_figure", keep)
-    cell = MethodRuntime(
-        n=4, mean_s=0.002, cell_medians_s=[0.001, 0.002], cell_p10_s=[None, None], cell_p90_s=[0.003, 0.004]
-    )
-    board = SimpleNamespace(runtime={"roman": cell, "clipper": cell})
-    assert bp.plot_runtime(board, tmp_path / "runtime.png") is not None  # type: ignore[arg-type]
-    (fig,) = kept
-    ax = fig.axes[0]
-    ext, box = ax.title.get_window_extent(), fig.bbox
-    assert box.x0 <= ext.x0 and ext.x1 <= box.x1, (ext, box)
-    assert ax.get_xlabel() == "method" and ax.get_ylabel() == "ms per pair (log scale)" and ax.get_legend()
 
 
 def test_plots_not_drawn_on_opposite_direction_are_named_with_why_in_the_report(tmp_path: Path) -> None:

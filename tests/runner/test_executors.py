@@ -9,10 +9,10 @@ import sys
 import pytest
 
 from roman_sim.core.errors import ConfigError, RomanSimError
-from roman_sim.pipeline import robot_mapping as maps_stage
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.pipeline.stages import evaluation_job
+from roman_sim.pipeline.stages import maps_robot as maps_stage
 from roman_sim.runner.executors import ExecutorConfig, LocalPoolExecutor, SerialExecutor, TaskError, open_executor
 from roman_sim.testing import assert_same_run_folder as assert_same_folder
 

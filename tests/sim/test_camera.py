@@ -12,16 +12,34 @@ from roman_sim.core.sensors import Intrinsics, backproject, check_intrinsics, pr
 from roman_sim.sim.camera import CameraConfig
 
 
-def test_default_intrinsics_match_d455() -> None:
+def test_default_intrinsics_match_d455_with_square_pixels() -> None:
+    """87 deg horizontal at 640 x 480, square pixels: the vertical field of view follows from 4:3."""
     k = CameraConfig().intrinsics()
     assert (k.width, k.height) == (640, 480)
+    assert k.fx == k.fy and k.cx == 319.5 and k.cy == 239.5
+    assert k.fx == pytest.approx(320.0 / np.tan(np.radians(43.5)))
     hfov, vfov = k.fov_deg
-    assert hfov == pytest.approx(87.0, abs=1e-6)
-    assert vfov == pytest.approx(58.0, abs=1e-6)
-    assert k.fy > k.fx and k.cx == 319.5 and k.cy == 239.5
-    square = CameraConfig(vfov_deg=None).intrinsics()
-    assert square.fx == square.fy
-    assert square.fov_deg[1] == pytest.approx(np.degrees(2 * np.arctan(np.tan(np.radians(43.5)) * 0.75)))
+    assert hfov == pytest.approx(87.0, abs=1e-9)
+    assert vfov == pytest.approx(np.degrees(2 * np.arctan(np.tan(np.radians(43.5)) * 0.75)), abs=1e-9)
+    assert round(vfov, 1) == 70.9
+    small = CameraConfig(width=160, height=120).intrinsics()
+    assert small.fx == small.fy == pytest.approx(k.fx / 4)
+
+
+def test_an_explicit_vertical_field_of_view_gives_non_square_pixels() -> None:
+    k = CameraConfig(vfov_deg=58.0).intrinsics()
+    assert k.fov_deg == pytest.approx((87.0, 58.0), abs=1e-9)
+    assert k.fy / k.fx == pytest.approx(np.tan(np.radians(43.5)) * 0.75 / np.tan(np.radians(29.0)))
+    assert CameraConfig(vfov_deg=None).intrinsics() == CameraConfig().intrinsics()
+
+
+@pytest.mark.parametrize("vfov, aspect", [(10.0, "8.14"), (140.0, "0.259")])
+def test_a_vertical_field_of_view_stretching_pixels_too_far_is_refused(vfov: float, aspect: str) -> None:
+    with pytest.raises(ConfigError) as err:
+        validate_model(CameraConfig, {"vfov_deg": vfov})
+    msg = str(err.value)
+    assert "\n" not in msg and f"vfov_deg ({vfov:g}) with hfov_deg 87 at 640 x 480" in msg
+    assert f"aspect fy/fx {aspect}: allowed 0.5 to 2 (null: square pixels, 70.9 deg vertical)" in msg
 
 
 def test_projection_backprojection_round_trip() -> None:

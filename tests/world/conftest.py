@@ -1,4 +1,4 @@
-"""Fixtures for world tests: the tiny preset world, and a CLI runner that keeps exit codes."""
+"""Fixtures for world tests: the tiny preset world and small specs of the presets."""
 
 from __future__ import annotations
 
@@ -25,20 +25,3 @@ def _small_spec(preset: str, side_m: float = 80.0, **updates: object) -> WorldSp
 def small_spec() -> Callable[..., WorldSpec]:
     """``small_spec(preset, side_m=80, **updates)``: a preset shrunk to a square, validated."""
     return _small_spec
-
-
-@pytest.fixture
-def run_cli(capsys: pytest.CaptureFixture[str]) -> Callable[..., tuple[int, str, str]]:
-    """Run ``roman-sim ARGS`` through the real entry point; returns (exit code, stdout, stderr)."""
-    from roman_sim.cli import app
-
-    def run(*args: str) -> tuple[int, str, str]:
-        try:
-            app(list(args), prog_name="roman-sim")
-            code = 0
-        except SystemExit as ex:
-            code = int(ex.code or 0)
-        out = capsys.readouterr()
-        return code, out.out, out.err
-
-    return run

@@ -84,7 +84,7 @@ NOT_FINGERPRINTED: tuple[str, ...] = (
 #: its jobs run in ``code``).
 FINGERPRINTED_ONLY: tuple[str, ...] = (
     "roman_sim.pipeline.scenario",
-    "roman_sim.pipeline.tasks",
+    "roman_sim.pipeline.stages.maps_job",
 )
 
 #: Wall-clock figures a stage reports (``timings.json``): name -> JSON value.

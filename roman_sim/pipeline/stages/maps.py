@@ -1,9 +1,9 @@
 """Stage ``maps``: simulate (or read) every robot and map its frames into a ``SegmentMap``.
 
-Each robot is one task (``roman_sim.pipeline.robot_mapping.map_one``): its frame source
+Each robot is one task (``roman_sim.pipeline.stages.maps_robot.map_one``): its frame source
 (``roman_sim.sim.source.robot_sources``: simulated robots are planned together, since a path
 may be defined relative to an earlier robot's; a robot with a ``source`` is read from its
-TUM RGB-D folder, ``roman_sim.pipeline.sources``) mapped in one loop.
+TUM RGB-D folder, ``roman_sim.pipeline.stages.maps_sources``) mapped in one loop.
 When a scenario lists the ``visual`` method, the same frames also give each robot's visual
 keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), saved as
 ``keyframes/<robot>.npz`` with poses in the robot's odometry frame.
@@ -12,7 +12,7 @@ keyframes (ORB features with depth and BoW vectors, ``frontend.keyframes``), sav
 nothing; ``save`` writes ``maps/``, ``keyframes/``, ``maps/frontend.json`` (the front end's
 grades) and ``maps/snapshot.npz`` (the first robot's busiest camera frame with its masks);
 the report stage draws both. With ``record_frames``, the rendered frames are a cache, not an
-output of the stage: the mapping task (``roman_sim.pipeline.robot_mapping``) streams them
+output of the stage: the mapping task (``roman_sim.pipeline.stages.maps_robot``) streams them
 into ``recordings/<robot>/`` as it renders (holding a robot's frames in memory until
 ``save`` would cost gigabytes at paper scale) and reads them back, under a key of what they
 depend on (seed, world, robots), so a later run with other mapping settings maps them
@@ -36,9 +36,9 @@ from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframe
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.robot_mapping import RobotMapping, RobotMappingCodec, map_one
 from roman_sim.pipeline.stagefiles import load_per_robot, save_per_robot
 from roman_sim.pipeline.stages.base import Stage, Timings
+from roman_sim.pipeline.stages.maps_robot import RobotMapping, RobotMappingCodec, map_one
 from roman_sim.pipeline.stages.world import WorldOutput
 from roman_sim.report.snapshot import FrameSnapshot, load_snapshot, save_snapshot
 from roman_sim.runner.taskrunner import TaskRunner
@@ -90,7 +90,7 @@ def map_robots(
     keyframes (robots that have them) and the grade parts (robots with instance truth), in
     scenario order, and the first robot's snapshot.
     """
-    from roman_sim.pipeline.tasks import map_robot_task
+    from roman_sim.pipeline.stages.maps_job import map_robot_task
     from roman_sim.world import PickledWorld
 
     robots = ctx.scenario.robots
@@ -128,8 +128,8 @@ class MapsStage(Stage[MapsInputs, Maps]):
     uses_workers = True
     components = ("segmenter", "encoder")
     worker_preload = (
-        "roman_sim.pipeline.tasks",
-        "roman_sim.pipeline.robot_mapping",
+        "roman_sim.pipeline.stages.maps_job",
+        "roman_sim.pipeline.stages.maps_robot",
         "roman_sim.world",
         "roman_sim.sim.robot",
         "roman_sim.sim.source",
@@ -141,7 +141,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
-        from roman_sim.pipeline.sources import fingerprint
+        from roman_sim.pipeline.stages.maps_sources import fingerprint
 
         sc = ctx.scenario.model_dump(mode="json")
         sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}

@@ -7,14 +7,18 @@ visual method's own path (ORB with depth, ratio test, 2D-2D and 3D-3D RANSAC) at
 Kimera-Multi's parameters (700 ORB, 5 inliers within 0.3 m). Far pairs are views more than
 30 m apart (different places); near pairs are views of one place 1 m apart along the road.
 
-Measured (seed 1, 104 views, 3700 far pairs, 104 near pairs):
+Measured (seed 1, 104 views, 3700 far pairs, 104 near pairs; the default camera, square pixels):
 
 * the plain ground (``ground_texel_m: null``: 0.2 m texels of faint noise, the look before):
-  median 128 features per view, 10 % of the views under 30 (fewest 0); no far pair
-  verified (17 by the 3D-3D check alone when a candidate feature may match several query
-  features); 49 near pairs verified;
-* the detailed ground (the default, 2.5 cm texels with detail at every scale): median 560
-  features per view, fewest 306; no far pair verified; 51 near pairs verified.
+  median 92.5 features per view, 17 % of the views under 30 (fewest 0); no far pair
+  verified (12 by the 3D-3D check alone when a candidate feature may match several query
+  features); 44 near pairs verified;
+* the detailed ground (the default, 2.5 cm texels with detail at every scale): median 558
+  features per view, fewest 300; no far pair verified; 38 near pairs verified.
+
+With the former non-square default (58 deg vertical where square pixels give 70.9) the figures
+were 128 and 560 features, 17 far pairs, 49 and 51 near pairs: the taller view shows more of the
+ground right in front of the camera, which a step of 1 m takes out of view.
 
 The same figures with OpenCV 5.0 and 5.1 (5.1's essential-matrix solver raises on sets it
 cannot solve, where 5.0 returned arbitrary inliers; see ``mono_inliers``).
@@ -128,8 +132,8 @@ DETAILED = 0.025  # the default ground_texel_m
 def test_a_robot_view_of_the_detailed_ground_has_features_everywhere() -> None:
     f = _figures(DETAILED)
     assert f["views"] == 104
-    assert f["median_features"] >= 400, f  # measured: 560
-    assert f["fewest_features"] >= 150, f  # measured: 306
+    assert f["median_features"] >= 400, f  # measured: 558
+    assert f["fewest_features"] >= 150, f  # measured: 300
 
 
 def test_far_apart_stretches_of_road_do_not_verify_as_one_place() -> None:
@@ -144,16 +148,16 @@ def test_the_plain_ground_left_views_bare_and_duplicate_matches_verified_far_pla
     One-to-one matching stops them there, and so does the 2D-2D check, which wants 5
     distinct points in each view."""
     plain, detailed = _figures(None), _figures(DETAILED)
-    assert plain["median_features"] <= 200 and plain["under_30"] >= 0.05, plain  # measured: 128, 0.1
+    assert plain["median_features"] <= 200 and plain["under_30"] >= 0.05, plain  # measured: 92.5, 0.17
     many = _figures(None, one_to_one=False, mono=False)
-    assert many["far_verified"] >= 10, many  # measured: 17 of 3700
+    assert many["far_verified"] >= 6, many  # measured: 12 of 3700
     assert _figures(None, one_to_one=True, mono=False)["far_verified"] <= 1  # measured: 0
     assert _figures(None, one_to_one=False, mono=True)["far_verified"] <= 1  # measured: 0
     assert plain["far_verified"] <= 1 and detailed["far_verified"] <= 1, (plain, detailed)  # measured: 0 and 0
 
 
 def test_views_of_one_place_1m_apart_still_verify() -> None:
-    """The ground's detail takes nothing from true closures: about as many views 1 m apart verify."""
+    """The ground's detail takes little from true closures: nearly as many views 1 m apart verify."""
     detailed, plain = _figures(DETAILED), _figures(None)
-    assert detailed["near_verified"] >= 45, detailed  # measured: 51 of 104
-    assert detailed["near_verified"] >= plain["near_verified"] - 5, (detailed, plain)  # measured: 51 vs 49
+    assert detailed["near_verified"] >= 32, detailed  # measured: 38 of 104
+    assert detailed["near_verified"] >= plain["near_verified"] - 10, (detailed, plain)  # measured: 38 vs 44
