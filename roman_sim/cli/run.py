@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
     from roman_sim.pipeline.result import RunResult
     from roman_sim.pipeline.scenario import Scenario
+    from roman_sim.pipeline.sweep import SweepFailure
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -122,23 +123,23 @@ def print_summary(result: RunResult) -> None:
     out = Console()
     cap = (
         "no distance cap"
-        if cfg["max_pair_dist_m"] is None
-        else (f"distance cap {cfg['max_pair_dist_m']:g} m: {s.n_skipped} pairs skipped")
+        if cfg.max_pair_dist_m is None
+        else (f"distance cap {cfg.max_pair_dist_m:g} m: {s.n_skipped} pairs skipped")
     )
     out.print(
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
-        f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
+        f"relevant: {cfg.relevance}; correct: <= {cfg.rot_tol_deg:g} deg, <= {cfg.trans_tol_m:g} m"
     )
     for line in lead_paragraph(result.metrics, result.ate, markdown=False):
         out.print(line, markup=False, highlight=False)
     kinds = [s.headline] + [k for k in ("inter", "intra") if k != s.headline]
     for kind in kinds:
-        if s.methods and s.pairs[kind]["n_pairs"]:
+        if s.methods and s.pairs[kind].n_pairs:
             label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s.headline else "")
-            for table in _recall_tables(s, kind, label, int(cfg["min_relevant"]), empty):
+            for table in _recall_tables(s, kind, label, cfg.min_relevant, empty):
                 out.print(table)
     if s.ate and s.ate_robots is not None:
-        robots, common = s.ate_robots
+        robots, common = s.ate_robots.robots, s.ate_robots.common
         a = Table(
             title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({', '.join(common) or 'none'}) "
             f"and over all {len(robots)}",
@@ -314,7 +315,7 @@ def record_cmd(
     from roman_sim.core.atomic import output_folder
     from roman_sim.core.errors import ConfigError
     from roman_sim.pipeline.scenario import load_scenario
-    from roman_sim.sim.recording import write_recording
+    from roman_sim.sim.recording import RecordingOrigin, write_recording
     from roman_sim.sim.source import SimulatedRobot, robot_sources
     from roman_sim.world import generate
 
@@ -343,7 +344,7 @@ def record_cmd(
                     progress.advance(stage)
                     yield f
 
-            write_recording(frames(), out / src.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
+            write_recording(frames(), out / src.name, overwrite=True, origin=RecordingOrigin(sc.name, sc.seed))
             progress.end(stage)
     Console().print(f"recordings written to {out}")
 
@@ -379,7 +380,7 @@ def report_cmd(
     if not compressed:
         print_summary(RunResult.load(run_dir))
     if verify:
-        from roman_sim.cli._verify import verify_run
+        from roman_sim.studies.verify import verify_run
 
         res = verify_run(
             run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv", tum_suffix=".gz" if compressed else ""
@@ -436,13 +437,13 @@ def sweep_cmd(
         raise typer.Exit(1)
 
 
-def _failure_table(failed: list[dict[str, str]], path: Path) -> None:
+def _failure_table(failed: list[SweepFailure], path: Path) -> None:
     """The runs of a sweep that did not finish, on stderr."""
     t = Table(title=f"{len(failed)} sweep run(s) failed (all rows in {path})")
     for col in ("run", "seed", "status", "error"):
         t.add_column(col, overflow="fold")
     for row in failed:
-        t.add_row(row.get("run_id", ""), row.get("seed", ""), row.get("status", ""), row.get("error", ""))
+        t.add_row(row.run_id, row.seed, row.status, row.error)
     console.print(t)
 
 

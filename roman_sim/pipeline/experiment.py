@@ -301,12 +301,13 @@ class Experiment:
             if not stage.cached and stage.name not in needed:
                 continue
             outputs[stage.name], timings[stage.name] = self._run_stage(stage, ctx, outputs, manifest, keys, ex)
-        write_timings(self.run_dir / TIMINGS_JSON, run_timings(timings, str(self.run_dir / TIMINGS_JSON)))
+        checked = run_timings(timings, str(self.run_dir / TIMINGS_JSON))
+        write_timings(self.run_dir / TIMINGS_JSON, checked)
         log.info(
             "run %s complete in %s (reused: %s)", self.scenario.name, self.run_dir, ", ".join(sorted(reuse)) or "none"
         )
         return RunResult.from_outputs(
-            self.run_dir, self.scenario, outputs, timings, [s.name for s in active if s.name in reuse]
+            self.run_dir, self.scenario, outputs, checked, [s.name for s in active if s.name in reuse]
         )
 
     def _run_stage(

@@ -27,10 +27,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import read_json
+from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
@@ -171,7 +169,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
         if out.keyframes:
             files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
         if out.frontend is not None:
-            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
+            write_record(ctx.run_dir / FRONTEND_JSON, out.frontend)
             files.append(FRONTEND_JSON)
         if out.snapshot is not None:
             save_snapshot(ctx.run_dir / SNAPSHOT_NPZ, out.snapshot)
@@ -183,11 +181,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
         keyframes = load_per_robot(ctx, "keyframes", load_keyframes)[0] if ctx.scenario.uses_visual else {}
         grades = None
         if FRONTEND_JSON in files:
-            path = ctx.run_dir / FRONTEND_JSON
-            try:
-                grades = FrontEndGrades.from_json(read_json(path))
-            except (KeyError, TypeError, ValueError) as err:
-                raise StorageError(f"{path}: malformed front-end grades ({type(err).__name__}: {err})") from None
+            grades = read_record(ctx.run_dir / FRONTEND_JSON, FrontEndGrades)
         snapshot = load_snapshot(ctx.run_dir / SNAPSHOT_NPZ) if SNAPSHOT_NPZ in files else None
         return Maps(maps, notes, keyframes, grades, snapshot)
 

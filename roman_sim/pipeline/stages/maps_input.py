@@ -237,19 +237,19 @@ class _Recorded(FrameSourceView):
         yield from self._recording().frames(indices)
 
     def _recording(self) -> Recording:
-        from roman_sim.sim.recording import Recording, recording_info, write_recording
+        from roman_sim.sim.recording import Recording, RecordingOrigin, recording_info, write_recording
 
         sc = self.ctx.scenario
         rec_dir = self.ctx.run_dir / "recordings" / self.name
         key = _recording_key(self.ctx, self.name)
         if not self.ctx.fresh:
             try:
-                if recording_info(rec_dir).get("extra", {}).get("key") == key:
+                origin = recording_info(rec_dir).extra
+                if origin is not None and origin.key == key:
                     return Recording(rec_dir)
             except RomanSimError:
                 pass
-        extra = {"scenario": sc.name, "seed": sc.seed, "key": key}
-        write_recording(self.inner.frames(), rec_dir, overwrite=True, extra=extra)
+        write_recording(self.inner.frames(), rec_dir, overwrite=True, origin=RecordingOrigin(sc.name, sc.seed, key))
         return Recording(rec_dir)
 
 

@@ -209,7 +209,7 @@ class RobotMappingCodec:
         part = None
         if data.get("grades"):
             with np.load(_part(stem, "grades"), allow_pickle=False) as z:
-                part = GraderPart.from_arrays(z)
+                part = GraderPart.from_arrays(z, str(_part(stem, "grades")))
         kf = load_keyframes(_part(stem, "keyframes")) if data.get("keyframes") else None
         snap = load_snapshot(_part(stem, "snapshot")) if data.get("snapshot") else None
         return load_segment_map(_part(stem, "map")), kf, part, snap

@@ -51,7 +51,7 @@ def object_table_path(source: TumSourceConfig) -> Path | None:
 def sequence_families(source: TumSourceConfig) -> dict[int, str] | None:
     """Object id -> family from the sequence's object table (None without one)."""
     path = object_table_path(source)
-    return None if path is None else {int(r["id"]): str(r["family"]) for r in read_object_table(path)}
+    return None if path is None else {r.id: r.family for r in read_object_table(path)}
 
 
 def fingerprint(source: TumSourceConfig) -> dict[str, str]:
