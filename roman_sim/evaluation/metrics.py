@@ -36,14 +36,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from roman_sim.align.base import AlignResult, segment_associations
+from roman_sim.align.base import DEFAULT_SCORE, AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import pose_error
 from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
-from roman_sim.evaluation.operating_points import OperatingPoints, point_at, sweep_points
+from roman_sim.evaluation.operating_points import OperatingPoints, point_at, pr_area, sweep_points
 from roman_sim.evaluation.overlap import PairCounts, revisit_figures, robot_pair_counts
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
@@ -92,6 +92,8 @@ class PairScore:
             feature matches).
         assoc_recovered: true correspondences recovered one-to-one by the selection (-1: not
             graded).
+        named: the method's own named scores of this pair (``AlignResult.confidence``), sorted by
+            name; ``associations`` (``n_assoc``) is not among them.
     """
 
     truth: PairTruth
@@ -104,6 +106,13 @@ class PairScore:
     reason: str | None = None
     assoc_correct: int = 0
     assoc_recovered: int = 0
+    named: tuple[tuple[str, float], ...] = ()
+
+    def score(self, name: str = DEFAULT_SCORE) -> float | None:
+        """The pair's score ``name`` (``associations``: ``n_assoc``); None when the method gave none here."""
+        if name == DEFAULT_SCORE:
+            return float(self.n_assoc)
+        return dict(self.named).get(name)
 
 
 def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = None) -> PairScore:
@@ -135,6 +144,7 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
         result.reason,
         good,
         recovered,
+        tuple((k, v) for k, v in result.named_scores().items() if k != DEFAULT_SCORE),
     )
 
 
@@ -178,21 +188,8 @@ def pr_curve(scores: list[PairScore], k_values: list[int] | None = None) -> PRCu
 
 
 def auc(curve: PRCurve) -> float:
-    """Area under precision over recall (trapezoid); NaN when undefined.
-
-    Points with undefined precision or recall are skipped; at equal recall the best
-    precision is kept; the curve starts at recall 0 with the precision of its
-    lowest-recall point (so a single perfect point has area 1).
-    """
-    ok = ~(np.isnan(curve.precision) | np.isnan(curve.recall))
-    if not ok.any():
-        return float("nan")
-    r, p = curve.recall[ok], curve.precision[ok]
-    ur = np.unique(r)
-    up = np.array([p[r == x].max() for x in ur])
-    if ur[0] > 0:
-        ur, up = np.concatenate([[0.0], ur]), np.concatenate([[up[0]], up])
-    return float(np.trapezoid(up, ur))
+    """Area under precision over recall (``operating_points.pr_area``: trapezoid); NaN when undefined."""
+    return pr_area(curve.precision, curve.recall)
 
 
 def _assoc_stats(scores: list[PairScore], level: float) -> dict[str, object]:

@@ -6,6 +6,8 @@ stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned
 are written with ``repr`` (exact round trip), so ``metrics.json`` can be recomputed from
 this file alone (``roman_sim.report.recompute``). A path ending in ``.gz`` is read as
 gzip (the reference results keep their tables compressed).
+Each named score a method gives (``AlignResult.confidence``) is a column ``score_<name>``
+after the fixed ones, sorted by name; a file without named scores has no such column.
 ``metrics.json`` is the ``EvaluationMetrics`` record (``roman_sim.core.records``). Neither
 holds wall-clock runtimes (two runs of one seed give the same bytes); those are kept in
 ``timings.json``. Reading either file back raises ``StorageError`` when it is missing or
@@ -65,6 +67,9 @@ PAIRS_FIELDS = [
     "correct",
     "reason",
 ]
+#: A named score's column: ``score_<name>`` after the fixed columns (files written before named
+#: scores existed have none; an empty cell is a score the method did not give for that row).
+SCORE_PREFIX = "score_"
 
 
 def _fmt(v: Any) -> str:
@@ -110,13 +115,20 @@ def _row(s: PairScore) -> dict[str, str]:
         "correct": s.correct,
         "reason": s.reason,
     }
-    return {k: _fmt(vals[k]) for k in PAIRS_FIELDS}
+    row = {k: _fmt(vals[k]) for k in PAIRS_FIELDS}
+    row.update({SCORE_PREFIX + k: repr(float(v)) for k, v in s.named})
+    return row
+
+
+def score_columns(scores: list[PairScore]) -> list[str]:
+    """The ``score_<name>`` columns of ``scores``: every named score any row carries, sorted."""
+    return sorted({SCORE_PREFIX + k for s in scores for k, _ in s.named})
 
 
 def pairs_csv_text(scores: list[PairScore]) -> str:
-    """The CSV text of ``scores`` (header + one row per score)."""
+    """The CSV text of ``scores`` (header + one row per score); a named score a row lacks is an empty cell."""
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=PAIRS_FIELDS, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=PAIRS_FIELDS + score_columns(scores), lineterminator="\n", restval="")
     w.writeheader()
     for s in scores:
         w.writerow(_row(s))
@@ -139,6 +151,18 @@ def _bool(raw: str) -> bool:
     if raw not in ("true", "false"):
         raise ValueError(f"expected true/false, got {raw!r}")
     return raw == "true"
+
+
+def _named(r: dict[str, str]) -> tuple[tuple[str, float], ...]:
+    """The named scores of a row: its non-empty ``score_<name>`` cells, sorted by name."""
+    out = []
+    for col in sorted(c for c in r if c.startswith(SCORE_PREFIX)):
+        if r[col] != "":
+            v = float(r[col])
+            if not math.isfinite(v):
+                raise ValueError(f"{col}: expected a finite number, got {r[col]!r}")
+            out.append((col[len(SCORE_PREFIX) :], v))
+    return tuple(out)
 
 
 def _parse(r: dict[str, str]) -> PairScore:
@@ -173,6 +197,7 @@ def _parse(r: dict[str, str]) -> PairScore:
         r["reason"] or None,
         int(r["assoc_correct"]),
         int(r["assoc_recovered"]),
+        _named(r),
     )
 
 
