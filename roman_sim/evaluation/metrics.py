@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING
@@ -72,6 +72,7 @@ __all__ = [
     "pr_curve",
     "compute_metrics",
     "score_pair",
+    "sweep_counts",
 ]
 
 
@@ -172,19 +173,32 @@ def pr_curve(scores: list[PairScore], k_values: list[int] | None = None) -> PRCu
         raise EvaluationError("pr_curve: scores of several methods given; group them by method first")
     ks = np.asarray(k_values if k_values is not None else EvalConfig().k_values(), dtype=np.int64)
     n = np.array([s.n_assoc for s in scores], dtype=np.int64)
-    rel = np.array([s.truth.relevant for s in scores], dtype=bool)
-    ok = np.array([s.correct for s in scores], dtype=bool)
-    pos = n[None, :] >= ks[:, None]  # (K, N)
-    tp = (pos & rel & ok).sum(axis=1)
-    fp = (pos & ~ok).sum(axis=1)
-    n_rel = int(rel.sum())
+    tp, fp, n_rel, precision, recall = sweep_counts(n, ks, scores)
     with np.errstate(divide="ignore", invalid="ignore"):
-        precision = np.where(tp + fp > 0, tp / np.maximum(tp + fp, 1), np.nan)
-        recall = np.full(len(ks), np.nan) if n_rel == 0 else tp / n_rel
         denom = precision + recall
         f1 = np.where(denom > 0, 2 * precision * recall / np.where(denom > 0, denom, 1), 0.0)
     f1 = np.where(np.isnan(precision) | np.isnan(recall), np.nan, f1)
-    return PRCurve(ks, tp.astype(np.int64), fp.astype(np.int64), n_rel, precision, recall, f1)
+    return PRCurve(ks, tp, fp, n_rel, precision, recall, f1)
+
+
+def sweep_counts(
+    values: np.ndarray, thresholds: np.ndarray, scores: Sequence[PairScore]
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
+    """TP, FP, relevant pairs, precision and recall of ``scores`` accepted where ``values >= threshold``.
+
+    ``values`` (N,) is each pair's score, ``thresholds`` (T,) the sweep; TP and FP are (T,) int64,
+    precision NaN without a positive and recall NaN without a relevant pair.
+    """
+    rel = np.array([s.truth.relevant for s in scores], dtype=bool)
+    ok = np.array([s.correct for s in scores], dtype=bool)
+    pos = values[None, :] >= thresholds[:, None]  # (T, N)
+    tp = (pos & rel & ok).sum(axis=1).astype(np.int64)
+    fp = (pos & ~ok).sum(axis=1).astype(np.int64)
+    n_rel = int(rel.sum())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        precision = np.where(tp + fp > 0, tp / np.maximum(tp + fp, 1), np.nan)
+    recall = np.full(len(thresholds), np.nan) if n_rel == 0 else tp / n_rel
+    return tp, fp, n_rel, precision, recall
 
 
 def auc(curve: PRCurve) -> float:

@@ -153,10 +153,10 @@ def _bool(raw: str) -> bool:
     return raw == "true"
 
 
-def _named(r: dict[str, str]) -> tuple[tuple[str, float], ...]:
-    """The named scores of a row: its non-empty ``score_<name>`` cells, sorted by name."""
+def _named(r: dict[str, str], columns: list[str]) -> tuple[tuple[str, float], ...]:
+    """The named scores of a row: its non-empty cells of the (sorted) ``score_<name>`` ``columns``."""
     out = []
-    for col in sorted(c for c in r if c.startswith(SCORE_PREFIX)):
+    for col in columns:
         if r[col] != "":
             v = float(r[col])
             if not math.isfinite(v):
@@ -165,7 +165,7 @@ def _named(r: dict[str, str]) -> tuple[tuple[str, float], ...]:
     return tuple(out)
 
 
-def _parse(r: dict[str, str]) -> PairScore:
+def _parse(r: dict[str, str], columns: list[str]) -> PairScore:
     T = pose_4dof(float(r["true_x_m"]), float(r["true_y_m"]), float(r["true_z_m"]), float(r["true_yaw_rad"]))
     if r["kind"] not in ("inter", "intra"):
         raise ValueError(f"kind must be inter or intra, got {r['kind']!r}")
@@ -197,7 +197,7 @@ def _parse(r: dict[str, str]) -> PairScore:
         r["reason"] or None,
         int(r["assoc_correct"]),
         int(r["assoc_recovered"]),
-        _named(r),
+        _named(r, columns),
     )
 
 
@@ -217,12 +217,13 @@ def read_pairs_csv(path: str | Path) -> list[PairScore]:
     missing = [f for f in PAIRS_FIELDS if f not in (reader.fieldnames or [])]
     if missing:
         raise StorageError(f"{path}: not a pairs table, missing columns: {', '.join(missing)}")
+    columns = sorted(c for c in reader.fieldnames or [] if c.startswith(SCORE_PREFIX))
     out = []
     for row in reader:
         if None in row or any(v is None for v in row.values()):
             raise StorageError(f"{path}: line {reader.line_num}: wrong number of cells")
         try:
-            out.append(_parse(row))
+            out.append(_parse(row, columns))
         except (ValueError, KeyError) as err:
             raise StorageError(f"{path}: line {reader.line_num}: {err}") from None
     return out

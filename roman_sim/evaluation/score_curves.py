@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from roman_sim.align.base import DEFAULT_SCORE
 from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.metrics import PairScore
+from roman_sim.evaluation.metrics import PairScore, sweep_counts
 from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint, pr_area, sweep_points
 
 
@@ -86,15 +86,7 @@ def score_curve(scores: Sequence[PairScore], name: str = DEFAULT_SCORE, cfg: Eva
         t = np.asarray((cfg or EvalConfig()).k_values(), dtype=np.float64)
     else:
         t = np.unique(v[np.isfinite(v)])
-    rel = np.array([s.truth.relevant for s in scores], dtype=bool)
-    ok = np.array([s.correct for s in scores], dtype=bool)
-    pos = v[None, :] >= t[:, None]  # (T, N)
-    tp = (pos & rel & ok).sum(axis=1).astype(np.int64)
-    fp = (pos & ~ok).sum(axis=1).astype(np.int64)
-    n_rel = int(rel.sum())
-    with np.errstate(divide="ignore", invalid="ignore"):
-        precision = np.where(tp + fp > 0, tp / np.maximum(tp + fp, 1), np.nan)
-    recall = np.full(len(t), np.nan) if n_rel == 0 else tp / n_rel
+    tp, fp, n_rel, precision, recall = sweep_counts(v, t, scores)
     return ScoreCurve(name, t, tp, fp, n_rel, precision.astype(np.float64), recall.astype(np.float64))
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from committed_results import REFERENCE
 
-from roman_sim.core.errors import EvaluationError
+from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import auc, pr_curve
 from roman_sim.evaluation.results import PAIRS_FIELDS, read_metrics_json, read_pairs_csv, write_pairs_csv
@@ -122,3 +122,12 @@ def test_committed_results_read_and_their_default_score_is_their_metrics() -> No
     with pytest.raises(EvaluationError, match="score 'margin': method clipper does not offer it"):
         run_score_summaries(run, "margin")
     assert (run / "pairs.csv.gz").read_bytes() == before
+
+
+@pytest.mark.parametrize("cell", ["high", "nan", "inf"])
+def test_a_bad_score_cell_is_one_line_naming_the_file_and_line(make_score, tmp_path, cell: str) -> None:
+    pairs = [replace(make_score("p1", True, 4, True), named=(("conf", 0.5),))]
+    path = write_pairs_csv(tmp_path / "pairs.csv", pairs)
+    path.write_text(path.read_text().replace(",0.5\n", f",{cell}\n"))
+    with pytest.raises(StorageError, match=r"pairs.csv: line 2: "):
+        read_pairs_csv(path)
