@@ -18,7 +18,8 @@ from pydantic import Field, model_validator
 from roman_sim.align.affinity import AffinityParams, build_affinity, cosine_matrix, min_max_ratio, object_scores
 from roman_sim.align.base import ALIGNERS, Aligner, AlignResult, Tunable
 from roman_sim.align.checks import pair_reason
-from roman_sim.align.clipper import ClipperParams, solve_clipper
+from roman_sim.align.clipper import ClipperParams, ClipperSolution, solve_clipper
+from roman_sim.align.confidence import mean_cosine, percent_associations, rival_objective
 from roman_sim.align.registration import estimate_transform, tilt_ok
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
@@ -145,7 +146,25 @@ class RomanAligner:
             "density": sol.density,
             "iterations": sol.iterations,
         }
-        return self._finish(a, b, sel, sol.u[sol.selected], info, t0)
+        out = self._finish(a, b, sel, sol.u[sol.selected], info, t0)
+        out.confidence = self._confidence(a, b, sel, M, sol, semantics=needs)
+        out.runtime_s = time.perf_counter() - t0
+        return out
+
+    def _confidence(
+        self, a: Submap, b: Submap, sel: NDArray[np.int64], M: Any, sol: ClipperSolution, semantics: bool
+    ) -> dict[str, float]:
+        """ROMAN's named scores of one solved pair (see ``roman_sim.align.confidence``)."""
+        rival = rival_objective(M, sol.selected, self.params.solver)
+        out = {
+            "objective": sol.F,
+            "density": sol.density,
+            "percent_associations": percent_associations(len(sel), len(a), len(b)),
+            "margin": max(0.0, sol.F - rival),
+        }
+        if semantics and len(sel):
+            out["semantic"] = mean_cosine(a.descriptors, b.descriptors, sel)
+        return out
 
     def _finish(self, a: Submap, b: Submap, sel: NDArray[np.int64], u: NDArray, info: dict, t0: float) -> AlignResult:
         p = self.params

@@ -7,14 +7,16 @@ estimates ``inv(T_world_a) @ T_world_b``.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.core.errors import AlignmentError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import OMIT_NONE
+from roman_sim.core.records import OMIT_EMPTY, OMIT_NONE
 from roman_sim.core.registry import Registry
 from roman_sim.mapping.types import Submap
 
@@ -34,6 +36,13 @@ class ResultRow:
     reason: str | None
     info: dict[str, JSON]
     runtime_s: float | None = field(default=None, metadata=OMIT_NONE)
+    confidence: dict[str, float] = field(default_factory=dict, metadata=OMIT_EMPTY)
+
+
+#: The score every method offers: its number of accepted associations (the default confidence).
+DEFAULT_SCORE = "associations"
+#: What a score name may hold (it becomes a ``pairs.csv`` column ``score_<name>``).
+SCORE_NAME = re.compile(r"^[a-z][a-z0-9_]{0,39}$")
 
 
 @dataclass
@@ -48,6 +57,9 @@ class AlignResult:
         runtime_s: wall time of the alignment.
         reason: why there is no alignment (None when ``T_a_b`` is set).
         info: method-specific extras (e.g. number of putative associations).
+        confidence: the method's own named scores of this alignment, higher meaning more
+            confident (e.g. ROMAN's ``objective``, ``margin``); the association count is always
+            offered as ``associations`` and needs no entry. Names match ``SCORE_NAME``.
     """
 
     method: str
@@ -57,11 +69,38 @@ class AlignResult:
     runtime_s: float
     reason: str | None = None
     info: dict[str, Any] = field(default_factory=dict)
+    confidence: dict[str, float] = field(default_factory=dict)
 
     @property
     def n_associations(self) -> int:
         """Number of accepted associations (the loop-closure acceptance statistic)."""
         return int(len(self.associations))
+
+    @property
+    def score(self) -> float:
+        """The method's default confidence: the number of accepted associations."""
+        return float(self.n_associations)
+
+    def named_scores(self) -> dict[str, float]:
+        """Every score of this result by name, ``associations`` first, the others sorted.
+
+        Raises:
+            AlignmentError: a name that is not ``SCORE_NAME`` or ``associations`` given again, or
+                a value that is not a finite number (a method without a score for a pair leaves it out).
+        """
+        out = {DEFAULT_SCORE: self.score}
+        for name in sorted(self.confidence):
+            value = self.confidence[name]
+            if name == DEFAULT_SCORE or not SCORE_NAME.match(str(name)):
+                raise AlignmentError(
+                    f"{self.method}: score name {name!r}: expected lower-case letters, digits and _ "
+                    f"(at most 40, a letter first), other than {DEFAULT_SCORE!r}"
+                )
+            number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+            if not number or not math.isfinite(float(value)):
+                raise AlignmentError(f"{self.method}: score {name!r}: expected a finite number, got {value!r}")
+            out[name] = float(value)
+        return out
 
     @property
     def ok(self) -> bool:
@@ -93,6 +132,7 @@ class AlignResult:
             self.reason,
             {str(k): _plain(x) for k, x in self.info.items()},
             float(self.runtime_s),
+            {k: v for k, v in self.named_scores().items() if k != DEFAULT_SCORE},
         )
 
     @classmethod
@@ -106,6 +146,7 @@ class AlignResult:
             math.nan if r.runtime_s is None else float(r.runtime_s),
             r.reason,
             dict(r.info),
+            dict(r.confidence),
         )
 
 

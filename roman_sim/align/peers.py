@@ -58,7 +58,9 @@ class RansacAligner:
         if T is not None and len(out.associations) < self.params.min_associations_for_transform:
             T, reason = None, f"only {len(out.associations)} inliers"
         scores = np.ones(len(out.associations))
-        return AlignResult(self.name, T, out.associations, scores, time.perf_counter() - t0, reason, info)
+        res = AlignResult(self.name, T, out.associations, scores, time.perf_counter() - t0, reason, info)
+        res.confidence = {"inliers": float(out.n_inliers)}
+        return res
 
 
 class Ransac1MAligner(RansacAligner):

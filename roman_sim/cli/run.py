@@ -20,6 +20,7 @@ from roman_sim.core.errors import RomanSimError, RunFolderBusy, StorageError
 
 if TYPE_CHECKING:
     from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
+    from roman_sim.evaluation.score_curves import ScorePoint, ScoreSummary
     from roman_sim.pipeline.result import RunResult
     from roman_sim.pipeline.scenario import Scenario
     from roman_sim.pipeline.sweep import SweepFailure
@@ -349,6 +350,27 @@ def record_cmd(
     Console().print(f"recordings written to {out}")
 
 
+def _score_point(p: ScorePoint | None) -> str:
+    """``recall (hits/relevant) P precision t threshold``, or ``not reached (0/relevant)``."""
+    if p is None or not p.point.reached:
+        return "not reached" if p is None else f"not reached (0/{p.point.n_relevant})"
+    o = p.point
+    prec = "n/a" if o.precision is None else f"{o.precision:.2f}"
+    return f"{_fmt(o.recall)} ({o.hits}/{o.n_relevant}) P {prec} t {p.threshold:.4g}"
+
+
+def _score_table(summaries: list[ScoreSummary]) -> Table:
+    """One row per method: the area under its precision-recall curve on the score and its operating points."""
+    name = summaries[0].score if summaries else ""
+    t = Table(title=f"precision-recall on the score {name!r} (a pair is accepted when its score is >= t)")
+    for col in ("method", "pairs", "relevant", "AUC", "max recall", "recall at P>=0.9", "recall at P=1"):
+        t.add_column(col, justify="left" if col == "method" else "right")
+    for s in summaries:
+        pts = [_score_point(s.points.get(n)) for n in ("max_recall", "precision_90", "precision_100")]
+        t.add_row(s.method, str(s.n_pairs), str(s.n_relevant), _fmt(s.auc, 3), *pts)
+    return t
+
+
 @app.command("report")
 def report_cmd(
     run_dir: Path = typer.Argument(..., help="a results folder of `roman-sim run`, or a sweep folder"),
@@ -362,11 +384,25 @@ def report_cmd(
         "--rewrite",
         help="write report.md again in the current layout from the folder's own files (nothing else changes)",
     ),
+    score: str | None = typer.Option(
+        None,
+        "--score",
+        help="instead of the summary: each method's precision-recall on this score (associations, objective, "
+        "margin, ...): its area and the thresholds of max recall and of precision >= 0.9 and 1",
+    ),
 ) -> None:
     """Print the summary of a finished run or sweep (an incomplete run is an error naming its missing stages)."""
     from roman_sim.pipeline.result import RunResult
     from roman_sim.pipeline.sweep_aggregate import SWEEP_JSON, print_sweep_aggregate
 
+    summaries = None
+    if score is not None:
+        from roman_sim.report.recompute import run_score_summaries
+
+        if (run_dir / SWEEP_JSON).is_file():
+            typer.echo(f"error: --score: {run_dir} is a sweep folder; give one of its run folders", err=True)
+            raise typer.Exit(1)
+        summaries = run_score_summaries(run_dir, score)  # an unknown score stops here, before anything is written
     if rewrite:
         from roman_sim.studies.reference import rewrite_report
 
@@ -377,7 +413,9 @@ def report_cmd(
         return
     # reference results keep the raw data compressed and no maps: verify them, nothing to summarise
     compressed = not (run_dir / "pairs.csv").is_file() and (run_dir / "pairs.csv.gz").is_file()
-    if not compressed:
+    if summaries is not None:
+        Console().print(_score_table(summaries))
+    elif not compressed:
         print_summary(RunResult.load(run_dir))
     if verify:
         from roman_sim.studies.verify import verify_run

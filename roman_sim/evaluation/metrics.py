@@ -29,21 +29,21 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from functools import partial
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from roman_sim.align.base import AlignResult, segment_associations
+from roman_sim.align.base import DEFAULT_SCORE, AlignResult, segment_associations
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import pose_error
 from roman_sim.evaluation.assoc import association_truth
 from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
-from roman_sim.evaluation.operating_points import OperatingPoints, point_at, sweep_points
+from roman_sim.evaluation.operating_points import OperatingPoints, point_at, pr_area, sweep_points
 from roman_sim.evaluation.overlap import PairCounts, revisit_figures, robot_pair_counts
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
@@ -72,6 +72,7 @@ __all__ = [
     "pr_curve",
     "compute_metrics",
     "score_pair",
+    "sweep_counts",
 ]
 
 
@@ -92,6 +93,8 @@ class PairScore:
             feature matches).
         assoc_recovered: true correspondences recovered one-to-one by the selection (-1: not
             graded).
+        named: the method's own named scores of this pair (``AlignResult.confidence``), sorted by
+            name; ``associations`` (``n_assoc``) is not among them.
     """
 
     truth: PairTruth
@@ -104,6 +107,13 @@ class PairScore:
     reason: str | None = None
     assoc_correct: int = 0
     assoc_recovered: int = 0
+    named: tuple[tuple[str, float], ...] = ()
+
+    def score(self, name: str = DEFAULT_SCORE) -> float | None:
+        """The pair's score ``name`` (``associations``: ``n_assoc``); None when the method gave none here."""
+        if name == DEFAULT_SCORE:
+            return float(self.n_assoc)
+        return dict(self.named).get(name)
 
 
 def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = None) -> PairScore:
@@ -135,6 +145,7 @@ def score_pair(truth: PairTruth, result: AlignResult, cfg: EvalConfig | None = N
         result.reason,
         good,
         recovered,
+        tuple((k, v) for k, v in result.named_scores().items() if k != DEFAULT_SCORE),
     )
 
 
@@ -162,37 +173,37 @@ def pr_curve(scores: list[PairScore], k_values: list[int] | None = None) -> PRCu
         raise EvaluationError("pr_curve: scores of several methods given; group them by method first")
     ks = np.asarray(k_values if k_values is not None else EvalConfig().k_values(), dtype=np.int64)
     n = np.array([s.n_assoc for s in scores], dtype=np.int64)
-    rel = np.array([s.truth.relevant for s in scores], dtype=bool)
-    ok = np.array([s.correct for s in scores], dtype=bool)
-    pos = n[None, :] >= ks[:, None]  # (K, N)
-    tp = (pos & rel & ok).sum(axis=1)
-    fp = (pos & ~ok).sum(axis=1)
-    n_rel = int(rel.sum())
+    tp, fp, n_rel, precision, recall = sweep_counts(n, ks, scores)
     with np.errstate(divide="ignore", invalid="ignore"):
-        precision = np.where(tp + fp > 0, tp / np.maximum(tp + fp, 1), np.nan)
-        recall = np.full(len(ks), np.nan) if n_rel == 0 else tp / n_rel
         denom = precision + recall
         f1 = np.where(denom > 0, 2 * precision * recall / np.where(denom > 0, denom, 1), 0.0)
     f1 = np.where(np.isnan(precision) | np.isnan(recall), np.nan, f1)
-    return PRCurve(ks, tp.astype(np.int64), fp.astype(np.int64), n_rel, precision, recall, f1)
+    return PRCurve(ks, tp, fp, n_rel, precision, recall, f1)
+
+
+def sweep_counts(
+    values: np.ndarray, thresholds: np.ndarray, scores: Sequence[PairScore]
+) -> tuple[np.ndarray, np.ndarray, int, np.ndarray, np.ndarray]:
+    """TP, FP, relevant pairs, precision and recall of ``scores`` accepted where ``values >= threshold``.
+
+    ``values`` (N,) is each pair's score, ``thresholds`` (T,) the sweep; TP and FP are (T,) int64,
+    precision NaN without a positive and recall NaN without a relevant pair.
+    """
+    rel = np.array([s.truth.relevant for s in scores], dtype=bool)
+    ok = np.array([s.correct for s in scores], dtype=bool)
+    pos = values[None, :] >= thresholds[:, None]  # (T, N)
+    tp = (pos & rel & ok).sum(axis=1).astype(np.int64)
+    fp = (pos & ~ok).sum(axis=1).astype(np.int64)
+    n_rel = int(rel.sum())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        precision = np.where(tp + fp > 0, tp / np.maximum(tp + fp, 1), np.nan)
+    recall = np.full(len(thresholds), np.nan) if n_rel == 0 else tp / n_rel
+    return tp, fp, n_rel, precision, recall
 
 
 def auc(curve: PRCurve) -> float:
-    """Area under precision over recall (trapezoid); NaN when undefined.
-
-    Points with undefined precision or recall are skipped; at equal recall the best
-    precision is kept; the curve starts at recall 0 with the precision of its
-    lowest-recall point (so a single perfect point has area 1).
-    """
-    ok = ~(np.isnan(curve.precision) | np.isnan(curve.recall))
-    if not ok.any():
-        return float("nan")
-    r, p = curve.recall[ok], curve.precision[ok]
-    ur = np.unique(r)
-    up = np.array([p[r == x].max() for x in ur])
-    if ur[0] > 0:
-        ur, up = np.concatenate([[0.0], ur]), np.concatenate([[up[0]], up])
-    return float(np.trapezoid(up, ur))
+    """Area under precision over recall (``operating_points.pr_area``: trapezoid); NaN when undefined."""
+    return pr_area(curve.precision, curve.recall)
 
 
 def _assoc_stats(scores: list[PairScore], level: float) -> dict[str, object]:

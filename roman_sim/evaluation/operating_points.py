@@ -113,6 +113,25 @@ def sweep_points(
     return out
 
 
+def pr_area(precision: np.ndarray, recall: np.ndarray) -> float:
+    """Area under precision over recall (trapezoid rule); NaN when no point is defined.
+
+    Points with undefined precision or recall are skipped; at equal recall the best
+    precision is kept; the curve starts at recall 0 with the precision of its
+    lowest-recall point (so a single perfect point has area 1).
+    """
+    precision, recall = np.asarray(precision, dtype=np.float64), np.asarray(recall, dtype=np.float64)
+    ok = ~(np.isnan(precision) | np.isnan(recall))
+    if not ok.any():
+        return float("nan")
+    r, p = recall[ok], precision[ok]
+    ur = np.unique(r)
+    up = np.array([p[r == x].max() for x in ur])
+    if ur[0] > 0:
+        ur, up = np.concatenate([[0.0], ur]), np.concatenate([[up[0]], up])
+    return float(np.trapezoid(up, ur))
+
+
 def strip_absent_points(stored: dict[str, Any], recomputed: dict[str, Any]) -> bool:
     """Drop the operating points from ``recomputed`` when ``stored`` (a metrics file) predates them.
 

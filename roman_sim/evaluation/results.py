@@ -6,6 +6,8 @@ stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned
 are written with ``repr`` (exact round trip), so ``metrics.json`` can be recomputed from
 this file alone (``roman_sim.report.recompute``). A path ending in ``.gz`` is read as
 gzip (the reference results keep their tables compressed).
+Each named score a method gives (``AlignResult.confidence``) is a column ``score_<name>``
+after the fixed ones, sorted by name; a file without named scores has no such column.
 ``metrics.json`` is the ``EvaluationMetrics`` record (``roman_sim.core.records``). Neither
 holds wall-clock runtimes (two runs of one seed give the same bytes); those are kept in
 ``timings.json``. Reading either file back raises ``StorageError`` when it is missing or
@@ -65,6 +67,9 @@ PAIRS_FIELDS = [
     "correct",
     "reason",
 ]
+#: A named score's column: ``score_<name>`` after the fixed columns (files written before named
+#: scores existed have none; an empty cell is a score the method did not give for that row).
+SCORE_PREFIX = "score_"
 
 
 def _fmt(v: Any) -> str:
@@ -110,13 +115,20 @@ def _row(s: PairScore) -> dict[str, str]:
         "correct": s.correct,
         "reason": s.reason,
     }
-    return {k: _fmt(vals[k]) for k in PAIRS_FIELDS}
+    row = {k: _fmt(vals[k]) for k in PAIRS_FIELDS}
+    row.update({SCORE_PREFIX + k: repr(float(v)) for k, v in s.named})
+    return row
+
+
+def score_columns(scores: list[PairScore]) -> list[str]:
+    """The ``score_<name>`` columns of ``scores``: every named score any row carries, sorted."""
+    return sorted({SCORE_PREFIX + k for s in scores for k, _ in s.named})
 
 
 def pairs_csv_text(scores: list[PairScore]) -> str:
-    """The CSV text of ``scores`` (header + one row per score)."""
+    """The CSV text of ``scores`` (header + one row per score); a named score a row lacks is an empty cell."""
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=PAIRS_FIELDS, lineterminator="\n")
+    w = csv.DictWriter(buf, fieldnames=PAIRS_FIELDS + score_columns(scores), lineterminator="\n", restval="")
     w.writeheader()
     for s in scores:
         w.writerow(_row(s))
@@ -141,7 +153,19 @@ def _bool(raw: str) -> bool:
     return raw == "true"
 
 
-def _parse(r: dict[str, str]) -> PairScore:
+def _named(r: dict[str, str], columns: list[str]) -> tuple[tuple[str, float], ...]:
+    """The named scores of a row: its non-empty cells of the (sorted) ``score_<name>`` ``columns``."""
+    out = []
+    for col in columns:
+        if r[col] != "":
+            v = float(r[col])
+            if not math.isfinite(v):
+                raise ValueError(f"{col}: expected a finite number, got {r[col]!r}")
+            out.append((col[len(SCORE_PREFIX) :], v))
+    return tuple(out)
+
+
+def _parse(r: dict[str, str], columns: list[str]) -> PairScore:
     T = pose_4dof(float(r["true_x_m"]), float(r["true_y_m"]), float(r["true_z_m"]), float(r["true_yaw_rad"]))
     if r["kind"] not in ("inter", "intra"):
         raise ValueError(f"kind must be inter or intra, got {r['kind']!r}")
@@ -173,6 +197,7 @@ def _parse(r: dict[str, str]) -> PairScore:
         r["reason"] or None,
         int(r["assoc_correct"]),
         int(r["assoc_recovered"]),
+        _named(r, columns),
     )
 
 
@@ -192,12 +217,13 @@ def read_pairs_csv(path: str | Path) -> list[PairScore]:
     missing = [f for f in PAIRS_FIELDS if f not in (reader.fieldnames or [])]
     if missing:
         raise StorageError(f"{path}: not a pairs table, missing columns: {', '.join(missing)}")
+    columns = sorted(c for c in reader.fieldnames or [] if c.startswith(SCORE_PREFIX))
     out = []
     for row in reader:
         if None in row or any(v is None for v in row.values()):
             raise StorageError(f"{path}: line {reader.line_num}: wrong number of cells")
         try:
-            out.append(_parse(row))
+            out.append(_parse(row, columns))
         except (ValueError, KeyError) as err:
             raise StorageError(f"{path}: line {reader.line_num}: {err}") from None
     return out

@@ -36,6 +36,7 @@ from roman_sim.evaluation.operating_points import strip_absent_points
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
 from roman_sim.evaluation.run_summary import RunSummary, summarize_run
+from roman_sim.evaluation.score_curves import ScoreSummary, score_summaries
 from roman_sim.evaluation.types import METRICS_SCHEMA, EvaluationMetrics
 from roman_sim.evaluation.variants import TRUTH
 
@@ -108,6 +109,23 @@ def rederive_scores(scores: list[PairScore], cfg: EvalConfig) -> tuple[list[Pair
             )
         out.append(replace(s, truth=replace(s.truth, relevant=rel), correct=ok))
     return out, diffs
+
+
+def run_score_summaries(run_dir: Path, name: str) -> list[ScoreSummary]:
+    """Every method's precision-recall summary on the score ``name`` from a run folder's pairs table.
+
+    Reads ``pairs.csv`` (or ``pairs.csv.gz``) and the evaluation settings of ``config.yaml`` (the
+    defaults when the folder has none); relevance and correctness are re-derived as for ``--verify``.
+
+    Raises:
+        StorageError: no pairs table, or a bad one.
+        EvaluationError: a method that does not offer ``name`` (one line naming both and what it offers).
+    """
+    plain = run_dir / PAIRS_CSV
+    path = plain if plain.is_file() or not (run_dir / f"{PAIRS_CSV}.gz").is_file() else run_dir / f"{PAIRS_CSV}.gz"
+    scores = read_pairs_csv(path)
+    cfg = eval_settings(run_dir)[0] if (run_dir / "config.yaml").is_file() else EvalConfig()
+    return score_summaries(rederive_scores(scores, cfg)[0], name, cfg)
 
 
 def recompute_metrics(

@@ -132,9 +132,11 @@ class VisualAligner:
         T = None
         if out.T_q_c is not None:
             T = ka.T_submap_cam[q] @ out.T_q_c @ inv_T(kb.T_submap_cam[c])
-        return AlignResult(
+        res = AlignResult(
             self.name, T, out.inliers, np.ones(len(out.inliers)), time.perf_counter() - t0, out.reason, info
         )
+        res.confidence = {"bow_score": float(score), "matches": float(out.n_matches)}
+        return res
 
 
 ALIGNERS.register("visual", VisualAligner)

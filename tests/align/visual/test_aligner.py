@@ -58,6 +58,12 @@ def test_same_place_aligns_to_the_true_submap_pose(submaps) -> None:
     assert len(a.keyframes) == 7 and len(b.keyframes) == 7  # 0.33 m steps, one keyframe each
     r = build_aligner("visual").align(a.public(), b.public())
     assert r.ok and r.n_associations >= 5 and r.info["normalised_score"] > 0.4
+    # its own scores: the verified keyframe pair's bag-of-words score and feature matches
+    assert r.named_scores() == {
+        "associations": r.n_associations,
+        "bow_score": r.info["normalised_score"],
+        "matches": r.info["n_matches"],
+    }
     # the reprojection refinement (on by default, for noisy depth) leaves up to about 1 deg on
     # these clean 320 x 240 frames (3D-3D alone: 0.3 deg), and the winning keyframes sit up to
     # 1 m from their submap centres
