@@ -922,6 +922,69 @@ def benchmark_deployable_bound_met(
     )
 
 
+#: The benchmark's one-new-world precision spread, as its documentation states the fit: each world's held-out
+#: precision a draw of Beta(a, b), its hits out of its accepted pairs BetaBinomial(n, a, b); maximum likelihood
+#: over the worlds that accepted a pair (two at least), the mean a / (a + b) and the concentration a + b kept in
+#: these bounds; the stated interval the central 95 % of Beta(a, b).
+SPREAD_MEAN, SPREAD_CONCENTRATION, SPREAD_LEVEL = (1e-4, 1 - 1e-4), (1e-2, 1e5), 0.95
+
+
+def beta_binomial_loglik(a: float, b: float, hits: Sequence[int], accepted: Sequence[int]) -> float:
+    """The log-likelihood of per-world ``hits`` out of ``accepted`` pairs under BetaBinomial(n, a, b)."""
+    from scipy.stats import betabinom
+
+    return float(betabinom.logpmf(np.asarray(hits), np.asarray(accepted), a, b).sum())
+
+
+def beta_binomial_fit(hits: Sequence[int], accepted: Sequence[int]) -> dict[str, JSONValue] | None:
+    """The maximum-likelihood Beta(a, b) of per-world precisions (worlds without an accepted pair left out):
+    a grid over the logit of the mean and the log of the concentration within their bounds, then Nelder-Mead
+    from its best point; ``a``, ``b``, ``worlds``, ``loglik`` and ``interval`` (the central 95 % of Beta(a, b)).
+    None with fewer than two worlds that accepted a pair."""
+    from scipy.optimize import minimize
+    from scipy.special import expit, logit
+    from scipy.stats import beta
+
+    kept = [(int(h), int(n)) for h, n in zip(hits, accepted, strict=True) if n > 0]
+    if len(kept) < 2:
+        return None
+    h, n = [k[0] for k in kept], [k[1] for k in kept]
+    lo_m, hi_m = float(logit(SPREAD_MEAN[0])), float(logit(SPREAD_MEAN[1]))
+    lo_c, hi_c = math.log(SPREAD_CONCENTRATION[0]), math.log(SPREAD_CONCENTRATION[1])
+    box = [(lo_m, hi_m), (lo_c, hi_c)]
+
+    def nll(x: Sequence[float]) -> float:
+        m, c = float(expit(x[0])), math.exp(x[1])
+        return -beta_binomial_loglik(m * c, (1 - m) * c, h, n)
+
+    grid = [(float(u), float(v)) for u in np.linspace(lo_m, hi_m, 41) for v in np.linspace(lo_c, hi_c, 41)]
+    start = min(grid, key=nll)
+    res = minimize(nll, start, method="Nelder-Mead", bounds=box, options={"xatol": 1e-9, "fatol": 1e-12})
+    x = res.x if res.fun <= nll(start) else start
+    m, c = float(expit(x[0])), math.exp(x[1])
+    a, b = m * c, (1 - m) * c
+    tail = (1 - SPREAD_LEVEL) / 2
+    return {
+        "a": a,
+        "b": b,
+        "worlds": len(kept),
+        "loglik": beta_binomial_loglik(a, b, h, n),
+        "interval": [float(v) for v in beta.ppf([tail, 1 - tail], a, b)],
+    }
+
+
+def benchmark_precision_spreads(held: Mapping[str, JSONValue]) -> dict[str, JSONValue]:
+    """Per ``level|method`` the one-new-world precision spread (``beta_binomial_fit``) of each world's held-out
+    hits out of its accepted pairs (hits and false positives) over all headings, from ``benchmark_held_out``'s
+    figures, with each world's ``hits`` and ``accepted``."""
+    out: dict[str, JSONValue] = {}
+    for key, fig in held.items():
+        cols = fig["worlds"]["all"]  # type: ignore[index, call-overload]
+        hits, accepted = [int(x) for x in cols[0]], [int(x) + int(y) for x, y in zip(cols[0], cols[1], strict=True)]
+        out[key] = {"hits": hits, "accepted": accepted, "fit": beta_binomial_fit(hits, accepted)}
+    return out
+
+
 # -- the attribution study ------------------------------------------------------------------------
 def newcombe_interval(k1: int, n1: int, k2: int, n2: int, level: float) -> list[float] | None:
     """Newcombe's hybrid-score interval of k1/n1 - k2/n2 from the two Wilson intervals; None without pairs."""
