@@ -985,6 +985,102 @@ def benchmark_precision_spreads(held: Mapping[str, JSONValue]) -> dict[str, JSON
     return out
 
 
+#: A fresh precision counts as holding the target when at most this far below it (nothing accepted: held).
+CHECK_SLACK = Fraction(5, 100)
+
+
+def _fresh_counts(
+    rows: Sequence[BenchRow], k: int | None, worlds: Sequence[str], edges: Sequence[float]
+) -> dict[str, list[list[int]]]:
+    """Per heading bin (and ``all``) and per world (in ``worlds``' order) [hits, false positives, relevant] of
+    rows judged at threshold ``k`` (None: nothing accepted)."""
+    labels = [_label(edges[i], edges[i + 1]) for i in range(len(edges) - 1)]
+    out = {lab: [[0, 0, 0] for _ in worlds] for lab in [*labels, "all"]}
+    at = {w: i for i, w in enumerate(worlds)}
+    for r in rows:
+        pos = k is not None and r[4] >= k
+        b = heading_bin(r[5], edges)
+        for lab in ([labels[b]] if b >= 0 else []) + ["all"]:
+            c = out[lab][at[r[0]]]
+            c[0] += int(pos and r[2] and r[3])
+            c[1] += int(pos and not r[3])
+            c[2] += int(r[2])
+    return out
+
+
+def benchmark_check(board: str | Path, fresh: str | Path) -> dict[str, JSONValue]:
+    """A board's check on fresh worlds, re-derived from the raw files: ``board`` the board's folder, ``fresh``
+    the check's folder (its fresh cells). Per ``level|method``: the deployed threshold ``k`` (the smallest k of
+    the sweep whose precision over every board world of the level reaches the board's target), the fresh
+    worlds' pooled ``hits`` and ``false_positives`` at ``k``, ``precision``, ``target_held`` (at most
+    ``CHECK_SLACK`` below the target, or nothing accepted) and per fresh world its ``hits``, ``accepted`` and,
+    against the Beta(a, b) the board states (``leaderboard.json``), ``hits_interval`` (the central 95 % of
+    BetaBinomial(accepted, a, b)) and ``inside``. Per ``level|heading|a|b`` of each verdict the board states
+    ("a ahead" / "b ahead"): the fresh ``hits_a``, ``hits_b``, ``relevant``, whether the stated sign ``held``
+    and the same exact test on the fresh worlds (``paired_verdict``)."""
+    from scipy.stats import betabinom
+
+    board, fresh = Path(board), Path(fresh)
+    lb = json.loads((board / "leaderboard.json").read_text(encoding="utf-8"))
+    target = Fraction(str(lb["target_precision"]))
+    _, board_rows = _benchmark_rows(board)
+    _, fresh_rows = _benchmark_rows(fresh)
+    rec = json.loads((fresh / "benchmark.json").read_text(encoding="utf-8"))
+    edges = [float(e) for e in rec["heading_edges_deg"]]
+    out: dict[str, JSONValue] = {}
+    for e in lb["levels"]:
+        d = e.get("deployable") or {}
+        if d.get("note") is not None or d.get("deployed") is None:
+            continue
+        worlds = sorted(c["id"] for c in rec["cells"] if c["level"] == e["name"] and c["status"] == "ok")
+        counts: dict[str, dict[str, list[list[int]]]] = {}
+        for m in d["deployed"]:
+            own = board_rows.get(f"{e['name']}|{m}", [])
+            if not own or not fresh_rows.get(f"{e['name']}|{m}"):
+                continue  # no pair of the method on the board's or on the fresh worlds: nothing to check
+            cfg = read_settings(board / "cells" / own[0][0])
+            k = _smallest_k(own, range(cfg.k_min, cfg.k_max + 1), target)
+            counts[m] = _fresh_counts(fresh_rows.get(f"{e['name']}|{m}", []), k, worlds, edges)
+            spread = (d.get("spread") or {}).get(m)
+            per: dict[str, JSONValue] = {}
+            for w, (h, f, _) in zip(worlds, counts[m]["all"], strict=True):
+                iv = None
+                if spread is not None and h + f:
+                    iv = [int(x) for x in betabinom.ppf([0.025, 0.975], h + f, spread["a"], spread["b"])]
+                per[w] = {
+                    "hits": h,
+                    "accepted": h + f,
+                    "hits_interval": iv,
+                    "inside": None if iv is None else iv[0] <= h <= iv[1],
+                }
+            tp, fp = sum(c[0] for c in counts[m]["all"]), sum(c[1] for c in counts[m]["all"])
+            held = tp + fp == 0 or Fraction(tp, tp + fp) >= target - CHECK_SLACK
+            out[f"{e['name']}|{m}"] = {
+                "k": k,
+                "hits": tp,
+                "false_positives": fp,
+                "precision": tp / (tp + fp) if tp + fp else None,
+                "target_held": held,
+                "worlds": per,
+            }
+        for cell in [*d["bins"], d["overall"]]:
+            for v in cell["verdicts"]:
+                if v["verdict"] not in ("a ahead", "b ahead") or v["a"] not in counts or v["b"] not in counts:
+                    continue
+                a, b = counts[v["a"]][cell["heading"]], counts[v["b"]][cell["heading"]]
+                ha, hb, rel = [x[0] for x in a], [x[0] for x in b], [x[2] for x in a]
+                sign = 1 if v["verdict"] == "a ahead" else -1
+                test = paired_verdict(ha, hb, rel) if len(worlds) >= 2 else None
+                out[f"{e['name']}|{cell['heading']}|{v['a']}|{v['b']}"] = {
+                    "hits_a": sum(ha),
+                    "hits_b": sum(hb),
+                    "relevant": sum(rel),
+                    "held": sign * (sum(ha) - sum(hb)) > 0 if sum(rel) else None,
+                    "fresh": test,
+                }
+    return out
+
+
 # -- the attribution study ------------------------------------------------------------------------
 def newcombe_interval(k1: int, n1: int, k2: int, n2: int, level: float) -> list[float] | None:
     """Newcombe's hybrid-score interval of k1/n1 - k2/n2 from the two Wilson intervals; None without pairs."""
