@@ -76,6 +76,7 @@ def _printed(code: str) -> float:
 
 def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
     """CPU seconds of every stage (and of each robot's mapping) of a fresh serial run of ``name``."""
+    from roman_sim.core.records import to_json
     from roman_sim.pipeline import experiment
     from roman_sim.pipeline.scenario import load_scenario
     from roman_sim.pipeline.stages import maps
@@ -106,7 +107,7 @@ def stage_cpu(name: str, sets: list[str]) -> dict[str, Any]:
             sc = load_scenario(name, sets)
             res = experiment.Experiment(sc, Path(d) / name, fresh=True, executor=ExecutorConfig(kind="serial")).run()
             summary = {"pairs": res.metrics.n_pairs, "segments": res.map_stats.segments}
-            summary["summary"] = res.summary().to_json()
+            summary["summary"] = to_json(res.summary())
     finally:
         experiment.Experiment._run_stage, maps.map_one = run_stage, map_one
     return {"stages_cpu_s": stages, "robots_cpu_s": robots, **summary}

@@ -35,6 +35,7 @@ OUT = Path(__file__).resolve().parent / "out" / "e2e.json"
 
 def run_one(name: str, overrides: list[str] | None = None) -> dict:
     """Run ``name`` (with dotted ``overrides``) fresh in this process; return its per-stage figures."""
+    from roman_sim.core.records import to_json
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -43,7 +44,7 @@ def run_one(name: str, overrides: list[str] | None = None) -> dict:
         t0 = time.perf_counter()
         res = Experiment(sc, Path(d) / name, fresh=True).run()
         total = time.perf_counter() - t0
-    stages = {k: {"seconds": v["seconds"], "peak_rss_mb": v["peak_rss_mb"]} for k, v in res.timings.items()}
+    stages = {k: {"seconds": v.seconds, "peak_rss_mb": v.peak_rss_mb} for k, v in res.timings.stages.items()}
     return {
         "scenario": name,
         "total_seconds": total,
@@ -54,8 +55,8 @@ def run_one(name: str, overrides: list[str] | None = None) -> dict:
         "segments": res.map_stats.segments,
         "submaps": res.map_stats.submaps,
         "pairs": res.metrics.n_pairs,
-        "summary": res.summary().to_json(),
-        "frontend": res.metrics.frontend,
+        "summary": to_json(res.summary()),
+        "frontend": to_json(res.metrics.frontend),
     }
 
 
@@ -82,8 +83,8 @@ timed(evaluation.EvaluationStage, "evaluation")
 timed(report.ReportStage, "report")
 res = Experiment(load_scenario("demo", sets), dst, from_stage="evaluation").run()
 import roman_sim
-print(json.dumps({"seconds": res.timings["evaluation"]["seconds"], "cpu_seconds": cpu["evaluation"],
-                  "report_seconds": res.timings["report"]["seconds"], "report_cpu_seconds": cpu["report"],
+print(json.dumps({"seconds": res.timings.stages["evaluation"].seconds, "cpu_seconds": cpu["evaluation"],
+                  "report_seconds": res.timings.stages["report"].seconds, "report_cpu_seconds": cpu["report"],
                   "pairs": res.metrics.n_pairs, "package": roman_sim.__file__}))
 """
 

@@ -117,10 +117,11 @@ def _patch_renderer(clock: Clock) -> Callable[[], None]:
 
 def _rgb_schedule(ctx: Any, run: Any) -> Any:
     """The frames the pipeline renders RGB for (None: all; an older checkout renders all)."""
-    from roman_sim.pipeline.stages import maps_robot
-
-    pick = getattr(maps_robot, "_rgb_frames", None)
-    return None if pick is None else pick(ctx, run)
+    try:
+        from roman_sim.pipeline.stages.maps_input import rgb_frames
+    except ImportError:
+        return None
+    return rgb_frames(ctx, run.t, run.T_odom_body)
 
 
 def _one_pass(ctx: Any, world: Any, cfg: Any, run: Any, families: dict[int, str]) -> tuple[dict[str, float], dict]:

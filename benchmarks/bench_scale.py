@@ -49,6 +49,7 @@ def _run(
     fresh: bool = True,
     from_stage: str | None = None,
 ) -> dict[str, Any]:
+    from roman_sim.core.records import to_json
     from roman_sim.pipeline.experiment import Experiment
     from roman_sim.pipeline.scenario import load_scenario
 
@@ -57,6 +58,7 @@ def _run(
     res = Experiment(sc, run_dir, fresh=fresh, executor=executor, from_stage=from_stage).run()
     total = time.perf_counter() - t0
     s = res.summary()
+    timings = to_json(res.timings.stages)
     km = res.map_stats.trajectory_km
     return {
         "scenario": name,
@@ -65,14 +67,14 @@ def _run(
         "trajectory_km": km,
         "submaps": res.map_stats.submaps,
         "pairs": res.metrics.n_pairs,
-        "stages_s": {k: v.get("seconds") for k, v in res.timings.items()},
-        "pairs_timing": (res.timings.get("evaluation") or {}).get("pairs"),
+        "stages_s": {k: v.get("seconds") for k, v in timings.items()},
+        "pairs_timing": (timings.get("evaluation") or {}).get("pairs"),
         "alignment": {
             m: {k: v for k, v in a.items() if k != "per_pair_s"}
-            for m, a in ((res.timings.get("evaluation") or {}).get("alignment") or {}).items()
+            for m, a in ((timings.get("evaluation") or {}).get("alignment") or {}).items()
         },
-        "ate": {k: a.to_json() for k, a in s.ate.items()},
-        "methods": {k: m.to_json() for k, m in s.methods.items()},
+        "ate": {k: to_json(a) for k, a in s.ate.items()},
+        "methods": {k: to_json(m) for k, m in s.methods.items()},
         "cross_robot": _cross_robot(res),
         "posegraph": _posegraph(res.run_dir),
     }

@@ -21,6 +21,7 @@ from committed_results import REFERENCE as REF
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.posegraph.types import PoseGraphConfig
 from roman_sim.studies import pages
+from roman_sim.studies.reference import read_reference
 
 ROOT = Path(__file__).resolve().parent.parent
 PAGE = ROOT / "docs" / "results.md"
@@ -41,7 +42,8 @@ def _summary() -> dict:
 
 
 def test_results_block_is_rendered_from_the_summary():
-    assert pages.current_block(_text(), pages.RESULTS_MARKERS) == pages.results_block(_summary())
+    summary = read_reference(REF / "summary.json")
+    assert pages.current_block(_text(), pages.RESULTS_MARKERS) == pages.results_block(summary)
 
 
 def test_page_states_the_committed_size():

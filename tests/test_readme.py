@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import re
 import subprocess
 from pathlib import Path
@@ -11,9 +10,11 @@ import pytest
 from committed_results import REFERENCE as REF
 from readme_commands import FIRST, TEST, bash_commands, marked_command, markers
 
-from roman_sim.cli._verify import verify_run
+from roman_sim.core.records import from_json
+from roman_sim.evaluation.run_summary import RunSummary
 from roman_sim.studies import pages
-from roman_sim.studies.reference import DEMO, FIGURE_PNG, demo_summary
+from roman_sim.studies.reference import DEMO, FIGURE_PNG, ReferenceRecord, demo_summary, read_reference
+from roman_sim.studies.verify import verify_run
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
@@ -22,6 +23,14 @@ CI = ROOT / ".ci" / "run"
 
 def _text() -> str:
     return README.read_text(encoding="utf-8")
+
+
+def _run(methods: dict, ate: dict | None = None) -> RunSummary:
+    """A hand-made run summary: its methods' cross-robot sets (same-robot sets empty) and ATE rows."""
+    empty = {"max_recall": None, "max_hits": 0, "n_relevant": 0, "recall_ci": None, "few": True}
+    sets = {m: {"inter": {**empty, **e["inter"]}, "intra": empty} for m, e in methods.items()}
+    data = {"headline": "inter", "pairs": {}, "n_skipped": 0, "methods": sets, "ate": ate or {}}
+    return from_json(RunSummary, data, "run")
 
 
 def test_readme_is_short():
@@ -90,9 +99,9 @@ def test_demo_excerpt_follows_from_the_demo_run():
 @pytest.mark.skipif(not (REF / "summary.json").is_file(), reason="no committed reference results")
 def test_figure_shows_the_committed_summary():
     """The PNG carries the numbers it was drawn from; they are the summary's (re-derived elsewhere)."""
-    summary = json.loads((REF / "summary.json").read_text(encoding="utf-8"))
+    summary = read_reference(REF / "summary.json")
     assert f"]({FIGURE_PNG.as_posix()})" in _text()
-    assert pages.read_figure_data(ROOT / FIGURE_PNG) == json.loads(json.dumps(pages.figure_data(summary)))
+    assert pages.read_figure_data(ROOT / FIGURE_PNG) == pages.figure_data(summary)
 
 
 def test_figure_data_by_hand(tmp_path):
@@ -102,12 +111,12 @@ def test_figure_data_by_hand(tmp_path):
         return {"max_recall": h / n, "max_hits": h, "n_relevant": n, "recall_ci": [0.1, 0.9], "few": n < 5}
 
     method = {"inter": {"bins": {"120-180": rec(3, 6), "0-60": rec(1, 5)}}}
-    summary = {"runs": {"heading_sweep": {"methods": {"clipper": method, "roman": method}}}}
+    summary = ReferenceRecord({"heading_sweep": _run({"clipper": method, "roman": method})}, [])
     data = pages.figure_data(summary)
-    assert list(data["methods"]) == ["roman", "clipper"]
-    assert data["methods"]["roman"] == [
-        {"bin": "0-60", "recall": 0.2, "hits": 1, "relevant": 5, "ci": [0.1, 0.9]},
-        {"bin": "120-180", "recall": 0.5, "hits": 3, "relevant": 6, "ci": [0.1, 0.9]},
+    assert list(data.methods) == ["roman", "clipper"]
+    assert data.methods["roman"] == [
+        pages.BinPoint(bin="0-60", recall=0.2, hits=1, relevant=5, ci=(0.1, 0.9)),
+        pages.BinPoint(bin="120-180", recall=0.5, hits=3, relevant=6, ci=(0.1, 0.9)),
     ]
     png = pages.write_figure(summary, tmp_path / "f.png")
     assert pages.read_figure_data(png) == data
@@ -148,13 +157,11 @@ def test_demo_block_by_hand():
 
     empty = {"max_recall": None, "max_hits": 0, "n_relevant": 0, "recall_ci": None, "few": True, "points": {}}
     inter = {**rec(8, 10), "bins": {"120-180": rec(6, 8), "0-60": empty, "60-120": rec(2, 2)}}
-    run = {
-        "methods": {"clipper": {"inter": inter}, "roman": {"inter": inter}},
-        "ate": {
-            "roman": {"connected": 2, "common": 0.5, "all": 0.25},
-            "oracle": {"connected": 2, "common": 0.1, "all": None},
-        },
+    ate = {
+        "roman": {"connected": 2, "common": 0.5, "all": 0.25},
+        "oracle": {"connected": 2, "common": 0.1, "all": None},
     }
+    run = _run({"clipper": {"inter": inter}, "roman": {"inter": inter}}, ate)
     lines = pages.demo_block(run).splitlines()
     assert lines[0] == pages.DEMO_MARKERS[0] and lines[-1] == pages.DEMO_MARKERS[1]
     assert lines[1:3] == [

@@ -17,6 +17,7 @@ import hashlib
 import logging
 import sys
 import time
+from dataclasses import replace
 from importlib import resources
 from pathlib import Path
 
@@ -75,7 +76,7 @@ def train_default() -> Vocabulary:
     images = training_images()
     t1 = time.perf_counter()
     voc = train_vocabulary(images, k=K, L=L, seed=SEED)
-    voc.meta.update({"worlds": [list(w) for w in TRAINING_WORLDS], "image_size": [640, 480]})
+    voc.meta = replace(voc.meta, worlds=list(TRAINING_WORLDS), image_size=(640, 480))
     log.info("frames %.1f s, training %.1f s", t1 - t0, time.perf_counter() - t1)
     return voc
 

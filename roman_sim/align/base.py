@@ -6,27 +6,34 @@ estimates ``inv(T_world_a) @ T_world_b``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import Any, Protocol, TypedDict, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import OMIT_NONE
 from roman_sim.core.registry import Registry
 from roman_sim.mapping.types import Submap
 
 
-class ResultJSON(TypedDict):
-    """An ``AlignResult`` as JSON (``AlignResult.to_json``)."""
+@dataclass
+class ResultRow:
+    """An ``AlignResult`` as JSON values (floats exact, numpy extras made plain), with the names of
+    the submaps ``a`` and ``b`` it aligned; the wall time is None (left out) where it is kept apart.
+    """
 
+    a: str
+    b: str
     method: str
     T_a_b: list[list[float]] | None
     associations: list[list[int]]
     scores: list[float]
-    runtime_s: float
     reason: str | None
     info: dict[str, JSON]
+    runtime_s: float | None = field(default=None, metadata=OMIT_NONE)
 
 
 @dataclass
@@ -74,30 +81,31 @@ class AlignResult:
             info=dict(info),
         )
 
-    def to_json(self) -> ResultJSON:
-        """JSON-ready copy (floats round-trip exactly through JSON; numpy values in ``info`` become JSON types)."""
-        return {
-            "method": self.method,
-            "T_a_b": None if self.T_a_b is None else np.asarray(self.T_a_b).tolist(),
-            "associations": np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist(),
-            "scores": np.asarray(self.scores, dtype=np.float64).tolist(),
-            "runtime_s": float(self.runtime_s),
-            "reason": self.reason,
-            "info": {str(k): _plain(x) for k, x in self.info.items()},
-        }
+    def row(self, a: str, b: str) -> ResultRow:
+        """The result on the pair ``a``, ``b`` as its JSON row (floats round-trip exactly through JSON)."""
+        return ResultRow(
+            a,
+            b,
+            self.method,
+            None if self.T_a_b is None else np.asarray(self.T_a_b, dtype=np.float64).tolist(),
+            np.asarray(self.associations, dtype=np.int64).reshape(-1, 2).tolist(),
+            np.asarray(self.scores, dtype=np.float64).tolist(),
+            self.reason,
+            {str(k): _plain(x) for k, x in self.info.items()},
+            float(self.runtime_s),
+        )
 
     @classmethod
-    def from_json(cls, d: ResultJSON) -> AlignResult:
-        """Inverse of ``to_json``."""
-        T = None if d["T_a_b"] is None else np.asarray(d["T_a_b"], dtype=np.float64)
+    def from_row(cls, r: ResultRow) -> AlignResult:
+        """Inverse of ``row`` (a row without its wall time reads with NaN)."""
         return cls(
-            str(d["method"]),
-            T,
-            np.asarray(d["associations"], dtype=np.int64).reshape(-1, 2),
-            np.asarray(d["scores"], dtype=np.float64),
-            float(d["runtime_s"]),
-            d["reason"],
-            dict(d["info"]),
+            r.method,
+            None if r.T_a_b is None else np.asarray(r.T_a_b, dtype=np.float64),
+            np.asarray(r.associations, dtype=np.int64).reshape(-1, 2),
+            np.asarray(r.scores, dtype=np.float64),
+            math.nan if r.runtime_s is None else float(r.runtime_s),
+            r.reason,
+            dict(r.info),
         )
 
 

@@ -213,7 +213,9 @@ def _cell(
 ) -> BoardCell:
     """One leaderboard cell: per method its operating points, and the ranks by paired verdicts."""
     first = next(iter(stats.values()))
-    methods = {m: {n: s.operating_points.get(n) for n in POINT_NAMES} for m, s in stats.items()}
+    methods: dict[str, dict[str, OperatingPoint | None]] = {
+        m: {n: s.operating_points.get(n) for n in POINT_NAMES} for m, s in stats.items()
+    }
     ranks = {point: point_ranks(_at(stats, point), pairs, in_bin, n_worlds) for point in RANKED}
     halves = [
         (p.recall_ci[1] - p.recall_ci[0]) / 2
@@ -279,7 +281,7 @@ def _level(
         lv.cells,
         lv.acceptance_k,
         ambiguity_index=_ambiguity_index(lv.scores),
-        interval_level=m.config["interval_level"],
+        interval_level=m.config.interval_level,
         overall=_cell(
             "all", {k: v.overall for k, v in sets.items()}, pairs, lambda mp: np.ones(len(mp.world), bool), n_worlds
         ),

@@ -234,12 +234,9 @@ class BenchmarkJob:
         raw = (res.run_dir / "pairs.csv").read_bytes()
         write_bytes(folder / PAIRS_GZ, gzip.compress(raw, mtime=0))
         write_text(folder / "config.yaml", dump_yaml(res.scenario))  # resolved, as the run used it
-        alignment = res.timings.get("evaluation", {}).get("alignment")
-        per_method = alignment if isinstance(alignment, dict) else {}
-        runtimes = {
-            m: cell_runtime_stats(_floats(a.get("per_pair_s")) if isinstance(a, dict) else [])
-            for m, a in sorted(per_method.items())
-        }
+        ev = res.timings.stages.get("evaluation")
+        per_method = {} if ev is None or ev.alignment is None else ev.alignment
+        runtimes = {m: cell_runtime_stats(list(a.per_pair_s or [])) for m, a in sorted(per_method.items())}
         write_record(folder / RUNTIMES_JSON, runtimes)
 
     def _finish(self, c: Cell, status: Literal["ok", "failed"], error: str | None = None) -> None:

@@ -69,6 +69,7 @@ from roman_sim.core.atomic import write_text
 from roman_sim.core.config import read_yaml, stable_hash, validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.records import OMIT_NONE, RecordError, read_record, write_record
+from roman_sim.evaluation.records import RunTimings
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
 
@@ -502,17 +503,17 @@ def _gating_id(g: tuple[tuple[str, int | float], ...]) -> str:
     return stable_hash(list(g))[:12]
 
 
-def _outcomes(
-    key: str, params: dict[str, int | float], run_dir: Path, timings: dict[str, Any], sc: Scenario
-) -> Outcomes:
+def _outcomes(key: str, params: dict[str, int | float], run_dir: Path, timings: RunTimings, sc: Scenario) -> Outcomes:
     """The columns ``tune`` keeps of a finished run: every pair's names, kind, truth, outcome and time."""
     from roman_sim.evaluation.results import read_pairs_csv
 
     scores = read_pairs_csv(run_dir / "pairs.csv")
     label = sc.aligners[0].name
-    per_pair = timings.get("evaluation", {}).get("alignment", {}).get(label, {}).get("per_pair_s")
+    ev = timings.stages.get("evaluation")
+    own = None if ev is None or ev.alignment is None else ev.alignment.get(label)
+    per_pair = None if own is None else own.per_pair_s
     rows = [s for s in scores if s.method == label]
-    runtime = [float(x) if x is not None else None for x in per_pair] if isinstance(per_pair, list) else None
+    runtime: list[float | None] | None = None if per_pair is None else [float(x) for x in per_pair]
     if runtime is not None and len(runtime) != len(rows):
         raise StorageError(f"{run_dir}: {len(runtime)} pair times for {len(rows)} pairs")
     return Outcomes(

@@ -72,8 +72,9 @@ def calibrate_cmd(
     overrides: list[str] = typer.Option([], "--set", help="override a scenario field, key=value"),
 ) -> None:
     """Measure an encoder and/or a segmenter on rendered frames; write the fitted simulated front end."""
-    from roman_sim.core.atomic import output_file, write_json, write_text
+    from roman_sim.core.atomic import output_file, write_text
     from roman_sim.core.config import validate_model
+    from roman_sim.core.records import write_record
     from roman_sim.evaluation.grades import FrontEndGrades, SegmentationGrades
     from roman_sim.frontend.components import build_encoder, build_segmenter, encoder_spec
     from roman_sim.pipeline.calibration import calibrate, render_calibration_frames
@@ -109,7 +110,7 @@ def calibrate_cmd(
     cal.meta = {"scenario": sc.name, **(cal.meta or {})}
     write_text(out, cal.frontend_yaml())
     if grades is not None:
-        write_json(grades, cal.to_json())
+        write_record(grades, cal.record())
     if plot is not None:
         seg_grades = cal.measured_segmentation or SegmentationGrades()
         plot_frontend_grades(

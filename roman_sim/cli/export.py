@@ -58,13 +58,9 @@ def export_cmd(
     table = Table(title=f"{sc.name} (seed {sc.seed}) exported as {fmt} -> {out}")
     for col in ("robot", "frames", "render s", "write s", "folder"):
         table.add_column(col, justify="left" if col in ("robot", "folder") else "right")
-    for name, summary in result.robots.items():
+    for name, robot in result.robots.items():
         table.add_row(
-            name,
-            str(summary["frames"]),
-            f"{result.render_s[name]:.1f}",
-            f"{result.write_s[name]:.1f}",
-            str(summary.get("bag") or summary.get("folder")),
+            name, str(robot.written.frames), f"{result.render_s[name]:.1f}", f"{result.write_s[name]:.1f}", robot.path
         )
     Console().print(table)
 

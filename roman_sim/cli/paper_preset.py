@@ -56,18 +56,17 @@ def paper_fit_cmd(
     from roman_sim.studies.paper_preset import FIT_YAML, fit_paper_preset
 
     output_folder(out, "--out", create=False)
-    res = fit_paper_preset(out, _fit_config(scenario, grid, refine, overrides))["fit"]
-    t = Table(title=f"paper fit: {res['figure']} (paper {res['paper']})")
+    res = fit_paper_preset(out, _fit_config(scenario, grid, refine, overrides))
+    t = Table(title=f"paper fit: {res.figure} (paper {res.paper})")
     for col in ("severity", "hits / relevant", "max recall", "95 % Wilson", "admitted"):
         t.add_column(col, justify="right")
-    for r in res["runs"]:
-        ci = r.get("ci")
+    for r in res.runs:
         t.add_row(
-            f"{r['severity']:g}" + (" (fitted)" if r["severity"] == res["severity"] else ""),
-            f"{r.get('hits', 'n/a')}/{r.get('relevant', 'n/a')}",
-            _fmt(r["max_recall"]),
-            "n/a" if ci is None else f"{ci[0]:.3f}-{ci[1]:.3f}",
-            "yes" if r["admitted"] else "no",
+            f"{r.severity:g}" + (" (fitted)" if r.severity == res.severity else ""),
+            f"{'n/a' if r.hits is None else r.hits}/{'n/a' if r.relevant is None else r.relevant}",
+            _fmt(r.max_recall),
+            "n/a" if r.ci is None else f"{r.ci[0]:.3f}-{r.ci[1]:.3f}",
+            "yes" if r.admitted else "no",
         )
     Console().print(t)
     console.print(f"wrote {out / FIT_YAML}")

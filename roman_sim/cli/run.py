@@ -22,6 +22,7 @@ if TYPE_CHECKING:
     from roman_sim.evaluation.run_summary import RecallSummary, RunSummary
     from roman_sim.pipeline.result import RunResult
     from roman_sim.pipeline.scenario import Scenario
+    from roman_sim.pipeline.sweep import SweepFailure
 
 console = Console(stderr=True)
 DEMO_SCENARIO = "demo"
@@ -122,23 +123,23 @@ def print_summary(result: RunResult) -> None:
     out = Console()
     cap = (
         "no distance cap"
-        if cfg["max_pair_dist_m"] is None
-        else (f"distance cap {cfg['max_pair_dist_m']:g} m: {s.n_skipped} pairs skipped")
+        if cfg.max_pair_dist_m is None
+        else (f"distance cap {cfg.max_pair_dist_m:g} m: {s.n_skipped} pairs skipped")
     )
     out.print(
         f"{result.scenario.name} (seed {result.scenario.seed}): {result.metrics.n_pairs} pairs scored, {cap}; "
-        f"relevant: {cfg['relevance']}; correct: <= {cfg['rot_tol_deg']:g} deg, <= {cfg['trans_tol_m']:g} m"
+        f"relevant: {cfg.relevance}; correct: <= {cfg.rot_tol_deg:g} deg, <= {cfg.trans_tol_m:g} m"
     )
     for line in lead_paragraph(result.metrics, result.ate, markdown=False):
         out.print(line, markup=False, highlight=False)
     kinds = [s.headline] + [k for k in ("inter", "intra") if k != s.headline]
     for kind in kinds:
-        if s.methods and s.pairs[kind]["n_pairs"]:
+        if s.methods and s.pairs[kind].n_pairs:
             label = PAIR_SET_LABELS[kind] + (" (headline)" if kind == s.headline else "")
-            for table in _recall_tables(s, kind, label, int(cfg["min_relevant"]), empty):
+            for table in _recall_tables(s, kind, label, cfg.min_relevant, empty):
                 out.print(table)
     if s.ate and s.ate_robots is not None:
-        robots, common = s.ate_robots
+        robots, common = s.ate_robots.robots, s.ate_robots.common
         a = Table(
             title=f"ATE RMSE (m), SE(3) aligned: over the robots every row placed ({', '.join(common) or 'none'}) "
             f"and over all {len(robots)}",
@@ -171,31 +172,45 @@ def _run(
     from_stage: str | None = None,
     executor: Any = None,
     share: bool = True,
+    odometry: list[str] | None = None,
 ) -> None:
     """Lock the results folder first, then start up and run: a refused run answers before any heavy work.
 
     With ``--out`` the lock comes before anything else; the default folder is named by the
     scenario, which is loaded first (the lock then comes before the pool and the pipeline's
-    imports).
+    imports). ``odometry``: ``ROBOT=FILE.tum`` values of ``--odometry``.
     """
     from roman_sim.pipeline.folder_lock import hold_run_folder
 
     sc: Scenario | None = None
     if out is None:
-        from roman_sim.pipeline.scenario import default_run_dir, load_scenario
+        from roman_sim.pipeline.scenario import default_run_dir
 
-        sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+        sc = _load(scenario, sets, aligners, odometry)
         out = default_run_dir(sc)
     with hold_run_folder(out):
         from roman_sim.runner.executors import prestart
 
         # a local pool's forkserver imports the stages' worker modules while this process imports its own
         prestart(executor, ("roman_sim.pipeline.stages:WORKER_PRELOAD",))
-        from roman_sim.pipeline.scenario import load_scenario
-
         if sc is None:
-            sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+            sc = _load(scenario, sets, aligners, odometry)
         _run_locked(sc, out, fresh, submaps, from_stage, executor, share)
+
+
+def _load(scenario: str, sets: list[str] | None, aligners: list[str] | None, odometry: list[str] | None) -> Scenario:
+    """The scenario with its overrides and added aligners, each ``--odometry ROBOT=FILE`` in its robot."""
+    from roman_sim.core.errors import ConfigError
+    from roman_sim.pipeline.scenario import load_scenario, with_odometry
+
+    sc = load_scenario(scenario, list(sets or []), list(aligners or []))
+    files = {}
+    for value in odometry or []:
+        robot, sep, file = value.partition("=")
+        if not (sep and robot and file):
+            raise ConfigError(f"--odometry {value}: expected ROBOT=FILE.tum (a robot's name and a TUM file)")
+        files[robot] = Path(file).resolve()
+    return with_odometry(sc, files) if files else sc
 
 
 def _run_locked(
@@ -264,11 +279,16 @@ def run_cmd(
     from_stage: str | None = typer.Option(
         None, "--from", help="recompute from this stage on (maps, submaps, evaluation, posegraph, ate, report)"
     ),
+    odometry: list[str] | None = typer.Option(
+        None,
+        "--odometry",
+        help="ROBOT=FILE.tum: the robot's odometry from a TUM file of body poses (e.g. a VIO's) instead of its own",
+    ),
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a scenario end to end and print the summary (robots and pairs spread over the workers)."""
     ex = flags.config()
-    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex, not no_shared_cache)
+    _run(scenario, out, sets, fresh, submaps, aligner, from_stage, ex, not no_shared_cache, odometry)
 
 
 @app.command("demo")
@@ -295,7 +315,7 @@ def record_cmd(
     from roman_sim.core.atomic import output_folder
     from roman_sim.core.errors import ConfigError
     from roman_sim.pipeline.scenario import load_scenario
-    from roman_sim.sim.recording import write_recording
+    from roman_sim.sim.recording import RecordingOrigin, write_recording
     from roman_sim.sim.source import SimulatedRobot, robot_sources
     from roman_sim.world import generate
 
@@ -311,7 +331,7 @@ def record_cmd(
         if (out / cfg.name).exists() and not (out / cfg.name).is_dir():
             raise ConfigError(f"--out {out}: {cfg.name} there is an existing file, not a recording folder")
     world = generate(sc.world.spec(), sc.seed)
-    sources = robot_sources(world, sc.robots, sc.seed, [n for n in names if not robot or n in robot])
+    sources = robot_sources(world, sc.simulated_robots(), sc.seed, [n for n in names if not robot or n in robot])
     progress: Any = None
     with _progress() if interactive() else contextlib.nullcontext() as p:
         progress = RichProgress(p) if p is not None else LineProgress()
@@ -324,7 +344,7 @@ def record_cmd(
                     progress.advance(stage)
                     yield f
 
-            write_recording(frames(), out / src.name, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed})
+            write_recording(frames(), out / src.name, overwrite=True, origin=RecordingOrigin(sc.name, sc.seed))
             progress.end(stage)
     Console().print(f"recordings written to {out}")
 
@@ -360,7 +380,7 @@ def report_cmd(
     if not compressed:
         print_summary(RunResult.load(run_dir))
     if verify:
-        from roman_sim.cli._verify import verify_run
+        from roman_sim.studies.verify import verify_run
 
         res = verify_run(
             run_dir, pairs_file="pairs.csv.gz" if compressed else "pairs.csv", tum_suffix=".gz" if compressed else ""
@@ -417,13 +437,13 @@ def sweep_cmd(
         raise typer.Exit(1)
 
 
-def _failure_table(failed: list[dict[str, str]], path: Path) -> None:
+def _failure_table(failed: list[SweepFailure], path: Path) -> None:
     """The runs of a sweep that did not finish, on stderr."""
     t = Table(title=f"{len(failed)} sweep run(s) failed (all rows in {path})")
     for col in ("run", "seed", "status", "error"):
         t.add_column(col, overflow="fold")
     for row in failed:
-        t.add_row(row.get("run_id", ""), row.get("seed", ""), row.get("status", ""), row.get("error", ""))
+        t.add_row(row.run_id, row.seed, row.status, row.error)
     console.print(t)
 
 

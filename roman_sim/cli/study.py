@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
@@ -11,6 +11,9 @@ from rich.table import Table
 
 from roman_sim.cli import app
 from roman_sim.core.errors import ConfigError
+
+if TYPE_CHECKING:
+    from roman_sim.studies.attribution import AttributionRow
 
 console = Console(stderr=True)
 
@@ -25,9 +28,9 @@ def _names(values: list[str] | None) -> list[str] | None:
     return [m.strip() for v in values for m in v.split(",") if m.strip()]
 
 
-def attribution_table(rows: list[dict[str, Any]]) -> Table:
+def attribution_table(rows: list[AttributionRow]) -> Table:
     """The attribution table as rich prints it."""
-    from roman_sim.studies.attribution import recall_cell
+    from roman_sim.studies.attribution import recall_cell, share_cell
 
     t = Table(title="same -> opposite drop in max recall (cross-robot pairs), each mechanism switched off in turn")
     for col in (
@@ -41,15 +44,11 @@ def attribution_table(rows: list[dict[str, Any]]) -> Table:
     ):
         t.add_column(col, justify="left" if col in ("mechanism off", "method") else "right")
     for r in rows:
-        drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} [{r['drop_lo']:+.2f}, {r['drop_hi']:+.2f}]"
-        lo, hi = r["drop_worlds_lo"], r["drop_worlds_hi"]
-        boot = "n/a" if lo is None else f"[{lo:+.2f}, {hi:+.2f}]"
-        expl = (
-            "-" if r["mechanism"] == "none" else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
-        )
-        t.add_row(
-            r["mechanism"], r["method"], recall_cell(r, "same", " "), recall_cell(r, "opposite", " "), drop, boot, expl
-        )
+        drop = "n/a" if r.drop is None else f"{r.drop:+.2f} [{r.drop_lo:+.2f}, {r.drop_hi:+.2f}]"
+        lo, hi = r.drop_worlds_lo, r.drop_worlds_hi
+        boot = "n/a" if lo is None or hi is None else f"[{lo:+.2f}, {hi:+.2f}]"
+        same, opposite = recall_cell(r, "same", " "), recall_cell(r, "opposite", " ")
+        t.add_row(r.mechanism, r.method, same, opposite, drop, boot, share_cell(r))
     return t
 
 

@@ -24,18 +24,19 @@ SETS = typer.Option(None, "--set", help="override a spec field, e.g. --set exten
 
 def _spec(preset: str, sets: list[str] | None) -> "WorldSpec":
     """The spec of a preset or YAML, with ``--set`` overrides applied and re-validated."""
-    from roman_sim.core.config import apply_overrides, validate_model
-    from roman_sim.world import WorldSpec, load_world_spec
+    from roman_sim.core.config import override_model
+    from roman_sim.world import load_world_spec
 
     spec = load_world_spec(preset)
     if not sets:
         return spec
-    return validate_model(WorldSpec, apply_overrides(spec.model_dump(mode="json"), sets), preset)
+    return override_model(spec, sets, preset)
 
 
 def _print_world(world: "World", where: Path) -> None:
     counts = Counter(o.family for o in world.truth.objects)
-    requested = {f: pr[1] for f, pr in world.truth.meta.get("placed_requested", {}).items()}
+    meta = world.truth.meta
+    requested = {} if meta is None else {f: n for f, (_, n) in meta.placed_requested.items()}
     table = Table("family", "objects", "requested", title=f"{world.spec.name} (seed {world.seed}) -> {where}")
     for fam in sorted(set(counts) | set(requested)):
         table.add_row(fam, str(counts.get(fam, 0)), str(requested.get(fam, "")))

@@ -36,6 +36,7 @@ __all__ = [
     "dump_yaml",
     "format_validation_error",
     "load_model",
+    "override_model",
     "parse_yaml",
     "read_yaml",
     "stable_hash",
@@ -88,6 +89,12 @@ def validate_model(model: type[M], data: Any, source: str = "") -> M:
         return model.model_validate(data)
     except ValidationError as err:
         raise ConfigError(format_validation_error(err, source or model.__name__, model)) from None
+
+
+def override_model(model: M, overrides: list[str], source: str = "") -> M:
+    """``model`` with the ``key=value`` ``overrides`` applied and validated again (ConfigError in one line)."""
+    data = apply_overrides(model.model_dump(mode="json"), overrides)
+    return validate_model(type(model), data, source or type(model).__name__)
 
 
 def load_model(model: type[M], path: str | Path) -> M:

@@ -36,6 +36,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from roman_sim.core.atomic import write_bytes
+from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import parse_json
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
@@ -166,13 +168,14 @@ def remove_figure(path: str | Path) -> None:
     vector_path(path).unlink(missing_ok=True)
 
 
-def read_png_data(path: str | Path, data_key: str = DATA_KEY) -> Any:
-    """The data ``save_figure`` stored with a figure's PNG (None when it stored none)."""
+def read_png_data(path: str | Path, data_key: str = DATA_KEY) -> JSON:
+    """The data ``save_figure`` stored with a figure's PNG (None when it stored none; RecordError
+    naming the file when the chunk is not JSON)."""
     from PIL import Image
 
     with Image.open(path) as im:
         text = im.info.get(data_key)
-    return None if text is None else json.loads(text)
+    return None if text is None else parse_json(text, f"{path}: text chunk {data_key}")
 
 
 def _finite(xy: Any) -> bool:

@@ -136,6 +136,34 @@ class FrameSource(Protocol):
         ...
 
 
+@dataclass(frozen=True, eq=False)
+class FrameSourceView:
+    """A ``FrameSource`` over another one, ``inner``: its robot, camera and mount, and by default its frame count.
+
+    A subclass gives ``frames`` (and ``__len__`` when it keeps fewer frames).
+    """
+
+    inner: FrameSource
+
+    @property
+    def name(self) -> str:
+        """The robot's name."""
+        return self.inner.name
+
+    @property
+    def intrinsics(self) -> Intrinsics:
+        """The camera intrinsics."""
+        return self.inner.intrinsics
+
+    @property
+    def T_body_cam(self) -> NDArray[np.float64]:
+        """The camera mount."""
+        return self.inner.T_body_cam
+
+    def __len__(self) -> int:
+        return len(self.inner)
+
+
 def check_frame(frame: Frame) -> None:
     """Raise ``MappingError`` when the frame's arrays are inconsistent (truth checked if present)."""
     intr = frame.intrinsics

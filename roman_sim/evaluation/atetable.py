@@ -29,8 +29,7 @@ from pathlib import Path
 from typing import Literal
 
 from roman_sim.core.errors import EvaluationError
-from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json_record, write_record
+from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.evaluation.ate import AteResult, multi_robot_ate
 from roman_sim.posegraph.types import LoopClosure
@@ -146,15 +145,6 @@ class AteTable:
         """Inverse of ``record`` (the notes are not part of the table)."""
         rows = {r.name: VariantAte(r.description, r.fit, r.connected, r.rmse, r.source) for r in rec.variants}
         return cls(rec.robots, rec.common, rows)
-
-    def to_json(self) -> JSON:
-        """JSON-ready dict (with its schema tag)."""
-        return to_json_record(self.record(), ATE_SCHEMA)
-
-    @classmethod
-    def from_json(cls, d: object, source: str = "ate") -> "AteTable":
-        """Inverse of ``to_json``; RecordError names ``source`` and the field when the data is not valid."""
-        return cls.from_record(from_json(AteRecord, d, source, ATE_SCHEMA))
 
 
 def write_ate(path: str | Path, table: AteTable, notes: list[str]) -> Path:

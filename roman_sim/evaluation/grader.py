@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from scipy.optimize import linear_sum_assignment
 
 from roman_sim.core.errors import EvaluationError
+from roman_sim.core.records import dumps_record, loads_record
 from roman_sim.core.seeding import child_rng
 from roman_sim.core.sensors import Frame, backproject
 from roman_sim.evaluation.grades import (
@@ -31,6 +32,7 @@ from roman_sim.evaluation.grades import (
     FrontEndGrades,
     GradeConfig,
     SegmentationGrades,
+    SegmentationRecord,
 )
 from roman_sim.frontend.frame_objects import FrameObjects, frame_objects
 from roman_sim.mapping.mask import Mask
@@ -58,11 +60,10 @@ class GraderPart:
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The part as arrays (``roman_sim.core.atomic.write_npz``); inverse ``from_arrays``."""
-        import json
-
         dim = len(self.obs[0].desc) if self.obs else 0
+        seg = dumps_record(SegmentationRecord.of(self.seg))
         return {
-            "seg": np.frombuffer(json.dumps(self.seg.to_json(), sort_keys=True).encode(), dtype=np.uint8),
+            "seg": np.frombuffer(seg.encode(), dtype=np.uint8),
             "seen": np.array([self.seen], dtype=np.int64),
             "oid": np.array([o.oid for o in self.obs], dtype=np.int64),
             "family": np.array([o.family for o in self.obs], dtype=str),
@@ -75,11 +76,10 @@ class GraderPart:
         }
 
     @classmethod
-    def from_arrays(cls, d: Mapping[str, np.ndarray]) -> GraderPart:
-        """Inverse of ``arrays``."""
-        import json
-
-        seg = SegmentationGrades.from_json(json.loads(bytes(np.asarray(d["seg"], dtype=np.uint8)).decode()))
+    def from_arrays(cls, d: Mapping[str, np.ndarray], source: str = "front-end grades part") -> GraderPart:
+        """Inverse of ``arrays`` (RecordError names ``source`` when its segmentation counts are damaged)."""
+        text = bytes(np.asarray(d["seg"], dtype=np.uint8))
+        seg = loads_record(text, SegmentationRecord, f"{source}: seg").counts
         obs = [
             _Obs(int(o), str(f), float(y), (str(r), int(i)), np.asarray(v, dtype=np.float32))
             for o, f, y, r, i, v in zip(d["oid"], d["family"], d["yaw"], d["frame_robot"], d["frame_index"], d["desc"])

@@ -32,22 +32,20 @@ bins the pairs of two instances of one family seen from one side by their appear
 difference, 1 - the encoder's appearance kernel (``appearance_edges``).
 Observations beyond ``max_observations`` are reservoir-sampled with a seeded generator.
 ``FrontEndGrader`` (``frontend_grader``) computes them, the only reader of truth in front-end
-grading; the results here are JSON-ready (``to_json`` / ``from_json``) and
-``plot_frontend_grades`` draws them.
+grading; the results here are records (``roman_sim.core.records``: ``FrontEndGrades`` is the
+``frontend`` section of ``metrics.json`` and ``maps/frontend.json``, its segmentation written with
+the derived rates, ``SegmentationRecord``) and ``plot_frontend_grades`` draws them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
-from typing import Any
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import Field, model_validator
 
-from roman_sim.core.errors import EvaluationError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.records import INLINE, via
 from roman_sim.mapping.mask_filter import MaskFilterConfig
 
 CLASSES = ("same_instance", "same_family", "same_group", "other_group")
@@ -79,6 +77,33 @@ class GradeConfig(MaskFilterConfig):
         if self.max_depth_m not in e:  # the depth range is a bin edge (set without re-validating)
             self.__dict__["distance_edges_m"] = sorted([*e, self.max_depth_m])
         return self
+
+
+@dataclass(frozen=True)
+class RangeFigures:
+    """Objects, masks and rates of the distance bins within or beyond the depth range (None: no tables)."""
+
+    objects: int | None
+    masks: int | None
+    precision: float | None
+    recall: float | None
+    mean_iou: float | None
+
+
+@dataclass(frozen=True)
+class DistanceBin:
+    """One distance bin: objects, missed (no mask belongs), unmatched (no IoU match), masks and rates."""
+
+    from_m: float
+    to_m: float | None
+    in_range: bool
+    objects: int
+    missed: int
+    unmatched: int
+    recall: float | None
+    masks: int
+    precision: float | None
+    mean_iou: float | None
 
 
 @dataclass
@@ -126,44 +151,40 @@ class SegmentationGrades:
         upper = np.array([*self.distance_edges_m[1:], np.inf])
         return upper <= self.max_depth_m + 1e-9
 
-    def _range(self, near: bool) -> dict[str, float | int | None]:
+    def _range(self, near: bool) -> RangeFigures:
         """Objects, masks, matches and the rates of the bins within (``near``) or beyond the depth range."""
         if not self.dist_graded_masks or not self.table_objects:
-            return {"objects": None, "masks": None, "precision": None, "recall": None, "mean_iou": None}
+            return RangeFigures(None, None, None, None, None)
         sel = self._near() if near else ~self._near()
         obj = int(np.asarray(self.table_objects, np.int64).sum(axis=0)[sel].sum())
         hit = int(np.asarray(self.table_matched, np.int64).sum(axis=0)[sel].sum())
         masks = int(np.asarray(self.dist_graded_masks, np.int64)[sel].sum())
         mm = int(np.asarray(self.dist_matched_masks, np.int64)[sel].sum())
         iou = float(np.asarray(self.dist_iou_sum, np.float64)[sel].sum())
-        return {
-            "objects": obj,
-            "masks": masks,
-            "precision": mm / masks if masks else None,
-            "recall": hit / obj if obj else None,
-            "mean_iou": iou / mm if mm else None,
-        }
+        return RangeFigures(
+            obj, masks, mm / masks if masks else None, hit / obj if obj else None, iou / mm if mm else None
+        )
 
     @property
     def precision(self) -> float | None:
         """Headline precision: matched / graded masks within the depth range."""
-        return self._range(True)["precision"]  # type: ignore[return-value]
+        return self._range(True).precision
 
     @property
     def recall(self) -> float | None:
         """Headline recall: matched / counted objects within the depth range."""
-        return self._range(True)["recall"]  # type: ignore[return-value]
+        return self._range(True).recall
 
     @property
     def mean_iou(self) -> float | None:
         """Headline mean IoU of the matches within the depth range."""
-        return self._range(True)["mean_iou"]  # type: ignore[return-value]
+        return self._range(True).mean_iou
 
-    def far(self) -> dict[str, float | int | None]:
+    def far(self) -> RangeFigures:
         """Objects, masks and rates beyond the depth range (reported apart)."""
         return self._range(False)
 
-    def by_distance(self) -> list[dict[str, Any]]:
+    def by_distance(self) -> list[DistanceBin]:
         """Per distance bin: objects, missed (no mask belongs), unmatched (no IoU match), masks and rates."""
         if not self.table_objects:
             return []
@@ -178,41 +199,55 @@ class SegmentationGrades:
         iou = self.dist_iou_sum or [0.0] * n
         near = self._near()
         return [
-            {
-                "from_m": edges[i],
-                "to_m": edges[i + 1],
-                "in_range": bool(near[i]),
-                "objects": int(obj[i]),
-                "missed": int(obj[i] - det[i]),
-                "unmatched": int(obj[i] - mat[i]),
-                "recall": float(mat[i] / obj[i]) if obj[i] else None,
-                "masks": int(masks[i]),
-                "precision": float(mm[i] / masks[i]) if masks[i] else None,
-                "mean_iou": float(iou[i] / mm[i]) if mm[i] else None,
-            }
+            DistanceBin(
+                from_m=edges[i],  # type: ignore[arg-type]  # the lower edges are numbers
+                to_m=edges[i + 1],
+                in_range=bool(near[i]),
+                objects=int(obj[i]),
+                missed=int(obj[i] - det[i]),
+                unmatched=int(obj[i] - mat[i]),
+                recall=float(mat[i] / obj[i]) if obj[i] else None,
+                masks=int(masks[i]),
+                precision=float(mm[i] / masks[i]) if masks[i] else None,
+                mean_iou=float(iou[i] / mm[i]) if mm[i] else None,
+            )
             for i in range(n)
         ]
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """Counts, tables and the derived rates (headline within the depth range, ``*_all`` at every depth)."""
-        out = asdict(self)
-        out.update(
-            precision=self.precision,
-            recall=self.recall,
-            mean_iou=self.mean_iou,
-            precision_all=self.precision_all,
-            recall_all=self.recall_all,
-            mean_iou_all=self.mean_iou_all,
-            far=self.far(),
-            by_distance=self.by_distance(),
-        )
-        return out
+
+@dataclass(frozen=True)
+class SegmentationRecord:
+    """The segmentation grades as written: the counts and tables, then the derived rates (headline
+    within the depth range, ``*_all`` at every depth), which are recomputed, not read back."""
+
+    counts: SegmentationGrades = field(metadata=INLINE)
+    precision: float | None = None
+    recall: float | None = None
+    mean_iou: float | None = None
+    precision_all: float | None = None
+    recall_all: float | None = None
+    mean_iou_all: float | None = None
+    far: RangeFigures | None = None
+    by_distance: list[DistanceBin] = field(default_factory=list)
 
     @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> SegmentationGrades:
-        """Inverse of ``to_json`` (derived entries are ignored)."""
-        names = set(cls.__dataclass_fields__)
-        return cls(**{k: v for k, v in data.items() if k in names})
+    def of(cls, s: SegmentationGrades) -> SegmentationRecord:
+        """The record of ``s`` with its rates."""
+        return cls(
+            s,
+            s.precision,
+            s.recall,
+            s.mean_iou,
+            s.precision_all,
+            s.recall_all,
+            s.mean_iou_all,
+            s.far(),
+            s.by_distance(),
+        )
+
+
+#: How a ``SegmentationGrades`` field is written (with its rates) and read (the counts alone).
+SEGMENTATION_JSON = via(SegmentationRecord, SegmentationRecord.of, lambda r: r.counts)
 
 
 @dataclass
@@ -263,48 +298,13 @@ class DescriptorGrades:
         cls = [self.classes[k] for k in ("same_group", "other_group") if k in self.classes]
         return sum(c.above_gate for c in cls), sum(c.pairs for c in cls)
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return asdict(self)
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> DescriptorGrades:
-        """Inverse of ``to_json``."""
-        d = dict(data)
-        d["classes"] = {k: CosineStats(**v) for k, v in d["classes"].items()}
-        d["sides"] = {k: CosineStats(**v) for k, v in (d.get("sides") or {}).items()}
-        d["appearance"] = [CosineStats(**v) for v in d.get("appearance") or []]
-        return cls(**d)
-
 
 @dataclass
 class FrontEndGrades:
-    """What one run's front end scored: segmentation, and descriptors when an encoder ran."""
+    """What one run's front end scored: segmentation, and descriptors when an encoder ran (the
+    ``frontend`` section of ``metrics.json``; the segmentation written with its rates)."""
 
     segmenter: str
     encoder: str | None
-    segmentation: SegmentationGrades
-    descriptors: DescriptorGrades | None
-
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (the ``frontend`` section of metrics.json)."""
-        return {
-            "segmenter": self.segmenter,
-            "encoder": self.encoder,
-            "segmentation": self.segmentation.to_json(),
-            "descriptors": None if self.descriptors is None else self.descriptors.to_json(),
-        }
-
-    @classmethod
-    def from_json(cls, data: Mapping[str, Any]) -> FrontEndGrades:
-        """Inverse of ``to_json``; ``EvaluationError`` when entries are missing."""
-        try:
-            desc = data.get("descriptors")
-            return cls(
-                str(data["segmenter"]),
-                data.get("encoder"),
-                SegmentationGrades.from_json(data["segmentation"]),
-                None if desc is None else DescriptorGrades.from_json(desc),
-            )
-        except (KeyError, TypeError) as err:
-            raise EvaluationError(f"front-end grades: malformed entry ({err})") from None
+    segmentation: SegmentationGrades = field(metadata=SEGMENTATION_JSON)
+    descriptors: DescriptorGrades | None = None

@@ -21,11 +21,6 @@ from roman_sim.core.errors import EvaluationError
 Interval = tuple[float, float] | None
 
 
-def interval_from_json(v: Sequence[float] | None) -> Interval:
-    """An interval read back from JSON (``[low, high]`` or null)."""
-    return None if v is None else (float(v[0]), float(v[1]))
-
-
 def wilson(k: int, n: int, level: float = 0.95) -> tuple[float, float] | None:
     """Wilson score interval of ``k`` successes in ``n`` trials; None when ``n == 0``.
 

@@ -44,7 +44,7 @@ from roman_sim.evaluation.bins import bin_groups, bin_table, fine_edges
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.evaluation.operating_points import OperatingPoints, point_at, sweep_points
-from roman_sim.evaluation.overlap import revisit_figures, robot_pair_counts
+from roman_sim.evaluation.overlap import PairCounts, revisit_figures, robot_pair_counts
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import (
     PAIR_SET_LABELS,
@@ -291,13 +291,13 @@ def _distinct_truths(scores: list[PairScore]) -> list[PairTruth]:
     return list({(s.truth.a, s.truth.b): s.truth for s in scores}.values())
 
 
-def _pair_counts(scores: list[PairScore]) -> dict[str, dict[str, int]]:
+def _pair_counts(scores: list[PairScore]) -> dict[str, PairCounts]:
     pairs = {(t.a, t.b): t for t in _distinct_truths(scores)}
     return {
-        k: {
-            "n_pairs": sum(1 for t in pairs.values() if k == "all" or t.kind == k),
-            "n_relevant": sum(1 for t in pairs.values() if (k == "all" or t.kind == k) and t.relevant),
-        }
+        k: PairCounts(
+            sum(1 for t in pairs.values() if k == "all" or t.kind == k),
+            sum(1 for t in pairs.values() if (k == "all" or t.kind == k) and t.relevant),
+        )
         for k in (*PAIR_SETS, "all")
     }
 
@@ -324,14 +324,14 @@ def compute_metrics(
     methods = sorted({s.method for s in scores})
     counts = _pair_counts(scores)
     truths = _distinct_truths(scores)
-    headline = "inter" if counts["inter"]["n_pairs"] else "intra"
+    headline = "inter" if counts["inter"].n_pairs else "intra"
     out = EvaluationMetrics(
-        config=cfg.model_dump(mode="json"),
+        config=cfg.model_copy(deep=True),
         headline=headline,
-        n_pairs=counts["all"]["n_pairs"],
-        n_relevant=counts["all"]["n_relevant"],
+        n_pairs=counts["all"].n_pairs,
+        n_relevant=counts["all"].n_relevant,
         pairs=counts,
-        n_candidates=counts["all"]["n_pairs"] + n_skipped,
+        n_candidates=counts["all"].n_pairs + n_skipped,
         n_skipped=n_skipped,
         methods={m: _method_metrics([s for s in scores if s.method == m], cfg, acceptance_k) for m in methods},
         acceptance_k=acceptance_k,
@@ -356,7 +356,7 @@ def _notes(out: EvaluationMetrics, cfg: EvalConfig, n_segments: int | None = Non
         return ["no pairs were evaluated: no metric could be computed"]
     if n_segments == 0:
         return [NO_SEGMENTS_NOTE]
-    if out.pairs[out.headline]["n_relevant"] == 0:
+    if out.pairs[out.headline].n_relevant == 0:
         notes.append(
             f"no relevant {label} pairs ({cfg.describe_relevance()}): recall, F1 and AUC could not be computed"
         )

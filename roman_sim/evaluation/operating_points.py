@@ -22,16 +22,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
-from roman_sim.evaluation.intervals import Interval, interval_from_json, wilson
+from roman_sim.evaluation.intervals import Interval, wilson
 
 #: Operating point name -> the precision it must reach (the others have no target).
 TARGET_PRECISION = {"precision_90": Fraction(9, 10), "precision_100": Fraction(1)}
+#: The name of an operating point.
+PointName = Literal["max_recall", "precision_90", "precision_100", "acceptance"]
 #: The operating points, in table order.
-POINT_NAMES = ("max_recall", "precision_90", "precision_100", "acceptance")
+POINT_NAMES: tuple[PointName, ...] = ("max_recall", "precision_90", "precision_100", "acceptance")
 #: How the points are named in tables.
 POINT_LABELS = {
     "max_recall": "max recall",
@@ -66,36 +68,8 @@ class OperatingPoint:
     precision: float | None
     precision_ci: Interval
 
-    def to_json(self) -> dict[str, Any]:
-        """JSON-ready dict (intervals as [low, high] lists)."""
-        return {
-            "k": self.k,
-            "reached": self.reached,
-            "hits": self.hits,
-            "n_relevant": self.n_relevant,
-            "false_positives": self.false_positives,
-            "recall": self.recall,
-            "recall_ci": None if self.recall_ci is None else list(self.recall_ci),
-            "precision": self.precision,
-            "precision_ci": None if self.precision_ci is None else list(self.precision_ci),
-        }
 
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "OperatingPoint":
-        """Inverse of ``to_json``."""
-        return cls(
-            None if d["k"] is None else int(d["k"]),
-            bool(d["reached"]),
-            int(d["hits"]),
-            int(d["n_relevant"]),
-            int(d["false_positives"]),
-            d["recall"],
-            interval_from_json(d["recall_ci"]),
-            d["precision"],
-            interval_from_json(d["precision_ci"]),
-        )
-
-
+#: Operating point name -> the point (None: not computed, e.g. acceptance without a threshold).
 OperatingPoints = dict[str, OperatingPoint | None]
 
 
@@ -137,18 +111,6 @@ def sweep_points(
         else:
             out[name] = point_at(None, 0, 0, n_relevant, level, reached=False)
     return out
-
-
-def points_to_json(points: OperatingPoints) -> dict[str, Any]:
-    """``{name: point JSON or None}`` in table order."""
-    return {name: (None if points.get(name) is None else points[name].to_json()) for name in POINT_NAMES}  # type: ignore[union-attr]
-
-
-def points_from_json(d: Any) -> OperatingPoints:
-    """Inverse of ``points_to_json`` (an absent section, from a file written before the points: empty)."""
-    if not isinstance(d, dict):
-        return {}
-    return {name: (None if d.get(name) is None else OperatingPoint.from_json(d[name])) for name in POINT_NAMES}
 
 
 def strip_absent_points(stored: dict[str, Any], recomputed: dict[str, Any]) -> bool:

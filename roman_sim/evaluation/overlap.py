@@ -38,6 +38,24 @@ KEY_SEP = "|"
 RobotPair = tuple[str, str]
 
 
+@dataclass
+class PairCounts:
+    """Pairs scored and how many should align (relevant)."""
+
+    n_pairs: int
+    n_relevant: int
+
+
+@dataclass(frozen=True)
+class RevisitFigures:
+    """What relevant cross-robot pairs share: their count and the median overlap and shared objects
+    (None without relevant pairs)."""
+
+    n_relevant: int
+    median_overlap: float | None
+    median_shared_objects: float | None
+
+
 def relevant_counts(centres: Mapping[str, NDArray[np.float64]], relevant_dist_m: float = 10.0) -> dict[RobotPair, int]:
     """Cross-robot submap pairs with true centres within ``relevant_dist_m``, for every robot pair.
 
@@ -103,27 +121,27 @@ def overlap_graph(
     return OverlapGraph(list(robots), dict(counts), min_pairs, list(groups.values()))
 
 
-def robot_pair_counts(pairs: Iterable[tuple[str, str, bool]]) -> dict[str, dict[str, int]]:
+def robot_pair_counts(pairs: Iterable[tuple[str, str, bool]]) -> dict[str, PairCounts]:
     """Scored and relevant cross-robot pairs per robot pair, from ``(robot_a, robot_b, relevant)`` of each pair.
 
-    Keys are ``"a|b"`` with the names sorted; values ``{"n_pairs": .., "n_relevant": ..}``.
+    Keys are ``"a|b"`` with the names sorted.
     """
-    out: dict[str, dict[str, int]] = {}
+    out: dict[str, PairCounts] = {}
     for ra, rb, relevant in pairs:
         if ra == rb:
             continue
-        entry = out.setdefault(KEY_SEP.join(sorted((ra, rb))), {"n_pairs": 0, "n_relevant": 0})
-        entry["n_pairs"] += 1
-        entry["n_relevant"] += int(bool(relevant))
+        entry = out.setdefault(KEY_SEP.join(sorted((ra, rb))), PairCounts(0, 0))
+        entry.n_pairs += 1
+        entry.n_relevant += int(bool(relevant))
     return dict(sorted(out.items()))
 
 
-def counts_by_pair(robot_pairs: Mapping[str, Mapping[str, int]]) -> dict[RobotPair, int]:
+def counts_by_pair(robot_pairs: Mapping[str, PairCounts]) -> dict[RobotPair, int]:
     """``robot_pair_counts`` output as relevant counts keyed by (robot, robot)."""
     out: dict[RobotPair, int] = {}
     for key, entry in robot_pairs.items():
         a, b = key.split(KEY_SEP, 1)
-        out[(a, b)] = int(entry["n_relevant"])
+        out[(a, b)] = entry.n_relevant
     return out
 
 
@@ -134,9 +152,7 @@ def _median_or_none(values: list[float]) -> float | None:
     return float(np.median(v)) if len(v) else None
 
 
-def revisit_figures(
-    pairs: Iterable[tuple[str, str, bool, float, int]],
-) -> dict[str, dict[str, float | int | None]]:
+def revisit_figures(pairs: Iterable[tuple[str, str, bool, float, int]]) -> dict[str, RevisitFigures]:
     """Median overlap and shared objects of the relevant cross-robot pairs, overall and per robot pair.
 
     Args:
@@ -144,8 +160,7 @@ def revisit_figures(
 
     Returns:
         ``{"all": figures, "a|b": figures, ...}`` (robot pairs sorted, names sorted within a
-        key), each ``{"n_relevant": .., "median_overlap": .., "median_shared_objects": ..}``;
-        the medians are None without relevant pairs (an overlap is NaN when a submap has no
+        key); the medians are None without relevant pairs (an overlap is NaN when a submap has no
         object id: such pairs count but give no overlap). Empty without cross-robot pairs.
     """
     groups: dict[str, list[tuple[float, int]]] = {}
@@ -160,14 +175,10 @@ def revisit_figures(
             groups.setdefault(key, []).append((float(overlap), int(shared)))
     if not seen_inter:
         return {}
-    out: dict[str, dict[str, float | int | None]] = {}
+    out: dict[str, RevisitFigures] = {}
     for key in ["all", *sorted(k for k in groups if k != "all")]:
         g = groups.get(key, [])
-        out[key] = {
-            "n_relevant": len(g),
-            "median_overlap": _median_or_none([o for o, _ in g]),
-            "median_shared_objects": _median_or_none([float(n) for _, n in g]),
-        }
+        out[key] = RevisitFigures(len(g), _median_or_none([o for o, _ in g]), _median_or_none([float(n) for _, n in g]))
     return out
 
 

@@ -5,13 +5,12 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.base import AlignResult
-from roman_sim.core.jsontypes import JSONObject
 from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json, write_record
 from roman_sim.mapping.io import packet_bytes
 from roman_sim.mapping.types import Submap
@@ -47,19 +46,6 @@ class MapStats:
     keyframe_kb_per_submap: float | None = field(default=None, metadata=OMIT_NONE)
     keyframe_kb_per_submap_max: float | None = field(default=None, metadata=OMIT_NONE)
     keyframe_mb_per_km: float | None = field(default=None, metadata=OMIT_NONE)
-
-    def to_json(self) -> JSONObject:
-        """JSON-ready dict (keyframe figures only when there are keyframes)."""
-        return cast(JSONObject, to_json(self))
-
-    @classmethod
-    def from_json(cls, d: Any, source: str = "map statistics") -> "MapStats":
-        """Inverse of ``to_json`` (files without keyframe figures are read with None).
-
-        Raises:
-            RecordError: a figure is missing, unknown or not a number (names ``source`` and the field).
-        """
-        return from_json(cls, d, source)
 
 
 @dataclass(frozen=True)
@@ -149,10 +135,6 @@ class AlignmentRecord:
         T = None if r.T_a_b is None else np.asarray(r.T_a_b, dtype=np.float64).reshape(4, 4)
         return cls(r.a, r.b, r.method, r.n_associations, T, np.asarray(r.associations, dtype=np.int64).reshape(-1, 2))
 
-    def to_json(self) -> JSONObject:
-        """JSON-ready dict."""
-        return cast(JSONObject, to_json(self.row()))
-
     def result(self) -> AlignResult:
         """An ``AlignResult`` holding this record's estimate and associations (for drawing)."""
         return AlignResult(
@@ -212,6 +194,20 @@ class MethodRuntimes:
 
 
 @dataclass
+class PairsTiming:
+    """The evaluation's gating and alignment figures: pairs before and after gating, the gating's and
+    the alignment's wall time (s), the workers and executor they ran on, and the aligners."""
+
+    candidates: int
+    aligned: int
+    gating_s: float
+    alignment_wall_s: float
+    workers: int
+    executor: str
+    aligners: list[str]
+
+
+@dataclass
 class StageTimings:
     """One stage's wall-clock figures: time, peak memory, whether it was reused, and its own figures.
 
@@ -225,7 +221,7 @@ class StageTimings:
     reused: bool
     seconds: float | None = field(default=None, metadata=OMIT_NONE)
     peak_rss_mb: float | None = None
-    pairs: dict[str, Any] | None = field(default=None, metadata=OMIT_NONE)
+    pairs: PairsTiming | None = field(default=None, metadata=OMIT_NONE)
     alignment: dict[str, MethodRuntimes] | None = field(default=None, metadata=OMIT_NONE)
     posegraph_s: dict[str, float] | None = field(default=None, metadata=OMIT_NONE)
 

@@ -6,9 +6,10 @@ stored as x, y, z, yaw, which is exact because submap frames are gravity-aligned
 are written with ``repr`` (exact round trip), so ``metrics.json`` can be recomputed from
 this file alone (``roman_sim.report.recompute``). A path ending in ``.gz`` is read as
 gzip (the reference results keep their tables compressed).
-``metrics.json`` is ``EvaluationMetrics.to_json()``. Neither holds wall-clock runtimes (two
-runs of one seed give the same bytes); those are kept in ``timings.json``. Reading either
-file back raises ``StorageError`` when it is missing or corrupt.
+``metrics.json`` is the ``EvaluationMetrics`` record (``roman_sim.core.records``). Neither
+holds wall-clock runtimes (two runs of one seed give the same bytes); those are kept in
+``timings.json``. Reading either file back raises ``StorageError`` when it is missing or
+corrupt (for ``metrics.json``, a ``RecordError`` naming the file and the field).
 """
 
 from __future__ import annotations
@@ -23,13 +24,13 @@ from typing import Any
 
 import numpy as np
 
-from roman_sim.core.atomic import write_json, write_text
+from roman_sim.core.atomic import write_text
 from roman_sim.core.errors import StorageError
 from roman_sim.core.geometry import pose_4dof, yaw_of
-from roman_sim.core.records import read_json
+from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.pairs import PairTruth
-from roman_sim.evaluation.types import EvaluationMetrics
+from roman_sim.evaluation.types import METRICS_SCHEMA, EvaluationMetrics
 
 log = logging.getLogger(__name__)
 
@@ -204,19 +205,17 @@ def read_pairs_csv(path: str | Path) -> list[PairScore]:
 
 def write_metrics_json(path: str | Path, metrics: EvaluationMetrics) -> Path:
     """Atomically write ``metrics.json``: on one line without spaces, the one format of runs and committed results."""
-    path = Path(path)
-    write_json(path, metrics.to_json(), tight=True)
-    return path
+    return write_record(path, metrics, METRICS_SCHEMA, tight=True)
 
 
 def read_metrics_json(path: str | Path) -> EvaluationMetrics:
     """Read ``metrics.json``.
 
     Raises:
-        StorageError: missing, not JSON, wrong schema, or malformed.
+        RecordError: missing, not JSON, wrong schema, or a field missing or of another type (the
+            message names the file and the field).
     """
-    path = Path(path)
-    return EvaluationMetrics.from_json(read_json(path), source=str(path))
+    return read_record(path, EvaluationMetrics, METRICS_SCHEMA)
 
 
 def write_evaluation(out_dir: str | Path, scores: list[PairScore], metrics: EvaluationMetrics) -> dict[str, Path]:

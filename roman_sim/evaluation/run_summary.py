@@ -1,8 +1,8 @@
 """Compact views of a run's results for tables, sweeps, the reference summary and regression tests.
 
-``summarize_run`` gives a ``RunSummary``; its ``to_json()`` is what ``summary.json`` holds
-per run (``from_json`` reads it back, so the reference tables and claims work on the
-dataclass whether the summary was just computed or read from the committed file).
+``summarize_run`` gives a ``RunSummary``, the record ``summary.json`` holds per run
+(``roman_sim.core.records``), so the reference tables and claims work on the dataclass whether
+the summary was just computed or read from the committed file.
 """
 
 from __future__ import annotations
@@ -11,63 +11,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.records import NONE_AS_EMPTY, OMIT_NONE
 from roman_sim.evaluation.atetable import ALL, COMMON, AteTable
-from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
-from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats, revisit_figure
-
-
-def _f(v: JSONLike) -> float | None:
-    """A number or None, unchanged (an int stays an int, so the JSON written back is the same)."""
-    if v is None or (isinstance(v, (int, float)) and not isinstance(v, bool)):
-        return v
-    raise ValueError(f"expected a number, got {v!r}")
-
-
-def _i(v: JSONLike) -> int:
-    if isinstance(v, int) and not isinstance(v, bool):
-        return v
-    raise ValueError(f"expected an integer, got {v!r}")
-
-
-def _pair(v: JSONLike) -> tuple[float, float] | None:
-    if v is None:
-        return None
-    if isinstance(v, (list, tuple)) and len(v) == 2:
-        lo, hi = _f(v[0]), _f(v[1])
-        if lo is not None and hi is not None:
-            return lo, hi
-    raise ValueError(f"expected an interval [lo, hi], got {v!r}")
-
-
-def _obj(v: JSONLike, what: str) -> Mapping[str, JSONLike]:
-    if not isinstance(v, Mapping):
-        raise StorageError(f"run summary: {what} is not an object")
-    return v
-
-
-def _points(v: JSONLike) -> dict[str, OperatingPoint]:
-    """Operating points read back from JSON (absent, from a summary written before them: empty)."""
-    if v is None:
-        return {}
-    o = _obj(v, "operating points")
-    out = {}
-    for name, p in o.items():
-        if name not in POINT_NAMES:
-            raise ValueError(f"unknown operating point {name!r}")
-        d = _obj(p, f"operating point {name}")
-        out[name] = OperatingPoint(
-            None if d["k"] is None else _i(d["k"]),
-            bool(d["reached"]),
-            _i(d["hits"]),
-            _i(d["n_relevant"]),
-            _i(d["false_positives"]),
-            _f(d["recall"]),
-            _pair(d["recall_ci"]),
-            _f(d["precision"]),
-            _pair(d["precision_ci"]),
-        )
-    return out
+from roman_sim.evaluation.grades import CosineStats, FrontEndGrades
+from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint, PointName
+from roman_sim.evaluation.types import CurveStats, EvaluationMetrics, MapStats, PairCounts, RevisitFigures
 
 
 @dataclass(frozen=True)
@@ -84,7 +32,7 @@ class RecallSummary:
     n_relevant: int
     recall_ci: tuple[float, float] | None
     few: bool
-    points: dict[str, OperatingPoint] = field(default_factory=dict)
+    points: dict[PointName, OperatingPoint] = field(default_factory=dict)
 
     @classmethod
     def of(cls, s: CurveStats) -> RecallSummary:
@@ -92,37 +40,8 @@ class RecallSummary:
         ci = None if s.recall_ci is None else (s.recall_ci[0], s.recall_ci[1])
         return cls(s.max_recall, s.max_hits, s.n_relevant, ci, s.few, _present(s))
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (``points`` in table order)."""
-        return {
-            "max_recall": self.max_recall,
-            "max_hits": self.max_hits,
-            "n_relevant": self.n_relevant,
-            "recall_ci": None if self.recall_ci is None else list(self.recall_ci),
-            "few": self.few,
-            "points": {n: self.points[n].to_json() for n in POINT_NAMES if n in self.points},
-        }
 
-    @staticmethod
-    def _fields(
-        d: Mapping[str, JSONLike],
-    ) -> tuple[float | None, int, int, tuple[float, float] | None, bool, dict[str, OperatingPoint]]:
-        return (
-            _f(d["max_recall"]),
-            _i(d["max_hits"]),
-            _i(d["n_relevant"]),
-            _pair(d["recall_ci"]),
-            bool(d["few"]),
-            _points(d.get("points")),
-        )
-
-    @classmethod
-    def from_json(cls, d: JSONLike) -> RecallSummary:
-        """Inverse of ``to_json`` (a summary without ``points`` reads with none)."""
-        return cls(*cls._fields(_obj(d, "recall")))
-
-
-def _present(s: CurveStats) -> dict[str, OperatingPoint]:
+def _present(s: CurveStats) -> dict[PointName, OperatingPoint]:
     """The operating points ``s`` has, in table order (acceptance only when the run had a threshold)."""
     return {n: p for n in POINT_NAMES if (p := s.operating_points.get(n)) is not None}
 
@@ -141,35 +60,9 @@ class SetSummary(RecallSummary):
     assoc_recall: float | None = None
     bins: dict[str, RecallSummary] = field(default_factory=dict)
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return {
-            **super().to_json(),
-            "n_pairs": self.n_pairs,
-            "recall_at_precision_1": self.recall_at_precision_1,
-            "hits_at_precision_1": self.hits_at_precision_1,
-            "best_f1": self.best_f1,
-            "auc": self.auc,
-            "assoc_precision": self.assoc_precision,
-            "assoc_recall": self.assoc_recall,
-            "bins": {k: b.to_json() for k, b in self.bins.items()},
-        }
-
-    @classmethod
-    def from_json(cls, d: JSONLike) -> SetSummary:
-        """Inverse of ``to_json``."""
-        o = _obj(d, "pair set")
-        return cls(
-            *cls._fields(o),
-            n_pairs=_i(o["n_pairs"]),
-            recall_at_precision_1=_f(o["recall_at_precision_1"]),
-            hits_at_precision_1=_i(o["hits_at_precision_1"]),
-            best_f1=_f(o["best_f1"]),
-            auc=_f(o["auc"]),
-            assoc_precision=_f(o["assoc_precision"]),
-            assoc_recall=_f(o["assoc_recall"]),
-            bins={k: RecallSummary.from_json(b) for k, b in _obj(o["bins"], "bins").items()},
-        )
+    def recall(self) -> RecallSummary:
+        """The recall figures alone (without the set's other figures and bins)."""
+        return RecallSummary(self.max_recall, self.max_hits, self.n_relevant, self.recall_ci, self.few, self.points)
 
 
 def _set(metrics: EvaluationMetrics, method: str, kind: str) -> SetSummary:
@@ -208,16 +101,6 @@ class MethodSummary:
             raise StorageError(f"pair set {kind!r} unknown (valid: inter, intra)")
         return self.inter if kind == "inter" else self.intra
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return {"inter": self.inter.to_json(), "intra": self.intra.to_json(), "runtime_median_s": self.runtime_median_s}
-
-    @classmethod
-    def from_json(cls, d: JSONLike) -> MethodSummary:
-        """Inverse of ``to_json``."""
-        o = _obj(d, "method")
-        return cls(SetSummary.from_json(o["inter"]), SetSummary.from_json(o["intra"]), _f(o["runtime_median_s"]))
-
 
 @dataclass(frozen=True)
 class AteSummary:
@@ -227,15 +110,13 @@ class AteSummary:
     common: float | None
     all: float | None
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict."""
-        return {"connected": self.connected, "common": self.common, "all": self.all}
 
-    @classmethod
-    def from_json(cls, d: JSONLike) -> AteSummary:
-        """Inverse of ``to_json``."""
-        o = _obj(d, "ATE row")
-        return cls(_i(o["connected"]), _f(o["common"]), _f(o["all"]))
+@dataclass(frozen=True)
+class AteRobots:
+    """The robots of an ATE table: every robot, and those every variant placed."""
+
+    robots: list[str]
+    common: list[str]
 
 
 @dataclass(frozen=True)
@@ -257,72 +138,35 @@ class FrontEndSummary:
     cosine_same_family: float | None
     cosine_other_family: float | None
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (field order)."""
-        return {k: getattr(self, k) for k in self.__dataclass_fields__}
 
-    @classmethod
-    def from_json(cls, d: JSONLike) -> FrontEndSummary:
-        """Inverse of ``to_json``."""
-        o = _obj(d, "front end")
-        return cls(
-            str(o["segmenter"]),
-            None if o["encoder"] is None else str(o["encoder"]),
-            *(_i(o[k]) for k in ("frames", "objects", "masks")),
-            *(_f(o[k]) for k in ("precision", "recall", "mean_iou")),
-            *(_i(o[k]) for k in ("over_segmented", "under_segmented", "spurious")),
-            *(_f(o[k]) for k in ("cosine_same_instance", "cosine_same_family", "cosine_other_family")),
-        )
-
-
-def _weighted_mean(classes: Mapping[str, JSONLike], names: tuple[str, ...]) -> float | None:
+def _weighted_mean(classes: Mapping[str, CosineStats], names: tuple[str, ...]) -> float | None:
     """Pair-weighted mean cosine of the descriptor classes ``names`` (None without pairs)."""
-    got = []
-    for n in names:
-        c = classes.get(n)
-        if isinstance(c, Mapping) and c["pairs"]:
-            pairs, mean = _f(c["pairs"]), _f(c["mean"])
-            if pairs is not None and mean is not None:
-                got.append((pairs, mean))
+    got = [(c.pairs, c.mean) for n in names if (c := classes.get(n)) is not None and c.pairs and c.mean is not None]
     total = sum(n for n, _ in got)
     return sum(n * m for n, m in got) / total if total else None
 
 
-def frontend_summary(grades: Mapping[str, JSONLike] | None) -> FrontEndSummary | None:
-    """The front end's grades in short (from metrics.json's ``frontend`` section; None when not graded).
+def frontend_summary(grades: FrontEndGrades | None) -> FrontEndSummary | None:
+    """The front end's grades in short (None when not graded).
 
     Segmentation precision, recall, mean IoU, over- / under-segmented and spurious counts over
     the graded frames; descriptor cosine means for the same instance, the same family and other
     families (pairs of the same group and of other groups, weighted by their pair counts).
     """
-    if not grades:
+    if grades is None:
         return None
-    s = _obj(grades["segmentation"], "segmentation")
-    descriptors = grades.get("descriptors")
-    classes = descriptors.get("classes") if isinstance(descriptors, Mapping) else None
-    cls: Mapping[str, JSONLike] = classes if isinstance(classes, Mapping) else {}
-    encoder = grades.get("encoder")
-    return FrontEndSummary(
-        segmenter=str(grades["segmenter"]),
-        encoder=None if encoder is None else str(encoder),
-        frames=_i(s["frames"]),
-        objects=_i(s["objects"]),
-        masks=_i(s["masks"]),
-        precision=_f(s.get("precision")),
-        recall=_f(s.get("recall")),
-        mean_iou=_f(s.get("mean_iou")),
-        over_segmented=_i(s["over_segmented"]),
-        under_segmented=_i(s["under_segmented"]),
-        spurious=_i(s["spurious"]),
-        cosine_same_instance=_weighted_mean(cls, ("same_instance",)),
-        cosine_same_family=_weighted_mean(cls, ("same_family",)),
-        cosine_other_family=_weighted_mean(cls, ("same_group", "other_group")),
-    )
+    s = grades.segmentation
+    classes = {} if grades.descriptors is None else grades.descriptors.classes
+    counts = (s.frames, s.objects, s.masks, s.precision, s.recall, s.mean_iou)
+    errors = (s.over_segmented, s.under_segmented, s.spurious)
+    groups = (("same_instance",), ("same_family",), ("same_group", "other_group"))
+    cosines = (_weighted_mean(classes, g) for g in groups)
+    return FrontEndSummary(grades.segmenter, grades.encoder, *counts, *errors, *cosines)
 
 
 @dataclass(frozen=True)
 class RunSummary:
-    """A run in short (see ``summarize_run``); ``to_json()`` is its entry in ``summary.json``.
+    """A run in short (see ``summarize_run``): its entry in ``summary.json``.
 
     Attributes:
         headline: the headline pair set (``inter`` or ``intra``).
@@ -330,8 +174,9 @@ class RunSummary:
         n_skipped: pairs a distance cap skipped.
         methods: per method, its figures.
         ate: per ATE variant, robots placed and SE(3) ATE (empty without a pose graph).
-        ate_robots: every robot and the common robots of the ATE table (None without one).
-        map: map and packet sizes (None when not given).
+        ate_robots: every robot and the common robots of the ATE table (None without one;
+            written as ``{}``).
+        map: map and packet sizes (None when not given; written as ``{}``).
         frontend: the front end's grades (None when the run did not grade it).
         revisits: what the relevant cross-robot pairs share: ``n_relevant``,
             ``median_overlap`` and ``median_shared_objects`` (None without cross-robot pairs
@@ -339,68 +184,14 @@ class RunSummary:
     """
 
     headline: str
-    pairs: dict[str, dict[str, int]]
+    pairs: dict[str, PairCounts]
     n_skipped: int
     methods: dict[str, MethodSummary] = field(default_factory=dict)
     ate: dict[str, AteSummary] = field(default_factory=dict)
-    ate_robots: tuple[list[str], list[str]] | None = None
-    map: MapStats | None = None
+    ate_robots: AteRobots | None = field(default=None, metadata=NONE_AS_EMPTY)
+    map: MapStats | None = field(default=None, metadata=NONE_AS_EMPTY)
     frontend: FrontEndSummary | None = None
-    revisits: dict[str, float | int | None] | None = None
-
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (the layout ``summary.json`` has always had)."""
-        robots: dict[str, JSONLike] = {}
-        if self.ate_robots is not None:
-            robots = {"robots": list(self.ate_robots[0]), "common": list(self.ate_robots[1])}
-        return {
-            "headline": self.headline,
-            "pairs": {k: {a: b for a, b in v.items()} for k, v in self.pairs.items()},
-            "n_skipped": self.n_skipped,
-            "methods": {k: m.to_json() for k, m in self.methods.items()},
-            "ate": {k: a.to_json() for k, a in self.ate.items()},
-            "ate_robots": robots,
-            "map": self.map.to_json() if self.map else {},
-            "frontend": None if self.frontend is None else self.frontend.to_json(),
-            **({} if self.revisits is None else {"revisits": dict(self.revisits)}),
-        }
-
-    @classmethod
-    def from_json(cls, d: JSONLike) -> RunSummary:
-        """Inverse of ``to_json`` (StorageError when ``d`` is not a run summary)."""
-        try:
-            o = _obj(d, "run")
-            robots = _obj(o["ate_robots"], "ate_robots")
-            ate_robots = None
-            if robots:
-                ate_robots = (_names(robots["robots"]), _names(robots["common"]))
-            map_json = _obj(o["map"], "map")
-            pairs = {k: {a: _i(b) for a, b in _obj(v, "pairs").items()} for k, v in _obj(o["pairs"], "pairs").items()}
-            return cls(
-                headline=str(o["headline"]),
-                pairs=pairs,
-                n_skipped=_i(o["n_skipped"]),
-                methods={k: MethodSummary.from_json(m) for k, m in _obj(o["methods"], "methods").items()},
-                ate={k: AteSummary.from_json(a) for k, a in _obj(o["ate"], "ate").items()},
-                ate_robots=ate_robots,
-                map=MapStats.from_json(map_json) if map_json else None,
-                frontend=None if o["frontend"] is None else FrontEndSummary.from_json(o["frontend"]),
-                revisits=_revisits(o.get("revisits")),
-            )
-        except (KeyError, TypeError, ValueError, IndexError) as err:
-            raise StorageError(f"run summary: malformed ({type(err).__name__}: {err})") from None
-
-
-def _revisits(v: JSONLike) -> dict[str, float | int | None] | None:
-    if v is None:
-        return None
-    return revisit_figure(_obj(v, "revisits"), _i)
-
-
-def _names(v: JSONLike) -> list[str]:
-    if not isinstance(v, (list, tuple)):
-        raise ValueError(f"expected a list of names, got {v!r}")
-    return [str(x) for x in v]
+    revisits: RevisitFigures | None = field(default=None, metadata=OMIT_NONE)
 
 
 def summarize_run(
@@ -427,7 +218,7 @@ def summarize_run(
     rows: dict[str, AteSummary] = {}
     robots = None
     if ate is not None and ate.variants:
-        robots = (list(ate.robots), list(ate.common))
+        robots = AteRobots(list(ate.robots), list(ate.common))
         rows = {
             variant: AteSummary(len(row.connected), ate.rmse(variant, "se3", COMMON), ate.rmse(variant, "se3", ALL))
             for variant, row in ate.variants.items()
@@ -441,5 +232,5 @@ def summarize_run(
         robots,
         map_stats,
         frontend_summary(metrics.frontend),
-        None if not metrics.revisits else dict(metrics.revisits["all"]),
+        None if not metrics.revisits else metrics.revisits["all"],
     )

@@ -1,4 +1,4 @@
-"""Typed results of the alignment evaluation, with ``to_json`` / ``from_json``.
+"""Typed results of the alignment evaluation: the records of ``metrics.json``.
 
 ``EvaluationMetrics`` is what ``metrics.json`` holds: per method and per pair set
 (``inter``: cross-robot pairs, ``intra``: same-robot pairs; never mixed) the headline numbers
@@ -8,24 +8,28 @@ curve, and the heading and ambiguity bins. The ``headline`` pair set is ``inter`
 run has cross-robot pairs, else ``intra``. Undefined values (no relevant pair, no
 positive) are None, never 0, so that "could not be computed" is never read as "failed".
 Wall-clock runtimes are not part of it (they differ between runs of the same seed; see
-``timings.json``).
+``timings.json``). The file is these dataclasses as ``roman_sim.core.records`` writes them: the
+overall figures of a pair set, a bin's figures and a method's pair sets sit at the level of
+their parent (``INLINE``), as the file has always had them.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.core.errors import EvaluationError, StorageError
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.errors import EvaluationError
+from roman_sim.core.records import INLINE, OMIT_EMPTY, OMIT_NONE, via
 from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, VariantAte
-from roman_sim.evaluation.intervals import Interval, interval_from_json
-from roman_sim.evaluation.operating_points import OperatingPoints, points_from_json, points_to_json
+from roman_sim.evaluation.config import EvalConfig
+from roman_sim.evaluation.grades import FrontEndGrades
+from roman_sim.evaluation.intervals import Interval
+from roman_sim.evaluation.operating_points import OperatingPoints
+from roman_sim.evaluation.overlap import PairCounts, RevisitFigures
 from roman_sim.evaluation.records import AlignmentRecord, MapStats
 
 __all__ = [
@@ -41,7 +45,9 @@ __all__ = [
     "MapStats",
     "MethodMetrics",
     "PRCurve",
+    "PairCounts",
     "PairSetMetrics",
+    "RevisitFigures",
     "VariantAte",
     "nan_to_none",
 ]
@@ -58,29 +64,17 @@ def nan_to_none(values: Any) -> Any:
     return [nan_to_none(v) for v in values]
 
 
-def _robot_pairs(d: Any) -> dict[str, dict[str, int]] | None:
-    if d is None:
-        return None
-    return {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d.items()}
-
-
-def revisit_figure(v: Any, to_int: Callable[[Any], int] = int) -> dict[str, float | int | None]:
-    """One ``revisits`` entry (``n_relevant``, ``median_overlap``, ``median_shared_objects``) read
-    from JSON (KeyError, TypeError or ValueError when malformed); ``to_int`` reads the count."""
-    ov, sh = v["median_overlap"], v["median_shared_objects"]
-    return {
-        "n_relevant": to_int(v["n_relevant"]),
-        "median_overlap": None if ov is None else float(ov),
-        "median_shared_objects": None if sh is None else float(sh),
-    }
-
-
-def _revisits(d: Any) -> dict[str, dict[str, float | int | None]] | None:
-    return None if d is None else {str(k): revisit_figure(v) for k, v in d.items()}
-
-
 def _none_to_nan(values: list[float | None]) -> NDArray[np.float64]:
     return np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+
+
+def _ints(values: list[int]) -> NDArray[np.int64]:
+    return np.asarray(values, dtype=np.int64)
+
+
+#: An int array written as a list; a float array written with NaN as null (undefined values).
+_INTS = via(list[int], lambda a: a.tolist(), _ints)
+_RATES = via(list[float | None], nan_to_none, _none_to_nan)
 
 
 #: The pair sets every method is scored on: cross-robot and same-robot (never mixed).
@@ -139,28 +133,7 @@ class CurveStats:
     assoc_precision_ci: Interval = None
     assoc_recall: float | None = None
     assoc_recall_ci: Interval = None
-    operating_points: OperatingPoints = field(default_factory=dict)
-
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict (intervals as [low, high] lists; operating points only when computed)."""
-        out: dict[str, JSONLike] = {}
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if f.name != "operating_points":
-                out[f.name] = list(v) if isinstance(v, tuple) else v
-        if self.operating_points:
-            out["operating_points"] = points_to_json(self.operating_points)
-        return out
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "CurveStats":
-        """Inverse of ``to_json``."""
-        values: dict[str, Any] = {
-            f.name: (interval_from_json(d[f.name]) if f.name.endswith("_ci") else d[f.name])
-            for f in fields(cls)
-            if f.name != "operating_points"
-        }
-        return cls(**values, operating_points=points_from_json(d.get("operating_points")))
+    operating_points: OperatingPoints = field(default_factory=dict, metadata=OMIT_EMPTY)
 
 
 @dataclass(frozen=True)
@@ -170,62 +143,20 @@ class BinStats:
     label: str
     lo: float
     hi: float
-    stats: CurveStats
-
-    def to_json(self) -> dict[str, JSONLike]:
-        """Flat JSON: ``label``, ``lo``, ``hi`` and the stats' fields."""
-        return {"label": self.label, "lo": self.lo, "hi": self.hi, **self.stats.to_json()}
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "BinStats":
-        """Inverse of ``to_json``."""
-        return cls(str(d["label"]), float(d["lo"]), float(d["hi"]), CurveStats.from_json(d))
+    stats: CurveStats = field(metadata=INLINE)
 
 
 @dataclass
 class PRCurve:
     """Precision/recall of one method over association thresholds ``k`` (arrays of len(k))."""
 
-    k: NDArray[np.int64]
-    tp: NDArray[np.int64]
-    fp: NDArray[np.int64]
+    k: NDArray[np.int64] = field(metadata=_INTS)
+    tp: NDArray[np.int64] = field(metadata=_INTS)
+    fp: NDArray[np.int64] = field(metadata=_INTS)
     n_relevant: int
-    precision: NDArray[np.float64]
-    recall: NDArray[np.float64]
-    f1: NDArray[np.float64]
-
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-friendly lists; undefined values are ``None``."""
-        return {
-            "k": self.k.tolist(),
-            "tp": self.tp.tolist(),
-            "fp": self.fp.tolist(),
-            "n_relevant": self.n_relevant,
-            "precision": nan_to_none(self.precision),
-            "recall": nan_to_none(self.recall),
-            "f1": nan_to_none(self.f1),
-        }
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "PRCurve":
-        """Inverse of ``to_json``."""
-        return cls(
-            np.asarray(d["k"], dtype=np.int64),
-            np.asarray(d["tp"], dtype=np.int64),
-            np.asarray(d["fp"], dtype=np.int64),
-            int(d["n_relevant"]),
-            _none_to_nan(d["precision"]),
-            _none_to_nan(d["recall"]),
-            _none_to_nan(d["f1"]),
-        )
-
-
-def _bins(rows: list[BinStats]) -> list[dict[str, JSONLike]]:
-    return [b.to_json() for b in rows]
-
-
-def _bins_from(rows: list[dict[str, Any]]) -> list[BinStats]:
-    return [BinStats.from_json(r) for r in rows]
+    precision: NDArray[np.float64] = field(metadata=_RATES)
+    recall: NDArray[np.float64] = field(metadata=_RATES)
+    f1: NDArray[np.float64] = field(metadata=_RATES)
 
 
 @dataclass
@@ -241,7 +172,7 @@ class PairSetMetrics:
         n_ambiguity_unknown: pairs without an ambiguity value.
     """
 
-    overall: CurveStats
+    overall: CurveStats = field(metadata=INLINE)
     pr_curve: PRCurve
     heading_bins: list[BinStats]
     heading_bins_fine: list[BinStats]
@@ -257,31 +188,6 @@ class PairSetMetrics:
         labels = [b.label for b in self.heading_bins + self.heading_bins_fine]
         raise EvaluationError(f"heading bin {label!r} unknown (bins: {', '.join(labels)})")
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON: the overall stats' fields at the top level, then curve and bins."""
-        return {
-            **self.overall.to_json(),
-            "pr_curve": self.pr_curve.to_json(),
-            "heading_bins": _bins(self.heading_bins),
-            "heading_bins_fine": _bins(self.heading_bins_fine),
-            "heading_pr": [c.to_json() for c in self.heading_pr],
-            "ambiguity_bins": _bins(self.ambiguity_bins),
-            "n_ambiguity_unknown": self.n_ambiguity_unknown,
-        }
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "PairSetMetrics":
-        """Inverse of ``to_json``."""
-        return cls(
-            CurveStats.from_json(d),
-            PRCurve.from_json(d["pr_curve"]),
-            _bins_from(d["heading_bins"]),
-            _bins_from(d["heading_bins_fine"]),
-            [PRCurve.from_json(c) for c in d["heading_pr"]],
-            _bins_from(d["ambiguity_bins"]),
-            int(d["n_ambiguity_unknown"]),
-        )
-
 
 @dataclass
 class MethodMetrics:
@@ -292,7 +198,7 @@ class MethodMetrics:
         n_failed: pairs on which the method produced no estimate.
     """
 
-    sets: dict[str, PairSetMetrics]
+    sets: dict[str, PairSetMetrics] = field(metadata=INLINE)
     n_failed: int
 
     def set(self, kind: str) -> PairSetMetrics:
@@ -301,54 +207,44 @@ class MethodMetrics:
             raise EvaluationError(f"pair set {kind!r} unknown (sets: {', '.join(self.sets)})")
         return self.sets[kind]
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON: ``n_failed`` and one object per pair set."""
-        return {"n_failed": self.n_failed, **{k: v.to_json() for k, v in self.sets.items()}}
-
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> "MethodMetrics":
-        """Inverse of ``to_json``."""
-        return cls({k: PairSetMetrics.from_json(d[k]) for k in PAIR_SETS if k in d}, int(d["n_failed"]))
-
 
 @dataclass
 class EvaluationMetrics:
     """The evaluation of every method on every scored pair (what ``metrics.json`` holds).
 
     Attributes:
-        config: the evaluation settings used (``EvalConfig`` as JSON).
+        config: the evaluation settings used.
         headline: the pair set headline figures refer to (``inter`` when there are
             cross-robot pairs, else ``intra``).
         n_pairs, n_relevant: distinct pairs scored, and how many should align.
-        pairs: per pair set and ``all``, ``{"n_pairs": .., "n_relevant": ..}``.
+        pairs: per pair set and ``all``, its pair counts.
         n_candidates, n_skipped: pairs before the distance cap, and how many it skipped.
         methods: method label -> its metrics (sorted by label).
         notes: statements for the report (undefined figures and why).
-        frontend: the front end's grades against truth (``FrontEndGrades.to_json()``), or
-            None when the run did not map (saved submaps).
+        frontend: the front end's grades against truth, or None when the run did not map
+            (saved submaps).
         acceptance_k: the pose graph's acceptance threshold the ``acceptance`` operating
             points use (None: not given, no acceptance point).
-        robot_pairs: cross-robot pairs scored and relevant per robot pair (``"a|b"`` ->
-            ``{"n_pairs": .., "n_relevant": ..}``, ``overlap.robot_pair_counts``); None in files
-            written before it was recorded.
+        robot_pairs: cross-robot pairs scored and relevant per robot pair (``"a|b"``,
+            ``overlap.robot_pair_counts``); None in files written before it was recorded.
         revisits: median overlap and shared objects of the relevant cross-robot pairs,
             overall (``"all"``) and per robot pair (``overlap.revisit_figures``); None in files
             written before it was recorded.
     """
 
-    config: dict[str, Any]
+    config: EvalConfig
     headline: str
     n_pairs: int
     n_relevant: int
-    pairs: dict[str, dict[str, int]]
+    pairs: dict[str, PairCounts]
     n_candidates: int
     n_skipped: int
     methods: dict[str, MethodMetrics]
     notes: list[str] = field(default_factory=list)
-    frontend: dict[str, JSONLike] | None = None
+    frontend: FrontEndGrades | None = field(default=None, metadata=OMIT_NONE)
     acceptance_k: int | None = None
-    robot_pairs: dict[str, dict[str, int]] | None = None
-    revisits: dict[str, dict[str, float | int | None]] | None = None
+    robot_pairs: dict[str, PairCounts] | None = field(default=None, metadata=OMIT_NONE)
+    revisits: dict[str, RevisitFigures] | None = field(default=None, metadata=OMIT_NONE)
 
     def method(self, name: str) -> MethodMetrics:
         """The metrics of ``name``; EvaluationError lists the known methods."""
@@ -371,47 +267,3 @@ class EvaluationMetrics:
         if key not in {f.name for f in fields(CurveStats)}:
             raise EvaluationError(f"figure {key!r} unknown (valid: {', '.join(f.name for f in fields(CurveStats))})")
         return getattr(self.stats(method, heading_bin, kind), key)
-
-    def to_json(self) -> dict[str, JSONLike]:
-        """JSON-ready dict with the schema tag (``frontend`` only when the run graded its front end)."""
-        return {
-            "schema": METRICS_SCHEMA,
-            "config": self.config,
-            "headline": self.headline,
-            "n_pairs": self.n_pairs,
-            "n_relevant": self.n_relevant,
-            "pairs": self.pairs,
-            "n_candidates": self.n_candidates,
-            "n_skipped": self.n_skipped,
-            "methods": {k: v.to_json() for k, v in self.methods.items()},
-            "notes": list(self.notes),
-            **({} if self.frontend is None else {"frontend": self.frontend}),
-            "acceptance_k": self.acceptance_k,
-            **({} if self.robot_pairs is None else {"robot_pairs": self.robot_pairs}),
-            **({} if self.revisits is None else {"revisits": self.revisits}),
-        }
-
-    @classmethod
-    def from_json(cls, d: object, source: str = "metrics") -> "EvaluationMetrics":
-        """Inverse of ``to_json``; StorageError names ``source`` when the data is not valid."""
-        if not isinstance(d, dict) or d.get("schema") != METRICS_SCHEMA:
-            found = d.get("schema") if isinstance(d, dict) else type(d).__name__
-            raise StorageError(f"{source}: not a metrics file of schema {METRICS_SCHEMA} (found {found!r})")
-        try:
-            return cls(
-                dict(d["config"]),
-                str(d["headline"]),
-                int(d["n_pairs"]),
-                int(d["n_relevant"]),
-                {str(k): {str(a): int(b) for a, b in v.items()} for k, v in d["pairs"].items()},
-                int(d["n_candidates"]),
-                int(d["n_skipped"]),
-                {k: MethodMetrics.from_json(v) for k, v in d["methods"].items()},
-                list(d.get("notes", [])),
-                d.get("frontend"),
-                None if d.get("acceptance_k") is None else int(d["acceptance_k"]),
-                _robot_pairs(d.get("robot_pairs")),
-                _revisits(d.get("revisits")),
-            )
-        except (KeyError, TypeError, ValueError, AttributeError) as err:
-            raise StorageError(f"{source}: malformed metrics ({type(err).__name__}: {err})") from None

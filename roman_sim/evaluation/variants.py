@@ -28,17 +28,17 @@ from __future__ import annotations
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TypedDict
+
+import numpy as np
 
 from roman_sim.core.geometry import gravity_aligned
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.atetable import FITS, Fit, TrajectoryVariant
+from roman_sim.evaluation.atetable import Fit, TrajectoryVariant
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.records import AlignmentRecord
 from roman_sim.mapping.types import Submap
 from roman_sim.posegraph import LoopClosure, PoseGraphConfig, build_and_solve, submap_nodes_from
-from roman_sim.posegraph.types import LoopClosureJSON
 
 #: Name of the true trajectories among the trajectory sources.
 TRUTH = "truth"
@@ -203,48 +203,62 @@ def solve_variants(
     return out
 
 
-class ClosureJSON(LoopClosureJSON):
-    """A loop closure and its weight in a variant's JSON."""
+@dataclass
+class ClosureRow:
+    """A loop closure and its weight in a solved variant (``VariantRow``): the transform as lists."""
 
+    robot_a: str
+    submap_a: int
+    robot_b: str
+    submap_b: int
+    T_a_b: list[list[float]]
+    n_associations: int
+    sigma_m: float | None
+    sigma_deg: float | None
+    source: str
     weight: float | None
 
+    @classmethod
+    def of(cls, c: LoopClosure, weight: float | None) -> ClosureRow:
+        """The row of ``c`` with its ``weight`` (floats round-trip exactly through JSON)."""
+        T = np.asarray(c.T_a_b, dtype=np.float64).tolist()
+        ids = (c.robot_a, int(c.submap_a), c.robot_b, int(c.submap_b))
+        return cls(*ids, T, int(c.n_associations), c.sigma_m, c.sigma_deg, c.source, weight)
 
-class VariantJSON(TypedDict):
-    """A trajectory variant as JSON (``variant_json``)."""
+    def closure(self) -> LoopClosure:
+        """Inverse of ``of`` (the weight apart)."""
+        T = np.asarray(self.T_a_b, dtype=np.float64)
+        ids = (self.robot_a, self.submap_a, self.robot_b, self.submap_b)
+        return LoopClosure(*ids, T, self.n_associations, self.sigma_m, self.sigma_deg, self.source)
+
+
+@dataclass
+class VariantRow:
+    """A solved trajectory variant as ``posegraph_estimates.json`` holds it (``variant_row``)."""
 
     name: str
     description: str
     fit: Fit
     source: str
-    closures: list[ClosureJSON]
+    closures: list[ClosureRow]
 
 
-def _closure_json(c: LoopClosure, w: float | None) -> ClosureJSON:
-    return {**c.to_json(), "weight": w}
+def variant_row(name: str, v: TrajectoryVariant) -> VariantRow:
+    """A variant's row: its name, description, fit, source and closures, each with its weight."""
+    closures = [ClosureRow.of(c, w) for c, w in zip(v.closures, v.weights)]
+    return VariantRow(name, v.description, v.fit, v.source, closures)
 
 
-def _closure_from_json(d: ClosureJSON) -> tuple[LoopClosure, float | None]:
-    return LoopClosure.from_json(d), None if d["weight"] is None else float(d["weight"])
-
-
-def variant_json(name: str, v: TrajectoryVariant) -> VariantJSON:
-    """A variant as JSON: its name, description, fit, source and closures, each with its weight."""
-    closures = [_closure_json(c, w) for c, w in zip(v.closures, v.weights)]
-    return {"name": name, "description": v.description, "fit": v.fit, "source": v.source, "closures": closures}
-
-
-def variant_from_json(d: VariantJSON) -> tuple[str, TrajectoryVariant]:
-    """Inverse of ``variant_json`` (ValueError for an unknown fit)."""
-    if d["fit"] not in FITS:
-        raise ValueError(f"fit {d['fit']!r} unknown (valid: {', '.join(FITS)})")
-    pairs = [_closure_from_json(c) for c in d["closures"]]
-    return str(d["name"]), TrajectoryVariant(
-        str(d["description"]), d["fit"], str(d["source"]), [c for c, _ in pairs], [w for _, w in pairs]
-    )
+def variant_of_row(r: VariantRow) -> tuple[str, TrajectoryVariant]:
+    """Inverse of ``variant_row``."""
+    closures = [c.closure() for c in r.closures]
+    return r.name, TrajectoryVariant(r.description, r.fit, r.source, closures, [c.weight for c in r.closures])
 
 
 __all__ = [
     "COMBINED",
+    "ClosureRow",
+    "VariantRow",
     "ORACLE",
     "ORACLE_ASSOCIATIONS",
     "TRUTH",
@@ -255,6 +269,6 @@ __all__ = [
     "odometry_variants",
     "oracle_closures",
     "solve_variants",
-    "variant_from_json",
-    "variant_json",
+    "variant_of_row",
+    "variant_row",
 ]

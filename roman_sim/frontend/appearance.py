@@ -30,7 +30,6 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -281,50 +280,61 @@ def unknown_looks(family: str) -> InstanceLooks:
     return InstanceLooks(family, "unknown", 1.0, 0.0, ())
 
 
-def looks_to_json(looks: SceneLooks) -> dict[str, Any]:
-    """``looks`` as JSON-ready data (``looks_from_json`` reads it back exactly)."""
-    light = None if looks.light is None else [looks.light.sun_azimuth, looks.light.sun_elevation, looks.light.sun_share]
-    return {
-        "instances": {
-            str(oid): {
-                "family": i.family,
-                "shape": i.shape,
-                "scale": i.scale,
-                "yaw": i.yaw,
-                "atlas_tiles": i.atlas_tiles,
-                "parts": [
-                    [p.name, list(p.lab), p.area, None if p.texture is None else list(p.texture)] for p in i.parts
-                ],
-            }
+#: A part as the looks record holds it: name, CIELAB colour, surface share, texture region (or None).
+PartRow = tuple[str, tuple[float, float, float], float, tuple[int, float, float] | None]
+
+
+@dataclass(frozen=True)
+class InstanceRow:
+    """An ``InstanceLooks`` as the looks record holds it (parts as rows)."""
+
+    family: str
+    shape: str
+    scale: float
+    yaw: float
+    atlas_tiles: int
+    parts: list[PartRow]
+
+
+@dataclass(frozen=True)
+class LooksRecord:
+    """``SceneLooks`` as JSON (an object table's ``looks``): instances by id, asymmetry by shape, the
+    light as (sun azimuth, elevation, share); read back exactly."""
+
+    instances: dict[str, InstanceRow]
+    asymmetry: dict[str, float]
+    light: tuple[float, float, float] | None
+
+    @classmethod
+    def of(cls, looks: SceneLooks) -> LooksRecord:
+        """The record of ``looks``."""
+        light = looks.light
+        instances = {
+            str(oid): InstanceRow(
+                i.family,
+                i.shape,
+                i.scale,
+                i.yaw,
+                i.atlas_tiles,
+                [(p.name, p.lab, p.area, p.texture) for p in i.parts],
+            )
             for oid, i in sorted(looks.instances.items())
-        },
-        "asymmetry": dict(sorted(looks.asymmetry.items())),
-        "light": light,
-    }
+        }
+        sun = None if light is None else (light.sun_azimuth, light.sun_elevation, light.sun_share)
+        return cls(instances, dict(sorted(looks.asymmetry.items())), sun)
 
+    def looks(self) -> SceneLooks:
+        """Inverse of ``of``."""
 
-def looks_from_json(data: Mapping[str, Any]) -> SceneLooks:
-    """The ``SceneLooks`` of ``looks_to_json``'s data."""
+        def part(p: PartRow) -> PartLooks:
+            tex = None if p[3] is None else (int(p[3][0]), float(p[3][1]), float(p[3][2]))
+            return PartLooks(p[0], (float(p[1][0]), float(p[1][1]), float(p[1][2])), float(p[2]), tex)
 
-    def part(p: list[Any]) -> PartLooks:
-        tex = None if p[3] is None else (int(p[3][0]), float(p[3][1]), float(p[3][2]))
-        lab = (float(p[1][0]), float(p[1][1]), float(p[1][2]))
-        return PartLooks(str(p[0]), lab, float(p[2]), tex)
-
-    instances = {
-        int(k): InstanceLooks(
-            str(v["family"]),
-            str(v["shape"]),
-            float(v["scale"]),
-            float(v["yaw"]),
-            tuple(part(p) for p in v["parts"]),
-            int(v["atlas_tiles"]),
-        )
-        for k, v in data["instances"].items()
-    }
-    light = data.get("light")
-    return SceneLooks(
-        instances,
-        {str(k): float(v) for k, v in data["asymmetry"].items()},
-        None if light is None else SceneLight(float(light[0]), float(light[1]), float(light[2])),
-    )
+        instances = {
+            int(k): InstanceLooks(
+                v.family, v.shape, float(v.scale), float(v.yaw), tuple(part(p) for p in v.parts), v.atlas_tiles
+            )
+            for k, v in self.instances.items()
+        }
+        light = None if self.light is None else SceneLight(*(float(x) for x in self.light))
+        return SceneLooks(instances, {k: float(v) for k, v in self.asymmetry.items()}, light)

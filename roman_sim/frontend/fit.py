@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from roman_sim.core.records import to_json
 from roman_sim.frontend.appearance import SceneLooks
 from roman_sim.frontend.confusion import realisable
 from roman_sim.frontend.segmenter import SegmenterConfig
@@ -114,7 +115,7 @@ def fit_semantics(desc: Any, prior: SemanticConfig | None = None, looks: SceneLo
     fitted figures, a few fixed-point rounds).
     """
     prior = prior or SemanticConfig()
-    d = desc if isinstance(desc, dict) else desc.to_json()
+    d: Any = desc if isinstance(desc, dict) else to_json(desc)  # grades (a higher layer's dataclass) as JSON
     pc = prior.confusion
     line = _view_line(d["view_edges_deg"], d["view_mean"], d["view_pairs"])
     if line is None:

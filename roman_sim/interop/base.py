@@ -11,15 +11,84 @@ folder of one robot carry the same stamps. The epoch, 1 700 000 000 s after 1970
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Protocol
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal, Protocol
 
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.jsontypes import JSONLike, JSONScalar
+from roman_sim.core.records import INLINE, OMIT_NONE, read_record
 from roman_sim.core.registry import Registry
 from roman_sim.core.sensors import Frame
 
 #: The epoch of exported stamps (ns since 1970-01-01 UTC): 2023-11-14 22:13:20 UTC.
 EXPORT_EPOCH_NS = 1_700_000_000 * 1_000_000_000
+#: An export folder's manifest.
+EXPORT_JSON = "export.json"
+EXPORT_FORMAT: Literal["roman_sim.export"] = "roman_sim.export"
+
+
+@dataclass(frozen=True)
+class ExportConventions:
+    """How an export's stamps, frames and masks are to be read (stated in ``export.json``)."""
+
+    time: str = "stamp = time_epoch_ns + seconds since the robot's start, in integer nanoseconds"
+    world: str = "frame of groundtruth.txt, objects.json and the 'world' tf frame"
+    masks: str = "16-bit PNG, object id + 1 (0 = background)"
+
+
+@dataclass(frozen=True)
+class RobotCounts:
+    """What a sequence writer wrote for one robot: its frames, the format's own counts (depth
+    values dropped, cameras, IMU samples) and, for a ROS 2 bag, its messages per topic."""
+
+    frames: int
+    counts: dict[str, int] = field(default_factory=dict, metadata=INLINE)
+    messages: dict[str, int] | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass(frozen=True)
+class RobotExport:
+    """One robot's export: where it was written (its folder, or its bag) and what (``export.json``
+    keeps the counts, not the path)."""
+
+    path: str
+    written: RobotCounts
+
+    @classmethod
+    def of(cls, summary: Mapping[str, JSONLike]) -> RobotExport:
+        """The export of a writer's summary (``SequenceWriter.close``: ``frames``, ``folder`` or
+        ``bag``, ``messages`` per topic and counts of its own)."""
+        where = summary.get("bag") or summary.get("folder")
+        messages = summary.get("messages")
+        own = {k: v for k, v in summary.items() if k not in ("frames", "folder", "bag", "messages")}
+        counts = {k: int(v) for k, v in own.items() if isinstance(v, (int, float))}
+        topics = None
+        if isinstance(messages, Mapping):
+            topics = {str(k): v for k, v in messages.items() if isinstance(v, int)}
+        frames = summary["frames"]
+        return cls(str(where), RobotCounts(int(frames) if isinstance(frames, (int, float)) else 0, counts, topics))
+
+
+@dataclass(frozen=True)
+class ExportManifest:
+    """What ``export.json`` holds: the export's format, epoch, scenario, writer options, each robot's
+    writer summary (its own counts, as the format's writer gives them) and the conventions."""
+
+    format: Literal["roman_sim.export"]
+    version: int
+    sequence_format: str
+    scenario: str
+    seed: int
+    options: dict[str, JSONScalar]
+    robots: dict[str, RobotCounts]
+    time_epoch_ns: int = 0  # an export written before the epoch was stamped from 0
+    conventions: ExportConventions = ExportConventions()
+
+
+def read_export_manifest(folder: str | Path) -> ExportManifest:
+    """The ``export.json`` of an export folder (RecordError naming the file and the field)."""
+    return read_record(Path(folder) / EXPORT_JSON, ExportManifest)
 
 
 def stamp_ns(t: float) -> int:

@@ -29,23 +29,22 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
-from roman_sim.core.atomic import output_folder, write_json, write_text
+from roman_sim.core.atomic import output_folder, write_text
 from roman_sim.core.config import dump_yaml
 from roman_sim.core.errors import ConfigError
-from roman_sim.core.jsontypes import JSONLike, JSONScalar
+from roman_sim.core.jsontypes import JSONScalar
+from roman_sim.core.records import write_record
 from roman_sim.core.sensors import FrameSource
 from roman_sim.interop import euroc as _euroc  # noqa: F401  (registers "euroc")
 from roman_sim.interop import roman_export as _roman  # noqa: F401  (registers "roman")
 from roman_sim.interop import rosbag_writer as _rosbag  # noqa: F401  (registers "rosbag2")
 from roman_sim.interop import tum_writer as _tum  # noqa: F401  (registers "tum")
-from roman_sim.interop.base import EXPORT_EPOCH_NS, FORMATS
+from roman_sim.interop.base import EXPORT_EPOCH_NS, EXPORT_FORMAT, EXPORT_JSON, FORMATS, ExportManifest, RobotExport
 from roman_sim.interop.looks import table_looks
 from roman_sim.interop.objects import write_object_table
 from roman_sim.interop.source import scenario_streams, select_robots
 
 log = logging.getLogger(__name__)
-
-EXPORT_JSON = "export.json"
 
 
 class ExportProgress(Protocol):
@@ -72,7 +71,7 @@ class ExportResult:
 
     out_dir: Path
     format: str
-    robots: dict[str, dict[str, JSONLike]] = field(default_factory=dict)
+    robots: dict[str, RobotExport] = field(default_factory=dict)
     render_s: dict[str, float] = field(default_factory=dict)
     write_s: dict[str, float] = field(default_factory=dict)
 
@@ -150,7 +149,7 @@ def _export_robot(
             if progress:
                 progress.advance(stage)
         t1 = time.perf_counter()
-        result.robots[stream.name] = writer.close()
+        result.robots[stream.name] = RobotExport.of(writer.close())
         write_s += time.perf_counter() - t1
     except BaseException:
         writer.abort()
@@ -186,11 +185,11 @@ def export_scenario(
     """
     FORMATS.get(fmt)  # an unknown format fails before any rendering
     out = Path(out_dir)
-    _prepare(out, [r.name for r in select_robots(scenario.robots, robots)], overwrite)
+    _prepare(out, [r.name for r in select_robots(scenario, robots)], overwrite)
     world, streams = scenario_streams(scenario, robots)
     write_text(out / "config.yaml", dump_yaml(scenario))
     looks = table_looks(world, [(r.name, r.lighting) for r in scenario.robots], int(scenario.seed))
-    write_object_table(out, world.truth, extra={"scenario": scenario.name, "seed": int(scenario.seed), **looks})
+    write_object_table(out, world.truth, scenario.name, int(scenario.seed), looks)
     result = ExportResult(out, fmt)
     for stream in streams:
         _export_robot(stream, fmt, out, options, progress, result)
@@ -198,23 +197,7 @@ def export_scenario(
     finish = getattr(FORMATS.get(fmt), "finish_export", None)
     if finish is not None:  # files of the whole export (e.g. the ROMAN parameter folders)
         finish(out, scenario, streams, result.robots)
-    manifest = {
-        "format": "roman_sim.export",
-        "version": 1,
-        "sequence_format": fmt,
-        "time_epoch_ns": EXPORT_EPOCH_NS,
-        "scenario": scenario.name,
-        "seed": int(scenario.seed),
-        "options": options,
-        "robots": {
-            name: {k: v for k, v in summary.items() if k not in ("folder", "bag")}
-            for name, summary in result.robots.items()
-        },
-        "conventions": {
-            "time": "stamp = time_epoch_ns + seconds since the robot's start, in integer nanoseconds",
-            "world": "frame of groundtruth.txt, objects.json and the 'world' tf frame",
-            "masks": "16-bit PNG, object id + 1 (0 = background)",
-        },
-    }
-    write_json(out / EXPORT_JSON, manifest)
+    summaries = {name: r.written for name, r in result.robots.items()}
+    what = (EXPORT_FORMAT, 1, fmt, scenario.name, int(scenario.seed), options, summaries)
+    write_record(out / EXPORT_JSON, ExportManifest(*what, time_epoch_ns=EXPORT_EPOCH_NS))
     return result

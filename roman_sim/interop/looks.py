@@ -13,7 +13,6 @@ world seed, family and variant.
 from __future__ import annotations
 
 import functools
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import replace
@@ -22,20 +21,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSONLike
 from roman_sim.core.seeding import child_rng
-from roman_sim.frontend.appearance import (
-    InstanceLooks,
-    PartLooks,
-    SceneLight,
-    SceneLooks,
-    looks_from_json,
-    looks_to_json,
-    srgb_to_lab,
-)
+from roman_sim.frontend.appearance import InstanceLooks, LooksRecord, PartLooks, SceneLight, SceneLooks, srgb_to_lab
 from roman_sim.frontend.view_asymmetry import asymmetry
-from roman_sim.interop.objects import OBJECTS_JSON
+from roman_sim.interop.objects import TableLooks, read_objects_json
 from roman_sim.world.appearance import LightingSpec, resolve_sun
 from roman_sim.world.build import World
 from roman_sim.world.catalog import scale_levels, variant_parts
@@ -122,30 +111,23 @@ def robot_looks(world: World | None, robot: str, lighting_preset: str | None, se
     return SceneLooks(instances, asym, light)
 
 
-def table_looks(world: World, robots: Sequence[tuple[str, str | None]], seed: int) -> dict[str, JSONLike]:
+def table_looks(world: World, robots: Sequence[tuple[str, str | None]], seed: int) -> TableLooks:
     """The looks an exported object table carries: the world's (``looks``) and each robot's light
-    (``lights``: robot -> [sun azimuth, elevation, share]), for ``sequence_looks`` to read back."""
+    (``lights``: robot -> (sun azimuth, elevation, share)), for ``sequence_looks`` to read back."""
     base = robot_looks(world, "", None, seed)
     assert base is not None  # a World always has looks
-    data = looks_to_json(replace(base, light=None))
-    lights: dict[str, JSONLike] = {}
+    lights: dict[str, tuple[float, float, float]] = {}
     for name, preset in robots:
         own = robot_looks(world, name, preset, seed)
         if own is not None and own.light is not None:
-            lights[name] = [own.light.sun_azimuth, own.light.sun_elevation, own.light.sun_share]
-    return {"looks": data, "lights": lights}
+            lights[name] = (own.light.sun_azimuth, own.light.sun_elevation, own.light.sun_share)
+    return TableLooks(LooksRecord.of(replace(base, light=None)), lights)
 
 
 def sequence_looks(table: str | Path, robot: str) -> SceneLooks | None:
     """The looks an exported object table (``objects.json``) carries for ``robot`` (None without them)."""
-    p = Path(table)
-    p = p / OBJECTS_JSON if p.is_dir() else p
-    try:
-        doc = json.loads(p.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        raise StorageError(f"{p}: unreadable object table ({err})") from None
-    if not isinstance(doc, dict) or not isinstance(doc.get("looks"), dict):
+    doc = read_objects_json(table)
+    if doc.looks is None:
         return None
-    looks = looks_from_json(doc["looks"])
-    light = (doc.get("lights") or {}).get(robot)
-    return replace(looks, light=None if light is None else SceneLight(*(float(x) for x in light)))
+    light = (doc.lights or {}).get(robot)
+    return replace(doc.looks.looks(), light=None if light is None else SceneLight(*(float(x) for x in light)))

@@ -47,6 +47,7 @@ from numpy.typing import NDArray
 from roman_sim.core.atomic import write_text
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.geometry import inv_T
+from roman_sim.core.records import RecordError, read_json
 from roman_sim.interop.closures import (
     EDGE,
     Closure,
@@ -96,9 +97,9 @@ def _json_entries(path: Path, n: int) -> tuple[tuple[str, str], NDArray[np.float
     """The pair's robots and each closure's two times (s, as stamped) from ``align.json``."""
     where = f"{path}: a list of {n} closures, each with names [run_i, run_j], seconds [s, s], nanoseconds [ns, ns]"
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise ConfigError(f"{path}: cannot read it ({type(err).__name__})") from None
+        doc = read_json(path)  # ROMAN's own file: its entries are checked here, other keys left alone
+    except RecordError as err:
+        raise ConfigError(str(err)) from None
     if not isinstance(doc, list) or len(doc) != n:
         got = f"{len(doc)} entries" if isinstance(doc, list) else type(doc).__name__
         raise ConfigError(f"{where} (one per edge of {ALIGN_G2O}); got {got}")

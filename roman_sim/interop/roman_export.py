@@ -36,7 +36,7 @@ the working directory: run the reference from the export folder, which can then 
 from __future__ import annotations
 
 import logging
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -132,7 +132,7 @@ class RomanBagWriter(RosbagWriter):
         return summary
 
     @staticmethod
-    def finish_export(out: Path, scenario: Any, streams: Sequence[Any], robots: dict[str, dict[str, JSONLike]]) -> None:
+    def finish_export(out: Path, scenario: Any, streams: Sequence[Any], robots: Mapping[str, object]) -> None:
         """Write the parameter folders for the exported robots (``streams``)."""
         write_roman_params(out, scenario, streams)
 

@@ -40,19 +40,23 @@ class SimScenario(Protocol):
     @property
     def world(self) -> WorldSource: ...
 
+    def simulated_robots(self) -> Sequence[RobotConfig]:
+        """The robots the simulator renders, in order (not those read from recorded sequences)."""
+        ...
 
-def select_robots(robots: Sequence[RobotConfig], names: Sequence[str] | None) -> list[RobotConfig]:
-    """The simulated robots named in ``names`` (all simulated ones when None or empty), in order.
 
-    A scenario robot read from a recorded sequence (``source``) has nothing to render.
+def select_robots(scenario: SimScenario, names: Sequence[str] | None) -> list[RobotConfig]:
+    """The simulated robots of ``scenario`` named in ``names`` (all when None or empty), in order.
+
+    A scenario robot read from a recorded sequence has nothing to render.
 
     Raises: ConfigError naming unknown or recorded robots and the valid names.
     """
-    simulated = [r for r in robots if getattr(r, "source", None) is None]
+    simulated = list(scenario.simulated_robots())
     known = [r.name for r in simulated]
     unknown = [n for n in names or [] if n not in known]
     if unknown or not simulated:
-        recorded = sorted({r.name for r in robots} - set(known))
+        recorded = sorted({r.name for r in scenario.robots} - set(known))
         extra = f"; read from recorded sequences: {', '.join(recorded)}" if recorded else ""
         raise ConfigError(
             f"--robots: no simulated robot {', '.join(unknown)} (simulated robots: {', '.join(known) or 'none'}{extra})"
@@ -69,7 +73,7 @@ def scenario_streams(scenario: SimScenario, names: Sequence[str] | None = None) 
     """
     from roman_sim.world import generate
 
-    chosen = [r.name for r in select_robots(scenario.robots, names)]
+    chosen = [r.name for r in select_robots(scenario, names)]
     world = generate(scenario.world.spec(), scenario.seed)
-    streams = robot_sources(world, scenario.robots, int(scenario.seed), chosen, rgb=True)
+    streams = robot_sources(world, scenario.simulated_robots(), int(scenario.seed), chosen, rgb=True)
     return world, [s.with_stereo() for s in streams]

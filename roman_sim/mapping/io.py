@@ -22,16 +22,17 @@ keypoints and their 3D points).
 from __future__ import annotations
 
 import io
-import json
 import zipfile
 from collections import Counter
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 
 from roman_sim.core.atomic import write_arrays, write_npz
 from roman_sim.core.errors import StorageError
+from roman_sim.core.records import dumps_record, from_json, parse_json
 from roman_sim.mapping.mapper import SegmentMap
 from roman_sim.mapping.segment import Segment, Status
 from roman_sim.mapping.types import KeyframeSet, Submap, SubmapTruth
@@ -42,20 +43,75 @@ READABLE_VERSIONS = (1, 2)
 _SUBMAP_ARRAYS = ("T_odom_submap", "segment_ids", "centers", "volumes", "shape", "descriptors", "extents")
 
 
-def _header(obj: dict[str, Any]) -> np.ndarray:
-    return np.frombuffer(json.dumps(obj, sort_keys=True).encode("utf-8"), dtype=np.uint8)
+H = TypeVar("H")
 
 
-def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+@dataclass(frozen=True)
+class SegmentRow:
+    """One segment's scalars in a segment map's header (its arrays sit beside it)."""
+
+    id: int
+    first_seen: float
+    last_seen: float
+    num_sightings: int
+    status: str
+    truth_counts: list[tuple[int, int]]
+
+
+@dataclass(frozen=True)
+class SegmentMapHeader:
+    """The header of a segment map file: format, version, robot and each segment's scalars."""
+
+    format: Literal["roman_sim.segment_map"]
+    version: int
+    robot: str
+    segments: list[SegmentRow]
+
+
+@dataclass(frozen=True)
+class SubmapRow:
+    """One submap's scalars in a submap file's header, and which of its optional arrays are stored."""
+
+    robot: str
+    index: int
+    t: float
+    points: bool
+    truth: bool
+    keyframes: bool = False  # version 1 files have none
+
+
+@dataclass(frozen=True)
+class SubmapsHeader:
+    """The header of a submap file: format, version and each submap's scalars."""
+
+    format: Literal["roman_sim.submaps"]
+    version: int
+    submaps: list[SubmapRow]
+
+
+@dataclass(frozen=True)
+class KeyframesHeader:
+    """The header of a keyframe file: format and version."""
+
+    format: Literal["roman_sim.keyframes"]
+    version: int
+
+
+def _header(header: object) -> np.ndarray:
+    return np.frombuffer(dumps_record(header).encode("utf-8"), dtype=np.uint8)
+
+
+def _open(path: str | Path, fmt: str, cls: type[H]) -> tuple[H, dict[str, np.ndarray]]:
     path = Path(path)
     if not path.is_file():
         raise StorageError(f"{path}: file not found")
     try:
         with np.load(path, allow_pickle=False) as z:
             arrays = {k: z[k] for k in z.files}
-        header = json.loads(arrays.pop("header").tobytes().decode("utf-8"))
-    except (OSError, ValueError, KeyError, zipfile.BadZipFile, UnicodeDecodeError, EOFError) as err:
+        text = arrays.pop("header").tobytes()
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile, EOFError) as err:
         raise StorageError(f"{path}: not a readable roman_sim file ({type(err).__name__})") from None
+    header = parse_json(text, f"{path}: header")
     if not isinstance(header, dict) or header.get("format") != fmt:
         found = header.get("format") if isinstance(header, dict) else None
         raise StorageError(f"{path}: expected format {fmt!r}, found {found!r}")
@@ -64,7 +120,7 @@ def _open(path: str | Path, fmt: str) -> tuple[dict[str, Any], dict[str, np.ndar
             f"{path}: format version {header.get('version')!r} not supported "
             f"(this reader: {', '.join(map(str, READABLE_VERSIONS))})"
         )
-    return header, arrays
+    return from_json(cls, header, f"{path}: header"), arrays
 
 
 def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
@@ -76,17 +132,17 @@ def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
         if s.descriptor_sum is not None:
             dsum[k] = s.descriptor_sum
     meta = [
-        {
-            "id": s.id,
-            "first_seen": s.first_seen,
-            "last_seen": s.last_seen,
-            "num_sightings": s.num_sightings,
-            "status": s.status.value,
-            "truth_counts": sorted([int(k), int(v)] for k, v in s.truth_counts.items()),
-        }
+        SegmentRow(
+            s.id,
+            s.first_seen,
+            s.last_seen,
+            s.num_sightings,
+            s.status.value,
+            sorted((int(k), int(v)) for k, v in s.truth_counts.items()),
+        )
         for s in segs
     ]
-    header = {"format": "roman_sim.segment_map", "version": FORMAT_VERSION, "robot": smap.robot, "segments": meta}
+    header = SegmentMapHeader("roman_sim.segment_map", FORMAT_VERSION, smap.robot, meta)
     truth = {} if smap.T_world_body is None else {"T_world_body": smap.T_world_body}
     write_arrays(
         path,
@@ -105,25 +161,25 @@ def save_segment_map(path: str | Path, smap: SegmentMap) -> None:
 
 def load_segment_map(path: str | Path) -> SegmentMap:
     """Read a file written by ``save_segment_map``."""
-    header, a = _open(path, "roman_sim.segment_map")
+    header, a = _open(path, "roman_sim.segment_map", SegmentMapHeader)
     try:
         segs = []
-        for k, m in enumerate(header["segments"]):
+        for k, m in enumerate(header.segments):
             pts = a["points"][a["offsets"][k] : a["offsets"][k + 1]]
             segs.append(
                 Segment(
-                    id=int(m["id"]),
+                    id=m.id,
                     points=pts,
-                    first_seen=float(m["first_seen"]),
-                    last_seen=float(m["last_seen"]),
-                    num_sightings=int(m["num_sightings"]),
+                    first_seen=float(m.first_seen),
+                    last_seen=float(m.last_seen),
+                    num_sightings=m.num_sightings,
                     descriptor_sum=a["descriptor_sum"][k].copy() if a["has_descriptor"][k] else None,
-                    truth_counts=Counter({int(i): int(c) for i, c in m["truth_counts"]}),
-                    status=Status(m["status"]),
+                    truth_counts=Counter(dict(m.truth_counts)),
+                    status=Status(m.status),
                 )
             )
         return SegmentMap(
-            str(header["robot"]), segs, a["times"], a["T_odom_body"], a["T_world_body"] if "T_world_body" in a else None
+            header.robot, segs, a["times"], a["T_odom_body"], a["T_world_body"] if "T_world_body" in a else None
         )
     except (KeyError, IndexError, TypeError, ValueError) as err:
         raise StorageError(f"{path}: inconsistent segment map ({type(err).__name__}: {err})") from None
@@ -151,41 +207,34 @@ def save_submaps(path: str | Path, submaps: list[Submap]) -> None:
     for k, s in enumerate(submaps):
         arrays.update(_submap_arrays(k, s))
         meta.append(
-            {
-                "robot": s.robot,
-                "index": s.index,
-                "t": s.t,
-                "points": s.points is not None,
-                "keyframes": s.keyframes is not None,
-                "truth": s.truth is not None,
-            }
+            SubmapRow(s.robot, s.index, s.t, s.points is not None, s.truth is not None, s.keyframes is not None)
         )
-    header = {"format": "roman_sim.submaps", "version": FORMAT_VERSION, "submaps": meta}
+    header = SubmapsHeader("roman_sim.submaps", FORMAT_VERSION, meta)
     write_arrays(path, {"header": _header(header), **arrays})
 
 
 def load_submaps(path: str | Path) -> list[Submap]:
     """Read a file written by ``save_submaps``."""
-    header, a = _open(path, "roman_sim.submaps")
+    header, a = _open(path, "roman_sim.submaps", SubmapsHeader)
     try:
         out = []
-        for k, m in enumerate(header["submaps"]):
+        for k, m in enumerate(header.submaps):
             fields = {f: a[f"s{k}_{f}"] for f in _SUBMAP_ARRAYS}
             points = None
-            if m["points"]:
+            if m.points:
                 pts, off = a[f"s{k}_points"], a[f"s{k}_offsets"]
                 points = [pts[off[i] : off[i + 1]] for i in range(len(off) - 1)]
             truth = (
                 SubmapTruth(*(a[f"s{k}_truth_{f}"] for f in ("T_world_submap", "object_ids", "purity")))
-                if m["truth"]
+                if m.truth
                 else None
             )
-            kf = KeyframeSet(*(a[f"s{k}_kf_{f}"] for f in KeyframeSet.FIELDS)) if m.get("keyframes") else None
+            kf = KeyframeSet(*(a[f"s{k}_kf_{f}"] for f in KeyframeSet.FIELDS)) if m.keyframes else None
             out.append(
                 Submap(
-                    robot=str(m["robot"]),
-                    index=int(m["index"]),
-                    t=float(m["t"]),
+                    robot=m.robot,
+                    index=m.index,
+                    t=float(m.t),
                     points=points,
                     keyframes=kf,
                     truth=truth,
@@ -199,14 +248,13 @@ def load_submaps(path: str | Path) -> list[Submap]:
 
 def save_keyframes(path: str | Path, keyframes: KeyframeSet) -> None:
     """Write one robot's keyframes (format ``roman_sim.keyframes``) atomically."""
-    header = {"format": "roman_sim.keyframes", "version": FORMAT_VERSION}
     arrays: dict[str, Any] = {f: np.asarray(getattr(keyframes, f)) for f in KeyframeSet.FIELDS}
-    write_npz(path, header=_header(header), **arrays)
+    write_npz(path, header=_header(KeyframesHeader("roman_sim.keyframes", FORMAT_VERSION)), **arrays)
 
 
 def load_keyframes(path: str | Path) -> KeyframeSet:
     """Read a file written by ``save_keyframes``."""
-    _, a = _open(path, "roman_sim.keyframes")
+    _, a = _open(path, "roman_sim.keyframes", KeyframesHeader)
     try:
         return KeyframeSet(*(a[f] for f in KeyframeSet.FIELDS))
     except KeyError as err:

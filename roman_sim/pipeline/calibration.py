@@ -18,15 +18,17 @@ refuses the file.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 import yaml
 
-from roman_sim.core.jsontypes import JSONLike, JSONScalar
+from roman_sim.core.errors import ConfigError
+from roman_sim.core.jsontypes import JSONScalar
+from roman_sim.core.records import OMIT_NONE, to_json
 from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.grader import FrontEndGrader
-from roman_sim.evaluation.grades import DescriptorGrades, GradeConfig, SegmentationGrades
+from roman_sim.evaluation.grades import SEGMENTATION_JSON, DescriptorGrades, GradeConfig, SegmentationGrades
 from roman_sim.frontend.appearance import SceneLooks
 from roman_sim.frontend.components import FrontEndConfig, SegmenterEntry, build_encoder, build_segmenter, encoder_spec
 from roman_sim.frontend.fit import fit_segmenter, fit_semantics
@@ -62,8 +64,10 @@ def render_calibration_frames(scenario: Scenario, max_frames: int = 120) -> Cali
     from roman_sim.sim.source import robot_sources
     from roman_sim.world import generate
 
+    if not scenario.simulated_robots():
+        raise ConfigError(f"scenario {scenario.name}: calibration renders simulated robots, and it has none")
     world = generate(scenario.world.spec(), scenario.seed)
-    sources = robot_sources(world, scenario.robots, scenario.seed, rgb=True)
+    sources = robot_sources(world, scenario.simulated_robots(), scenario.seed, rgb=True)
     per_robot = max(1, max_frames // len(sources))
     frames: list[Frame] = []
     for src in sources:
@@ -102,6 +106,33 @@ def grade_encoder(
     return grader.descriptor_grades()
 
 
+@dataclass(frozen=True)
+class FittedSegmenter:
+    """The fitted segmenter as a front-end entry: the simulated ``fastsam`` with its parameters."""
+
+    name: str
+    params: SegmenterConfig
+
+
+@dataclass(frozen=True)
+class FittedFrontEnd:
+    """The fitted simulated front end: its semantics and segmenter (those calibrated)."""
+
+    semantics: SemanticConfig | None = field(default=None, metadata=OMIT_NONE)
+    segmenter: FittedSegmenter | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass(frozen=True)
+class CalibrationRecord:
+    """What ``calibrate --grades`` writes: the fitted front end, and the measured and fitted grades."""
+
+    frontend: FittedFrontEnd
+    measured_descriptors: DescriptorGrades | None
+    fitted_descriptors: DescriptorGrades | None
+    measured_segmentation: SegmentationGrades | None = field(metadata=SEGMENTATION_JSON)
+    fitted_segmentation: SegmentationGrades | None = field(metadata=SEGMENTATION_JSON)
+
+
 @dataclass
 class Calibration:
     """Measured grades of the target components, the fitted parameters and the fit's own grades."""
@@ -114,23 +145,25 @@ class Calibration:
     fitted_segmentation: SegmentationGrades | None = None
     meta: dict[str, JSONScalar] | None = None
 
+    def frontend(self) -> FittedFrontEnd:
+        """The fitted parameters as a front-end section."""
+        seg = None if self.segmenter is None else FittedSegmenter("fastsam", self.segmenter)
+        return FittedFrontEnd(self.semantics, seg)
+
     def frontend_yaml(self) -> str:
         """The fitted parameters as a front-end preset file: ``calibration`` (what was measured) and ``frontend``."""
-        fe: dict[str, JSONLike] = {}
-        if self.semantics is not None:
-            fe["semantics"] = self.semantics.model_dump(mode="json")
-        if self.segmenter is not None:
-            fe["segmenter"] = {"name": "fastsam", "params": self.segmenter.model_dump(mode="json")}
         head = {"calibration": self.meta} if self.meta else {}
-        return yaml.safe_dump({**head, "frontend": fe}, sort_keys=False)
+        return yaml.safe_dump({**head, "frontend": to_json(self.frontend())}, sort_keys=False)
 
-    def to_json(self) -> dict[str, JSONLike]:
-        """Everything measured and fitted, JSON-ready."""
-        out: dict[str, JSONLike] = {"frontend": yaml.safe_load(self.frontend_yaml())["frontend"]}
-        for name in ("measured_descriptors", "fitted_descriptors", "measured_segmentation", "fitted_segmentation"):
-            v = getattr(self, name)
-            out[name] = None if v is None else v.to_json()
-        return out
+    def record(self) -> CalibrationRecord:
+        """Everything measured and fitted, as ``calibrate --grades`` writes it."""
+        return CalibrationRecord(
+            self.frontend(),
+            self.measured_descriptors,
+            self.fitted_descriptors,
+            self.measured_segmentation,
+            self.fitted_segmentation,
+        )
 
 
 def calibrate(

@@ -107,7 +107,8 @@ class Experiment:
 
     def validate(self) -> None:
         """Resolve the scenario's components, then check what can be checked before any work:
-        world spec, aligners, plug-ins, RGB, output folder. ``run`` calls it unless it was called.
+        world spec, recorded sequences and odometry files (``maps_input.check_inputs``), aligners,
+        plug-ins, RGB, output folder. ``run`` calls it unless it was called.
 
         Every user plug-in (``package.module:Class``) is imported, built, checked against its
         protocol and called once on a tiny synthetic input (``roman_sim.core.plugins``), so a
@@ -117,11 +118,11 @@ class Experiment:
 
         self.scenario = resolve_scenario(self.scenario)
         if self.submaps_dir is None:
-            from roman_sim.pipeline.stages.maps_sources import check_sources
+            from roman_sim.pipeline.stages.maps_input import check_inputs
 
             if self.scenario.needs_world:
                 self.scenario.world.spec()
-            check_sources(self.scenario)
+            check_inputs(self.context())
         elif not self.submaps_dir.is_dir():
             raise ConfigError(f"--submaps {self.submaps_dir}: not a folder")
         self._check_plugins()
@@ -300,12 +301,13 @@ class Experiment:
             if not stage.cached and stage.name not in needed:
                 continue
             outputs[stage.name], timings[stage.name] = self._run_stage(stage, ctx, outputs, manifest, keys, ex)
-        write_timings(self.run_dir / TIMINGS_JSON, run_timings(timings, str(self.run_dir / TIMINGS_JSON)))
+        checked = run_timings(timings, str(self.run_dir / TIMINGS_JSON))
+        write_timings(self.run_dir / TIMINGS_JSON, checked)
         log.info(
             "run %s complete in %s (reused: %s)", self.scenario.name, self.run_dir, ", ".join(sorted(reuse)) or "none"
         )
         return RunResult.from_outputs(
-            self.run_dir, self.scenario, outputs, timings, [s.name for s in active if s.name in reuse]
+            self.run_dir, self.scenario, outputs, checked, [s.name for s in active if s.name in reuse]
         )
 
     def _run_stage(

@@ -24,8 +24,7 @@ from importlib import metadata
 from pathlib import Path
 
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import OMIT_NONE, from_json, read_record, to_json_record, write_record
+from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.pipeline.stagecache import file_sha256
 
 log = logging.getLogger(__name__)
@@ -175,15 +174,6 @@ class Manifest:
             rec.expected,
             dict(rec.environment or {}),
         )
-
-    def to_json(self) -> JSON:
-        """JSON-ready dict (with its schema tag)."""
-        return to_json_record(self.record(), MANIFEST_SCHEMA)
-
-    @classmethod
-    def from_json(cls, d: object, source: str) -> "Manifest":
-        """Inverse of ``to_json``; RecordError names ``source`` and the field when invalid."""
-        return cls.from_record(from_json(ManifestRecord, d, source, MANIFEST_SCHEMA))
 
     def save(self, run_dir: Path) -> None:
         """Write ``manifest.json`` atomically."""

@@ -12,7 +12,9 @@ that run the component:
 - any other registered segmenter or encoder: its ``params_model`` dumped in full;
 - a plug-in (``package.module:Class``): its ``params_model`` class attribute (a pydantic
   model) when it has one, else the keyword parameters of its constructor (or factory)
-  that have JSON defaults, with the given values over them. Nothing is built.
+  that have JSON defaults, with the given values over them. Nothing is built;
+- a robot's odometry file (``odometry``): the SHA-256 of its bytes (``sha256``), so an
+  edited file changes the keys of the maps stage and every stage after it.
 
 Resolving is idempotent: a resolved scenario (a run folder's ``config.yaml``) resolves to
 itself. ``component_modules`` names the modules whose code a component runs, the roots of
@@ -116,6 +118,9 @@ def resolve_scenario(sc: Scenario) -> Scenario:
     fe = data["frontend"]
     fe["segmenter"]["params"] = frontend_params("segmenter", sc.frontend.segmenter)
     fe["encoder"]["params"] = frontend_params("encoder", sc.frontend.encoder)
+    for robot, out in zip(sc.robots, data["robots"]):
+        if robot.odometry is not None:  # the file's content reaches the keys of the stages that read it
+            out["odometry"]["sha256"] = robot.odometry.digest()
     return validate_model(Scenario, data, source="resolved scenario")
 
 

@@ -10,8 +10,8 @@ from typing import TypeVar, cast
 
 from roman_sim.core.errors import StorageError
 from roman_sim.core.records import to_json
+from roman_sim.evaluation.records import RunTimings
 from roman_sim.evaluation.records import read_timings as read_run_timings
-from roman_sim.evaluation.records import run_timings
 from roman_sim.evaluation.run_summary import RunSummary, summarize_run
 from roman_sim.evaluation.types import AteTable, EvaluationMetrics, MapStats
 from roman_sim.pipeline.context import RunContext
@@ -47,7 +47,7 @@ class RunResult:
         ate: ATE RMSE per pose-graph variant (empty when no pose graph was solved).
         map_stats: map and packet sizes.
         notes: every stage's statements for the report, in stage order.
-        timings: wall-clock figures per stage (``timings.json``).
+        timings: wall-clock figures per stage (``timings.json``; empty when a folder has none).
         reused: stages whose cached outputs were reused.
     """
 
@@ -57,7 +57,7 @@ class RunResult:
     ate: AteTable
     map_stats: MapStats
     notes: list[str] = field(default_factory=list)
-    timings: dict[str, Timings] = field(default_factory=dict)
+    timings: RunTimings = field(default_factory=RunTimings)
     reused: list[str] = field(default_factory=list)
 
     @classmethod
@@ -66,7 +66,7 @@ class RunResult:
         run_dir: Path,
         scenario: Scenario,
         outputs: Mapping[str, StageOutput],
-        timings: dict[str, Timings],
+        timings: RunTimings,
         reused: list[str],
     ) -> "RunResult":
         """The result of a run from its stage outputs (those of ``RESULT_STAGES``)."""
@@ -114,7 +114,8 @@ class RunResult:
             for s in STAGES
             if s.name in man.stages and s.name in RESULT_STAGES
         }
-        return cls.from_outputs(d, sc, outputs, read_timings(d), [])
+        timings = read_run_timings(d / TIMINGS_JSON) if (d / TIMINGS_JSON).is_file() else RunTimings()
+        return cls.from_outputs(d, sc, outputs, timings, [])
 
     def recall(self, method: str, heading_bin: str | None = None, kind: str | None = None) -> float | None:
         """Max recall of ``method`` overall or in a heading bin such as ``"120-180"``.
@@ -126,7 +127,7 @@ class RunResult:
 
     def runtime_median_s(self, method: str) -> float | None:
         """Median alignment time per pair of ``method`` (s), from the timings; None if unknown."""
-        return run_timings(self.timings, f"{self.run_dir / TIMINGS_JSON}").median_s(method)
+        return self.timings.median_s(method)
 
     def summary(self) -> RunSummary:
         """The run in short (per method recall, runtime; ATE; map size): ``summarize_run``."""

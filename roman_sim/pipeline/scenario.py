@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from pydantic import Field, field_validator, model_validator
 
@@ -18,6 +18,7 @@ from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, read
 from roman_sim.core.errors import ConfigError
 from roman_sim.evaluation.metrics import EvalConfig
 from roman_sim.frontend.components import FrontEndConfig
+from roman_sim.interop.odometry_in import OdometryFile
 from roman_sim.interop.tum_reader import TumSourceConfig
 from roman_sim.mapping.submap import SubmapConfig
 from roman_sim.mapping.tracker import MappingConfig
@@ -92,9 +93,13 @@ class FrontEnd(FrontEndConfig):
 
 class ScenarioRobot(RobotConfig):
     """A robot of a scenario: simulated (the ``RobotConfig`` fields), or read from a recorded
-    sequence (``source``: a TUM RGB-D folder; the simulation fields are then unused)."""
+    sequence (``source``: a TUM RGB-D folder; the simulation fields are then unused); either
+    kind may take its odometry from a TUM file instead of its own (``odometry``)."""
 
     source: TumSourceConfig | None = Field(None, description="read this robot from a TUM RGB-D folder")
+    odometry: OdometryFile | None = Field(None, description="a TUM trajectory that replaces the robot's odometry")
+
+    omitted_when_absent: ClassVar[tuple[str, ...]] = (*RobotConfig.omitted_when_absent, "odometry")
 
     @property
     def simulated(self) -> bool:
@@ -263,17 +268,34 @@ def _blame_override(data: dict[str, Any], overrides: list[str], path: Path, alig
 
 
 def _resolve_sources(sc: Scenario, base: Path) -> Scenario:
-    """Relative ``source.tum`` folders (and object tables) resolved against the scenario file's folder.
+    """Relative ``source.tum`` folders, object tables and odometry files resolved against the scenario
+    file's folder.
 
     A path that exists there is made absolute, so the run folder's ``config.yaml`` points at
     the same data from anywhere; any other relative path stays relative to the working folder.
     """
     for r in sc.robots:
-        src = r.source
-        if src is None:
-            continue
-        for name in ("tum", "objects"):
-            p = getattr(src, name)
-            if p is not None and not p.is_absolute() and (base / p).exists():
-                setattr(src, name, (base / p).resolve())
+        for model, names in ((r.source, ("tum", "objects")), (r.odometry, ("file",))):
+            for name in names if model is not None else ():
+                p = getattr(model, name)
+                if p is not None and not p.is_absolute() and (base / p).exists():
+                    setattr(model, name, (base / p).resolve())
     return sc
+
+
+def with_odometry(sc: Scenario, files: dict[str, Path]) -> Scenario:
+    """``sc`` with each robot named in ``files`` taking its odometry from that TUM file (``run --odometry``).
+
+    Raises: ConfigError naming a robot the scenario does not have.
+    """
+    names = [r.name for r in sc.robots]
+    for robot, path in files.items():
+        if robot not in names:
+            raise ConfigError(f"--odometry {robot}={path}: no robot {robot} (robots: {', '.join(names)})")
+    robots = []
+    for r in sc.robots:
+        if r.name in files:
+            given = r.odometry or OdometryFile(file=files[r.name])
+            r = r.model_copy(update={"odometry": given.model_copy(update={"file": files[r.name], "sha256": None})})
+        robots.append(r)
+    return sc.model_copy(update={"robots": robots})

@@ -23,12 +23,15 @@ import csv
 import io
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import read_yaml, validate_model
 from roman_sim.core.errors import RomanSimError
+from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import to_json_object
 from roman_sim.core.registry import one_line
 from roman_sim.pipeline.sweep_spec import RunSpec, SweepConfig, expand
 from roman_sim.runner.executors import TaskError, open_executor
@@ -140,7 +143,7 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, st
             rows.append({**base, "status": "missing", "error": str(err)})
             continue
         for method, m in sorted(summary.methods.items()):
-            rows.append({**base, "status": "ok", "method": method, **_flatten(m.to_json())})
+            rows.append({**base, "status": "ok", "method": method, **_flatten(to_json_object(m))})
     cols: list[str] = []
     for row in rows:
         cols.extend(k for k in row if k not in cols)
@@ -153,14 +156,25 @@ def write_sweep_table(runs: list[RunSpec], out_dir: Path, failures: dict[str, st
     return path
 
 
-def sweep_failures(table: Path) -> list[dict[str, str]]:
+@dataclass(frozen=True)
+class SweepFailure:
+    """A row of ``sweep.csv`` whose run did not finish: its run, seed, status and error (as written)."""
+
+    run_id: str
+    seed: str
+    status: str
+    error: str
+
+
+def sweep_failures(table: Path) -> list[SweepFailure]:
     """The rows of ``sweep.csv`` whose run did not finish (status ``failed``, ``missing`` or ``corrupt``)."""
     with open(table, newline="", encoding="utf-8") as fh:
-        return [row for row in csv.DictReader(fh) if row.get("status") != "ok"]
+        rows = [row for row in csv.DictReader(fh) if row.get("status") != "ok"]
+    return [SweepFailure(*(r.get(k) or "" for k in ("run_id", "seed", "status", "error"))) for r in rows]
 
 
-def _flatten(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    out: dict[str, Any] = {}
+def _flatten(d: dict[str, JSON], prefix: str = "") -> dict[str, JSON]:
+    out: dict[str, JSON] = {}
     for k, v in d.items():
         key = f"{prefix}{k}"
         if isinstance(v, dict):

@@ -23,6 +23,7 @@ from roman_sim.core.records import read_record, write_record
 if TYPE_CHECKING:
     from rich.console import Console
 
+    from roman_sim.evaluation.sweepstats import SeedRow, SweepCell
     from roman_sim.pipeline.sweep_spec import RunSpec, SweepConfig
 
 log = logging.getLogger(__name__)
@@ -70,14 +71,14 @@ def read_sweep_json(out_dir: Path) -> SweepRecord:
     return read_record(out_dir / SWEEP_JSON, SweepRecord, SWEEP_SCHEMA)
 
 
-def aggregate_sweep(out_dir: Path) -> tuple[list[str], list[dict[str, Any]], list[str]]:
+def aggregate_sweep(out_dir: Path) -> tuple[list[str], list[SweepCell], list[str]]:
     """(swept keys, aggregate rows, notes on runs left out) of a sweep folder's finished runs."""
     from roman_sim.evaluation.sweepstats import aggregate, seed_rows
     from roman_sim.pipeline.result import RunResult
 
     data = read_sweep_json(out_dir)
     keys: list[str] = list(data.grid)
-    rows: list[dict[str, Any]] = []
+    rows: list[SeedRow] = []
     notes: list[str] = []
     for r in data.runs:
         try:
@@ -101,10 +102,10 @@ def write_sweep_aggregate(out_dir: Path) -> Path:
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=[*keys, *AGGREGATE_FIELDS], lineterminator="\n")
     w.writeheader()
-    w.writerows([{k: ("" if v is None else v) for k, v in r.items()} for r in rows])
+    w.writerows([{k: ("" if v is None else v) for k, v in r.csv_row().items()} for r in rows])
     path = out_dir / AGGREGATE_CSV
     write_text(path, buf.getvalue())
-    kind = "inter" if any(r["kind"] == "inter" and r["relevant"] for r in rows) else "intra"
+    kind = "inter" if any(r.kind == "inter" and r.relevant for r in rows) else "intra"
     if plot_sweep(rows, keys, out_dir / AGGREGATE_PLOT, kind) is None:
         remove_figure(out_dir / AGGREGATE_PLOT)  # and its PDF: an earlier aggregate's figure is stale
     return path
@@ -120,18 +121,18 @@ def print_sweep_aggregate(out_dir: Path, console: Console) -> None:
     keys, rows, notes = aggregate_sweep(out_dir)
     name = read_sweep_json(out_dir).name
     for kind in ("inter", "intra"):
-        mine = [r for r in rows if r["kind"] == kind]
-        if not any(r["relevant"] for r in mine):
+        mine = [r for r in rows if r.kind == kind]
+        if not any(r.relevant for r in mine):
             continue
-        bins = list(dict.fromkeys(r["bin"] for r in mine))
+        bins = list(dict.fromkeys(r.bin for r in mine))
         t = Table(title=f"sweep {name}, {PAIR_SET_LABELS[kind]} pairs: max recall, mean over seeds [95 % interval]")
         for k in [*keys, "method"]:
             t.add_column(k.rsplit(".", 1)[-1])
         for b in bins:
             t.add_column("overall" if b == OVERALL else f"{b}°", justify="right")
-        groups: dict[tuple[Any, ...], dict[str, str]] = {}
+        groups: dict[tuple[str, ...], dict[str, str]] = {}
         for r in mine:
-            groups.setdefault((*(json.dumps(r[k]) for k in keys), r["method"]), {})[r["bin"]] = cell(r)
+            groups.setdefault((*(json.dumps(r.params[k]) for k in keys), r.method), {})[r.bin] = cell(r)
         for g, cells in groups.items():
             t.add_row(*g, *[cells.get(b, "n/a") for b in bins])
         console.print(t)

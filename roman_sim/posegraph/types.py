@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Literal, TypedDict
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -74,49 +74,6 @@ class LoopClosure:
     def inter(self) -> bool:
         """Whether the closure joins two robots."""
         return self.robot_a != self.robot_b
-
-    def to_json(self) -> LoopClosureJSON:
-        """JSON-ready copy (floats round-trip exactly through JSON)."""
-        return {
-            "robot_a": self.robot_a,
-            "submap_a": int(self.submap_a),
-            "robot_b": self.robot_b,
-            "submap_b": int(self.submap_b),
-            "T_a_b": np.asarray(self.T_a_b, dtype=np.float64).tolist(),
-            "n_associations": int(self.n_associations),
-            "sigma_m": self.sigma_m,
-            "sigma_deg": self.sigma_deg,
-            "source": self.source,
-        }
-
-    @classmethod
-    def from_json(cls, d: LoopClosureJSON) -> LoopClosure:
-        """Inverse of ``to_json``."""
-        return cls(
-            str(d["robot_a"]),
-            int(d["submap_a"]),
-            str(d["robot_b"]),
-            int(d["submap_b"]),
-            np.asarray(d["T_a_b"], dtype=np.float64),
-            int(d["n_associations"]),
-            None if d["sigma_m"] is None else float(d["sigma_m"]),
-            None if d["sigma_deg"] is None else float(d["sigma_deg"]),
-            str(d["source"]),
-        )
-
-
-class LoopClosureJSON(TypedDict):
-    """A ``LoopClosure`` as JSON (``LoopClosure.to_json``)."""
-
-    robot_a: str
-    submap_a: int
-    robot_b: str
-    submap_b: int
-    T_a_b: list[list[float]]
-    n_associations: int
-    sigma_m: float | None
-    sigma_deg: float | None
-    source: str
 
 
 @dataclass

@@ -30,7 +30,7 @@ def frontend_report_lines(grades: FrontEndGrades) -> list[str]:
         f"| within {s.max_depth_m:g} m | {_f(s.precision)} | {_f(s.recall)} | {_f(s.mean_iou)} | "
         f"{_f(s.masks / max(s.frames, 1), 1)} | {s.over_segmented} | {s.under_segmented} of "
         f"{s.touching_pairs} touching pairs | {s.spurious} |",
-        f"| beyond (not mapped) | {_f(far['precision'])} | {_f(far['recall'])} | {_f(far['mean_iou'])} | | | | |",
+        f"| beyond (not mapped) | {_f(far.precision)} | {_f(far.recall)} | {_f(far.mean_iou)} | | | | |",
         f"| every depth | {_f(s.precision_all)} | {_f(s.recall_all)} | {_f(s.mean_iou_all)} | | | | |",
         "",
     ]
@@ -41,11 +41,11 @@ def frontend_report_lines(grades: FrontEndGrades) -> list[str]:
             "|---|---|---|---|---|---|---|",
         ]
         for r in rows:
-            to = "" if r["to_m"] is None else f"{r['to_m']:g}"
-            label = f"{r['from_m']:g}-{to}" + ("" if r["in_range"] else " (beyond range)")
+            to = "" if r.to_m is None else f"{r.to_m:g}"
+            label = f"{r.from_m:g}-{to}" + ("" if r.in_range else " (beyond range)")
             lines.append(
-                f"| {label} | {r['objects']} | {r['missed']} | {_f(r['recall'])} | {r['masks']} | "
-                f"{_f(r['precision'])} | {_f(r['mean_iou'])} |"
+                f"| {label} | {r.objects} | {r.missed} | {_f(r.recall)} | {r.masks} | "
+                f"{_f(r.precision)} | {_f(r.mean_iou)} |"
             )
         lines.append("")
     d = grades.descriptors
@@ -109,10 +109,10 @@ def plot_frontend_grades(grades: FrontEndGrades, path: str | Path) -> Path:
         title="same instance against view difference",
     )
     rows = grades.segmentation.by_distance()
-    labels = [f"{r['from_m']:g}-{'' if r['to_m'] is None else format(r['to_m'], 'g')}" for r in rows]
+    labels = [f"{r.from_m:g}-{'' if r.to_m is None else format(r.to_m, 'g')}" for r in rows]
     x = np.arange(len(rows))
-    ax3.bar(x - 0.2, [r["objects"] for r in rows], 0.4, label="objects")
-    ax3.bar(x + 0.2, [r["missed"] for r in rows], 0.4, label="missed")
+    ax3.bar(x - 0.2, [r.objects for r in rows], 0.4, label="objects")
+    ax3.bar(x + 0.2, [r.missed for r in rows], 0.4, label="missed")
     ax3.set_xticks(x, labels)
     s = grades.segmentation
     ax3.set(

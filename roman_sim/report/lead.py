@@ -136,7 +136,7 @@ def lead_paragraph(metrics: EvaluationMetrics, ate: AteTable | None = None, mark
     kind = metrics.headline
     if not metrics.methods or not metrics.n_pairs:
         return []
-    n_rel = metrics.pairs[kind]["n_relevant"]
+    n_rel = metrics.pairs[kind].n_relevant
     head = f"{PAIR_SET_LABELS[kind].capitalize()} pairs, {n_rel} relevant."
     head = f"**{head}**" if markdown else head
     if not n_rel:

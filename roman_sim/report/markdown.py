@@ -14,11 +14,10 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
+from roman_sim.core.records import to_json_object
 from roman_sim.evaluation.atetable import AteTable
-from roman_sim.evaluation.config import EvalConfig
-from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.evaluation.metrics import NO_SEGMENTS_NOTE
-from roman_sim.evaluation.overlap import counts_by_pair, overlap_graph
+from roman_sim.evaluation.overlap import RevisitFigures, counts_by_pair, overlap_graph
 from roman_sim.evaluation.types import PAIR_SET_LABELS, EvaluationMetrics, MapStats
 from roman_sim.report.grades import frontend_report_lines
 from roman_sim.report.lead import lead_paragraph
@@ -81,7 +80,7 @@ ATE_POLICY = (
 
 
 def _header(metrics: EvaluationMetrics) -> list[str]:
-    cfg = EvalConfig.model_validate(metrics.config)
+    cfg = metrics.config
     p = metrics.pairs
     scored = (
         f"{metrics.n_pairs} pairs scored (every cross-robot pair and every same-robot pair at least "
@@ -97,8 +96,8 @@ def _header(metrics: EvaluationMetrics) -> list[str]:
     head = PAIR_SET_LABELS[metrics.headline]
     return [
         f"- Pairs: {scored}; {cap}",
-        f"- Cross-robot pairs: {p['inter']['n_pairs']} ({p['inter']['n_relevant']} relevant); same-robot pairs: "
-        f"{p['intra']['n_pairs']} ({p['intra']['n_relevant']} relevant). Headline figures: {head} pairs.",
+        f"- Cross-robot pairs: {p['inter'].n_pairs} ({p['inter'].n_relevant} relevant); same-robot pairs: "
+        f"{p['intra'].n_pairs} ({p['intra'].n_relevant} relevant). Headline figures: {head} pairs.",
         f"- Relevant (should align): {cfg.describe_relevance()}. Correct: {cfg.describe_success()}. Positive at "
         f"threshold k: at least k associations, k = {cfg.k_min}..{cfg.k_max}.",
         f"- Recall cells: max recall over k (hits/relevant) [{cfg.interval_level:.0%} Wilson interval]; "
@@ -115,12 +114,12 @@ def _header(metrics: EvaluationMetrics) -> list[str]:
 def _section_pairs(metrics: EvaluationMetrics, kind: str) -> list[str]:
     label = PAIR_SET_LABELS[kind]
     title = f"## Alignment, {label} pairs" + (" (headline)" if kind == metrics.headline else "")
-    if not metrics.pairs[kind]["n_pairs"]:
+    if not metrics.pairs[kind].n_pairs:
         return [title, "", f"No {label} pairs in this run.", ""]
     if NO_SEGMENTS_NOTE in metrics.notes:  # nothing was there to align: no figure is defined, not even 0 of n
         return [title, "", f"Undefined: {NO_SEGMENTS_NOTE}.", ""]
     lines = [title, "", *markdown_table(metrics_rows(metrics, kind)), ""]
-    min_n = int(EvalConfig.model_validate(metrics.config).min_relevant)
+    min_n = metrics.config.min_relevant
     points = operating_point_rows(metrics, kind)
     lines += [f"### Operating points per heading bin, {label}", "", *_folded(points, min_n)]
     lines += [
@@ -177,14 +176,14 @@ def _section_robot_pairs(metrics: EvaluationMetrics) -> list[str]:
     rows = [
         {
             "robots": f"{a}, {b}",
-            "pairs scored": str(entry["n_pairs"]),
-            "relevant": str(entry["n_relevant"]),
-            f"overlap edge (>= {graph.min_pairs})": "yes" if entry["n_relevant"] >= graph.min_pairs else "no",
+            "pairs scored": str(entry.n_pairs),
+            "relevant": str(entry.n_relevant),
+            f"overlap edge (>= {graph.min_pairs})": "yes" if entry.n_relevant >= graph.min_pairs else "no",
             **_shared_cells(shared.get(key)),
         }
         for (a, b), (key, entry) in zip(counts, metrics.robot_pairs.items())
     ]
-    cfg = EvalConfig.model_validate(metrics.config)
+    cfg = metrics.config
     text = f"Relevant: {cfg.describe_relevance()}. {graph.describe()}."
     if "all" in shared:
         text += (
@@ -195,11 +194,11 @@ def _section_robot_pairs(metrics: EvaluationMetrics) -> list[str]:
     return [title, "", text, "", *markdown_table(rows), ""]
 
 
-def _shared_cells(fig: dict[str, float | int | None] | None) -> dict[str, str]:
+def _shared_cells(fig: RevisitFigures | None) -> dict[str, str]:
     """The median overlap and shared objects of one robot pair's relevant pairs, as table cells."""
     if fig is None:
         return {"median overlap": "n/a", "median shared objects": "n/a"}
-    ov, sh = fig["median_overlap"], fig["median_shared_objects"]
+    ov, sh = fig.median_overlap, fig.median_shared_objects
     return {
         "median overlap": "n/a" if ov is None else f"{ov:.2f}",
         "median shared objects": "n/a" if sh is None else f"{sh:.1f}",
@@ -278,22 +277,22 @@ def report_markdown(
     if not metrics.methods:
         lines += ["## Alignment", "", "No method was evaluated.", ""]
     else:
-        min_n = int(EvalConfig.model_validate(metrics.config).min_relevant)
+        min_n = metrics.config.min_relevant
         for kind in kinds:
             section = _section_pairs(metrics, kind)
-            n_rel = metrics.pairs[kind]["n_relevant"]
-            if kind != metrics.headline and metrics.pairs[kind]["n_pairs"] and n_rel < min_n:
+            n_rel = metrics.pairs[kind].n_relevant
+            if kind != metrics.headline and metrics.pairs[kind].n_pairs and n_rel < min_n:
                 summary = f"{section[0][3:]}: {n_rel} relevant, fewer than {min_n} (tables folded)"
                 section = [f"<details><summary>{summary}</summary>", "", *section, "</details>", ""]
             lines += section
     lines += _section_ate(ate_table)
     map_rows = [
         {"quantity": MAP_LABELS.get(k, k), "value": fmt(v)}
-        for k, v in (map_stats.to_json() if map_stats else {}).items()
+        for k, v in (to_json_object(map_stats) if map_stats else {}).items()
     ]
     lines += ["## Map size", "", *(markdown_table(map_rows) or ["No map statistics were given."]), ""]
     if metrics.frontend is not None:
-        lines += frontend_report_lines(FrontEndGrades.from_json(metrics.frontend))
+        lines += frontend_report_lines(metrics.frontend)
     lines += ["Runtimes per pair and per stage: timings.json.", ""]
     rest = [p for n, p in by_name.items() if p not in head]
     others = _not_drawn(all_notes, None)

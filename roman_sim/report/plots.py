@@ -76,7 +76,7 @@ def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
     if max((_points(c) for c in curves.values()), default=0) < 2:
         return None
     fig = figure()
-    rel = metrics.pairs[kind]["n_relevant"]
+    rel = metrics.pairs[kind].n_relevant
     pr_axes(fig.axes[0], curves, f"Precision-recall over k, {PAIR_SET_LABELS[kind]} ({rel} relevant pairs)")
     return save_figure(fig, path)
 
@@ -193,7 +193,7 @@ def plot_operating_points(metrics: EvaluationMetrics, path: str | Path) -> Path 
     names = [n for n in POINT_NAMES if first and any(b.stats.operating_points.get(n) for b in first)]
     if not names or _with_data(rows, point_getter(names[0])) < 2:
         return None
-    min_n = int(metrics.config["min_relevant"])
+    min_n = metrics.config.min_relevant
     n_bins = _with_data(rows, point_getter(names[0]))
     fig = figure(max(6.0, 0.35 * n_bins * len(rows) + 2.0), 3.4 * len(names), nrows=len(names))
     for ax, name in zip(fig.axes, names):
@@ -213,7 +213,7 @@ def _with_data(rows: dict[str, list[BinStats]], get: Getter) -> int:
 def plot_heading_recall(metrics: EvaluationMetrics, path: str | Path, fine: bool = False) -> Path | None:
     """Max recall per heading bin with counts and intervals: one panel per pair set with relevant pairs."""
     table = "heading_bins_fine" if fine else "heading_bins"
-    kinds = [k for k in ("inter", "intra") if metrics.pairs[k]["n_relevant"]]
+    kinds = [k for k in ("inter", "intra") if metrics.pairs[k].n_relevant]
     per_kind = {k: {m: getattr(mm.set(k), table) for m, mm in metrics.methods.items()} for k in kinds}
     kinds = [k for k in kinds if _with_data(per_kind[k], _recall) >= 2]
     if not kinds:
@@ -222,11 +222,11 @@ def plot_heading_recall(metrics: EvaluationMetrics, path: str | Path, fine: bool
     fig = figure(max(6.0, 0.35 * n_bins * len(metrics.methods) + 2.0), 3.8 * len(kinds), nrows=len(kinds))
     fig.suptitle(
         f"Max recall per heading bin (95 % Wilson intervals; hatched: fewer than "
-        f"{metrics.config['min_relevant']} relevant pairs)",
+        f"{metrics.config.min_relevant} relevant pairs)",
         fontsize=9,
     )
     for ax, k in zip(fig.axes, kinds):
-        _bars(ax, per_kind[k], _recall, int(metrics.config["min_relevant"]), "max recall")
+        _bars(ax, per_kind[k], _recall, metrics.config.min_relevant, "max recall")
         ax.set(xlabel="heading difference (deg)", title=f"{PAIR_SET_LABELS[k]} pairs: max recall, hits/relevant")
     return save_figure(fig, path)
 
@@ -239,7 +239,7 @@ def plot_ambiguity_recall(metrics: EvaluationMetrics, path: str | Path) -> Path 
         return None
     fig = figure()
     ax = fig.axes[0]
-    min_n = int(metrics.config["min_relevant"])
+    min_n = metrics.config.min_relevant
     for i, (name, bins) in enumerate(rows.items()):
         pts = [((b.lo + b.hi) / 2 + 0.008 * i, b.stats) for b in bins if b.stats.n_relevant]
         big = [(x, s) for x, s in pts if not s.few]

@@ -15,7 +15,7 @@
 Numbers match when they agree within ``rel_tol`` (the recomputation is the same arithmetic,
 so a run verified on the machine that wrote it matches exactly; SVDs may differ in the last
 bits between machines). ``report --verify`` adds a check independent of this code
-(``roman_sim.cli._verify``).
+(``roman_sim.studies.verify``).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from typing import Any
 
 from roman_sim.core.config import read_yaml, validate_model
 from roman_sim.core.errors import RomanSimError
-from roman_sim.core.records import RecordError, read_json, to_json
+from roman_sim.core.records import RecordError, read_json, to_json_object, to_json_record
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table, read_ate
 from roman_sim.evaluation.config import EvalConfig
@@ -35,7 +35,8 @@ from roman_sim.evaluation.metrics import PairScore, compute_metrics, is_correct
 from roman_sim.evaluation.operating_points import strip_absent_points
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings
 from roman_sim.evaluation.results import METRICS_JSON, PAIRS_CSV, read_metrics_json, read_pairs_csv
-from roman_sim.evaluation.types import EvaluationMetrics
+from roman_sim.evaluation.run_summary import RunSummary, summarize_run
+from roman_sim.evaluation.types import METRICS_SCHEMA, EvaluationMetrics
 from roman_sim.evaluation.variants import TRUTH
 
 ATE_JSON = "ate.json"
@@ -158,10 +159,8 @@ def _tum(run_dir: Path, variant: str, robot: str, suffix: str) -> Path:
     return run_dir / "trajectories" / f"{robot}.{variant}.tum{suffix}"
 
 
-def stored_summary(run_dir: Path) -> dict[str, Any]:
+def stored_summary(run_dir: Path) -> RunSummary:
     """The run's compact summary as its stored files give it (metrics, ATE, map statistics, timings)."""
-    from roman_sim.evaluation.run_summary import summarize_run
-
     metrics = read_metrics_json(run_dir / METRICS_JSON)
     ate = None
     if (run_dir / ATE_JSON).is_file():
@@ -171,7 +170,7 @@ def stored_summary(run_dir: Path) -> dict[str, Any]:
         stats, _ = read_map_stats(run_dir / "map_stats.json")
     timings = read_timings(run_dir / "timings.json") if (run_dir / "timings.json").is_file() else RunTimings()
     runtimes = {m: timings.median_s(m) for m in metrics.methods}
-    return dict(to_json(summarize_run(metrics, ate, stats, runtimes).to_json()))  # type: ignore[arg-type]
+    return summarize_run(metrics, ate, stats, runtimes)
 
 
 def check_run_files(
@@ -182,8 +181,8 @@ def check_run_files(
     out = Verification()
     metrics, rows = recompute_metrics(d, pairs_file)
     out.checked.append(f"metrics.json from {pairs_file}")
-    stored = read_json(d / METRICS_JSON)
-    again = metrics.to_json()
+    stored = read_json(d / METRICS_JSON)  # as written (checked by recompute_metrics): which figures it predates
+    again = to_json_object(to_json_record(metrics, METRICS_SCHEMA))
     if strip_absent_points(stored, again):
         out.notes.append(
             "metrics.json predates the operating points: it and the independent scorer's figures were "
@@ -197,6 +196,6 @@ def check_run_files(
             out.differences.append(f"ate.json: cannot recompute ({err})")
         else:
             out.checked.append("ate.json from trajectories/*.tum")
-            stored_ate = read_ate(d / ATE_JSON)[0].to_json()
-            out.differences += compare(stored_ate, table.to_json(), "ate.json", max(rel_tol, 1e-7), 1e-9)
+            stored_ate = to_json_object(read_ate(d / ATE_JSON)[0].record())
+            out.differences += compare(stored_ate, to_json_object(table.record()), "ate.json", max(rel_tol, 1e-7), 1e-9)
     return out

@@ -8,7 +8,6 @@ are each mask's majority true object (from the frame's instance truth, when it h
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +18,7 @@ from numpy.typing import NDArray
 from roman_sim.core.atomic import write_arrays
 from roman_sim.core.errors import StorageError
 from roman_sim.core.figures import FigureFiles
+from roman_sim.core.records import dumps_record, loads_record
 from roman_sim.core.sensors import Frame
 
 FORMAT = "roman_sim.frame_snapshot"
@@ -74,13 +74,24 @@ class FrameSnapshot:
         )
 
 
+@dataclass(frozen=True)
+class SnapshotHeader:
+    """The header of a snapshot file: robot, time, each mask's label and the segmenter."""
+
+    format: str
+    robot: str
+    t: float
+    labels: list[str | None]
+    segmenter: str
+
+
 def save_snapshot(path: str | Path, snap: FrameSnapshot) -> None:
     """Write ``snap`` atomically (masks bit-packed)."""
-    header = {"format": FORMAT, "robot": snap.robot, "t": snap.t, "labels": snap.labels, "segmenter": snap.segmenter}
+    header = SnapshotHeader(FORMAT, snap.robot, snap.t, snap.labels, snap.segmenter)
     write_arrays(
         path,
         {
-            "header": np.frombuffer(json.dumps(header, sort_keys=True).encode("utf-8"), dtype=np.uint8),
+            "header": np.frombuffer(dumps_record(header).encode("utf-8"), dtype=np.uint8),
             "rgb": snap.rgb,
             "masks": np.packbits(snap.masks, axis=-1),
             "shape": np.array(snap.masks.shape, dtype=np.int64),
@@ -92,14 +103,13 @@ def load_snapshot(path: str | Path) -> FrameSnapshot:
     """The snapshot ``save_snapshot`` wrote (StorageError when unreadable)."""
     try:
         with np.load(path, allow_pickle=False) as z:
-            header = json.loads(z["header"].tobytes().decode("utf-8"))
+            header = loads_record(z["header"].tobytes(), SnapshotHeader, f"{path}: header")
             shape = tuple(int(v) for v in z["shape"])
             masks = np.unpackbits(z["masks"], axis=-1, count=shape[-1]).astype(bool).reshape(shape)
             rgb = z["rgb"]
-        if header.get("format") != FORMAT:
+        if header.format != FORMAT:
             raise ValueError("not a frame snapshot")
-        labels = [None if v is None else str(v) for v in header["labels"]]
-        return FrameSnapshot(str(header["robot"]), float(header["t"]), rgb, masks, labels, str(header["segmenter"]))
+        return FrameSnapshot(header.robot, float(header.t), rgb, masks, list(header.labels), header.segmenter)
     except (OSError, ValueError, KeyError, TypeError) as err:
         raise StorageError(f"{path}: unreadable front-end snapshot ({type(err).__name__}: {err})") from None
 

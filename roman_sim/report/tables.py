@@ -78,7 +78,7 @@ def _point_rate(p: OperatingPoint | None, min_n: int, interval: bool) -> str:
 def metrics_rows(metrics: EvaluationMetrics, kind: str, interval: bool = True) -> list[dict[str, str]]:
     """One row per method on pair set ``kind``: counts, max recall, R@P=1, the precision at max recall,
     recall at P>=0.9 and at the acceptance threshold, best F1, AUC, coarse bins."""
-    min_n = int(metrics.config.get("min_relevant", 5))
+    min_n = metrics.config.min_relevant
     acc = "recall@accept" + (f" (k={metrics.acceptance_k})" if metrics.acceptance_k is not None else "")
     rows = []
     for name, m in metrics.methods.items():
@@ -119,7 +119,7 @@ def bin_rows(
 ) -> list[dict[str, str]]:
     """Recall per bin (``heading_bins_fine`` or ``ambiguity_bins``) per method, with counts: one row per
     operating point of ``points`` (max recall, at precision >= 0.9, at the acceptance threshold)."""
-    min_n = int(metrics.config.get("min_relevant", 5))
+    min_n = metrics.config.min_relevant
     rows = []
     for name, m in metrics.methods.items():
         bins = getattr(m.set(kind), table)
@@ -195,7 +195,7 @@ def operating_point_rows(metrics: EvaluationMetrics, kind: str, table: str = "he
     """Per method, overall and per bin of ``table`` (``heading_bins`` or ``heading_bins_fine``): the
     operating points (max recall with its precision, recall at P>=0.9 and P=1, recall at the pose
     graph's acceptance threshold), each with its threshold, counts and Wilson interval."""
-    min_n = int(metrics.config.get("min_relevant", 5))
+    min_n = metrics.config.min_relevant
     acc = "recall at acceptance" + (f" (k={metrics.acceptance_k})" if metrics.acceptance_k is not None else "")
     rows = []
     for name, m in metrics.methods.items():

@@ -55,16 +55,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.closure_table import METHOD, TABLE_FORMAT, ClosureTable, TableRow, table_sha256
-from roman_sim.core.atomic import atomic_open, output_folder, write_json, write_text
+from roman_sim.core.atomic import atomic_open, output_folder, write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.geometry import inv_T
-from roman_sim.core.records import from_json, read_json, read_record, to_json_record, write_record
+from roman_sim.core.records import read_record, to_json_record, write_record
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import read_tum
-from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
+from roman_sim.evaluation.atetable import ATE_SCHEMA, AteTable, TrajectoryVariant, ate_table
 from roman_sim.interop.associate import read_list
-from roman_sim.interop.base import EXPORT_EPOCH_NS
+from roman_sim.interop.base import EXPORT_EPOCH_NS, EXPORT_JSON, read_export_manifest
 from roman_sim.interop.closure_files import read_closure_file
 from roman_sim.interop.closures import QUATERNION_ORDERS, Closure, ClosureSet, QuaternionOrder, read_pose_csv
 from roman_sim.interop.roman_align import write_align
@@ -119,12 +119,9 @@ class ExternalScore:
 def _export_epoch(source: Path) -> int:
     """The epoch of the stamps a system run on ``source`` gives (ns since 1970): an export's ``time_epoch_ns``
     (0 for an export without one, stamped from 0), for a run folder the one every export is stamped from."""
-    manifest = source / "export.json"
-    if not manifest.is_file() or (source / MANIFEST_JSON).is_file():
+    if not (source / EXPORT_JSON).is_file() or (source / MANIFEST_JSON).is_file():
         return EXPORT_EPOCH_NS
-    doc = read_json(manifest)
-    value = doc.get("time_epoch_ns") if isinstance(doc, dict) else None
-    return 0 if value is None else from_json(int, value, f"{manifest}: field time_epoch_ns")
+    return read_export_manifest(source).time_epoch_ns
 
 
 def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float64]]:
@@ -143,11 +140,8 @@ def _frame_times(source: Path, scenario: Scenario) -> dict[str, NDArray[np.float
 
 def _robot_order(source: Path, scenario: Scenario) -> list[str]:
     """The robots in the export's order (those it holds), else the scenario's."""
-    manifest = source / "export.json"
-    if manifest.is_file() and not (source / MANIFEST_JSON).is_file():
-        doc = read_json(manifest)  # the export's manifest: only its robots are read
-        robots = doc.get("robots") if isinstance(doc, dict) else None
-        return list(from_json(dict[str, Any], robots, f"{manifest}: field robots"))  # name -> its summary
+    if (source / EXPORT_JSON).is_file() and not (source / MANIFEST_JSON).is_file():
+        return list(read_export_manifest(source).robots)
     return [r.name for r in scenario.robots]
 
 
@@ -466,7 +460,7 @@ def score_external(
     """
     src, out, path = Path(source), Path(out_dir), Path(closures)
     is_run = (src / MANIFEST_JSON).is_file()
-    if not is_run and not (src / "export.json").is_file():
+    if not is_run and not (src / EXPORT_JSON).is_file():
         raise ConfigError(f"{src}: neither a run folder (manifest.json) nor an export folder (export.json)")
     output_folder(out, "--out", create=False)  # a file there: one line, not a traceback
     if out.is_dir() and any(out.iterdir()):
@@ -499,7 +493,7 @@ def score_external(
         truth = {r: m.truth for r, m in maps.maps.items() if m.truth is not None}
         name = f"{label}_trajectories"
         ate = ate_table(truth, {name: TrajectoryVariant(f"{label}'s own trajectories", "joint", name)}, {name: own})
-        write_json(out / EXTERNAL_ATE_JSON, ate.to_json())
+        write_record(out / EXTERNAL_ATE_JSON, ate.record(), ATE_SCHEMA)
     clocks = {name or str(path): c.describe() for (name, _), c in zip(got.closures.files or [("", 0)], got.clocks)}
     info = ExternalRecord(
         format="roman_sim.external_score",

@@ -18,21 +18,21 @@ fixed timestamps, so the same frames give the same bytes.
 from __future__ import annotations
 
 import io
-import json
 import logging
 import os
 import shutil
 import tempfile
 import zipfile
 from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from roman_sim.core.atomic import make_public_dir, output_folder, write_json
+from roman_sim.core.atomic import make_public_dir, output_folder
 from roman_sim.core.errors import ConfigError, RecordingError
+from roman_sim.core.records import NONE_AS_EMPTY, OMIT_NONE, RecordError, from_json, read_json, write_record
 from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics
 from roman_sim.core.trajectory import Trajectory
 from roman_sim.core.tum import write_tum
@@ -96,26 +96,36 @@ def _check_consistent(first: Frame, f: Frame) -> None:
         raise RecordingError(f"frame {f.index}: T_body_cam differs from the first frame")
 
 
-def _meta(first: Frame, n: int, chunks: list[str], extra: dict[str, Any] | None) -> dict[str, Any]:
+@dataclass(frozen=True)
+class RecordingOrigin:
+    """Where a recording came from: its scenario and seed, and the key of the run that made it."""
+
+    scenario: str
+    seed: int
+    key: str | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass(frozen=True)
+class RecordingMeta:
+    """What a recording's ``meta.json`` holds: its format, robot, frame count, chunk files, whether
+    frames carry RGB, the camera, and where it came from (None: not said; written as ``{}``)."""
+
+    format: str
+    format_version: int
+    robot: str
+    frame_count: int
+    chunks: list[str]
+    has_rgb: bool
+    intrinsics: Intrinsics
+    T_body_cam: list[list[float]]
+    extra: RecordingOrigin | None = field(default=None, metadata=NONE_AS_EMPTY)
+
+
+def _meta(first: Frame, n: int, chunks: list[str], origin: RecordingOrigin | None) -> RecordingMeta:
     k = first.intrinsics
-    return {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "robot": first.robot,
-        "frame_count": n,
-        "chunks": chunks,
-        "has_rgb": first.rgb is not None,
-        "intrinsics": {
-            "width": k.width,
-            "height": k.height,
-            "fx": float(k.fx),
-            "fy": float(k.fy),
-            "cx": float(k.cx),
-            "cy": float(k.cy),
-        },
-        "T_body_cam": np.asarray(first.T_body_cam, dtype=np.float64).tolist(),
-        "extra": extra or {},
-    }
+    intr = Intrinsics(k.width, k.height, float(k.fx), float(k.fy), float(k.cx), float(k.cy))
+    T_bc: list[list[float]] = np.asarray(first.T_body_cam, dtype=np.float64).tolist()
+    return RecordingMeta(FORMAT, FORMAT_VERSION, first.robot, n, chunks, first.rgb is not None, intr, T_bc, origin)
 
 
 def write_recording(
@@ -123,7 +133,7 @@ def write_recording(
     out_dir: str | Path,
     chunk_size: int = 50,
     overwrite: bool = False,
-    extra: dict[str, Any] | None = None,
+    origin: RecordingOrigin | None = None,
 ) -> Path:
     """Store ``frames`` (one robot) in ``out_dir``; returns the folder path.
 
@@ -132,7 +142,7 @@ def write_recording(
         out_dir: destination folder; must not exist unless ``overwrite``.
         chunk_size: frames per npz chunk.
         overwrite: replace an existing recording.
-        extra: JSON-friendly metadata stored under ``meta.json["extra"]``.
+        origin: the scenario, seed and run key it came from (``meta.json``'s ``extra``).
 
     Raises: RecordingError for an existing destination, no frames or inconsistent frames.
     """
@@ -150,7 +160,7 @@ def write_recording(
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
     make_public_dir(tmp)
     try:
-        _write_into(frames, tmp, chunk_size, extra)
+        _write_into(frames, tmp, chunk_size, origin)
         if out.exists():
             shutil.rmtree(out)
         os.replace(tmp, out)
@@ -161,7 +171,7 @@ def write_recording(
     return out
 
 
-def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, extra: dict[str, Any] | None) -> None:
+def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, origin: RecordingOrigin | None) -> None:
     first: Frame | None = None
     buf: list[Frame] = []
     chunks: list[str] = []
@@ -189,26 +199,30 @@ def _write_into(frames: Iterable[Frame], tmp: Path, chunk_size: int, extra: dict
     times = np.asarray(t, dtype=np.float64)
     write_tum(tmp / "traj_true.tum", Trajectory(times, np.asarray(T_true).reshape(-1, 4, 4)))
     write_tum(tmp / "traj_odom.tum", Trajectory(times, np.asarray(T_odom).reshape(-1, 4, 4)))
-    write_json(tmp / "meta.json", _meta(first, len(t), chunks, extra))
+    write_record(tmp / "meta.json", _meta(first, len(t), chunks, origin))
 
 
-def recording_info(rec_dir: str | Path) -> dict[str, Any]:
-    """The recording's ``meta.json``, checked (format, version, chunk files present)."""
+def recording_info(rec_dir: str | Path) -> RecordingMeta:
+    """The recording's ``meta.json``, checked (format, version, every field, chunk files present)."""
     d = Path(rec_dir)
     meta_path = d / "meta.json"
     if not meta_path.is_file():
         raise RecordingError(f"{d}: not a recording (meta.json missing)")
     try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as err:
-        raise RecordingError(f"{meta_path}: corrupt meta.json ({err})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        data = read_json(meta_path)
+    except RecordError as err:
+        raise RecordingError(f"{err} (corrupt meta.json)") from None
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise RecordingError(f"{meta_path}: not a roman_sim recording")
-    if meta.get("format_version") != FORMAT_VERSION:
+    if data.get("format_version") != FORMAT_VERSION:
         raise RecordingError(
-            f"{meta_path}: format version {meta.get('format_version')!r} is not supported (expected {FORMAT_VERSION})"
+            f"{meta_path}: format version {data.get('format_version')!r} is not supported (expected {FORMAT_VERSION})"
         )
-    missing = [c for c in meta.get("chunks", []) if not (d / c).is_file()]
+    try:
+        meta = from_json(RecordingMeta, data, str(meta_path))
+    except RecordError as err:
+        raise RecordingError(f"{err} (incomplete metadata)") from None
+    missing = [c for c in meta.chunks if not (d / c).is_file()]
     if missing:
         raise RecordingError(f"{d}: missing chunk file(s): {', '.join(missing)}")
     return meta
@@ -226,13 +240,12 @@ def read_recording(rec_dir: str | Path) -> Iterator[Frame]:
     """Frames of a recording, in order (depth back in metres as float32, ids as int32)."""
     d = Path(rec_dir)
     meta = recording_info(d)
+    intr, robot = meta.intrinsics, meta.robot
     try:
-        intr = Intrinsics(**meta["intrinsics"])
-        T_bc = np.asarray(meta["T_body_cam"], dtype=np.float64).reshape(4, 4)
-        robot = str(meta["robot"])
-    except (KeyError, TypeError, ValueError) as err:
+        T_bc = np.asarray(meta.T_body_cam, dtype=np.float64).reshape(4, 4)
+    except ValueError as err:
         raise RecordingError(f"{d / 'meta.json'}: incomplete metadata ({err})") from None
-    for name in meta["chunks"]:
+    for name in meta.chunks:
         c = _load_chunk(d / name)
         try:
             for i in range(len(c["t"])):
@@ -260,12 +273,10 @@ class Recording:
     def __init__(self, rec_dir: str | Path) -> None:
         self.dir = Path(rec_dir)
         self.meta = recording_info(self.dir)
+        self._intrinsics, self._name, self._n = self.meta.intrinsics, self.meta.robot, self.meta.frame_count
         try:
-            self._intrinsics = Intrinsics(**self.meta["intrinsics"])
-            self._T_body_cam = np.asarray(self.meta["T_body_cam"], dtype=np.float64).reshape(4, 4)
-            self._name = str(self.meta["robot"])
-            self._n = int(self.meta["frame_count"])
-        except (KeyError, TypeError, ValueError) as err:
+            self._T_body_cam = np.asarray(self.meta.T_body_cam, dtype=np.float64).reshape(4, 4)
+        except ValueError as err:
             raise RecordingError(f"{self.dir / 'meta.json'}: incomplete metadata ({err})") from None
 
     @property

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Iterator, Mapping, Sequence
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, ClassVar, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -64,10 +64,13 @@ class RobotConfig(StrictModel):
     imu: ImuConfig | None = Field(None, description="an IMU on the body (None: no IMU)")
     stereo: StereoConfig | None = Field(None, description="a second camera beside the first (None: one camera)")
 
+    #: Fields left out of the dump when None (``OPTIONAL_SENSORS``; a subclass may add its own).
+    omitted_when_absent: ClassVar[tuple[str, ...]] = OPTIONAL_SENSORS
+
     @model_serializer(mode="wrap")
     def _without_absent_sensors(self, handler: SerializerFunctionWrapHandler) -> dict[str, object]:
         data: dict[str, object] = handler(self)
-        for key in OPTIONAL_SENSORS:
+        for key in self.omitted_when_absent:
             if key in data and data[key] is None:
                 del data[key]
         return data

@@ -4,8 +4,8 @@ It is the one way robots and a world become streams of frames. The simulated rob
 are planned together, in order (so ``reverse_of`` and ``cross`` resolve even when only a
 later robot is wanted); each wanted robot is driven up front (poses and odometry, cheap:
 ``SimulatedRobot.run``) and rendered only while its frames are read, one frame in memory at
-a time. A robot read from a recorded sequence (a ``source`` in its configuration) is opened
-by the caller's ``open_recorded``: the formats live in the layers above the simulator.
+a time. A robot read from a recorded sequence is no simulated robot: the maps stage opens it
+(``roman_sim.pipeline.stages.maps_input``), since the formats live in the layers above.
 Random streams are those of ``roman_sim.sim.robot`` (per seed and robot name), so the same
 robots, world and seed give the same frames wherever they are read.
 """
@@ -15,24 +15,22 @@ from __future__ import annotations
 import threading
 import weakref
 from collections import OrderedDict
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, TypeVar, overload
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError, SimError
 from roman_sim.core.seeding import child_rng
-from roman_sim.core.sensors import Frame, FrameSource, Intrinsics
+from roman_sim.core.sensors import Frame, Intrinsics
 from roman_sim.sim.imu import ImuData, SmoothTrajectory, imu_readings
 from roman_sim.sim.robot import DrivenRun, RobotConfig, plan_paths, render_trajectory, trajectory_along
 
 if TYPE_CHECKING:
     from roman_sim.sim.paths import Path2D
     from roman_sim.world import HasTruth
-
-R = TypeVar("R", bound=FrameSource)
 
 #: Paths planned lately, per (world, seed, robots): the world held weakly, the paths read-only.
 #: A run maps each robot in a task of its own, and each task needs every earlier robot's path.
@@ -192,7 +190,6 @@ class SimulatedRobot:
             yield replace(frame, index=int(k))
 
 
-@overload
 def robot_sources(
     world: HasTruth | None,
     robots: Sequence[RobotConfig],
@@ -200,65 +197,32 @@ def robot_sources(
     names: Sequence[str] | None = None,
     *,
     rgb: bool = False,
-) -> list[SimulatedRobot]: ...
-
-
-@overload
-def robot_sources(
-    world: HasTruth | None,
-    robots: Sequence[RobotConfig],
-    seed: int,
-    names: Sequence[str] | None = None,
-    *,
-    rgb: bool = False,
-    open_recorded: Callable[[Any], R],
-) -> list[SimulatedRobot | R]: ...
-
-
-def robot_sources(
-    world: HasTruth | None,
-    robots: Sequence[RobotConfig],
-    seed: int,
-    names: Sequence[str] | None = None,
-    *,
-    rgb: bool = False,
-    open_recorded: Callable[[Any], R] | None = None,
-) -> list[SimulatedRobot] | list[SimulatedRobot | R]:
-    """One ``FrameSource`` per robot of ``robots`` named in ``names`` (all when None), in order.
+) -> list[SimulatedRobot]:
+    """One ``SimulatedRobot`` per robot of ``robots`` named in ``names`` (all when None), in order.
 
     Args:
-        world: the world (None when every wanted robot is read from a recorded sequence).
-        robots: every robot of the scenario, in order (paths may refer to earlier ones).
+        world: the world the robots drive in.
+        robots: every simulated robot of the scenario, in order (paths may refer to earlier ones).
         seed: the scenario seed.
         names: the robots wanted.
-        rgb: simulated robots render RGB on every frame even when their ``render_rgb`` is off.
-        open_recorded: opens a robot whose configuration has a ``source`` (a recorded sequence).
+        rgb: render RGB on every frame even when a robot's ``render_rgb`` is off.
 
     Raises:
-        ConfigError: an unknown name, a recorded robot without ``open_recorded``, or no world
-            for a simulated robot.
+        ConfigError: an unknown name, or no world.
         SimError: a path cannot be planned or driven.
     """
     known = [r.name for r in robots]
     unknown = [n for n in names or [] if n not in known]
     if unknown:
         raise ConfigError(f"robots: no robot {', '.join(unknown)} (robots: {', '.join(known)})")
-    wanted = [r for r in robots if names is None or r.name in set(names)]
-    simulated = [r for r in robots if getattr(r, "source", None) is None]
-    paths = {}
-    if any(getattr(r, "source", None) is None for r in wanted):
-        if world is None:
-            raise ConfigError("simulated robots need the world")
-        paths = planned_paths(world, simulated, seed)
-    out: list[SimulatedRobot | R] = []
-    for cfg in wanted:
-        if getattr(cfg, "source", None) is not None:
-            if open_recorded is None:
-                raise ConfigError(f"robot {cfg.name}: read from a recorded sequence, nothing to simulate")
-            out.append(open_recorded(cfg))
-            continue
-        assert world is not None  # checked above
-        path = paths[cfg.name]
-        source = SimulatedRobot(cfg, world, int(seed), path, trajectory_along(world, cfg, seed, path))
-        out.append(source.with_rgb() if rgb else source)
+    if world is None:
+        raise ConfigError("simulated robots need the world")
+    paths = planned_paths(world, robots, seed)
+    out = []
+    for cfg in robots:
+        if names is None or cfg.name in names:
+            source = SimulatedRobot(
+                cfg, world, int(seed), paths[cfg.name], trajectory_along(world, cfg, seed, paths[cfg.name])
+            )
+            out.append(source.with_rgb() if rgb else source)
     return out

@@ -33,7 +33,7 @@ import io
 import logging
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
@@ -64,29 +64,39 @@ STUDY_OVERRIDES = (
     *(f"robots.{i}.render_rgb=false" for i in (0, 1)),
 )
 
-FIELDS = (
-    "mechanism",
-    "method",
-    "worlds",
-    "same_hits",
-    "same_relevant",
-    "same_recall",
-    "same_recall_lo",
-    "same_recall_hi",
-    "same_precision",
-    "opposite_hits",
-    "opposite_relevant",
-    "opposite_recall",
-    "opposite_recall_lo",
-    "opposite_recall_hi",
-    "opposite_precision",
-    "drop",
-    "drop_lo",
-    "drop_hi",
-    "drop_worlds_lo",
-    "drop_worlds_hi",
-    "explained",
-)
+
+@dataclass
+class AttributionRow:
+    """One row of ``attribution.csv``: a mechanism switched off (``none``: all on) and a method; per
+    role (``same`` / ``opposite`` direction) the pooled hits, relevant pairs, recall with its Wilson
+    interval and precision; the drop with Newcombe's and the world bootstrap's intervals; and the
+    share of the all-on drop it explains (None where undefined)."""
+
+    mechanism: str
+    method: str
+    worlds: int
+    same_hits: int
+    same_relevant: int
+    same_recall: float | None
+    same_recall_lo: float | None
+    same_recall_hi: float | None
+    same_precision: float | None
+    opposite_hits: int
+    opposite_relevant: int
+    opposite_recall: float | None
+    opposite_recall_lo: float | None
+    opposite_recall_hi: float | None
+    opposite_precision: float | None
+    drop: float | None
+    drop_lo: float | None
+    drop_hi: float | None
+    drop_worlds_lo: float | None = None
+    drop_worlds_hi: float | None = None
+    explained: float | None = None
+
+
+#: The columns of ``attribution.csv``, in order.
+FIELDS = tuple(f.name for f in fields(AttributionRow))
 
 #: Draws and seed of the world bootstrap (the study's documented protocol, see ``drop_bootstrap``).
 BOOT_DRAWS, BOOT_SEED = 2000, 0
@@ -180,7 +190,7 @@ class PlannedRun:
 class AttributionPlan:
     """``attribution.json``: the study's configuration and its runs."""
 
-    config: dict[str, Any]
+    config: AttributionConfig
     runs: list[PlannedRun]
 
 
@@ -224,7 +234,7 @@ def run_study(cfg: AttributionConfig, out: Path, on_run: Callable[[int, int, str
     scenarios = [load_scenario(r.scenario, list(r.overrides)) for r in runs]  # every switch validated up front
     out.mkdir(parents=True, exist_ok=True)
     plan = AttributionPlan(
-        cfg.model_dump(mode="json"),
+        cfg.model_copy(deep=True),
         [PlannedRun(r.role, r.scenario, r.mechanism, r.name, list(r.overrides), r.seed) for r in runs],
     )
     write_record(out / PLAN, plan, SCHEMA)
@@ -310,7 +320,7 @@ def pool(cells: list[Cell]) -> Cell:
 
 def table_rows(
     cells: dict[tuple[str, str, int | None], dict[str, Cell]], cfg: AttributionConfig
-) -> list[dict[str, Any]]:
+) -> list[AttributionRow]:
     """The attribution table from ``cells[(role, mechanism, seed)][method]`` (see the module docstring)."""
     seeds: list[int | None] = [None] if cfg.seeds is None else [*sorted(cfg.seeds)]
     draws = bootstrap_draws(len(seeds), cfg.boot_draws, cfg.boot_seed) if len(seeds) >= 2 else None
@@ -339,15 +349,19 @@ def table_rows(
                 counts = {role: [(c.hits, c.relevant) for c in per_world[role]] for role in ROLES}
                 boot = drop_bootstrap(counts["same"], counts["opposite"], draws, cfg.level)
             row["drop_worlds_lo"], row["drop_worlds_hi"] = (None, None) if boot is None else boot
-            rows.append(row)
-    base = {r["method"]: r["drop"] for r in rows if r["mechanism"] == ALL_ON}
+            rows.append(AttributionRow(**row))
+    base = {r.method: r.drop for r in rows if r.mechanism == ALL_ON}
     for r in rows:
-        b = base[r["method"]]
-        r["explained"] = None if b is None or r["drop"] is None or b <= 0 else (b - r["drop"]) / b
+        b = base[r.method]
+        r.explained = None if b is None or r.drop is None or b <= 0 else (b - r.drop) / b
     return rows
 
 
-def write_table(rows: list[dict[str, Any]], out: Path) -> Path:
+def _cell(v: object) -> object:
+    return "" if v is None else (f"{v:.6f}" if isinstance(v, float) else v)
+
+
+def write_table(rows: list[AttributionRow], out: Path) -> Path:
     """``attribution.csv`` (atomically; floats to 6 decimals, empty where undefined)."""
     from roman_sim.core.atomic import write_text
 
@@ -355,7 +369,7 @@ def write_table(rows: list[dict[str, Any]], out: Path) -> Path:
     w = csv.DictWriter(buf, fieldnames=list(FIELDS), lineterminator="\n")
     w.writeheader()
     for r in rows:
-        w.writerow({k: "" if r[k] is None else (f"{r[k]:.6f}" if isinstance(r[k], float) else r[k]) for k in FIELDS})
+        w.writerow({k: _cell(getattr(r, k)) for k in FIELDS})
     path = out / TABLE
     write_text(path, buf.getvalue())
     return path
@@ -363,7 +377,7 @@ def write_table(rows: list[dict[str, Any]], out: Path) -> Path:
 
 def run_attribution(
     cfg: AttributionConfig, out: str | Path, on_run: Callable[[int, int, str, bool], None] | None = None
-) -> list[dict[str, Any]]:
+) -> list[AttributionRow]:
     """Run (or resume) the study in ``out``, write ``attribution.csv`` and return its rows."""
     out = Path(out)
     run_study(cfg, out, on_run)
@@ -402,7 +416,7 @@ PAGE = "docs/heading_mechanisms.md"
 DOMINANT, CONTRIBUTES = 0.5, 0.2
 
 
-def read_table(folder: str | Path) -> list[dict[str, Any]]:
+def read_table(folder: str | Path) -> list[AttributionRow]:
     """``attribution.csv`` of a study folder, numbers parsed (None where empty).
 
     A table from before worlds were the unit (no ``worlds`` column) is one world's: ``worlds``
@@ -421,11 +435,11 @@ def read_table(folder: str | Path) -> list[dict[str, Any]]:
                 parsed[k] = None
             else:
                 parsed[k] = int(v) if k.endswith(("_hits", "_relevant")) or k == "worlds" else float(v)
-        out.append(parsed)
+        out.append(AttributionRow(**parsed))
     return out
 
 
-def classify(rows: list[dict[str, Any]], method: str) -> dict[str, list[str]]:
+def classify(rows: list[AttributionRow], method: str) -> dict[str, list[str]]:
     """Mechanisms of ``method`` by the share of the all-on drop they explain (point estimates).
 
     ``dominant``: at least ``DOMINANT``; ``contributes``: at least ``CONTRIBUTES``; ``negligible``:
@@ -434,9 +448,9 @@ def classify(rows: list[dict[str, Any]], method: str) -> dict[str, list[str]]:
     """
     out: dict[str, list[str]] = {"dominant": [], "contributes": [], "negligible": [], "undefined": []}
     for r in rows:
-        if r["method"] != method or r["mechanism"] == ALL_ON:
+        if r.method != method or r.mechanism == ALL_ON:
             continue
-        e = r["explained"]
+        e = r.explained
         key = (
             "undefined"
             if e is None
@@ -446,41 +460,46 @@ def classify(rows: list[dict[str, Any]], method: str) -> dict[str, list[str]]:
             if e >= CONTRIBUTES
             else "negligible"
         )
-        out[key].append(r["mechanism"])
+        out[key].append(r.mechanism)
     return out
 
 
-def drop_interval(r: dict[str, Any]) -> tuple[float, float, str] | None:
+def drop_interval(r: AttributionRow) -> tuple[float, float, str] | None:
     """The interval a row's verdict uses: the world bootstrap's with two or more worlds, else Newcombe's."""
-    if (r.get("worlds") or 1) >= 2:
-        lo, hi, name = r.get("drop_worlds_lo"), r.get("drop_worlds_hi"), "world-bootstrap"
+    if r.worlds >= 2:
+        lo, hi, name = r.drop_worlds_lo, r.drop_worlds_hi, "world-bootstrap"
     else:
-        lo, hi, name = r["drop_lo"], r["drop_hi"], "Newcombe"
+        lo, hi, name = r.drop_lo, r.drop_hi, "Newcombe"
     return None if lo is None or hi is None else (lo, hi, name)
+
+
+def share_cell(r: AttributionRow) -> str:
+    """The share of the all-on drop a row explains (``-`` for the all-on row itself)."""
+    if r.mechanism == ALL_ON:
+        return "-"
+    return "n/a" if r.explained is None else f"{100 * r.explained:+.1f} %"
 
 
 def _span(lo: float | None, hi: float | None) -> str:
     return "n/a" if lo is None or hi is None else f"[{lo:+.2f}, {hi:+.2f}]"
 
 
-def recall_cell(r: dict[str, Any], role: str, sep: str = ", ") -> str:
+def recall_cell(r: AttributionRow, role: str, sep: str = ", ") -> str:
     """One role's (``same`` / ``opposite``) hits/relevant, recall [interval] and precision, from a table row."""
-    if r[f"{role}_recall"] is None:
+    keys = ("hits", "relevant", "recall", "recall_lo", "recall_hi", "precision")
+    hits, rel, rec, lo, hi, p = (getattr(r, f"{role}_{k}") for k in keys)
+    if rec is None:
         return "no relevant pair"
-    p = r[f"{role}_precision"]
-    return (
-        f"{r[f'{role}_hits']}/{r[f'{role}_relevant']} = {r[f'{role}_recall']:.2f} "
-        f"[{r[f'{role}_recall_lo']:.2f}, {r[f'{role}_recall_hi']:.2f}]{sep}P {'n/a' if p is None else f'{p:.2f}'}"
-    )
+    return f"{hits}/{rel} = {rec:.2f} [{lo:.2f}, {hi:.2f}]{sep}P {'n/a' if p is None else f'{p:.2f}'}"
 
 
-def _separated(r: dict[str, Any]) -> bool:
+def _separated(r: AttributionRow) -> bool:
     """Whether a row's drop is above 0 by the interval its verdict uses (``drop_interval``)."""
     ci = drop_interval(r)
     return ci is not None and ci[0] > 0
 
 
-def _verdict(r: dict[str, Any]) -> str:
+def _verdict(r: AttributionRow) -> str:
     """``its <kind> interval [lo, hi] excludes / includes 0`` for a row's drop."""
     ci = drop_interval(r)
     if ci is None:
@@ -493,7 +512,7 @@ def attribution_block(folder: str | Path) -> str:
     """The page's generated block (markers included) from a kept study's ``attribution.csv``."""
     rows = read_table(folder)
     begin, end = MARKERS
-    worlds = (rows[0].get("worlds") or 1) if rows else 1
+    worlds = rows[0].worlds if rows else 1
     head = (
         f"Counts pooled over {worlds} worlds (each world's max-recall point, summed); the verdicts below "
         "use the world-bootstrap intervals."
@@ -509,21 +528,18 @@ def attribution_block(folder: str | Path) -> str:
         "|---|---|---|---|---|---|---|",
     ]
     for r in rows:
-        drop = "n/a" if r["drop"] is None else f"{r['drop']:+.2f} {_span(r['drop_lo'], r['drop_hi'])}"
-        boot = _span(r.get("drop_worlds_lo"), r.get("drop_worlds_hi"))
-        share = (
-            "-" if r["mechanism"] == ALL_ON else ("n/a" if r["explained"] is None else f"{100 * r['explained']:+.1f} %")
-        )
+        drop = "n/a" if r.drop is None else f"{r.drop:+.2f} {_span(r.drop_lo, r.drop_hi)}"
+        boot = _span(r.drop_worlds_lo, r.drop_worlds_hi)
         lines.append(
-            f"| `{r['mechanism']}` | {r['method']} | {recall_cell(r, 'same')} | {recall_cell(r, 'opposite')} "
-            f"| {drop} | {boot} | {share} |"
+            f"| `{r.mechanism}` | {r.method} | {recall_cell(r, 'same')} | {recall_cell(r, 'opposite')} "
+            f"| {drop} | {boot} | {share_cell(r)} |"
         )
     lines.append("")
-    for method in dict.fromkeys(r["method"] for r in rows):
-        base = next(r for r in rows if r["method"] == method and r["mechanism"] == ALL_ON)
+    for method in dict.fromkeys(r.method for r in rows):
+        base = next(r for r in rows if r.method == method and r.mechanism == ALL_ON)
         c = classify(rows, method)
         named = {k: ", ".join(f"`{m}`" for m in v) or "none" for k, v in c.items()}
-        drop = "n/a" if base["drop"] is None else f"{base['drop']:+.2f}"
+        drop = "n/a" if base.drop is None else f"{base.drop:+.2f}"
         sig = _verdict(base)
         lines.append(
             f"- {method}: all-on drop {drop} ({sig}). Dominant (share >= {DOMINANT:.0%}): {named['dominant']}; "
@@ -531,8 +547,8 @@ def attribution_block(folder: str | Path) -> str:
             f"negligible (< {CONTRIBUTES:.0%}): {named['negligible']}."
         )
         for r in rows:
-            if r["method"] == method and r["mechanism"] == "descriptor_view" and r["drop"] is not None:
+            if r.method == method and r.mechanism == "descriptor_view" and r.drop is not None:
                 verdict = "it does not vanish" if _separated(r) else _verdict(r)
-                lines.append(f"  With `descriptor_view` off the drop is {r['drop']:+.2f} ({verdict}).")
+                lines.append(f"  With `descriptor_view` off the drop is {r.drop:+.2f} ({verdict}).")
     lines.append(end)
     return "\n".join(lines)

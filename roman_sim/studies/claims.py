@@ -10,10 +10,10 @@ that do not.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import TypedDict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 
-from roman_sim.core.jsontypes import JSONLike
+from roman_sim.core.records import json_key
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
 from roman_sim.evaluation.run_summary import AteSummary, RecallSummary, RunSummary, SetSummary
 
@@ -31,8 +31,21 @@ PAPER_ATE: dict[str, tuple[float, float, float]] = {
     "hybrid": (5.83, 5.12, 4.77),
     "outdoor": (9.38, 8.77, 7.77),
 }
-#: Both, as ``summary.json`` shows them.
-PAPER: dict[str, float | dict[str, tuple[float, float, float]]] = {**PAPER_FIGURES, "ate_table": PAPER_ATE}
+
+
+@dataclass(frozen=True)
+class PaperFigures:
+    """The paper's figures as ``summary.json`` shows them (``PAPER_FIGURES`` and Table I)."""
+
+    max_recall_same_direction: float
+    max_recall_opposite_direction: float
+    ransac1m_over_roman_runtime: float
+    kb_per_submap_max: float
+    mb_per_km_max: float
+    ate_table: dict[str, tuple[float, float, float]]
+
+
+PAPER = PaperFigures(**PAPER_FIGURES, ate_table=PAPER_ATE)
 BASELINES = ("clipper", "clipper_prune", "ransac100k", "ransac1m")
 MIN_RELEVANT = 5
 #: ATE differences below half a centimetre (the tables' precision) are ties.
@@ -42,7 +55,8 @@ ATE_TIE_M = 0.005
 Runs = Mapping[str, RunSummary]
 
 
-class Claim(TypedDict):
+@dataclass(frozen=True)
+class Claim:
     """A claim: its id, its wording with the numbers filled in, and whether the data supports it."""
 
     id: str
@@ -50,7 +64,8 @@ class Claim(TypedDict):
     holds: bool
 
 
-class SweepRow(TypedDict):
+@dataclass(frozen=True)
+class SweepRow:
     """One row of the ambiguity sweep: cross-robot pooled recall of one method at one knob value."""
 
     ambiguity: float
@@ -58,8 +73,18 @@ class SweepRow(TypedDict):
     recall: float | None
     hits: int
     relevant: int
-    ci: list[float] | None
+    ci: tuple[float, float] | None
     n_seeds: int
+
+
+@dataclass(frozen=True)
+class ComparisonRow:
+    """One row of the comparison with the paper: the figure, the paper's value, the simulation's cells."""
+
+    figure: str
+    paper: str
+    cross_robot: str = field(metadata=json_key("cross-robot"))
+    same_robot: str = field(metadata=json_key("same-robot"))
 
 
 def recall(runs: Runs, scen: str, method: str, kind: str = "inter", bin_: str | None = None) -> RecallSummary | None:
@@ -115,7 +140,7 @@ def point_cells(r: RecallSummary | None) -> list[str]:
     return [pcell(None if r is None else r.points.get(name)) for name in POINT_COLUMNS]
 
 
-def num(v: JSONLike, digits: int = 2) -> str:
+def num(v: float | str | Sequence[float | None] | None, digits: int = 2) -> str:
     """A number cell (``n/a`` for None)."""
     if isinstance(v, (tuple, list)):
         return " / ".join(num(x, digits) for x in v)
@@ -152,7 +177,7 @@ def _ate_cell(ate: Mapping[str, AteSummary], variant: str, key: str) -> float | 
 def _robots(runs: Runs, scen: str) -> tuple[list[str], list[str]]:
     """Every robot and the common robots of a run's ATE table (empty without one)."""
     run = runs.get(scen)
-    return ([], []) if run is None or run.ate_robots is None else run.ate_robots
+    return ([], []) if run is None or run.ate_robots is None else (run.ate_robots.robots, run.ate_robots.common)
 
 
 def _map_values(runs: Runs, key: str) -> list[float]:
@@ -165,7 +190,7 @@ def _map_values(runs: Runs, key: str) -> list[float]:
     return out
 
 
-def comparison(runs: Runs) -> list[dict[str, str]]:
+def comparison(runs: Runs) -> list[ComparisonRow]:
     """Rows ``figure, paper, cross-robot, same-robot`` for the results page and summary.md (recall, runtime, size;
     the ATE figures are Table I, ``reference_tables.table1``)."""
     rows = []
@@ -173,56 +198,51 @@ def comparison(runs: Runs) -> list[dict[str, str]]:
         for method in ("roman", "clipper", "ransac1m"):
             paper = PAPER_FIGURES.get(f"max_recall_{scen}") if method == "roman" else None
             rows.append(
-                {
-                    "figure": f"{method} max recall, {scen.replace('_', ' ')}",
-                    "paper": num(paper),
-                    "cross-robot": mcell(recall(runs, scen, method)),
-                    "same-robot": mcell(recall(runs, scen, method, "intra")),
-                }
+                ComparisonRow(
+                    f"{method} max recall, {scen.replace('_', ' ')}",
+                    num(paper),
+                    mcell(recall(runs, scen, method)),
+                    mcell(recall(runs, scen, method, "intra")),
+                )
             )
     for method in ("roman", "clipper", "ransac100k", "visual"):
         inter = recall(runs, "heading_sweep", method)
         bins = inter.bins if isinstance(inter, SetSummary) else {}
         if bins:
             rows.append(
-                {
-                    "figure": f"{method} max recall per heading bin, heading sweep",
-                    "paper": "n/a",
-                    "cross-robot": "; ".join(f"{b}: {mcell(r)}" for b, r in bins.items()),
-                    "same-robot": mcell(recall(runs, "heading_sweep", method, "intra")),
-                }
+                ComparisonRow(
+                    f"{method} max recall per heading bin, heading sweep",
+                    "n/a",
+                    "; ".join(f"{b}: {mcell(r)}" for b, r in bins.items()),
+                    mcell(recall(runs, "heading_sweep", method, "intra")),
+                )
             )
     ratio, how = _ratio(runs)
     rows.append(
-        {
-            "figure": "RANSAC-1M / ROMAN runtime per pair",
-            "paper": num(PAPER_FIGURES["ransac1m_over_roman_runtime"]),
-            "cross-robot": f"{num(ratio, 1)} ({how})" if ratio else "n/a",
-            "same-robot": "",
-        }
+        ComparisonRow(
+            "RANSAC-1M / ROMAN runtime per pair",
+            num(PAPER_FIGURES["ransac1m_over_roman_runtime"]),
+            f"{num(ratio, 1)} ({how})" if ratio else "n/a",
+            "",
+        )
     )
     kb, mb = _map_values(runs, "kb_per_submap_max"), _map_values(runs, "mb_per_km")
     rows.append(
-        {
-            "figure": "largest submap packet (KB)",
-            "paper": f"< {PAPER_FIGURES['kb_per_submap_max']:g}",
-            "cross-robot": num(max(kb) if kb else None, 1),
-            "same-robot": "",
-        }
+        ComparisonRow(
+            "largest submap packet (KB)",
+            f"< {PAPER_FIGURES['kb_per_submap_max']:g}",
+            num(max(kb) if kb else None, 1),
+            "",
+        )
     )
     rows.append(
-        {
-            "figure": "map size (MB per km)",
-            "paper": f"< {PAPER_FIGURES['mb_per_km_max']:g}",
-            "cross-robot": num(max(mb) if mb else None),
-            "same-robot": "",
-        }
+        ComparisonRow("map size (MB per km)", f"< {PAPER_FIGURES['mb_per_km_max']:g}", num(max(mb) if mb else None), "")
     )
     return rows
 
 
 def _claim(cid: str, text: str, holds: bool) -> Claim:
-    return {"id": cid, "text": text, "holds": bool(holds)}
+    return Claim(cid, text, bool(holds))
 
 
 def _methods(runs: Runs, scen: str) -> set[str]:
@@ -420,16 +440,16 @@ def _table1_claims(runs: Runs) -> list[Claim]:
 
 
 def _ambiguity(sweep: list[SweepRow]) -> list[Claim]:
-    rows = {(r["ambiguity"], r["method"]): r for r in sweep}
-    knobs = sorted({r["ambiguity"] for r in sweep})
-    if len(knobs) < 2 or ("roman" not in {r["method"] for r in sweep}):
+    rows = {(r.ambiguity, r.method): r for r in sweep}
+    knobs = sorted({r.ambiguity for r in sweep})
+    if len(knobs) < 2 or ("roman" not in {r.method for r in sweep}):
         return []
     lo, hi = knobs[0], knobs[-1]
     drops: dict[str, tuple[float, float]] = {}
     for m in ("roman", "clipper"):
         a, b = rows.get((lo, m)), rows.get((hi, m))
-        if a is not None and b is not None and a["recall"] is not None and b["recall"] is not None:
-            drops[m] = (a["recall"], b["recall"])
+        if a is not None and b is not None and a.recall is not None and b.recall is not None:
+            drops[m] = (a.recall, b.recall)
     if len(drops) < 2:
         return []
     text = (
@@ -486,14 +506,15 @@ def _not_a_replay(runs: Runs) -> list[Claim]:
     revisit = runs["same_direction"].revisits if "same_direction" in runs else None
     if replay is None or revisit is None:
         return []
-    keys = ("median_overlap", "median_shared_objects")
-    held = all(_lt(_f(revisit[k]), _f(replay[k])) for k in keys)
+    held = _lt(revisit.median_overlap, replay.median_overlap) and _lt(
+        revisit.median_shared_objects, replay.median_shared_objects
+    )
     text = (
         "A same-direction revisit is not a replay: its relevant cross-robot pairs share a median overlap of "
-        f"{num(revisit['median_overlap'])} and {num(revisit['median_shared_objects'], 1)} objects "
-        f"({revisit['n_relevant']} pairs), against {num(replay['median_overlap'])} and "
-        f"{num(replay['median_shared_objects'], 1)} when the same loop is driven as a replay "
-        f"({replay['n_relevant']} pairs)."
+        f"{num(revisit.median_overlap)} and {num(revisit.median_shared_objects, 1)} objects "
+        f"({revisit.n_relevant} pairs), against {num(replay.median_overlap)} and "
+        f"{num(replay.median_shared_objects, 1)} when the same loop is driven as a replay "
+        f"({replay.n_relevant} pairs)."
     )
     return [_claim("revisit_not_replay", text, held)]
 
@@ -528,10 +549,6 @@ def _visual_closures(runs: Runs) -> list[Claim]:
     return [_claim("visual_closures_correct", text, all(held))]
 
 
-def _f(v: float | int | None) -> float | None:
-    return None if v is None else float(v)
-
-
 def claims(runs: Runs, sweep: list[SweepRow]) -> list[Claim]:
     """Every claim the results page makes, with its wording and whether the data supports it."""
     return [
@@ -553,9 +570,9 @@ def sweep_markdown(rows: list[SweepRow]) -> str:
     """Cross-robot max recall per ambiguity knob (rows) and method (columns), with counts."""
     if not rows:
         return ""
-    methods = sorted({r["method"] for r in rows})
-    knobs = sorted({r["ambiguity"] for r in rows})
-    cell = {(r["ambiguity"], r["method"]): r for r in rows}
+    methods = sorted({r.method for r in rows})
+    knobs = sorted({r.ambiguity for r in rows})
+    cell = {(r.ambiguity, r.method): r for r in rows}
     lines = [
         "",
         "## Cross-robot max recall against the ambiguity knob (ambiguity sweep, opposite directions)",
@@ -572,26 +589,24 @@ def sweep_markdown(rows: list[SweepRow]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def table_markdown(rows: list[dict[str, str]]) -> str:
+def table_markdown(rows: list[ComparisonRow]) -> str:
     """The comparison table as markdown (recall cells: ``mcell``)."""
     lines = ["| figure | paper | simulation, cross-robot | simulation, same-robot |", "|---|---|---|---|"]
-    lines += [f"| {r['figure']} | {r['paper']} | {r['cross-robot']} | {r['same-robot']} |" for r in rows]
+    lines += [f"| {r.figure} | {r.paper} | {r.cross_robot} | {r.same_robot} |" for r in rows]
     return "\n".join(lines) + "\n"
 
 
 def _sweep_recall(r: SweepRow) -> RecallSummary:
-    ci = r["ci"]
-    interval = None if ci is None else (ci[0], ci[1])
-    return RecallSummary(r["recall"], r["hits"], r["relevant"], interval, r["relevant"] < MIN_RELEVANT)
+    return RecallSummary(r.recall, r.hits, r.relevant, r.ci, r.relevant < MIN_RELEVANT)
 
 
 def claims_markdown(items: list[Claim]) -> str:
     """The claims, split into those the data supports and those it does not."""
-    held = [c for c in items if c["holds"]]
-    failed = [c for c in items if not c["holds"]]
+    held = [c for c in items if c.holds]
+    failed = [c for c in items if not c.holds]
     lines = [
         "Where the simulation agrees with the paper (each statement is checked against the committed raw data):",
         "",
-    ] + [f"- {c['text']}" for c in held]
-    lines += ["", "Where it does not:", ""] + ([f"- {c['text']}" for c in failed] or ["- (none)"])
+    ] + [f"- {c.text}" for c in held]
+    lines += ["", "Where it does not:", ""] + ([f"- {c.text}" for c in failed] or ["- (none)"])
     return "\n".join(lines) + "\n"

@@ -49,6 +49,7 @@ from pydantic import Field, field_validator
 
 from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.records import OMIT_NONE, RecordError, from_json, read_json, read_record, to_json, write_record
 
 log = logging.getLogger(__name__)
@@ -157,7 +158,7 @@ class FitStateRecord:
     ``counts`` and ``predicted`` are absent from a file made before the fit's uncertainty.
     """
 
-    config: dict[str, Any]
+    config: PaperFitConfig
     runs: dict[str, dict[str, float | None]]
     counts: dict[str, dict[str, Counts]] | None = field(default=None, metadata=OMIT_NONE)
     predicted: dict[str, PredictedRun] | None = field(default=None, metadata=OMIT_NONE)
@@ -211,7 +212,7 @@ class FitState:
             saved = read_record(self.path, FitStateRecord)
         except RecordError as err:
             raise ConfigError(f"{err} (not a paper-fit state file; remove it to start again)") from None
-        if saved.config != cfg.model_dump(mode="json"):
+        if saved.config != cfg:
             raise ConfigError(
                 f"{self.path}: made with another fit configuration; use another output folder or remove it"
             )
@@ -244,7 +245,7 @@ class FitState:
     def save(self) -> None:
         """Write the state atomically."""
         recalls = {k: {m: c.recall for m, c in v.items()} for k, v in self.runs.items()}
-        write_record(self.path, FitStateRecord(self.cfg.model_dump(mode="json"), recalls, self.runs, self.predicted))
+        write_record(self.path, FitStateRecord(self.cfg, recalls, self.runs, self.predicted))
 
     def measured(self, severity: float) -> Counts | None:
         """The fitted method's counts at ``severity`` (None when the run did not score it)."""
@@ -340,8 +341,56 @@ def _search(state: FitState, out: Path, run: RunFn) -> None:
         lo, hi = (mid, hi) if r > cfg.target else (lo, mid)
 
 
-def fit_paper_preset(out: str | Path, cfg: PaperFitConfig | None = None, run: RunFn | None = None) -> dict[str, Any]:
-    """Fit the severity (see the module docstring); write ``paper_fit.yaml`` in ``out``; return its content."""
+@dataclass(frozen=True)
+class FitRun:
+    """One run of the fit: its severity, the fitted method's max recall with its counts and
+    Wilson interval (None when the run did not score it), and whether the severity is admitted."""
+
+    severity: float
+    hits: int | None
+    relevant: int | None
+    max_recall: float | None
+    ci: tuple[float, float] | None
+    admitted: bool
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """The fit (``paper_fit.yaml``'s ``fit``): the figure and the paper's value, the fitted recall and
+    severity, the preset, every severity searched with its recall, the admitted severities (the
+    ``level`` Wilson interval holds the paper's value), every run and the fit's configuration."""
+
+    figure: str
+    paper: float
+    fitted: float | None
+    severity: float
+    preset: str
+    searched: list[tuple[float, float | None]]
+    level: float
+    admitted: list[float]
+    runs: list[FitRun]
+    config: PaperFitConfig
+
+
+@dataclass(frozen=True)
+class FitFile:
+    """``paper_fit.yaml``: the fit, and the preset's ``frontend`` section at the fitted severity
+    (explicit error parameters, as a front-end preset file holds them)."""
+
+    fit: FitResult
+    frontend: dict[str, JSON]
+
+
+def _fit_run(state: FitState, s: float, admitted: list[float]) -> FitRun:
+    m = state.measured(s)
+    if m is None:
+        return FitRun(s, None, None, None, None, s in admitted)
+    got = m.measure()
+    return FitRun(s, got.hits, got.relevant, got.max_recall, got.ci, s in admitted)
+
+
+def fit_paper_preset(out: str | Path, cfg: PaperFitConfig | None = None, run: RunFn | None = None) -> FitResult:
+    """Fit the severity (see the module docstring); write ``paper_fit.yaml`` in ``out``; return the fit."""
     from roman_sim.core.atomic import write_text
 
     cfg = cfg or PaperFitConfig()
@@ -352,39 +401,43 @@ def fit_paper_preset(out: str | Path, cfg: PaperFitConfig | None = None, run: Ru
     severity = state.fitted()
     admitted = state.admitted()
     done = sorted(float(k) for k in state.runs)
-    runs = []
-    for s in done:
-        m = state.measured(s)
-        measure = to_json(m.measure()) if m else {"max_recall": None}
-        runs.append({"severity": s, **measure, "admitted": s in admitted})  # type: ignore[dict-item]
-    result = {
-        "fit": {
-            "figure": f"{cfg.method} max recall, cross-robot pairs, {cfg.scenario}",
-            "paper": cfg.target,
-            "fitted": state.recall(severity),
-            "severity": severity,
-            "preset": cfg.preset,
-            "searched": [[s, state.recall(s)] for s in done],
-            "level": ADMIT_LEVEL,
-            "admitted": admitted,
-            "runs": runs,
-            "config": cfg.model_dump(mode="json"),
-        },
-        "frontend": preset_at(cfg.preset, severity),
-    }
-    write_text(out / FIT_YAML, yaml.safe_dump(result, sort_keys=False))
-    return result
+    fit = FitResult(
+        figure=f"{cfg.method} max recall, cross-robot pairs, {cfg.scenario}",
+        paper=cfg.target,
+        fitted=state.recall(severity),
+        severity=severity,
+        preset=cfg.preset,
+        searched=[(s, state.recall(s)) for s in done],
+        level=ADMIT_LEVEL,
+        admitted=admitted,
+        runs=[_fit_run(state, s, admitted) for s in done],
+        config=cfg,
+    )
+    write_text(out / FIT_YAML, yaml.safe_dump(to_json(FitFile(fit, preset_at(cfg.preset, severity))), sort_keys=False))
+    return fit
 
 
-def preset_at(preset: str, severity: float) -> dict[str, Any]:
+def read_fit(path: str | Path) -> FitResult:
+    """The fit of a ``paper_fit.yaml`` (ConfigError for one made before the fit's uncertainty;
+    RecordError naming the file and the field for another damage)."""
+    from roman_sim.core.config import read_yaml
+
+    data = read_yaml(path)
+    fit = data.get("fit") if isinstance(data, dict) else None
+    if isinstance(fit, dict) and "runs" not in fit:
+        raise ConfigError(f"{path}: made before the fit's uncertainty (no runs); rerun the fit in {Path(path).parent}")
+    return from_json(FitFile, data, str(path)).fit
+
+
+def preset_at(preset: str, severity: float) -> dict[str, JSON]:
     """The preset's ``frontend`` section with its error parameters at ``severity`` (explicit values)."""
     from roman_sim.core.config import validate_model
     from roman_sim.frontend.components import FrontEndConfig
 
     fe = validate_model(FrontEndConfig, {"preset": preset, "severity": severity}, source="frontend")
     seg = fe.built_segmenter()
-    out: dict[str, Any] = {
-        "segmenter": {"name": seg.name, "params": dict(seg.params)},
+    out: dict[str, JSON] = {
+        "segmenter": {"name": seg.name, "params": to_json(dict(seg.params))},
         "semantics": fe.built_semantics().model_dump(mode="json"),
     }
     if fe.encoder.name != "simulated" or fe.encoder.params:
@@ -572,14 +625,11 @@ def predict_paper_preset(
     ``run_missing=False`` nothing is run: the admitted settings without a prediction run are
     marked not run.
     """
-    from roman_sim.core.config import read_yaml, validate_model
-
     out = Path(out)
     fit_file = out / FIT_YAML
     if not fit_file.is_file():
         raise ConfigError(f"{fit_file}: file not found (run the fit first: roman-sim paper-preset fit --out {out})")
-    fit = read_yaml(fit_file)["fit"]
-    cfg = cfg or validate_model(PaperFitConfig, fit.get("config"), source=f"{fit_file}: fit.config")
+    cfg = cfg or read_fit(fit_file).config
     state = FitState(out, cfg)
     fitted, admitted = state.fitted(), state.admitted()
     for s in admitted:
@@ -721,31 +771,27 @@ def verdict_cell(claim: PaperClaim) -> str:
 
 def preset_block(folder: str | Path) -> str:
     """The results page's paper-preset block (markers included), from a collected fit's JSON and YAML."""
-    from roman_sim.core.config import read_yaml
-
     d = Path(folder)
-    fit = read_yaml(d / FIT_YAML)["fit"]
+    fit = read_fit(d / FIT_YAML)
     pred = read_predictions(d / PREDICTIONS)
-    if "runs" not in fit:
-        raise ConfigError(f"{d / FIT_YAML}: made before the fit's uncertainty (no runs); rerun the fit in {d}")
     begin, end = PRESET_MARKERS
-    fitted = next(r for r in fit["runs"] if r["severity"] == fit["severity"])
+    fitted = next(r for r in fit.runs if r.severity == fit.severity)
     lines = [
         begin,
-        f"Fitted on one figure only: {fit['figure']} (paper {fit['paper']:.2f}), through the severity "
-        f"of the `{fit['preset']}` preset. Fitted severity {fit['severity']:g}: {fitted['hits']}/"
-        f"{fitted['relevant']} = {_fmt(fit['fitted'])}{_ci(fitted['ci'])}. Admitted (the "
-        f"{fit['level'] * 100:g} % Wilson interval contains {fit['paper']}): "
-        + ", ".join(f"{s:g}" for s in fit["admitted"])
+        f"Fitted on one figure only: {fit.figure} (paper {fit.paper:.2f}), through the severity "
+        f"of the `{fit.preset}` preset. Fitted severity {fit.severity:g}: {fitted.hits}/"
+        f"{fitted.relevant} = {_fmt(fit.fitted)}{_ci(fitted.ci)}. Admitted (the "
+        f"{fit.level * 100:g} % Wilson interval contains {fit.paper}): "
+        + ", ".join(f"{s:g}" for s in fit.admitted)
         + ".",
         "",
-        "| severity | " + fit["figure"] + f" [{fit['level'] * 100:g} % Wilson] | admitted |",
+        "| severity | " + fit.figure + f" [{fit.level * 100:g} % Wilson] | admitted |",
         "|---|---|---|",
         *(
-            f"| {r['severity']:g}{' (fitted)' if r['severity'] == fit['severity'] else ''} | "
-            f"{r['hits']}/{r['relevant']} = {_fmt(r['max_recall'])}{_ci(r['ci'])} | "
-            f"{'yes' if r['admitted'] else 'no'} |"
-            for r in fit["runs"]
+            f"| {r.severity:g}{' (fitted)' if r.severity == fit.severity else ''} | "
+            f"{r.hits}/{r.relevant} = {_fmt(r.max_recall)}{_ci(r.ci)} | "
+            f"{'yes' if r.admitted else 'no'} |"
+            for r in fit.runs
         ),
         "",
         f"Held-out predictions on `{pred.scenario}` at each admitted severity, nothing else changed "

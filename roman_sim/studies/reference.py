@@ -25,11 +25,11 @@ import logging
 import shutil
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypedDict
+from typing import TYPE_CHECKING
 
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.errors import StorageError
-from roman_sim.core.jsontypes import JSON, JSONLike
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.records import RunTimings, read_map_stats, read_timings, write_timings
 from roman_sim.evaluation.results import read_metrics_json, write_metrics_json
@@ -39,7 +39,6 @@ from roman_sim.pipeline.sweep_aggregate import read_sweep_json
 from roman_sim.studies import pages
 from roman_sim.studies.claims import (
     PAPER,
-    Claim,
     Runs,
     SweepRow,
     claims,
@@ -50,10 +49,7 @@ from roman_sim.studies.claims import (
 )
 from roman_sim.studies.raw_data import write_packets, write_runtimes
 from roman_sim.studies.reference_tables import (
-    FrontEndTable,
-    PointRow,
-    RevisitRow,
-    Table1Row,
+    ReferenceRecord,
     frontends,
     frontends_markdown,
     operating_points,
@@ -65,6 +61,7 @@ from roman_sim.studies.reference_tables import (
 )
 
 if TYPE_CHECKING:
+    from roman_sim.evaluation.sweepstats import SweepCell
     from roman_sim.runner.executor_base import ExecutorConfig
 
 log = logging.getLogger(__name__)
@@ -286,29 +283,35 @@ def write_pages(root: Path, ref_dir: Path, summary: ReferenceRecord) -> None:
     for path, markers, block in targets:
         if not path.is_file() or not pages.update_block(path, markers, block):
             log.warning("%s has no %s / %s markers: its generated block was not updated", path, *markers)
-    if (root / FIGURE_PNG).parent.is_dir() and pages.figure_data(summary)["methods"]:
+    if (root / FIGURE_PNG).parent.is_dir() and pages.figure_data(summary).methods:
         pages.write_figure(summary, root / FIGURE_PNG)
 
 
-def demo_summary(ref_dir: str | Path) -> dict[str, JSONLike]:
+def demo_summary(ref_dir: str | Path) -> RunSummary:
     """The committed demo run's compact summary, recomputed from its raw files."""
-    return _run_summary(Path(ref_dir) / DEMO).to_json()
+    return _run_summary(Path(ref_dir) / DEMO)
 
 
-def _sweep_rows(rows: list[dict[str, Any]]) -> list[SweepRow]:
+def _knob(v: object) -> float:
+    if not isinstance(v, (int, float)):
+        raise StorageError(f"{AMBIGUITY_KEY}: expected a number, got {v!r}")
+    return float(v)
+
+
+def _sweep_rows(rows: list[SweepCell]) -> list[SweepRow]:
     """Cross-robot overall rows of a sweep's aggregate over seeds, per ambiguity knob and method."""
     return [
-        {
-            "ambiguity": float(r[AMBIGUITY_KEY]),
-            "method": r["method"],
-            "recall": r["pooled_recall"],
-            "hits": r["hits"],
-            "relevant": r["relevant"],
-            "ci": None if r["wilson_low"] is None else [r["wilson_low"], r["wilson_high"]],
-            "n_seeds": r["n_seeds"],
-        }
+        SweepRow(
+            ambiguity=_knob(r.params[AMBIGUITY_KEY]),
+            method=r.method,
+            recall=r.pooled_recall,
+            hits=r.hits,
+            relevant=r.relevant,
+            ci=None if r.wilson_low is None or r.wilson_high is None else (r.wilson_low, r.wilson_high),
+            n_seeds=r.n_seeds,
+        )
         for r in rows
-        if r["kind"] == "inter" and r["bin"] == "all"
+        if r.kind == "inter" and r.bin == "all"
     ]
 
 
@@ -345,7 +348,7 @@ def merge_committed(out: Path, runs: dict[str, RunSummary]) -> tuple[dict[str, R
     if not (out / "summary.json").is_file():
         return runs, []
     merged: dict[str, RunSummary] = {}
-    for name in read_reference(out / "summary.json")["runs"]:
+    for name in read_reference(out / "summary.json").runs:
         if name in runs:
             merged[name] = runs[name]
         elif (out / name / "pairs.csv.gz").is_file():
@@ -370,20 +373,6 @@ def _committed_sweep(d: Path) -> list[SweepRow]:
     return _sweep_rows(aggregate(rows, spec.grid))
 
 
-class ReferenceRecord(TypedDict):
-    """``summary.json``."""
-
-    runs: dict[str, dict[str, JSONLike]]
-    comparison: list[dict[str, str]]
-    table1: list[Table1Row]
-    frontends: FrontEndTable
-    operating_points: list[PointRow]
-    revisits: list[RevisitRow]
-    claims: list[Claim]
-    ambiguity_sweep: list[SweepRow]
-    paper: dict[str, float | dict[str, tuple[float, float, float]]]
-
-
 def read_reference(path: str | Path) -> ReferenceRecord:
     """The ``summary.json`` at ``path``, every field checked (RecordError names the file and the field)."""
     return read_record(path, ReferenceRecord)
@@ -392,25 +381,16 @@ def read_reference(path: str | Path) -> ReferenceRecord:
 def build_reference(runs: Runs, sweep: list[SweepRow]) -> ReferenceRecord:
     """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends, the
     operating points, the claims, the sweep rows."""
-    return {
-        "runs": {name: s.to_json() for name, s in runs.items()},
-        "comparison": comparison(runs),
-        "table1": table1(runs),
-        "frontends": frontends(runs),
-        "operating_points": operating_points(runs),
-        "revisits": revisits(runs),
-        "claims": claims(runs, sweep),
-        "ambiguity_sweep": sweep,
-        "paper": PAPER,
-    }
+    tables = (table1(runs), frontends(runs), operating_points(runs), revisits(runs))
+    return ReferenceRecord(dict(runs), comparison(runs), *tables, claims(runs, sweep), sweep, PAPER)
 
 
 def _tables_markdown(summary: ReferenceRecord) -> str:
     return (
-        table1_markdown(summary.get("table1") or [])
-        + frontends_markdown(summary.get("frontends") or {})
-        + operating_points_markdown(summary.get("operating_points") or [])
-        + revisits_markdown(summary.get("revisits") or [])
+        table1_markdown(summary.table1)
+        + frontends_markdown(summary.frontends)
+        + operating_points_markdown(summary.operating_points)
+        + revisits_markdown(summary.revisits)
     )
 
 
@@ -423,11 +403,11 @@ def reference_markdown(summary: ReferenceRecord) -> str:
         "those hits, and that k; 'n<5' marks fewer than 5 relevant pairs. Recall at precision >= 0.9, "
         "at precision 1 and at the acceptance threshold: the operating points table. "
         "Every pair of submaps is aligned and scored.\n\n"
-        + table_markdown(summary["comparison"])
+        + table_markdown(summary.comparison)
         + _tables_markdown(summary)
         + "\n"
-        + claims_markdown(summary["claims"])
-        + sweep_markdown(summary["ambiguity_sweep"])
+        + claims_markdown(summary.claims)
+        + sweep_markdown(summary.ambiguity_sweep)
     )
 
 
@@ -448,5 +428,5 @@ def rederive(ref_dir: str | Path) -> ReferenceRecord:
     """``summary.json`` recomputed from the raw files under ``ref_dir`` (scenarios as committed)."""
     d = Path(ref_dir)
     committed = read_reference(d / "summary.json")
-    runs = {name: _run_summary(d / name) for name in committed["runs"]}
+    runs = {name: _run_summary(d / name) for name in committed.runs}
     return build_reference(runs, _committed_sweep(d))

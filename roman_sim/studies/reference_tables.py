@@ -20,11 +20,25 @@ of the summary.
 
 from __future__ import annotations
 
-from typing import TypedDict
+from dataclasses import dataclass, field
 
-from roman_sim.core.jsontypes import JSONLike
-from roman_sim.evaluation.run_summary import RecallSummary
-from roman_sim.studies.claims import PAPER_ATE, POINT_COLUMNS, Runs, _ate_cell, _robots, mcell, num, point_cells
+from roman_sim.core.records import NONE_AS_EMPTY
+from roman_sim.evaluation.run_summary import FrontEndSummary, PairCounts, RecallSummary, RunSummary
+from roman_sim.studies.claims import (
+    PAPER,
+    PAPER_ATE,
+    POINT_COLUMNS,
+    Claim,
+    ComparisonRow,
+    PaperFigures,
+    Runs,
+    SweepRow,
+    _ate_cell,
+    _robots,
+    mcell,
+    num,
+    point_cells,
+)
 
 #: Rows of the simulation's ATE table shown next to the paper's, with their column titles.
 ATE_ROWS = {
@@ -58,7 +72,8 @@ GRADE_COLUMNS = {
 }
 
 
-class AteCell(TypedDict):
+@dataclass(frozen=True)
+class AteCell:
     """One simulation cell of Table I."""
 
     ate_m: float | None
@@ -66,7 +81,8 @@ class AteCell(TypedDict):
     placed: int | None
 
 
-class Table1Row(TypedDict):
+@dataclass(frozen=True)
+class Table1Row:
     """One environment of Table I: the paper's three rows and the simulation's."""
 
     environment: str
@@ -93,29 +109,29 @@ def table1(runs: Runs) -> list[Table1Row]:
             ate = runs[scen].ate
             robots, common = _robots(runs, scen)
             out.append(
-                {
-                    "environment": label,
-                    "scenario": scen,
-                    "robots": list(robots),
-                    "common": list(common),
-                    "paper": dict(zip(PAPER_ROWS, paper)),
-                    "simulation": {
-                        v: {
-                            "ate_m": _ate_cell(ate, v, "common"),
-                            "ate_all_m": _ate_cell(ate, v, "all"),
-                            "placed": None if v not in ate else ate[v].connected,
-                        }
+                Table1Row(
+                    environment=label,
+                    scenario=scen,
+                    robots=list(robots),
+                    common=list(common),
+                    paper=dict(zip(PAPER_ROWS, paper)),
+                    simulation={
+                        v: AteCell(
+                            _ate_cell(ate, v, "common"),
+                            _ate_cell(ate, v, "all"),
+                            None if v not in ate else ate[v].connected,
+                        )
                         for v in ATE_ROWS
                     },
-                }
+                )
             )
     return out
 
 
 def _table_cell(cell: AteCell, n: int, all_robots: bool) -> str:
-    if cell["placed"] is None:
+    if cell.placed is None:
         return "n/a"
-    return f"{num(cell['ate_all_m'] if all_robots else cell['ate_m'])} ({cell['placed']}/{n})"
+    return f"{num(cell.ate_all_m if all_robots else cell.ate_m)} ({cell.placed}/{n})"
 
 
 def table1_markdown(rows: list[Table1Row]) -> str:
@@ -137,11 +153,11 @@ def table1_markdown(rows: list[Table1Row]) -> str:
         "|---" * (len(PAPER_ROWS) + len(ATE_ROWS) + 2) + "|",
     ]
     for r in rows:
-        n = len(r["robots"])
-        cells = [num(r["paper"][k]) for k in PAPER_ROWS] + [_table_cell(r["simulation"][v], n, False) for v in ATE_ROWS]
-        lines.append(f"| {r['environment']} | " + " | ".join(cells) + f" | {', '.join(r['common']) or 'none'} of {n} |")
-        cells = [""] * len(PAPER_ROWS) + [_table_cell(r["simulation"][v], n, True) for v in ATE_ROWS]
-        lines.append(f"| {r['environment']}, all robots | " + " | ".join(cells) + f" | {', '.join(r['robots'])} |")
+        n = len(r.robots)
+        cells = [num(r.paper[k]) for k in PAPER_ROWS] + [_table_cell(r.simulation[v], n, False) for v in ATE_ROWS]
+        lines.append(f"| {r.environment} | " + " | ".join(cells) + f" | {', '.join(r.common) or 'none'} of {n} |")
+        cells = [""] * len(PAPER_ROWS) + [_table_cell(r.simulation[v], n, True) for v in ATE_ROWS]
+        lines.append(f"| {r.environment}, all robots | " + " | ".join(cells) + f" | {', '.join(r.robots)} |")
     return "\n".join(lines) + "\n"
 
 
@@ -150,29 +166,31 @@ def _label(runs: Runs, scen: str) -> str:
     return f"{scen} ({fe.segmenter} + {fe.encoder or 'none'})" if fe else scen
 
 
-class RecallRow(TypedDict):
-    """One front end and method: cross-robot max recall per heading bin and overall (``RecallSummary`` JSON)."""
+@dataclass(frozen=True)
+class RecallRow:
+    """One front end and method: cross-robot max recall per heading bin and overall."""
 
     scenario: str
     frontend: str
     method: str
-    bins: dict[str, dict[str, JSONLike]]
-    all: dict[str, JSONLike]
+    bins: dict[str, RecallSummary]
+    all: RecallSummary
 
 
-class FrontEndTable(TypedDict, total=False):
-    """The two front ends side by side (empty when neither ran)."""
+@dataclass(frozen=True)
+class FrontEndTable:
+    """The two front ends side by side."""
 
     scenarios: list[str]
     labels: dict[str, str]
     recall: list[RecallRow]
-    grades: dict[str, dict[str, JSONLike] | None]
-    pairs: dict[str, dict[str, dict[str, int]]]
+    grades: dict[str, FrontEndSummary | None]
+    pairs: dict[str, dict[str, PairCounts]]
     same_pairs: bool
 
 
-def frontends(runs: Runs) -> FrontEndTable:
-    """The two front ends on the opposite-direction scenario (empty when neither ran).
+def frontends(runs: Runs) -> FrontEndTable | None:
+    """The two front ends on the opposite-direction scenario (None when neither ran).
 
     ``recall``: one row per front end and segment-based method run by every front end's
     scenario (the visual method does not use segments), with cross-robot max recall per
@@ -184,48 +202,41 @@ def frontends(runs: Runs) -> FrontEndTable:
 
     scens = [s for s in FRONTEND_SCENARIOS if s in runs]
     if not scens:
-        return {}
+        return None
     methods = set.intersection(*(set(runs[s].methods) for s in scens)) - VISUAL_METHODS
     order = sorted(methods, key=lambda m: (m != "roman", m))
-    recall: list[RecallRow] = [
-        {
-            "scenario": s,
-            "frontend": _label(runs, s),
-            "method": m,
-            "bins": {b: r.to_json() for b, r in runs[s].methods[m].inter.bins.items()},
-            "all": RecallSummary.to_json(runs[s].methods[m].inter),
-        }
+    recall = [
+        RecallRow(s, _label(runs, s), m, dict(runs[s].methods[m].inter.bins), runs[s].methods[m].inter.recall())
         for m in order
         for s in scens
     ]
     pairs = [runs[s].pairs for s in scens]
-    grades = {s: None if (fe := runs[s].frontend) is None else fe.to_json() for s in scens}
-    return {
-        "scenarios": scens,
-        "labels": {s: _label(runs, s) for s in scens},
-        "recall": recall,
-        "grades": grades,
-        "pairs": dict(zip(scens, pairs)),
-        "same_pairs": all(p == pairs[0] for p in pairs),
-    }
+    return FrontEndTable(
+        scenarios=scens,
+        labels={s: _label(runs, s) for s in scens},
+        recall=recall,
+        grades={s: runs[s].frontend for s in scens},
+        pairs=dict(zip(scens, pairs)),
+        same_pairs=all(p == pairs[0] for p in pairs),
+    )
 
 
-def _recall(d: JSONLike) -> RecallSummary | None:
-    """A ``RecallSummary`` from its JSON (None for None)."""
-    return None if d is None else RecallSummary.from_json(d)
+def _pairs_text(pairs: dict[str, PairCounts]) -> str:
+    """A scenario's pair counts as the table's note shows them."""
+    return str({k: {"n_pairs": c.n_pairs, "n_relevant": c.n_relevant} for k, c in pairs.items()})
 
 
-def frontends_markdown(table: FrontEndTable) -> str:
+def frontends_markdown(table: FrontEndTable | None) -> str:
     """The two-front-end tables as markdown (empty without data)."""
-    if not table:
+    if table is None:
         return ""
-    bins = sorted({b for r in table["recall"] for b in r["bins"]}, key=lambda b: float(b.split("-")[0]))
-    pairs = table["pairs"][table["scenarios"][0]] or {}
-    inter = pairs.get("inter") or {}
+    bins = sorted({b for r in table.recall for b in r.bins}, key=lambda b: float(b.split("-")[0]))
+    inter = table.pairs[table.scenarios[0]].get("inter")
     same = (
         "the same pairs in every row"
-        if table["same_pairs"]
-        else "NOT the same pair counts in every row: " + "; ".join(f"{s} {p}" for s, p in table["pairs"].items())
+        if table.same_pairs
+        else "NOT the same pair counts in every row: "
+        + "; ".join(f"{s} {_pairs_text(p)}" for s, p in table.pairs.items())
     )
     lines = [
         "",
@@ -234,19 +245,17 @@ def frontends_markdown(table: FrontEndTable) -> str:
         "`fastsam` + `simulated` cut masks from the renderer's instance image and draw descriptors from the "
         "true family and each instance's looks (truth-driven); `image` + `image` see only the RGB-D "
         "pixels. Same world, robots, pairs "
-        f"and thresholds: {inter.get('n_pairs')} cross-robot pairs "
-        f"({inter.get('n_relevant')} relevant), {same}. Cells: cross-robot max recall "
+        f"and thresholds: {None if inter is None else inter.n_pairs} cross-robot pairs "
+        f"({None if inter is None else inter.n_relevant} relevant), {same}. Cells: cross-robot max recall "
         "(hits/relevant) [95 % Wilson interval], P its precision and k its threshold (the other "
         "operating points: the next table).",
         "",
         "| front end | method | " + " | ".join(f"{b} deg" for b in bins) + " | all |",
         "|---" * (len(bins) + 3) + "|",
     ]
-    for r in table["recall"]:
+    for r in table.recall:
         lines.append(
-            f"| {r['frontend']} | {r['method']} | "
-            + " | ".join(mcell(_recall(r["bins"].get(b))) for b in bins)
-            + f" | {mcell(_recall(r['all']))} |"
+            f"| {r.frontend} | {r.method} | " + " | ".join(mcell(r.bins.get(b)) for b in bins) + f" | {mcell(r.all)} |"
         )
     lines += [
         "",
@@ -256,20 +265,25 @@ def frontends_markdown(table: FrontEndTable) -> str:
         "| front end | frames | " + " | ".join(GRADE_COLUMNS.values()) + " |",
         "|---" * (len(GRADE_COLUMNS) + 2) + "|",
     ]
-    for s in table["scenarios"]:
-        g = table["grades"][s]
-        cells = ["n/a"] * (len(GRADE_COLUMNS) + 1) if not g else [num(g["frames"])] + [num(g[k]) for k in GRADE_COLUMNS]
-        lines.append(f"| {table['labels'][s]} | " + " | ".join(cells) + " |")
+    for s in table.scenarios:
+        g = table.grades[s]
+        cells = (
+            ["n/a"] * (len(GRADE_COLUMNS) + 1)
+            if g is None
+            else [num(g.frames)] + [num(getattr(g, k)) for k in GRADE_COLUMNS]
+        )
+        lines.append(f"| {table.labels[s]} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
-class PointRow(TypedDict):
-    """One scenario, method and heading bin (``all``: every cross-robot pair): its ``RecallSummary`` JSON."""
+@dataclass(frozen=True)
+class PointRow:
+    """One scenario, method and heading bin (``all``: every cross-robot pair): its recall and operating points."""
 
     scenario: str
     method: str
     heading: str
-    recall: dict[str, JSONLike]
+    recall: RecallSummary
 
 
 def _bin_order(label: str) -> float:
@@ -284,9 +298,9 @@ def operating_points(runs: Runs) -> list[PointRow]:
         methods = runs[scen].methods
         for m in sorted(methods, key=lambda m: (m != "roman", m)):
             inter = methods[m].inter
-            rows.append({"scenario": scen, "method": m, "heading": "all", "recall": RecallSummary.to_json(inter)})
+            rows.append(PointRow(scen, m, "all", inter.recall()))
             rows += [
-                {"scenario": scen, "method": m, "heading": b, "recall": inter.bins[b].to_json()}
+                PointRow(scen, m, b, inter.bins[b])
                 for b in sorted(inter.bins, key=_bin_order)
                 if inter.bins[b].n_relevant
             ]
@@ -323,9 +337,9 @@ def operating_points_markdown(rows: list[PointRow]) -> str:
         *points_header("scenario | method | heading"),
     ]
     for r in rows:
-        head = "all" if r["heading"] == "all" else f"{r['heading']} deg"
-        cells = point_cells(_recall(r["recall"]))
-        lines.append(f"| {r['scenario']} | {r['method']} | {head} | " + " | ".join(cells) + " |")
+        head = "all" if r.heading == "all" else f"{r.heading} deg"
+        cells = point_cells(r.recall)
+        lines.append(f"| {r.scenario} | {r.method} | {head} | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -339,7 +353,8 @@ REVISIT_SCENARIOS = (
 )
 
 
-class RevisitRow(TypedDict):
+@dataclass(frozen=True)
+class RevisitRow:
     """What one scenario's relevant cross-robot pairs share (``RunSummary.revisits``)."""
 
     scenario: str
@@ -353,17 +368,8 @@ def revisits(runs: Runs) -> list[RevisitRow]:
     rows: list[RevisitRow] = []
     for scen in (s for s in REVISIT_SCENARIOS if s in runs):
         fig = runs[scen].revisits
-        if fig is None:
-            continue
-        ov, sh = fig["median_overlap"], fig["median_shared_objects"]
-        rows.append(
-            {
-                "scenario": scen,
-                "n_relevant": int(fig["n_relevant"] or 0),
-                "median_overlap": None if ov is None else float(ov),
-                "median_shared_objects": None if sh is None else float(sh),
-            }
-        )
+        if fig is not None:
+            rows.append(RevisitRow(scen, fig.n_relevant, fig.median_overlap, fig.median_shared_objects))
     return rows
 
 
@@ -385,8 +391,22 @@ def revisits_markdown(rows: list[RevisitRow]) -> str:
         "|---|---|---|---|",
     ]
     for r in rows:
-        lines.append(
-            f"| {r['scenario']} | {r['n_relevant']} | {num(r['median_overlap'])} | "
-            f"{num(r['median_shared_objects'], 1)} |"
-        )
+        lines.append(f"| {r.scenario} | {r.n_relevant} | {num(r.median_overlap)} | {num(r.median_shared_objects, 1)} |")
     return "\n".join(lines) + "\n"
+
+
+@dataclass
+class ReferenceRecord:
+    """``summary.json``: the runs, the comparison with the paper, Table I, the two front ends (None
+    when neither ran: written as ``{}``), the operating points, the revisits, the claims, the
+    ambiguity sweep's rows and the paper's figures."""
+
+    runs: dict[str, RunSummary]
+    comparison: list[ComparisonRow]
+    table1: list[Table1Row] = field(default_factory=list)
+    frontends: FrontEndTable | None = field(default=None, metadata=NONE_AS_EMPTY)
+    operating_points: list[PointRow] = field(default_factory=list)
+    revisits: list[RevisitRow] = field(default_factory=list)
+    claims: list[Claim] = field(default_factory=list)
+    ambiguity_sweep: list[SweepRow] = field(default_factory=list)
+    paper: PaperFigures = PAPER

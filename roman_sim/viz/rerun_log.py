@@ -62,18 +62,18 @@ def log_objects(rec: RecordingStream, rows: list[ObjectRow]) -> None:
 
     if not rows:
         return
-    families = sorted({r["family"] for r in rows})
+    families = sorted({r.family for r in rows})
     rec.log(
         "world/objects", rr.AnnotationContext([(k, f, _family_colour(k)) for k, f in enumerate(families)]), static=True
     )
     rec.log(
         "world/objects",
         rr.Boxes3D(
-            centers=[r["box"]["center"] for r in rows],
-            half_sizes=np.asarray([r["box"]["extents"] for r in rows]) / 2,
-            quaternions=[r["box"]["quaternion_xyzw"] for r in rows],
-            class_ids=[families.index(r["family"]) for r in rows],
-            labels=[f"{r['family']} {r['id']}" for r in rows],
+            centers=[r.box.center for r in rows],
+            half_sizes=np.asarray([r.box.extents for r in rows]) / 2,
+            quaternions=[r.box.quaternion_xyzw for r in rows],
+            class_ids=[families.index(r.family) for r in rows],
+            labels=[f"{r.family} {r.id}" for r in rows],
         ),
         static=True,
     )

@@ -106,13 +106,11 @@ def _world(rf: RunFolder, notes: list[str]) -> World | None:
 def _object_rows(rf: RunFolder, world: World | None) -> list[ObjectRow]:
     """The world's objects, else those of the recorded sequences' object tables (first one found)."""
     from roman_sim.interop.objects import object_rows, read_object_table
-    from roman_sim.pipeline.stages.maps_sources import object_table_path
+    from roman_sim.pipeline.stages.maps_sources import object_tables
 
     if world is not None:
         return object_rows(world.truth)
-    tables = sorted(
-        {p for r in rf.scenario.robots if r.source is not None if (p := object_table_path(r.source)) is not None}
-    )
+    tables = object_tables(rf.scenario.robots)
     return read_object_table(tables[0]) if tables else []
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import logging
 import pickle
 from dataclasses import dataclass, field, replace
-from typing import Any, Protocol, cast
+from typing import Protocol, cast
 
 import mujoco
 import numpy as np
@@ -23,7 +23,7 @@ from roman_sim.world.mjcf import Looks, add_object_geoms, new_spec
 from roman_sim.world.roads import Polyline, make_roads
 from roman_sim.world.spec import FamilySpec, WorldSpec
 from roman_sim.world.terrain import footprint_min_height, make_terrain
-from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
+from roman_sim.world.truth import ObjectTruth, SunMeta, Terrain, WorldMeta, WorldTruth
 
 log = logging.getLogger(__name__)
 
@@ -126,7 +126,7 @@ def _place_family(
     return out
 
 
-def _place_all(spec: WorldSpec, seed: int, roads: list) -> tuple[list[_Placed], dict[str, list[int]]]:
+def _place_all(spec: WorldSpec, seed: int, roads: list) -> tuple[list[_Placed], dict[str, tuple[int, int]]]:
     """Place every family; returns the placements and {family: [placed, requested]}."""
     sv = spec.knobs()[1]
     area_ha = spec.extent_m[0] * spec.extent_m[1] / 1e4
@@ -139,11 +139,11 @@ def _place_all(spec: WorldSpec, seed: int, roads: list) -> tuple[list[_Placed], 
     todo.sort(key=lambda t: (-t[0], t[1].name))  # large footprints first: they are hardest to fit
     placer = Placer(spec.extent_m, roads, spec.roads.width_m, spec.layout.min_gap_m, spec.max_objects)
     placed: list[_Placed] = []
-    counts: dict[str, list[int]] = {}
+    counts: dict[str, tuple[int, int]] = {}
     for _, fam, n, assets in todo:
         got = _place_family(spec, seed, fam, n, assets, placer, roads)
         placed += got
-        counts[fam.name] = [len(got), n]  # families are unique (WorldSpec checks)
+        counts[fam.name] = (len(got), n)  # families are unique (WorldSpec checks)
     if todo and not placed:
         raise WorldError(
             f"world {spec.name!r}: no object fits the extent {spec.extent_m} m next to roads of width "
@@ -179,7 +179,7 @@ class _Layout:
     placed: list[_Placed]
     objects: list[ObjectTruth]
     sun: Sun
-    meta: dict[str, Any]
+    meta: WorldMeta
 
     def truth(self) -> WorldTruth:
         return WorldTruth(objects=self.objects, terrain=self.terrain, roads=self.roads, meta=self.meta)
@@ -200,15 +200,9 @@ def _layout(spec: WorldSpec, seed: int) -> _Layout:
         kinds = len({part.surface for p in placed for part in p.asset.parts})
         check_texture_memory(spec.appearance, kinds, spec.extent_m)
     sun = resolve_sun(spec.appearance.lighting, seed)
-    meta = {
-        "name": spec.name,
-        "seed": seed,
-        "base_z": base_z,
-        "elevation": elevation,
-        "knobs": list(spec.knobs()),
-        "placed_requested": counts,
-        "sun": {"azimuth_deg": sun.azimuth_deg, "elevation_deg": sun.elevation_deg},
-    }
+    meta = WorldMeta(
+        spec.name, seed, base_z, elevation, spec.knobs(), counts, SunMeta(sun.azimuth_deg, sun.elevation_deg)
+    )
     return _Layout(terrain, base_z, elevation, roads, placed, objects, sun, meta)
 
 

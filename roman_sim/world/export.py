@@ -12,9 +12,8 @@ own mesh copy (``shape@object_id``, its own texture coordinates), written as its
 from __future__ import annotations
 
 import io
-import json
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -22,13 +21,14 @@ import trimesh
 from numpy.typing import NDArray
 from PIL import Image
 
-from roman_sim.core.atomic import output_folder, write_bytes, write_json, write_text
+from roman_sim.core.atomic import output_folder, write_bytes, write_text
 from roman_sim.core.config import dump_yaml, load_model
 from roman_sim.core.errors import WorldError
+from roman_sim.core.records import RecordError, from_json, read_json, write_record
 from roman_sim.world.build import World
 from roman_sim.world.mjcf import GROUND, MATERIAL_PREFIX, shape_of
 from roman_sim.world.spec import WorldSpec
-from roman_sim.world.truth import ObjectTruth, Terrain, WorldTruth
+from roman_sim.world.truth import ObjectTruthRow, Terrain, WorldMeta, WorldTruth
 
 TRUTH_VERSION = 1
 MESH_DIR = "meshes"
@@ -144,17 +144,33 @@ def _texture_bytes(world: World, name: str) -> bytes:
     return buf.getvalue()
 
 
-def truth_to_dict(world: World) -> dict[str, Any]:
-    """The JSON document of ``truth.json``."""
+@dataclass(frozen=True)
+class TerrainRow:
+    """The terrain's size (m) and its heightfield file; the heights are the file's, scaled by the meta."""
+
+    size_x: float
+    size_y: float
+    hfield: str
+
+
+@dataclass(frozen=True)
+class TruthFile:
+    """What ``truth.json`` holds: the seed, every object, the terrain, the roads and how the world was made."""
+
+    version: int
+    seed: int
+    objects: list[ObjectTruthRow]
+    terrain: TerrainRow
+    roads: list[list[list[float]]]
+    meta: WorldMeta | None
+
+
+def truth_file(world: World) -> TruthFile:
+    """The ``truth.json`` record of ``world``."""
     t = world.truth
-    return {
-        "version": TRUTH_VERSION,
-        "seed": world.seed,
-        "objects": [o.to_dict() for o in t.objects],
-        "terrain": {"size_x": t.terrain.size_x, "size_y": t.terrain.size_y, "hfield": f"{MESH_DIR}/{HFIELD_FILE}"},
-        "roads": [np.round(r, 6).tolist() for r in t.roads],
-        "meta": t.meta,
-    }
+    terrain = TerrainRow(t.terrain.size_x, t.terrain.size_y, f"{MESH_DIR}/{HFIELD_FILE}")
+    roads: list[list[list[float]]] = [np.round(r, 6).tolist() for r in t.roads]
+    return TruthFile(TRUTH_VERSION, world.seed, [ObjectTruthRow.of(o) for o in t.objects], terrain, roads, t.meta)
 
 
 def export_world(world: World, out_dir: str | Path) -> Path:
@@ -174,19 +190,21 @@ def export_world(world: World, out_dir: str | Path) -> Path:
     mjs.modelfiledir = str(out)
     mjs.compile()  # to_xml needs a compiled spec; this also checks the files load
     write_text(out / "world.xml", mjs.to_xml())
-    write_json(out / "truth.json", truth_to_dict(world))
+    write_record(out / "truth.json", truth_file(world))
     write_text(out / "spec.yaml", dump_yaml(world.spec))
     return out / "world.xml"
 
 
-def _truth_from(doc: dict[str, Any], model: mujoco.MjModel) -> WorldTruth:
-    meta = doc["meta"]
+def _truth_from(doc: TruthFile, model: mujoco.MjModel) -> WorldTruth:
+    meta = doc.meta
+    if meta is None:
+        raise WorldError("truth.json: no meta (the terrain's base and elevation are needed)")
     rows, cols = int(model.hfield_nrow[0]), int(model.hfield_ncol[0])
     data = model.hfield_data[: rows * cols].reshape(rows, cols).astype(np.float64)
-    heights = float(meta["base_z"]) + float(meta["elevation"]) * data
-    terrain = Terrain(size_x=float(doc["terrain"]["size_x"]), size_y=float(doc["terrain"]["size_y"]), heights=heights)
-    objects = [ObjectTruth.from_dict(o) for o in doc["objects"]]
-    roads = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for r in doc["roads"]]
+    heights = float(meta.base_z) + float(meta.elevation) * data
+    terrain = Terrain(size_x=float(doc.terrain.size_x), size_y=float(doc.terrain.size_y), heights=heights)
+    objects = [o.truth() for o in doc.objects]
+    roads = [np.asarray(r, dtype=np.float64).reshape(-1, 2) for r in doc.roads]
     return WorldTruth(objects=objects, terrain=terrain, roads=roads, meta=meta)
 
 
@@ -203,11 +221,9 @@ def load_world(world_dir: str | Path) -> World:
     spec = load_model(WorldSpec, d / "spec.yaml")
     try:
         truth = _truth_from(doc, model)
-        seed = int(doc["seed"])
-    except KeyError as err:
-        raise WorldError(f"{d / 'truth.json'}: corrupt: missing key {err}") from None
-    except (ValueError, TypeError, IndexError, AttributeError) as err:
+    except ValueError as err:
         raise WorldError(f"{d / 'truth.json'}: corrupt: {type(err).__name__}: {err}") from None
+    seed = doc.seed
     meshes = {}
     for m in mjs.meshes:
         if shape_of(m.name) in meshes:
@@ -229,15 +245,13 @@ def _load_xml(path: Path) -> tuple[mujoco.MjModel, mujoco.MjSpec]:
         raise WorldError(f"{path}: MuJoCo cannot load it: {detail}") from None
 
 
-def _load_truth_json(path: Path) -> dict[str, Any]:
+def _load_truth_json(path: Path) -> TruthFile:
+    """``truth.json``; WorldError naming the file (and the field) when it is not this version's."""
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise WorldError(f"{path}: not valid JSON (line {err.lineno}, column {err.colno}: {err.msg})") from None
-    except (OSError, UnicodeDecodeError) as err:
-        raise WorldError(f"{path}: cannot read: {err}") from None
-    if not isinstance(doc, dict):
-        raise WorldError(f"{path}: expected a JSON object, got {type(doc).__name__}")
-    if doc.get("version") != TRUTH_VERSION:
-        raise WorldError(f"{path}: version {doc.get('version')!r}, expected {TRUTH_VERSION}")
-    return doc
+        data = read_json(path)
+        version = data.get("version") if isinstance(data, dict) else None
+        if isinstance(data, dict) and version != TRUTH_VERSION:
+            raise WorldError(f"{path}: version {version!r}, expected {TRUTH_VERSION}")
+        return from_json(TruthFile, data, str(path))
+    except RecordError as err:
+        raise WorldError(str(err)) from None

@@ -43,40 +43,84 @@ class ObjectTruth:
     obb_extents: NDArray[np.float64]
     radius: float
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly dict (lists, rounded to 1e-6 so bytes are stable)."""
-        r = lambda a: np.round(np.asarray(a, dtype=np.float64), 6).tolist()  # noqa: E731
-        return {
-            "id": int(self.id),
-            "family": self.family,
-            "T_world_obj": r(self.T_world_obj),
-            "extents": r(self.extents),
-            "volume": round(float(self.volume), 6),
-            "centroid": r(self.centroid),
-            "geom_ids": [int(g) for g in self.geom_ids],
-            "mesh_names": list(self.mesh_names),
-            "obb_T_world": r(self.obb_T_world),
-            "obb_extents": r(self.obb_extents),
-            "radius": round(float(self.radius), 6),
-        }
+
+def _rounded(a: NDArray[np.float64] | list[float], decimals: int = 6) -> list[Any]:
+    rounded: list[Any] = np.round(np.asarray(a, dtype=np.float64), decimals).tolist()
+    return rounded
+
+
+@dataclass(frozen=True)
+class ObjectTruthRow:
+    """An ``ObjectTruth`` as ``truth.json`` holds it (lists, rounded to 1e-6 so the bytes are stable)."""
+
+    id: int
+    family: str
+    T_world_obj: list[list[float]]
+    extents: list[float]
+    volume: float
+    centroid: list[float]
+    geom_ids: list[int]
+    mesh_names: list[str]
+    obb_T_world: list[list[float]]
+    obb_extents: list[float]
+    radius: float
 
     @classmethod
-    def from_dict(cls, d: dict[str, Any]) -> "ObjectTruth":
-        """Inverse of ``to_dict``."""
-        a = lambda k: np.asarray(d[k], dtype=np.float64)  # noqa: E731
+    def of(cls, o: ObjectTruth) -> ObjectTruthRow:
+        """The row of ``o``."""
         return cls(
-            id=int(d["id"]),
-            family=str(d["family"]),
-            T_world_obj=a("T_world_obj"),
-            extents=a("extents"),
-            volume=float(d["volume"]),
-            centroid=a("centroid"),
-            geom_ids=[int(g) for g in d["geom_ids"]],
-            mesh_names=list(d["mesh_names"]),
-            obb_T_world=a("obb_T_world"),
-            obb_extents=a("obb_extents"),
-            radius=float(d["radius"]),
+            int(o.id),
+            o.family,
+            _rounded(o.T_world_obj),
+            _rounded(o.extents),
+            round(float(o.volume), 6),
+            _rounded(o.centroid),
+            [int(g) for g in o.geom_ids],
+            list(o.mesh_names),
+            _rounded(o.obb_T_world),
+            _rounded(o.obb_extents),
+            round(float(o.radius), 6),
         )
+
+    def truth(self) -> ObjectTruth:
+        """Inverse of ``of``."""
+        a = lambda v: np.asarray(v, dtype=np.float64)  # noqa: E731
+        return ObjectTruth(
+            self.id,
+            self.family,
+            a(self.T_world_obj),
+            a(self.extents),
+            float(self.volume),
+            a(self.centroid),
+            list(self.geom_ids),
+            list(self.mesh_names),
+            a(self.obb_T_world),
+            a(self.obb_extents),
+            float(self.radius),
+        )
+
+
+@dataclass(frozen=True)
+class SunMeta:
+    """The sun a world was lit by (degrees)."""
+
+    azimuth_deg: float
+    elevation_deg: float
+
+
+@dataclass(frozen=True)
+class WorldMeta:
+    """How a world was made: its spec's name, seed, terrain base and elevation, effective knobs
+    (class diversity, size variation, layout regularity), objects placed and requested per
+    family, and its sun."""
+
+    name: str
+    seed: int
+    base_z: float
+    elevation: float
+    knobs: tuple[float, float, float]
+    placed_requested: dict[str, tuple[int, int]]
+    sun: SunMeta
 
 
 @dataclass
@@ -134,7 +178,7 @@ class WorldTruth:
     objects: list[ObjectTruth]
     terrain: Terrain
     roads: list[NDArray[np.float64]] = field(default_factory=list)  # each (K, 2) polyline
-    meta: dict[str, Any] = field(default_factory=dict)
+    meta: WorldMeta | None = None
 
     def families(self) -> list[str]:
         """Distinct families present, sorted."""

@@ -88,8 +88,8 @@ def test_gated_run_aligns_only_kept_pairs_and_counts_the_rest_as_misses(smoke_ru
     pairs = enumerate_pairs(subs, ec.intra_min_gap, ec.max_pair_dist_m, ec.relevant_dist_m)
     keep, _ = gate_pairs(pairs, sc.gating)
     assert 0 < sum(keep) < len(pairs)
-    assert res.timings["evaluation"]["pairs"]["candidates"] == len(pairs)
-    assert res.timings["evaluation"]["pairs"]["aligned"] == sum(keep)
+    figures = res.timings.stages["evaluation"].pairs
+    assert figures is not None and (figures.candidates, figures.aligned) == (len(pairs), sum(keep))
     rows = list(csv.DictReader((run_dir / "pairs.csv").open()))
     gated = {(r["a"], r["b"]) for r in rows if r["reason"] == GATED_REASON}
     assert gated == {(a.name, b.name) for (a, b), k in zip(pairs, keep) if not k}

@@ -120,7 +120,7 @@ def test_any_exception_in_a_cell_is_that_cells_failure(tmp_path: Path, monkeypat
     table = run_sweep(cfg, Path("smoke"), tmp_path)
     failed = sweep_failures(table)
     assert len(calls) == 2
-    assert [(r["seed"], r["status"], r["error"]) for r in failed] == [
+    assert [(r.seed, r.status, r.error) for r in failed] == [
         ("0", "failed", "RecursionError: maximum recursion depth exceeded"),
         ("1", "failed", "ZeroDivisionError: division by zero"),
     ]

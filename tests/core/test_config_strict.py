@@ -11,7 +11,15 @@ import math
 import pytest
 from pydantic import Field
 
-from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, parse_yaml, read_yaml, validate_model
+from roman_sim.core.config import (
+    FiniteTree,
+    StrictModel,
+    apply_overrides,
+    override_model,
+    parse_yaml,
+    read_yaml,
+    validate_model,
+)
 from roman_sim.core.errors import ConfigError
 from roman_sim.pipeline.scenario import load_scenario
 
@@ -149,6 +157,14 @@ def test_overrides_keep_working_for_valid_paths() -> None:
         "robots": [{"a": 1}, {"a": 3}],
         "m": {"n": {"o": [1, 2]}},
     }
+
+
+def test_a_model_with_overrides_is_validated_again() -> None:
+    tree = Tree(leaves=[Leaf(x=2.0)])
+    got = override_model(tree, ["leaves.0.x=5", "maybe=0.5"], "tree.yaml")
+    assert got == Tree(leaves=[Leaf(x=5.0)], maybe=0.5) and tree.leaves[0].x == 2.0  # a new model
+    with pytest.raises(ConfigError, match=r"^tree.yaml: leaves.0.x: "):
+        override_model(tree, ["leaves.0.x=wide"], "tree.yaml")
 
 
 def test_a_directory_is_reported_as_a_directory(tmp_path) -> None:

@@ -3,17 +3,36 @@ that does not match fails with one line naming the file and the field."""
 
 from __future__ import annotations
 
+import ast
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, TypedDict
 
+import numpy as np
 import pytest
 from committed_results import STANDARD
 
+import roman_sim
+from roman_sim.core.config import StrictModel
 from roman_sim.core.errors import StorageError
 from roman_sim.core.jsontypes import JSONLike
-from roman_sim.core.records import OMIT_NONE, RecordError, from_json, read_record, to_json, write_record
+from roman_sim.core.records import (
+    INLINE,
+    NONE_AS_EMPTY,
+    OMIT_EMPTY,
+    OMIT_NONE,
+    RecordError,
+    dumps_record,
+    from_json,
+    json_key,
+    loads_record,
+    read_record,
+    to_json,
+    via,
+    write_record,
+)
 
 
 @dataclass(frozen=True)
@@ -147,3 +166,142 @@ def test_a_typed_dict_is_checked_key_by_key_and_read_back_as_a_dict() -> None:
         from_json(_Table, {"rows": [{"name": "a", "value": 1.0}]}, "t.json")
     with pytest.raises(RecordError, match=r"^t.json: field other: unknown \(valid: rows, note\)$"):
         from_json(_Table, {"other": 1}, "t.json")
+
+
+@dataclass
+class _Counts:
+    hits: int
+    relevant: int
+
+
+@dataclass
+class _Curve:
+    """An older file's layout: the counts at the top level, then the pair sets as keys of their own."""
+
+    label: str = field(metadata=json_key("curve-label"))
+    counts: _Counts = field(metadata=INLINE)
+    recall: np.ndarray = field(
+        metadata=via(
+            list[float | None],
+            lambda a: [None if math.isnan(x) else x for x in a.tolist()],
+            lambda v: np.array([math.nan if x is None else x for x in v]),
+        )
+    )
+    sets: dict[str, _Counts] = field(default_factory=dict, metadata=INLINE)
+    points: dict[str, int] = field(default_factory=dict, metadata=OMIT_EMPTY)
+    extra: _Counts | None = field(default=None, metadata=NONE_AS_EMPTY)
+
+
+class _Settings(StrictModel):
+    k_max: int = 30
+
+
+@dataclass
+class _Run:
+    settings: _Settings
+
+
+def test_inline_fields_sit_at_their_parents_level_and_read_back() -> None:
+    curve = _Curve("a", _Counts(3, 4), np.array([0.5, math.nan]), {"inter": _Counts(1, 2)})
+    data = to_json(curve)
+    expected = {
+        "curve-label": "a",
+        "hits": 3,
+        "relevant": 4,
+        "recall": [0.5, None],
+        "inter": {"hits": 1, "relevant": 2},
+    }
+    assert data == {**expected, "extra": {}}  # no points (empty: left out), no extra (None: {})
+    back = from_json(_Curve, json.loads(json.dumps(data)), "c.json")
+    assert back.counts == curve.counts and back.sets == curve.sets and back.extra is None and back.points == {}
+    assert back.recall[0] == 0.5 and math.isnan(back.recall[1])
+    assert dumps_record(back) == dumps_record(curve)
+    assert loads_record(dumps_record(curve), _Curve, "c.npz").label == "a"
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (lambda d: d.pop("hits"), "field hits: missing"),
+        (lambda d: d.pop("curve-label"), "field curve-label: missing"),
+        (lambda d: d["inter"].update(hits="x"), "field inter.hits: expected an integer"),
+        (lambda d: d.update(recall=[0.5, "x"]), "field recall[1]: expected a number, got a string"),
+        (lambda d: d.update(extra={"hits": 1}), "field extra.relevant: missing"),
+    ],
+)
+def test_an_inline_or_converted_field_names_its_path(edit, message: str) -> None:
+    data = json.loads(json.dumps(to_json(_Curve("a", _Counts(3, 4), np.zeros(2), {"inter": _Counts(1, 2)}))))
+    edit(data)
+    with pytest.raises(RecordError) as e:
+        from_json(_Curve, data, "c.json")
+    assert str(e.value).startswith(f"c.json: {message}"), str(e.value)
+
+
+def test_an_inline_dataclass_alone_leaves_no_key_unclaimed() -> None:
+    @dataclass
+    class Flat:
+        counts: _Counts = field(metadata=INLINE)
+
+    with pytest.raises(RecordError, match=r"^f.json: field other: unknown \(valid: hits, relevant\)$"):
+        from_json(Flat, {"hits": 1, "relevant": 2, "other": 3}, "f.json")
+
+
+def test_a_pydantic_model_is_its_json_dump_and_its_errors_name_the_field() -> None:
+    assert to_json(_Run(_Settings(k_max=5))) == {"settings": {"k_max": 5}}
+    assert from_json(_Run, {"settings": {"k_max": 5}}, "m.json") == _Run(_Settings(k_max=5))
+    with pytest.raises(RecordError, match=r"^m.json: field settings.k_max: ") as e:
+        from_json(_Run, {"settings": {"k_max": "many"}}, "m.json")
+    assert "\n" not in str(e.value)
+    with pytest.raises(RecordError, match=r"^m.json: field settings.other: unknown key"):
+        from_json(_Run, {"settings": {"other": 1}}, "m.json")
+
+
+def test_a_document_inside_a_file_names_the_file() -> None:
+    with pytest.raises(RecordError, match=r"^x.npz: not valid JSON"):
+        loads_record(b"{", _Counts, "x.npz")
+    with pytest.raises(RecordError, match=r"^x.npz: not a JSON document \(not UTF-8"):
+        loads_record(b"\xff", _Counts, "x.npz")
+
+
+#: The modules that may parse JSON themselves: the records mechanism, and the independent scorer
+#: (which must not share code with what it checks).
+JSON_PARSERS = {"roman_sim/core/records.py", "roman_sim/studies/independent_scorer.py"}
+_PARSE = {"load", "loads", "JSONDecoder", "raw_decode"}
+
+
+def _json_parses(tree: ast.AST) -> list[int]:
+    """Lines of ``tree`` that parse JSON with the standard library (``json.load``, ``json.loads``, a
+    decoder), whatever name ``json`` or its functions are imported under."""
+    modules, functions = set(), set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            modules |= {a.asname or a.name for a in node.names if a.name == "json"}
+        elif isinstance(node, ast.ImportFrom) and node.module == "json":
+            functions |= {a.asname or a.name for a in node.names if a.name in _PARSE}
+    lines = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and node.attr in _PARSE:
+            if isinstance(node.value, ast.Name) and node.value.id in modules:
+                lines.append(node.lineno)
+        elif isinstance(node, ast.Name) and node.id in functions:
+            lines.append(node.lineno)
+    return lines
+
+
+def test_only_the_records_module_parses_json() -> None:
+    """Every JSON document the package reads goes through ``roman_sim.core.records`` (checked fields,
+    one line naming the file and the field); no other module calls ``json.load`` / ``json.loads``."""
+    root = Path(roman_sim.__file__).parent
+    found = {
+        f"{p.relative_to(root.parent).as_posix()}:{line}"
+        for p in sorted(root.rglob("*.py"))
+        if p.relative_to(root.parent).as_posix() not in JSON_PARSERS
+        for line in _json_parses(ast.parse(p.read_text(encoding="utf-8")))
+    }
+    assert not found, "JSON parsed outside roman_sim.core.records: " + ", ".join(sorted(found))
+    assert _json_parses(ast.parse((root / "core" / "records.py").read_text(encoding="utf-8")))
+
+
+def test_the_json_rule_sees_every_spelling() -> None:
+    source = "import json as j\nfrom json import loads as parse\nj.load(f)\nparse(s)\nx = json.loads\nj.dumps(v)\n"
+    assert sorted(_json_parses(ast.parse(source))) == [3, 4]  # json itself is not imported: line 5 is another name

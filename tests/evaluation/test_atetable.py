@@ -10,7 +10,7 @@ import pytest
 
 from roman_sim.core.errors import EvaluationError, StorageError
 from roman_sim.core.trajectory import Trajectory
-from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table
+from roman_sim.evaluation.atetable import AteTable, TrajectoryVariant, ate_table, read_ate, write_ate
 
 V = np.array([0.0, 0.0, 0.8])  # offset of |v| = 0.8 m
 
@@ -74,13 +74,14 @@ def test_per_robot_fit_removes_each_offset(table):
     assert table.rmse("odometry", robot="r2") == pytest.approx(0.0, abs=1e-9)
 
 
-def test_json_round_trip_keeps_the_row_order(table):
-    text = json.dumps(table.to_json(), sort_keys=True)
-    back = AteTable.from_json(json.loads(text))
-    assert list(back.variants) == ["odometry", "odometry_no_prior", "graph"]
-    assert back.to_json() == table.to_json()
+def test_json_round_trip_keeps_the_row_order(table, tmp_path):
+    write_ate(tmp_path / "ate.json", table, [])
+    back, notes = read_ate(tmp_path / "ate.json")
+    assert list(back.variants) == ["odometry", "odometry_no_prior", "graph"] and notes == []
+    assert back == table
+    (tmp_path / "old.json").write_text(json.dumps({"schema": "roman_sim.ate/1", "variants": {}}))
     with pytest.raises(StorageError, match="schema"):
-        AteTable.from_json({"schema": "roman_sim.ate/1", "variants": {}})
+        read_ate(tmp_path / "old.json")
 
 
 def test_bad_tables_are_clear_errors(table):

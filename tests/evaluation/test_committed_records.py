@@ -22,6 +22,7 @@ from roman_sim.benchmark.board_records import read_leaderboard, write_leaderboar
 from roman_sim.benchmark.cells import BENCHMARK_SCHEMA, BenchmarkRecord, CellStatus, PlanRecord
 from roman_sim.core.records import RecordError, read_record, write_record
 from roman_sim.evaluation.atetable import read_ate, write_ate
+from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.evaluation.records import (
     read_alignments,
     read_map_stats,
@@ -81,16 +82,19 @@ REWRITE: dict[str, Callable[[Path, Path], object]] = {
     "cell.json": lambda src, dest: write_record(dest, read_record(src, CellStatus)),
     "runtimes.json": lambda src, dest: write_record(dest, read_runtimes(src)),
     "summary.json": lambda src, dest: write_record(dest, read_reference(src)),
+    "frontend.json": lambda src, dest: write_record(dest, read_record(src, FrontEndGrades)),
 }
 
 FILES = [p for p in committed_files("*.json*") if p.name in REWRITE]
+#: Kinds that live inside other committed files (the front-end grades: ``metrics.json``'s ``frontend``).
+NESTED = {"frontend.json"}
 #: The typed files every run folder holds at its top level.
 TYPED_RUN_FILES = ("metrics.json", "ate.json", "map_stats.json", "timings.json", "posegraph.json", "manifest.json")
 
 
 def test_every_typed_kind_has_committed_files() -> None:
     kinds = {p.name for p in FILES}
-    assert kinds == set(REWRITE)
+    assert kinds == set(REWRITE) - NESTED
     assert sum(p.name == "ate.json" for p in FILES) >= 20
 
 
@@ -109,11 +113,29 @@ def test_a_fresh_run_writes_its_files_as_the_records_writers_do(smoke_run, tmp_p
     """
     run_dir = smoke_run.run_dir
     # alignments.json is committed gzipped; its writer is the same
-    kinds = {name: REWRITE.get(name) or REWRITE[name + ".gz"] for name in [*TYPED_RUN_FILES, "alignments.json"]}
-    for name, rewrite in kinds.items():
-        out = tmp_path / name
+    names = [*TYPED_RUN_FILES, "alignments.json", "maps/frontend.json"]
+    assert (run_dir / "maps" / "frontend.json").is_file()  # the smoke run grades its front end
+    for name in names:
+        rewrite = REWRITE.get(Path(name).name) or REWRITE[name + ".gz"]
+        out = tmp_path / Path(name).name
         rewrite(run_dir / name, out)
         assert out.read_bytes() == (run_dir / name).read_bytes(), name
+
+
+METRICS = [p for p in FILES if p.name == "metrics.json"]
+
+
+@pytest.mark.parametrize("path", METRICS, ids=lambda p: str(p.relative_to(RESULTS)))
+def test_committed_front_end_grades_read_and_write_back_as_their_own_file(path: Path, tmp_path: Path) -> None:
+    """The ``frontend`` section of a committed ``metrics.json``, as ``maps/frontend.json`` holds it:
+    the grades record (counts read, rates recomputed) writes the same bytes."""
+    section = json.loads(path.read_text(encoding="utf-8")).get("frontend")
+    if section is None:
+        pytest.skip("this run graded no front end")
+    src = tmp_path / "in.json"
+    src.write_text(json.dumps(section, indent=2, sort_keys=True) + "\n", encoding="utf-8")
+    REWRITE["frontend.json"](src, tmp_path / "frontend.json")
+    assert (tmp_path / "frontend.json").read_bytes() == src.read_bytes()
 
 
 @pytest.mark.parametrize(
@@ -123,6 +145,28 @@ def test_a_fresh_run_writes_its_files_as_the_records_writers_do(smoke_run, tmp_p
         ("map_stats.json", lambda d: d.update(submaps="many"), "field submaps: expected an integer"),
         ("timings.json", lambda d: d["stages"]["maps"].pop("reused"), "field stages.maps.reused: missing"),
         ("posegraph.json", lambda d: d["roman"].update(inliers=None), "field roman.inliers: expected an integer"),
+        ("metrics.json", lambda d: d["config"].update(k_max="many"), "field config.k_max: "),
+        ("metrics.json", lambda d: d["pairs"]["inter"].pop("n_relevant"), "field pairs.inter.n_relevant: missing"),
+        (
+            "metrics.json",
+            lambda d: d["methods"]["roman"]["inter"]["heading_bins"][1].update(max_hits=2.5),
+            "field methods.roman.inter.heading_bins[1].max_hits: expected an integer, got a number (2.5)",
+        ),
+        (
+            "metrics.json",
+            lambda d: d["methods"]["roman"]["inter"]["pr_curve"]["recall"].append("x"),
+            "field methods.roman.inter.pr_curve.recall[31]: expected a number, got a string",
+        ),
+        (
+            "metrics.json",
+            lambda d: d["frontend"]["segmentation"].update(frames=None),
+            "field frontend.segmentation.frames: expected an integer, got null",
+        ),
+        (
+            "metrics.json",
+            lambda d: d["revisits"]["all"].update(median_overlap="most"),
+            "field revisits.all.median_overlap: expected a number, got a string ('most')",
+        ),
     ],
 )
 def test_a_damaged_run_file_names_the_file_and_field(
@@ -156,6 +200,16 @@ def test_a_stage_taken_from_the_shared_cache_has_no_time(tmp_path: Path) -> None
             "field claims[0].holds: expected a boolean, got a string ('yes')",
         ),
         (lambda d: d["revisits"][0].update(seen=1), "field revisits[0].seen: unknown (valid: scenario, n_relevant,"),
+        (
+            lambda d: d["runs"]["same_direction"].update(map={"robots": 2}),
+            "field runs.same_direction.map.segments: missing",
+        ),
+        (
+            lambda d: d["operating_points"][0]["recall"]["points"].update(best={}),
+            "field operating_points[0].recall.points.best: unknown key (valid: max_recall,",
+        ),
+        (lambda d: d["claims"][0].pop("id"), "field claims[0].id: missing"),
+        (lambda d: d["comparison"][0].pop("cross-robot"), "field comparison[0].cross-robot: missing"),
     ],
 )
 def test_a_damaged_reference_summary_names_the_file_and_field(

@@ -1,13 +1,16 @@
 """Front-end grades on hand-built frames: every count and cosine is known in advance."""
 
+import json
+
 import numpy as np
 import pytest
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import R_FLU_RDF, make_T
+from roman_sim.core.records import RecordError, from_json, read_record, to_json, write_record
 from roman_sim.core.sensors import Frame, FrameTruth, Intrinsics
 from roman_sim.evaluation.grader import FrontEndGrader
-from roman_sim.evaluation.grades import FrontEndGrades, GradeConfig
+from roman_sim.evaluation.grades import FrontEndGrades, GradeConfig, RangeFigures
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.mask_filter import MaskFilterConfig, masks_from_labels
 from roman_sim.report.grades import frontend_report_lines, plot_frontend_grades
@@ -56,8 +59,8 @@ def test_perfect_masks_score_one():
     assert (s.objects, s.masks, s.matched, s.spurious, s.over_segmented, s.under_segmented) == (3, 3, 3, 0, 0, 0)
     assert s.precision == s.recall == 1.0 and s.mean_iou == pytest.approx(1.0)
     rows = s.by_distance()
-    assert [r["objects"] for r in rows] == [0, 1, 1, 1]  # 3 m, 6 m, and no valid depth (open last bin)
-    assert [r["missed"] for r in rows] == [0, 0, 0, 0]
+    assert [r.objects for r in rows] == [0, 1, 1, 1]  # 3 m, 6 m, and no valid depth (open last bin)
+    assert [r.missed for r in rows] == [0, 0, 0, 0]
     assert sum(map(sum, s.table_objects)) == 3
 
 
@@ -78,16 +81,16 @@ def test_errors_are_counted():
     # Within the mapper's 7.5 m: objects 0 (3 m) and 1 (6 m); object 2 (no valid depth) is far.
     # Every mask lies within range (the merged one at the 6 m of its valid pixels, the sky at 5 m).
     assert s.recall == pytest.approx(1 / 2) and s.precision == 0.25 and s.mean_iou == pytest.approx(680 / 1156)
-    assert s.far() == {"objects": 1, "masks": 0, "precision": None, "recall": 0.0, "mean_iou": None}
+    assert s.far() == RangeFigures(objects=1, masks=0, precision=None, recall=0.0, mean_iou=None)
     rows = s.by_distance()
-    assert [r["masks"] for r in rows] == [0, 2, 2, 0] and [r["in_range"] for r in rows] == [True] * 3 + [False]
-    assert rows[1]["precision"] == 0.5 and rows[1]["recall"] == 1.0 and rows[2]["recall"] == 0.0
+    assert [r.masks for r in rows] == [0, 2, 2, 0] and [r.in_range for r in rows] == [True] * 3 + [False]
+    assert rows[1].precision == 0.5 and rows[1].recall == 1.0 and rows[2].recall == 0.0
     # The touching pair: objects 1 and 2 lie apart in the image, so none.
     assert s.touching_pairs == 0
     # No mask at all: every object missed, in its distance bin.
     g2 = FrontEndGrader({}, cfg=CFG)
     g2.add(frame(ids, depth), [], [])
-    assert [r["missed"] for r in g2.seg.by_distance()] == [0, 1, 1, 1] and g2.seg.precision is None
+    assert [r.missed for r in g2.seg.by_distance()] == [0, 1, 1, 1] and g2.seg.precision is None
 
 
 def test_objects_outside_romans_window_are_not_graded():
@@ -152,14 +155,19 @@ def test_json_round_trip_plot_and_bad_input(tmp_path):
     for k in range(2):
         g.add(frame(ids, depth, k), masks, [(0, np.float32([1, 0])), (1, np.float32([0.6, 0.8]))])
     res = g.result("perfect", "simulated")
-    back = FrontEndGrades.from_json(res.to_json())
-    assert back.to_json() == res.to_json()
-    assert res.to_json()["segmentation"]["recall"] == 1.0
+    write_record(tmp_path / "frontend.json", res)
+    back = read_record(tmp_path / "frontend.json", FrontEndGrades)
+    assert to_json(back) == to_json(res) and back.segmentation == res.segmentation
+    assert json.loads((tmp_path / "frontend.json").read_text())["segmentation"]["recall"] == 1.0  # rates written
     png = plot_frontend_grades(res, tmp_path / "plots" / "frontend.png")
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert plot_frontend_grades(res, tmp_path / "again.png").read_bytes() == png.read_bytes()
     with pytest.raises(EvaluationError, match="no ground truth"):
         g.add(frame(ids, depth).public(), masks, [])
-    with pytest.raises(EvaluationError, match="malformed"):
-        FrontEndGrades.from_json({"segmenter": "x"})
+    with pytest.raises(RecordError, match=r"^grades: field encoder: missing$"):
+        from_json(FrontEndGrades, {"segmenter": "x"}, "grades")
+    damaged = json.loads((tmp_path / "frontend.json").read_text())
+    damaged["segmentation"]["table_objects"] = "many"
+    with pytest.raises(RecordError, match=r"^grades: field segmentation.table_objects: expected a list"):
+        from_json(FrontEndGrades, damaged, "grades")
     assert FrontEndGrader({}).descriptor_grades() is None

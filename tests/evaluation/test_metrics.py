@@ -11,6 +11,7 @@ import pytest
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError, EvaluationError
 from roman_sim.core.geometry import make_T, pose_4dof, rot_x
+from roman_sim.core.records import to_json
 from roman_sim.evaluation.bins import bin_index, fine_edges, runtime_stats
 from roman_sim.evaluation.metrics import EvalConfig, auc, compute_metrics, pr_curve, score_pair
 
@@ -37,7 +38,7 @@ def test_pr_curve_hand_counts(six):
 
 
 def test_summary_headlines_over_full_sweep(six):
-    s = compute_metrics(six).to_json()["methods"]["m"]["inter"]
+    s = to_json(compute_metrics(six))["methods"]["m"]["inter"]
     assert s["n_pairs"] == 6 and s["n_relevant"] == 4
     assert s["max_recall"] == pytest.approx(0.5) and s["max_hits"] == 2
     assert s["recall_at_precision_1"] == pytest.approx(0.25)
@@ -50,26 +51,26 @@ def test_summary_headlines_over_full_sweep(six):
 
 def test_recall_at_precision_one_is_zero_when_never_reached(make_score):
     scores = [make_score("0", True, 5, True), make_score("1", False, 5, False)]
-    s = compute_metrics(scores).to_json()["methods"]["m"]["inter"]
+    s = to_json(compute_metrics(scores))["methods"]["m"]["inter"]
     assert s["recall_at_precision_1"] == 0.0 and s["max_recall"] == 1.0
 
 
 def test_undefined_metrics_are_none_not_zero(make_score):
     scores = [make_score("0", False, 5, False), make_score("1", False, 0, False)]
-    out = compute_metrics(scores).to_json()
+    out = to_json(compute_metrics(scores))
     s = out["methods"]["m"]["inter"]
     for key in ("max_recall", "recall_at_precision_1", "auc", "best_f1"):
         assert s[key] is None, key
     assert any("no relevant cross-robot pairs" in n for n in out["notes"])
     assert all(v is None for v in s["pr_curve"]["recall"])
-    empty = compute_metrics([]).to_json()
+    empty = to_json(compute_metrics([]))
     assert empty["methods"] == {} and empty["notes"]
 
 
 def test_heading_bins_at_boundaries(make_score):
     heads = [0.0, 59.999, 60.0, 120.0, 180.0, 90.0]
     scores = [make_score(str(i), True, 5, i % 2 == 0, heading=h) for i, h in enumerate(heads)]
-    s = compute_metrics(scores).to_json()["methods"]["m"]["inter"]
+    s = to_json(compute_metrics(scores))["methods"]["m"]["inter"]
     coarse = {b["label"]: (b["n_pairs"], b["max_recall"]) for b in s["heading_bins"]}
     # 0, 59.999 -> 0-60; 60, 90 -> 60-120; 120, 180 -> 120-180
     assert coarse == {"0-60": (2, 0.5), "60-120": (2, 0.5), "120-180": (2, 0.5)}
@@ -85,7 +86,7 @@ def test_ambiguity_bins_skip_unknown_and_empty_bins_are_none(make_score):
         make_score("1", True, 5, False, ambiguity=1.0),
         make_score("2", True, 5, True),
     ]
-    s = compute_metrics(scores).to_json()["methods"]["m"]["inter"]
+    s = to_json(compute_metrics(scores))["methods"]["m"]["inter"]
     bins = s["ambiguity_bins"]
     assert [b["n_pairs"] for b in bins] == [1, 0, 0, 1]
     assert bins[0]["max_recall"] == 1.0 and bins[3]["max_recall"] == 0.0
@@ -103,8 +104,8 @@ def test_summary_holds_no_wall_clock(make_score):
     """Runtimes differ between runs of one seed: they are not part of the metrics."""
     a = [make_score(str(i), True, 5, True, runtime=r) for i, r in enumerate([1, 2, 3])]
     b = [make_score(str(i), True, 5, True, runtime=r) for i, r in enumerate([7, 8, 9])]
-    assert compute_metrics(a).to_json() == compute_metrics(b).to_json()
-    assert "runtime" not in json.dumps(compute_metrics(a).to_json())
+    assert to_json(compute_metrics(a)) == to_json(compute_metrics(b))
+    assert "runtime" not in json.dumps(to_json(compute_metrics(a)))
 
 
 def test_score_pair_tolerances(make_truth, result_for):
@@ -143,7 +144,7 @@ def test_summary_counts_distinct_pairs_across_methods(make_score):
         make_score("0", True, 5, True, method="y"),
         make_score("1", False, 5, False, method="y"),
     ]
-    out = compute_metrics(scores).to_json()
+    out = to_json(compute_metrics(scores))
     assert (out["n_pairs"], out["n_relevant"]) == (2, 1)
     only_irrelevant = compute_metrics(
         [make_score("0", True, 5, True, method="x"), make_score("1", False, 5, False, method="y")]

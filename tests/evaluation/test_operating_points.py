@@ -7,6 +7,7 @@ import math
 
 import pytest
 
+from roman_sim.core.records import from_json, to_json
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES, strip_absent_points
@@ -90,13 +91,13 @@ def test_heading_bins_get_their_own_points(six):
 
 def test_json_round_trip_and_older_files(six, tmp_path):
     m = compute_metrics(six, acceptance_k=4)
-    d = json.loads(json.dumps(m.to_json()))
+    d = json.loads(json.dumps(to_json(m)))
     assert d["acceptance_k"] == 4 and list(d["methods"]["m"]["inter"]["operating_points"]) == list(POINT_NAMES)
-    assert EvaluationMetrics.from_json(d).to_json() == d
+    assert to_json(from_json(EvaluationMetrics, d, "test")) == d
     old = json.loads(json.dumps(d))  # a file written before the operating points existed
     strip_absent_points({}, old)
     assert "acceptance_k" not in old and "operating_points" not in json.dumps(old)
-    back = EvaluationMetrics.from_json(old)
+    back = from_json(EvaluationMetrics, old, "test")
     assert back.acceptance_k is None and back.stats("m").operating_points == {}
     assert operating_point_rows(back, "inter")[0]["max recall"] == "n/a"
     assert not strip_absent_points(d, json.loads(json.dumps(d)))  # a current file is compared whole

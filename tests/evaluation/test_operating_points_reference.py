@@ -21,6 +21,7 @@ import pytest
 import yaml
 from committed_results import REFERENCE
 
+from roman_sim.core.records import to_json
 from roman_sim.report.recompute import recompute_metrics
 
 RUN = REFERENCE / "opposite_direction"
@@ -85,7 +86,7 @@ def _package_points() -> dict:
     if "acceptance_k" in stored:
         return stored
     metrics, _ = recompute_metrics(RUN, "pairs.csv.gz")
-    return json.loads(json.dumps(metrics.to_json()))
+    return json.loads(json.dumps(to_json(metrics)))
 
 
 def test_operating_points_follow_from_the_pairs_table():

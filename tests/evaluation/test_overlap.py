@@ -5,9 +5,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from roman_sim.core.records import from_json, to_json
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.overlap import (
+    PairCounts,
+    RevisitFigures,
     counts_by_pair,
     overlap_graph,
     relevant_counts,
@@ -42,17 +45,17 @@ def test_overlap_graph_components():
 def test_robot_pair_counts_and_metrics_round_trip(make_score):
     pairs = [("b", "a", True), ("a", "b", False), ("a", "a", True), ("a", "c", True)]
     counts = robot_pair_counts(pairs)
-    assert counts == {"a|b": {"n_pairs": 2, "n_relevant": 1}, "a|c": {"n_pairs": 1, "n_relevant": 1}}
+    assert counts == {"a|b": PairCounts(n_pairs=2, n_relevant=1), "a|c": PairCounts(n_pairs=1, n_relevant=1)}
     assert counts_by_pair(counts) == {("a", "b"): 1, ("a", "c"): 1}
     scores = [make_score(str(i), relevant=i < 3, n_assoc=5, correct=True, method=m) for i in range(5) for m in "xy"]
     scores += [make_score("9", relevant=True, n_assoc=5, correct=True, kind="intra")]
     m = compute_metrics(scores)
-    assert m.robot_pairs == {"a|b": {"n_pairs": 5, "n_relevant": 3}}  # one per pair, not per method
-    again = EvaluationMetrics.from_json(m.to_json())
+    assert m.robot_pairs == {"a|b": PairCounts(n_pairs=5, n_relevant=3)}  # one per pair, not per method
+    again = from_json(EvaluationMetrics, to_json(m), "test")
     assert again.robot_pairs == m.robot_pairs
-    old = m.to_json()
+    old = to_json(m)
     del old["robot_pairs"]
-    assert EvaluationMetrics.from_json(old).robot_pairs is None
+    assert from_json(EvaluationMetrics, old, "test").robot_pairs is None
 
 
 def test_revisit_overlap_from_submap_truth(make_submap):
@@ -86,25 +89,21 @@ def test_revisit_figures_by_hand():
     ]
     got = revisit_figures(pairs)
     assert list(got) == ["all", "a|b", "a|c"]
-    assert got["a|b"] == {"n_relevant": 3, "median_overlap": 0.5, "median_shared_objects": 4.0}
-    assert got["a|c"] == {"n_relevant": 1, "median_overlap": None, "median_shared_objects": 0.0}
+    assert got["a|b"] == RevisitFigures(n_relevant=3, median_overlap=0.5, median_shared_objects=4.0)
+    assert got["a|c"] == RevisitFigures(n_relevant=1, median_overlap=None, median_shared_objects=0.0)
     # all: overlaps 0.5, 1.0, 0.25 (NaN left out) -> 0.5; shared 4, 10, 2, 0 -> 3
-    assert got["all"] == {"n_relevant": 4, "median_overlap": 0.5, "median_shared_objects": 3.0}
+    assert got["all"] == RevisitFigures(n_relevant=4, median_overlap=0.5, median_shared_objects=3.0)
     assert revisit_figures([("a", "a", True, 1.0, 3)]) == {}
-    assert revisit_figures([("a", "b", False, 1.0, 3)])["all"] == {
-        "n_relevant": 0,
-        "median_overlap": None,
-        "median_shared_objects": None,
-    }
+    assert revisit_figures([("a", "b", False, 1.0, 3)])["all"] == RevisitFigures(0, None, None)
 
 
 def test_metrics_record_revisit_figures_once_per_pair(make_score):
     scores = [make_score(str(i), relevant=i < 3, n_assoc=5, correct=True, method=m) for i in range(5) for m in "xy"]
     m = compute_metrics(scores)
     assert m.revisits is not None  # one entry per pair, not per method
-    assert m.revisits["all"] == {"n_relevant": 3, "median_overlap": 0.5, "median_shared_objects": 0.0}
+    assert m.revisits["all"] == RevisitFigures(n_relevant=3, median_overlap=0.5, median_shared_objects=0.0)
     assert list(m.revisits) == ["all", "a|b"]
-    assert EvaluationMetrics.from_json(m.to_json()).revisits == m.revisits
-    old = m.to_json()
+    assert from_json(EvaluationMetrics, to_json(m), "test").revisits == m.revisits
+    old = to_json(m)
     del old["revisits"]
-    assert EvaluationMetrics.from_json(old).revisits is None
+    assert from_json(EvaluationMetrics, old, "test").revisits is None

@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 from roman_sim.core.errors import StorageError
+from roman_sim.core.records import to_json
+from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics, score_pair
 from roman_sim.evaluation.pairs import enumerate_pairs, pair_truth
 from roman_sim.evaluation.results import (
@@ -53,8 +55,9 @@ def test_metrics_round_trip_and_nan_is_null(scores, tmp_path):
     text = paths["metrics"].read_text()
     assert "NaN" not in text and "null" in text
     back_scores, back = read_evaluation(tmp_path)
-    assert back.to_json() == json.loads(json.dumps(m.to_json()))
-    assert compute_metrics(back_scores).to_json() == back.to_json()
+    assert isinstance(back.config, EvalConfig) and back.config == m.config  # the settings, typed
+    assert to_json(back) == json.loads(json.dumps(to_json(m)))
+    assert to_json(compute_metrics(back_scores)) == to_json(back)
 
 
 def test_missing_and_corrupt_files_raise_storage_error(scores, tmp_path):

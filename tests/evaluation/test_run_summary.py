@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from roman_sim.core.errors import StorageError
+from roman_sim.core.records import RecordError, dumps_record, from_json, loads_record, to_json
 from roman_sim.evaluation.metrics import compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES
 from roman_sim.evaluation.run_summary import RecallSummary, RunSummary, SetSummary, summarize_run
@@ -48,10 +48,10 @@ def test_points_are_filled_for_the_set_and_every_bin(six):
 
 def test_points_round_trip_through_json(six):
     run = _run(six, 4)
-    text = json.dumps(run.to_json())
-    again = RunSummary.from_json(json.loads(text))
+    text = dumps_record(run)
+    again = loads_record(text, RunSummary, "run")
     assert again == run
-    assert json.dumps(again.to_json()) == text
+    assert dumps_record(again) == text
     point = json.loads(text)["methods"]["m"]["inter"]["points"]["precision_90"]
     assert set(point) == {
         "k",
@@ -68,7 +68,7 @@ def test_points_round_trip_through_json(six):
 
 
 def test_a_summary_written_before_the_points_still_reads(six):
-    old = _run(six, 4).to_json()
+    old = to_json(_run(six, 4))
 
     def strip(node):
         if isinstance(node, dict):
@@ -77,14 +77,15 @@ def test_a_summary_written_before_the_points_still_reads(six):
                 strip(v)
 
     strip(old)
-    run = RunSummary.from_json(old)
+    run = from_json(RunSummary, old, "run")
     inter = run.methods["m"].inter
     assert inter.points == {} and all(b.points == {} for b in inter.bins.values())
     assert (inter.max_hits, inter.n_relevant) == (2, 4)
     empty = {"max_recall": None, "max_hits": 0, "n_relevant": 0, "recall_ci": None, "few": True}
-    assert RecallSummary.from_json(empty).points == {}
-    bad = _run(six, 4).to_json()
+    assert from_json(RecallSummary, empty, "recall").points == {}
+    bad = to_json(_run(six, 4))
     bad["methods"]["m"]["inter"]["points"]["best"] = bad["methods"]["m"]["inter"]["points"]["max_recall"]
-    with pytest.raises(StorageError, match="unknown operating point"):
-        RunSummary.from_json(bad)
-    assert isinstance(SetSummary.from_json(_run(six, 4).to_json()["methods"]["m"]["intra"]), SetSummary)
+    with pytest.raises(RecordError, match=r"^run: field methods.m.inter.points.best: unknown key \(valid: max_recall,"):
+        from_json(RunSummary, bad, "run")
+    intra = to_json(_run(six, 4))["methods"]["m"]["intra"]
+    assert isinstance(from_json(SetSummary, intra, "set"), SetSummary)

@@ -9,6 +9,7 @@ from roman_sim.core.errors import EvaluationError
 from roman_sim.evaluation.assoc import association_truth, shared_objects, true_correspondences
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics, score_pair
+from roman_sim.evaluation.overlap import PairCounts
 from roman_sim.evaluation.pairs import pair_truth, select_pairs
 
 
@@ -79,11 +80,7 @@ def test_cross_and_same_robot_pairs_are_scored_apart(make_score):
     ]
     m = compute_metrics(scores, EvalConfig(min_relevant=3))
     assert m.headline == "inter"
-    assert m.pairs == {
-        "inter": {"n_pairs": 2, "n_relevant": 2},
-        "intra": {"n_pairs": 3, "n_relevant": 3},
-        "all": {"n_pairs": 5, "n_relevant": 5},
-    }
+    assert m.pairs == {"inter": PairCounts(2, 2), "intra": PairCounts(3, 3), "all": PairCounts(5, 5)}
     inter, intra = (m.stats("m", kind=k) for k in ("inter", "intra"))
     assert (inter.max_hits, inter.n_relevant, inter.few) == (1, 2, True)
     assert (intra.max_hits, intra.n_relevant, intra.few) == (3, 3, False)

@@ -7,16 +7,18 @@ import pytest
 
 from roman_sim.core.errors import EvaluationError
 from roman_sim.core.geometry import inv_T, pose_4dof
+from roman_sim.core.records import RecordError, dumps_record, from_json, loads_record, to_json_object
 from roman_sim.evaluation.atetable import TrajectoryVariant
 from roman_sim.evaluation.metrics import closure_correct
 from roman_sim.evaluation.pairs import PairTruth
 from roman_sim.evaluation.types import AlignmentRecord
 from roman_sim.evaluation.variants import (
     ORACLE_ASSOCIATIONS,
+    VariantRow,
     graph_variants,
     odometry_variants,
-    variant_from_json,
-    variant_json,
+    variant_of_row,
+    variant_row,
 )
 from roman_sim.mapping.types import Submap, SubmapTruth
 
@@ -110,8 +112,10 @@ def test_a_closure_is_correct_within_the_tolerances_of_the_true_pose() -> None:
 def test_a_solved_variant_round_trips_through_json() -> None:
     graph = graph_variants("roman", None, 4, SUBMAPS, ALIGNMENTS, TRUTHS)["roman"]
     solved = TrajectoryVariant(graph.description, graph.fit, graph.source, graph.closures, [0.98, None])
-    name, back = variant_from_json(variant_json("roman", solved))
+    name, back = variant_of_row(loads_record(dumps_record(variant_row("roman", solved)), VariantRow, "v"))
     assert name == "roman" and back.weights == [0.98, None] and _ends(back) == _ends(solved)
-    np.testing.assert_array_equal(back.closures[0].T_a_b, solved.closures[0].T_a_b)
-    with pytest.raises(ValueError, match="fit 'both' unknown"):
-        variant_from_json({**variant_json("roman", solved), "fit": "both"})  # type: ignore[typeddict-item]
+    assert back.closures[0].T_a_b.tobytes() == solved.closures[0].T_a_b.tobytes()  # bit for bit
+    assert type(back.closures[0].submap_a) is int and back.closures[0].source == solved.closures[0].source
+    bad = {**to_json_object(variant_row("roman", solved)), "fit": "both"}
+    with pytest.raises(RecordError, match=r"^v: field fit: expected one of 'joint', 'per_robot', got a string"):
+        from_json(VariantRow, bad, "v")

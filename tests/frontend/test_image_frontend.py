@@ -173,8 +173,8 @@ def test_image_front_end_on_rendered_frames(tiny_rgb_frames):
     for f in tiny_rgb_frames:
         m.process(f)
     g = grader.seg
-    near = [r for r in g.by_distance() if r["to_m"] is not None and r["to_m"] <= 7.5]
-    assert sum(r["objects"] for r in near) == pytest.approx(TINY_NEAR_OBJECTS, abs=1)
+    near = [r for r in g.by_distance() if r.to_m is not None and r.to_m <= 7.5]
+    assert sum(r.objects for r in near) == pytest.approx(TINY_NEAR_OBJECTS, abs=1)
     assert g.matched == pytest.approx(TINY_MATCHED, abs=1)
     assert g.masks == pytest.approx(TINY_MASKS, abs=1)
     assert len(m.finish()) >= 1

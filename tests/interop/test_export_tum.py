@@ -104,11 +104,11 @@ def test_masks_and_object_table(tum_export: Path, direct_frames: dict, tiny_scen
 
     truth = generate(tiny_scenario.world.spec(), tiny_scenario.seed).truth
     rows = read_object_table(tum_export)
-    assert [r["id"] for r in rows] == [o.id for o in truth.objects]
+    assert [r.id for r in rows] == [o.id for o in truth.objects]
     for r, o in zip(rows, truth.objects):
-        assert r["family"] == o.family and r["mask_value"] == o.id + 1
-        np.testing.assert_allclose(r["box"]["center"], o.obb_T_world[:3, 3], atol=1e-9)
-        np.testing.assert_allclose(r["box"]["extents"], o.obb_extents, atol=1e-9)
+        assert r.family == o.family and r.mask_value == o.id + 1
+        np.testing.assert_allclose(r.box.center, o.obb_T_world[:3, 3], atol=1e-9)
+        np.testing.assert_allclose(r.box.extents, o.obb_extents, atol=1e-9)
     csv_lines = (tum_export / "objects.csv").read_text().splitlines()
     assert len(csv_lines) == len(truth.objects) + 1 and csv_lines[0].startswith("id,mask_value,family")
     for robot, frames in direct_frames.items():

@@ -6,14 +6,11 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pytest
 
-from roman_sim.core.config import validate_model
-from roman_sim.core.errors import ConfigError
 from roman_sim.core.sensors import FrameSource
-from roman_sim.interop.tum_reader import TumSequence, read_tum_sequence
+from roman_sim.interop.tum_reader import read_tum_sequence
 from roman_sim.pipeline.scenario import Scenario
-from roman_sim.sim.source import SimulatedRobot, robot_sources
+from roman_sim.sim.source import robot_sources
 
 from .conftest import FRAMES
 
@@ -41,24 +38,3 @@ def test_a_tum_folder_is_the_frame_source_it_was_exported_from(
         np.testing.assert_allclose(np.stack([f.truth.T_world_body for f in frames]), sim.run.T_world_body, atol=1e-6)
         picked = [f.index for f in seq.frames([0, 3])]
         assert picked == [0, 3]
-
-
-def test_scenario_robots_read_from_folders_open_through_the_same_function(
-    tiny_scenario: Scenario, tum_export: Path
-) -> None:
-    data = tiny_scenario.model_dump(mode="json")
-    data["robots"][1] = {"name": "b", "source": {"tum": str(tum_export / "b")}}
-    sc = validate_model(Scenario, data, source="mixed")
-    from roman_sim.world import generate
-
-    world = generate(sc.world.spec(), sc.seed)
-
-    def open_folder(cfg: Any) -> TumSequence:
-        return TumSequence(cfg.source, robot=cfg.name, seed=sc.seed)
-
-    a, b = robot_sources(world, sc.robots, sc.seed, open_recorded=open_folder)
-    assert isinstance(a, SimulatedRobot) and isinstance(b, TumSequence)
-    assert (a.name, len(a), b.name, len(b)) == ("a", FRAMES["a"], "b", FRAMES["b"])
-    assert [s.name for s in robot_sources(None, sc.robots, sc.seed, ["b"], open_recorded=open_folder)] == ["b"]
-    with pytest.raises(ConfigError, match="robot b: read from a recorded sequence"):
-        robot_sources(world, sc.robots, sc.seed)

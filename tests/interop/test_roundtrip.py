@@ -95,7 +95,7 @@ def test_imported_sequence_gives_the_same_segment_map(exported) -> None:
     sc, out = exported
     world, streams = scenario_streams(sc)
     families = {o.id: o.family for o in world.truth.objects}
-    assert {r["id"]: r["family"] for r in read_object_table(out)} == families
+    assert {r.id: r.family for r in read_object_table(out)} == families
     total = 0
     for s in streams:
         direct = _map(sc, families, s.name, s.frames())

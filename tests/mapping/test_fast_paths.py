@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from roman_sim.core.records import to_json
 from roman_sim.frontend.components import build_encoder, build_segmenter
 from roman_sim.mapping import segment as segment_mod
 from roman_sim.mapping import voxels
@@ -130,7 +131,7 @@ def test_front_end_grades_and_masks_match_their_reference_paths(demo_frames, mon
         masks_fast.append(masks)
         fast.add(f, masks, [])  # the segmenter's object table, handed on
         ref.add(f, masks, [])
-    assert fast.seg.to_json() == ref.seg.to_json()
+    assert to_json(fast.seg) == to_json(ref.seg)
     assert fast.seg.matched > 200 and fast.seg.touching_pairs > 50 and fast.seg.under_segmented > 0
 
     with monkeypatch.context() as m:

@@ -10,12 +10,13 @@ from typer.testing import CliRunner
 from roman_sim.cli import app
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.records import read_record, write_record
 from roman_sim.frontend.components import FrontEndConfig
 from roman_sim.frontend.confusion import relation_moments
 from roman_sim.frontend.fit import _features, fit_semantics
 from roman_sim.frontend.segmenter import SegmenterConfig
 from roman_sim.frontend.semantics import SemanticConfig
-from roman_sim.pipeline.calibration import calibrate, render_calibration_frames
+from roman_sim.pipeline.calibration import CalibrationRecord, calibrate, render_calibration_frames
 from roman_sim.pipeline.scenario import load_scenario
 
 TRUE = SemanticConfig(
@@ -169,7 +170,11 @@ def test_calibration_yaml_is_a_frontend_preset(calibrated, tmp_path):
     fe = validate_model(FrontEndConfig, data["frontend"])
     assert fe.segmenter.name == "fastsam" and fe.semantics == calibrated.semantics
     assert data["calibration"]["dim"] == 768 and data["calibration"]["encoder"] == "simulated"
-    assert json.loads(json.dumps(calibrated.to_json()))["frontend"]["segmenter"]["name"] == "fastsam"
+    write_record(tmp_path / "grades.json", calibrated.record())
+    back = read_record(tmp_path / "grades.json", CalibrationRecord)
+    assert back.frontend.segmenter is not None and back.frontend.segmenter.name == "fastsam"
+    assert back.measured_segmentation == calibrated.measured_segmentation and back.frontend.semantics == fe.semantics
+    assert json.loads((tmp_path / "grades.json").read_text())["measured_segmentation"]["recall"] is not None
     path = tmp_path / "cal.yaml"
     path.write_text(calibrated.frontend_yaml())
     fe = validate_model(FrontEndConfig, {"preset": str(path), "segmenter": {"params": {"miss_prob": 0.5}}})

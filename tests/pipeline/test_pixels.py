@@ -6,6 +6,7 @@ import numpy as np
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
+from roman_sim.core.records import to_json
 from roman_sim.frontend import image_encoder, image_segmenter, segmenter, semantics
 from roman_sim.frontend.confusion import relation_moments
 from roman_sim.pipeline.experiment import Experiment
@@ -60,11 +61,11 @@ def test_pixels_run_reads_no_truth_before_the_evaluation(tmp_path, monkeypatch):
     report = (tmp_path / "pixels" / "report.md").read_text()
     assert "## Front end against truth" in report and "plots/frontend.png" in report
     assert (tmp_path / "pixels" / "plots" / "frontend.png").stat().st_size > 0
-    assert res.metrics.frontend == fe
+    assert to_json(res.metrics.frontend) == fe
 
 
 def test_truth_driven_run_is_graded_too(smoke_run):
-    fe = smoke_run.metrics.frontend
+    fe = to_json(smoke_run.metrics.frontend)
     assert fe["segmenter"] == "perfect" and fe["encoder"] == "simulated"
     seg = fe["segmentation"]
     assert seg["precision"] == 1.0 and seg["recall"] == 1.0 and seg["mean_iou"] == 1.0

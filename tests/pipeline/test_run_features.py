@@ -10,6 +10,7 @@ import pytest
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
+from roman_sim.core.records import from_json, to_json
 from roman_sim.pipeline.experiment import Experiment
 from roman_sim.pipeline.scenario import load_scenario
 from roman_sim.testing import assert_recall, run_scenario
@@ -22,7 +23,7 @@ def test_rerun_reuses_cached_stages(smoke_run):
     again = Experiment(load_scenario("smoke"), smoke_run.run_dir).run()
     assert set(again.reused) == {"maps", "submaps", "evaluation", "posegraph", "ate", "report"}
     assert again.map_stats == smoke_run.map_stats
-    assert again.metrics.to_json() == smoke_run.metrics.to_json()
+    assert to_json(again.metrics) == to_json(smoke_run.metrics)
     assert again.notes == smoke_run.notes
 
 
@@ -33,7 +34,7 @@ def test_manifest_records_the_library_versions_and_a_stage_made_with_others_is_c
 
     from roman_sim.core import codehash
     from roman_sim.pipeline import experiment as experiment_module
-    from roman_sim.pipeline.manifest import Manifest, environment
+    from roman_sim.pipeline.manifest import MANIFEST_SCHEMA, Manifest, ManifestRecord, environment
 
     man = json.loads((smoke_run.run_dir / "manifest.json").read_text())
     assert man["environment"] == environment()
@@ -55,9 +56,9 @@ def test_manifest_records_the_library_versions_and_a_stage_made_with_others_is_c
     assert "maps" not in again.reused and "world" not in again.reused
     recorded = json.loads((run_dir / "manifest.json").read_text())
     assert recorded["environment"]["mujoco"] == "9.9.9"
-    assert again.metrics.to_json() == smoke_run.metrics.to_json()  # the arithmetic did not change here
+    assert to_json(again.metrics) == to_json(smoke_run.metrics)  # the arithmetic did not change here
     older = {k: v for k, v in man.items() if k != "environment"}  # written before versions were recorded
-    assert Manifest.from_json(older, "older").environment == {}
+    assert Manifest.from_record(from_json(ManifestRecord, older, "older", MANIFEST_SCHEMA)).environment == {}
 
 
 def test_changed_aligners_recompute_only_evaluation(smoke_run, tmp_path):
@@ -197,8 +198,8 @@ def test_every_bundled_sweep_validates(path):
 
 
 def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
-    from roman_sim.cli._verify import verify_run
     from roman_sim.studies.reference import rederive, reproduce
+    from roman_sim.studies.verify import verify_run
 
     shutil.copytree(smoke_run.run_dir, tmp_path / "work" / "smoke")
     path = reproduce(tmp_path / "ref", ["smoke"], tmp_path / "work")
@@ -211,7 +212,7 @@ def test_reproduce_collects_results_with_their_raw_data(smoke_run, tmp_path):
     assert verify_run(dest, pairs_file="pairs.csv.gz", tum_suffix=".gz").ok
     summary = json.loads((tmp_path / "ref" / "summary.json").read_text())
     again = rederive(tmp_path / "ref")  # the whole summary follows from the collected raw files
-    assert json.loads(json.dumps(again, sort_keys=True)) == summary
+    assert json.loads(json.dumps(to_json(again), sort_keys=True)) == summary
     text = path.read_text()
     assert "map size (MB per km)" in text
     assert f"{smoke_run.map_stats.mb_per_km:.2f}" in text
@@ -246,7 +247,7 @@ def test_record_command_stores_readable_frames(tmp_path):
     assert not (out / "a").exists()
     info = recording_info(out / "b")
     frames = list(read_recording(out / "b"))
-    assert len(frames) == info["frame_count"] > 5
+    assert len(frames) == info.frame_count > 5 and info.extra is not None and info.extra.scenario == "smoke"
     assert frames[0].depth.shape == (120, 160) and frames[0].robot == "b"
     assert len(read_tum(out / "b" / "traj_odom.tum")) == len(frames)
     line = _one_line_error(runner.invoke(app, ["record", "smoke", "--out", str(out), "--robot", "zz"]))
@@ -264,12 +265,12 @@ def test_from_stage_recomputes_later_stages_only(smoke_run, tmp_path):
 
 
 def test_sweep_markdown_table():
-    from roman_sim.studies.claims import sweep_markdown
+    from roman_sim.studies.claims import SweepRow, sweep_markdown
 
     rows = [
-        {"ambiguity": 0.0, "method": "roman", "recall": 0.7, "hits": 7, "relevant": 10, "ci": [0.4, 0.89]},
-        {"ambiguity": 0.0, "method": "clipper", "recall": 0.5, "hits": 1, "relevant": 2, "ci": [0.09, 0.91]},
-        {"ambiguity": 1.0, "method": "roman", "recall": None, "hits": 0, "relevant": 0, "ci": None},
+        SweepRow(ambiguity=0.0, method="roman", recall=0.7, hits=7, relevant=10, ci=(0.4, 0.89), n_seeds=1),
+        SweepRow(ambiguity=0.0, method="clipper", recall=0.5, hits=1, relevant=2, ci=(0.09, 0.91), n_seeds=1),
+        SweepRow(ambiguity=1.0, method="roman", recall=None, hits=0, relevant=0, ci=None, n_seeds=1),
     ]
     text = sweep_markdown(rows)
     assert "| ambiguity | clipper | roman |" in text
@@ -333,5 +334,5 @@ def test_interrupted_run_keeps_completed_stages(smoke_run, tmp_path):
     assert "did not complete" in line
     res = Experiment(load_scenario("smoke"), run_dir).run()
     assert {"maps", "submaps"} <= set(res.reused) and "evaluation" not in res.reused
-    assert res.metrics.to_json() == smoke_run.metrics.to_json()
-    assert RunResult.load(run_dir).metrics.to_json() == smoke_run.metrics.to_json()
+    assert to_json(res.metrics) == to_json(smoke_run.metrics)
+    assert to_json(RunResult.load(run_dir).metrics) == to_json(smoke_run.metrics)

@@ -39,7 +39,7 @@ def test_paper_scale_robots_meet(name):
 def test_stats_count_the_pairs_a_run_scores(smoke_run):
     """Centres placed from the planned odometry give the run's relevant pairs per robot pair exactly."""
     st = scenario_stats(smoke_run.scenario)
-    by_pair = {tuple(k.split("|")): v["n_relevant"] for k, v in smoke_run.metrics.robot_pairs.items()}
+    by_pair = {tuple(k.split("|")): v.n_relevant for k, v in smoke_run.metrics.robot_pairs.items()}
     assert by_pair == st.counts == {("a", "b"): 19}
     assert {r: len(c) for r, c in st.centres.items()} == {"a": 9, "b": 9}
     report = (smoke_run.run_dir / "report.md").read_text(encoding="utf-8")

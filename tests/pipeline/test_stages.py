@@ -9,6 +9,7 @@ import pytest
 
 from roman_sim.align.synthetic import make_submap_pair
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.records import to_json
 from roman_sim.mapping.io import save_submaps
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.experiment import Experiment
@@ -56,8 +57,8 @@ def test_evaluation_stage_round_trips_its_output(tmp_path):
     files = stage.save(out, ctx)
     assert {"pairs.csv", "metrics.json", "alignments.json"} <= set(files)
     back = stage.load(ctx, files)
-    assert back.metrics.to_json() == out.metrics.to_json()
-    assert [r.to_json() for r in back.alignments] == [r.to_json() for r in out.alignments]
+    assert to_json(back.metrics) == to_json(out.metrics)
+    assert [to_json(r.row()) for r in back.alignments] == [to_json(r.row()) for r in out.alignments]
     assert back.notes == out.notes and files == ["metrics.json", "pairs.csv", "alignments.json"]
     assert "per_pair_s" in out.timings["alignment"]["roman"]  # runtimes go to the timings only
     assert out.timings["pairs"]["aligned"] == 1 and back.timings == {}
@@ -124,7 +125,7 @@ def test_saved_submaps_of_other_robots_are_never_read(smoke_run, tmp_path):
     save_submaps(src / "zz.npz", [b])  # a stale file of a robot the scenario does not have
     res = Experiment(load_scenario("smoke"), tmp_path / "run", submaps_dir=src).run()
     assert res.map_stats.robots == 2
-    assert res.metrics.to_json()["n_pairs"] == smoke_run.metrics.n_pairs
+    assert to_json(res.metrics)["n_pairs"] == smoke_run.metrics.n_pairs
     (src / "b.npz").unlink()
     with pytest.raises(ConfigError, match=r"no b.npz .*found: a.npz, zz.npz"):
         Experiment(load_scenario("smoke"), tmp_path / "run2", submaps_dir=src).run()

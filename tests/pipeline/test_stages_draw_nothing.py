@@ -54,7 +54,7 @@ def _imports(path: Path) -> list[tuple[str, str]]:
 def test_stage_modules_import_no_renderer_segmenter_or_plotting() -> None:
     (maps,) = (s for s in STAGES if s.name == "maps")  # its worker job renders and maps one robot
     jobs = {m for m in maps.worker_preload if m.startswith(stages_pkg.__name__)} - {type(maps).__module__}
-    assert jobs == {f"{stages_pkg.__name__}.maps_job", f"{stages_pkg.__name__}.maps_robot"}
+    assert jobs == {f"{stages_pkg.__name__}.{m}" for m in ("maps_job", "maps_robot", "maps_input")}
     files = [
         f
         for f in sorted(Path(stages_pkg.__file__).parent.glob("*.py"))

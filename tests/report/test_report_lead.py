@@ -9,7 +9,6 @@ from __future__ import annotations
 import csv
 import gzip
 import io
-import json
 import math
 import re
 
@@ -17,7 +16,7 @@ import pytest
 import yaml
 from committed_results import REFERENCE
 
-from roman_sim.evaluation.atetable import AteTable
+from roman_sim.evaluation.atetable import read_ate
 from roman_sim.evaluation.results import read_metrics_json
 from roman_sim.report.lead import lead_paragraph
 from roman_sim.report.markdown import report_markdown
@@ -61,7 +60,7 @@ def _cell(h: int, n: int) -> str:
 
 def test_the_demo_paragraph_states_what_the_pairs_say() -> None:
     metrics = read_metrics_json(DEMO / "metrics.json")
-    ate = AteTable.from_json(json.loads((DEMO / "ate.json").read_text()))
+    ate, _ = read_ate(DEMO / "ate.json")
     text = lead_paragraph(metrics, ate)[0]
     counts, _ = _by_hand()
     n = next(iter(counts.values()))["max recall"][1]

@@ -109,7 +109,7 @@ def test_smoke_through_a_tls_cluster_gives_the_local_bytes(smoke_run, tls_cluste
         tls_key=str(tls_cluster["key"]),
     )
     res = Experiment(load_scenario("smoke"), tmp_path / "tls", executor=ex).run()
-    assert res.timings["evaluation"]["pairs"]["executor"] == "dask"
+    assert res.timings.stages["evaluation"].pairs.executor == "dask"
     assert_same_folder(smoke_run.run_dir, res.run_dir)
 
 

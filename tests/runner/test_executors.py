@@ -69,14 +69,11 @@ def test_smoke_on_local_pool_and_loopback_dask_cluster_gives_the_serial_bytes(sm
     """The same folder from 2 pool workers (small chunks) and a 2-worker Dask LocalCluster."""
     sc = load_scenario("smoke")
     pool = Experiment(sc, tmp_path / "pool", executor=ExecutorConfig(kind="local", workers=2, chunk_pairs=7)).run()
-    assert pool.timings["evaluation"]["pairs"]["executor"] == "local"
+    assert pool.timings.stages["evaluation"].pairs.executor == "local"
     assert_same_folder(smoke_run.run_dir, pool.run_dir)
     dask = Experiment(sc, tmp_path / "dask", executor=ExecutorConfig(kind="dask", workers=2, chunk_pairs=50)).run()
-    assert dask.timings["evaluation"]["pairs"] == {
-        **dask.timings["evaluation"]["pairs"],
-        "executor": "dask",
-        "workers": 2,
-    }
+    pairs = dask.timings.stages["evaluation"].pairs
+    assert pairs is not None and (pairs.executor, pairs.workers) == ("dask", 2)
     assert_same_folder(smoke_run.run_dir, dask.run_dir)
 
 

@@ -17,6 +17,7 @@ import pytest
 from scipy.spatial.transform import Rotation
 
 from roman_sim.core.geometry import rot_z
+from roman_sim.core.records import to_json
 from roman_sim.core.tum import read_tum
 from roman_sim.evaluation.config import EvalConfig
 from roman_sim.evaluation.metrics import compute_metrics
@@ -93,7 +94,7 @@ def test_round_trip_gives_the_runs_own_figures(
     assert [a.name for a in run.scenario.aligners] == ["ext"]
     expected, own = _carried(smoke_run.run_dir, "ext")
     got = run.metrics.methods["ext"]
-    assert got.to_json() == expected.methods["ext"].to_json()  # every figure, exactly
+    assert to_json(got) == to_json(expected.methods["ext"])  # every figure, exactly
     # and against the run's own metrics: every operating point, every recall, every hit count
     mine = own.methods["roman"]
     for kind in ("inter", "intra"):

@@ -38,7 +38,7 @@ def test_round_trip(tmp_path: Path) -> None:
     frames = _frames(7)
     rec = write_recording(iter(frames), tmp_path / "rec", chunk_size=3)
     info = recording_info(rec)
-    assert info["frame_count"] == 7 and len(info["chunks"]) == 3 and info["robot"] == "r1"
+    assert info.frame_count == 7 and len(info.chunks) == 3 and info.robot == "r1" and info.extra is None
     back = list(read_recording(rec))
     assert len(back) == 7
     for a, b in zip(frames, back):
@@ -83,7 +83,7 @@ def test_write_errors(tmp_path: Path) -> None:
     with pytest.raises(RecordingError, match="already exists"):
         write_recording(_frames(2), tmp_path / "rec")
     write_recording(_frames(3), tmp_path / "rec", overwrite=True)
-    assert recording_info(tmp_path / "rec")["frame_count"] == 3
+    assert recording_info(tmp_path / "rec").frame_count == 3
     mixed = _frames(2) + _frames(1, robot="r2")
     with pytest.raises(RecordingError, match="differ"):
         write_recording(mixed, tmp_path / "mixed")
@@ -101,6 +101,9 @@ def test_read_errors(tmp_path: Path) -> None:
     (rec / "meta.json").write_text("{not json")
     with pytest.raises(RecordingError, match="corrupt meta.json"):
         recording_info(rec)
+    (rec / "meta.json").write_text(json.dumps({**meta, "frame_count": "four"}))
+    with pytest.raises(RecordingError, match=r"meta.json: field frame_count: expected an integer.*incomplete metadata"):
+        recording_info(rec)
     (rec / "meta.json").write_text(json.dumps(meta))
     (rec / "chunk_00001.npz").write_bytes(b"garbage")
     frames = read_recording(rec)
@@ -115,7 +118,7 @@ def test_read_errors(tmp_path: Path) -> None:
 def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
     from roman_sim.core.sensors import FrameSource
     from roman_sim.sim.paths import PathConfig
-    from roman_sim.sim.recording import Recording, write_recording
+    from roman_sim.sim.recording import Recording, RecordingOrigin, write_recording
     from roman_sim.sim.robot import RobotConfig
     from roman_sim.sim.source import robot_sources
 
@@ -127,8 +130,8 @@ def test_record_a_simulated_run(tmp_path: Path, tiny_world) -> None:
         render_rgb=False,
     )
     source = robot_sources(tiny_world, [cfg], 0)[0]
-    rec = write_recording(source.frames(), tmp_path / "run", extra={"seed": 0})
-    assert recording_info(rec)["extra"] == {"seed": 0}
+    rec = write_recording(source.frames(), tmp_path / "run", origin=RecordingOrigin("tiny", 0))
+    assert recording_info(rec).extra == RecordingOrigin("tiny", 0)
     frames = list(read_recording(rec))
     live = list(source.frames())
     assert len(frames) == len(live) == len(source) == 7

@@ -11,6 +11,7 @@ def as_summaries():
 
     Fields a test leaves out (the ones its claims and tables do not read) get neutral values.
     """
+    from roman_sim.core.records import from_json
     from roman_sim.evaluation.run_summary import RunSummary
 
     set_defaults = {
@@ -40,7 +41,7 @@ def as_summaries():
                 m: {k: {**set_defaults, **v} if k in ("inter", "intra") else v for k, v in entry.items()}
                 for m, entry in run.get("methods", {}).items()
             }
-            out[name] = RunSummary.from_json({**run_defaults, **run, "methods": methods})
+            out[name] = from_json(RunSummary, {**run_defaults, **run, "methods": methods}, name)
         return out
 
     return convert

@@ -151,11 +151,11 @@ def test_the_world_bootstrap_equals_a_hand_computation_and_is_wider_than_newcomb
         for w, (k, n) in enumerate(worlds)
     }
     row = table_rows(cells, cfg)[0]
-    assert (row["worlds"], row["same_hits"], row["same_relevant"], row["opposite_hits"]) == (2, 11, 20, 9)
-    assert row["drop"] == pytest.approx(0.1)
-    assert (row["drop_lo"], row["drop_hi"]) == pytest.approx(newcombe(11, 20, 9, 20, 0.95))
-    assert (row["drop_worlds_lo"], row["drop_worlds_hi"]) == pytest.approx((-0.6, 0.8))
-    assert row["drop_worlds_hi"] - row["drop_worlds_lo"] > 2 * (row["drop_hi"] - row["drop_lo"])
+    assert (row.worlds, row.same_hits, row.same_relevant, row.opposite_hits) == (2, 11, 20, 9)
+    assert row.drop == pytest.approx(0.1)
+    assert (row.drop_lo, row.drop_hi) == pytest.approx(newcombe(11, 20, 9, 20, 0.95))
+    assert (row.drop_worlds_lo, row.drop_worlds_hi) == pytest.approx((-0.6, 0.8))
+    assert row.drop_worlds_hi - row.drop_worlds_lo > 2 * (row.drop_hi - row.drop_lo)
     picks = S.world_resamples(2, cfg.boot_draws, cfg.boot_seed)
     assert S.world_drop_interval(SAME, OPPOSITE, picks, 0.95) == pytest.approx([-0.6, 0.8])
 
@@ -172,11 +172,11 @@ def test_with_two_worlds_the_verdicts_use_the_world_bootstrap(tmp_path: Path) ->
         for w, (k, n) in enumerate(worlds)
     }
     rows = table_rows(cells, cfg)
-    assert rows[0]["drop_lo"] > 0 and rows[0]["drop_worlds_lo"] < 0
+    assert rows[0].drop_lo > 0 and rows[0].drop_worlds_lo < 0
     write_table(rows, tmp_path)
     block = attribution_block(tmp_path)
     assert "Counts pooled over 2 worlds" in block and "use the world-bootstrap intervals" in block
-    lo, hi = rows[0]["drop_worlds_lo"], rows[0]["drop_worlds_hi"]
+    lo, hi = rows[0].drop_worlds_lo, rows[0].drop_worlds_hi
     assert f"- roman: all-on drop +0.35 (its world-bootstrap interval [{lo:+.2f}, {hi:+.2f}] includes 0)." in block
     assert "With `descriptor_view` off the drop is +0.35 (its world-bootstrap interval" in block
 
@@ -186,7 +186,7 @@ def test_one_world_has_no_world_bootstrap() -> None:
     roles, mechs = ("same", "opposite"), ("none", "road_side")
     cells = {(role, mech, None): {"roman": Cell(5, 10, 1)} for role in roles for mech in mechs}
     row = table_rows(cells, cfg)[0]
-    assert row["worlds"] == 1 and row["drop_worlds_lo"] is None and row["drop_worlds_hi"] is None
+    assert row.worlds == 1 and row.drop_worlds_lo is None and row.drop_worlds_hi is None
 
 
 @pytest.mark.parametrize(
@@ -232,9 +232,9 @@ def test_the_independent_scorer_pools_worlds_and_bootstraps_them_as_the_study(
     table, derived = table_rows(cells, cfg), S.attribution_rows(tmp_path)
     assert len(table) == len(derived) == 2
     for t, d in zip(table, derived):
-        assert t["worlds"] == d["worlds"] == 2
+        assert t.worlds == d["worlds"] == 2
         for k in FIELDS:
             if d[k] is None or isinstance(d[k], str):
-                assert t[k] == d[k], k
+                assert getattr(t, k) == d[k], k
             else:
-                assert t[k] == pytest.approx(d[k], abs=1e-12), k
+                assert getattr(t, k) == pytest.approx(d[k], abs=1e-12), k

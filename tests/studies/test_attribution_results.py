@@ -8,8 +8,9 @@ from pathlib import Path
 import pytest
 from committed_results import ATTRIBUTION as KEPT
 
+from roman_sim.core.records import from_json
 from roman_sim.studies import independent_scorer as S
-from roman_sim.studies.attribution import FIELDS, MARKERS, PAGE, attribution_block, classify, read_table
+from roman_sim.studies.attribution import FIELDS, MARKERS, PAGE, AttributionRow, attribution_block, classify, read_table
 from roman_sim.studies.pages import current_block
 
 ROOT = Path(__file__).parents[2]
@@ -17,16 +18,21 @@ ROOT = Path(__file__).parents[2]
 pytestmark = pytest.mark.skipif(not (KEPT / "attribution.csv").is_file(), reason="no committed attribution study")
 
 
+def _rows(derived: list[dict]) -> list[AttributionRow]:
+    """The independent scorer's rows (plain dicts: it shares no code with the study) as table rows."""
+    return [from_json(AttributionRow, r, "the independent scorer's row") for r in derived]
+
+
 def test_the_independent_scorer_rederives_the_committed_table() -> None:
     table = read_table(KEPT)
     derived = S.attribution_rows(KEPT)
-    assert [(r["mechanism"], r["method"]) for r in table] == [(r["mechanism"], r["method"]) for r in derived]
+    assert [(r.mechanism, r.method) for r in table] == [(r["mechanism"], r["method"]) for r in derived]
     for t, d in zip(table, derived):
         for k in FIELDS:
             if d[k] is None or isinstance(d[k], str):
-                assert t[k] == d[k], k
+                assert getattr(t, k) == d[k], k
             else:
-                assert t[k] == pytest.approx(d[k], abs=1e-6), (t["mechanism"], t["method"], k)
+                assert getattr(t, k) == pytest.approx(d[k], abs=1e-6), (t.mechanism, t.method, k)
 
 
 def test_the_page_block_is_the_committed_tables() -> None:
@@ -38,7 +44,7 @@ def test_the_classes_on_the_page_follow_the_independently_derived_shares() -> No
     derived = S.attribution_rows(KEPT)
     page = current_block((ROOT / PAGE).read_text(encoding="utf-8"), MARKERS) or ""
     for method in dict.fromkeys(str(r["method"]) for r in derived):
-        classes = classify(derived, method)  # the scorer's rows, not the table's
+        classes = classify(_rows(derived), method)  # the scorer's rows, not the table's
         line = next(ln for ln in page.splitlines() if ln.startswith(f"- {method}: all-on drop"))
         for key, label in (("dominant", "Dominant"), ("contributes", "contributing"), ("negligible", "negligible")):
             part = line.split(f"{label} (", 1)[1].split(";", 1)[0].split(".", 1)[0]
@@ -67,20 +73,25 @@ def test_the_page_states_the_kept_runs_sizes_and_times() -> None:
     spec = json.loads((KEPT / "attribution.json").read_text())
     assert spec["config"]["seeds"] == [0, 1, 2, 3] and len(spec["runs"]) == 40
     table = read_table(KEPT)
-    assert {r["worlds"] for r in table} == {4}
-    pooled = {r[f"{role}_relevant"] for r in table for role in ("same", "opposite")}
+    assert {r.worlds for r in table} == {4}
+    pooled = {getattr(r, f"{role}_relevant") for r in table for role in ("same", "opposite")}
     assert pooled == {124, 132, 134}
-    assert {r["same_relevant"] for r in table if r["mechanism"] == "road_side"} == {132}
-    assert {r["opposite_relevant"] for r in table if r["mechanism"] == "road_side"} == {134}
+    assert {r.same_relevant for r in table if r.mechanism == "road_side"} == {132}
+    assert {r.opposite_relevant for r in table if r.mechanism == "road_side"} == {134}
     every_run = _relevant_per_run()
     others = [n for mech, n in every_run if mech != "road_side"]
     assert min(others) == 30 and max(others) == 32
     assert min(n for _, n in every_run) == 30 and max(n for _, n in every_run) == 34
-    halves = [(r[f"{role}_recall_hi"] - r[f"{role}_recall_lo"]) / 2 for r in table for role in ("same", "opposite")]
+    ci = [
+        (getattr(r, f"{role}_recall_lo"), getattr(r, f"{role}_recall_hi"))
+        for r in table
+        for role in ("same", "opposite")
+    ]
+    halves = [(hi - lo) / 2 for lo, hi in ci]
     assert round(min(halves), 2) == 0.04 and round(max(halves), 2) == 0.09
-    drops = [(r["drop_hi"] - r["drop_lo"]) / 2 for r in table]
+    drops = [(r.drop_hi - r.drop_lo) / 2 for r in table]
     assert round(min(drops), 2) == 0.07 and round(max(drops), 2) == 0.11
-    boots = [(r["drop_worlds_hi"] - r["drop_worlds_lo"]) / 2 for r in table]
+    boots = [(r.drop_worlds_hi - r.drop_worlds_lo) / 2 for r in table]
     assert round(min(boots), 2) == 0.02 and round(max(boots), 2) == 0.18
     runs = sorted((KEPT / "runs").iterdir())
     timed = {p.name: t for p in runs if (t := _stage_seconds(p)) is not None}
@@ -149,8 +160,12 @@ def test_the_measured_paragraph_is_the_independently_derived_table() -> None:
         p = rows[("partial_views", method)]
         assert p["drop_worlds_hi"] - p["drop_worlds_lo"] < p["drop_hi"] - p["drop_lo"]
         assert f(p["drop"]) == "+0.03" and 0.85 < p["explained"] < 0.95  # "+0.03 ... about 90 %"
-        assert classify(list(rows.values()), method)["dominant"] == ["partial_views"]
-        assert classify(list(rows.values()), method)["negligible"] == ["descriptor_view", "lighting", "road_side"]
+        assert classify(_rows(list(rows.values())), method)["dominant"] == ["partial_views"]
+        assert classify(_rows(list(rows.values())), method)["negligible"] == [
+            "descriptor_view",
+            "lighting",
+            "road_side",
+        ]
     assert "the drop shrinks to +0.03 for both methods, about 90 % of it" in page
     d = rows[("descriptor_view", "roman")]
     assert d["drop_worlds_lo"] > 0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from roman_sim.core.records import from_json
 from roman_sim.studies.claims import claims, claims_markdown, comparison
 
 
@@ -51,25 +52,25 @@ def _runs(roman_opp: tuple[int, int], ransac_opp: tuple[int, int]) -> dict:
 
 
 def test_claims_follow_the_numbers(as_summaries):
-    by_id = {c["id"]: c for c in claims(as_summaries(_runs((6, 10), (5, 10))), [])}
-    assert by_id["opposite_harder"]["holds"]
-    assert by_id["roman_at_or_above_every_baseline"]["holds"]
-    assert by_id["roman_faster_than_ransac1m"]["holds"] and "10.0x" in by_id["roman_faster_than_ransac1m"]["text"]
+    by_id = {c.id: c for c in claims(as_summaries(_runs((6, 10), (5, 10))), [])}
+    assert by_id["opposite_harder"].holds
+    assert by_id["roman_at_or_above_every_baseline"].holds
+    assert by_id["roman_faster_than_ransac1m"].holds and "10.0x" in by_id["roman_faster_than_ransac1m"].text
     # ROMAN placed 1 of 3 robots and equals odometry over that robot: neither ATE claim holds
-    assert not by_id["roman_ate_below_odometry"]["holds"] and not by_id["roman_places_every_robot"]["holds"]
-    assert "multi_robot_tunnel 1/3" in by_id["roman_places_every_robot"]["text"]
-    worse = {c["id"]: c for c in claims(as_summaries(_runs((6, 10), (7, 10))), [])}["roman_at_or_above_every_baseline"]
-    assert not worse["holds"] and "opposite_direction 120-180 deg: roman 0.60 (6/10)" in worse["text"]
+    assert not by_id["roman_ate_below_odometry"].holds and not by_id["roman_places_every_robot"].holds
+    assert "multi_robot_tunnel 1/3" in by_id["roman_places_every_robot"].text
+    worse = {c.id: c for c in claims(as_summaries(_runs((6, 10), (7, 10))), [])}["roman_at_or_above_every_baseline"]
+    assert not worse.holds and "opposite_direction 120-180 deg: roman 0.60 (6/10)" in worse.text
     text = claims_markdown(claims(as_summaries(_runs((6, 10), (7, 10))), []))
-    assert text.index(worse["text"]) > text.index("Where it does not:")
+    assert text.index(worse.text) > text.index("Where it does not:")
 
 
 def test_small_bins_are_not_compared_and_cells_carry_counts(as_summaries):
-    by_id = {c["id"]: c for c in claims(as_summaries(_runs((1, 2), (2, 2))), [])}
-    assert "(1 comparisons" in by_id["roman_at_or_above_every_baseline"]["text"]  # only the 10-pair bin counts
-    rows = {r["figure"]: r for r in comparison(as_summaries(_runs((1, 2), (2, 2))))}
-    assert rows["roman max recall, opposite direction"]["cross-robot"] == "n<5: 1/2"
-    assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.00, 1.00]"
+    by_id = {c.id: c for c in claims(as_summaries(_runs((1, 2), (2, 2))), [])}
+    assert "(1 comparisons" in by_id["roman_at_or_above_every_baseline"].text  # only the 10-pair bin counts
+    rows = {r.figure: r for r in comparison(as_summaries(_runs((1, 2), (2, 2))))}
+    assert rows["roman max recall, opposite direction"].cross_robot == "n<5: 1/2"
+    assert rows["roman max recall, same direction"].cross_robot == "0.90 (9/10) [0.00, 1.00]"
 
 
 def _pt(k: int | None, hits: int, n: int, fp: int, reached: bool = True) -> dict:
@@ -98,7 +99,7 @@ def test_point_cells_carry_precision_and_threshold():
         "precision_100": _pt(None, 0, 10, 0, reached=False),
         "acceptance": _pt(4, 8, 10, 0),
     }
-    r = RecallSummary.from_json({**_rec(9, 10), "points": points})
+    r = from_json(RecallSummary, {**_rec(9, 10), "points": points}, "test")
     assert point_cells(r) == [
         "0.90 (9/10) [0.25, 0.75] P 0.45 k 3",
         "0.60 (6/10) [0.25, 0.75] P 1.00 k 7",
@@ -106,25 +107,29 @@ def test_point_cells_carry_precision_and_threshold():
         "0.80 (8/10) [0.25, 0.75] P 1.00 k 4",
     ]
     assert mcell(r) == "0.90 (9/10) [0.25, 0.75] P 0.45 k 3"
-    small = RecallSummary.from_json(
-        {**_rec(1, 2), "points": {"max_recall": _pt(2, 1, 2, 1), "acceptance": _pt(4, 0, 2, 0)}}
+    small = from_json(
+        RecallSummary, {**_rec(1, 2), "points": {"max_recall": _pt(2, 1, 2, 1), "acceptance": _pt(4, 0, 2, 0)}}, "test"
     )
     assert point_cells(small) == ["n<5: 1/2 P 0.50 k 2", "n/a", "n/a", "n<5: 0/2 P n/a k 4"]
     assert (
-        pcell(RecallSummary.from_json({**_rec(0, 0), "points": {"max_recall": _pt(0, 0, 0, 3)}}).points["max_recall"])
+        pcell(
+            from_json(RecallSummary, {**_rec(0, 0), "points": {"max_recall": _pt(0, 0, 0, 3)}}, "test").points[
+                "max_recall"
+            ]
+        )
         == "n/a"
     )
     # a summary written before the points: max recall as before, the other points n/a
-    old = RecallSummary.from_json(_rec(9, 10))
+    old = from_json(RecallSummary, _rec(9, 10), "test")
     assert mcell(old) == "0.90 (9/10) [0.00, 1.00]" and point_cells(old) == ["n/a"] * 4
 
 
 def test_comparison_cells_give_max_recall_with_its_precision(as_summaries):
     runs = _runs((6, 10), (5, 10))
     runs["same_direction"]["methods"]["roman"]["inter"]["points"] = {"max_recall": _pt(2, 9, 10, 1)}
-    rows = {r["figure"]: r for r in comparison(as_summaries(runs))}
-    assert rows["roman max recall, same direction"]["cross-robot"] == "0.90 (9/10) [0.25, 0.75] P 0.90 k 2"
-    assert rows["ransac1m max recall, same direction"]["cross-robot"] == "0.80 (8/10) [0.00, 1.00]"
+    rows = {r.figure: r for r in comparison(as_summaries(runs))}
+    assert rows["roman max recall, same direction"].cross_robot == "0.90 (9/10) [0.25, 0.75] P 0.90 k 2"
+    assert rows["ransac1m max recall, same direction"].cross_robot == "0.80 (8/10) [0.00, 1.00]"
 
 
 def _acceptance(hits: int, fp: int) -> dict:
@@ -151,12 +156,12 @@ def test_visual_closures_claim_counts_correct_over_accepted(as_summaries):
             "kimera_outdoor": {"methods": {"visual": _acceptance(*paper)}, "map": {}},
             "same_direction": {"methods": {"visual": _acceptance(0, 9)}, "map": {}},  # not multi-robot: not read
         }
-        return {c["id"]: c for c in claims(as_summaries(runs), [])}["visual_closures_correct"]
+        return {c.id: c for c in claims(as_summaries(runs), [])}["visual_closures_correct"]
 
     ok = claim((8, 2), (40, 5))  # 8 of 10 is exactly 80 %
-    assert ok["holds"], ok["text"]
-    assert "multi_robot_tunnel 0.80 (8/10, k = 6)" in ok["text"] and "kimera_outdoor 0.89 (40/45, k = 6)" in ok["text"]
-    assert "same_direction" not in ok["text"]
-    assert not claim((7, 2), (40, 5))["holds"]  # 7 of 9 = 0.78
+    assert ok.holds, ok.text
+    assert "multi_robot_tunnel 0.80 (8/10, k = 6)" in ok.text and "kimera_outdoor 0.89 (40/45, k = 6)" in ok.text
+    assert "same_direction" not in ok.text
+    assert not claim((7, 2), (40, 5)).holds  # 7 of 9 = 0.78
     none = claim((0, 0), (40, 5))
-    assert not none["holds"] and "multi_robot_tunnel: no closure (k = 6)" in none["text"]
+    assert not none.holds and "multi_robot_tunnel: no closure (k = 6)" in none.text

@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 from committed_results import REFERENCE as REF
 
+from roman_sim.core.records import from_json, to_json
 from roman_sim.studies import independent_scorer as S
 
 CFG = S.Settings("distance", 10.0, 3, 5.0, 1.0, 0, 30, (0.0, 60.0, 120.0, 180.0), 5, 0.95)
@@ -188,8 +189,8 @@ def _evaluation_points(rows: list[tuple[bool, bool, int]], cfg: S.Settings, head
         k_min=cfg.k_min, k_max=cfg.k_max, heading_bins_deg=list(cfg.heading_bins_deg), min_relevant=cfg.min_relevant
     )
     ps = compute_metrics(scores, ec, acceptance_k=cfg.acceptance_k).method("m").set("inter")
-    out = {"all": ps.overall.to_json()["operating_points"]}
-    out.update({b.label: b.stats.to_json()["operating_points"] for b in ps.heading_bins})
+    out = {"all": to_json(ps.overall)["operating_points"]}
+    out.update({b.label: to_json(b.stats)["operating_points"] for b in ps.heading_bins})
     return {k: {n: p for n, p in v.items() if p is not None} for k, v in out.items()}
 
 
@@ -329,7 +330,7 @@ def test_scorer_points_are_the_evaluations_on_the_committed_demo():
     """On real raw files: the evaluation's points (recomputed from the pairs table) are the scorer's."""
     from roman_sim.studies.reference import demo_summary
 
-    evaluated, scored = json.loads(json.dumps(demo_summary(REF))), S.score_run(REF / "demo")
+    evaluated, scored = json.loads(json.dumps(to_json(demo_summary(REF)))), S.score_run(REF / "demo")
     assert not S.agreement(evaluated, scored)
     for m, figures in scored["methods"].items():
         for kind in ("inter", "intra"):
@@ -353,17 +354,15 @@ def _without_points(v: object) -> object:
 
 @pytest.mark.skipif(not (REF / "demo" / "pairs.csv.gz").is_file(), reason="no committed demo run")
 def test_a_run_whose_metrics_predate_the_points_is_checked_without_them(tmp_path):
-    from roman_sim.cli._verify import independent_check, verify_run
     from roman_sim.report.recompute import stored_summary
+    from roman_sim.studies.verify import independent_check, verify_run
 
     d = tmp_path / "demo"
     shutil.copytree(REF / "demo", d)
     metrics = json.loads((d / "metrics.json").read_text(encoding="utf-8"))
     assert "acceptance_k" in metrics  # the committed run has them; the copy is made older
     (d / "metrics.json").write_text(json.dumps(_without_points(metrics)), encoding="utf-8")
-    assert not any(
-        r["points"] for m in stored_summary(d)["methods"].values() for r in m.values() if isinstance(r, dict)
-    )
+    assert not any(s.points for m in stored_summary(d).methods.values() for s in (m.inter, m.intra))
     assert independent_check(d) == []
     res = verify_run(d, rel_tol=1e-6, pairs_file="pairs.csv.gz", tum_suffix=".gz")
     assert res.ok, res.differences[:5]
@@ -379,18 +378,16 @@ def _overlay(base: object, new: object) -> object:
 @needs_reference
 def test_every_claim_follows_from_the_independent_figures():
     from roman_sim.evaluation.run_summary import RunSummary
-    from roman_sim.studies.claims import claims
+    from roman_sim.studies.claims import SweepRow, claims
 
     summary = _summary()
     runs = {
-        name: RunSummary.from_json(_overlay(copy.deepcopy(run), S.score_run(REF / name)))
+        name: from_json(RunSummary, _overlay(copy.deepcopy(run), S.score_run(REF / name)), "test")
         for name, run in summary["runs"].items()
     }
-    sweep = S.sweep_rows(REF / "ambiguity_sweep") if (REF / "ambiguity_sweep").is_dir() else []
-    again = claims(runs, sweep)
-    assert [(c["id"], c["holds"], c["text"]) for c in again] == [
-        (c["id"], c["holds"], c["text"]) for c in summary["claims"]
-    ]
+    rows = S.sweep_rows(REF / "ambiguity_sweep") if (REF / "ambiguity_sweep").is_dir() else []
+    again = claims(runs, [from_json(SweepRow, r, "sweep row") for r in rows])
+    assert [(c.id, c.holds, c.text) for c in again] == [(c["id"], c["holds"], c["text"]) for c in summary["claims"]]
 
 
 @needs_reference

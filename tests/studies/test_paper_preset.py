@@ -51,11 +51,11 @@ CFG = PaperFitConfig(grid=[0.0, 1.0, 2.0, 3.0], refine=3)
 
 def test_fit_brackets_then_bisects_and_writes_a_preset(tmp_path):
     stub = Stub()
-    res = fit_paper_preset(tmp_path, CFG, stub)["fit"]
+    res = fit_paper_preset(tmp_path, CFG, stub)
     # 0.95 - 0.2 s = 0.67 at s = 1.4: grid 0..3, bracket [1, 2], then 1.5, 1.25, 1.375.
     assert [_severity(o) for _, o in stub.calls] == [0.0, 1.0, 2.0, 3.0, 1.5, 1.25, 1.375]
-    assert res["severity"] == 1.375 and res["fitted"] == pytest.approx(0.95 - 0.2 * 1.375)
-    assert res["paper"] == 0.67 and all(sc == "same_direction" for sc, _ in stub.calls)
+    assert res.severity == 1.375 and res.fitted == pytest.approx(0.95 - 0.2 * 1.375)
+    assert res.paper == 0.67 and all(sc == "same_direction" for sc, _ in stub.calls)
     assert all("aligners=[roman]" in o for _, o in stub.calls)  # the fit needs ROMAN only
     # paper_fit.yaml is a preset file: the preset's parameters at the fitted severity.
     path = tmp_path / "paper_fit.yaml"
@@ -75,15 +75,15 @@ def test_fit_resumes_and_refuses_another_configuration(tmp_path):
     fit_paper_preset(tmp_path, CFG, again)
     assert [_severity(o) for _, o in again.calls] == [1.25, 1.375]  # only the runs not done yet
     rerun = Stub()
-    assert fit_paper_preset(tmp_path, CFG, rerun)["fit"]["severity"] == 1.375 and rerun.calls == []
+    assert fit_paper_preset(tmp_path, CFG, rerun).severity == 1.375 and rerun.calls == []
     with pytest.raises(ConfigError, match="another fit configuration"):
         fit_paper_preset(tmp_path, CFG.model_copy(update={"refine": 1}), Stub())
 
 
 def test_fit_without_a_bracket_stops_at_the_grid(tmp_path):
     stub = Stub()
-    res = fit_paper_preset(tmp_path, PaperFitConfig(grid=[0.0, 0.5], target=0.5), stub)["fit"]
-    assert len(stub.calls) == 2 and res["severity"] == 0.5
+    res = fit_paper_preset(tmp_path, PaperFitConfig(grid=[0.0, 0.5], target=0.5), stub)
+    assert len(stub.calls) == 2 and res.severity == 0.5
 
 
 class Counted:
@@ -120,16 +120,16 @@ COUNTED = PaperFitConfig(grid=[0.0, 1.0, 2.0, 3.0, 4.0, 5.0], refine=0)
 
 
 def test_the_admitted_settings_are_those_whose_interval_contains_the_target(tmp_path):
-    res = fit_paper_preset(tmp_path, COUNTED, Counted())["fit"]
-    assert res["severity"] == 3.0 and res["fitted"] == 0.6
-    assert res["admitted"] == [2.0, 3.0, 4.0]
-    runs = {r["severity"]: r for r in res["runs"]}
-    assert [runs[s]["admitted"] for s in COUNTED.grid] == [False, False, True, True, True, False]
-    assert runs[2.0]["ci"][0] == pytest.approx(0.66963, abs=1e-5)  # just below 0.67: admitted
-    assert runs[1.0]["ci"][0] == pytest.approx(0.69204, abs=1e-5)  # above 0.67: not admitted
-    assert runs[4.0]["ci"][1] == pytest.approx(0.67030, abs=1e-5)  # just above 0.67: admitted
-    assert runs[5.0]["ci"][1] == pytest.approx(0.65203, abs=1e-5)  # below 0.67: not admitted
-    assert (runs[3.0]["hits"], runs[3.0]["relevant"]) == (30, 50)
+    res = fit_paper_preset(tmp_path, COUNTED, Counted())
+    assert res.severity == 3.0 and res.fitted == 0.6
+    assert res.admitted == [2.0, 3.0, 4.0]
+    runs = {r.severity: r for r in res.runs}
+    assert [runs[s].admitted for s in COUNTED.grid] == [False, False, True, True, True, False]
+    assert runs[2.0].ci[0] == pytest.approx(0.66963, abs=1e-5)  # just below 0.67: admitted
+    assert runs[1.0].ci[0] == pytest.approx(0.69204, abs=1e-5)  # above 0.67: not admitted
+    assert runs[4.0].ci[1] == pytest.approx(0.67030, abs=1e-5)  # just above 0.67: admitted
+    assert runs[5.0].ci[1] == pytest.approx(0.65203, abs=1e-5)  # below 0.67: not admitted
+    assert (runs[3.0].hits, runs[3.0].relevant) == (30, 50)
 
 
 def test_predictions_at_every_admitted_setting_with_a_verdict(tmp_path):

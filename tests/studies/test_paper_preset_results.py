@@ -16,8 +16,9 @@ import pytest
 import yaml
 from committed_results import ATTRIBUTION, REFERENCE
 
+from roman_sim.core.records import from_json
 from roman_sim.studies import independent_scorer as S
-from roman_sim.studies.attribution import drop_interval
+from roman_sim.studies.attribution import AttributionRow, drop_interval
 from roman_sim.studies.pages import current_block
 from roman_sim.studies.paper_preset import PRESET_MARKERS, preset_block
 
@@ -236,7 +237,8 @@ def test_the_mechanisms_cited_for_the_miss_are_the_attribution_studys():
         == (rows[("partial_views", "roman")]["explained"])
     )
     assert {r["worlds"] for r in rows.values()} == {4}
-    lo, _, kind = drop_interval(rows[("none", "roman")]) or (0.0, 0.0, "")  # the interval the verdict uses
+    row = from_json(AttributionRow, rows[("none", "roman")], "the independent scorer's row")
+    lo, _, kind = drop_interval(row) or (0.0, 0.0, "")  # the interval the verdict uses
     assert kind == "world-bootstrap" and lo > 0
 
 

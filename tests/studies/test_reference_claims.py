@@ -16,9 +16,10 @@ import pytest
 from committed_results import REFERENCE as REF
 from committed_results import committed_files
 
-from roman_sim.cli._verify import verify_run
+from roman_sim.core.records import to_json
 from roman_sim.report.recompute import compare
-from roman_sim.studies.reference import rederive, reference_markdown
+from roman_sim.studies.reference import read_reference, rederive, reference_markdown
+from roman_sim.studies.verify import verify_run
 
 #: Committed reference results (raw data included) must stay small enough for a repository:
 #: about 31 MB for the small scenarios, the demo, the paper preset (13 runs) and the sweep, and
@@ -46,22 +47,22 @@ def test_each_reference_run_recomputes_from_its_raw_data(scenario):
 
 def test_summary_follows_from_the_raw_files():
     committed = _summary()
-    again = json.loads(json.dumps(rederive(REF), sort_keys=True))
+    again = json.loads(json.dumps(to_json(rederive(REF)), sort_keys=True))
     diffs = compare(committed, again, "summary.json", rel_tol=1e-6, abs_tol=1e-9)
     assert not diffs, diffs[:10]
 
 
 def test_claims_are_listed_as_the_data_says():
-    summary = _summary()
-    assert summary["claims"], "the reference summary states no claim"
+    summary = read_reference(REF / "summary.json")
+    assert summary.claims, "the reference summary states no claim"
     text = reference_markdown(summary)
     held, failed = text.split("Where it does not:")
-    for c in summary["claims"]:
-        assert c["text"] in (held if c["holds"] else failed), c["id"]
+    for c in summary.claims:
+        assert c.text in (held if c.holds else failed), c.id
 
 
 def test_summary_md_is_rendered_from_the_summary():
-    assert (REF / "summary.md").read_text(encoding="utf-8") == reference_markdown(_summary())
+    assert (REF / "summary.md").read_text(encoding="utf-8") == reference_markdown(read_reference(REF / "summary.json"))
 
 
 def test_reference_results_keep_raw_data_and_stay_small():

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
+from roman_sim.evaluation.grades import CosineStats, DescriptorGrades, FrontEndGrades, SegmentationGrades
 from roman_sim.evaluation.run_summary import frontend_summary
 from roman_sim.studies.claims import claims
-from roman_sim.studies.reference_tables import frontends, frontends_markdown, table1, table1_markdown
+from roman_sim.studies.reference_tables import AteCell, frontends, frontends_markdown, table1, table1_markdown
 
 
 def _ate(**rows: tuple[int, float | None]) -> dict:
@@ -47,10 +48,10 @@ def _runs_ate() -> dict:
 
 def test_table1_puts_every_row_next_to_the_paper(as_summaries):
     rows = table1(as_summaries(_runs_ate()))
-    assert [r["environment"] for r in rows] == ["tunnel", "hybrid"]  # the paper's order; outdoor did not run
-    assert rows[0]["paper"] == {"visual": 4.38, "roman": 4.20, "combined": 4.12}
-    assert rows[1]["simulation"]["visual"] == {"ate_m": 0.5, "ate_all_m": None, "placed": 2}
-    assert rows[1]["common"] == ["a", "c"] and rows[1]["robots"] == ["a", "b", "c"]
+    assert [r.environment for r in rows] == ["tunnel", "hybrid"]  # the paper's order; outdoor did not run
+    assert rows[0].paper == {"visual": 4.38, "roman": 4.20, "combined": 4.12}
+    assert rows[1].simulation["visual"] == AteCell(ate_m=0.5, ate_all_m=None, placed=2)
+    assert rows[1].common == ["a", "c"] and rows[1].robots == ["a", "b", "c"]
     lines = table1_markdown(rows).splitlines()
     assert lines[-4] == (
         "| tunnel | 4.38 | 4.20 | 4.12 | 0.50 (3/3) | 0.45 (3/3) | 0.40 (3/3) | 0.30 (3/3) | "
@@ -69,7 +70,7 @@ def test_table1_puts_every_row_next_to_the_paper(as_summaries):
 def test_table1_marks_rows_a_run_does_not_have(as_summaries):
     runs = {"multi_robot_outdoor": _multi(_ate(odometry=(3, 0.5), roman=(2, None)), [])}
     row = table1(as_summaries(runs))[0]
-    assert row["simulation"]["visual"] == {"ate_m": None, "ate_all_m": None, "placed": None}
+    assert row.simulation["visual"] == AteCell(ate_m=None, ate_all_m=None, placed=None)
     assert table1_markdown([row]).splitlines()[-2] == (
         "| outdoor | 9.38 | 8.77 | 7.77 | 0.50 (3/3) | n/a | n/a | n/a (2/3) | n/a | n/a | none of 3 |"
     )
@@ -77,26 +78,26 @@ def test_table1_marks_rows_a_run_does_not_have(as_summaries):
 
 
 def test_table1_claims_follow_the_rows(as_summaries):
-    by_id = {c["id"]: c for c in claims(as_summaries(_runs_ate()), [])}
+    by_id = {c.id: c for c in claims(as_summaries(_runs_ate()), [])}
     below, lowest = by_id["roman_ate_below_visual"], by_id["combined_ate_lowest"]
-    assert below["holds"]  # 0.30 < 0.40 and 0.35 < 0.50
-    assert "multi_robot_hybrid: ROMAN 0.35 vs visual 0.50 m over 2/3 robots" in below["text"]
-    assert "tunnel 4.38 / 4.20 / 4.12" in below["text"]
-    assert not lowest["holds"]  # hybrid: combined 0.40 > ROMAN 0.35
-    assert "multi_robot_tunnel: combined 0.25, visual 0.40, ROMAN 0.30 m over 3/3 robots" in lowest["text"]
+    assert below.holds  # 0.30 < 0.40 and 0.35 < 0.50
+    assert "multi_robot_hybrid: ROMAN 0.35 vs visual 0.50 m over 2/3 robots" in below.text
+    assert "tunnel 4.38 / 4.20 / 4.12" in below.text
+    assert not lowest.holds  # hybrid: combined 0.40 > ROMAN 0.35
+    assert "multi_robot_tunnel: combined 0.25, visual 0.40, ROMAN 0.30 m over 3/3 robots" in lowest.text
     whole = by_id["combined_all_robots_below_odometry"]  # over all robots: 10x the common figures here
-    assert whole["holds"]
-    assert "multi_robot_tunnel: combined 2.50 m (3/3 robots placed) vs odometry 5.00 m" in whole["text"]
+    assert whole.holds
+    assert "multi_robot_tunnel: combined 2.50 m (3/3 robots placed) vs odometry 5.00 m" in whole.text
     runs = _runs_ate()
     runs["multi_robot_tunnel"]["ate"]["combined"].update(connected=2, all=None)  # a robot left out: no all-robot ATE
-    assert not {c["id"]: c for c in claims(as_summaries(runs), [])}["combined_all_robots_below_odometry"]["holds"]
+    assert not {c.id: c for c in claims(as_summaries(runs), [])}["combined_all_robots_below_odometry"].holds
     runs = _runs_ate()
     runs["multi_robot_hybrid"]["ate"]["combined"]["common"] = 0.354  # within 5 mm of ROMAN: a tie, "at or below"
-    assert {c["id"]: c for c in claims(as_summaries(runs), [])}["combined_ate_lowest"]["holds"]
+    assert {c.id: c for c in claims(as_summaries(runs), [])}["combined_ate_lowest"].holds
     runs["multi_robot_hybrid"]["ate"]["visual"]["common"] = 0.354  # ROMAN 0.35 is then not lower than visual
-    assert not {c["id"]: c for c in claims(as_summaries(runs), [])}["roman_ate_below_visual"]["holds"]
+    assert not {c.id: c for c in claims(as_summaries(runs), [])}["roman_ate_below_visual"].holds
     no_visual = {"multi_robot_tunnel": _multi(_ate(odometry=(3, 0.5), roman=(3, 0.3)), ["a"])}
-    assert not {c["id"] for c in claims(as_summaries(no_visual), [])} & {
+    assert not {c.id for c in claims(as_summaries(no_visual), [])} & {
         "roman_ate_below_visual",
         "combined_ate_lowest",
         "combined_all_robots_below_odometry",
@@ -153,8 +154,8 @@ def test_two_front_ends_share_pairs_and_show_grades(as_summaries):
         "opposite_direction_pixels": _opp({"60-120": (0, 2), "120-180": (3, 10)}, GRADES),
     }
     t = frontends(as_summaries(runs))
-    assert t["same_pairs"] and t["scenarios"] == ["opposite_direction", "opposite_direction_pixels"]
-    assert [(r["scenario"], r["method"]) for r in t["recall"]] == [  # ROMAN first; visual uses no segments
+    assert t is not None and t.same_pairs and t.scenarios == ["opposite_direction", "opposite_direction_pixels"]
+    assert [(r.scenario, r.method) for r in t.recall] == [  # ROMAN first; visual uses no segments
         ("opposite_direction", "roman"),
         ("opposite_direction_pixels", "roman"),
         ("opposite_direction", "clipper"),
@@ -177,37 +178,29 @@ def test_two_front_ends_share_pairs_and_show_grades(as_summaries):
     assert "100 cross-robot pairs (12 relevant), the same pairs in every row" in frontends_markdown(t)
     runs["opposite_direction_pixels"]["pairs"] = {"inter": {"n_pairs": 99, "n_relevant": 12}}
     assert "NOT the same pair counts" in frontends_markdown(frontends(as_summaries(runs)))
-    assert frontends(as_summaries({"same_direction": runs["opposite_direction"]})) == {}
-    assert frontends_markdown({}) == ""
+    assert frontends(as_summaries({"same_direction": runs["opposite_direction"]})) is None
+    assert frontends_markdown(None) == ""
 
 
 def test_frontend_summary_weights_other_families_by_pairs():
     cls = {
-        "same_instance": {"pairs": 4, "mean": 0.9},
-        "same_family": {"pairs": 10, "mean": 0.8},
-        "same_group": {"pairs": 1, "mean": 0.7},
-        "other_group": {"pairs": 3, "mean": 0.5},
+        "same_instance": CosineStats(4, 0.9, None, None, None, []),
+        "same_family": CosineStats(10, 0.8, None, None, None, []),
+        "same_group": CosineStats(1, 0.7, None, None, None, []),
+        "other_group": CosineStats(3, 0.5, None, None, None, []),
     }
-    seg = {
-        "frames": 2,
-        "objects": 9,
-        "masks": 8,
-        "precision": 0.75,
-        "recall": 0.5,
-        "mean_iou": 0.6,
-        "over_segmented": 1,
-        "under_segmented": 2,
-        "spurious": 0,
-    }
-    s = frontend_summary(
-        {"segmenter": "image", "encoder": "image", "segmentation": seg, "descriptors": {"classes": cls}}
-    )
-    assert s.cosine_other_family == (0.7 + 3 * 0.5) / 4 and s.cosine_same_instance == 0.9
-    assert (s.precision, s.over_segmented, s.frames) == (0.75, 1, 2)
-    cls["same_group"]["pairs"] = cls["other_group"]["pairs"] = 0
-    no_desc = frontend_summary({"segmenter": "perfect", "encoder": None, "segmentation": seg, "descriptors": None})
-    assert no_desc.cosine_same_family is None and no_desc.encoder is None
-    other = frontend_summary({"segmenter": "x", "segmentation": seg, "descriptors": {"classes": cls}})
+    # one area bin; distance bins [0, 7.5) (the mapper's range) and beyond: the headline counts the first
+    seg = SegmentationGrades(frames=2, objects=9, masks=8, over_segmented=1, under_segmented=2)
+    seg.distance_edges_m, seg.table_objects, seg.table_matched = [0.0, 7.5], [[8, 1]], [[4, 0]]
+    seg.dist_graded_masks, seg.dist_matched_masks, seg.dist_iou_sum = [8, 0], [6, 0], [3.0, 0.0]
+    desc = DescriptorGrades(10, cls, [], [], [])
+    s = frontend_summary(FrontEndGrades("image", "image", seg, desc))
+    assert s is not None and s.cosine_other_family == (0.7 + 3 * 0.5) / 4 and s.cosine_same_instance == 0.9
+    assert (s.precision, s.recall, s.mean_iou, s.over_segmented, s.frames) == (0.75, 0.5, 0.5, 1, 2)
+    cls["same_group"].pairs = cls["other_group"].pairs = 0
+    no_desc = frontend_summary(FrontEndGrades("perfect", None, seg, None))
+    assert no_desc is not None and no_desc.cosine_same_family is None and no_desc.encoder is None
+    other = frontend_summary(FrontEndGrades("x", None, seg, desc))
     assert other is not None and other.cosine_other_family is None
     assert frontend_summary(None) is None
 
@@ -249,7 +242,7 @@ def test_operating_points_table_per_method_and_bin(as_summaries):
         inter["bins"] = {b: _with_points(r, r["max_hits"], r["n_relevant"]) for b, r in inter["bins"].items()}
     rows = operating_points(as_summaries({**runs, "multi_robot_tunnel": _multi({}, [])}))
     # ROMAN first; all pairs, then the bins with relevant pairs in heading order; the ATE scenario is not listed
-    assert [(r["method"], r["heading"]) for r in rows] == [
+    assert [(r.method, r.heading) for r in rows] == [
         (m, h) for m in ("roman", "clipper", "visual") for h in ("all", "60-120", "120-180")
     ]
     lines = operating_points_markdown(rows).splitlines()

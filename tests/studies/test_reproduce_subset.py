@@ -13,7 +13,8 @@ from pathlib import Path
 import pytest
 
 from roman_sim.core.atomic import write_json
-from roman_sim.evaluation.run_summary import RunSummary
+from roman_sim.core.records import to_json, write_record
+from roman_sim.evaluation.run_summary import PairCounts, RunSummary
 from roman_sim.pipeline import experiment, scenario
 from roman_sim.report.recompute import compare
 from roman_sim.studies.pages import RESULTS_MARKERS, results_block
@@ -22,6 +23,7 @@ from roman_sim.studies.reference import (
     RESULTS_PAGE,
     build_reference,
     collect,
+    read_reference,
     rederive,
     reproduce,
 )
@@ -58,9 +60,9 @@ def committed(smoke_run, tmp_path: Path) -> Path:
             "runs": [{"run_id": "r0", "seed": 0, "params": {AMBIGUITY_KEY: 0.25}}],
         },
     )
-    stale = RunSummary("inter", {"stale": {"n_pairs": 1}}, 0)
+    stale = RunSummary("inter", {"stale": PairCounts(n_pairs=1, n_relevant=0)}, 0)
     # gamma was listed once but its folder is gone; beta's entry is stale until it is re-run
-    write_json(out / "summary.json", build_reference({"alpha": stale, "beta": stale, "gamma": stale}, []))
+    write_record(out / "summary.json", build_reference({"alpha": stale, "beta": stale, "gamma": stale}, []))
     return out
 
 
@@ -77,14 +79,15 @@ def test_subset_run_keeps_the_other_scenarios_and_the_sweep(committed, smoke_run
     assert replay.ran == ["beta", "delta"]
     summary = json.loads((committed / "summary.json").read_text(encoding="utf-8"))
     assert list(summary["runs"]) == ["alpha", "beta", "delta"]  # committed order, gamma dropped, delta appended
-    fresh = json.loads(json.dumps(smoke_run.summary().to_json()))
+    fresh = json.loads(json.dumps(to_json(smoke_run.summary())))
     for name in ("alpha", "beta", "delta"):  # alpha recomputed from its raw files, beta and delta from the run
         assert not compare(fresh, summary["runs"][name], name, rel_tol=1e-6, abs_tol=1e-9)
     assert [r["ambiguity"] for r in summary["ambiguity_sweep"]] == [0.25] * len(summary["ambiguity_sweep"])
     assert {r["method"] for r in summary["ambiguity_sweep"]} == set(fresh["methods"])
-    again = json.loads(json.dumps(rederive(committed), sort_keys=True))
+    again = json.loads(json.dumps(to_json(rederive(committed)), sort_keys=True))
     assert not compare(summary, again, "summary.json", rel_tol=1e-6, abs_tol=1e-9)
-    assert page.read_text(encoding="utf-8") == f"intro\n{results_block(summary)}\noutro\n"
+    block = results_block(read_reference(committed / "summary.json"))
+    assert page.read_text(encoding="utf-8") == f"intro\n{block}\noutro\n"
 
 
 def test_subset_run_into_an_empty_folder_writes_only_its_scenarios(smoke_run, monkeypatch, tmp_path):

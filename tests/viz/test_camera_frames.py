@@ -9,9 +9,9 @@ import numpy as np
 
 from roman_sim.core.geometry import make_T
 from roman_sim.core.sensors import Frame, FrameTruth
+from roman_sim.pipeline.scenario import ScenarioRobot
 from roman_sim.sim.camera import CameraConfig
 from roman_sim.sim.recording import write_recording
-from roman_sim.sim.robot import RobotConfig
 from roman_sim.viz.camera_frames import camera_frames, subsample
 
 CAM = CameraConfig(width=16, height=12)
@@ -42,7 +42,7 @@ def test_subsample() -> None:
 
 def test_recorded_frames_are_used(tmp_path: Path) -> None:
     write_recording(_frames(10), tmp_path / "recordings" / "r", chunk_size=4)
-    sc = SimpleNamespace(robots=[RobotConfig(name="r"), RobotConfig(name="q")], seed=0)
+    sc = SimpleNamespace(robots=[ScenarioRobot(name="r"), ScenarioRobot(name="q")], seed=0)
     streams = camera_frames(tmp_path, sc, None, 4)
     assert list(streams) == ["r"]  # q has no recording and there is no world to render it
     got = list(streams["r"])

@@ -21,6 +21,7 @@ from roman_sim.world.appearance import LIGHTING, instance_draws, vary_rgba
 from roman_sim.world.assets import FAMILIES
 from roman_sim.world.catalog import family_assets
 from roman_sim.world.textures import SURFACES, NoiseBatch
+from roman_sim.world.truth import SunMeta
 
 CAM = CameraConfig(width=160, height=120, hfov_deg=60.0, vfov_deg=None, far_m=100.0)
 FLAT = {"sun": 0.0, "headlight": 0.0, "ambient": 1.0, "colour": [1.0, 1.0, 1.0]}  # lit colour = geom colour
@@ -250,7 +251,7 @@ def test_ground_brightness_follows_the_sun_elevation(gen: Callable[..., World]) 
     ground = (sa == -1) & (da > 0)
     ratio = a[ground].astype(np.float64).mean() / b[ground].astype(np.float64).mean()
     assert ratio == pytest.approx(np.sin(np.radians(30.0)), abs=0.01)
-    assert low.truth.meta["sun"] == {"azimuth_deg": 0.0, "elevation_deg": 30.0}
+    assert low.truth.meta is not None and low.truth.meta.sun == SunMeta(azimuth_deg=0.0, elevation_deg=30.0)
 
 
 def test_shadows_darken_the_ground_behind_an_object_only(gen: Callable[..., World]) -> None:
@@ -275,10 +276,11 @@ def test_shadows_darken_the_ground_behind_an_object_only(gen: Callable[..., Worl
 
 
 def test_random_lighting_is_seeded() -> None:
-    a, b, c = (generate(_spec(lighting="random"), s).truth.meta["sun"] for s in (4, 4, 5))
+    metas = [generate(_spec(lighting="random"), s).truth.meta for s in (4, 4, 5)]
+    a, b, c = (m.sun for m in metas if m is not None)
     assert a == b and a != c
     for sun in (a, c):
-        assert 0.0 <= sun["azimuth_deg"] < 360.0 and 15.0 <= sun["elevation_deg"] <= 75.0
+        assert 0.0 <= sun.azimuth_deg < 360.0 and 15.0 <= sun.elevation_deg <= 75.0
 
 
 # --- what appearance must not change -------------------------------------------------------

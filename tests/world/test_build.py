@@ -35,7 +35,8 @@ def _check_world(world: World) -> None:
 def test_every_preset_builds_and_compiles(preset: str) -> None:
     world = generate(load_world_spec(preset), 0)
     assert len(world.truth.objects) >= 20
-    counts = world.truth.meta["placed_requested"]
+    assert world.truth.meta is not None
+    counts = world.truth.meta.placed_requested
     assert sum(p for p, _ in counts.values()) == len(world.truth.objects)
     assert all(0 < p <= r for p, r in counts.values())
     if preset == "forest":  # the benchmark world: 200 x 200 m with >= 1000 objects

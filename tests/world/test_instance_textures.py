@@ -26,6 +26,7 @@ from roman_sim.world.textures import (
     texture_image,
     texture_images,
 )
+from roman_sim.world.truth import ObjectTruthRow
 
 
 def _spec(**appearance: object) -> WorldSpec:
@@ -129,7 +130,7 @@ def test_surface_scope_shares_one_tile_per_kind(world: World) -> None:
     np.testing.assert_array_equal(_texcoords(shared, same[0].geom_ids[1]), _texcoords(shared, same[1].geom_ids[1]))
     # geometry, colours and truth do not depend on the scope
     np.testing.assert_array_equal(m.geom_rgba, world.model.geom_rgba)
-    assert [o.to_dict() for o in shared.truth.objects] == [o.to_dict() for o in world.truth.objects]
+    assert [ObjectTruthRow.of(o) for o in shared.truth.objects] == [ObjectTruthRow.of(o) for o in world.truth.objects]
     assert shared.meshes.keys() == world.meshes.keys()
 
 

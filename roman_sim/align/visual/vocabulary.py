@@ -22,12 +22,10 @@ containing word w. A BoW vector adds ``idf(w)`` per feature landing in w (words 
 
 from __future__ import annotations
 
-import json
 import logging
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,12 +34,38 @@ from roman_sim.align.visual.bow import BowVector
 from roman_sim.align.visual.hamming import hamming, hamming_matrix, majority_by_label
 from roman_sim.core.atomic import write_npz
 from roman_sim.core.errors import ConfigError, StorageError
+from roman_sim.core.records import OMIT_NONE, RecordError, dumps_record, loads_record
 from roman_sim.core.seeding import child_rng
 
 log = logging.getLogger(__name__)
 
 VOCABULARY_FORMAT = "roman_sim.orb_vocabulary"
 VOCABULARY_VERSION = 1
+
+
+@dataclass(frozen=True)
+class TrainingFacts:
+    """How a vocabulary was trained: seed, k-majority iterations, images and descriptors, and (for
+    the bundled one) the image size and the training worlds (preset, seed, lighting)."""
+
+    seed: int
+    max_iterations: int
+    n_images: int
+    n_descriptors: int
+    image_size: tuple[int, int] | None = field(default=None, metadata=OMIT_NONE)
+    worlds: list[tuple[str, int, str]] | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass(frozen=True)
+class VocabularyHeader:
+    """The header of a vocabulary file: format, version, branching, depth and the training facts."""
+
+    format: str
+    version: int
+    k: int
+    L: int
+    meta: TrainingFacts
+
 
 #: (preset, seed, lighting preset) of the worlds the shipped vocabulary is trained on
 #: (``tools/train_vocabulary.py``): far from every scenario's seed.
@@ -76,7 +100,7 @@ class Vocabulary:
     parent: NDArray[np.int32]
     word_of_node: NDArray[np.int32]
     weights: NDArray[np.float32]
-    meta: dict[str, Any]
+    meta: TrainingFacts
 
     def __post_init__(self) -> None:
         n = len(self.parent)
@@ -123,16 +147,10 @@ class Vocabulary:
 
     def save(self, path: str | Path) -> None:
         """Write the vocabulary atomically as an ``.npz`` (packed uint8 centres + weights)."""
-        header = {
-            "format": VOCABULARY_FORMAT,
-            "version": VOCABULARY_VERSION,
-            "k": self.k,
-            "L": self.L,
-            "meta": self.meta,
-        }
+        header = VocabularyHeader(VOCABULARY_FORMAT, VOCABULARY_VERSION, self.k, self.L, self.meta)
         write_npz(
             path,
-            header=np.frombuffer(json.dumps(header, sort_keys=True).encode(), dtype=np.uint8),
+            header=np.frombuffer(dumps_record(header).encode(), dtype=np.uint8),
             centers=self.centers,
             parent=self.parent,
             word_of_node=self.word_of_node,
@@ -152,19 +170,13 @@ class Vocabulary:
         try:
             with np.load(path, allow_pickle=False) as z:
                 a = {k: z[k] for k in z.files}
-            h = json.loads(a.pop("header").tobytes().decode())
-            if h.get("format") != VOCABULARY_FORMAT or h.get("version") != VOCABULARY_VERSION:
+            h = loads_record(a.pop("header").tobytes(), VocabularyHeader, f"{path}: header")
+            if h.format != VOCABULARY_FORMAT or h.version != VOCABULARY_VERSION:
                 raise StorageError(f"{path}: not a version-{VOCABULARY_VERSION} ORB vocabulary")
-            return cls(
-                int(h["k"]),
-                int(h["L"]),
-                a["centers"],
-                a["parent"],
-                a["word_of_node"],
-                a["weights"],
-                dict(h.get("meta", {})),
-            )
-        except (OSError, ValueError, KeyError, EOFError, UnicodeDecodeError) as err:
+            return cls(h.k, h.L, a["centers"], a["parent"], a["word_of_node"], a["weights"], h.meta)
+        except RecordError:
+            raise
+        except (OSError, ValueError, KeyError, EOFError) as err:
             raise StorageError(f"{path}: not a readable vocabulary ({type(err).__name__})") from None
 
 
@@ -233,7 +245,7 @@ def train_vocabulary(
             queue.append((len(parent) - 1, idx[labels == c]))
     word_of_node = np.full(len(parent), -1, dtype=np.int32)
     word_of_node[np.array(sorted(leaves))] = np.arange(len(leaves), dtype=np.int32)
-    meta = {"seed": seed, "max_iterations": max_iterations, "n_images": len(images), "n_descriptors": len(x)}
+    meta = TrainingFacts(seed, max_iterations, len(images), len(x))
     voc = Vocabulary(
         k,
         L,

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import importlib
-import json
 import os
 from pathlib import Path
 from typing import Any
@@ -12,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.records import RecordError, read_json
 from roman_sim.mapping.mask import Mask
 
 
@@ -45,9 +45,10 @@ def weights_dir(path: Path, field: str, model_types: tuple[str, ...] = ()) -> Pa
         raise ConfigError(f"{field}: {p} has no config.json (expected a folder saved with save_pretrained)")
     if model_types:
         try:
-            kind = json.loads((p / "config.json").read_text(encoding="utf-8")).get("model_type")
-        except (OSError, ValueError, AttributeError) as err:
-            raise ConfigError(f"{field}: cannot read {p / 'config.json'}: {err}") from None
+            doc = read_json(p / "config.json")  # the model library's own file: only its model_type is read
+        except RecordError as err:
+            raise ConfigError(f"{field}: cannot read {err}") from None
+        kind = doc.get("model_type") if isinstance(doc, dict) else None
         if kind not in model_types:
             raise ConfigError(f"{field}: {p} holds a {kind!r} model, expected {' or '.join(map(repr, model_types))}")
     return p

@@ -6,28 +6,28 @@ parameters), the pairs (the submaps' key, the evaluation's pair selection, the g
 the code it runs (the worker job, the input checks, the gating, the pair selection and the
 aligner's module, with what they import). ``aligner_key`` hashes exactly that. The stage
 writes each aligner's results to ``aligned/<label>.json`` (``AlignedRecord``: the key and
-one ``AlignResult.to_json`` record per pair, in pair order, gated pairs included, without
-its wall time) and the pairs' alignment wall times beside them, to
-``aligned/<label>.times.json`` (``AlignedTimes``); it lists both among its files, and the
-experiment stores both in the shared cache under the aligner's key (``Stage.parts``, part
-``alignment``). The record is thus a pure function of its inputs (the same bytes from any
-run of the same key); the times, like ``timings.json``, differ between two runs
-(``roman_sim.testing.run_folder_bytes`` leaves them out). A later run reads from the cache
-the aligners whose keys it finds (``cached_aligned``: record and times), aligns with the
-others only, and links the cached files into its folder when it saves. The records go
-through the same JSON round trip as a fresh chunk's results, so the scores are the same bytes.
+one ``ResultRow`` per pair, in pair order, gated pairs included, without its wall time) and
+the pairs' alignment wall times beside them, to ``aligned/<label>.times.json``
+(``AlignedTimes``); it lists both among its files, and the experiment stores both in the
+shared cache under the aligner's key (``Stage.parts``, part ``alignment``). The record is
+thus a pure function of its inputs (the same bytes from any run of the same key); the times,
+like ``timings.json``, differ between two runs (``roman_sim.testing.run_folder_bytes`` leaves
+them out). A later run reads from the cache the aligners whose keys it finds
+(``cached_aligned``: record and times), aligns with the others only, and links the cached
+files into its folder when it saves. The results are read
+from the same rows as a fresh chunk's results, so the scores are the same bytes.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import TYPE_CHECKING, Any
 
 from roman_sim import __version__
-from roman_sim.align.base import AlignResult
+from roman_sim.align.base import AlignResult, ResultRow
 from roman_sim.core.config import stable_hash
 from roman_sim.core.records import RecordError, read_record
 from roman_sim.pipeline.context import RunContext
@@ -61,12 +61,12 @@ class AlignedRecord:
     Attributes:
         aligner: the aligner's label.
         key: ``aligner_key`` of the run that computed the results.
-        results: per pair, ``{"a", "b"}`` and ``AlignResult.to_json`` of the result.
+        results: per pair, the result's row (its wall time apart, in ``AlignedTimes``, on disk).
     """
 
     aligner: str
     key: str
-    results: list[dict[str, Any]]
+    results: list[ResultRow]
 
 
 @dataclass
@@ -91,8 +91,8 @@ def times_file(label: str) -> str:
 def split_aligned(rec: AlignedRecord) -> tuple[AlignedRecord, AlignedTimes]:
     """``rec`` without its wall times, and the times apart: what ``aligned/<label>.json`` and
     ``aligned/<label>.times.json`` hold (the stage's ``save`` writes them)."""
-    results = [{k: v for k, v in r.items() if k != "runtime_s"} for r in rec.results]
-    times = [float(r["runtime_s"]) for r in rec.results]
+    results = [replace(r, runtime_s=None) for r in rec.results]
+    times = [float("nan") if r.runtime_s is None else r.runtime_s for r in rec.results]
     return AlignedRecord(rec.aligner, rec.key, results), AlignedTimes(rec.aligner, rec.key, times)
 
 
@@ -103,7 +103,7 @@ def read_aligned(folder: Path, label: str) -> AlignedRecord:
     times = read_record(folder / times_file(label), AlignedTimes, ALIGNED_TIMES_SCHEMA)
     if (times.aligner, times.key, len(times.runtime_s)) != (rec.aligner, rec.key, len(rec.results)):
         raise RecordError(f"{folder / times_file(label)}: the wall times of another aligner, key or pair set")
-    return AlignedRecord(rec.aligner, rec.key, [{**r, "runtime_s": t} for r, t in zip(rec.results, times.runtime_s)])
+    return AlignedRecord(rec.aligner, rec.key, [replace(r, runtime_s=t) for r, t in zip(rec.results, times.runtime_s)])
 
 
 def aligner_key(stage: Stage[Any, Any], ctx: RunContext, entry: AlignerEntry) -> str | None:
@@ -127,7 +127,7 @@ def aligned_record(
     label: str, key: str, pairs: Sequence[tuple[str, str]], results: dict[ResultKey, AlignResult]
 ) -> AlignedRecord:
     """The aligner ``label``'s results on ``pairs`` (in their order) as its record."""
-    return AlignedRecord(label, key, [{"a": a, "b": b, **results[(a, b, label)].to_json()} for a, b in pairs])
+    return AlignedRecord(label, key, [results[(a, b, label)].row(a, b) for a, b in pairs])
 
 
 def cached_aligned(ctx: RunContext, keys: dict[str, str], pairs: Sequence[tuple[str, str]]) -> list[AlignedRecord]:
@@ -144,7 +144,7 @@ def cached_aligned(ctx: RunContext, keys: dict[str, str], pairs: Sequence[tuple[
             continue
         try:
             rec = read_aligned(where, label)
-            got = [(str(r.get("a")), str(r.get("b"))) for r in rec.results]
+            got = [(r.a, r.b) for r in rec.results]
             if rec.key != key or rec.aligner != label or got != list(pairs):
                 raise RecordError(f"{where / aligned_file(label)}: the results of another key, aligner or pair set")
         except RecordError as err:
@@ -157,4 +157,4 @@ def cached_aligned(ctx: RunContext, keys: dict[str, str], pairs: Sequence[tuple[
 
 def aligned_results(rec: AlignedRecord) -> dict[ResultKey, AlignResult]:
     """The record's results, ``(a name, b name, label) -> AlignResult``."""
-    return {(str(r["a"]), str(r["b"]), rec.aligner): AlignResult.from_json(cast(Any, r)) for r in rec.results}
+    return {(r.a, r.b, rec.aligner): AlignResult.from_row(r) for r in rec.results}

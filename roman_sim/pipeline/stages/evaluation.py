@@ -268,7 +268,7 @@ class EvaluationStage(Stage[EvaluationInputs, EvaluationOutput]):
         log.info("evaluated %d pairs (%d skipped by the distance cap)", len(sel.pairs), sel.n_skipped)
         maps = inputs.maps
         if maps is not None and maps.frontend is not None:
-            metrics.frontend = maps.frontend.to_json()
+            metrics.frontend = maps.frontend
         timings: Timings = {"pairs": pair_timings, "alignment": _runtimes(scores)}
         return EvaluationOutput(scores, _records(results), metrics, [], timings, aligned, sorted(taken))
 

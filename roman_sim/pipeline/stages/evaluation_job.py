@@ -3,11 +3,12 @@
 This is only *how* the aligners run; what is scored is the evaluation's business. Pairs
 are cut into chunks of ``ctx.chunk_pairs`` in pair order; each chunk is one task
 (``align_chunk_task``) that runs every aligner on its pairs (with truth stripped) and
-returns JSON-ready results (``AlignResult.to_json``). The stage's ``TaskRunner``
-checkpoints each finished chunk (``ChunkCodec``: the records are the checkpoint's JSON data)
-under a hash of its pair names, so an interrupted evaluation re-aligns only the unfinished
-chunks. Every result, fresh or resumed, goes through the same JSON round trip, so the
-outputs are byte-identical whatever the executor, the worker count or the interruption.
+returns each result as its JSON row (``ResultRow``: floats exact, numpy values made plain). The
+stage's ``TaskRunner`` checkpoints each finished chunk (``ChunkCodec``: the rows are the
+checkpoint's JSON data, read back through ``roman_sim.core.records``) under a hash of its pair
+names, so an interrupted evaluation re-aligns only the unfinished chunks. Every result, fresh
+or resumed, is read from its row, so the outputs are byte-identical whatever the executor, the
+worker count or the interruption.
 
 A worker keeps the aligners it built (``_aligners``), so consecutive chunks of one run do
 not rebuild them. ``WORKER_PRELOAD`` names what the job imports, for a local pool's
@@ -20,13 +21,14 @@ import hashlib
 import json
 import logging
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING
 
-from roman_sim.align.base import Aligner, AlignResult, ResultJSON
-from roman_sim.core.errors import EvaluationError
+from roman_sim.align.base import Aligner, AlignResult, ResultRow
 from roman_sim.core.jsontypes import JSON
+from roman_sim.core.records import dumps_record, from_json, loads_record, to_json
 from roman_sim.mapping.types import Submap
 from roman_sim.pipeline.context import RunContext
 from roman_sim.runner.checkpoint import Kept
@@ -50,11 +52,13 @@ WORKER_PRELOAD = (
 )
 
 
-class ChunkRecord(ResultJSON):
-    """One aligner's result on one pair of a chunk: the pair's submap names and the result."""
+@dataclass(frozen=True)
+class AlignerSpec:
+    """One aligner as the alignment tasks take it: its label, method and parameters."""
 
-    a: str
-    b: str
+    label: str
+    method: str
+    params: dict[str, JSON]
 
 
 @lru_cache(maxsize=4)
@@ -62,34 +66,31 @@ def _aligners(aligners_json: str) -> list[tuple[str, Aligner]]:
     from roman_sim.align import build_aligner
     from roman_sim.pipeline.plugin_guard import guard_aligner
 
-    return [
-        (e["label"], guard_aligner(build_aligner(e["method"], e["params"]), e["method"]))
-        for e in json.loads(aligners_json)
-    ]
+    specs = loads_record(aligners_json, list[AlignerSpec], "the alignment task's aligners")
+    return [(e.label, guard_aligner(build_aligner(e.method, e.params), e.method)) for e in specs]
 
 
-def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list[tuple[str, str]]) -> list[ChunkRecord]:
-    """Every aligner on every pair of the chunk (submaps already public); JSON-ready results in order.
+def align_chunk_task(aligners_json: str, submaps: dict[str, Submap], pairs: list[tuple[str, str]]) -> list[ResultRow]:
+    """Every aligner on every pair of the chunk (submaps already public); the results' rows in order.
 
-    Returns one record per (pair, aligner), pair-major: ``AlignResult.to_json`` of the
-    result under the aligner's label.
+    Returns one row per (pair, aligner), pair-major: the result under the aligner's label.
     """
     from roman_sim.align.checks import remembered_checks
 
-    out: list[ChunkRecord] = []
+    out: list[ResultRow] = []
     labelled = _aligners(aligners_json)
     with remembered_checks():  # each submap's input checks once per chunk, not once per pair and method
         for a, b in pairs:
             for label, aligner in labelled:
                 res = aligner.align(submaps[a], submaps[b])
                 res.method = label
-                out.append({"a": a, "b": b, **res.to_json()})
+                out.append(res.row(a, b))
     return out
 
 
 def aligners_json(aligners: Sequence[AlignerEntry]) -> str:
     """The aligners (label, method, params) as the JSON the alignment tasks take."""
-    return json.dumps([{"label": e.name, "method": e.method, "params": e.params} for e in aligners], sort_keys=True)
+    return dumps_record([AlignerSpec(e.name, e.method, e.params) for e in aligners])
 
 
 def _chunk_id(pairs: list[tuple[str, str]], labels: list[str]) -> str:
@@ -97,17 +98,15 @@ def _chunk_id(pairs: list[tuple[str, str]], labels: list[str]) -> str:
 
 
 class ChunkCodec:
-    """Checkpoint codec of a chunk's results (``TaskCodec``): the JSON records themselves, no payload file."""
+    """Checkpoint codec of a chunk's results (``TaskCodec``): the rows as JSON, no payload file."""
 
-    def write(self, value: list[ChunkRecord], stem: Path) -> Kept:
-        """The records as the checkpoint's data."""
-        return Kept(cast(JSON, value))
+    def write(self, value: list[ResultRow], stem: Path) -> Kept:
+        """The rows as the checkpoint's data."""
+        return Kept(to_json(value))
 
-    def read(self, data: JSON, stem: Path) -> list[ChunkRecord]:
-        """The records back (a list of JSON objects)."""
-        if not isinstance(data, list) or not all(isinstance(r, dict) for r in data):
-            raise EvaluationError(f"{stem}: malformed chunk checkpoint")
-        return cast(list[ChunkRecord], data)
+    def read(self, data: JSON, stem: Path) -> list[ResultRow]:
+        """The rows back (RecordError names the checkpoint and the field when one is damaged)."""
+        return from_json(list[ResultRow], data, f"{stem} (chunk checkpoint)")
 
 
 def align_pairs(
@@ -133,7 +132,7 @@ def align_pairs(
     labels = [f"aligning pairs {i * size}..{i * size + len(c) - 1}" for i, c in enumerate(chunks)]
     done: dict[int, dict[ResultKey, AlignResult]] = {}
     for i, rec in tasks.run(align_chunk_task, args, labels, ids, ChunkCodec()):
-        done[i] = {(str(r["a"]), str(r["b"]), str(r["method"])): AlignResult.from_json(r) for r in rec}
+        done[i] = {(r.a, r.b, r.method): AlignResult.from_row(r) for r in rec}
         ctx.progress.advance("evaluation:pairs", len(chunks[i]))
         if on_chunk is not None:
             on_chunk(done[i])

@@ -27,10 +27,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from roman_sim.core.atomic import write_json
-from roman_sim.core.errors import ConfigError, StorageError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import read_json
+from roman_sim.core.records import read_record, write_record
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.grades import FrontEndGrades
 from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframes, save_segment_map
@@ -101,12 +99,12 @@ def map_robots(
     # A local pool's workers get the world pickled (a second to send and load against seconds
     # to generate); Dask workers, possibly on other machines, regenerate it from the scenario.
     shipped: World | PickledWorld | None = world if local else None
-    if not local and world is not None and tasks.kind == "local" and any(r.source is None for r in robots):
+    if not local and world is not None and tasks.kind == "local":
         shipped = PickledWorld.of(world)
     args = [(sc_json, r.name, str(ctx.run_dir), shipped) for r in robots]
 
     def here(sc: str, name: str, run_dir: str, w: World | None) -> RobotMapping:
-        return map_one(ctx, w, next(r for r in robots if r.name == name))
+        return map_one(ctx, lambda: w, next(r for r in robots if r.name == name))
 
     fn = here if local else map_robot_task
     results: dict[str, RobotMapping] = {}
@@ -131,6 +129,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
     worker_preload = (
         "roman_sim.pipeline.stages.maps_job",
         "roman_sim.pipeline.stages.maps_robot",
+        "roman_sim.pipeline.stages.maps_input",
         "roman_sim.world",
         "roman_sim.sim.robot",
         "roman_sim.sim.source",
@@ -142,10 +141,10 @@ class MapsStage(Stage[MapsInputs, Maps]):
         return ctx.submaps_dir is None
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
-        from roman_sim.pipeline.stages.maps_sources import fingerprint
+        from roman_sim.pipeline.stages.maps_sources import fingerprints
 
         sc = ctx.scenario.model_dump(mode="json")
-        sequences = {r.name: fingerprint(r.source) for r in ctx.scenario.robots if r.source is not None}
+        sequences = fingerprints(ctx.scenario.robots)
         return [
             sc["robots"],
             sc["frontend"],
@@ -157,22 +156,20 @@ class MapsStage(Stage[MapsInputs, Maps]):
     def run(self, ctx: RunContext, inputs: MapsInputs, tasks: TaskRunner) -> Maps:
         sc = ctx.scenario
         world = None if inputs.world is None else inputs.world.world
-        if world is None and sc.simulated_robots():
-            raise ConfigError("the maps stage needs the world for simulated robots")
         maps, keyframes, parts, snapshot = map_robots(ctx, world, tasks)
         grades = None
         if parts:
             grader = FrontEndGrader.from_parts(parts, sc.frontend.semantics.group_of, seed=sc.seed)
             grader.appearance = _appearance_kernel(ctx, world)
             grades = grader.result(sc.frontend.segmenter.name, sc.frontend.encoder.name)
-        return Maps(maps, _rgb_notes(ctx), keyframes, grades, snapshot)
+        return Maps(maps, _rgb_notes(ctx) + _odometry_notes(ctx, maps), keyframes, grades, snapshot)
 
     def save(self, out: Maps, ctx: RunContext) -> list[str]:
         files = save_per_robot(ctx, "maps", out.maps, save_segment_map, out.notes)
         if out.keyframes:
             files += save_per_robot(ctx, "keyframes", out.keyframes, save_keyframes, [])
         if out.frontend is not None:
-            write_json(ctx.run_dir / FRONTEND_JSON, out.frontend.to_json())
+            write_record(ctx.run_dir / FRONTEND_JSON, out.frontend)
             files.append(FRONTEND_JSON)
         if out.snapshot is not None:
             save_snapshot(ctx.run_dir / SNAPSHOT_NPZ, out.snapshot)
@@ -184,11 +181,7 @@ class MapsStage(Stage[MapsInputs, Maps]):
         keyframes = load_per_robot(ctx, "keyframes", load_keyframes)[0] if ctx.scenario.uses_visual else {}
         grades = None
         if FRONTEND_JSON in files:
-            path = ctx.run_dir / FRONTEND_JSON
-            try:
-                grades = FrontEndGrades.from_json(read_json(path))
-            except (KeyError, TypeError, ValueError) as err:
-                raise StorageError(f"{path}: malformed front-end grades ({type(err).__name__}: {err})") from None
+            grades = read_record(ctx.run_dir / FRONTEND_JSON, FrontEndGrades)
         snapshot = load_snapshot(ctx.run_dir / SNAPSHOT_NPZ) if SNAPSHOT_NPZ in files else None
         return Maps(maps, notes, keyframes, grades, snapshot)
 
@@ -224,3 +217,13 @@ def _rgb_notes(ctx: RunContext) -> list[str]:
             )
             log.warning(notes[-1])
     return notes
+
+
+def _odometry_notes(ctx: RunContext, maps: dict[str, SegmentMap]) -> list[str]:
+    """Which odometry each robot used, when one robot's came from outside (none otherwise: every robot used its own)."""
+    from roman_sim.pipeline.stages.maps_input import odometry_used
+
+    robots = ctx.scenario.robots
+    if all(r.odometry is None for r in robots):
+        return []
+    return [f"robot {r.name}: odometry {odometry_used(r)}; {len(maps[r.name].times)} frames mapped" for r in robots]

@@ -18,6 +18,7 @@ from roman_sim.world import PickledWorld
 
 if TYPE_CHECKING:
     from roman_sim.pipeline.scenario import Scenario
+    from roman_sim.pipeline.stages.maps_input import WorldSupply
     from roman_sim.pipeline.stages.maps_robot import RobotMapping
     from roman_sim.world import World
 
@@ -42,19 +43,24 @@ def _world(world_json: str, seed: int) -> World:
 def map_robot_task(
     scenario_json: str, robot: str, run_dir: str, world: World | PickledWorld | None = None
 ) -> RobotMapping:
-    """Map ``robot``: rendered along its planned path, or read from its ``source``; its ``SegmentMap``.
+    """Map ``robot``: its ``RobotInput`` (``roman_sim.pipeline.stages.maps_input.open_robot``) into its ``SegmentMap``.
 
-    ``world`` is the world itself in-process, pickled from a local pool, None on Dask:
-    workers then regenerate it from the scenario (same bytes). A robot read from a TUM folder
-    needs that folder on the worker.
+    ``world`` is the world itself in-process, pickled from a local pool, None on Dask: workers
+    then regenerate it from the scenario (same bytes). The world is unpickled or generated only
+    when the robot asks for it. A robot read from a TUM folder needs that folder on the worker.
     """
     from roman_sim.pipeline.context import RunContext
     from roman_sim.pipeline.stages.maps_robot import map_one
 
     sc = _scenario(scenario_json)
     cfg = next(r for r in sc.robots if r.name == robot)
+    return map_one(RunContext(sc, Path(run_dir)), _world_supply(sc, world), cfg)
+
+
+def _world_supply(sc: Scenario, world: World | PickledWorld | None) -> WorldSupply:
+    """The world as given, unpickled, or generated from the scenario, fetched when called."""
     if isinstance(world, PickledWorld):
-        world = world.load() if cfg.source is None else None
-    if world is None and cfg.source is None:
-        world = _world(sc.world.model_dump_json(), sc.seed)
-    return map_one(RunContext(sc, Path(run_dir)), world, cfg)
+        return world.load
+    if world is not None:
+        return lambda: world
+    return lambda: _world(sc.world.model_dump_json(), sc.seed)

@@ -1,10 +1,12 @@
-"""Mapping one robot: its frame source, one loop into the sinks, a ``SegmentMap`` graded on its own.
+"""Mapping one robot: its input opened once, one loop into the sinks, a ``SegmentMap`` graded on its own.
 
 The maps stage runs ``map_one`` per robot, in this process or as a worker task
-(``roman_sim.pipeline.stages.maps_job.map_robot_task``). The robot's frames come from one
-``FrameSource`` (``robot_source``: rendered, read from the run's recording, or read from a
-TUM RGB-D folder); ``map_source`` feeds them to the mapper and, when a scenario lists the
-``visual`` method, to the keyframe extractor, whatever the source.
+(``roman_sim.pipeline.stages.maps_job.map_robot_task``). Everything the job reads of the robot
+comes from its ``RobotInput`` (``roman_sim.pipeline.stages.maps_input.open_robot``: its frames,
+whether rendered, read from the run's recording or read from a TUM RGB-D folder, with the
+odometry they carry; its families, looks and world); ``map_source`` feeds the frames to the
+mapper and, when a scenario lists the ``visual`` method, to the keyframe extractor. Nothing
+here asks what kind of robot it maps.
 """
 
 from __future__ import annotations
@@ -17,11 +19,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from roman_sim.align.visual import KeyframeExtractor, default_vocabulary
-from roman_sim.align.visual.keyframes import keyframe_mask
-from roman_sim.core.config import stable_hash
 from roman_sim.core.errors import ConfigError, RomanSimError, StorageError
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.sensors import Frame, FrameSource
+from roman_sim.core.sensors import Frame
 from roman_sim.evaluation.grader import FrontEndGrader, GraderPart
 from roman_sim.evaluation.grades import GradeConfig
 from roman_sim.frontend.appearance import SceneLooks
@@ -32,7 +32,8 @@ from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.protocols import Segmenter, SemanticEncoder, reads_truth
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
-from roman_sim.pipeline.plugin_guard import guard_frontend, is_plugin
+from roman_sim.pipeline.plugin_guard import guard_frontend
+from roman_sim.pipeline.stages.maps_input import RobotInput, WorldSupply, open_robot
 from roman_sim.report.snapshot import FrameSnapshot, load_snapshot, save_snapshot
 from roman_sim.runner.checkpoint import Kept
 
@@ -40,9 +41,6 @@ if TYPE_CHECKING:
     from numpy.typing import NDArray
 
     from roman_sim.pipeline.scenario import ScenarioRobot
-    from roman_sim.sim.robot import DrivenRun
-    from roman_sim.sim.source import SimulatedRobot
-    from roman_sim.world import World
 
 log = logging.getLogger(__name__)
 MapAndKeyframes = tuple[SegmentMap, KeyframeSet | None]
@@ -75,115 +73,30 @@ def build_encoder_for(
     return build_encoder(fe, seed=ctx.scenario.seed, robot=robot, families=families, looks=looks)
 
 
-def _recording_key(ctx: RunContext, name: str) -> str:
-    """What a robot's rendered frames depend on: seed, world, every robot (paths may refer to others)."""
-    sc = ctx.scenario.model_dump(mode="json")
-    return stable_hash(sc["seed"], sc["world"], sc["robots"], name)
-
-
-def robot_source(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> FrameSource:
-    """The robot's frames as the maps stage reads them (``roman_sim.sim.source.robot_sources``).
-
-    A robot with a ``source`` is its TUM RGB-D sequence; a simulated robot renders RGB only
-    where something reads it (``_rgb_frames``) and, with ``record_frames``, is read through
-    its recording (``_recorded``).
-    """
-    from roman_sim.pipeline.stages.maps_sources import open_sequence
-    from roman_sim.sim.source import SimulatedRobot, robot_sources
-
-    sc = ctx.scenario
-    source = robot_sources(world, sc.robots, sc.seed, [cfg.name], open_recorded=lambda r: open_sequence(r, sc.seed))[0]
-    if not isinstance(source, SimulatedRobot):
-        return source
-    if sc.record_frames:
-        return _recorded(ctx, source)
-    flags = _rgb_frames(ctx, source.run)
-    return source if flags is None else source.rgb_at(flags)
-
-
-def _recorded(ctx: RunContext, source: SimulatedRobot) -> FrameSource:
-    """The run's recording of ``source`` (``recordings/<robot>``): read back when its key matches, else
-    rendered into it (every frame with RGB) first."""
-    from roman_sim.sim.recording import Recording, recording_info, write_recording
-
-    sc = ctx.scenario
-    rec_dir = ctx.run_dir / "recordings" / source.name
-    key = _recording_key(ctx, source.name)
-    if not ctx.fresh:
-        try:
-            if recording_info(rec_dir).get("extra", {}).get("key") == key:
-                return Recording(rec_dir)
-        except RomanSimError:
-            pass
-    write_recording(source.frames(), rec_dir, overwrite=True, extra={"scenario": sc.name, "seed": sc.seed, "key": key})
-    return Recording(rec_dir)
-
-
-def _rgb_frames(ctx: RunContext, trajectory: DrivenRun) -> NDArray[np.bool_] | list[bool] | None:
-    """Frames whose RGB is read (None: all): a plug-in or RGB front end reads all, the visual method keyframes."""
-    sc = ctx.scenario
-    fe = sc.frontend
-    if is_plugin(fe.segmenter.name) or is_plugin(fe.encoder.name) or fe.needs_rgb:
-        return None
-    if not sc.uses_visual:
-        return [False] * len(trajectory.t)
-    return keyframe_mask(trajectory.t, trajectory.T_odom_body, fe.keyframes)
-
-
-def robot_families(world: World | None, cfg: ScenarioRobot) -> dict[int, str] | None:
-    """Object id -> family of the robot's objects: the world's, or its sequence's object table (None without one)."""
-    from roman_sim.pipeline.stages.maps_sources import sequence_families
-
-    if cfg.source is not None:
-        return sequence_families(cfg.source)
-    if world is None:
-        raise ConfigError(f"robot {cfg.name}: a simulated robot needs the world")
-    return {o.id: o.family for o in world.truth.objects}
-
-
-def robot_looks_for(world: World | None, cfg: ScenarioRobot, seed: int) -> SceneLooks | None:
-    """What the robot's simulated encoder knows of how its objects are drawn: the world's looks, or
-    those its sequence's object table carries (None without either)."""
-    from roman_sim.interop.looks import robot_looks, sequence_looks
-    from roman_sim.pipeline.stages.maps_sources import object_table_path
-
-    if cfg.source is not None:
-        table = object_table_path(cfg.source)
-        return None if table is None else sequence_looks(table, cfg.name)
-    return robot_looks(world, cfg.name, cfg.lighting, seed)
-
-
-def map_source(
-    ctx: RunContext,
-    source: FrameSource,
-    families: dict[int, str] | None,
-    grader: _Grader | None = None,
-    world: World | None = None,
-    looks: SceneLooks | None = None,
-) -> MapAndKeyframes:
-    """One loop of ``source``'s frames into the sinks: the mapper (graded by ``grader``) and, when the
-    visual method runs, the keyframe extractor. ``world`` serves the ``mapping.whole_surface``
-    counterfactual (``roman_sim.frontend.whole_surface``); ``looks`` is the simulated encoder's view
+def map_source(ctx: RunContext, robot: RobotInput, grader: _Grader | None = None) -> MapAndKeyframes:
+    """One loop of the robot's frames into the sinks: the mapper (graded by ``grader``) and, when the
+    visual method runs, the keyframe extractor. The robot's world serves the ``mapping.whole_surface``
+    counterfactual (``roman_sim.frontend.whole_surface``); its looks are the simulated encoder's view
     of the world (``roman_sim.interop.looks``)."""
     sc = ctx.scenario
-    name = source.name
+    name = robot.name
     stage = f"maps:{name}"
-    ctx.progress.start(stage, len(source))
+    ctx.progress.start(stage, len(robot.frames))
     # plug-ins are guarded: an exception or a wrong return inside them names the plug-in and the frame
     fe = sc.frontend
-    encoder = build_encoder_for(ctx, name, families, looks)
+    encoder = build_encoder_for(ctx, name, robot.families, robot.looks)
     segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name, encoder, fe.encoder.name)
     if grader is not None:
-        grader.use(families)
+        grader.use(robot.families)
     reshape = None
     if sc.mapping.whole_surface:
         from roman_sim.frontend.whole_surface import whole_surface_for
 
-        reshape = whole_surface_for(world, sc.mapping.voxel, name)
+        reshape = whole_surface_for(robot.world, sc.mapping.voxel, name)
     on_frame = None if grader is None else grader.add
     mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=on_frame, reshape=reshape)
     extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
-    for frame in source.frames():
+    for frame in robot.frames.frames():
         mapper.process(frame)
         if extractor is not None:
             extractor.offer(frame.public())
@@ -224,15 +137,13 @@ class _Grader:
         return self.inner.part() if self.inner.seg.frames else None
 
 
-def map_one(ctx: RunContext, world: World | None, cfg: ScenarioRobot) -> RobotMapping:
-    """One robot, simulated in ``world`` or read from its sequence (``cfg.source``), graded on its own."""
+def map_one(ctx: RunContext, world: WorldSupply, cfg: ScenarioRobot) -> RobotMapping:
+    """One robot, opened once (``open_robot``: its frames, families, looks and world), mapped and graded on its own."""
     sc = ctx.scenario
+    robot = open_robot(ctx, cfg, world)
     grader = _Grader(sc.frontend.semantics.group_of, sc.seed, cfg.name, sc.mapping.max_depth_m)
-    looks = robot_looks_for(world, cfg, sc.seed) if encoder_spec(sc.frontend.encoder).reads_truth else None
-    source = robot_source(ctx, world, cfg)
-    own_world = None if cfg.source is not None else world
-    smap, kf = map_source(ctx, source, robot_families(world, cfg), grader, own_world, looks)
-    snap = frame_snapshot(ctx, world, cfg, smap) if cfg.name == sc.robots[0].name else None
+    smap, kf = map_source(ctx, robot, grader)
+    snap = frame_snapshot(ctx, robot, smap) if cfg.name == sc.robots[0].name else None
     return smap, kf, grader.part(), snap
 
 
@@ -246,28 +157,22 @@ def busiest_frame(smap: SegmentMap) -> int:
     return int(np.argmax(seen))
 
 
-def frame_snapshot(ctx: RunContext, world: World | None, cfg: ScenarioRobot, smap: SegmentMap) -> FrameSnapshot | None:
+def frame_snapshot(ctx: RunContext, robot: RobotInput, smap: SegmentMap) -> FrameSnapshot | None:
     """The report's front-end snapshot: the robot's busiest frame (``busiest_frame``) with RGB, and the masks
     the scenario's segmenter cuts from it (from the frame without truth unless it reads truth).
 
     None (and a warning) when it cannot be taken (no OpenGL context, no colour image, ...).
     """
-    from roman_sim.pipeline.stages.maps_sources import open_sequence
-    from roman_sim.sim.source import robot_sources
-
     sc = ctx.scenario
     try:
         i = busiest_frame(smap)
-        source = robot_sources(
-            world, sc.robots, sc.seed, [cfg.name], rgb=True, open_recorded=lambda r: open_sequence(r, sc.seed)
-        )[0]
-        frame = next(iter(source.frames([i])))
-        segmenter = build_segmenter_for(ctx, cfg.name)
+        frame = next(iter(robot.rgb.frames([i])))
+        segmenter = build_segmenter_for(ctx, robot.name)
         masks = segmenter.segment(frame if reads_truth(segmenter) else frame.public())
         seg = sc.frontend.segmenter
         return FrameSnapshot.of(frame, [m.pixels for m in masks], seg if isinstance(seg, str) else "configured")
     except (RomanSimError, RuntimeError, ImportError, StopIteration) as err:
-        log.warning("robot %s: no front-end snapshot (%s)", cfg.name, err)
+        log.warning("robot %s: no front-end snapshot (%s)", robot.name, err)
         return None
 
 
@@ -304,7 +209,7 @@ class RobotMappingCodec:
         part = None
         if data.get("grades"):
             with np.load(_part(stem, "grades"), allow_pickle=False) as z:
-                part = GraderPart.from_arrays(z)
+                part = GraderPart.from_arrays(z, str(_part(stem, "grades")))
         kf = load_keyframes(_part(stem, "keyframes")) if data.get("keyframes") else None
         snap = load_snapshot(_part(stem, "snapshot")) if data.get("snapshot") else None
         return load_segment_map(_part(stem, "map")), kf, part, snap

@@ -16,12 +16,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from roman_sim.core.errors import ConfigError
-from roman_sim.frontend.components import encoder_spec
 from roman_sim.interop.objects import OBJECTS_JSON, read_object_table
 from roman_sim.interop.tum_reader import TumSequence, TumSourceConfig
 
 if TYPE_CHECKING:
-    from roman_sim.pipeline.scenario import Scenario, ScenarioRobot
+    from roman_sim.pipeline.scenario import ScenarioRobot
 
 _TEXT_SUFFIXES = (".txt", ".yaml", ".json")
 
@@ -52,7 +51,7 @@ def object_table_path(source: TumSourceConfig) -> Path | None:
 def sequence_families(source: TumSourceConfig) -> dict[int, str] | None:
     """Object id -> family from the sequence's object table (None without one)."""
     path = object_table_path(source)
-    return None if path is None else {int(r["id"]): str(r["family"]) for r in read_object_table(path)}
+    return None if path is None else {r.id: r.family for r in read_object_table(path)}
 
 
 def fingerprint(source: TumSourceConfig) -> dict[str, str]:
@@ -70,16 +69,11 @@ def fingerprint(source: TumSourceConfig) -> dict[str, str]:
     return out
 
 
-def check_sources(scenario: Scenario) -> None:
-    """Open every recorded robot's sequence once, so bad folders fail before any work."""
-    for cfg in scenario.robots:
-        if cfg.source is None:
-            continue
-        open_sequence(cfg, scenario.seed)
-        if encoder_spec(scenario.frontend.encoder).reads_truth and sequence_families(cfg.source) is None:
-            raise ConfigError(
-                f"robot {cfg.name}: the {scenario.frontend.encoder.name} encoder needs the objects' "
-                "families, and "
-                f"source.tum {cfg.source.tum} has no objects.json (set source.objects, or "
-                "frontend.encoder to an image encoder such as image or clip)"
-            )
+def fingerprints(robots: list[ScenarioRobot]) -> dict[str, dict[str, str]]:
+    """Robot name -> ``fingerprint`` of its folder, for the robots read from a sequence."""
+    return {r.name: fingerprint(r.source) for r in robots if r.source is not None}
+
+
+def object_tables(robots: list[ScenarioRobot]) -> list[Path]:
+    """The object tables of the robots read from sequences, sorted, each once."""
+    return sorted({p for r in robots if r.source is not None and (p := object_table_path(r.source)) is not None})

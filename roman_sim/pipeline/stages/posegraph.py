@@ -13,19 +13,19 @@ stages get the trajectories as read back from the TUM files, so ``roman-sim repo
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from roman_sim.core.jsontypes import JSON
-from roman_sim.core.records import RecordError, read_record, write_record
+from roman_sim.core.records import read_record, write_record
 from roman_sim.core.tum import read_tum, write_tum
 from roman_sim.evaluation.variants import (
     TRUTH,
     GraphInfo,
     TrajectoryEstimates,
+    VariantRow,
     graph_variants,
     solve_variants,
-    variant_from_json,
-    variant_json,
+    variant_of_row,
+    variant_row,
 )
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.scenario import VISUAL_METHODS
@@ -41,10 +41,10 @@ ESTIMATES_JSON = "posegraph_estimates.json"
 
 @dataclass
 class EstimatesRecord:
-    """What ``posegraph_estimates.json`` holds: the stage's notes and every variant (``variant_json``)."""
+    """What ``posegraph_estimates.json`` holds: the stage's notes and every variant (``variant_row``)."""
 
     notes: list[str]
-    variants: list[Any]
+    variants: list[VariantRow]
 
 
 ESTIMATES_SCHEMA = "roman_sim.posegraph_estimates/1"
@@ -98,18 +98,14 @@ class PoseGraphStage(Stage[PoseGraphInputs, PoseGraphOutput]):
                 write_tum(ctx.run_dir / tum_path(variant, robot), tr)
                 written.append(tum_path(variant, robot))
         write_record(ctx.run_dir / POSEGRAPH_JSON, out.graphs)
-        estimates = [variant_json(k, v) for k, v in out.variants.items()]
+        estimates = [variant_row(k, v) for k, v in out.variants.items()]
         write_record(ctx.run_dir / ESTIMATES_JSON, EstimatesRecord(out.notes, estimates), ESTIMATES_SCHEMA)
         return [POSEGRAPH_JSON, ESTIMATES_JSON, *sorted(written)]
 
     def load(self, ctx: RunContext, files: list[str]) -> PoseGraphOutput:
-        path = ctx.run_dir / ESTIMATES_JSON
-        est = read_record(path, EstimatesRecord, ESTIMATES_SCHEMA)
+        est = read_record(ctx.run_dir / ESTIMATES_JSON, EstimatesRecord, ESTIMATES_SCHEMA)
         info = read_record(ctx.run_dir / POSEGRAPH_JSON, dict[str, GraphInfo])
-        try:
-            variants = dict(variant_from_json(v) for v in est.variants)
-        except (ValueError, KeyError, TypeError, AttributeError) as err:
-            raise RecordError(f"{path}: field variants: {type(err).__name__}: {err}") from None
+        variants = dict(variant_of_row(v) for v in est.variants)
         notes = est.notes
         sources = list(dict.fromkeys([TRUTH] + [v.source for v in variants.values()])) if variants else []
         listed = set(files)

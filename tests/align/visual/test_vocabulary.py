@@ -46,7 +46,7 @@ def test_same_seed_same_bytes_other_seed_other_tree(tmp_path) -> None:
     c = _sha(tmp_path, train_vocabulary(images, k=5, L=3, seed=8), "c.npz")
     assert a == b and a != c
     voc = Vocabulary.load(tmp_path / "a.npz")
-    assert voc.n_words <= 5**3 and voc.k == 5 and voc.L == 3 and voc.meta["n_descriptors"] == 400
+    assert voc.n_words <= 5**3 and voc.k == 5 and voc.L == 3 and voc.meta.n_descriptors == 400
 
 
 def test_one_level_recovers_the_prototypes_and_idf_by_hand() -> None:
@@ -97,7 +97,7 @@ def test_bad_training_input_and_bad_files(tmp_path) -> None:
 def test_shipped_vocabulary_is_trained_on_worlds_no_scenario_uses() -> None:
     voc = default_vocabulary()
     assert (voc.k, voc.L) == (10, 4) and 5000 < voc.n_words <= 10**4
-    assert [tuple(w) for w in voc.meta["worlds"]] == [tuple(w) for w in TRAINING_WORLDS]
+    assert voc.meta.worlds is not None and [tuple(w) for w in voc.meta.worlds] == [tuple(w) for w in TRAINING_WORLDS]
     assert all(seed >= 9000 for _, seed, _ in TRAINING_WORLDS)
     assert np.all(voc.weights >= 0) and (voc.weights > 0).mean() > 0.9
 

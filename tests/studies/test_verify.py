@@ -7,7 +7,7 @@ import shutil
 from typer.testing import CliRunner
 
 from roman_sim.cli import app
-from roman_sim.cli._verify import verify_run
+from roman_sim.studies.verify import verify_run
 
 runner = CliRunner()
 
@@ -86,7 +86,7 @@ def test_compressed_reference_folders_verify_from_the_cli(smoke_run, tmp_path):
 
 def test_the_scorer_gives_the_evaluations_operating_points(smoke_run):
     """Every set and heading bin: the independent scorer's points are those of the run's metrics.json."""
-    from roman_sim.evaluation.operating_points import points_to_json
+    from roman_sim.core.records import to_json
     from roman_sim.report.recompute import stored_summary
     from roman_sim.studies.independent_scorer import agreement, score_run
 
@@ -96,12 +96,12 @@ def test_the_scorer_gives_the_evaluations_operating_points(smoke_run):
     for m, figures in scored["methods"].items():
         for kind in ("inter", "intra"):
             ps = metrics.method(m).set(kind)
-            theirs = {n: p for n, p in points_to_json(ps.overall.operating_points).items() if p is not None}
+            theirs = {n: to_json(p) for n, p in ps.overall.operating_points.items() if p is not None}
             assert not agreement(theirs, figures[kind]["points"]) and set(theirs) == set(figures[kind]["points"])
             for b in ps.heading_bins:
-                theirs = {n: p for n, p in points_to_json(b.stats.operating_points).items() if p is not None}
+                theirs = {n: to_json(p) for n, p in b.stats.operating_points.items() if p is not None}
                 assert not agreement(theirs, figures[kind]["bins"][b.label]["points"]), (m, kind, b.label)
             assert figures[kind]["points"]["acceptance"]["k"] == metrics.acceptance_k
     # the stored summary carries them, and the check compares them
-    assert stored_summary(smoke_run.run_dir)["methods"]["roman"]["inter"]["points"]["max_recall"]
+    assert stored_summary(smoke_run.run_dir).methods["roman"].inter.points["max_recall"]
     assert not any("predates" in n for n in verify_run(smoke_run.run_dir).notes)

@@ -1,4 +1,4 @@
-"""``report --verify``: a finished run's figures recomputed, then checked by an independent scorer.
+"""A finished run's figures recomputed, then checked by an independent scorer (``report --verify``).
 
 Three checks, the last independent of the others:
 
@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from roman_sim.core.errors import RomanSimError
+from roman_sim.core.records import to_json_object
 from roman_sim.report.recompute import REL_TOL, Verification, check_run_files, stored_summary
 
 
@@ -53,7 +54,7 @@ def independent_check(run_dir: Path) -> list[str]:
     """
     from roman_sim.studies.independent_scorer import agreement, score_run
 
-    stored = stored_summary(run_dir)
+    stored = to_json_object(stored_summary(run_dir))  # compared as JSON figures: the scorer knows no records
     scored = score_run(run_dir)
     if not _has_points(stored):
         _drop_points(scored)
