@@ -28,7 +28,6 @@ from __future__ import annotations
 import logging
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from roman_sim.benchmark.board import LEADERBOARD_JSON, load_levels, read_record
 from roman_sim.benchmark.board_records import Deployable, Leaderboard, PairVerdict, read_leaderboard
@@ -50,6 +49,7 @@ from roman_sim.benchmark.world_spread import WorldSpread
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import validate_model
 from roman_sim.core.errors import ConfigError
+from roman_sim.core.jsontypes import JSON
 from roman_sim.core.records import RecordError, write_record
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.paired_worlds import paired_difference
@@ -83,7 +83,7 @@ def check_dir(folder: str | Path, seeds: tuple[int, int]) -> Path:
     return Path(folder) / f"check-{seeds[0]}-{seeds[1]}"
 
 
-def first_difference(old: Any, new: Any, where: str = "") -> tuple[str, Any, Any] | None:
+def first_difference(old: JSON, new: JSON, where: str = "") -> tuple[str, JSON, JSON] | None:
     """The first field (dotted path, keys in sorted order) where two JSON values differ, and both values."""
     if isinstance(old, dict) and isinstance(new, dict):
         for key in sorted(set(old) | set(new)):

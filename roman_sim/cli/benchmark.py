@@ -154,6 +154,7 @@ class _BenchmarkCommand(TyperCommand):
     """``roman-sim benchmark [SUITE]``, and ``roman-sim benchmark check FOLDER --seeds A:B`` (``check_cmd``)."""
 
     def make_context(self, info_name: str | None, args: list[str], parent: Any = None, **extra: Any) -> Any:
+        """``check ...`` as the check command's own context (Any: typer's vendored click context; no data)."""
         if args and args[0] == "check":
             cmd = typer.main.get_command(check_app)
             return cmd.make_context(f"{info_name} check", list(args[1:]), parent=parent, **extra)
