@@ -326,3 +326,17 @@ def test_a_board_of_another_suite_version_is_refused(home: dict, tmp_path: Path,
     line = _refused(cli_fails, board)
     assert "from another suite version: the recorded 'quick' suite differs from the current one in " in line
     assert "scene.image_width (recorded 160, now 320)" in line
+
+
+def test_the_docs_state_the_command_and_what_four_worlds_can_show() -> None:
+    """docs/benchmark.md's section on the check: the command, the files, and the exact test's smallest p-value
+    over four fresh worlds (every world's difference of one sign: 2 of the 16 sign choices reach it)."""
+    from roman_sim.evaluation.paired_worlds import paired_difference
+
+    root = Path(__file__).resolve().parents[2]
+    docs = " ".join((root / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    assert "roman-sim benchmark check results/benchmark/mine --seeds 100:104" in docs
+    assert "`check.json` (`benchmark.check_records.BoardCheck`" in docs and "`check.md`" in docs
+    d = paired_difference([12, 15, 11, 20], [0, 1, 2, 3], [40, 40, 40, 40])
+    assert d.p_value == 2 / 16 == 0.125 and d.verdict == "no difference shown"
+    assert "with four worlds its smallest two-sided p-value is 0.125" in docs

@@ -276,6 +276,25 @@ def test_the_one_new_world_intervals_follow_from_the_independent_scorer(scored):
     assert checked > 0
 
 
+def test_the_docs_state_how_crude_the_one_new_world_fit_is():
+    """docs/benchmark.md's examples of one-new-world intervals, read off the committed board."""
+    docs = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    spreads = {
+        (e.name, m): s
+        for e in _committed().levels
+        if e.deployable is not None
+        for m, s in (e.deployable.spread or {}).items()
+        if s is not None
+    }
+    whole = {lv for (lv, _), s in spreads.items() if f"{s.interval[0]:.2f} {s.interval[1]:.2f}" == "0.00 1.00"}
+    assert whole == {"medium", "high"}
+    assert "some medium and high intervals are [0.00, 1.00]" in docs
+    narrow = spreads[("high", "ransac100k")]
+    assert narrow.worlds == 5 and f"[{narrow.interval[0]:.2f}, {narrow.interval[1]:.2f}]" == "[0.61, 0.62]"
+    assert narrow.a + narrow.b == pytest.approx(1e5)  # the upper concentration bound
+    assert "RANSAC-100k's at high is [0.61, 0.62] (five worlds" in docs
+
+
 def test_no_verdict_or_bound_moves_with_the_bootstrap_seed(scored):
     """The verdicts come from the exact sign-flip test (nothing drawn): the same from each world's counts
     whatever the seed. The bound's world intervals are drawn: recomputed under bootstrap seeds 1-19, every
