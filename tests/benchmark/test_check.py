@@ -3,8 +3,9 @@
 A tiny suite (one level, two worlds) is run as a board on seeds 0:2 and checked on seeds 2:4. The
 check's precision at the board's deployed thresholds, each fresh world against the board's
 one-new-world interval and the sign of each stated paired verdict are counted again by hand from the
-fresh cells' raw pairs; one fresh world's truth flipped moves a verdict's "held"; bad input is refused
-in one line with nothing written.
+fresh cells' raw pairs; fresh hits moved by hand first keep a stated verdict's sign, then flip it
+(reported as not held); the independent scorer re-derives every figure; bad input is refused in one
+line with nothing written.
 
 Two board worlds cannot state a paired verdict (the exact sign-flip test's smallest two-sided p-value
 over two worlds is 0.5): the board's verdicts are stated by hand in its ``leaderboard.json``, with the
@@ -242,28 +243,48 @@ def _flip(cell: Path, method: str, k: int, n: int) -> None:
     (cell / "pairs.csv.gz").write_bytes(gzip.compress(out.getvalue().encode("utf-8"), mtime=0))
 
 
-def test_one_fresh_world_flipped_moves_the_verdict(home: dict, tmp_path: Path) -> None:
+def _flip_fresh(board: Path, method: str, k: int, n: int) -> None:
+    """Make ``n`` of ``method``'s fresh hits at threshold ``k`` misses, the worlds with the most hits first."""
+    for c in sorted(FRESH, key=lambda c: -_counts(_rows(board / "check-2-4" / "cells" / c), method, k)[0]):
+        take = min(n, _counts(_rows(board / "check-2-4" / "cells" / c), method, k)[0])
+        if take:
+            _flip(board / "check-2-4" / "cells" / c, method, k, take)
+        n -= take
+    assert n == 0, f"fewer fresh hits of {method} than asked"
+
+
+def test_a_verdict_whose_sign_flips_on_the_fresh_worlds_is_not_held(home: dict, tmp_path: Path) -> None:
+    """The board's verdict over all headings, its fresh hits moved by hand: first to the stated leader ahead by
+    one hit (held), then behind by one (the sign flipped: not held); each time the check's counts are the hand
+    count of the changed fresh pairs, and it runs nothing again."""
     board = tmp_path / "board"
     shutil.copytree(home["board"], board, ignore=shutil.ignore_patterns("work"))
     before = {v.heading: v for v in _check(home).levels[0].verdicts}["all"]
     dep = read_leaderboard(board / "leaderboard.json").levels[0].deployable
     assert dep is not None and dep.deployed is not None
     ahead, other = (before.a, before.b) if before.stated == "a ahead" else (before.b, before.a)
+    k = {m: dep.deployed[m] or 0 for m in (ahead, other)}
+    assert all(dep.deployed[m] is not None for m in k)
     lead = (before.hits_a - before.hits_b) * (1 if ahead == before.a else -1)  # the stated leader's fresh margin
-    # held: the leader loses its margin (a difference of 0 keeps no sign); not held: the other loses enough
-    method, n = (ahead, lead) if before.held else (other, 1 - lead)
-    k = dep.deployed[method]
-    assert k is not None
-    world = max(FRESH, key=lambda c: _counts(_rows(board / "check-2-4" / "cells" / c), method, k)[0])
-    _flip(board / "check-2-4" / "cells" / world, method, k, n)
-    result, outcome = run_check(board, "2:4")
-    assert sorted(outcome.reused) == FRESH and not outcome.failures  # resumed: nothing run again
-    after = {v.heading: v for v in result.levels[0].verdicts}["all"]
-    assert after.held is (not before.held)
-    assert read_check(check_dir(board, (2, 4)) / "check.json") == result
-    prec = {p.method: p for p in result.levels[0].precision}[method]
-    was = {p.method: p for p in _check(home).levels[0].precision}[method]
-    assert (prec.hits, prec.false_positives) == (was.hits - n, was.false_positives + n)  # hits became errors
+    # the leader ahead by exactly one hit: the leader loses hits, or the other does
+    first = (ahead, lead - 1) if lead >= 1 else (other, 1 - lead)
+    for (method, n), held in ((first, True), ((ahead, 2), False)):
+        if n:
+            _flip_fresh(board, method, k[method], n)
+        result, outcome = run_check(board, "2:4")
+        assert sorted(outcome.reused) == FRESH and not outcome.failures  # resumed: nothing run again
+        after = {v.heading: v for v in result.levels[0].verdicts}["all"]
+        rows = [r for c in FRESH for r in _rows(board / "check-2-4" / "cells" / c)]
+        hits = {m: _counts(rows, m, k[m])[0] for m in k}
+        assert (after.hits_a, after.hits_b) == (hits[after.a], hits[after.b])
+        assert hits[ahead] - hits[other] == (1 if held else -1)
+        assert after.held is held and after.stated == before.stated
+        assert read_check(check_dir(board, (2, 4)) / "check.json") == result
+    prec = {p.method: p for p in result.levels[0].precision}
+    was = {p.method: p for p in _check(home).levels[0].precision}
+    moved = {ahead: 2 + (first[1] if first[0] == ahead else 0), other: first[1] if first[0] == other else 0}
+    for m, n in moved.items():  # each flipped hit became a false positive
+        assert (prec[m].hits, prec[m].false_positives) == (was[m].hits - n, was[m].false_positives + n), m
 
 
 # -- bad input: one line, exit code 1, nothing written ------------------------------------------
