@@ -12,7 +12,8 @@ bins, each cell ``recall (hits/relevant) [95 % interval]`` and its rank by paire
 level, runtimes per pair, the cells that did not finish and the figures. In the deployable
 section each level also has its paired verdicts (every two methods, per heading bin: who is
 ahead, or no difference shown with its power, or too few hits) and its floor line (the
-methods with too few held-out hits to rank).
+methods with too few held-out hits to rank); its held-out precision table ends with each method's
+one-new-world precision interval (``board_records.PrecisionSpread``).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ from roman_sim.benchmark.board_records import (
     HeldOutFigures,
     Leaderboard,
     PairVerdict,
+    PrecisionSpread,
 )
 from roman_sim.benchmark.ranking import Rank
 from roman_sim.evaluation.bins import bin_label
@@ -263,6 +265,13 @@ def _held_out_precision(c: HeldOutFigures | None) -> str:
     return f"{c.precision:.2f} worlds {_ci(c.precision_worlds)}" + ("" if c.transfers else " **short**")
 
 
+def spread_text(s: PrecisionSpread | None) -> str:
+    """A method's one-new-world precision interval and the beta fit it comes from."""
+    if s is None:
+        return "n/a (fewer than two worlds accepted a pair)"
+    return f"{_ci(s.interval)} (Beta({s.a:.3g}, {s.b:.3g}) over {s.worlds} worlds)"
+
+
 def _deployable_section(board: Leaderboard) -> list[str]:
     """The leaderboard's lead: per level, held-out recall and precision at one threshold chosen on other worlds."""
     target = board.target_precision
@@ -285,6 +294,11 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         "hits in a bin is not ranked there and counts toward no bound (the floor line says which).",
         f"- Flag: **short** where the held-out precision is more than 0.05 below {target:g} (the threshold "
         "does not transfer to a new world); `nothing accepted` where no threshold reached the target.",
+        "- One new world: per method the central 95 % interval of one new world's precision over all headings, "
+        "from a beta-binomial fit of the held-out worlds' precisions (each world's held-out hits out of its "
+        "accepted pairs; a world's precision a draw of Beta(a, b)). A new world that accepts n pairs adds its "
+        "own binomial noise: `roman-sim benchmark check` tests each fresh world's hits against the fit's "
+        "interval for its n.",
         "",
         *deployable_bound_lines(board),
     ]
@@ -312,12 +326,14 @@ def _deployable_section(board: Leaderboard) -> list[str]:
             lines.append(f"| {m} | " + " | ".join(row) + f" | {ks} | {_rate(mx)} |")
         lines += [
             "",
-            "| held-out precision | " + " | ".join(heads) + " |",
-            "|---|" + "---|" * len(cells),
+            "| held-out precision | " + " | ".join(heads) + " | one new world (95 %) |",
+            "|---|" + "---|" * (len(cells) + 1),
         ]
+        spread = d.spread or {}
         for m in board.methods:
             if m in thresholds:
-                lines.append(f"| {m} | " + " | ".join(_held_out_precision(c.methods.get(m)) for c in cells) + " |")
+                row = [_held_out_precision(c.methods.get(m)) for c in cells]
+                lines.append(f"| {m} | " + " | ".join(row) + f" | {spread_text(spread.get(m))} |")
         lines.append("")
         lines += floor_lines(d)
         lines += verdict_table(d, [m for m in board.methods if m in thresholds])
