@@ -23,7 +23,7 @@ import numpy as np
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.geometry import gravity_aligned
 from roman_sim.evaluation.bins import bin_groups
-from roman_sim.evaluation.pairs import PairTruth, select_pairs, truths_for_pairs
+from roman_sim.evaluation.pairs import AmbiguityFn, PairTruth, select_pairs, truths_for_pairs
 from roman_sim.mapping.submap import SubmapConfig, center_indices
 from roman_sim.mapping.types import Submap, SubmapTruth
 from roman_sim.pipeline.scenario import Scenario
@@ -58,14 +58,14 @@ def submaps_along(runs: Mapping[str, DrivenRun], cfg: SubmapConfig) -> list[Subm
     return out
 
 
-def scored_pairs(subs: list[Submap], sc: Scenario) -> list[PairTruth]:
-    """The truth of every pair of ``subs`` the evaluation of ``sc`` scores (ambiguity not computed: NaN)."""
+def scored_pairs(subs: list[Submap], sc: Scenario, ambiguity_fn: AmbiguityFn | None = None) -> list[PairTruth]:
+    """The truth of every pair of ``subs`` the evaluation of ``sc`` scores (ambiguity NaN without ``ambiguity_fn``)."""
     if sc.evaluation.relevance != "distance":
         raise ConfigError(
             f"evaluation.relevance: {sc.evaluation.relevance!r} needs the maps; pairs can be planned only "
             "with relevance by distance"
         )
-    return truths_for_pairs(select_pairs(subs, sc.evaluation).pairs, None, sc.evaluation)
+    return truths_for_pairs(select_pairs(subs, sc.evaluation).pairs, ambiguity_fn, sc.evaluation)
 
 
 def relevant_per_bin(truths: Sequence[PairTruth], edges: Sequence[float]) -> list[int]:

@@ -33,7 +33,7 @@ from roman_sim.benchmark.plan import scored_pairs, submaps_along
 from roman_sim.core.config import FiniteTree, StrictModel, apply_overrides, validate_model
 from roman_sim.core.errors import SimError
 from roman_sim.core.seeding import child_rng
-from roman_sim.evaluation.pairs import PairTruth
+from roman_sim.evaluation.pairs import PairTruth, world_ambiguity_fn
 from roman_sim.pipeline.scenario import Scenario
 from roman_sim.sim.odometry import DRIFT_PRESETS
 
@@ -163,8 +163,12 @@ class CrossingPlan:
     trajectory_km: float
 
 
-def build_crossing(scene: CrossingScene, seed: int, name: str = "crossing") -> CrossingPlan:
+def build_crossing(scene: CrossingScene, seed: int, name: str = "crossing", ambiguity: bool = False) -> CrossingPlan:
     """The scenario of ``scene`` at ``seed`` with drives that route and drive, and its planned pairs.
+
+    With ``ambiguity`` each planned pair carries its place's ground-truth ambiguity, as the
+    evaluation stage computes it (the mean over the two true submap centres, discs of the
+    submap radius), so a level's measured ambiguity index is known before anything is rendered.
 
     Raises:
         ConfigError: an override or the scene is invalid (names the field).
@@ -196,4 +200,5 @@ def build_crossing(scene: CrossingScene, seed: int, name: str = "crossing") -> C
         sum(float(np.linalg.norm(np.diff(r.T_world_body[:, :3, 3], axis=0), axis=1).sum()) for r in runs.values())
         / 1000
     )
-    return CrossingPlan(sc, scored_pairs(subs, sc), km)
+    amb = world_ambiguity_fn(world.truth, sc.submaps.submap_radius) if ambiguity else None
+    return CrossingPlan(sc, scored_pairs(subs, sc, amb), km)
