@@ -35,12 +35,33 @@ from roman_sim.benchmark.scenes import CrossingScene
 from roman_sim.core.config import StrictModel, read_yaml, validate_model
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.registry import Registry, import_object
+from roman_sim.evaluation.paired_worlds import EFFECT, POWER
 from roman_sim.pipeline.scenario import method_label
 
 #: The paper's methods (every built-in method the standard suite scores).
 PAPER_METHODS = ["roman", "clipper", "clipper_prune", "ransac100k", "ransac1m", "visual"]
 #: Ambiguity levels of the built-in suites: name -> the world's ambiguity knob.
 LEVELS = {"low": 0.0, "medium": 0.9, "high": 0.95}
+
+
+class PowerPlan(StrictModel):
+    """The worlds each level needs for its paired verdicts' power (``roman_sim.benchmark.power_plan``).
+
+    ``worlds``: per level, the worlds a paired difference of held-out recall of 0.05 needs to be
+    detected with power 0.8 (``paired_worlds.EFFECT``, ``paired_worlds.POWER``), as a pilot board
+    measured them (``power_plan.pilot_plan``); ``pilot``: what the figures come from (the pilot's
+    folder or commit). A level planned with fewer worlds than this is refused.
+    """
+
+    worlds: dict[str, int] = Field(..., min_length=1)
+    pilot: str = Field(..., min_length=1, description="the pilot board the worlds come from")
+
+    @model_validator(mode="after")
+    def _check(self) -> "PowerPlan":
+        for level, n in self.worlds.items():
+            if n < 2:
+                raise ValueError(f"worlds.{level}: a paired test needs at least 2 worlds, got {n}")
+        return self
 
 
 class BenchmarkSuite(StrictModel):
@@ -62,6 +83,7 @@ class BenchmarkSuite(StrictModel):
     max_seeds: int = Field(12, ge=1, le=1000, description="most seeds per level when adding them")
     heading_bin_deg: float = Field(30.0, gt=0.0, le=180.0)
     methods: list[str] = Field(default_factory=lambda: list(PAPER_METHODS), min_length=1)
+    power: PowerPlan | None = Field(None, description="the worlds per level a pilot says the verdicts need")
 
     @model_validator(mode="after")
     def _check(self) -> "BenchmarkSuite":
@@ -87,6 +109,23 @@ class BenchmarkSuite(StrictModel):
             where = f"min_worlds.{level}" if level in per else "min_worlds"
             if not 1 <= n <= self.max_seeds:
                 raise ValueError(f"{where}: a count from 1 to max_seeds ({self.max_seeds}), got {n}")
+        self._check_power()
+
+    def _check_power(self) -> None:
+        """Every level the power plan names is planned with at least the worlds it needs."""
+        if self.power is None:
+            return
+        unknown = sorted(set(self.power.worlds) - set(self.levels))
+        if unknown:
+            raise ValueError(f"power.worlds: unknown level {unknown[0]!r} (levels: {', '.join(self.levels)})")
+        for level, need in self.power.worlds.items():
+            n = self.worlds_needed(level) if self.adds_seeds else len(self.seeds)
+            if n < need:
+                raise ValueError(
+                    f"levels.{level}: planned with {n} worlds, but its power plan needs {need} (a paired difference "
+                    f"of recall of {EFFECT:g} detected with power {POWER:g}, from {self.power.pilot}); allowed: "
+                    f"min_worlds.{level} (and max_seeds) of at least {need}"
+                )
 
     def worlds_needed(self, level: str) -> int:
         """The fewest worlds (seeds) ``level`` is planned with (``min_worlds``; 1 when not given)."""
