@@ -41,6 +41,16 @@ _SAMPLES_PER_CELL = 4.0
 _MIN_SAMPLES, _MAX_SAMPLES = 200, 40000
 
 
+def sample_surface(mesh: trimesh.Trimesh, voxel: float, seed: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Points spread evenly over ``mesh`` (about ``_SAMPLES_PER_CELL`` per voxel face, within bounds; seeded)
+    and the outward unit normals of the faces they lie on (trimesh's area-weighted sampling)."""
+    import trimesh
+
+    n = int(np.clip(_SAMPLES_PER_CELL * mesh.area / voxel**2, _MIN_SAMPLES, _MAX_SAMPLES))
+    pts, faces = trimesh.sample.sample_surface(mesh, n, seed=seed)
+    return np.asarray(pts, dtype=np.float64), np.asarray(mesh.face_normals[faces], dtype=np.float64)
+
+
 class HasObjectMeshes(Protocol):
     """What the counterfactual needs of a world: each object's mesh in the world frame."""
 
@@ -67,12 +77,8 @@ class WholeSurface:
     def surface(self, oid: int) -> NDArray[np.float64]:
         """(N, 3) world-frame points spread over object ``oid``'s whole surface, voxel-downsampled."""
         if oid not in self._surfaces:
-            import trimesh
-
-            mesh = self.world.object_mesh_world(oid)
-            n = int(np.clip(_SAMPLES_PER_CELL * mesh.area / self.voxel**2, _MIN_SAMPLES, _MAX_SAMPLES))
-            pts, _ = trimesh.sample.sample_surface(mesh, n, seed=oid)
-            self._surfaces[oid] = downsample(np.asarray(pts, dtype=np.float64), self.voxel)
+            pts, _ = sample_surface(self.world.object_mesh_world(oid), self.voxel, oid)
+            self._surfaces[oid] = downsample(pts, self.voxel)
         return self._surfaces[oid]
 
     def objects_of(self, obs: Observation) -> list[int]:

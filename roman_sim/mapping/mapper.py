@@ -80,8 +80,8 @@ class Mapper:
             (mask index, descriptor or None) of every mask that gave an observation: the
             hook of front-end grading.
         reshape: called as ``reshape(frame, observations)`` before tracking, returning the
-            observations to track: how a counterfactual (``MappingConfig.whole_surface``) replaces
-            their points; required when ``cfg.whole_surface`` is set.
+            observations to track: how a counterfactual (``MappingConfig.whole_surface``, ``complete``)
+            replaces their points; required when either is set.
 
     The segmenter sees ``frame.public()`` (no ground truth) unless it declares
     ``reads_truth``; the encoder gets truth-derived contexts only if it declares it.
@@ -100,6 +100,11 @@ class Mapper:
             raise ConfigError(
                 "mapping.whole_surface: a counterfactual of the simulator; it needs simulated frames and "
                 "their world (allowed here: false)"
+            )
+        if cfg.complete and reshape is None:
+            raise ConfigError(
+                "mapping.complete: a counterfactual of the simulator; it needs simulated frames and "
+                "their world (allowed here: [])"
             )
         self.cfg = cfg
         self.segmenter = segmenter

@@ -19,10 +19,11 @@ from __future__ import annotations
 import logging
 from collections import Counter
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import Field
+from pydantic import Field, SerializerFunctionWrapHandler, model_serializer, model_validator
 from scipy.optimize import linear_sum_assignment
 
 from roman_sim.core.config import StrictModel
@@ -52,6 +53,9 @@ class MappingConfig(StrictModel):
         whole_surface: a counterfactual of the simulator, not a front-end setting: each
             observation's points come from its objects' whole surfaces instead of the side the
             depth image shows (the pipeline supplies them from the world; ``Mapper``'s ``reshape``).
+        complete: the same split by reason (one-sided visibility, occlusion, range truncation,
+            the image's edges): the observation keeps its points and gains its objects' surface
+            missed only for the named reasons (``roman_sim.frontend.surface_completion``).
     """
 
     max_depth_m: float = Field(7.5, gt=0, le=100)
@@ -75,6 +79,27 @@ class MappingConfig(StrictModel):
     whole_surface: bool = Field(
         False, description="counterfactual: observations take their objects' whole surfaces (simulated frames only)"
     )
+    complete: list[Literal["back_side", "occluded", "beyond_range", "out_of_view"]] = Field(
+        default_factory=list,
+        description="counterfactual: the reasons a camera misses part of an object whose misses are filled in from "
+        "the object's surface (simulated frames only; roman_sim.frontend.surface_completion)",
+    )
+
+    @model_serializer(mode="wrap")
+    def _without_empty_complete(self, handler: SerializerFunctionWrapHandler) -> dict[str, object]:
+        """``complete`` is left out of the dump when empty, so a scenario without it keeps its hash."""
+        data: dict[str, object] = handler(self)
+        if data.get("complete") == []:
+            del data["complete"]
+        return data
+
+    @model_validator(mode="after")
+    def _one_counterfactual(self) -> "MappingConfig":
+        if self.whole_surface and self.complete:
+            raise ValueError("complete: whole_surface already fills in every reason; set one of the two")
+        if len(set(self.complete)) != len(self.complete):
+            raise ValueError(f"complete: each reason once, got {self.complete}")
+        return self
 
 
 @dataclass

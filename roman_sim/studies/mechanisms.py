@@ -81,13 +81,31 @@ def _lighting(data: dict[str, Any]) -> list[str]:
     return ["frontend.semantics.lighting=false"]
 
 
-def _partial_views(data: dict[str, Any]) -> list[str]:
+def _simulated_only(name: str, data: dict[str, Any]) -> None:
     if any(r.get("source") is not None for r in _robots(data)):
         raise ConfigError(
-            "mechanisms: partial_views is switched off by a counterfactual of the simulator; "
+            f"mechanisms: {name} is switched off by a counterfactual of the simulator; "
             "a robot read from a sequence cannot honour it (allowed with: simulated robots only)"
         )
+
+
+def _partial_views(data: dict[str, Any]) -> list[str]:
+    _simulated_only("partial_views", data)
     return ["mapping.whole_surface=true"]
+
+
+def _completion(name: str, reason: str) -> Callable[[dict[str, Any]], list[str]]:
+    """The switch that fills in an observation's misses for one reason (``frontend.surface_completion``)."""
+
+    def off(data: dict[str, Any]) -> list[str]:
+        _simulated_only(name, data)
+        return [f"mapping.complete={json.dumps([reason])}"]
+
+    return off
+
+
+def _depth_noise(data: dict[str, Any]) -> list[str]:
+    return [f"robots.{i}.camera.depth_noise.enabled=false" for i, _ in enumerate(_robots(data))]
 
 
 def _segmenter_view(data: dict[str, Any]) -> list[str]:
@@ -192,14 +210,41 @@ MECHANISMS: dict[str, Mechanism] = {
             _sun,
         ),
         Mechanism(
+            "one_sided_visibility",
+            "a camera sees only the faces of an object turned toward it: the other side is seen from the other way",
+            "mapping.complete=[back_side]: each observation also gets its objects' faces turned away from the camera",
+            "counterfactual",
+            _completion("one_sided_visibility", "back_side"),
+        ),
+        Mechanism(
             "occlusion",
-            "which objects hide which others depends on where the camera stands",
-            "not available",
-            "unavailable",
-            None,
-            "removing occlusion needs every object rendered on its own per frame (one render per object); "
-            "partial_views=off already takes an occluded object's points from its whole surface, but which "
-            "objects are detected still follows the occlusion order",
+            "which objects hide which parts of others depends on where the camera stands",
+            "mapping.complete=[occluded]: an observed object's hidden parts facing the camera are filled in "
+            "(which objects are detected still follows the occlusion order)",
+            "counterfactual",
+            _completion("occlusion", "occluded"),
+        ),
+        Mechanism(
+            "range_truncation",
+            "points beyond the depth range are lost, so a long object's far part depends on where it is seen from",
+            "mapping.complete=[beyond_range]: an observed object's parts facing the camera beyond the range are "
+            "filled in",
+            "counterfactual",
+            _completion("range_truncation", "beyond_range"),
+        ),
+        Mechanism(
+            "image_edges",
+            "an object at the image's edge is cut off there, on the side the camera passes it",
+            "mapping.complete=[out_of_view]: an observed object's parts outside the image are filled in",
+            "counterfactual",
+            _completion("image_edges", "out_of_view"),
+        ),
+        Mechanism(
+            "depth_noise",
+            "the depth camera's noise, dropouts and mixed pixels grow with range and grazing angle",
+            "every robot's camera.depth_noise.enabled=false",
+            "switch",
+            _depth_noise,
         ),
     )
 }

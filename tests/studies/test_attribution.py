@@ -111,8 +111,11 @@ def test_unknown_mechanism_fails_with_one_line_and_exit_1(tmp_path: Path) -> Non
 
 
 def test_the_plan_checks_every_mechanism_before_running() -> None:
-    with pytest.raises(ConfigError, match="occlusion cannot be switched off"):
-        plan_runs(AttributionConfig(mechanisms=["road_side", "occlusion"]))
+    with pytest.raises(ConfigError, match="unknown mechanism 'shadows'"):
+        plan_runs(AttributionConfig(mechanisms=["road_side", "shadows"]))
+    split = plan_runs(AttributionConfig(mechanisms=["occlusion"]))
+    assert [r.name for r in split] == ["same__none", "same__occlusion", "opposite__none", "opposite__occlusion"]
+    assert all('mapping.complete=["occluded"]' in r.overrides for r in split if r.mechanism == "occlusion")
     runs = plan_runs(AttributionConfig(mechanisms=["road_side"]))
     assert [r.name for r in runs] == ["same__none", "same__road_side", "opposite__none", "opposite__road_side"]
     road = [r for r in runs if r.mechanism == "road_side"]

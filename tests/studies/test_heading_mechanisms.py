@@ -102,8 +102,8 @@ def test_unknown_mechanism_names_the_field_and_the_allowed_names() -> None:
     msg = str(err.value)
     assert "\n" not in msg and msg.startswith("--mechanism: unknown mechanism 'shadows'")
     assert all(n in msg for n in switchable())
-    with pytest.raises(ConfigError, match="occlusion cannot be switched off here"):
-        check_mechanisms(["occlusion"])
+    with pytest.raises(ConfigError, match="a mechanism is named twice"):
+        check_mechanisms(["occlusion", "occlusion"])
 
 
 def test_every_switch_is_a_valid_scenario_override() -> None:
@@ -125,8 +125,9 @@ def test_a_switch_on_a_front_end_that_cannot_honour_it_fails_in_one_line() -> No
     for name, field in (("descriptor_view", "frontend.encoder"), ("segmenter_view", "frontend.segmenter")):
         with pytest.raises(ConfigError, match=rf"^mechanisms: {name} .* {field} 'image' has none"):
             mechanism_overrides(name, data)
-    with pytest.raises(ConfigError, match="partial_views .* sequence"):
-        mechanism_overrides("partial_views", {"robots": [{"name": "a", "source": {"path": "x"}}]})
+    for name in ("partial_views", "one_sided_visibility", "occlusion", "range_truncation", "image_edges"):
+        with pytest.raises(ConfigError, match=f"{name} .* sequence"):
+            mechanism_overrides(name, {"robots": [{"name": "a", "source": {"path": "x"}}]})
 
 
 def test_the_docs_table_lists_every_mechanism() -> None:

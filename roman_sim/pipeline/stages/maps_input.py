@@ -10,7 +10,7 @@ A ``RobotInput`` holds everything mapping one robot reads, whatever kind of robo
 - ``rgb``: the same robot with RGB on every frame (the report's front-end snapshot, the view);
 - ``families`` and ``looks``: what the simulated encoder knows of the objects: the world's, or
   the sequence's object table;
-- ``world``: the world, for the counterfactual that needs it (``mapping.whole_surface``); None
+- ``world``: the world, for the counterfactuals that need it (``mapping.whole_surface``, ``complete``); None
   for a sequence, which has none;
 - ``odometry``: which odometry its frames carry, in words: the robot's own, or a TUM file
   brought in from outside in its place (``odometry``, ``roman_sim.interop.odometry_in``), which

@@ -30,6 +30,7 @@ from roman_sim.mapping.io import load_keyframes, load_segment_map, save_keyframe
 from roman_sim.mapping.mapper import Mapper, SegmentMap
 from roman_sim.mapping.mask import Mask
 from roman_sim.mapping.protocols import Segmenter, SemanticEncoder, reads_truth
+from roman_sim.mapping.tracker import Observation
 from roman_sim.mapping.types import KeyframeSet
 from roman_sim.pipeline.context import RunContext
 from roman_sim.pipeline.plugin_guard import guard_frontend
@@ -88,11 +89,17 @@ def map_source(ctx: RunContext, robot: RobotInput, grader: _Grader | None = None
     segmenter, encoder = guard_frontend(build_segmenter_for(ctx, name), fe.segmenter.name, encoder, fe.encoder.name)
     if grader is not None:
         grader.use(robot.families)
-    reshape = None
+    reshape: Callable[[Frame, list[Observation]], list[Observation]] | None = None
     if sc.mapping.whole_surface:
         from roman_sim.frontend.whole_surface import whole_surface_for
 
         reshape = whole_surface_for(robot.world, sc.mapping.voxel, name)
+    elif sc.mapping.complete:
+        from roman_sim.frontend.surface_completion import surface_completion_for
+
+        reshape = surface_completion_for(
+            robot.world, sc.mapping.voxel, sc.mapping.max_depth_m, list(sc.mapping.complete), name
+        )
     on_frame = None if grader is None else grader.add
     mapper = Mapper(sc.mapping, segmenter, encoder, seed=sc.seed, on_frame=on_frame, reshape=reshape)
     extractor = KeyframeExtractor(default_vocabulary(), sc.frontend.keyframes) if sc.uses_visual else None
