@@ -88,6 +88,15 @@ class SemanticConfig(StrictModel):
     view_reference: float = Field(
         0.2, gt=0, le=1, description="front-back asymmetry of a shape that takes the whole configured view fall"
     )
+    merged_min_share: float = Field(
+        0.1,
+        ge=0,
+        le=1,
+        description=(
+            "a mask over several objects (under-segmentation) is described by the pixel-share blend of every object "
+            "with at least this share of its object pixels (1: always by the majority object alone)"
+        ),
+    )
     lighting_fall: float = Field(
         0.64,
         ge=0,
@@ -262,10 +271,34 @@ class SimulatedEncoder:
             if not np.all(np.isfinite(d)):
                 raise ConfigError("semantics: view_dir must be finite")
             phi = float(np.arctan2(d[1], d[0]))
-        family = self.family_of(context)
+        parts = self.merged(context)
+        if parts is None:
+            family = self.family_of(context)
+            v = self._clean(oid, family, phi, self.static(oid, family) + self._noise())
+        else:  # a mask over several objects: each one's clean part by its pixel share, one noise draw
+            v = sum((w * self._clean(i, self.families.get(i, "unknown"), phi) for i, w in parts), self._noise())
+        return (v / np.sqrt(v @ v)).astype(np.float32)
+
+    def merged(self, context: EncodeContext) -> list[tuple[int, float]] | None:
+        """The objects a merged mask shows, with weights (their pixel shares, summing to 1), or None when the
+        mask shows one object: at least ``SemanticConfig.merged_min_share`` of the mask's object pixels each,
+        two or more of them, and no ``family`` given (a sequence's object table names one family)."""
+        if context.shares is None or context.family is not None:
+            return None
+        objs = [(i, w) for i, w in context.shares if i >= 0]
+        total = sum(w for _, w in objs)
+        kept = [(i, w) for i, w in objs if total > 0 and w >= self.cfg.merged_min_share * total]
+        if len(kept) < 2:
+            return None
+        norm = sum(w for _, w in kept)
+        return [(i, w / norm) for i, w in kept]
+
+    def _clean(self, oid: int, family: str, phi: float, base: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """Object ``oid``'s embedding seen along ``phi`` before normalising: ``base`` (its static part, with the
+        observation's noise when given) plus its view and light terms."""
         looks = self.looks_of(oid, family)
         _, view, light = self.energies(looks)
-        v = self.static(oid, family) + self._noise()
+        v = self.static(oid, family) if base is None else base
         if view > 0:
             psi = phi - looks.yaw  # the viewing azimuth in the object's own frame
             a, b = self._pair("view", looks)
@@ -274,7 +307,7 @@ class SimulatedEncoder:
             beta = abs(_wrap(phi - self.looks.light.sun_azimuth))  # 0: against the sun, pi: sun behind the camera
             p, q = self._pair("light", looks)
             v = v + np.sqrt(light) * (np.cos(beta) * p + np.sin(beta) * q)
-        return (v / np.sqrt(v @ v)).astype(np.float32)
+        return v
 
     def _noise(self) -> NDArray[np.float64]:
         """One observation's noise: a full-dimensional draw plus a unit vector in the noise subspace."""

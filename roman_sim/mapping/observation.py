@@ -107,14 +107,16 @@ def _labels(frame: Frame, geo: _Geometry) -> Counter[int]:
 
 
 def _truth_context(frame: Frame, geo: _Geometry) -> EncodeContext:
-    """What a truth-driven encoder may know: majority object id and the world viewing direction."""
+    """What a truth-driven encoder may know: the majority object, each object's pixel share, the view direction."""
     if frame.truth is None:
         return EncodeContext()
     labels = _labels(frame, geo)
     T_world_cam = frame.truth.T_world_body @ frame.T_body_cam
     centre_world = transform_points(T_world_cam, geo.pts_cam.mean(axis=0, keepdims=True))[0]
     object_id = int(max(labels, key=lambda i: (labels[i], -i))) if labels else None
-    return EncodeContext(object_id=object_id, view_dir=centre_world - T_world_cam[:3, 3])
+    total = sum(labels.values())
+    shares = tuple((int(i), labels[i] / total) for i in sorted(labels)) if total else None
+    return EncodeContext(object_id=object_id, view_dir=centre_world - T_world_cam[:3, 3], shares=shares)
 
 
 def _describe(

@@ -35,11 +35,15 @@ class EncodeContext:
             the frame carries no ground truth (a truth-driven encoder cannot run then).
         family: family name; looked up from ``object_id`` when None.
         view_dir: (3,) viewing direction camera -> object in the world frame, or None.
+        shares: ``(object id, share)`` of every true object under the mask's pixels (terrain
+            -1 included; shares sum to 1), or None: what a mask that merged several objects
+            shows, for an encoder that describes a mask by its pixels.
     """
 
     object_id: int | None = None
     family: str | None = None
     view_dir: NDArray[np.float64] | None = None
+    shares: tuple[tuple[int, float], ...] | None = None
 
 
 @runtime_checkable

@@ -134,3 +134,49 @@ def test_view_dependence_off_keeps_the_descriptor_whatever_the_view():
     on, off = SemanticConfig(), SemanticConfig(view_dependence=False)
     assert float(encode(on, [1.0, 0, 0]) @ encode(on, [-1.0, 0, 0])) < 0.9
     np.testing.assert_array_equal(encode(off, [1.0, 0, 0]), encode(off, [-1.0, 0, 0]))
+
+
+# -- a mask over several objects -----------------------------------------------------------------
+def _mean_cos(enc: SimulatedEncoder, ctx: EncodeContext, ref: np.ndarray, n: int = 200) -> float:
+    return float(np.mean([enc.encode(None, M, ctx) @ ref for _ in range(n)]))
+
+
+def test_a_merged_mask_is_described_by_its_pixels_not_its_majority_object():
+    """A mask over a rock (60 % of its pixels) and a conifer (40 %): its descriptor lies near both, nearer the
+    rock, where the majority rule gave the rock's alone; a 5 % sliver of the conifer stays the rock's."""
+    fams = {0: "rock", 1: "conifer"}
+    view = np.array([1.0, 0.0, 0.0])
+    enc = SimulatedEncoder(SemanticConfig(dim=256), seed=4, families=fams)
+    rock, conifer = (enc.encode(None, M, EncodeContext(i, view_dir=view)) for i in (0, 1))
+    merged = EncodeContext(0, view_dir=view, shares=((-1, 0.1), (0, 0.54), (1, 0.36)))
+    to_rock, to_conifer = _mean_cos(enc, merged, rock), _mean_cos(enc, merged, conifer)
+    alone_to_conifer = _mean_cos(enc, EncodeContext(0, view_dir=view), conifer)
+    assert to_rock > to_conifer > alone_to_conifer + 0.1, (to_rock, to_conifer, alone_to_conifer)
+    # pixel shares weigh the parts: the conifer's share up, its cosine up
+    more = EncodeContext(0, view_dir=view, shares=((0, 0.5), (1, 0.5)))
+    assert _mean_cos(enc, more, conifer) > to_conifer
+    # below merged_min_share (10 % of the object pixels) an object is a sliver: the majority's alone
+    a, b = (SimulatedEncoder(SemanticConfig(dim=256), seed=4, families=fams) for _ in range(2))
+    sliver = EncodeContext(0, view_dir=view, shares=((0, 0.95), (1, 0.05)))
+    np.testing.assert_array_equal(a.encode(None, M, sliver), b.encode(None, M, EncodeContext(0, view_dir=view)))
+    parts = a.merged(merged)
+    assert a.merged(sliver) is None and parts is not None and [i for i, _ in parts] == [0, 1]
+    assert [w for _, w in parts] == pytest.approx([0.6, 0.4], abs=1e-12)
+
+
+def test_merged_min_share_one_keeps_the_majority_rule_and_one_object_is_unchanged():
+    fams = {0: "rock", 1: "conifer"}
+    view = np.array([0.0, 1.0, 0.0])
+    merged = EncodeContext(0, view_dir=view, shares=((0, 0.6), (1, 0.4)))
+    a = SimulatedEncoder(SemanticConfig(dim=64, merged_min_share=1.0), seed=2, families=fams)
+    b = SimulatedEncoder(SemanticConfig(dim=64), seed=2, families=fams)
+    np.testing.assert_array_equal(a.encode(None, M, merged), b.encode(None, M, EncodeContext(0, view_dir=view)))
+    c, d = (SimulatedEncoder(SemanticConfig(dim=64), seed=2, families=fams) for _ in range(2))
+    single = EncodeContext(1, view_dir=view, shares=((-1, 0.3), (1, 0.7)))
+    np.testing.assert_array_equal(c.encode(None, M, single), d.encode(None, M, EncodeContext(1, view_dir=view)))
+    # a sequence's object table names the family: its masks keep that family's description
+    e, f = (SimulatedEncoder(SemanticConfig(dim=64), seed=2, families=fams) for _ in range(2))
+    named = EncodeContext(0, family="rock", view_dir=view, shares=((0, 0.6), (1, 0.4)))
+    np.testing.assert_array_equal(
+        e.encode(None, M, named), f.encode(None, M, EncodeContext(0, family="rock", view_dir=view))
+    )

@@ -1,5 +1,6 @@
-"""The partial-views bundle split by reason: each surface sample's reasons agree with what the renderer
-drew, and switching one reason off fills in only the samples missed for that reason alone."""
+"""What the simulator tells a truth-driven model of a mask (each object's pixel share), and the
+partial-views bundle split by reason: each surface sample's reasons agree with what the renderer drew,
+and switching one reason off fills in only the samples missed for that reason alone."""
 
 from __future__ import annotations
 
@@ -136,3 +137,31 @@ def test_a_run_fills_in_the_back_sides_of_what_its_robots_map(tmp_path) -> None:
     points = {k: sum(len(s.points) for s in m.segments) for k, m in maps.items()}
     assert ids["plain"] and len(ids["filled"]) >= len(ids["plain"]) - 1
     assert points["filled"] > 1.2 * points["plain"], points
+
+
+def test_a_truth_reading_encoder_gets_each_objects_pixel_share(car: World) -> None:
+    """A mask over the car and a band of ground below it: the context's shares are the pixel counts of the
+    instance image under the mask's kept (valid-depth) pixels, over their total."""
+    from roman_sim.mapping.mask import Mask
+    from roman_sim.mapping.observation import observe
+
+    f = _side_on(car, 4.0)
+    ids = np.asarray(f.truth.object_ids)  # type: ignore[union-attr]
+    rows = np.flatnonzero((ids == 0).any(axis=1))
+    pixels = ids == 0
+    pixels[rows.max() + 1 : rows.max() + 6, :] = True  # five rows of ground under the car
+    got: list[tuple[tuple[int, float], ...] | None] = []
+
+    class Recorder:
+        reads_truth = True
+
+        def encode(self, rgb, mask, context):  # type: ignore[no-untyped-def]
+            got.append(context.shares)
+            return np.ones(8, dtype=np.float32) / np.sqrt(8)
+
+    obs = observe(f, [Mask(pixels)], MappingConfig(), Recorder())
+    assert len(obs) == 1 and len(got) == 1 and got[0] is not None
+    sel = pixels & (np.asarray(f.depth) > 0) & (np.asarray(f.depth) <= MappingConfig().max_depth_m)
+    labels, counts = np.unique(ids[sel], return_counts=True)
+    assert [i for i, _ in got[0]] == labels.tolist() == [-1, 0]
+    assert [w for _, w in got[0]] == pytest.approx((counts / counts.sum()).tolist(), abs=1e-12)
