@@ -152,7 +152,7 @@ def test_identical_worlds_give_a_zero_width_interval_and_the_fast_area_is_pr_are
         assert (np.isnan(a) and np.isnan(b)) or a == b
 
 
-def test_the_auc_table_and_readme_line_read_the_board(make_score) -> None:
+def test_the_auc_table_readme_line_and_figure_read_the_board(make_score, tmp_path: Path) -> None:
     scores = _pairs(make_score) + _pairs(make_score, method="n")
     curves = level_curves(scores, ["m", "n"], "objective", K)
     dep = deployable(scores, ["m", "n"], EDGES, K, TARGET, score="objective")
@@ -169,6 +169,16 @@ def test_the_auc_table_and_readme_line_read_the_board(make_score) -> None:
         "t", "", ["m", "n"], [], list(EDGES), 0.1, {}, [level], target_precision=TARGET, score="objective"
     )
     assert "\n".join(lines) in "\n".join(_deployable_section(board))
+    from roman_sim.benchmark.board_plots import benchmark_figures, plot_score_pr
+    from roman_sim.core.figures import read_png_data
+
+    assert "score_pr.png" in benchmark_figures(board)
+    shown = read_png_data(plot_score_pr(board, tmp_path / "score_pr.png"))
+    assert shown["one"]["m"]["auc"] == c.auc
+    assert shown["one"]["m"]["points"] == [
+        [p.threshold, p.recall, p.precision, *(p.precision_worlds or [None, None])] for p in c.points
+    ]
+    assert [r[0] for r in shown["one"]["n"]["points"]] == list(SWEEP)
     line = auc_readme_line(board)
     assert line is not None and f"one m {c.auc:.2f} [{c.auc_worlds[0]:.2f}, {c.auc_worlds[1]:.2f}]" in line
 
