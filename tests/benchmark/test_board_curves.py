@@ -220,3 +220,56 @@ def test_a_score_a_method_does_not_offer_is_one_line_and_nothing_is_written(two_
     assert cell.id == "low-s0"
     with pytest.raises(ConfigError, match=r"--score: score 'objective': method clipper does not offer it .*low-s0"):
         job.check_score([cell])
+
+
+def test_a_named_score_in_the_pairs_tables_is_chosen_on_end_to_end(two_cells: Path) -> None:
+    """The two committed cells with a named score added to their pairs tables: a tenth of the association count.
+    On the calibration world it accepts the same sets of pairs as the count, in the same order, so each threshold
+    is a tenth of a count at least the association board's k: the same where the calibration world has a pair
+    with k associations (then every held-out figure is the association board's), the next count it has where
+    not (a threshold is one of the calibration pairs' own values: a held-out pair between is not accepted)."""
+    import csv
+    import gzip
+    import io
+
+    from roman_sim.benchmark.board import leaderboard
+    from roman_sim.core.records import to_json
+
+    counts: dict[str, set[tuple[str, int]]] = {}
+    for cell in ("low-s0", "low-s1"):
+        path = two_cells / "cells" / cell / "pairs.csv.gz"
+        rows = list(csv.DictReader(io.StringIO(gzip.decompress(path.read_bytes()).decode("utf-8"))))
+        counts[cell] = {(r["method"], int(r["n_assoc"])) for r in rows if r["kind"] == "inter"}
+        out = io.StringIO()
+        w = csv.DictWriter(out, [*rows[0], "score_objective"], lineterminator="\n")
+        w.writeheader()
+        w.writerows({**r, "score_objective": repr(int(r["n_assoc"]) / 10)} for r in rows)
+        path.write_bytes(gzip.compress(out.getvalue().encode("utf-8")))
+    res = CliRunner().invoke(
+        app, ["benchmark", "standard", "--out", str(two_cells), "--report-only", "--score", "objective"]
+    )
+    assert res.exit_code == 0, res.output
+    board, on_counts = read_leaderboard(two_cells / "leaderboard.json"), leaderboard(two_cells)[0]
+    assert board.score == "objective" and on_counts.score == "associations"
+    (lv,) = [e for e in board.levels if e.name == "low"]
+    (lk,) = [e for e in on_counts.levels if e.name == "low"]
+    d, k = lv.deployable, lk.deployable
+    assert d is not None and k is not None and d.thresholds is not None and k.thresholds is not None
+    same = 0
+    for m, per in d.thresholds.items():
+        for world, t in per.items():
+            other = next(w for w in counts if w != world)
+            kk = k.thresholds[m][world]
+            assert (t is None) == (kk is None), (m, world)
+            if t is None or kk is None:
+                continue
+            assert type(t) is float and (m, round(10 * t)) in counts[other], (m, world, t)
+            assert round(10 * t) == min(n for mm, n in counts[other] if mm == m and n >= kk), (m, world, t, kk)
+        if all(t is not None and round(10 * t) == k.thresholds[m][w] for w, t in per.items()):
+            same += 1
+            for a, b in zip(d.cells(), k.cells(), strict=True):
+                assert to_json(a.methods[m]) == to_json(b.methods[m]), (m, a.heading)
+    assert same >= 5  # every method but one: the visual method's k = 8 is no count of low-s0
+    assert lv.curves is not None and lv.curves.score == "objective"
+    md = (two_cells / "leaderboard.md").read_text(encoding="utf-8")
+    assert "Area under the precision-recall curve on `objective`" in md and "(held-out world: objective)" in md
