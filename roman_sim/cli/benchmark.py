@@ -60,8 +60,9 @@ def _deployable_text(dep: Deployable | None, method: str) -> str:
 
 def _board_table(board: Leaderboard) -> Table:
     target = board.target_precision if board.target_precision is not None else 0.9
+    on = "" if board.score == "associations" else f" on {board.score}"
     t = Table(
-        title=f"benchmark {board.suite}: the deployable point (threshold chosen on other worlds for precision "
+        title=f"benchmark {board.suite}: the deployable point (threshold{on} chosen on other worlds for precision "
         f"{target:g}; held-out hits / relevant and precision over all headings), then max recall"
     )
     t.add_column("method", no_wrap=True, min_width=max(map(len, board.methods), default=6))  # a row's name whole

@@ -249,6 +249,7 @@ def test_a_named_score_in_the_pairs_tables_is_chosen_on_end_to_end(two_cells: Pa
         app, ["benchmark", "standard", "--out", str(two_cells), "--report-only", "--score", "objective"]
     )
     assert res.exit_code == 0, res.output
+    assert "threshold on objective chosen on other worlds" in " ".join(res.output.split())
     board, on_counts = read_leaderboard(two_cells / "leaderboard.json"), leaderboard(two_cells)[0]
     assert board.score == "objective" and on_counts.score == "associations"
     (lv,) = [e for e in board.levels if e.name == "low"]
