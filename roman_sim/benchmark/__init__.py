@@ -5,5 +5,6 @@
 - ``plan``: the relevant pairs of a scenario from its planned trajectories, before rendering;
 - ``cells``: one (level, seed) cell, planned and run as executor tasks, and its kept files;
 - ``run``: the resumable job (``BenchmarkJob``);
-- ``board``: the leaderboard, re-derived from the kept raw pairs only.
+- ``board``: the leaderboard, re-derived from the kept raw pairs only;
+- ``check``: a finished board checked on fresh seeds at its deployed thresholds (``roman-sim benchmark check``).
 """

@@ -14,8 +14,9 @@ section each level also has its paired verdicts (every two methods, per heading 
 ahead, or no difference shown with its power, or too few hits), its floor line (the
 methods with too few held-out hits to rank) and, beside the deployable point, the area under
 each method's precision-recall curve on the board's score with its world interval
-(``auc_table``). Thresholds on the association count print as ``k``; on a named score the
-section says which score they are of.
+(``auc_table``); its held-out precision table ends with each method's one-new-world precision
+interval (``board_records.PrecisionSpread``). Thresholds on the association count print as
+``k``; on a named score the section says which score they are of.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from roman_sim.benchmark.board_records import (
     HeldOutFigures,
     Leaderboard,
     PairVerdict,
+    PrecisionSpread,
 )
 from roman_sim.benchmark.ranking import Rank
 from roman_sim.evaluation.bins import bin_label
@@ -298,6 +300,13 @@ def _ci3(ci: list[float] | None) -> str:
     return "n/a" if ci is None else f"[{ci[0]:.3f}, {ci[1]:.3f}]"
 
 
+def spread_text(s: PrecisionSpread | None) -> str:
+    """A method's one-new-world precision interval and the beta fit it comes from."""
+    if s is None:
+        return "n/a (fewer than two worlds accepted a pair)"
+    return f"{_ci(s.interval)} (Beta({s.a:.3g}, {s.b:.3g}) over {s.worlds} worlds)"
+
+
 def _deployable_section(board: Leaderboard) -> list[str]:
     """The leaderboard's lead: per level, held-out recall and precision at one threshold chosen on other worlds."""
     target = board.target_precision
@@ -330,6 +339,11 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         "hits in a bin is not ranked there and counts toward no bound (the floor line says which).",
         f"- Flag: **short** where the held-out precision is more than 0.05 below {target:g} (the threshold "
         "does not transfer to a new world); `nothing accepted` where no threshold reached the target.",
+        "- One new world: per method the central 95 % interval of one new world's precision over all headings, "
+        "from a beta-binomial fit of the held-out worlds' precisions (each world's held-out hits out of its "
+        "accepted pairs; a world's precision a draw of Beta(a, b)). A new world that accepts n pairs adds its "
+        "own binomial noise: `roman-sim benchmark check` tests each fresh world's hits against the fit's "
+        "interval for its n.",
         "",
         *deployable_bound_lines(board),
     ]
@@ -360,12 +374,14 @@ def _deployable_section(board: Leaderboard) -> list[str]:
             lines.append(f"| {m} | " + " | ".join(row) + f" | {ks} | {_rate(mx)} |")
         lines += [
             "",
-            "| held-out precision | " + " | ".join(heads) + " |",
-            "|---|" + "---|" * len(cells),
+            "| held-out precision | " + " | ".join(heads) + " | one new world (95 %) |",
+            "|---|" + "---|" * (len(cells) + 1),
         ]
+        spread = d.spread or {}
         for m in board.methods:
             if m in thresholds:
-                lines.append(f"| {m} | " + " | ".join(_held_out_precision(c.methods.get(m)) for c in cells) + " |")
+                row = [_held_out_precision(c.methods.get(m)) for c in cells]
+                lines.append(f"| {m} | " + " | ".join(row) + f" | {spread_text(spread.get(m))} |")
         lines.append("")
         lines += floor_lines(d)
         lines += verdict_table(d, [m for m in board.methods if m in thresholds])

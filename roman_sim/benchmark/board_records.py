@@ -137,6 +137,27 @@ class DeployableCell:
 
 
 @dataclass(frozen=True)
+class PrecisionSpread:
+    """How one method's held-out precision spreads from world to world (``benchmark.world_spread``): each held-out
+    world's precision a draw of Beta(a, b), fitted on its held-out hits out of its accepted pairs over all headings.
+
+    Attributes:
+        a, b: the fitted beta distribution.
+        worlds: the worlds that accepted a pair (those the fit rests on).
+        level: the share of new worlds the interval holds.
+        interval: the one-new-world interval: the central interval of a new world's precision holding ``level`` of
+            new worlds. A new world that accepts n pairs has its hits within ``WorldSpread.hits_interval(n)``
+            (its own few pairs add binomial noise): what ``roman-sim benchmark check`` tests fresh worlds against.
+    """
+
+    a: float
+    b: float
+    worlds: int
+    level: float
+    interval: list[float]
+
+
+@dataclass(frozen=True)
 class Deployable:
     """A level's deployable point (``roman_sim.benchmark.deployable``): thresholds chosen on other worlds.
 
@@ -150,6 +171,8 @@ class Deployable:
             an int on the association count, a float on a method's named score (``Leaderboard.score``).
         deployed: per method the threshold chosen on every world of the level: the one a new world
             is run at (``roman-sim benchmark check``).
+        spread: per method the spread of its held-out precision over the level's worlds and the one-new-world
+            interval it states (None: fewer than two worlds accepted a pair).
         min_hits: held-out hits below which a method is a floor in a bin (not ranked, no bound).
         effect: the recall difference the paired verdicts state their power for.
         transfers: per method, whether its held-out precision over all headings transfers.
@@ -162,6 +185,7 @@ class Deployable:
     note: str | None = field(default=None, metadata=OMIT_NONE)
     thresholds: dict[str, dict[str, int | float | None]] | None = field(default=None, metadata=OMIT_NONE)
     deployed: dict[str, int | float | None] | None = field(default=None, metadata=OMIT_NONE)
+    spread: dict[str, PrecisionSpread | None] | None = field(default=None, metadata=OMIT_NONE)
     min_hits: int | None = field(default=None, metadata=OMIT_NONE)
     effect: float | None = field(default=None, metadata=OMIT_NONE)
     transfers: dict[str, bool] | None = field(default=None, metadata=OMIT_NONE)

@@ -29,6 +29,11 @@ Per heading bin (and ``"all"``), from each world's held-out counts:
   to rank (h in n)": it gets no rank and counts toward no bound.
 - ranks: 1 + the number of methods a paired verdict puts ahead (methods above the floor).
 
+Per method, over all headings, the spread of held-out precision from world to world
+(``precision_spread``: a beta-binomial fit of each world's held-out hits out of its accepted
+pairs, ``world_spread``) and the interval it states for one new world's precision, the one
+``roman-sim benchmark check`` tests fresh worlds against.
+
 A level with a single world has no held-out figures: its entry says so.
 """
 
@@ -42,9 +47,16 @@ import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.base import DEFAULT_SCORE
-from roman_sim.benchmark.board_records import Deployable, DeployableCell, HeldOutFigures, PairVerdict
+from roman_sim.benchmark.board_records import (
+    Deployable,
+    DeployableCell,
+    HeldOutFigures,
+    PairVerdict,
+    PrecisionSpread,
+)
 from roman_sim.benchmark.ranking import Rank
 from roman_sim.benchmark.transfer import PairOutcomes, choose_threshold, held_out, transfers
+from roman_sim.benchmark.world_spread import fit_spread
 from roman_sim.evaluation.bins import bin_index, bin_label
 from roman_sim.evaluation.intervals import wilson
 from roman_sim.evaluation.metrics import PairScore
@@ -98,6 +110,13 @@ class WorldCounts:
     relevant: NDArray[np.float64]
 
 
+def bin_masks(heading: NDArray[np.float64], edges: Sequence[float]) -> list[tuple[str, NDArray[np.bool_]]]:
+    """(label, mask) of each heading bin of ``edges`` over pairs of the given headings, then ``("all", every pair)``."""
+    idx = bin_index(heading, edges)
+    masks = [(bin_label(edges[i], edges[i + 1]), idx == i) for i in range(len(edges) - 1)]
+    return [*masks, ("all", np.ones(len(idx), dtype=np.bool_))]
+
+
 def world_counts(
     o: PairOutcomes, positive: NDArray[np.bool_], mask: NDArray[np.bool_], worlds: Sequence[str]
 ) -> WorldCounts:
@@ -132,6 +151,17 @@ def held_out_figures(c: WorldCounts, target: float, level: float, bound: float, 
         precision_worlds=None if prec is None else [prec.low, prec.high],
         transfers=transfers(precision, target),
     )
+
+
+def precision_spread(c: WorldCounts, level: float) -> PrecisionSpread | None:
+    """The beta-binomial spread of a method's held-out precision over worlds (``world_spread.fit_spread`` of each
+    world's held-out hits out of its accepted pairs) and the one-new-world interval it states (None: fewer than
+    two worlds accepted a pair)."""
+    fit = fit_spread([int(h) for h in c.hits], [int(n) for n in c.hits + c.false_positives])
+    if fit is None:
+        return None
+    lo, hi = fit.interval(level)
+    return PrecisionSpread(fit.a, fit.b, fit.worlds, level, [lo, hi])
 
 
 def floor_line(c: HeldOutFigures) -> str:
@@ -201,9 +231,7 @@ def deployable(
         res = held_out(o, ks, target)
         thresholds[m] = {w: t.k for w, t in res.thresholds.items()}
         deployed[m] = choose_threshold(o, ks, target).k
-        idx = bin_index(heading, edges)
-        masks = [(bin_label(edges[i], edges[i + 1]), idx == i) for i in range(len(edges) - 1)]
-        masks.append(("all", np.ones(len(idx), dtype=np.bool_)))
+        masks = bin_masks(heading, edges)
         if not per_bin:
             per_bin = [(label, {}) for label, _ in masks]
         for (_, mask), (_, cell) in zip(masks, per_bin, strict=True):
@@ -218,6 +246,7 @@ def deployable(
         min_hits=MIN_HITS,
         effect=EFFECT,
         transfers={m: f.transfers for m, f in rows[-1].methods.items()} if rows else {},
+        spread={m: precision_spread(c, level) for m, c in per_bin[-1][1].items()} if per_bin else {},
         bins=rows[:-1],
         overall=rows[-1] if rows else None,
     )

@@ -262,8 +262,9 @@ class BenchmarkJob:
         self._record(cells, {})
         return cells, self._plans()
 
-    def run(self) -> BenchmarkOutcome:
-        """Plan and run every cell (reusing finished ones), then write the leaderboard."""
+    def run(self, board: bool = True) -> BenchmarkOutcome:
+        """Plan and run every cell (reusing finished ones), then write the leaderboard (not with ``board`` False:
+        a check of another board on fresh worlds scores the cells itself)."""
         from roman_sim.benchmark.board import write_leaderboard
 
         self.guard()
@@ -291,7 +292,8 @@ class BenchmarkJob:
                 status[c.id] = "failed" if c.id in outcome.failures else "ok"
                 self._record(cells, status)
                 self.progress(n + 1, len(cells), c.id)
-        write_leaderboard(self.out, self.target_precision, self.score)
+        if board:
+            write_leaderboard(self.out, self.target_precision, self.score)
         return outcome
 
     def check_score(self, cells: list[Cell]) -> None:

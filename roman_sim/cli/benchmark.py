@@ -1,13 +1,15 @@
-"""``roman-sim benchmark [SUITE]``: the heading x ambiguity benchmark as one resumable job."""
+"""``roman-sim benchmark [SUITE]``: the heading x ambiguity benchmark as one resumable job; ``roman-sim benchmark
+check FOLDER --seeds A:B``: its board checked on worlds it never saw."""
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import typer
 from rich.console import Console
 from rich.table import Table
+from typer.core import TyperCommand
 
 from roman_sim.cli import _executor as X
 from roman_sim.cli import app, echo_traceback
@@ -16,6 +18,8 @@ from roman_sim.cli.progress import LineProgress
 if TYPE_CHECKING:
     from roman_sim.benchmark.board_records import Deployable, Leaderboard
     from roman_sim.benchmark.cells import Cell, CellPlan
+    from roman_sim.benchmark.check_records import BoardCheck
+    from roman_sim.benchmark.run import BenchmarkOutcome
 
 
 def _methods(values: list[str] | None) -> list[str] | None:
@@ -83,11 +87,88 @@ def _board_table(board: Leaderboard) -> Table:
     return t
 
 
-@app.command("benchmark")
+check_app = typer.Typer(add_completion=False, pretty_exceptions_enable=False)
+
+
+@check_app.command()
+@X.executor_options
+def check_cmd(
+    folder: Path = typer.Argument(..., help="a finished benchmark folder (its benchmark.json and leaderboard.json)"),
+    seeds: str | None = typer.Option(
+        None, "--seeds", help="fresh seeds A:B (A to B-1, at least two) at every level; none the board used"
+    ),
+    flags: X.ExecutorFlags = X.NO_FLAGS,
+) -> None:
+    """Check a finished benchmark's board on worlds it never saw: run fresh seeds at every level into
+    FOLDER/check-A-B (resumable), score them at the board's deployed thresholds, and report whether the
+    precision target and each stated paired verdict held (check.json, check.md); exit 1 on bad input."""
+    from roman_sim.benchmark.check import CHECK_MD, check_dir, run_check
+
+    if seeds is None:
+        typer.echo("error: --seeds: give the fresh seeds as A:B (e.g. --seeds 100:104)", err=True)
+        raise typer.Exit(1)
+    lines = LineProgress()
+
+    def progress(done: int, total: int, what: str) -> None:
+        if total:
+            lines.line(f"check: cell {what} done ({done}/{total})")
+
+    result, outcome = run_check(folder, seeds, flags.config(), progress)
+    prec, verd = _check_tables(result)
+    Console().print(prec)
+    Console().print(verd if verd.row_count else "the board states no paired verdict (a ahead or b ahead)")
+    Console().print(f"check: {check_dir(folder, (result.seeds[0], result.seeds[1])) / CHECK_MD}")
+    _exit_on_failures(outcome, "fresh cell(s) failed")
+
+
+def _exit_on_failures(outcome: BenchmarkOutcome, what: str) -> None:
+    """Each failed cell and its traceback, then ``N <what>; run the command again to retry`` and exit 1."""
+    if outcome.failures:
+        for c, err in outcome.failures.items():
+            typer.echo(f"cell {c} failed: {err}", err=True)
+            if c in outcome.errors:
+                echo_traceback(outcome.errors[c])
+        typer.echo(f"{len(outcome.failures)} {what}; run the command again to retry", err=True)
+        raise typer.Exit(1)
+
+
+def _check_tables(result: BoardCheck) -> tuple[Table, Table]:
+    """The check's precision rows and stated verdicts as two tables."""
+    from roman_sim.benchmark.check_markdown import precision_row, verdict_row
+
+    a, b = result.seeds
+    prec = Table(title=f"{result.suite} on fresh seeds {a}-{b - 1}: precision at the deployed thresholds")
+    for col in ("level", "method", "k", "fresh precision", "target held", "stated interval", "worlds inside"):
+        prec.add_column(col)
+    verd = Table(title="paired verdicts the board states, on the fresh worlds")
+    for col in ("level", "heading", "methods", "board", "fresh difference", "sign held", "fresh test"):
+        verd.add_column(col)
+    for e in result.levels:
+        for p in e.precision:
+            prec.add_row(*(c.replace("**", "") for c in precision_row(e.name, p)[:7]))
+        for v in e.verdicts:
+            verd.add_row(*(c.replace("**", "") for c in verdict_row(e.name, v)))
+    return prec, verd
+
+
+class _BenchmarkCommand(TyperCommand):
+    """``roman-sim benchmark [SUITE]``, and ``roman-sim benchmark check FOLDER --seeds A:B`` (``check_cmd``)."""
+
+    def make_context(self, info_name: str | None, args: list[str], parent: Any = None, **extra: Any) -> Any:
+        """``check ...`` as the check command's own context (Any: typer's vendored click context; no data)."""
+        if args and args[0] == "check":
+            cmd = typer.main.get_command(check_app)
+            return cmd.make_context(f"{info_name} check", list(args[1:]), parent=parent, **extra)
+        return super().make_context(info_name, args, parent=parent, **extra)
+
+
+@app.command("benchmark", cls=_BenchmarkCommand)
 @X.executor_options
 def benchmark_cmd(
     suite: str = typer.Argument(
-        "quick", help="suite: quick (the default, minutes), standard (about 41 min), or a YAML"
+        "quick",
+        help="suite: quick (the default, minutes), standard (about 41 min), or a YAML; "
+        "`benchmark check FOLDER --seeds A:B` checks a finished board on fresh worlds",
     ),
     methods: list[str] | None = typer.Option(
         None, "--methods", "-m", help="methods to score (comma-separated or repeated; package.module:Class plug-ins)"
@@ -158,10 +239,4 @@ def benchmark_cmd(
     outcome = job.run()
     Console().print(_board_table(read_leaderboard(outcome.out_dir / LEADERBOARD_JSON)))
     Console().print(f"leaderboard: {outcome.out_dir / LEADERBOARD_MD}")
-    if outcome.failures:
-        for c, err in outcome.failures.items():
-            typer.echo(f"cell {c} failed: {err}", err=True)
-            if c in outcome.errors:
-                echo_traceback(outcome.errors[c])
-        typer.echo(f"{len(outcome.failures)} cell(s) failed, the others ran; run the command again to retry", err=True)
-        raise typer.Exit(1)
+    _exit_on_failures(outcome, "cell(s) failed, the others ran")

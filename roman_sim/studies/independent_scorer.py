@@ -980,6 +980,165 @@ def benchmark_pr_areas(folder: str | Path, draws: int = 4000, seed: int = 0) -> 
     return out
 
 
+#: The benchmark's one-new-world precision spread, as its documentation states the fit: each world's held-out
+#: precision a draw of Beta(a, b), its hits out of its accepted pairs BetaBinomial(n, a, b); maximum likelihood
+#: over the worlds that accepted a pair (two at least), the mean a / (a + b) and the concentration a + b kept in
+#: these bounds; the stated interval the central 95 % of Beta(a, b).
+SPREAD_MEAN, SPREAD_CONCENTRATION, SPREAD_LEVEL = (1e-4, 1 - 1e-4), (1e-2, 1e5), 0.95
+
+
+def beta_binomial_loglik(a: float, b: float, hits: Sequence[int], accepted: Sequence[int]) -> float:
+    """The log-likelihood of per-world ``hits`` out of ``accepted`` pairs under BetaBinomial(n, a, b)."""
+    from scipy.stats import betabinom
+
+    return float(betabinom.logpmf(np.asarray(hits), np.asarray(accepted), a, b).sum())
+
+
+def beta_binomial_fit(hits: Sequence[int], accepted: Sequence[int]) -> dict[str, JSONValue] | None:
+    """The maximum-likelihood Beta(a, b) of per-world precisions (worlds without an accepted pair left out):
+    a grid over the logit of the mean and the log of the concentration within their bounds, then Nelder-Mead
+    from its best point; ``a``, ``b``, ``worlds``, ``loglik`` and ``interval`` (the central 95 % of Beta(a, b)).
+    None with fewer than two worlds that accepted a pair."""
+    from scipy.optimize import minimize
+    from scipy.special import expit, logit
+    from scipy.stats import beta
+
+    kept = [(int(h), int(n)) for h, n in zip(hits, accepted, strict=True) if n > 0]
+    if len(kept) < 2:
+        return None
+    h, n = [k[0] for k in kept], [k[1] for k in kept]
+    lo_m, hi_m = float(logit(SPREAD_MEAN[0])), float(logit(SPREAD_MEAN[1]))
+    lo_c, hi_c = math.log(SPREAD_CONCENTRATION[0]), math.log(SPREAD_CONCENTRATION[1])
+    box = [(lo_m, hi_m), (lo_c, hi_c)]
+
+    def nll(x: Sequence[float]) -> float:
+        m, c = float(expit(x[0])), math.exp(x[1])
+        return -beta_binomial_loglik(m * c, (1 - m) * c, h, n)
+
+    grid = [(float(u), float(v)) for u in np.linspace(lo_m, hi_m, 41) for v in np.linspace(lo_c, hi_c, 41)]
+    start = min(grid, key=nll)
+    res = minimize(nll, start, method="Nelder-Mead", bounds=box, options={"xatol": 1e-9, "fatol": 1e-12})
+    x = res.x if res.fun <= nll(start) else start
+    m, c = float(expit(x[0])), math.exp(x[1])
+    a, b = m * c, (1 - m) * c
+    tail = (1 - SPREAD_LEVEL) / 2
+    return {
+        "a": a,
+        "b": b,
+        "worlds": len(kept),
+        "loglik": beta_binomial_loglik(a, b, h, n),
+        "interval": [float(v) for v in beta.ppf([tail, 1 - tail], a, b)],
+    }
+
+
+def benchmark_precision_spreads(held: Mapping[str, JSONValue]) -> dict[str, JSONValue]:
+    """Per ``level|method`` the one-new-world precision spread (``beta_binomial_fit``) of each world's held-out
+    hits out of its accepted pairs (hits and false positives) over all headings, from ``benchmark_held_out``'s
+    figures, with each world's ``hits`` and ``accepted``."""
+    out: dict[str, JSONValue] = {}
+    for key, fig in held.items():
+        cols = fig["worlds"]["all"]  # type: ignore[index, call-overload]
+        hits, accepted = [int(x) for x in cols[0]], [int(x) + int(y) for x, y in zip(cols[0], cols[1], strict=True)]
+        out[key] = {"hits": hits, "accepted": accepted, "fit": beta_binomial_fit(hits, accepted)}
+    return out
+
+
+#: A fresh precision counts as holding the target when at most this far below it (nothing accepted: held).
+CHECK_SLACK = Fraction(5, 100)
+
+
+def _fresh_counts(
+    rows: Sequence[BenchRow], k: int | None, worlds: Sequence[str], edges: Sequence[float]
+) -> dict[str, list[list[int]]]:
+    """Per heading bin (and ``all``) and per world (in ``worlds``' order) [hits, false positives, relevant] of
+    rows judged at threshold ``k`` (None: nothing accepted)."""
+    labels = [_label(edges[i], edges[i + 1]) for i in range(len(edges) - 1)]
+    out = {lab: [[0, 0, 0] for _ in worlds] for lab in [*labels, "all"]}
+    at = {w: i for i, w in enumerate(worlds)}
+    for r in rows:
+        pos = k is not None and r[4] >= k
+        b = heading_bin(r[5], edges)
+        for lab in ([labels[b]] if b >= 0 else []) + ["all"]:
+            c = out[lab][at[r[0]]]
+            c[0] += int(pos and r[2] and r[3])
+            c[1] += int(pos and not r[3])
+            c[2] += int(r[2])
+    return out
+
+
+def benchmark_check(board: str | Path, fresh: str | Path) -> dict[str, JSONValue]:
+    """A board's check on fresh worlds, re-derived from the raw files: ``board`` the board's folder, ``fresh``
+    the check's folder (its fresh cells). Per ``level|method``: the deployed threshold ``k`` (the smallest k of
+    the sweep whose precision over every board world of the level reaches the board's target), the fresh
+    worlds' pooled ``hits`` and ``false_positives`` at ``k``, ``precision``, ``target_held`` (at most
+    ``CHECK_SLACK`` below the target, or nothing accepted) and per fresh world its ``hits``, ``accepted`` and,
+    against the Beta(a, b) the board states (``leaderboard.json``), ``hits_interval`` (the central 95 % of
+    BetaBinomial(accepted, a, b)) and ``inside``. Per ``level|heading|a|b`` of each verdict the board states
+    ("a ahead" / "b ahead"): the fresh ``hits_a``, ``hits_b``, ``relevant``, whether the stated sign ``held``
+    and the same exact test on the fresh worlds (``paired_verdict``)."""
+    from scipy.stats import betabinom
+
+    board, fresh = Path(board), Path(fresh)
+    lb = json.loads((board / "leaderboard.json").read_text(encoding="utf-8"))
+    target = Fraction(str(lb["target_precision"]))
+    _, board_rows = _benchmark_rows(board)
+    _, fresh_rows = _benchmark_rows(fresh)
+    rec = json.loads((fresh / "benchmark.json").read_text(encoding="utf-8"))
+    edges = [float(e) for e in rec["heading_edges_deg"]]
+    out: dict[str, JSONValue] = {}
+    for e in lb["levels"]:
+        d = e.get("deployable") or {}
+        if d.get("note") is not None or d.get("deployed") is None:
+            continue
+        worlds = sorted(c["id"] for c in rec["cells"] if c["level"] == e["name"] and c["status"] == "ok")
+        counts: dict[str, dict[str, list[list[int]]]] = {}
+        for m in d["deployed"]:
+            own = board_rows.get(f"{e['name']}|{m}", [])
+            if not own or not fresh_rows.get(f"{e['name']}|{m}"):
+                continue  # no pair of the method on the board's or on the fresh worlds: nothing to check
+            cfg = read_settings(board / "cells" / own[0][0])
+            k = _smallest_k(own, range(cfg.k_min, cfg.k_max + 1), target)
+            counts[m] = _fresh_counts(fresh_rows.get(f"{e['name']}|{m}", []), k, worlds, edges)
+            spread = (d.get("spread") or {}).get(m)
+            per: dict[str, JSONValue] = {}
+            for w, (h, f, _) in zip(worlds, counts[m]["all"], strict=True):
+                iv = None
+                if spread is not None and h + f:
+                    iv = [int(x) for x in betabinom.ppf([0.025, 0.975], h + f, spread["a"], spread["b"])]
+                per[w] = {
+                    "hits": h,
+                    "accepted": h + f,
+                    "hits_interval": iv,
+                    "inside": None if iv is None else iv[0] <= h <= iv[1],
+                }
+            tp, fp = sum(c[0] for c in counts[m]["all"]), sum(c[1] for c in counts[m]["all"])
+            held = tp + fp == 0 or Fraction(tp, tp + fp) >= target - CHECK_SLACK
+            out[f"{e['name']}|{m}"] = {
+                "k": k,
+                "hits": tp,
+                "false_positives": fp,
+                "precision": tp / (tp + fp) if tp + fp else None,
+                "target_held": held,
+                "worlds": per,
+            }
+        for cell in [*d["bins"], d["overall"]]:
+            for v in cell["verdicts"]:
+                if v["verdict"] not in ("a ahead", "b ahead") or v["a"] not in counts or v["b"] not in counts:
+                    continue
+                a, b = counts[v["a"]][cell["heading"]], counts[v["b"]][cell["heading"]]
+                ha, hb, rel = [x[0] for x in a], [x[0] for x in b], [x[2] for x in a]
+                sign = 1 if v["verdict"] == "a ahead" else -1
+                test = paired_verdict(ha, hb, rel) if len(worlds) >= 2 else None
+                out[f"{e['name']}|{cell['heading']}|{v['a']}|{v['b']}"] = {
+                    "hits_a": sum(ha),
+                    "hits_b": sum(hb),
+                    "relevant": sum(rel),
+                    "held": sign * (sum(ha) - sum(hb)) > 0 if sum(rel) else None,
+                    "fresh": test,
+                }
+    return out
+
+
 # -- the attribution study ------------------------------------------------------------------------
 def newcombe_interval(k1: int, n1: int, k2: int, n2: int, level: float) -> list[float] | None:
     """Newcombe's hybrid-score interval of k1/n1 - k2/n2 from the two Wilson intervals; None without pairs."""

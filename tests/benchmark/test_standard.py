@@ -247,6 +247,54 @@ def test_the_paired_verdicts_and_floors_follow_from_the_independent_scorer(score
     assert checked == 3 * 4 * n * (n - 1) // 2
 
 
+def test_the_one_new_world_intervals_follow_from_the_independent_scorer(scored):
+    """Each method's one-new-world precision interval: the independent scorer fits the beta-binomial to each
+    world's held-out hits out of its accepted pairs with an optimiser of its own; the board's Beta(a, b) is as
+    likely as the scorer's maximum (to 1e-4 of log-likelihood), and the stated interval is the central 95 % of it."""
+    from scipy.stats import beta
+
+    from roman_sim.studies.independent_scorer import benchmark_precision_spreads, beta_binomial_loglik
+
+    mine = benchmark_precision_spreads(scored)
+    checked = 0
+    for e in _committed().levels:
+        d = e.deployable
+        assert d is not None and d.spread is not None and d.thresholds is not None
+        assert sorted(d.spread) == sorted(d.thresholds), e.name
+        for m, s in d.spread.items():
+            own = mine[f"{e.name}|{m}"]
+            fit = own["fit"]
+            if s is None:
+                assert fit is None, (e.name, m)
+                continue
+            assert fit is not None and s.worlds == fit["worlds"] and s.level == 0.95, (e.name, m)
+            kept = [(h, n) for h, n in zip(own["hits"], own["accepted"], strict=True) if n]
+            stated = beta_binomial_loglik(s.a, s.b, [h for h, _ in kept], [n for _, n in kept])
+            assert stated == pytest.approx(fit["loglik"], abs=1e-4), (e.name, m)  # two optimisers: 1e-4 apart
+            assert s.interval == pytest.approx(list(beta.ppf([0.025, 0.975], s.a, s.b)), abs=1e-12), (e.name, m)
+            checked += 1
+    assert checked > 0
+
+
+def test_the_docs_state_how_crude_the_one_new_world_fit_is():
+    """docs/benchmark.md's examples of one-new-world intervals, read off the committed board."""
+    docs = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    spreads = {
+        (e.name, m): s
+        for e in _committed().levels
+        if e.deployable is not None
+        for m, s in (e.deployable.spread or {}).items()
+        if s is not None
+    }
+    whole = {lv for (lv, _), s in spreads.items() if f"{s.interval[0]:.2f} {s.interval[1]:.2f}" == "0.00 1.00"}
+    assert whole == {"medium", "high"}
+    assert "some medium and high intervals are [0.00, 1.00]" in docs
+    narrow = spreads[("high", "ransac100k")]
+    assert narrow.worlds == 5 and f"[{narrow.interval[0]:.2f}, {narrow.interval[1]:.2f}]" == "[0.61, 0.62]"
+    assert narrow.a + narrow.b == pytest.approx(1e5)  # the upper concentration bound
+    assert "RANSAC-100k's at high is [0.61, 0.62] (five worlds" in docs
+
+
 def test_no_verdict_or_bound_moves_with_the_bootstrap_seed(scored):
     """The verdicts come from the exact sign-flip test (nothing drawn): the same from each world's counts
     whatever the seed. The bound's world intervals are drawn: recomputed under bootstrap seeds 1-19, every
