@@ -18,6 +18,13 @@ pooled Wilson and world-bootstrap intervals, and ranks by the world intervals. T
 headline bound is checked there (``deployable_bound_met``): in every level x heading bin the
 widest world-bootstrap half-width of held-out recall, over methods, is at most +-0.1.
 
+The deployable thresholds are chosen on one confidence score (``score``: the association count
+``associations`` unless a method's own named score is chosen, ``roman-sim benchmark --score``);
+on the same score, per level, each method's precision-recall curve with world intervals and the
+area under it (``benchmark.board_curves``). A score a method of the folder does not offer is
+refused before anything is written (``evaluation.score_curves.check_score``). The per-bin
+operating points below stay on the association count (``metrics.compute_metrics``).
+
 ``leaderboard.json`` holds all of it; ``leaderboard.md`` (``benchmark.board_markdown``) and the
 figures in ``plots/`` (``benchmark.board_plots``) render it. Runtimes come from each cell's
 ``runtimes.json``.
@@ -34,6 +41,8 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.align.base import DEFAULT_SCORE
+from roman_sim.benchmark.board_curves import level_curves
 from roman_sim.benchmark.board_markdown import RANKED, leaderboard_markdown
 from roman_sim.benchmark.board_plots import write_benchmark_plots
 from roman_sim.benchmark.board_records import (
@@ -66,6 +75,7 @@ from roman_sim.evaluation.metrics import PairScore, compute_metrics
 from roman_sim.evaluation.operating_points import POINT_NAMES, OperatingPoint
 from roman_sim.evaluation.paired_worlds import MIN_HITS, paired_difference
 from roman_sim.evaluation.results import read_pairs_csv
+from roman_sim.evaluation.score_curves import check_score
 from roman_sim.evaluation.types import CurveStats, EvaluationMetrics
 from roman_sim.pipeline.scenario import method_label
 from roman_sim.report.recompute import eval_settings, rederive_scores
@@ -258,7 +268,7 @@ def _runtime(levels: dict[str, Level]) -> dict[str, MethodRuntime]:
 
 
 def _level(
-    out: Path, lv: Level, edges: list[float], target_precision: float
+    out: Path, lv: Level, edges: list[float], target_precision: float, score: str = DEFAULT_SCORE
 ) -> tuple[BoardLevel, EvaluationMetrics | None]:
     """One level's leaderboard entry and its evaluation (None before a cell of it finished)."""
     if not lv.cells:
@@ -286,26 +296,33 @@ def _level(
             "all", {k: v.overall for k, v in sets.items()}, pairs, lambda mp: np.ones(len(mp.world), bool), n_worlds
         ),
         bins=bins,
-        deployable=deployable(lv.scores, list(m.methods), edges, k_values, target_precision),
+        deployable=deployable(lv.scores, list(m.methods), edges, k_values, target_precision, score=score),
+        curves=level_curves(lv.scores, list(m.methods), score, k_values, m.config.interval_level),
     )
     return entry, m
 
 
 def leaderboard(
-    out: str | Path, target_precision: float = DEFAULT_TARGET
+    out: str | Path, target_precision: float = DEFAULT_TARGET, score: str = DEFAULT_SCORE
 ) -> tuple[Leaderboard, dict[str, EvaluationMetrics]]:
     """The leaderboard of a benchmark folder and the evaluation of each level (for the figures).
 
-    ``target_precision`` is the precision the deployable point's thresholds are chosen for.
+    ``target_precision`` is the precision the deployable point's thresholds are chosen for, on the
+    confidence score ``score``.
+
+    Raises:
+        EvaluationError: a method of a level that does not offer ``score`` (one line naming both).
     """
     check_target(target_precision)
     out = Path(out)
     record = read_record(out)
     edges = [float(e) for e in record.heading_edges_deg]
     levels, missing = load_levels(out, record)
+    for lv in levels.values():
+        check_score(lv.scores, score)
     entries, metrics = [], {}
     for name, lv in levels.items():
-        entry, m = _level(out, lv, edges, target_precision)
+        entry, m = _level(out, lv, edges, target_precision, score)
         entries.append(entry)
         if m is not None:
             metrics[name] = m
@@ -323,6 +340,7 @@ def leaderboard(
         runtime=_runtime(levels),
         target_precision=target_precision,
         plugins={method_label(m): m for m in record.methods if ":" in m} or None,
+        score=score,
     )
     return replace(board, deployable_bound_met=deployable_bound_met(board)), metrics
 
@@ -340,10 +358,13 @@ def deployable_bound_met(board: Leaderboard) -> bool:
     )
 
 
-def write_leaderboard(out: str | Path, target_precision: float = DEFAULT_TARGET) -> list[Path]:
-    """Write ``leaderboard.json``, ``leaderboard.md`` and the figures; returns the paths written."""
+def write_leaderboard(
+    out: str | Path, target_precision: float = DEFAULT_TARGET, score: str = DEFAULT_SCORE
+) -> list[Path]:
+    """Write ``leaderboard.json``, ``leaderboard.md`` and the figures (thresholds and curves on ``score``);
+    returns the paths written (nothing is written when a method does not offer ``score``)."""
     out = Path(out)
-    board, metrics = leaderboard(out, target_precision)
+    board, metrics = leaderboard(out, target_precision, score)
     write_leaderboard_json(out / LEADERBOARD_JSON, board)
     write_text(out / LEADERBOARD_MD, leaderboard_markdown(board))
     return [out / LEADERBOARD_JSON, out / LEADERBOARD_MD, *write_benchmark_plots(board, metrics, out / "plots")]

@@ -11,15 +11,20 @@ bins, each cell ``recall (hits/relevant) [95 % interval]`` and its rank by paire
 ``tied`` where no verdict separates), the relevant pairs per cell, every operating point per
 level, runtimes per pair, the cells that did not finish and the figures. In the deployable
 section each level also has its paired verdicts (every two methods, per heading bin: who is
-ahead, or no difference shown with its power, or too few hits) and its floor line (the
-methods with too few held-out hits to rank); its held-out precision table ends with each method's
-one-new-world precision interval (``board_records.PrecisionSpread``).
+ahead, or no difference shown with its power, or too few hits), its floor line (the
+methods with too few held-out hits to rank) and, beside the deployable point, the area under
+each method's precision-recall curve on the board's score with its world interval
+(``auc_table``); its held-out precision table ends with each method's one-new-world precision
+interval (``board_records.PrecisionSpread``). Thresholds on the association count print as
+``k``; on a named score the section says which score they are of.
 """
 
 from __future__ import annotations
 
 from dataclasses import replace
 
+from roman_sim.align.base import DEFAULT_SCORE
+from roman_sim.benchmark.board_curves import LevelCurves
 from roman_sim.benchmark.board_plots import benchmark_figures
 from roman_sim.benchmark.board_records import (
     BoardCell,
@@ -265,6 +270,36 @@ def _held_out_precision(c: HeldOutFigures | None) -> str:
     return f"{c.precision:.2f} worlds {_ci(c.precision_worlds)}" + ("" if c.transfers else " **short**")
 
 
+def threshold_text(k: float | None) -> str:
+    """A deployable threshold as the board prints it: ``none``, an int as it is, a float to 4 significant digits."""
+    if k is None:
+        return "none"
+    return str(k) if isinstance(k, int) else f"{k:.4g}"
+
+
+def auc_table(curves: LevelCurves | None, methods: list[str]) -> list[str]:
+    """A level's threshold-free summary: per method the area under its precision-recall curve on the board's
+    score, with its world interval."""
+    if curves is None:
+        return []
+    lines = [
+        f"Area under the precision-recall curve on `{curves.score}` (cross-robot pairs of every heading, pooled over "
+        f"the level's worlds; every threshold, none chosen; 95 % world bootstrap, {curves.draws} draws):",
+        "",
+        "| method | AUC [world interval] |",
+        "|---|---|",
+    ]
+    for m in methods:
+        c = curves.methods.get(m)
+        if c is not None:
+            lines.append(f"| {m} | {_num(c.auc, 3)} {_ci3(c.auc_worlds)} |")
+    return [*lines, ""]
+
+
+def _ci3(ci: list[float] | None) -> str:
+    return "n/a" if ci is None else f"[{ci[0]:.3f}, {ci[1]:.3f}]"
+
+
 def spread_text(s: PrecisionSpread | None) -> str:
     """A method's one-new-world precision interval and the beta fit it comes from."""
     if s is None:
@@ -277,12 +312,22 @@ def _deployable_section(board: Leaderboard) -> list[str]:
     target = board.target_precision
     if target is None:
         return []
+    on = (
+        "one association threshold k" if board.score == DEFAULT_SCORE else f"one threshold on the score `{board.score}`"
+    )
+    own = (
+        ""
+        if board.score == DEFAULT_SCORE
+        else " (chosen among the calibration pairs' own values of the score; a pair without it is accepted at "
+        "no threshold)"
+    )
     lines = [
         f"## Deployable ranking: held-out recall at target precision {target:g}",
         "",
-        f"- Thresholds: per method and level one association threshold k for every heading, chosen on the "
-        f"other worlds (seeds) of the level: the smallest k whose precision over all their cross-robot pairs "
-        f"is at least {target:g} (leave-one-world-out). Each world is scored at the threshold chosen without "
+        f"- Thresholds: per method and level {on} for every heading, chosen on the "
+        f"other worlds (seeds) of the level: the smallest {'k' if board.score == DEFAULT_SCORE else 'threshold'} "
+        f"whose precision over all their cross-robot pairs "
+        f"is at least {target:g} (leave-one-world-out){own}. Each world is scored at the threshold chosen without "
         f"it; the held-out counts are pooled over the level's worlds.",
         "- Intervals: pooled 95 % Wilson, and 95 % world bootstrap (draw worlds with replacement, each drawn "
         "world's pairs kept whole; draws doubled until no bound or verdict depends on the bootstrap's seed). "
@@ -313,14 +358,17 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         cells = d.cells()
         heads = [f"{c.heading} deg" if c.heading != "all" else "all" for c in cells]
         lines += [
-            "| method | " + " | ".join(heads) + " | thresholds (held-out world: k) | max recall (all) |",
+            "| method | "
+            + " | ".join(heads)
+            + f" | thresholds (held-out world: {'k' if board.score == DEFAULT_SCORE else board.score}) "
+            + "| max recall (all) |",
             "|---|" + "---|" * (len(cells) + 2),
         ]
         thresholds = d.thresholds or {}
         for m in board.methods:
             if m not in thresholds:
                 continue
-            ks = ", ".join(f"{w}: {'none' if k is None else k}" for w, k in thresholds[m].items())
+            ks = ", ".join(f"{w}: {threshold_text(k)}" for w, k in thresholds[m].items())
             mx = None if e.overall is None else e.overall.point(m, "max_recall")
             row = [_held_out_recall(c.methods.get(m), c.ranks.get(m), c.floor.get(m)) for c in cells]
             lines.append(f"| {m} | " + " | ".join(row) + f" | {ks} | {_rate(mx)} |")
@@ -337,6 +385,7 @@ def _deployable_section(board: Leaderboard) -> list[str]:
         lines.append("")
         lines += floor_lines(d)
         lines += verdict_table(d, [m for m in board.methods if m in thresholds])
+        lines += auc_table(e.curves, board.methods)
     return lines
 
 
@@ -433,6 +482,25 @@ def deployable_readme_lines(board: Leaderboard) -> list[str]:
     return lines
 
 
+def auc_readme_line(board: Leaderboard, first: int = 2) -> str | None:
+    """The README's statement of the threshold-free summary: per level the ``first`` methods by area under the
+    precision-recall curve on the board's score, with their world intervals (None without curves)."""
+    parts = []
+    for e in board.levels:
+        if e.curves is None:
+            continue
+        got = sorted(
+            ((m, c) for m, c in e.curves.methods.items() if c.auc is not None), key=lambda x: (-(x[1].auc or 0.0), x[0])
+        )
+        parts.append(f"{e.name} " + ", ".join(f"{m} {_num(c.auc)} {_ci(c.auc_worlds)}" for m, c in got[:first]))
+    if not parts:
+        return None
+    return (
+        f"- Area under the precision-recall curve on `{board.score}` (every threshold, none chosen; 95 % world "
+        f"interval), the first {first} per level: " + "; ".join(parts) + "."
+    )
+
+
 def deployable_bound_readme_line(board: Leaderboard) -> str:
     """The README's statement of the headline bound, with the widest bin (or the bins over it)."""
     head = (
@@ -465,6 +533,7 @@ def readme_block(board: Leaderboard, figure: str) -> str:
     """
     lines = [README_BEGIN, "", f"![{benchmark_figures(board)['recall_heading.png']}]({figure})", ""]
     lines += deployable_readme_lines(board)
+    lines += [x for x in [auc_readme_line(board)] if x is not None]
     m = "roman" if "roman" in board.methods else board.methods[0]
     for e in board.finished_levels():
         parts = []

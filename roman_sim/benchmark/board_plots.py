@@ -8,7 +8,10 @@
   recall in colour (one labelled colour bar) with recall and hits / relevant written in each
   cell; cells and fonts are sized to their text, so no two numbers overlap;
 - ``runtime.png``: runtime per pair per method (mean over every pair; the cells' medians
-  and 90th percentiles as points), log scale.
+  and 90th percentiles as points), log scale;
+- ``score_pr.png``: per level (one panel each) every method's precision-recall curve on the
+  board's score over all headings (``BoardLevel.curves``), the 95 % world interval of the
+  precision as a band, the area under the curve in the legend.
 
 The drawing functions take the ``Leaderboard`` (and, for the PR curves, each level's
 ``EvaluationMetrics``). Each figure is written with a vector PDF beside its PNG
@@ -40,6 +43,8 @@ def benchmark_figures(board: Leaderboard) -> dict[str, str]:
         out[f"pr_heading_{n}.png"] = f"Precision-recall per heading bin, ambiguity level {n}"
     out["heatmap.png"] = "Heading x ambiguity: max recall per method, hits / relevant in each cell"
     out["runtime.png"] = "Runtime per pair"
+    if any(e.curves is not None for e in board.levels):
+        out["score_pr.png"] = f"Precision-recall on `{board.score}` per level, 95 % world bands, area under the curve"
     return out
 
 
@@ -260,6 +265,50 @@ def plot_runtime(board: Leaderboard, path: Path) -> Path | None:
     return save_figure(fig, path)
 
 
+def score_pr_data(board: Leaderboard) -> dict[str, Any]:
+    """What ``score_pr.png`` shows: per level with curves, per method ``auc`` and its curve's points
+    ``[threshold, recall, precision, precision low, precision high]``."""
+    return {
+        e.name: {
+            m: {
+                "auc": c.auc,
+                "points": [[p.threshold, p.recall, p.precision, *_pair(p.precision_worlds)] for p in c.points],
+            }
+            for m, c in e.curves.methods.items()
+        }
+        for e in board.levels
+        if e.curves is not None
+    }
+
+
+def _pair(ci: list[float] | None) -> list[float | None]:
+    return [None, None] if ci is None else [ci[0], ci[1]]
+
+
+def plot_score_pr(board: Leaderboard, path: Path) -> Path | None:
+    """Per level a panel: each method's precision over recall on the board's score, the precision's world band.
+
+    Drawn from ``score_pr_data(board)``, which the PNG carries (``read_png_data``)."""
+    data = score_pr_data(board)
+    if not data:
+        return None
+    fig = figure(3.8 * len(data), 3.8, ncols=len(data))
+    for ax, (level, methods) in zip(fig.axes, data.items(), strict=True):
+        for i, m in enumerate(board.methods):
+            if m not in methods:
+                continue
+            pts = np.array([[np.nan if v is None else v for v in r[1:]] for r in methods[m]["points"]], dtype=float)
+            ok = ~np.isnan(pts[:, 0]) & ~np.isnan(pts[:, 1])
+            r, prec, lo, hi = (pts[ok, j] for j in range(4))
+            ax.plot(r, prec, marker=".", color=f"C{i}", label=f"{m} (AUC {_fmt(methods[m]['auc'])})")
+            ax.fill_between(r, lo, hi, color=f"C{i}", alpha=0.15, linewidth=0)
+        ax.set(xlim=(0, 1), ylim=(0, 1.02), xlabel="recall", ylabel="precision")
+        ax.set_title(f"{level}: precision-recall on {board.score}", fontsize=8)
+        ax.grid(alpha=0.3)
+        drawn_legend(ax, fontsize=6, loc="upper right")
+    return save_figure(fig, path, data)
+
+
 def write_benchmark_plots(board: Leaderboard, metrics: dict[str, EvaluationMetrics], plots_dir: Path) -> list[Path]:
     """Every figure of ``benchmark_figures`` that has data, into ``plots_dir``; the paths written."""
     out = []
@@ -271,6 +320,8 @@ def write_benchmark_plots(board: Leaderboard, metrics: dict[str, EvaluationMetri
             got = plot_heatmap(board, path)
         elif name == "runtime.png":
             got = plot_runtime(board, path)
+        elif name == "score_pr.png":
+            got = plot_score_pr(board, path)
         else:
             level = name[len("pr_heading_") : -len(".png")]
             got = plot_pr_level(board, metrics[level], level, path)

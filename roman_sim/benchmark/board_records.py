@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from roman_sim.align.base import DEFAULT_SCORE
+from roman_sim.benchmark.board_curves import LevelCurves
 from roman_sim.benchmark.ranking import Rank
 from roman_sim.core.records import OMIT_NONE, read_record, write_record
 from roman_sim.evaluation.operating_points import OperatingPoint
@@ -165,7 +167,8 @@ class Deployable:
         target_precision: the precision the thresholds are chosen for.
         worlds: the level's worlds (benchmark cells).
         note: why there are no held-out figures (None when there are).
-        thresholds: per method, per held-out world the threshold chosen on the others (None: none reached it).
+        thresholds: per method, per held-out world the threshold chosen on the others (None: none reached it):
+            an int on the association count, a float on a method's named score (``Leaderboard.score``).
         deployed: per method the threshold chosen on every world of the level: the one a new world
             is run at (``roman-sim benchmark check``).
         spread: per method the spread of its held-out precision over the level's worlds and the one-new-world
@@ -180,8 +183,8 @@ class Deployable:
     target_precision: float
     worlds: list[str]
     note: str | None = field(default=None, metadata=OMIT_NONE)
-    thresholds: dict[str, dict[str, int | None]] | None = field(default=None, metadata=OMIT_NONE)
-    deployed: dict[str, int | None] | None = field(default=None, metadata=OMIT_NONE)
+    thresholds: dict[str, dict[str, int | float | None]] | None = field(default=None, metadata=OMIT_NONE)
+    deployed: dict[str, int | float | None] | None = field(default=None, metadata=OMIT_NONE)
     spread: dict[str, PrecisionSpread | None] | None = field(default=None, metadata=OMIT_NONE)
     min_hits: int | None = field(default=None, metadata=OMIT_NONE)
     effect: float | None = field(default=None, metadata=OMIT_NONE)
@@ -208,6 +211,8 @@ class BoardLevel:
         bins: one cell per heading bin.
         deployable: the level's deployable point (``roman_sim.benchmark.deployable``: held-out
             thresholds per world, recall and precision, ranks), as computed there.
+        curves: per method its precision-recall curve on the board's score with world intervals and the
+            area under it (``roman_sim.benchmark.board_curves``; None with fewer than two worlds).
     """
 
     name: str
@@ -219,6 +224,7 @@ class BoardLevel:
     overall: BoardCell | None = field(default=None, metadata=OMIT_NONE)
     bins: list[BoardCell] = field(default_factory=list)
     deployable: Deployable | None = field(default=None, metadata=OMIT_NONE)
+    curves: LevelCurves | None = field(default=None, metadata=OMIT_NONE)
 
     @property
     def finished(self) -> bool:
@@ -269,6 +275,8 @@ class Leaderboard:
             floor is at most the bound, and every cell finished (``deployable_widths``); a bin where every
             method is below the floor holds no bound (``deployable_floors``: reported, not counted as met).
         plugins: per plug-in row its ``package.module:Class`` (None without plug-ins).
+        score: the confidence score the deployable thresholds and the curves are on (``associations``, the
+            association count, unless ``roman-sim benchmark --score`` named a method's own score).
     """
 
     suite: str
@@ -284,6 +292,7 @@ class Leaderboard:
     target_precision: float | None = field(default=None, metadata=OMIT_NONE)
     deployable_bound_met: bool = False
     plugins: dict[str, str] | None = field(default=None, metadata=OMIT_NONE)
+    score: str = DEFAULT_SCORE
 
     def finished_levels(self) -> list[BoardLevel]:
         """The levels with figures."""

@@ -29,6 +29,7 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
+from roman_sim.align.base import DEFAULT_SCORE
 from roman_sim.benchmark.board import LEADERBOARD_JSON, load_levels, read_record
 from roman_sim.benchmark.board_records import Deployable, Leaderboard, PairVerdict, read_leaderboard
 from roman_sim.benchmark.cells import BENCHMARK_JSON, BenchmarkRecord
@@ -247,10 +248,16 @@ def _verdict(heading: str, v: PairVerdict, a: WorldCounts, b: WorldCounts) -> Ve
 
 
 def check_level(
-    d: Deployable, name: str, scores: list[PairScore], edges: list[float], methods: list[str]
+    d: Deployable,
+    name: str,
+    scores: list[PairScore],
+    edges: list[float],
+    methods: list[str],
+    score: str = DEFAULT_SCORE,
 ) -> LevelCheck:
     """One level's fresh worlds (``scores``, pooled with cell-prefixed pair names) against its deployable point,
-    the methods in the order of ``methods``."""
+    the methods in the order of ``methods``; each pair accepted when its score ``score`` (the board's) reaches
+    the deployed threshold."""
     worlds = sorted({s.truth.a.split(":", 1)[0] for s in scores})
     if not worlds:
         return LevelCheck(name, [], note="no fresh world of the level finished")
@@ -258,7 +265,7 @@ def check_level(
     precision = []
     deployed = d.deployed or {}
     for m in [x for x in methods if x in deployed]:
-        o, heading = outcomes(scores, m)
+        o, heading = outcomes(scores, m, score)
         if len(o.score) == 0:
             continue
         pos = positives(o, deployed[m])
@@ -289,7 +296,7 @@ def score_check(board: Leaderboard, out: str | Path, seeds: tuple[int, int]) -> 
             continue
         assert d is not None
         lv = levels.get(e.name)
-        rows.append(check_level(d, e.name, [] if lv is None else lv.scores, edges, board.methods))
+        rows.append(check_level(d, e.name, [] if lv is None else lv.scores, edges, board.methods, board.score))
     target = board.target_precision if board.target_precision is not None else 0.9
     return BoardCheck(board.suite, [seeds[0], seeds[1]], target, PRECISION_SLACK, missing, rows)
 

@@ -51,7 +51,7 @@ class PrecisionCheck:
     """
 
     method: str
-    k: int | None
+    k: int | float | None
     hits: int
     false_positives: int
     precision: float | None

@@ -1,10 +1,14 @@
 """The deployable operating point of a benchmark level: thresholds chosen on other worlds.
 
-A deployed system runs one association threshold per method, for every heading, chosen
-before it sees the world it runs in. Per level and method this module chooses it as
+A deployed system runs one threshold per method on its confidence score, for every heading,
+chosen before it sees the world it runs in. The score is the association count
+(``associations``, thresholds ``k`` of the evaluation's sweep) unless the benchmark names
+another (``roman-sim benchmark --score NAME``: a method's own score, ``AlignResult.confidence``;
+its thresholds are the calibration pairs' own values, and a pair without the score is accepted
+at no threshold). Per level and method this module chooses it as
 ``benchmark.transfer`` does: leave one world (cell = scenario seed) out, choose on the
-others the smallest ``k`` whose pooled precision over all headings of their cross-robot
-pairs reaches the target, score the left-out world at that ``k``; pool the held-out
+others the smallest threshold whose pooled precision over all headings of their cross-robot
+pairs reaches the target, score the left-out world at it; pool the held-out
 outcomes over the level's worlds. The threshold chosen on every world of the level is kept
 too (``deployed``): it is what a new world runs at (``roman-sim benchmark check``).
 
@@ -42,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from roman_sim.align.base import DEFAULT_SCORE
 from roman_sim.benchmark.board_records import (
     Deployable,
     DeployableCell,
@@ -78,15 +83,16 @@ def _world(s: PairScore) -> str:
     return s.truth.a.split(":", 1)[0]
 
 
-def outcomes(scores: Sequence[PairScore], method: str) -> tuple[PairOutcomes, np.ndarray]:
-    """One method's cross-robot pairs as ``PairOutcomes`` (world = cell, cluster = robot pair), and headings."""
+def outcomes(scores: Sequence[PairScore], method: str, score: str = DEFAULT_SCORE) -> tuple[PairOutcomes, np.ndarray]:
+    """One method's cross-robot pairs as ``PairOutcomes`` (world = cell, cluster = robot pair, score: the
+    score ``score``, -inf where the pair has none), and headings."""
     rows = [s for s in scores if s.method == method and s.truth.kind == "inter"]
     o = PairOutcomes.from_lists(
         [_world(s) for s in rows],
         ["|".join(sorted((s.truth.robot_a, s.truth.robot_b))) for s in rows],
         [s.truth.relevant for s in rows],
         [s.correct for s in rows],
-        [s.n_assoc for s in rows],
+        [-np.inf if (v := s.score(score)) is None else v for s in rows],
     )
     return o, np.asarray([s.truth.heading_diff_deg for s in rows], dtype=np.float64)
 
@@ -203,25 +209,28 @@ def deployable(
     level: float = 0.95,
     bound: float = HALF_WIDTH_BOUND,
     seed: int = 0,
+    score: str = DEFAULT_SCORE,
 ) -> Deployable:
     """A level's deployable point as ``leaderboard.json`` holds it (see the module docstring).
 
     ``seed`` seeds the world bootstraps of the intervals; the verdicts draw nothing, and the bound's
-    draws are made until it is decided.
+    draws are made until it is decided. ``score``: the score thresholds are chosen on (``k_values`` are
+    the thresholds of ``associations``; any other score's are the calibration pairs' own values).
     """
     worlds = sorted({_world(s) for s in scores})
     if len(worlds) < 2:
         return Deployable(target, worlds, note=single_world_note(len(worlds)))
-    thresholds: dict[str, dict[str, int | None]] = {}
-    deployed: dict[str, int | None] = {}
+    thresholds: dict[str, dict[str, int | float | None]] = {}
+    deployed: dict[str, int | float | None] = {}
+    ks = list(k_values) if score == DEFAULT_SCORE else None
     per_bin: list[tuple[str, dict[str, WorldCounts]]] = []
     for m in methods:
-        o, heading = outcomes(scores, m)
+        o, heading = outcomes(scores, m, score)
         if len(o.score) == 0:
             continue
-        res = held_out(o, k_values, target)
+        res = held_out(o, ks, target)
         thresholds[m] = {w: t.k for w, t in res.thresholds.items()}
-        deployed[m] = choose_threshold(o, k_values, target).k
+        deployed[m] = choose_threshold(o, ks, target).k
         masks = bin_masks(heading, edges)
         if not per_bin:
             per_bin = [(label, {}) for label, _ in masks]

@@ -20,6 +20,12 @@ the other cells run. The run folders are under ``work/`` (large; ``.gitignore`` 
 out of a repository); everything else in the folder is small and is the committed result.
 Files: ``benchmark.json`` (suite, methods, overrides, cells and their status),
 ``plan.json``, ``cells/``, ``leaderboard.json``, ``leaderboard.md``, ``plots/``.
+
+The leaderboard's confidence score (``score``: the association count unless a method's own
+named score is chosen) is known to be offered only once pairs are aligned: the first cell
+that finishes (or is reused) is checked before the next one runs; a method without the score
+stops the job there (``ConfigError``, one line naming score, method and the scores it offers)
+and no leaderboard is written.
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from roman_sim.align.base import DEFAULT_SCORE
 from roman_sim.benchmark.cells import (
     BENCHMARK_JSON,
     BENCHMARK_SCHEMA,
@@ -57,7 +64,7 @@ from roman_sim.benchmark.cells import (
 from roman_sim.benchmark.suites import BenchmarkSuite, check_methods
 from roman_sim.core.atomic import write_bytes, write_text
 from roman_sim.core.config import dump_yaml, stable_hash, validate_model
-from roman_sim.core.errors import ConfigError, RomanSimError
+from roman_sim.core.errors import ConfigError, EvaluationError, RomanSimError
 from roman_sim.core.records import RecordError, read_json, read_record, write_record
 from roman_sim.core.registry import one_line
 from roman_sim.pipeline.experiment import Experiment
@@ -93,6 +100,7 @@ class BenchmarkJob:
         executor: where tasks run (None: this process).
         progress: called after each planned or finished cell.
         target_precision: precision the leaderboard's deployable thresholds are chosen for.
+        score: the confidence score they are chosen on (and the curves drawn on).
     """
 
     def __init__(
@@ -104,9 +112,11 @@ class BenchmarkJob:
         executor: ExecutorConfig | None = None,
         progress: ProgressFn | None = None,
         target_precision: float = 0.9,
+        score: str = DEFAULT_SCORE,
     ) -> None:
         self.suite = suite
         self.target_precision = target_precision
+        self.score = score
         self.out = Path(out_dir).resolve()
         self.methods = check_methods(list(methods) if methods else list(suite.methods))
         self.overrides = list(overrides or [])
@@ -266,6 +276,7 @@ class BenchmarkJob:
             outcome.cells = [c.id for c in cells]
             plans = self._plans()
             self._record(cells, status)
+            checked = False
             for n, c in enumerate(cells):
                 p = plans.get(c.id)
                 if p is None or not p.ok:
@@ -275,12 +286,30 @@ class BenchmarkJob:
                     outcome.reused.append(c.id)
                 else:
                     self._attempt(c, ex, outcome)
+                if not checked and c.id not in outcome.failures:
+                    self.check_score([c])  # the first finished cell: before another one runs
+                    checked = True
                 status[c.id] = "failed" if c.id in outcome.failures else "ok"
                 self._record(cells, status)
                 self.progress(n + 1, len(cells), c.id)
         if board:
-            write_leaderboard(self.out, self.target_precision)
+            write_leaderboard(self.out, self.target_precision, self.score)
         return outcome
+
+    def check_score(self, cells: list[Cell]) -> None:
+        """Raise ``ConfigError`` (one line) unless every method of the finished ``cells`` offers the score.
+
+        A cell's methods whose every alignment failed give no named score: the check refuses them too."""
+        if self.score == DEFAULT_SCORE:
+            return
+        from roman_sim.evaluation.results import read_pairs_csv
+        from roman_sim.evaluation.score_curves import check_score
+
+        for c in cells:
+            try:
+                check_score(read_pairs_csv(self.out / CELLS_DIR / c.id / PAIRS_GZ), self.score)
+            except EvaluationError as err:
+                raise ConfigError(f"--score: {err} (cell {c.id}; no leaderboard written)") from None
 
     def _attempt(self, c: Cell, ex: Executor, outcome: BenchmarkOutcome) -> None:
         try:

@@ -22,9 +22,10 @@ scored on, and per heading bin with a truth no robot has before it aligns a pair
   range of n draws covers the next with probability (n - 1) / (n + 1) only (one half at
   three worlds): a statement about a new world needs worlds, not pairs.
 
-Thresholds follow the pairs' rule: a pair is positive when its score (number of
-associations) is at least ``k``; TP = relevant, positive and correct; FP = positive and not
-correct (see ``roman_sim.evaluation.operating_points``).
+Thresholds follow the pairs' rule: a pair is positive when its score (the number of
+associations, or a method's named score: ``roman-sim benchmark --score``) is at least ``k``;
+TP = relevant, positive and correct; FP = positive and not correct (see
+``roman_sim.evaluation.operating_points``).
 """
 
 from __future__ import annotations
@@ -54,14 +55,15 @@ class PairOutcomes:
         cluster: (n,) robot-pair id within its world (e.g. ``"r00|r03"``).
         relevant: (n,) whether the pair should align (truth).
         correct: (n,) whether the method's registration is correct (truth).
-        score: (n,) the method's score (number of associations); positive when >= k.
+        score: (n,) the method's score (the number of associations, or a named score); positive when
+            >= k; ``-inf`` for a pair without the score (accepted at no threshold).
     """
 
     world: NDArray[np.str_]
     cluster: NDArray[np.str_]
     relevant: NDArray[np.bool_]
     correct: NDArray[np.bool_]
-    score: NDArray[np.int64]
+    score: NDArray[np.float64]
 
     def __post_init__(self) -> None:
         n = len(self.world)
@@ -76,7 +78,7 @@ class PairOutcomes:
         cluster: Sequence[str],
         relevant: Sequence[bool],
         correct: Sequence[bool],
-        score: Sequence[int],
+        score: Sequence[float],
     ) -> PairOutcomes:
         """Outcomes from plain sequences (one entry per submap pair)."""
         return cls(
@@ -84,7 +86,7 @@ class PairOutcomes:
             np.asarray(cluster, dtype=np.str_),
             np.asarray(relevant, dtype=np.bool_),
             np.asarray(correct, dtype=np.bool_),
-            np.asarray(score, dtype=np.int64),
+            np.asarray(score, dtype=np.float64),
         )
 
     def subset(self, mask: NDArray[np.bool_]) -> PairOutcomes:
@@ -103,11 +105,12 @@ class Threshold:
     """A threshold chosen for a target precision on calibration pairs.
 
     Attributes:
-        k: the threshold, or None when no threshold reaches the target (nothing accepted).
+        k: the threshold (an int of the association sweep, a float of a named score), or None when no
+            threshold reaches the target (nothing accepted).
         tp, fp: true and false positives at ``k`` on the calibration pairs (0, 0 when None).
     """
 
-    k: int | None
+    k: int | float | None
     tp: int
     fp: int
 
@@ -124,7 +127,7 @@ def check_target(target: float) -> Fraction:
     return Fraction(str(float(target))).limit_denominator(10_000)
 
 
-def positives(o: PairOutcomes, k: int | None) -> NDArray[np.bool_]:
+def positives(o: PairOutcomes, k: float | None) -> NDArray[np.bool_]:
     """(n,) whether each pair is accepted at threshold ``k`` (None accepts nothing)."""
     if k is None:
         return np.zeros(len(o.score), dtype=np.bool_)
@@ -138,18 +141,30 @@ def counts(o: PairOutcomes, positive: NDArray[np.bool_]) -> tuple[int, int, int]
     return tp, fp, int(np.count_nonzero(o.relevant))
 
 
-def choose_threshold(o: PairOutcomes, k_values: Sequence[int], target: float) -> Threshold:
-    """The smallest ``k`` of ``k_values`` whose pooled precision on ``o`` reaches ``target``.
+def own_values(o: PairOutcomes) -> list[float]:
+    """The distinct finite scores of ``o``, ascending: the thresholds a named score is swept over."""
+    return [float(v) for v in np.unique(o.score[np.isfinite(o.score)])]
 
-    True positives only fall as ``k`` rises, so the smallest such ``k`` keeps the most recall.
+
+def choose_threshold(o: PairOutcomes, k_values: Sequence[float] | None, target: float) -> Threshold:
+    """The smallest threshold of ``k_values`` (None: the calibration pairs' own values, ``own_values``) whose
+    pooled precision on ``o`` reaches ``target``; an int of ``k_values`` stays an int.
+
+    True positives only fall as the threshold rises, so the smallest such one keeps the most recall.
     A threshold with no positive at all does not reach any target.
     """
     t = check_target(target)
-    for k in sorted(int(x) for x in k_values):
-        tp, fp, _ = counts(o, positives(o, k))
-        if tp + fp > 0 and tp * t.denominator >= t.numerator * (tp + fp):
-            return Threshold(k, tp, fp)
-    return Threshold(None, 0, 0)
+    ks = own_values(o) if k_values is None else sorted(k_values)
+    at = np.asarray(ks, dtype=np.float64)
+    hits = np.sort(o.score[o.relevant & o.correct])
+    wrong = np.sort(o.score[~o.correct])
+    tp = len(hits) - np.searchsorted(hits, at, side="left")  # pairs with score >= each threshold
+    fp = len(wrong) - np.searchsorted(wrong, at, side="left")
+    ok = np.flatnonzero((tp + fp > 0) & (tp * t.denominator >= t.numerator * (tp + fp)))
+    if not len(ok):
+        return Threshold(None, 0, 0)
+    i = int(ok[0])
+    return Threshold(ks[i], int(tp[i]), int(fp[i]))
 
 
 @dataclass(frozen=True)
@@ -165,8 +180,9 @@ class HeldOut:
     positive: NDArray[np.bool_]
 
 
-def held_out(o: PairOutcomes, k_values: Sequence[int], target: float) -> HeldOut:
-    """Score each world at the threshold chosen on the other worlds (needs two worlds or more)."""
+def held_out(o: PairOutcomes, k_values: Sequence[float] | None, target: float) -> HeldOut:
+    """Score each world at the threshold chosen on the other worlds (needs two worlds or more); ``k_values``
+    None: each choice among its calibration pairs' own values (``choose_threshold``)."""
     check_target(target)
     worlds = o.worlds()
     if len(worlds) < 2:

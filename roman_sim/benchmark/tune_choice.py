@@ -198,7 +198,7 @@ def choose_setting(
         recall = th.tp / rel if rel else 0.0
         fpk = th.fp / total_km if total_km > 0 else float(th.fp)
         t = _time(c, mask)
-        s = Setting(cid, th.k, recall, fpk, t)
+        s = Setting(cid, int(th.k), recall, fpk, t)  # the association sweep: whole thresholds
         key = (-recall, fpk, t if t is not None else float("inf"), i)
         if best is None or key < best[0]:
             best = (key, s)
@@ -313,7 +313,8 @@ def config_rows(ev: Evidence) -> list[ConfigRow]:
         res = held_out(c.pairs, ev.k_values, ev.target)
         f = figures(c.pairs, res.positive, _km(ev.km, worlds), ev.target, ev.n_boot, ev.seed)
         all_pairs = np.ones(len(c.runtime_s), dtype=np.bool_)
-        rows.append(ConfigRow(cid, {w: t.k for w, t in res.thresholds.items()}, f, _time(c, all_pairs)))
+        ks = {w: None if t.k is None else int(t.k) for w, t in res.thresholds.items()}
+        rows.append(ConfigRow(cid, ks, f, _time(c, all_pairs)))
     return pareto(rows)
 
 

@@ -64,8 +64,9 @@ def _deployable_text(dep: Deployable | None, method: str) -> str:
 
 def _board_table(board: Leaderboard) -> Table:
     target = board.target_precision if board.target_precision is not None else 0.9
+    on = "" if board.score == "associations" else f" on {board.score}"
     t = Table(
-        title=f"benchmark {board.suite}: the deployable point (threshold chosen on other worlds for precision "
+        title=f"benchmark {board.suite}: the deployable point (threshold{on} chosen on other worlds for precision "
         f"{target:g}; held-out hits / relevant and precision over all headings), then max recall"
     )
     t.add_column("method", no_wrap=True, min_width=max(map(len, board.methods), default=6))  # a row's name whole
@@ -183,6 +184,12 @@ def benchmark_cmd(
     report_only: bool = typer.Option(
         False, "--report-only", help="run nothing: re-render the leaderboard of the folder's finished cells"
     ),
+    score: str = typer.Option(
+        "associations",
+        "--score",
+        help="confidence score the deployable thresholds and the precision-recall curves are on: the "
+        "association count (associations) or a score every method offers (e.g. objective, margin)",
+    ),
     flags: X.ExecutorFlags = X.NO_FLAGS,
 ) -> None:
     """Run a benchmark suite (resumable); write leaderboard.json, leaderboard.md and plots; exit 1 if a cell failed."""
@@ -194,6 +201,15 @@ def benchmark_cmd(
     if not 0 < target_precision <= 1:
         typer.echo(f"--target-precision: must lie in (0, 1], got {target_precision:g}", err=True)
         raise typer.Exit(1)
+    from roman_sim.align.base import SCORE_NAME
+
+    if score != "associations" and not SCORE_NAME.match(score):
+        typer.echo(
+            f"--score: {score!r} is no score name (associations, or lower-case letters, digits and _, a letter "
+            "first, at most 40); a method's scores are listed by roman-sim report RUN --score",
+            err=True,
+        )
+        raise typer.Exit(1)
     spec = load_suite(suite)
     folder = out or Path("results") / "benchmark" / spec.name
     if report_only:
@@ -202,7 +218,7 @@ def benchmark_cmd(
         if not (folder / "benchmark.json").is_file():
             typer.echo(f"--report-only: no benchmark.json in {folder}; run the suite first", err=True)
             raise typer.Exit(1)
-        write_leaderboard(folder, target_precision)
+        write_leaderboard(folder, target_precision, score)
         Console().print(_board_table(read_leaderboard(folder / LEADERBOARD_JSON)))
         Console().print(f"leaderboard: {folder / LEADERBOARD_MD}")
         return
@@ -215,7 +231,7 @@ def benchmark_cmd(
         else:
             lines.line(f"benchmark {spec.name}: {done} cells planned")
 
-    job = BenchmarkJob(spec, folder, _methods(methods), sets, ex, progress, target_precision)
+    job = BenchmarkJob(spec, folder, _methods(methods), sets, ex, progress, target_precision, score)
     if plan:
         cells, plans = job.plan_only()
         Console().print(_plan_table(cells, plans, spec.heading_edges()))

@@ -791,6 +791,16 @@ def paired_verdict(hits_a: Sequence[int], hits_b: Sequence[int], relevant: Seque
     return {"verdict": verdict, "diff": diff, "p_value": p, "power": power}
 
 
+def _level_methods(
+    folder: Path, rows: Mapping[str, list[BenchRow]]
+) -> Iterator[tuple[str, list[BenchRow], list[str], Settings]]:
+    """Per ``level|method`` with two worlds or more: its rows, its worlds (sorted) and its first cell's settings."""
+    for key, rs in rows.items():
+        worlds = sorted({r[0] for r in rs})
+        if len(worlds) >= 2:
+            yield key, rs, worlds, read_settings(folder / "cells" / worlds[0])
+
+
 def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -> dict[str, JSONValue]:
     """Held-out figures of a benchmark folder, per ``level|method``: the threshold chosen for each
     world (cell) on the level's other worlds (smallest k of the sweep whose pooled precision over all
@@ -807,11 +817,7 @@ def benchmark_held_out(folder: str | Path, target: Fraction = Fraction(9, 10)) -
         raise StorageError(f"{folder / 'benchmark.json'}: heading_edges_deg is not a list")
     edges = [float(e) for e in raw_edges]
     out: dict[str, JSONValue] = {}
-    for key, rs in rows.items():
-        worlds = sorted({r[0] for r in rs})
-        if len(worlds) < 2:
-            continue
-        cfg = read_settings(folder / "cells" / worlds[0])
+    for key, rs, worlds, cfg in _level_methods(folder, rows):
         ks = range(cfg.k_min, cfg.k_max + 1)
         chosen = {w: _smallest_k([r for r in rs if r[0] != w], ks, target) for w in worlds}
         labels = [_label(edges[i], edges[i + 1]) for i in range(len(edges) - 1)]
@@ -920,6 +926,58 @@ def benchmark_deployable_bound_met(
         and all((lv, h) in floors or (w is not None and w <= bound) for h, w in widths[lv].items())
         for lv in levels
     )
+
+
+def _area_by_hand(points: Sequence[tuple[float, float]]) -> float | None:
+    """Area under precision over recall of ``(recall, precision)`` points: at each recall the best precision,
+    the curve begun at recall 0 with the precision of its lowest recall, trapezoids between (None: no point)."""
+    best: dict[float, float] = {}
+    for r, p in points:
+        best[r] = max(p, best.get(r, p))
+    if not best:
+        return None
+    xs = sorted(best)
+    curve = ([(0.0, best[xs[0]])] if xs[0] > 0 else []) + [(x, best[x]) for x in xs]
+    return sum((x2 - x1) * (y1 + y2) / 2 for (x1, y1), (x2, y2) in zip(curve, curve[1:], strict=False))
+
+
+def _curve_points(tp: F64, fp: F64, rel: float) -> list[tuple[float, float]]:
+    """(recall, precision) at each threshold with a positive, given pooled counts (none without a relevant pair)."""
+    if rel <= 0:
+        return []
+    return [(float(t) / rel, float(t) / float(t + f)) for t, f in zip(tp, fp, strict=True) if t + f > 0]
+
+
+def benchmark_pr_areas(folder: str | Path, draws: int = 4000, seed: int = 0) -> dict[str, JSONValue]:
+    """Per ``level|method``: the area under the precision-recall curve on the association count (every k of
+    the sweep; the cross-robot pairs of every heading pooled over the level's worlds) as ``auc``, and its world
+    bootstrap interval as ``auc_worlds``: ``draws`` draws of the level's worlds with replacement
+    (``numpy.random.default_rng(seed).integers(0, n, (draws, n))``), each drawn world's pairs whole, the area of
+    each draw's pooled curve (a draw without a relevant pair left out), the 2.5 and 97.5 % quantiles."""
+    folder = Path(folder)
+    out: dict[str, JSONValue] = {}
+    for key, rs, worlds, cfg in _level_methods(folder, _benchmark_rows(folder)[1]):
+        ks = range(cfg.k_min, cfg.k_max + 1)
+        at = {w: i for i, w in enumerate(worlds)}
+        tp, fp, rel = np.zeros((len(worlds), len(ks))), np.zeros((len(worlds), len(ks))), np.zeros(len(worlds))
+        for r in rs:
+            reach = max(0, min(r[4] - cfg.k_min + 1, len(ks)))  # the thresholds k <= associations
+            if r[2] and r[3]:
+                tp[at[r[0]], :reach] += 1
+            if not r[3]:
+                fp[at[r[0]], :reach] += 1
+            rel[at[r[0]]] += r[2]
+        auc = _area_by_hand(_curve_points(tp.sum(axis=0), fp.sum(axis=0), float(rel.sum())))
+        picks = np.random.default_rng(seed).integers(0, len(worlds), (draws, len(worlds)))
+        areas = [
+            a
+            for pick in picks
+            if (a := _area_by_hand(_curve_points(tp[pick].sum(axis=0), fp[pick].sum(axis=0), float(rel[pick].sum()))))
+            is not None
+        ]
+        lo, hi = np.quantile(np.asarray(areas), [(1 - BOOT_LEVEL) / 2, 1 - (1 - BOOT_LEVEL) / 2]) if areas else (0, 0)
+        out[key] = {"auc": auc, "auc_worlds": [float(lo), float(hi)] if areas else None}
+    return out
 
 
 #: The benchmark's one-new-world precision spread, as its documentation states the fit: each world's held-out

@@ -336,3 +336,29 @@ def test_the_docs_state_the_committed_paired_verdict_and_floor_bins():
     floors = board.deployable_floors()
     assert floors == [("medium", "60-120"), ("high", "60-120")]
     assert "in the committed board medium and high 60-120 deg are such bins" in docs
+
+
+def test_the_areas_under_the_curves_follow_from_the_independent_scorer():
+    """The committed board is on the association count; the area under each level's precision-recall curve on it
+    and its world interval, as the independent scorer re-derives them from the raw pairs (its own sweep,
+    trapezoid rule and world draws)."""
+    from roman_sim.studies.independent_scorer import benchmark_pr_areas
+
+    board = _committed()
+    assert board.score == "associations"
+    draws = {e.curves.draws for e in board.levels if e.curves is not None}
+    assert len(draws) == 1
+    n = draws.pop()
+    docs = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    assert f"95 % world interval ({n} draws of the level's worlds" in docs and "k = 0-30 on `associations`" in docs
+    own = benchmark_pr_areas(STANDARD, draws=n)
+    checked = 0
+    for e in board.levels:
+        assert e.curves is not None and e.curves.score == "associations", e.name
+        for m, c in e.curves.methods.items():
+            mine = own[f"{e.name}|{m}"]
+            assert c.auc == pytest.approx(mine["auc"], abs=1e-12), (e.name, m)
+            assert c.auc_worlds == pytest.approx(mine["auc_worlds"], abs=1e-12), (e.name, m)
+            assert [p.threshold for p in c.points] == list(range(31)), (e.name, m)
+            checked += 1
+    assert checked == 3 * len(board.methods)
