@@ -64,23 +64,15 @@ def wheel_env(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str,
 
 def test_wheel_holds_the_package_data_and_imports_from_itself(wheel_env, tmp_path):
     py, env = wheel_env
-    out = subprocess.run(
-        [str(py), "-c", "import roman_sim, sys; print(roman_sim.__file__)"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
+
+    def stdout(*args: str) -> str:
+        return subprocess.run(
+            [str(py), *args], cwd=tmp_path, env=env, capture_output=True, text=True, check=True
+        ).stdout
+
+    out = stdout("-c", "import roman_sim, sys; print(roman_sim.__file__)")
     assert str(ROOT) not in out and "site-packages" in out
-    listed = subprocess.run(
-        [str(py), "-m", "roman_sim.cli", "list", "scenarios"],
-        cwd=tmp_path,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
+    listed = stdout("-m", "roman_sim.cli", "list", "scenarios")
     assert "smoke" in listed and "demo" in listed
 
 

@@ -32,7 +32,7 @@ from roman_sim.benchmark.board_records import Leaderboard
 from roman_sim.core.figures import drawn_legend, remove_figure, save_figure
 from roman_sim.evaluation.operating_points import POINT_LABELS
 from roman_sim.evaluation.types import EvaluationMetrics
-from roman_sim.report.plots import figure, pr_axes
+from roman_sim.report.plots import figure, heading_pr_panels
 
 
 def benchmark_figures(board: Leaderboard) -> dict[str, str]:
@@ -120,14 +120,7 @@ def plot_pr_level(board: Leaderboard, metrics: EvaluationMetrics, level: str, pa
     if not bins:
         return None
     fig = figure(max(3.4 * len(bins), 5.0), 3.8, ncols=len(bins))
-    for i, ax in zip(bins, fig.axes):
-        b = first.heading_bins[i]
-        pr_axes(
-            ax,
-            {m: s.heading_pr[i] for m, s in sets.items()},
-            f"{b.label} deg ({b.stats.n_relevant} relevant)",
-            {m: s.heading_bins[i].stats for m, s in sets.items()},
-        )
+    heading_pr_panels(fig.axes, sets, bins)
     fig.suptitle(
         f"Precision-recall over k per heading bin, level {level}\n(triangle: P >= 0.9, square: acceptance)", fontsize=10
     )

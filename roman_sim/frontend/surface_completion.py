@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from roman_sim.core.errors import ConfigError
 from roman_sim.core.geometry import transform_points
 from roman_sim.core.sensors import Frame, project
-from roman_sim.frontend.whole_surface import HasObjectMeshes, sample_surface
+from roman_sim.frontend.whole_surface import HasObjectMeshes, objects_under, sample_surface
 from roman_sim.mapping.tracker import Observation
 from roman_sim.mapping.voxels import downsample
 
@@ -128,17 +128,13 @@ class SurfaceCompletion:
             self._samples[oid] = sample_surface(self.world.object_mesh_world(oid), self.voxel, oid)
         return self._samples[oid]
 
-    def objects_of(self, obs: Observation) -> list[int]:
-        """The objects under an observation: ids with at least ``min_share`` of its labelled points."""
-        total = sum(c for i, c in obs.truth.items() if i >= 0)
-        return sorted(int(i) for i, c in obs.truth.items() if i >= 0 and c >= self.min_share * total > 0)
-
-    def missed(self, frame: Frame, oid: int) -> NDArray[np.bool_]:
-        """Which samples of object ``oid`` this frame misses for switched-off reasons only."""
+    def missed(self, frame: Frame, oid: int, T_cam_world: NDArray[np.float64] | None = None) -> NDArray[np.bool_]:
+        """Which samples of object ``oid`` this frame misses for switched-off reasons only (``T_cam_world``: the
+        frame's true camera pose inverted, derived from the frame when not given)."""
         pts, nrm = self.samples(oid)
-        T_cam_world = np.linalg.inv(np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam))  # type: ignore[union-attr]
-        pc = transform_points(T_cam_world, pts)
-        nc = nrm @ T_cam_world[:3, :3].T
+        T = _T_cam_world(frame) if T_cam_world is None else T_cam_world
+        pc = transform_points(T, pts)
+        nc = nrm @ T[:3, :3].T
         why = classify(frame, oid, pc, nc, self.max_depth_m, self.tol)
         any_reason = np.zeros(len(pts), dtype=bool)
         blocked = np.zeros(len(pts), dtype=bool)
@@ -156,11 +152,12 @@ class SurfaceCompletion:
             )
         if not self.off:
             return observations
-        T_world_cam = np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam)
-        T_odom_world = frame.T_odom_cam @ np.linalg.inv(T_world_cam)
+        T_cam_world = _T_cam_world(frame)
+        T_odom_world = frame.T_odom_cam @ T_cam_world
         out = []
         for obs in observations:
-            added = [self.samples(i)[0][self.missed(frame, i)] for i in self.objects_of(obs)]
+            ids = objects_under(obs, self.min_share)
+            added = [self.samples(i)[0][self.missed(frame, i, T_cam_world)] for i in ids]
             added = [a for a in added if len(a)]
             if not added:
                 out.append(obs)
@@ -168,6 +165,12 @@ class SurfaceCompletion:
             extra = transform_points(T_odom_world, np.vstack(added))
             out.append(replace(obs, points=downsample(np.vstack([obs.points, extra]), self.voxel)))
         return out
+
+
+def _T_cam_world(frame: Frame) -> NDArray[np.float64]:
+    """The inverse of the frame's true camera pose (the caller has checked that the frame carries truth)."""
+    assert frame.truth is not None
+    return np.asarray(np.linalg.inv(np.asarray(frame.truth.T_world_body) @ np.asarray(frame.T_body_cam)), np.float64)
 
 
 def surface_completion_for(

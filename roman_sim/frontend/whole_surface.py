@@ -51,6 +51,12 @@ def sample_surface(mesh: trimesh.Trimesh, voxel: float, seed: int) -> tuple[NDAr
     return np.asarray(pts, dtype=np.float64), np.asarray(mesh.face_normals[faces], dtype=np.float64)
 
 
+def objects_under(obs: Observation, min_share: float) -> list[int]:
+    """The objects under an observation: ids with at least ``min_share`` of its labelled object points."""
+    total = sum(c for i, c in obs.truth.items() if i >= 0)
+    return sorted(int(i) for i, c in obs.truth.items() if i >= 0 and c >= min_share * total > 0)
+
+
 class HasObjectMeshes(Protocol):
     """What the counterfactual needs of a world: each object's mesh in the world frame."""
 
@@ -81,11 +87,6 @@ class WholeSurface:
             self._surfaces[oid] = downsample(pts, self.voxel)
         return self._surfaces[oid]
 
-    def objects_of(self, obs: Observation) -> list[int]:
-        """The objects under an observation: ids with at least ``min_share`` of its labelled points."""
-        total = sum(c for i, c in obs.truth.items() if i >= 0)
-        return sorted(int(i) for i, c in obs.truth.items() if i >= 0 and c >= self.min_share * total > 0)
-
     def __call__(self, frame: Frame, observations: list[Observation]) -> list[Observation]:
         if frame.truth is None:
             raise ConfigError(
@@ -96,7 +97,7 @@ class WholeSurface:
         T_odom_world = frame.T_odom_cam @ np.linalg.inv(T_world_cam)
         out = []
         for obs in observations:
-            ids = self.objects_of(obs)
+            ids = objects_under(obs, self.min_share)
             if not ids:
                 out.append(obs)
                 continue

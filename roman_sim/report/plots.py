@@ -36,7 +36,14 @@ from matplotlib.patches import Patch
 
 from roman_sim.core.figures import drawn_legend, remove_figure, save_figure
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES
-from roman_sim.evaluation.types import PAIR_SET_LABELS, BinStats, CurveStats, EvaluationMetrics, PRCurve
+from roman_sim.evaluation.types import (
+    PAIR_SET_LABELS,
+    BinStats,
+    CurveStats,
+    EvaluationMetrics,
+    PairSetMetrics,
+    PRCurve,
+)
 
 
 def figure(w: float = 6.0, h: float = 4.0, ncols: int = 1, nrows: int = 1) -> Figure:
@@ -81,6 +88,20 @@ def plot_pr(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
     return save_figure(fig, path)
 
 
+def heading_pr_panels(axes: list[Axes], sets: dict[str, PairSetMetrics], bins: list[int]) -> None:
+    """One precision-recall panel (``pr_axes``) per heading bin index of ``bins``, on ``axes`` in order:
+    every method of ``sets`` with its operating points, titled by the bin and its relevant pairs."""
+    first = next(iter(sets.values()))
+    for ax, i in zip(axes, bins):
+        b = first.heading_bins[i]
+        pr_axes(
+            ax,
+            {m: s.heading_pr[i] for m, s in sets.items()},
+            f"{b.label} deg ({b.stats.n_relevant} relevant)",
+            {m: s.heading_bins[i].stats for m, s in sets.items()},
+        )
+
+
 def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None:
     """Precision-recall per coarse heading bin (one panel per bin with relevant pairs; None if < 2)."""
     kind = metrics.headline
@@ -90,14 +111,7 @@ def plot_pr_heading(metrics: EvaluationMetrics, path: str | Path) -> Path | None
     if len(bins) < 2:
         return None
     fig = figure(4.2 * len(bins), 4.0, ncols=len(bins))
-    for ax, i in zip(fig.axes, bins):
-        b = first.heading_bins[i]  # type: ignore[union-attr]
-        pr_axes(
-            ax,
-            {m: s.heading_pr[i] for m, s in sets.items()},
-            f"{b.label} deg ({b.stats.n_relevant} relevant)",
-            {m: s.heading_bins[i].stats for m, s in sets.items()},
-        )
+    heading_pr_panels(fig.axes, sets, bins)
     fig.suptitle(
         f"Precision-recall over k per heading bin, {PAIR_SET_LABELS[kind]} pairs "
         "(triangle: precision >= 0.9, square: acceptance threshold)",
