@@ -99,6 +99,8 @@ class RomanAligner:
     name = "roman"
     params_model: type[RomanParams] = RomanParams
     tunable_params: dict[str, Tunable] = SEMANTIC_GATE
+    #: the named scores ``_confidence`` can give (``semantic`` only with semantics or pruning on)
+    confidence_scores = ("objective", "density", "percent_associations", "margin", "semantic")
 
     def __init__(self, **params: Any) -> None:
         self.params = validate_model(self.params_model, params, source=f"aligner {self.name}")

@@ -203,6 +203,17 @@ class Tunable:
     doc: str = ""
 
 
+def declared_scores(factory: object) -> list[str] | None:
+    """The named confidence scores an aligner class (or instance) declares it can give, as the class attribute
+    ``confidence_scores`` (a tuple of names), after ``associations``, which every method offers; None when it
+    declares none (a plug-in's scores are known only from its results). A declared score may still be missing
+    from a result (ROMAN's ``semantic`` needs semantics on)."""
+    raw = getattr(factory, "confidence_scores", None)
+    if not isinstance(raw, tuple):
+        return None
+    return [DEFAULT_SCORE, *(str(x) for x in raw)]
+
+
 def declared_tunables(factory: object) -> dict[str, Tunable]:
     """The ``tunable_params`` an aligner class (or instance) declares (empty when it declares none)."""
     raw = getattr(factory, "tunable_params", None)

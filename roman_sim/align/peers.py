@@ -41,6 +41,7 @@ class RansacAligner:
     """3-point RANSAC (``ransac100k``; ``ransac1m`` draws 1M hypotheses)."""
 
     name = "ransac100k"
+    confidence_scores = ("inliers",)
     params_model: type[RansacAlignerParams] = RansacAlignerParams
 
     def __init__(self, **params: Any) -> None:
@@ -86,6 +87,7 @@ class KissMatcherAligner:
     """KISS-Matcher's ROBIN pruning + GNC solver on all-to-all centroid correspondences."""
 
     name = "kiss_matcher"
+    confidence_scores = ()
 
     def __init__(self, **params: Any) -> None:
         if importlib.util.find_spec("kiss_matcher") is None:

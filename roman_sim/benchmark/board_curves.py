@@ -16,6 +16,14 @@ positive) is left out; the percentile interval (numpy's linear rule) of the draw
 interval. These intervals decide no verdict and no bound; the Monte-Carlo error of the area's
 bounds (their spread over ``BATCHES`` equal batches, over its square root) is kept beside them.
 
+Paired verdicts on the area (``AucVerdict``): every two methods compared on the same worlds.
+Each world's own curve (its pairs only) has an area; a world where both methods have one gives
+a difference, rounded to 0.001 (``AUC_SCALE``) so that the exact sign-flip test over worlds
+(``paired_worlds.sign_flip_p``: each world's difference as likely + as -, every sign choice
+counted, nothing drawn) can run on whole numbers. ``a ahead`` or ``b ahead`` where p is at most
+0.05, ``no difference shown`` otherwise, and ``too few hits`` where both methods reach fewer than
+``paired_worlds.MIN_HITS`` hits at their loosest threshold. No verdict depends on a seed.
+
 The stored curve has at most ``CURVE_POINTS`` thresholds (a named score takes many values:
 evenly spaced ranks of its sorted thresholds, both ends kept); the area is that of the full sweep.
 """
@@ -24,15 +32,16 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 
 from roman_sim.align.base import DEFAULT_SCORE
+from roman_sim.core.records import OMIT_NONE
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.operating_points import pr_area
-from roman_sim.evaluation.paired_worlds import BATCHES
+from roman_sim.evaluation.paired_worlds import BATCHES, MIN_HITS, sign_flip_p
 
 #: World-bootstrap draws of each level's curves and areas.
 CURVE_DRAWS = 4000
@@ -40,6 +49,8 @@ CURVE_DRAWS = 4000
 CURVE_POINTS = 41
 #: Draws whose full curves are held at once (a named score sweeps many thresholds).
 CHUNK = 250
+#: The per-world area differences the paired area verdicts test are rounded to 1 / AUC_SCALE.
+AUC_SCALE = 1000
 
 
 @dataclass(frozen=True)
@@ -72,6 +83,9 @@ class MethodCurve:
         auc_worlds: its world-bootstrap interval (None without a draw that has an area).
         auc_mc_error: the Monte-Carlo error of that interval's bounds.
         points: the curve (at most ``CURVE_POINTS`` thresholds, ascending).
+        world_auc: each world's own area, in the level's world order (None: the world has no relevant pair or
+            the method no positive there).
+        max_hits: hits at the loosest threshold (the floor's count).
     """
 
     n_pairs: int
@@ -80,6 +94,28 @@ class MethodCurve:
     auc_worlds: list[float] | None
     auc_mc_error: float | None
     points: list[CurvePoint]
+    world_auc: list[float | None] = field(default_factory=list)
+    max_hits: int | None = field(default=None, metadata=OMIT_NONE)
+
+
+@dataclass(frozen=True)
+class AucVerdict:
+    """Two methods' areas compared world by world (see the module docstring).
+
+    Attributes:
+        a, b: the methods (in the board's order).
+        verdict: ``a ahead``, ``b ahead``, ``no difference shown`` or ``too few hits``.
+        diff: the mean over the compared worlds of ``a``'s area less ``b``'s.
+        p_value: the exact two-sided sign-flip p-value of the rounded differences.
+        worlds: the worlds where both have an area.
+    """
+
+    a: str
+    b: str
+    verdict: str
+    diff: float | None
+    p_value: float
+    worlds: int
 
 
 @dataclass(frozen=True)
@@ -90,11 +126,17 @@ class LevelCurves:
         score: the score swept (``associations`` or a method's named score).
         draws: world-bootstrap draws of the intervals.
         methods: per method (the board's order) its curve.
+        verdicts: one paired area verdict per two methods (``AucVerdict``).
     """
 
     score: str
     draws: int
     methods: dict[str, MethodCurve]
+    verdicts: list[AucVerdict] = field(default_factory=list)
+
+    def verdict(self, a: str, b: str) -> AucVerdict | None:
+        """The area verdict of ``a`` against ``b`` (in either order as stored), None when not compared."""
+        return next((v for v in self.verdicts if {v.a, v.b} == {a, b}), None)
 
 
 def thresholds_of(values: NDArray[np.float64], score: str, k_values: Sequence[int]) -> list[int] | list[float]:
@@ -168,7 +210,7 @@ def method_curve(
     pooled_tp, pooled_fp, n_rel = tp.sum(axis=0), fp.sum(axis=0), float(rel.sum())
     precision = _ratio(pooled_tp, pooled_tp + pooled_fp)
     recall = pooled_tp / n_rel if n_rel > 0 else np.full(len(pooled_tp), np.nan)
-    area = pr_area(precision, recall) if len(pooled_tp) else math.nan
+    pooled_area = pr_area(precision, recall) if len(pooled_tp) else math.nan
     picks = np.random.default_rng(seed).integers(0, n, (draws, n))
     weights = np.bincount((picks + n * np.arange(draws)[:, None]).ravel(), minlength=draws * n).reshape(draws, n)
     d_rel = weights @ rel
@@ -191,7 +233,33 @@ def method_curve(
         )
         for j, i in enumerate(keep)
     ]
-    return MethodCurve(n_pairs, int(n_rel), _none(area), _interval(areas, level), _mc_error(areas, level), points)
+    own = [_none(area(_ratio(tp[w], tp[w] + fp[w]), tp[w] / rel[w])) if rel[w] > 0 else None for w in range(n)]
+    return MethodCurve(
+        n_pairs,
+        int(n_rel),
+        _none(pooled_area),
+        _interval(areas, level),
+        _mc_error(areas, level),
+        points,
+        own,
+        int(pooled_tp.max()) if len(pooled_tp) else 0,
+    )
+
+
+def auc_verdict(a: str, b: str, ca: MethodCurve, cb: MethodCurve, level: float = 0.95) -> AucVerdict:
+    """``a`` against ``b``: their per-world areas compared over the worlds where both have one (module docstring)."""
+    both = [(x, y) for x, y in zip(ca.world_auc, cb.world_auc, strict=True) if x is not None and y is not None]
+    diffs = [x - y for x, y in both]
+    steps = np.rint(np.asarray(diffs, dtype=np.float64) * AUC_SCALE)
+    p = sign_flip_p(steps) if len(steps) else 1.0
+    mean = float(np.mean(diffs)) if diffs else None
+    if (ca.max_hits or 0) < MIN_HITS and (cb.max_hits or 0) < MIN_HITS:
+        verdict = "too few hits"
+    elif mean is not None and p <= 1 - level and steps.sum() != 0:
+        verdict = "a ahead" if steps.sum() > 0 else "b ahead"
+    else:
+        verdict = "no difference shown"
+    return AucVerdict(a, b, verdict, mean, p, len(both))
 
 
 def _draw_areas(
@@ -252,4 +320,6 @@ def level_curves(
         t = thresholds_of(values, score, k_values)
         tp, fp, rel = world_sweep(values, relevant & correct, ~correct, relevant, world, len(worlds), t)
         out[m] = method_curve(tp, fp, rel, t, len(rows), level, draws, seed)
-    return LevelCurves(score, draws, out)
+    names = list(out)
+    verdicts = [auc_verdict(a, b, out[a], out[b], level) for i, a in enumerate(names) for b in names[i + 1 :]]
+    return LevelCurves(score, draws, out, verdicts)

@@ -24,7 +24,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from roman_sim.align.base import DEFAULT_SCORE
-from roman_sim.benchmark.board_curves import LevelCurves
+from roman_sim.benchmark.board_curves import AucVerdict, LevelCurves
 from roman_sim.benchmark.board_plots import benchmark_figures
 from roman_sim.benchmark.board_records import (
     BoardCell,
@@ -180,7 +180,13 @@ def leaderboard_markdown(board: Leaderboard) -> str:
     lines += [
         "The sections below read each cell's own precision-recall sweep: a threshold per heading bin, chosen "
         "with that bin's truth (an upper bound no deployed system reaches); max recall is the secondary column "
-        "of the deployable ranking.",
+        "of the deployable ranking."
+        + (
+            ""
+            if board.score == DEFAULT_SCORE
+            else f" Their thresholds are on the association count k (the pose graph accepts a closure by it), "
+            f"not on `{board.score}`, which the deployable point and the curves are on."
+        ),
         "",
     ]
     for point in RANKED:
@@ -289,11 +295,38 @@ def auc_table(curves: LevelCurves | None, methods: list[str]) -> list[str]:
         "| method | AUC [world interval] |",
         "|---|---|",
     ]
-    for m in methods:
-        c = curves.methods.get(m)
-        if c is not None:
-            lines.append(f"| {m} | {_num(c.auc, 3)} {_ci3(c.auc_worlds)} |")
-    return [*lines, ""]
+    names = [m for m in methods if m in curves.methods]
+    for m in names:
+        c = curves.methods[m]
+        lines.append(f"| {m} | {_num(c.auc, 3)} {_ci3(c.auc_worlds)} |")
+    lines.append("")
+    if curves.verdicts:
+        lines += [
+            "Paired area verdicts (each world's own area, the first less the second, over the worlds where both have "
+            "one; exact two-sided sign-flip test over worlds on differences rounded to 0.001, at 0.05):",
+            "",
+        ]
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                v = curves.verdict(a, b)
+                if v is not None:
+                    lines.append(f"- {a} - {b}: {auc_verdict_text(v if v.a == a else _auc_flipped(v))}")
+        lines.append("")
+    return lines
+
+
+def auc_verdict_text(v: AucVerdict) -> str:
+    """One paired area verdict in words: the method ahead (or none shown), the mean difference, p and worlds."""
+    if v.verdict == "too few hits":
+        return "too few hits"
+    says = f"{v.a} ahead" if v.verdict == "a ahead" else f"{v.b} ahead" if v.verdict == "b ahead" else v.verdict
+    diff = "n/a" if v.diff is None else _signed(v.diff)
+    return f"{says}: {diff} ({_p(v.p_value)}, {v.worlds} worlds)"
+
+
+def _auc_flipped(v: AucVerdict) -> AucVerdict:
+    swap = {"a ahead": "b ahead", "b ahead": "a ahead"}
+    return replace(v, a=v.b, b=v.a, verdict=swap.get(v.verdict, v.verdict), diff=None if v.diff is None else -v.diff)
 
 
 def _ci3(ci: list[float] | None) -> str:

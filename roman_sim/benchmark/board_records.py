@@ -81,6 +81,8 @@ class PairVerdict:
         p_value: the exact two-sided sign-flip p-value over worlds.
         power: the power to detect a true difference of the level's effect size.
         worlds_for_power: worlds that power 0.8 for that effect needs at this spread.
+        detectable: the smallest true difference the board's worlds detect with power 0.8 (None: a board
+            written before it was kept).
     """
 
     a: str
@@ -90,6 +92,7 @@ class PairVerdict:
     p_value: float
     power: float
     worlds_for_power: int
+    detectable: float | None = field(default=None, metadata=OMIT_NONE)
 
     def winner(self) -> str | None:
         """The method ahead (None: no difference shown, or too few hits)."""
@@ -103,7 +106,10 @@ class PairVerdict:
             return f"{self.winner()} ahead"
         if self.power >= 0.8:
             return f"no difference shown with power 0.8 for {effect:g}"
-        return f"no difference shown (power {self.power:.2f} for {effect:g}; {self.worlds_for_power} worlds for 0.8)"
+        seen = "" if self.detectable is None else f", 0.8 for {self.detectable:.2f}"
+        return (
+            f"no difference shown (power {self.power:.2f} for {effect:g}{seen}; {self.worlds_for_power} worlds for 0.8)"
+        )
 
 
 @dataclass(frozen=True)

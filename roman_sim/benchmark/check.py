@@ -49,11 +49,12 @@ from roman_sim.benchmark.transfer import PRECISION_SLACK, positives, transfers
 from roman_sim.benchmark.world_spread import WorldSpread
 from roman_sim.core.atomic import write_text
 from roman_sim.core.config import validate_model
-from roman_sim.core.errors import ConfigError
+from roman_sim.core.errors import ConfigError, EvaluationError
 from roman_sim.core.jsontypes import JSON
 from roman_sim.core.records import RecordError, write_record
 from roman_sim.evaluation.metrics import PairScore
 from roman_sim.evaluation.paired_worlds import paired_difference
+from roman_sim.evaluation.score_curves import check_score
 from roman_sim.runner.executors import ExecutorConfig
 
 log = logging.getLogger(__name__)
@@ -77,6 +78,10 @@ def parse_seeds(text: str) -> tuple[int, int]:
     if lo < 0 or hi - lo < 2:
         raise ConfigError(f"--seeds: A:B takes 0 <= A and at least two seeds (A + 2 <= B), got {text!r}")
     return lo, hi
+
+
+#: Suite fields that describe a suite without deciding its cells (not compared by ``current_suite``).
+PAPER_ONLY = ("description", "power")
 
 
 def check_dir(folder: str | Path, seeds: tuple[int, int]) -> Path:
@@ -106,7 +111,9 @@ def first_difference(old: JSON, new: JSON, where: str = "") -> tuple[str, JSON, 
 
 def current_suite(folder: Path, record: BenchmarkRecord) -> BenchmarkSuite:
     """The suite the board was run with, as it is defined now: the built-in suite of its name (refused when its
-    definition changed since), or the recorded definition of a suite file.
+    definition changed since, in a field that decides the cells: the fields of ``PAPER_ONLY``, its description
+    and its power plan, say what the suite is for and are not compared), or the recorded definition of a suite
+    file.
 
     Raises:
         ConfigError: the built-in suite's definition differs (naming the first differing field).
@@ -114,7 +121,9 @@ def current_suite(folder: Path, record: BenchmarkRecord) -> BenchmarkSuite:
     if record.suite not in SUITES:
         return validate_model(BenchmarkSuite, record.suite_spec, source=f"{folder / BENCHMARK_JSON}: suite_spec")
     suite = SUITES.get(record.suite)
-    diff = first_difference(record.suite_spec, suite.model_dump(mode="json"))
+    recorded = {k: v for k, v in record.suite_spec.items() if k not in PAPER_ONLY}
+    now = {k: v for k, v in suite.model_dump(mode="json").items() if k not in PAPER_ONLY}
+    diff = first_difference(recorded, now)
     if diff is not None:
         path, old, new = diff
         raise ConfigError(
@@ -296,6 +305,11 @@ def score_check(board: Leaderboard, out: str | Path, seeds: tuple[int, int]) -> 
             continue
         assert d is not None
         lv = levels.get(e.name)
+        if lv is not None:
+            try:
+                check_score(lv.scores, board.score)
+            except EvaluationError as err:
+                raise ConfigError(f"check: the fresh worlds cannot be scored as the board is: {err}") from None
         rows.append(check_level(d, e.name, [] if lv is None else lv.scores, edges, board.methods, board.score))
     target = board.target_precision if board.target_precision is not None else 0.9
     return BoardCheck(board.suite, [seeds[0], seeds[1]], target, PRECISION_SLACK, missing, rows)
@@ -320,7 +334,9 @@ def run_check(
     given = prepare(folder, seeds_text)
     out = check_dir(folder, given.seeds)
     target = given.board.target_precision or 0.9
-    job = BenchmarkJob(given.suite, out, given.record.methods, given.record.overrides, executor, progress, target)
+    job = BenchmarkJob(
+        given.suite, out, given.record.methods, given.record.overrides, executor, progress, target, given.board.score
+    )
     outcome = job.run(board=False)
     result = score_check(given.board, out, given.seeds)
     write_check(out, result)

@@ -187,7 +187,7 @@ def _cell(
     for i, a in enumerate(names):
         for b in names[i + 1 :]:
             d = paired_difference(counts[a].hits, counts[b].hits, counts[a].relevant, level=level)
-            verdicts.append(PairVerdict(a, b, d.verdict, d.diff, d.p_value, d.power, d.worlds_for_power))
+            verdicts.append(PairVerdict(a, b, d.verdict, d.diff, d.p_value, d.power, d.worlds_for_power, d.detectable))
     ranked = [m for m in names if m not in floor and figures[m].n_relevant]
     halves = [(f.recall_worlds[1] - f.recall_worlds[0]) / 2 for m in ranked if (f := figures[m]).recall_worlds]
     return DeployableCell(

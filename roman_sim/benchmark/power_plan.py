@@ -12,13 +12,21 @@ kept, so a suite can say what it gives up when it runs fewer worlds.
 
 A suite states its plan (``suites.PowerPlan``: the worlds per level and the pilot they come from);
 a level planned with fewer worlds than its plan is refused when the suite is read.
+
+``planned_worlds`` carries a pilot's plan to other levels and another effect: a level's worlds
+for 0.05 interpolated linearly in the measured ambiguity index between the two pilot levels
+around it (the nearest pilot level outside their range), scaled by ``(0.05 / effect)^2`` (the
+standard error falls as one over the square root of the worlds), rounded up, and at least
+``least``.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from roman_sim.benchmark.board_records import Leaderboard
+from roman_sim.evaluation.paired_worlds import EFFECT
 
 
 @dataclass(frozen=True)
@@ -61,4 +69,36 @@ def pilot_plan(board: Leaderboard) -> dict[str, LevelPower]:
     return out
 
 
-__all__ = ["LevelPower", "pilot_plan"]
+def planned_worlds(board: Leaderboard, targets: dict[str, float], effect: float, least: int = 2) -> dict[str, int]:
+    """Per level of ``targets`` (name -> the ambiguity index it is placed at): the worlds ``board``, read as a
+    pilot, says a paired difference of ``effect`` needs (see the module docstring).
+
+    Raises:
+        ValueError: a pilot without a plan at two levels with a measured index, or an effect outside (0, 1].
+    """
+    if not 0.0 < effect <= 1.0:
+        raise ValueError(f"effect: a difference of recall in (0, 1], got {effect}")
+    plan = pilot_plan(board)
+    at = sorted(
+        (e.ambiguity_index, plan[e.name].worlds)
+        for e in board.levels
+        if e.name in plan and e.ambiguity_index is not None
+    )
+    if len(at) < 2:
+        raise ValueError("the pilot plans fewer than two levels with a measured ambiguity index")
+    xs, ys = [x for x, _ in at], [float(y) for _, y in at]
+    scale = (EFFECT / effect) ** 2
+    out = {}
+    for level, index in targets.items():
+        if index <= xs[0]:
+            need = ys[0]
+        elif index >= xs[-1]:
+            need = ys[-1]
+        else:
+            i = next(j for j in range(1, len(xs)) if index <= xs[j])
+            need = ys[i - 1] + (ys[i] - ys[i - 1]) * (index - xs[i - 1]) / (xs[i] - xs[i - 1])
+        out[level] = max(least, math.ceil(need * scale - 1e-9))
+    return out
+
+
+__all__ = ["LevelPower", "pilot_plan", "planned_worlds"]

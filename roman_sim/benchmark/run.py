@@ -68,7 +68,7 @@ from roman_sim.core.errors import ConfigError, EvaluationError, RomanSimError
 from roman_sim.core.records import RecordError, read_json, read_record, write_record
 from roman_sim.core.registry import one_line
 from roman_sim.pipeline.experiment import Experiment
-from roman_sim.pipeline.scenario import Scenario
+from roman_sim.pipeline.scenario import Scenario, method_label
 from roman_sim.runner.executors import Executor, ExecutorConfig, open_executor
 
 log = logging.getLogger(__name__)
@@ -119,6 +119,7 @@ class BenchmarkJob:
         self.score = score
         self.out = Path(out_dir).resolve()
         self.methods = check_methods(list(methods) if methods else list(suite.methods))
+        check_declared_score(self.methods, score)
         self.overrides = list(overrides or [])
         self.executor = executor
         self.progress = progress or (lambda done, total, what: None)
@@ -324,6 +325,27 @@ class BenchmarkJob:
             self._finish(c, "failed", outcome.failures[c.id])
         else:
             self._finish(c, "ok")
+
+
+def check_declared_score(methods: list[str], score: str) -> None:
+    """Refuse ``score`` before any cell runs when a method declares the scores it can give and it is not one
+    (``align.base.declared_scores``); a method that declares none is checked on its first finished cell.
+
+    Raises:
+        ConfigError: one line naming the score, the method and the scores it can give.
+    """
+    from roman_sim.align import ALIGNERS
+    from roman_sim.align.base import declared_scores
+
+    if score == DEFAULT_SCORE:
+        return
+    for m in methods:
+        offered = declared_scores(ALIGNERS.get(m))
+        if offered is not None and score not in offered:
+            raise ConfigError(
+                f"--score: score {score!r}: method {method_label(m)} does not offer it (it can offer: "
+                f"{', '.join(offered)}); nothing run or written"
+            )
 
 
 def _floats(values: object) -> list[float]:

@@ -42,18 +42,34 @@ from roman_sim.pipeline.scenario import method_label
 PAPER_METHODS = ["roman", "clipper", "clipper_prune", "ransac100k", "ransac1m", "visual"]
 #: Ambiguity levels of the built-in suites: name -> the world's ambiguity knob.
 LEVELS = {"low": 0.0, "medium": 0.9, "high": 0.95}
+#: The measured ambiguity index each standard level is placed at.
+STANDARD_INDEX = {"low": 0.05, "mild": 0.15, "moderate": 0.30, "medium": 0.45, "high": 0.85}
+#: The standard suite's levels: the knob values that put the measured ambiguity index of a level's pairs
+#: there (``benchmarks/measure_levels.py``, 8 worlds a knob; low is the knob's least, index 0.04).
+STANDARD_LEVELS = {"low": 0.0, "mild": 0.758, "moderate": 0.866, "medium": 0.9, "high": 0.952}
+#: Worlds per standard level: a paired difference of 0.10 detected with power 0.8, at least 8 a level, from
+#: the pilot below (``power_plan.planned_worlds``: its worlds for 0.05 interpolated in the index to each
+#: level and divided by four; ``benchmarks/out/standard_pilot.json`` is its leaderboard).
+STANDARD_WORLDS = {"low": 22, "mild": 20, "moderate": 16, "medium": 12, "high": 8}
+STANDARD_PILOT = (
+    "the previous standard board (30 / 8 / 8 worlds at index 0.04 / 0.45 / 0.84, 160 x 120), which for 0.05"
+    " needs 88 / 47 / 11 worlds (roman - visual 60-120 deg, clipper - visual 0-60 deg, clipper - visual 0-60 deg)"
+)
 
 
 class PowerPlan(StrictModel):
     """The worlds each level needs for its paired verdicts' power (``roman_sim.benchmark.power_plan``).
 
-    ``worlds``: per level, the worlds a paired difference of held-out recall of 0.05 needs to be
-    detected with power 0.8 (``paired_worlds.EFFECT``, ``paired_worlds.POWER``), as a pilot board
-    measured them (``power_plan.pilot_plan``); ``pilot``: what the figures come from (the pilot's
-    folder or commit). A level planned with fewer worlds than this is refused.
+    ``worlds``: per level, the worlds a paired difference of held-out recall of ``effect`` (0.05
+    unless stated: ``paired_worlds.EFFECT``) needs to be detected with power 0.8
+    (``paired_worlds.POWER``), as a pilot board measured them (``power_plan.pilot_plan``; the
+    worlds for another effect scale as one over its square); ``pilot``: what the figures come
+    from (the pilot's folder or commit, and what it needed for 0.05 when the suite plans a larger
+    effect). A level planned with fewer worlds than this is refused.
     """
 
     worlds: dict[str, int] = Field(..., min_length=1)
+    effect: float = Field(EFFECT, gt=0.0, le=1.0, description="the paired difference of recall planned for")
     pilot: str = Field(..., min_length=1, description="the pilot board the worlds come from")
 
     @model_validator(mode="after")
@@ -123,7 +139,8 @@ class BenchmarkSuite(StrictModel):
             if n < need:
                 raise ValueError(
                     f"levels.{level}: planned with {n} worlds, but its power plan needs {need} (a paired difference "
-                    f"of recall of {EFFECT:g} detected with power {POWER:g}, from {self.power.pilot}); allowed: "
+                    f"of recall of {self.power.effect:g} detected with power {POWER:g}, from {self.power.pilot}); "
+                    "allowed: "
                     f"min_worlds.{level} (and max_seeds) of at least {need}"
                 )
 
@@ -173,16 +190,19 @@ SUITES.register(
     BenchmarkSuite(
         name="standard",
         description=(
-            "30 / 8 / 8 small worlds at low / medium / high ambiguity, 60 deg bins: every deployable"
-            " world-bootstrap interval at most +-0.1"
+            "22 / 20 / 16 / 12 / 8 worlds at ambiguity index about 0.05 / 0.15 / 0.30 / 0.45 / 0.85, 320 x 240"
+            " colour images, 60 deg bins: paired verdicts planned to detect a difference of held-out recall of"
+            " 0.10 with power 0.8 (0.05 would need four times the worlds, about 4 h on 2 cores)"
         ),
         scene=CrossingScene(
-            robots=8, length_m=40.0, site_radius_m=6.0, extent_m=64.0, image_width=160, image_height=120
+            robots=8, length_m=40.0, site_radius_m=6.0, extent_m=64.0, image_width=320, image_height=240
         ),
+        levels=dict(STANDARD_LEVELS),
         heading_bin_deg=60.0,
-        min_worlds={"low": 30, "medium": 8, "high": 8},
+        min_worlds=dict(STANDARD_WORLDS),
         min_relevant_per_bin=100,
         max_seeds=40,
+        power=PowerPlan(worlds=dict(STANDARD_WORLDS), effect=0.1, pilot=STANDARD_PILOT),
     ),
 )
 

@@ -76,6 +76,7 @@ class PairedDifference:
         se: the world-clustered standard error of ``diff``.
         power: the power to detect a true difference of ``effect`` at ``level``.
         worlds_for_power: worlds that power ``POWER`` for ``effect`` needs at this spread.
+        detectable: the smallest true difference these worlds detect with power ``POWER`` (``detectable``).
         verdict: see the module docstring.
         level, effect: the test's level and the effect the power is for.
     """
@@ -89,6 +90,7 @@ class PairedDifference:
     se: float
     power: float
     worlds_for_power: int
+    detectable: float
     verdict: Verdict
     level: float
     effect: float
@@ -132,6 +134,12 @@ def power_for(effect: float, se: float, level: float) -> float:
         return 1.0
     z = norm.ppf(0.5 + level / 2)
     return float(norm.cdf(effect / se - z) + norm.cdf(-effect / se - z))
+
+
+def detectable(power: float, se: float, level: float) -> float:
+    """The smallest true difference a two-sided test at ``level`` detects with ``power`` when its standard error
+    is ``se``: ``(z(1 - (1 - level) / 2) + z(power)) * se`` (the far tail left out, as in ``worlds_for``)."""
+    return float((norm.ppf(0.5 + level / 2) + norm.ppf(power)) * se)
 
 
 def worlds_for(power: float, effect: float, se: float, n_worlds: int, level: float) -> int:
@@ -273,6 +281,7 @@ def paired_difference(
         se=se,
         power=power_for(effect, se, level),
         worlds_for_power=worlds_for(POWER, effect, se, len(n), level),
+        detectable=detectable(POWER, se, level),
         verdict=verdict,
         level=level,
         effect=effect,
@@ -290,6 +299,7 @@ __all__ = [
     "WorldInterval",
     "near_half_width",
     "clustered_se",
+    "detectable",
     "paired_difference",
     "power_for",
     "sign_flip_p",

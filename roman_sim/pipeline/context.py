@@ -56,6 +56,9 @@ class RunContext:
         cache: the shared stage cache (None when off): a stage that keeps parts of its
             output apart (``Stage.parts``) takes the parts it can from there.
         environment: the library versions the run computes with (the cache entries' names).
+        figures: draw the report's figures (a benchmark cell, which keeps only its pairs and
+            runtimes, sets it off: the report then writes its statistics and text only, under
+            its own stage key).
     """
 
     scenario: Scenario
@@ -67,3 +70,4 @@ class RunContext:
     keys: dict[str, str] = field(default_factory=dict)
     cache: StageCache | None = None
     environment: dict[str, str] = field(default_factory=dict)
+    figures: bool = True

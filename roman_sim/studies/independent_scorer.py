@@ -53,6 +53,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -770,7 +771,8 @@ def sign_flip_p_value(diffs: Sequence[int]) -> float:
 def paired_verdict(hits_a: Sequence[int], hits_b: Sequence[int], relevant: Sequence[int]) -> dict:
     """Two methods' paired verdict over worlds: ``verdict`` (``a ahead``, ``b ahead``, ``no difference shown``,
     ``too few hits``), ``diff``, ``p_value`` (exact sign-flip, two-sided) and ``power`` (two-sided, normal,
-    with the world-clustered standard error of the ratio, for ``EFFECT``)."""
+    with the world-clustered standard error of the ratio, for ``EFFECT``) and ``detectable`` (the difference
+    detected with power 0.8 at that standard error)."""
     from scipy.stats import norm
 
     d = [int(x) - int(y) for x, y in zip(hits_a, hits_b, strict=True)]
@@ -788,7 +790,8 @@ def paired_verdict(hits_a: Sequence[int], hits_b: Sequence[int], relevant: Seque
         verdict = "a ahead" if diff > 0 else "b ahead"
     else:
         verdict = "no difference shown"
-    return {"verdict": verdict, "diff": diff, "p_value": p, "power": power}
+    detect = float((z + norm.ppf(0.8)) * se)
+    return {"verdict": verdict, "diff": diff, "p_value": p, "power": power, "detectable": detect}
 
 
 def _level_methods(
@@ -976,7 +979,44 @@ def benchmark_pr_areas(folder: str | Path, draws: int = 4000, seed: int = 0) -> 
             is not None
         ]
         lo, hi = np.quantile(np.asarray(areas), [(1 - BOOT_LEVEL) / 2, 1 - (1 - BOOT_LEVEL) / 2]) if areas else (0, 0)
-        out[key] = {"auc": auc, "auc_worlds": [float(lo), float(hi)] if areas else None}
+        own = [_area_by_hand(_curve_points(tp[w], fp[w], float(rel[w]))) for w in range(len(worlds))]
+        out[key] = {
+            "auc": auc,
+            "auc_worlds": [float(lo), float(hi)] if areas else None,
+            "world_auc": own,  # each world's own curve's area, in the level's world order
+            "max_hits": int(tp.sum(axis=0).max()) if len(ks) else 0,
+        }
+    return out
+
+
+def benchmark_auc_verdicts(areas: Mapping[str, JSONValue]) -> dict[str, JSONValue]:
+    """Per ``level|a|b`` (names sorted): the paired verdict on the area under the curve as the benchmark states
+    it: over the worlds where both have an area, each world's difference rounded to 0.001, the exact two-sided
+    sign-flip p-value; ``a ahead`` / ``b ahead`` at p <= 0.05 with a non-zero summed difference, ``too few
+    hits`` where both reach fewer than ``FLOOR_HITS`` hits at their loosest threshold; ``diff`` the mean of the
+    unrounded differences."""
+    per: dict[str, dict[str, Mapping[str, Any]]] = {}
+    for key, v in areas.items():
+        level, method = key.split("|", 1)
+        assert isinstance(v, dict)
+        per.setdefault(level, {})[method] = v
+    out: dict[str, JSONValue] = {}
+    for level, methods in per.items():
+        names = sorted(methods)
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                xa, xb = methods[a], methods[b]
+                both = [(x, y) for x, y in zip(xa["world_auc"], xb["world_auc"], strict=True) if None not in (x, y)]
+                steps = [round((x - y) * 1000) for x, y in both]
+                p = sign_flip_p_value(steps) if steps else 1.0
+                if xa["max_hits"] < FLOOR_HITS and xb["max_hits"] < FLOOR_HITS:
+                    verdict = "too few hits"
+                elif steps and p <= 1 - BOOT_LEVEL and sum(steps) != 0:
+                    verdict = "a ahead" if sum(steps) > 0 else "b ahead"
+                else:
+                    verdict = "no difference shown"
+                diff = sum(x - y for x, y in both) / len(both) if both else None
+                out[f"{level}|{a}|{b}"] = {"verdict": verdict, "diff": diff, "p_value": p, "worlds": len(both)}
     return out
 
 

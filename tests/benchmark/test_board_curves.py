@@ -185,8 +185,7 @@ def test_the_auc_table_readme_line_and_figure_read_the_board(make_score, tmp_pat
 
 @pytest.fixture(name="two_cells")
 def _two_cells(tmp_path: Path) -> Path:
-    """Two committed cells of the standard benchmark (low, seeds 0 and 1) as a folder of their own: their
-    pairs were aligned before named scores existed, so every method offers ``associations`` only."""
+    """Two committed cells of the standard benchmark (low, seeds 0 and 1) as a folder of their own."""
     if not (STANDARD / "benchmark.json").is_file():
         pytest.skip("no committed standard benchmark results")
     out = tmp_path / "two"
@@ -206,20 +205,25 @@ def test_a_score_a_method_does_not_offer_is_one_line_and_nothing_is_written(two_
     )
     lines = [x for x in res.output.splitlines() if x.strip()]
     assert res.exit_code == 1 and len(lines) == 1, res.output
-    assert "score 'objective': method clipper does not offer it (it offers: associations)" in lines[0]
+    assert "score 'objective': method ransac100k does not offer it (it offers: associations, inliers)" in lines[0]
     assert sorted(p.relative_to(two_cells) for p in two_cells.rglob("*")) == before
     res = CliRunner().invoke(app, ["benchmark", "standard", "--out", str(two_cells), "--score", "Not A Score"])
     assert res.exit_code == 1 and res.output.startswith("--score: 'Not A Score' is no score name"), res.output
-    # a run checks the first finished cell before the next one runs: the same line, as the job's error
     from roman_sim.benchmark.cells import Cell
     from roman_sim.benchmark.run import BenchmarkJob
     from roman_sim.benchmark.suites import load_suite
 
-    job = BenchmarkJob(load_suite("standard"), two_cells, score="objective")
+    # a score a built-in method declares it cannot give: refused when the job is made, before any cell runs
+    with pytest.raises(ConfigError, match=r"method ransac100k does not offer it \(it can offer: associations, inliers"):
+        BenchmarkJob(load_suite("standard"), two_cells, score="objective")
+    # a declared score a result can lack (CLIPPER without semantics gives no ``semantic``): a run checks the first
+    # finished cell before the next one runs, with the same line as the job's error
+    job = BenchmarkJob(load_suite("standard"), two_cells, methods=["roman", "clipper"], score="semantic")
     cell = Cell("low", 0, job.scenes["low"])
     assert cell.id == "low-s0"
-    with pytest.raises(ConfigError, match=r"--score: score 'objective': method clipper does not offer it .*low-s0"):
+    with pytest.raises(ConfigError, match=r"--score: score 'semantic': method clipper does not offer it .*low-s0"):
         job.check_score([cell])
+    assert sorted(p.relative_to(two_cells) for p in two_cells.rglob("*")) == before
 
 
 def test_a_named_score_in_the_pairs_tables_is_chosen_on_end_to_end(two_cells: Path) -> None:
@@ -274,3 +278,73 @@ def test_a_named_score_in_the_pairs_tables_is_chosen_on_end_to_end(two_cells: Pa
     assert lv.curves is not None and lv.curves.score == "objective"
     md = (two_cells / "leaderboard.md").read_text(encoding="utf-8")
     assert "Area under the precision-recall curve on `objective`" in md and "(held-out world: objective)" in md
+
+
+#: One world's pairs of a better method (its one wrong pair scored below two hits) and a worse one (its wrong
+#: pair scored highest). Hand areas: better 2/3 + 1/3 * (1 + 3/4) / 2 = 23/24; worse, from (0, 0) through
+#: (1/3, 1/2), (2/3, 2/3) and (1, 3/4): 1/3 * (0 + 1/2) / 2 + 1/3 * (1/2 + 2/3) / 2 + 1/3 * (2/3 + 3/4) / 2 = 37/72.
+BETTER = [(0.9, True, True), (0.7, True, True), (0.5, False, False), (0.3, True, True)]
+WORSE = [(0.9, False, False), (0.7, True, True), (0.5, True, True), (0.3, True, True)]
+
+
+def _two_methods(make_score, better_in: int) -> list:
+    """Six worlds; method ``m`` is the better one in the first ``better_in`` worlds and the same as ``n`` after."""
+    worlds_m = {f"w{i}": BETTER if i < better_in else WORSE for i in range(6)}
+    worlds_n = {f"w{i}": WORSE for i in range(6)}
+    return _pairs(make_score, worlds_m, "m") + _pairs(make_score, worlds_n, "n")
+
+
+def test_the_paired_area_verdict_is_the_exact_sign_flip_test_by_hand(make_score) -> None:
+    """Six worlds where m's area is 23/24 and n's 37/72: each difference 0.444 (rounded to 444 thousandths), the
+    exact two-sided p-value 2 / 2^6 = 0.03125: m ahead. One world's truth flipped so that m there is n: five
+    moving worlds, p = 2 / 2^5 = 0.0625: no difference shown. The verdict reads the same from either side."""
+    from roman_sim.benchmark.board_curves import auc_verdict
+    from roman_sim.benchmark.board_markdown import auc_verdict_text
+
+    curves = level_curves(_two_methods(make_score, 6), ["m", "n"], "objective", K)
+    assert curves is not None
+    m, n = curves.methods["m"], curves.methods["n"]
+    assert m.world_auc == pytest.approx([23 / 24] * 6, abs=1e-15) and n.world_auc == pytest.approx([37 / 72] * 6)
+    assert (m.max_hits, n.max_hits) == (18, 18)
+    (v,) = curves.verdicts
+    assert (v.a, v.b, v.verdict, v.p_value, v.worlds) == ("m", "n", "a ahead", 2 / 64, 6)
+    assert v.diff == pytest.approx(23 / 24 - 37 / 72, abs=1e-15)
+    assert auc_verdict("n", "m", n, m).verdict == "b ahead"
+    assert auc_verdict_text(v) == "m ahead: +0.444 (p 0.031, 6 worlds)"
+    flipped = level_curves(_two_methods(make_score, 5), ["m", "n"], "objective", K)
+    assert flipped is not None
+    (v,) = flipped.verdicts
+    assert (v.verdict, v.p_value, v.worlds) == ("no difference shown", 2 / 32, 6)
+    table = "\n".join(auc_table(flipped, ["m", "n"]))
+    assert "- m - n: no difference shown: +0.370 (p 0.062, 6 worlds)" in table
+
+
+def test_a_paired_area_verdict_below_the_floor_says_too_few_hits(make_score) -> None:
+    """Both methods reach fewer than 10 hits at their loosest threshold: too few hits, whatever the p-value."""
+    worlds_m = {f"w{i}": BETTER for i in range(3)}
+    worlds_n = {f"w{i}": WORSE for i in range(3)}
+    scores = _pairs(make_score, worlds_m, "m") + _pairs(make_score, worlds_n, "n")
+    curves = level_curves(scores, ["m", "n"], "objective", K)
+    assert curves is not None and curves.methods["m"].max_hits == 9
+    assert curves.verdicts[0].verdict == "too few hits"
+
+
+def test_a_score_no_method_declares_is_refused_before_any_cell_runs(tmp_path: Path) -> None:
+    """The built-in methods declare the named scores they can give: a score one of them cannot give is refused
+    when the job is made, before the folder exists; a plug-in that declares none is checked on its first cell."""
+    from roman_sim.benchmark.run import BenchmarkJob
+    from roman_sim.benchmark.suites import load_suite
+
+    out = tmp_path / "board"
+    with pytest.raises(ConfigError) as err:
+        BenchmarkJob(load_suite("quick"), out, methods=["roman", "ransac100k"], score="inliers")
+    assert str(err.value) == (
+        "--score: score 'inliers': method roman does not offer it (it can offer: associations, objective, density, "
+        "percent_associations, margin, semantic); nothing run or written"
+    )
+    with pytest.raises(ConfigError, match="method ransac100k does not offer it .*associations, inliers\\)"):
+        BenchmarkJob(load_suite("quick"), out, methods=["ransac100k"], score="margin")
+    assert not out.exists()
+    plugin = "roman_sim.examples.mutual_nn_aligner:MutualNNAligner"
+    job = BenchmarkJob(load_suite("quick"), out, methods=["roman", plugin], score="margin")
+    assert job.score == "margin" and not out.exists()

@@ -361,3 +361,36 @@ def test_the_docs_state_the_command_and_what_four_worlds_can_show() -> None:
     d = paired_difference([12, 15, 11, 20], [0, 1, 2, 3], [40, 40, 40, 40])
     assert d.p_value == 2 / 16 == 0.125 and d.verdict == "no difference shown"
     assert "with four worlds its smallest two-sided p-value is 0.125" in docs
+
+
+def test_fresh_worlds_without_the_boards_score_are_refused(home: dict) -> None:
+    """A board on a score the fresh worlds' pairs do not carry (here ``margin``, which RANSAC does not give)
+    cannot be checked: one line, before anything is written."""
+    from roman_sim.benchmark.check import score_check
+    from roman_sim.core.errors import ConfigError
+
+    board = replace(read_leaderboard(home["board"] / "leaderboard.json"), score="margin")
+    out = check_dir(home["board"], (2, 4))
+    before = sorted(p.name for p in out.iterdir())
+    with pytest.raises(ConfigError, match=r"^check: the fresh worlds cannot be scored as the board is: score 'margin'"):
+        score_check(board, out, (2, 4))
+    assert sorted(p.name for p in out.iterdir()) == before
+
+
+def test_a_suite_whose_description_or_power_plan_changed_is_the_same_suite(tmp_path: Path) -> None:
+    """Only the fields that decide the cells are compared: a changed description or power plan is not a new
+    version, a changed level is."""
+    from roman_sim.benchmark.cells import BenchmarkRecord
+    from roman_sim.benchmark.check import current_suite
+    from roman_sim.core.errors import ConfigError
+
+    spec = load_suite("standard").model_dump(mode="json")
+    spec["description"] = "said otherwise"
+    spec["power"]["pilot"] = "another pilot"
+    rec = BenchmarkRecord("standard", spec, [], [], [], [], [])
+    assert current_suite(tmp_path, rec).name == "standard"
+    spec["levels"]["mild"] = 0.7
+    with pytest.raises(
+        ConfigError, match=r"differs from the current one in levels\.mild \(recorded 0\.7, now 0\.758\)"
+    ):
+        current_suite(tmp_path, rec)

@@ -115,3 +115,55 @@ def test_the_docs_state_the_pilot_plan_and_the_measured_knob_curve() -> None:
     for knob, phrase in stated.items():
         assert phrase in text and phrase.startswith(f"{curve[knob]:.2f}"), (knob, curve[knob])
     assert "from 0 to 0.96 over 8 seeds" in text and max(curve) == 0.96
+
+
+def test_the_standard_suite_plans_its_levels_from_the_committed_pilot() -> None:
+    """The standard suite's knobs are the measured curve's for its target indexes, and its worlds are the pilot's
+    plan carried to those indexes for a difference of 0.10 (at least 8), as its stated pilot line says."""
+    from roman_sim.benchmark.power_plan import planned_worlds
+    from roman_sim.benchmark.suites import STANDARD_INDEX, STANDARD_PILOT
+    from tests.committed_results import BENCHMARKS_OUT
+
+    suite = load_suite("standard")
+    levels = json.loads((BENCHMARKS_OUT / "levels.json").read_text())
+    for level, index in STANDARD_INDEX.items():
+        if level != "low":
+            assert levels["targets"][f"{index:g}"] == suite.levels[level], level
+    curve = {c["knob"]: c["index"] for c in levels["curve"]}
+    assert suite.levels["low"] == 0.0 and round(curve[0.0], 2) == 0.04
+    pilot = read_leaderboard(BENCHMARKS_OUT / "standard_pilot.json")
+    planned = planned_worlds(pilot, STANDARD_INDEX, 0.1, least=8)
+    assert suite.power is not None and suite.power.effect == 0.1
+    assert (
+        planned
+        == suite.power.worlds
+        == suite.min_worlds
+        == {"low": 22, "mild": 20, "moderate": 16, "medium": 12, "high": 8}
+    )
+    plan = pilot_plan(pilot)
+    said = " / ".join(str(plan[x].worlds) for x in ("low", "medium", "high"))
+    pairs = ", ".join(f"{plan[x].a} - {plan[x].b} {plan[x].heading} deg" for x in ("low", "medium", "high"))
+    index = " / ".join(f"{e.ambiguity_index:.2f}" for e in pilot.levels)
+    assert f"needs {said} worlds ({pairs})" in STANDARD_PILOT and f"at index {index}," in STANDARD_PILOT
+    assert suite.scene.image_width == 320 and suite.scene.image_height == 240
+
+
+def test_a_plan_for_a_larger_effect_scales_as_one_over_its_square(tmp_path: Path) -> None:
+    """The refusal names the effect the plan is for; planned_worlds divides by (effect / 0.05)^2 and rounds up."""
+    from roman_sim.benchmark.power_plan import planned_worlds
+    from tests.committed_results import BENCHMARKS_OUT
+
+    p = _suite(tmp_path, {"low": 12, "mid": 8}, {"low": 12, "mid": 19})
+    data = yaml.safe_load(p.read_text())
+    data["power"]["effect"] = 0.1
+    p.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError, match=r"a paired difference of recall of 0\.1 detected with power 0\.8"):
+        load_suite(p)
+    pilot = read_leaderboard(BENCHMARKS_OUT / "standard_pilot.json")
+    plan = pilot_plan(pilot)
+    at = {e.name: e.ambiguity_index for e in pilot.levels}
+    for effect, div in ((0.05, 1), (0.1, 4), (0.2, 16)):
+        got = planned_worlds(pilot, {"x": at["medium"]}, effect)
+        assert got == {"x": max(2, -(-plan["medium"].worlds // div))}, effect
+    with pytest.raises(ValueError, match="effect"):
+        planned_worlds(pilot, {"x": 0.1}, 0.0)

@@ -77,6 +77,24 @@ def test_every_cell_runs_and_the_outputs_are_written(quick: tuple[int, str, Path
     assert (out / "leaderboard.md").read_text(encoding="utf-8").startswith("#")
     for png in ("recall_heading.png", "heatmap.png", "runtime.png"):
         assert (out / "plots" / png).stat().st_size > 1000, png
+    # a cell keeps its pairs and runtimes only: its run's report draws no figure, under a key of its own
+    for cell in sorted((out / "work").iterdir()):
+        assert not list(cell.glob("plots/*")), cell.name
+        assert "figures not drawn" in (cell / "report.md").read_text(encoding="utf-8"), cell.name
+
+
+def test_a_report_without_figures_is_keyed_apart() -> None:
+    """The shared cache never serves a cell's figureless report to a run that draws them, nor the reverse."""
+    from dataclasses import replace as swap
+
+    from roman_sim.pipeline.context import RunContext
+    from roman_sim.pipeline.scenario import load_scenario
+    from roman_sim.pipeline.stages.report import ReportStage
+
+    ctx = RunContext(load_scenario("smoke"), Path("."))
+    stage, inputs = ReportStage(), {"submaps": "s", "evaluation": "e", "posegraph": "p", "ate": "a", "maps": "m"}
+    assert stage.key(ctx, inputs) != stage.key(swap(ctx, figures=False), inputs)
+    assert stage.config_parts(ctx) == [ctx.scenario.name]  # a run with figures keeps the key it always had
 
 
 def test_the_leaderboard_follows_from_the_raw_pairs(quick: tuple[int, str, Path], by_hand) -> None:

@@ -242,6 +242,7 @@ def test_the_paired_verdicts_and_floors_follow_from_the_independent_scorer(score
                 assert (own["verdict"] if sign == 1 else flip.get(own["verdict"], own["verdict"])) == v.verdict
                 assert sign * v.diff == pytest.approx(own["diff"], abs=1e-12)
                 assert v.p_value == own["p_value"] and v.power == pytest.approx(own["power"], abs=1e-12)
+                assert v.detectable == pytest.approx(own["detectable"], abs=1e-12)
                 checked += 1
     n = len(_committed().methods)
     assert checked == 3 * 4 * n * (n - 1) // 2

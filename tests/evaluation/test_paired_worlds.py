@@ -15,6 +15,7 @@ from roman_sim.evaluation.paired_worlds import (
     EFFECT,
     MIN_DRAWS,
     clustered_se,
+    detectable,
     near_half_width,
     paired_difference,
     power_for,
@@ -99,6 +100,10 @@ def test_the_clustered_error_power_and_worlds_needed_by_hand():
     assert worlds_for(0.8, EFFECT, 2 * se80, 10, 0.95) == 40  # twice the error: four times the worlds
     res = paired_difference([5, 6, 4, 7], [5, 5, 5, 6], [30, 30, 30, 30])
     assert res.worlds_for_power == worlds_for(0.8, EFFECT, res.se, 4, 0.95) and res.powered == (res.power >= 0.8)
+    # the difference found 80 % of the time at an error: the effect itself at se80, twice it at twice the error
+    assert detectable(0.8, se80, 0.95) == pytest.approx(EFFECT, abs=1e-15)
+    assert detectable(0.8, 2 * se80, 0.95) == pytest.approx(2 * EFFECT, abs=1e-15)
+    assert res.detectable == pytest.approx(z * res.se, abs=1e-15)
 
 
 def test_the_world_interval_is_scipys_bootstrap_of_the_ratio():

@@ -104,6 +104,7 @@ class VisualAligner:
     """Bag-of-words place recognition + 3D-3D verification on the submaps' keyframes."""
 
     name = "visual"
+    confidence_scores = ("bow_score", "matches")
 
     def __init__(self, **params: Any) -> None:
         self.params = validate_model(VisualParams, params, source=f"aligner {self.name}")

@@ -212,7 +212,8 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
     worker_preload = ("roman_sim.report.render", "roman_sim.report.examples", "roman_sim.report.trajplot")
 
     def config_parts(self, ctx: RunContext) -> list[JSON]:
-        return [ctx.scenario.name]
+        # a run without figures keys its report apart; a run with them keeps the key it always had
+        return [ctx.scenario.name] if ctx.figures else [ctx.scenario.name, "no figures"]
 
     def run(self, ctx: RunContext, inputs: ReportInputs, tasks: TaskRunner) -> ReportOutput:
         notes: list[str] = []
@@ -225,7 +226,7 @@ class ReportStage(Stage[ReportInputs, ReportOutput]):
             None if maps is None else sum(len(m) for m in maps.values()),
             None if maps is None else sum(m.trajectory_length_m for m in maps.values()),
         )
-        files, plot_notes = draw_plots(ctx, inputs, tasks)
+        files, plot_notes = draw_plots(ctx, inputs, tasks) if ctx.figures else ({}, ["figures not drawn"])
         pngs = [f for f in files if f.endswith(PNG)]
         notes = list(dict.fromkeys(notes + plot_notes))
         ate = inputs.ate.ate if inputs.ate.ate.variants else None
