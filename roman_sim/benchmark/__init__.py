@@ -6,5 +6,6 @@
 - ``cells``: one (level, seed) cell, planned and run as executor tasks, and its kept files;
 - ``run``: the resumable job (``BenchmarkJob``);
 - ``board``: the leaderboard, re-derived from the kept raw pairs only;
-- ``check``: a finished board checked on fresh seeds at its deployed thresholds (``roman-sim benchmark check``).
+- ``check``: a finished board checked on fresh seeds at its deployed thresholds (``roman-sim benchmark check``);
+- ``envelope``: one suite run per front end and which of its verdicts hold for every front end.
 """

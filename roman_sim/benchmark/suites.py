@@ -57,6 +57,17 @@ STANDARD_PILOT = (
 )
 
 
+#: Front ends a suite may run with (``frontends``): name -> the scene overrides that select it. ``simulated``
+#: is the scenario default (the simulated FastSAM-like segmenter and the simulated encoder); ``paper`` its
+#: preset calibrated to the cited CLIP statistics; ``image`` the front end that sees only pixels (the image
+#: segmenter and encoder).
+FRONTENDS: dict[str, list[str]] = {
+    "simulated": [],
+    "paper": ["frontend.preset=paper"],
+    "image": ["frontend.segmenter=image", "frontend.encoder=image"],
+}
+
+
 class PowerPlan(StrictModel):
     """The worlds each level needs for its paired verdicts' power (``roman_sim.benchmark.power_plan``).
 
@@ -100,6 +111,9 @@ class BenchmarkSuite(StrictModel):
     heading_bin_deg: float = Field(30.0, gt=0.0, le=180.0)
     methods: list[str] = Field(default_factory=lambda: list(PAPER_METHODS), min_length=1)
     power: PowerPlan | None = Field(None, description="the worlds per level a pilot says the verdicts need")
+    frontends: list[str] | None = Field(
+        None, description="run the suite once per front end (names of FRONTENDS) and compare their verdicts"
+    )
 
     @model_validator(mode="after")
     def _check(self) -> "BenchmarkSuite":
@@ -111,6 +125,7 @@ class BenchmarkSuite(StrictModel):
         if len(set(self.seeds)) != len(self.seeds) or any(s < 0 for s in self.seeds):
             raise ValueError("seeds: distinct non-negative integers")
         self._check_worlds()
+        self._check_frontends()
         if abs(180.0 / self.heading_bin_deg - round(180.0 / self.heading_bin_deg)) > 1e-9:
             raise ValueError(f"heading_bin_deg: must divide 180, got {self.heading_bin_deg:g}")
         return self
@@ -126,6 +141,15 @@ class BenchmarkSuite(StrictModel):
             if not 1 <= n <= self.max_seeds:
                 raise ValueError(f"{where}: a count from 1 to max_seeds ({self.max_seeds}), got {n}")
         self._check_power()
+
+    def _check_frontends(self) -> None:
+        if self.frontends is None:
+            return
+        unknown = [f for f in self.frontends if f not in FRONTENDS]
+        if unknown:
+            raise ValueError(f"frontends: unknown front end {unknown[0]!r} (valid: {', '.join(FRONTENDS)})")
+        if len(self.frontends) < 2 or len(set(self.frontends)) != len(self.frontends):
+            raise ValueError(f"frontends: at least two distinct front ends, got {self.frontends}")
 
     def _check_power(self) -> None:
         """Every level the power plan names is planned with at least the worlds it needs."""
@@ -203,6 +227,25 @@ SUITES.register(
         min_relevant_per_bin=100,
         max_seeds=40,
         power=PowerPlan(worlds=dict(STANDARD_WORLDS), effect=0.1, pilot=STANDARD_PILOT),
+    ),
+)
+
+
+SUITES.register(
+    "envelope",
+    BenchmarkSuite(
+        name="envelope",
+        description=(
+            "the standard levels with 4 worlds each, run with the simulated, paper-calibrated and image front"
+            " ends: which verdicts hold for every front end"
+        ),
+        scene=CrossingScene(
+            robots=8, length_m=40.0, site_radius_m=6.0, extent_m=64.0, image_width=320, image_height=240
+        ),
+        levels=dict(STANDARD_LEVELS),
+        heading_bin_deg=60.0,
+        min_worlds=4,
+        frontends=["simulated", "paper", "image"],
     ),
 )
 

@@ -167,7 +167,8 @@ class _BenchmarkCommand(TyperCommand):
 def benchmark_cmd(
     suite: str = typer.Argument(
         "quick",
-        help="suite: quick (the default, minutes), standard (about 41 min), or a YAML; "
+        help="suite: quick (the default, minutes), standard (about an hour), envelope (standard's levels with"
+        " three front ends), or a YAML; "
         "`benchmark check FOLDER --seeds A:B` checks a finished board on fresh worlds",
     ),
     methods: list[str] | None = typer.Option(
@@ -231,6 +232,25 @@ def benchmark_cmd(
         else:
             lines.line(f"benchmark {spec.name}: {done} cells planned")
 
+    if spec.frontends and not plan:
+        from roman_sim.benchmark.envelope import ENVELOPE_MD, run_envelope
+
+        env, outcomes = run_envelope(
+            spec,
+            folder,
+            _methods(methods),
+            sets,
+            executor=ex,
+            progress=progress,
+            target_precision=target_precision,
+            score=score,
+        )
+        if env is not None:
+            held = sum(r.holds == "holds for every front end" for r in env.rows)
+            Console().print(f"{held} of {len(env.rows)} verdicts hold for every front end: {folder / ENVELOPE_MD}")
+        for fe, outcome in outcomes.items():
+            _exit_on_failures(outcome, f"cell(s) of front end {fe} failed, the others ran")
+        return
     job = BenchmarkJob(spec, folder, _methods(methods), sets, ex, progress, target_precision, score)
     if plan:
         cells, plans = job.plan_only()
