@@ -93,6 +93,11 @@ def _method_list(board: Leaderboard) -> str:
     return ", ".join(f"{m} (`{plugins[m]}`)" if m in plugins else m for m in board.methods)
 
 
+def _rp(p: OperatingPoint) -> str:
+    """A point's recall with its precision (``0.46 P 0.40``; the recall alone where nothing was accepted)."""
+    return _num(p.recall) + ("" if p.precision is None or not p.reached else f" P {p.precision:.2f}")
+
+
 def _num(v: float | None, digits: int = 2) -> str:
     return "n/a" if v is None else f"{v:.{digits}f}"
 
@@ -568,17 +573,20 @@ def readme_block(board: Leaderboard, figure: str) -> str:
     lines += deployable_readme_lines(board)
     lines += [x for x in [auc_readme_line(board)] if x is not None]
     m = "roman" if "roman" in board.methods else board.methods[0]
+    per_level = []
     for e in board.finished_levels():
         parts = []
         for point in ("max_recall", "precision_90"):
             pts = [(b.heading, p) for b in e.bins if (p := b.point(m, point)) is not None]
             lo = min(pts, key=lambda x: x[1].recall if x[1].recall is not None else 2.0)
             hi = max(pts, key=lambda x: x[1].recall if x[1].recall is not None else -1.0)
-            parts.append(
-                f"{POINT_LABELS[point]} from {_rate_at(lo[1])} at {lo[0]} deg to {_rate_at(hi[1])} at {hi[0]} deg"
-            )
-        head = f"- {e.name} ambiguity (index {_num(e.ambiguity_index)}), {m}: "
-        lines.append(head + "; ".join(parts) + ".")
+            parts.append(f"{_rp(lo[1])} ({lo[0]}) to {_rp(hi[1])} ({hi[0]})")
+        per_level.append(f"{e.name} (index {_num(e.ambiguity_index)}) " + ", ".join(parts))
+    if per_level:
+        lines.append(
+            f"- {m} over the heading bins, lowest to highest (max recall, then recall at P>=0.9; per-bin "
+            "thresholds, an upper bound): " + "; ".join(per_level) + "."
+        )
     for point in RANKED:
         alone, tied, ranked = _first_alone(board, m, point)
         lines.append(
