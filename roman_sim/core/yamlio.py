@@ -10,7 +10,7 @@ import yaml
 from roman_sim.core.errors import ConfigError
 
 
-class StrictLoader(yaml.SafeLoader):
+class StrictLoader(getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
     """``yaml.SafeLoader`` that rejects a key repeated within one mapping (instead of keeping the last)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
