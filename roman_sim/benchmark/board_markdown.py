@@ -35,6 +35,8 @@ from roman_sim.benchmark.board_records import (
     PairVerdict,
     PrecisionSpread,
 )
+from roman_sim.benchmark.check_markdown import check_readme_line
+from roman_sim.benchmark.check_records import BoardCheck
 from roman_sim.benchmark.ranking import Rank
 from roman_sim.evaluation.bins import bin_label
 from roman_sim.evaluation.operating_points import POINT_LABELS, POINT_NAMES, OperatingPoint
@@ -520,6 +522,17 @@ def deployable_readme_lines(board: Leaderboard) -> list[str]:
     return lines
 
 
+def _ahead_of_all(curves: LevelCurves) -> bool:
+    """Whether the method with the largest area is ahead of every other one by its paired area verdict."""
+    got = [(m, c.auc) for m, c in curves.methods.items() if c.auc is not None]
+    if len(got) < 2:
+        return False
+    top = max(got, key=lambda x: (x[1], x[0]))[0]
+    mine = [v for v in curves.verdicts if top in (v.a, v.b)]
+    wins = [v for v in mine if (v.verdict == "a ahead" and v.a == top) or (v.verdict == "b ahead" and v.b == top)]
+    return len(mine) == len(got) - 1 and len(wins) == len(mine)
+
+
 def auc_readme_line(board: Leaderboard, first: int = 2) -> str | None:
     """The README's statement of the threshold-free summary: per level the ``first`` methods by area under the
     precision-recall curve on the board's score, with their world intervals (None without curves)."""
@@ -533,9 +546,15 @@ def auc_readme_line(board: Leaderboard, first: int = 2) -> str | None:
         parts.append(f"{e.name} " + ", ".join(f"{m} {_num(c.auc)} {_ci(c.auc_worlds)}" for m, c in got[:first]))
     if not parts:
         return None
+    ahead = [e.name for e in board.levels if e.curves is not None and _ahead_of_all(e.curves)]
+    said = (
+        f" The first's area is ahead of every other method's by the paired area verdicts at: {', '.join(ahead)}."
+        if ahead
+        else ""
+    )
     return (
         f"- Area under the precision-recall curve on `{board.score}` (every threshold, none chosen; 95 % world "
-        f"interval), the first {first} per level: " + "; ".join(parts) + "."
+        f"interval), the first {first} per level: " + "; ".join(parts) + "." + said
     )
 
 
@@ -564,8 +583,9 @@ def deployable_bound_readme_line(board: Leaderboard) -> str:
     return head + ("no (" + "; ".join(parts) + f"{floor_note})." if parts else "no.")
 
 
-def readme_block(board: Leaderboard, figure: str) -> str:
-    """The README's benchmark block: the recall-against-heading figure and statements read off ``board``.
+def readme_block(board: Leaderboard, figure: str, check: BoardCheck | None = None) -> str:
+    """The README's benchmark block: the recall-against-heading figure and statements read off ``board`` (and
+    the line of its ``check`` on fresh worlds, when given).
 
     Every number is the board's (a test renders this again from the committed raw pairs).
     """
@@ -593,6 +613,7 @@ def readme_block(board: Leaderboard, figure: str) -> str:
             f"- {POINT_LABELS[point]}: {m} ranks first alone in {alone} of {ranked} cells and is tied for first in "
             f"{tied} (ranked by paired verdicts over worlds)."
         )
+    lines += [] if check is None else [check_readme_line(check)]
     lines += [
         deployable_bound_readme_line(board),
         f"- Every pooled Wilson half-width of the per-bin operating points at most {board.half_width_bound:g}: "

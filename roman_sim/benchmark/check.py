@@ -121,7 +121,11 @@ def current_suite(folder: Path, record: BenchmarkRecord) -> BenchmarkSuite:
     if record.suite not in SUITES:
         return validate_model(BenchmarkSuite, record.suite_spec, source=f"{folder / BENCHMARK_JSON}: suite_spec")
     suite = SUITES.get(record.suite)
-    recorded = {k: v for k, v in record.suite_spec.items() if k not in PAPER_ONLY}
+    try:  # a field added to suites since keeps its default in the recorded definition
+        spec = validate_model(BenchmarkSuite, record.suite_spec, source="suite_spec").model_dump(mode="json")
+    except ConfigError:
+        spec = dict(record.suite_spec)
+    recorded = {k: v for k, v in spec.items() if k not in PAPER_ONLY}
     now = {k: v for k, v in suite.model_dump(mode="json").items() if k not in PAPER_ONLY}
     diff = first_difference(recorded, now)
     if diff is not None:
@@ -203,7 +207,8 @@ def prepare(folder: str | Path, seeds_text: str) -> CheckInput:
             f"choose seeds it never used, e.g. {start}:{start + seeds[1] - seeds[0]}"
         )
     data = suite.model_dump(mode="json")
-    data.update(seeds=list(range(*seeds)), min_worlds=None, min_relevant_per_bin=None)
+    # a check runs exactly the fresh seeds: no seed added, no power plan to meet
+    data.update(seeds=list(range(*seeds)), min_worlds=None, min_relevant_per_bin=None, power=None)
     fresh = validate_model(BenchmarkSuite, data, source=f"suite {suite.name} on seeds {seeds[0]}:{seeds[1]}")
     return CheckInput(record, board, fresh, seeds)
 

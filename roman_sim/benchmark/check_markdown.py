@@ -90,6 +90,19 @@ def _level_rows(levels: list[LevelCheck]) -> tuple[list[list[str]], list[list[st
     return prec, verd, notes
 
 
+def check_readme_line(result: BoardCheck) -> str:
+    """One line for the README: what the check on fresh worlds found (as ``check.md``'s summary says it)."""
+    a, b = result.seeds
+    held, rows = result.precision_held()
+    inside, tested = result.worlds_inside()
+    kept, _, stated = result.verdicts_held()
+    return (
+        f"- Checked on {b - a} fresh worlds per level (seeds {a}-{b - 1}) at the deployed thresholds: precision "
+        f"target held in {held} of {rows} level x method rows, {inside} of {tested} fresh worlds inside the "
+        f"stated one-new-world interval, {kept} of {stated} stated paired verdicts kept their sign."
+    )
+
+
 def check_markdown(result: BoardCheck) -> str:
     """``check.md``: summary, precision at the deployed thresholds, and the stated verdicts on fresh worlds."""
     a, b = result.seeds

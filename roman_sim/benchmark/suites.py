@@ -13,15 +13,17 @@ Built-in suites (``SUITES``):
 - ``quick``: a first look and CI: one small scene per level, no colour images, three
   methods (a few minutes on 2 cores).
 - ``standard``: every paper method on small worlds (8 robots, 40 m drives, colour images of
-  160 x 120), 30 worlds at low ambiguity and 8 at medium and high, 60 deg heading bins: at
-  the deployable point (thresholds chosen on other worlds) every level x bin's 95 %
-  world-bootstrap interval of held-out recall is to be at most +-0.1 wide, which the
-  leaderboard checks. ``min_relevant_per_bin`` (100) keeps the pooled Wilson intervals of the
-  per-bin operating points within +-0.1 too; with these world counts it adds no seed.
+  320 x 240) at five levels placed by measured ambiguity index (``STANDARD_INDEX``: about
+  0.05, 0.15, 0.30, 0.45 and 0.85), with the worlds a paired difference of held-out recall
+  of 0.10 needs for power 0.8 (``STANDARD_WORLDS``, from a pilot board), 60 deg heading bins;
+  the leaderboard also checks every level x bin's 95 % world-bootstrap interval of held-out
+  recall against +-0.1. ``min_relevant_per_bin`` (100) keeps the pooled Wilson intervals of
+  the per-bin operating points within +-0.1 too; with these world counts it adds no seed.
+- ``envelope``: the standard levels with 4 worlds each, once per front end (``FRONTENDS``).
 
-Levels: ``low`` (knob 0: measured ambiguity index about 0.05, like the park and forest
-presets), ``medium`` (0.9: about 0.45) and ``high`` (0.95: about 0.86, like the orchard
-preset); the leaderboard reports the index measured on each level's pairs.
+Levels of ``quick``: ``low`` (knob 0: measured ambiguity index about 0.05, like the park and
+forest presets), ``medium`` (0.9: about 0.45) and ``high`` (0.95: about 0.86, like the
+orchard preset); the leaderboard reports the index measured on each level's pairs.
 A suite may also be a YAML file with the fields of ``BenchmarkSuite``.
 """
 

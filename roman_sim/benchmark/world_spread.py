@@ -100,6 +100,13 @@ def fit_spread(hits: Sequence[int], accepted: Sequence[int]) -> WorldSpread | No
         if best is None or r.fun < best.fun:
             best = r
     assert best is not None
+    # L-BFGS-B stops early where the likelihood is nearly flat in the concentration (worlds that agree):
+    # a bounded Nelder-Mead from its point polishes it, kept only where it is higher
+    nm = optimize.minimize(
+        _nll, best.x, args=(h, n), method="Nelder-Mead", bounds=bounds, options={"xatol": 1e-9, "fatol": 1e-12}
+    )
+    if nm.fun < best.fun:
+        best = nm
     m, c = float(special.expit(best.x[0])), float(np.exp(best.x[1]))
     log.debug("beta-binomial over %d worlds: mean %.4f, concentration %.3g", len(n), m, c)
     return WorldSpread(m * c, (1 - m) * c, int(len(n)))

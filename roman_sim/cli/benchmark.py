@@ -167,7 +167,7 @@ class _BenchmarkCommand(TyperCommand):
 def benchmark_cmd(
     suite: str = typer.Argument(
         "quick",
-        help="suite: quick (the default, minutes), standard (about an hour), envelope (standard's levels with"
+        help="suite: quick (the default, minutes), standard (about 80 min on 2 cores), envelope (its levels with"
         " three front ends), or a YAML; "
         "`benchmark check FOLDER --seeds A:B` checks a finished board on fresh worlds",
     ),

@@ -40,13 +40,14 @@ def test_the_committed_board_as_a_pilot_plans_each_level_by_its_hardest_comparis
     path = STANDARD / "leaderboard.json"
     plan = pilot_plan(read_leaderboard(path))
     raw = _raw_plan(path)
-    assert sorted(plan) == sorted(raw) == ["high", "low", "medium"]
+    levels = ["low", "mild", "moderate", "medium", "high"]
+    assert sorted(plan) == sorted(raw) == sorted(levels)
     for level, (worlds, heading, a, b) in raw.items():
         got = plan[level]
         assert (got.worlds, got.heading, got.a, got.b) == (worlds, heading, a, b)
-    assert [plan[x].pilot_worlds for x in ("low", "medium", "high")] == [30, 8, 8]
-    # low's hardest comparison needs more worlds than the 30 it ran: the plan says the board is short there
-    assert plan["low"].worlds > 30
+    assert [plan[x].pilot_worlds for x in levels] == [22, 20, 16, 12, 8]
+    # every level's hardest comparison needs more worlds than it ran: planned for 0.10, not 0.05
+    assert all(plan[x].worlds > plan[x].pilot_worlds for x in levels)
 
 
 def test_worlds_for_power_is_the_normal_approximation_by_hand() -> None:

@@ -24,6 +24,8 @@ from roman_sim.report.recompute import compare
 
 ROOT = Path(__file__).resolve().parents[2]
 FIGURE = "results/benchmark/standard/plots/recall_heading.png"
+#: The committed check of the board on fresh worlds (``roman-sim benchmark check ... --seeds 100:104``).
+CHECK = "check-100-104"
 
 pytestmark = pytest.mark.skipif(
     not (STANDARD / "leaderboard.json").is_file(), reason="no committed standard benchmark results"
@@ -67,7 +69,8 @@ def test_the_leaderboard_follows_from_the_raw_pairs(again, by_hand_points, by_ha
 
 
 #: Worlds (seeds) per level of the standard suite (its ``min_worlds``).
-WORLDS = {"low": 30, "medium": 8, "high": 8}
+WORLDS = {"low": 22, "mild": 20, "moderate": 16, "medium": 12, "high": 8}
+LEVELS = list(WORLDS)
 
 
 def test_every_level_and_bin_meets_the_deployable_bound(scored):
@@ -83,7 +86,7 @@ def test_every_level_and_bin_meets_the_deployable_bound(scored):
     board = _committed()
     suite = load_suite("standard")
     assert board.heading_edges_deg == suite.heading_edges() == [0.0, 60.0, 120.0, 180.0]
-    assert not board.failed_cells and [e.name for e in board.levels] == ["low", "medium", "high"]
+    assert not board.failed_cells and [e.name for e in board.levels] == LEVELS
     widths = board.deployable_widths()
     for e in board.levels:
         assert len(e.cells) == WORLDS[e.name] == suite.worlds_needed(e.name), e.name
@@ -123,8 +126,12 @@ def test_readme_block_is_rendered_from_the_committed_results():
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     if README_BEGIN not in readme:
         pytest.skip("the README has no benchmark block yet")
+    from roman_sim.benchmark.check_records import read_check
+
     start, end = readme.index(README_BEGIN), readme.index(README_END) + len(README_END)
-    assert readme[start:end] == readme_block(_committed(), FIGURE)
+    check = read_check(STANDARD / CHECK / "check.json")
+    assert readme[start:end] == readme_block(_committed(), FIGURE, check)
+    assert check.suite == "standard" and check.seeds == [100, 104] and not check.failed_cells
 
 
 def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
@@ -134,7 +141,7 @@ def test_readme_figure_shows_the_rederived_leaderboard(again, by_hand_points):
     shown = read_png_data(ROOT / FIGURE)
     assert shown == json.loads(json.dumps(recall_heading_data(again)))
     hand = by_hand_points(STANDARD)
-    for level in ("low", "medium", "high"):
+    for level in LEVELS:
         for m, rows in shown[level]["max_recall"].items():
             for heading, row in zip(shown["bins"], rows, strict=True):
                 assert tuple(row[:2]) == hand[(level, heading, m)][:2], (level, heading, m)
@@ -156,7 +163,7 @@ def test_the_deployable_point_follows_from_the_independent_scorer(scored):
                 got = [c.hits, c.false_positives, c.n_relevant]
                 assert own["bins"][cell.heading] == got, (e.name, m, cell.heading)
                 checked += 1
-    assert checked == 3 * 4 * len(board.methods)
+    assert checked == len(LEVELS) * 4 * len(board.methods)
 
 
 def test_the_deployable_intervals_follow_from_the_independent_scorer(scored):
@@ -181,7 +188,7 @@ def test_the_deployable_intervals_follow_from_the_independent_scorer(scored):
                 worlds, wilson = c.recall_worlds, c.recall_wilson
                 widened += worlds is not None and wilson is not None and worlds[1] - worlds[0] > wilson[1] - wilson[0]
                 checked += 1
-    assert checked == 3 * 4 * len(board.methods)
+    assert checked == len(LEVELS) * 4 * len(board.methods)
     assert widened > 0  # worlds that disagree widen some intervals beyond the pooled Wilson ones
 
 
@@ -192,16 +199,18 @@ def test_the_readme_and_docs_state_the_suite_and_its_committed_figures():
     suite = load_suite("standard")
     readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
     n = {lv: suite.worlds_needed(lv) for lv in suite.levels}
+    worlds = ", ".join(str(n[lv]) for lv in LEVELS[:-1]) + f" and {n[LEVELS[-1]]} worlds"
     assert (
-        f"runs every built-in method on {suite.scene.robots}-robot crossing scenes at three ambiguity levels "
-        f"({n['low']} worlds at low, {n['medium']} at medium and high)" in readme
+        f"runs every built-in method on {suite.scene.robots}-robot crossing scenes at five ambiguity levels "
+        f"(index 0.05 to 0.85; {worlds}, as many as a paired difference of 0.10 needs for power 0.8) at "
+        f"{suite.scene.image_width} x {suite.scene.image_height}" in readme
     )
-    assert n["medium"] == n["high"] and f"every level x {suite.heading_bin_deg:g} deg bin" in readme
+    assert list(n) == LEVELS and f"every level x {suite.heading_bin_deg:g} deg bin" in readme
     docs = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
     sc = suite.scene
     row = (
         f"| `standard` | {sc.robots} robots, {sc.length_m:g} m drives, {sc.extent_m:g} m world, RGB "
-        f"{sc.image_width} x {sc.image_height} | low {n['low']}, medium {n['medium']}, high {n['high']} "
+        f"{sc.image_width} x {sc.image_height} | " + ", ".join(f"{lv} {n[lv]}" for lv in LEVELS) + " "
         f"(`min_worlds`) | {', '.join(suite.methods)} |"
     )
     assert row in docs and suite.min_relevant_per_bin == 100 and sc.site_radius_m == 6.0
@@ -209,7 +218,7 @@ def test_the_readme_and_docs_state_the_suite_and_its_committed_figures():
     rel = {e.name: [b.n_relevant for b in e.bins] for e in board.levels}
     flat = [v for vs in rel.values() for v in vs]
     assert f"| {min(flat)}-{max(flat)} per 60 deg bin and level, pooled over its worlds |" in docs
-    assert f"deg bin gets the fewest relevant pairs (at low {rel['low'][1]} over 30 worlds)" in docs
+    assert f"deg bin gets the fewest relevant pairs (at low {rel['low'][1]} over {WORLDS['low']} worlds)" in docs
     assert rel["low"][1] == min(rel["low"])
     low = next(e for e in board.levels if e.name == "low")
     assert low.deployable is not None and low.deployable.overall is not None
@@ -245,13 +254,14 @@ def test_the_paired_verdicts_and_floors_follow_from_the_independent_scorer(score
                 assert v.detectable == pytest.approx(own["detectable"], abs=1e-12)
                 checked += 1
     n = len(_committed().methods)
-    assert checked == 3 * 4 * n * (n - 1) // 2
+    assert checked == len(LEVELS) * 4 * n * (n - 1) // 2
 
 
 def test_the_one_new_world_intervals_follow_from_the_independent_scorer(scored):
     """Each method's one-new-world precision interval: the independent scorer fits the beta-binomial to each
-    world's held-out hits out of its accepted pairs with an optimiser of its own; the board's Beta(a, b) is as
-    likely as the scorer's maximum (to 1e-4 of log-likelihood), and the stated interval is the central 95 % of it."""
+    world's held-out hits out of its accepted pairs with an optimiser of its own; the board's Beta(a, b) is at least
+    as likely as the scorer's maximum (to 1e-4 of log-likelihood), and the stated interval is the central 95 % of
+    it."""
     from scipy.stats import beta
 
     from roman_sim.studies.independent_scorer import benchmark_precision_spreads, beta_binomial_loglik
@@ -271,7 +281,8 @@ def test_the_one_new_world_intervals_follow_from_the_independent_scorer(scored):
             assert fit is not None and s.worlds == fit["worlds"] and s.level == 0.95, (e.name, m)
             kept = [(h, n) for h, n in zip(own["hits"], own["accepted"], strict=True) if n]
             stated = beta_binomial_loglik(s.a, s.b, [h for h, _ in kept], [n for _, n in kept])
-            assert stated == pytest.approx(fit["loglik"], abs=1e-4), (e.name, m)  # two optimisers: 1e-4 apart
+            # the maximum as far as an independent optimiser can tell: it finds nothing more likely (to 1e-4)
+            assert stated >= fit["loglik"] - 1e-4, (e.name, m, stated, fit["loglik"])
             assert s.interval == pytest.approx(list(beta.ppf([0.025, 0.975], s.a, s.b)), abs=1e-12), (e.name, m)
             checked += 1
     assert checked > 0
@@ -287,13 +298,13 @@ def test_the_docs_state_how_crude_the_one_new_world_fit_is():
         for m, s in (e.deployable.spread or {}).items()
         if s is not None
     }
-    whole = {lv for (lv, _), s in spreads.items() if f"{s.interval[0]:.2f} {s.interval[1]:.2f}" == "0.00 1.00"}
-    assert whole == {"medium", "high"}
-    assert "some medium and high intervals are [0.00, 1.00]" in docs
-    narrow = spreads[("high", "ransac100k")]
-    assert narrow.worlds == 5 and f"[{narrow.interval[0]:.2f}, {narrow.interval[1]:.2f}]" == "[0.61, 0.62]"
+    whole = {k for k, s in spreads.items() if f"{s.interval[0]:.2f} {s.interval[1]:.2f}" == "0.00 1.00"}
+    assert whole == {("medium", "roman"), ("medium", "clipper_prune")}
+    assert "two medium intervals are [0.00, 1.00] (ROMAN's and pruned CLIPPER's)" in docs
+    narrow = spreads[("medium", "visual")]
+    assert narrow.worlds == 12 and f"[{narrow.interval[0]:.2f}, {narrow.interval[1]:.2f}]" == "[0.91, 0.91]"
     assert narrow.a + narrow.b == pytest.approx(1e5)  # the upper concentration bound
-    assert "RANSAC-100k's at high is [0.61, 0.62] (five worlds" in docs
+    assert "the visual method's at medium is [0.91, 0.91] (twelve worlds" in docs
 
 
 def test_no_verdict_or_bound_moves_with_the_bootstrap_seed(scored):
@@ -335,8 +346,8 @@ def test_the_docs_state_the_committed_paired_verdict_and_floor_bins():
     rom, r1m = cell.methods["roman"].recall_worlds, cell.methods["ransac1m"].recall_worlds
     assert rom is not None and r1m is not None and rom[0] <= r1m[1]  # the separate intervals overlap
     floors = board.deployable_floors()
-    assert floors == [("medium", "60-120"), ("high", "60-120")]
-    assert "in the committed board medium and high 60-120 deg are such bins" in docs
+    assert floors == [("high", "120-180")]
+    assert "in the committed board high 120-180 deg is such a bin" in docs
 
 
 def test_the_areas_under_the_curves_follow_from_the_independent_scorer():
@@ -362,4 +373,82 @@ def test_the_areas_under_the_curves_follow_from_the_independent_scorer():
             assert c.auc_worlds == pytest.approx(mine["auc_worlds"], abs=1e-12), (e.name, m)
             assert [p.threshold for p in c.points] == list(range(31)), (e.name, m)
             checked += 1
-    assert checked == 3 * len(board.methods)
+    assert checked == len(LEVELS) * len(board.methods)
+    # the paired area verdicts, from each world's own area as the independent scorer computes it
+    from roman_sim.studies.independent_scorer import benchmark_auc_verdicts
+
+    mine = benchmark_auc_verdicts(own)
+    n_methods = len(board.methods)
+    verdicts = 0
+    for e in board.levels:
+        assert e.curves is not None
+        for m, c in e.curves.methods.items():
+            for x, y in zip(c.world_auc, own[f"{e.name}|{m}"]["world_auc"], strict=True):
+                assert (x is None) == (y is None) and (x is None or abs(x - y) <= 1e-12), (e.name, m)
+        for v in e.curves.verdicts:
+            a, b = sorted((v.a, v.b))
+            got = mine[f"{e.name}|{a}|{b}"]
+            flip = {"a ahead": "b ahead", "b ahead": "a ahead"}
+            assert (got["verdict"] if v.a == a else flip.get(got["verdict"], got["verdict"])) == v.verdict
+            assert got["p_value"] == v.p_value and got["worlds"] == v.worlds, (e.name, a, b)
+            verdicts += 1
+    assert verdicts == len(LEVELS) * n_methods * (n_methods - 1) // 2
+
+
+def test_the_committed_check_on_fresh_worlds_follows_from_the_independent_scorer():
+    """The board's check on seeds 100-103 (committed beside it): every precision row, fresh world and stated
+    verdict of its check.json as the independent scorer re-derives them from the raw pairs of the board's cells
+    and of the fresh ones."""
+    from roman_sim.benchmark.check_records import read_check
+    from roman_sim.studies.independent_scorer import benchmark_check
+
+    check = read_check(STANDARD / CHECK / "check.json")
+    mine = benchmark_check(STANDARD, STANDARD / CHECK)
+    rows = 0
+    for level in check.levels:
+        for p in level.precision:
+            own = mine[f"{level.name}|{p.method}"]
+            assert (p.k, p.hits, p.false_positives, p.target_held) == (
+                own["k"],
+                own["hits"],
+                own["false_positives"],
+                own["target_held"],
+            ), (level.name, p.method)
+            for w in p.worlds:
+                got = own["worlds"][w.world]
+                assert (w.hits, w.accepted, w.hits_interval, w.inside) == (
+                    got["hits"],
+                    got["accepted"],
+                    got["hits_interval"],
+                    got["inside"],
+                ), (level.name, p.method, w.world)
+            rows += 1
+        for v in level.verdicts:
+            own = mine[f"{level.name}|{v.heading}|{v.a}|{v.b}"]
+            assert (v.hits_a, v.hits_b, v.n_relevant, v.held) == (
+                own["hits_a"],
+                own["hits_b"],
+                own["relevant"],
+                own["held"],
+            ), (level.name, v.heading, v.a, v.b)
+            rows += 1
+    assert rows == len(mine)
+    # docs/benchmark.md's account of it
+    docs = " ".join((ROOT / "docs" / "benchmark.md").read_text(encoding="utf-8").split())
+    held, n_rows = check.precision_held()
+    inside, tested = check.worlds_inside()
+    kept, _, stated = check.verdicts_held()
+    assert f"the precision target held in {held} of {n_rows} level x method rows" in docs
+    assert f"{inside} of {tested} fresh worlds lie in their stated one-new-world interval" in docs
+    assert f"and {kept} of {stated} stated paired verdicts kept their sign" in docs
+    flipped = [(lv.name, v) for lv in check.levels for v in lv.verdicts if v.held is False]
+    assert len(flipped) == stated - kept == 8 and max(abs(v.board_diff) for _, v in flipped) <= 0.043
+    assert sum(1 for name, _ in flipped if name == "mild") == 7
+    short = [(lv.name, p.method) for lv in check.levels for p in lv.precision if p.target_held is False]
+    assert short == [("medium", "ransac100k"), ("high", "ransac100k")]
+    assert all(
+        (p.hits, p.hits + p.false_positives) == (6, 8)
+        for lv in check.levels
+        for p in lv.precision
+        if p.target_held is False
+    )

@@ -22,7 +22,7 @@ def _cells(text: str) -> dict[str, list[str]]:
 
 def test_deployable_point_then_max_recall():
     board = read_leaderboard(BOARD)
-    console = Console(width=240, record=True)
+    console = Console(width=400, record=True)
     console.print(_board_table(board))
     rows = _cells(console.export_text())
     levels = [e for e in board.finished_levels() if e.overall is not None]
