@@ -75,7 +75,7 @@ def recall_heading_data(board: Leaderboard) -> dict[str, Any]:
 
 
 def plot_recall_heading(board: Leaderboard, path: Path) -> Path | None:
-    """Recall per heading bin with bands, per method; columns: levels; rows: max recall, precision >= 0.9.
+    """Recall per heading bin with bands, per method; rows: levels; columns: max recall, precision >= 0.9.
 
     The curves are drawn from ``recall_heading_data(board)``, which the PNG carries
     (``read_png_data``)."""
@@ -84,10 +84,10 @@ def plot_recall_heading(board: Leaderboard, path: Path) -> Path | None:
         return None
     data = recall_heading_data(board)
     x = _centres(board)
-    fig = figure(3.8 * len(levels), 7.0, ncols=len(levels), nrows=2)
-    for col, (name, e) in enumerate(levels):
-        for row, point in enumerate(("max_recall", "precision_90")):
-            ax = fig.axes[row * len(levels) + col]
+    fig = figure(8.0, min(14.0, 2.7 * len(levels) + 0.4), ncols=2, nrows=len(levels))
+    for row, (name, e) in enumerate(levels):
+        for col, point in enumerate(("max_recall", "precision_90")):
+            ax = fig.axes[row * 2 + col]
             for i, m in enumerate(board.methods):
                 rows = data[name][point][m]  # per bin: [hits, relevant, recall, low, high] or None
                 y, lo, hi = (

@@ -150,7 +150,7 @@ def test_planned_relevant_pairs_are_the_run_s_and_the_board_follows_from_raw_pai
     block = readme_block(board, "plots/recall_heading.png")
     assert block.startswith(README_BEGIN) and block.endswith(README_END)
     p = level.overall.point("roman", "max_recall")
-    assert "- max recall: roman ranks first alone in " in block and "distinct ambiguity (index 0." in block
+    assert "- max recall: roman ranks first alone in " in block and "distinct (index 0." in block
     assert p is not None and p.hits <= p.n_relevant
     hand = by_hand(folder)  # the scorer the committed standard results are checked with
     for b in level.bins:
@@ -221,7 +221,7 @@ def test_bad_input_fails_in_one_line(home: Path, failed_once: dict, tmp_path: Pa
         assert len(lines) == 1, res.output
         return lines[0]
 
-    assert err("huge").startswith("error: unknown benchmark suite 'huge' (valid: quick, standard")
+    assert err("huge").startswith("error: unknown benchmark suite 'huge' (valid: envelope, quick, standard")
     assert err("quick", "--methods", "romann").startswith("error: --methods: unknown method 'romann'")
     assert "holds the 'tiny' benchmark, not 'quick'" in err("quick", "--out", str(failed_once["folder"]))
     with pytest.raises(ConfigError, match="with overrides"):

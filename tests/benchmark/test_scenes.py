@@ -63,12 +63,12 @@ def test_bad_scenes_and_overrides_name_the_field():
 
 
 def test_suites_by_name_or_file_and_their_errors(tmp_path):
-    assert set(SUITES.names()) == {"quick", "standard"}
+    assert set(SUITES.names()) == {"quick", "standard", "envelope"}
     std = load_suite("standard")
     assert std.heading_edges() == [0, 60, 120, 180] and std.min_relevant_per_bin == 100
-    assert [std.worlds_needed(lv) for lv in std.levels] == [30, 8, 8] and std.max_seeds == 40
-    assert list(std.levels) == ["low", "medium", "high"]
-    with pytest.raises(ConfigError, match=r"unknown benchmark suite 'huge' \(valid: quick, standard, or a suite"):
+    assert [std.worlds_needed(lv) for lv in std.levels] == [22, 20, 16, 12, 8] and std.max_seeds == 40
+    assert list(std.levels) == ["low", "mild", "moderate", "medium", "high"]
+    with pytest.raises(ConfigError, match=r"unknown benchmark suite 'huge' \(valid: envelope, quick, standard, or a"):
         load_suite("huge")
     with pytest.raises(ConfigError, match="benchmark suite 'nope.yaml': no such file"):
         load_suite("nope.yaml")
@@ -82,7 +82,7 @@ def test_suites_by_name_or_file_and_their_errors(tmp_path):
     with pytest.raises(ConfigError, match=r"levels.flat: the ambiguity knob lies in \[0, 1\]"):
         validate_model(BenchmarkSuite, {"name": "x", "levels": {"flat": 1.5}})
     scene = std.scene_at("high", ["roman"], ["robots.0.speed_mps=0.5"])
-    assert (scene.ambiguity, scene.methods, scene.overrides) == (0.95, ["roman"], ["robots.0.speed_mps=0.5"])
+    assert (scene.ambiguity, scene.methods, scene.overrides) == (0.952, ["roman"], ["robots.0.speed_mps=0.5"])
 
 
 def test_methods_are_checked_before_anything_runs():
