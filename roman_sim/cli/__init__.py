@@ -12,7 +12,7 @@ kept, since every file is written atomically (``roman_sim.cli._signals``: every 
 from __future__ import annotations
 
 import logging
-from typing import Any
+from typing import Any, NoReturn
 
 import typer
 from typer.core import TyperGroup, TyperOption
@@ -66,12 +66,21 @@ class _Group(TyperGroup):
             typer.echo(f"error: {S.disk_full_line(err, '.')}", err=True)
             raise typer.Exit(1) from None
         except KeyboardInterrupt as err:
-            typer.echo(
-                f"{S.stop_word(err)}: results written so far (completed stages) are kept; "
-                "run the same command again to resume",
-                err=True,
-            )
-            raise typer.Exit(S.stop_code(err)) from None
+            _stopped(err)
+        except Exception as err:
+            # a Ctrl-C that lands inside pydantic's serializer reaches here wrapped in its error
+            if type(err).__name__ == "PydanticSerializationError" and "KeyboardInterrupt" in str(err):
+                _stopped(KeyboardInterrupt())
+            raise
+
+
+def _stopped(err: KeyboardInterrupt) -> NoReturn:
+    """The one line of a run stopped by a signal, and its exit code (130 for Ctrl-C)."""
+    typer.echo(
+        f"{S.stop_word(err)}: results written so far (completed stages) are kept; run the same command again to resume",
+        err=True,
+    )
+    raise typer.Exit(S.stop_code(err)) from None
 
 
 app = typer.Typer(

@@ -30,7 +30,7 @@ def test_view_without_the_interop_extra_is_one_line(tmp_path: Path, monkeypatch:
 
 def test_a_bare_benchmark_runs_the_quick_suite() -> None:
     res = CliRunner().invoke(app, ["benchmark", "--help"], env={"COLUMNS": "200"})
-    assert "quick (the default, minutes), standard (about 41 min), or a YAML" in res.stdout
+    assert "quick (the default, minutes), standard (about 80 min on 2 cores)" in res.stdout
     assert "[default: quick]" in res.stdout
 
 
