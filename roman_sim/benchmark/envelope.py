@@ -102,12 +102,13 @@ def _overall(level: BoardLevel) -> DeployableCell | None:
     return None if d is None else d.overall
 
 
-def _pair_figure(v: PairVerdict | None) -> tuple[str, str]:
+def _pair_figure(v: PairVerdict | None, a: str) -> tuple[str, str]:
+    """The verdict in words and its difference signed as ``a`` less the other method (as stored either way)."""
     if v is None:
         return "n/a", "not compared"
     says = f"{v.a} ahead" if v.verdict == "a ahead" else f"{v.b} ahead" if v.verdict == "b ahead" else v.verdict
     p = "p < 0.001" if v.p_value < 0.001 else f"p {v.p_value:.3f}"
-    return says, f"{v.diff:+.3f} ({p})"
+    return says, f"{(v.diff if v.a == a else -v.diff):+.3f} ({p})"
 
 
 def _recall(f: HeldOutFigures | None) -> str:
@@ -173,8 +174,7 @@ def envelope_rows(boards: dict[str, Leaderboard]) -> Envelope:
         cells = {fe: _overall(lv) for fe, lv in per_fe.items()}
         for j, a in enumerate(ref.methods):
             for b in ref.methods[j + 1 :]:
-                per = {fe: _pair_figure(None if c is None else c.verdict(a, b)) for fe, c in cells.items()}
-                per = {fe: _oriented(per[fe], cells[fe], a, b) for fe in names}
+                per = {fe: _pair_figure(None if c is None else c.verdict(a, b), a) for fe, c in cells.items()}
                 rows.append(_row("ranking", level.name, f"{a} - {b}", per))
         for m in ref.methods:
             per = {}
@@ -194,15 +194,6 @@ def envelope_rows(boards: dict[str, Leaderboard]) -> Envelope:
                 per[fe] = (drop_verdict(fa, fb), f"{_recall(fa)} -> {_recall(fb)}")
             rows.append(_row("ambiguity drop", f"{lo} -> {hi}", m, per))
     return Envelope(ref.suite, names, rows)
-
-
-def _oriented(got: tuple[str, str], cell: DeployableCell | None, a: str, b: str) -> tuple[str, str]:
-    """The verdict of ``a`` against ``b`` with the difference signed as ``a`` less ``b`` (as stored either way)."""
-    v = None if cell is None else cell.verdict(a, b)
-    if v is None or v.a == a:
-        return got
-    p = "p < 0.001" if v.p_value < 0.001 else f"p {v.p_value:.3f}"
-    return got[0], f"{-v.diff:+.3f} ({p})"
 
 
 def envelope_markdown(env: Envelope) -> str:
